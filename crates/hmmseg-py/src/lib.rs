@@ -1,0 +1,14 @@
+//! `lfd._hmmseg`: the thin PyO3 binding of the `hmmseg` engine.
+//!
+//! Nothing but conversion (numpy <-> nalgebra) and error mapping lives here; every algorithm is
+//! in `crates/hmmseg`. Heavy work runs with the interpreter released (`py.detach`).
+
+mod errors;
+
+use pyo3::prelude::*;
+
+#[pymodule]
+fn _hmmseg(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

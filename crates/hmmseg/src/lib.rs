@@ -1,0 +1,10 @@
+//! `hmmseg`: the numerical engine of lfd.
+//!
+//! Pure Rust on nalgebra, no Python: continuous HMMs (Gaussian and Gaussian-mixture emissions,
+//! Baum-Welch training, forward / prefix / Viterbi scoring), dynamic time warping, [0, 1]
+//! normalisation, the eight features of Table I, stage-1 over-segmentation and the stage-2
+//! skill cut (greedy loop of Eq. 3-5 and a segmental DP).
+
+pub mod error;
+
+pub use error::{EngineError, Result};

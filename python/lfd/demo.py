@@ -1,0 +1,274 @@
+"""The demonstration data model: what a recording holds, independent of the file format.
+
+A :class:`Demonstration` is what every later stage consumes. Each stream has its own integer
+nanosecond timestamps (``t_ns``, int64, capture time). Positions are in metres in the world
+frame, which is the frame of the reference marker (AR tag id 0), Z up. Quaternions are
+``(x, y, z, w)`` as in foxglove's schemas.
+
+Hand keypoints follow the MediaPipe / OpenPose order of 21 joints (:data:`KEYPOINT_NAMES`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from .errors import DemonstrationError
+from .skills import check_skill
+
+KEYPOINT_NAMES: tuple[str, ...] = (
+    "wrist",
+    "thumb_cmc", "thumb_mcp", "thumb_ip", "thumb_tip",
+    "index_mcp", "index_pip", "index_dip", "index_tip",
+    "middle_mcp", "middle_pip", "middle_dip", "middle_tip",
+    "ring_mcp", "ring_pip", "ring_dip", "ring_tip",
+    "pinky_mcp", "pinky_pip", "pinky_dip", "pinky_tip",
+)  # fmt: skip
+"""The 21 hand keypoints, MediaPipe order: wrist, then 4 joints per finger from base to tip."""
+
+KEYPOINT_LAYOUT = "mediapipe-21"
+"""Name of the keypoint layout, written to the MCAP channel metadata."""
+
+THUMB_TIP = 4
+"""Index of the thumb tip ``T`` (paper Fig. 2)."""
+INDEX_MCP = 5
+"""Index of the index finger base ("ankle") ``B`` (paper Fig. 2)."""
+INDEX_TIP = 8
+"""Index of the index fingertip ``I`` (paper Fig. 2)."""
+
+HAND_BONES: tuple[tuple[int, int], ...] = (
+    (0, 1), (1, 2), (2, 3), (3, 4),
+    (0, 5), (5, 6), (6, 7), (7, 8),
+    (5, 9), (9, 10), (10, 11), (11, 12),
+    (9, 13), (13, 14), (14, 15), (15, 16),
+    (13, 17), (0, 17), (17, 18), (18, 19), (19, 20),
+)  # fmt: skip
+"""Skeleton edges between keypoints (for drawing)."""
+
+
+def _timestamps(t_ns: npt.ArrayLike, what: str) -> np.ndarray:
+    t = np.asarray(t_ns)
+    if t.ndim != 1:
+        raise DemonstrationError(f"{what}: timestamps must be 1-D, got shape {t.shape}")
+    if t.size and not np.issubdtype(t.dtype, np.integer):
+        raise DemonstrationError(f"{what}: timestamps must be integer nanoseconds, got {t.dtype}")
+    return t.astype(np.int64, copy=False)
+
+
+@dataclass
+class HandTrack:
+    """Hand keypoints over time.
+
+    Attributes
+    ----------
+    t_ns : array, shape (n,)
+        Capture times, int64 nanoseconds.
+    keypoints : array, shape (n, 21, 3)
+        Keypoint positions in metres (world frame), NaN where not observed.
+    confidence : array, shape (n, 21)
+        Per-keypoint confidence in [0, 1] (0 where not observed).
+    side : str
+        ``"right"`` or ``"left"``.
+    """
+
+    t_ns: np.ndarray
+    keypoints: np.ndarray
+    confidence: np.ndarray
+    side: str = "right"
+
+    def __post_init__(self) -> None:
+        self.t_ns = _timestamps(self.t_ns, "hand")
+        self.keypoints = np.asarray(self.keypoints, dtype=np.float64)
+        n = self.t_ns.shape[0]
+        if self.keypoints.shape != (n, 21, 3):
+            raise DemonstrationError(
+                f"hand keypoints must have shape ({n}, 21, 3), got {self.keypoints.shape}"
+            )
+        self.confidence = np.asarray(self.confidence, dtype=np.float64)
+        if self.confidence.shape != (n, 21):
+            raise DemonstrationError(
+                f"hand confidence must have shape ({n}, 21), got {self.confidence.shape}"
+            )
+
+    def __len__(self) -> int:
+        return int(self.t_ns.shape[0])
+
+
+@dataclass
+class ObjectTrack:
+    """The 6-D pose of one AR-tagged cuboid over time.
+
+    Attributes
+    ----------
+    name : str
+        Object name (used in topics: ``/objects/<name>/pose``).
+    tag_id : int
+        ArUco tag id (the reference marker is id 0 and is not an object).
+    size : array, shape (3,)
+        Box dimensions (x, y, z) in metres, ``d_i`` of the paper.
+    t_ns : array, shape (m,)
+        Capture times, int64 nanoseconds.
+    position : array, shape (m, 3)
+        Box centre in metres, world frame. NaN where not visible.
+    quaternion : array, shape (m, 4)
+        Orientation (x, y, z, w). NaN where not visible.
+    visible : array, shape (m,)
+        True where the tag was observed.
+    """
+
+    name: str
+    tag_id: int
+    size: np.ndarray
+    t_ns: np.ndarray
+    position: np.ndarray
+    quaternion: np.ndarray
+    visible: np.ndarray
+
+    def __post_init__(self) -> None:
+        self.t_ns = _timestamps(self.t_ns, f"object {self.name!r}")
+        m = self.t_ns.shape[0]
+        self.size = np.asarray(self.size, dtype=np.float64)
+        if self.size.shape != (3,) or not np.all(self.size > 0):
+            raise DemonstrationError(
+                f"object {self.name!r}: size must be 3 positive lengths, got {self.size}"
+            )
+        self.position = np.asarray(self.position, dtype=np.float64)
+        self.quaternion = np.asarray(self.quaternion, dtype=np.float64)
+        self.visible = np.asarray(self.visible, dtype=bool)
+        for what, arr, shape in (
+            ("position", self.position, (m, 3)),
+            ("quaternion", self.quaternion, (m, 4)),
+            ("visible", self.visible, (m,)),
+        ):
+            if arr.shape != shape:
+                raise DemonstrationError(
+                    f"object {self.name!r}: {what} must have shape {shape}, got {arr.shape}"
+                )
+
+    def __len__(self) -> int:
+        return int(self.t_ns.shape[0])
+
+
+@dataclass
+class SkillLabel:
+    """One labelled skill segment (ground truth or a result)."""
+
+    skill: str
+    start_ns: int
+    end_ns: int
+    object: str | None = None
+
+    def __post_init__(self) -> None:
+        check_skill(self.skill)
+        self.start_ns = int(self.start_ns)
+        self.end_ns = int(self.end_ns)
+        if self.end_ns < self.start_ns:
+            raise DemonstrationError(
+                f"label {self.skill!r}: end {self.end_ns} before start {self.start_ns}"
+            )
+
+
+@dataclass
+class CameraInfo:
+    """Pinhole intrinsics and the camera pose in the world frame.
+
+    Attributes
+    ----------
+    width, height : int
+        Image size in pixels.
+    K : array, shape (3, 3)
+        Intrinsic matrix (OpenCV convention: x right, y down, z forward).
+    world_T_camera : array, shape (4, 4)
+        Homogeneous pose of the (OpenCV) camera frame in the world frame.
+    frame_id : str
+        Name of the camera frame.
+    """
+
+    width: int
+    height: int
+    K: np.ndarray
+    world_T_camera: np.ndarray
+    frame_id: str = "camera"
+
+    def __post_init__(self) -> None:
+        self.K = np.asarray(self.K, dtype=np.float64).reshape(3, 3)
+        self.world_T_camera = np.asarray(self.world_T_camera, dtype=np.float64).reshape(4, 4)
+
+
+@dataclass
+class ImageStream:
+    """A sequence of images: colour (n, H, W, 3) uint8 RGB or depth (n, H, W) uint16 millimetres."""
+
+    t_ns: np.ndarray
+    frames: np.ndarray
+
+    def __post_init__(self) -> None:
+        self.t_ns = _timestamps(self.t_ns, "images")
+        self.frames = np.asarray(self.frames)
+        if self.frames.shape[0] != self.t_ns.shape[0]:
+            raise DemonstrationError(
+                f"{self.frames.shape[0]} images but {self.t_ns.shape[0]} timestamps"
+            )
+
+    def __len__(self) -> int:
+        return int(self.t_ns.shape[0])
+
+
+@dataclass
+class Demonstration:
+    """One recorded demonstration.
+
+    Attributes
+    ----------
+    hand : HandTrack
+        The demonstrator's hand keypoints (about 5 Hz from a hand-pose estimator).
+    objects : dict[str, ObjectTrack]
+        Object poses by name (about 30 Hz), relative to the reference marker.
+    labels : list[SkillLabel]
+        Ground-truth skill segments, in time order (empty when unknown).
+    camera : CameraInfo or None
+        Camera calibration, when known.
+    color, depth : ImageStream or None
+        Optional rendered or captured images.
+    metadata : dict
+        Free metadata: task, demonstrator, seed, units, ...
+    """
+
+    hand: HandTrack
+    objects: dict[str, ObjectTrack]
+    labels: list[SkillLabel] = field(default_factory=list)
+    camera: CameraInfo | None = None
+    color: ImageStream | None = None
+    depth: ImageStream | None = None
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def start_ns(self) -> int:
+        """Earliest timestamp of any stream."""
+        starts = [int(self.hand.t_ns[0])] if len(self.hand) else []
+        starts += [int(o.t_ns[0]) for o in self.objects.values() if len(o)]
+        if not starts:
+            raise DemonstrationError("demonstration has no samples")
+        return min(starts)
+
+    @property
+    def end_ns(self) -> int:
+        """Latest timestamp of any stream."""
+        ends = [int(self.hand.t_ns[-1])] if len(self.hand) else []
+        ends += [int(o.t_ns[-1]) for o in self.objects.values() if len(o)]
+        if not ends:
+            raise DemonstrationError("demonstration has no samples")
+        return max(ends)
+
+    @property
+    def duration_s(self) -> float:
+        """Duration in seconds from the first to the last sample."""
+        return (self.end_ns - self.start_ns) * 1e-9
+
+    @property
+    def skill_sequence(self) -> list[str]:
+        """The ground-truth skill names in order."""
+        return [label.skill for label in self.labels]

@@ -1,0 +1,61 @@
+"""Exceptions raised by lfd. Catch :class:`LfdError` for everything, or a specific subclass.
+
+The compiled engine (``lfd._hmmseg``) raises the :class:`EngineError` subclasses below; the
+binding looks them up here by name, so their names are part of the engine's contract.
+"""
+
+from __future__ import annotations
+
+
+class LfdError(Exception):
+    """Base class of every error lfd raises on purpose."""
+
+
+# --- engine (crates/hmmseg) -----------------------------------------------------------------
+class EngineError(LfdError):
+    """An error reported by the Rust engine."""
+
+
+class EmptySequenceError(EngineError, ValueError):
+    """A sequence or a set of sequences had no samples."""
+
+
+class ShapeMismatchError(EngineError, ValueError):
+    """Array shapes or dimensions do not agree."""
+
+
+class NonFiniteError(EngineError, ValueError):
+    """NaN or infinity where finite numbers are required."""
+
+
+class InvalidParameterError(EngineError, ValueError):
+    """A parameter is outside its valid range."""
+
+
+class NotStochasticError(EngineError, ValueError):
+    """A probability vector/matrix has negative entries or does not sum to one."""
+
+
+class NotPositiveDefiniteError(EngineError, ValueError):
+    """A covariance matrix is not symmetric positive definite."""
+
+
+class NotConvergedError(EngineError):
+    """An iterative procedure did not converge or degenerated."""
+
+
+class ModelFormatError(EngineError, ValueError):
+    """A serialised model or template file cannot be read (bad JSON, version, unknown skill)."""
+
+
+# --- data and files -------------------------------------------------------------------------
+class DemonstrationError(LfdError, ValueError):
+    """A demonstration is inconsistent or lacks data a stage needs."""
+
+
+class RecordingFormatError(LfdError, ValueError):
+    """An MCAP file is not a readable lfd recording (missing channels, bad messages)."""
+
+
+class UnknownSkillError(LfdError, ValueError):
+    """A skill name is not one of :data:`lfd.skills.SKILLS`."""
