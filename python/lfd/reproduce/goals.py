@@ -1,0 +1,184 @@
+"""Object-relative skill goals (paper Eq. 2) and the demo quantities they are built from.
+
+A goal is a top-down TCP pose ``(position, yaw)``. Every skill goal is attached to a reference
+frame: ``pick_up``/``locate`` to the target object, ``place`` to the world, ``stack`` to the
+supporting object, ``push`` to the pushed object's displaced pose, and ``move``/``move_with`` to
+the start of the next skill. With displaced objects the goal follows its reference,
+``T_goal' = T_ref' · T_ref^-1 · T_goal`` (Eq. 2). Skill knowledge adapts the human's poses to
+the gripper: grasps are centred on the object with the closing axis along a face normal, placed
+objects stay upright, pushes keep the closed fingers against the face opposite the push.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import DemonstrationError
+from ..trajectory import Trajectory
+from .robot import FINGER_BELOW_TCP, FINGER_HALF_X, MAX_OPENING
+
+
+def wrap_near(angle: np.ndarray | float, ref: float, period: float = np.pi) -> np.ndarray:
+    """The representative of ``angle`` modulo ``period`` closest to ``ref``."""
+    return ref + (np.asarray(angle) - ref + period / 2) % period - period / 2
+
+
+def quat_to_matrix(q: np.ndarray) -> np.ndarray:
+    """Rotation matrix of an (x, y, z, w) quaternion."""
+    x, y, z, w = np.asarray(q, dtype=np.float64) / np.linalg.norm(q)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def yaw_of(R: np.ndarray) -> float:
+    """Heading of a rotation's x axis in the table plane (rad)."""
+    return float(np.arctan2(R[1, 0], R[0, 0]))
+
+
+def pose(p: np.ndarray, yaw: float) -> np.ndarray:
+    """4x4 pose with a rotation about world Z."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    T = np.eye(4)
+    T[:3, :3] = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
+    T[:3, 3] = p
+    return T
+
+
+def upright(T: np.ndarray) -> np.ndarray:
+    """The pose with its rotation reduced to a yaw (objects rest upright)."""
+    return pose(T[:3, 3], yaw_of(T[:3, :3]))
+
+
+class DemoFrames:
+    """Demo quantities at sample indices: TCP (position, yaw) and object poses (gap-filled).
+
+    Parameters
+    ----------
+    traj : Trajectory
+        The preprocessed demonstration.
+    base : array, shape (3,)
+        Robot base; the gripper yaw (symmetric under 180 deg) is chosen nearest to the heading
+        that needs no wrist rotation at that point.
+    """
+
+    def __init__(self, traj: Trajectory, base: np.ndarray) -> None:
+        self.traj = traj
+        self.t = traj.t_s
+        self.n = len(traj)
+        if self.n < 2:
+            raise DemonstrationError("the trajectory needs at least 2 samples")
+        tcp = np.asarray(traj.tcp, dtype=np.float64)
+        good = np.all(np.isfinite(tcp), axis=1)
+        if not good.any():
+            raise DemonstrationError("the trajectory has no valid TCP samples")
+        self.tcp = np.stack(
+            [np.interp(self.t, self.t[good], tcp[good, j]) for j in range(3)], axis=1
+        )
+        self.yaw = self._robot_yaw(np.asarray(traj.rotation), good, base)
+        self.names = list(traj.object_names)
+        self.size = np.asarray(traj.object_size, dtype=np.float64)
+        self._opos = np.asarray(traj.object_position, dtype=np.float64)
+        self._oquat = np.asarray(traj.object_quaternion, dtype=np.float64)
+
+    def _robot_yaw(self, rot: np.ndarray, good: np.ndarray, base: np.ndarray) -> np.ndarray:
+        """Gripper yaw from the hand frame: its y axis (thumb-index direction) projected on XY."""
+        yaw = np.full(self.n, np.nan)
+        if rot.shape == (self.n, 3, 3):
+            yax = rot[:, :, 1]
+            horiz = np.hypot(yax[:, 0], yax[:, 1])
+            ok = good & np.isfinite(horiz) & (horiz > 0.2)
+            yaw[ok] = np.arctan2(yax[ok, 1], yax[ok, 0])
+        ok = np.isfinite(yaw)
+        if not ok.any():
+            yaw[:] = 0.0
+            ok[:] = True
+        natural = np.pi / 2 + np.arctan2(self.tcp[:, 1] - base[1], self.tcp[:, 0] - base[0])
+        yaw = wrap_near(yaw, 0.0)
+        # unwrap with period pi (the gripper is symmetric), then shift next to the natural yaw
+        yy = yaw[ok]
+        yy = np.unwrap(2 * yy) / 2
+        yaw = np.interp(self.t, self.t[ok], yy)
+        shift = np.round((np.median(natural - yaw)) / np.pi) * np.pi
+        return np.asarray(yaw + shift)
+
+    def index(self, t_s: float) -> int:
+        """Nearest sample index to a time (s since the first sample)."""
+        return int(np.clip(np.searchsorted(self.t, t_s), 0, self.n - 1))
+
+    def object_index(self, name: str | None) -> int:
+        if name is None or name not in self.names:
+            raise DemonstrationError(f"unknown object {name!r}; known: {self.names}")
+        return self.names.index(name)
+
+    def object_pose(self, name: str, i: int) -> np.ndarray:
+        """Upright 4x4 pose of an object at sample ``i`` (nearest valid sample)."""
+        k = self.object_index(name)
+        p, q = self._opos[k], self._oquat[k]
+        valid = np.all(np.isfinite(p), axis=1) & np.all(np.isfinite(q), axis=1)
+        if not valid.any():
+            raise DemonstrationError(f"object {name!r} is never observed")
+        idx = np.flatnonzero(valid)
+        j = int(idx[np.argmin(np.abs(idx - i))])
+        T = np.eye(4)
+        T[:3, :3] = quat_to_matrix(q[j])
+        T[:3, 3] = p[j]
+        return upright(T)
+
+    def tcp_pose(self, i: int) -> np.ndarray:
+        """4x4 top-down pose of the demonstrated TCP at sample ``i``."""
+        return pose(self.tcp[i], float(self.yaw[i]))
+
+    def support_of(self, name: str, i: int) -> str | None:
+        """The object that ``name`` rests on at sample ``i`` (None = the table)."""
+        k = self.object_index(name)
+        p = self.object_pose(name, i)[:3, 3]
+        best, best_d = None, np.inf
+        for other in self.names:
+            if other == name:
+                continue
+            q = self.object_pose(other, i)[:3, 3]
+            j = self.names.index(other)
+            dz = p[2] - q[2]
+            dxy = np.hypot(*(p[:2] - q[:2]))
+            if 0.5 * (self.size[k, 2] + self.size[j, 2]) * 0.6 < dz < self.size[j, 2] * 1.5 + 0.02:
+                if dxy < 0.6 * max(self.size[j, :2].max(), self.size[k, :2].max()) and dxy < best_d:
+                    best, best_d = other, dxy
+        return best
+
+
+def grasp_goal(T_obj: np.ndarray, size: np.ndarray, demo_yaw: float) -> tuple[np.ndarray, float]:
+    """Skill-knowledge grasp: centred on the object, closing across a face that fits the gripper.
+
+    Returns the TCP position (3,) and the yaw nearest (modulo 180 deg) to the demonstrated one.
+    """
+    p = T_obj[:3, 3].copy()
+    p[2] = max(p[2], p[2] - size[2] / 2 + FINGER_BELOW_TCP + 0.006)
+    psi = yaw_of(T_obj[:3, :3])
+    cands = [(psi, size[0]), (psi + np.pi / 2, size[1])]
+    fits = [c for c in cands if c[1] <= MAX_OPENING - 0.015] or cands
+    best = min(fits, key=lambda c: abs(float(wrap_near(c[0], demo_yaw)) - demo_yaw))
+    return p, float(wrap_near(best[0], demo_yaw))
+
+
+def push_goal(
+    T_obj_end: np.ndarray, size: np.ndarray, direction: np.ndarray, demo_yaw: float
+) -> tuple[np.ndarray, float]:
+    """Where the TCP ends a push that leaves the object at ``T_obj_end``.
+
+    The closed fingers (closing axis across the push) touch the face opposite the push direction.
+    """
+    u = np.asarray(direction[:2], dtype=np.float64)
+    u = u / max(np.linalg.norm(u), 1e-9)
+    R = T_obj_end[:3, :3]
+    # half extent of the box along u (support function of the rectangle)
+    half = 0.5 * (abs(u @ R[:2, 0]) * size[0] + abs(u @ R[:2, 1]) * size[1])
+    p = T_obj_end[:3, 3].copy()
+    p[:2] -= u * (half + FINGER_HALF_X + 0.002)
+    p[2] = max(p[2] - size[2] / 2 + FINGER_BELOW_TCP + 0.008, p[2] - 0.01)
+    yaw = float(np.arctan2(u[1], u[0]) + np.pi / 2)
+    return p, float(wrap_near(yaw, demo_yaw))

@@ -1,0 +1,248 @@
+"""Plan a reproduction: replay, execution with skill knowledge, or per-segment DMPs.
+
+* ``replay`` (the paper's baseline): the demonstrated TCP path at the demonstrated speed, the
+  gripper opening from the fingertip distance (minus :data:`PAD_OFFSET`, the keypoints sit
+  inside the finger pads) and the hand orientation mapped to the gripper as "top-down with the
+  demonstrated yaw": the yaw is the heading of the hand frame's y axis (thumb-index direction,
+  the closing direction of a pinch) projected on the table; pitch and roll of the hand are
+  dropped because a parallel gripper grasps cuboids best from above.
+* ``skills``: ``move``/``move_with`` become straight min-jerk lines between skill end points;
+  ``pick_up``/``place``/``stack``/``push``/``locate`` follow the demonstrated motion, shifted
+  (min-jerk blend) so they end exactly at the object-relative goal; the gripper closes at the end
+  of ``pick_up`` and opens at the end of ``place``/``stack`` (0.5 s dwell), and is closed while
+  pushing.
+* ``dmp``: like ``skills`` but every segment, including the moves, is a DMP learned from its
+  demonstrated motion and re-targeted to the new start and goal (Eq. 2 with displaced objects).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import DemonstrationError
+from .controller import TICK, Plan
+from .dmp import dmp_rollout, min_jerk, resample, warp
+from .goals import DemoFrames, grasp_goal, pose, push_goal, upright, wrap_near, yaw_of
+from .program import Segment, TaskProgram
+from .robot import MAX_OPENING
+
+MODES = ("replay", "skills", "dmp")
+PAD_OFFSET = 0.015
+"""Replay: fingertip-keypoint distance minus this = commanded pad distance (m)."""
+LINEAR_SPEED = 0.15
+"""Mean TCP speed of the straight moves of the skills mode (m/s)."""
+DWELL_S = 0.5
+"""Time the robot holds still while the gripper closes or opens (s)."""
+RELEASE_LIFT = 0.003
+"""Place/stack goals are this much above the exact resting pose (m)."""
+
+
+@dataclass
+class PlanResult:
+    """A plan plus the task semantics it was built from."""
+
+    plan: Plan
+    expected: dict[str, np.ndarray]
+    """Expected final 4x4 pose of every object (the displaced equivalent of the demo's)."""
+    goals: list[np.ndarray] = field(default_factory=list)
+    """Goal TCP position (3,) of each segment."""
+
+
+def _segment_indices(frames: DemoFrames, seg: Segment) -> tuple[int, int]:
+    i0, i1 = frames.index(seg.start_s), frames.index(seg.end_s)
+    return i0, max(i1, i0 + 1) if i0 + 1 < frames.n else i1
+
+
+def _ref_pose(
+    frames: DemoFrames, seg: Segment, i: int, objects: dict[str, np.ndarray]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Reference frame of a segment: (demo pose, current pose) — Eq. 2's T_o and T_o'."""
+    if seg.skill in ("pick_up", "locate", "push") and seg.object in objects:
+        return frames.object_pose(seg.object, i), objects[seg.object]
+    if seg.skill == "stack" and seg.object is not None:
+        sup = seg.params.get("support") or frames.support_of(seg.object, _end_index(frames, seg))
+        if sup in objects:
+            return frames.object_pose(sup, i), objects[sup]
+    return np.eye(4), np.eye(4)
+
+
+def _end_index(frames: DemoFrames, seg: Segment) -> int:
+    return frames.index(seg.end_s)
+
+
+def _map(frames: DemoFrames, seg: Segment, i: int, objects: dict[str, np.ndarray]) -> np.ndarray:
+    """Demo TCP pose at sample ``i`` carried along with the segment's reference (Eq. 2)."""
+    T_ref, T_ref_new = _ref_pose(frames, seg, i, objects)
+    T = T_ref_new @ np.linalg.inv(T_ref) @ frames.tcp_pose(i)
+    return T
+
+
+def _state(T: np.ndarray, ref_yaw: float) -> np.ndarray:
+    return np.array([*T[:3, 3], float(wrap_near(yaw_of(T[:3, :3]), ref_yaw))])
+
+
+def _demo_states(frames: DemoFrames, i0: int, i1: int) -> tuple[np.ndarray, np.ndarray]:
+    sl = slice(i0, i1 + 1)
+    y = np.column_stack([frames.tcp[sl], frames.yaw[sl]])
+    return frames.t[sl], y
+
+
+def plan_replay(frames: DemoFrames, program: TaskProgram) -> Plan:
+    """The paper's baseline: the demonstrated path, orientation (mapped) and opening."""
+    i0 = frames.index(program.segments[0].start_s)
+    i1 = frames.index(program.segments[-1].end_s)
+    t, y = _demo_states(frames, i0, i1)
+    opening = np.asarray(frames.traj.opening, dtype=np.float64)[i0 : i1 + 1]
+    good = np.isfinite(opening)
+    opening = np.interp(t, t[good], opening[good]) if good.any() else np.full(t.shape, 0.08)
+    path = resample(t, np.column_stack([y, opening]), TICK)
+    seg_of = np.full(len(path), -1)
+    tt = np.linspace(t[0], t[-1], len(path))
+    for k, seg in enumerate(program.segments):
+        seg_of[(tt >= seg.start_s) & (tt <= seg.end_s)] = k
+    width = np.clip(path[:, 4] - PAD_OFFSET, 0.0, MAX_OPENING)
+    return Plan(path[:, :3], path[:, 3], width, seg_of)
+
+
+def plan_task(
+    frames: DemoFrames,
+    program: TaskProgram,
+    mode: str,
+    *,
+    initial: dict[str, np.ndarray] | None = None,
+) -> PlanResult:
+    """Plan ``skills`` or ``dmp`` execution (or ``replay``) of ``program``.
+
+    Parameters
+    ----------
+    frames : DemoFrames
+        The demonstration.
+    program : TaskProgram
+        The segmentation.
+    mode : {"replay", "skills", "dmp"}
+    initial : dict, optional
+        Initial 4x4 object poses (displaced); default: the demonstrated initial poses.
+    """
+    if mode not in MODES:
+        raise DemonstrationError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
+    start_i = frames.index(program.segments[0].start_s)
+    objects = {n: frames.object_pose(n, start_i) for n in frames.names}
+    if initial:
+        objects.update({k: upright(v) for k, v in initial.items()})
+    expected = dict(objects)  # propagated through the program below
+    parts: list[Plan] = []
+    goals: list[np.ndarray] = []
+    cur = _state(frames.tcp_pose(start_i), float(frames.yaw[start_i]))
+    opening = MAX_OPENING
+    held: tuple[str, np.ndarray] | None = None
+    segs = program.segments
+    for k, seg in enumerate(segs):
+        i0, i1 = _segment_indices(frames, seg)
+        demo_yaw = float(frames.yaw[i1])
+        close_at_end = open_at_end = False
+        grip = opening
+        if seg.skill == "pick_up":
+            name = _need_object(seg, objects)
+            p, yaw = grasp_goal(objects[name], frames.size[frames.object_index(name)], demo_yaw)
+            goal = np.array([*p, yaw])
+            held = (name, np.linalg.inv(objects[name]) @ pose(p, yaw))
+            grip, close_at_end = MAX_OPENING, True
+        elif seg.skill in ("place", "stack"):
+            name = seg.object or (held[0] if held else None)
+            name = _need_object(Segment(seg.skill, 0, 0, name), objects)
+            T_end_demo = frames.object_pose(name, i1)
+            if seg.skill == "stack":
+                sup = seg.params.get("support") or frames.support_of(name, i1)
+                if sup in objects:
+                    T_end_demo = objects[sup] @ np.linalg.inv(frames.object_pose(sup, i1)) @ T_end_demo
+            rel = held[1] if held and held[0] == name else np.linalg.inv(T_end_demo) @ frames.tcp_pose(i1)
+            T_goal = T_end_demo @ rel
+            T_goal[2, 3] += RELEASE_LIFT
+            goal = _state(T_goal, demo_yaw)
+            objects[name] = T_end_demo
+            expected[name] = T_end_demo
+            held, open_at_end, grip = None, True, 0.0
+        elif seg.skill == "push":
+            name = _need_object(seg, objects)
+            d = frames.object_pose(name, i1)[:3, 3] - frames.object_pose(name, i0)[:3, 3]
+            dyaw = yaw_of(frames.object_pose(name, i1)[:3, :3]) - yaw_of(
+                frames.object_pose(name, i0)[:3, :3]
+            )
+            T_new = pose(objects[name][:3, 3] + d, yaw_of(objects[name][:3, :3]) + dyaw)
+            p, yaw = push_goal(T_new, frames.size[frames.object_index(name)], d, demo_yaw)
+            goal = np.array([*p, yaw])
+            objects[name] = expected[name] = T_new
+            grip = 0.0
+        elif seg.skill == "locate":
+            goal = _state(_map(frames, seg, i1, objects), demo_yaw)
+        else:  # move / move_with: to the (mapped) start of the next skill
+            if k + 1 < len(segs):
+                nxt = segs[k + 1]
+                j0, _ = _segment_indices(frames, nxt)
+                goal = _state(_map(frames, nxt, j0, objects), float(frames.yaw[j0]))
+                if nxt.skill == "push":  # approach behind the object, fingers at push height
+                    goal = _push_start(frames, nxt, objects, goal)
+            else:
+                goal = _state(frames.tcp_pose(i1), demo_yaw)
+            nxt_push = k + 1 < len(segs) and segs[k + 1].skill == "push"
+            grip = 0.0 if seg.skill == "move_with" or nxt_push else MAX_OPENING
+        goal[3] = float(wrap_near(goal[3], cur[3]))
+        goals.append(goal[:3].copy())
+        t, y = _demo_states(frames, i0, i1)
+        if mode == "dmp":
+            path = dmp_rollout(t, y, cur, goal, dt=TICK)
+        elif seg.skill in ("move", "move_with"):
+            path = _line(cur, goal)
+        else:
+            path = warp(resample(t, y, TICK), cur, goal)
+        parts.append(_part(path, grip, k))
+        cur = path[-1].copy()
+        if close_at_end:
+            opening = 0.0
+            parts.append(_part(np.repeat(cur[None], round(DWELL_S / TICK), 0), 0.0, -1))
+        if open_at_end:
+            opening = MAX_OPENING
+            parts.append(_part(np.repeat(cur[None], round(DWELL_S / TICK), 0), MAX_OPENING, -1))
+        if seg.skill == "push":
+            opening = 0.0
+    if mode == "replay":
+        return PlanResult(plan_replay(frames, program), expected, goals)
+    return PlanResult(Plan.concat(parts), expected, goals)
+
+
+def _push_start(
+    frames: DemoFrames, seg: Segment, objects: dict[str, np.ndarray], demo_goal: np.ndarray
+) -> np.ndarray:
+    """Start of a push: 3 cm behind the contact point, at push height."""
+    name = _need_object(seg, objects)
+    i0, i1 = _segment_indices(frames, seg)
+    d = frames.object_pose(name, i1)[:3, 3] - frames.object_pose(name, i0)[:3, 3]
+    size = frames.size[frames.object_index(name)]
+    p, yaw = push_goal(objects[name], size, d, float(demo_goal[3]))
+    u = d[:2] / max(np.linalg.norm(d[:2]), 1e-9)
+    p[:2] -= 0.03 * u
+    return np.array([*p, yaw])
+
+
+def _need_object(seg: Segment, objects: dict[str, np.ndarray]) -> str:
+    if seg.object is None or seg.object not in objects:
+        raise DemonstrationError(
+            f"skill {seg.skill!r} needs a known target object, got {seg.object!r} "
+            f"(objects: {sorted(objects)})"
+        )
+    return seg.object
+
+
+def _line(start: np.ndarray, goal: np.ndarray) -> np.ndarray:
+    """Straight min-jerk line in (x, y, z, yaw)."""
+    dist = float(np.linalg.norm(goal[:3] - start[:3]))
+    dur = max(0.6, dist / LINEAR_SPEED, abs(goal[3] - start[3]) / 1.2)
+    s = min_jerk(round(dur / TICK) + 1)[:, None]
+    return np.asarray(start + s * (goal - start))
+
+
+def _part(path: np.ndarray, grip: float, seg: int) -> Plan:
+    n = path.shape[0]
+    return Plan(path[:, :3].copy(), path[:, 3].copy(), np.full(n, grip), np.full(n, seg))
