@@ -205,8 +205,12 @@ def plan_task(
         if open_at_end:
             opening = MAX_OPENING
             parts.append(_part(np.repeat(cur[None], round(DWELL_S / TICK), 0), MAX_OPENING, -1))
-        if seg.skill == "push":
+        if seg.skill == "push":  # back off the pushed face before anything else moves
             opening = 0.0
+            u = d[:2] / max(float(np.linalg.norm(d[:2])), 1e-9)
+            back = cur + np.array([-0.015 * u[0], -0.015 * u[1], 0.01, 0.0])
+            parts.append(_part(_line(cur, back, min_s=0.3), 0.0, -1))
+            cur = back
     if mode == "replay":
         return PlanResult(plan_replay(frames, program), expected, goals)
     return PlanResult(Plan.concat(parts), expected, goals)
@@ -235,10 +239,10 @@ def _need_object(seg: Segment, objects: dict[str, np.ndarray]) -> str:
     return seg.object
 
 
-def _line(start: np.ndarray, goal: np.ndarray) -> np.ndarray:
+def _line(start: np.ndarray, goal: np.ndarray, *, min_s: float = 0.6) -> np.ndarray:
     """Straight min-jerk line in (x, y, z, yaw)."""
     dist = float(np.linalg.norm(goal[:3] - start[:3]))
-    dur = max(0.6, dist / LINEAR_SPEED, abs(goal[3] - start[3]) / 1.2)
+    dur = max(min_s, dist / LINEAR_SPEED, abs(goal[3] - start[3]) / 1.2)
     s = min_jerk(round(dur / TICK) + 1)[:, None]
     return np.asarray(start + s * (goal - start))
 
