@@ -317,21 +317,34 @@ def test_info_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> Non
 
 
 def test_rerun_opens_recording(tmp_path: Path) -> None:
-    rr = pytest.importorskip("rerun", reason="rerun-sdk not installed (optional viz extra)")
-    del rr
-    path = tmp_path / "d.mcap"
-    save(make_demo(images=2), path)
-    rrd = tmp_path / "d.rrd"
+    pytest.importorskip("rerun", reason="rerun-sdk not installed (optional viz extra)")
     exe = Path(sys.executable).with_name("rerun")
     if not exe.exists():
         pytest.skip("rerun CLI not found next to the interpreter")
+    path = tmp_path / "d.mcap"
+    save(make_demo(images=2), path)
+    rrd = tmp_path / "d.rrd"
     env = {**os.environ, "RERUN_TELEMETRY": "0"}
-    out = subprocess.run(
-        [str(exe), "mcap", "convert", str(path), "-o", str(rrd)],
-        capture_output=True,
-        text=True,
-        env=env,
-        timeout=120,
-    )
-    assert out.returncode == 0, out.stderr
-    assert rrd.stat().st_size > 0
+
+    def rerun(*args: str) -> str:
+        out = subprocess.run(
+            [str(exe), *args], capture_output=True, text=True, env=env, timeout=120
+        )
+        assert out.returncode == 0, out.stderr
+        return out.stdout
+
+    checked = rerun("mcap", "check", "--full", str(path))
+    assert "/hand/right/keypoints" in checked and "error" not in checked.lower()
+    rerun("mcap", "convert", str(path), "-o", str(rrd))
+    printed = rerun("rrd", "print", str(rrd))
+    lines = printed.splitlines()
+
+    def mapped(topic: str, archetype: str) -> bool:
+        return any(f"- {topic} -" in line and archetype in line for line in lines)
+
+    assert mapped("/hand/right/keypoints", "InstancePoses3D:translations")
+    assert mapped("/objects/cube0/pose", "InstancePoses3D:quaternions")
+    assert mapped("/tf", "Transform3D:translation")
+    assert mapped("/camera/color/image_raw", "Image:buffer")
+    assert mapped("/camera/depth/image_raw", "Image:buffer")
+    assert mapped("/camera/color/camera_info", "Pinhole:image_from_camera")
