@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-
 from lfd.reproduce.ik import gripper_rotation
 from lfd.reproduce.program import Segment, TaskProgram
 from lfd.trajectory import Trajectory

@@ -161,15 +161,20 @@ def reproduce(
     if base is None:
         tcp = np.asarray(traj.tcp, dtype=np.float64)
         obj0 = np.nan_to_num(np.asarray(traj.object_position)[:, start_i, :])
-        extra = [obj0[traj.object_names.index(k)] + [*v, 0.0] for k, v in displace.items()
-                 if k in traj.object_names]
+        extra = [
+            obj0[traj.object_names.index(k)] + [*v, 0.0]
+            for k, v in displace.items()
+            if k in traj.object_names
+        ]
         pts = np.concatenate([tcp, obj0, np.array(extra).reshape(-1, 3)])
         base = choose_base(pts, keep_out=np.concatenate([obj0, np.array(extra).reshape(-1, 3)]))
     frames = DemoFrames(traj, base)
     initial: dict[str, np.ndarray] = {}
     for name, (dx, dy) in displace.items():
         if name not in frames.names:
-            raise DemonstrationError(f"cannot displace unknown object {name!r}; known: {frames.names}")
+            raise DemonstrationError(
+                f"cannot displace unknown object {name!r}; known: {frames.names}"
+            )
         T = frames.object_pose(name, start_i)
         initial[name] = pose(T[:3, 3] + [dx, dy, 0.0], yaw_of(T[:3, :3]))
     result = plan_task(frames, program, mode, initial=initial)
@@ -185,8 +190,9 @@ def reproduce(
         specs.append(ObjectSpec(name, frames.size[k], p, np.array([0.0, 0.0, s, c])))
     plan: Plan = result.plan
     ex = execute(plan, base, specs, video_fps=video_fps, progress=progress)
-    objs = object_errors(ex.object_names, ex.final_position, ex.final_quaternion,
-                         result.expected, frames.size)
+    objs = object_errors(
+        ex.object_names, ex.final_position, ex.final_quaternion, result.expected, frames.size
+    )
     return Reproduction(
         mode=mode,
         planned_tcp=plan.position,

@@ -84,7 +84,9 @@ def dmp_rollout(
     yd = np.gradient(y, tt, axis=0)
     dmp = DMP(n_dims=y.shape[1], execution_time=duration, dt=dt, n_weights_per_dim=n_weights)
     dmp.imitate(tt, y, allow_final_velocity=True)
-    dmp.configure(start_y=np.asarray(start), goal_y=np.asarray(goal), start_yd=yd[0], goal_yd=yd[-1])
+    dmp.configure(
+        start_y=np.asarray(start), goal_y=np.asarray(goal), start_yd=yd[0], goal_yd=yd[-1]
+    )
     _, out = dmp.open_loop()
     out = np.asarray(out, dtype=np.float64)
     if not np.all(np.isfinite(out)):

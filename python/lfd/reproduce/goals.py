@@ -173,7 +173,7 @@ def push_goal(
     The closed fingers (closing axis across the push) touch the face opposite the push direction.
     """
     u = np.asarray(direction[:2], dtype=np.float64)
-    u = u / max(np.linalg.norm(u), 1e-9)
+    u = u / max(float(np.linalg.norm(u)), 1e-9)
     R = T_obj_end[:3, :3]
     # half extent of the box along u (support function of the rectangle)
     half = 0.5 * (abs(u @ R[:2, 0]) * size[0] + abs(u @ R[:2, 1]) * size[1])

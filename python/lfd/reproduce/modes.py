@@ -150,14 +150,20 @@ def plan_task(
             held = (name, np.linalg.inv(objects[name]) @ pose(p, yaw))
             grip, close_at_end = MAX_OPENING, True
         elif seg.skill in ("place", "stack"):
-            name = seg.object or (held[0] if held else None)
-            name = _need_object(Segment(seg.skill, 0, 0, name), objects)
+            carried = seg.object or (held[0] if held else None)
+            name = _need_object(Segment(seg.skill, 0, 0, carried), objects)
             T_end_demo = frames.object_pose(name, i1)
             if seg.skill == "stack":
                 sup = seg.params.get("support") or frames.support_of(name, i1)
                 if sup in objects:
-                    T_end_demo = objects[sup] @ np.linalg.inv(frames.object_pose(sup, i1)) @ T_end_demo
-            rel = held[1] if held and held[0] == name else np.linalg.inv(T_end_demo) @ frames.tcp_pose(i1)
+                    T_end_demo = (
+                        objects[sup] @ np.linalg.inv(frames.object_pose(sup, i1)) @ T_end_demo
+                    )
+            rel = (
+                held[1]
+                if held and held[0] == name
+                else np.linalg.inv(T_end_demo) @ frames.tcp_pose(i1)
+            )
             T_goal = T_end_demo @ rel
             T_goal[2, 3] += RELEASE_LIFT
             goal = _state(T_goal, demo_yaw)

@@ -20,7 +20,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..errors import DemonstrationError
+from ..errors import DemonstrationError, LfdError
 from ..skills import check_skill
 
 
@@ -90,7 +90,7 @@ class TaskProgram:
                     )
                 )
             except (KeyError, TypeError, ValueError) as err:
-                if isinstance(err, DemonstrationError):
+                if isinstance(err, LfdError):
                     raise
                 raise DemonstrationError(f"task program segment {i}: {err}") from err
         return cls(segs)

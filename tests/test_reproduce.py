@@ -1,0 +1,171 @@
+"""Robot reproduction: kinematics, IK, physical grasping, the three modes, DMP generalisation."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco")
+pytest.importorskip("mink")
+
+sys.path.insert(0, str(Path(__file__).parent))
+
+from lfd.errors import DemonstrationError, UnknownSkillError
+from lfd.reproduce import (
+    Segment,
+    TaskProgram,
+    from_labels,
+    parse_displacement,
+    reproduce,
+)
+from lfd.reproduce.dmp import dmp_rollout
+from lfd.reproduce.ik import ArmIK, gripper_rotation, rotation_angle
+from lfd.reproduce.measures import path_length
+from lfd.reproduce.robot import dh_forward, robot_model_xml
+from reproduce_synth import synthetic_demo
+
+
+def test_mjcf_matches_published_dh() -> None:
+    import mujoco
+
+    model = mujoco.MjModel.from_xml_string(robot_model_xml())
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    flange = model.site("flange").id
+    # straight up: 0.3105 + 0.40 + 0.39 + 0.078
+    assert data.site_xpos[flange] == pytest.approx([0, 0, 1.1785], abs=1e-9)
+    rng = np.random.default_rng(1)
+    for _ in range(5):
+        q = rng.uniform(-1.5, 1.5, 7)
+        data.qpos[:7] = q
+        mujoco.mj_kinematics(model, data)
+        T = dh_forward(q)
+        assert np.abs(T[:3, 3] - data.site_xpos[flange]).max() < 1e-9
+        assert np.abs(T[:3, :3] - data.site_xmat[flange].reshape(3, 3)).max() < 1e-9
+
+
+def test_ik_reaches_workspace() -> None:
+    ik = ArmIK(np.zeros(3))
+    for x, y, z, dyaw in [
+        (0.45, -0.25, 0.03, -0.8),
+        (0.45, 0.25, 0.2, 0.8),
+        (0.6, 0.0, 0.025, 0.0),
+        (0.7, 0.2, 0.1, 0.5),
+        (0.55, -0.2, 0.3, -0.3),
+        (0.4, 0.0, 0.05, 1.2),
+    ]:
+        ik.reset()
+        p = np.array([x, y, z])
+        R = gripper_rotation(np.pi / 2 + np.arctan2(y, x) + dyaw)
+        ik.solve(p, R)
+        pp, RR = ik.tcp_pose()
+        assert np.linalg.norm(pp - p) < 0.005, (x, y, z)
+        assert np.degrees(rotation_angle(RR, R)) < 3.0, (x, y, z)
+
+
+@pytest.fixture(scope="module")
+def pick_place() -> dict:
+    traj, program = synthetic_demo("pick_place")
+    return {m: reproduce(traj, program, m) for m in ("replay", "skills", "dmp")}
+
+
+def test_skills_pick_carry_place_physically(pick_place: dict) -> None:
+    r = pick_place["skills"]
+    assert r.success, r.to_json()
+    box = r.execution.object_names.index("box_1")
+    z = r.execution.object_position[box, :, 2]
+    assert z.max() > 0.1  # really lifted (carried by friction, not teleported)
+    assert r.objects[box].position_error < 0.005
+
+
+def test_modes_end_to_end(pick_place: dict) -> None:
+    rep, sk, dm = pick_place["replay"], pick_place["skills"], pick_place["dmp"]
+    assert sk.path_length < rep.path_length  # straight moves remove the wobble
+    assert dm.success
+    for r in (rep, sk, dm):
+        assert r.planned_tcp.shape == r.executed_tcp.shape
+        assert r.segment.shape[0] == r.planned_tcp.shape[0]
+        assert np.abs(r.executed_tcp - r.planned_tcp).max() < 0.03  # servo tracking
+        js = json.loads(json.dumps(r.to_json()))
+        assert set(js["objects"]) == {"box_1", "box_2"}
+    assert sk.planned_path_length == pytest.approx(path_length(sk.planned_tcp))
+
+
+def test_stack_physically() -> None:
+    traj, program = synthetic_demo("stack")
+    r = reproduce(traj, program, "skills")
+    assert r.success, r.to_json()
+    top = r.execution.final_position[0]
+    assert top[2] == pytest.approx(0.075, abs=0.005)  # resting on box_2
+
+
+def test_push_moves_commanded_distance() -> None:
+    traj, program = synthetic_demo("push")
+    r = reproduce(traj, program, "skills")
+    ex = r.execution
+    moved = ex.final_position[0, 0] - ex.object_position[0, 0, 0]
+    assert moved == pytest.approx(0.08, abs=0.01)
+    assert r.success, r.to_json()
+
+
+def test_dmp_generalises_to_displaced_object() -> None:
+    traj, program = synthetic_demo("pick_place")
+    r = reproduce(traj, program, "dmp", displace={"box_1": (0.08, -0.06)})
+    assert r.success, r.to_json()
+    # the object started where it was displaced to and ends at the demonstrated place pose
+    assert r.execution.object_position[0, 0, :2] == pytest.approx([0.18, 0.04], abs=0.002)
+    assert r.execution.final_position[0, :2] == pytest.approx([0.02, -0.12], abs=0.01)
+
+
+def test_dmp_rollout_hits_new_goal() -> None:
+    t = np.linspace(0, 2, 61)
+    y = np.stack([0.1 * np.sin(t), 0.05 * t**2, 0.02 * t], axis=1)
+    out = dmp_rollout(t, y, y[0] + 0.05, y[-1] + [0.1, -0.1, 0.0])
+    assert out[0] == pytest.approx(y[0] + 0.05)
+    assert out[-1] == pytest.approx(y[-1] + [0.1, -0.1, 0.0])
+    same = dmp_rollout(t, y, y[0], y[-1])
+    ref = np.stack([np.interp(np.linspace(0, 2, len(same)), t, y[:, j]) for j in range(3)], 1)
+    assert np.abs(same - ref).max() < 0.02  # reproduces the demonstrated shape
+
+
+def test_task_program_json_roundtrip(tmp_path: Path) -> None:
+    prog = TaskProgram([Segment("pick_up", 0, 1, "box_1"), Segment("move_with", 1, 2, "box_1")])
+    path = tmp_path / "p.json"
+    prog.save(path)
+    back = TaskProgram.load(path)
+    assert back.to_json() == prog.to_json()
+    assert back.skills == ["pick_up", "move_with"]
+    with pytest.raises(UnknownSkillError):
+        TaskProgram.from_json({"segments": [{"skill": "fly", "start_s": 0, "end_s": 1}]})
+    with pytest.raises(DemonstrationError):
+        TaskProgram.from_json({"segments": [{"skill": "move", "start_s": 2, "end_s": 1}]})
+    with pytest.raises(DemonstrationError):
+        TaskProgram.from_json({"segments": [{"skill": "move"}]})
+    with pytest.raises(DemonstrationError):
+        TaskProgram([])
+
+
+def test_from_labels_and_displacement_parsing() -> None:
+    from lfd.demo import SkillLabel
+
+    labels = [SkillLabel("pick_up", 2_000_000_000, 3_500_000_000, "box_1")]
+    prog = from_labels(labels, 1_000_000_000)
+    assert prog.segments[0].start_s == pytest.approx(1.0)
+    assert prog.segments[0].end_s == pytest.approx(2.5)
+    with pytest.raises(DemonstrationError):
+        from_labels([], 0)
+    assert parse_displacement(["box_1:0.10,-0.05", "box_2:0,0.02"]) == {
+        "box_1": (0.10, -0.05),
+        "box_2": (0.0, 0.02),
+    }
+    with pytest.raises(DemonstrationError):
+        parse_displacement("box_1:0.1")
+    traj, program = synthetic_demo("pick_place")
+    with pytest.raises(DemonstrationError):
+        reproduce(traj, program, "dmp", displace={"nope": (0.1, 0.0)})
+    with pytest.raises(DemonstrationError):
+        reproduce(traj, program, "teleport")
