@@ -3,6 +3,15 @@
 from __future__ import annotations
 
 import numpy as np
+from lfd.demo import (
+    INDEX_MCP,
+    INDEX_TIP,
+    THUMB_TIP,
+    Demonstration,
+    HandTrack,
+    ObjectTrack,
+    SkillLabel,
+)
 from lfd.reproduce.ik import gripper_rotation
 from lfd.reproduce.program import Segment, TaskProgram
 from lfd.trajectory import Trajectory
@@ -98,3 +107,36 @@ def synthetic_demo(kind: str = "pick_place") -> tuple[Trajectory, TaskProgram]:
         object_valid=np.ones((2, n), bool),
     )
     return traj, TaskProgram(segs)
+
+
+def synthetic_recording(kind: str = "pick_place") -> Demonstration:
+    """The synthetic demo as a raw :class:`Demonstration` (hand keypoints, objects, labels)."""
+    traj, program = synthetic_demo(kind)
+    n = len(traj)
+    kp = np.zeros((n, 21, 3))
+    y_axis = traj.rotation[:, :, 1]
+    z_axis = traj.rotation[:, :, 2]
+    base = traj.tcp - 0.09 * z_axis
+    kp[:] = base[:, None, :] - 0.03 * z_axis[:, None, :]
+    kp[:, INDEX_MCP] = base
+    kp[:, INDEX_TIP] = traj.tcp + 0.5 * traj.opening[:, None] * y_axis
+    kp[:, THUMB_TIP] = traj.tcp - 0.5 * traj.opening[:, None] * y_axis
+    hand = HandTrack(traj.t_ns, kp, np.ones((n, 21)))
+    objects = {
+        name: ObjectTrack(
+            name,
+            k + 1,
+            traj.object_size[k],
+            traj.t_ns,
+            traj.object_position[k],
+            traj.object_quaternion[k],
+            np.ones(n, bool),
+        )
+        for k, name in enumerate(traj.object_names)
+    }
+    t0 = int(traj.t_ns[0])
+    labels = [
+        SkillLabel(s.skill, t0 + round(s.start_s * 1e9), t0 + round(s.end_s * 1e9), s.object)
+        for s in program.segments
+    ]
+    return Demonstration(hand=hand, objects=objects, labels=labels, metadata={"task": kind})

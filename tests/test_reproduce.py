@@ -169,3 +169,33 @@ def test_from_labels_and_displacement_parsing() -> None:
         reproduce(traj, program, "dmp", displace={"nope": (0.1, 0.0)})
     with pytest.raises(DemonstrationError):
         reproduce(traj, program, "teleport")
+
+
+def test_cli_on_recording(tmp_path: Path) -> None:
+    from lfd.cli import main
+    from lfd.io import save
+    from reproduce_synth import synthetic_recording
+
+    rec = tmp_path / "demo.mcap"
+    save(synthetic_recording("pick_place"), rec)
+    out = tmp_path / "out.json"
+    prog = tmp_path / "prog.json"
+    assert main(["reproduce", str(rec), "--mode", "all", "--json", str(out)]) == 0
+    res = json.loads(out.read_text())["results"]
+    assert set(res) == {"replay", "skills", "dmp"}
+    assert res["skills"]["success"] and res["dmp"]["success"]
+    assert res["skills"]["path_length_m"] < res["replay"]["path_length_m"]
+    TaskProgram.from_json(json.loads(out.read_text())["program"]).save(prog)
+    code = main(
+        [
+            "reproduce",
+            str(rec),
+            "--mode",
+            "dmp",
+            "--task",
+            str(prog),
+            "--displace",
+            "box_1:0.05,0.05",
+        ]
+    )
+    assert code == 0
