@@ -29,7 +29,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="task program (segments) to execute; default: the recording's ground-truth labels",
     )
     parser.add_argument("--json", metavar="OUT.json", help="write the measurements as JSON")
-    parser.add_argument("--video", metavar="OUT.mp4", help="render a video (needs imageio)")
+    parser.add_argument(
+        "--video", metavar="OUT.mp4", help="render a video of the (last) mode (imageio or OpenCV)"
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -92,12 +94,24 @@ def run(args: argparse.Namespace) -> int:
                 indent=2,
             )
     if args.video:
-        frames = results[modes[-1]].execution
-        if frames is not None and frames.frames:
-            try:
-                import imageio.v2 as imageio
-            except ImportError:
-                console.print("[yellow]imageio not installed: no video written[/yellow]")
-            else:
-                imageio.mimwrite(args.video, frames.frames, fps=30)  # type: ignore[arg-type]
+        ex = results[modes[-1]].execution
+        if ex is not None and ex.frames:
+            write_video(args.video, ex.frames, fps=30.0)
+            console.print(f"video: {args.video} ({len(ex.frames)} frames, mode {modes[-1]})")
     return 0 if all(r.success for r in results.values()) or args.mode == "all" else 1
+
+
+def write_video(path: str, frames: list, fps: float) -> None:
+    """Write RGB frames to an MP4 (imageio when installed, else OpenCV's mp4v writer)."""
+    try:
+        import imageio.v2 as imageio
+    except ImportError:
+        import cv2
+
+        h, w = frames[0].shape[:2]
+        writer = cv2.VideoWriter(path, cv2.VideoWriter_fourcc(*"mp4v"), fps, (w, h))
+        for f in frames:
+            writer.write(cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
+        writer.release()
+    else:
+        imageio.mimwrite(path, frames, fps=fps)
