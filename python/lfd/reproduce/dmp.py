@@ -5,8 +5,8 @@ Each skill segment's demonstrated motion ``[x, y, z, yaw]`` is imitated by a dis
 (the robot's pose at the end of the previous segment) and a new goal (the object-relative goal
 of Eq. 2, see :mod:`lfd.reproduce.goals`). movement_primitives does not scale the forcing term by
 ``g - y0``, so a displaced goal shifts the attractor without distorting the learned shape. Two
-small fixes keep chained segments exact: the demo's start and end velocities are passed to
-``configure`` (no start transient), and the residual between the roll-out's last sample and the
+small fixes keep chained segments exact: the roll-out is integrated with ``step`` from the demo's
+start velocity (``open_loop`` starts from rest, a transient of several cm), and the residual between the roll-out's last sample and the
 goal (the DMP is still converging when the demo's time is up) is removed by a min-jerk blend.
 """
 
