@@ -348,3 +348,32 @@ def test_rerun_opens_recording(tmp_path: Path) -> None:
     assert mapped("/camera/color/image_raw", "Image:buffer")
     assert mapped("/camera/depth/image_raw", "Image:buffer")
     assert mapped("/camera/color/camera_info", "Pinhole:image_from_camera")
+
+
+def _have_image_codec() -> bool:
+    import importlib.util
+
+    return any(importlib.util.find_spec(m) is not None for m in ("cv2", "PIL"))
+
+
+@pytest.mark.skipif(not _have_image_codec(), reason="needs opencv or pillow")
+@pytest.mark.parametrize("fmt", ["png", "jpeg"])
+def test_compressed_color_images(tmp_path: Path, fmt: str) -> None:
+    demo = make_demo(images=3)
+    assert demo.color is not None
+    yy, xx = np.mgrid[0:6, 0:8]
+    smooth = np.stack([xx * 20, yy * 30, xx + yy + 100], axis=-1).astype(np.uint8)
+    demo.color.frames[:] = smooth
+    path = tmp_path / f"{fmt}.mcap"
+    save(demo, path, color_format=fmt)
+    raw = scan(path)
+    assert raw.channels["/camera/color/image_raw/compressed"].schema == "foxglove.CompressedImage"
+    assert "/camera/color/image_raw" not in raw.channels
+    back, _ = _load_quiet(path)
+    assert back.color is not None and back.color.frames.shape == demo.color.frames.shape
+    if fmt == "png":
+        np.testing.assert_array_equal(back.color.frames, demo.color.frames)
+    else:
+        assert np.abs(back.color.frames.astype(int) - demo.color.frames).mean() < 12
+    with pytest.raises(DemonstrationError, match="color_format"):
+        McapRecorder(tmp_path / "x.mcap", color_format="gif")

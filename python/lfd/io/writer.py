@@ -17,17 +17,12 @@ from typing import IO, Any
 import numpy as np
 import numpy.typing as npt
 from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
+from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
 from foxglove_schemas_protobuf.Event_pb2 import Event
-from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
 from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
-from foxglove_schemas_protobuf.KeyValuePair_pb2 import KeyValuePair
-from foxglove_schemas_protobuf.Pose_pb2 import Pose
 from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
 from foxglove_schemas_protobuf.PosesInFrame_pb2 import PosesInFrame
-from foxglove_schemas_protobuf.Quaternion_pb2 import Quaternion
 from foxglove_schemas_protobuf.RawImage_pb2 import RawImage
-from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
-from google.protobuf.timestamp_pb2 import Timestamp
 from mcap.writer import CompressionType
 from mcap.writer import Writer as _McapWriter
 from mcap_protobuf.schema import build_file_descriptor_set
@@ -42,16 +37,14 @@ from ..demo import (
     SkillLabel,
 )
 from ..errors import DemonstrationError
+from . import messages as M
 from . import topics as T
+from .images import COLOR_FORMATS, encode_compressed
 
 __all__ = ["McapRecorder", "ObjectSpec", "save"]
 
 ObjectSpec = tuple[str, int, npt.ArrayLike]
 """``(name, tag_id, size)`` of one AR-tagged box; ``size`` is 3 lengths in metres."""
-
-
-def _stamp(t_ns: int) -> Timestamp:
-    return Timestamp(seconds=t_ns // 1_000_000_000, nanos=t_ns % 1_000_000_000)
 
 
 def _check_time(t_ns: Any) -> int:
@@ -61,26 +54,6 @@ def _check_time(t_ns: Any) -> int:
     if t < 0:
         raise DemonstrationError(f"timestamps must be >= 0 ns, got {t}")
     return t
-
-
-def _json_default(obj: Any) -> Any:
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, np.generic):
-        return obj.item()
-    raise TypeError(f"{type(obj).__name__} is not JSON serialisable")
-
-
-def _dumps(obj: Any) -> str:
-    return json.dumps(obj, default=_json_default, allow_nan=True)
-
-
-def _vector(p: np.ndarray) -> Vector3:
-    return Vector3(x=float(p[0]), y=float(p[1]), z=float(p[2]))
-
-
-def _quat(q: np.ndarray) -> Quaternion:
-    return Quaternion(x=float(q[0]), y=float(q[1]), z=float(q[2]), w=float(q[3]))
 
 
 class McapRecorder:
@@ -104,6 +77,10 @@ class McapRecorder:
         killed recorder loses. ``math.inf`` disables it.
     write_tf : bool
         Also publish world -> object transforms on ``/tf`` (for viewers).
+    color_format : str
+        ``"raw"`` (RawImage rgb8, ~0.5 MB per 640x480 frame after zstd), ``"png"`` or
+        ``"jpeg"`` (CompressedImage on ``/camera/color/image_raw/compressed``; needs OpenCV or
+        Pillow).
 
     Examples
     --------
@@ -122,6 +99,7 @@ class McapRecorder:
         chunk_size: int = 128 * 1024,
         max_chunk_duration_s: float = 1.0,
         write_tf: bool = True,
+        color_format: str = "raw",
     ) -> None:
         if side not in T.HAND_SIDES:
             raise DemonstrationError(f"hand side must be one of {T.HAND_SIDES}, got {side!r}")
@@ -132,6 +110,9 @@ class McapRecorder:
             self._declare_object(name, tag_id, size)
         self._metadata = dict(metadata or {})
         self._write_tf = write_tf
+        if color_format not in COLOR_FORMATS:
+            raise DemonstrationError(f"color_format must be one of {COLOR_FORMATS}")
+        self._color_format = color_format
         self._max_chunk_ns = (
             math.inf if math.isinf(max_chunk_duration_s) else int(max_chunk_duration_s * 1e9)
         )
@@ -168,11 +149,11 @@ class McapRecorder:
         record = {
             "format": T.FORMAT_NAME,
             "version": str(T.FORMAT_VERSION),
-            "objects": _dumps(objects),
+            "objects": M.dumps(objects),
             "hand_side": self.side,
             "keypoint_layout": KEYPOINT_LAYOUT,
-            "units": _dumps(T.UNITS),
-            "metadata": _dumps(self._metadata),
+            "units": M.dumps(T.UNITS),
+            "metadata": M.dumps(self._metadata),
         }
         for key in ("task", "seed"):
             if key in self._metadata:
@@ -260,12 +241,7 @@ class McapRecorder:
             conf = np.asarray(confidence, dtype=np.float64)
             if conf.shape != (21,):
                 raise DemonstrationError(f"hand confidence must have shape (21,), got {conf.shape}")
-        identity = Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)
-        msg = PosesInFrame(
-            timestamp=_stamp(t),
-            frame_id=T.WORLD_FRAME,
-            poses=[Pose(position=_vector(p), orientation=identity) for p in kp],
-        )
+        msg = M.hand_poses(t, kp)
         channel = self._channel(
             T.hand_topic(self.side),
             PosesInFrame,
@@ -284,7 +260,7 @@ class McapRecorder:
             json_schema=(T.CONFIDENCE_SCHEMA, T.CONFIDENCE_JSON_SCHEMA),
             metadata={"layout": KEYPOINT_LAYOUT},
         )
-        self._write(channel, t, _dumps({"confidence": conf.tolist()}).encode())
+        self._write(channel, t, M.dumps({"confidence": conf.tolist()}).encode())
 
     def add_object_pose(
         self,
@@ -324,44 +300,22 @@ class McapRecorder:
             )
         q = q / norm
         tag_id, size = self._objects[name]
-        msg = PoseInFrame(
-            timestamp=_stamp(t),
-            frame_id=T.WORLD_FRAME,
-            pose=Pose(position=_vector(p), orientation=_quat(q)),
-        )
+        msg = M.object_pose(t, p, q)
         channel = self._channel(
             T.object_topic(name),
             PoseInFrame,
-            metadata={"name": name, "tag_id": str(tag_id), "size": _dumps(size.tolist())},
+            metadata={"name": name, "tag_id": str(tag_id), "size": M.dumps(size.tolist())},
         )
         self._write(channel, t, msg.SerializeToString())
         if self._write_tf:
             self._tf(t, name, p, q)
 
     def _tf(self, t: int, child: str, p: np.ndarray, q: np.ndarray) -> None:
-        tf = FrameTransforms(
-            transforms=[
-                FrameTransform(
-                    timestamp=_stamp(t),
-                    parent_frame_id=T.WORLD_FRAME,
-                    child_frame_id=child,
-                    translation=_vector(p),
-                    rotation=_quat(q),
-                )
-            ]
-        )
-        self._write(self._channel(T.TF_TOPIC, FrameTransforms), t, tf.SerializeToString())
+        msg = M.transform(t, child, p, q)
+        self._write(self._channel(T.TF_TOPIC, FrameTransforms), t, msg.SerializeToString())
 
     def _image(self, topic: str, t: int, img: np.ndarray, encoding: str) -> None:
-        msg = RawImage(
-            timestamp=_stamp(t),
-            frame_id=T.CAMERA_FRAME,
-            width=int(img.shape[1]),
-            height=int(img.shape[0]),
-            encoding=encoding,
-            step=int(img.shape[1] * img.itemsize * (img.shape[2] if img.ndim == 3 else 1)),
-            data=np.ascontiguousarray(img).tobytes(),
-        )
+        msg = M.raw_image(t, img, encoding)
         self._write(self._channel(topic, RawImage), t, msg.SerializeToString())
 
     def add_color(self, t_ns: int, rgb: npt.ArrayLike) -> None:
@@ -371,7 +325,14 @@ class McapRecorder:
             raise DemonstrationError(
                 f"colour image must be (H, W, 3) uint8, got {img.shape} {img.dtype}"
             )
-        self._image(T.COLOR_TOPIC, _check_time(t_ns), img, "rgb8")
+        t = _check_time(t_ns)
+        if self._color_format == "raw":
+            self._image(T.COLOR_TOPIC, t, img, "rgb8")
+            return
+        data = encode_compressed(img, self._color_format)
+        msg = M.compressed_image(t, data, self._color_format)
+        topic = T.compressed_topic(T.COLOR_TOPIC)
+        self._write(self._channel(topic, CompressedImage), t, msg.SerializeToString())
 
     def add_depth(self, t_ns: int, depth_mm: npt.ArrayLike) -> None:
         """Write a depth frame, array shape (H, W), uint16 millimetres (``16UC1``, 0 = no data)."""
@@ -385,54 +346,28 @@ class McapRecorder:
     def add_camera_info(self, camera: CameraInfo, t_ns: int = 0) -> None:
         """Write the camera calibration (intrinsics + world -> camera pose) at time ``t_ns``."""
         t = _check_time(t_ns)
-        K = camera.K
-        P = np.hstack([K, np.zeros((3, 1))])
-        msg = CameraCalibration(
-            timestamp=_stamp(t),
-            frame_id=camera.frame_id,
-            width=int(camera.width),
-            height=int(camera.height),
-            distortion_model="plumb_bob",
-            D=[0.0] * 5,
-            K=K.ravel().tolist(),
-            R=np.eye(3).ravel().tolist(),
-            P=P.ravel().tolist(),
-        )
+        msg = M.calibration(t, camera)
         self._write(
             self._channel(T.CAMERA_INFO_TOPIC, CameraCalibration), t, msg.SerializeToString()
         )
         from scipy.spatial.transform import Rotation
 
-        M = camera.world_T_camera
-        tf = FrameTransform(
-            timestamp=_stamp(t),
-            parent_frame_id=T.WORLD_FRAME,
-            child_frame_id=camera.frame_id,
-            translation=_vector(M[:3, 3]),
-            rotation=_quat(Rotation.from_matrix(M[:3, :3]).as_quat()),
-        )
-        tfs = FrameTransforms(transforms=[tf])
-        self._write(self._channel(T.TF_TOPIC, FrameTransforms), t, tfs.SerializeToString())
+        pose = camera.world_T_camera
+        self._tf(t, camera.frame_id, pose[:3, 3], Rotation.from_matrix(pose[:3, :3]).as_quat())
         record = {
             "width": int(camera.width),
             "height": int(camera.height),
-            "K": K.tolist(),
-            "world_T_camera": M.tolist(),
+            "K": camera.K.tolist(),
+            "world_T_camera": pose.tolist(),
             "frame_id": camera.frame_id,
         }
-        self._writer.add_metadata(T.CALIBRATION_METADATA, {"camera": _dumps(record)})
+        self._writer.add_metadata(T.CALIBRATION_METADATA, {"camera": M.dumps(record)})
         self._sync()
 
     def add_label(self, label: SkillLabel) -> None:
         """Write a ground-truth skill label (``log_time`` = its start)."""
-        meta = [KeyValuePair(key="skill", value=label.skill)]
-        if label.object is not None:
-            meta.append(KeyValuePair(key="object", value=label.object))
-        msg = Event(
-            start_time=_stamp(_check_time(label.start_ns)),
-            end_time=_stamp(_check_time(label.end_ns)),
-            metadata=meta,
-        )
+        _check_time(label.start_ns)
+        msg = M.event(label)
         channel = self._channel(T.GROUND_TRUTH_TOPIC, Event)
         self._write(channel, label.start_ns, msg.SerializeToString())
 
