@@ -131,7 +131,9 @@ def execute(
     n = len(plan)
     if n == 0:
         raise ValueError("empty plan")
-    q0 = ik.solve(plan.position[0], gripper_rotation(float(plan.yaw[0])))
+    R0 = gripper_rotation(float(plan.yaw[0]))
+    ik.seed_towards(plan.position[0], R0)
+    q0 = ik.solve(plan.position[0], R0)
     arm_qadr = [model.joint(f"joint{i}").qposadr[0] for i in range(1, 8)]
     fingers = [model.joint(f).qposadr[0] for f in ("finger_left", "finger_right")]
     data.qpos[arm_qadr] = q0

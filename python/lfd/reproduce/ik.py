@@ -91,6 +91,16 @@ class ArmIK:
             self.cfg.integrate_inplace(v, dt)
         return self.q
 
+    def seed_towards(self, position: np.ndarray, rotation: np.ndarray) -> None:
+        """Reset to :data:`HOME_Q` turned towards a target (joint 1) with a matching wrist yaw."""
+        base = self.model.body("robot_base").pos
+        phi = float(np.arctan2(position[1] - base[1], position[0] - base[0]))
+        yaw = float(np.arctan2(rotation[1, 1], rotation[0, 1]))  # closing axis heading
+        q = np.array(HOME_Q, dtype=np.float64)
+        q[0] = phi
+        q[6] = (np.pi / 2 + phi - yaw + np.pi) % (2 * np.pi) - np.pi
+        self.reset(q)
+
     def solve(
         self, position: np.ndarray, rotation: np.ndarray, *, max_iters: int = 400, tol: float = 1e-4
     ) -> np.ndarray:

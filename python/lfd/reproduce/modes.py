@@ -26,7 +26,7 @@ from .controller import TICK, Plan
 from .dmp import dmp_rollout, min_jerk, resample, warp
 from .goals import DemoFrames, grasp_goal, pose, push_goal, upright, wrap_near, yaw_of
 from .program import Segment, TaskProgram
-from .robot import MAX_OPENING
+from .robot import FINGER_BELOW_TCP, MAX_OPENING
 
 MODES = ("replay", "skills", "dmp")
 PAD_OFFSET = 0.015
@@ -35,6 +35,8 @@ LINEAR_SPEED = 0.15
 """Mean TCP speed of the straight moves of the skills mode (m/s)."""
 DWELL_S = 0.5
 """Time the robot holds still while the gripper closes or opens (s)."""
+HOVER = 0.05
+"""Vertical clearance used to leave a released object and to start a push from above (m)."""
 RELEASE_LIFT = 0.003
 """Place/stack goals are this much above the exact resting pose (m)."""
 
@@ -188,22 +190,30 @@ def plan_task(
                 nxt = segs[k + 1]
                 j0, _ = _segment_indices(frames, nxt)
                 goal = _state(_map(frames, nxt, j0, objects), float(frames.yaw[j0]))
-                if nxt.skill == "push":  # approach behind the object, fingers at push height
+                if nxt.skill == "push":  # hover behind the object; the push descends from here
                     goal = _push_start(frames, nxt, objects, goal)
+                    top = objects[nxt.object][2, 3] + frames.size[frames.object_index(nxt.object), 2] / 2
+                    goal[2] = max(goal[2] + HOVER, top + FINGER_BELOW_TCP + 0.02)
             else:
                 goal = _state(frames.tcp_pose(i1), demo_yaw)
-            nxt_push = k + 1 < len(segs) and segs[k + 1].skill == "push"
-            grip = 0.0 if seg.skill == "move_with" or nxt_push else MAX_OPENING
+            grip = 0.0 if seg.skill == "move_with" else MAX_OPENING
         goal[3] = float(wrap_near(goal[3], cur[3]))
         goals.append(goal[:3].copy())
         t, y = _demo_states(frames, i0, i1)
+        if seg.skill == "push" and k > 0 and segs[k - 1].skill == "move":
+            low = _push_start(frames, seg, objects, cur)  # descend from the hover pose first
+            parts.append(_part(_line(cur, low, min_s=0.5), 0.0, k))
+            cur = low
         if mode == "dmp":
             path = dmp_rollout(t, y, cur, goal, dt=TICK)
         elif seg.skill in ("move", "move_with"):
             path = _line(cur, goal)
         else:
             path = warp(resample(t, y, TICK), cur, goal)
-        parts.append(_part(path, grip, k))
+        part = _part(path, grip, k)
+        if seg.skill == "move" and k + 1 < len(segs) and segs[k + 1].skill == "push":
+            part.opening[len(part) // 2 :] = 0.0  # close the fingers on the way to a push
+        parts.append(part)
         cur = path[-1].copy()
         if close_at_end:
             opening = 0.0
@@ -211,6 +221,9 @@ def plan_task(
         if open_at_end:
             opening = MAX_OPENING
             parts.append(_part(np.repeat(cur[None], round(DWELL_S / TICK), 0), MAX_OPENING, -1))
+            up = cur + [0.0, 0.0, HOVER, 0.0]  # leave the released object vertically
+            parts.append(_part(_line(cur, up, min_s=0.5), MAX_OPENING, -1))
+            cur = up
         if seg.skill == "push":  # back off the pushed face before anything else moves
             opening = 0.0
             u = d[:2] / max(float(np.linalg.norm(d[:2])), 1e-9)
