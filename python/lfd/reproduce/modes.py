@@ -173,15 +173,9 @@ def plan_task(
             expected[name] = T_end_demo
             held, open_at_end, grip = None, True, 0.0
         elif seg.skill == "push":
-            name = _need_object(seg, objects)
-            d = frames.object_pose(name, i1)[:3, 3] - frames.object_pose(name, i0)[:3, 3]
-            dyaw = yaw_of(frames.object_pose(name, i1)[:3, :3]) - yaw_of(
-                frames.object_pose(name, i0)[:3, :3]
-            )
-            T_new = pose(objects[name][:3, 3] + d, yaw_of(objects[name][:3, :3]) + dyaw)
-            p, yaw = push_goal(T_new, frames.size[frames.object_index(name)], d, demo_yaw)
-            goal = np.array([*p, yaw])
-            objects[name] = expected[name] = T_new
+            geo = _push_geometry(frames, seg, objects, cur[3])
+            goal = geo["goal"]
+            objects[seg.object] = expected[seg.object] = geo["T_new"]  # type: ignore[index]
             grip = 0.0
         elif seg.skill == "locate":
             goal = _state(_map(frames, seg, i1, objects), demo_yaw)
@@ -191,20 +185,16 @@ def plan_task(
                 j0, _ = _segment_indices(frames, nxt)
                 goal = _state(_map(frames, nxt, j0, objects), float(frames.yaw[j0]))
                 if nxt.skill == "push":  # hover behind the object; the push descends from here
-                    goal = _push_start(frames, nxt, objects, goal)
-                    top = objects[nxt.object][2, 3] + frames.size[frames.object_index(nxt.object), 2] / 2
-                    goal[2] = max(goal[2] + HOVER, top + FINGER_BELOW_TCP + 0.02)
+                    goal = _push_geometry(frames, nxt, objects, cur[3])["hover"]
             else:
                 goal = _state(frames.tcp_pose(i1), demo_yaw)
             grip = 0.0 if seg.skill == "move_with" else MAX_OPENING
         goal[3] = float(wrap_near(goal[3], cur[3]))
         goals.append(goal[:3].copy())
         t, y = _demo_states(frames, i0, i1)
-        if seg.skill == "push" and k > 0 and segs[k - 1].skill == "move":
-            low = _push_start(frames, seg, objects, cur)  # descend from the hover pose first
-            parts.append(_part(_line(cur, low, min_s=0.5), 0.0, k))
-            cur = low
-        if mode == "dmp":
+        if seg.skill == "push":
+            path = _push_path(frames, str(seg.object), geo, (i0, i1), cur, mode)
+        elif mode == "dmp":
             path = dmp_rollout(t, y, cur, goal, dt=TICK)
         elif seg.skill in ("move", "move_with"):
             path = _line(cur, goal)
@@ -221,12 +211,12 @@ def plan_task(
         if open_at_end:
             opening = MAX_OPENING
             parts.append(_part(np.repeat(cur[None], round(DWELL_S / TICK), 0), MAX_OPENING, -1))
-            up = cur + [0.0, 0.0, HOVER, 0.0]  # leave the released object vertically
+            up = cur + np.array([0.0, 0.0, HOVER, 0.0])  # leave the released object vertically
             parts.append(_part(_line(cur, up, min_s=0.5), MAX_OPENING, -1))
             cur = up
         if seg.skill == "push":  # back off the pushed face before anything else moves
             opening = 0.0
-            u = d[:2] / max(float(np.linalg.norm(d[:2])), 1e-9)
+            u = geo["u"]
             back = cur + np.array([-0.015 * u[0], -0.015 * u[1], 0.01, 0.0])
             parts.append(_part(_line(cur, back, min_s=0.3), 0.0, -1))
             cur = back
@@ -235,18 +225,83 @@ def plan_task(
     return PlanResult(Plan.concat(parts), expected, goals)
 
 
-def _push_start(
-    frames: DemoFrames, seg: Segment, objects: dict[str, np.ndarray], demo_goal: np.ndarray
-) -> np.ndarray:
-    """Start of a push: 3 cm behind the contact point, at push height."""
+def _push_geometry(
+    frames: DemoFrames, seg: Segment, objects: dict[str, np.ndarray], ref_yaw: float
+) -> dict[str, np.ndarray]:
+    """Key poses of a push: hover, start (behind), contact, goal, and the pushed pose.
+
+    The object is pushed by its demonstrated displacement ``d`` (and yaw change) from its
+    current pose; the closed fingers touch the face opposite ``d``.
+    """
     name = _need_object(seg, objects)
     i0, i1 = _segment_indices(frames, seg)
-    d = frames.object_pose(name, i1)[:3, 3] - frames.object_pose(name, i0)[:3, 3]
+    T0_demo, T1_demo = frames.object_pose(name, i0), frames.object_pose(name, i1)
+    d = T1_demo[:3, 3] - T0_demo[:3, 3]
+    d[2] = 0.0
+    dyaw = yaw_of(T1_demo[:3, :3]) - yaw_of(T0_demo[:3, :3])
+    T_now = objects[name]
+    T_new = pose(T_now[:3, 3] + d, yaw_of(T_now[:3, :3]) + dyaw)
     size = frames.size[frames.object_index(name)]
-    p, yaw = push_goal(objects[name], size, d, float(demo_goal[3]))
-    u = d[:2] / max(np.linalg.norm(d[:2]), 1e-9)
-    p[:2] -= 0.03 * u
-    return np.array([*p, yaw])
+    u = d[:2] / max(float(np.linalg.norm(d[:2])), 1e-9)
+    p_end, yaw = push_goal(T_new, size, d, ref_yaw)
+    p_c, _ = push_goal(T_now, size, d, ref_yaw)
+    contact = np.array([*(p_c[:2] - 0.005 * u), p_c[2], yaw])
+    start = contact - [0.025 * u[0], 0.025 * u[1], 0.0, 0.0]
+    hover = start.copy()
+    top = T_now[2, 3] + size[2] / 2
+    hover[2] = max(start[2] + HOVER, top + FINGER_BELOW_TCP + 0.02)
+    return {
+        "goal": np.array([*p_end, yaw]),
+        "contact": contact,
+        "start": start,
+        "hover": hover,
+        "T_new": T_new,
+        "u": u,
+        "d": d,
+        "T0_demo": T0_demo,
+    }
+
+
+def _push_path(
+    frames: DemoFrames,
+    name: str,
+    geo: dict[str, np.ndarray],
+    span: tuple[int, int],
+    cur: np.ndarray,
+    mode: str,
+) -> np.ndarray:
+    """Hover -> descend -> approach -> push along the demonstrated object motion.
+
+    The pushing part follows the demonstrated progress of the object along the push direction
+    (skills: on a straight line; dmp: a DMP of the object's demonstrated path re-targeted to the
+    new contact and goal).
+    """
+    pieces = []
+    if np.linalg.norm(cur[:3] - geo["hover"][:3]) > 0.002:
+        pieces.append(_line(cur, geo["hover"]))
+    pieces.append(_line(geo["hover"], geo["start"], min_s=0.5))
+    pieces.append(_line(geo["start"], geo["contact"], min_s=0.4))
+    dist = float(np.linalg.norm(geo["d"]))
+    contact, goal = geo["contact"], geo["goal"]
+    if dist < 0.005:
+        pieces.append(_line(contact, goal))
+    else:
+        idx = np.arange(span[0], span[1] + 1)
+        obj = np.array([frames.object_pose(name, i)[:3, 3] for i in idx])
+        prog = np.maximum.accumulate(np.clip((obj - obj[0]) @ geo["d"] / dist**2, 0.0, 1.0))
+        moving = np.flatnonzero((prog > 0.01) & (prog < 0.995))
+        a, b = (moving[0], moving[-1] + 1) if moving.size >= 2 else (0, len(idx) - 1)
+        t = frames.t[idx[a : b + 1]]
+        if mode == "dmp":
+            y = np.column_stack(
+                [obj[a : b + 1, :2], np.full(b - a + 1, contact[2]), np.full(b - a + 1, contact[3])]
+            )
+            pieces.append(dmp_rollout(t, y, contact, goal, dt=TICK))
+        else:
+            pr = resample(t, prog[a : b + 1, None], TICK)[:, 0]
+            pr = (pr - pr[0]) / max(pr[-1] - pr[0], 1e-9)
+            pieces.append(contact + pr[:, None] * (goal - contact))
+    return np.concatenate(pieces)
 
 
 def _need_object(seg: Segment, objects: dict[str, np.ndarray]) -> str:

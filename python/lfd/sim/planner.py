@@ -148,7 +148,9 @@ class Planner:
         return np.array([perp[0] * amp, perp[1] * amp, 0.0])
 
     # --- hand geometry ---------------------------------------------------------------------
-    def relative_keypoints(self, q: np.ndarray, yaw: float, pitch: float, roll: float) -> np.ndarray:
+    def relative_keypoints(
+        self, q: np.ndarray, yaw: float, pitch: float, roll: float
+    ) -> np.ndarray:
         """Keypoints relative to the TCP in world axes for a posture and orientation, (21, 3)."""
         kp = self.kin.local_keypoints(q)
         tcp = 0.5 * (kp[THUMB_TIP] + kp[INDEX_TIP])

@@ -69,7 +69,9 @@ def _grasp(P: Planner, name: str) -> dict[str, object]:
         kp = P.kin.local_keypoints(pinch_posture(g))
         a = rotation(np.array(0.0), np.array(0.0), np.array(roll)) @ (kp[INDEX_TIP] - kp[THUMB_TIP])
         pitch = float(np.arctan2(a[2], a[0]))
-        a = rotation(np.array(0.0), np.array(pitch), np.array(roll)) @ (kp[INDEX_TIP] - kp[THUMB_TIP])
+        a = rotation(np.array(0.0), np.array(pitch), np.array(roll)) @ (
+            kp[INDEX_TIP] - kp[THUMB_TIP]
+        )
         yaw = wrap_angle(pose.yaw + k * np.pi / 2 - float(np.arctan2(a[1], a[0])))
         cost = abs(wrap_angle(yaw - natural))
         if best is None or cost < best[0]:
@@ -79,7 +81,9 @@ def _grasp(P: Planner, name: str) -> dict[str, object]:
     G["yaw"] = float(G["yaw"]) + _deg(-4, 4, rng)  # type: ignore[arg-type]
     G["pitch"] = float(G["pitch"]) + _deg(-4, 4, rng)  # type: ignore[arg-type]
     width = float(G["width"])  # type: ignore[arg-type]
-    G["g_pre"] = P.kin.pinch_for_aperture(width + 2 * FINGERTIP_RADIUS * s + rng.uniform(0.02, 0.04))
+    G["g_pre"] = P.kin.pinch_for_aperture(
+        width + 2 * FINGERTIP_RADIUS * s + rng.uniform(0.02, 0.04)
+    )
     rel = P.relative_keypoints(pinch_posture(float(G["g"])), G["yaw"], G["pitch"], roll)  # type: ignore[arg-type]
     z = P.top(name) - rng.uniform(0.012, 0.02)
     z = max(z, 0.009 * s - float(rel[:, 2].min()))
@@ -99,7 +103,11 @@ def pick_up_entry(P: Planner, name: str) -> HandState:
     p = np.array([*(tcp[:2] + back + side), P.top(name) + rng.uniform(0.06, 0.12)])
     q = 0.5 * POSTURES["relaxed"] + 0.5 * pinch_posture(float(G["g_pre"]))  # type: ignore[arg-type]
     return HandState(
-        p, yaw + _deg(-12, 12, rng), float(G["pitch"]) - _deg(0, 12, rng), float(G["roll"]), q  # type: ignore[arg-type]
+        p,
+        yaw + _deg(-12, 12, rng),
+        float(G["pitch"]) - _deg(0, 12, rng),
+        float(G["roll"]),
+        q,  # type: ignore[arg-type]
     )
 
 
@@ -129,7 +137,10 @@ def pick_up(P: Planner, name: str) -> None:
     pose = P.poses[name]
     c, s_ = np.cos(-P.state.yaw), np.sin(-P.state.yaw)
     d = pose.pos - P.state.tcp
-    P.grasp_rel = (np.array([c * d[0] - s_ * d[1], s_ * d[0] + c * d[1], d[2]]), pose.yaw - P.state.yaw)
+    P.grasp_rel = (
+        np.array([c * d[0] - s_ * d[1], s_ * d[0] + c * d[1], d[2]]),
+        pose.yaw - P.state.yaw,
+    )
     P.held = name
     P.hold(P.dur(0.1, 0.3))
     P.maybe_pause()
@@ -180,7 +191,9 @@ def move_with(P: Planner, name: str, onto: str | None = None) -> None:
         new_yaw = base.yaw + k * np.pi / 2 + _deg(-5, 5, rng)
     hand_yaw = float(new_yaw - rel_yaw)
     c, sn = np.cos(hand_yaw), np.sin(hand_yaw)
-    tcp_final = pos - np.array([c * rel_p[0] - sn * rel_p[1], sn * rel_p[0] + c * rel_p[1], rel_p[2]])
+    tcp_final = pos - np.array(
+        [c * rel_p[0] - sn * rel_p[1], sn * rel_p[0] + c * rel_p[1], rel_p[2]]
+    )
     P.pending[("place", name)] = {"tcp": tcp_final, "pose": ObjectPose(pos, float(new_yaw))}
     above = tcp_final + np.array([0.0, 0.0, rng.uniform(0.03, 0.07)])
     below_tcp = 0.5 * spec.size[2] - rel_p[2]  # object bottom below the TCP
@@ -209,14 +222,18 @@ def _put_down(P: Planner, name: str, skill: str) -> None:
     pose = target["pose"]
     assert isinstance(pose, ObjectPose)
     near = tcp + np.array([0.0, 0.0, rng.uniform(0.005, 0.012)])
-    P.go(P.dur(0.6, 0.9), P.state.moved(tcp=near), detour=P.detour(P.state.tcp, near, frac=(0, 0.05)))
+    P.go(
+        P.dur(0.6, 0.9), P.state.moved(tcp=near), detour=P.detour(P.state.tcp, near, frac=(0, 0.05))
+    )
     P.go(P.dur(0.25, 0.45), P.state.moved(tcp=tcp))
     P.maybe_pause()
     P.events.append(Detach(P.t, name, pose.copy()))
     P.poses[name] = pose.copy()
     P.held, P.grasp_rel = None, None
     width = P.specs[name].size[0]
-    g_open = P.kin.pinch_for_aperture(width + 2 * FINGERTIP_RADIUS * P.scale + rng.uniform(0.015, 0.035))
+    g_open = P.kin.pinch_for_aperture(
+        width + 2 * FINGERTIP_RADIUS * P.scale + rng.uniform(0.015, 0.035)
+    )
     P.go(P.dur(0.3, 0.5), P.state.moved(q=pinch_posture(g_open)))
     P.hold(P.dur(0.1, 0.25))
     P.maybe_pause()
@@ -281,7 +298,8 @@ def _push_plan(P: Planner, name: str) -> dict[str, object]:
             if not (WORKSPACE_Y[0] - 0.02 <= end[1] <= WORKSPACE_Y[1] + 0.03):
                 continue
             clear = all(
-                np.linalg.norm(end - p.pos[:2]) > r_obj + 0.5 * np.hypot(*P.specs[o].size[:2]) + 0.02
+                np.linalg.norm(end - p.pos[:2])
+                > r_obj + 0.5 * np.hypot(*P.specs[o].size[:2]) + 0.02
                 and np.linalg.norm(pose.pos[:2] - direction * 0.12 - p.pos[:2]) > 0.06
                 for o, p in P.poses.items()
                 if o != name
