@@ -54,6 +54,10 @@ def upright(T: np.ndarray) -> np.ndarray:
     return pose(T[:3, 3], yaw_of(T[:3, :3]))
 
 
+WRIST_RANGE = np.radians(150.0)
+"""Largest wrist rotation away from the natural yaw that a demonstrated yaw is mapped to."""
+
+
 class DemoFrames:
     """Demo quantities at sample indices: TCP (position, yaw) and object poses (gap-filled).
 
@@ -68,6 +72,7 @@ class DemoFrames:
 
     def __init__(self, traj: Trajectory, base: np.ndarray) -> None:
         self.traj = traj
+        self.base = np.asarray(base, dtype=np.float64)
         self.t = traj.t_s
         self.n = len(traj)
         if self.n < 2:
@@ -97,14 +102,22 @@ class DemoFrames:
         if not ok.any():
             yaw[:] = 0.0
             ok[:] = True
-        natural = np.pi / 2 + np.arctan2(self.tcp[:, 1] - base[1], self.tcp[:, 0] - base[0])
+        natural = self.natural_yaw(self.tcp)
         yaw = wrap_near(yaw, 0.0)
-        # unwrap with period pi (the gripper is symmetric), then shift next to the natural yaw
+        # unwrap with period pi (the gripper is symmetric), shift by a multiple of pi so the wrist
+        # rotation (natural - yaw) is centred, then saturate it at +-WRIST_RANGE
         yy = yaw[ok]
         yy = np.unwrap(2 * yy) / 2
         yaw = np.interp(self.t, self.t[ok], yy)
-        shift = np.round((np.median(natural - yaw)) / np.pi) * np.pi
-        return np.asarray(yaw + shift)
+        rel = natural - yaw
+        shift = np.round(0.5 * (rel.max() + rel.min()) / np.pi) * np.pi
+        rel = np.clip(rel - shift, -WRIST_RANGE, WRIST_RANGE)
+        return np.asarray(natural - rel)
+
+    def natural_yaw(self, p: np.ndarray) -> np.ndarray:
+        """Yaw that needs no wrist rotation at TCP position(s) ``p`` (closing axis tangential)."""
+        p = np.asarray(p)
+        return np.pi / 2 + np.arctan2(p[..., 1] - self.base[1], p[..., 0] - self.base[0])
 
     def index(self, t_s: float) -> int:
         """Nearest sample index to a time (s since the first sample)."""

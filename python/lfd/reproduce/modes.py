@@ -189,7 +189,7 @@ def plan_task(
             else:
                 goal = _state(frames.tcp_pose(i1), demo_yaw)
             grip = 0.0 if seg.skill == "move_with" else MAX_OPENING
-        goal[3] = float(wrap_near(goal[3], cur[3]))
+        goal[3] = float(wrap_near(goal[3], float(frames.natural_yaw(goal[:3]))))
         goals.append(goal[:3].copy())
         t, y = _demo_states(frames, i0, i1)
         if seg.skill == "push":
