@@ -67,7 +67,9 @@ def main() -> None:
                 f" {disp}",
                 flush=True,
             )
-    print("\nexperiment  replay  skills (ratio)  dmp (ratio)  success replay/skills/dmp/dmp-displaced")
+    print(
+        "\nexperiment  replay  skills (ratio)  dmp (ratio)  success replay/skills/dmp/dmp-displaced"
+    )
     for exp in args.experiments:
         sel = [r for r in rows if r["experiment"] == exp]
         L = {m: np.mean([r[m]["path_length_m"] for r in sel]) for m in ("replay", "skills", "dmp")}

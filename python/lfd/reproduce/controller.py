@@ -20,6 +20,8 @@ from .scene import ObjectSpec, scene_xml
 
 TICK = 0.01
 """Control period (s)."""
+LOOKAHEAD = 5
+"""Ticks the joint set point leads the plan (compensates the servo's kv/kp = 0.05 s lag)."""
 
 
 @dataclass
@@ -163,15 +165,18 @@ def execute(
     try:
         for i in range(n + n_settle):
             k = min(i, n - 1)
-            R = gripper_rotation(float(plan.yaw[k]))
-            q = ik.step(plan.position[k], R) if i < n else ik.q
+            # feed-forward: the servo (kp, kv) lags by kv/kp = 50 ms at constant velocity, so the
+            # IK tracks the plan LOOKAHEAD ticks ahead
+            ka = min(i + LOOKAHEAD, n - 1)
+            R = gripper_rotation(float(plan.yaw[ka]))
+            q = ik.step(plan.position[ka], R) if i < n else ik.q
             data.ctrl[:7] = q
             data.ctrl[7:9] = float(np.clip(plan.opening[k], 0.0, MAX_OPENING)) / 2
             for _ in range(steps):
                 mujoco.mj_step(model, data)
             if i < n:
                 tcp[i] = data.site_xpos[tcp_id]
-                ik_tcp[i] = ik.tcp_pose()[0]
+                ik_tcp[i] = ik.tcp_pose()[0]  # (of the look-ahead target)
                 for j, b in enumerate(body_ids):
                     opos[j, i] = data.xpos[b]
                     w, x, y, z = data.xquat[b]

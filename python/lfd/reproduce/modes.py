@@ -37,6 +37,8 @@ DWELL_S = 0.5
 """Time the robot holds still while the gripper closes or opens (s)."""
 HOVER = 0.05
 """Vertical clearance used to leave a released object and to start a push from above (m)."""
+Z_MIN = FINGER_BELOW_TCP + 0.004
+"""Lowest TCP height (m): the fingertips stay 4 mm above the table."""
 RELEASE_LIFT = 0.003
 """Place/stack goals are this much above the exact resting pose (m)."""
 
@@ -144,6 +146,7 @@ def plan_task(
         i0, i1 = _segment_indices(frames, seg)
         demo_yaw = float(frames.yaw[i1])
         close_at_end = open_at_end = False
+        release_top = 0.0
         grip = opening
         if seg.skill == "pick_up":
             name = _need_object(seg, objects)
@@ -171,6 +174,7 @@ def plan_task(
             goal = _state(T_goal, demo_yaw)
             objects[name] = T_end_demo
             expected[name] = T_end_demo
+            release_top = T_end_demo[2, 3] + frames.size[frames.object_index(name), 2] / 2
             held, open_at_end, grip = None, True, 0.0
         elif seg.skill == "push":
             geo = _push_geometry(frames, seg, objects, cur[3])
@@ -212,17 +216,23 @@ def plan_task(
             opening = MAX_OPENING
             parts.append(_part(np.repeat(cur[None], round(DWELL_S / TICK), 0), MAX_OPENING, -1))
             up = cur + np.array([0.0, 0.0, HOVER, 0.0])  # leave the released object vertically
+            up[2] = max(up[2], release_top + FINGER_BELOW_TCP + 0.02)
             parts.append(_part(_line(cur, up, min_s=0.5), MAX_OPENING, -1))
             cur = up
         if seg.skill == "push":  # back off the pushed face before anything else moves
             opening = 0.0
             u = geo["u"]
-            back = cur + np.array([-0.015 * u[0], -0.015 * u[1], 0.01, 0.0])
+            back = cur + np.array([-0.015 * u[0], -0.015 * u[1], 0.005, 0.0])
             parts.append(_part(_line(cur, back, min_s=0.3), 0.0, -1))
-            cur = back
-    if mode == "replay":
-        return PlanResult(plan_replay(frames, program), expected, goals)
-    return PlanResult(Plan.concat(parts), expected, goals)
+            up = back.copy()  # then rise above the pushed object
+            size = frames.size[frames.object_index(str(seg.object))]
+            up[2] = max(back[2] + 0.02, geo["T_new"][2, 3] + size[2] / 2 + FINGER_BELOW_TCP + 0.02)
+            parts.append(_part(_line(back, up, min_s=0.4), 0.0, -1))
+            cur = up
+    plan = plan_replay(frames, program) if mode == "replay" else Plan.concat(parts)
+    # the fingertips never go below the table top (human fingertips may graze it)
+    plan.position[:, 2] = np.maximum(plan.position[:, 2], Z_MIN)
+    return PlanResult(plan, expected, goals)
 
 
 def _push_geometry(
