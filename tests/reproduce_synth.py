@@ -62,7 +62,7 @@ def synthetic_demo(kind: str = "pick_place") -> tuple[Trajectory, TaskProgram]:
         p = _seg(cur, target, dur, arc)
         # a human wobble on the moves, removed by the skills mode
         if skill.startswith("move"):
-            p[:, 1] += 0.02 * np.sin(np.linspace(0, np.pi, len(p)))
+            p[:, 1] += 0.05 * np.sin(np.linspace(0, np.pi, len(p)))
             p[-1] = target
         pts.append(p)
         segs.append(Segment(skill, t, t + len(p) / RATE, "box_1" if skill != "move" else None))

