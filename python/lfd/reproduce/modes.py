@@ -304,7 +304,7 @@ def _push_path(
         pieces.append(_line(contact, goal))
     else:
         idx = np.arange(span[0], span[1] + 1)
-        obj = np.array([frames.object_pose(name, i)[:3, 3] for i in idx])
+        obj = np.array([frames.object_pose(name, int(i))[:3, 3] for i in idx])
         prog = np.maximum.accumulate(np.clip((obj - obj[0]) @ geo["d"] / dist**2, 0.0, 1.0))
         moving = np.flatnonzero((prog > 0.01) & (prog < 0.995))
         a, b = (moving[0], moving[-1] + 1) if moving.size >= 2 else (0, len(idx) - 1)
