@@ -199,3 +199,39 @@ def test_cli_on_recording(tmp_path: Path) -> None:
         ]
     )
     assert code == 0
+
+
+@pytest.fixture(scope="module")
+def sim_exp2() -> tuple:
+    sim = pytest.importorskip("lfd.sim")
+    from lfd.preprocess import preprocess
+
+    demo = sim.simulate("exp2", seed=3).demo
+    traj = preprocess(demo)
+    return traj, from_labels(demo.labels, int(traj.t_ns[0]))
+
+
+def test_simulated_experiment_all_modes(sim_exp2: tuple) -> None:
+    traj, program = sim_exp2
+    assert program.skills == [
+        "push",
+        "move",
+        "pick_up",
+        "move_with",
+        "place",
+        "move",
+        "push",
+        "move",
+    ]
+    rep = reproduce(traj, program, "replay")
+    sk = reproduce(traj, program, "skills")
+    assert sk.success, sk.to_json()
+    assert sk.path_length < rep.path_length
+    assert np.abs(sk.executed_tcp - sk.planned_tcp).max() < 0.02
+
+
+def test_simulated_experiment_dmp_displaced(sim_exp2: tuple) -> None:
+    traj, program = sim_exp2
+    first = program.segments[0].object
+    r = reproduce(traj, program, "dmp", displace={first: (0.0, -0.08)})
+    assert r.success, r.to_json()

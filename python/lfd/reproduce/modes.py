@@ -194,7 +194,8 @@ def plan_task(
             else:
                 goal = _state(frames.tcp_pose(i1), demo_yaw)
             grip = 0.0 if seg.skill == "move_with" else MAX_OPENING
-        goal[3] = float(wrap_near(goal[3], float(frames.natural_yaw(goal[:3]))))
+        if seg.skill != "push":  # (a push keeps the yaw of its contact pose)
+            goal[3] = float(wrap_near(goal[3], float(frames.natural_yaw(goal[:3]))))
         goals.append(goal[:3].copy())
         t, y = _demo_states(frames, i0, i1)
         if seg.skill == "push":
@@ -260,8 +261,9 @@ def _push_geometry(
     T_new = pose(T_now[:3, 3] + d, yaw_of(T_now[:3, :3]) + dyaw)
     size = frames.size[frames.object_index(name)]
     u = d[:2] / max(float(np.linalg.norm(d[:2])), 1e-9)
-    p_end, yaw = push_goal(T_new, size, d, ref_yaw)
-    p_c, _ = push_goal(T_now, size, d, ref_yaw)
+    p_c, yaw = push_goal(T_now, size, d, ref_yaw)
+    yaw = float(wrap_near(yaw, float(frames.natural_yaw(p_c))))  # one representative throughout
+    p_end, _ = push_goal(T_new, size, d, yaw)
     contact = np.array([*(p_c[:2] - 0.005 * u), p_c[2], yaw])
     start = contact - [0.025 * u[0], 0.025 * u[1], 0.0, 0.0]
     hover = start.copy()

@@ -34,7 +34,7 @@ JOINT_NAMES: tuple[str, ...] = tuple(f"joint{i}" for i in range(1, 8))
 FINGER_JOINTS: tuple[str, str] = ("finger_left", "finger_right")
 MAX_OPENING = 0.10
 """Largest distance between the finger pads (m)."""
-PAD_Z = 0.072
+PAD_Z = 0.10
 """Distance from the flange to the pad centres along the gripper z axis (m)."""
 TCP_OFFSET = 0.078 + PAD_Z
 """Distance from the wrist centre (joint 6) to the TCP along the last link (m)."""
@@ -42,6 +42,8 @@ FINGER_BELOW_TCP = 0.018
 """How far the fingertips reach beyond the TCP along the approach axis (m)."""
 FINGER_HALF_X = 0.015
 """Half width of a finger along the gripper x axis (m): the contact offset when pushing."""
+_FINGER_HALF_LEN = (PAD_Z + FINGER_BELOW_TCP - 0.03) / 2  # fingers: palm bottom -> tips
+_FINGER_MID = 0.03 + _FINGER_HALF_LEN
 HOME_Q: tuple[float, ...] = (0.0, -0.6, 0.0, 1.5, 0.0, -1.04, 0.0)
 """A comfortable configuration (TCP in front of the base, pointing down)."""
 
@@ -113,14 +115,14 @@ def _arm_bodies() -> str:
           <inertial pos="0 0.01 0.06" mass="0.05" diaginertia="1e-5 1e-5 1e-5"/>
           <joint name="finger_left" type="slide" axis="0 1 0" range="0 {MAX_OPENING / 2}"
                  damping="5" armature="0.01"/>
-          <geom type="box" size="{FINGER_HALF_X} 0.006 0.033" pos="0 0.010 0.063" rgba="0.3 0.3 0.35 1"/>
+          <geom type="box" size="{FINGER_HALF_X} 0.006 {_FINGER_HALF_LEN:.4f}" pos="0 0.010 {_FINGER_MID:.4f}" rgba="0.3 0.3 0.35 1"/>
           <geom name="pad_left" class="pad" size="0.013 0.002 0.016" pos="0 0.002 {PAD_Z}"/>
         </body>
         <body name="finger_right" pos="0 0 0" gravcomp="1">
           <inertial pos="0 -0.01 0.06" mass="0.05" diaginertia="1e-5 1e-5 1e-5"/>
           <joint name="finger_right" type="slide" axis="0 -1 0" range="0 {MAX_OPENING / 2}"
                  damping="5" armature="0.01"/>
-          <geom type="box" size="{FINGER_HALF_X} 0.006 0.033" pos="0 -0.010 0.063" rgba="0.3 0.3 0.35 1"/>
+          <geom type="box" size="{FINGER_HALF_X} 0.006 {_FINGER_HALF_LEN:.4f}" pos="0 -0.010 {_FINGER_MID:.4f}" rgba="0.3 0.3 0.35 1"/>
           <geom name="pad_right" class="pad" size="0.013 0.002 0.016" pos="0 -0.002 {PAD_Z}"/>
         </body>
       </body>"""
