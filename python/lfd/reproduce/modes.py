@@ -150,29 +150,11 @@ def plan_task(
         release_top = 0.0
         grip = opening
         if seg.skill == "pick_up":
-            name = _need_object(seg, objects)
-            p, yaw = grasp_goal(objects[name], frames.size[frames.object_index(name)], demo_yaw)
-            goal = np.array([*p, yaw])
-            held = (name, np.linalg.inv(objects[name]) @ pose(p, yaw))
+            name, goal = _pick_goal(frames, seg, objects, i1)
+            held = (name, np.linalg.inv(objects[name]) @ pose(goal[:3], goal[3]))
             grip, close_at_end = MAX_OPENING, True
         elif seg.skill in ("place", "stack"):
-            carried = seg.object or (held[0] if held else None)
-            name = _need_object(Segment(seg.skill, 0, 0, carried), objects)
-            T_end_demo = frames.object_pose(name, i1)
-            if seg.skill == "stack":
-                sup = seg.params.get("support") or frames.support_of(name, i1)
-                if sup in objects:
-                    T_end_demo = (
-                        objects[sup] @ np.linalg.inv(frames.object_pose(sup, i1)) @ T_end_demo
-                    )
-            rel = (
-                held[1]
-                if held and held[0] == name
-                else np.linalg.inv(T_end_demo) @ frames.tcp_pose(i1)
-            )
-            T_goal = T_end_demo @ rel
-            T_goal[2, 3] += RELEASE_LIFT
-            goal = _state(T_goal, demo_yaw)
+            name, goal, T_end_demo = _place_goal(frames, seg, objects, held, i1)
             objects[name] = T_end_demo
             expected[name] = T_end_demo
             release_top = T_end_demo[2, 3] + frames.size[frames.object_index(name), 2] / 2
@@ -191,10 +173,17 @@ def plan_task(
                 goal = _state(_map(frames, nxt, j0, objects), float(frames.yaw[j0]))
                 if nxt.skill == "push":  # hover behind the object; the push descends from here
                     goal = _push_geometry(frames, nxt, objects, cur[3])["hover"]
+                elif nxt.skill == "pick_up":  # arrive with the grasp yaw already set
+                    goal[3] = _pick_goal(frames, nxt, objects, _end_index(frames, nxt))[1][3]
+                elif nxt.skill in ("place", "stack"):
+                    nxt_goal = _place_goal(frames, nxt, objects, held, _end_index(frames, nxt))[1]
+                    goal[3] = nxt_goal[3]
             else:
                 goal = _state(frames.tcp_pose(i1), demo_yaw)
             grip = 0.0 if seg.skill == "move_with" else MAX_OPENING
-        if seg.skill != "push":  # (a push keeps the yaw of its contact pose)
+        if seg.skill not in ("push", "pick_up", "place", "stack") and not (
+            k + 1 < len(segs) and segs[k + 1].skill in ("pick_up", "place", "stack")
+        ):  # (those keep the yaw of their goal, already wrist-friendly)
             goal[3] = float(wrap_near(goal[3], float(frames.natural_yaw(goal[:3]))))
         goals.append(goal[:3].copy())
         t, y = _demo_states(frames, i0, i1)
@@ -209,6 +198,8 @@ def plan_task(
             path = _line(cur, goal)
         else:
             path = warp(resample(t, y, TICK), cur, goal)
+        if seg.skill in ("pick_up", "place", "stack"):  # turn early, then keep the yaw
+            path[:, 3] = cur[3] + min_jerk_clip(len(path), 0.3) * (goal[3] - cur[3])
         detour = np.zeros(4)
         part = _part(path, grip, k)
         if seg.skill == "move" and k + 1 < len(segs) and segs[k + 1].skill == "push":
@@ -241,6 +232,47 @@ def plan_task(
     # the fingertips never go below the table top (human fingertips may graze it)
     plan.position[:, 2] = np.maximum(plan.position[:, 2], Z_MIN)
     return PlanResult(plan, expected, goals)
+
+
+def _pick_goal(
+    frames: DemoFrames, seg: Segment, objects: dict[str, np.ndarray], i1: int
+) -> tuple[str, np.ndarray]:
+    """Grasp goal ``[x, y, z, yaw]`` of a pick_up (object-centred, wrist-friendly yaw)."""
+    name = _need_object(seg, objects)
+    p, yaw = grasp_goal(objects[name], frames.size[frames.object_index(name)], float(frames.yaw[i1]))
+    # the gripper is symmetric: take the representative the wrist reaches most easily
+    yaw = float(wrap_near(yaw, float(frames.natural_yaw(p))))
+    return name, np.array([*p, yaw])
+
+
+def _place_goal(
+    frames: DemoFrames,
+    seg: Segment,
+    objects: dict[str, np.ndarray],
+    held: tuple[str, np.ndarray] | None,
+    i1: int,
+) -> tuple[str, np.ndarray, np.ndarray]:
+    """TCP goal of a place/stack and the object's resting pose there (Eq. 2 for stacks)."""
+    carried = seg.object or (held[0] if held else None)
+    name = _need_object(Segment(seg.skill, 0, 0, carried), objects)
+    T_end = frames.object_pose(name, i1)
+    if seg.skill == "stack":
+        sup = seg.params.get("support") or frames.support_of(name, i1)
+        if sup in objects:
+            T_end = objects[sup] @ np.linalg.inv(frames.object_pose(sup, i1)) @ T_end
+    rel = held[1] if held and held[0] == name else np.linalg.inv(T_end) @ frames.tcp_pose(i1)
+    T_goal = T_end @ rel
+    T_goal[2, 3] += RELEASE_LIFT
+    goal = _state(T_goal, float(frames.natural_yaw(T_goal[:3, 3])))
+    return name, goal, T_end
+
+
+def min_jerk_clip(n: int, frac: float) -> np.ndarray:
+    """Min-jerk ramp 0 -> 1 over the first ``frac`` of ``n`` samples, then 1."""
+    m = max(2, round(n * frac))
+    out = np.ones(n)
+    out[: min(m, n)] = min_jerk(m)[: min(m, n)]
+    return out
 
 
 def _push_geometry(
