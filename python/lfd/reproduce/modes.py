@@ -171,8 +171,10 @@ def plan_task(
                 nxt = segs[k + 1]
                 j0, _ = _segment_indices(frames, nxt)
                 goal = _state(_map(frames, nxt, j0, objects), float(frames.yaw[j0]))
-                if nxt.skill == "push":  # hover behind the object; the push descends from here
-                    goal = _push_geometry(frames, nxt, objects, cur[3])["hover"]
+                if nxt.skill == "push":  # straight behind the object, or via a hover pose
+                    ng = _push_geometry(frames, nxt, objects, cur[3])
+                    clear = _clear(cur, ng["start"], frames, objects, skip=())
+                    goal = ng["start"] if clear else ng["hover"]
                 elif nxt.skill == "pick_up":  # arrive with the grasp yaw already set
                     goal[3] = _pick_goal(frames, nxt, objects, _end_index(frames, nxt))[1][3]
                 elif nxt.skill in ("place", "stack"):
@@ -194,6 +196,13 @@ def plan_task(
             # start is blended out like a warp, so the DMP's spring does not dip to undo it
             path = dmp_rollout(t, y, cur - detour, goal, dt=TICK)
             path += (1 - min_jerk(len(path)))[:, None] * detour
+        elif seg.skill == "move" and not _clear(cur, goal, frames, objects, skip=()):
+            up = cur.copy()  # rise (as little as needed) above what is near the line first
+            for h in np.arange(cur[2] + 0.01, _safe_height(frames, objects) + 0.01, 0.01):
+                up[2] = h
+                if _clear(up, goal, frames, objects, skip=()):
+                    break
+            path = np.concatenate([_line(cur, up, min_s=0.4), _line(up, goal)])
         elif seg.skill in ("move", "move_with"):
             path = _line(cur, goal)
         else:
@@ -222,12 +231,8 @@ def plan_task(
             u = geo["u"]
             back = cur + np.array([-0.015 * u[0], -0.015 * u[1], 0.005, 0.0])
             parts.append(_part(_line(cur, back, min_s=0.3), 0.0, -1))
-            up = back.copy()  # then rise above the pushed object
-            size = frames.size[frames.object_index(str(seg.object))]
-            up[2] = max(back[2] + 0.02, geo["T_new"][2, 3] + size[2] / 2 + FINGER_BELOW_TCP + 0.02)
-            parts.append(_part(_line(back, up, min_s=0.4), 0.0, -1))
-            detour = up - cur
-            cur = up
+            detour = back - cur
+            cur = back
     plan = plan_replay(frames, program) if mode == "replay" else Plan.concat(parts)
     # the fingertips never go below the table top (human fingertips may graze it)
     plan.position[:, 2] = np.maximum(plan.position[:, 2], Z_MIN)
@@ -239,7 +244,9 @@ def _pick_goal(
 ) -> tuple[str, np.ndarray]:
     """Grasp goal ``[x, y, z, yaw]`` of a pick_up (object-centred, wrist-friendly yaw)."""
     name = _need_object(seg, objects)
-    p, yaw = grasp_goal(objects[name], frames.size[frames.object_index(name)], float(frames.yaw[i1]))
+    p, yaw = grasp_goal(
+        objects[name], frames.size[frames.object_index(name)], float(frames.yaw[i1])
+    )
     # the gripper is symmetric: take the representative the wrist reaches most easily
     yaw = float(wrap_near(yaw, float(frames.natural_yaw(p))))
     return name, np.array([*p, yaw])
@@ -265,6 +272,34 @@ def _place_goal(
     T_goal[2, 3] += RELEASE_LIFT
     goal = _state(T_goal, float(frames.natural_yaw(T_goal[:3, 3])))
     return name, goal, T_end
+
+
+def _clear(
+    a: np.ndarray,
+    b: np.ndarray,
+    frames: DemoFrames,
+    objects: dict[str, np.ndarray],
+    *,
+    skip: tuple[str, ...],
+) -> bool:
+    """True if the open fingers moving straight from ``a`` to ``b`` keep clear of every object."""
+    pts = a[None, :3] + np.linspace(0.0, 1.0, 40)[:, None] * (b[:3] - a[:3])[None]
+    for name, T in objects.items():
+        if name in skip:
+            continue
+        size = frames.size[frames.object_index(name)]
+        reach = 0.5 * float(np.hypot(size[0], size[1])) + MAX_OPENING / 2 + 0.01
+        near = np.hypot(pts[:, 0] - T[0, 3], pts[:, 1] - T[1, 3]) < reach
+        low = pts[:, 2] - FINGER_BELOW_TCP < T[2, 3] + size[2] / 2 + 0.01
+        if np.any(near & low):
+            return False
+    return True
+
+
+def _safe_height(frames: DemoFrames, objects: dict[str, np.ndarray]) -> float:
+    """TCP height at which the fingertips clear every object top (+2 cm)."""
+    tops = [T[2, 3] + frames.size[frames.object_index(n), 2] / 2 for n, T in objects.items()]
+    return max(tops, default=0.0) + FINGER_BELOW_TCP + 0.02
 
 
 def min_jerk_clip(n: int, frac: float) -> np.ndarray:
@@ -328,9 +363,10 @@ def _push_path(
     new contact and goal).
     """
     pieces = []
-    if np.linalg.norm(cur[:3] - geo["hover"][:3]) > 0.002:
-        pieces.append(_line(cur, geo["hover"]))
-    pieces.append(_line(geo["hover"], geo["start"], min_s=0.5))
+    if np.linalg.norm(cur[:3] - geo["start"][:3]) > 0.002:  # not arrived straight behind it
+        if np.linalg.norm(cur[:3] - geo["hover"][:3]) > 0.002:
+            pieces.append(_line(cur, geo["hover"]))
+        pieces.append(_line(geo["hover"], geo["start"], min_s=0.5))
     pieces.append(_line(geo["start"], geo["contact"], min_s=0.4))
     dist = float(np.linalg.norm(geo["d"]))
     contact, goal = geo["contact"], geo["goal"]
