@@ -240,9 +240,9 @@ fn invariant_to_translation_and_yaw() {
             let dz = if c == h { shift[2] } else { 0.0 };
             for t in 0..f.len() {
                 let (v, w) = (f.values[(t, c)], g.values[(t, c)]);
-                assert!((v + dz - w).abs() < 1e-9, "{} at {t}: {v} vs {w}", name);
+                assert!((v + dz - w).abs() < 1e-9, "{name} at {t}: {v} vs {w}");
                 let (v, w) = (f.thresholds[(t, c)], g.thresholds[(t, c)]);
-                assert!((v + dz - w).abs() < 1e-9, "threshold {}", name);
+                assert!((v + dz - w).abs() < 1e-9, "threshold {name}");
             }
         }
     }
