@@ -33,7 +33,6 @@ def main() -> None:
     args = parser.parse_args()
 
     from dtaidistance import dtw as dd
-
     from lfd import _hmmseg
     from lfd.dtw import dtw_distance
 
@@ -47,7 +46,10 @@ def main() -> None:
     rows = [
         ("dtaidistance.dtw.distance_fast", median_us(lambda: dd.distance_fast(a, b), args.repeat)),
         ("lfd.dtw.dtw_distance", median_us(lambda: dtw_distance(a, b), args.repeat)),
-        ("lfd._hmmseg.dtw_distance (raw)", median_us(lambda: _hmmseg.dtw_distance(a2, b2), args.repeat)),
+        (
+            "lfd._hmmseg.dtw_distance (raw)",
+            median_us(lambda: _hmmseg.dtw_distance(a2, b2), args.repeat),
+        ),
     ]
     base = rows[0][1]
     print(f"DTW distance, two random walks of length {args.length}, median of {args.repeat} calls")
