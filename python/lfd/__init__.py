@@ -11,6 +11,7 @@ from importlib.metadata import PackageNotFoundError, version
 
 from .demo import CameraInfo, Demonstration, HandTrack, ImageStream, ObjectTrack, SkillLabel
 from .errors import EngineError, LfdError
+from .features import FEATURE_NAMES, FeatureParams, Features, compute_features, label_targets
 from .skills import SKILLS
 from .trajectory import Trajectory
 
@@ -20,10 +21,13 @@ except PackageNotFoundError:  # pragma: no cover - running from a source tree
     __version__ = "0.0.0"
 
 __all__ = [
+    "FEATURE_NAMES",
     "SKILLS",
     "CameraInfo",
     "Demonstration",
     "EngineError",
+    "FeatureParams",
+    "Features",
     "HandTrack",
     "ImageStream",
     "LfdError",
@@ -31,4 +35,6 @@ __all__ = [
     "SkillLabel",
     "Trajectory",
     "__version__",
+    "compute_features",
+    "label_targets",
 ]
