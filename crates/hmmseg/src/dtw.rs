@@ -93,7 +93,7 @@ fn check_pair(a: &[f64], b: &[f64], dim: usize, band: Option<usize>) -> Result<(
 #[inline]
 fn band_range(i: usize, m: usize, band: Option<usize>) -> (usize, usize) {
     match band {
-        Some(r) => (i.saturating_sub(r), (i + r).min(m - 1)),
+        Some(r) => (i.saturating_sub(r), i.saturating_add(r).min(m - 1)),
         None => (0, m - 1),
     }
 }
@@ -185,6 +185,9 @@ fn dim_mismatch(da: usize, db: usize) -> EngineError {
     EngineError::ShapeMismatch(format!("a has {da} columns but b has {db}"))
 }
 
+/// Largest accumulated-cost matrix [`dtw`] allocates (800 MB of `f64`).
+pub const MAX_PATH_CELLS: usize = 100_000_000;
+
 /// Accumulated cost matrix restricted to the band: row `i` stores columns `lo_i..=hi_i`.
 struct Banded {
     lo: Vec<usize>,
@@ -219,6 +222,11 @@ pub fn dtw_slices(a: &[f64], b: &[f64], dim: usize, band: Option<usize>) -> Resu
         hi.push(h);
         start.push(total);
         total += h - l + 1;
+    }
+    if total > MAX_PATH_CELLS {
+        return Err(EngineError::InvalidParameter(format!(
+            "DTW with path needs {total} cells (> {MAX_PATH_CELLS}); use a band or dtw_distance"
+        )));
     }
     let mut acc = Banded {
         lo,
@@ -263,7 +271,8 @@ pub fn dtw_slices(a: &[f64], b: &[f64], dim: usize, band: Option<usize>) -> Resu
 
 /// DTW between `a` (`n x d`) and `b` (`m x d`), rows = time steps, with the optimal path.
 ///
-/// Memory is `O(n * m)` without a band and `O(n * r)` with a band of radius `r`.
+/// Memory is `O(n * m)` without a band and `O(n * r)` with a band of radius `r`; more than
+/// [`MAX_PATH_CELLS`] cells is an [`EngineError::InvalidParameter`].
 ///
 /// # Errors
 /// [`EngineError::EmptySequence`] for a sequence without rows, [`EngineError::ShapeMismatch`]
