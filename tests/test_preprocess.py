@@ -222,6 +222,14 @@ def test_preprocess_object_gap_and_errors() -> None:
     assert not traj.object_valid[1].all() and traj.object_valid[0].all()
     assert len(traj.meta["gaps"]["objects"]["cube1"]) == 1
     assert np.isnan(traj.object_position[1][~traj.object_valid[1]]).all()
+    # an object that is never seen is kept, invalid everywhere
+    from lfd.demo import ObjectTrack
+
+    empty = np.zeros((0, 3))
+    demo.objects["ghost"] = ObjectTrack("ghost", 9, (0.1,) * 3, [], empty, np.zeros((0, 4)), [])
+    traj = preprocess(demo)
+    assert traj.object_names[-1] == "ghost" and not traj.object_valid[-1].any()
+    assert np.isnan(traj.object_position[-1]).all() and traj.object_valid[0].all()
     raw = preprocess(demo, filter=False)
     assert raw.meta["filtered"] is False
     with pytest.raises(DemonstrationError, match="too short to filter"):
