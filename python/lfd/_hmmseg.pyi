@@ -3,13 +3,9 @@
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["__version__"]  # each section below adds its names
-
 __version__: str
 
 # --- DTW and normalisation (crates/hmmseg-py/src/dtw.rs) --------------------------------------
-__all__ += ["align_to_reference", "dtw", "dtw_distance", "minmax", "minmax_with"]
-
 def dtw(
     a: NDArray[np.float64], b: NDArray[np.float64], band: int | None = None
 ) -> tuple[float, NDArray[np.int64]]: ...
@@ -25,14 +21,6 @@ def minmax_with(
 ) -> NDArray[np.float64]: ...
 
 # --- Table I features (crates/hmmseg-py/src/features.rs) ---------------------------------------
-__all__ += [
-    "check_feature_params",
-    "compute_features",
-    "default_feature_params",
-    "feature_names",
-    "label_targets",
-]
-
 def compute_features(
     tcp: NDArray[np.float64],
     opening: NDArray[np.float64],
