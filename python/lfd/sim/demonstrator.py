@@ -273,8 +273,43 @@ def simulate(
             n: {"position": p.pos.round(6).tolist(), "yaw": round(p.yaw, 6)} for n, p in initial.items()
         },
         "skill_sequence": [lab.skill for lab in P.labels],
+        "pushes": P.log,
     }
     if task in TEMPLATE_TASKS:
         metadata["target_skill"] = task
     demo = Demonstration(hand=hand, objects=tracks, labels=labels, camera=camera, metadata=metadata)
     return SimResult(demo=demo, truth=truth, scene=scene, plan=plan, variability=var)
+
+
+def crop(result: SimResult, seconds: float) -> SimResult:
+    """Keep only the first ``seconds`` of a simulated demonstration (streams, labels, truth)."""
+    demo, truth = result.demo, result.truth
+    end = int(truth.t_ns[0] + round(seconds * 1e9))
+    keep = truth.t_ns <= end
+    hand = demo.hand
+    h = hand.t_ns <= end
+    demo.hand = type(hand)(hand.t_ns[h], hand.keypoints[h], hand.confidence[h], hand.side)
+    for name, tr in list(demo.objects.items()):
+        k = tr.t_ns <= end
+        demo.objects[name] = type(tr)(
+            tr.name, tr.tag_id, tr.size, tr.t_ns[k], tr.position[k], tr.quaternion[k], tr.visible[k]
+        )
+    last = int(truth.t_ns[keep][-1])
+    demo.labels = [
+        SkillLabel(lab.skill, lab.start_ns, min(lab.end_ns, last), lab.object)
+        for lab in demo.labels
+        if lab.start_ns < last
+    ]
+    demo.metadata["cropped_s"] = seconds
+    demo.metadata["skill_sequence"] = [lab.skill for lab in demo.labels]
+    result.truth = Truth(
+        t_ns=truth.t_ns[keep],
+        tcp=truth.tcp[keep],
+        keypoints=truth.keypoints[keep],
+        wrist_pos=truth.wrist_pos[keep],
+        wrist_quat=truth.wrist_quat[keep],
+        q=truth.q[keep],
+        object_pos={n: p[keep] for n, p in truth.object_pos.items()},
+        object_yaw={n: y[keep] for n, y in truth.object_yaw.items()},
+    )
+    return result

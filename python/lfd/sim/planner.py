@@ -99,6 +99,7 @@ class Planner:
     events: list[Event] = field(default_factory=list)
     skill_speed: float = 1.0
     pending: dict[tuple[str, str], dict[str, object]] = field(default_factory=dict)
+    log: list[dict[str, object]] = field(default_factory=list)
 
     @property
     def scale(self) -> float:

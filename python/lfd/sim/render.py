@@ -69,3 +69,24 @@ def render_frames(
         ImageStream(t_ns=t_ns, frames=color),
         ImageStream(t_ns=t_ns.copy(), frames=depth_mm) if depth_mm is not None else None,
     )
+
+
+def add_rendering(
+    result: object, *, rate_hz: float = 10.0, until_s: float | None = None, depth: bool = True
+) -> None:
+    """Render ``result`` (a :class:`~lfd.sim.demonstrator.SimResult`) at ``rate_hz`` in place.
+
+    Frames are taken on camera frames (a multiple of the object rate's period); ``until_s``
+    limits rendering to the first seconds.
+    """
+    demo = result.demo  # type: ignore[attr-defined]
+    truth = result.truth  # type: ignore[attr-defined]
+    rate = float(demo.metadata.get("object_rate_hz", 30.0))
+    if not 0 < rate_hz <= rate:
+        raise ValueError(f"render rate must be in (0, {rate}] Hz, got {rate_hz}")
+    step = max(1, round(rate / rate_hz))
+    frames = np.arange(0, truth.t_ns.size, step)
+    if until_s is not None:
+        frames = frames[(truth.t_ns[frames] - truth.t_ns[0]) <= until_s * 1e9]
+    demo.color, demo.depth = render_frames(result.scene, truth, frames, depth=depth)  # type: ignore[attr-defined]
+    demo.metadata["render_rate_hz"] = rate / step

@@ -351,6 +351,7 @@ def push(P: Planner, name: str) -> None:
         detour=P.detour(hand.tcp, end, frac=(0.0, 0.04)),
     )
     P.events.append(Push(t_push, P.t, name, direction, contact))
+    P.log.append({"push": name, "distance": dist, "direction": direction[:2].round(6).tolist()})
     P.poses[name].pos = P.poses[name].pos + direction * dist
     P.hold(P.dur(0.1, 0.3))
     P.maybe_pause()
