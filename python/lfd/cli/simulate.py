@@ -29,8 +29,12 @@ SAMPLE_SEED = 1000
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("task", nargs="?", help="task: exp1-exp4 or a skill name (template task)")
-    parser.add_argument("-o", "--output", required=True, help="output .mcap (or directory with --set)")
-    parser.add_argument("--set", choices=SETS, help="generate a whole recording set into a directory")
+    parser.add_argument(
+        "-o", "--output", required=True, help="output .mcap (or directory with --set)"
+    )
+    parser.add_argument(
+        "--set", choices=SETS, help="generate a whole recording set into a directory"
+    )
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--render", action="store_true", help="also render colour + depth frames")
     parser.add_argument("--render-rate", type=float, default=10.0, help="render rate, Hz (10)")
@@ -84,7 +88,9 @@ def _jobs(which: str, out: Path) -> list[dict[str, Any]]:
         ]
     if which == "eval":
         return [
-            {"task": e, "seed": k, "path": out / f"{e}_{k}.mcap"} for e in EXPERIMENTS for k in EVAL_SEEDS
+            {"task": e, "seed": k, "path": out / f"{e}_{k}.mcap"}
+            for e in EXPERIMENTS
+            for k in EVAL_SEEDS
         ]
     jobs: list[dict[str, Any]] = [
         {"task": e, "seed": SAMPLE_SEED, "path": out / f"{e}.mcap"} for e in EXPERIMENTS

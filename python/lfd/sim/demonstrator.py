@@ -164,7 +164,9 @@ def _objects_motion(
             elif isinstance(ev, Push):
                 i0, i1 = np.searchsorted(t, [ev.t0, ev.t1])
                 pos[i_cur:i0], yaw[i_cur:i0] = cur.pos, cur.yaw
-                disp = np.maximum.accumulate(np.maximum(0.0, (tcp[i0:i1] - ev.contact) @ ev.direction))
+                disp = np.maximum.accumulate(
+                    np.maximum(0.0, (tcp[i0:i1] - ev.contact) @ ev.direction)
+                )
                 pos[i0:i1] = cur.pos + np.outer(disp, ev.direction)
                 yaw[i0:i1] = cur.yaw
                 cur = ObjectPose(cur.pos + ev.direction * (disp[-1] if disp.size else 0.0), cur.yaw)
@@ -214,7 +216,9 @@ def simulate(
     order = rng.permutation(len(names))
     roles = {role: names[int(i)] for role, i in zip("ABC", order, strict=False)}
     initial = {n: ObjectPose(p, y) for n, (p, y) in place_objects(rng, objects).items()}
-    P = Planner(rng, var, kin, {o.name: o for o in objects}, {n: p.copy() for n, p in initial.items()})
+    P = Planner(
+        rng, var, kin, {o.name: o for o in objects}, {n: p.copy() for n, p in initial.items()}
+    )
     _execute(P, steps, roles)
     plan = Plan(P.segments)
 
@@ -227,7 +231,9 @@ def simulate(
     q[:, drift_joints] += smooth_noise(
         rng, t, drift_joints.size, amplitude=np.deg2rad(var.finger_drift_deg), freq_range=(0.1, 0.6)
     )
-    tremor = smooth_noise(rng, t, 3, amplitude=float(var.tremor_mm or 0.0) * 1e-3, freq_range=(6, 10))
+    tremor = smooth_noise(
+        rng, t, 3, amplitude=float(var.tremor_mm or 0.0) * 1e-3, freq_range=(6, 10)
+    )
     tcp = tcp + tremor
     R = rotation(ang[:, 0], ang[:, 1], ang[:, 2])
     kp_local = np.empty((t.size, 21, 3))
@@ -270,7 +276,8 @@ def simulate(
         "hand_rate_hz": hand_rate_hz,
         "object_rate_hz": object_rate_hz,
         "initial_objects": {
-            n: {"position": p.pos.round(6).tolist(), "yaw": round(p.yaw, 6)} for n, p in initial.items()
+            n: {"position": p.pos.round(6).tolist(), "yaw": round(p.yaw, 6)}
+            for n, p in initial.items()
         },
         "skill_sequence": [lab.skill for lab in P.labels],
         "pushes": P.log,

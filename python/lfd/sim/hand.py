@@ -51,8 +51,15 @@ def _base_quat(x_axis: tuple[float, ...], z_hint: tuple[float, ...]) -> str:
     y = np.cross(z, x)
     R = np.column_stack([x, y, z])
     w = np.sqrt(max(1e-12, 1.0 + np.trace(R))) / 2.0
-    q = (w, (R[2, 1] - R[1, 2]) / (4 * w), (R[0, 2] - R[2, 0]) / (4 * w), (R[1, 0] - R[0, 1]) / (4 * w))
+    q = (
+        w,
+        (R[2, 1] - R[1, 2]) / (4 * w),
+        (R[0, 2] - R[2, 0]) / (4 * w),
+        (R[1, 0] - R[0, 1]) / (4 * w),
+    )
     return " ".join(f"{c:.6g}" for c in q)
+
+
 _LENGTHS: dict[str, tuple[float, float, float]] = {
     "thumb": (0.042, 0.033, 0.029),
     "index": (0.044, 0.026, 0.022),

@@ -22,7 +22,11 @@ _FINGERTIPS = np.array([4, 8, 12, 16, 20])
 
 
 def _camera_noise(
-    rng: np.random.Generator, shape: tuple[int, ...], sigma: float, depth_factor: float, R_cv: np.ndarray
+    rng: np.random.Generator,
+    shape: tuple[int, ...],
+    sigma: float,
+    depth_factor: float,
+    R_cv: np.ndarray,
 ) -> np.ndarray:
     """Gaussian noise with std ``sigma`` across and ``sigma * depth_factor`` along the view ray."""
     n = rng.normal(0.0, 1.0, (*shape, 3)) * np.array([sigma, sigma, sigma * depth_factor])

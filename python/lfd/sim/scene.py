@@ -147,7 +147,9 @@ def build_scene(
     bodies = []
     for spec in objects:
         assets[f"tag_{spec.tag_id}.png"] = tag_png(spec.tag_id, margin_fraction=TAG_MARGIN)
-        asset_xml.append(f'<texture name="tex_{spec.tag_id}" type="2d" file="tag_{spec.tag_id}.png"/>')
+        asset_xml.append(
+            f'<texture name="tex_{spec.tag_id}" type="2d" file="tag_{spec.tag_id}.png"/>'
+        )
         asset_xml.append(f'<material name="mat_{spec.tag_id}" texture="tex_{spec.tag_id}"/>')
         sx, sy, sz = (0.5 * v for v in spec.size)
         side = min(sx, sy)
@@ -193,4 +195,6 @@ def build_scene(
   {hand_mjcf(hand_scale)}
 </worldbody>
 </mujoco>"""
-    return Scene(xml=xml, assets=assets, objects=tuple(objects), camera=camera, hand_scale=hand_scale)
+    return Scene(
+        xml=xml, assets=assets, objects=tuple(objects), camera=camera, hand_scale=hand_scale
+    )

@@ -37,6 +37,8 @@ current hand state and closes its label (pauses after a skill belong to that ski
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from ..demo import INDEX_TIP, THUMB_TIP
@@ -55,32 +57,36 @@ def _max_top(P: Planner, exclude: str | None = None) -> float:
 
 
 # --- Pick up ---------------------------------------------------------------------------------
-def _grasp(P: Planner, name: str) -> dict[str, object]:
+def _grasp(P: Planner, name: str) -> dict[str, Any]:
     key = ("pick_up", name)
     if key in P.pending:
         return P.pending[key]
     rng, spec, pose, s = P.rng, P.specs[name], P.poses[name], P.scale
     roll = _deg(-8, 8, rng)
     natural = P.natural_yaw(pose.pos)
-    best: tuple[float, dict[str, object]] | None = None
+    best: tuple[float, dict[str, Any]] | None = None
     for k in range(4):
         width = spec.size[k % 2]
         g = P.kin.pinch_for_aperture(width + 2.0 * FINGERTIP_RADIUS * s)
         kp = P.kin.local_keypoints(pinch_posture(g))
         a = rotation(np.array(0.0), np.array(0.0), np.array(roll)) @ (kp[INDEX_TIP] - kp[THUMB_TIP])
         pitch = float(np.arctan2(a[2], a[0]))
-        a = rotation(np.array(0.0), np.array(pitch), np.array(roll)) @ (kp[INDEX_TIP] - kp[THUMB_TIP])
+        a = rotation(np.array(0.0), np.array(pitch), np.array(roll)) @ (
+            kp[INDEX_TIP] - kp[THUMB_TIP]
+        )
         yaw = wrap_angle(pose.yaw + k * np.pi / 2 - float(np.arctan2(a[1], a[0])))
         cost = abs(wrap_angle(yaw - natural))
         if best is None or cost < best[0]:
             best = (cost, {"yaw": yaw, "pitch": pitch, "roll": roll, "g": g, "width": width})
     assert best is not None
     G = best[1]
-    G["yaw"] = float(G["yaw"]) + _deg(-4, 4, rng)  # type: ignore[arg-type]
-    G["pitch"] = float(G["pitch"]) + _deg(-4, 4, rng)  # type: ignore[arg-type]
-    width = float(G["width"])  # type: ignore[arg-type]
-    G["g_pre"] = P.kin.pinch_for_aperture(width + 2 * FINGERTIP_RADIUS * s + rng.uniform(0.02, 0.04))
-    rel = P.relative_keypoints(pinch_posture(float(G["g"])), G["yaw"], G["pitch"], roll)  # type: ignore[arg-type]
+    G["yaw"] = float(G["yaw"]) + _deg(-4, 4, rng)
+    G["pitch"] = float(G["pitch"]) + _deg(-4, 4, rng)
+    width = float(G["width"])
+    G["g_pre"] = P.kin.pinch_for_aperture(
+        width + 2 * FINGERTIP_RADIUS * s + rng.uniform(0.02, 0.04)
+    )
+    rel = P.relative_keypoints(pinch_posture(float(G["g"])), G["yaw"], G["pitch"], roll)
     z = P.top(name) - rng.uniform(0.012, 0.02)
     z = max(z, 0.009 * s - float(rel[:, 2].min()))
     xy = pose.pos[:2] + np.clip(rng.normal(0.0, 0.002, 2), -0.004, 0.004)
@@ -92,14 +98,18 @@ def _grasp(P: Planner, name: str) -> dict[str, object]:
 def pick_up_entry(P: Planner, name: str) -> HandState:
     """Hand state above/near ``name`` from which a Pick up starts."""
     G, rng = _grasp(P, name), P.rng
-    yaw = float(G["yaw"])  # type: ignore[arg-type]
+    yaw = float(G["yaw"])
     back = np.array([np.cos(yaw), np.sin(yaw)]) * -rng.uniform(0.0, 0.05)
     side = np.array([-np.sin(yaw), np.cos(yaw)]) * rng.uniform(-0.02, 0.02)
-    tcp = np.array(G["tcp"], float)  # type: ignore[arg-type]
+    tcp = np.array(G["tcp"], float)
     p = np.array([*(tcp[:2] + back + side), P.top(name) + rng.uniform(0.06, 0.12)])
-    q = 0.5 * POSTURES["relaxed"] + 0.5 * pinch_posture(float(G["g_pre"]))  # type: ignore[arg-type]
+    q = 0.5 * POSTURES["relaxed"] + 0.5 * pinch_posture(float(G["g_pre"]))
     return HandState(
-        p, yaw + _deg(-12, 12, rng), float(G["pitch"]) - _deg(0, 12, rng), float(G["roll"]), q  # type: ignore[arg-type]
+        p,
+        yaw + _deg(-12, 12, rng),
+        float(G["pitch"]) - _deg(0, 12, rng),
+        float(G["roll"]),
+        q,
     )
 
 
@@ -108,9 +118,9 @@ def pick_up(P: Planner, name: str) -> None:
     P.begin_skill()
     t0, G, rng = P.t, _grasp(P, name), P.rng
     P.pending.pop(("pick_up", name), None)
-    tcp = np.array(G["tcp"], float)  # type: ignore[arg-type]
-    ang = {k: float(G[k]) for k in ("yaw", "pitch", "roll")}  # type: ignore[arg-type]
-    q_pre = pinch_posture(float(G["g_pre"]))  # type: ignore[arg-type]
+    tcp = np.array(G["tcp"], float)
+    ang = {k: float(G[k]) for k in ("yaw", "pitch", "roll")}
+    q_pre = pinch_posture(float(G["g_pre"]))
     above = tcp + np.array([0.0, 0.0, rng.uniform(0.005, 0.015)])
     above[2] = min(above[2], P.state.tcp[2])
     reach = HandState(above, q=q_pre, **ang)
@@ -124,12 +134,15 @@ def pick_up(P: Planner, name: str) -> None:
     )
     P.go(P.dur(0.25, 0.45), reach.moved(tcp=tcp))
     P.maybe_pause()
-    P.go(P.dur(0.35, 0.6), P.state.moved(q=pinch_posture(float(G["g"]))))  # type: ignore[arg-type]
+    P.go(P.dur(0.35, 0.6), P.state.moved(q=pinch_posture(float(G["g"]))))
     P.events.append(Attach(P.t, name))
     pose = P.poses[name]
     c, s_ = np.cos(-P.state.yaw), np.sin(-P.state.yaw)
     d = pose.pos - P.state.tcp
-    P.grasp_rel = (np.array([c * d[0] - s_ * d[1], s_ * d[0] + c * d[1], d[2]]), pose.yaw - P.state.yaw)
+    P.grasp_rel = (
+        np.array([c * d[0] - s_ * d[1], s_ * d[0] + c * d[1], d[2]]),
+        pose.yaw - P.state.yaw,
+    )
     P.held = name
     P.hold(P.dur(0.1, 0.3))
     P.maybe_pause()
@@ -180,7 +193,9 @@ def move_with(P: Planner, name: str, onto: str | None = None) -> None:
         new_yaw = base.yaw + k * np.pi / 2 + _deg(-5, 5, rng)
     hand_yaw = float(new_yaw - rel_yaw)
     c, sn = np.cos(hand_yaw), np.sin(hand_yaw)
-    tcp_final = pos - np.array([c * rel_p[0] - sn * rel_p[1], sn * rel_p[0] + c * rel_p[1], rel_p[2]])
+    tcp_final = pos - np.array(
+        [c * rel_p[0] - sn * rel_p[1], sn * rel_p[0] + c * rel_p[1], rel_p[2]]
+    )
     P.pending[("place", name)] = {"tcp": tcp_final, "pose": ObjectPose(pos, float(new_yaw))}
     above = tcp_final + np.array([0.0, 0.0, rng.uniform(0.03, 0.07)])
     below_tcp = 0.5 * spec.size[2] - rel_p[2]  # object bottom below the TCP
@@ -205,18 +220,22 @@ def _put_down(P: Planner, name: str, skill: str) -> None:
     P.begin_skill()
     t0, rng = P.t, P.rng
     target = P.pending.pop(("place", name))
-    tcp = np.array(target["tcp"], float)  # type: ignore[arg-type]
+    tcp = np.array(target["tcp"], float)
     pose = target["pose"]
     assert isinstance(pose, ObjectPose)
     near = tcp + np.array([0.0, 0.0, rng.uniform(0.005, 0.012)])
-    P.go(P.dur(0.6, 0.9), P.state.moved(tcp=near), detour=P.detour(P.state.tcp, near, frac=(0, 0.05)))
+    P.go(
+        P.dur(0.6, 0.9), P.state.moved(tcp=near), detour=P.detour(P.state.tcp, near, frac=(0, 0.05))
+    )
     P.go(P.dur(0.25, 0.45), P.state.moved(tcp=tcp))
     P.maybe_pause()
     P.events.append(Detach(P.t, name, pose.copy()))
     P.poses[name] = pose.copy()
     P.held, P.grasp_rel = None, None
     width = P.specs[name].size[0]
-    g_open = P.kin.pinch_for_aperture(width + 2 * FINGERTIP_RADIUS * P.scale + rng.uniform(0.015, 0.035))
+    g_open = P.kin.pinch_for_aperture(
+        width + 2 * FINGERTIP_RADIUS * P.scale + rng.uniform(0.015, 0.035)
+    )
     P.go(P.dur(0.3, 0.5), P.state.moved(q=pinch_posture(g_open)))
     P.hold(P.dur(0.1, 0.25))
     P.maybe_pause()
@@ -263,7 +282,7 @@ def move(P: Planner, target: HandState, obj: str | None) -> None:
 
 
 # --- Push ------------------------------------------------------------------------------------
-def _push_plan(P: Planner, name: str) -> dict[str, object]:
+def _push_plan(P: Planner, name: str) -> dict[str, Any]:
     key = ("push", name)
     if key in P.pending:
         return P.pending[key]
@@ -281,7 +300,8 @@ def _push_plan(P: Planner, name: str) -> dict[str, object]:
             if not (WORKSPACE_Y[0] - 0.02 <= end[1] <= WORKSPACE_Y[1] + 0.03):
                 continue
             clear = all(
-                np.linalg.norm(end - p.pos[:2]) > r_obj + 0.5 * np.hypot(*P.specs[o].size[:2]) + 0.02
+                np.linalg.norm(end - p.pos[:2])
+                > r_obj + 0.5 * np.hypot(*P.specs[o].size[:2]) + 0.02
                 and np.linalg.norm(pose.pos[:2] - direction * 0.12 - p.pos[:2]) > 0.06
                 for o, p in P.poses.items()
                 if o != name
@@ -304,7 +324,7 @@ def _push_plan(P: Planner, name: str) -> dict[str, object]:
     contact = np.array([*(pose.pos[:2] - direction * (half + front)), z])
     standoff = contact - np.array([*(direction * rng.uniform(0.015, 0.04)), 0.0])
     standoff[:2] += np.array([-direction[1], direction[0]]) * rng.uniform(-0.01, 0.01)
-    plan: dict[str, object] = {
+    plan: dict[str, Any] = {
         "direction": np.array([direction[0], direction[1], 0.0]),
         "distance": dist,
         "contact": contact,
@@ -334,7 +354,7 @@ def push(P: Planner, name: str) -> None:
     hand = plan["hand"]
     assert isinstance(hand, HandState)
     direction = np.asarray(plan["direction"], float)
-    dist = float(plan["distance"])  # type: ignore[arg-type]
+    dist = float(plan["distance"])
     contact = np.asarray(plan["contact"], float)
     P.go(
         P.dur(0.6, 1.0),
