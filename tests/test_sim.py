@@ -239,3 +239,31 @@ def test_rendered_depth_and_markers_match_geometry() -> None:
     )
     assert ok
     np.testing.assert_allclose(tvec.ravel(), T_cw[:3, 3], atol=0.02)
+
+
+def test_cli_simulate_writes_a_readable_recording(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    import lfd
+    from lfd.cli import main
+
+    out = tmp_path / "push.mcap"
+    assert main(["simulate", "push", "--seed", "4", "-o", str(out), "--speed", "1.1"]) == 0
+    demo = lfd.load(out)
+    assert demo.skill_sequence == ["push", "move"]
+    assert demo.metadata["variability"]["speed"] == 1.1
+    assert demo.metadata["target_skill"] == "push"
+    assert main(["simulate", "-o", str(out)]) == 2  # no task
+    assert main(["simulate", "push", "-o", str(out), "--dropout", "-1"]) == 2
+
+
+def test_cropped_rendered_sample(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    import lfd
+    from lfd.cli.simulate import record
+
+    out = tmp_path / "short.mcap"
+    record("exp1", 1, out, render_rate=2.0, duration=1.5)
+    demo = lfd.load(out)
+    assert demo.duration_s <= 1.5 + 1e-9
+    assert demo.color is not None and demo.depth is not None
+    assert demo.color.frames.shape[1:] == (480, 640, 3) and demo.depth.frames.dtype.name == "uint16"
+    assert len(demo.color) == 4  # 0, 0.5, 1.0, 1.5 s
+    assert demo.labels[-1].end_ns == demo.end_ns

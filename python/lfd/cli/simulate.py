@@ -100,8 +100,8 @@ def _jobs(which: str, out: Path) -> list[dict[str, Any]]:
             "task": "exp1",
             "seed": SAMPLE_SEED,
             "path": out / "rendered" / "exp1_short.mcap",
-            "render": 3.0,
-            "duration": 6.0,
+            "render": 5.0,
+            "duration": 8.0,
         }
     )
     return jobs
