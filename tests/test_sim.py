@@ -267,3 +267,18 @@ def test_cropped_rendered_sample(tmp_path) -> None:  # type: ignore[no-untyped-d
     assert demo.color.frames.shape[1:] == (480, 640, 3) and demo.depth.frames.dtype.name == "uint16"
     assert len(demo.color) == 4  # 0, 0.5, 1.0, 1.5 s
     assert demo.labels[-1].end_ns == demo.end_ns
+
+
+def test_hand_stays_above_table_and_out_of_boxes(exps) -> None:  # type: ignore[no-untyped-def]
+    for res in exps.values():
+        kp = res.truth.keypoints
+        assert kp[..., 2].min() > 0.005  # keypoint centres above the table (capsules ~7 mm)
+        for name, obj in res.demo.objects.items():
+            p, yaw = res.truth.object_pos[name], res.truth.object_yaw[name]
+            d = kp - p[:, None, :]
+            c, s = np.cos(-yaw)[:, None], np.sin(-yaw)[:, None]
+            local = np.stack(
+                [c * d[..., 0] - s * d[..., 1], s * d[..., 0] + c * d[..., 1], d[..., 2]], -1
+            )
+            inside = np.min(obj.size / 2 - np.abs(local), axis=-1)
+            assert inside.max() < 0.002, name  # no keypoint more than 2 mm inside a box

@@ -5,7 +5,8 @@ estimator would.
   camera's viewing ray), orientation noise ``object_noise_mm / 2`` degrees, missing samples in
   bursts (two-state Markov chain with mean burst 0.2 s, stationary fraction ``dropout``) and an
   extra miss probability ``occlusion`` while the hand is right above the object.
-- Hand keypoints on every 5th-7th camera frame (~5 Hz at 30 Hz): gaussian noise ``noise_mm``
+- Hand keypoints on every 5th-7th camera frame (~5 Hz at 30 Hz), a fraction ``hand_miss`` of
+  them lost (the estimator found no hand), with gaussian noise ``noise_mm``
   (1.5x along the viewing ray), and in a fraction ``outlier_rate`` of the frames 1-3 keypoints
   (mostly fingertips) off by 1-3 cm with a low confidence.
 """
@@ -87,6 +88,7 @@ def sample_streams(
     steps = np.maximum(1, np.round(mean_step + rng.choice([-1, 0, 0, 0, 0, 1], size=n)))
     idx = np.cumsum(np.concatenate([[int(rng.integers(0, max(1, int(mean_step))))], steps]))
     idx = idx[idx < n].astype(int)
+    idx = idx[rng.random(idx.size) >= var.hand_miss]  # failed estimates leave gaps
     kp = truth.keypoints[idx].copy()  # type: ignore[attr-defined]
     kp += _camera_noise(rng, kp.shape[:2], float(var.noise_mm or 0.0) * 1e-3, 1.5, R_cv)
     conf = rng.uniform(0.8, 0.98, size=kp.shape[:2])
