@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..demo import CameraInfo, Demonstration, SkillLabel
+from ..errors import DemonstrationError
 from .hand import JOINTS_PER_FINGER, N_JOINTS, HandKinematics
 from .motion import Plan, rotation, smooth_noise
 from .planner import Attach, Detach, ObjectPose, Planner, Push
@@ -39,6 +40,8 @@ from .variability import Variability
 
 SIM_VERSION = "1.0"
 """Version of the simulated demonstrator (bump when motions change)."""
+
+_MAX_ATTEMPTS = 10
 
 BASE_TIME_NS = 1_700_000_000_000_000_000
 """Capture time of the first frame of every simulated demonstration."""
@@ -213,13 +216,21 @@ def simulate(
     model = scene.compile()
     kin = HandKinematics(model)
     names = [o.name for o in objects]
-    order = rng.permutation(len(names))
-    roles = {role: names[int(i)] for role, i in zip("ABC", order, strict=False)}
-    initial = {n: ObjectPose(p, y) for n, (p, y) in place_objects(rng, objects).items()}
-    P = Planner(
-        rng, var, kin, {o.name: o for o in objects}, {n: p.copy() for n, p in initial.items()}
-    )
-    _execute(P, steps, roles)
+    for attempt in range(_MAX_ATTEMPTS):
+        # a layout in which a step is impossible (no free spot, no room to push) is re-drawn
+        # from the same random stream, so the result stays a function of the seed
+        order = rng.permutation(len(names))
+        roles = {role: names[int(i)] for role, i in zip("ABC", order, strict=False)}
+        initial = {n: ObjectPose(p, y) for n, (p, y) in place_objects(rng, objects).items()}
+        P = Planner(
+            rng, var, kin, {o.name: o for o in objects}, {n: p.copy() for n, p in initial.items()}
+        )
+        try:
+            _execute(P, steps, roles)
+            break
+        except DemonstrationError:
+            if attempt == _MAX_ATTEMPTS - 1:
+                raise
     plan = Plan(P.segments)
 
     # fine simulation grid: camera frames are every `sub`-th step

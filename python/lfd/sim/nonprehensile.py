@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 
 from ..demo import INDEX_TIP
+from ..errors import DemonstrationError
 from .hand import POSTURES
 from .motion import HandState
 from .planner import Planner, Push
@@ -24,29 +25,39 @@ def _push_plan(P: Planner, name: str) -> dict[str, Any]:
         return P.pending[key]
     rng, spec, pose, s = P.rng, P.specs[name], P.poses[name], P.scale
     r_obj = 0.5 * float(np.hypot(spec.size[0], spec.size[1]))
-    options = []
-    for k in range(4):
-        direction = np.array([np.cos(pose.yaw + k * np.pi / 2), np.sin(pose.yaw + k * np.pi / 2)])
-        if direction[1] < -0.5:  # nobody pushes towards themselves across the marker
-            continue
-        for dist in (rng.uniform(0.05, 0.12), 0.05):
-            end = pose.pos[:2] + direction * dist
-            if not (WORKSPACE_X[0] - 0.03 <= end[0] <= WORKSPACE_X[1] + 0.03):
+    others = [
+        (p.pos[:2], 0.5 * float(np.hypot(*P.specs[o].size[:2])))
+        for o, p in P.poses.items()
+        if o != name
+    ]
+    wanted = float(rng.uniform(0.05, 0.12))
+    options: list[tuple[int, np.ndarray, float]] = []
+    # strict first (forward/sideways, inside the workspace, room for the hand); then relaxed
+    for margin, hand_room, toward_ok in ((0.03, 0.06, False), (0.07, 0.045, True)):
+        for k in range(4):
+            ang = pose.yaw + k * np.pi / 2
+            direction = np.array([np.cos(ang), np.sin(ang)])
+            if direction[1] < -0.5 and not toward_ok:  # people rarely push towards themselves
                 continue
-            if not (WORKSPACE_Y[0] - 0.02 <= end[1] <= WORKSPACE_Y[1] + 0.03):
-                continue
-            clear = all(
-                np.linalg.norm(end - p.pos[:2])
-                > r_obj + 0.5 * np.hypot(*P.specs[o].size[:2]) + 0.02
-                and np.linalg.norm(pose.pos[:2] - direction * 0.12 - p.pos[:2]) > 0.06
-                for o, p in P.poses.items()
-                if o != name
-            )
-            if clear:
-                options.append((k, direction, float(dist)))
-                break
+            for dist in (wanted, 0.05, 0.035):
+                end = pose.pos[:2] + direction * dist
+                if not (WORKSPACE_X[0] - margin <= end[0] <= WORKSPACE_X[1] + margin):
+                    continue
+                if not (WORKSPACE_Y[0] - margin <= end[1] <= WORKSPACE_Y[1] + margin):
+                    continue
+                path = [pose.pos[:2] + direction * dist * f for f in (0.5, 1.0)]
+                hand = pose.pos[:2] - direction * 0.12
+                if all(
+                    min(np.linalg.norm(c - q) for q in path) > r_obj + r + 0.015
+                    and np.linalg.norm(hand - c) > hand_room
+                    for c, r in others
+                ):
+                    options.append((k, direction, float(dist)))
+                    break
+        if options:
+            break
     if not options:
-        raise RuntimeError(f"no free direction to push {name}")
+        raise DemonstrationError(f"no free direction to push {name}")
     k, direction, dist = options[int(rng.integers(len(options)))]
     half = 0.5 * spec.size[k % 2]
     yaw = float(np.arctan2(direction[1], direction[0])) + _deg(-8, 8, rng)

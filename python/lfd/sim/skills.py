@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from ..demo import INDEX_TIP, THUMB_TIP
+from ..errors import DemonstrationError
 from .hand import FINGERTIP_RADIUS, POSTURES, pinch_posture
 from .motion import HandState, rotation
 from .nonprehensile import locate, locate_entry, push, push_entry
@@ -185,7 +186,7 @@ def free_spot(P: Planner, name: str, *, min_move: float = 0.10) -> np.ndarray:
                 break
         if ok:
             return xy
-    raise RuntimeError(f"no free table spot for {name}")
+    raise DemonstrationError(f"no free table spot for {name}")
 
 
 def move_with(P: Planner, name: str, onto: str | None = None) -> None:
