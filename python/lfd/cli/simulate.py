@@ -28,7 +28,15 @@ SAMPLE_SEED = 1000
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("task", nargs="?", help="task: exp1-exp4 or a skill name (template task)")
+    from ..sim.tasks import TASKS
+
+    parser.add_argument(
+        "task",
+        nargs="?",
+        choices=sorted(TASKS),
+        metavar="TASK",
+        help=f"exp1-exp4 or a skill name for its template task ({', '.join(sorted(TASKS))})",
+    )
     parser.add_argument(
         "-o", "--output", required=True, help="output .mcap (or directory with --set)"
     )
