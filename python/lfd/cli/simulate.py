@@ -58,6 +58,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     v.add_argument("--detour", type=float, help="path detour scale, 0 = straight (U(0.5, 1.5))")
     v.add_argument("--pauses", type=float, help="pause probability (default U(0.15, 0.5))")
     v.add_argument("--outliers", type=float, help="fraction of hand frames with outliers (0.03)")
+    v.add_argument("--approach-deg", type=float, help="max approach azimuth deviation (35)")
     v.add_argument("--hand-miss", type=float, help="fraction of failed hand estimates (0.02)")
     v.add_argument("--noise-free", action="store_true", help="no sensor noise, dropouts, tremor")
 
@@ -75,6 +76,7 @@ def _variability(args: argparse.Namespace) -> Any:
         "pauses": args.pauses,
         "outlier_rate": args.outliers,
         "hand_miss": args.hand_miss,
+        "approach_deg": args.approach_deg,
     }
     given = {k: v for k, v in given.items() if v is not None}
     var = Variability.noise_free(**given) if args.noise_free else Variability(**given)
