@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..demo import CameraInfo, Demonstration, SkillLabel
+from ..errors import DemonstrationError
 from .hand import JOINTS_PER_FINGER, N_JOINTS, HandKinematics
 from .motion import Plan, rotation, smooth_noise
 from .planner import Attach, Detach, ObjectPose, Planner, Push
@@ -39,6 +40,8 @@ from .variability import Variability
 
 SIM_VERSION = "1.0"
 """Version of the simulated demonstrator (bump when motions change)."""
+
+_MAX_ATTEMPTS = 10
 
 BASE_TIME_NS = 1_700_000_000_000_000_000
 """Capture time of the first frame of every simulated demonstration."""
@@ -213,13 +216,21 @@ def simulate(
     model = scene.compile()
     kin = HandKinematics(model)
     names = [o.name for o in objects]
-    order = rng.permutation(len(names))
-    roles = {role: names[int(i)] for role, i in zip("ABC", order, strict=False)}
-    initial = {n: ObjectPose(p, y) for n, (p, y) in place_objects(rng, objects).items()}
-    P = Planner(
-        rng, var, kin, {o.name: o for o in objects}, {n: p.copy() for n, p in initial.items()}
-    )
-    _execute(P, steps, roles)
+    for attempt in range(_MAX_ATTEMPTS):
+        # a layout in which a step is impossible (no free spot, no room to push) is re-drawn
+        # from the same random stream, so the result stays a function of the seed
+        order = rng.permutation(len(names))
+        roles = {role: names[int(i)] for role, i in zip("ABC", order, strict=False)}
+        initial = {n: ObjectPose(p, y) for n, (p, y) in place_objects(rng, objects).items()}
+        P = Planner(
+            rng, var, kin, {o.name: o for o in objects}, {n: p.copy() for n, p in initial.items()}
+        )
+        try:
+            _execute(P, steps, roles)
+            break
+        except DemonstrationError:
+            if attempt == _MAX_ATTEMPTS - 1:
+                raise
     plan = Plan(P.segments)
 
     # fine simulation grid: camera frames are every `sub`-th step
@@ -280,8 +291,44 @@ def simulate(
             for n, p in initial.items()
         },
         "skill_sequence": [lab.skill for lab in P.labels],
+        "pushes": [e for e in P.log if "push" in e],
+        "stacks": [e for e in P.log if "stack" in e],
     }
     if task in TEMPLATE_TASKS:
         metadata["target_skill"] = task
     demo = Demonstration(hand=hand, objects=tracks, labels=labels, camera=camera, metadata=metadata)
     return SimResult(demo=demo, truth=truth, scene=scene, plan=plan, variability=var)
+
+
+def crop(result: SimResult, seconds: float) -> SimResult:
+    """Keep only the first ``seconds`` of a simulated demonstration (streams, labels, truth)."""
+    demo, truth = result.demo, result.truth
+    end = int(truth.t_ns[0] + round(seconds * 1e9))
+    keep = truth.t_ns <= end
+    hand = demo.hand
+    h = hand.t_ns <= end
+    demo.hand = type(hand)(hand.t_ns[h], hand.keypoints[h], hand.confidence[h], hand.side)
+    for name, tr in list(demo.objects.items()):
+        k = tr.t_ns <= end
+        demo.objects[name] = type(tr)(
+            tr.name, tr.tag_id, tr.size, tr.t_ns[k], tr.position[k], tr.quaternion[k], tr.visible[k]
+        )
+    last = int(truth.t_ns[keep][-1])
+    demo.labels = [
+        SkillLabel(lab.skill, lab.start_ns, min(lab.end_ns, last), lab.object)
+        for lab in demo.labels
+        if lab.start_ns < last
+    ]
+    demo.metadata["cropped_s"] = seconds
+    demo.metadata["skill_sequence"] = [lab.skill for lab in demo.labels]
+    result.truth = Truth(
+        t_ns=truth.t_ns[keep],
+        tcp=truth.tcp[keep],
+        keypoints=truth.keypoints[keep],
+        wrist_pos=truth.wrist_pos[keep],
+        wrist_quat=truth.wrist_quat[keep],
+        q=truth.q[keep],
+        object_pos={n: p[keep] for n, p in truth.object_pos.items()},
+        object_yaw={n: y[keep] for n, y in truth.object_yaw.items()},
+    )
+    return result

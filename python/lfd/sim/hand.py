@@ -107,9 +107,9 @@ POSTURES: dict[str, np.ndarray] = {
         {
             "thumb": _deg(-7.6, 9.8, 22.1, 12.9),
             "index": _deg(-8.2, 14.4, 12.9, -1.3),
-            "middle": _deg(0, 35, 40, 20),
-            "ring": _deg(0, 45, 50, 25),
-            "pinky": _deg(0, 55, 55, 25),
+            "middle": _deg(0, 70, 80, 45),
+            "ring": _deg(0, 75, 85, 45),
+            "pinky": _deg(0, 80, 85, 45),
         }
     ),
     # pinch closed: index and thumb tips touching
@@ -117,9 +117,9 @@ POSTURES: dict[str, np.ndarray] = {
         {
             "thumb": _deg(-29.9, 19.5, 9.2, -1.3),
             "index": _deg(-9.3, 42.6, 23.6, 49.4),
-            "middle": _deg(0, 60, 60, 30),
-            "ring": _deg(0, 70, 65, 30),
-            "pinky": _deg(0, 75, 65, 30),
+            "middle": _deg(0, 88, 95, 55),
+            "ring": _deg(0, 90, 95, 55),
+            "pinky": _deg(0, 90, 95, 55),
         }
     ),
     # pointing: index straight, others curled into the palm

@@ -7,6 +7,7 @@ Objects stay upright: an object pose is its centre ``pos`` (3,) and its ``yaw`` 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -98,7 +99,8 @@ class Planner:
     labels: list[PlannedLabel] = field(default_factory=list)
     events: list[Event] = field(default_factory=list)
     skill_speed: float = 1.0
-    pending: dict[tuple[str, str], dict[str, object]] = field(default_factory=dict)
+    pending: dict[tuple[str, str], dict[str, Any]] = field(default_factory=dict)
+    log: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def scale(self) -> float:

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..demo import ImageStream
 from .hand import JOINT_NAMES
-from .scene import Scene
+from .scene import Scene, forearm_quat
 
 
 def render_frames(
@@ -36,14 +36,19 @@ def render_frames(
     cam = scene.camera
     qadr = np.array([model.jnt_qposadr[model.joint(n).id] for n in JOINT_NAMES])
     obj_adr = {o.name: int(model.jnt_qposadr[model.joint(o.name).id]) for o in scene.objects}
+    hand_mocap = int(model.body_mocapid[model.body("hand").id])
+    arm_mocap = int(model.body_mocapid[model.body("forearm").id])
     frames = np.asarray(frames, dtype=int)
     color = np.empty((frames.size, cam.height, cam.width, 3), np.uint8)
     depth_mm = np.empty((frames.size, cam.height, cam.width), np.uint16) if depth else None
     renderer = mujoco.Renderer(model, cam.height, cam.width)
     try:
         for k, i in enumerate(frames):
-            data.mocap_pos[0] = truth.wrist_pos[i]  # type: ignore[attr-defined]
-            data.mocap_quat[0] = truth.wrist_quat[i]  # type: ignore[attr-defined]
+            wrist = truth.wrist_pos[i]  # type: ignore[attr-defined]
+            data.mocap_pos[hand_mocap] = wrist
+            data.mocap_quat[hand_mocap] = truth.wrist_quat[i]  # type: ignore[attr-defined]
+            data.mocap_pos[arm_mocap] = wrist
+            data.mocap_quat[arm_mocap] = forearm_quat(wrist)
             data.qpos[qadr] = truth.q[i]  # type: ignore[attr-defined]
             for name, adr in obj_adr.items():
                 yaw = truth.object_yaw[name][i]  # type: ignore[attr-defined]
@@ -69,3 +74,24 @@ def render_frames(
         ImageStream(t_ns=t_ns, frames=color),
         ImageStream(t_ns=t_ns.copy(), frames=depth_mm) if depth_mm is not None else None,
     )
+
+
+def add_rendering(
+    result: object, *, rate_hz: float = 10.0, until_s: float | None = None, depth: bool = True
+) -> None:
+    """Render ``result`` (a :class:`~lfd.sim.demonstrator.SimResult`) at ``rate_hz`` in place.
+
+    Frames are taken on camera frames (a multiple of the object rate's period); ``until_s``
+    limits rendering to the first seconds.
+    """
+    demo = result.demo  # type: ignore[attr-defined]
+    truth = result.truth  # type: ignore[attr-defined]
+    rate = float(demo.metadata.get("object_rate_hz", 30.0))
+    if not 0 < rate_hz <= rate:
+        raise ValueError(f"render rate must be in (0, {rate}] Hz, got {rate_hz}")
+    step = max(1, round(rate / rate_hz))
+    frames = np.arange(0, truth.t_ns.size, step)
+    if until_s is not None:
+        frames = frames[(truth.t_ns[frames] - truth.t_ns[0]) <= until_s * 1e9]
+    demo.color, demo.depth = render_frames(result.scene, truth, frames, depth=depth)  # type: ignore[attr-defined]
+    demo.metadata["render_rate_hz"] = rate / step
