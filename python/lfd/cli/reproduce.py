@@ -28,6 +28,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="PROGRAM.json",
         help="task program (segments) to execute; default: the recording's ground-truth labels",
     )
+    parser.add_argument(
+        "--segment",
+        action="store_true",
+        help="segment the recording with lfd.segment instead of using its ground-truth labels",
+    )
     parser.add_argument("--json", metavar="OUT.json", help="write the measurements as JSON")
     parser.add_argument(
         "--video", metavar="OUT.mp4", help="render a video of the (last) mode (imageio or OpenCV)"
@@ -39,15 +44,31 @@ def run(args: argparse.Namespace) -> int:
     from rich.progress import Progress
     from rich.table import Table
 
+    from ..errors import LfdError
     from ..io import load
     from ..preprocess import preprocess
-    from ..reproduce import TaskProgram, from_labels, parse_displacement, reproduce
+    from ..reproduce import (
+        TaskProgram,
+        from_labels,
+        from_segmentation,
+        parse_displacement,
+        reproduce,
+    )
 
     console = Console(stderr=True)
     demo = load(args.recording, images=False)
     traj = preprocess(demo)
     t0 = int(traj.t_ns[0])
-    program = TaskProgram.load(args.task) if args.task else from_labels(demo.labels, t0)
+    if args.task:
+        program = TaskProgram.load(args.task)
+    elif args.segment:
+        try:
+            from ..segment import segment  # type: ignore[import-not-found, unused-ignore]
+        except ImportError as err:
+            raise LfdError("lfd.segment is not available in this installation") from err
+        program = from_segmentation(segment(traj), t0)
+    else:
+        program = from_labels(demo.labels, t0)
     displace = parse_displacement(args.displace)
     modes = ("replay", "skills", "dmp") if args.mode == "all" else (args.mode,)
     results = {}
