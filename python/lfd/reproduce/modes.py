@@ -24,19 +24,26 @@ import numpy as np
 from ..errors import DemonstrationError
 from .controller import TICK, Plan
 from .dmp import dmp_rollout, min_jerk, resample, warp
-from .goals import DemoFrames, grasp_goal, pose, push_goal, upright, wrap_near, yaw_of
+from .goals import DemoFrames, grasp_goal, pose, upright, wrap_near, yaw_of
+from .motion import (
+    HOVER,
+    clear,
+    line,
+    min_jerk_clip,
+    need_object,
+    push_geometry,
+    push_path,
+    safe_height,
+    segment_indices,
+)
 from .program import Segment, TaskProgram
 from .robot import FINGER_BELOW_TCP, MAX_OPENING
 
 MODES = ("replay", "skills", "dmp")
 PAD_OFFSET = 0.015
 """Replay: fingertip-keypoint distance minus this = commanded pad distance (m)."""
-LINEAR_SPEED = 0.15
-"""Mean TCP speed of the straight moves of the skills mode (m/s)."""
 DWELL_S = 0.5
 """Time the robot holds still while the gripper closes or opens (s)."""
-HOVER = 0.05
-"""Vertical clearance used to leave a released object and to start a push from above (m)."""
 Z_MIN = FINGER_BELOW_TCP + 0.004
 """Lowest TCP height (m): the fingertips stay 4 mm above the table."""
 RELEASE_LIFT = 0.003
@@ -52,11 +59,6 @@ class PlanResult:
     """Expected final 4x4 pose of every object (the displaced equivalent of the demo's)."""
     goals: list[np.ndarray] = field(default_factory=list)
     """Goal TCP position (3,) of each segment."""
-
-
-def _segment_indices(frames: DemoFrames, seg: Segment) -> tuple[int, int]:
-    i0, i1 = frames.index(seg.start_s), frames.index(seg.end_s)
-    return i0, max(i1, i0 + 1) if i0 + 1 < frames.n else i1
 
 
 def _ref_pose(
@@ -144,7 +146,7 @@ def plan_task(
     detour = np.zeros(4)
     segs = program.segments
     for k, seg in enumerate(segs):
-        i0, i1 = _segment_indices(frames, seg)
+        i0, i1 = segment_indices(frames, seg)
         demo_yaw = float(frames.yaw[i1])
         close_at_end = open_at_end = False
         release_top = 0.0
@@ -160,7 +162,7 @@ def plan_task(
             release_top = T_end_demo[2, 3] + frames.size[frames.object_index(name), 2] / 2
             held, open_at_end, grip = None, True, 0.0
         elif seg.skill == "push":
-            geo = _push_geometry(frames, seg, objects, cur[3])
+            geo = push_geometry(frames, seg, objects, cur[3])
             goal = geo["goal"]
             objects[seg.object] = expected[seg.object] = geo["T_new"]  # type: ignore[index]
             grip = 0.0
@@ -169,12 +171,12 @@ def plan_task(
         else:  # move / move_with: to the (mapped) start of the next skill
             if k + 1 < len(segs):
                 nxt = segs[k + 1]
-                j0, _ = _segment_indices(frames, nxt)
+                j0, _ = segment_indices(frames, nxt)
                 goal = _state(_map(frames, nxt, j0, objects), float(frames.yaw[j0]))
                 if nxt.skill == "push":  # straight behind the object, or via a hover pose
-                    ng = _push_geometry(frames, nxt, objects, cur[3])
-                    clear = _clear(cur, ng["start"], frames, objects, skip=())
-                    goal = ng["start"] if clear else ng["hover"]
+                    ng = push_geometry(frames, nxt, objects, cur[3])
+                    direct = clear(cur, ng["start"], frames, objects, skip=())
+                    goal = ng["start"] if direct else ng["hover"]
                 elif nxt.skill == "pick_up":  # arrive with the grasp yaw already set
                     goal[3] = _pick_goal(frames, nxt, objects, _end_index(frames, nxt))[1][3]
                 elif nxt.skill in ("place", "stack"):
@@ -189,24 +191,28 @@ def plan_task(
             goal[3] = float(wrap_near(goal[3], float(frames.natural_yaw(goal[:3]))))
         goals.append(goal[:3].copy())
         t, y = _demo_states(frames, i0, i1)
+        rise = np.zeros((0, 4))
+        if seg.skill == "move" and not clear(cur, goal, frames, objects, skip=()):
+            up = cur.copy()  # rise (as little as needed) above what is near the line first
+            for h in np.arange(cur[2] + 0.01, safe_height(frames, objects) + 0.01, 0.01):
+                up[2] = h
+                if clear(up, goal, frames, objects, skip=()):
+                    break
+            rise = line(cur, up, min_s=0.4)
+            detour = detour + (up - cur)
+            cur = up
         if seg.skill == "push":
-            path = _push_path(frames, str(seg.object), geo, (i0, i1), cur, mode)
+            path = push_path(frames, str(seg.object), geo, (i0, i1), cur, mode)
         elif mode == "dmp":
-            # the DMP runs between skill end points; the robot's own lift-off (detour) at the
-            # start is blended out like a warp, so the DMP's spring does not dip to undo it
+            # the DMP runs between skill end points; the robot's own detours at the start
+            # (lift-offs) are blended out like a warp, so the DMP's spring does not dip to undo them
             path = dmp_rollout(t, y, cur - detour, goal, dt=TICK)
             path += (1 - min_jerk(len(path)))[:, None] * detour
-        elif seg.skill == "move" and not _clear(cur, goal, frames, objects, skip=()):
-            up = cur.copy()  # rise (as little as needed) above what is near the line first
-            for h in np.arange(cur[2] + 0.01, _safe_height(frames, objects) + 0.01, 0.01):
-                up[2] = h
-                if _clear(up, goal, frames, objects, skip=()):
-                    break
-            path = np.concatenate([_line(cur, up, min_s=0.4), _line(up, goal)])
         elif seg.skill in ("move", "move_with"):
-            path = _line(cur, goal)
+            path = line(cur, goal)
         else:
             path = warp(resample(t, y, TICK), cur, goal)
+        path = np.concatenate([rise, path])
         if seg.skill in ("pick_up", "place", "stack"):  # turn early, then keep the yaw
             path[:, 3] = cur[3] + min_jerk_clip(len(path), 0.3) * (goal[3] - cur[3])
         detour = np.zeros(4)
@@ -223,14 +229,14 @@ def plan_task(
             parts.append(_part(np.repeat(cur[None], round(DWELL_S / TICK), 0), MAX_OPENING, -1))
             up = cur + np.array([0.0, 0.0, HOVER, 0.0])  # leave the released object vertically
             up[2] = max(up[2], release_top + FINGER_BELOW_TCP + 0.02)
-            parts.append(_part(_line(cur, up, min_s=0.5), MAX_OPENING, -1))
+            parts.append(_part(line(cur, up, min_s=0.5), MAX_OPENING, -1))
             detour = up - cur
             cur = up
         if seg.skill == "push":  # back off the pushed face before anything else moves
             opening = 0.0
             u = geo["u"]
             back = cur + np.array([-0.015 * u[0], -0.015 * u[1], 0.005, 0.0])
-            parts.append(_part(_line(cur, back, min_s=0.3), 0.0, -1))
+            parts.append(_part(line(cur, back, min_s=0.3), 0.0, -1))
             detour = back - cur
             cur = back
     plan = plan_replay(frames, program) if mode == "replay" else Plan.concat(parts)
@@ -243,7 +249,7 @@ def _pick_goal(
     frames: DemoFrames, seg: Segment, objects: dict[str, np.ndarray], i1: int
 ) -> tuple[str, np.ndarray]:
     """Grasp goal ``[x, y, z, yaw]`` of a pick_up (object-centred, wrist-friendly yaw)."""
-    name = _need_object(seg, objects)
+    name = need_object(seg, objects)
     p, yaw = grasp_goal(
         objects[name], frames.size[frames.object_index(name)], float(frames.yaw[i1])
     )
@@ -261,7 +267,7 @@ def _place_goal(
 ) -> tuple[str, np.ndarray, np.ndarray]:
     """TCP goal of a place/stack and the object's resting pose there (Eq. 2 for stacks)."""
     carried = seg.object or (held[0] if held else None)
-    name = _need_object(Segment(seg.skill, 0, 0, carried), objects)
+    name = need_object(Segment(seg.skill, 0, 0, carried), objects)
     T_end = frames.object_pose(name, i1)
     if seg.skill == "stack":
         sup = seg.params.get("support") or frames.support_of(name, i1)
@@ -272,140 +278,6 @@ def _place_goal(
     T_goal[2, 3] += RELEASE_LIFT
     goal = _state(T_goal, float(frames.natural_yaw(T_goal[:3, 3])))
     return name, goal, T_end
-
-
-def _clear(
-    a: np.ndarray,
-    b: np.ndarray,
-    frames: DemoFrames,
-    objects: dict[str, np.ndarray],
-    *,
-    skip: tuple[str, ...],
-) -> bool:
-    """True if the open fingers moving straight from ``a`` to ``b`` keep clear of every object."""
-    pts = a[None, :3] + np.linspace(0.0, 1.0, 40)[:, None] * (b[:3] - a[:3])[None]
-    for name, T in objects.items():
-        if name in skip:
-            continue
-        size = frames.size[frames.object_index(name)]
-        reach = 0.5 * float(np.hypot(size[0], size[1])) + MAX_OPENING / 2 + 0.01
-        near = np.hypot(pts[:, 0] - T[0, 3], pts[:, 1] - T[1, 3]) < reach
-        low = pts[:, 2] - FINGER_BELOW_TCP < T[2, 3] + size[2] / 2 + 0.01
-        if np.any(near & low):
-            return False
-    return True
-
-
-def _safe_height(frames: DemoFrames, objects: dict[str, np.ndarray]) -> float:
-    """TCP height at which the fingertips clear every object top (+2 cm)."""
-    tops = [T[2, 3] + frames.size[frames.object_index(n), 2] / 2 for n, T in objects.items()]
-    return max(tops, default=0.0) + FINGER_BELOW_TCP + 0.02
-
-
-def min_jerk_clip(n: int, frac: float) -> np.ndarray:
-    """Min-jerk ramp 0 -> 1 over the first ``frac`` of ``n`` samples, then 1."""
-    m = max(2, round(n * frac))
-    out = np.ones(n)
-    out[: min(m, n)] = min_jerk(m)[: min(m, n)]
-    return out
-
-
-def _push_geometry(
-    frames: DemoFrames, seg: Segment, objects: dict[str, np.ndarray], ref_yaw: float
-) -> dict[str, np.ndarray]:
-    """Key poses of a push: hover, start (behind), contact, goal, and the pushed pose.
-
-    The object is pushed by its demonstrated displacement ``d`` (and yaw change) from its
-    current pose; the closed fingers touch the face opposite ``d``.
-    """
-    name = _need_object(seg, objects)
-    i0, i1 = _segment_indices(frames, seg)
-    T0_demo, T1_demo = frames.object_pose(name, i0), frames.object_pose(name, i1)
-    d = T1_demo[:3, 3] - T0_demo[:3, 3]
-    d[2] = 0.0
-    dyaw = yaw_of(T1_demo[:3, :3]) - yaw_of(T0_demo[:3, :3])
-    T_now = objects[name]
-    T_new = pose(T_now[:3, 3] + d, yaw_of(T_now[:3, :3]) + dyaw)
-    size = frames.size[frames.object_index(name)]
-    u = d[:2] / max(float(np.linalg.norm(d[:2])), 1e-9)
-    p_c, yaw = push_goal(T_now, size, d, ref_yaw)
-    yaw = float(wrap_near(yaw, float(frames.natural_yaw(p_c))))  # one representative throughout
-    p_end, _ = push_goal(T_new, size, d, yaw)
-    contact = np.array([*(p_c[:2] - 0.005 * u), p_c[2], yaw])
-    start = contact - [0.025 * u[0], 0.025 * u[1], 0.0, 0.0]
-    hover = start.copy()
-    top = T_now[2, 3] + size[2] / 2
-    hover[2] = max(start[2] + HOVER, top + FINGER_BELOW_TCP + 0.02)
-    return {
-        "goal": np.array([*p_end, yaw]),
-        "contact": contact,
-        "start": start,
-        "hover": hover,
-        "T_new": T_new,
-        "u": u,
-        "d": d,
-        "T0_demo": T0_demo,
-    }
-
-
-def _push_path(
-    frames: DemoFrames,
-    name: str,
-    geo: dict[str, np.ndarray],
-    span: tuple[int, int],
-    cur: np.ndarray,
-    mode: str,
-) -> np.ndarray:
-    """Hover -> descend -> approach -> push along the demonstrated object motion.
-
-    The pushing part follows the demonstrated progress of the object along the push direction
-    (skills: on a straight line; dmp: a DMP of the object's demonstrated path re-targeted to the
-    new contact and goal).
-    """
-    pieces = []
-    if np.linalg.norm(cur[:3] - geo["start"][:3]) > 0.002:  # not arrived straight behind it
-        if np.linalg.norm(cur[:3] - geo["hover"][:3]) > 0.002:
-            pieces.append(_line(cur, geo["hover"]))
-        pieces.append(_line(geo["hover"], geo["start"], min_s=0.5))
-    pieces.append(_line(geo["start"], geo["contact"], min_s=0.4))
-    dist = float(np.linalg.norm(geo["d"]))
-    contact, goal = geo["contact"], geo["goal"]
-    if dist < 0.005:
-        pieces.append(_line(contact, goal))
-    else:
-        idx = np.arange(span[0], span[1] + 1)
-        obj = np.array([frames.object_pose(name, int(i))[:3, 3] for i in idx])
-        prog = np.maximum.accumulate(np.clip((obj - obj[0]) @ geo["d"] / dist**2, 0.0, 1.0))
-        moving = np.flatnonzero((prog > 0.01) & (prog < 0.995))
-        a, b = (moving[0], moving[-1] + 1) if moving.size >= 2 else (0, len(idx) - 1)
-        t = frames.t[idx[a : b + 1]]
-        if mode == "dmp":
-            y = np.column_stack(
-                [obj[a : b + 1, :2], np.full(b - a + 1, contact[2]), np.full(b - a + 1, contact[3])]
-            )
-            pieces.append(dmp_rollout(t, y, contact, goal, dt=TICK))
-        else:
-            pr = resample(t, prog[a : b + 1, None], TICK)[:, 0]
-            pr = (pr - pr[0]) / max(pr[-1] - pr[0], 1e-9)
-            pieces.append(contact + pr[:, None] * (goal - contact))
-    return np.concatenate(pieces)
-
-
-def _need_object(seg: Segment, objects: dict[str, np.ndarray]) -> str:
-    if seg.object is None or seg.object not in objects:
-        raise DemonstrationError(
-            f"skill {seg.skill!r} needs a known target object, got {seg.object!r} "
-            f"(objects: {sorted(objects)})"
-        )
-    return seg.object
-
-
-def _line(start: np.ndarray, goal: np.ndarray, *, min_s: float = 0.6) -> np.ndarray:
-    """Straight min-jerk line in (x, y, z, yaw)."""
-    dist = float(np.linalg.norm(goal[:3] - start[:3]))
-    dur = max(min_s, dist / LINEAR_SPEED, abs(goal[3] - start[3]) / 1.2)
-    s = min_jerk(round(dur / TICK) + 1)[:, None]
-    return np.asarray(start + s * (goal - start))
 
 
 def _part(path: np.ndarray, grip: float, seg: int) -> Plan:

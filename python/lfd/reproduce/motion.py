@@ -1,0 +1,160 @@
+"""Motion building blocks: straight min-jerk lines, clearance checks, the push motion.
+
+Shared by the skills and DMP modes (:mod:`lfd.reproduce.modes`). Paths are arrays of
+``[x, y, z, yaw]`` rows at the control tick.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import DemonstrationError
+from .controller import TICK
+from .dmp import dmp_rollout, min_jerk, resample
+from .goals import DemoFrames, pose, push_goal, wrap_near, yaw_of
+from .program import Segment
+from .robot import FINGER_BELOW_TCP, MAX_OPENING
+
+LINEAR_SPEED = 0.15
+"""Mean TCP speed of the straight moves of the skills mode (m/s)."""
+HOVER = 0.05
+"""Vertical clearance used to leave a released object and to start a push from above (m)."""
+
+
+def segment_indices(frames: DemoFrames, seg: Segment) -> tuple[int, int]:
+    i0, i1 = frames.index(seg.start_s), frames.index(seg.end_s)
+    return i0, max(i1, i0 + 1) if i0 + 1 < frames.n else i1
+
+
+def need_object(seg: Segment, objects: dict[str, np.ndarray]) -> str:
+    if seg.object is None or seg.object not in objects:
+        raise DemonstrationError(
+            f"skill {seg.skill!r} needs a known target object, got {seg.object!r} "
+            f"(objects: {sorted(objects)})"
+        )
+    return seg.object
+
+
+def line(start: np.ndarray, goal: np.ndarray, *, min_s: float = 0.6) -> np.ndarray:
+    """Straight min-jerk line in (x, y, z, yaw)."""
+    dist = float(np.linalg.norm(goal[:3] - start[:3]))
+    dur = max(min_s, dist / LINEAR_SPEED, abs(goal[3] - start[3]) / 1.2)
+    s = min_jerk(round(dur / TICK) + 1)[:, None]
+    return np.asarray(start + s * (goal - start))
+
+
+def clear(
+    a: np.ndarray,
+    b: np.ndarray,
+    frames: DemoFrames,
+    objects: dict[str, np.ndarray],
+    *,
+    skip: tuple[str, ...],
+) -> bool:
+    """True if the open fingers moving straight from ``a`` to ``b`` keep clear of every object."""
+    pts = a[None, :3] + np.linspace(0.0, 1.0, 40)[:, None] * (b[:3] - a[:3])[None]
+    for name, T in objects.items():
+        if name in skip:
+            continue
+        size = frames.size[frames.object_index(name)]
+        reach = 0.5 * float(np.hypot(size[0], size[1])) + MAX_OPENING / 2 + 0.01
+        near = np.hypot(pts[:, 0] - T[0, 3], pts[:, 1] - T[1, 3]) < reach
+        low = pts[:, 2] - FINGER_BELOW_TCP < T[2, 3] + size[2] / 2 + 0.01
+        if np.any(near & low):
+            return False
+    return True
+
+
+def safe_height(frames: DemoFrames, objects: dict[str, np.ndarray]) -> float:
+    """TCP height at which the fingertips clear every object top (+2 cm)."""
+    tops = [T[2, 3] + frames.size[frames.object_index(n), 2] / 2 for n, T in objects.items()]
+    return max(tops, default=0.0) + FINGER_BELOW_TCP + 0.02
+
+
+def min_jerk_clip(n: int, frac: float) -> np.ndarray:
+    """Min-jerk ramp 0 -> 1 over the first ``frac`` of ``n`` samples, then 1."""
+    m = max(2, round(n * frac))
+    out = np.ones(n)
+    out[: min(m, n)] = min_jerk(m)[: min(m, n)]
+    return out
+
+
+def push_geometry(
+    frames: DemoFrames, seg: Segment, objects: dict[str, np.ndarray], ref_yaw: float
+) -> dict[str, np.ndarray]:
+    """Key poses of a push: hover, start (behind), contact, goal, and the pushed pose.
+
+    The object is pushed by its demonstrated displacement ``d`` (and yaw change) from its
+    current pose; the closed fingers touch the face opposite ``d``.
+    """
+    name = need_object(seg, objects)
+    i0, i1 = segment_indices(frames, seg)
+    T0_demo, T1_demo = frames.object_pose(name, i0), frames.object_pose(name, i1)
+    d = T1_demo[:3, 3] - T0_demo[:3, 3]
+    d[2] = 0.0
+    dyaw = yaw_of(T1_demo[:3, :3]) - yaw_of(T0_demo[:3, :3])
+    T_now = objects[name]
+    T_new = pose(T_now[:3, 3] + d, yaw_of(T_now[:3, :3]) + dyaw)
+    size = frames.size[frames.object_index(name)]
+    u = d[:2] / max(float(np.linalg.norm(d[:2])), 1e-9)
+    p_c, yaw = push_goal(T_now, size, d, ref_yaw)
+    yaw = float(wrap_near(yaw, float(frames.natural_yaw(p_c))))  # one representative throughout
+    p_end, _ = push_goal(T_new, size, d, yaw)
+    contact = np.array([*(p_c[:2] - 0.005 * u), p_c[2], yaw])
+    start = contact - [0.025 * u[0], 0.025 * u[1], 0.0, 0.0]
+    hover = start.copy()
+    top = T_now[2, 3] + size[2] / 2
+    hover[2] = max(start[2] + HOVER, top + FINGER_BELOW_TCP + 0.02)
+    return {
+        "goal": np.array([*p_end, yaw]),
+        "contact": contact,
+        "start": start,
+        "hover": hover,
+        "T_new": T_new,
+        "u": u,
+        "d": d,
+        "T0_demo": T0_demo,
+    }
+
+
+def push_path(
+    frames: DemoFrames,
+    name: str,
+    geo: dict[str, np.ndarray],
+    span: tuple[int, int],
+    cur: np.ndarray,
+    mode: str,
+) -> np.ndarray:
+    """Hover -> descend -> approach -> push along the demonstrated object motion.
+
+    The pushing part follows the demonstrated progress of the object along the push direction
+    (skills: on a straight line; dmp: a DMP of the object's demonstrated path re-targeted to the
+    new contact and goal).
+    """
+    pieces = []
+    if np.linalg.norm(cur[:3] - geo["start"][:3]) > 0.002:  # not arrived straight behind it
+        if np.linalg.norm(cur[:3] - geo["hover"][:3]) > 0.002:
+            pieces.append(line(cur, geo["hover"]))
+        pieces.append(line(geo["hover"], geo["start"], min_s=0.5))
+    pieces.append(line(geo["start"], geo["contact"], min_s=0.4))
+    dist = float(np.linalg.norm(geo["d"]))
+    contact, goal = geo["contact"], geo["goal"]
+    if dist < 0.005:
+        pieces.append(line(contact, goal))
+    else:
+        idx = np.arange(span[0], span[1] + 1)
+        obj = np.array([frames.object_pose(name, int(i))[:3, 3] for i in idx])
+        prog = np.maximum.accumulate(np.clip((obj - obj[0]) @ geo["d"] / dist**2, 0.0, 1.0))
+        moving = np.flatnonzero((prog > 0.01) & (prog < 0.995))
+        a, b = (moving[0], moving[-1] + 1) if moving.size >= 2 else (0, len(idx) - 1)
+        t = frames.t[idx[a : b + 1]]
+        if mode == "dmp":
+            y = np.column_stack(
+                [obj[a : b + 1, :2], np.full(b - a + 1, contact[2]), np.full(b - a + 1, contact[3])]
+            )
+            pieces.append(dmp_rollout(t, y, contact, goal, dt=TICK))
+        else:
+            pr = resample(t, prog[a : b + 1, None], TICK)[:, 0]
+            pr = (pr - pr[0]) / max(pr[-1] - pr[0], 1e-9)
+            pieces.append(contact + pr[:, None] * (goal - contact))
+    return np.concatenate(pieces)
