@@ -18,6 +18,8 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import partial
+from itertools import pairwise
 
 import numpy as np
 
@@ -192,15 +194,31 @@ def plan_task(
         goals.append(goal[:3].copy())
         t, y = _demo_states(frames, i0, i1)
         rise = np.zeros((0, 4))
-        if seg.skill == "move" and not clear(cur, goal, frames, objects, skip=()):
-            up = cur.copy()  # rise (as little as needed) above what is near the line first
-            for h in np.arange(cur[2] + 0.01, safe_height(frames, objects) + 0.01, 0.01):
-                up[2] = h
-                if clear(up, goal, frames, objects, skip=()):
+        skip: tuple[str, ...] = ()
+        below, extra = FINGER_BELOW_TCP, MAX_OPENING / 2
+        if seg.skill == "move_with" and held is not None:  # the carried box hangs lower
+            hsize = frames.size[frames.object_index(held[0])]
+            skip = (held[0],)
+            below = max(below, float(held[1][2, 3]) + hsize[2] / 2)
+            extra = 0.5 * float(np.hypot(hsize[0], hsize[1])) + 0.016
+        free = partial(clear, frames=frames, objects=objects, skip=skip, below=below, extra=extra)
+
+        if seg.skill in ("move", "move_with") and not free(cur, goal):
+            # rise (as little as needed) above what is near the line; if no height clears the
+            # line to the goal, cross at the safe height and descend onto the goal vertically
+            top = safe_height(frames, {n: T for n, T in objects.items() if n not in skip}, below)
+            ways: list[np.ndarray] = []
+            for h in np.arange(cur[2] + 0.01, max(top, cur[2]) + 0.011, 0.01):
+                if free(np.array([*cur[:2], h, cur[3]]), goal):
+                    ways = [np.array([*cur[:2], h, cur[3]])]
                     break
-            rise = line(cur, up, min_s=0.4)
-            detour = detour + (up - cur)
-            cur = up
+            if not ways:
+                h = max(top, cur[2])
+                ways = [np.array([*cur[:2], h, cur[3]]), np.array([*goal[:2], h, goal[3]])]
+            pts = [cur, *ways]
+            rise = np.concatenate([line(a, b, min_s=0.4) for a, b in pairwise(pts)])
+            detour = detour + (ways[-1] - cur)
+            cur = ways[-1]
         if seg.skill == "push":
             path = push_path(frames, str(seg.object), geo, (i0, i1), cur, mode)
         elif mode == "dmp":
@@ -215,6 +233,8 @@ def plan_task(
         path = np.concatenate([rise, path])
         if seg.skill in ("pick_up", "place", "stack"):  # turn early, then keep the yaw
             path[:, 3] = cur[3] + min_jerk_clip(len(path), 0.3) * (goal[3] - cur[3])
+            # never below the grasp/release height (the human's hand may dip lower)
+            path[:, 2] = np.maximum(path[:, 2], goal[2])
         detour = np.zeros(4)
         part = _part(path, grip, k)
         if seg.skill == "move" and k + 1 < len(segs) and segs[k + 1].skill == "push":
@@ -269,10 +289,14 @@ def _place_goal(
     carried = seg.object or (held[0] if held else None)
     name = need_object(Segment(seg.skill, 0, 0, carried), objects)
     T_end = frames.object_pose(name, i1)
+    h = frames.size[frames.object_index(name), 2]
+    T_end[2, 3] = h / 2  # objects rest on the table (the tracked height is noisy) ...
     if seg.skill == "stack":
         sup = seg.params.get("support") or frames.support_of(name, i1)
         if sup in objects:
             T_end = objects[sup] @ np.linalg.inv(frames.object_pose(sup, i1)) @ T_end
+            # ... or on top of their support
+            T_end[2, 3] = objects[sup][2, 3] + frames.size[frames.object_index(sup), 2] / 2 + h / 2
     rel = held[1] if held and held[0] == name else np.linalg.inv(T_end) @ frames.tcp_pose(i1)
     T_goal = T_end @ rel
     T_goal[2, 3] += RELEASE_LIFT

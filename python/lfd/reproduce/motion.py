@@ -50,25 +50,34 @@ def clear(
     objects: dict[str, np.ndarray],
     *,
     skip: tuple[str, ...],
+    below: float = FINGER_BELOW_TCP,
+    extra: float = MAX_OPENING / 2,
 ) -> bool:
-    """True if the open fingers moving straight from ``a`` to ``b`` keep clear of every object."""
+    """True if the open fingers moving straight from ``a`` to ``b`` keep clear of every object.
+
+    ``below``: how far the lowest point (fingertips or a carried object) is below the TCP;
+    ``extra``: horizontal reach around the TCP (open fingers, or a carried object's half
+    diagonal plus the fingers).
+    """
     pts = a[None, :3] + np.linspace(0.0, 1.0, 40)[:, None] * (b[:3] - a[:3])[None]
     for name, T in objects.items():
         if name in skip:
             continue
         size = frames.size[frames.object_index(name)]
-        reach = 0.5 * float(np.hypot(size[0], size[1])) + MAX_OPENING / 2 + 0.01
+        reach = 0.5 * float(np.hypot(size[0], size[1])) + 0.01 + extra
         near = np.hypot(pts[:, 0] - T[0, 3], pts[:, 1] - T[1, 3]) < reach
-        low = pts[:, 2] - FINGER_BELOW_TCP < T[2, 3] + size[2] / 2 + 0.01
+        low = pts[:, 2] - below < T[2, 3] + size[2] / 2 + 0.01
         if np.any(near & low):
             return False
     return True
 
 
-def safe_height(frames: DemoFrames, objects: dict[str, np.ndarray]) -> float:
-    """TCP height at which the fingertips clear every object top (+2 cm)."""
+def safe_height(
+    frames: DemoFrames, objects: dict[str, np.ndarray], below: float = FINGER_BELOW_TCP
+) -> float:
+    """TCP height at which the lowest point clears every object top (+2 cm)."""
     tops = [T[2, 3] + frames.size[frames.object_index(n), 2] / 2 for n, T in objects.items()]
-    return max(tops, default=0.0) + FINGER_BELOW_TCP + 0.02
+    return max(tops, default=0.0) + below + 0.02
 
 
 def min_jerk_clip(n: int, frac: float) -> np.ndarray:
