@@ -11,7 +11,8 @@ from .goals import quat_to_matrix
 POS_TOL = 0.01
 """Success: an object ends within this distance of its expected pose (m)."""
 ROT_TOL_DEG = 10.0
-"""Success: and within this rotation (deg), modulo the box's symmetries."""
+"""Success: and within this rotation (deg), modulo the box's symmetries (a cuboid turned by
+180 deg about any of its axes occupies the same space)."""
 
 
 def path_length(points: np.ndarray) -> float:
@@ -23,14 +24,13 @@ def path_length(points: np.ndarray) -> float:
 
 
 def _symmetries(size: np.ndarray) -> list[np.ndarray]:
-    """Rotations about the box's vertical axis that map it onto itself."""
-    square = abs(size[0] - size[1]) < 0.003
-    angles = np.arange(4) * np.pi / 2 if square else np.array([0.0, np.pi])
-    out = []
-    for a in angles:
-        c, s = np.cos(a), np.sin(a)
-        out.append(np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]))
-    return out
+    """Rotations that map the box onto itself (180 deg about each axis; 90 deg about z if the
+    footprint is square)."""
+    flips = [np.diag(d) for d in ((1, 1, 1), (1, -1, -1), (-1, 1, -1), (-1, -1, 1))]
+    if abs(size[0] - size[1]) >= 0.003:
+        return flips
+    quarter = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    return flips + [quarter @ f for f in flips]
 
 
 @dataclass

@@ -48,6 +48,9 @@ DWELL_S = 0.5
 """Time the robot holds still while the gripper closes or opens (s)."""
 Z_MIN = FINGER_BELOW_TCP + 0.004
 """Lowest TCP height (m): the fingertips stay 4 mm above the table."""
+FUNNEL = 0.04
+"""Height above a grasp/release pose below which the approach is vertical (m); at least the
+object's half height plus the finger length, so open fingers never sweep over its top."""
 RELEASE_LIFT = 0.003
 """Place/stack goals are this much above the exact resting pose (m)."""
 
@@ -233,8 +236,13 @@ def plan_task(
         path = np.concatenate([rise, path])
         if seg.skill in ("pick_up", "place", "stack"):  # turn early, then keep the yaw
             path[:, 3] = cur[3] + min_jerk_clip(len(path), 0.3) * (goal[3] - cur[3])
-            # never below the grasp/release height (the human's hand may dip lower)
+            # never below the grasp/release height (the human's hand may dip lower), and a
+            # vertical final approach: within FUNNEL above the goal, x-y converge onto it
             path[:, 2] = np.maximum(path[:, 2], goal[2])
+            obj_h = frames.size[frames.object_index(name), 2]
+            funnel = max(FUNNEL, obj_h / 2 + FINGER_BELOW_TCP + 0.015)
+            w = np.clip((path[:, 2] - goal[2]) / funnel, 0.0, 1.0)[:, None]
+            path[:, :2] = goal[:2] + w * (path[:, :2] - goal[:2])
         detour = np.zeros(4)
         part = _part(path, grip, k)
         if seg.skill == "move" and k + 1 < len(segs) and segs[k + 1].skill == "push":
