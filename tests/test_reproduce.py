@@ -235,3 +235,36 @@ def test_simulated_experiment_dmp_displaced(sim_exp2: tuple) -> None:
     first = program.segments[0].object
     r = reproduce(traj, program, "dmp", displace={first: (0.0, -0.08)})
     assert r.success, r.to_json()
+
+
+def test_measures_and_box_symmetry() -> None:
+    from lfd.reproduce.goals import pose
+    from lfd.reproduce.measures import object_errors
+
+    assert path_length(np.array([[0, 0, 0], [0.3, 0.4, 0], [0.3, 0.4, 1.0]])) == pytest.approx(1.5)
+    expected = {"a": pose(np.array([0.1, 0.2, 0.025]), 0.0)}
+    size = np.array([[0.06, 0.04, 0.04]])
+    # turned 180 deg about z: same space; 90 deg: not (the footprint is not square)
+    half_turn = np.array([[0.0, 0.0, 1.0, 0.0]])
+    quarter = np.array([[0.0, 0.0, np.sin(np.pi / 4), np.cos(np.pi / 4)]])
+    p = np.array([[0.104, 0.2, 0.025]])
+    ok = object_errors(["a"], p, half_turn, expected, size)[0]
+    assert ok.success and ok.position_error == pytest.approx(0.004)
+    bad = object_errors(["a"], p, quarter, expected, size)[0]
+    assert not bad.success and bad.rotation_error_deg == pytest.approx(90.0)
+    far = object_errors(["a"], p + np.array([0.02, 0, 0]), half_turn, expected, size)[0]
+    assert not far.success
+
+
+def test_clearance_check_sees_objects() -> None:
+    from lfd.reproduce.goals import DemoFrames, pose
+    from lfd.reproduce.motion import clear
+
+    traj, _ = synthetic_demo("pick_place")
+    frames = DemoFrames(traj, np.array([-0.4, 0.0, 0.0]))
+    objects = {"box_1": pose(np.array([0.1, 0.1, 0.025]), 0.0)}
+    low_a, low_b = np.array([0.0, 0.1, 0.05, 0.0]), np.array([0.2, 0.1, 0.05, 0.0])
+    assert not clear(low_a, low_b, frames, objects, skip=())
+    assert clear(low_a, low_b, frames, objects, skip=("box_1",))
+    high = np.array([0, 0, 0.1, 0])
+    assert clear(low_a + high, low_b + high, frames, objects, skip=())
