@@ -7,12 +7,20 @@
   the closing direction of a pinch) projected on the table; pitch and roll of the hand are
   dropped because a parallel gripper grasps cuboids best from above.
 * ``skills``: ``move``/``move_with`` become straight min-jerk lines between skill end points;
-  ``pick_up``/``place``/``stack``/``push``/``locate`` follow the demonstrated motion, shifted
-  (min-jerk blend) so they end exactly at the object-relative goal; the gripper closes at the end
-  of ``pick_up`` and opens at the end of ``place``/``stack`` (0.5 s dwell), and is closed while
-  pushing.
+  ``pick_up``/``place``/``stack``/``locate`` follow the demonstrated motion, shifted (min-jerk
+  blend) so they end exactly at the object-relative goal; the gripper closes at the end of
+  ``pick_up`` and opens at the end of ``place``/``stack`` (0.5 s dwell). A push approaches from
+  behind the object (from above when the straight way is blocked) and then follows the
+  demonstrated progress of the object along its displacement, fingers closed.
 * ``dmp``: like ``skills`` but every segment, including the moves, is a DMP learned from its
   demonstrated motion and re-targeted to the new start and goal (Eq. 2 with displaced objects).
+
+Skill knowledge that adapts the human's motion to the robot (skills and dmp): grasps centred on
+the object with the closing axis across a face; resting heights from the box sizes; the gripper
+yaw turned during the preceding move and held constant while grasping/releasing; a vertical final
+approach ("funnel") onto grasp and release poses, never dipping below them; a vertical lift-off
+after a release; a move rises only as much as needed when its straight line would sweep the open
+fingers (or a carried box) over an object; the fingertips never go below the table.
 """
 
 from __future__ import annotations
