@@ -90,7 +90,7 @@ def log_skill_spans(
         rr.StateConfiguration(
             values=list(values),
             labels=[v[0] for v in values.values()],
-            colors=[v[1] for v in values.values()],
+            colors=np.array([v[1] for v in values.values()], dtype=np.uint32),
         ),
         static=True,
     )
@@ -138,7 +138,9 @@ def log_sections(
         "/segmentation/sections",
         rr.StateConfiguration(
             values=names,
-            colors=[_rgba(SECTION_COLORS[i % 2]) for i in range(len(starts))],
+            colors=np.array(
+                [_rgba(SECTION_COLORS[i % 2]) for i in range(len(starts))], dtype=np.uint32
+            ),
         ),
         static=True,
     )
