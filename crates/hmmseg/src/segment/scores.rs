@@ -4,6 +4,8 @@
 //! One forward pass per (start section, skill, feature) yields the log-likelihood of every prefix
 //! at once ([`PrefixScorer`]), so the whole table costs `K * S * F` passes, never one per prefix.
 
+use std::ops::Range;
+
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -126,24 +128,33 @@ impl ScoreTable {
 
 /// Compute the score table.
 ///
-/// * `models[s][f]` scores feature column `f` for skill `s`;
-/// * `observations` is `(n_samples, n_features)`, finite, already normalised;
+/// * `models[s][g]` scores the columns `groups[g]` of the observations for skill `s` (one HMM per
+///   Table I feature; a feature may span several columns, e.g. the TCP position in the object
+///   frame);
+/// * `observations` is `(n_samples, n_columns)`, finite, already normalised;
 /// * `boundaries` are the stage-1 section boundaries `[0, ..., n_samples]`;
 /// * `max_len` (samples) bounds the length of a segment (longer runs stay `-inf`); `0` = no bound.
 pub fn score_table<M: PrefixScorer>(
     models: &[Vec<M>],
+    groups: &[Range<usize>],
     observations: &DMatrix<f64>,
     boundaries: &[usize],
     max_len: usize,
 ) -> Result<ScoreTable> {
-    let (n, nf) = observations.shape();
+    let (n, nc) = observations.shape();
     if models.is_empty() {
         return Err(EngineError::EmptySequence("no skill models".into()));
     }
-    if let Some(s) = models.iter().position(|m| m.len() != nf) {
+    if let Some(s) = models.iter().position(|m| m.len() != groups.len()) {
         return Err(EngineError::ShapeMismatch(format!(
-            "skill {s} has {} feature models but the observations have {nf} features",
-            models[s].len()
+            "skill {s} has {} feature models but there are {} feature groups",
+            models[s].len(),
+            groups.len()
+        )));
+    }
+    if let Some(g) = groups.iter().find(|g| g.is_empty() || g.end > nc) {
+        return Err(EngineError::ShapeMismatch(format!(
+            "feature group {g:?} does not fit {nc} observation columns"
         )));
     }
     if boundaries.first() != Some(&0) || boundaries.last() != Some(&n) {
@@ -173,8 +184,8 @@ pub fn score_table<M: PrefixScorer>(
             }
             let len = boundaries[last] - start;
             let mut sums = vec![0.0; last - i];
-            for (f, model) in models[s].iter().enumerate() {
-                let x = observations.view((start, f), (len, 1)).into_owned();
+            for (g, model) in groups.iter().zip(&models[s]) {
+                let x = observations.view((start, g.start), (len, g.len())).into_owned();
                 let prefix = model.prefix_scores(&x)?;
                 if prefix.len() != len {
                     return Err(EngineError::ShapeMismatch(format!(
@@ -279,7 +290,8 @@ mod tests {
             vec![Quadratic(1.0), Quadratic(2.0)],
         ];
         let b = vec![0, 3, 7, 12];
-        let t = score_table(&models, &obs, &b, 0).unwrap();
+        let groups = [0..1, 1..2];
+        let t = score_table(&models, &groups, &obs, &b, 0).unwrap();
         for i in 0..3 {
             for j in i + 1..=3 {
                 for (s, m) in models.iter().enumerate() {
@@ -291,7 +303,7 @@ mod tests {
             }
         }
         // max_len bounds runs: 0..3 (3 samples) fits in 7, 0..7 fits, 0..12 does not
-        let t = score_table(&models, &obs, &b, 7).unwrap();
+        let t = score_table(&models, &groups, &obs, &b, 7).unwrap();
         assert!(t.total(0, 2, 0).is_finite());
         assert!(t.total(0, 3, 0).is_infinite());
         assert!(t.total(2, 3, 0).is_finite());
@@ -302,12 +314,12 @@ mod tests {
         let obs = DMatrix::from_element(5, 1, f64::NAN);
         let models = vec![vec![Quadratic(0.0)]];
         assert!(matches!(
-            score_table(&models, &obs, &[0, 5], 0),
+            score_table(&models, &[0..1], &obs, &[0, 5], 0),
             Err(EngineError::NonFinite(_))
         ));
         let obs = DMatrix::zeros(5, 2);
         assert!(matches!(
-            score_table(&models, &obs, &[0, 5], 0),
+            score_table(&models, &[0..1, 1..2], &obs, &[0, 5], 0),
             Err(EngineError::ShapeMismatch(_))
         ));
         assert!(ScoreTable::new(vec![0, 3, 3], 1).is_err());
