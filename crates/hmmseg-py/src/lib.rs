@@ -4,11 +4,13 @@
 //! in `crates/hmmseg`. Heavy work runs with the interpreter released (`py.detach`).
 
 mod errors;
+mod segment;
 
 use pyo3::prelude::*;
 
 #[pymodule]
 fn _hmmseg(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    segment::register(m)?;
     Ok(())
 }
