@@ -6,5 +6,6 @@
 //! skill cut (greedy loop of Eq. 3-5 and a segmental DP).
 
 pub mod error;
+pub mod hmm;
 
 pub use error::{EngineError, Result};
