@@ -8,6 +8,7 @@
 pub mod dtw;
 pub mod error;
 pub mod features;
+pub mod hmm;
 pub mod normalize;
 
 pub use error::{EngineError, Result};

@@ -12,7 +12,7 @@ pub mod dp;
 pub mod grammar;
 pub mod greedy;
 pub mod scores;
-// pub mod templates; (needs crate::hmm from the engine branch)
+pub mod templates;
 
 use serde::{Deserialize, Serialize};
 
