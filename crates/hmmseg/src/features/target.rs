@@ -15,9 +15,11 @@
 //! 3. **approaching**: the object whose next motion starts first after `t` (ties: smallest
 //!    clearance at that start) — the reach and grasp before a pick up or push;
 //! 4. **no later motion** (after the last motion, or a demonstration without object motion,
-//!    e.g. locate): the object with the smallest clearance at the next approach, i.e. at the
-//!    first minimum of the smallest clearance after `t` that is followed by a rise of more than
-//!    `approach_margin` (or by the end of the demonstration).
+//!    e.g. locate): the object with the smallest clearance at the next approach. Approaches are
+//!    the significant minima of the smallest clearance over time, found with a hysteresis of
+//!    `approach_margin` (noise below the margin makes no minimum): a sample takes the object
+//!    of the first minimum at or after it — so the departure from one object already targets
+//!    the next one approached — and samples after the last minimum keep its object.
 //!
 //! Rule 3 labels everything between two motions with the object that moves next, so an
 //! interaction without object motion (locate) between two motions is attributed to the next
@@ -161,8 +163,11 @@ pub(crate) fn label_checked(
         target[t] = releasing.or(next_start[t]);
     }
 
-    // Rule 4 on the remaining samples (all after the last motion).
-    let best: Vec<(f64, usize)> = (0..n)
+    // Rule 4 on the remaining samples (all after the last motion and release).
+    let Some(tail) = target.iter().position(Option::is_none) else {
+        return target.into_iter().map(|o| o.unwrap_or(0)).collect();
+    };
+    let best: Vec<(f64, usize)> = (tail..n)
         .map(|t| {
             (0..k)
                 .map(|j| (clearance(t, j), j))
@@ -170,26 +175,87 @@ pub(crate) fn label_checked(
                 .unwrap_or((0.0, 0))
         })
         .collect();
-    let mut t = 0;
-    while t < n {
-        if target[t].is_some() {
-            t += 1;
-            continue;
+    let clear: Vec<f64> = best.iter().map(|b| b.0).collect();
+    let minima = approach_minima(&clear, params.approach_margin);
+    let mut next = minima.iter().peekable();
+    let last = minima.last().copied().unwrap_or(0);
+    for (u, slot) in target[tail..].iter_mut().enumerate() {
+        while next.peek().is_some_and(|&&m| m < u) {
+            next.next();
         }
-        let (mut low, mut arg) = (best[t].0, t);
-        for (u, b) in best.iter().enumerate().skip(t + 1) {
-            if b.0 < low {
-                (low, arg) = (b.0, u);
-            } else if b.0 > low + params.approach_margin {
-                break;
-            }
-        }
-        // Every sample up to the minimum sees the same approach (its running minimum is the
-        // same from there on), so label them at once.
-        for slot in target.iter_mut().take(arg + 1).skip(t) {
-            slot.get_or_insert(best[arg].1);
-        }
-        t = arg + 1;
+        let m = next.peek().map_or(last, |&&m| m);
+        slot.get_or_insert(best[m].1);
     }
     target.into_iter().map(|o| o.unwrap_or(0)).collect()
+}
+
+/// Indices of the significant minima of `d`: a zigzag with hysteresis `margin` (a minimum is
+/// followed by a rise of more than `margin` or by the end, and preceded by a fall of more than
+/// `margin` or by the start). Never empty for non-empty `d`.
+pub(crate) fn approach_minima(d: &[f64], margin: f64) -> Vec<usize> {
+    #[derive(PartialEq)]
+    enum Dir {
+        Unknown,
+        Up,
+        Down,
+    }
+    let mut out = Vec::new();
+    let (mut lo, mut hi) = (0, 0);
+    let mut dir = Dir::Unknown;
+    for (u, &v) in d.iter().enumerate().skip(1) {
+        match dir {
+            Dir::Unknown => {
+                if v > d[lo] + margin {
+                    out.push(lo);
+                    (dir, hi) = (Dir::Up, u);
+                } else if v < d[hi] - margin {
+                    (dir, lo) = (Dir::Down, u);
+                } else {
+                    if v < d[lo] {
+                        lo = u;
+                    }
+                    if v > d[hi] {
+                        hi = u;
+                    }
+                }
+            }
+            Dir::Up => {
+                if v > d[hi] {
+                    hi = u;
+                } else if v < d[hi] - margin {
+                    (dir, lo) = (Dir::Down, u);
+                }
+            }
+            Dir::Down => {
+                if v < d[lo] {
+                    lo = u;
+                } else if v > d[lo] + margin {
+                    out.push(lo);
+                    (dir, hi) = (Dir::Up, u);
+                }
+            }
+        }
+    }
+    if dir != Dir::Up && !d.is_empty() {
+        out.push(lo);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::approach_minima;
+
+    #[test]
+    fn minima_with_hysteresis() {
+        // Noise smaller than the margin does not create minima.
+        let d = [
+            5.0, 4.0, 3.0, 3.2, 2.0, 4.0, 6.0, 5.9, 6.0, 3.0, 1.0, 1.5, 4.0,
+        ];
+        assert_eq!(approach_minima(&d, 1.0), vec![4, 10]);
+        assert_eq!(approach_minima(&[1.0, 2.0, 3.0], 0.5), vec![0]);
+        assert_eq!(approach_minima(&[3.0, 2.0, 1.0], 0.5), vec![2]);
+        assert_eq!(approach_minima(&[1.0, 1.1, 1.0], 0.5), vec![0]);
+        assert_eq!(approach_minima(&[1.0, 3.0, 1.0, 2.8], 0.5), vec![0, 2]);
+    }
 }
