@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
+from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
 from foxglove_schemas_protobuf.Event_pb2 import Event
 from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
@@ -26,6 +27,7 @@ from google.protobuf.message import DecodeError
 from ..demo import CameraInfo, Demonstration, HandTrack, ImageStream, ObjectTrack, SkillLabel
 from ..errors import LfdError, RecordingFormatError, RecoveredFileWarning, TimestampWarning
 from . import topics as T
+from .images import decode_compressed, decode_raw
 from .mcapfile import RawRecording, scan
 
 __all__ = ["load"]
@@ -168,37 +170,27 @@ class _Loader:
         )
 
     def images(self, topic: str) -> ImageStream | None:
-        if not self.raw.messages.get(topic):
+        compressed = T.compressed_topic(topic)
+        if self.raw.messages.get(topic):
+            t, msgs = self.decode(topic, RawImage)
+        elif self.raw.messages.get(compressed):
+            topic = compressed
+            t, msgs = self.decode(topic, CompressedImage)
+        else:
             return None
-        t, msgs = self.decode(topic, RawImage)
         frames = []
         for ti, m in zip(t, msgs, strict=True):
             try:
-                frames.append(_decode_image(m))
+                if isinstance(m, RawImage):
+                    frames.append(decode_raw(m))
+                else:
+                    frames.append(decode_compressed(m.data, m.format))
             except ValueError as err:
                 raise RecordingFormatError(f"{self.raw.path}: {topic} at {ti} ns: {err}") from err
         shapes = {f.shape for f in frames}
         if len(shapes) > 1:
             raise RecordingFormatError(f"{self.raw.path}: {topic} mixes image sizes {shapes}")
         return ImageStream(t_ns=t, frames=np.stack(frames))
-
-
-def _decode_image(m: RawImage) -> np.ndarray:
-    channels = {"rgb8": (3, "u1"), "bgr8": (3, "u1"), "mono8": (1, "u1"), "16UC1": (1, "u2")}
-    if m.encoding not in channels:
-        raise ValueError(f"unsupported image encoding {m.encoding!r}")
-    c, kind = channels[m.encoding]
-    dtype = np.dtype(kind).newbyteorder("<")  # foxglove.RawImage data is little-endian
-    row = m.width * c * dtype.itemsize
-    step = m.step or row
-    if step < row or len(m.data) < step * m.height:
-        raise ValueError(f"image data too short: {len(m.data)} bytes for {m.width}x{m.height}")
-    buf = np.frombuffer(m.data, dtype=np.uint8)[: step * m.height].reshape(m.height, step)
-    img = buf[:, :row].copy().view(dtype).reshape(m.height, m.width, c)
-    img = img.astype(dtype.newbyteorder("="))
-    if m.encoding == "bgr8":
-        img = img[..., ::-1]
-    return np.ascontiguousarray(img[..., 0] if c == 1 else img)
 
 
 def _objects(raw: RawRecording) -> list[tuple[str, int, Any]]:

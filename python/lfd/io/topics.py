@@ -13,7 +13,8 @@ topic                                 schema                        content
                                                                     ``world``; a sample is written
                                                                     only when the tag was visible
 ``/tf``                               foxglove.FrameTransforms      world -> object, world -> camera
-``/camera/color/image_raw``           foxglove.RawImage (rgb8)      colour frames
+``/camera/color/image_raw``           foxglove.RawImage (rgb8)      colour frames, or
+``/camera/color/image_raw/compressed``  foxglove.CompressedImage    PNG / JPEG (``color_format``)
 ``/camera/depth/image_raw``           foxglove.RawImage (16UC1)     depth in millimetres
 ``/camera/color/camera_info``         foxglove.CameraCalibration    pinhole intrinsics
 ``/lfd/ground_truth``                 foxglove.Event                one skill label per message,
@@ -85,6 +86,11 @@ def confidence_topic(side: str = "right") -> str:
 def object_topic(name: str) -> str:
     """Topic of an object's pose, ``/objects/<name>/pose``."""
     return f"/objects/{name}/pose"
+
+
+def compressed_topic(image_topic: str) -> str:
+    """Topic of the PNG/JPEG variant of an image topic, ``<topic>/compressed``."""
+    return f"{image_topic}/compressed"
 
 
 def object_name_from_topic(topic: str) -> str | None:

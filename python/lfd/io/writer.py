@@ -17,6 +17,7 @@ from typing import IO, Any
 import numpy as np
 import numpy.typing as npt
 from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
+from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
 from foxglove_schemas_protobuf.Event_pb2 import Event
 from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
 from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
@@ -43,6 +44,7 @@ from ..demo import (
 )
 from ..errors import DemonstrationError
 from . import topics as T
+from .images import COLOR_FORMATS, encode_compressed
 
 __all__ = ["McapRecorder", "ObjectSpec", "save"]
 
@@ -104,6 +106,10 @@ class McapRecorder:
         killed recorder loses. ``math.inf`` disables it.
     write_tf : bool
         Also publish world -> object transforms on ``/tf`` (for viewers).
+    color_format : str
+        ``"raw"`` (RawImage rgb8, ~0.5 MB per 640x480 frame after zstd), ``"png"`` or
+        ``"jpeg"`` (CompressedImage on ``/camera/color/image_raw/compressed``; needs OpenCV or
+        Pillow).
 
     Examples
     --------
@@ -122,6 +128,7 @@ class McapRecorder:
         chunk_size: int = 128 * 1024,
         max_chunk_duration_s: float = 1.0,
         write_tf: bool = True,
+        color_format: str = "raw",
     ) -> None:
         if side not in T.HAND_SIDES:
             raise DemonstrationError(f"hand side must be one of {T.HAND_SIDES}, got {side!r}")
@@ -132,6 +139,9 @@ class McapRecorder:
             self._declare_object(name, tag_id, size)
         self._metadata = dict(metadata or {})
         self._write_tf = write_tf
+        if color_format not in COLOR_FORMATS:
+            raise DemonstrationError(f"color_format must be one of {COLOR_FORMATS}")
+        self._color_format = color_format
         self._max_chunk_ns = (
             math.inf if math.isinf(max_chunk_duration_s) else int(max_chunk_duration_s * 1e9)
         )
@@ -371,7 +381,18 @@ class McapRecorder:
             raise DemonstrationError(
                 f"colour image must be (H, W, 3) uint8, got {img.shape} {img.dtype}"
             )
-        self._image(T.COLOR_TOPIC, _check_time(t_ns), img, "rgb8")
+        t = _check_time(t_ns)
+        if self._color_format == "raw":
+            self._image(T.COLOR_TOPIC, t, img, "rgb8")
+            return
+        msg = CompressedImage(
+            timestamp=_stamp(t),
+            frame_id=T.CAMERA_FRAME,
+            format=self._color_format,
+            data=encode_compressed(img, self._color_format),
+        )
+        topic = T.compressed_topic(T.COLOR_TOPIC)
+        self._write(self._channel(topic, CompressedImage), t, msg.SerializeToString())
 
     def add_depth(self, t_ns: int, depth_mm: npt.ArrayLike) -> None:
         """Write a depth frame, array shape (H, W), uint16 millimetres (``16UC1``, 0 = no data)."""
