@@ -2,6 +2,7 @@
 //! the TCP rise decision, score tables, the greedy loop, the segmental DP and skill templates.
 
 use hmmseg::segment::greedy::greedy;
+use hmmseg::segment::templates::{FeatureGroup, TemplateParams, TemplateSet};
 use hmmseg::segment::{dp::dp, Grammar, GrammarMode, GrammarSpec, RiseParams, ScoreTable, Segmentation};
 use hmmseg::stage1::{section_boundaries, Criterion, Stage1Params};
 use hmmseg::EngineError;
@@ -185,11 +186,121 @@ fn segment_dp<'py>(
     Ok(result(out))
 }
 
+/// Trained skill templates: one HMM per skill x feature plus the normalisation ranges.
+#[pyclass(name = "TemplateSet", module = "lfd._hmmseg", frozen)]
+struct PyTemplateSet {
+    inner: TemplateSet,
+}
+
+#[pymethods]
+impl PyTemplateSet {
+    /// Train from labelled examples `(skill index, raw observations (n, C))`.
+    #[staticmethod]
+    #[pyo3(signature = (skills, features, examples, params_json=None))]
+    fn train(
+        py: Python<'_>,
+        skills: Vec<String>,
+        features: Vec<(String, usize, usize)>,
+        examples: Vec<(usize, PyReadonlyArray2<'_, f64>)>,
+        params_json: Option<&str>,
+    ) -> PyResult<Self> {
+        let params = match params_json {
+            Some(t) => serde_json::from_str::<TemplateParams>(t)
+                .map_err(|e| EngineError::Format(format!("template parameters: {e}")))
+                .py_err(py)?,
+            None => TemplateParams::default(),
+        };
+        let features: Vec<FeatureGroup> = features
+            .into_iter()
+            .map(|(name, start, end)| FeatureGroup { name, start, end })
+            .collect();
+        let examples: Vec<(usize, DMatrix<f64>)> =
+            examples.iter().map(|(s, x)| (*s, to_matrix(x))).collect();
+        let inner = py
+            .detach(|| TemplateSet::train(&skills, &features, &examples, &params))
+            .py_err(py)?;
+        Ok(Self { inner })
+    }
+
+    /// Read templates from JSON text (checks version, skills and shapes).
+    #[staticmethod]
+    fn from_json(py: Python<'_>, text: &str) -> PyResult<Self> {
+        Ok(Self { inner: TemplateSet::from_json(text).py_err(py)? })
+    }
+
+    /// The templates as JSON text.
+    fn to_json(&self, py: Python<'_>) -> PyResult<String> {
+        self.inner.to_json().py_err(py)
+    }
+
+    /// Skill names, in model order.
+    #[getter]
+    fn skills(&self) -> Vec<String> {
+        self.inner.skills.clone()
+    }
+
+    /// Features as `(name, first column, end column)`.
+    #[getter]
+    fn features(&self) -> Vec<(String, usize, usize)> {
+        self.inner.features.iter().map(|f| (f.name.clone(), f.start, f.end)).collect()
+    }
+
+    /// `(lo, hi)` normalisation range of every observation column.
+    #[getter]
+    fn ranges(&self) -> Vec<(f64, f64)> {
+        self.inner.ranges.iter().map(|r| (r[0], r[1])).collect()
+    }
+
+    /// Training segments per skill.
+    #[getter]
+    fn n_examples(&self) -> Vec<usize> {
+        self.inner.n_examples.clone()
+    }
+
+    /// Training parameters as JSON.
+    #[getter]
+    fn params_json(&self) -> String {
+        serde_json::to_string(&self.inner.params).unwrap_or_default()
+    }
+
+    /// Map raw observations `(n, C)` to `[0, 1]` with the template ranges.
+    fn normalise<'py>(
+        &self,
+        py: Python<'py>,
+        x: PyReadonlyArray2<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let y = self.inner.normalise(&to_matrix(&x)).py_err(py)?;
+        Ok(Array2::from_shape_fn(y.shape(), |(r, c)| y[(r, c)]).into_pyarray(py))
+    }
+
+    /// Summed log-likelihoods `(K, K + 1, S)` of every run of sections of raw observations.
+    #[pyo3(signature = (raw, boundaries, max_len=0))]
+    fn score_table<'py>(
+        &self,
+        py: Python<'py>,
+        raw: PyReadonlyArray2<'py, f64>,
+        boundaries: PyReadonlyArray1<'py, i64>,
+        max_len: usize,
+    ) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        let b = to_indices(py, &boundaries, "boundaries")?;
+        let x = to_matrix(&raw);
+        let t = py.detach(|| self.inner.score_table(&x, &b, max_len)).py_err(py)?;
+        Ok(table_to_numpy(py, &t))
+    }
+}
+
+/// The default template training parameters as JSON.
+#[pyfunction]
+fn default_template_params() -> String {
+    serde_json::to_string(&TemplateParams::default()).unwrap_or_default()
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyTemplateSet>()?;
+    m.add_function(wrap_pyfunction!(default_template_params, m)?)?;
     m.add_function(wrap_pyfunction!(stage1_boundaries, m)?)?;
     m.add_function(wrap_pyfunction!(rising_table, m)?)?;
     m.add_function(wrap_pyfunction!(segment_greedy, m)?)?;
     m.add_function(wrap_pyfunction!(segment_dp, m)?)?;
-    let _ = table_to_numpy;
     Ok(())
 }
