@@ -16,6 +16,9 @@ from ..errors import LfdError
 COMMANDS: tuple[str, ...] = (
     # one module name per subcommand, in help order
     "info",
+    "segment",
+    "templates",
+    "eval",
 )
 
 
