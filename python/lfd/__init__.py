@@ -8,11 +8,28 @@ reproduce the task on a simulated arm in MuJoCo.
 from __future__ import annotations
 
 from importlib.metadata import PackageNotFoundError, version
+from typing import TYPE_CHECKING, Any
 
 from .demo import CameraInfo, Demonstration, HandTrack, ImageStream, ObjectTrack, SkillLabel
 from .errors import EngineError, LfdError
 from .skills import SKILLS
 from .trajectory import Trajectory
+
+if TYPE_CHECKING:
+    from .io import McapRecorder, load, save
+    from .preprocess import preprocess
+
+# Imported on first use so that ``import lfd`` (and ``lfd --help``) stays fast.
+_LAZY = {"McapRecorder": "io", "load": "io", "save": "io", "preprocess": "preprocess"}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 try:
     __version__ = version("lfd")
@@ -27,8 +44,12 @@ __all__ = [
     "HandTrack",
     "ImageStream",
     "LfdError",
+    "McapRecorder",
     "ObjectTrack",
     "SkillLabel",
     "Trajectory",
     "__version__",
+    "load",
+    "preprocess",
+    "save",
 ]

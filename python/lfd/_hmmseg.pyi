@@ -1,3 +1,125 @@
 """Type stubs for the compiled engine ``lfd._hmmseg`` (checked by ``mypy.stubtest``)."""
 
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["__version__"]  # each section below adds its names
+
 __version__: str
+
+# --- DTW and normalisation (crates/hmmseg-py/src/dtw.rs) --------------------------------------
+__all__ += ["align_to_reference", "dtw", "dtw_distance", "minmax", "minmax_with"]
+
+def dtw(
+    a: NDArray[np.float64], b: NDArray[np.float64], band: int | None = None
+) -> tuple[float, NDArray[np.int64]]: ...
+def dtw_distance(
+    a: NDArray[np.float64], b: NDArray[np.float64], band: int | None = None
+) -> float: ...
+def align_to_reference(
+    reference: NDArray[np.float64], seqs: list[NDArray[np.float64]], band: int | None = None
+) -> list[NDArray[np.float64]]: ...
+def minmax(x: NDArray[np.float64]) -> NDArray[np.float64]: ...
+def minmax_with(
+    x: NDArray[np.float64], lo: NDArray[np.float64], hi: NDArray[np.float64]
+) -> NDArray[np.float64]: ...
+
+# --- Table I features (crates/hmmseg-py/src/features.rs) ---------------------------------------
+__all__ += [
+    "check_feature_params",
+    "compute_features",
+    "default_feature_params",
+    "feature_names",
+    "label_targets",
+]
+
+def compute_features(
+    tcp: NDArray[np.float64],
+    opening: NDArray[np.float64],
+    object_position: NDArray[np.float64],
+    object_quaternion: NDArray[np.float64],
+    object_size: NDArray[np.float64],
+    dt: float,
+    target: NDArray[np.int64] | None = None,
+    params_json: str | None = None,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]: ...
+def label_targets(
+    tcp: NDArray[np.float64],
+    object_position: NDArray[np.float64],
+    object_size: NDArray[np.float64],
+    dt: float,
+    params_json: str | None = None,
+) -> NDArray[np.int64]: ...
+def feature_names() -> list[str]: ...
+def default_feature_params() -> str: ...
+def check_feature_params(params_json: str) -> str: ...
+
+# --- segmentation: stage 1, stage 2, templates (crates/hmmseg-py/src/segment.rs) -------------
+__all__ += [
+    "TemplateSet",
+    "default_template_params",
+    "rising_table",
+    "segment_dp",
+    "segment_greedy",
+    "stage1_boundaries",
+]
+
+_SegmentTuple = tuple[int, int, int, int, int, float, float]
+
+def stage1_boundaries(
+    values: NDArray[np.float64],
+    thresholds: NDArray[np.float64],
+    columns: list[int],
+    hysteresis: list[float],
+    min_section: int,
+) -> NDArray[np.int64]: ...
+def rising_table(
+    z: NDArray[np.float64],
+    boundaries: NDArray[np.int64],
+    min_rise: float = 0.03,
+    dominance: float = 1.0,
+) -> NDArray[np.bool_]: ...
+def segment_greedy(
+    scores: NDArray[np.float64],
+    boundaries: NDArray[np.int64],
+    skills: list[str],
+    grammar_json: str,
+    rising: NDArray[np.bool_] | None = None,
+    mode: str = "warn",
+) -> tuple[list[_SegmentTuple], list[str]]: ...
+def segment_dp(
+    scores: NDArray[np.float64],
+    boundaries: NDArray[np.int64],
+    skills: list[str],
+    grammar_json: str,
+    rising: NDArray[np.bool_] | None = None,
+    mode: str = "warn",
+    penalty: float = 0.0,
+) -> tuple[list[_SegmentTuple], list[str]]: ...
+def default_template_params() -> str: ...
+
+class TemplateSet:
+    @staticmethod
+    def train(
+        skills: list[str],
+        features: list[tuple[str, int, int]],
+        examples: list[tuple[int, NDArray[np.float64]]],
+        params_json: str | None = None,
+    ) -> TemplateSet: ...
+    @staticmethod
+    def from_json(text: str) -> TemplateSet: ...
+    def to_json(self) -> str: ...
+    @property
+    def skills(self) -> list[str]: ...
+    @property
+    def features(self) -> list[tuple[str, int, int]]: ...
+    @property
+    def ranges(self) -> list[tuple[float, float]]: ...
+    @property
+    def n_examples(self) -> list[int]: ...
+    @property
+    def params_json(self) -> str: ...
+    def normalise(self, x: NDArray[np.float64]) -> NDArray[np.float64]: ...
+    def score_table(
+        self, raw: NDArray[np.float64], boundaries: NDArray[np.int64], max_len: int = 0
+    ) -> NDArray[np.float64]: ...

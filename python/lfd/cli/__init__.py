@@ -15,6 +15,10 @@ from ..errors import LfdError
 
 COMMANDS: tuple[str, ...] = (
     # one module name per subcommand, in help order
+    "info",
+    "segment",
+    "templates",
+    "eval",
 )
 
 
