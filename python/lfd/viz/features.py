@@ -19,10 +19,14 @@ THRESHOLD_COLOR = (235, 90, 70)
 class FeaturesLike(Protocol):
     """What :func:`log_features` reads from a features result (``lfd.features.Features``)."""
 
-    names: Sequence[str]
-    values: Any
-    thresholds: Any
-    t_ns: Any
+    @property
+    def names(self) -> Sequence[str]: ...
+    @property
+    def values(self) -> Any: ...
+    @property
+    def thresholds(self) -> Any: ...
+    @property
+    def t_ns(self) -> Any: ...
 
 
 def _changes(labels: np.ndarray) -> np.ndarray:

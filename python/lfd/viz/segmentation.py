@@ -30,9 +30,12 @@ SECTION_COLORS = ((110, 110, 120), (160, 160, 175))
 class SegmentLike(Protocol):
     """A skill span (``lfd.SkillLabel`` or a segmentation result's segment)."""
 
-    skill: str
-    start_ns: int
-    end_ns: int
+    @property
+    def skill(self) -> str: ...
+    @property
+    def start_ns(self) -> int: ...
+    @property
+    def end_ns(self) -> int: ...
 
 
 def _rgba(color: tuple[int, int, int]) -> int:
