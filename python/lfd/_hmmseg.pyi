@@ -76,8 +76,8 @@ def stage1_boundaries(
 def rising_table(
     z: NDArray[np.float64],
     boundaries: NDArray[np.int64],
-    min_rise: float = 0.03,
-    dominance: float = 1.0,
+    min_rise: float = 0.02,
+    dominance: float = 0.0,
 ) -> NDArray[np.bool_]: ...
 def segment_greedy(
     scores: NDArray[np.float64],

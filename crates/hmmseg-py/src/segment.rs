@@ -124,7 +124,7 @@ fn stage1_boundaries<'py>(
 
 /// Is the TCP rising over each run of sections? `(K, K + 1)` bool.
 #[pyfunction]
-#[pyo3(signature = (z, boundaries, min_rise=0.03, dominance=1.0))]
+#[pyo3(signature = (z, boundaries, min_rise=0.02, dominance=0.0))]
 fn rising_table<'py>(
     py: Python<'py>,
     z: PyReadonlyArray1<'py, f64>,

@@ -16,6 +16,7 @@ from ..errors import LfdError
 COMMANDS: tuple[str, ...] = (
     # one module name per subcommand, in help order
     "info",
+    "simulate",
     "segment",
     "templates",
     "eval",

@@ -19,16 +19,10 @@ import numpy.typing as npt
 from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
 from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
 from foxglove_schemas_protobuf.Event_pb2 import Event
-from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
 from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
-from foxglove_schemas_protobuf.KeyValuePair_pb2 import KeyValuePair
-from foxglove_schemas_protobuf.Pose_pb2 import Pose
 from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
 from foxglove_schemas_protobuf.PosesInFrame_pb2 import PosesInFrame
-from foxglove_schemas_protobuf.Quaternion_pb2 import Quaternion
 from foxglove_schemas_protobuf.RawImage_pb2 import RawImage
-from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
-from google.protobuf.timestamp_pb2 import Timestamp
 from mcap.writer import CompressionType
 from mcap.writer import Writer as _McapWriter
 from mcap_protobuf.schema import build_file_descriptor_set
@@ -43,6 +37,7 @@ from ..demo import (
     SkillLabel,
 )
 from ..errors import DemonstrationError
+from . import messages as M
 from . import topics as T
 from .images import COLOR_FORMATS, encode_compressed
 
@@ -52,10 +47,6 @@ ObjectSpec = tuple[str, int, npt.ArrayLike]
 """``(name, tag_id, size)`` of one AR-tagged box; ``size`` is 3 lengths in metres."""
 
 
-def _stamp(t_ns: int) -> Timestamp:
-    return Timestamp(seconds=t_ns // 1_000_000_000, nanos=t_ns % 1_000_000_000)
-
-
 def _check_time(t_ns: Any) -> int:
     if isinstance(t_ns, (bool, np.bool_)) or not isinstance(t_ns, (int, np.integer)):
         raise DemonstrationError(f"timestamps must be integer nanoseconds, got {t_ns!r}")
@@ -63,26 +54,6 @@ def _check_time(t_ns: Any) -> int:
     if t < 0:
         raise DemonstrationError(f"timestamps must be >= 0 ns, got {t}")
     return t
-
-
-def _json_default(obj: Any) -> Any:
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, np.generic):
-        return obj.item()
-    raise TypeError(f"{type(obj).__name__} is not JSON serialisable")
-
-
-def _dumps(obj: Any) -> str:
-    return json.dumps(obj, default=_json_default, allow_nan=True)
-
-
-def _vector(p: np.ndarray) -> Vector3:
-    return Vector3(x=float(p[0]), y=float(p[1]), z=float(p[2]))
-
-
-def _quat(q: np.ndarray) -> Quaternion:
-    return Quaternion(x=float(q[0]), y=float(q[1]), z=float(q[2]), w=float(q[3]))
 
 
 class McapRecorder:
@@ -178,11 +149,11 @@ class McapRecorder:
         record = {
             "format": T.FORMAT_NAME,
             "version": str(T.FORMAT_VERSION),
-            "objects": _dumps(objects),
+            "objects": M.dumps(objects),
             "hand_side": self.side,
             "keypoint_layout": KEYPOINT_LAYOUT,
-            "units": _dumps(T.UNITS),
-            "metadata": _dumps(self._metadata),
+            "units": M.dumps(T.UNITS),
+            "metadata": M.dumps(self._metadata),
         }
         for key in ("task", "seed"):
             if key in self._metadata:
@@ -270,12 +241,7 @@ class McapRecorder:
             conf = np.asarray(confidence, dtype=np.float64)
             if conf.shape != (21,):
                 raise DemonstrationError(f"hand confidence must have shape (21,), got {conf.shape}")
-        identity = Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)
-        msg = PosesInFrame(
-            timestamp=_stamp(t),
-            frame_id=T.WORLD_FRAME,
-            poses=[Pose(position=_vector(p), orientation=identity) for p in kp],
-        )
+        msg = M.hand_poses(t, kp)
         channel = self._channel(
             T.hand_topic(self.side),
             PosesInFrame,
@@ -294,7 +260,7 @@ class McapRecorder:
             json_schema=(T.CONFIDENCE_SCHEMA, T.CONFIDENCE_JSON_SCHEMA),
             metadata={"layout": KEYPOINT_LAYOUT},
         )
-        self._write(channel, t, _dumps({"confidence": conf.tolist()}).encode())
+        self._write(channel, t, M.dumps({"confidence": conf.tolist()}).encode())
 
     def add_object_pose(
         self,
@@ -334,44 +300,22 @@ class McapRecorder:
             )
         q = q / norm
         tag_id, size = self._objects[name]
-        msg = PoseInFrame(
-            timestamp=_stamp(t),
-            frame_id=T.WORLD_FRAME,
-            pose=Pose(position=_vector(p), orientation=_quat(q)),
-        )
+        msg = M.object_pose(t, p, q)
         channel = self._channel(
             T.object_topic(name),
             PoseInFrame,
-            metadata={"name": name, "tag_id": str(tag_id), "size": _dumps(size.tolist())},
+            metadata={"name": name, "tag_id": str(tag_id), "size": M.dumps(size.tolist())},
         )
         self._write(channel, t, msg.SerializeToString())
         if self._write_tf:
             self._tf(t, name, p, q)
 
     def _tf(self, t: int, child: str, p: np.ndarray, q: np.ndarray) -> None:
-        tf = FrameTransforms(
-            transforms=[
-                FrameTransform(
-                    timestamp=_stamp(t),
-                    parent_frame_id=T.WORLD_FRAME,
-                    child_frame_id=child,
-                    translation=_vector(p),
-                    rotation=_quat(q),
-                )
-            ]
-        )
-        self._write(self._channel(T.TF_TOPIC, FrameTransforms), t, tf.SerializeToString())
+        msg = M.transform(t, child, p, q)
+        self._write(self._channel(T.TF_TOPIC, FrameTransforms), t, msg.SerializeToString())
 
     def _image(self, topic: str, t: int, img: np.ndarray, encoding: str) -> None:
-        msg = RawImage(
-            timestamp=_stamp(t),
-            frame_id=T.CAMERA_FRAME,
-            width=int(img.shape[1]),
-            height=int(img.shape[0]),
-            encoding=encoding,
-            step=int(img.shape[1] * img.itemsize * (img.shape[2] if img.ndim == 3 else 1)),
-            data=np.ascontiguousarray(img).tobytes(),
-        )
+        msg = M.raw_image(t, img, encoding)
         self._write(self._channel(topic, RawImage), t, msg.SerializeToString())
 
     def add_color(self, t_ns: int, rgb: npt.ArrayLike) -> None:
@@ -385,12 +329,8 @@ class McapRecorder:
         if self._color_format == "raw":
             self._image(T.COLOR_TOPIC, t, img, "rgb8")
             return
-        msg = CompressedImage(
-            timestamp=_stamp(t),
-            frame_id=T.CAMERA_FRAME,
-            format=self._color_format,
-            data=encode_compressed(img, self._color_format),
-        )
+        data = encode_compressed(img, self._color_format)
+        msg = M.compressed_image(t, data, self._color_format)
         topic = T.compressed_topic(T.COLOR_TOPIC)
         self._write(self._channel(topic, CompressedImage), t, msg.SerializeToString())
 
@@ -406,54 +346,28 @@ class McapRecorder:
     def add_camera_info(self, camera: CameraInfo, t_ns: int = 0) -> None:
         """Write the camera calibration (intrinsics + world -> camera pose) at time ``t_ns``."""
         t = _check_time(t_ns)
-        K = camera.K
-        P = np.hstack([K, np.zeros((3, 1))])
-        msg = CameraCalibration(
-            timestamp=_stamp(t),
-            frame_id=camera.frame_id,
-            width=int(camera.width),
-            height=int(camera.height),
-            distortion_model="plumb_bob",
-            D=[0.0] * 5,
-            K=K.ravel().tolist(),
-            R=np.eye(3).ravel().tolist(),
-            P=P.ravel().tolist(),
-        )
+        msg = M.calibration(t, camera)
         self._write(
             self._channel(T.CAMERA_INFO_TOPIC, CameraCalibration), t, msg.SerializeToString()
         )
         from scipy.spatial.transform import Rotation
 
-        M = camera.world_T_camera
-        tf = FrameTransform(
-            timestamp=_stamp(t),
-            parent_frame_id=T.WORLD_FRAME,
-            child_frame_id=camera.frame_id,
-            translation=_vector(M[:3, 3]),
-            rotation=_quat(Rotation.from_matrix(M[:3, :3]).as_quat()),
-        )
-        tfs = FrameTransforms(transforms=[tf])
-        self._write(self._channel(T.TF_TOPIC, FrameTransforms), t, tfs.SerializeToString())
+        pose = camera.world_T_camera
+        self._tf(t, camera.frame_id, pose[:3, 3], Rotation.from_matrix(pose[:3, :3]).as_quat())
         record = {
             "width": int(camera.width),
             "height": int(camera.height),
-            "K": K.tolist(),
-            "world_T_camera": M.tolist(),
+            "K": camera.K.tolist(),
+            "world_T_camera": pose.tolist(),
             "frame_id": camera.frame_id,
         }
-        self._writer.add_metadata(T.CALIBRATION_METADATA, {"camera": _dumps(record)})
+        self._writer.add_metadata(T.CALIBRATION_METADATA, {"camera": M.dumps(record)})
         self._sync()
 
     def add_label(self, label: SkillLabel) -> None:
         """Write a ground-truth skill label (``log_time`` = its start)."""
-        meta = [KeyValuePair(key="skill", value=label.skill)]
-        if label.object is not None:
-            meta.append(KeyValuePair(key="object", value=label.object))
-        msg = Event(
-            start_time=_stamp(_check_time(label.start_ns)),
-            end_time=_stamp(_check_time(label.end_ns)),
-            metadata=meta,
-        )
+        _check_time(label.start_ns)
+        msg = M.event(label)
         channel = self._channel(T.GROUND_TRUTH_TOPIC, Event)
         self._write(channel, label.start_ns, msg.SerializeToString())
 

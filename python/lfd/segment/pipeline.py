@@ -38,9 +38,9 @@ class SegmentParams:
         Stage-1 hysteresis and minimum section length.
     min_rise : float
         A run of sections is "rising" (Fig. 5: only Move / Move with) if the TCP climbs at least
-        this much (metres) in total...
+        this much (metres) in one go (largest rise inside the run)...
     dominance : float
-        ...and the climb is at least ``dominance`` times the descent.
+        ...and its summed climb is at least ``dominance`` times its summed descent (0: off).
     max_segment_s : float
         Longest skill segment considered (seconds); bounds the forward passes.
     penalty : float
@@ -50,8 +50,8 @@ class SegmentParams:
     """
 
     stage1: Stage1Params = field(default_factory=Stage1Params)
-    min_rise: float = 0.03
-    dominance: float = 1.0
+    min_rise: float = 0.02
+    dominance: float = 0.0
     max_segment_s: float = 20.0
     penalty: float = 10.0
     min_duration_s: float = 0.5
@@ -114,7 +114,8 @@ def fill_gaps(traj: Trajectory) -> tuple[Trajectory, list[str]]:
         object_position=np.stack(pos),
         object_quaternion=np.stack(quat),
         object_size=traj.object_size[keep],
-        object_valid=traj.object_valid[keep],
+        hand_valid=np.ones(n, dtype=bool),
+        object_valid=np.ones((len(keep), n), dtype=bool),
     )
     return filled, warnings
 

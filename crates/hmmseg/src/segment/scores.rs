@@ -217,23 +217,23 @@ pub fn score_table<M: PrefixScorer>(
 /// Parameters of the TCP rise/fall decision (paper Fig. 5).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct RiseParams {
-    /// A run is "rising" if its TCP height climbs at least this much (metres) in total...
+    /// A run is "rising" if the TCP height climbs at least this much (metres) in one go: the
+    /// largest rise `max z[t] - z[s]` over `s <= t` inside the run (robust to tremor, which
+    /// would add up in a sum of positive steps)...
     pub min_rise: f64,
-    /// ...and the summed climb is at least `dominance` times the summed descent.
+    /// ...and its summed climb is at least `dominance` times its summed descent (0 disables).
     pub dominance: f64,
 }
 
 impl Default for RiseParams {
     fn default() -> Self {
-        Self {
-            min_rise: 0.03,
-            dominance: 1.0,
-        }
+        Self { min_rise: 0.02, dominance: 0.0 }
     }
 }
 
 /// Is the TCP rising over each section run? Returns a row-major `(K, K + 1)` table, entry
-/// `(i, j)` for sections `i..j`, from the TCP height `z` (metres, one value per sample).
+/// `(i, j)` for sections `i..j`, from the TCP height `z` (metres, one value per sample; NaN
+/// samples are skipped). Cost `O(K n)`.
 pub fn rising_table(z: &[f64], boundaries: &[usize], params: RiseParams) -> Result<Vec<bool>> {
     let n = z.len();
     if boundaries.len() < 2 || boundaries.first() != Some(&0) || boundaries.last() != Some(&n) {
@@ -241,23 +241,34 @@ pub fn rising_table(z: &[f64], boundaries: &[usize], params: RiseParams) -> Resu
             "boundaries must be [0, ..., {n}] with at least one section"
         )));
     }
-    // cumulative climb and descent, NaN steps count as zero
-    let mut up = vec![0.0; n];
-    let mut down = vec![0.0; n];
-    for t in 1..n {
-        let d = z[t] - z[t - 1];
-        let d = if d.is_finite() { d } else { 0.0 };
-        up[t] = up[t - 1] + d.max(0.0);
-        down[t] = down[t - 1] + (-d).max(0.0);
+    if boundaries.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(EngineError::InvalidParameter(
+            "section boundaries must be strictly increasing".into(),
+        ));
     }
     let k = boundaries.len() - 1;
     let mut out = vec![false; k * (k + 1)];
     for i in 0..k {
-        for j in i + 1..=k {
-            let (a, b) = (boundaries[i], boundaries[j] - 1);
-            let climb = up[b] - up[a];
-            let descent = down[b] - down[a];
-            out[i * (k + 1) + j] = climb >= params.min_rise && climb >= params.dominance * descent;
+        let (mut low, mut drawup, mut up, mut down) = (f64::INFINITY, 0.0_f64, 0.0, 0.0);
+        let mut prev = f64::NAN;
+        let mut j = i + 1;
+        for (t, &v) in z.iter().enumerate().skip(boundaries[i]) {
+            if v.is_finite() {
+                low = low.min(v);
+                drawup = drawup.max(v - low);
+                if prev.is_finite() {
+                    up += (v - prev).max(0.0);
+                    down += (prev - v).max(0.0);
+                }
+                prev = v;
+            }
+            if t + 1 == boundaries[j] {
+                out[i * (k + 1) + j] = drawup >= params.min_rise && up >= params.dominance * down;
+                j += 1;
+                if j > k {
+                    break;
+                }
+            }
         }
     }
     Ok(out)
@@ -336,11 +347,19 @@ mod tests {
             })
             .collect();
         let b = [0, 10, 20, 30];
-        let r = rising_table(&z, &b, RiseParams::default()).unwrap();
+        let p = RiseParams { min_rise: 0.03, dominance: 1.0 };
+        let r = rising_table(&z, &b, p).unwrap();
         let at = |i: usize, j: usize| r[i * 4 + j];
         assert!(at(0, 1) && at(0, 2));
         assert!(!at(1, 2) && !at(2, 3));
         // the whole demo climbs 0.09 and falls 0.11: not dominated by the rise
         assert!(!at(0, 3));
+        // without the dominance test any run containing the climb is rising
+        let r = rising_table(&z, &b, RiseParams { min_rise: 0.03, dominance: 0.0 }).unwrap();
+        assert!(r[3] && !r[4 + 2]);
+        // tremor adds up in a sum of steps but not in the largest single climb
+        let tremor: Vec<f64> = (0..200).map(|t| 0.004 * f64::from(t % 2)).collect();
+        let r = rising_table(&tremor, &[0, 200], RiseParams::default()).unwrap();
+        assert!(!r[1]);
     }
 }
