@@ -67,6 +67,42 @@ def greedy_trace(
     return scores, ends
 
 
+def log_recorded_demo(
+    demo: Demonstration, *, features: bool = True, recording: Any = None, **kwargs: Any
+) -> Trajectory | None:
+    """Log a demonstration, its preprocessed trajectory (when it can be made) and its labels.
+
+    With ``features`` also the Table I features of the (gap-filled) trajectory. Extra keyword
+    arguments go to :func:`lfd.viz.log_demonstration`. Returns the trajectory.
+    """
+    from ..errors import LfdError
+    from ..preprocess import preprocess
+    from .demo import log_demonstration
+
+    traj: Trajectory | None = None
+    problem = None
+    try:
+        traj = preprocess(demo)
+    except LfdError as err:
+        problem = f"preprocessing failed: {err}"
+    log_demonstration(demo, trajectory=traj, recording=recording, **kwargs)
+    if traj is not None and features:
+        from ..features import compute_features
+        from ..segment.pipeline import fill_gaps
+
+        try:
+            filled, _ = fill_gaps(traj)
+            feats = compute_features(filled)
+            log_features(feats, object_names=list(filled.object_names), recording=recording)
+        except LfdError as err:
+            problem = f"features failed: {err}"
+    if problem:
+        log_text([problem], recording=recording)
+    if demo.labels:
+        log_segmentation(ground_truth=demo.labels, recording=recording)
+    return traj
+
+
 def log_segment_run(
     demo: Demonstration | None,
     result: Segmentation,
@@ -75,6 +111,7 @@ def log_segment_run(
     templates: Templates | None = None,
     params: SegmentParams | None = None,
     baselines: Mapping[str, Segmentation] | None = None,
+    ground_truth: bool = True,
     recording: Any = None,
 ) -> None:
     """Log the stages of one segmentation (the demonstration itself is logged separately).
@@ -92,6 +129,8 @@ def log_segment_run(
         ``result.method == "greedy"`` the greedy scores per iteration are recomputed with them.
     baselines : mapping name -> Segmentation, optional
         Other methods' results, one lane each.
+    ground_truth : bool
+        Log the demonstration's labels too (off when :func:`log_recorded_demo` did already).
     """
     from ..features import compute_features
     from ..segment import SegmentParams, Templates
@@ -128,7 +167,7 @@ def log_segment_run(
             scores = None
     log_segmentation(
         result.segments,
-        ground_truth=demo.labels if demo is not None and demo.labels else None,
+        ground_truth=demo.labels if ground_truth and demo is not None and demo.labels else None,
         baselines={k: v.segments for k, v in (baselines or {}).items()},
         boundaries=np.asarray(result.sections, dtype=np.int64) if result.sections else None,
         t_ns=t if result.sections else None,
@@ -152,3 +191,46 @@ def _describe(k: int, s: Any) -> str:
         f"{k}: {s.skill}{obj} {s.start_s:.2f}-{s.end_s:.2f} s, "
         f"score {s.score:.2f}, margin {s.confidence:.2f}"
     )
+
+
+def log_methods(
+    demo: Demonstration,
+    methods: Sequence[str],
+    *,
+    templates: Templates | None = None,
+    trajectory: Trajectory | None = None,
+    recording: Any = None,
+) -> dict[str, Segmentation]:
+    """Run segmentation methods on ``demo`` and log each result as soon as it is ready.
+
+    The first of ``greedy``/``dp`` is logged in full (lane ``result``, features, sections,
+    scores); the others get a lane each (``dp``/``greedy``, ``baseline_<name>``). A method that
+    fails is reported in ``/segmentation/warnings``. Returns the results by method.
+    """
+    from ..errors import LfdError
+    from ..segment.evaluate import run_method
+    from .segmentation import log_skill_spans
+
+    results: dict[str, Segmentation] = {}
+    main = None
+    for method in methods:
+        try:
+            seg = run_method(method, demo, templates)
+        except LfdError as err:
+            log_text([f"{method}: {err}"], recording=recording)
+            continue
+        results[method] = seg
+        if main is None and method in ("greedy", "dp"):
+            main = method
+            log_segment_run(
+                demo,
+                seg,
+                trajectory=trajectory,
+                templates=templates,
+                ground_truth=False,
+                recording=recording,
+            )
+        else:
+            lane = method if method in ("greedy", "dp") else f"baseline_{method}"
+            log_skill_spans(seg.segments, source=lane, recording=recording)
+    return results

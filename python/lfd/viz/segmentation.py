@@ -11,7 +11,7 @@ import numpy.typing as npt
 from ..errors import DemonstrationError
 from ..skills import DISPLAY_NAMES, SKILLS
 from .session import get_recording, import_rerun
-from .timeline import GREEDY_ITERATION, as_ns, time_columns, time_origin
+from .timeline import GREEDY_ITERATION, as_ns, current_origin, time_columns, time_origin
 
 SKILL_COLORS: dict[str, tuple[int, int, int]] = {
     "pick_up": (66, 133, 244),
@@ -260,7 +260,10 @@ def log_text(
             times.append(None if t is None else int(t))
             texts.append(str(getattr(m, "message", getattr(m, "text", m))))
     known = [t for t in times if t is not None]
-    origin = time_origin(rec, first_ns=min(known) if known else 0, origin_ns=origin_ns)
+    if known or origin_ns is not None:
+        origin = time_origin(rec, first_ns=min(known, default=0), origin_ns=origin_ns)
+    else:  # untimed messages only: do not fix the origin of later data
+        origin = current_origin(rec) or 0
     t_arr = np.array([origin if t is None else t for t in times], dtype=np.int64)
     rec.send_columns(
         path,

@@ -45,6 +45,11 @@ def time_origin(rec: Any, *, first_ns: int, origin_ns: int | None = None) -> int
     return _ORIGINS.setdefault(key, int(first_ns))
 
 
+def current_origin(rec: Any) -> int | None:
+    """The ``demo_time`` origin of ``rec`` if one is set."""
+    return _ORIGINS.get(rec.get_recording_id())
+
+
 def as_ns(t_ns: npt.ArrayLike, what: str, n: int | None = None) -> np.ndarray:
     """Check integer nanosecond timestamps, shape (n,), and return them as int64."""
     t = np.asarray(t_ns)
