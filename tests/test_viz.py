@@ -484,3 +484,113 @@ def test_headless_viewer_screenshot_is_not_blank(
     assert pixels.shape[0] > 100 and pixels.shape[1] > 100
     assert pixels.std() > 10.0
     assert len(np.unique(pixels.reshape(-1, 3), axis=0)) > 50
+
+
+# --- whole runs: preprocess -> features -> sections -> greedy trace -> skills -------------------
+def test_greedy_trace_matches_the_score_table() -> None:
+    from lfd.viz.pipeline import greedy_trace
+
+    bounds = [0, 10, 30, 40]  # K = 3 sections
+    table = np.full((3, 4, 2), -np.inf)
+    for i in range(3):
+        for j in range(i + 1, 4):
+            table[i, j] = [-(bounds[j] - bounds[i]) * (1 + i + j), -2.0 * (bounds[j] - bounds[i])]
+    scores, ends = greedy_trace(table, bounds, [0, 30], ["pick_up", "place"])
+    assert len(scores) == 2
+    np.testing.assert_array_equal(ends[0], [10, 30, 40])
+    np.testing.assert_allclose(scores[0]["pick_up"], [-2.0, -3.0, -4.0])  # mean per sample
+    np.testing.assert_allclose(scores[0]["place"], [-2.0, -2.0, -2.0])
+    np.testing.assert_array_equal(ends[1], [40])
+    np.testing.assert_allclose(scores[1]["pick_up"], [-6.0])
+    with pytest.raises(ValueError, match="does not match"):
+        greedy_trace(table[:, :3], bounds, [0], ["pick_up", "place"])
+
+
+def test_log_segment_run_on_a_preprocessed_demo(session: viz.Session) -> None:
+    from _synthetic import make_demo as synthetic_demo
+    from lfd.preprocess import preprocess
+    from lfd.segment import Segment, Segmentation
+    from lfd.viz.pipeline import log_recorded_demo, log_segment_run
+
+    demo = synthetic_demo(duration_s=6.0)
+    demo.labels = [SkillLabel("pick_up", demo.start_ns, demo.start_ns + 3_000_000_000, "cube0")]
+    traj = preprocess(demo)
+    n = len(traj)
+    bounds = [0, n // 3, 2 * n // 3, n]
+    table = np.zeros((3, 4, 2))
+    table[0, :, 0] = [
+        0.0,
+        -1.0 * bounds[1],
+        -5.0 * bounds[2],
+        -9.0 * n,
+    ]  # pick_up best at 1 section
+
+    class FakeTemplates:
+        skills = ("pick_up", "place")
+
+        class engine:
+            @staticmethod
+            def score_table(values: np.ndarray, b: np.ndarray, max_len: int) -> np.ndarray:
+                assert values.shape == (n, 10) and list(b) == bounds and max_len > 0
+                return table
+
+    def seg(skill: str, a: int, b: int) -> Segment:
+        t_end = int(traj.t_ns[min(b, n - 1)])
+        return Segment(skill, a, b, 0.0, 0.0, int(traj.t_ns[a]), t_end, "cube0", -1.0, 2.0)
+
+    result = Segmentation(
+        [seg("pick_up", 0, bounds[1]), seg("place", bounds[1], n)],
+        warnings=["impossible skill transition place -> place"],
+        sections=bounds,
+        object_names=list(traj.object_names),
+    )
+    rec = session.recording
+    assert log_recorded_demo(demo, features=False, recording=rec) is not None
+    log_segment_run(demo, result, trajectory=traj, templates=FakeTemplates(), ground_truth=False, recording=rec)  # type: ignore[arg-type]  # fmt: skip
+    data = finish(session)
+
+    assert data.column("/segmentation/skills/ground_truth", "StateChange:state")[0] == [
+        "pick_up(cube0)"
+    ]
+    assert data.column("/segmentation/skills/result", "StateChange:state") == [
+        ["pick_up(cube0)"], ["place(cube0)"], [""],
+    ]  # fmt: skip
+    assert [r["frame"] for r in data.entity("/segmentation/sections")] == [
+        0,
+        n // 3,
+        2 * n // 3,
+        n - 1,
+    ]
+    it0 = data.entity("/segmentation/greedy/iteration_0/pick_up")
+    np.testing.assert_allclose([r["Scalars:scalars"][0] for r in it0], [-1.0, -5.0, -9.0])
+    assert [r["demo_time"] for r in it0] == [
+        int(traj.t_ns[bounds[1]] - demo.start_ns),
+        int(traj.t_ns[bounds[2]] - demo.start_ns),
+        int(traj.t_ns[-1] - demo.start_ns),
+    ]
+    it1 = data.entity("/segmentation/greedy/iteration_1/place")
+    assert len(it1) == 2  # candidates: sections 1..2 and 1..3
+    assert len(data.entity("/features/hand_velocity/value")) == n
+    log = [r["TextLog:text"][0] for r in data.entity("/segmentation/log")]
+    assert log[0].startswith("0: pick_up(cube0)")
+    warn = [r["TextLog:text"][0] for r in data.entity("/segmentation/warnings")]
+    assert "impossible skill transition place -> place" in warn
+    assert len(data.entity("/world/gripper")) > 0
+
+
+def test_lfd_simulate_rerun_save(tmp_path: Path) -> None:
+    pytest.importorskip("mujoco")
+    from lfd.cli import main
+
+    out = tmp_path / "sim.rrd"
+    code = main(
+        ["simulate", "pick_up", "--seed", "1", "--duration", "3", "-o", str(tmp_path / "d.mcap"),
+         "--rerun-save", str(out)]
+    )  # fmt: skip
+    assert code == 0
+    data = Rrd(out)
+    assert len(data.entity("/world/hand/keypoints")) >= 10
+    assert "/world/gripper" in data.rows and "/features/hand_velocity/value" in data.rows
+    assert data.column("/segmentation/skills/ground_truth", "StateChange:state")[0][0].startswith(
+        "pick_up"
+    )

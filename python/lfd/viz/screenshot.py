@@ -27,6 +27,9 @@ def screenshot(
     *,
     settle_s: float = 2.0,
     max_width: int | None = None,
+    time_s: float | None = None,
+    timeline: str = "demo_time",
+    view: str | None = None,
 ) -> Path:
     """Open ``rrd`` in a headless viewer and save a screenshot of the whole window to ``png``.
 
@@ -40,6 +43,10 @@ def screenshot(
         Seconds to let the viewer load and lay out before the capture.
     max_width : int, optional
         Downscale (and palette-quantise) the capture to at most this width, for small files.
+    time_s : float, optional
+        Pause the time cursor of ``timeline`` at this many seconds (else it plays from 0).
+    view : str, optional
+        Capture only the view with this name (e.g. ``"Scene (reference marker frame)"``).
 
     Returns
     -------
@@ -60,8 +67,16 @@ def screenshot(
         deadline = time.monotonic() + 30.0
         while viewer.get_state().loading and time.monotonic() < deadline:
             time.sleep(0.2)
+        if time_s is not None:
+            viewer.set_time(timeline, duration=float(time_s), play_state="paused")
         time.sleep(settle_s)
-        viewer.save_screenshot(str(out))
+        view_id = None
+        if view is not None:
+            views = {v.name: v.view_id for v in viewer.get_state().views}
+            if view not in views:
+                raise RuntimeError(f"no view named {view!r}; views: {sorted(views)}")
+            view_id = views[view]
+        viewer.save_screenshot(str(out), view_id=view_id)
     finally:
         viewer.quit()
     if max_width is not None:
