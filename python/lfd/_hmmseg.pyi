@@ -121,5 +121,9 @@ class TemplateSet:
     def params_json(self) -> str: ...
     def normalise(self, x: NDArray[np.float64]) -> NDArray[np.float64]: ...
     def score_table(
-        self, raw: NDArray[np.float64], boundaries: NDArray[np.int64], max_len: int = 0
+        self,
+        raw: NDArray[np.float64],
+        boundaries: NDArray[np.int64],
+        max_len: int = 0,
+        end: str = "final",
     ) -> NDArray[np.float64]: ...

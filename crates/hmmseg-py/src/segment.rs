@@ -2,6 +2,7 @@
 //! the TCP rise decision, score tables, the greedy loop, the segmental DP and skill templates.
 
 use hmmseg::segment::greedy::greedy;
+use hmmseg::segment::scorer::EndState;
 use hmmseg::segment::templates::{FeatureGroup, TemplateParams, TemplateSet};
 use hmmseg::segment::{dp::dp, Grammar, GrammarMode, GrammarSpec, RiseParams, ScoreTable, Segmentation};
 use hmmseg::stage1::{section_boundaries, Criterion, Stage1Params};
@@ -273,18 +274,30 @@ impl PyTemplateSet {
         Ok(Array2::from_shape_fn(y.shape(), |(r, c)| y[(r, c)]).into_pyarray(py))
     }
 
-    /// Summed log-likelihoods `(K, K + 1, S)` of every run of sections of raw observations.
-    #[pyo3(signature = (raw, boundaries, max_len=0))]
+    /// Summed log-likelihoods `(K, K + 1, S)` of every run of sections of raw observations;
+    /// `end` = "final" (a segment must end in the last HMM state) or "any".
+    #[pyo3(signature = (raw, boundaries, max_len=0, end="final"))]
     fn score_table<'py>(
         &self,
         py: Python<'py>,
         raw: PyReadonlyArray2<'py, f64>,
         boundaries: PyReadonlyArray1<'py, i64>,
         max_len: usize,
+        end: &str,
     ) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        let end = match end {
+            "final" => EndState::Final,
+            "any" => EndState::Any,
+            other => {
+                return Err(EngineError::InvalidParameter(format!(
+                    "end must be 'final' or 'any', got {other:?}"
+                )))
+                .py_err(py)
+            }
+        };
         let b = to_indices(py, &boundaries, "boundaries")?;
         let x = to_matrix(&raw);
-        let t = py.detach(|| self.inner.score_table(&x, &b, max_len)).py_err(py)?;
+        let t = py.detach(|| self.inner.score_table(&x, &b, max_len, end)).py_err(py)?;
         Ok(table_to_numpy(py, &t))
     }
 }

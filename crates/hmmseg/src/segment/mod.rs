@@ -11,6 +11,7 @@
 pub mod dp;
 pub mod grammar;
 pub mod greedy;
+pub mod scorer;
 pub mod scores;
 pub mod templates;
 

@@ -16,6 +16,7 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::scorer::{compiled_score_table, CompiledHmm, EndState};
 use super::scores::{score_table, PrefixScorer, ScoreTable};
 use crate::dtw::{align_to_reference, dtw_distance};
 use crate::error::{EngineError, Result};
@@ -247,8 +248,28 @@ impl TemplateSet {
         normalise(x, &self.ranges)
     }
 
-    /// The score table of raw (un-normalised) observations over stage-1 `boundaries`.
+    /// The score table of raw (un-normalised) observations over stage-1 `boundaries`; `end`
+    /// chooses which HMM states may end a segment.
     pub fn score_table(
+        &self,
+        raw: &DMatrix<f64>,
+        boundaries: &[usize],
+        max_len: usize,
+        end: EndState,
+    ) -> Result<ScoreTable> {
+        let x = self.normalise(raw)?;
+        let groups: Vec<Range<usize>> = self.features.iter().map(FeatureGroup::columns).collect();
+        let compiled = self
+            .models
+            .iter()
+            .map(|row| row.iter().map(CompiledHmm::new).collect::<Result<Vec<_>>>())
+            .collect::<Result<Vec<_>>>()?;
+        compiled_score_table(&compiled, &groups, &x, boundaries, max_len, end)
+    }
+
+    /// [`Self::score_table`] through the engine's generic forward pass (`ln P(x_0..=t)`, any end
+    /// state); a slower reference.
+    pub fn score_table_reference(
         &self,
         raw: &DMatrix<f64>,
         boundaries: &[usize],
@@ -381,13 +402,20 @@ mod tests {
                 (false, _) => 0.5,
             }
         });
-        let table = set.score_table(&x, &[0, n, 2 * n], 0).unwrap();
+        let table = set.score_table(&x, &[0, n, 2 * n], 0, EndState::Any).unwrap();
+        let reference = set.score_table_reference(&x, &[0, n, 2 * n], 0).unwrap();
+        for (a, b) in table.as_slice().iter().zip(reference.as_slice()) {
+            let same_inf = a.is_infinite() && b.is_infinite();
+            assert!(same_inf || (a - b).abs() < 1e-8 * a.abs().max(1.0), "{a} vs {b}");
+        }
+        let fin = set.score_table(&x, &[0, n, 2 * n], 0, EndState::Final).unwrap();
+        assert!(fin.mean(0, 1, 0) > fin.mean(0, 1, 1));
         assert!(table.mean(0, 1, 0) > table.mean(0, 1, 1));
         assert!(table.mean(1, 2, 1) > table.mean(1, 2, 0));
         let json = set.to_json().unwrap();
         let back = TemplateSet::from_json(&json).unwrap();
         assert_eq!(back.skills, set.skills);
-        let t2 = back.score_table(&x, &[0, n, 2 * n], 0).unwrap();
+        let t2 = back.score_table(&x, &[0, n, 2 * n], 0, EndState::Any).unwrap();
         assert!((t2.total(0, 2, 1) - table.total(0, 2, 1)).abs() < 1e-9);
     }
 
