@@ -594,3 +594,64 @@ def test_lfd_simulate_rerun_save(tmp_path: Path) -> None:
     assert data.column("/segmentation/skills/ground_truth", "StateChange:state")[0][0].startswith(
         "pick_up"
     )
+
+
+SHIPPED = Path(__file__).resolve().parents[1] / "recordings" / "rendered" / "exp1_short.mcap"
+
+
+@pytest.mark.skipif(not SHIPPED.exists(), reason="shipped recording not present")
+def test_shipped_recording_roundtrip(session: viz.Session) -> None:
+    from lfd.io import load
+    from lfd.viz.pipeline import log_recorded_demo
+
+    demo = load(SHIPPED)
+    traj = log_recorded_demo(demo, recording=session.recording, jpeg_quality=None)
+    assert traj is not None
+    data = finish(session)
+    rows = data.entity("/world/hand/keypoints")
+    assert len(rows) == len(demo.hand)
+    np.testing.assert_array_equal(
+        data.times("/world/hand/keypoints"), demo.hand.t_ns - demo.start_ns
+    )
+    for i in (0, len(rows) // 2, len(rows) - 1):
+        ok = np.all(np.isfinite(demo.hand.keypoints[i]), axis=1)
+        got = np.array(rows[i]["Points3D:positions"])
+        np.testing.assert_allclose(got, demo.hand.keypoints[i][ok], atol=1e-6)
+    for name, obj in demo.objects.items():
+        vis = np.flatnonzero(obj.visible & np.all(np.isfinite(obj.position), axis=1))
+        trans = np.array(data.one(f"/world/objects/{name}", "Transform3D:translation"))
+        np.testing.assert_allclose(trans, obj.position[vis], atol=1e-6)
+    assert demo.color is not None and demo.depth is not None
+    assert len(data.entity("/world/camera/image/rgb")) == len(demo.color)
+    assert len(data.entity("/world/camera/image/depth")) == len(demo.depth)
+    truth = data.column("/segmentation/skills/ground_truth", "StateChange:state")
+    assert [s[0].split("(")[0] for s in truth if s[0]] == demo.skill_sequence
+    assert len(data.entity("/features/fingertip_distance/value")) == len(traj)
+
+
+def test_log_reproduction_reads_a_result(session: viz.Session) -> None:
+    from types import SimpleNamespace
+
+    n = 50
+    planned = np.linspace([0.3, 0.0, 0.2], [0.5, 0.1, 0.1], n)
+    result = SimpleNamespace(
+        mode="skills",
+        planned_tcp=planned,
+        executed_tcp=planned + np.array([0.001, 0.0, 0.0]),
+        segment=np.r_[np.full(10, -1), np.zeros(20, int), np.ones(20, int)],
+        base=np.array([0.0, -0.4, 0.0]),
+        objects=[SimpleNamespace(name="box_1", success=True, position_error=0.004, rotation_error_deg=1.5)],
+    )  # fmt: skip
+    viz.log_reproduction(result, skills=["pick_up", "place"], recording=session.recording)
+    data = finish(session)
+    assert data.column("/robot/skills/segment", "StateChange:state", "robot_time") == [
+        [""], ["pick_up"], ["place"],
+    ]  # fmt: skip
+    assert list(data.times("/robot/skills/segment", "robot_time")) == [0, 100_000_000, 300_000_000]
+    err = [r["Scalars:scalars"][0] for r in data.entity("/robot/skills/tcp_error", "robot_time")]
+    np.testing.assert_allclose(err, 0.001, atol=1e-9)
+    np.testing.assert_allclose(
+        data.static["/world/robot/base"]["Transform3D:translation"], [[0.0, -0.4, 0.0]], atol=1e-7
+    )
+    text = data.entity("/robot/skills/objects", "robot_time")[0]["TextLog:text"][0]
+    assert text == "box_1: ok, 4.0 mm, 1.5 deg"

@@ -20,7 +20,7 @@ from .blueprint import FEATURE_NAMES, default_blueprint
 from .cli import add_rerun_arguments, close_from_args, open_from_args
 from .demo import log_demonstration
 from .features import log_feature_arrays, log_features
-from .robot import log_robot_paths
+from .robot import log_reproduction, log_robot_paths
 from .segmentation import (
     log_greedy_scores,
     log_sections,
@@ -46,6 +46,7 @@ __all__ = [
     "log_feature_arrays",
     "log_features",
     "log_greedy_scores",
+    "log_reproduction",
     "log_robot_paths",
     "log_sections",
     "log_segmentation",

@@ -89,6 +89,7 @@ def default_blueprint(
             "+ /segmentation/skills/**",
             "+ /segmentation/sections",
             "+ /features/target",
+            "+ /robot/*/segment",
         ],
         name="Skills (result, ground truth, baselines) and sections",
     )
@@ -104,7 +105,9 @@ def default_blueprint(
         name="Features",
     )
     scores = rrb.TimeSeriesView(origin="/segmentation/greedy", name="HMM scores")
-    logs = rrb.TextLogView(origin="/segmentation", name="Segmentation log and warnings")
+    logs = rrb.TextLogView(
+        origin="/", contents=["+ /segmentation/**", "+ /robot/**"], name="Log and warnings"
+    )
     robot = rrb.TimeSeriesView(origin="/robot", name="Reproduction")
     right = rrb.Vertical(
         states,

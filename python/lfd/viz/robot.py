@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -138,4 +139,72 @@ def log_robot_paths(
         )
         rec.send_columns(
             f"/robot/{mode}/tcp_error", indexes=idx, columns=rr.Scalars.columns(scalars=err)
+        )
+
+
+TICK_NS = 10_000_000
+"""Control tick of a reproduction (10 ms): the sample period of its planned/executed paths."""
+
+
+def log_reproduction(
+    result: Any,
+    *,
+    skills: Sequence[str] | None = None,
+    tick_ns: int = TICK_NS,
+    recording: Any = None,
+) -> None:
+    """Log a reproduction result (``lfd.reproduce.Reproduction``) with :func:`log_robot_paths`.
+
+    Reads ``mode``, ``planned_tcp`` (n, 3), ``executed_tcp`` (n, 3) at ``tick_ns`` ticks,
+    ``segment`` (n,) task-program segment index per tick (-1 while dwelling), ``base`` (3,), and
+    ``objects`` (final errors, shown as text). ``skills[k]`` names segment ``k`` in the state
+    lane ``/robot/<mode>/segment``.
+    """
+    rr = import_rerun()
+    rec = get_recording(recording)
+    mode = str(getattr(result, "mode", "reproduction"))
+    executed = np.asarray(result.executed_tcp, dtype=np.float64)
+    n = len(executed)
+    t = np.arange(n, dtype=np.int64) * int(tick_ns)
+    base_pose = None
+    base = getattr(result, "base", None)
+    if base is not None:
+        base_pose = np.eye(4)
+        base_pose[:3, 3] = np.asarray(base, dtype=np.float64).reshape(3)
+    log_robot_paths(
+        result.planned_tcp,
+        executed,
+        t_ns=t,
+        planned_t_ns=t,
+        mode=mode,
+        base_pose=base_pose,
+        recording=rec,
+    )
+    segment = getattr(result, "segment", None)
+    if segment is not None and n:
+        seg = np.asarray(segment, dtype=np.int64)
+        if seg.shape != (n,):
+            raise DemonstrationError(f"segment must have shape ({n},), got {seg.shape}")
+        change = np.flatnonzero(np.r_[True, seg[1:] != seg[:-1]])
+
+        def name(k: int) -> str:
+            if k < 0:
+                return ""
+            return skills[k] if skills is not None and k < len(skills) else f"segment {k}"
+
+        rec.send_columns(
+            f"/robot/{mode}/segment",
+            indexes=time_columns(t[change], 0, timeline=ROBOT_TIME),
+            columns=rr.StateChange.columns(state=[name(int(seg[i])) for i in change]),
+        )
+    lines = [
+        f"{o.name}: {'ok' if getattr(o, 'success', False) else 'FAILED'}, "
+        f"{1000 * o.position_error:.1f} mm, {o.rotation_error_deg:.1f} deg"
+        for o in getattr(result, "objects", [])
+    ]
+    if lines and n:
+        rec.send_columns(
+            f"/robot/{mode}/objects",
+            indexes=time_columns(np.full(len(lines), t[-1]), 0, timeline=ROBOT_TIME),
+            columns=rr.TextLog.columns(text=lines, level=["INFO"] * len(lines)),
         )

@@ -109,6 +109,12 @@ class Session:
                         time.sleep(1.0)
                 except KeyboardInterrupt:
                     pass
+            else:
+                print(
+                    "rerun: stdin is not a terminal, so the web viewer stops with this process; "
+                    "use --rerun-save FILE.rrd to keep the data",
+                    file=sys.stderr,
+                )
         self.recording.disconnect()
 
 
