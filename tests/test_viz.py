@@ -655,3 +655,33 @@ def test_log_reproduction_reads_a_result(session: viz.Session) -> None:
     )
     text = data.entity("/robot/skills/objects", "robot_time")[0]["TextLog:text"][0]
     assert text == "box_1: ok, 4.0 mm, 1.5 deg"
+
+
+@pytest.mark.viewer
+def test_live_stream_reaches_a_running_viewer(request: pytest.FixtureRequest) -> None:
+    """--rerun-connect: data logged while the run goes arrives in a (headless) native viewer."""
+    import time
+
+    if not _viewer_opted_in(request.config):
+        pytest.skip("opt-in: run with -m viewer or LFD_TEST_VIEWER=1")
+    port = free_port()
+    try:
+        viewer = rr.experimental.ViewerClient.spawn(headless=True, port=port)
+    except Exception as err:
+        pytest.skip(f"the headless viewer cannot start here: {err}")
+    try:
+        session = viz.open_session(
+            "lfd_live", connect=f"rerun+http://127.0.0.1:{port}/proxy", make_default=False
+        )
+        viz.log_demonstration(make_demo(images=False), recording=session.recording)
+        session.flush()
+        deadline = time.monotonic() + 20
+        timelines: set[str] = set()
+        while time.monotonic() < deadline and "demo_time" not in timelines:
+            time.sleep(0.3)
+            state = viewer.get_state()
+            timelines = {t.name for r in state.recordings for t in r.timelines}
+        assert "demo_time" in timelines
+        session.close()
+    finally:
+        viewer.quit()

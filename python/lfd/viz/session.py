@@ -56,6 +56,15 @@ def has_display() -> bool:
     return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
+def _port_open(port: int, host: str = "127.0.0.1") -> bool:
+    """Whether something accepts TCP connections on ``host:port``."""
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
+        sock.settimeout(1.0)
+        return sock.connect_ex((host, port)) == 0
+
+
 def web_viewer_url(grpc_url: str, web_port: int = DEFAULT_WEB_PORT) -> str:
     """The address of the bundled web viewer connected to a gRPC server URL."""
     return f"http://localhost:{web_port}/?url={urllib.parse.quote(grpc_url, safe='')}"
@@ -98,7 +107,10 @@ class Session:
             When serving the web viewer, keep the process (and with it the server) alive until
             Ctrl+C. Defaults to waiting only when stdin is a terminal.
         """
-        self.recording.flush()
+        try:
+            self.recording.flush(timeout_sec=30.0)
+        except RuntimeError as err:  # e.g. the viewer was closed or never started
+            print(f"rerun: could not deliver all data: {err}", file=sys.stderr)
         if self.serve_url is not None:
             if wait_serving is None:
                 wait_serving = sys.stdin is not None and sys.stdin.isatty()
@@ -172,8 +184,15 @@ def open_session(
     connect_url = connect
     if spawn:
         rr.spawn(port=SPAWN_PORT, connect=False, recording=rec)
-        connect_url = f"rerun+http://127.0.0.1:{SPAWN_PORT}/proxy"
-        messages.append(f"spawned the Rerun viewer ({connect_url})")
+        if _port_open(SPAWN_PORT):
+            connect_url = f"rerun+http://127.0.0.1:{SPAWN_PORT}/proxy"
+            messages.append(f"spawned the Rerun viewer ({connect_url})")
+        else:
+            messages.append(
+                "the native Rerun viewer did not start (see its error above): serving the web "
+                "viewer instead"
+            )
+            serve = True
     if connect_url is not None:
         sinks.append(rr.GrpcSink(connect_url))
         if connect is not None:
