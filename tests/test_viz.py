@@ -568,6 +568,9 @@ def test_log_segment_run_on_a_preprocessed_demo(session: viz.Session) -> None:
         int(traj.t_ns[bounds[2]] - demo.start_ns),
         int(traj.t_ns[-1] - demo.start_ns),
     ]
+    chosen = data.entity("/segmentation/greedy/chosen")
+    assert [r["Scalars:scalars"][0] for r in chosen] == [-1.0, -1.0]
+    assert chosen[0]["demo_time"] == it0[0]["demo_time"]  # the cut sits on its candidate line
     it1 = data.entity("/segmentation/greedy/iteration_1/place")
     assert len(it1) == 2  # candidates: sections 1..2 and 1..3
     assert len(data.entity("/features/hand_velocity/value")) == n

@@ -104,7 +104,12 @@ def default_blueprint(
         grid_columns=2,
         name="Features",
     )
-    scores = rrb.TimeSeriesView(origin="/segmentation/greedy", name="HMM scores")
+    scores = rrb.TimeSeriesView(
+        # one line per (greedy iteration, skill) in the skill's lane colour; white: the cuts
+        origin="/segmentation/greedy",
+        name="HMM scores",
+        plot_legend=rrb.PlotLegend(visible=False),
+    )
     logs = rrb.TextLogView(
         origin="/", contents=["+ /segmentation/**", "+ /robot/**"], name="Log and warnings"
     )

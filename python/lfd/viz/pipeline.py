@@ -177,11 +177,37 @@ def log_segment_run(
         warnings=list(result.warnings),
         recording=recording,
     )
+    if candidate_ns is not None:
+        _log_cuts(result, recording)
     log_text(
         [(s.start_ns, _describe(k, s)) for k, s in enumerate(result.segments)],
         path="/segmentation/log",
         level="INFO",
         recording=recording,
+    )
+
+
+def _log_cuts(result: Segmentation, recording: Any) -> None:
+    """The chosen (run, skill) of each greedy iteration: a marker at its end and score."""
+    from .session import get_recording, import_rerun
+    from .timeline import current_origin, time_columns
+
+    rr = import_rerun()
+    rec = get_recording(recording)
+    segs = [s for s in result.segments if np.isfinite(s.score)]
+    if not segs:
+        return
+    origin = current_origin(rec) or int(segs[0].start_ns)
+    path = "/segmentation/greedy/chosen"
+    rec.log(
+        path,
+        rr.SeriesPoints(names="cut", colors=[(255, 255, 255)], markers="diamond", marker_sizes=6.0),
+        static=True,
+    )
+    rec.send_columns(
+        path,
+        indexes=time_columns(np.array([s.end_ns for s in segs], dtype=np.int64), origin),
+        columns=rr.Scalars.columns(scalars=np.array([s.score for s in segs])),
     )
 
 
