@@ -128,6 +128,8 @@ def test_place_and_stack_put_objects_down(exps) -> None:  # type: ignore[no-unty
                     and np.linalg.norm(p[end, :2] - tr.object_pos[lab.object][end, :2]) < 0.01
                 ]
                 assert len(bases) == 1
+                onto = {e["stack"]: e["onto"] for e in res.demo.metadata["stacks"]}
+                assert onto[lab.object] == bases[0]
                 top = tr.object_pos[bases[0]][end, 2] + sizes[bases[0]][2] / 2
                 assert z == pytest.approx(top + h / 2, abs=1e-9)
 

@@ -28,7 +28,15 @@ SAMPLE_SEED = 1000
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("task", nargs="?", help="task: exp1-exp4 or a skill name (template task)")
+    from ..sim.tasks import TASKS
+
+    parser.add_argument(
+        "task",
+        nargs="?",
+        choices=sorted(TASKS),
+        metavar="TASK",
+        help=f"exp1-exp4 or a skill name for its template task ({', '.join(sorted(TASKS))})",
+    )
     parser.add_argument(
         "-o", "--output", required=True, help="output .mcap (or directory with --set)"
     )
@@ -50,6 +58,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     v.add_argument("--detour", type=float, help="path detour scale, 0 = straight (U(0.5, 1.5))")
     v.add_argument("--pauses", type=float, help="pause probability (default U(0.15, 0.5))")
     v.add_argument("--outliers", type=float, help="fraction of hand frames with outliers (0.03)")
+    v.add_argument("--approach-deg", type=float, help="max approach azimuth deviation (35)")
     v.add_argument("--hand-miss", type=float, help="fraction of failed hand estimates (0.02)")
     v.add_argument("--noise-free", action="store_true", help="no sensor noise, dropouts, tremor")
     from ..viz.cli import add_rerun_arguments
@@ -70,6 +79,7 @@ def _variability(args: argparse.Namespace) -> Any:
         "pauses": args.pauses,
         "outlier_rate": args.outliers,
         "hand_miss": args.hand_miss,
+        "approach_deg": args.approach_deg,
     }
     given = {k: v for k, v in given.items() if v is not None}
     var = Variability.noise_free(**given) if args.noise_free else Variability(**given)

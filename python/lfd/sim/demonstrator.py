@@ -291,7 +291,8 @@ def simulate(
             for n, p in initial.items()
         },
         "skill_sequence": [lab.skill for lab in P.labels],
-        "pushes": P.log,
+        "pushes": [e for e in P.log if "push" in e],
+        "stacks": [e for e in P.log if "stack" in e],
     }
     if task in TEMPLATE_TASKS:
         metadata["target_skill"] = task

@@ -214,6 +214,8 @@ def move_with(P: Planner, name: str, onto: str | None = None) -> None:
         [c * rel_p[0] - sn * rel_p[1], sn * rel_p[0] + c * rel_p[1], rel_p[2]]
     )
     P.pending[("place", name)] = {"tcp": tcp_final, "pose": ObjectPose(pos, float(new_yaw))}
+    if onto is not None:
+        P.log.append({"stack": name, "onto": onto})
     above = tcp_final + np.array([0.0, 0.0, rng.uniform(0.03, 0.07)])
     below_tcp = 0.5 * spec.size[2] - rel_p[2]  # object bottom below the TCP
     z_peak = max(s.tcp[2], above[2]) + rng.uniform(0.03, 0.08)
