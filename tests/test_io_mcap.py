@@ -15,6 +15,8 @@ import lfd
 import numpy as np
 import pytest
 from _synthetic import T0, make_demo
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from lfd.cli import main
 from lfd.demo import KEYPOINT_LAYOUT, KEYPOINT_NAMES, SkillLabel
 from lfd.errors import DemonstrationError, RecordingFormatError
@@ -377,3 +379,75 @@ def test_compressed_color_images(tmp_path: Path, fmt: str) -> None:
         assert np.abs(back.color.frames.astype(int) - demo.color.frames).mean() < 12
     with pytest.raises(DemonstrationError, match="color_format"):
         McapRecorder(tmp_path / "x.mcap", color_format="gif")
+
+
+def test_generic_mcap_tools_decode_every_message(tmp_path: Path) -> None:
+    """A reader that knows nothing about lfd decodes the file from its embedded schemas."""
+    from mcap_protobuf.decoder import DecoderFactory
+
+    path = tmp_path / "d.mcap"
+    demo = make_demo(images=1)
+    save(demo, path)
+    counts: dict[str, int] = {}
+    with open(path, "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        for _, channel, message in reader.iter_messages():
+            counts[channel.topic] = counts.get(channel.topic, 0) + 1
+            if channel.message_encoding == "json":
+                assert len(json.loads(message.data)["confidence"]) == 21
+        for _, _, _, decoded in reader.iter_decoded_messages(topics=["/hand/right/keypoints"]):
+            assert len(decoded.poses) == 21
+            assert decoded.poses[0].orientation.w == 1.0
+    assert counts["/hand/right/keypoints"] == counts["/hand/right/confidence"] == len(demo.hand)
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    steps=st.lists(st.integers(1, 10**9), min_size=1, max_size=12),
+    nan_mask=st.lists(st.booleans(), min_size=21 * 12, max_size=21 * 12),
+    seed=st.integers(0, 2**16),
+)
+def test_round_trip_property(steps: list[int], nan_mask: list[bool], seed: int) -> None:
+    """Any timestamps and unobserved keypoints come back bit for bit."""
+    import tempfile
+
+    rng = np.random.default_rng(seed)
+    t = T0 + np.cumsum(steps, dtype=np.int64)
+    n = t.size
+    kp = rng.normal(scale=10.0, size=(n, 21, 3))
+    kp[np.array(nan_mask[: n * 21]).reshape(n, 21)] = np.nan
+    conf = rng.uniform(size=(n, 21))
+    pos = rng.normal(size=(n, 3))
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "p.mcap"
+        with McapRecorder(path, objects=CUBE, max_chunk_duration_s=rng.uniform(0, 1e-8)) as rec:
+            for i in range(n):
+                rec.add_hand(int(t[i]), kp[i], conf[i])
+                rec.add_object_pose("cube", int(t[i]), pos[i], (0, 0, 0, 1))
+        demo, caught = _load_quiet(path)
+    assert caught == []
+    np.testing.assert_array_equal(demo.hand.t_ns, t)
+    np.testing.assert_array_equal(demo.hand.keypoints, kp)
+    np.testing.assert_array_equal(demo.hand.confidence, conf)
+    np.testing.assert_array_equal(demo.objects["cube"].position, pos)
+
+
+def test_foreign_file_extra_topics_and_missing_sizes(tmp_path: Path) -> None:
+    """A file from another tool: unknown topics are ignored, a box without size is an error."""
+    from foxglove_schemas_protobuf.Log_pb2 import Log
+    from lfd.io import messages
+    from mcap_protobuf.writer import Writer
+
+    path = tmp_path / "foreign.mcap"
+    with open(path, "wb") as f, Writer(f) as w:
+        for i in range(3):
+            t = T0 + i * 200_000_000
+            w.write_message(
+                "/hand/right/keypoints", messages.hand_poses(t, np.zeros((21, 3))), t, t
+            )
+            w.write_message(
+                "/objects/box/pose", messages.object_pose(t, np.zeros(3), np.eye(4)[3]), t, t
+            )
+            w.write_message("/rosout", Log(message="hello"), t, t)
+    with pytest.raises(RecordingFormatError, match="'box' has no size"):
+        load(path)

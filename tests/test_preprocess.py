@@ -139,6 +139,15 @@ def test_gripper_frame_known_configuration() -> None:
     np.testing.assert_allclose(tcp, rots.apply([0, 0, 0.1]) + shift, atol=1e-12)
     np.testing.assert_allclose(opening, 0.06, atol=1e-12)
     np.testing.assert_allclose(np.linalg.det(R), 1.0, atol=1e-12)
+    # a left hand is the mirror image S of a right hand: x (palm normal) and z are mirrored,
+    # y flips so that the frame stays right-handed: R_left = S R diag(1, -1, 1)
+    S = np.diag([-1.0, 1.0, 1.0])
+    tcp_l, R_left, open_l = gripper_frame(moved @ S, side="left")
+    np.testing.assert_allclose(R_left, S @ rots.as_matrix() @ np.diag([1.0, -1.0, 1.0]), atol=1e-12)
+    np.testing.assert_allclose(tcp_l, tcp @ S, atol=1e-12)
+    np.testing.assert_allclose(open_l, opening, atol=1e-12)
+    with pytest.raises(DemonstrationError, match="side"):
+        gripper_frame(kp, side="middle")
 
 
 def test_gripper_frame_degenerate_and_missing() -> None:
@@ -213,6 +222,14 @@ def test_preprocess_object_gap_and_errors() -> None:
     assert not traj.object_valid[1].all() and traj.object_valid[0].all()
     assert len(traj.meta["gaps"]["objects"]["cube1"]) == 1
     assert np.isnan(traj.object_position[1][~traj.object_valid[1]]).all()
+    # an object that is never seen is kept, invalid everywhere
+    from lfd.demo import ObjectTrack
+
+    empty = np.zeros((0, 3))
+    demo.objects["ghost"] = ObjectTrack("ghost", 9, (0.1,) * 3, [], empty, np.zeros((0, 4)), [])
+    traj = preprocess(demo)
+    assert traj.object_names[-1] == "ghost" and not traj.object_valid[-1].any()
+    assert np.isnan(traj.object_position[-1]).all() and traj.object_valid[0].all()
     raw = preprocess(demo, filter=False)
     assert raw.meta["filtered"] is False
     with pytest.raises(DemonstrationError, match="too short to filter"):

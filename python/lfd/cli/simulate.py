@@ -28,9 +28,21 @@ SAMPLE_SEED = 1000
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("task", nargs="?", help="task: exp1-exp4 or a skill name (template task)")
-    parser.add_argument("-o", "--output", required=True, help="output .mcap (or directory with --set)")
-    parser.add_argument("--set", choices=SETS, help="generate a whole recording set into a directory")
+    from ..sim.tasks import TASKS
+
+    parser.add_argument(
+        "task",
+        nargs="?",
+        choices=sorted(TASKS),
+        metavar="TASK",
+        help=f"exp1-exp4 or a skill name for its template task ({', '.join(sorted(TASKS))})",
+    )
+    parser.add_argument(
+        "-o", "--output", required=True, help="output .mcap (or directory with --set)"
+    )
+    parser.add_argument(
+        "--set", choices=SETS, help="generate a whole recording set into a directory"
+    )
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--render", action="store_true", help="also render colour + depth frames")
     parser.add_argument("--render-rate", type=float, default=10.0, help="render rate, Hz (10)")
@@ -46,6 +58,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     v.add_argument("--detour", type=float, help="path detour scale, 0 = straight (U(0.5, 1.5))")
     v.add_argument("--pauses", type=float, help="pause probability (default U(0.15, 0.5))")
     v.add_argument("--outliers", type=float, help="fraction of hand frames with outliers (0.03)")
+    v.add_argument("--approach-deg", type=float, help="max approach azimuth deviation (35)")
+    v.add_argument("--hand-miss", type=float, help="fraction of failed hand estimates (0.02)")
     v.add_argument("--noise-free", action="store_true", help="no sensor noise, dropouts, tremor")
 
 
@@ -61,6 +75,8 @@ def _variability(args: argparse.Namespace) -> Any:
         "detour": args.detour,
         "pauses": args.pauses,
         "outlier_rate": args.outliers,
+        "hand_miss": args.hand_miss,
+        "approach_deg": args.approach_deg,
     }
     given = {k: v for k, v in given.items() if v is not None}
     var = Variability.noise_free(**given) if args.noise_free else Variability(**given)
@@ -84,7 +100,9 @@ def _jobs(which: str, out: Path) -> list[dict[str, Any]]:
         ]
     if which == "eval":
         return [
-            {"task": e, "seed": k, "path": out / f"{e}_{k}.mcap"} for e in EXPERIMENTS for k in EVAL_SEEDS
+            {"task": e, "seed": k, "path": out / f"{e}_{k}.mcap"}
+            for e in EXPERIMENTS
+            for k in EVAL_SEEDS
         ]
     jobs: list[dict[str, Any]] = [
         {"task": e, "seed": SAMPLE_SEED, "path": out / f"{e}.mcap"} for e in EXPERIMENTS
@@ -94,8 +112,8 @@ def _jobs(which: str, out: Path) -> list[dict[str, Any]]:
             "task": "exp1",
             "seed": SAMPLE_SEED,
             "path": out / "rendered" / "exp1_short.mcap",
-            "render": 3.0,
-            "duration": 6.0,
+            "render": 5.0,
+            "duration": 8.0,
         }
     )
     return jobs

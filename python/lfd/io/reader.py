@@ -258,7 +258,10 @@ def load(path: str | os.PathLike[str], *, images: bool = True) -> Demonstration:
     objects = {}
     for name, tag_id, size in _objects(raw):
         if size is None:
-            raise RecordingFormatError(f"{raw.path}: object {name!r} has no size metadata")
+            raise RecordingFormatError(
+                f"{raw.path}: object {name!r} has no size (expected in the 'demo' metadata "
+                "record or as channel metadata 'size': JSON [x, y, z] in metres)"
+            )
         objects[name] = loader.object(name, tag_id, size)
     labels = loader.labels()
     camera = loader.camera()

@@ -3,8 +3,9 @@
 From three keypoints, the index fingertip ``I`` (8), the thumb tip ``T`` (4) and the index base
 ``B`` (5): the tool centre point is ``TCP = (I + T) / 2``; the frame has its origin at ``B``,
 ``z`` along ``B -> TCP``, ``x`` normal to the plane of ``I``, ``T``, ``B``
-(``x = (I - B) x (T - B) / |...|``) and ``y = z x x``; ``R = [x y z]`` (columns). The gripper
-opening is ``|I - T|``.
+(``x = (I - B) x (T - B) / |...|`` for a right hand, the opposite for a left hand so that ``x``
+has the same meaning on the mirrored hand) and ``y = z x x``; ``R = [x y z]`` (columns). The
+gripper opening is ``|I - T|``.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ sine of the angle at ``B``) are degenerate: I, T and B are (nearly) collinear.""
 
 
 def gripper_frame(
-    keypoints: npt.ArrayLike, *, strict: bool = False
+    keypoints: npt.ArrayLike, *, side: str = "right", strict: bool = False
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The gripper pose and opening from hand keypoints.
 
@@ -34,6 +35,8 @@ def gripper_frame(
     ----------
     keypoints : array, shape (n, 21, 3)
         Hand keypoints, MediaPipe order, metres. NaN keypoints give NaN outputs.
+    side : str
+        ``"right"`` or ``"left"`` (mirrors the x axis).
     strict : bool
         Raise on degenerate samples instead of returning NaN for them.
 
@@ -55,11 +58,13 @@ def gripper_frame(
     kp = np.asarray(keypoints, dtype=np.float64)
     if kp.ndim != 3 or kp.shape[1:] != (21, 3):
         raise DemonstrationError(f"keypoints must have shape (n, 21, 3), got {kp.shape}")
+    if side not in ("right", "left"):
+        raise DemonstrationError(f"hand side must be 'right' or 'left', got {side!r}")
     index, thumb, base = kp[:, INDEX_TIP], kp[:, THUMB_TIP], kp[:, INDEX_MCP]
     tcp = 0.5 * (index + thumb)
     opening = np.linalg.norm(index - thumb, axis=1)
     bi, bt = index - base, thumb - base
-    normal = np.cross(bi, bt)
+    normal = np.cross(bi, bt) if side == "right" else np.cross(bt, bi)
     scale = np.linalg.norm(bi, axis=1) * np.linalg.norm(bt, axis=1)
     nn = np.linalg.norm(normal, axis=1)
     axis_z = tcp - base

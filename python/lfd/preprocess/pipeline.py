@@ -142,7 +142,7 @@ def preprocess(
     kp, kp_valid = resample_positions(rel(h_t), h_kp, t_s, max_gap_s=max_gap_s)
     hand_valid = kp_valid[:, list(GRIPPER_KEYPOINTS)].all(axis=(1, 2))
     kp = smooth(kp, feature_cutoff_hz, "keypoints")
-    tcp, rot_raw, opening = gripper_frame(kp)
+    tcp, rot_raw, opening = gripper_frame(kp, side=hand.side)
     hand_valid &= np.isfinite(rot_raw).all(axis=(1, 2))
     euler = unwrap_runs(euler_from_rotation(rot_raw))
     euler[~hand_valid] = np.nan

@@ -96,7 +96,7 @@ def resample_positions(
         raise DemonstrationError(f"{arr.shape[0]} samples but {ts.shape[0]} timestamps")
     if ts.size > 1 and not np.all(np.diff(ts) > 0):
         raise DemonstrationError("source timestamps must be strictly increasing")
-    flat = arr.reshape(arr.shape[0], -1)
+    flat = arr.reshape(arr.shape[0], int(np.prod(arr.shape[1:])))
     finite = np.isfinite(flat)
     out = np.full((td.size, flat.shape[1]), np.nan)
     valid = np.zeros((td.size, flat.shape[1]), dtype=bool)

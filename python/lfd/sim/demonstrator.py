@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..demo import CameraInfo, Demonstration, SkillLabel
+from ..errors import DemonstrationError
 from .hand import JOINTS_PER_FINGER, N_JOINTS, HandKinematics
 from .motion import Plan, rotation, smooth_noise
 from .planner import Attach, Detach, ObjectPose, Planner, Push
@@ -39,6 +40,8 @@ from .variability import Variability
 
 SIM_VERSION = "1.0"
 """Version of the simulated demonstrator (bump when motions change)."""
+
+_MAX_ATTEMPTS = 10
 
 BASE_TIME_NS = 1_700_000_000_000_000_000
 """Capture time of the first frame of every simulated demonstration."""
@@ -164,7 +167,9 @@ def _objects_motion(
             elif isinstance(ev, Push):
                 i0, i1 = np.searchsorted(t, [ev.t0, ev.t1])
                 pos[i_cur:i0], yaw[i_cur:i0] = cur.pos, cur.yaw
-                disp = np.maximum.accumulate(np.maximum(0.0, (tcp[i0:i1] - ev.contact) @ ev.direction))
+                disp = np.maximum.accumulate(
+                    np.maximum(0.0, (tcp[i0:i1] - ev.contact) @ ev.direction)
+                )
                 pos[i0:i1] = cur.pos + np.outer(disp, ev.direction)
                 yaw[i0:i1] = cur.yaw
                 cur = ObjectPose(cur.pos + ev.direction * (disp[-1] if disp.size else 0.0), cur.yaw)
@@ -211,11 +216,21 @@ def simulate(
     model = scene.compile()
     kin = HandKinematics(model)
     names = [o.name for o in objects]
-    order = rng.permutation(len(names))
-    roles = {role: names[int(i)] for role, i in zip("ABC", order, strict=False)}
-    initial = {n: ObjectPose(p, y) for n, (p, y) in place_objects(rng, objects).items()}
-    P = Planner(rng, var, kin, {o.name: o for o in objects}, {n: p.copy() for n, p in initial.items()})
-    _execute(P, steps, roles)
+    for attempt in range(_MAX_ATTEMPTS):
+        # a layout in which a step is impossible (no free spot, no room to push) is re-drawn
+        # from the same random stream, so the result stays a function of the seed
+        order = rng.permutation(len(names))
+        roles = {role: names[int(i)] for role, i in zip("ABC", order, strict=False)}
+        initial = {n: ObjectPose(p, y) for n, (p, y) in place_objects(rng, objects).items()}
+        P = Planner(
+            rng, var, kin, {o.name: o for o in objects}, {n: p.copy() for n, p in initial.items()}
+        )
+        try:
+            _execute(P, steps, roles)
+            break
+        except DemonstrationError:
+            if attempt == _MAX_ATTEMPTS - 1:
+                raise
     plan = Plan(P.segments)
 
     # fine simulation grid: camera frames are every `sub`-th step
@@ -227,7 +242,9 @@ def simulate(
     q[:, drift_joints] += smooth_noise(
         rng, t, drift_joints.size, amplitude=np.deg2rad(var.finger_drift_deg), freq_range=(0.1, 0.6)
     )
-    tremor = smooth_noise(rng, t, 3, amplitude=float(var.tremor_mm or 0.0) * 1e-3, freq_range=(6, 10))
+    tremor = smooth_noise(
+        rng, t, 3, amplitude=float(var.tremor_mm or 0.0) * 1e-3, freq_range=(6, 10)
+    )
     tcp = tcp + tremor
     R = rotation(ang[:, 0], ang[:, 1], ang[:, 2])
     kp_local = np.empty((t.size, 21, 3))
@@ -270,10 +287,12 @@ def simulate(
         "hand_rate_hz": hand_rate_hz,
         "object_rate_hz": object_rate_hz,
         "initial_objects": {
-            n: {"position": p.pos.round(6).tolist(), "yaw": round(p.yaw, 6)} for n, p in initial.items()
+            n: {"position": p.pos.round(6).tolist(), "yaw": round(p.yaw, 6)}
+            for n, p in initial.items()
         },
         "skill_sequence": [lab.skill for lab in P.labels],
-        "pushes": P.log,
+        "pushes": [e for e in P.log if "push" in e],
+        "stacks": [e for e in P.log if "stack" in e],
     }
     if task in TEMPLATE_TASKS:
         metadata["target_skill"] = task

@@ -51,8 +51,15 @@ def _base_quat(x_axis: tuple[float, ...], z_hint: tuple[float, ...]) -> str:
     y = np.cross(z, x)
     R = np.column_stack([x, y, z])
     w = np.sqrt(max(1e-12, 1.0 + np.trace(R))) / 2.0
-    q = (w, (R[2, 1] - R[1, 2]) / (4 * w), (R[0, 2] - R[2, 0]) / (4 * w), (R[1, 0] - R[0, 1]) / (4 * w))
+    q = (
+        w,
+        (R[2, 1] - R[1, 2]) / (4 * w),
+        (R[0, 2] - R[2, 0]) / (4 * w),
+        (R[1, 0] - R[0, 1]) / (4 * w),
+    )
     return " ".join(f"{c:.6g}" for c in q)
+
+
 _LENGTHS: dict[str, tuple[float, float, float]] = {
     "thumb": (0.042, 0.033, 0.029),
     "index": (0.044, 0.026, 0.022),
@@ -100,9 +107,9 @@ POSTURES: dict[str, np.ndarray] = {
         {
             "thumb": _deg(-7.6, 9.8, 22.1, 12.9),
             "index": _deg(-8.2, 14.4, 12.9, -1.3),
-            "middle": _deg(0, 35, 40, 20),
-            "ring": _deg(0, 45, 50, 25),
-            "pinky": _deg(0, 55, 55, 25),
+            "middle": _deg(0, 70, 80, 45),
+            "ring": _deg(0, 75, 85, 45),
+            "pinky": _deg(0, 80, 85, 45),
         }
     ),
     # pinch closed: index and thumb tips touching
@@ -110,9 +117,9 @@ POSTURES: dict[str, np.ndarray] = {
         {
             "thumb": _deg(-29.9, 19.5, 9.2, -1.3),
             "index": _deg(-9.3, 42.6, 23.6, 49.4),
-            "middle": _deg(0, 60, 60, 30),
-            "ring": _deg(0, 70, 65, 30),
-            "pinky": _deg(0, 75, 65, 30),
+            "middle": _deg(0, 88, 95, 55),
+            "ring": _deg(0, 90, 95, 55),
+            "pinky": _deg(0, 90, 95, 55),
         }
     ),
     # pointing: index straight, others curled into the palm

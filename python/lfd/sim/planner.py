@@ -7,6 +7,7 @@ Objects stay upright: an object pose is its centre ``pos`` (3,) and its ``yaw`` 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -98,8 +99,8 @@ class Planner:
     labels: list[PlannedLabel] = field(default_factory=list)
     events: list[Event] = field(default_factory=list)
     skill_speed: float = 1.0
-    pending: dict[tuple[str, str], dict[str, object]] = field(default_factory=dict)
-    log: list[dict[str, object]] = field(default_factory=list)
+    pending: dict[tuple[str, str], dict[str, Any]] = field(default_factory=dict)
+    log: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def scale(self) -> float:
@@ -149,7 +150,9 @@ class Planner:
         return np.array([perp[0] * amp, perp[1] * amp, 0.0])
 
     # --- hand geometry ---------------------------------------------------------------------
-    def relative_keypoints(self, q: np.ndarray, yaw: float, pitch: float, roll: float) -> np.ndarray:
+    def relative_keypoints(
+        self, q: np.ndarray, yaw: float, pitch: float, roll: float
+    ) -> np.ndarray:
         """Keypoints relative to the TCP in world axes for a posture and orientation, (21, 3)."""
         kp = self.kin.local_keypoints(q)
         tcp = 0.5 * (kp[THUMB_TIP] + kp[INDEX_TIP])

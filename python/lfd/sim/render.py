@@ -13,7 +13,7 @@ import numpy as np
 
 from ..demo import ImageStream
 from .hand import JOINT_NAMES
-from .scene import Scene
+from .scene import Scene, forearm_quat
 
 
 def render_frames(
@@ -36,14 +36,19 @@ def render_frames(
     cam = scene.camera
     qadr = np.array([model.jnt_qposadr[model.joint(n).id] for n in JOINT_NAMES])
     obj_adr = {o.name: int(model.jnt_qposadr[model.joint(o.name).id]) for o in scene.objects}
+    hand_mocap = int(model.body_mocapid[model.body("hand").id])
+    arm_mocap = int(model.body_mocapid[model.body("forearm").id])
     frames = np.asarray(frames, dtype=int)
     color = np.empty((frames.size, cam.height, cam.width, 3), np.uint8)
     depth_mm = np.empty((frames.size, cam.height, cam.width), np.uint16) if depth else None
     renderer = mujoco.Renderer(model, cam.height, cam.width)
     try:
         for k, i in enumerate(frames):
-            data.mocap_pos[0] = truth.wrist_pos[i]  # type: ignore[attr-defined]
-            data.mocap_quat[0] = truth.wrist_quat[i]  # type: ignore[attr-defined]
+            wrist = truth.wrist_pos[i]  # type: ignore[attr-defined]
+            data.mocap_pos[hand_mocap] = wrist
+            data.mocap_quat[hand_mocap] = truth.wrist_quat[i]  # type: ignore[attr-defined]
+            data.mocap_pos[arm_mocap] = wrist
+            data.mocap_quat[arm_mocap] = forearm_quat(wrist)
             data.qpos[qadr] = truth.q[i]  # type: ignore[attr-defined]
             for name, adr in obj_adr.items():
                 yaw = truth.object_yaw[name][i]  # type: ignore[attr-defined]

@@ -5,7 +5,9 @@ estimator would.
   camera's viewing ray), orientation noise ``object_noise_mm / 2`` degrees, missing samples in
   bursts (two-state Markov chain with mean burst 0.2 s, stationary fraction ``dropout``) and an
   extra miss probability ``occlusion`` while the hand is right above the object.
-- Hand keypoints on every 5th-7th camera frame (~5 Hz at 30 Hz): gaussian noise ``noise_mm``
+- Hand keypoints on every 5th-7th camera frame (~5 Hz at 30 Hz), a fraction ``hand_miss`` of
+  them lost (the estimator found no hand), with gaussian noise ``noise_mm`` (x0.8 at the wrist
+  up to x1.35 at the fingertips)
   (1.5x along the viewing ray), and in a fraction ``outlier_rate`` of the frames 1-3 keypoints
   (mostly fingertips) off by 1-3 cm with a low confidence.
 """
@@ -19,10 +21,16 @@ from .scene import Scene
 from .variability import Variability
 
 _FINGERTIPS = np.array([4, 8, 12, 16, 20])
+_KEYPOINT_NOISE = np.array([0.8] + [0.9, 1.0, 1.15, 1.35] * 5)
+"""Relative noise per keypoint: estimators are best at the wrist and worst at the fingertips."""
 
 
 def _camera_noise(
-    rng: np.random.Generator, shape: tuple[int, ...], sigma: float, depth_factor: float, R_cv: np.ndarray
+    rng: np.random.Generator,
+    shape: tuple[int, ...],
+    sigma: float,
+    depth_factor: float,
+    R_cv: np.ndarray,
 ) -> np.ndarray:
     """Gaussian noise with std ``sigma`` across and ``sigma * depth_factor`` along the view ray."""
     n = rng.normal(0.0, 1.0, (*shape, 3)) * np.array([sigma, sigma, sigma * depth_factor])
@@ -83,8 +91,10 @@ def sample_streams(
     steps = np.maximum(1, np.round(mean_step + rng.choice([-1, 0, 0, 0, 0, 1], size=n)))
     idx = np.cumsum(np.concatenate([[int(rng.integers(0, max(1, int(mean_step))))], steps]))
     idx = idx[idx < n].astype(int)
+    idx = idx[rng.random(idx.size) >= var.hand_miss]  # failed estimates leave gaps
     kp = truth.keypoints[idx].copy()  # type: ignore[attr-defined]
-    kp += _camera_noise(rng, kp.shape[:2], float(var.noise_mm or 0.0) * 1e-3, 1.5, R_cv)
+    noise = _camera_noise(rng, kp.shape[:2], float(var.noise_mm or 0.0) * 1e-3, 1.5, R_cv)
+    kp += noise * _KEYPOINT_NOISE[None, :, None]
     conf = rng.uniform(0.8, 0.98, size=kp.shape[:2])
     outlier_frames = rng.random(idx.size) < var.outlier_rate
     weights = np.ones(21)

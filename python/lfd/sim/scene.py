@@ -29,6 +29,9 @@ WORKSPACE_Y = (0.14, 0.36)
 DEMONSTRATOR_SHOULDER = np.array([0.12, -0.42, 0.30])
 """Approximate right shoulder of the demonstrator; the forearm points from here to the hand."""
 
+FOREARM_LENGTH = 0.26
+"""Visible length of the forearm (for rendering and occlusion only; it has no keypoints)."""
+
 TAG_MARGIN = 0.08
 """White margin around a box tag, as a fraction of the top-face side."""
 
@@ -108,6 +111,29 @@ class Scene:
         return mujoco.MjModel.from_xml_string(self.xml, self.assets)
 
 
+def forearm_quat(wrist: np.ndarray) -> np.ndarray:
+    """Orientation (w, x, y, z) of the forearm body: its +x axis from the wrist to the elbow.
+
+    The elbow is placed roughly below and in front of :data:`DEMONSTRATOR_SHOULDER`.
+    """
+    elbow = DEMONSTRATOR_SHOULDER + np.array([0.0, 0.15, -0.12])
+    x = elbow - np.asarray(wrist, float)
+    x /= np.linalg.norm(x)
+    z = np.array([0.0, 0.0, 1.0]) - x * x[2]
+    z /= np.linalg.norm(z)
+    y = np.cross(z, x)
+    R = np.column_stack([x, y, z])
+    w = np.sqrt(max(1e-12, 1.0 + np.trace(R))) / 2.0
+    return np.array(
+        [
+            w,
+            (R[2, 1] - R[1, 2]) / (4 * w),
+            (R[0, 2] - R[2, 0]) / (4 * w),
+            (R[1, 0] - R[0, 1]) / (4 * w),
+        ]
+    )
+
+
 def tag_png(tag_id: int, *, margin_fraction: float = 0.0, cell_px: int = 20) -> bytes:
     """PNG bytes of an ArUco DICT_4X4_50 marker with a white margin (fraction of the full side)."""
     import cv2
@@ -147,7 +173,9 @@ def build_scene(
     bodies = []
     for spec in objects:
         assets[f"tag_{spec.tag_id}.png"] = tag_png(spec.tag_id, margin_fraction=TAG_MARGIN)
-        asset_xml.append(f'<texture name="tex_{spec.tag_id}" type="2d" file="tag_{spec.tag_id}.png"/>')
+        asset_xml.append(
+            f'<texture name="tex_{spec.tag_id}" type="2d" file="tag_{spec.tag_id}.png"/>'
+        )
         asset_xml.append(f'<material name="mat_{spec.tag_id}" texture="tex_{spec.tag_id}"/>')
         sx, sy, sz = (0.5 * v for v in spec.size)
         side = min(sx, sy)
@@ -191,6 +219,12 @@ def build_scene(
     fovy="{camera.fovy_deg:.6g}"/>
   {chr(10).join(bodies)}
   {hand_mjcf(hand_scale)}
+  <body name="forearm" mocap="true">
+    <geom name="forearm" type="capsule" fromto="0.03 0 0 {FOREARM_LENGTH} 0 0"
+      size="{0.027 * hand_scale:.6g}" rgba="0.85 0.66 0.55 1" contype="0" conaffinity="0"/>
+  </body>
 </worldbody>
 </mujoco>"""
-    return Scene(xml=xml, assets=assets, objects=tuple(objects), camera=camera, hand_scale=hand_scale)
+    return Scene(
+        xml=xml, assets=assets, objects=tuple(objects), camera=camera, hand_scale=hand_scale
+    )

@@ -37,13 +37,32 @@ current hand state and closes its label (pauses after a skill belong to that ski
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from ..demo import INDEX_TIP, THUMB_TIP
+from ..errors import DemonstrationError
 from .hand import FINGERTIP_RADIUS, POSTURES, pinch_posture
 from .motion import HandState, rotation
-from .planner import Attach, Detach, ObjectPose, Planner, Push, wrap_angle
+from .nonprehensile import locate, locate_entry, push, push_entry
+from .planner import Attach, Detach, ObjectPose, Planner, wrap_angle
 from .scene import WORKSPACE_X, WORKSPACE_Y
+
+__all__ = [
+    "free_spot",
+    "locate",
+    "locate_entry",
+    "move",
+    "move_with",
+    "pick_up",
+    "pick_up_entry",
+    "place",
+    "push",
+    "push_entry",
+    "rest_pose",
+    "stack",
+]
 
 
 def _deg(lo: float, hi: float, rng: np.random.Generator) -> float:
@@ -55,32 +74,36 @@ def _max_top(P: Planner, exclude: str | None = None) -> float:
 
 
 # --- Pick up ---------------------------------------------------------------------------------
-def _grasp(P: Planner, name: str) -> dict[str, object]:
+def _grasp(P: Planner, name: str) -> dict[str, Any]:
     key = ("pick_up", name)
     if key in P.pending:
         return P.pending[key]
     rng, spec, pose, s = P.rng, P.specs[name], P.poses[name], P.scale
     roll = _deg(-8, 8, rng)
     natural = P.natural_yaw(pose.pos)
-    best: tuple[float, dict[str, object]] | None = None
+    best: tuple[float, dict[str, Any]] | None = None
     for k in range(4):
         width = spec.size[k % 2]
         g = P.kin.pinch_for_aperture(width + 2.0 * FINGERTIP_RADIUS * s)
         kp = P.kin.local_keypoints(pinch_posture(g))
         a = rotation(np.array(0.0), np.array(0.0), np.array(roll)) @ (kp[INDEX_TIP] - kp[THUMB_TIP])
         pitch = float(np.arctan2(a[2], a[0]))
-        a = rotation(np.array(0.0), np.array(pitch), np.array(roll)) @ (kp[INDEX_TIP] - kp[THUMB_TIP])
+        a = rotation(np.array(0.0), np.array(pitch), np.array(roll)) @ (
+            kp[INDEX_TIP] - kp[THUMB_TIP]
+        )
         yaw = wrap_angle(pose.yaw + k * np.pi / 2 - float(np.arctan2(a[1], a[0])))
         cost = abs(wrap_angle(yaw - natural))
         if best is None or cost < best[0]:
             best = (cost, {"yaw": yaw, "pitch": pitch, "roll": roll, "g": g, "width": width})
     assert best is not None
     G = best[1]
-    G["yaw"] = float(G["yaw"]) + _deg(-4, 4, rng)  # type: ignore[arg-type]
-    G["pitch"] = float(G["pitch"]) + _deg(-4, 4, rng)  # type: ignore[arg-type]
-    width = float(G["width"])  # type: ignore[arg-type]
-    G["g_pre"] = P.kin.pinch_for_aperture(width + 2 * FINGERTIP_RADIUS * s + rng.uniform(0.02, 0.04))
-    rel = P.relative_keypoints(pinch_posture(float(G["g"])), G["yaw"], G["pitch"], roll)  # type: ignore[arg-type]
+    G["yaw"] = float(G["yaw"]) + _deg(-4, 4, rng)
+    G["pitch"] = float(G["pitch"]) + _deg(-4, 4, rng)
+    width = float(G["width"])
+    G["g_pre"] = P.kin.pinch_for_aperture(
+        width + 2 * FINGERTIP_RADIUS * s + rng.uniform(0.02, 0.04)
+    )
+    rel = P.relative_keypoints(pinch_posture(float(G["g"])), G["yaw"], G["pitch"], roll)
     z = P.top(name) - rng.uniform(0.012, 0.02)
     z = max(z, 0.009 * s - float(rel[:, 2].min()))
     xy = pose.pos[:2] + np.clip(rng.normal(0.0, 0.002, 2), -0.004, 0.004)
@@ -92,14 +115,18 @@ def _grasp(P: Planner, name: str) -> dict[str, object]:
 def pick_up_entry(P: Planner, name: str) -> HandState:
     """Hand state above/near ``name`` from which a Pick up starts."""
     G, rng = _grasp(P, name), P.rng
-    yaw = float(G["yaw"])  # type: ignore[arg-type]
+    yaw = float(G["yaw"])
     back = np.array([np.cos(yaw), np.sin(yaw)]) * -rng.uniform(0.0, 0.05)
     side = np.array([-np.sin(yaw), np.cos(yaw)]) * rng.uniform(-0.02, 0.02)
-    tcp = np.array(G["tcp"], float)  # type: ignore[arg-type]
+    tcp = np.array(G["tcp"], float)
     p = np.array([*(tcp[:2] + back + side), P.top(name) + rng.uniform(0.06, 0.12)])
-    q = 0.5 * POSTURES["relaxed"] + 0.5 * pinch_posture(float(G["g_pre"]))  # type: ignore[arg-type]
+    q = 0.5 * POSTURES["relaxed"] + 0.5 * pinch_posture(float(G["g_pre"]))
     return HandState(
-        p, yaw + _deg(-12, 12, rng), float(G["pitch"]) - _deg(0, 12, rng), float(G["roll"]), q  # type: ignore[arg-type]
+        p,
+        yaw + _deg(-12, 12, rng),
+        float(G["pitch"]) - _deg(0, 12, rng),
+        float(G["roll"]),
+        q,
     )
 
 
@@ -108,9 +135,9 @@ def pick_up(P: Planner, name: str) -> None:
     P.begin_skill()
     t0, G, rng = P.t, _grasp(P, name), P.rng
     P.pending.pop(("pick_up", name), None)
-    tcp = np.array(G["tcp"], float)  # type: ignore[arg-type]
-    ang = {k: float(G[k]) for k in ("yaw", "pitch", "roll")}  # type: ignore[arg-type]
-    q_pre = pinch_posture(float(G["g_pre"]))  # type: ignore[arg-type]
+    tcp = np.array(G["tcp"], float)
+    ang = {k: float(G[k]) for k in ("yaw", "pitch", "roll")}
+    q_pre = pinch_posture(float(G["g_pre"]))
     above = tcp + np.array([0.0, 0.0, rng.uniform(0.005, 0.015)])
     above[2] = min(above[2], P.state.tcp[2])
     reach = HandState(above, q=q_pre, **ang)
@@ -124,12 +151,15 @@ def pick_up(P: Planner, name: str) -> None:
     )
     P.go(P.dur(0.25, 0.45), reach.moved(tcp=tcp))
     P.maybe_pause()
-    P.go(P.dur(0.35, 0.6), P.state.moved(q=pinch_posture(float(G["g"]))))  # type: ignore[arg-type]
+    P.go(P.dur(0.35, 0.6), P.state.moved(q=pinch_posture(float(G["g"]))))
     P.events.append(Attach(P.t, name))
     pose = P.poses[name]
     c, s_ = np.cos(-P.state.yaw), np.sin(-P.state.yaw)
     d = pose.pos - P.state.tcp
-    P.grasp_rel = (np.array([c * d[0] - s_ * d[1], s_ * d[0] + c * d[1], d[2]]), pose.yaw - P.state.yaw)
+    P.grasp_rel = (
+        np.array([c * d[0] - s_ * d[1], s_ * d[0] + c * d[1], d[2]]),
+        pose.yaw - P.state.yaw,
+    )
     P.held = name
     P.hold(P.dur(0.1, 0.3))
     P.maybe_pause()
@@ -156,7 +186,7 @@ def free_spot(P: Planner, name: str, *, min_move: float = 0.10) -> np.ndarray:
                 break
         if ok:
             return xy
-    raise RuntimeError(f"no free table spot for {name}")
+    raise DemonstrationError(f"no free table spot for {name}")
 
 
 def move_with(P: Planner, name: str, onto: str | None = None) -> None:
@@ -180,8 +210,12 @@ def move_with(P: Planner, name: str, onto: str | None = None) -> None:
         new_yaw = base.yaw + k * np.pi / 2 + _deg(-5, 5, rng)
     hand_yaw = float(new_yaw - rel_yaw)
     c, sn = np.cos(hand_yaw), np.sin(hand_yaw)
-    tcp_final = pos - np.array([c * rel_p[0] - sn * rel_p[1], sn * rel_p[0] + c * rel_p[1], rel_p[2]])
+    tcp_final = pos - np.array(
+        [c * rel_p[0] - sn * rel_p[1], sn * rel_p[0] + c * rel_p[1], rel_p[2]]
+    )
     P.pending[("place", name)] = {"tcp": tcp_final, "pose": ObjectPose(pos, float(new_yaw))}
+    if onto is not None:
+        P.log.append({"stack": name, "onto": onto})
     above = tcp_final + np.array([0.0, 0.0, rng.uniform(0.03, 0.07)])
     below_tcp = 0.5 * spec.size[2] - rel_p[2]  # object bottom below the TCP
     z_peak = max(s.tcp[2], above[2]) + rng.uniform(0.03, 0.08)
@@ -205,18 +239,22 @@ def _put_down(P: Planner, name: str, skill: str) -> None:
     P.begin_skill()
     t0, rng = P.t, P.rng
     target = P.pending.pop(("place", name))
-    tcp = np.array(target["tcp"], float)  # type: ignore[arg-type]
+    tcp = np.array(target["tcp"], float)
     pose = target["pose"]
     assert isinstance(pose, ObjectPose)
     near = tcp + np.array([0.0, 0.0, rng.uniform(0.005, 0.012)])
-    P.go(P.dur(0.6, 0.9), P.state.moved(tcp=near), detour=P.detour(P.state.tcp, near, frac=(0, 0.05)))
+    P.go(
+        P.dur(0.6, 0.9), P.state.moved(tcp=near), detour=P.detour(P.state.tcp, near, frac=(0, 0.05))
+    )
     P.go(P.dur(0.25, 0.45), P.state.moved(tcp=tcp))
     P.maybe_pause()
     P.events.append(Detach(P.t, name, pose.copy()))
     P.poses[name] = pose.copy()
     P.held, P.grasp_rel = None, None
     width = P.specs[name].size[0]
-    g_open = P.kin.pinch_for_aperture(width + 2 * FINGERTIP_RADIUS * P.scale + rng.uniform(0.015, 0.035))
+    g_open = P.kin.pinch_for_aperture(
+        width + 2 * FINGERTIP_RADIUS * P.scale + rng.uniform(0.015, 0.035)
+    )
     P.go(P.dur(0.3, 0.5), P.state.moved(q=pinch_posture(g_open)))
     P.hold(P.dur(0.1, 0.25))
     P.maybe_pause()
@@ -260,145 +298,3 @@ def move(P: Planner, target: HandState, obj: str | None) -> None:
     )
     P.maybe_pause()
     P.label("move", t0, obj)
-
-
-# --- Push ------------------------------------------------------------------------------------
-def _push_plan(P: Planner, name: str) -> dict[str, object]:
-    key = ("push", name)
-    if key in P.pending:
-        return P.pending[key]
-    rng, spec, pose, s = P.rng, P.specs[name], P.poses[name], P.scale
-    r_obj = 0.5 * float(np.hypot(spec.size[0], spec.size[1]))
-    options = []
-    for k in range(4):
-        direction = np.array([np.cos(pose.yaw + k * np.pi / 2), np.sin(pose.yaw + k * np.pi / 2)])
-        if direction[1] < -0.5:  # nobody pushes towards themselves across the marker
-            continue
-        for dist in (rng.uniform(0.05, 0.12), 0.05):
-            end = pose.pos[:2] + direction * dist
-            if not (WORKSPACE_X[0] - 0.03 <= end[0] <= WORKSPACE_X[1] + 0.03):
-                continue
-            if not (WORKSPACE_Y[0] - 0.02 <= end[1] <= WORKSPACE_Y[1] + 0.03):
-                continue
-            clear = all(
-                np.linalg.norm(end - p.pos[:2]) > r_obj + 0.5 * np.hypot(*P.specs[o].size[:2]) + 0.02
-                and np.linalg.norm(pose.pos[:2] - direction * 0.12 - p.pos[:2]) > 0.06
-                for o, p in P.poses.items()
-                if o != name
-            )
-            if clear:
-                options.append((k, direction, float(dist)))
-                break
-    if not options:
-        raise RuntimeError(f"no free direction to push {name}")
-    k, direction, dist = options[int(rng.integers(len(options)))]
-    half = 0.5 * spec.size[k % 2]
-    yaw = float(np.arctan2(direction[1], direction[0])) + _deg(-8, 8, rng)
-    pitch, roll = _deg(55, 70, rng), _deg(-6, 6, rng)
-    q = POSTURES["push"]
-    rel = P.relative_keypoints(q, yaw, pitch, roll)
-    z = 0.004 + 0.0075 * s - float(rel[:, 2].min()) + rng.uniform(0.0, 0.006)
-    low = (z + rel[:, 2]) < spec.size[2]
-    low[0] = False
-    front = float(np.max(rel[low, :2] @ direction)) + 0.009 * s if low.any() else 0.02
-    contact = np.array([*(pose.pos[:2] - direction * (half + front)), z])
-    standoff = contact - np.array([*(direction * rng.uniform(0.015, 0.04)), 0.0])
-    standoff[:2] += np.array([-direction[1], direction[0]]) * rng.uniform(-0.01, 0.01)
-    plan: dict[str, object] = {
-        "direction": np.array([direction[0], direction[1], 0.0]),
-        "distance": dist,
-        "contact": contact,
-        "standoff": standoff,
-        "hand": HandState(standoff, yaw, pitch, roll, q),
-    }
-    P.pending[key] = plan
-    return plan
-
-
-def push_entry(P: Planner, name: str) -> HandState:
-    """Hand state above and behind ``name`` from which a Push starts."""
-    plan, rng = _push_plan(P, name), P.rng
-    hand = plan["hand"]
-    assert isinstance(hand, HandState)
-    tcp = hand.tcp + np.array([0.0, 0.0, rng.uniform(0.04, 0.08)])
-    q = 0.5 * POSTURES["relaxed"] + 0.5 * POSTURES["push"]
-    return hand.moved(tcp=tcp, pitch=hand.pitch - _deg(5, 20, rng), q=q)
-
-
-def push(P: Planner, name: str) -> None:
-    """Lower the hand behind the object, then slide the object along the table."""
-    P.begin_skill()
-    t0, rng = P.t, P.rng
-    plan = _push_plan(P, name)
-    P.pending.pop(("push", name), None)
-    hand = plan["hand"]
-    assert isinstance(hand, HandState)
-    direction = np.asarray(plan["direction"], float)
-    dist = float(plan["distance"])  # type: ignore[arg-type]
-    contact = np.asarray(plan["contact"], float)
-    P.go(
-        P.dur(0.6, 1.0),
-        hand,
-        detour=P.detour(P.state.tcp, hand.tcp, frac=(0.0, 0.08)),
-        posture_window=(0.0, 0.7),
-    )
-    P.maybe_pause()
-    t_push = P.t
-    end = contact + direction * dist - np.array([0.0, 0.0, rng.uniform(0.0, 0.002)])
-    P.go(
-        P.dur(0.5, 0.8) + 7.0 * dist / P.skill_speed,
-        hand.moved(tcp=end, yaw=hand.yaw + _deg(-4, 4, rng)),
-        detour=P.detour(hand.tcp, end, frac=(0.0, 0.04)),
-    )
-    P.events.append(Push(t_push, P.t, name, direction, contact))
-    P.log.append({"push": name, "distance": dist, "direction": direction[:2].round(6).tolist()})
-    P.poses[name].pos = P.poses[name].pos + direction * dist
-    P.hold(P.dur(0.1, 0.3))
-    P.maybe_pause()
-    P.label("push", t0, name)
-
-
-# --- Locate ----------------------------------------------------------------------------------
-def _point_plan(P: Planner, name: str) -> HandState:
-    key = ("locate", name)
-    if key not in P.pending:
-        rng, pose = P.rng, P.poses[name]
-        yaw, pitch, roll = P.natural_yaw(pose.pos), _deg(40, 60, rng), _deg(-5, 5, rng)
-        q = POSTURES["point"]
-        rel = P.relative_keypoints(q, yaw, pitch, roll)
-        tip = np.array(
-            [*(pose.pos[:2] + np.clip(rng.normal(0, 0.005, 2), -0.008, 0.008)), P.top(name)]
-        )
-        tip[2] += rng.uniform(0.04, 0.08)
-        P.pending[key] = {"hand": HandState(tip - rel[INDEX_TIP], yaw, pitch, roll, q)}
-    hand = P.pending[key]["hand"]
-    assert isinstance(hand, HandState)
-    return hand
-
-
-def locate_entry(P: Planner, name: str) -> HandState:
-    """Hand state above and behind the pointing pose from which a Locate starts."""
-    hand, rng = _point_plan(P, name), P.rng
-    back = -np.array([np.cos(hand.yaw), np.sin(hand.yaw), 0.0]) * rng.uniform(0.02, 0.06)
-    side = np.array([-np.sin(hand.yaw), np.cos(hand.yaw), 0.0]) * rng.uniform(-0.03, 0.03)
-    up = np.array([0.0, 0.0, rng.uniform(0.02, 0.06)])
-    q = 0.6 * POSTURES["relaxed"] + 0.4 * POSTURES["point"]
-    return hand.moved(tcp=hand.tcp + back + side + up, pitch=hand.pitch - _deg(5, 15, rng), q=q)
-
-
-def locate(P: Planner, name: str) -> None:
-    """Point at the object from 4-8 cm above its top face and hover there about a second."""
-    P.begin_skill()
-    t0, rng = P.t, P.rng
-    hand = _point_plan(P, name)
-    P.pending.pop(("locate", name), None)
-    P.go(
-        P.dur(0.7, 1.1),
-        hand,
-        detour=P.detour(P.state.tcp, hand.tcp, frac=(0.0, 0.1)),
-        posture_window=(0.0, 0.7),
-    )
-    drift = np.array([*rng.uniform(-0.003, 0.003, 2), -rng.uniform(0.0, 0.003)])
-    P.go(P.dur(0.8, 1.5), hand.moved(tcp=hand.tcp + drift))
-    P.maybe_pause()
-    P.label("locate", t0, name)

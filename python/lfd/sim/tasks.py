@@ -79,7 +79,15 @@ TASKS: dict[str, tuple[Step, ...]] = {
 """Every task by name."""
 
 EXPERIMENTS: tuple[str, ...] = ("exp1", "exp2", "exp3", "exp4")
-TEMPLATE_TASKS: tuple[str, ...] = ("pick_up", "place", "locate", "stack", "push", "move", "move_with")
+TEMPLATE_TASKS: tuple[str, ...] = (
+    "pick_up",
+    "place",
+    "locate",
+    "stack",
+    "push",
+    "move",
+    "move_with",
+)
 
 
 def task_steps(name: str) -> tuple[Step, ...]:

@@ -30,6 +30,8 @@ class Variability:
         Default U(2, 3).
     outlier_rate : float
         Fraction of hand frames with 1-3 keypoints off by 1-3 cm (default 0.03).
+    hand_miss : float
+        Fraction of hand-pose estimates that fail (the frame has no hand sample; default 0.02).
     dropout : float or None
         Fraction of object samples missing, in bursts of ~0.2 s (mean). Default U(0.01, 0.03).
     occlusion : float
@@ -59,6 +61,7 @@ class Variability:
     hand_scale: float | None = None
     noise_mm: float | None = None
     outlier_rate: float = 0.03
+    hand_miss: float = 0.02
     dropout: float | None = None
     occlusion: float = 0.15
     tremor_mm: float | None = None
@@ -74,6 +77,7 @@ class Variability:
         base = {
             "noise_mm": 0.0,
             "outlier_rate": 0.0,
+            "hand_miss": 0.0,
             "dropout": 0.0,
             "occlusion": 0.0,
             "tremor_mm": 0.0,
@@ -110,7 +114,7 @@ class Variability:
             raise ValueError(f"speed must be in [0.2, 5], got {self.speed}")
         if self.hand_scale is not None and not 0.6 <= self.hand_scale <= 1.5:
             raise ValueError(f"hand scale must be in [0.6, 1.5], got {self.hand_scale}")
-        for name in ("dropout", "pauses", "outlier_rate", "occlusion"):
+        for name in ("dropout", "pauses", "outlier_rate", "occlusion", "hand_miss"):
             v = getattr(self, name)
             if v is not None and v > 0.9:
                 raise ValueError(f"{name} must be a probability <= 0.9, got {v}")
