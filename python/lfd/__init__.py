@@ -10,6 +10,7 @@ from __future__ import annotations
 from importlib.metadata import PackageNotFoundError, version
 
 from .demo import CameraInfo, Demonstration, HandTrack, ImageStream, ObjectTrack, SkillLabel
+from .engine import GaussianHMM
 from .errors import EngineError, LfdError
 from .skills import SKILLS
 from .trajectory import Trajectory
@@ -24,6 +25,7 @@ __all__ = [
     "CameraInfo",
     "Demonstration",
     "EngineError",
+    "GaussianHMM",
     "HandTrack",
     "ImageStream",
     "LfdError",

@@ -1,4 +1,3 @@
-#![allow(dead_code)] // used by the binding modules as they are added
 //! Map every [`hmmseg::EngineError`] variant to its Python exception class in `lfd.errors`.
 
 use hmmseg::EngineError;

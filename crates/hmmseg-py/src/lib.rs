@@ -4,11 +4,13 @@
 //! in `crates/hmmseg`. Heavy work runs with the interpreter released (`py.detach`).
 
 mod errors;
+mod hmm;
 
 use pyo3::prelude::*;
 
 #[pymodule]
 fn _hmmseg(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    hmm::register(m)?;
     Ok(())
 }
