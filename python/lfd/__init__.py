@@ -11,6 +11,7 @@ from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING, Any
 
 from .demo import CameraInfo, Demonstration, HandTrack, ImageStream, ObjectTrack, SkillLabel
+from .engine import GaussianHMM
 from .errors import EngineError, LfdError
 from .skills import SKILLS
 from .trajectory import Trajectory
@@ -41,6 +42,7 @@ __all__ = [
     "CameraInfo",
     "Demonstration",
     "EngineError",
+    "GaussianHMM",
     "HandTrack",
     "ImageStream",
     "LfdError",

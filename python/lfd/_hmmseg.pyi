@@ -1,11 +1,82 @@
 """Type stubs for the compiled engine ``lfd._hmmseg`` (checked by ``mypy.stubtest``)."""
 
+from typing import final
+
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["__version__"]  # each section below adds its names
+# Each section appends its names (the runtime module lists every added class / function).
+__all__ = ["__version__"]
 
 __version__: str
+
+# --- continuous HMM (crates/hmmseg-py/src/hmm.rs) ----------------------------------------------
+__all__ += ["Hmm"]
+
+_F64 = NDArray[np.float64]
+
+@final
+class Hmm:
+    """A continuous HMM with Gaussian-mixture emissions (immutable)."""
+
+    @staticmethod
+    def fit(
+        sequences: list[_F64],
+        *,
+        n_states: int,
+        n_mix: int = 1,
+        covariance: str = "diag",
+        topology: str = "left-right",
+        seed: int = 0,
+        max_iter: int = 100,
+        tol: float = 1e-4,
+        covariance_floor: float = 1e-3,
+    ) -> tuple[Hmm, list[float], int, bool]: ...
+    def refit(
+        self,
+        sequences: list[_F64],
+        *,
+        max_iter: int,
+        tol: float = ...,
+        covariance_floor: float = 1e-3,
+    ) -> tuple[Hmm, list[float], int, bool]: ...
+    @staticmethod
+    def from_params(
+        startprob: _F64,
+        transmat: _F64,
+        weights: _F64,
+        means: _F64,
+        covars: _F64,
+        covariance: str = "diag",
+    ) -> Hmm: ...
+    @staticmethod
+    def from_json(s: str) -> Hmm: ...
+    def to_json(self) -> str: ...
+    def log_likelihood(self, x: _F64) -> float: ...
+    def log_likelihood_many(self, sequences: list[_F64]) -> _F64: ...
+    def prefix_log_likelihoods(self, x: _F64) -> _F64: ...
+    def viterbi(self, x: _F64) -> tuple[float, NDArray[np.int64]]: ...
+    def posteriors(self, x: _F64) -> _F64: ...
+    def sample(self, n_samples: int, *, seed: int = 0) -> tuple[_F64, NDArray[np.int64]]: ...
+    @property
+    def n_states(self) -> int: ...
+    @property
+    def n_features(self) -> int: ...
+    @property
+    def n_mix(self) -> int: ...
+    @property
+    def covariance(self) -> str: ...
+    @property
+    def startprob(self) -> _F64: ...
+    @property
+    def transmat(self) -> _F64: ...
+    @property
+    def weights(self) -> _F64: ...
+    @property
+    def means(self) -> _F64: ...
+    @property
+    def covars(self) -> _F64: ...
+    def __eq__(self, value: object, /) -> bool: ...
 
 # --- DTW and normalisation (crates/hmmseg-py/src/dtw.rs) --------------------------------------
 __all__ += ["align_to_reference", "dtw", "dtw_distance", "minmax", "minmax_with"]
