@@ -5,14 +5,9 @@ from typing import final
 import numpy as np
 from numpy.typing import NDArray
 
-# Each section appends its names (the runtime module lists every added class / function).
-__all__ = ["__version__"]
-
 __version__: str
 
 # --- continuous HMM (crates/hmmseg-py/src/hmm.rs) ----------------------------------------------
-__all__ += ["Hmm"]
-
 _F64 = NDArray[np.float64]
 
 @final
@@ -79,8 +74,6 @@ class Hmm:
     def __eq__(self, value: object, /) -> bool: ...
 
 # --- DTW and normalisation (crates/hmmseg-py/src/dtw.rs) --------------------------------------
-__all__ += ["align_to_reference", "dtw", "dtw_distance", "minmax", "minmax_with"]
-
 def dtw(
     a: NDArray[np.float64], b: NDArray[np.float64], band: int | None = None
 ) -> tuple[float, NDArray[np.int64]]: ...
@@ -96,14 +89,6 @@ def minmax_with(
 ) -> NDArray[np.float64]: ...
 
 # --- Table I features (crates/hmmseg-py/src/features.rs) ---------------------------------------
-__all__ += [
-    "check_feature_params",
-    "compute_features",
-    "default_feature_params",
-    "feature_names",
-    "label_targets",
-]
-
 def compute_features(
     tcp: NDArray[np.float64],
     opening: NDArray[np.float64],
@@ -126,15 +111,6 @@ def default_feature_params() -> str: ...
 def check_feature_params(params_json: str) -> str: ...
 
 # --- segmentation: stage 1, stage 2, templates (crates/hmmseg-py/src/segment.rs) -------------
-__all__ += [
-    "TemplateSet",
-    "default_template_params",
-    "rising_table",
-    "segment_dp",
-    "segment_greedy",
-    "stage1_boundaries",
-]
-
 _SegmentTuple = tuple[int, int, int, int, int, float, float]
 
 def stage1_boundaries(
