@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import hypothesis.extra.numpy as hnp
+import hypothesis.strategies as st
 import numpy as np
 import pytest
+from hypothesis import given, settings
 from lfd.dtw import align_to_reference, dtw, dtw_distance, normalize
 from lfd.errors import (
     EmptySequenceError,
@@ -136,3 +139,19 @@ def test_normalize() -> None:
         normalize([0.0, np.inf])
     with pytest.raises(EmptySequenceError):
         normalize(np.zeros((0, 2)))
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    a=hnp.arrays(np.float64, st.integers(1, 12), elements=st.floats(-100, 100)),
+    b=hnp.arrays(np.float64, st.integers(1, 12), elements=st.floats(-100, 100)),
+    extra=st.integers(0, 3),
+)
+def test_matches_numpy_reference_property(a: np.ndarray, b: np.ndarray, extra: int) -> None:
+    band = abs(len(a) - len(b)) + extra
+    assert dtw_distance(a, b) == pytest.approx(numpy_dtw(a, b), rel=1e-9, abs=1e-9)
+    dist, path = dtw(a, b, band=band)
+    assert dist == pytest.approx(numpy_dtw(a, b, band), rel=1e-9, abs=1e-9)
+    assert np.sqrt(np.sum((a[path[:, 0]] - b[path[:, 1]]) ** 2)) == pytest.approx(
+        dist, rel=1e-9, abs=1e-9
+    )

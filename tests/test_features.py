@@ -254,3 +254,19 @@ def test_bad_input() -> None:
     short = make_traj(traj.tcp[:1], traj.object_position[:, :1])
     with pytest.raises(DemonstrationError):
         compute_features(short)
+
+
+def test_end_to_end_on_a_preprocessed_demonstration() -> None:
+    from _synthetic import make_demo
+    from lfd.preprocess import preprocess
+
+    traj = preprocess(make_demo(duration_s=8.0))
+    assert valid_mask(traj).all()
+    f = compute_features(traj)
+    assert f.values.shape == f.thresholds.shape == (len(traj), 10)
+    assert np.isfinite(f.values).all() and np.isfinite(f.thresholds).all()
+    assert set(np.unique(f.target)) <= {0, 1}
+    np.testing.assert_allclose(f.column("fingertip_distance"), traj.opening)
+    np.testing.assert_allclose(
+        f.column("hand_velocity"), np.linalg.norm(np.gradient(traj.tcp, traj.t_s, axis=0), axis=1)
+    )

@@ -11,7 +11,9 @@ from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING, Any
 
 from .demo import CameraInfo, Demonstration, HandTrack, ImageStream, ObjectTrack, SkillLabel
+from .engine import GaussianHMM
 from .errors import EngineError, LfdError
+from .features import FEATURE_NAMES, FeatureParams, Features, compute_features, label_targets
 from .skills import SKILLS
 from .trajectory import Trajectory
 
@@ -37,10 +39,14 @@ except PackageNotFoundError:  # pragma: no cover - running from a source tree
     __version__ = "0.0.0"
 
 __all__ = [
+    "FEATURE_NAMES",
     "SKILLS",
     "CameraInfo",
     "Demonstration",
     "EngineError",
+    "FeatureParams",
+    "Features",
+    "GaussianHMM",
     "HandTrack",
     "ImageStream",
     "LfdError",
@@ -49,6 +55,8 @@ __all__ = [
     "SkillLabel",
     "Trajectory",
     "__version__",
+    "compute_features",
+    "label_targets",
     "load",
     "preprocess",
     "save",

@@ -1,15 +1,79 @@
 """Type stubs for the compiled engine ``lfd._hmmseg`` (checked by ``mypy.stubtest``)."""
 
+from typing import final
+
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["__version__"]  # each section below adds its names
-
 __version__: str
 
-# --- DTW and normalisation (crates/hmmseg-py/src/dtw.rs) --------------------------------------
-__all__ += ["align_to_reference", "dtw", "dtw_distance", "minmax", "minmax_with"]
+# --- continuous HMM (crates/hmmseg-py/src/hmm.rs) ----------------------------------------------
+_F64 = NDArray[np.float64]
 
+@final
+class Hmm:
+    """A continuous HMM with Gaussian-mixture emissions (immutable)."""
+
+    @staticmethod
+    def fit(
+        sequences: list[_F64],
+        *,
+        n_states: int,
+        n_mix: int = 1,
+        covariance: str = "diag",
+        topology: str = "left-right",
+        seed: int = 0,
+        max_iter: int = 100,
+        tol: float = 1e-4,
+        covariance_floor: float = 1e-3,
+    ) -> tuple[Hmm, list[float], int, bool]: ...
+    def refit(
+        self,
+        sequences: list[_F64],
+        *,
+        max_iter: int,
+        tol: float = ...,
+        covariance_floor: float = 1e-3,
+    ) -> tuple[Hmm, list[float], int, bool]: ...
+    @staticmethod
+    def from_params(
+        startprob: _F64,
+        transmat: _F64,
+        weights: _F64,
+        means: _F64,
+        covars: _F64,
+        covariance: str = "diag",
+    ) -> Hmm: ...
+    @staticmethod
+    def from_json(s: str) -> Hmm: ...
+    def to_json(self) -> str: ...
+    def log_likelihood(self, x: _F64) -> float: ...
+    def log_likelihood_many(self, sequences: list[_F64]) -> _F64: ...
+    def prefix_log_likelihoods(self, x: _F64) -> _F64: ...
+    def viterbi(self, x: _F64) -> tuple[float, NDArray[np.int64]]: ...
+    def posteriors(self, x: _F64) -> _F64: ...
+    def sample(self, n_samples: int, *, seed: int = 0) -> tuple[_F64, NDArray[np.int64]]: ...
+    @property
+    def n_states(self) -> int: ...
+    @property
+    def n_features(self) -> int: ...
+    @property
+    def n_mix(self) -> int: ...
+    @property
+    def covariance(self) -> str: ...
+    @property
+    def startprob(self) -> _F64: ...
+    @property
+    def transmat(self) -> _F64: ...
+    @property
+    def weights(self) -> _F64: ...
+    @property
+    def means(self) -> _F64: ...
+    @property
+    def covars(self) -> _F64: ...
+    def __eq__(self, value: object, /) -> bool: ...
+
+# --- DTW and normalisation (crates/hmmseg-py/src/dtw.rs) --------------------------------------
 def dtw(
     a: NDArray[np.float64], b: NDArray[np.float64], band: int | None = None
 ) -> tuple[float, NDArray[np.int64]]: ...
@@ -25,14 +89,6 @@ def minmax_with(
 ) -> NDArray[np.float64]: ...
 
 # --- Table I features (crates/hmmseg-py/src/features.rs) ---------------------------------------
-__all__ += [
-    "check_feature_params",
-    "compute_features",
-    "default_feature_params",
-    "feature_names",
-    "label_targets",
-]
-
 def compute_features(
     tcp: NDArray[np.float64],
     opening: NDArray[np.float64],
@@ -55,15 +111,6 @@ def default_feature_params() -> str: ...
 def check_feature_params(params_json: str) -> str: ...
 
 # --- segmentation: stage 1, stage 2, templates (crates/hmmseg-py/src/segment.rs) -------------
-__all__ += [
-    "TemplateSet",
-    "default_template_params",
-    "rising_table",
-    "segment_dp",
-    "segment_greedy",
-    "stage1_boundaries",
-]
-
 _SegmentTuple = tuple[int, int, int, int, int, float, float]
 
 def stage1_boundaries(

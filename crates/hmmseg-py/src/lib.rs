@@ -6,6 +6,7 @@
 mod dtw;
 mod errors;
 mod features;
+mod hmm;
 mod ndconv;
 mod segment;
 
@@ -16,6 +17,7 @@ fn _hmmseg(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     dtw::register(m)?;
     features::register(m)?;
+    hmm::register(m)?;
     segment::register(m)?;
     Ok(())
 }

@@ -93,7 +93,7 @@ fn check_pair(a: &[f64], b: &[f64], dim: usize, band: Option<usize>) -> Result<(
 #[inline]
 fn band_range(i: usize, m: usize, band: Option<usize>) -> (usize, usize) {
     match band {
-        Some(r) => (i.saturating_sub(r), (i + r).min(m - 1)),
+        Some(r) => (i.saturating_sub(r), i.saturating_add(r).min(m - 1)),
         None => (0, m - 1),
     }
 }
@@ -113,6 +113,45 @@ fn sq_dist(x: &[f64], y: &[f64]) -> f64 {
     x.iter().zip(y).map(|(p, q)| (p - q) * (p - q)).sum()
 }
 
+/// Advance the rolling row from `D(i - 1, .)` to `D(i, .)` over the band columns `lo..=hi`.
+///
+/// `row[j + 1] = D(i, j)` and `row[0]` is the virtual column `j = -1`; cells outside the band
+/// are kept at infinity. No allocation; the only serial dependency is `left`.
+#[inline]
+fn step_row(row: &mut [f64], a: &[f64], b: &[f64], dim: usize, i: usize, lo: usize, hi: usize) {
+    let m = row.len() - 1;
+    let mut diag = row[lo];
+    row[lo] = f64::INFINITY;
+    let mut left = f64::INFINITY;
+    let cells = &mut row[lo + 1..=hi + 1];
+    if dim == 1 {
+        let ai = a[i];
+        for (cell, bj) in cells.iter_mut().zip(&b[lo..=hi]) {
+            let up = *cell;
+            let c = (ai - bj) * (ai - bj);
+            let v = c + min3(diag, up, left);
+            *cell = v;
+            left = v;
+            diag = up;
+        }
+    } else {
+        let ai = &a[i * dim..(i + 1) * dim];
+        for (cell, bj) in cells
+            .iter_mut()
+            .zip(b[lo * dim..(hi + 1) * dim].chunks_exact(dim))
+        {
+            let up = *cell;
+            let v = sq_dist(ai, bj) + min3(diag, up, left);
+            *cell = v;
+            left = v;
+            diag = up;
+        }
+    }
+    if hi + 2 <= m {
+        row[hi + 2] = f64::INFINITY;
+    }
+}
+
 /// DTW distance of two row-major sequences of dimension `dim`, without the path.
 ///
 /// `a` holds `n * dim` values (row `i` is `a[i*dim..(i+1)*dim]`), `b` holds `m * dim`. Uses
@@ -121,41 +160,11 @@ pub fn dtw_distance_slices(a: &[f64], b: &[f64], dim: usize, band: Option<usize>
     let (n, m) = check_pair(a, b, dim, band)?;
     check_finite(a, dim, "a")?;
     check_finite(b, dim, "b")?;
-    // row[j + 1] = D(i, j); row[0] is the virtual column j = -1.
     let mut row = vec![f64::INFINITY; m + 1];
     row[0] = 0.0;
     for i in 0..n {
         let (lo, hi) = band_range(i, m, band);
-        let mut diag = row[lo];
-        row[lo] = f64::INFINITY;
-        let mut left = f64::INFINITY;
-        let cells = &mut row[lo + 1..=hi + 1];
-        if dim == 1 {
-            let ai = a[i];
-            for (cell, bj) in cells.iter_mut().zip(&b[lo..=hi]) {
-                let up = *cell;
-                let c = (ai - bj) * (ai - bj);
-                let v = c + min3(diag, up, left);
-                *cell = v;
-                left = v;
-                diag = up;
-            }
-        } else {
-            let ai = &a[i * dim..(i + 1) * dim];
-            for (cell, bj) in cells
-                .iter_mut()
-                .zip(b[lo * dim..(hi + 1) * dim].chunks_exact(dim))
-            {
-                let up = *cell;
-                let v = sq_dist(ai, bj) + min3(diag, up, left);
-                *cell = v;
-                left = v;
-                diag = up;
-            }
-        }
-        if hi + 2 <= m {
-            row[hi + 2] = f64::INFINITY;
-        }
+        step_row(&mut row, a, b, dim, i, lo, hi);
     }
     Ok(row[m].sqrt())
 }
@@ -175,6 +184,9 @@ pub fn dtw_distance(a: &DMatrix<f64>, b: &DMatrix<f64>, band: Option<usize>) -> 
 fn dim_mismatch(da: usize, db: usize) -> EngineError {
     EngineError::ShapeMismatch(format!("a has {da} columns but b has {db}"))
 }
+
+/// Largest accumulated-cost matrix [`dtw`] allocates (800 MB of `f64`).
+pub const MAX_PATH_CELLS: usize = 100_000_000;
 
 /// Accumulated cost matrix restricted to the band: row `i` stores columns `lo_i..=hi_i`.
 struct Banded {
@@ -211,25 +223,23 @@ pub fn dtw_slices(a: &[f64], b: &[f64], dim: usize, band: Option<usize>) -> Resu
         start.push(total);
         total += h - l + 1;
     }
+    if total > MAX_PATH_CELLS {
+        return Err(EngineError::InvalidParameter(format!(
+            "DTW with path needs {total} cells (> {MAX_PATH_CELLS}); use a band or dtw_distance"
+        )));
+    }
     let mut acc = Banded {
         lo,
         hi,
         start,
-        cells: vec![f64::INFINITY; total],
+        cells: Vec::with_capacity(total),
     };
+    let mut row = vec![f64::INFINITY; m + 1];
+    row[0] = 0.0;
     for i in 0..n {
-        let ai = &a[i * dim..(i + 1) * dim];
-        for j in acc.lo[i]..=acc.hi[i] {
-            let c = sq_dist(ai, &b[j * dim..(j + 1) * dim]);
-            let prev = match (i, j) {
-                (0, 0) => 0.0,
-                (0, _) => acc.get(0, j - 1),
-                (_, 0) => acc.get(i - 1, 0),
-                _ => min3(acc.get(i - 1, j - 1), acc.get(i - 1, j), acc.get(i, j - 1)),
-            };
-            let k = acc.start[i] + j - acc.lo[i];
-            acc.cells[k] = c + prev;
-        }
+        let (l, h) = (acc.lo[i], acc.hi[i]);
+        step_row(&mut row, a, b, dim, i, l, h);
+        acc.cells.extend_from_slice(&row[l + 1..=h + 1]);
     }
     let distance = acc.get(n - 1, m - 1).sqrt();
     // Backtrack, preferring the diagonal on ties.
@@ -261,7 +271,8 @@ pub fn dtw_slices(a: &[f64], b: &[f64], dim: usize, band: Option<usize>) -> Resu
 
 /// DTW between `a` (`n x d`) and `b` (`m x d`), rows = time steps, with the optimal path.
 ///
-/// Memory is `O(n * m)` without a band and `O(n * r)` with a band of radius `r`.
+/// Memory is `O(n * m)` without a band and `O(n * r)` with a band of radius `r`; more than
+/// [`MAX_PATH_CELLS`] cells is an [`EngineError::InvalidParameter`].
 ///
 /// # Errors
 /// [`EngineError::EmptySequence`] for a sequence without rows, [`EngineError::ShapeMismatch`]

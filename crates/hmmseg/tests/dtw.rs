@@ -125,3 +125,16 @@ fn align_to_reference_recovers_time_warped_copies() {
         Err(EngineError::InvalidParameter(_))
     ));
 }
+
+#[test]
+fn huge_band_and_huge_inputs_are_handled() {
+    let a = DMatrix::from_row_slice(3, 1, &[0.0, 1.0, 2.0]);
+    assert!(dtw(&a, &a, Some(usize::MAX)).unwrap().distance == 0.0);
+    assert!(dtw_distance(&a, &a, Some(usize::MAX)).unwrap() == 0.0);
+    let long = DMatrix::<f64>::zeros(20_000, 1);
+    assert!(matches!(
+        dtw(&long, &long, None),
+        Err(EngineError::InvalidParameter(_))
+    ));
+    assert!(dtw(&long, &long, Some(2)).is_ok());
+}

@@ -62,10 +62,11 @@ def segment(
     """
     from .pipeline import as_trajectory
 
-    traj = as_trajectory(demo_or_traj)
-    return segment_trajectory(
-        traj, templates or Templates.default(), search=search, grammar=grammar, params=params
-    )
+    templates = templates or Templates.default()
+    p = params or SegmentParams()
+    cutoff = float(templates.meta.get("feature_cutoff_hz", p.feature_cutoff_hz))
+    traj = as_trajectory(demo_or_traj, feature_cutoff_hz=cutoff)
+    return segment_trajectory(traj, templates, search=search, grammar=grammar, params=p)
 
 
 __all__ = [

@@ -36,6 +36,13 @@ class SegmentParams:
     ----------
     stage1 : Stage1Params
         Stage-1 hysteresis and minimum section length.
+    feature_cutoff_hz : float
+        Low-pass cut-off of the positions when a Demonstration is preprocessed here (2 Hz: the
+        paper's 0.625 Hz smears skill boundaries by ~0.5 s at 5 Hz hand data; measured in
+        docs/segmentation.md). Templates store the value they were trained with, which wins.
+    end : {"final", "any"}
+        ``final``: a segment must end in the last state of the skill's left-right HMM (a
+        complete execution); ``any``: the plain forward likelihood of Eq. 3.
     min_rise : float
         A run of sections is "rising" (Fig. 5: only Move / Move with) if the TCP climbs at least
         this much (metres) in one go (largest rise inside the run)...
@@ -50,6 +57,8 @@ class SegmentParams:
     """
 
     stage1: Stage1Params = field(default_factory=Stage1Params)
+    feature_cutoff_hz: float = 2.0
+    end: Literal["final", "any"] = "final"
     min_rise: float = 0.02
     dominance: float = 0.0
     max_segment_s: float = 20.0
@@ -147,7 +156,7 @@ def segment_trajectory(
     values = np.ascontiguousarray(feats.values, dtype=np.float64)
     bounds = section_boundaries(values, feats.thresholds, traj.dt, p.stage1)
     max_len = max(1, round(p.max_segment_s / traj.dt))
-    scores = templates.engine.score_table(values, bounds, max_len)
+    scores, best_object = object_scores(filled, templates, bounds, max_len, p.end)
     rising = _hmmseg.rising_table(
         np.ascontiguousarray(filled.tcp[:, 2]), bounds, p.min_rise, p.dominance
     )
@@ -158,10 +167,9 @@ def segment_trajectory(
         raw, warn = _hmmseg.segment_dp(
             scores, bounds, skills, grammar_json(), rising, grammar, p.penalty
         )
-    target = np.asarray(feats.target, dtype=np.int64)
     segments = [
-        _make_segment(filled, skills[s], a, b, target, score, conf)
-        for (s, _i, _j, a, b, score, conf) in raw
+        _make_segment(filled, skills[s], a, b, int(best_object[i, j, s]), score, conf)
+        for (s, i, j, a, b, score, conf) in raw
     ]
     return Segmentation(
         segments=segments,
@@ -172,19 +180,48 @@ def segment_trajectory(
     )
 
 
+def object_scores(
+    traj: Trajectory, templates: Templates, bounds: np.ndarray, max_len: int, end: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """Score table maximised over the target object, and the maximising object.
+
+    The skills are object-centred: for every run of sections and skill the features are taken
+    relative to each object in turn and the best-explaining object is the segment's target
+    (``c^{r,s} = max_o sum_f log P(O_f^{r,o} | lambda_f^s)``). This replaces a fixed per-sample
+    target labelling, which cannot know the target of skills that never move their object
+    (Locate).
+
+    Returns
+    -------
+    scores : array, shape (K, K + 1, S)
+    best_object : array of int, shape (K, K + 1, S)
+    """
+    from ..features import compute_features
+
+    tables = []
+    for o in range(len(traj.object_names)):
+        f = compute_features(traj, target=o)
+        raw = np.ascontiguousarray(f.values, dtype=np.float64)
+        tables.append(templates.engine.score_table(raw, bounds, max_len, end))
+    stack = np.stack(tables)
+    return np.ascontiguousarray(stack.max(axis=0)), stack.argmax(axis=0)
+
+
 def _make_segment(
     traj: Trajectory,
     skill: str,
     start: int,
     end: int,
-    target: np.ndarray | None,
+    target: np.ndarray | int | None,
     score: float = float("nan"),
     confidence: float = float("nan"),
 ) -> Segment:
     n = len(traj)
     t_s = traj.t_s
     obj: int | None = None
-    if target is not None and end > start:
+    if isinstance(target, int):
+        obj = target
+    elif target is not None and end > start:
         obj = Counter(target[start:end].tolist()).most_common(1)[0][0]
     end_ns = int(traj.t_ns[end]) if end < n else int(traj.t_ns[-1])
     end_s = float(t_s[end]) if end < n else float(t_s[-1])
@@ -203,14 +240,16 @@ def _make_segment(
     )
 
 
-def as_trajectory(demo_or_traj: Demonstration | Trajectory) -> Trajectory:
+def as_trajectory(
+    demo_or_traj: Demonstration | Trajectory, *, feature_cutoff_hz: float = 2.0
+) -> Trajectory:
     """Preprocess a demonstration (a trajectory passes through)."""
     if isinstance(demo_or_traj, Trajectory):
         return demo_or_traj
     if isinstance(demo_or_traj, Demonstration):
         from ..preprocess import preprocess
 
-        if len(demo_or_traj.hand) == 0:
+        if len(demo_or_traj.hand) == 0 or not np.isfinite(demo_or_traj.hand.keypoints).any():
             raise DemonstrationError("the demonstration has no hand data")
-        return preprocess(demo_or_traj)
+        return preprocess(demo_or_traj, feature_cutoff_hz=feature_cutoff_hz)
     raise TypeError(f"expected a Demonstration or Trajectory, got {type(demo_or_traj).__name__}")

@@ -37,6 +37,10 @@ FEATURE_GROUPS: tuple[tuple[str, int, int], ...] = (
 )
 """The eight features of Table I as ``(name, first column, end column)`` of the feature matrix."""
 
+FEATURE_CUTOFF_HZ = 2.0
+"""Low-pass cut-off (Hz) of the positions the template features are computed from; stored in
+the template file and used again at segmentation time."""
+
 DEFAULT_TEMPLATES = "data/templates.json"
 """Package resource of the shipped templates."""
 
@@ -152,7 +156,9 @@ def label_range(traj: Trajectory, start_ns: int, end_ns: int) -> tuple[int, int]
     return i0, max(i1, i0)
 
 
-def template_examples(demo: Demonstration) -> list[tuple[str, np.ndarray]]:
+def template_examples(
+    demo: Demonstration, *, feature_cutoff_hz: float = FEATURE_CUTOFF_HZ
+) -> list[tuple[str, np.ndarray]]:
     """The labelled segments of one template demonstration as ``(skill, features (m, 10))``."""
     from ..features import compute_features
     from ..preprocess import preprocess
@@ -160,7 +166,7 @@ def template_examples(demo: Demonstration) -> list[tuple[str, np.ndarray]]:
 
     if not demo.labels:
         raise DemonstrationError("a template demonstration needs skill labels")
-    traj, _ = fill_gaps(preprocess(demo))
+    traj, _ = fill_gaps(preprocess(demo, feature_cutoff_hz=feature_cutoff_hz))
     feats = compute_features(traj, target=target_from_labels(traj, demo))
     out = []
     for lab in demo.labels:
@@ -177,6 +183,7 @@ def train_templates(
     features: Sequence[tuple[str, int, int]] = FEATURE_GROUPS,
     skills: Sequence[str] = SKILLS,
     progress: Callable[[str], None] | None = None,
+    feature_cutoff_hz: float = FEATURE_CUTOFF_HZ,
 ) -> Templates:
     """Train templates from labelled template recordings (MCAP paths or demonstrations).
 
@@ -193,6 +200,8 @@ def train_templates(
         Skills to train (each needs at least one example).
     progress : callable, optional
         Called with each recording's name after it is processed.
+    feature_cutoff_hz : float
+        Low-pass cut-off of the preprocessing (stored with the templates).
     """
     from ..io import load
 
@@ -201,7 +210,7 @@ def train_templates(
     for rec in recordings:
         demo = rec if isinstance(rec, Demonstration) else load(rec)
         name = str(rec) if not isinstance(rec, Demonstration) else demo.metadata.get("name", "demo")
-        for skill, x in template_examples(demo):
+        for skill, x in template_examples(demo, feature_cutoff_hz=feature_cutoff_hz):
             if skill in skills:
                 examples.append((list(skills).index(skill), x))
         names.append(Path(name).name)
@@ -214,4 +223,6 @@ def train_templates(
         else:
             p[key] = val
     engine = _hmmseg.TemplateSet.train(list(skills), list(features), examples, json.dumps(p))
-    return Templates(engine, meta={"trained_from": names})
+    return Templates(
+        engine, meta={"trained_from": names, "feature_cutoff_hz": feature_cutoff_hz}
+    )
