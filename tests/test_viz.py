@@ -688,3 +688,51 @@ def test_live_stream_reaches_a_running_viewer(request: pytest.FixtureRequest) ->
         session.close()
     finally:
         viewer.quit()
+
+
+RECORDINGS = Path(__file__).resolve().parents[1] / "recordings"
+
+
+@pytest.fixture(scope="module")
+def small_templates(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Templates trained on three shipped demos per skill (fast, good enough to segment)."""
+    import shutil
+
+    from lfd.cli import main
+
+    src = sorted((RECORDINGS / "templates").glob("*_[012].mcap"))
+    if not src:
+        pytest.skip("shipped template recordings not present")
+    d = tmp_path_factory.mktemp("templates")
+    for p in src:
+        shutil.copy(p, d)
+    out = d / "templates.json"
+    assert main(["templates", "train", str(d), "-o", str(out)]) == 0
+    return out
+
+
+def test_lfd_segment_and_eval_rerun_save(small_templates: Path, tmp_path: Path) -> None:
+    from lfd.cli import main
+
+    rec = RECORDINGS / "exp1.mcap"
+    seg = tmp_path / "segment.rrd"
+    assert main(["segment", str(rec), "--templates", str(small_templates), "--rerun-save", str(seg)]) == 0  # fmt: skip
+    data = Rrd(seg)
+    for path in ("/segmentation/skills/result", "/segmentation/skills/ground_truth",
+                 "/segmentation/sections", "/segmentation/greedy/chosen",
+                 "/features/object_height/threshold", "/world/hand/keypoints", "/world/gripper"):  # fmt: skip
+        assert path in data.rows, path
+    assert any(k.startswith("/segmentation/greedy/iteration_") for k in data.rows)
+    assert data.blueprints
+
+    ev = tmp_path / "eval.rrd"
+    args = ["eval", str(rec), "--templates", str(small_templates), "--rerun-save", str(ev)]
+    assert main(args) == 0
+    lanes = {k for k in Rrd(ev).rows if k.startswith("/segmentation/skills/")}
+    assert lanes == {
+        "/segmentation/skills/result",
+        "/segmentation/skills/dp",
+        "/segmentation/skills/ground_truth",
+        "/segmentation/skills/baseline_proximity",
+        "/segmentation/skills/baseline_gripper",
+    }
