@@ -736,3 +736,14 @@ def test_lfd_segment_and_eval_rerun_save(small_templates: Path, tmp_path: Path) 
         "/segmentation/skills/baseline_proximity",
         "/segmentation/skills/baseline_gripper",
     }
+
+
+def test_serving_on_a_busy_port_is_a_clear_error() -> None:
+    import socket
+
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        with pytest.raises(LfdError, match=f"port {port} is in use"):
+            viz.open_session("lfd_test", serve=True, grpc_port=port, web_port=free_port())

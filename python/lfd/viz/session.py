@@ -205,6 +205,15 @@ def open_session(
         messages.append(f"saving to {save_path}")
     serve_url = None
     if serve:
+        if connect_url is not None and grpc_port == SPAWN_PORT:
+            grpc_port = SPAWN_PORT + 1  # the spawned viewer holds the default port
+        for port in (grpc_port, web_port):
+            if _port_open(port):
+                raise LfdError(
+                    f"cannot serve the Rerun web viewer: port {port} is in use (a viewer "
+                    f"already running? stream to it with --rerun-connect "
+                    f"rerun+http://127.0.0.1:{grpc_port}/proxy)"
+                )
         server = rr.GrpcServerSink("127.0.0.1", grpc_port)
         sinks.append(server)
     if sinks:
