@@ -431,6 +431,7 @@ def test_cli_flags_save_and_stream(tmp_path: Path) -> None:
     assert viz.open_from_args(args, "lfd_test") is True
     viz.log_skill_spans([SkillLabel("stack", T0, T0 + 10)], origin_ns=T0)  # the default recording
     viz.close_from_args(args)
+    assert rr.get_global_data_recording() is None  # closed: no longer the default
     data = Rrd(out)
     assert data.column("/segmentation/skills/result", "StateChange:state") == [["stack"], [""]]
     assert data.blueprints

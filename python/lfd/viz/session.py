@@ -128,6 +128,10 @@ class Session:
                     file=sys.stderr,
                 )
         self.recording.disconnect()
+        rr = import_rerun()
+        current = rr.get_global_data_recording()
+        if current is not None and current.get_recording_id() == self.recording.get_recording_id():
+            rr.set_global_data_recording(None)
 
 
 def open_session(
@@ -179,7 +183,7 @@ def open_session(
             "of spawning the native one"
         )
         spawn, serve = False, True
-    rec = rr.RecordingStream(app_id, recording_id=recording_id, make_default=make_default)
+    rec = rr.RecordingStream(app_id, recording_id=recording_id)
     sinks: list[Any] = []
     connect_url = connect
     if spawn:
@@ -225,6 +229,8 @@ def open_session(
         rr.serve_web_viewer(web_port=web_port, open_browser=False, connect_to=grpc_url)
         serve_url = web_viewer_url(grpc_url, web_port)
         messages.append(f"Rerun web viewer: {serve_url}")
+    if make_default:
+        rr.set_global_data_recording(rec)
     return Session(
         recording=rec,
         save_path=save_path,
