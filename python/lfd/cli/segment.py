@@ -15,7 +15,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("recording", help="an lfd MCAP recording")
     parser.add_argument("--templates", metavar="FILE", help="template file (default: shipped)")
     parser.add_argument(
-        "--search", choices=("greedy", "dp"), default="greedy", help="stage-2 search (default greedy)"
+        "--search",
+        choices=("greedy", "dp"),
+        default="greedy",
+        help="stage-2 search (default greedy)",
     )
     parser.add_argument(
         "--grammar",
@@ -54,7 +57,9 @@ def segment_recording(args: argparse.Namespace) -> tuple[Any, Any, dict[str, Any
     }
     if demo.labels:
         m = all_metrics(result.segments, demo.labels)
-        doc["metrics"] = {k: (v if v == v and abs(v) != float("inf") else None) for k, v in m.items()}
+        doc["metrics"] = {
+            k: (v if v == v and abs(v) != float("inf") else None) for k, v in m.items()
+        }
     return demo, result, doc
 
 

@@ -33,7 +33,9 @@ def run(args: argparse.Namespace) -> int:
     if args.action == "show":
         t = Templates.load(args.file) if args.file else Templates.default()
         console.print(t)
-        console.print(f"examples per skill: {dict(zip(t.skills, t.engine.n_examples, strict=True))}")
+        console.print(
+            f"examples per skill: {dict(zip(t.skills, t.engine.n_examples, strict=True))}"
+        )
         console.print(f"parameters: {t.engine.params_json}")
         return 0
     paths = expand_paths(args.inputs)

@@ -24,7 +24,9 @@ def _pose_in_object(traj: Trajectory, k: int, t: int) -> tuple[np.ndarray, np.nd
     q = traj.object_quaternion[k, t]
     r_obj = Rotation.from_quat(q) if np.all(np.isfinite(q)) else Rotation.identity()
     p = r_obj.inv().apply(traj.tcp[t] - traj.object_position[k, t])
-    r_tcp = Rotation.from_matrix(traj.rotation[t]) if np.all(np.isfinite(traj.rotation[t])) else None
+    r_tcp = (
+        Rotation.from_matrix(traj.rotation[t]) if np.all(np.isfinite(traj.rotation[t])) else None
+    )
     quat = (r_obj.inv() * r_tcp).as_quat() if r_tcp is not None else np.full(4, np.nan)
     return p, quat
 
@@ -34,7 +36,9 @@ def _vec(x: np.ndarray) -> list[float] | None:
     return [float(v) for v in x] if np.all(np.isfinite(x)) else None
 
 
-def skill_params(traj: Trajectory, skill: str, start: int, end: int, obj: int | None) -> dict[str, Any]:
+def skill_params(
+    traj: Trajectory, skill: str, start: int, end: int, obj: int | None
+) -> dict[str, Any]:
     """Parameters of a ``skill`` segment on samples ``start..end`` with target object ``obj``."""
     last = max(min(end, len(traj)) - 1, start)
     out: dict[str, Any] = {"tcp_start": _vec(traj.tcp[start]), "tcp_end": _vec(traj.tcp[last])}
@@ -52,10 +56,14 @@ def skill_params(traj: Trajectory, skill: str, start: int, end: int, obj: int | 
         if skill == "stack" and len(traj.object_names) > 1:
             here = traj.object_position[obj, last]
             others = [k for k in range(len(traj.object_names)) if k != obj]
-            d = [float(np.linalg.norm(traj.object_position[k, last, :2] - here[:2])) for k in others]
+            d = [
+                float(np.linalg.norm(traj.object_position[k, last, :2] - here[:2])) for k in others
+            ]
             below = others[int(np.nanargmin(d))] if np.any(np.isfinite(d)) else others[0]
             out["on"] = traj.object_names[below]
             out["offset"] = _vec(here - traj.object_position[below, last])
     elif skill == "push":
-        out["displacement"] = _vec(traj.object_position[obj, last] - traj.object_position[obj, start])
+        out["displacement"] = _vec(
+            traj.object_position[obj, last] - traj.object_position[obj, start]
+        )
     return out
