@@ -4,12 +4,16 @@
 use hmmseg::segment::greedy::greedy;
 use hmmseg::segment::scorer::EndState;
 use hmmseg::segment::templates::{FeatureGroup, TemplateParams, TemplateSet};
-use hmmseg::segment::{dp::dp, Grammar, GrammarMode, GrammarSpec, RiseParams, ScoreTable, Segmentation};
+use hmmseg::segment::{
+    dp::dp, Grammar, GrammarMode, GrammarSpec, RiseParams, ScoreTable, Segmentation,
+};
 use hmmseg::stage1::{section_boundaries, Criterion, Stage1Params};
 use hmmseg::EngineError;
 use nalgebra::DMatrix;
 use numpy::ndarray::{Array2, Array3};
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3};
+use numpy::{
+    IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3,
+};
 use pyo3::prelude::*;
 
 use crate::errors::IntoPyResult;
@@ -26,8 +30,9 @@ fn to_indices(py: Python<'_>, x: &PyReadonlyArray1<'_, i64>, what: &str) -> PyRe
         .iter()
         .enumerate()
         .map(|(i, &v)| {
-            usize::try_from(v)
-                .map_err(|_| EngineError::InvalidParameter(format!("{what}[{i}] = {v} is negative")))
+            usize::try_from(v).map_err(|_| {
+                EngineError::InvalidParameter(format!("{what}[{i}] = {v} is negative"))
+            })
         })
         .collect::<hmmseg::Result<Vec<usize>>>()
         .py_err(py)
@@ -68,7 +73,10 @@ fn table(
         .py_err(py);
     }
     if a.iter().any(|v| v.is_nan()) {
-        return Err(EngineError::NonFinite("scores contain NaN (use -inf to exclude)".into())).py_err(py);
+        return Err(EngineError::NonFinite(
+            "scores contain NaN (use -inf to exclude)".into(),
+        ))
+        .py_err(py);
     }
     ScoreTable::from_fn(boundaries, ns, |i, j, s| a[(i, j, s)]).py_err(py)
 }
@@ -86,7 +94,17 @@ fn result(r: Segmentation) -> (Vec<SegmentTuple>, Vec<String>) {
     let segs = r
         .segments
         .iter()
-        .map(|s| (s.skill, s.start_section, s.end_section, s.start, s.end, s.score, s.confidence))
+        .map(|s| {
+            (
+                s.skill,
+                s.start_section,
+                s.end_section,
+                s.start,
+                s.end,
+                s.score,
+                s.confidence,
+            )
+        })
         .collect();
     (segs, r.warnings)
 }
@@ -119,8 +137,13 @@ fn stage1_boundaries<'py>(
         min_section,
     };
     let (v, t) = (to_matrix(&values), to_matrix(&thresholds));
-    let b = py.detach(|| section_boundaries(&v, &t, &params)).py_err(py)?;
-    Ok(b.iter().map(|&x| x as i64).collect::<Vec<_>>().into_pyarray(py))
+    let b = py
+        .detach(|| section_boundaries(&v, &t, &params))
+        .py_err(py)?;
+    Ok(b.iter()
+        .map(|&x| x as i64)
+        .collect::<Vec<_>>()
+        .into_pyarray(py))
 }
 
 /// Is the TCP rising over each run of sections? `(K, K + 1)` bool.
@@ -135,9 +158,18 @@ fn rising_table<'py>(
 ) -> PyResult<Bound<'py, PyArray2<bool>>> {
     let b = to_indices(py, &boundaries, "boundaries")?;
     let z: Vec<f64> = z.as_array().iter().copied().collect();
-    let r = hmmseg::segment::rising_table(&z, &b, RiseParams { min_rise, dominance }).py_err(py)?;
+    let r = hmmseg::segment::rising_table(
+        &z,
+        &b,
+        RiseParams {
+            min_rise,
+            dominance,
+        },
+    )
+    .py_err(py)?;
     let k = b.len() - 1;
-    let arr = Array2::from_shape_vec((k, k + 1), r).unwrap_or_else(|_| Array2::from_elem((k, k + 1), false));
+    let arr = Array2::from_shape_vec((k, k + 1), r)
+        .unwrap_or_else(|_| Array2::from_elem((k, k + 1), false));
     Ok(arr.into_pyarray(py))
 }
 
@@ -162,7 +194,9 @@ fn segment_greedy<'py>(
     let t = table(py, &scores, to_indices(py, &boundaries, "boundaries")?)?;
     let g = grammar(py, grammar_json, &skills)?;
     let r = rising_vec(rising);
-    let out = py.detach(|| greedy(&t, &g, r.as_deref(), mode)).py_err(py)?;
+    let out = py
+        .detach(|| greedy(&t, &g, r.as_deref(), mode))
+        .py_err(py)?;
     Ok(result(out))
 }
 
@@ -183,7 +217,9 @@ fn segment_dp<'py>(
     let t = table(py, &scores, to_indices(py, &boundaries, "boundaries")?)?;
     let g = grammar(py, grammar_json, &skills)?;
     let r = rising_vec(rising);
-    let out = py.detach(|| dp(&t, &g, r.as_deref(), mode, penalty)).py_err(py)?;
+    let out = py
+        .detach(|| dp(&t, &g, r.as_deref(), mode, penalty))
+        .py_err(py)?;
     Ok(result(out))
 }
 
@@ -226,7 +262,9 @@ impl PyTemplateSet {
     /// Read templates from JSON text (checks version, skills and shapes).
     #[staticmethod]
     fn from_json(py: Python<'_>, text: &str) -> PyResult<Self> {
-        Ok(Self { inner: TemplateSet::from_json(text).py_err(py)? })
+        Ok(Self {
+            inner: TemplateSet::from_json(text).py_err(py)?,
+        })
     }
 
     /// The templates as JSON text.
@@ -243,7 +281,11 @@ impl PyTemplateSet {
     /// Features as `(name, first column, end column)`.
     #[getter]
     fn features(&self) -> Vec<(String, usize, usize)> {
-        self.inner.features.iter().map(|f| (f.name.clone(), f.start, f.end)).collect()
+        self.inner
+            .features
+            .iter()
+            .map(|f| (f.name.clone(), f.start, f.end))
+            .collect()
     }
 
     /// `(lo, hi)` normalisation range of every observation column.
@@ -297,7 +339,9 @@ impl PyTemplateSet {
         };
         let b = to_indices(py, &boundaries, "boundaries")?;
         let x = to_matrix(&raw);
-        let t = py.detach(|| self.inner.score_table(&x, &b, max_len, end)).py_err(py)?;
+        let t = py
+            .detach(|| self.inner.score_table(&x, &b, max_len, end))
+            .py_err(py)?;
         Ok(table_to_numpy(py, &t))
     }
 }

@@ -18,6 +18,8 @@ Both use the same hysteresis and minimum section length as stage 1.
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from ..demo import Demonstration
@@ -39,7 +41,7 @@ def _runs(state: np.ndarray, min_len: int) -> list[tuple[int, int]]:
         if c - kept[-1] >= min_len and n - c >= min_len:
             kept.append(c)
     kept.append(n)
-    return list(zip(kept[:-1], kept[1:], strict=True))
+    return list(itertools.pairwise(kept))
 
 
 def _majority(state: np.ndarray, a: int, b: int) -> int:

@@ -223,6 +223,4 @@ def train_templates(
         else:
             p[key] = val
     engine = _hmmseg.TemplateSet.train(list(skills), list(features), examples, json.dumps(p))
-    return Templates(
-        engine, meta={"trained_from": names, "feature_cutoff_hz": feature_cutoff_hz}
-    )
+    return Templates(engine, meta={"trained_from": names, "feature_cutoff_hz": feature_cutoff_hz})

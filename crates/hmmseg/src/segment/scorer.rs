@@ -45,16 +45,19 @@ impl Component {
         let d = self.mean.len();
         let mut q = 0.0;
         if self.diag {
-            for k in 0..d {
-                let z = (x[k] - self.mean[k]) * self.inv_chol[k * d + k];
+            for (k, (xk, mk)) in x.iter().zip(&self.mean).enumerate() {
+                let z = (xk - mk) * self.inv_chol[k * d + k];
                 q += z * z;
             }
         } else {
             for r in 0..d {
-                let mut z = 0.0;
-                for k in 0..=r {
-                    z += self.inv_chol[r * d + k] * (x[k] - self.mean[k]);
-                }
+                let row = &self.inv_chol[r * d..=r * d + r];
+                let z: f64 = row
+                    .iter()
+                    .zip(x)
+                    .zip(&self.mean)
+                    .map(|((l, xk), mk)| l * (xk - mk))
+                    .sum();
                 q += z * z;
             }
         }
@@ -237,20 +240,24 @@ pub fn compiled_score_table(
         )));
     }
     if observations.iter().any(|v| !v.is_finite()) {
-        return Err(EngineError::NonFinite("observations contain NaN or infinity".into()));
+        return Err(EngineError::NonFinite(
+            "observations contain NaN or infinity".into(),
+        ));
     }
     let mut table = ScoreTable::new(boundaries.to_vec(), models.len())?;
     let k = table.n_sections();
     let max_len = if max_len == 0 { n } else { max_len };
     // emissions once per (skill, feature) over the whole demonstration
-    let pairs: Vec<(usize, usize)> =
-        (0..models.len()).flat_map(|s| (0..groups.len()).map(move |f| (s, f))).collect();
+    let pairs: Vec<(usize, usize)> = (0..models.len())
+        .flat_map(|s| (0..groups.len()).map(move |f| (s, f)))
+        .collect();
     let logb: Vec<Vec<f64>> = pairs
         .par_iter()
         .map(|&(s, f)| models[s][f].log_emissions(observations, &groups[f]))
         .collect();
-    let jobs: Vec<(usize, usize)> =
-        (0..k).flat_map(|i| (0..models.len()).map(move |s| (i, s))).collect();
+    let jobs: Vec<(usize, usize)> = (0..k)
+        .flat_map(|i| (0..models.len()).map(move |s| (i, s)))
+        .collect();
     let results: Vec<(usize, usize, Vec<f64>)> = jobs
         .par_iter()
         .map(|&(i, s)| {
@@ -275,7 +282,12 @@ pub fn compiled_score_table(
         .collect();
     for (i, s, sums) in results {
         for (off, v) in sums.into_iter().enumerate() {
-            table.set(i, i + 1 + off, s, if v.is_nan() { f64::NEG_INFINITY } else { v });
+            table.set(
+                i,
+                i + 1 + off,
+                s,
+                if v.is_nan() { f64::NEG_INFINITY } else { v },
+            );
         }
     }
     Ok(table)
@@ -307,7 +319,11 @@ mod tests {
 
     #[test]
     fn any_end_matches_engine_prefix_scores() {
-        for (cov, d) in [(CovarianceType::Diag, 1), (CovarianceType::Diag, 2), (CovarianceType::Full, 2)] {
+        for (cov, d) in [
+            (CovarianceType::Diag, 1),
+            (CovarianceType::Diag, 2),
+            (CovarianceType::Full, 2),
+        ] {
             let hmm = model(cov, d);
             let c = CompiledHmm::new(&hmm).unwrap();
             let x = DMatrix::from_fn(40, d, |t, k| (t as f64 / 9.0).sin() + 0.1 * k as f64);
@@ -316,7 +332,10 @@ mod tests {
             let mut got = Vec::new();
             c.prefix(&lb, EndState::Any, &mut got);
             for t in 0..40 {
-                assert!((got[t] - want[t]).abs() < 1e-8 * want[t].abs().max(1.0), "{cov:?} t={t}");
+                assert!(
+                    (got[t] - want[t]).abs() < 1e-8 * want[t].abs().max(1.0),
+                    "{cov:?} t={t}"
+                );
             }
             // log-space path agrees, and ending in the last state is never more likely
             let mut slow = Vec::new();

@@ -185,7 +185,9 @@ pub fn score_table<M: PrefixScorer>(
             let len = boundaries[last] - start;
             let mut sums = vec![0.0; last - i];
             for (g, model) in groups.iter().zip(&models[s]) {
-                let x = observations.view((start, g.start), (len, g.len())).into_owned();
+                let x = observations
+                    .view((start, g.start), (len, g.len()))
+                    .into_owned();
                 let prefix = model.prefix_scores(&x)?;
                 if prefix.len() != len {
                     return Err(EngineError::ShapeMismatch(format!(
@@ -227,7 +229,10 @@ pub struct RiseParams {
 
 impl Default for RiseParams {
     fn default() -> Self {
-        Self { min_rise: 0.02, dominance: 0.0 }
+        Self {
+            min_rise: 0.02,
+            dominance: 0.0,
+        }
     }
 }
 
@@ -325,7 +330,13 @@ mod tests {
         let obs = DMatrix::from_element(5, 1, f64::NAN);
         let models = vec![vec![Quadratic(0.0)]];
         assert!(matches!(
-            score_table(&models, &[0..1], &obs, &[0, 5], 0),
+            score_table(
+                &models,
+                &std::iter::once(0..1).collect::<Vec<_>>(),
+                &obs,
+                &[0, 5],
+                0
+            ),
             Err(EngineError::NonFinite(_))
         ));
         let obs = DMatrix::zeros(5, 2);
@@ -347,7 +358,10 @@ mod tests {
             })
             .collect();
         let b = [0, 10, 20, 30];
-        let p = RiseParams { min_rise: 0.03, dominance: 1.0 };
+        let p = RiseParams {
+            min_rise: 0.03,
+            dominance: 1.0,
+        };
         let r = rising_table(&z, &b, p).unwrap();
         let at = |i: usize, j: usize| r[i * 4 + j];
         assert!(at(0, 1) && at(0, 2));
@@ -355,7 +369,15 @@ mod tests {
         // the whole demo climbs 0.09 and falls 0.11: not dominated by the rise
         assert!(!at(0, 3));
         // without the dominance test any run containing the climb is rising
-        let r = rising_table(&z, &b, RiseParams { min_rise: 0.03, dominance: 0.0 }).unwrap();
+        let r = rising_table(
+            &z,
+            &b,
+            RiseParams {
+                min_rise: 0.03,
+                dominance: 0.0,
+            },
+        )
+        .unwrap();
         assert!(r[3] && !r[4 + 2]);
         // tremor adds up in a sum of steps but not in the largest single climb
         let tremor: Vec<f64> = (0..200).map(|t| 0.004 * f64::from(t % 2)).collect();

@@ -26,8 +26,15 @@ use crate::hmm::{FitConfig, Hmm};
 pub const TEMPLATE_FORMAT_VERSION: u32 = 1;
 
 /// The skills the engine knows (canonical names, `lfd.skills.SKILLS`).
-pub const KNOWN_SKILLS: [&str; 7] =
-    ["pick_up", "place", "locate", "stack", "push", "move", "move_with"];
+pub const KNOWN_SKILLS: [&str; 7] = [
+    "pick_up",
+    "place",
+    "locate",
+    "stack",
+    "push",
+    "move",
+    "move_with",
+];
 
 impl PrefixScorer for Hmm {
     fn prefix_scores(&self, x: &DMatrix<f64>) -> Result<DVector<f64>> {
@@ -70,7 +77,12 @@ pub struct TemplateParams {
 impl Default for TemplateParams {
     fn default() -> Self {
         Self {
-            fit: FitConfig { n_states: 4, n_mix: 2, covariance_floor: 1e-3, ..FitConfig::default() },
+            fit: FitConfig {
+                n_states: 4,
+                n_mix: 2,
+                covariance_floor: 1e-3,
+                ..FitConfig::default()
+            },
             align: true,
             dtw_band: None,
             range_percentiles: [1.0, 99.0],
@@ -118,7 +130,11 @@ pub fn normalise(x: &DMatrix<f64>, ranges: &[[f64; 2]]) -> Result<DMatrix<f64>> 
         let [lo, hi] = ranges[j];
         let span = hi - lo;
         c.apply(|v| {
-            *v = if span > 0.0 { ((*v - lo) / span).clamp(0.0, 1.0) } else { 0.5 };
+            *v = if span > 0.0 {
+                ((*v - lo) / span).clamp(0.0, 1.0)
+            } else {
+                0.5
+            };
         });
     }
     Ok(out)
@@ -134,7 +150,11 @@ fn medoid(seqs: &[DMatrix<f64>], band: Option<usize>) -> Result<usize> {
             cost[b] += d;
         }
     }
-    Ok(cost.iter().enumerate().min_by(|x, y| x.1.total_cmp(y.1)).map_or(0, |(i, _)| i))
+    Ok(cost
+        .iter()
+        .enumerate()
+        .min_by(|x, y| x.1.total_cmp(y.1))
+        .map_or(0, |(i, _)| i))
 }
 
 impl TemplateSet {
@@ -155,7 +175,10 @@ impl TemplateSet {
         }
         let n_cols = features.iter().map(|f| f.end).max().unwrap_or(0);
         if let Some(f) = features.iter().find(|f| f.start >= f.end) {
-            return Err(EngineError::InvalidParameter(format!("feature {:?} has no columns", f.name)));
+            return Err(EngineError::InvalidParameter(format!(
+                "feature {:?} has no columns",
+                f.name
+            )));
         }
         for (k, (s, x)) in examples.iter().enumerate() {
             if *s >= skills.len() {
@@ -171,10 +194,14 @@ impl TemplateSet {
                 )));
             }
             if x.nrows() == 0 {
-                return Err(EngineError::EmptySequence(format!("example {k} has no samples")));
+                return Err(EngineError::EmptySequence(format!(
+                    "example {k} has no samples"
+                )));
             }
             if x.iter().any(|v| !v.is_finite()) {
-                return Err(EngineError::NonFinite(format!("example {k} contains NaN or inf")));
+                return Err(EngineError::NonFinite(format!(
+                    "example {k} contains NaN or inf"
+                )));
             }
         }
         let mut n_examples = vec![0; skills.len()];
@@ -182,14 +209,19 @@ impl TemplateSet {
             n_examples[*s] += 1;
         }
         if let Some(s) = n_examples.iter().position(|&c| c == 0) {
-            return Err(EngineError::EmptySequence(format!("no examples of skill {:?}", skills[s])));
+            return Err(EngineError::EmptySequence(format!(
+                "no examples of skill {:?}",
+                skills[s]
+            )));
         }
         // fixed per-column ranges from robust percentiles of all template samples
         let [p_lo, p_hi] = params.range_percentiles;
         let ranges: Vec<[f64; 2]> = (0..n_cols)
             .map(|c| {
-                let mut v: Vec<f64> =
-                    examples.iter().flat_map(|(_, x)| x.column(c).iter().copied().collect::<Vec<_>>()).collect();
+                let mut v: Vec<f64> = examples
+                    .iter()
+                    .flat_map(|(_, x)| x.column(c).iter().copied().collect::<Vec<_>>())
+                    .collect();
                 v.sort_by(f64::total_cmp);
                 [percentile(&v, p_lo), percentile(&v, p_hi)]
             })
@@ -198,8 +230,9 @@ impl TemplateSet {
             .iter()
             .map(|(s, x)| Ok((*s, normalise(x, &ranges)?)))
             .collect::<Result<_>>()?;
-        let jobs: Vec<(usize, usize)> =
-            (0..skills.len()).flat_map(|s| (0..features.len()).map(move |f| (s, f))).collect();
+        let jobs: Vec<(usize, usize)> = (0..skills.len())
+            .flat_map(|s| (0..features.len()).map(move |f| (s, f)))
+            .collect();
         let fitted: Vec<Result<Hmm>> = jobs
             .par_iter()
             .map(|&(s, f)| {
@@ -219,13 +252,15 @@ impl TemplateSet {
                 let mut cfg = params.fit.clone();
                 cfg.n_states = cfg.n_states.min(shortest).max(1);
                 cfg.seed = params.fit.seed.wrapping_add((s * 1000 + f) as u64);
-                Hmm::fit(&seqs, &cfg).map(|(hmm, _)| hmm).map_err(|e| match e {
-                    EngineError::InvalidParameter(m) => EngineError::InvalidParameter(format!(
-                        "skill {:?}, feature {:?}: {m}",
-                        skills[s], features[f].name
-                    )),
-                    other => other,
-                })
+                Hmm::fit(&seqs, &cfg)
+                    .map(|(hmm, _)| hmm)
+                    .map_err(|e| match e {
+                        EngineError::InvalidParameter(m) => EngineError::InvalidParameter(format!(
+                            "skill {:?}, feature {:?}: {m}",
+                            skills[s], features[f].name
+                        )),
+                        other => other,
+                    })
             })
             .collect();
         let mut models: Vec<Vec<Hmm>> = vec![Vec::with_capacity(features.len()); skills.len()];
@@ -301,7 +336,11 @@ impl TemplateSet {
                      {TEMPLATE_FORMAT_VERSION} (retrain with `lfd templates train`)"
                 )))
             }
-            None => return Err(EngineError::Format("template file has no format_version".into())),
+            None => {
+                return Err(EngineError::Format(
+                    "template file has no format_version".into(),
+                ))
+            }
         }
         let set: Self = serde_json::from_str(text)
             .map_err(|e| EngineError::Format(format!("template file: {e}")))?;
@@ -316,7 +355,9 @@ impl TemplateSet {
         if set.models.len() != set.skills.len()
             || set.models.iter().any(|m| m.len() != set.features.len())
         {
-            return Err(EngineError::Format("template file: models do not match skills x features".into()));
+            return Err(EngineError::Format(
+                "template file: models do not match skills x features".into(),
+            ));
         }
         for (s, row) in set.models.iter().enumerate() {
             for (f, m) in row.iter().enumerate() {
@@ -361,11 +402,18 @@ mod tests {
     }
 
     fn features() -> Vec<FeatureGroup> {
-        vec![FeatureGroup { name: "a".into(), start: 0, end: 1 }, FeatureGroup {
-            name: "b".into(),
-            start: 1,
-            end: 3,
-        }]
+        vec![
+            FeatureGroup {
+                name: "a".into(),
+                start: 0,
+                end: 1,
+            },
+            FeatureGroup {
+                name: "b".into(),
+                start: 1,
+                end: 3,
+            },
+        ]
     }
 
     /// pick_up: column 0 falls 1 -> 0; move: column 0 rises 0 -> 1. Columns 1-2 noise-free ramps.
@@ -374,15 +422,32 @@ mod tests {
         for k in 0..4 {
             let n = 20 + 3 * k;
             let ramp = |t: usize| t as f64 / (n - 1) as f64 + 0.01 * k as f64;
-            out.push((0, DMatrix::from_fn(n, 3, |t, c| if c == 0 { 1.0 - ramp(t) } else { ramp(t) * c as f64 })));
-            out.push((1, DMatrix::from_fn(n, 3, |t, c| if c == 0 { ramp(t) } else { 0.5 })));
+            out.push((
+                0,
+                DMatrix::from_fn(n, 3, |t, c| {
+                    if c == 0 {
+                        1.0 - ramp(t)
+                    } else {
+                        ramp(t) * c as f64
+                    }
+                }),
+            ));
+            out.push((
+                1,
+                DMatrix::from_fn(n, 3, |t, c| if c == 0 { ramp(t) } else { 0.5 }),
+            ));
         }
         out
     }
 
     fn small() -> TemplateParams {
         TemplateParams {
-            fit: FitConfig { n_states: 3, n_mix: 1, max_iter: 20, ..FitConfig::default() },
+            fit: FitConfig {
+                n_states: 3,
+                n_mix: 1,
+                max_iter: 20,
+                ..FitConfig::default()
+            },
             ..TemplateParams::default()
         }
     }
@@ -402,20 +467,29 @@ mod tests {
                 (false, _) => 0.5,
             }
         });
-        let table = set.score_table(&x, &[0, n, 2 * n], 0, EndState::Any).unwrap();
+        let table = set
+            .score_table(&x, &[0, n, 2 * n], 0, EndState::Any)
+            .unwrap();
         let reference = set.score_table_reference(&x, &[0, n, 2 * n], 0).unwrap();
         for (a, b) in table.as_slice().iter().zip(reference.as_slice()) {
             let same_inf = a.is_infinite() && b.is_infinite();
-            assert!(same_inf || (a - b).abs() < 1e-8 * a.abs().max(1.0), "{a} vs {b}");
+            assert!(
+                same_inf || (a - b).abs() < 1e-8 * a.abs().max(1.0),
+                "{a} vs {b}"
+            );
         }
-        let fin = set.score_table(&x, &[0, n, 2 * n], 0, EndState::Final).unwrap();
+        let fin = set
+            .score_table(&x, &[0, n, 2 * n], 0, EndState::Final)
+            .unwrap();
         assert!(fin.mean(0, 1, 0) > fin.mean(0, 1, 1));
         assert!(table.mean(0, 1, 0) > table.mean(0, 1, 1));
         assert!(table.mean(1, 2, 1) > table.mean(1, 2, 0));
         let json = set.to_json().unwrap();
         let back = TemplateSet::from_json(&json).unwrap();
         assert_eq!(back.skills, set.skills);
-        let t2 = back.score_table(&x, &[0, n, 2 * n], 0, EndState::Any).unwrap();
+        let t2 = back
+            .score_table(&x, &[0, n, 2 * n], 0, EndState::Any)
+            .unwrap();
         assert!((t2.total(0, 2, 1) - table.total(0, 2, 1)).abs() < 1e-9);
     }
 
@@ -425,18 +499,30 @@ mod tests {
         let json = set.to_json().unwrap();
         let v9 = json.replacen("\"format_version\":1", "\"format_version\":9", 1);
         let err = TemplateSet::from_json(&v9).unwrap_err();
-        assert!(matches!(&err, EngineError::Format(m) if m.contains("format_version 9")), "{err}");
+        assert!(
+            matches!(&err, EngineError::Format(m) if m.contains("format_version 9")),
+            "{err}"
+        );
         let fly = json.replacen("\"pick_up\"", "\"fly\"", 1);
         let err = TemplateSet::from_json(&fly).unwrap_err();
-        assert!(matches!(&err, EngineError::Format(m) if m.contains("fly")), "{err}");
-        assert!(matches!(TemplateSet::from_json("[1,"), Err(EngineError::Format(_))));
+        assert!(
+            matches!(&err, EngineError::Format(m) if m.contains("fly")),
+            "{err}"
+        );
+        assert!(matches!(
+            TemplateSet::from_json("[1,"),
+            Err(EngineError::Format(_))
+        ));
     }
 
     #[test]
     fn normalise_clips_to_unit_interval() {
         let x = DMatrix::from_row_slice(3, 2, &[-1.0, 5.0, 0.5, 5.0, 2.0, 5.0]);
         let y = normalise(&x, &[[0.0, 1.0], [5.0, 5.0]]).unwrap();
-        assert_eq!(y.column(0).iter().copied().collect::<Vec<_>>(), vec![0.0, 0.5, 1.0]);
+        assert_eq!(
+            y.column(0).iter().copied().collect::<Vec<_>>(),
+            vec![0.0, 0.5, 1.0]
+        );
         assert!(y.column(1).iter().all(|v| (v - 0.5).abs() < 1e-15));
         assert!(normalise(&x, &[[0.0, 1.0]]).is_err());
     }
