@@ -695,12 +695,18 @@ RECORDINGS = Path(__file__).resolve().parents[1] / "recordings"
 
 
 @pytest.fixture(scope="module")
-def small_templates(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """Templates trained on three shipped demos per skill (fast, good enough to segment)."""
+def small_templates(tmp_path_factory: pytest.TempPathFactory) -> list[str]:
+    """``--templates`` arguments: none with shipped templates, else a quickly trained set."""
     import shutil
 
     from lfd.cli import main
+    from lfd.segment import Templates
 
+    try:
+        Templates.default()
+        return []
+    except (FileNotFoundError, LfdError):  # not shipped (yet)
+        pass
     src = sorted((RECORDINGS / "templates").glob("*_[012].mcap"))
     if not src:
         pytest.skip("shipped template recordings not present")
@@ -709,15 +715,15 @@ def small_templates(tmp_path_factory: pytest.TempPathFactory) -> Path:
         shutil.copy(p, d)
     out = d / "templates.json"
     assert main(["templates", "train", str(d), "-o", str(out)]) == 0
-    return out
+    return ["--templates", str(out)]
 
 
-def test_lfd_segment_and_eval_rerun_save(small_templates: Path, tmp_path: Path) -> None:
+def test_lfd_segment_and_eval_rerun_save(small_templates: list[str], tmp_path: Path) -> None:
     from lfd.cli import main
 
     rec = RECORDINGS / "exp1.mcap"
     seg = tmp_path / "segment.rrd"
-    assert main(["segment", str(rec), "--templates", str(small_templates), "--rerun-save", str(seg)]) == 0  # fmt: skip
+    assert main(["segment", str(rec), *small_templates, "--rerun-save", str(seg)]) == 0
     data = Rrd(seg)
     for path in ("/segmentation/skills/result", "/segmentation/skills/ground_truth",
                  "/segmentation/sections", "/segmentation/greedy/chosen",
@@ -727,7 +733,7 @@ def test_lfd_segment_and_eval_rerun_save(small_templates: Path, tmp_path: Path) 
     assert data.blueprints
 
     ev = tmp_path / "eval.rrd"
-    args = ["eval", str(rec), "--templates", str(small_templates), "--rerun-save", str(ev)]
+    args = ["eval", str(rec), *small_templates, "--rerun-save", str(ev)]
     assert main(args) == 0
     lanes = {k for k in Rrd(ev).rows if k.startswith("/segmentation/skills/")}
     assert lanes == {
