@@ -18,6 +18,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--methods", default="greedy,dp,proximity,gripper", help="comma-separated methods"
     )
+    parser.add_argument(
+        "--grammar",
+        choices=("warn", "enforce", "off"),
+        default="warn",
+        help="grammar use of greedy and dp (default warn, as the paper)",
+    )
 
 
 def _fmt(k: str, v: float) -> str:
@@ -49,6 +55,7 @@ def run(args: argparse.Namespace) -> int:
             paths,
             templates=templates,
             methods=methods,
+            grammar=args.grammar,
             progress=lambda name: progress.update(task, advance=1, description=name),
         )
     if not report.recordings:
