@@ -174,10 +174,9 @@ def timed(fn, repeat: int) -> tuple[float, object]:
 
 
 def main() -> int:
+    from lfd.segment import Templates
     from rich.console import Console
     from rich.table import Table
-
-    from lfd.segment import Templates
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5)
