@@ -44,10 +44,10 @@ def demo(path: Path = EXP1) -> Demonstration:
 
 
 # --- the shipped recordings ------------------------------------------------------------------
-@pytest.mark.parametrize("search", ["greedy", "dp"])
-def test_exp1_sequence_equals_ground_truth(search: str) -> None:
+@pytest.mark.parametrize(("search", "grammar"), [("dp", "warn"), ("greedy", "enforce")])
+def test_exp1_sequence_equals_ground_truth(search: str, grammar: str) -> None:
     d = demo()
-    result = segment(d, search=search)  # type: ignore[arg-type]
+    result = segment(d, search=search, grammar=grammar)  # type: ignore[arg-type]
     assert result.skill_sequence == d.skill_sequence
     m = all_metrics(result.segments, d.labels)
     assert m["frame_accuracy"] > 0.85

@@ -531,7 +531,9 @@ def test_log_segment_run_on_a_preprocessed_demo(session: viz.Session) -> None:
 
         class engine:
             @staticmethod
-            def score_table(values: np.ndarray, b: np.ndarray, max_len: int) -> np.ndarray:
+            def score_table(
+                values: np.ndarray, b: np.ndarray, max_len: int, end: str = "final"
+            ) -> np.ndarray:
                 assert values.shape == (n, 10) and list(b) == bounds and max_len > 0
                 return table
 

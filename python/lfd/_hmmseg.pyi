@@ -145,6 +145,7 @@ def segment_dp(
 ) -> tuple[list[_SegmentTuple], list[str]]: ...
 def default_template_params() -> str: ...
 
+@final
 class TemplateSet:
     @staticmethod
     def train(

@@ -19,6 +19,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--methods", default="greedy,dp,proximity,gripper", help="comma-separated methods"
     )
+    parser.add_argument(
+        "--grammar",
+        choices=("warn", "enforce", "off"),
+        default="warn",
+        help="grammar use of greedy and dp (default warn, as the paper)",
+    )
     from ..viz.cli import add_rerun_arguments
 
     add_rerun_arguments(parser)  # shows one recording: every method's lane beside the truth
@@ -49,13 +55,14 @@ def run(args: argparse.Namespace) -> int:
     methods = tuple(m.strip() for m in args.methods.split(",") if m.strip())
     paths = expand_paths(args.inputs)
     if open_from_args(args, "lfd_eval"):
-        _show(paths, methods, templates, console)
+        _show(paths, methods, templates, args.grammar, console)
     with Progress(console=console, transient=True) as progress:
         task = progress.add_task("evaluating", total=len(paths))
         report = evaluate(
             paths,
             templates=templates,
             methods=methods,
+            grammar=args.grammar,
             progress=lambda name: progress.update(task, advance=1, description=name),
         )
     if not report.recordings:
@@ -82,7 +89,9 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _show(paths: list[Path], methods: tuple[str, ...], templates: Any, console: Any) -> None:
+def _show(
+    paths: list[Path], methods: tuple[str, ...], templates: Any, grammar: str, console: Any
+) -> None:
     """Log one recording and every method's result to the open Rerun session."""
     if len(paths) != 1:
         console.print(f"[yellow]--rerun* shows a single recording; got {len(paths)}[/]")
@@ -92,4 +101,4 @@ def _show(paths: list[Path], methods: tuple[str, ...], templates: Any, console: 
 
     demo = load(paths[0])
     traj = log_recorded_demo(demo, features=False)  # log_methods logs them
-    log_methods(demo, methods, templates=templates, trajectory=traj)
+    log_methods(demo, methods, templates=templates, trajectory=traj, grammar=grammar)

@@ -118,13 +118,15 @@ def evaluate_demo(
     name: str = "demo",
     templates: Templates | None = None,
     methods: Sequence[str] = METHODS,
+    grammar: str = "warn",
 ) -> RecordingResult:
     """Run every method on one labelled demonstration and compute the metrics."""
     task = str(demo.metadata.get("task") or demo.metadata.get("experiment") or "unknown")
     res = RecordingResult(name=name, task=task, truth=demo.skill_sequence)
     for m in methods:
         try:
-            seg = run_method(m, demo, templates)
+            kw = {"grammar": grammar} if m in ("greedy", "dp") else {}
+            seg = run_method(m, demo, templates, **kw)
         except LfdError as err:
             res.errors[m] = str(err)
             continue
@@ -147,11 +149,13 @@ def evaluate(
     *,
     templates: Templates | None = None,
     methods: Sequence[str] = METHODS,
+    grammar: str = "warn",
     progress: Callable[[str], None] | None = None,
 ) -> EvalReport:
     """Evaluate ``methods`` on every labelled recording among ``paths`` (files or directories).
 
-    Recordings without ground-truth labels are skipped.
+    ``grammar`` is the grammar use of the greedy and DP methods. Recordings without
+    ground-truth labels are skipped.
     """
     from ..io import load
 
@@ -159,7 +163,11 @@ def evaluate(
     for path in expand_paths(paths):
         demo = load(path)
         if demo.labels:
-            rows.append(evaluate_demo(demo, name=path.name, templates=templates, methods=methods))
+            rows.append(
+                evaluate_demo(
+                    demo, name=path.name, templates=templates, methods=methods, grammar=grammar
+                )
+            )
         if progress is not None:
             progress(path.name)
     return EvalReport(rows, tuple(methods))

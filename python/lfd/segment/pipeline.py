@@ -49,7 +49,8 @@ class SegmentParams:
     dominance : float
         ...and its summed climb is at least ``dominance`` times its summed descent (0: off).
     max_segment_s : float
-        Longest skill segment considered (seconds); bounds the forward passes.
+        Longest skill segment considered (seconds; the template skills last 1-4 s); bounds the
+        forward passes.
     penalty : float
         Per-segment penalty of the DP (nats).
     min_duration_s : float
@@ -59,9 +60,9 @@ class SegmentParams:
     stage1: Stage1Params = field(default_factory=Stage1Params)
     feature_cutoff_hz: float = 2.0
     end: Literal["final", "any"] = "final"
-    min_rise: float = 0.02
+    min_rise: float = 0.01
     dominance: float = 0.0
-    max_segment_s: float = 20.0
+    max_segment_s: float = 10.0
     penalty: float = 10.0
     min_duration_s: float = 0.5
 

@@ -134,7 +134,7 @@ def log_segment_run(
     """
     from ..features import compute_features
     from ..segment import SegmentParams, Templates
-    from ..segment.pipeline import as_trajectory, fill_gaps
+    from ..segment.pipeline import as_trajectory, fill_gaps, object_scores
 
     traj = trajectory if trajectory is not None else as_trajectory(demo)  # type: ignore[arg-type]
     filled, _ = fill_gaps(traj)
@@ -153,8 +153,7 @@ def log_segment_run(
         p = params or SegmentParams()
         bounds = np.asarray(result.sections, dtype=np.int64)
         max_len = max(1, round(p.max_segment_s / traj.dt)) if traj.dt > 0 else 0
-        values = np.ascontiguousarray(feats.values, dtype=np.float64)
-        table = tpl.engine.score_table(values, bounds, max_len)
+        table, _ = object_scores(filled, tpl, bounds, max_len, p.end)  # as the segmentation
         trace, ends = greedy_trace(table, bounds, [s.start for s in result.segments], tpl.skills)
         scores = list(trace)
         candidate_ns = [t_end[e] for e in ends]
@@ -225,6 +224,7 @@ def log_methods(
     *,
     templates: Templates | None = None,
     trajectory: Trajectory | None = None,
+    grammar: str = "warn",
     recording: Any = None,
 ) -> dict[str, Segmentation]:
     """Run segmentation methods on ``demo`` and log each result as soon as it is ready.
@@ -241,7 +241,8 @@ def log_methods(
     main = None
     for method in methods:
         try:
-            seg = run_method(method, demo, templates)
+            kw = {"grammar": grammar} if method in ("greedy", "dp") else {}
+            seg = run_method(method, demo, templates, **kw)
         except LfdError as err:
             log_text([f"{method}: {err}"], recording=recording)
             continue
