@@ -647,8 +647,16 @@ def test_log_reproduction_reads_a_result(session: viz.Session) -> None:
         segment=np.r_[np.full(10, -1), np.zeros(20, int), np.ones(20, int)],
         base=np.array([0.0, -0.4, 0.0]),
         objects=[SimpleNamespace(name="box_1", success=True, position_error=0.004, rotation_error_deg=1.5)],
+        execution=SimpleNamespace(
+            object_names=["box_1"],
+            object_position=np.linspace([0.4, 0.0, 0.025], [0.5, 0.1, 0.025], n)[None],
+            object_quaternion=np.tile([0.0, 0.0, 0.0, 1.0], (1, n, 1)),
+        ),
     )  # fmt: skip
-    viz.log_reproduction(result, skills=["pick_up", "place"], recording=session.recording)
+    viz.log_reproduction(
+        result, skills=["pick_up", "place"], object_sizes={"box_1": [0.04, 0.04, 0.05]},
+        recording=session.recording,
+    )  # fmt: skip
     data = finish(session)
     assert data.column("/robot/skills/segment", "StateChange:state", "robot_time") == [
         [""], ["pick_up"], ["place"],
@@ -659,6 +667,10 @@ def test_log_reproduction_reads_a_result(session: viz.Session) -> None:
     np.testing.assert_allclose(
         data.static["/world/robot/base"]["Transform3D:translation"], [[0.0, -0.4, 0.0]], atol=1e-7
     )
+    box = data.one("/world/robot_objects/skills/box_1", "Transform3D:translation", "robot_time")
+    np.testing.assert_allclose(box[-1], [0.5, 0.1, 0.025], atol=1e-6)
+    half = data.static["/world/robot_objects/skills/box_1/box"]["Boxes3D:half_sizes"]
+    np.testing.assert_allclose(half, [[0.02, 0.02, 0.025]], atol=1e-7)
     text = data.entity("/robot/skills/objects", "robot_time")[0]["TextLog:text"][0]
     assert text == "box_1: ok, 4.0 mm, 1.5 deg"
 
@@ -688,6 +700,12 @@ def test_live_stream_reaches_a_running_viewer(request: pytest.FixtureRequest) ->
             state = viewer.get_state()
             timelines = {t.name for r in state.recordings for t in r.timelines}
         assert "demo_time" in timelines
+        time.sleep(1.0)  # let the default blueprint lay the views out
+        views = viewer.get_state().views
+        names = {v.name for v in views}
+        assert {"Scene (reference marker frame)", "HMM scores", "Reproduction 3-D"} <= names
+        errors = [(v.name, r.summary) for v in views for r in v.reports if r.severity == "error"]
+        assert not errors
         session.close()
     finally:
         viewer.quit()

@@ -11,6 +11,7 @@ Entity paths (see the ``log_*`` functions for what each holds)::
     /world/objects/<name>                  object frame; /box: Boxes3D labelled with the tag id
     /world/camera/image                    pinhole; /rgb colour, /depth depth (mm)
     /world/robot/<mode>                    planned/executed TCP paths, arm, current TCP
+    /world/robot_objects/<mode>/<name>     objects as the reproduction moved them (robot_time)
     /features/<name>/value|threshold       Table I features with their stage-1 thresholds
     /features/target                       target object per sample (state)
     /segmentation/sections                 stage-1 data sections (state)
@@ -70,7 +71,8 @@ def default_blueprint(
     scene = rrb.Spatial3DView(
         origin="/world",
         # the depth point cloud hides the hand; it is one click away in the blueprint panel
-        contents=["+ $origin/**", "- /world/camera/image/depth"],
+        # (objects moved by a reproduction live on robot_time: its own view below)
+        contents=["+ $origin/**", "- /world/camera/image/depth", "- /world/robot_objects/**"],
         name="Scene (reference marker frame)",
     )
     left: Any = scene
@@ -113,7 +115,21 @@ def default_blueprint(
     logs = rrb.TextLogView(
         origin="/", contents=["+ /segmentation/**", "+ /robot/**"], name="Log and warnings"
     )
-    robot = rrb.TimeSeriesView(origin="/robot", name="Reproduction")
+    robot = rrb.Vertical(
+        # switch the time panel to robot_time to play a reproduction
+        rrb.Spatial3DView(
+            origin="/world",
+            contents=[
+                "+ /world/robot/**",
+                "+ /world/robot_objects/**",
+                "+ /world/reference_marker/**",
+            ],
+            name="Reproduction 3-D",
+        ),
+        rrb.TimeSeriesView(origin="/robot", name="Tracking error, opening"),
+        row_shares=[2, 1],
+        name="Reproduction",
+    )
     right = rrb.Vertical(
         states,
         rrb.Tabs(features, scores, logs, robot, active_tab=0),

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -150,6 +150,7 @@ def log_reproduction(
     result: Any,
     *,
     skills: Sequence[str] | None = None,
+    object_sizes: Mapping[str, npt.ArrayLike] | None = None,
     tick_ns: int = TICK_NS,
     recording: Any = None,
 ) -> None:
@@ -158,7 +159,10 @@ def log_reproduction(
     Reads ``mode``, ``planned_tcp`` (n, 3), ``executed_tcp`` (n, 3) at ``tick_ns`` ticks,
     ``segment`` (n,) task-program segment index per tick (-1 while dwelling), ``base`` (3,), and
     ``objects`` (final errors, shown as text). ``skills[k]`` names segment ``k`` in the state
-    lane ``/robot/<mode>/segment``.
+    lane ``/robot/<mode>/segment``. When ``result.execution`` holds the simulated object poses
+    (``object_names``, ``object_position`` (k, n, 3), ``object_quaternion`` (k, n, 4)), the
+    objects move under ``/world/robot_objects/<mode>/<name>``, drawn as boxes of
+    ``object_sizes[name]`` (metres) when given.
     """
     rr = import_rerun()
     rec = get_recording(recording)
@@ -197,6 +201,9 @@ def log_reproduction(
             indexes=time_columns(t[change], 0, timeline=ROBOT_TIME),
             columns=rr.StateChange.columns(state=[name(int(seg[i])) for i in change]),
         )
+    execution = getattr(result, "execution", None)
+    if execution is not None and n:
+        _log_objects(rec, mode, execution, t, object_sizes or {})
     lines = [
         f"{o.name}: {'ok' if getattr(o, 'success', False) else 'FAILED'}, "
         f"{1000 * o.position_error:.1f} mm, {o.rotation_error_deg:.1f} deg"
@@ -207,4 +214,38 @@ def log_reproduction(
             f"/robot/{mode}/objects",
             indexes=time_columns(np.full(len(lines), t[-1]), 0, timeline=ROBOT_TIME),
             columns=rr.TextLog.columns(text=lines, level=["INFO"] * len(lines)),
+        )
+
+
+def _log_objects(
+    rec: Any, mode: str, execution: Any, t: np.ndarray, sizes: Mapping[str, npt.ArrayLike]
+) -> None:
+    """Object poses of a reproduction over ``robot_time``."""
+    rr = import_rerun()
+    names = list(getattr(execution, "object_names", []))
+    pos = np.asarray(getattr(execution, "object_position", np.zeros((0, 0, 3))), dtype=np.float64)
+    quat = np.asarray(
+        getattr(execution, "object_quaternion", np.zeros((0, 0, 4))), dtype=np.float64
+    )
+    if pos.shape != (len(names), len(t), 3) or quat.shape != (len(names), len(t), 4):
+        return
+    for k, name in enumerate(names):
+        path = f"/world/robot_objects/{mode}/{name}"
+        rec.log(path, rr.TransformAxes3D(0.05), static=True)
+        if name in sizes:
+            half = np.asarray(sizes[name], dtype=np.float64).reshape(3) / 2
+            rec.log(
+                f"{path}/box",
+                rr.Boxes3D(
+                    half_sizes=[half],
+                    labels=[name],
+                    colors=[EXECUTED_COLOR],
+                    fill_mode="transparentfillmajorwireframe",
+                ),
+                static=True,
+            )
+        rec.send_columns(
+            path,
+            indexes=time_columns(t, 0, timeline=ROBOT_TIME),
+            columns=rr.Transform3D.columns(translation=pos[k], quaternion=quat[k]),
         )
