@@ -14,12 +14,14 @@
 
 mod config;
 mod emission;
+mod fastexp;
 mod forward;
 mod init;
 mod kmeans;
 mod model;
 mod moments;
 mod sample;
+mod score;
 mod train;
 mod validate;
 
