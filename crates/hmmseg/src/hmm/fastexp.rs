@@ -8,8 +8,8 @@
 //! underflow is still detected by the caller.
 
 const LOG2E: f64 = std::f64::consts::LOG2_E;
-const LN2_HI: f64 = 6.931_471_803_691_238_164_90e-1;
-const LN2_LO: f64 = 1.908_214_929_270_587_700_02e-10;
+const LN2_HI: f64 = 6.931_471_803_691_238e-1;
+const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
 /// 1.5 * 2^52: adding it rounds to an integer and leaves that integer in the low bits.
 const SHIFT: f64 = 6_755_399_441_055_744.0;
 const SHIFT_BITS: i64 = 0x4338_0000_0000_0000;

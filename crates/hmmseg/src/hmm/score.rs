@@ -82,17 +82,15 @@ fn run<const N: usize, const BANDED: bool>(chain: &Chain, b: &[f64], t_len: usiz
         let mut next = [0.0; N];
         if t == 0 {
             next.copy_from_slice(&chain.start);
+        } else if BANDED {
+            next[0] = prev[0] * trans[0][0];
+            for j in 1..N {
+                next[j] = prev[j] * trans[j][j] + prev[j - 1] * trans[j - 1][j];
+            }
         } else {
-            if BANDED {
-                next[0] = prev[0] * trans[0][0];
-                for j in 1..N {
-                    next[j] = prev[j] * trans[j][j] + prev[j - 1] * trans[j - 1][j];
-                }
-            } else {
-                for i in 0..N {
-                    for j in 0..N {
-                        next[j] += prev[i] * trans[i][j];
-                    }
+            for i in 0..N {
+                for j in 0..N {
+                    next[j] += prev[i] * trans[i][j];
                 }
             }
         }
@@ -101,7 +99,8 @@ fn run<const N: usize, const BANDED: bool>(chain: &Chain, b: &[f64], t_len: usiz
             next[j] *= cols[j][t];
             sum += next[j];
         }
-        if !(sum >= f64::MIN_POSITIVE) {
+        // Also true for NaN.
+        if sum.partial_cmp(&f64::MIN_POSITIVE) != Some(std::cmp::Ordering::Greater) {
             return None;
         }
         if sum < RESCALE_BELOW {
