@@ -59,3 +59,16 @@ class RecordingFormatError(LfdError, ValueError):
 
 class UnknownSkillError(LfdError, ValueError):
     """A skill name is not one of :data:`lfd.skills.SKILLS`."""
+
+
+# --- warnings -------------------------------------------------------------------------------
+class LfdWarning(UserWarning):
+    """Base class of the warnings lfd emits when it repairs or drops data."""
+
+
+class RecoveredFileWarning(LfdWarning):
+    """A recording was truncated or never closed; only its complete chunks were read."""
+
+
+class TimestampWarning(LfdWarning):
+    """Out-of-order samples were sorted or duplicate timestamps dropped while loading."""

@@ -5,7 +5,10 @@
 //! normalisation, the eight features of Table I, stage-1 over-segmentation and the stage-2
 //! skill cut (greedy loop of Eq. 3-5 and a segmental DP).
 
+pub mod dtw;
 pub mod error;
+pub mod features;
 pub mod hmm;
+pub mod normalize;
 
 pub use error::{EngineError, Result};

@@ -15,6 +15,8 @@ from ..errors import LfdError
 
 COMMANDS: tuple[str, ...] = (
     # one module name per subcommand, in help order
+    "info",
+    "simulate",
 )
 
 

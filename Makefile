@@ -1,0 +1,26 @@
+# Developer shortcuts. `make check` runs what CI runs (see .ci/run).
+.PHONY: install test rust-test lint bench check
+
+install:
+	python3 -m pip install -e ".[dev,sim]"
+
+test:
+	python3 -m pytest -q
+
+rust-test:
+	cargo test --workspace
+
+lint:
+	cargo fmt --all --check
+	cargo clippy --workspace --all-targets -- -D warnings
+	python3 -m ruff check .
+	python3 -m ruff format --check .
+	python3 -m mypy python/lfd
+	python3 -m mypy.stubtest lfd._hmmseg --allowlist .ci/stubtest-allowlist.txt
+
+bench:
+	python3 benches/engine_vs_hmmlearn.py
+	python3 benches/dtw_vs_dtaidistance.py
+
+check:
+	bash .ci/run

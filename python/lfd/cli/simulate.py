@@ -1,0 +1,191 @@
+"""``lfd simulate``: record a demonstration of a task by the simulated demonstrator.
+
+One demonstration::
+
+    lfd simulate exp1 --seed 3 -o demo.mcap [--render] [--speed 1.0] [--noise-mm 2.5] ...
+
+A whole set, deterministically (the shipped recordings are made this way)::
+
+    lfd simulate --set templates -o recordings/templates   # 9 demos per skill, seeds 0-8
+    lfd simulate --set samples -o recordings               # exp1-4 seed 1000 + rendered sample
+    lfd simulate --set eval -o /tmp/eval                   # 4 experiments x seeds 100-105
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+from typing import Any
+
+NAME = "simulate"
+HELP = "Record a task performed by the simulated human demonstrator (MuJoCo)."
+
+SETS = ("templates", "eval", "samples")
+TEMPLATE_SEEDS = range(9)
+EVAL_SEEDS = range(100, 106)
+SAMPLE_SEED = 1000
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from ..sim.tasks import TASKS
+
+    parser.add_argument(
+        "task",
+        nargs="?",
+        choices=sorted(TASKS),
+        metavar="TASK",
+        help=f"exp1-exp4 or a skill name for its template task ({', '.join(sorted(TASKS))})",
+    )
+    parser.add_argument(
+        "-o", "--output", required=True, help="output .mcap (or directory with --set)"
+    )
+    parser.add_argument(
+        "--set", choices=SETS, help="generate a whole recording set into a directory"
+    )
+    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument("--render", action="store_true", help="also render colour + depth frames")
+    parser.add_argument("--render-rate", type=float, default=10.0, help="render rate, Hz (10)")
+    parser.add_argument("--color-format", choices=("raw", "png", "jpeg"), default="png")
+    parser.add_argument("--duration", type=float, help="keep only the first seconds")
+    parser.add_argument("--hand-rate", type=float, default=5.0, help="keypoint rate, Hz (5)")
+    v = parser.add_argument_group("variability (default: drawn per demo)")
+    v.add_argument("--speed", type=float, help="speed factor (default U(0.8, 1.25))")
+    v.add_argument("--hand-scale", type=float, help="hand size factor (default U(0.9, 1.1))")
+    v.add_argument("--noise-mm", type=float, help="keypoint noise std, mm (default U(2, 3))")
+    v.add_argument("--dropout", type=float, help="missing tag fraction (default U(0.01, 0.03))")
+    v.add_argument("--tremor-mm", type=float, help="tremor amplitude, mm (default U(0.3, 1))")
+    v.add_argument("--detour", type=float, help="path detour scale, 0 = straight (U(0.5, 1.5))")
+    v.add_argument("--pauses", type=float, help="pause probability (default U(0.15, 0.5))")
+    v.add_argument("--outliers", type=float, help="fraction of hand frames with outliers (0.03)")
+    v.add_argument("--approach-deg", type=float, help="max approach azimuth deviation (35)")
+    v.add_argument("--hand-miss", type=float, help="fraction of failed hand estimates (0.02)")
+    v.add_argument("--noise-free", action="store_true", help="no sensor noise, dropouts, tremor")
+
+
+def _variability(args: argparse.Namespace) -> Any:
+    from ..sim import Variability
+
+    given = {
+        "speed": args.speed,
+        "hand_scale": args.hand_scale,
+        "noise_mm": args.noise_mm,
+        "dropout": args.dropout,
+        "tremor_mm": args.tremor_mm,
+        "detour": args.detour,
+        "pauses": args.pauses,
+        "outlier_rate": args.outliers,
+        "hand_miss": args.hand_miss,
+        "approach_deg": args.approach_deg,
+    }
+    given = {k: v for k, v in given.items() if v is not None}
+    var = Variability.noise_free(**given) if args.noise_free else Variability(**given)
+    try:
+        var.validate()
+    except ValueError as err:
+        from ..errors import DemonstrationError
+
+        raise DemonstrationError(str(err)) from err
+    return var
+
+
+def _jobs(which: str, out: Path) -> list[dict[str, Any]]:
+    from ..sim import EXPERIMENTS, TEMPLATE_TASKS
+
+    if which == "templates":
+        return [
+            {"task": s, "seed": k, "path": out / f"{s}_{k}.mcap"}
+            for s in TEMPLATE_TASKS
+            for k in TEMPLATE_SEEDS
+        ]
+    if which == "eval":
+        return [
+            {"task": e, "seed": k, "path": out / f"{e}_{k}.mcap"}
+            for e in EXPERIMENTS
+            for k in EVAL_SEEDS
+        ]
+    jobs: list[dict[str, Any]] = [
+        {"task": e, "seed": SAMPLE_SEED, "path": out / f"{e}.mcap"} for e in EXPERIMENTS
+    ]
+    jobs.append(
+        {
+            "task": "exp1",
+            "seed": SAMPLE_SEED,
+            "path": out / "rendered" / "exp1_short.mcap",
+            "render": 5.0,
+            "duration": 8.0,
+        }
+    )
+    return jobs
+
+
+def record(
+    task: str,
+    seed: int,
+    path: str | os.PathLike[str],
+    *,
+    variability: Any = None,
+    render_rate: float | None = None,
+    duration: float | None = None,
+    hand_rate: float = 5.0,
+    color_format: str = "png",
+) -> Any:
+    """Simulate, optionally crop and render, and save one demonstration; returns the result."""
+    from .. import io
+    from ..sim.demonstrator import crop, simulate
+    from ..sim.render import add_rendering
+
+    result = simulate(task, seed, variability, hand_rate_hz=hand_rate)
+    if duration is not None:
+        crop(result, duration)
+    if render_rate:
+        add_rendering(result, rate_hz=render_rate)
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    io.save(result.demo, path, color_format=color_format)
+    return result
+
+
+def run(args: argparse.Namespace) -> int:
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    from rich.progress import Progress
+
+    from ..errors import DemonstrationError
+
+    var = _variability(args)
+    if args.set:
+        jobs = _jobs(args.set, Path(args.output))
+        with Progress() as progress:
+            bar = progress.add_task(f"simulating {args.set}", total=len(jobs))
+            for job in jobs:
+                record(
+                    job["task"],
+                    job["seed"],
+                    job["path"],
+                    variability=var,
+                    render_rate=job.get("render"),
+                    duration=job.get("duration"),
+                    color_format=args.color_format,
+                )
+                progress.advance(bar)
+        print(f"wrote {len(jobs)} recordings to {args.output}")
+        return 0
+    if not args.task:
+        raise DemonstrationError("give a TASK or --set")
+    with Progress(transient=True) as progress:
+        progress.add_task(f"simulating {args.task} (seed {args.seed})", total=None)
+        result = record(
+            args.task,
+            args.seed,
+            args.output,
+            variability=var,
+            render_rate=args.render_rate if args.render else None,
+            duration=args.duration,
+            hand_rate=args.hand_rate,
+            color_format=args.color_format,
+        )
+    demo = result.demo
+    print(
+        f"{args.output}: {args.task} seed {args.seed}, {demo.duration_s:.1f} s, "
+        f"{len(demo.hand)} hand samples, skills {' '.join(demo.skill_sequence)}"
+    )
+    return 0

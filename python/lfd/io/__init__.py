@@ -1,0 +1,26 @@
+"""Demonstration files: MCAP with foxglove protobuf schemas (see :mod:`lfd.io.topics`).
+
+- :class:`McapRecorder` writes a recording sample by sample (safe to interrupt);
+- :func:`save` writes a whole :class:`~lfd.demo.Demonstration`;
+- :func:`load` reads one back, recovering truncated files with a warning;
+- :func:`scan` lists a file's channels, metadata and damage without decoding (``lfd info``).
+"""
+
+from __future__ import annotations
+
+from ..errors import RecordingFormatError, RecoveredFileWarning, TimestampWarning
+from .mcapfile import ChannelSummary, RawRecording, scan
+from .reader import load
+from .writer import McapRecorder, save
+
+__all__ = [
+    "ChannelSummary",
+    "McapRecorder",
+    "RawRecording",
+    "RecordingFormatError",
+    "RecoveredFileWarning",
+    "TimestampWarning",
+    "load",
+    "save",
+    "scan",
+]

@@ -1,0 +1,292 @@
+"""Read an lfd MCAP recording into a :class:`~lfd.demo.Demonstration` (:func:`load`).
+
+Damaged files are handled, never silently: a truncated or unfinished file keeps every complete
+chunk and emits a :class:`~lfd.errors.RecoveredFileWarning`; out-of-order samples are sorted and
+duplicate timestamps dropped with a :class:`~lfd.errors.TimestampWarning`; both are also
+recorded in ``demo.metadata["load_report"]``. A file that is not MCAP, or lacks the hand
+keypoints or every object pose, raises :class:`~lfd.errors.RecordingFormatError`.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import warnings
+from typing import Any
+
+import numpy as np
+from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
+from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+from foxglove_schemas_protobuf.Event_pb2 import Event
+from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
+from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
+from foxglove_schemas_protobuf.PosesInFrame_pb2 import PosesInFrame
+from foxglove_schemas_protobuf.RawImage_pb2 import RawImage
+from google.protobuf.message import DecodeError
+
+from ..demo import CameraInfo, Demonstration, HandTrack, ImageStream, ObjectTrack, SkillLabel
+from ..errors import LfdError, RecordingFormatError, RecoveredFileWarning, TimestampWarning
+from . import topics as T
+from .images import decode_compressed, decode_raw
+from .mcapfile import RawRecording, scan
+
+__all__ = ["load"]
+
+
+def _ns(stamp: Any) -> int:
+    return int(stamp.seconds) * 1_000_000_000 + int(stamp.nanos)
+
+
+def _order(times: np.ndarray) -> tuple[np.ndarray, int, int]:
+    """Indices that sort ``times`` (stable) without duplicates; counts of unsorted and dups."""
+    unsorted = int(np.count_nonzero(np.diff(times) < 0)) if times.size > 1 else 0
+    idx = np.argsort(times, kind="stable")
+    keep = np.ones(idx.size, dtype=bool)
+    keep[1:] = np.diff(times[idx]) != 0
+    return idx[keep], unsorted, int(idx.size - np.count_nonzero(keep))
+
+
+class _Loader:
+    def __init__(self, raw: RawRecording) -> None:
+        self.raw = raw
+        self.unsorted: dict[str, int] = {}
+        self.duplicates: dict[str, int] = {}
+        self.skipped: list[str] = []
+
+    def decode(self, topic: str, cls: Any) -> tuple[np.ndarray, list[Any]]:
+        """Decode a topic's messages, sorted by log time, duplicates dropped."""
+        items = self.raw.messages.get(topic, [])
+        times = np.array([t for t, _ in items], dtype=np.int64)
+        idx, unsorted, dups = _order(times)
+        if unsorted:
+            self.unsorted[topic] = unsorted
+        if dups:
+            self.duplicates[topic] = dups
+        msgs = []
+        for i in idx:
+            msg = cls()
+            try:
+                msg.ParseFromString(items[i][1])
+            except DecodeError as err:
+                raise RecordingFormatError(
+                    f"{self.raw.path}: cannot decode a {cls.DESCRIPTOR.full_name} on {topic} "
+                    f"at {items[i][0]} ns: {err}"
+                ) from err
+            msgs.append(msg)
+        return times[idx], msgs
+
+    def hand(self, side: str) -> HandTrack:
+        t, msgs = self.decode(T.hand_topic(side), PosesInFrame)
+        kp = np.full((len(msgs), 21, 3), np.nan)
+        for i, m in enumerate(msgs):
+            if len(m.poses) != 21:
+                raise RecordingFormatError(
+                    f"{self.raw.path}: hand message at {t[i]} ns has {len(m.poses)} poses, not 21"
+                )
+            kp[i] = [(p.position.x, p.position.y, p.position.z) for p in m.poses]
+        conf = np.isfinite(kp).all(axis=2).astype(np.float64)
+        by_time: dict[int, list[float]] = {}
+        for tc, data in self.raw.messages.get(T.confidence_topic(side), []):
+            try:
+                values = json.loads(data)["confidence"]
+            except (ValueError, KeyError, TypeError):
+                continue
+            if isinstance(values, list) and len(values) == 21:
+                by_time.setdefault(tc, values)
+        for i, ti in enumerate(t):
+            values = by_time.get(int(ti))
+            if values is not None:
+                conf[i] = np.array(values, dtype=np.float64)
+        return HandTrack(t_ns=t, keypoints=kp, confidence=conf, side=side)
+
+    def object(self, name: str, tag_id: int, size: Any) -> ObjectTrack:
+        t, msgs = self.decode(T.object_topic(name), PoseInFrame)
+        pos = np.array(
+            [(m.pose.position.x, m.pose.position.y, m.pose.position.z) for m in msgs]
+        ).reshape(-1, 3)
+        o = [m.pose.orientation for m in msgs]
+        quat = np.array([(q.x, q.y, q.z, q.w) for q in o]).reshape(-1, 4)
+        return ObjectTrack(
+            name=name,
+            tag_id=tag_id,
+            size=size,
+            t_ns=t,
+            position=pos,
+            quaternion=quat,
+            visible=np.ones(len(msgs), dtype=bool),
+        )
+
+    def labels(self) -> list[SkillLabel]:
+        _, msgs = self.decode(T.GROUND_TRUTH_TOPIC, Event)
+        labels = []
+        for m in msgs:
+            meta = {kv.key: kv.value for kv in m.metadata}
+            try:
+                labels.append(
+                    SkillLabel(
+                        skill=meta.get("skill", ""),
+                        start_ns=_ns(m.start_time),
+                        end_ns=_ns(m.end_time),
+                        object=meta.get("object") or None,
+                    )
+                )
+            except LfdError as err:
+                self.skipped.append(f"label {meta}: {err}")
+        return sorted(labels, key=lambda lab: (lab.start_ns, lab.end_ns))
+
+    def camera(self) -> CameraInfo | None:
+        rec = self.raw.json_metadata(T.CALIBRATION_METADATA, "camera")
+        if isinstance(rec, dict):
+            try:
+                return CameraInfo(
+                    width=int(rec["width"]),
+                    height=int(rec["height"]),
+                    K=np.array(rec["K"], dtype=np.float64),
+                    world_T_camera=np.array(rec["world_T_camera"], dtype=np.float64),
+                    frame_id=str(rec.get("frame_id", T.CAMERA_FRAME)),
+                )
+            except (KeyError, ValueError, TypeError) as err:
+                self.skipped.append(f"calibration metadata: {err}")
+        _, infos = self.decode(T.CAMERA_INFO_TOPIC, CameraCalibration)
+        if not infos:
+            return None
+        info = infos[-1]
+        pose = np.eye(4)
+        _, tfs = self.decode(T.TF_TOPIC, FrameTransforms)
+        for msg in tfs:
+            for tf in msg.transforms:
+                if tf.child_frame_id == info.frame_id:
+                    from scipy.spatial.transform import Rotation
+
+                    r = tf.rotation
+                    pose[:3, :3] = Rotation.from_quat([r.x, r.y, r.z, r.w]).as_matrix()
+                    pose[:3, 3] = (tf.translation.x, tf.translation.y, tf.translation.z)
+        return CameraInfo(
+            width=info.width,
+            height=info.height,
+            K=np.array(info.K, dtype=np.float64),
+            world_T_camera=pose,
+            frame_id=info.frame_id,
+        )
+
+    def images(self, topic: str) -> ImageStream | None:
+        compressed = T.compressed_topic(topic)
+        if self.raw.messages.get(topic):
+            t, msgs = self.decode(topic, RawImage)
+        elif self.raw.messages.get(compressed):
+            topic = compressed
+            t, msgs = self.decode(topic, CompressedImage)
+        else:
+            return None
+        frames = []
+        for ti, m in zip(t, msgs, strict=True):
+            try:
+                if isinstance(m, RawImage):
+                    frames.append(decode_raw(m))
+                else:
+                    frames.append(decode_compressed(m.data, m.format))
+            except ValueError as err:
+                raise RecordingFormatError(f"{self.raw.path}: {topic} at {ti} ns: {err}") from err
+        shapes = {f.shape for f in frames}
+        if len(shapes) > 1:
+            raise RecordingFormatError(f"{self.raw.path}: {topic} mixes image sizes {shapes}")
+        return ImageStream(t_ns=t, frames=np.stack(frames))
+
+
+def _objects(raw: RawRecording) -> list[tuple[str, int, Any]]:
+    declared = raw.json_metadata(T.DEMO_METADATA, "objects", default=[])
+    specs: dict[str, tuple[str, int, Any]] = {}
+    for obj in declared if isinstance(declared, list) else []:
+        if isinstance(obj, dict) and "name" in obj:
+            specs[obj["name"]] = (obj["name"], int(obj.get("tag_id", -1)), obj.get("size"))
+    for topic, ch in raw.channels.items():
+        name = T.object_name_from_topic(topic)
+        if name is not None and name not in specs:
+            size = json.loads(ch.metadata["size"]) if "size" in ch.metadata else None
+            specs[name] = (name, int(ch.metadata.get("tag_id", -1)), size)
+    return list(specs.values())
+
+
+def load(path: str | os.PathLike[str], *, images: bool = True) -> Demonstration:
+    """Read a recording.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        An MCAP file written by :class:`lfd.io.McapRecorder` (or any file with the same topics).
+    images : bool
+        Decode the colour and depth images (set False to load only the tracks, faster).
+
+    Returns
+    -------
+    Demonstration
+        With ``metadata["load_report"]``: ``complete``, ``messages``, ``unsorted`` and
+        ``duplicates`` (per topic), ``recovered`` (the warning text, or None).
+
+    Raises
+    ------
+    RecordingFormatError
+        Not an MCAP file, empty, or missing the hand keypoints / every object pose.
+    """
+    raw = scan(path)
+    report: dict[str, Any] = {"complete": raw.complete, "messages": raw.message_count}
+    report["recovered"] = None
+    if not raw.complete:
+        msg = (
+            f"{raw.path} is truncated or was not closed ({raw.error}); recovered "
+            f"{raw.message_count} messages covering {raw.span_s:.2f} s from its complete chunks "
+            f"(file size {raw.file_size} bytes); anything after the last complete chunk is lost"
+        )
+        report["recovered"] = msg
+        warnings.warn(msg, RecoveredFileWarning, stacklevel=2)
+    sides = [s for s in T.HAND_SIDES if raw.channels.get(T.hand_topic(s), None)]
+    sides = [s for s in sides if raw.channels[T.hand_topic(s)].count > 0]
+    obj_topics = [t for t, c in raw.channels.items() if T.object_name_from_topic(t) and c.count > 0]
+    missing = []
+    if not sides:
+        missing.append("hand keypoints (/hand/right/keypoints or /hand/left/keypoints)")
+    if not obj_topics:
+        missing.append("at least one object pose (/objects/<name>/pose)")
+    if missing:
+        raise RecordingFormatError(
+            f"{raw.path} is not a usable lfd recording: missing {' and '.join(missing)}; "
+            f"it has {raw.describe_topics()}"
+            + ("" if raw.complete else f" (file damaged: {raw.error})")
+        )
+    loader = _Loader(raw)
+    hand = loader.hand(sides[0])
+    objects = {}
+    for name, tag_id, size in _objects(raw):
+        if size is None:
+            raise RecordingFormatError(
+                f"{raw.path}: object {name!r} has no size (expected in the 'demo' metadata "
+                "record or as channel metadata 'size': JSON [x, y, z] in metres)"
+            )
+        objects[name] = loader.object(name, tag_id, size)
+    labels = loader.labels()
+    camera = loader.camera()
+    color = loader.images(T.COLOR_TOPIC) if images else None
+    depth = loader.images(T.DEPTH_TOPIC) if images else None
+    metadata = raw.json_metadata(T.DEMO_METADATA, "metadata", default={})
+    if not isinstance(metadata, dict):
+        metadata = {"metadata": metadata}
+    report.update(unsorted=loader.unsorted, duplicates=loader.duplicates, skipped=loader.skipped)
+    if loader.unsorted or loader.duplicates:
+        warnings.warn(
+            f"{raw.path}: sorted out-of-order samples {loader.unsorted or {}} and dropped "
+            f"duplicate timestamps {loader.duplicates or {}} (per topic)",
+            TimestampWarning,
+            stacklevel=2,
+        )
+    if loader.skipped:
+        warnings.warn(f"{raw.path}: skipped {loader.skipped}", RecoveredFileWarning, stacklevel=2)
+    metadata["load_report"] = report
+    return Demonstration(
+        hand=hand,
+        objects=objects,
+        labels=labels,
+        camera=camera,
+        color=color,
+        depth=depth,
+        metadata=metadata,
+    )

@@ -1,0 +1,109 @@
+"""Topic names, schemas and constants of the lfd MCAP recording format (format version 1).
+
+A recording is an MCAP file (zstd chunks of 64-256 KiB, ``log_time`` = capture time in integer
+nanoseconds) whose messages use foxglove's protobuf schemas, so Foxglove and Rerun open it:
+
+====================================  ============================  ===============================
+topic                                 schema                        content
+====================================  ============================  ===============================
+``/hand/<side>/keypoints``            foxglove.PosesInFrame         21 keypoints (metres, identity
+                                                                    orientations, NaN = unobserved)
+``/hand/<side>/confidence``           JSON ``{"confidence": [21]}`` per-keypoint confidence
+``/objects/<name>/pose``              foxglove.PoseInFrame          box centre + orientation in
+                                                                    ``world``; a sample is written
+                                                                    only when the tag was visible
+``/tf``                               foxglove.FrameTransforms      world -> object, world -> camera
+``/camera/color/image_raw``           foxglove.RawImage (rgb8)      colour frames, or
+``/camera/color/image_raw/compressed``  foxglove.CompressedImage    PNG / JPEG (``color_format``)
+``/camera/depth/image_raw``           foxglove.RawImage (16UC1)     depth in millimetres
+``/camera/color/camera_info``         foxglove.CameraCalibration    pinhole intrinsics
+``/lfd/ground_truth``                 foxglove.Event                one skill label per message,
+                                                                    ``log_time`` = label start;
+                                                                    metadata ``skill``, ``object``
+====================================  ============================  ===============================
+
+A metadata record named ``demo`` holds ``format``, ``version``, ``objects`` (JSON list of
+``{name, tag_id, size}``), ``units``, ``task``, ``seed`` and ``metadata`` (free JSON). A second
+record ``calibration`` (JSON: width, height, K, world_T_camera, frame_id) is written when the
+camera calibration is known.
+"""
+
+from __future__ import annotations
+
+FORMAT_NAME = "lfd-demo"
+FORMAT_VERSION = 1
+PROFILE = ""  # no ROS profile: plain protobuf messages
+
+WORLD_FRAME = "world"
+CAMERA_FRAME = "camera"
+
+COLOR_TOPIC = "/camera/color/image_raw"
+DEPTH_TOPIC = "/camera/depth/image_raw"
+CAMERA_INFO_TOPIC = "/camera/color/camera_info"
+TF_TOPIC = "/tf"
+GROUND_TRUTH_TOPIC = "/lfd/ground_truth"
+
+DEMO_METADATA = "demo"
+CALIBRATION_METADATA = "calibration"
+
+UNITS = {"length": "m", "depth": "mm", "time": "ns", "angle": "rad", "quaternion": "xyzw"}
+
+HAND_SIDES = ("right", "left")
+
+CONFIDENCE_SCHEMA = "lfd.HandConfidence"
+CONFIDENCE_JSON_SCHEMA = {
+    "title": CONFIDENCE_SCHEMA,
+    "type": "object",
+    "properties": {
+        "confidence": {
+            "type": "array",
+            "items": {"type": "number"},
+            "minItems": 21,
+            "maxItems": 21,
+        }
+    },
+    "required": ["confidence"],
+}
+
+POSES_SCHEMA = "foxglove.PosesInFrame"
+POSE_SCHEMA = "foxglove.PoseInFrame"
+TF_SCHEMA = "foxglove.FrameTransforms"
+RAW_IMAGE_SCHEMA = "foxglove.RawImage"
+CALIBRATION_SCHEMA = "foxglove.CameraCalibration"
+EVENT_SCHEMA = "foxglove.Event"
+
+
+def hand_topic(side: str = "right") -> str:
+    """Topic of the hand keypoints, ``/hand/<side>/keypoints``."""
+    return f"/hand/{side}/keypoints"
+
+
+def confidence_topic(side: str = "right") -> str:
+    """Topic of the per-keypoint confidence, ``/hand/<side>/confidence``."""
+    return f"/hand/{side}/confidence"
+
+
+def object_topic(name: str) -> str:
+    """Topic of an object's pose, ``/objects/<name>/pose``."""
+    return f"/objects/{name}/pose"
+
+
+def compressed_topic(image_topic: str) -> str:
+    """Topic of the PNG/JPEG variant of an image topic, ``<topic>/compressed``."""
+    return f"{image_topic}/compressed"
+
+
+def object_name_from_topic(topic: str) -> str | None:
+    """The object name of an ``/objects/<name>/pose`` topic, else None."""
+    prefix, suffix = "/objects/", "/pose"
+    if topic.startswith(prefix) and topic.endswith(suffix) and len(topic) > len(prefix + suffix):
+        return topic[len(prefix) : -len(suffix)]
+    return None
+
+
+def hand_side_from_topic(topic: str) -> str | None:
+    """The hand side of a ``/hand/<side>/keypoints`` topic, else None."""
+    for side in HAND_SIDES:
+        if topic == hand_topic(side):
+            return side
+    return None

@@ -1,0 +1,429 @@
+"""Write demonstrations to MCAP, incrementally (:class:`McapRecorder`) or at once (:func:`save`).
+
+The recorder is safe to interrupt: chunks are closed at least every ``max_chunk_duration_s`` of
+capture time (and whenever they reach ``chunk_size`` bytes) and flushed to the operating system,
+so a process killed mid-recording leaves a file from which :func:`lfd.io.load` recovers every
+complete chunk. See :mod:`lfd.io.topics` for the layout.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Iterable, Mapping, Sequence
+from typing import IO, Any
+
+import numpy as np
+import numpy.typing as npt
+from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
+from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+from foxglove_schemas_protobuf.Event_pb2 import Event
+from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
+from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
+from foxglove_schemas_protobuf.PosesInFrame_pb2 import PosesInFrame
+from foxglove_schemas_protobuf.RawImage_pb2 import RawImage
+from mcap.writer import CompressionType
+from mcap.writer import Writer as _McapWriter
+from mcap_protobuf.schema import build_file_descriptor_set
+
+from .. import __version__
+from ..demo import (
+    HAND_BONES,
+    KEYPOINT_LAYOUT,
+    KEYPOINT_NAMES,
+    CameraInfo,
+    Demonstration,
+    SkillLabel,
+)
+from ..errors import DemonstrationError
+from . import messages as M
+from . import topics as T
+from .images import COLOR_FORMATS, encode_compressed
+
+__all__ = ["McapRecorder", "ObjectSpec", "save"]
+
+ObjectSpec = tuple[str, int, npt.ArrayLike]
+"""``(name, tag_id, size)`` of one AR-tagged box; ``size`` is 3 lengths in metres."""
+
+
+def _check_time(t_ns: Any) -> int:
+    if isinstance(t_ns, (bool, np.bool_)) or not isinstance(t_ns, (int, np.integer)):
+        raise DemonstrationError(f"timestamps must be integer nanoseconds, got {t_ns!r}")
+    t = int(t_ns)
+    if t < 0:
+        raise DemonstrationError(f"timestamps must be >= 0 ns, got {t}")
+    return t
+
+
+class McapRecorder:
+    """Record a demonstration to an MCAP file, one sample at a time.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file (overwritten).
+    objects : sequence of (name, tag_id, size)
+        The AR-tagged boxes; ``size`` has shape (3,), metres. Names become topics and must not
+        contain ``/``.
+    metadata : mapping, optional
+        Free JSON-serialisable metadata (``task``, ``seed``, ``demonstrator`` ...).
+    side : str
+        Hand side, ``"right"`` or ``"left"``.
+    chunk_size : int
+        Target chunk size in bytes (64-256 KiB is a good range).
+    max_chunk_duration_s : float
+        A chunk is closed and flushed once it spans this much capture time, bounding what a
+        killed recorder loses. ``math.inf`` disables it.
+    write_tf : bool
+        Also publish world -> object transforms on ``/tf`` (for viewers).
+    color_format : str
+        ``"raw"`` (RawImage rgb8, ~0.5 MB per 640x480 frame after zstd), ``"png"`` or
+        ``"jpeg"`` (CompressedImage on ``/camera/color/image_raw/compressed``; needs OpenCV or
+        Pillow).
+
+    Examples
+    --------
+    >>> with McapRecorder("demo.mcap", objects=[("cube", 1, (0.05, 0.05, 0.05))]) as rec:
+    ...     rec.add_hand(t_ns, keypoints, confidence)
+    ...     rec.add_object_pose("cube", t_ns, position, quaternion)
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        *,
+        objects: Iterable[ObjectSpec] = (),
+        metadata: Mapping[str, Any] | None = None,
+        side: str = "right",
+        chunk_size: int = 128 * 1024,
+        max_chunk_duration_s: float = 1.0,
+        write_tf: bool = True,
+        color_format: str = "raw",
+    ) -> None:
+        if side not in T.HAND_SIDES:
+            raise DemonstrationError(f"hand side must be one of {T.HAND_SIDES}, got {side!r}")
+        self.path = os.fspath(path)
+        self.side = side
+        self._objects: dict[str, tuple[int, np.ndarray]] = {}
+        for name, tag_id, size in objects:
+            self._declare_object(name, tag_id, size)
+        self._metadata = dict(metadata or {})
+        self._write_tf = write_tf
+        if color_format not in COLOR_FORMATS:
+            raise DemonstrationError(f"color_format must be one of {COLOR_FORMATS}")
+        self._color_format = color_format
+        self._max_chunk_ns = (
+            math.inf if math.isinf(max_chunk_duration_s) else int(max_chunk_duration_s * 1e9)
+        )
+        self._file: IO[bytes] = open(self.path, "wb")
+        self._writer = _McapWriter(
+            self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD
+        )
+        self._writer.start(profile=T.PROFILE, library=f"lfd {__version__}")
+        self._schemas: dict[str, int] = {}
+        self._channels: dict[str, int] = {}
+        self._chunk_t: tuple[int, int] | None = None
+        self._written = self._file.tell()
+        self._closed = False
+        self.message_count = 0
+        self._writer.add_metadata(T.DEMO_METADATA, self._demo_record())
+        self._sync()
+
+    # --- setup -----------------------------------------------------------------------------
+    def _declare_object(self, name: str, tag_id: int, size: npt.ArrayLike) -> None:
+        if not name or "/" in name or name != name.strip():
+            raise DemonstrationError(f"object name {name!r} must be non-empty without '/'")
+        if name in self._objects:
+            raise DemonstrationError(f"object {name!r} declared twice")
+        s = np.asarray(size, dtype=np.float64)
+        if s.shape != (3,) or not np.all(np.isfinite(s)) or not np.all(s > 0):
+            raise DemonstrationError(f"object {name!r}: size must be 3 positive lengths, got {s}")
+        self._objects[name] = (int(tag_id), s)
+
+    def _demo_record(self) -> dict[str, str]:
+        objects = [
+            {"name": n, "tag_id": tag, "size": size.tolist()}
+            for n, (tag, size) in self._objects.items()
+        ]
+        record = {
+            "format": T.FORMAT_NAME,
+            "version": str(T.FORMAT_VERSION),
+            "objects": M.dumps(objects),
+            "hand_side": self.side,
+            "keypoint_layout": KEYPOINT_LAYOUT,
+            "units": M.dumps(T.UNITS),
+            "metadata": M.dumps(self._metadata),
+        }
+        for key in ("task", "seed"):
+            if key in self._metadata:
+                record[key] = str(self._metadata[key])
+        return record
+
+    def _channel(
+        self,
+        topic: str,
+        message_type: Any = None,
+        *,
+        json_schema: tuple[str, dict[str, Any]] | None = None,
+        metadata: Mapping[str, str] | None = None,
+    ) -> int:
+        channel_id = self._channels.get(topic)
+        if channel_id is not None:
+            return channel_id
+        if json_schema is not None:
+            name, schema = json_schema
+            encoding, data, msg_encoding = "jsonschema", json.dumps(schema).encode(), "json"
+        else:
+            name = message_type.DESCRIPTOR.full_name
+            data = build_file_descriptor_set(message_type).SerializeToString()
+            encoding, msg_encoding = "protobuf", "protobuf"
+        schema_id = self._schemas.get(name)
+        if schema_id is None:
+            schema_id = self._writer.register_schema(name=name, encoding=encoding, data=data)
+            self._schemas[name] = schema_id
+        channel_id = self._writer.register_channel(
+            topic=topic,
+            message_encoding=msg_encoding,
+            schema_id=schema_id,
+            metadata=dict(metadata or {}),
+        )
+        self._channels[topic] = channel_id
+        return channel_id
+
+    # --- writing ----------------------------------------------------------------------------
+    def _write(self, channel_id: int, t_ns: int, data: bytes) -> None:
+        if self._closed:
+            raise DemonstrationError(f"recorder for {self.path} is closed")
+        self._writer.add_message(
+            channel_id=channel_id, log_time=t_ns, publish_time=t_ns, data=data, sequence=0
+        )
+        self.message_count += 1
+        lo, hi = self._chunk_t if self._chunk_t is not None else (t_ns, t_ns)
+        self._chunk_t = (min(lo, t_ns), max(hi, t_ns))
+        if self._chunk_t[1] - self._chunk_t[0] >= self._max_chunk_ns:
+            self._writer.flush()  # closes the chunk and flushes the file
+            self._chunk_t = None
+        self._sync()
+
+    def _sync(self) -> None:
+        """Hand every finished chunk to the OS so that a killed process loses only the last one."""
+        pos = self._file.tell()
+        if pos != self._written:
+            self._file.flush()
+            self._written = pos
+            self._chunk_t = None  # bytes only reach the file when a chunk is finished
+
+    def add_hand(
+        self,
+        t_ns: int,
+        keypoints: npt.ArrayLike,
+        confidence: npt.ArrayLike | None = None,
+    ) -> None:
+        """Write one hand observation.
+
+        Parameters
+        ----------
+        t_ns : int
+            Capture time, nanoseconds.
+        keypoints : array, shape (21, 3)
+            Keypoint positions in metres (world frame), NaN where not observed.
+        confidence : array, shape (21,), optional
+            Per-keypoint confidence in [0, 1]; default 1 where observed, 0 elsewhere.
+        """
+        t = _check_time(t_ns)
+        kp = np.asarray(keypoints, dtype=np.float64)
+        if kp.shape != (21, 3):
+            raise DemonstrationError(f"hand keypoints must have shape (21, 3), got {kp.shape}")
+        if confidence is None:
+            conf = np.isfinite(kp).all(axis=1).astype(np.float64)
+        else:
+            conf = np.asarray(confidence, dtype=np.float64)
+            if conf.shape != (21,):
+                raise DemonstrationError(f"hand confidence must have shape (21,), got {conf.shape}")
+        msg = M.hand_poses(t, kp)
+        channel = self._channel(
+            T.hand_topic(self.side),
+            PosesInFrame,
+            metadata={
+                "layout": KEYPOINT_LAYOUT,
+                "keypoints": json.dumps(KEYPOINT_NAMES),
+                "bones": json.dumps(HAND_BONES),
+                "side": self.side,
+                "units": "m",
+                "unobserved": "NaN",
+            },
+        )
+        self._write(channel, t, msg.SerializeToString())
+        channel = self._channel(
+            T.confidence_topic(self.side),
+            json_schema=(T.CONFIDENCE_SCHEMA, T.CONFIDENCE_JSON_SCHEMA),
+            metadata={"layout": KEYPOINT_LAYOUT},
+        )
+        self._write(channel, t, M.dumps({"confidence": conf.tolist()}).encode())
+
+    def add_object_pose(
+        self,
+        name: str,
+        t_ns: int,
+        position: npt.ArrayLike,
+        quaternion: npt.ArrayLike,
+    ) -> None:
+        """Write one observation of an object (only call it when the tag was visible).
+
+        Parameters
+        ----------
+        name : str
+            A declared object name.
+        t_ns : int
+            Capture time, nanoseconds.
+        position : array, shape (3,)
+            Box centre, metres, world frame.
+        quaternion : array, shape (4,)
+            Orientation (x, y, z, w); normalised before writing.
+        """
+        if name not in self._objects:
+            raise DemonstrationError(
+                f"unknown object {name!r}; declared objects: {sorted(self._objects)}"
+            )
+        t = _check_time(t_ns)
+        p = np.asarray(position, dtype=np.float64)
+        q = np.asarray(quaternion, dtype=np.float64)
+        if p.shape != (3,) or q.shape != (4,):
+            raise DemonstrationError(
+                f"object {name!r}: position must be (3,) and quaternion (4,), got {p.shape}, {q.shape}"
+            )
+        norm = float(np.linalg.norm(q))
+        if not (np.all(np.isfinite(p)) and np.isfinite(norm) and norm > 0):
+            raise DemonstrationError(
+                f"object {name!r} at {t} ns: non-finite pose (do not write invisible samples)"
+            )
+        q = q / norm
+        tag_id, size = self._objects[name]
+        msg = M.object_pose(t, p, q)
+        channel = self._channel(
+            T.object_topic(name),
+            PoseInFrame,
+            metadata={"name": name, "tag_id": str(tag_id), "size": M.dumps(size.tolist())},
+        )
+        self._write(channel, t, msg.SerializeToString())
+        if self._write_tf:
+            self._tf(t, name, p, q)
+
+    def _tf(self, t: int, child: str, p: np.ndarray, q: np.ndarray) -> None:
+        msg = M.transform(t, child, p, q)
+        self._write(self._channel(T.TF_TOPIC, FrameTransforms), t, msg.SerializeToString())
+
+    def _image(self, topic: str, t: int, img: np.ndarray, encoding: str) -> None:
+        msg = M.raw_image(t, img, encoding)
+        self._write(self._channel(topic, RawImage), t, msg.SerializeToString())
+
+    def add_color(self, t_ns: int, rgb: npt.ArrayLike) -> None:
+        """Write a colour frame, array shape (H, W, 3), uint8 RGB (``rgb8``)."""
+        img = np.asarray(rgb)
+        if img.ndim != 3 or img.shape[2] != 3 or img.dtype != np.uint8:
+            raise DemonstrationError(
+                f"colour image must be (H, W, 3) uint8, got {img.shape} {img.dtype}"
+            )
+        t = _check_time(t_ns)
+        if self._color_format == "raw":
+            self._image(T.COLOR_TOPIC, t, img, "rgb8")
+            return
+        data = encode_compressed(img, self._color_format)
+        msg = M.compressed_image(t, data, self._color_format)
+        topic = T.compressed_topic(T.COLOR_TOPIC)
+        self._write(self._channel(topic, CompressedImage), t, msg.SerializeToString())
+
+    def add_depth(self, t_ns: int, depth_mm: npt.ArrayLike) -> None:
+        """Write a depth frame, array shape (H, W), uint16 millimetres (``16UC1``, 0 = no data)."""
+        img = np.asarray(depth_mm)
+        if img.ndim != 2 or img.dtype != np.uint16:
+            raise DemonstrationError(
+                f"depth image must be (H, W) uint16 millimetres, got {img.shape} {img.dtype}"
+            )
+        self._image(T.DEPTH_TOPIC, _check_time(t_ns), img.astype("<u2", copy=False), "16UC1")
+
+    def add_camera_info(self, camera: CameraInfo, t_ns: int = 0) -> None:
+        """Write the camera calibration (intrinsics + world -> camera pose) at time ``t_ns``."""
+        t = _check_time(t_ns)
+        msg = M.calibration(t, camera)
+        self._write(
+            self._channel(T.CAMERA_INFO_TOPIC, CameraCalibration), t, msg.SerializeToString()
+        )
+        from scipy.spatial.transform import Rotation
+
+        pose = camera.world_T_camera
+        self._tf(t, camera.frame_id, pose[:3, 3], Rotation.from_matrix(pose[:3, :3]).as_quat())
+        record = {
+            "width": int(camera.width),
+            "height": int(camera.height),
+            "K": camera.K.tolist(),
+            "world_T_camera": pose.tolist(),
+            "frame_id": camera.frame_id,
+        }
+        self._writer.add_metadata(T.CALIBRATION_METADATA, {"camera": M.dumps(record)})
+        self._sync()
+
+    def add_label(self, label: SkillLabel) -> None:
+        """Write a ground-truth skill label (``log_time`` = its start)."""
+        _check_time(label.start_ns)
+        msg = M.event(label)
+        channel = self._channel(T.GROUND_TRUTH_TOPIC, Event)
+        self._write(channel, label.start_ns, msg.SerializeToString())
+
+    # --- lifetime ---------------------------------------------------------------------------
+    def close(self) -> None:
+        """Finish the file (summary, index, footer). Idempotent."""
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self._writer.finish()
+        finally:
+            self._file.close()
+
+    def __enter__(self) -> McapRecorder:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def save(demo: Demonstration, path: str | os.PathLike[str], **kwargs: Any) -> None:
+    """Write a whole :class:`~lfd.demo.Demonstration` to ``path``.
+
+    Streams are interleaved in time order. Object samples with ``visible == False`` are not
+    written (visibility = presence), so they do not come back from :func:`lfd.io.load`.
+    Extra keyword arguments go to :class:`McapRecorder`.
+    """
+    objects: Sequence[ObjectSpec] = [(o.name, o.tag_id, o.size) for o in demo.objects.values()]
+    events: list[tuple[int, int, str, int]] = []  # (t, order, stream, index)
+    events += [(int(t), 1, "hand", i) for i, t in enumerate(demo.hand.t_ns)]
+    for name, obj in demo.objects.items():
+        events += [(int(t), 2, name, i) for i, t in enumerate(obj.t_ns) if obj.visible[i]]
+    if demo.color is not None:
+        events += [(int(t), 3, "\0color", i) for i, t in enumerate(demo.color.t_ns)]
+    if demo.depth is not None:
+        events += [(int(t), 4, "\0depth", i) for i, t in enumerate(demo.depth.t_ns)]
+    events.sort(key=lambda e: (e[0], e[1]))
+    metadata = {k: v for k, v in demo.metadata.items() if k != "load_report"}
+    with McapRecorder(
+        path, objects=objects, metadata=metadata, side=demo.hand.side, **kwargs
+    ) as rec:
+        if demo.camera is not None:
+            t0 = events[0][0] if events else 0
+            rec.add_camera_info(demo.camera, t0)
+        for t, _, stream, i in events:
+            if stream == "hand":
+                rec.add_hand(t, demo.hand.keypoints[i], demo.hand.confidence[i])
+            elif stream == "\0color":
+                assert demo.color is not None
+                rec.add_color(t, demo.color.frames[i])
+            elif stream == "\0depth":
+                assert demo.depth is not None
+                rec.add_depth(t, demo.depth.frames[i])
+            else:
+                obj = demo.objects[stream]
+                rec.add_object_pose(stream, t, obj.position[i], obj.quaternion[i])
+        for label in demo.labels:
+            rec.add_label(label)

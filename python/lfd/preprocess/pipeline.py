@@ -1,0 +1,199 @@
+"""``preprocess``: a :class:`~lfd.demo.Demonstration` -> a :class:`~lfd.trajectory.Trajectory`.
+
+1. Clock: ``rate_hz`` samples spanning the overlap of the hand and every observed object.
+2. Resample: hand keypoints (~5 Hz) and object positions (~30 Hz) by cubic splines, object
+   orientations by slerp; gaps up to ``max_gap_s`` are interpolated, longer ones stay NaN and
+   are reported in ``meta["gaps"]`` and the ``hand_valid`` / ``object_valid`` masks.
+3. Filter (zero-phase 4th-order Butterworth, MATLAB ``filtfilt`` padding): the paper low-passes
+   the *feature* signals at 0.625 Hz; the features are computed later (Rust) from positions, so
+   here the position signals — keypoints and object centres — are filtered at
+   ``feature_cutoff_hz`` (a linear filter commutes with the linear parts of the features; use
+   :func:`lowpass` on feature arrays to filter them directly). The gripper Euler angles are
+   unwrapped and filtered at ``euler_cutoff_hz``.
+4. Map the hand to a gripper (:func:`~lfd.preprocess.mapping.gripper_frame`): TCP and opening
+   from the filtered keypoints, ``rotation`` rebuilt from the filtered Euler angles.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..demo import INDEX_MCP, INDEX_TIP, THUMB_TIP, Demonstration
+from ..errors import DemonstrationError
+from ..trajectory import Trajectory
+from .filters import butter_ba, lowpass, matlab_padlen, unwrap_runs
+from .mapping import EULER_SEQ, euler_from_rotation, gripper_frame, rotation_from_euler
+from .resample import clock, find_gaps, resample_positions, resample_quaternions
+
+__all__ = ["preprocess"]
+
+GRIPPER_KEYPOINTS = (THUMB_TIP, INDEX_MCP, INDEX_TIP)
+
+
+def _sorted_unique(t_ns: np.ndarray) -> np.ndarray:
+    """Indices of strictly increasing timestamps (first of each duplicate)."""
+    _, idx = np.unique(t_ns, return_index=True)
+    return idx
+
+
+def _span(t_ns: np.ndarray, valid: np.ndarray) -> tuple[int, int] | None:
+    t = t_ns[valid]
+    return (int(t.min()), int(t.max())) if t.size else None
+
+
+def preprocess(
+    demo: Demonstration,
+    *,
+    rate_hz: float = 30.0,
+    euler_cutoff_hz: float = 0.0625,
+    feature_cutoff_hz: float = 0.625,
+    max_gap_s: float = 0.5,
+    filter: bool = True,
+) -> Trajectory:
+    """Resample, filter and map a demonstration to a gripper trajectory on one clock.
+
+    Parameters
+    ----------
+    demo : Demonstration
+        Hand keypoints and object poses on their own timestamps.
+    rate_hz : float
+        Rate of the common clock.
+    euler_cutoff_hz : float
+        Low-pass cut-off of the gripper Euler angles (paper: 0.0625 Hz).
+    feature_cutoff_hz : float
+        Low-pass cut-off of the position signals the features come from (paper: 0.625 Hz).
+    max_gap_s : float
+        Longest gap between real samples that is interpolated.
+    filter : bool
+        Apply the low-pass filters.
+
+    Returns
+    -------
+    Trajectory
+        ``meta`` holds the parameters, ``gaps`` (``{"hand": [(t0, t1)], "objects": {name:
+        [...]}}`` in ns), ``unfiltered_runs`` and the demonstration's labels and metadata.
+
+    Raises
+    ------
+    DemonstrationError
+        No overlap between the hand and the objects, no valid hand sample, or a demonstration
+        too short to filter (not more than 12 samples on the clock).
+    """
+    if not demo.objects:
+        raise DemonstrationError("demonstration has no objects")
+    hand = demo.hand
+    hi = _sorted_unique(hand.t_ns)
+    h_t, h_kp = hand.t_ns[hi], hand.keypoints[hi]
+    h_ok = np.isfinite(h_kp[:, list(GRIPPER_KEYPOINTS)]).all(axis=(1, 2))
+    spans = [("hand", _span(h_t, h_ok))]
+    objs = []
+    for name, obj in demo.objects.items():
+        oi = _sorted_unique(obj.t_ns)
+        ok = obj.visible[oi] & np.isfinite(obj.position[oi]).all(axis=1)
+        objs.append((name, obj, oi, ok))
+        if ok.any():
+            spans.append((name, _span(obj.t_ns[oi], ok)))
+    if spans[0][1] is None:
+        raise DemonstrationError("the hand has no sample with index tip, thumb tip and index base")
+    if len(spans) == 1:
+        raise DemonstrationError("no object was ever visible")
+    start = max(s[1][0] for s in spans if s[1] is not None)
+    end = min(s[1][1] for s in spans if s[1] is not None)
+    if end <= start:
+        raise DemonstrationError(
+            "the hand and the objects do not overlap in time: spans (s) "
+            + ", ".join(
+                f"{n} {(s[0] - demo.start_ns) * 1e-9:.2f}-{(s[1] - demo.start_ns) * 1e-9:.2f}"
+                for n, s in spans
+                if s is not None
+            )
+        )
+    t_ns = clock(start, end, rate_hz)
+    n = t_ns.size
+    if filter:
+        pad = max(
+            matlab_padlen(*butter_ba(feature_cutoff_hz, rate_hz)),
+            matlab_padlen(*butter_ba(euler_cutoff_hz, rate_hz)),
+        )
+        if n <= pad:
+            raise DemonstrationError(
+                f"demonstration too short to filter: {n} samples at {rate_hz} Hz over the "
+                f"hand/object overlap ({(end - start) * 1e-9:.2f} s); needs more than {pad}"
+            )
+    t_s = (t_ns - start) * 1e-9
+
+    def rel(t: np.ndarray) -> np.ndarray:
+        return (t - start) * 1e-9
+
+    unfiltered: dict[str, list[tuple[int, int]]] = {}
+
+    def smooth(x: np.ndarray, fc: float, what: str) -> np.ndarray:
+        if not filter:
+            return x
+        report: list[tuple[int, int]] = []
+        y = lowpass(x, fc, rate_hz, report=report)
+        if report:
+            unfiltered[what] = [(int(t_ns[a]), int(t_ns[b - 1])) for a, b in report]
+        return y
+
+    # hand
+    kp, kp_valid = resample_positions(rel(h_t), h_kp, t_s, max_gap_s=max_gap_s)
+    hand_valid = kp_valid[:, list(GRIPPER_KEYPOINTS)].all(axis=(1, 2))
+    kp = smooth(kp, feature_cutoff_hz, "keypoints")
+    tcp, rot_raw, opening = gripper_frame(kp, side=hand.side)
+    hand_valid &= np.isfinite(rot_raw).all(axis=(1, 2))
+    euler = unwrap_runs(euler_from_rotation(rot_raw))
+    euler[~hand_valid] = np.nan
+    euler = smooth(euler, euler_cutoff_hz, "euler")
+    rotation = rotation_from_euler(euler)
+    tcp[~hand_valid] = np.nan
+    opening[~hand_valid] = np.nan
+
+    # objects
+    k = len(objs)
+    positions = np.full((k, n, 3), np.nan)
+    quats = np.full((k, n, 4), np.nan)
+    obj_valid = np.zeros((k, n), dtype=bool)
+    gaps: dict[str, Any] = {"hand": find_gaps(h_t, h_ok, max_gap_s), "objects": {}}
+    for j, (name, obj, oi, ok) in enumerate(objs):
+        ot = obj.t_ns[oi]
+        pos = np.where(ok[:, None], obj.position[oi], np.nan)
+        quat = np.where(ok[:, None], obj.quaternion[oi], np.nan)
+        p, pv = resample_positions(rel(ot), pos, t_s, max_gap_s=max_gap_s)
+        q, qv = resample_quaternions(rel(ot), quat, t_s, max_gap_s=max_gap_s)
+        valid = pv.all(axis=1) & qv
+        positions[j] = smooth(np.where(valid[:, None], p, np.nan), feature_cutoff_hz, name)
+        quats[j] = np.where(valid[:, None], q, np.nan)
+        obj_valid[j] = valid
+        gaps["objects"][name] = find_gaps(ot, ok, max_gap_s)
+
+    meta: dict[str, Any] = {
+        "rate_hz": rate_hz,
+        "euler_cutoff_hz": euler_cutoff_hz,
+        "feature_cutoff_hz": feature_cutoff_hz,
+        "max_gap_s": max_gap_s,
+        "filtered": filter,
+        "filter": "butter(4) + filtfilt, MATLAB padding; positions at feature_cutoff_hz",
+        "euler_seq": EULER_SEQ,
+        "gaps": gaps,
+        "unfiltered_runs": unfiltered,
+        "labels": [(lab.skill, lab.start_ns, lab.end_ns, lab.object) for lab in demo.labels],
+        "demo_metadata": {k: v for k, v in demo.metadata.items() if k != "load_report"},
+    }
+    return Trajectory(
+        t_ns=t_ns,
+        tcp=tcp,
+        rotation=rotation,
+        euler=euler,
+        opening=opening,
+        keypoints=kp,
+        object_names=[name for name, *_ in objs],
+        object_position=positions,
+        object_quaternion=quats,
+        object_size=np.array([obj.size for _, obj, _, _ in objs]).reshape(k, 3),
+        hand_valid=hand_valid,
+        object_valid=obj_valid,
+        meta=meta,
+    )

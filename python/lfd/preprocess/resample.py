@@ -1,0 +1,180 @@
+"""Resampling irregular, gappy streams onto one clock (cubic splines, slerp for orientations).
+
+Samples that are NaN (unobserved keypoints, invisible markers) are ignored; a target time is
+interpolated when the surrounding real samples are at most ``max_gap_s`` apart, else it is NaN
+and marked invalid. Nothing is extrapolated beyond a stream's first and last real sample.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from ..errors import DemonstrationError
+
+__all__ = ["clock", "find_gaps", "gap_mask", "resample_positions", "resample_quaternions"]
+
+
+def clock(start_ns: int, end_ns: int, rate_hz: float) -> np.ndarray:
+    """Regular timestamps from ``start_ns`` to at most ``end_ns`` at ``rate_hz``, int64 ns."""
+    if not (rate_hz > 0 and np.isfinite(rate_hz)):
+        raise DemonstrationError(f"rate must be positive, got {rate_hz}")
+    if end_ns < start_ns:
+        raise DemonstrationError("the hand and object streams do not overlap in time")
+    period = 1e9 / rate_hz
+    n = int(np.floor((end_ns - start_ns) / period + 1e-9)) + 1
+    return start_ns + np.round(np.arange(n) * period).astype(np.int64)
+
+
+def gap_mask(t_src: np.ndarray, t_dst: np.ndarray, max_gap_s: float) -> np.ndarray:
+    """True where ``t_dst`` lies within the span of ``t_src`` and not inside a long gap.
+
+    Parameters
+    ----------
+    t_src : array, shape (m,)
+        Sorted times (any unit consistent with ``t_dst``, here seconds) of real samples.
+    t_dst : array, shape (n,)
+        Target times.
+    max_gap_s : float
+        Longest interval between real samples that is still interpolated.
+    """
+    if t_src.size == 0:
+        return np.zeros(t_dst.shape, dtype=bool)
+    inside = (t_dst >= t_src[0]) & (t_dst <= t_src[-1])
+    i = np.clip(np.searchsorted(t_src, t_dst, side="right"), 1, max(t_src.size - 1, 1))
+    if t_src.size == 1:
+        return inside
+    gap = t_src[i] - t_src[i - 1]
+    on_sample = (t_dst == t_src[i - 1]) | (t_dst == t_src[i])
+    return inside & ((gap <= max_gap_s) | on_sample)
+
+
+def find_gaps(t_ns: np.ndarray, valid: np.ndarray, max_gap_s: float) -> list[tuple[int, int]]:
+    """``(last_valid_ns, next_valid_ns)`` of every interval longer than ``max_gap_s`` without
+    a valid sample, from sorted timestamps and a validity mask of the source stream."""
+    t = t_ns[np.asarray(valid, dtype=bool)]
+    if t.size < 2:
+        return []
+    d = np.diff(t)
+    idx = np.flatnonzero(d > max_gap_s * 1e9)
+    return [(int(t[k]), int(t[k + 1])) for k in idx]
+
+
+def resample_positions(
+    t_src_s: npt.ArrayLike,
+    x: npt.ArrayLike,
+    t_dst_s: npt.ArrayLike,
+    *,
+    max_gap_s: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Cubic-spline resampling with gaps, each column on its own finite samples.
+
+    Parameters
+    ----------
+    t_src_s : array, shape (m,)
+        Strictly increasing source times, seconds.
+    x : array, shape (m, ...)
+        Values, NaN where not observed.
+    t_dst_s : array, shape (n,)
+        Target times, seconds.
+    max_gap_s : float
+        Longer gaps between finite samples are left NaN.
+
+    Returns
+    -------
+    y : array, shape (n, ...)
+        Resampled values, NaN outside the data or in long gaps.
+    valid : array, shape (n, ...)
+        Where ``y`` is an interpolation of real data.
+    """
+    from scipy.interpolate import CubicSpline
+
+    ts = np.asarray(t_src_s, dtype=np.float64)
+    td = np.asarray(t_dst_s, dtype=np.float64)
+    arr = np.asarray(x, dtype=np.float64)
+    if arr.shape[0] != ts.shape[0]:
+        raise DemonstrationError(f"{arr.shape[0]} samples but {ts.shape[0]} timestamps")
+    if ts.size > 1 and not np.all(np.diff(ts) > 0):
+        raise DemonstrationError("source timestamps must be strictly increasing")
+    flat = arr.reshape(arr.shape[0], int(np.prod(arr.shape[1:])))
+    finite = np.isfinite(flat)
+    out = np.full((td.size, flat.shape[1]), np.nan)
+    valid = np.zeros((td.size, flat.shape[1]), dtype=bool)
+    groups: dict[bytes, list[int]] = {}  # columns with the same gaps
+    for j in range(flat.shape[1]):
+        groups.setdefault(finite[:, j].tobytes(), []).append(j)
+    for col_list in groups.values():
+        cols = np.array(col_list)
+        keep = finite[:, cols[0]]
+        tk = ts[keep]
+        ok = gap_mask(tk, td, max_gap_s)
+        if tk.size == 0 or not ok.any():
+            continue
+        if tk.size == 1:
+            out[np.ix_(ok, cols)] = flat[keep][:, cols]
+        else:
+            spline = CubicSpline(tk, flat[keep][:, cols], axis=0)
+            out[np.ix_(ok, cols)] = spline(td[ok])
+        valid[np.ix_(ok, cols)] = True
+    return out.reshape((td.size, *arr.shape[1:])), valid.reshape((td.size, *arr.shape[1:]))
+
+
+def resample_quaternions(
+    t_src_s: npt.ArrayLike,
+    quat: npt.ArrayLike,
+    t_dst_s: npt.ArrayLike,
+    *,
+    max_gap_s: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Slerp resampling of orientations, signs made continuous over time.
+
+    Parameters
+    ----------
+    t_src_s : array, shape (m,)
+        Strictly increasing source times, seconds.
+    quat : array, shape (m, 4)
+        Quaternions (x, y, z, w), NaN where not observed.
+    t_dst_s : array, shape (n,)
+        Target times, seconds.
+    max_gap_s : float
+        Longer gaps are left NaN.
+
+    Returns
+    -------
+    q : array, shape (n, 4)
+        Unit quaternions with ``q[i] . q[i-1] >= 0`` within each valid run; NaN where invalid.
+    valid : array, shape (n,)
+    """
+    from scipy.spatial.transform import Rotation, Slerp
+
+    ts = np.asarray(t_src_s, dtype=np.float64)
+    td = np.asarray(t_dst_s, dtype=np.float64)
+    q = np.asarray(quat, dtype=np.float64)
+    if q.shape != (ts.size, 4):
+        raise DemonstrationError(f"quaternions must have shape ({ts.size}, 4), got {q.shape}")
+    keep = np.isfinite(q).all(axis=1) & (np.linalg.norm(np.nan_to_num(q), axis=1) > 0)
+    tk = ts[keep]
+    ok = gap_mask(tk, td, max_gap_s)
+    out = np.full((td.size, 4), np.nan)
+    if tk.size == 0 or not ok.any():
+        return out, ok
+    rot = Rotation.from_quat(q[keep])
+    if tk.size == 1:
+        out[ok] = rot.as_quat()[0]
+    else:
+        out[ok] = Slerp(tk, rot)(td[ok]).as_quat()
+    return make_continuous(out), ok
+
+
+def make_continuous(q: np.ndarray) -> np.ndarray:
+    """Flip quaternion signs so consecutive finite samples have a non-negative dot product."""
+    out = q.copy()
+    prev: np.ndarray | None = None
+    for i in range(out.shape[0]):
+        if not np.isfinite(out[i]).all():
+            prev = None
+            continue
+        if prev is not None and float(out[i] @ prev) < 0:
+            out[i] = -out[i]
+        prev = out[i]
+    return out

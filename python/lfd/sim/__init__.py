@@ -1,0 +1,34 @@
+"""The simulated demonstrator: a capsule human hand performing the seven skills in MuJoCo.
+
+It is the test bed for segmentation, reproduction and perception: :func:`simulate` runs a task
+(``exp1`` ... ``exp4`` or a single-skill template task) like a person would — imprecisely, at
+varying speed, with detours and pauses — and records it like a real demonstration (hand
+keypoints at ~5 Hz, object tag poses at 30 Hz, optional RGB-D frames), with ground-truth skill
+labels. MuJoCo and OpenCV (the ``sim`` extra) are needed.
+"""
+
+from __future__ import annotations
+
+from .. import _gl  # noqa: F401  (selects the headless GL backend before mujoco loads)
+from .demonstrator import SIM_VERSION, SimResult, Truth, simulate
+from .scene import DEFAULT_OBJECTS, CameraSpec, ObjectSpec, Scene, build_scene
+from .tasks import EXPERIMENTS, TASKS, TEMPLATE_TASKS, TRANSITIONS, check_grammar
+from .variability import Variability
+
+__all__ = [
+    "DEFAULT_OBJECTS",
+    "EXPERIMENTS",
+    "SIM_VERSION",
+    "TASKS",
+    "TEMPLATE_TASKS",
+    "TRANSITIONS",
+    "CameraSpec",
+    "ObjectSpec",
+    "Scene",
+    "SimResult",
+    "Truth",
+    "Variability",
+    "build_scene",
+    "check_grammar",
+    "simulate",
+]

@@ -1,0 +1,334 @@
+"""Run a task with the simulated demonstrator and record it like a real demonstration.
+
+The plan (:mod:`lfd.sim.skills`) is simulated at ``10 x object_rate_hz`` (300 Hz by default):
+finger drift and tremor are added, the hand's forward kinematics gives the 21 keypoints, and
+the objects follow the hand (grasp), slide in front of it (push) or rest. The streams are then
+sampled like the paper's sensors: object poses at every camera frame (30 Hz) with tag noise and
+dropout bursts, hand keypoints at ~5 Hz on camera frames (the estimator takes every 5th-7th
+frame) with keypoint noise and outliers. Ground truth (noise-free streams at 30 Hz) is returned
+alongside.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..demo import CameraInfo, Demonstration, SkillLabel
+from ..errors import DemonstrationError
+from .hand import JOINTS_PER_FINGER, N_JOINTS, HandKinematics
+from .motion import Plan, rotation, smooth_noise
+from .planner import Attach, Detach, ObjectPose, Planner, Push
+from .scene import DEFAULT_OBJECTS, ObjectSpec, Scene, build_scene
+from .skills import (
+    locate,
+    locate_entry,
+    move,
+    move_with,
+    pick_up,
+    pick_up_entry,
+    place,
+    push,
+    push_entry,
+    rest_pose,
+    stack,
+)
+from .tasks import TEMPLATE_TASKS, Step, place_objects, task_steps
+from .variability import Variability
+
+SIM_VERSION = "1.0"
+"""Version of the simulated demonstrator (bump when motions change)."""
+
+_MAX_ATTEMPTS = 10
+
+BASE_TIME_NS = 1_700_000_000_000_000_000
+"""Capture time of the first frame of every simulated demonstration."""
+
+
+@dataclass
+class Truth:
+    """Noise-free state at every camera frame.
+
+    Attributes
+    ----------
+    t_ns : array, shape (n,)
+    tcp : array, shape (n, 3)
+    keypoints : array, shape (n, 21, 3)
+    wrist_pos : array, shape (n, 3)
+    wrist_quat : array, shape (n, 4)   (w, x, y, z) as MuJoCo
+    q : array, shape (n, 20)           finger joint angles
+    object_pos : dict of array (n, 3)
+    object_yaw : dict of array (n,)
+    """
+
+    t_ns: np.ndarray
+    tcp: np.ndarray
+    keypoints: np.ndarray
+    wrist_pos: np.ndarray
+    wrist_quat: np.ndarray
+    q: np.ndarray
+    object_pos: dict[str, np.ndarray]
+    object_yaw: dict[str, np.ndarray]
+
+
+@dataclass
+class SimResult:
+    """A simulated demonstration, its ground truth and what produced it."""
+
+    demo: Demonstration
+    truth: Truth
+    scene: Scene
+    plan: Plan
+    variability: Variability
+
+
+def _entry(P: Planner, step: Step, roles: dict[str, str]) -> Any:
+    name = roles[step.role] if step.role else None
+    if step.skill == "pick_up" and name:
+        return pick_up_entry(P, name)
+    if step.skill == "push" and name:
+        return push_entry(P, name)
+    if step.skill == "locate" and name:
+        return locate_entry(P, name)
+    return rest_pose(P)
+
+
+def _execute(P: Planner, steps: tuple[Step, ...], roles: dict[str, str]) -> None:
+    P.hand = _entry(P, steps[0], roles)
+    P.hold(float(P.rng.uniform(0.3, 0.8)))
+    for i, step in enumerate(steps):
+        name = roles[step.role] if step.role else None
+        if step.skill == "move":
+            nxt = steps[i + 1] if i + 1 < len(steps) else None
+            target = _entry(P, nxt, roles) if nxt else rest_pose(P)
+            move(P, target, name)
+        elif step.skill == "pick_up":
+            pick_up(P, str(name))
+        elif step.skill == "move_with":
+            move_with(P, str(name), roles[step.onto] if step.onto else None)
+        elif step.skill == "place":
+            place(P, str(name))
+        elif step.skill == "stack":
+            stack(P, str(name))
+        elif step.skill == "push":
+            push(P, str(name))
+        elif step.skill == "locate":
+            locate(P, str(name))
+    P.hold(float(P.rng.uniform(0.3, 0.8)))
+    last = P.labels[-1]
+    P.labels[-1] = type(last)(last.skill, last.t0, P.t, last.object)
+
+
+def _quat_wxyz(R: np.ndarray) -> np.ndarray:
+    import mujoco
+
+    out = np.empty((R.shape[0], 4))
+    for i in range(R.shape[0]):
+        mujoco.mju_mat2Quat(out[i], R[i].ravel())
+    return out
+
+
+def _objects_motion(
+    P: Planner, initial: dict[str, ObjectPose], t: np.ndarray, tcp: np.ndarray, yaw_h: np.ndarray
+) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """Object centre (n, 3) and yaw (n,) on the fine grid from the grasp/push events."""
+    positions, yaws = {}, {}
+    for name, pose0 in initial.items():
+        pos = np.empty((t.size, 3))
+        yaw = np.empty(t.size)
+        cur = pose0.copy()
+        i_cur = 0
+        events = [e for e in P.events if e.name == name]
+        k = 0
+        while k < len(events):
+            ev = events[k]
+            if isinstance(ev, Attach):
+                det = events[k + 1] if k + 1 < len(events) else None
+                assert det is None or isinstance(det, Detach)
+                ia = int(np.searchsorted(t, ev.t))
+                idt = int(np.searchsorted(t, det.t)) if det else t.size
+                pos[i_cur:ia], yaw[i_cur:ia] = cur.pos, cur.yaw
+                c, s = np.cos(-yaw_h[ia]), np.sin(-yaw_h[ia])
+                d = cur.pos - tcp[ia]
+                rel = np.array([c * d[0] - s * d[1], s * d[0] + c * d[1], d[2]])
+                rel_yaw = cur.yaw - yaw_h[ia]
+                R = rotation(yaw_h[ia:idt], np.zeros(idt - ia), np.zeros(idt - ia))
+                pos[ia:idt] = tcp[ia:idt] + R @ rel
+                yaw[ia:idt] = yaw_h[ia:idt] + rel_yaw
+                if det is None:
+                    positions[name], yaws[name] = pos, yaw
+                    break
+                last = pos[idt - 1] if idt > ia else cur.pos
+                cur = ObjectPose(np.array([last[0], last[1], det.pose.pos[2]]), det.pose.yaw)
+                i_cur = idt
+                k += 2
+            elif isinstance(ev, Push):
+                i0, i1 = np.searchsorted(t, [ev.t0, ev.t1])
+                pos[i_cur:i0], yaw[i_cur:i0] = cur.pos, cur.yaw
+                disp = np.maximum.accumulate(
+                    np.maximum(0.0, (tcp[i0:i1] - ev.contact) @ ev.direction)
+                )
+                pos[i0:i1] = cur.pos + np.outer(disp, ev.direction)
+                yaw[i0:i1] = cur.yaw
+                cur = ObjectPose(cur.pos + ev.direction * (disp[-1] if disp.size else 0.0), cur.yaw)
+                i_cur = int(i1)
+                k += 1
+            else:  # a Detach without Attach cannot be planned
+                raise RuntimeError(f"unexpected event {ev}")
+        else:
+            pos[i_cur:], yaw[i_cur:] = cur.pos, cur.yaw
+            positions[name], yaws[name] = pos, yaw
+    return positions, yaws
+
+
+def simulate(
+    task: str,
+    seed: int = 0,
+    variability: Variability | None = None,
+    *,
+    objects: tuple[ObjectSpec, ...] = DEFAULT_OBJECTS,
+    hand_rate_hz: float = 5.0,
+    object_rate_hz: float = 30.0,
+) -> SimResult:
+    """Simulate one demonstration of ``task`` (see :data:`lfd.sim.tasks.TASKS`).
+
+    Parameters
+    ----------
+    task : str
+        Task name (``exp1`` ... ``exp4`` or a skill name for its template task).
+    seed : int
+        Seed of ``numpy.random.default_rng``; the same seed gives identical output.
+    variability : Variability, optional
+        Human variability and sensor imperfection (defaults: :class:`Variability`).
+    hand_rate_hz, object_rate_hz : float
+        Hand-pose estimator rate (keypoints) and camera / tag tracking rate (object poses).
+    """
+    from .sampling import sample_streams
+
+    steps = task_steps(task)
+    if not 0.5 <= hand_rate_hz <= object_rate_hz <= 120:
+        raise ValueError("need 0.5 <= hand_rate_hz <= object_rate_hz <= 120")
+    rng = np.random.default_rng(seed)
+    var = (variability or Variability()).resolve(rng)
+    scene = build_scene(objects, hand_scale=float(var.hand_scale or 1.0))
+    model = scene.compile()
+    kin = HandKinematics(model)
+    names = [o.name for o in objects]
+    for attempt in range(_MAX_ATTEMPTS):
+        # a layout in which a step is impossible (no free spot, no room to push) is re-drawn
+        # from the same random stream, so the result stays a function of the seed
+        order = rng.permutation(len(names))
+        roles = {role: names[int(i)] for role, i in zip("ABC", order, strict=False)}
+        initial = {n: ObjectPose(p, y) for n, (p, y) in place_objects(rng, objects).items()}
+        P = Planner(
+            rng, var, kin, {o.name: o for o in objects}, {n: p.copy() for n, p in initial.items()}
+        )
+        try:
+            _execute(P, steps, roles)
+            break
+        except DemonstrationError:
+            if attempt == _MAX_ATTEMPTS - 1:
+                raise
+    plan = Plan(P.segments)
+
+    # fine simulation grid: camera frames are every `sub`-th step
+    sub = 10
+    n_frames = int(np.floor(plan.duration * object_rate_hz + 1e-9)) + 1
+    t = np.arange((n_frames - 1) * sub + 1) / (object_rate_hz * sub)
+    tcp, ang, q = plan.evaluate(t)
+    drift_joints = np.arange(2 * JOINTS_PER_FINGER, N_JOINTS)
+    q[:, drift_joints] += smooth_noise(
+        rng, t, drift_joints.size, amplitude=np.deg2rad(var.finger_drift_deg), freq_range=(0.1, 0.6)
+    )
+    tremor = smooth_noise(
+        rng, t, 3, amplitude=float(var.tremor_mm or 0.0) * 1e-3, freq_range=(6, 10)
+    )
+    tcp = tcp + tremor
+    R = rotation(ang[:, 0], ang[:, 1], ang[:, 2])
+    kp_local = np.empty((t.size, 21, 3))
+    for i in range(t.size):
+        kp_local[i] = kin.local_keypoints(q[i])
+    tcp_local = 0.5 * (kp_local[:, 4] + kp_local[:, 8])
+    keypoints = np.einsum("nij,nkj->nki", R, kp_local - tcp_local[:, None, :]) + tcp[:, None, :]
+    wrist = tcp - np.einsum("nij,nj->ni", R, tcp_local)
+    obj_pos, obj_yaw = _objects_motion(P, initial, t, tcp, ang[:, 0])
+
+    frames = np.arange(n_frames) * sub
+    t_ns = BASE_TIME_NS + np.round(np.arange(n_frames) * (1e9 / object_rate_hz)).astype(np.int64)
+    truth = Truth(
+        t_ns=t_ns,
+        tcp=tcp[frames],
+        keypoints=keypoints[frames],
+        wrist_pos=wrist[frames],
+        wrist_quat=_quat_wxyz(R[frames]),
+        q=q[frames],
+        object_pos={n: p[frames] for n, p in obj_pos.items()},
+        object_yaw={n: y[frames] for n, y in obj_yaw.items()},
+    )
+    hand, tracks = sample_streams(rng, truth, scene, var, hand_rate_hz, object_rate_hz)
+    end_ns = int(t_ns[-1])
+    labels = []
+    for lab in P.labels:
+        start = BASE_TIME_NS + round(lab.t0 * 1e9)
+        stop = min(BASE_TIME_NS + round(lab.t1 * 1e9), end_ns)
+        labels.append(SkillLabel(lab.skill, start, stop, lab.object))
+    cam = scene.camera
+    camera = CameraInfo(cam.width, cam.height, cam.intrinsics(), cam.world_T_camera())
+    metadata: dict[str, Any] = {
+        "task": task,
+        "seed": int(seed),
+        "source": "simulation",
+        "simulator": "lfd.sim",
+        "simulator_version": SIM_VERSION,
+        "variability": var.as_dict(),
+        "roles": roles,
+        "hand_rate_hz": hand_rate_hz,
+        "object_rate_hz": object_rate_hz,
+        "initial_objects": {
+            n: {"position": p.pos.round(6).tolist(), "yaw": round(p.yaw, 6)}
+            for n, p in initial.items()
+        },
+        "skill_sequence": [lab.skill for lab in P.labels],
+        "pushes": [e for e in P.log if "push" in e],
+        "stacks": [e for e in P.log if "stack" in e],
+    }
+    if task in TEMPLATE_TASKS:
+        metadata["target_skill"] = task
+    demo = Demonstration(hand=hand, objects=tracks, labels=labels, camera=camera, metadata=metadata)
+    return SimResult(demo=demo, truth=truth, scene=scene, plan=plan, variability=var)
+
+
+def crop(result: SimResult, seconds: float) -> SimResult:
+    """Keep only the first ``seconds`` of a simulated demonstration (streams, labels, truth)."""
+    demo, truth = result.demo, result.truth
+    end = int(truth.t_ns[0] + round(seconds * 1e9))
+    keep = truth.t_ns <= end
+    hand = demo.hand
+    h = hand.t_ns <= end
+    demo.hand = type(hand)(hand.t_ns[h], hand.keypoints[h], hand.confidence[h], hand.side)
+    for name, tr in list(demo.objects.items()):
+        k = tr.t_ns <= end
+        demo.objects[name] = type(tr)(
+            tr.name, tr.tag_id, tr.size, tr.t_ns[k], tr.position[k], tr.quaternion[k], tr.visible[k]
+        )
+    last = int(truth.t_ns[keep][-1])
+    demo.labels = [
+        SkillLabel(lab.skill, lab.start_ns, min(lab.end_ns, last), lab.object)
+        for lab in demo.labels
+        if lab.start_ns < last
+    ]
+    demo.metadata["cropped_s"] = seconds
+    demo.metadata["skill_sequence"] = [lab.skill for lab in demo.labels]
+    result.truth = Truth(
+        t_ns=truth.t_ns[keep],
+        tcp=truth.tcp[keep],
+        keypoints=truth.keypoints[keep],
+        wrist_pos=truth.wrist_pos[keep],
+        wrist_quat=truth.wrist_quat[keep],
+        q=truth.q[keep],
+        object_pos={n: p[keep] for n, p in truth.object_pos.items()},
+        object_yaw={n: y[keep] for n, y in truth.object_yaw.items()},
+    )
+    return result

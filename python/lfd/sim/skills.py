@@ -1,0 +1,300 @@
+"""The seven skills as parameterised human motions (see docs/skills.md).
+
+TCP = midpoint of the index and thumb tips. The property the segmentation relies on: **Move and
+Move with are the only skills in which the TCP rises**; in every other skill the TCP height is
+constant or decreasing (noise-free plan; tremor and sensor noise come on top).
+
+Each skill function appends its segments to a :class:`~lfd.sim.planner.Planner` starting from the
+current hand state and closes its label (pauses after a skill belong to that skill). An
+``*_entry`` function gives the hand state a preceding Move must reach for the skill to start.
+
+- **pick_up** (not holding -> holding): from above/near the object (entry: TCP 6-12 cm above the
+  top face, up to 5 cm back along the approach direction), reach down to 0.5-1.5 cm above the grasp
+  point with the index and thumb pre-shaped wider than the object (2-4 cm margin), then a slow final
+  descent to the grasp point (TCP 1.2-2 cm below the top face at the object's centre, +-2 mm), an
+  optional hesitation, and close index and thumb until the tip distance is the object width plus
+  the two fingertip pads. Ends grasped, still at the grasp point; the object has not moved.
+- **move_with** (holding): lift first, then carry: the TCP rises 3-8 cm above the higher end point
+  (and high enough to clear every object) and ends with the held object 3-7 cm above its
+  destination (a free table spot, or the top of another object); the object may turn by +-30 deg
+  around the vertical. The object is rigidly attached to the hand frame (TCP + wrist yaw).
+- **place** (holding -> not holding): lower the object onto the table (fast, then a slow final
+  1 cm), release it (it rests with its bottom on the table) and open the fingers; TCP does not rise.
+- **stack**: like place, onto the top face of another object (centre within a few mm).
+- **move** (not holding): rise first (the TCP climbs 2-6 cm above the higher end point and above
+  every object), then travel on a curved path to the entry pose of the next skill or to a rest pose
+  near the demonstrator; the fingers relax and pre-shape for the next skill on the way.
+- **push** (not holding): from above the push start (3-8 cm over the contact height, behind the
+  object), lower the hand (pitched 55-70 deg down, fingers together) to table height 1.5-4 cm behind
+  the object, then move it horizontally along one of the object's axes: once the fingers reach the
+  object's face, the object slides in front of the hand by the commanded distance (5-12 cm). The
+  fingers are never closed on it.
+- **locate** (not holding): from above and behind, approach and point: index straight, pointing
+  down-forward (hand pitch 40-60 deg), index tip 4-8 cm above the centre of the object's top face
+  (+-8 mm horizontally), then hover there 0.8-1.5 s (drift of a few mm, no rise). Nothing is
+  touched.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..demo import INDEX_TIP, THUMB_TIP
+from ..errors import DemonstrationError
+from .hand import FINGERTIP_RADIUS, POSTURES, pinch_posture
+from .motion import HandState, rotation
+from .nonprehensile import locate, locate_entry, push, push_entry
+from .planner import Attach, Detach, ObjectPose, Planner, wrap_angle
+from .scene import WORKSPACE_X, WORKSPACE_Y
+
+__all__ = [
+    "free_spot",
+    "locate",
+    "locate_entry",
+    "move",
+    "move_with",
+    "pick_up",
+    "pick_up_entry",
+    "place",
+    "push",
+    "push_entry",
+    "rest_pose",
+    "stack",
+]
+
+
+def _deg(lo: float, hi: float, rng: np.random.Generator) -> float:
+    return float(np.deg2rad(rng.uniform(lo, hi)))
+
+
+def _max_top(P: Planner, exclude: str | None = None) -> float:
+    return max((P.top(n) for n in P.poses if n != exclude), default=0.0)
+
+
+# --- Pick up ---------------------------------------------------------------------------------
+def _grasp(P: Planner, name: str) -> dict[str, Any]:
+    key = ("pick_up", name)
+    if key in P.pending:
+        return P.pending[key]
+    rng, spec, pose, s = P.rng, P.specs[name], P.poses[name], P.scale
+    roll = _deg(-8, 8, rng)
+    natural = P.natural_yaw(pose.pos)
+    best: tuple[float, dict[str, Any]] | None = None
+    for k in range(4):
+        width = spec.size[k % 2]
+        g = P.kin.pinch_for_aperture(width + 2.0 * FINGERTIP_RADIUS * s)
+        kp = P.kin.local_keypoints(pinch_posture(g))
+        a = rotation(np.array(0.0), np.array(0.0), np.array(roll)) @ (kp[INDEX_TIP] - kp[THUMB_TIP])
+        pitch = float(np.arctan2(a[2], a[0]))
+        a = rotation(np.array(0.0), np.array(pitch), np.array(roll)) @ (
+            kp[INDEX_TIP] - kp[THUMB_TIP]
+        )
+        yaw = wrap_angle(pose.yaw + k * np.pi / 2 - float(np.arctan2(a[1], a[0])))
+        cost = abs(wrap_angle(yaw - natural))
+        if best is None or cost < best[0]:
+            best = (cost, {"yaw": yaw, "pitch": pitch, "roll": roll, "g": g, "width": width})
+    assert best is not None
+    G = best[1]
+    G["yaw"] = float(G["yaw"]) + _deg(-4, 4, rng)
+    G["pitch"] = float(G["pitch"]) + _deg(-4, 4, rng)
+    width = float(G["width"])
+    G["g_pre"] = P.kin.pinch_for_aperture(
+        width + 2 * FINGERTIP_RADIUS * s + rng.uniform(0.02, 0.04)
+    )
+    rel = P.relative_keypoints(pinch_posture(float(G["g"])), G["yaw"], G["pitch"], roll)
+    z = P.top(name) - rng.uniform(0.012, 0.02)
+    z = max(z, 0.009 * s - float(rel[:, 2].min()))
+    xy = pose.pos[:2] + np.clip(rng.normal(0.0, 0.002, 2), -0.004, 0.004)
+    G["tcp"] = np.array([xy[0], xy[1], z])
+    P.pending[key] = G
+    return G
+
+
+def pick_up_entry(P: Planner, name: str) -> HandState:
+    """Hand state above/near ``name`` from which a Pick up starts."""
+    G, rng = _grasp(P, name), P.rng
+    yaw = float(G["yaw"])
+    back = np.array([np.cos(yaw), np.sin(yaw)]) * -rng.uniform(0.0, 0.05)
+    side = np.array([-np.sin(yaw), np.cos(yaw)]) * rng.uniform(-0.02, 0.02)
+    tcp = np.array(G["tcp"], float)
+    p = np.array([*(tcp[:2] + back + side), P.top(name) + rng.uniform(0.06, 0.12)])
+    q = 0.5 * POSTURES["relaxed"] + 0.5 * pinch_posture(float(G["g_pre"]))
+    return HandState(
+        p,
+        yaw + _deg(-12, 12, rng),
+        float(G["pitch"]) - _deg(0, 12, rng),
+        float(G["roll"]),
+        q,
+    )
+
+
+def pick_up(P: Planner, name: str) -> None:
+    """Reach down to the object with the fingers pre-shaped, then close index and thumb on it."""
+    P.begin_skill()
+    t0, G, rng = P.t, _grasp(P, name), P.rng
+    P.pending.pop(("pick_up", name), None)
+    tcp = np.array(G["tcp"], float)
+    ang = {k: float(G[k]) for k in ("yaw", "pitch", "roll")}
+    q_pre = pinch_posture(float(G["g_pre"]))
+    above = tcp + np.array([0.0, 0.0, rng.uniform(0.005, 0.015)])
+    above[2] = min(above[2], P.state.tcp[2])
+    reach = HandState(above, q=q_pre, **ang)
+    dist = float(np.linalg.norm(above - P.state.tcp))
+    P.go(
+        P.dur(0.6, 1.0) + 1.5 * dist / P.skill_speed,
+        reach,
+        detour=P.detour(P.state.tcp, above, frac=(0.0, 0.15)),
+        posture_window=(0.0, 0.7),
+        orient_window=(0.0, 0.8),
+    )
+    P.go(P.dur(0.25, 0.45), reach.moved(tcp=tcp))
+    P.maybe_pause()
+    P.go(P.dur(0.35, 0.6), P.state.moved(q=pinch_posture(float(G["g"]))))
+    P.events.append(Attach(P.t, name))
+    pose = P.poses[name]
+    c, s_ = np.cos(-P.state.yaw), np.sin(-P.state.yaw)
+    d = pose.pos - P.state.tcp
+    P.grasp_rel = (
+        np.array([c * d[0] - s_ * d[1], s_ * d[0] + c * d[1], d[2]]),
+        pose.yaw - P.state.yaw,
+    )
+    P.held = name
+    P.hold(P.dur(0.1, 0.3))
+    P.maybe_pause()
+    P.label("pick_up", t0, name)
+
+
+# --- Move with, Place, Stack -----------------------------------------------------------------
+def free_spot(P: Planner, name: str, *, min_move: float = 0.10) -> np.ndarray:
+    """A random table position (x, y) for ``name``, clear of other objects and of the marker."""
+    spec = P.specs[name]
+    r = 0.5 * float(np.hypot(spec.size[0], spec.size[1]))
+    here = P.poses[name].pos[:2]
+    for _ in range(2000):
+        xy = np.array([P.rng.uniform(*WORKSPACE_X), P.rng.uniform(*WORKSPACE_Y)])
+        if np.linalg.norm(xy - here) < min_move:
+            continue
+        ok = True
+        for other, pose in P.poses.items():
+            if other == name:
+                continue
+            ro = 0.5 * float(np.hypot(*P.specs[other].size[:2]))
+            if np.linalg.norm(xy - pose.pos[:2]) < r + ro + 0.04:
+                ok = False
+                break
+        if ok:
+            return xy
+    raise DemonstrationError(f"no free table spot for {name}")
+
+
+def move_with(P: Planner, name: str, onto: str | None = None) -> None:
+    """Lift the held object and carry it above a free table spot or above object ``onto``."""
+    if P.held != name or P.grasp_rel is None:
+        raise RuntimeError(f"move_with needs {name} in the hand")
+    P.begin_skill()
+    t0, rng, s = P.t, P.rng, P.state
+    spec = P.specs[name]
+    rel_p, rel_yaw = P.grasp_rel
+    yaw_obj = P.poses[name].yaw
+    if onto is None:
+        xy = free_spot(P, name)
+        pos = np.array([xy[0], xy[1], 0.5 * spec.size[2]])
+        new_yaw = yaw_obj + _deg(-30, 30, rng)
+    else:
+        base = P.poses[onto]
+        pos = np.array([*(base.pos[:2] + np.clip(rng.normal(0, 0.003, 2), -0.006, 0.006)), 0.0])
+        pos[2] = P.top(onto) + 0.5 * spec.size[2]
+        k = np.round((yaw_obj - base.yaw) / (np.pi / 2))
+        new_yaw = base.yaw + k * np.pi / 2 + _deg(-5, 5, rng)
+    hand_yaw = float(new_yaw - rel_yaw)
+    c, sn = np.cos(hand_yaw), np.sin(hand_yaw)
+    tcp_final = pos - np.array(
+        [c * rel_p[0] - sn * rel_p[1], sn * rel_p[0] + c * rel_p[1], rel_p[2]]
+    )
+    P.pending[("place", name)] = {"tcp": tcp_final, "pose": ObjectPose(pos, float(new_yaw))}
+    if onto is not None:
+        P.log.append({"stack": name, "onto": onto})
+    above = tcp_final + np.array([0.0, 0.0, rng.uniform(0.03, 0.07)])
+    below_tcp = 0.5 * spec.size[2] - rel_p[2]  # object bottom below the TCP
+    z_peak = max(s.tcp[2], above[2]) + rng.uniform(0.03, 0.08)
+    z_peak = max(z_peak, _max_top(P, name) + below_tcp + 0.03)
+    dist = float(np.linalg.norm(above[:2] - s.tcp[:2]) + 2 * z_peak - s.tcp[2] - above[2])
+    P.go(
+        P.dur(0.6, 0.9) + 2.0 * dist / P.skill_speed,
+        s.moved(tcp=above, yaw=hand_yaw),
+        detour=P.detour(s.tcp, above, frac=(0.02, 0.12)),
+        z_peak=z_peak,
+        rise_frac=rng.uniform(0.3, 0.45),
+        xy_delay=rng.uniform(0.1, 0.25),
+    )
+    P.maybe_pause()
+    P.label("move_with", t0, name)
+
+
+def _put_down(P: Planner, name: str, skill: str) -> None:
+    if P.held != name:
+        raise RuntimeError(f"{skill} needs {name} in the hand")
+    P.begin_skill()
+    t0, rng = P.t, P.rng
+    target = P.pending.pop(("place", name))
+    tcp = np.array(target["tcp"], float)
+    pose = target["pose"]
+    assert isinstance(pose, ObjectPose)
+    near = tcp + np.array([0.0, 0.0, rng.uniform(0.005, 0.012)])
+    P.go(
+        P.dur(0.6, 0.9), P.state.moved(tcp=near), detour=P.detour(P.state.tcp, near, frac=(0, 0.05))
+    )
+    P.go(P.dur(0.25, 0.45), P.state.moved(tcp=tcp))
+    P.maybe_pause()
+    P.events.append(Detach(P.t, name, pose.copy()))
+    P.poses[name] = pose.copy()
+    P.held, P.grasp_rel = None, None
+    width = P.specs[name].size[0]
+    g_open = P.kin.pinch_for_aperture(
+        width + 2 * FINGERTIP_RADIUS * P.scale + rng.uniform(0.015, 0.035)
+    )
+    P.go(P.dur(0.3, 0.5), P.state.moved(q=pinch_posture(g_open)))
+    P.hold(P.dur(0.1, 0.25))
+    P.maybe_pause()
+    P.label(skill, t0, name)
+
+
+def place(P: Planner, name: str) -> None:
+    """Lower the held object onto the table and release it."""
+    _put_down(P, name, "place")
+
+
+def stack(P: Planner, name: str) -> None:
+    """Lower the held object onto the object below it and release it."""
+    _put_down(P, name, "stack")
+
+
+# --- Move ------------------------------------------------------------------------------------
+def rest_pose(P: Planner) -> HandState:
+    """A relaxed hand near the demonstrator, above the table's near edge."""
+    rng = P.rng
+    p = np.array([rng.uniform(0.22, 0.32), rng.uniform(-0.06, 0.04), rng.uniform(0.12, 0.18)])
+    return HandState(p, P.natural_yaw(p), _deg(10, 25, rng), _deg(-8, 8, rng), POSTURES["relaxed"])
+
+
+def move(P: Planner, target: HandState, obj: str | None) -> None:
+    """Rise, then travel (not holding) to ``target`` (the next skill's entry or a rest pose)."""
+    P.begin_skill()
+    t0, rng, s = P.t, P.rng, P.state
+    z_peak = max(s.tcp[2], target.tcp[2]) + rng.uniform(0.02, 0.06)
+    z_peak = max(z_peak, _max_top(P) + 0.06)
+    dist = float(np.linalg.norm(target.tcp[:2] - s.tcp[:2]) + 2 * z_peak - s.tcp[2] - target.tcp[2])
+    P.go(
+        P.dur(0.5, 0.8) + 2.2 * dist / P.skill_speed,
+        target,
+        detour=P.detour(s.tcp, target.tcp, frac=(0.02, 0.12)),
+        z_peak=z_peak,
+        rise_frac=rng.uniform(0.3, 0.45),
+        xy_delay=rng.uniform(0.1, 0.25),
+        posture_window=(0.15, 1.0),
+        orient_window=(0.1, 1.0),
+    )
+    P.maybe_pause()
+    P.label("move", t0, obj)

@@ -1,0 +1,132 @@
+"""Task definitions: the skill sequences the simulated demonstrator performs.
+
+A task is a list of :class:`Step` s over object *roles* (``A``, ``B``, ``C``); each demonstration
+assigns the three boxes to the roles at random and places them at random, collision-free spots
+in the workspace. Every task obeys the skill grammar (:data:`TRANSITIONS`, paper Fig. 6).
+
+Experiment tasks (paper Sec. V): ``exp1`` ... ``exp4``. Single-skill template tasks (one per
+skill, named after it) contain the target skill with the minimal grammatical context around it;
+their metadata names the ``target_skill``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import DemonstrationError
+from .scene import WORKSPACE_X, WORKSPACE_Y, ObjectSpec
+
+HOLDING: frozenset[str] = frozenset({"move_with", "place", "stack"})
+"""Skills performed while holding an object."""
+
+TRANSITIONS: dict[str, frozenset[str]] = {
+    "start": frozenset({"pick_up", "push", "locate", "move"}),
+    "pick_up": frozenset({"move_with"}),
+    "move_with": frozenset({"place", "stack"}),
+    "place": frozenset({"move"}),
+    "stack": frozenset({"move"}),
+    "move": frozenset({"pick_up", "push", "locate"}),
+    "push": frozenset({"move"}),
+    "locate": frozenset({"move", "pick_up", "push"}),
+}
+"""Allowed skill transitions (paper Fig. 6); ``start`` is the state before the first skill."""
+
+
+@dataclass(frozen=True)
+class Step:
+    """One skill on an object role; ``onto`` is the base role of a Move with that ends a stack."""
+
+    skill: str
+    role: str | None = None
+    onto: str | None = None
+
+
+def _seq(*items: str) -> tuple[Step, ...]:
+    steps = []
+    for item in items:
+        skill, _, rest = item.partition(":")
+        role, _, onto = rest.partition(">")
+        steps.append(Step(skill, role or None, onto or None))
+    return tuple(steps)
+
+
+TASKS: dict[str, tuple[Step, ...]] = {
+    "exp1": _seq(
+        "pick_up:A", "move_with:A", "place:A", "move:B",
+        "pick_up:B", "move_with:B>C", "stack:B", "move",
+    ),
+    "exp2": _seq(
+        "push:A", "move:B", "pick_up:B", "move_with:B", "place:B", "move:C", "push:C", "move",
+    ),
+    "exp3": _seq(
+        "locate:A", "move:B", "pick_up:B", "move_with:B>C", "stack:B", "move:A", "push:A", "move",
+    ),
+    "exp4": _seq(
+        "pick_up:A", "move_with:A", "place:A", "move:B", "locate:B",
+        "move:C", "pick_up:C", "move_with:C", "place:C", "move",
+    ),
+    # single-skill templates (target skill + minimal context)
+    "pick_up": _seq("pick_up:A", "move_with:A"),
+    "move_with": _seq("pick_up:A", "move_with:A", "place:A"),
+    "place": _seq("pick_up:A", "move_with:A", "place:A", "move"),
+    "stack": _seq("pick_up:A", "move_with:A>B", "stack:A", "move"),
+    "move": _seq("move:A", "pick_up:A"),
+    "push": _seq("push:A", "move"),
+    "locate": _seq("locate:A", "move"),
+}  # fmt: skip
+"""Every task by name."""
+
+EXPERIMENTS: tuple[str, ...] = ("exp1", "exp2", "exp3", "exp4")
+TEMPLATE_TASKS: tuple[str, ...] = (
+    "pick_up",
+    "place",
+    "locate",
+    "stack",
+    "push",
+    "move",
+    "move_with",
+)
+
+
+def task_steps(name: str) -> tuple[Step, ...]:
+    """The steps of a task, checked against the grammar."""
+    if name not in TASKS:
+        raise DemonstrationError(f"unknown task {name!r}; known tasks: {', '.join(TASKS)}")
+    steps = TASKS[name]
+    check_grammar([s.skill for s in steps])
+    return steps
+
+
+def check_grammar(skills: list[str]) -> None:
+    """Raise :class:`DemonstrationError` if a skill sequence breaks :data:`TRANSITIONS`."""
+    prev = "start"
+    for skill in skills:
+        if skill not in TRANSITIONS[prev]:
+            raise DemonstrationError(f"skill {skill!r} cannot follow {prev!r}")
+        prev = skill
+
+
+def place_objects(
+    rng: np.random.Generator, specs: tuple[ObjectSpec, ...]
+) -> dict[str, tuple[np.ndarray, float]]:
+    """Random collision-free upright poses (centre, yaw) in the workspace."""
+    for _ in range(1000):
+        poses: dict[str, tuple[np.ndarray, float]] = {}
+        for spec in specs:
+            r = 0.5 * float(np.hypot(spec.size[0], spec.size[1]))
+            for _ in range(200):
+                xy = np.array([rng.uniform(*WORKSPACE_X), rng.uniform(*WORKSPACE_Y)])
+                if all(
+                    np.linalg.norm(xy - p[:2]) > r + 0.5 * np.hypot(*o.size[:2]) + 0.06
+                    for o, (p, _) in ((s, poses[s.name]) for s in specs if s.name in poses)
+                ):
+                    poses[spec.name] = (
+                        np.array([xy[0], xy[1], 0.5 * spec.size[2]]),
+                        float(rng.uniform(-np.pi / 4, np.pi / 4)),
+                    )
+                    break
+        if len(poses) == len(specs):
+            return poses
+    raise DemonstrationError("could not place the objects without collisions")

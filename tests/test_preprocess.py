@@ -1,0 +1,238 @@
+"""Preprocessing: MATLAB-parity filter, spline/slerp resampling, gaps, hand -> gripper mapping."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from _synthetic import HAND_TEMPLATE, T0, make_demo
+from lfd.demo import INDEX_MCP, INDEX_TIP, THUMB_TIP, HandTrack
+from lfd.errors import DemonstrationError
+from lfd.preprocess import (
+    gripper_frame,
+    lowpass,
+    preprocess,
+    resample_positions,
+    resample_quaternions,
+)
+from scipy.signal import butter, lfilter, lfilter_zi
+from scipy.spatial.transform import Rotation
+
+
+# --- filter -------------------------------------------------------------------------------
+def matlab_filtfilt(b: np.ndarray, a: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """MATLAB's filtfilt written out: odd extension of 3*(order) samples, zi scaled, 2 passes."""
+    pad = 3 * (max(len(a), len(b)) - 1)
+    ext = np.concatenate([2 * x[0] - x[pad:0:-1], x, 2 * x[-1] - x[-2 : -pad - 2 : -1]])
+    zi = lfilter_zi(b, a)
+    y, _ = lfilter(b, a, ext, zi=zi * ext[0])
+    y = y[::-1]
+    y, _ = lfilter(b, a, y, zi=zi * y[0])
+    return y[::-1][pad:-pad]
+
+
+@pytest.mark.parametrize("cutoff", [0.625, 0.0625, 3.0])
+def test_lowpass_matches_matlab_filtfilt(cutoff: float) -> None:
+    rng = np.random.default_rng(1)
+    t = np.arange(300) / 30.0
+    x = np.sin(2 * np.pi * 0.2 * t) + 0.3 * rng.standard_normal(t.size) + 0.5 * t
+    b, a = butter(4, cutoff / 15.0)
+    expected = matlab_filtfilt(b, a, x)
+    np.testing.assert_allclose(lowpass(x, cutoff, 30.0), expected, rtol=0, atol=1e-12)
+    # columns are independent
+    two = lowpass(np.stack([x, -2 * x], axis=1), cutoff, 30.0)
+    np.testing.assert_allclose(two[:, 1], -2 * expected, atol=1e-11)
+
+
+def test_lowpass_gain_and_errors() -> None:
+    t = np.arange(3000) / 30.0
+    at_cutoff = lowpass(np.sin(2 * np.pi * 0.625 * t), 0.625, 30.0)
+    assert abs(np.abs(at_cutoff[500:-500]).max() - 0.5) < 0.01  # two passes: gain 1/2
+    with pytest.raises(DemonstrationError, match="too short"):
+        lowpass(np.zeros(12), 0.625, 30.0)
+    lowpass(np.zeros(13), 0.625, 30.0)
+    with pytest.raises(DemonstrationError, match="Nyquist"):
+        lowpass(np.zeros(100), 20.0, 30.0)
+
+
+def test_lowpass_filters_runs_between_gaps() -> None:
+    rng = np.random.default_rng(2)
+    x = rng.standard_normal(200)
+    x[100:110] = np.nan
+    x[150:160] = np.nan  # leaves a 40-sample run and a 5-sample run (too short)
+    x[195:] = np.nan
+    short: list[tuple[int, int]] = []
+    y = lowpass(x, 0.625, 30.0, report=short)
+    np.testing.assert_array_equal(np.isnan(y), np.isnan(x))
+    np.testing.assert_allclose(y[:100], lowpass(x[:100], 0.625, 30.0), atol=1e-15)
+    np.testing.assert_allclose(y[110:150], lowpass(x[110:150], 0.625, 30.0), atol=1e-15)
+    assert short == [(160, 195)] or short == []  # 35 samples is enough
+    x[165:170] = np.nan
+    short.clear()
+    y = lowpass(x, 0.625, 30.0, report=short)
+    assert (160, 165) in short
+    np.testing.assert_array_equal(y[160:165], x[160:165])  # left as is, reported
+
+
+# --- resampling ---------------------------------------------------------------------------
+def test_cubic_resampling_of_a_sine() -> None:
+    ts = np.arange(0, 10.0001, 0.2)  # 5 Hz
+    td = np.arange(0, 10.0001, 1 / 30)
+    x = np.stack([np.sin(2 * np.pi * 0.3 * ts), np.cos(2 * np.pi * 0.3 * ts)], axis=1)
+    y, valid = resample_positions(ts, x, td, max_gap_s=0.5)
+    assert valid.all()
+    truth = np.stack([np.sin(2 * np.pi * 0.3 * td), np.cos(2 * np.pi * 0.3 * td)], axis=1)
+    err = np.abs(y - truth)
+    assert err[15:-15].max() < 5e-4  # interior, h = 0.2 s
+    assert err.max() < 5e-3  # not-a-knot ends
+    np.testing.assert_allclose(y[::6], x, atol=1e-12)  # passes through the samples
+
+
+def test_resampling_gaps_short_filled_long_kept() -> None:
+    ts = np.arange(0, 10.0001, 0.2)
+    x = np.sin(ts)[:, None].repeat(2, axis=1)
+    x[10:12, 0] = np.nan  # 0.6 s between real samples: filled (max_gap 0.7)
+    x[20:28, 0] = np.nan  # 1.8 s: kept as NaN
+    td = np.arange(0, 10.0001, 1 / 30)
+    y, valid = resample_positions(ts, x, td, max_gap_s=0.7)
+    assert valid[:, 1].all()
+    gap = (td > ts[19]) & (td < ts[28])
+    assert not valid[gap, 0].any() and np.isnan(y[gap, 0]).all()
+    assert valid[~gap, 0].all()
+    np.testing.assert_allclose(y[~gap, 0], np.sin(td[~gap]), atol=2e-3)
+    # nothing outside the data
+    y2, v2 = resample_positions(ts, x, np.array([-0.1, 10.5]), max_gap_s=0.7)
+    assert not v2.any() and np.isnan(y2).all()
+
+
+def test_slerp_resampling_is_sign_consistent() -> None:
+    ts = np.arange(0, 4.0001, 1 / 30)
+    angle = 0.8 * ts  # rotation about z crossing pi
+    q = Rotation.from_rotvec(np.outer(angle, [0, 0, 1])).as_quat()
+    q[::3] *= -1  # the same rotations with flipped signs
+    q[40:45] = np.nan
+    td = np.arange(0, 4.0001, 0.01)
+    out, valid = resample_quaternions(ts, q, td, max_gap_s=0.5)
+    assert valid.all()
+    truth = Rotation.from_rotvec(np.outer(0.8 * td, [0, 0, 1]))
+    err = (Rotation.from_quat(out) * truth.inv()).magnitude()
+    assert err.max() < 1e-9
+    assert (np.einsum("ij,ij->i", out[1:], out[:-1]) > 0).all()
+
+
+# --- mapping ------------------------------------------------------------------------------
+def test_gripper_frame_known_configuration() -> None:
+    # B at the origin, TCP on +z, I and T in the y-z plane: the frame is the identity.
+    kp = np.zeros((1, 21, 3))
+    kp[0, INDEX_MCP] = (0, 0, 0)
+    kp[0, INDEX_TIP] = (0, 0.03, 0.1)  # x = (I - B) x (T - B) points along +x
+    kp[0, THUMB_TIP] = (0, -0.03, 0.1)
+    tcp, R, opening = gripper_frame(kp)
+    np.testing.assert_allclose(tcp[0], (0, 0, 0.1), atol=1e-15)
+    np.testing.assert_allclose(opening, [0.06])
+    np.testing.assert_allclose(R[0], np.eye(3), atol=1e-15)
+    # rotate and translate the hand: R follows, TCP follows, opening is unchanged
+    rots = Rotation.random(50, random_state=3)
+    shift = np.random.default_rng(3).normal(size=(50, 3))
+    moved = np.einsum("nij,kj->nki", rots.as_matrix(), kp[0]) + shift[:, None, :]
+    tcp, R, opening = gripper_frame(moved)
+    np.testing.assert_allclose(R, rots.as_matrix(), atol=1e-12)
+    np.testing.assert_allclose(tcp, rots.apply([0, 0, 0.1]) + shift, atol=1e-12)
+    np.testing.assert_allclose(opening, 0.06, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.det(R), 1.0, atol=1e-12)
+    # a left hand is the mirror image S of a right hand: x (palm normal) and z are mirrored,
+    # y flips so that the frame stays right-handed: R_left = S R diag(1, -1, 1)
+    S = np.diag([-1.0, 1.0, 1.0])
+    tcp_l, R_left, open_l = gripper_frame(moved @ S, side="left")
+    np.testing.assert_allclose(R_left, S @ rots.as_matrix() @ np.diag([1.0, -1.0, 1.0]), atol=1e-12)
+    np.testing.assert_allclose(tcp_l, tcp @ S, atol=1e-12)
+    np.testing.assert_allclose(open_l, opening, atol=1e-12)
+    with pytest.raises(DemonstrationError, match="side"):
+        gripper_frame(kp, side="middle")
+
+
+def test_gripper_frame_degenerate_and_missing() -> None:
+    kp = np.tile(HAND_TEMPLATE, (3, 1, 1))
+    kp[1, INDEX_TIP] = (0, 0.2, 0)
+    kp[1, THUMB_TIP] = (0, 0.3, 0)
+    kp[1, INDEX_MCP] = (0, 0.1, 0)  # collinear
+    kp[2, THUMB_TIP] = np.nan
+    tcp, R, opening = gripper_frame(kp)
+    assert np.isfinite(R[0]).all() and np.isnan(R[1:]).all()
+    assert np.isfinite(tcp[1]).all() and np.isnan(tcp[2]).all() and np.isnan(opening[2])
+    with pytest.raises(DemonstrationError, match="collinear"):
+        gripper_frame(kp, strict=True)
+    with pytest.raises(DemonstrationError, match="shape"):
+        gripper_frame(np.zeros((4, 20, 3)))
+
+
+# --- the pipeline -------------------------------------------------------------------------
+def test_preprocess_synthetic_demo() -> None:
+    demo = make_demo(duration_s=10.0)
+    traj = preprocess(demo)
+    n = len(traj)
+    assert traj.dt == pytest.approx(1 / 30, abs=1e-9)
+    assert traj.t_ns[0] == max(demo.hand.t_ns[0], *(o.t_ns[0] for o in demo.objects.values()))
+    assert traj.t_ns[-1] <= demo.hand.t_ns[-1]
+    assert n == pytest.approx((demo.hand.t_ns[-1] - traj.t_ns[0]) * 30e-9, abs=1.01)
+    assert traj.tcp.shape == (n, 3) and traj.rotation.shape == (n, 3, 3)
+    assert traj.euler.shape == (n, 3) and traj.opening.shape == (n,)
+    assert traj.keypoints.shape == (n, 21, 3)
+    assert traj.object_names == ["cube0", "cube1"]
+    assert traj.object_position.shape == (2, n, 3) and traj.object_quaternion.shape == (2, n, 4)
+    assert traj.object_size.shape == (2, 3)
+    assert traj.hand_valid.all() and traj.object_valid.all()  # the 4-sample occlusion is filled
+    assert np.isfinite(traj.tcp).all()
+    # slow smooth motion: the filtered positions stay close to the truth
+    from _synthetic import hand_keypoints
+
+    truth = hand_keypoints(traj.t_s + (traj.t_ns[0] - T0) * 1e-9)
+    assert np.abs(traj.keypoints - truth)[30:-30].max() < 3e-3
+    np.testing.assert_allclose(
+        traj.opening, np.linalg.norm(truth[:, 8] - truth[:, 4], axis=1), atol=3e-3
+    )
+    # euler angles are unwrapped and the rotation matrices agree with them
+    assert np.abs(np.diff(traj.euler, axis=0)).max() < 0.1
+    back = Rotation.from_matrix(traj.rotation).as_euler("xyz")
+    np.testing.assert_allclose(np.angle(np.exp(1j * (back - traj.euler))), 0, atol=1e-9)
+    assert traj.meta["labels"][0][0] == "pick_up"
+    assert traj.meta["gaps"] == {"hand": [], "objects": {"cube0": [], "cube1": []}}
+
+
+def test_preprocess_long_hand_gap_is_reported() -> None:
+    demo = make_demo(duration_s=10.0)
+    h = demo.hand
+    kp = h.keypoints.copy()
+    kp[20:28] = np.nan  # 1.8 s without the hand
+    kp[10, :, :] = np.nan  # one missing sample: 0.4 s gap, filled
+    demo.hand = HandTrack(h.t_ns, kp, h.confidence)
+    traj = preprocess(demo)
+    ((g0, g1),) = traj.meta["gaps"]["hand"]
+    assert (g0, g1) == (int(h.t_ns[19]), int(h.t_ns[28]))
+    inside = (traj.t_ns > g0) & (traj.t_ns < g1)
+    assert not traj.hand_valid[inside].any() and traj.hand_valid[~inside].all()
+    assert np.isnan(traj.tcp[inside]).all() and np.isnan(traj.euler[inside]).all()
+    assert np.isfinite(traj.tcp[~inside]).all()
+
+
+def test_preprocess_object_gap_and_errors() -> None:
+    demo = make_demo(duration_s=10.0)
+    obj = demo.objects["cube1"]
+    obj.visible[100:160] = False  # 2 s occlusion
+    traj = preprocess(demo, max_gap_s=0.5)
+    assert not traj.object_valid[1].all() and traj.object_valid[0].all()
+    assert len(traj.meta["gaps"]["objects"]["cube1"]) == 1
+    assert np.isnan(traj.object_position[1][~traj.object_valid[1]]).all()
+    # an object that is never seen is kept, invalid everywhere
+    from lfd.demo import ObjectTrack
+
+    empty = np.zeros((0, 3))
+    demo.objects["ghost"] = ObjectTrack("ghost", 9, (0.1,) * 3, [], empty, np.zeros((0, 4)), [])
+    traj = preprocess(demo)
+    assert traj.object_names[-1] == "ghost" and not traj.object_valid[-1].any()
+    assert np.isnan(traj.object_position[-1]).all() and traj.object_valid[0].all()
+    raw = preprocess(demo, filter=False)
+    assert raw.meta["filtered"] is False
+    with pytest.raises(DemonstrationError, match="too short to filter"):
+        preprocess(make_demo(duration_s=0.35, hand_hz=10.0))  # 10 samples on the clock
+    short = preprocess(make_demo(duration_s=0.35, hand_hz=10.0), filter=False)
+    assert len(short) > 0

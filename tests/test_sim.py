@@ -1,0 +1,286 @@
+"""The simulated demonstrator: labels, hand geometry, object physics, the TCP-rise property,
+reproducibility, and rendered depth / markers that agree with the simulated geometry."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco")
+pytest.importorskip("cv2")
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+from lfd.demo import HAND_BONES, INDEX_TIP, THUMB_TIP
+from lfd.errors import DemonstrationError
+from lfd.sim import TASKS, Variability, check_grammar, simulate
+from lfd.sim.tasks import TRANSITIONS
+
+NOISE_FREE = Variability.noise_free()
+
+
+@pytest.fixture(scope="module")
+def exps() -> dict[str, object]:
+    return {
+        t: simulate(t, seed=7, variability=NOISE_FREE) for t in ("exp1", "exp2", "exp3", "exp4")
+    }
+
+
+def _intervals(result, skills):  # type: ignore[no-untyped-def]
+    t = result.truth.t_ns
+    for lab in result.demo.labels:
+        if lab.skill in skills:
+            sel = (t >= lab.start_ns) & (t <= lab.end_ns)
+            yield lab, sel
+
+
+@pytest.mark.parametrize("task", sorted(TASKS))
+def test_labels_follow_task_and_cover_demo(task: str) -> None:
+    res = simulate(task, seed=3)
+    demo = res.demo
+    assert demo.skill_sequence == [s.skill for s in TASKS[task]]
+    check_grammar(demo.skill_sequence)
+    assert demo.labels[0].start_ns == demo.start_ns
+    assert demo.labels[-1].end_ns == demo.end_ns
+    for a, b in zip(demo.labels, demo.labels[1:], strict=False):
+        assert a.end_ns == b.start_ns > a.start_ns
+    assert all(lab.object in demo.objects for lab in demo.labels if lab.skill != "move")
+    # the paper's rates: hand ~5 Hz (on camera frames), objects 30 Hz
+    assert 4.5 < 1e9 / np.median(np.diff(demo.hand.t_ns)) < 6.5
+    assert all(abs(1e9 / np.median(np.diff(o.t_ns)) - 30.0) < 0.01 for o in demo.objects.values())
+
+
+def test_grammar_rejects_bad_sequences() -> None:
+    with pytest.raises(DemonstrationError):
+        check_grammar(["place"])
+    with pytest.raises(DemonstrationError):
+        check_grammar(["pick_up", "move"])
+    assert TRANSITIONS["locate"] == {"move", "pick_up", "push"}
+    with pytest.raises(DemonstrationError, match="unknown task"):
+        simulate("juggle")
+
+
+def test_bone_lengths_constant_and_scaled() -> None:
+    lengths = {}
+    for scale in (0.9, 1.1):
+        res = simulate("exp1", seed=1, variability=Variability.noise_free(hand_scale=scale))
+        kp = res.demo.hand.keypoints
+        bones = np.stack([np.linalg.norm(kp[:, a] - kp[:, b], axis=-1) for a, b in HAND_BONES], 1)
+        assert np.all(bones.std(axis=0) < 1e-9)
+        lengths[scale] = bones.mean(axis=0)
+    np.testing.assert_allclose(lengths[1.1] / lengths[0.9], 1.1 / 0.9, rtol=1e-9)
+    # with sensor noise the bone lengths vary by a few mm, not more
+    noisy = simulate("exp1", seed=1, variability=Variability(noise_mm=2.5, outlier_rate=0.0))
+    kp = noisy.demo.hand.keypoints
+    bones = np.stack([np.linalg.norm(kp[:, a] - kp[:, b], axis=-1) for a, b in HAND_BONES], 1)
+    assert 0.001 < np.median(bones.std(axis=0)) < 0.006
+
+
+def test_grasped_object_moves_with_hand_and_others_rest(exps) -> None:  # type: ignore[no-untyped-def]
+    for res in exps.values():
+        tr = res.truth
+        for lab, sel in _intervals(res, {"move_with"}):
+            p, yaw, tcp = (
+                tr.object_pos[lab.object][sel],
+                tr.object_yaw[lab.object][sel],
+                tr.tcp[sel],
+            )
+            hand_yaw = yaw - yaw[0]
+            d = p - tcp
+            c, s = np.cos(-hand_yaw), np.sin(-hand_yaw)
+            rel = np.stack([c * d[:, 0] - s * d[:, 1], s * d[:, 0] + c * d[:, 1], d[:, 2]], 1)
+            assert np.ptp(rel, axis=0).max() < 1e-9
+            assert np.linalg.norm(p[-1] - p[0]) > 0.05  # it was carried
+        for lab, sel in _intervals(res, {"pick_up", "move", "locate"}):
+            for name, p in tr.object_pos.items():
+                assert np.ptp(p[sel], axis=0).max() < 1e-9, (lab.skill, name)
+        for lab, sel in _intervals(res, {"place", "stack"}):
+            others = [n for n in tr.object_pos if n != lab.object]
+            for name in others:
+                assert np.ptp(tr.object_pos[name][sel], axis=0).max() < 1e-9
+
+
+def test_tcp_rises_only_in_move_and_move_with(exps) -> None:  # type: ignore[no-untyped-def]
+    for res in exps.values():
+        z = res.truth.tcp[:, 2]
+        for lab, sel in _intervals(res, {"move", "move_with"}):
+            assert z[sel].max() - z[sel][0] > 0.02, lab
+        for lab, sel in _intervals(res, {"pick_up", "place", "stack", "push", "locate"}):
+            assert np.diff(z[sel]).max() < 1e-9, lab
+
+
+def test_place_and_stack_put_objects_down(exps) -> None:  # type: ignore[no-untyped-def]
+    for res in exps.values():
+        tr = res.truth
+        sizes = {n: o.size for n, o in res.demo.objects.items()}
+        for lab, sel in _intervals(res, {"place", "stack"}):
+            end = np.flatnonzero(sel)[-1]
+            z = tr.object_pos[lab.object][end, 2]
+            h = sizes[lab.object][2]
+            if lab.skill == "place":
+                assert z == pytest.approx(h / 2, abs=1e-9)
+            else:
+                bases = [
+                    n
+                    for n, p in tr.object_pos.items()
+                    if n != lab.object
+                    and np.linalg.norm(p[end, :2] - tr.object_pos[lab.object][end, :2]) < 0.01
+                ]
+                assert len(bases) == 1
+                onto = {e["stack"]: e["onto"] for e in res.demo.metadata["stacks"]}
+                assert onto[lab.object] == bases[0]
+                top = tr.object_pos[bases[0]][end, 2] + sizes[bases[0]][2] / 2
+                assert z == pytest.approx(top + h / 2, abs=1e-9)
+
+
+def test_fingers_close_to_object_width_on_pick_up(exps) -> None:  # type: ignore[no-untyped-def]
+    res = exps["exp1"]
+    kp = res.truth.keypoints
+    aperture = np.linalg.norm(kp[:, INDEX_TIP] - kp[:, THUMB_TIP], axis=1)
+    for lab, sel in _intervals(res, {"pick_up"}):
+        size = res.demo.objects[lab.object].size
+        ap = aperture[sel]
+        assert ap.max() > max(size[:2]) + 0.02  # opened wider than the object
+        assert min(size[:2]) < ap[-1] < max(size[:2]) + 0.02  # closed on it
+
+
+def test_push_displaces_by_commanded_distance(exps) -> None:  # type: ignore[no-untyped-def]
+    res = exps["exp2"]
+    pushes = res.demo.metadata["pushes"]
+    labels = [lab for lab in res.demo.labels if lab.skill == "push"]
+    assert len(pushes) == len(labels) == 2
+    t = res.truth.t_ns
+    for lab, info in zip(labels, pushes, strict=True):
+        p = res.truth.object_pos[lab.object]
+        i0, i1 = np.searchsorted(t, [lab.start_ns, lab.end_ns])
+        disp = p[min(i1, len(t) - 1)] - p[i0]
+        assert np.linalg.norm(disp) == pytest.approx(info["distance"], abs=1e-6)
+        assert disp[2] == 0.0
+        np.testing.assert_allclose(disp[:2] / np.linalg.norm(disp), info["direction"], atol=1e-5)
+
+
+def test_noise_dropouts_and_metadata() -> None:
+    res = simulate("exp2", seed=5, variability=Variability(dropout=0.05))
+    demo, tr = res.demo, res.truth
+    idx = np.searchsorted(tr.t_ns, demo.hand.t_ns)
+    err = np.linalg.norm(demo.hand.keypoints - tr.keypoints[idx], axis=-1)
+    assert 0.002 < np.median(err) < 0.008
+    vis = np.concatenate([o.visible for o in demo.objects.values()])
+    assert 0.02 < 1 - vis.mean() < 0.15
+    assert np.isnan(demo.objects["box_1"].position[~demo.objects["box_1"].visible]).all()
+    var = demo.metadata["variability"]
+    assert 0.8 <= var["speed"] <= 1.25 and 0.9 <= var["hand_scale"] <= 1.1
+    assert demo.metadata["task"] == "exp2" and demo.metadata["seed"] == 5
+
+
+def test_seeds_reproducible(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    a, b, c = (simulate("exp3", seed=s) for s in (11, 11, 12))
+    np.testing.assert_array_equal(a.demo.hand.keypoints, b.demo.hand.keypoints)
+    np.testing.assert_array_equal(a.demo.hand.t_ns, b.demo.hand.t_ns)
+    for name in a.demo.objects:
+        np.testing.assert_array_equal(a.demo.objects[name].position, b.demo.objects[name].position)
+    assert a.demo.hand.keypoints.shape != c.demo.hand.keypoints.shape or not np.allclose(
+        a.demo.hand.keypoints, c.demo.hand.keypoints
+    )
+    from lfd import io
+
+    paths = [tmp_path / "a.mcap", tmp_path / "b.mcap"]
+    for res, path in zip((a, b), paths, strict=True):
+        io.save(res.demo, path)
+    assert paths[0].read_bytes() == paths[1].read_bytes()
+    back = io.load(paths[0])
+    assert back.skill_sequence == a.demo.skill_sequence
+
+
+def test_variability_validation() -> None:
+    with pytest.raises(ValueError):
+        Variability(speed=0.0).resolve(np.random.default_rng(0))
+    with pytest.raises(ValueError):
+        Variability(dropout=float("nan")).resolve(np.random.default_rng(0))
+    # fixing one parameter leaves the other draws unchanged
+    a = Variability().resolve(np.random.default_rng(4))
+    b = Variability(speed=1.0).resolve(np.random.default_rng(4))
+    assert a.hand_scale == b.hand_scale and b.speed == 1.0
+
+
+def test_rendered_depth_and_markers_match_geometry() -> None:
+    import cv2
+    from lfd.sim.render import render_frames
+
+    res = simulate("push", seed=2, variability=NOISE_FREE)
+    last = len(res.truth.t_ns) - 1
+    color, depth = render_frames(res.scene, res.truth, np.array([last]))
+    assert depth is not None and color.frames.shape == (1, 480, 640, 3)
+    cam = res.demo.camera
+    assert cam is not None
+    T_cw = np.linalg.inv(cam.world_T_camera)
+    for name, obj in res.demo.objects.items():
+        top = res.truth.object_pos[name][last] + np.array([0.0, 0.0, obj.size[2] / 2])
+        pc = T_cw[:3, :3] @ top + T_cw[:3, 3]
+        u, v = (cam.K @ pc)[:2] / pc[2]
+        d_mm = depth.frames[0][round(v), round(u)]
+        assert abs(d_mm - pc[2] * 1000.0) <= 2.0, name
+    gray = cv2.cvtColor(color.frames[0], cv2.COLOR_RGB2GRAY)
+    dictionary = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_4X4_50)
+    corners, ids, _ = cv2.aruco.ArucoDetector(
+        dictionary, cv2.aruco.DetectorParameters()
+    ).detectMarkers(gray)
+    assert ids is not None
+    found = set(ids.ravel().tolist())
+    assert 0 in found
+    assert found >= {o.tag_id for o in res.demo.objects.values()}
+    # the reference marker's pose from the image agrees with the world origin
+    k = list(ids.ravel()).index(0)
+    s = 0.10
+    objp = np.array(
+        [[-s / 2, s / 2, 0], [s / 2, s / 2, 0], [s / 2, -s / 2, 0], [-s / 2, -s / 2, 0]]
+    )
+    ok, _, tvec = cv2.solvePnP(
+        objp, corners[k].reshape(4, 2), cam.K, None, flags=cv2.SOLVEPNP_IPPE_SQUARE
+    )
+    assert ok
+    np.testing.assert_allclose(tvec.ravel(), T_cw[:3, 3], atol=0.02)
+
+
+def test_cli_simulate_writes_a_readable_recording(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    import lfd
+    from lfd.cli import main
+
+    out = tmp_path / "push.mcap"
+    assert main(["simulate", "push", "--seed", "4", "-o", str(out), "--speed", "1.1"]) == 0
+    demo = lfd.load(out)
+    assert demo.skill_sequence == ["push", "move"]
+    assert demo.metadata["variability"]["speed"] == 1.1
+    assert demo.metadata["target_skill"] == "push"
+    assert main(["simulate", "-o", str(out)]) == 2  # no task
+    assert main(["simulate", "push", "-o", str(out), "--dropout", "-1"]) == 2
+
+
+def test_cropped_rendered_sample(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    import lfd
+    from lfd.cli.simulate import record
+
+    out = tmp_path / "short.mcap"
+    record("exp1", 1, out, render_rate=2.0, duration=1.5)
+    demo = lfd.load(out)
+    assert demo.duration_s <= 1.5 + 1e-9
+    assert demo.color is not None and demo.depth is not None
+    assert demo.color.frames.shape[1:] == (480, 640, 3) and demo.depth.frames.dtype.name == "uint16"
+    assert len(demo.color) == 4  # 0, 0.5, 1.0, 1.5 s
+    assert demo.labels[-1].end_ns == demo.end_ns
+
+
+def test_hand_stays_above_table_and_out_of_boxes(exps) -> None:  # type: ignore[no-untyped-def]
+    for res in exps.values():
+        kp = res.truth.keypoints
+        assert kp[..., 2].min() > 0.005  # keypoint centres above the table (capsules ~7 mm)
+        for name, obj in res.demo.objects.items():
+            p, yaw = res.truth.object_pos[name], res.truth.object_yaw[name]
+            d = kp - p[:, None, :]
+            c, s = np.cos(-yaw)[:, None], np.sin(-yaw)[:, None]
+            local = np.stack(
+                [c * d[..., 0] - s * d[..., 1], s * d[..., 0] + c * d[..., 1], d[..., 2]], -1
+            )
+            inside = np.min(obj.size / 2 - np.abs(local), axis=-1)
+            assert inside.max() < 0.002, name  # no keypoint more than 2 mm inside a box
