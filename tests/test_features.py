@@ -141,20 +141,51 @@ def test_targets_follow_object_motion() -> None:
     assert f.column("object_proximity")[carry] == pytest.approx(0.0, abs=1e-12)
 
 
-def test_targets_without_motion_follow_approaches() -> None:
-    t = np.arange(161) * 0.05
+def waypoints(t: np.ndarray, points: list[tuple[float, list[float]]]) -> np.ndarray:
+    """Piecewise-linear path through ``(time, position)`` points, shape (n, 3)."""
+    times = [p[0] for p in points]
+    return np.stack([np.interp(t, times, [p[1][c] for p in points]) for c in range(3)], axis=1)
+
+
+def test_targets_without_motion_follow_dwells_and_approaches() -> None:
+    t = np.arange(181) * 0.05
     a, b = [0.3, 0.0, 0.025], [0.6, 0.2, 0.025]
-    tcp = np.select(
-        [t[:, None] < 2, t[:, None] < 5],
+    hover_a, hover_b = [0.3, 0.0, 0.08], [0.6, 0.2, 0.08]
+    objects = np.stack([np.tile(a, (181, 1)), np.tile(b, (181, 1))])
+    # Locate A (pause 2-3 s), locate B (pause 5-6 s), retreat upwards.
+    tcp = waypoints(
+        t,
         [
-            lerp([0, 0, 0.3], [0.3, 0.0, 0.08], t / 2),
-            lerp([0.3, 0, 0.08], [0.6, 0.2, 0.08], (t - 2) / 3),
+            (0, [0, 0, 0.3]),
+            (2, hover_a),
+            (3, hover_a),
+            (5, hover_b),
+            (6, hover_b),
+            (9, [0.6, 0.2, 0.4]),
         ],
-        lerp([0.6, 0.2, 0.08], [0.6, 0.2, 0.4], (t - 5) / 3),
     )
-    objects = np.stack([np.tile(a, (161, 1)), np.tile(b, (161, 1))])
     lab = label_targets(make_traj(tcp, objects))
+    assert np.all(lab[:61] == 0) and np.all(lab[61:] == 1), lab
+    # Without dwells, the next approach (minimum of the clearance) decides.
+    tcp = waypoints(t, [(0, [0, 0, 0.3]), (2, hover_a), (5, hover_b), (8, [0.6, 0.2, 0.4])])
+    lab = label_targets(make_traj(tcp, objects), params={"dwell_speed": 0.0})
     assert np.all(lab[:41] == 0) and np.all(lab[41:] == 1), lab
+
+
+def test_a_dwell_before_another_object_is_picked_targets_it() -> None:
+    t = np.arange(161) * 0.05
+    a, b, a_end = [0.3, 0.0, 0.025], [0.6, 0.2, 0.025], [0.3, -0.3, 0.025]
+    hover_b = [0.6, 0.2, 0.13]
+    tcp = waypoints(t, [(0, [0.4, 0.4, 0.3]), (1, hover_b), (2, hover_b), (4, a), (6, a_end)])
+    objects = np.stack([waypoints(t, [(0, a), (4, a), (6, a_end)]), np.tile(b, (161, 1))])
+    lab = label_targets(make_traj(tcp, objects))
+    assert np.all(lab[:41] == 1) and np.all(lab[41:] == 0), lab
+    # A fast pass near B on the way to A is no dwell.
+    tcp = waypoints(
+        t, [(0, [0.9, 0, 0.1]), (0.6, [0.6, 0, 0.1]), (1.2, [0.3, 0, 0.1]), (4, a), (6, a_end)]
+    )
+    objects[1] = np.tile([0.6, 0.0, 0.025], (161, 1))
+    assert np.all(label_targets(make_traj(tcp, objects)) == 0)
 
 
 def _transform(traj: Trajectory, yaw: float, shift: np.ndarray) -> Trajectory:
@@ -270,3 +301,27 @@ def test_end_to_end_on_a_preprocessed_demonstration() -> None:
     np.testing.assert_allclose(
         f.column("hand_velocity"), np.linalg.norm(np.gradient(traj.tcp, traj.t_s, axis=0), axis=1)
     )
+
+
+@pytest.mark.parametrize("name", ["exp2.mcap", "exp3.mcap"])
+def test_targets_agree_with_ground_truth_on_sample_recordings(name: str) -> None:
+    from pathlib import Path
+
+    import lfd
+    from lfd.preprocess import preprocess
+
+    path = Path(__file__).resolve().parents[1] / "recordings" / name
+    if not path.exists():
+        pytest.skip(f"{path} not shipped")
+    demo = lfd.load(path)
+    traj = preprocess(demo)
+    lab = label_targets(traj)
+    hits = total = 0
+    for skill in demo.labels:
+        if skill.object is None:
+            continue
+        sel = (traj.t_ns >= skill.start_ns) & (traj.t_ns < skill.end_ns)
+        hits += int(np.sum(lab[sel] == traj.object_names.index(skill.object)))
+        total += int(sel.sum())
+    assert total > 0.8 * len(traj)
+    assert hits / total > 0.95  # measured: 0.992 (exp2, push/pick/place), 0.968 (exp3, locate)

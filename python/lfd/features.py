@@ -103,8 +103,14 @@ class FeatureParams:
     min_motion_s : float
         Object motions shorter than this (seconds) are ignored as noise.
     approach_margin : float
-        Hysteresis (metres) of the approach minima used to label targets after the last
-        object motion.
+        Hysteresis (metres) of the approaches (minima of the hand's clearance from the nearest
+        object) used in target labelling.
+    approach_radius : float
+        The hand *dwells* near an object (e.g. locate) where its clearance ``|TCP - p| - d / 2``
+        from the nearest object is at most this (metres) ...
+    dwell_speed : float
+        ... and it is slower than this (m/s). Fast passes near other objects on the way to the
+        target are not dwells.
     lone_object_distance : float
         ``object_distance`` of a scene with a single object, metres.
     """
@@ -114,6 +120,8 @@ class FeatureParams:
     size_measure: SizeMeasure = "max_horizontal"
     min_motion_s: float = 0.1
     approach_margin: float = 0.05
+    approach_radius: float = 0.15
+    dwell_speed: float = 0.1
     lone_object_distance: float = 1.0
 
     def to_dict(self) -> dict[str, Any]:
@@ -322,12 +330,18 @@ def label_targets(
 ) -> np.ndarray:
     """Label every sample with its target object (paper Sec. III-B.3).
 
-    The target of a sample is, by the first rule that applies: the object moving at that time
-    (speed above ``v_th`` for at least ``min_motion_s``; if several move, the one nearest the
-    hand); the object whose motion just ended while the hand stays within its proximity zone
-    (``|TCP - p| <= d / 2 + gamma``); the object that next starts moving; after the last
-    motion, the object nearest the hand at the next approach (minimum of the hand's clearance
-    ``|TCP - p| - d / 2``, with hysteresis ``approach_margin``).
+    The target of a sample is, by the first rule that applies:
+
+    1. the object moving at that time (speed above ``v_th`` for at least ``min_motion_s``; if
+       several move, the one nearest the hand);
+    2. the object whose motion just ended, while the hand stays within its proximity zone
+       (``|TCP - p| <= d / 2 + gamma``: the release after a place);
+    3. the object of the next event: an object starting to move, or a *dwell* — the hand
+       slower than ``dwell_speed`` with a clearance ``|TCP - p| - d / 2`` of at most
+       ``approach_radius`` from the nearest object (e.g. locate);
+    4. after the last event, the object nearest the hand at the next approach (minimum of the
+       clearance, with hysteresis ``approach_margin``), and after the last approach that
+       approach's object.
 
     Parameters
     ----------

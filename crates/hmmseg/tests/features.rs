@@ -153,22 +153,105 @@ fn targets_follow_object_motion() {
 
 #[test]
 fn targets_without_motion_follow_approaches() {
-    // Locate A (closest at 2 s), then locate B (closest at 5 s), then retreat towards A's side.
-    let dt = 0.05;
-    let n = 161;
+    // Locate A (hover above it 2-3 s), then locate B (5-6 s), then retreat upwards.
+    let n = 181;
     let (a, b) = ([0.3, 0.0, 0.025], [0.6, 0.2, 0.025]);
-    let hover = |p: [f64; 3]| [p[0], p[1], 0.08];
-    let tcp = move |s: f64| match s {
-        s if s < 2.0 => lerp([0.0, 0.0, 0.3], hover(a), s / 2.0),
-        s if s < 5.0 => lerp(hover(a), hover(b), (s - 2.0) / 3.0),
-        s => lerp(hover(b), [0.6, 0.2, 0.4], (s - 5.0) / 3.0),
-    };
-    let tcp = track(n, |t| tcp(t as f64 * dt));
+    let (hover_a, hover_b) = ([0.3, 0.0, 0.08], [0.6, 0.2, 0.08]);
+    let tcp = path(
+        n,
+        &[
+            (0.0, [0.0, 0.0, 0.3]),
+            (2.0, hover_a),
+            (3.0, hover_a),
+            (5.0, hover_b),
+            (6.0, hover_b),
+            (9.0, [0.6, 0.2, 0.4]),
+        ],
+    );
     let pos = vec![track(n, |_| a), track(n, |_| b)];
     let sizes = DMatrix::from_row_slice(2, 3, &[0.05; 6]);
-    let lab = label_targets(&tcp, &pos, &sizes, dt, &FeatureParams::default()).unwrap();
+    let lab = label_targets(&tcp, &pos, &sizes, 0.05, &FeatureParams::default()).unwrap();
+    assert!(lab[..=40].iter().all(|&o| o == A), "{lab:?}");
+    assert!(lab[61..].iter().all(|&o| o == B), "{lab:?}");
+    // Without pauses there are no dwells: every approach counts (rule 4).
+    let tcp = path(
+        n,
+        &[
+            (0.0, [0.0, 0.0, 0.3]),
+            (2.0, hover_a),
+            (5.0, hover_b),
+            (8.0, [0.6, 0.2, 0.4]),
+        ],
+    );
+    let p = FeatureParams {
+        dwell_speed: 0.0,
+        ..FeatureParams::default()
+    };
+    let lab = label_targets(&tcp, &pos, &sizes, 0.05, &p).unwrap();
     assert!(lab[..=40].iter().all(|&o| o == A), "{lab:?}");
     assert!(lab[41..].iter().all(|&o| o == B), "{lab:?}");
+}
+
+/// Hand path through `waypoints` `(time, position)` (linear between them), at dt = 0.05 s.
+fn path(n: usize, waypoints: &[(f64, [f64; 3])]) -> DMatrix<f64> {
+    track(n, |t| {
+        let s = t as f64 * 0.05;
+        let k = waypoints.iter().rposition(|w| w.0 <= s).unwrap_or(0);
+        match waypoints.get(k + 1) {
+            Some(&(t1, p1)) => lerp(
+                waypoints[k].1,
+                p1,
+                (s - waypoints[k].0) / (t1 - waypoints[k].0),
+            ),
+            None => waypoints[k].1,
+        }
+    })
+}
+
+#[test]
+fn a_dwell_near_an_object_before_another_is_picked_targets_it() {
+    // Locate B (hover 8 cm above it, pause 1-2 s), then reach A (3-4 s) and carry it (4-6 s).
+    let n = 161;
+    let (a, b) = ([0.3, 0.0, 0.025], [0.6, 0.2, 0.025]);
+    let hover_b = [0.6, 0.2, 0.13];
+    let tcp = path(
+        n,
+        &[
+            (0.0, [0.4, 0.4, 0.3]),
+            (1.0, hover_b),
+            (2.0, hover_b),
+            (4.0, a),
+            (6.0, [0.3, -0.3, 0.025]),
+        ],
+    );
+    let pos_a = path(n, &[(0.0, a), (4.0, a), (6.0, [0.3, -0.3, 0.025])]);
+    let pos = vec![pos_a, track(n, |_| b)];
+    let sizes = DMatrix::from_row_slice(2, 3, &[0.05; 6]);
+    let lab = label_targets(&tcp, &pos, &sizes, 0.05, &FeatureParams::default()).unwrap();
+    assert!(lab[..=40].iter().all(|&o| o == B), "{lab:?}");
+    assert!(lab[41..].iter().all(|&o| o == A), "{lab:?}");
+}
+
+#[test]
+fn a_fast_pass_near_another_object_is_not_a_dwell() {
+    // On the way to A the hand sweeps past B at 0.5 m/s, 5 cm above it.
+    let n = 121;
+    let (a, b) = ([0.3, 0.0, 0.025], [0.6, 0.0, 0.025]);
+    let tcp = path(
+        n,
+        &[
+            (0.0, [0.9, 0.0, 0.1]),
+            (0.6, [0.6, 0.0, 0.1]),
+            (1.2, [0.3, 0.0, 0.1]),
+            (3.0, a),
+            (5.0, [0.3, -0.3, 0.025]),
+        ],
+    );
+    let pos_a = path(n, &[(0.0, a), (3.0, a), (5.0, [0.3, -0.3, 0.025])]);
+    let pos = vec![pos_a, track(n, |_| b)];
+    let sizes = DMatrix::from_row_slice(2, 3, &[0.05; 6]);
+    let lab = label_targets(&tcp, &pos, &sizes, 0.05, &FeatureParams::default()).unwrap();
+    assert!(lab.iter().all(|&o| o == A), "{lab:?}");
 }
 
 #[test]

@@ -9,6 +9,7 @@ labels. MuJoCo and OpenCV (the ``sim`` extra) are needed.
 
 from __future__ import annotations
 
+from .. import _gl  # noqa: F401  (selects the headless GL backend before mujoco loads)
 from .demonstrator import SIM_VERSION, SimResult, Truth, simulate
 from .scene import DEFAULT_OBJECTS, CameraSpec, ObjectSpec, Scene, build_scene
 from .tasks import EXPERIMENTS, TASKS, TEMPLATE_TASKS, TRANSITIONS, check_grammar

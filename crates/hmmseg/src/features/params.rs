@@ -51,10 +51,14 @@ pub struct FeatureParams {
     /// Object motions (speed above `v_th`) shorter than this are ignored as noise when labelling
     /// targets and when finding an object's resting height (default 0.1 s).
     pub min_motion_s: f64,
-    /// After the last object motion, the target is the object nearest to the TCP at the next
-    /// approach: the first minimum of the nearest-object distance after which that distance
-    /// rises by more than this margin (default 0.05 m).
+    /// Hysteresis of the approaches used in target labelling: minima of the hand's clearance
+    /// from the nearest object must be flanked by changes of more than this (default 0.05 m).
     pub approach_margin: f64,
+    /// The hand dwells near an object (e.g. locate) where its clearance `|TCP - p| - d / 2`
+    /// from the nearest object is at most this (default 0.15 m)...
+    pub approach_radius: f64,
+    /// ... and it is slower than this (default 0.1 m/s).
+    pub dwell_speed: f64,
     /// The object-distance feature of a scene with a single object, where no other object
     /// exists (default 1.0 m: "far away", keeps the feature finite).
     pub lone_object_distance: f64,
@@ -68,6 +72,8 @@ impl Default for FeatureParams {
             size_measure: SizeMeasure::MaxHorizontal,
             min_motion_s: 0.1,
             approach_margin: 0.05,
+            approach_radius: 0.15,
+            dwell_speed: 0.1,
             lone_object_distance: 1.0,
         }
     }
