@@ -72,7 +72,7 @@ def engine_stage2(templates, demo: dict) -> list[tuple[int, int, int]]:
         templates.engine.score_table(x, demo["bounds"], max_len, "final") for x in demo["objects"]
     ]
     scores = np.ascontiguousarray(np.max(tables, axis=0))
-    rising = _hmmseg.rising_table(demo["z"], demo["bounds"], 0.01, 0.0)
+    rising = _hmmseg.rising_table(demo["z"], demo["bounds"], 0.02, 0.0)
     segs, _ = _hmmseg.segment_greedy(
         scores, demo["bounds"], templates.skills, grammar_json(), rising, "warn"
     )
@@ -150,7 +150,7 @@ def reference_stage2(templates, models, demo: dict) -> list[tuple[int, int, int]
         for j in range(i + 1, k + 1):
             seg = z[b[i] : b[j]]
             drawup = float(np.max(seg - np.minimum.accumulate(seg)))
-            ok = rising_skill == (drawup >= 0.01)
+            ok = rising_skill == (drawup >= 0.02)
             v = np.where(ok, best[i, j] / (b[j] - b[i]), -np.inf)
             s = int(np.argmax(v))
             if np.isfinite(v[s]) and (pick is None or v[s] > pick[0]):

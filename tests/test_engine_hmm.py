@@ -119,6 +119,23 @@ def test_viterbi_and_posteriors_match_hmmlearn(shape: dict, full: bool) -> None:
     np.testing.assert_allclose(post.sum(axis=1), 1.0, atol=1e-12)
 
 
+def test_left_right_score_matches_hmmlearn() -> None:
+    rng = np.random.default_rng(4)
+    n, f = 5, 2
+    trans = np.zeros((n, n))
+    for i in range(n - 1):
+        trans[i, i] = 0.5 + 0.45 * rng.random()
+        trans[i, i + 1] = 1.0 - trans[i, i]
+    trans[-1, -1] = 1.0
+    p = {"startprob": np.eye(n)[0], "transmat": trans}
+    p["means"] = rng.normal(size=(n, f))
+    p["covars"] = 0.3 + rng.random((n, f))
+    ours, theirs = _ours(p, False), _theirs(p, False)
+    for x in _data(4, f, (1, 30, 200)):
+        assert ours.score(x) == pytest.approx(theirs.score(x), rel=1e-9)
+        assert ours.prefix_scores(x)[-1] == pytest.approx(theirs.score(x), rel=1e-9)
+
+
 def test_prefix_scores_equal_scoring_each_prefix() -> None:
     p = _params(3, n=4, f=2, m=2)
     ours = _ours(p, False)

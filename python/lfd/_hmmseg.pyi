@@ -7,6 +7,43 @@ from numpy.typing import NDArray
 
 __version__: str
 
+# --- DTW and normalisation (crates/hmmseg-py/src/dtw.rs) --------------------------------------
+def dtw(
+    a: NDArray[np.float64], b: NDArray[np.float64], band: int | None = None
+) -> tuple[float, NDArray[np.int64]]: ...
+def dtw_distance(
+    a: NDArray[np.float64], b: NDArray[np.float64], band: int | None = None
+) -> float: ...
+def align_to_reference(
+    reference: NDArray[np.float64], seqs: list[NDArray[np.float64]], band: int | None = None
+) -> list[NDArray[np.float64]]: ...
+def minmax(x: NDArray[np.float64]) -> NDArray[np.float64]: ...
+def minmax_with(
+    x: NDArray[np.float64], lo: NDArray[np.float64], hi: NDArray[np.float64]
+) -> NDArray[np.float64]: ...
+
+# --- Table I features (crates/hmmseg-py/src/features.rs) ---------------------------------------
+def compute_features(
+    tcp: NDArray[np.float64],
+    opening: NDArray[np.float64],
+    object_position: NDArray[np.float64],
+    object_quaternion: NDArray[np.float64],
+    object_size: NDArray[np.float64],
+    dt: float,
+    target: NDArray[np.int64] | None = None,
+    params_json: str | None = None,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]: ...
+def label_targets(
+    tcp: NDArray[np.float64],
+    object_position: NDArray[np.float64],
+    object_size: NDArray[np.float64],
+    dt: float,
+    params_json: str | None = None,
+) -> NDArray[np.int64]: ...
+def feature_names() -> list[str]: ...
+def default_feature_params() -> str: ...
+def check_feature_params(params_json: str) -> str: ...
+
 # --- continuous HMM (crates/hmmseg-py/src/hmm.rs) ----------------------------------------------
 _F64 = NDArray[np.float64]
 
@@ -72,43 +109,6 @@ class Hmm:
     @property
     def covars(self) -> _F64: ...
     def __eq__(self, value: object, /) -> bool: ...
-
-# --- DTW and normalisation (crates/hmmseg-py/src/dtw.rs) --------------------------------------
-def dtw(
-    a: NDArray[np.float64], b: NDArray[np.float64], band: int | None = None
-) -> tuple[float, NDArray[np.int64]]: ...
-def dtw_distance(
-    a: NDArray[np.float64], b: NDArray[np.float64], band: int | None = None
-) -> float: ...
-def align_to_reference(
-    reference: NDArray[np.float64], seqs: list[NDArray[np.float64]], band: int | None = None
-) -> list[NDArray[np.float64]]: ...
-def minmax(x: NDArray[np.float64]) -> NDArray[np.float64]: ...
-def minmax_with(
-    x: NDArray[np.float64], lo: NDArray[np.float64], hi: NDArray[np.float64]
-) -> NDArray[np.float64]: ...
-
-# --- Table I features (crates/hmmseg-py/src/features.rs) ---------------------------------------
-def compute_features(
-    tcp: NDArray[np.float64],
-    opening: NDArray[np.float64],
-    object_position: NDArray[np.float64],
-    object_quaternion: NDArray[np.float64],
-    object_size: NDArray[np.float64],
-    dt: float,
-    target: NDArray[np.int64] | None = None,
-    params_json: str | None = None,
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]: ...
-def label_targets(
-    tcp: NDArray[np.float64],
-    object_position: NDArray[np.float64],
-    object_size: NDArray[np.float64],
-    dt: float,
-    params_json: str | None = None,
-) -> NDArray[np.int64]: ...
-def feature_names() -> list[str]: ...
-def default_feature_params() -> str: ...
-def check_feature_params(params_json: str) -> str: ...
 
 # --- segmentation: stage 1, stage 2, templates (crates/hmmseg-py/src/segment.rs) -------------
 _SegmentTuple = tuple[int, int, int, int, int, float, float]

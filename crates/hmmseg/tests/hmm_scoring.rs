@@ -97,3 +97,44 @@ fn sampling_is_deterministic_and_respects_topology() {
     assert_eq!(sa[0], 0);
     assert!(sa.windows(2).all(|w| w[1] == w[0] || w[1] == w[0] + 1));
 }
+
+#[test]
+fn underflow_falls_back_to_log_space_through_the_public_api() {
+    // Left-right, no way out of state 0; state 1 explains the middle sample far better, so
+    // the scaled recursion underflows and the log-space recursion must take over.
+    let model = Hmm::from_params(
+        DVector::from_vec(vec![1.0, 0.0]),
+        DMatrix::from_row_slice(2, 2, &[1.0, 0.0, 0.0, 1.0]),
+        DMatrix::from_element(2, 1, 1.0),
+        vec![
+            DMatrix::from_element(1, 1, 0.0),
+            DMatrix::from_element(1, 1, 100.0),
+        ],
+        vec![
+            vec![DMatrix::from_element(1, 1, 1.0)],
+            vec![DMatrix::from_element(1, 1, 1.0)],
+        ],
+        CovarianceType::Diag,
+    )
+    .unwrap();
+    let x = DMatrix::from_column_slice(3, 1, &[0.0, 100.0, 0.5]);
+    let ln_n = |v: f64| -0.5 * (2.0 * std::f64::consts::PI).ln() - 0.5 * v * v;
+    let want = ln_n(0.0) + ln_n(100.0) + ln_n(0.5);
+    assert!(close(model.log_likelihood(&x).unwrap(), want, 1e-12));
+    assert!(close(
+        model.log_likelihood_many(std::slice::from_ref(&x)).unwrap()[0],
+        want,
+        1e-12
+    ));
+    assert!(close(
+        model.prefix_log_likelihoods(&x).unwrap()[2],
+        want,
+        1e-12
+    ));
+    assert_eq!(model.viterbi(&x).unwrap().1, vec![0, 0, 0]);
+    // Nine states take the general (non-fixed-size) path; it must agree with a small model.
+    let big = hmm_common::random_model(9, 1, 2, CovarianceType::Diag, true, 5);
+    let xb = big.sample(50, 3).unwrap().0;
+    let prefix = big.prefix_log_likelihoods(&xb).unwrap();
+    assert!(close(big.log_likelihood(&xb).unwrap(), prefix[49], 1e-12));
+}

@@ -60,7 +60,7 @@ class SegmentParams:
     stage1: Stage1Params = field(default_factory=Stage1Params)
     feature_cutoff_hz: float = 2.0
     end: Literal["final", "any"] = "final"
-    min_rise: float = 0.01
+    min_rise: float = 0.02
     dominance: float = 0.0
     max_segment_s: float = 10.0
     penalty: float = 10.0

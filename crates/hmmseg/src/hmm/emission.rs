@@ -85,14 +85,21 @@ impl Emission {
     pub fn component_log_probs(&self, x: &DMatrix<f64>, comp: &mut Vec<f64>) {
         let t_len = x.nrows();
         let f = self.n_features;
-        comp.clear();
-        comp.resize(self.n_components() * t_len, 0.0);
         let data = x.as_slice(); // column-major: feature `d` is data[d*T .. (d+1)*T]
         match self.covariance {
             CovarianceType::Diag => {
-                for (k, out) in comp.chunks_exact_mut(t_len).enumerate() {
-                    out.fill(self.log_weights[k] + self.log_norm[k]);
-                    for d in 0..f {
+                // Written in place without a zero-fill first: the first feature initialises.
+                comp.clear();
+                for k in 0..self.n_components() {
+                    let c0 = self.log_weights[k] + self.log_norm[k];
+                    let start = comp.len();
+                    let (mu, half_iv) = (self.means[k * f], 0.5 * self.precision[k * f]);
+                    comp.extend(data[..t_len].iter().map(|&v| {
+                        let z = v - mu;
+                        c0 - half_iv * z * z
+                    }));
+                    let out = &mut comp[start..];
+                    for d in 1..f {
                         let mu = self.means[k * f + d];
                         let half_iv = 0.5 * self.precision[k * f + d];
                         let col = &data[d * t_len..(d + 1) * t_len];
@@ -104,6 +111,8 @@ impl Emission {
                 }
             }
             CovarianceType::Full => {
+                comp.clear();
+                comp.resize(self.n_components() * t_len, 0.0);
                 let mut diff = vec![0.0; f];
                 for (k, out) in comp.chunks_exact_mut(t_len).enumerate() {
                     let c0 = self.log_weights[k] + self.log_norm[k];
@@ -131,9 +140,9 @@ impl Emission {
     pub fn log_emissions(&self, x: &DMatrix<f64>, comp: &mut Vec<f64>, logb: &mut Vec<f64>) {
         let t_len = x.nrows();
         let (n, m_count) = (self.n_states, self.n_mix);
-        self.component_log_probs(x, comp);
         logb.clear();
         logb.resize(t_len * n, 0.0);
+        self.component_log_probs(x, comp);
         if m_count == 1 {
             for (j, col) in comp.chunks_exact(t_len).enumerate() {
                 for (t, &v) in col.iter().enumerate() {
@@ -158,6 +167,44 @@ impl Emission {
                     hi + s.ln()
                 };
                 logb[t * n + j] = v;
+            }
+        }
+    }
+
+    /// State-major emission table: `sm[j * T + t] = ln p(x_t | state j)`. With one
+    /// component per state this is `comp` itself (moved, not copied).
+    pub fn log_emissions_state_major(
+        &self,
+        x: &DMatrix<f64>,
+        comp: &mut Vec<f64>,
+        sm: &mut Vec<f64>,
+    ) {
+        let t_len = x.nrows();
+        let m_count = self.n_mix;
+        self.component_log_probs(x, comp);
+        if m_count == 1 {
+            std::mem::swap(comp, sm);
+            return;
+        }
+        sm.clear();
+        sm.resize(self.n_states * t_len, f64::NEG_INFINITY);
+        for (j, out) in sm.chunks_exact_mut(t_len).enumerate() {
+            let block = &comp[j * m_count * t_len..(j + 1) * m_count * t_len];
+            for col in block.chunks_exact(t_len) {
+                for (o, &v) in out.iter_mut().zip(col) {
+                    *o = o.max(v);
+                }
+            }
+            let mut acc = vec![0.0; t_len];
+            for col in block.chunks_exact(t_len) {
+                for ((a, &v), &hi) in acc.iter_mut().zip(col).zip(out.iter()) {
+                    *a += super::fastexp::exp_nonpos(v - hi);
+                }
+            }
+            for (o, a) in out.iter_mut().zip(&acc) {
+                if o.is_finite() {
+                    *o += a.ln();
+                }
             }
         }
     }

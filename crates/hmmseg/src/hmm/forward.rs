@@ -7,6 +7,7 @@
 //! overflows, the sequence is redone in log space, which cannot underflow.
 
 use super::emission::logsumexp;
+use super::fastexp::exp_nonpos;
 
 /// The Markov chain of a model: start and transition probabilities and their logs.
 #[derive(Clone, Debug, PartialEq)]
@@ -17,19 +18,60 @@ pub(crate) struct Chain {
     pub trans: Vec<f64>,
     pub log_start: Vec<f64>,
     pub log_trans: Vec<f64>,
+    /// Non-zero transitions by target (left-right models have ~2n instead of n^2):
+    /// the predecessors of `j` are `pred_from[pred_start[j]..pred_start[j + 1]]`.
+    pred_start: Vec<usize>,
+    pred_from: Vec<usize>,
+    pred_p: Vec<f64>,
+    pred_logp: Vec<f64>,
 }
 
 impl Chain {
     pub fn new(start: Vec<f64>, trans: Vec<f64>) -> Self {
+        let n = start.len();
         let log_start = start.iter().map(|p| p.ln()).collect();
         let log_trans = trans.iter().map(|p| p.ln()).collect();
+        let mut pred_start = vec![0];
+        let (mut pred_from, mut pred_p, mut pred_logp) = (Vec::new(), Vec::new(), Vec::new());
+        for j in 0..n {
+            for i in 0..n {
+                let p = trans[i * n + j];
+                if p != 0.0 {
+                    pred_from.push(i);
+                    pred_p.push(p);
+                    pred_logp.push(p.ln());
+                }
+            }
+            pred_start.push(pred_from.len());
+        }
         Self {
-            n: start.len(),
+            n,
             start,
             trans,
             log_start,
             log_trans,
+            pred_start,
+            pred_from,
+            pred_p,
+            pred_logp,
         }
+    }
+
+    /// True if only `i -> i` and `i -> i + 1` transitions are non-zero.
+    pub fn is_left_right(&self) -> bool {
+        let n = self.n;
+        (0..n).all(|i| (0..n).all(|j| j == i || j == i + 1 || self.trans[i * n + j] == 0.0))
+    }
+
+    /// `(from, P(j | from), ln P(j | from))` of the non-zero transitions into `j`.
+    #[inline]
+    fn preds(&self, j: usize) -> (&[usize], &[f64], &[f64]) {
+        let r = self.pred_start[j]..self.pred_start[j + 1];
+        (
+            &self.pred_from[r.clone()],
+            &self.pred_p[r.clone()],
+            &self.pred_logp[r],
+        )
     }
 }
 
@@ -67,27 +109,24 @@ fn scale_rows(logb: &[f64], n: usize, b: &mut Vec<f64>, shift: &mut Vec<f64>) ->
         }
         *s = hi;
         for (o, &v) in out.iter_mut().zip(row) {
-            *o = (v - hi).exp();
+            *o = v - hi;
         }
+    }
+    // One flat pass, so the branch-free exp vectorises.
+    for v in b.iter_mut() {
+        *v = exp_nonpos(*v);
     }
     true
 }
 
 /// One scaled forward step: `next_j = b_j * sum_i prev_i A_ij`; returns the sum of `next`.
 #[inline]
-fn step(prev: &[f64], trans: &[f64], b: &[f64], next: &mut [f64]) -> f64 {
-    let n = next.len();
-    next.fill(0.0);
-    for (i, &a) in prev.iter().enumerate() {
-        if a != 0.0 {
-            for (nx, &p) in next.iter_mut().zip(&trans[i * n..(i + 1) * n]) {
-                *nx += a * p;
-            }
-        }
-    }
+fn step(prev: &[f64], chain: &Chain, b: &[f64], next: &mut [f64]) -> f64 {
     let mut sum = 0.0;
-    for (nx, &bj) in next.iter_mut().zip(b) {
-        *nx *= bj;
+    for (j, (nx, &bj)) in next.iter_mut().zip(b).enumerate() {
+        let (from, p, _) = chain.preds(j);
+        let acc: f64 = from.iter().zip(p).map(|(&i, &a)| prev[i] * a).sum();
+        *nx = acc * bj;
         sum += *nx;
     }
     sum
@@ -111,7 +150,7 @@ fn forward_scaled(chain: &Chain, ws: &mut Workspace) -> bool {
             let (done, rest) = ws.alpha.split_at_mut(t * n);
             sum = step(
                 &done[(t - 1) * n..],
-                &chain.trans,
+                chain,
                 &ws.b[t * n..(t + 1) * n],
                 &mut rest[..n],
             );
@@ -167,49 +206,8 @@ fn backward_log(chain: &Chain, logb: &[f64], beta: &mut Vec<f64>) {
 /// `ln P(x)` of the sequence whose emission table is `ws.logb`.
 pub(crate) fn log_likelihood(chain: &Chain, ws: &mut Workspace) -> f64 {
     let n = chain.n;
-    if scale_rows(&ws.logb, n, &mut ws.b, &mut ws.shift) {
-        let mut prev = [0.0f64; 16];
-        let mut next = [0.0f64; 16];
-        if n <= 16 {
-            // Stack buffers and a running product of the scales: no allocation, few `ln`s.
-            let (prev, next) = (&mut prev[..n], &mut next[..n]);
-            let mut ll = ws.shift.iter().sum::<f64>();
-            let mut prod = 1.0f64;
-            let mut ok = true;
-            for t in 0..ws.shift.len() {
-                let bt = &ws.b[t * n..(t + 1) * n];
-                let sum = if t == 0 {
-                    let mut s = 0.0;
-                    for j in 0..n {
-                        next[j] = chain.start[j] * bt[j];
-                        s += next[j];
-                    }
-                    s
-                } else {
-                    step(prev, &chain.trans, bt, next)
-                };
-                if !(sum >= f64::MIN_POSITIVE && sum.is_finite()) {
-                    ok = false;
-                    break;
-                }
-                let inv = 1.0 / sum;
-                for (p, x) in prev.iter_mut().zip(next.iter()) {
-                    *p = x * inv;
-                }
-                let np = prod * sum;
-                if np < 1e-250 {
-                    ll += prod.ln() + sum.ln();
-                    prod = 1.0;
-                } else {
-                    prod = np;
-                }
-            }
-            if ok {
-                return ll + prod.ln();
-            }
-        } else if forward_scaled(chain, ws) {
-            return ws.shift.iter().zip(&ws.c).map(|(s, c)| s + c.ln()).sum();
-        }
+    if scale_rows(&ws.logb, n, &mut ws.b, &mut ws.shift) && forward_scaled(chain, ws) {
+        return ws.shift.iter().zip(&ws.c).map(|(s, c)| s + c.ln()).sum();
     }
     forward_log(chain, &ws.logb, &mut ws.alpha);
     let t_len = ws.logb.len() / n;
@@ -361,8 +359,9 @@ pub(crate) fn viterbi(chain: &Chain, logb: &[f64]) -> (f64, Vec<usize>) {
     for t in 1..t_len {
         for j in 0..n {
             let (mut best, mut arg) = (f64::NEG_INFINITY, 0);
-            for (i, d) in delta.iter().enumerate() {
-                let v = d + chain.log_trans[i * n + j];
+            let (from, _, logp) = chain.preds(j);
+            for (&i, &lp) in from.iter().zip(logp) {
+                let v = delta[i] + lp;
                 if v > best {
                     best = v;
                     arg = i;

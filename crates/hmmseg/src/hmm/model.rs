@@ -7,6 +7,7 @@ use serde::{Deserialize, Serialize};
 use super::config::CovarianceType;
 use super::emission::Emission;
 use super::forward::{self, Chain, Workspace};
+use super::score;
 use super::validate::{check_sequence, check_stochastic};
 use crate::error::{EngineError, Result};
 
@@ -284,8 +285,22 @@ impl Hmm {
     /// `ln P(x | model)` by the forward algorithm. `x`: `(n_samples, n_features)`.
     pub fn log_likelihood(&self, x: &DMatrix<f64>) -> Result<f64> {
         let mut ws = Workspace::default();
-        self.emissions_into(x, &mut ws, "sequence")?;
-        Ok(forward::log_likelihood(&self.chain, &mut ws))
+        self.score_into(x, &mut ws, "sequence")
+    }
+
+    /// Validate and score one sequence: the small-model fast path, else the general one.
+    fn score_into(&self, x: &DMatrix<f64>, ws: &mut Workspace, what: &str) -> Result<f64> {
+        check_sequence(x, self.n_features(), what)?;
+        if self.n_states() <= 8 {
+            self.emission
+                .log_emissions_state_major(x, &mut ws.comp, &mut ws.logb);
+            if let Some(ll) = score::log_likelihood_small(&self.chain, &mut ws.logb, &mut ws.gamma)
+            {
+                return Ok(ll);
+            }
+        }
+        self.emission.log_emissions(x, &mut ws.comp, &mut ws.logb);
+        Ok(forward::log_likelihood(&self.chain, ws))
     }
 
     /// [`Self::log_likelihood`] of every sequence, in parallel (rayon), in input order.
@@ -294,8 +309,7 @@ impl Hmm {
             .par_iter()
             .enumerate()
             .map_init(Workspace::default, |ws, (i, x)| {
-                self.emissions_into(x, ws, &format!("sequence {i}"))?;
-                Ok(forward::log_likelihood(&self.chain, ws))
+                self.score_into(x, ws, &format!("sequence {i}"))
             })
             .collect();
         out.into_iter().collect()

@@ -18,7 +18,10 @@ pub(crate) fn check_sequence(x: &DMatrix<f64>, n_features: usize, what: &str) ->
             x.ncols()
         )));
     }
-    if let Some(pos) = x.iter().position(|v| !v.is_finite()) {
+    if x.as_slice().iter().all(|v| v.is_finite()) {
+        return Ok(());
+    }
+    if let Some(pos) = x.as_slice().iter().position(|v| !v.is_finite()) {
         let (row, col) = (pos % x.nrows(), pos / x.nrows());
         return Err(EngineError::NonFinite(format!(
             "{what} has {} at sample {row}, feature {col}",
