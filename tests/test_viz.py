@@ -774,3 +774,16 @@ def test_serving_on_a_busy_port_is_a_clear_error() -> None:
         port = busy.getsockname()[1]
         with pytest.raises(LfdError, match=f"port {port} is in use"):
             viz.open_session("lfd_test", serve=True, grpc_port=port, web_port=free_port())
+
+
+def test_object_names_are_escaped_in_entity_paths(session: viz.Session) -> None:
+    demo = make_demo(images=False)
+    cube = demo.objects.pop("cube_a")
+    cube.name = "red box/1"
+    demo.objects["red box/1"] = cube
+    viz.log_demonstration(demo, recording=session.recording)
+    data = finish(session)
+    boxes = [k for k in data.static if k.endswith("/box") and k.startswith("/world/objects/")]
+    assert len(boxes) == 1
+    assert data.static[boxes[0]]["Boxes3D:labels"] == ["red box/1 (tag 3)"]
+    assert boxes == ["/world/objects/red\\ box\\/1/box"]  # the slash does not make a child

@@ -87,7 +87,7 @@ def log_objects(demo: Demonstration, origin_ns: int, rec: Any) -> None:
     """Object frames over time (visible samples) and their boxes labelled with the tag id."""
     rr = import_rerun()
     for k, (name, obj) in enumerate(demo.objects.items()):
-        path = f"/world/objects/{name}"
+        path = f"/world/objects/{rr.escape_entity_path_part(name)}"
         color = OBJECT_PALETTE[k % len(OBJECT_PALETTE)]
         rec.log(path, rr.TransformAxes3D(0.5 * float(obj.size.max()) + 0.02), static=True)
         rec.log(

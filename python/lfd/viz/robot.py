@@ -230,7 +230,7 @@ def _log_objects(
     if pos.shape != (len(names), len(t), 3) or quat.shape != (len(names), len(t), 4):
         return
     for k, name in enumerate(names):
-        path = f"/world/robot_objects/{mode}/{name}"
+        path = f"/world/robot_objects/{mode}/{rr.escape_entity_path_part(name)}"
         rec.log(path, rr.TransformAxes3D(0.05), static=True)
         if name in sizes:
             half = np.asarray(sizes[name], dtype=np.float64).reshape(3) / 2

@@ -73,7 +73,7 @@ def log_skill_spans(
         if int(s.end_ns) < int(s.start_ns):
             raise DemonstrationError(f"segment {s.skill!r} ends before it starts")
     origin = time_origin(rec, first_ns=int(segs[0].start_ns), origin_ns=origin_ns)
-    path = f"/segmentation/skills/{source}"
+    path = f"/segmentation/skills/{rr.escape_entity_path_part(source)}"
     values: dict[str, tuple[str, int]] = {}
     times: list[int] = []
     states: list[str] = []
