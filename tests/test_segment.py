@@ -227,7 +227,17 @@ def test_evaluate_one_recording() -> None:
 def test_cli_segment_writes_json(tmp_path: Path) -> None:
     out = tmp_path / "seg.json"
     proc = subprocess.run(
-        [sys.executable, "-m", "lfd.cli", "segment", str(EXP1), "--search", "dp", "--json", str(out)],
+        [
+            sys.executable,
+            "-m",
+            "lfd.cli",
+            "segment",
+            str(EXP1),
+            "--search",
+            "dp",
+            "--json",
+            str(out),
+        ],
         capture_output=True,
         text=True,
         check=False,
