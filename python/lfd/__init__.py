@@ -11,6 +11,7 @@ from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING, Any
 
 from .demo import CameraInfo, Demonstration, HandTrack, ImageStream, ObjectTrack, SkillLabel
+from .engine import GaussianHMM
 from .errors import EngineError, LfdError
 from .features import FEATURE_NAMES, FeatureParams, Features, compute_features, label_targets
 from .skills import SKILLS
@@ -45,6 +46,7 @@ __all__ = [
     "EngineError",
     "FeatureParams",
     "Features",
+    "GaussianHMM",
     "HandTrack",
     "ImageStream",
     "LfdError",

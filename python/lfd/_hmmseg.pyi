@@ -1,5 +1,7 @@
 """Type stubs for the compiled engine ``lfd._hmmseg`` (checked by ``mypy.stubtest``)."""
 
+from typing import final
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -41,3 +43,135 @@ def label_targets(
 def feature_names() -> list[str]: ...
 def default_feature_params() -> str: ...
 def check_feature_params(params_json: str) -> str: ...
+
+# --- continuous HMM (crates/hmmseg-py/src/hmm.rs) ----------------------------------------------
+_F64 = NDArray[np.float64]
+
+@final
+class Hmm:
+    """A continuous HMM with Gaussian-mixture emissions (immutable)."""
+
+    @staticmethod
+    def fit(
+        sequences: list[_F64],
+        *,
+        n_states: int,
+        n_mix: int = 1,
+        covariance: str = "diag",
+        topology: str = "left-right",
+        seed: int = 0,
+        max_iter: int = 100,
+        tol: float = 1e-4,
+        covariance_floor: float = 1e-3,
+    ) -> tuple[Hmm, list[float], int, bool]: ...
+    def refit(
+        self,
+        sequences: list[_F64],
+        *,
+        max_iter: int,
+        tol: float = ...,
+        covariance_floor: float = 1e-3,
+    ) -> tuple[Hmm, list[float], int, bool]: ...
+    @staticmethod
+    def from_params(
+        startprob: _F64,
+        transmat: _F64,
+        weights: _F64,
+        means: _F64,
+        covars: _F64,
+        covariance: str = "diag",
+    ) -> Hmm: ...
+    @staticmethod
+    def from_json(s: str) -> Hmm: ...
+    def to_json(self) -> str: ...
+    def log_likelihood(self, x: _F64) -> float: ...
+    def log_likelihood_many(self, sequences: list[_F64]) -> _F64: ...
+    def prefix_log_likelihoods(self, x: _F64) -> _F64: ...
+    def viterbi(self, x: _F64) -> tuple[float, NDArray[np.int64]]: ...
+    def posteriors(self, x: _F64) -> _F64: ...
+    def sample(self, n_samples: int, *, seed: int = 0) -> tuple[_F64, NDArray[np.int64]]: ...
+    @property
+    def n_states(self) -> int: ...
+    @property
+    def n_features(self) -> int: ...
+    @property
+    def n_mix(self) -> int: ...
+    @property
+    def covariance(self) -> str: ...
+    @property
+    def startprob(self) -> _F64: ...
+    @property
+    def transmat(self) -> _F64: ...
+    @property
+    def weights(self) -> _F64: ...
+    @property
+    def means(self) -> _F64: ...
+    @property
+    def covars(self) -> _F64: ...
+    def __eq__(self, value: object, /) -> bool: ...
+
+# --- segmentation: stage 1, stage 2, templates (crates/hmmseg-py/src/segment.rs) -------------
+_SegmentTuple = tuple[int, int, int, int, int, float, float]
+
+def stage1_boundaries(
+    values: NDArray[np.float64],
+    thresholds: NDArray[np.float64],
+    columns: list[int],
+    hysteresis: list[float],
+    min_section: int,
+) -> NDArray[np.int64]: ...
+def rising_table(
+    z: NDArray[np.float64],
+    boundaries: NDArray[np.int64],
+    min_rise: float = 0.02,
+    dominance: float = 0.0,
+) -> NDArray[np.bool_]: ...
+def segment_greedy(
+    scores: NDArray[np.float64],
+    boundaries: NDArray[np.int64],
+    skills: list[str],
+    grammar_json: str,
+    rising: NDArray[np.bool_] | None = None,
+    mode: str = "warn",
+) -> tuple[list[_SegmentTuple], list[str]]: ...
+def segment_dp(
+    scores: NDArray[np.float64],
+    boundaries: NDArray[np.int64],
+    skills: list[str],
+    grammar_json: str,
+    rising: NDArray[np.bool_] | None = None,
+    mode: str = "warn",
+    penalty: float = 0.0,
+) -> tuple[list[_SegmentTuple], list[str]]: ...
+def default_template_params() -> str: ...
+
+@final
+class TemplateSet:
+    @staticmethod
+    def train(
+        skills: list[str],
+        features: list[tuple[str, int, int]],
+        examples: list[tuple[int, NDArray[np.float64]]],
+        params_json: str | None = None,
+    ) -> TemplateSet: ...
+    @staticmethod
+    def from_json(text: str) -> TemplateSet: ...
+    def to_json(self) -> str: ...
+    @property
+    def skills(self) -> list[str]: ...
+    @property
+    def features(self) -> list[tuple[str, int, int]]: ...
+    @property
+    def ranges(self) -> list[tuple[float, float]]: ...
+    @property
+    def n_examples(self) -> list[int]: ...
+    @property
+    def params_json(self) -> str: ...
+    def normalise(self, x: NDArray[np.float64]) -> NDArray[np.float64]: ...
+    def score_table(
+        self,
+        raw: NDArray[np.float64],
+        boundaries: NDArray[np.int64],
+        max_len: int = 0,
+        end: str = "final",
+    ) -> NDArray[np.float64]: ...

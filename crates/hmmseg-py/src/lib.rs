@@ -6,7 +6,9 @@
 mod dtw;
 mod errors;
 mod features;
+mod hmm;
 mod ndconv;
+mod segment;
 
 use pyo3::prelude::*;
 
@@ -15,5 +17,7 @@ fn _hmmseg(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     dtw::register(m)?;
     features::register(m)?;
+    hmm::register(m)?;
+    segment::register(m)?;
     Ok(())
 }

@@ -8,6 +8,9 @@
 pub mod dtw;
 pub mod error;
 pub mod features;
+pub mod hmm;
 pub mod normalize;
 
 pub use error::{EngineError, Result};
+pub mod segment;
+pub mod stage1;

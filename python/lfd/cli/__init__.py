@@ -17,6 +17,9 @@ COMMANDS: tuple[str, ...] = (
     # one module name per subcommand, in help order
     "info",
     "simulate",
+    "segment",
+    "templates",
+    "eval",
     "reproduce",
 )
 

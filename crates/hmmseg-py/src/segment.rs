@@ -1,0 +1,363 @@
+//! Bindings of stage 1 (`hmmseg::stage1`) and stage 2 (`hmmseg::segment`): section boundaries,
+//! the TCP rise decision, score tables, the greedy loop, the segmental DP and skill templates.
+
+use hmmseg::segment::greedy::greedy;
+use hmmseg::segment::scorer::EndState;
+use hmmseg::segment::templates::{FeatureGroup, TemplateParams, TemplateSet};
+use hmmseg::segment::{
+    dp::dp, Grammar, GrammarMode, GrammarSpec, RiseParams, ScoreTable, Segmentation,
+};
+use hmmseg::stage1::{section_boundaries, Criterion, Stage1Params};
+use hmmseg::EngineError;
+use nalgebra::DMatrix;
+use numpy::ndarray::{Array2, Array3};
+use numpy::{
+    IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3,
+};
+use pyo3::prelude::*;
+
+use crate::errors::IntoPyResult;
+
+/// numpy (row-major) -> nalgebra.
+fn to_matrix(x: &PyReadonlyArray2<'_, f64>) -> DMatrix<f64> {
+    let a = x.as_array();
+    DMatrix::from_fn(a.nrows(), a.ncols(), |r, c| a[(r, c)])
+}
+
+/// int64 sample indices -> usize, rejecting negative values.
+fn to_indices(py: Python<'_>, x: &PyReadonlyArray1<'_, i64>, what: &str) -> PyResult<Vec<usize>> {
+    x.as_array()
+        .iter()
+        .enumerate()
+        .map(|(i, &v)| {
+            usize::try_from(v).map_err(|_| {
+                EngineError::InvalidParameter(format!("{what}[{i}] = {v} is negative"))
+            })
+        })
+        .collect::<hmmseg::Result<Vec<usize>>>()
+        .py_err(py)
+}
+
+fn parse_mode(py: Python<'_>, mode: &str) -> PyResult<GrammarMode> {
+    match mode {
+        "off" => Ok(GrammarMode::Off),
+        "warn" => Ok(GrammarMode::Warn),
+        "enforce" => Ok(GrammarMode::Enforce),
+        other => Err(EngineError::InvalidParameter(format!(
+            "grammar mode must be 'off', 'warn' or 'enforce', got {other:?}"
+        )))
+        .py_err(py),
+    }
+}
+
+fn grammar(py: Python<'_>, grammar_json: &str, skills: &[String]) -> PyResult<Grammar> {
+    let spec = GrammarSpec::from_json(grammar_json).py_err(py)?;
+    Grammar::for_skills(&spec, skills).py_err(py)
+}
+
+/// A `(K, K + 1, S)` array of summed log-likelihoods -> [`ScoreTable`].
+fn table(
+    py: Python<'_>,
+    scores: &PyReadonlyArray3<'_, f64>,
+    boundaries: Vec<usize>,
+) -> PyResult<ScoreTable> {
+    let a = scores.as_array();
+    let k = boundaries.len().saturating_sub(1);
+    let (d0, d1, ns) = a.dim();
+    if d0 != k || d1 != k + 1 {
+        return Err(EngineError::ShapeMismatch(format!(
+            "scores must have shape ({k}, {}, n_skills) for {} boundaries, got ({d0}, {d1}, {ns})",
+            k + 1,
+            k + 1
+        )))
+        .py_err(py);
+    }
+    if a.iter().any(|v| v.is_nan()) {
+        return Err(EngineError::NonFinite(
+            "scores contain NaN (use -inf to exclude)".into(),
+        ))
+        .py_err(py);
+    }
+    ScoreTable::from_fn(boundaries, ns, |i, j, s| a[(i, j, s)]).py_err(py)
+}
+
+fn table_to_numpy<'py>(py: Python<'py>, t: &ScoreTable) -> Bound<'py, PyArray3<f64>> {
+    let k = t.n_sections();
+    let arr = Array3::from_shape_vec((k, k + 1, t.n_skills()), t.as_slice().to_vec())
+        .unwrap_or_else(|_| Array3::zeros((k, k + 1, t.n_skills())));
+    arr.into_pyarray(py)
+}
+
+type SegmentTuple = (usize, usize, usize, usize, usize, f64, f64);
+
+fn result(r: Segmentation) -> (Vec<SegmentTuple>, Vec<String>) {
+    let segs = r
+        .segments
+        .iter()
+        .map(|s| {
+            (
+                s.skill,
+                s.start_section,
+                s.end_section,
+                s.start,
+                s.end,
+                s.score,
+                s.confidence,
+            )
+        })
+        .collect();
+    (segs, r.warnings)
+}
+
+/// Stage-1 section boundaries `[0, ..., n]` from threshold crossings.
+#[pyfunction]
+#[pyo3(signature = (values, thresholds, columns, hysteresis, min_section))]
+fn stage1_boundaries<'py>(
+    py: Python<'py>,
+    values: PyReadonlyArray2<'py, f64>,
+    thresholds: PyReadonlyArray2<'py, f64>,
+    columns: Vec<usize>,
+    hysteresis: Vec<f64>,
+    min_section: usize,
+) -> PyResult<Bound<'py, PyArray1<i64>>> {
+    if columns.len() != hysteresis.len() {
+        return Err(EngineError::ShapeMismatch(format!(
+            "{} columns but {} hysteresis values",
+            columns.len(),
+            hysteresis.len()
+        )))
+        .py_err(py);
+    }
+    let params = Stage1Params {
+        criteria: columns
+            .iter()
+            .zip(&hysteresis)
+            .map(|(&column, &hysteresis)| Criterion { column, hysteresis })
+            .collect(),
+        min_section,
+    };
+    let (v, t) = (to_matrix(&values), to_matrix(&thresholds));
+    let b = py
+        .detach(|| section_boundaries(&v, &t, &params))
+        .py_err(py)?;
+    Ok(b.iter()
+        .map(|&x| x as i64)
+        .collect::<Vec<_>>()
+        .into_pyarray(py))
+}
+
+/// Is the TCP rising over each run of sections? `(K, K + 1)` bool.
+#[pyfunction]
+#[pyo3(signature = (z, boundaries, min_rise=0.02, dominance=0.0))]
+fn rising_table<'py>(
+    py: Python<'py>,
+    z: PyReadonlyArray1<'py, f64>,
+    boundaries: PyReadonlyArray1<'py, i64>,
+    min_rise: f64,
+    dominance: f64,
+) -> PyResult<Bound<'py, PyArray2<bool>>> {
+    let b = to_indices(py, &boundaries, "boundaries")?;
+    let z: Vec<f64> = z.as_array().iter().copied().collect();
+    let r = hmmseg::segment::rising_table(
+        &z,
+        &b,
+        RiseParams {
+            min_rise,
+            dominance,
+        },
+    )
+    .py_err(py)?;
+    let k = b.len() - 1;
+    let arr = Array2::from_shape_vec((k, k + 1), r)
+        .unwrap_or_else(|_| Array2::from_elem((k, k + 1), false));
+    Ok(arr.into_pyarray(py))
+}
+
+fn rising_vec(rising: Option<PyReadonlyArray2<'_, bool>>) -> Option<Vec<bool>> {
+    rising.map(|r| r.as_array().iter().copied().collect())
+}
+
+/// The paper's greedy loop on a score table; returns `(segments, warnings)`, a segment being
+/// `(skill, start_section, end_section, start, end, score, confidence)`.
+#[pyfunction]
+#[pyo3(signature = (scores, boundaries, skills, grammar_json, rising=None, mode="warn"))]
+fn segment_greedy<'py>(
+    py: Python<'py>,
+    scores: PyReadonlyArray3<'py, f64>,
+    boundaries: PyReadonlyArray1<'py, i64>,
+    skills: Vec<String>,
+    grammar_json: &str,
+    rising: Option<PyReadonlyArray2<'py, bool>>,
+    mode: &str,
+) -> PyResult<(Vec<SegmentTuple>, Vec<String>)> {
+    let mode = parse_mode(py, mode)?;
+    let t = table(py, &scores, to_indices(py, &boundaries, "boundaries")?)?;
+    let g = grammar(py, grammar_json, &skills)?;
+    let r = rising_vec(rising);
+    let out = py
+        .detach(|| greedy(&t, &g, r.as_deref(), mode))
+        .py_err(py)?;
+    Ok(result(out))
+}
+
+/// The segmental DP on a score table (see `segment_greedy` for the result).
+#[pyfunction]
+#[pyo3(signature = (scores, boundaries, skills, grammar_json, rising=None, mode="warn", penalty=0.0))]
+fn segment_dp<'py>(
+    py: Python<'py>,
+    scores: PyReadonlyArray3<'py, f64>,
+    boundaries: PyReadonlyArray1<'py, i64>,
+    skills: Vec<String>,
+    grammar_json: &str,
+    rising: Option<PyReadonlyArray2<'py, bool>>,
+    mode: &str,
+    penalty: f64,
+) -> PyResult<(Vec<SegmentTuple>, Vec<String>)> {
+    let mode = parse_mode(py, mode)?;
+    let t = table(py, &scores, to_indices(py, &boundaries, "boundaries")?)?;
+    let g = grammar(py, grammar_json, &skills)?;
+    let r = rising_vec(rising);
+    let out = py
+        .detach(|| dp(&t, &g, r.as_deref(), mode, penalty))
+        .py_err(py)?;
+    Ok(result(out))
+}
+
+/// Trained skill templates: one HMM per skill x feature plus the normalisation ranges.
+#[pyclass(name = "TemplateSet", module = "lfd._hmmseg", frozen)]
+struct PyTemplateSet {
+    inner: TemplateSet,
+}
+
+#[pymethods]
+impl PyTemplateSet {
+    /// Train from labelled examples `(skill index, raw observations (n, C))`.
+    #[staticmethod]
+    #[pyo3(signature = (skills, features, examples, params_json=None))]
+    fn train(
+        py: Python<'_>,
+        skills: Vec<String>,
+        features: Vec<(String, usize, usize)>,
+        examples: Vec<(usize, PyReadonlyArray2<'_, f64>)>,
+        params_json: Option<&str>,
+    ) -> PyResult<Self> {
+        let params = match params_json {
+            Some(t) => serde_json::from_str::<TemplateParams>(t)
+                .map_err(|e| EngineError::Format(format!("template parameters: {e}")))
+                .py_err(py)?,
+            None => TemplateParams::default(),
+        };
+        let features: Vec<FeatureGroup> = features
+            .into_iter()
+            .map(|(name, start, end)| FeatureGroup { name, start, end })
+            .collect();
+        let examples: Vec<(usize, DMatrix<f64>)> =
+            examples.iter().map(|(s, x)| (*s, to_matrix(x))).collect();
+        let inner = py
+            .detach(|| TemplateSet::train(&skills, &features, &examples, &params))
+            .py_err(py)?;
+        Ok(Self { inner })
+    }
+
+    /// Read templates from JSON text (checks version, skills and shapes).
+    #[staticmethod]
+    fn from_json(py: Python<'_>, text: &str) -> PyResult<Self> {
+        Ok(Self {
+            inner: TemplateSet::from_json(text).py_err(py)?,
+        })
+    }
+
+    /// The templates as JSON text.
+    fn to_json(&self, py: Python<'_>) -> PyResult<String> {
+        self.inner.to_json().py_err(py)
+    }
+
+    /// Skill names, in model order.
+    #[getter]
+    fn skills(&self) -> Vec<String> {
+        self.inner.skills.clone()
+    }
+
+    /// Features as `(name, first column, end column)`.
+    #[getter]
+    fn features(&self) -> Vec<(String, usize, usize)> {
+        self.inner
+            .features
+            .iter()
+            .map(|f| (f.name.clone(), f.start, f.end))
+            .collect()
+    }
+
+    /// `(lo, hi)` normalisation range of every observation column.
+    #[getter]
+    fn ranges(&self) -> Vec<(f64, f64)> {
+        self.inner.ranges.iter().map(|r| (r[0], r[1])).collect()
+    }
+
+    /// Training segments per skill.
+    #[getter]
+    fn n_examples(&self) -> Vec<usize> {
+        self.inner.n_examples.clone()
+    }
+
+    /// Training parameters as JSON.
+    #[getter]
+    fn params_json(&self) -> String {
+        serde_json::to_string(&self.inner.params).unwrap_or_default()
+    }
+
+    /// Map raw observations `(n, C)` to `[0, 1]` with the template ranges.
+    fn normalise<'py>(
+        &self,
+        py: Python<'py>,
+        x: PyReadonlyArray2<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let y = self.inner.normalise(&to_matrix(&x)).py_err(py)?;
+        Ok(Array2::from_shape_fn(y.shape(), |(r, c)| y[(r, c)]).into_pyarray(py))
+    }
+
+    /// Summed log-likelihoods `(K, K + 1, S)` of every run of sections of raw observations;
+    /// `end` = "final" (a segment must end in the last HMM state) or "any".
+    #[pyo3(signature = (raw, boundaries, max_len=0, end="final"))]
+    fn score_table<'py>(
+        &self,
+        py: Python<'py>,
+        raw: PyReadonlyArray2<'py, f64>,
+        boundaries: PyReadonlyArray1<'py, i64>,
+        max_len: usize,
+        end: &str,
+    ) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        let end = match end {
+            "final" => EndState::Final,
+            "any" => EndState::Any,
+            other => {
+                return Err(EngineError::InvalidParameter(format!(
+                    "end must be 'final' or 'any', got {other:?}"
+                )))
+                .py_err(py)
+            }
+        };
+        let b = to_indices(py, &boundaries, "boundaries")?;
+        let x = to_matrix(&raw);
+        let t = py
+            .detach(|| self.inner.score_table(&x, &b, max_len, end))
+            .py_err(py)?;
+        Ok(table_to_numpy(py, &t))
+    }
+}
+
+/// The default template training parameters as JSON.
+#[pyfunction]
+fn default_template_params() -> String {
+    serde_json::to_string(&TemplateParams::default()).unwrap_or_default()
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyTemplateSet>()?;
+    m.add_function(wrap_pyfunction!(default_template_params, m)?)?;
+    m.add_function(wrap_pyfunction!(stage1_boundaries, m)?)?;
+    m.add_function(wrap_pyfunction!(rising_table, m)?)?;
+    m.add_function(wrap_pyfunction!(segment_greedy, m)?)?;
+    m.add_function(wrap_pyfunction!(segment_dp, m)?)?;
+    Ok(())
+}

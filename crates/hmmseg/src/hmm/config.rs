@@ -1,0 +1,219 @@
+//! Training options ([`FitConfig`]), the training report ([`FitReport`]) and the two enums that
+//! name a model's structure.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{EngineError, Result};
+
+/// Shape of every covariance matrix of the emission Gaussians.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum CovarianceType {
+    /// Diagonal covariances (independent features).
+    #[default]
+    Diag,
+    /// Full symmetric positive definite covariances.
+    Full,
+}
+
+impl CovarianceType {
+    /// The name used in JSON and in the Python binding: `"diag"` or `"full"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Diag => "diag",
+            Self::Full => "full",
+        }
+    }
+
+    /// Parse `"diag"` / `"full"`.
+    pub fn parse(s: &str) -> Result<Self> {
+        match s {
+            "diag" => Ok(Self::Diag),
+            "full" => Ok(Self::Full),
+            other => Err(EngineError::InvalidParameter(format!(
+                "covariance must be \"diag\" or \"full\", got {other:?}"
+            ))),
+        }
+    }
+}
+
+/// Allowed state transitions of a model trained with [`crate::hmm::Hmm::fit`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+pub enum Topology {
+    /// Every state may follow every state.
+    #[serde(rename = "ergodic")]
+    Ergodic,
+    /// Start in state 0; from state `i` only `i -> i` and `i -> i + 1`. The forbidden
+    /// transitions are exact zeros and stay exact zeros through training.
+    #[default]
+    #[serde(rename = "left-right")]
+    LeftRight,
+}
+
+impl Topology {
+    /// The name used in JSON and in the Python binding: `"ergodic"` or `"left-right"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Ergodic => "ergodic",
+            Self::LeftRight => "left-right",
+        }
+    }
+
+    /// Parse `"ergodic"` / `"left-right"`.
+    pub fn parse(s: &str) -> Result<Self> {
+        match s {
+            "ergodic" => Ok(Self::Ergodic),
+            "left-right" => Ok(Self::LeftRight),
+            other => Err(EngineError::InvalidParameter(format!(
+                "topology must be \"ergodic\" or \"left-right\", got {other:?}"
+            ))),
+        }
+    }
+}
+
+/// Options of [`crate::hmm::Hmm::fit`] and [`crate::hmm::Hmm::refit`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FitConfig {
+    /// Number of hidden states (>= 1).
+    pub n_states: usize,
+    /// Gaussian components per state (>= 1; 1 = plain Gaussian emissions).
+    pub n_mix: usize,
+    /// Diagonal or full covariances.
+    pub covariance: CovarianceType,
+    /// Ergodic or left-right transitions.
+    pub topology: Topology,
+    /// Seed of the k-means initialisation (same seed, same data -> same model, bit for bit).
+    pub seed: u64,
+    /// Maximum number of EM iterations (M-steps). 0 returns the initial model.
+    pub max_iter: usize,
+    /// Stop when the total log-likelihood improves by less than this between two iterations.
+    /// A negative value (or `-inf`) runs exactly `max_iter` iterations.
+    pub tol: f64,
+    /// Lower bound on every eigenvalue of every covariance (diag: on every variance).
+    pub covariance_floor: f64,
+}
+
+impl Default for FitConfig {
+    fn default() -> Self {
+        Self {
+            n_states: 5,
+            n_mix: 1,
+            covariance: CovarianceType::Diag,
+            topology: Topology::LeftRight,
+            seed: 0,
+            max_iter: 100,
+            tol: 1e-4,
+            covariance_floor: 1e-3,
+        }
+    }
+}
+
+impl FitConfig {
+    /// Check the numeric options (`n_states`, `n_mix`, `tol`, `covariance_floor`).
+    pub fn validate(&self) -> Result<()> {
+        if self.n_states == 0 {
+            return Err(EngineError::InvalidParameter(
+                "n_states must be >= 1".into(),
+            ));
+        }
+        if self.n_mix == 0 {
+            return Err(EngineError::InvalidParameter("n_mix must be >= 1".into()));
+        }
+        self.validate_em()
+    }
+
+    /// Check the options EM itself uses (`tol`, `covariance_floor`).
+    pub(crate) fn validate_em(&self) -> Result<()> {
+        if self.tol.is_nan() || self.tol == f64::INFINITY {
+            return Err(EngineError::InvalidParameter(format!(
+                "tol must be a number below +inf, got {}",
+                self.tol
+            )));
+        }
+        if !(self.covariance_floor.is_finite() && self.covariance_floor > 0.0) {
+            return Err(EngineError::InvalidParameter(format!(
+                "covariance_floor must be finite and > 0, got {}",
+                self.covariance_floor
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// What happened during training.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FitReport {
+    /// Total log-likelihood of all training sequences before each M-step (one entry per
+    /// iteration; the parameters returned have had one more M-step than the last entry saw).
+    pub log_likelihood_history: Vec<f64>,
+    /// Number of EM iterations (M-steps) performed.
+    pub n_iter: usize,
+    /// `true` if the improvement fell below `tol` before `max_iter` iterations.
+    pub converged: bool,
+}
+
+#[cfg(test)]
+#[allow(clippy::float_cmp, clippy::needless_range_loop, clippy::cast_lossless)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn enums_use_documented_names() {
+        assert_eq!(
+            serde_json::to_string(&CovarianceType::Full).unwrap(),
+            "\"full\""
+        );
+        assert_eq!(
+            serde_json::to_string(&Topology::LeftRight).unwrap(),
+            "\"left-right\""
+        );
+        assert_eq!(Topology::parse("ergodic").unwrap(), Topology::Ergodic);
+        assert_eq!(CovarianceType::parse("diag").unwrap(), CovarianceType::Diag);
+        assert!(matches!(
+            Topology::parse("ring"),
+            Err(EngineError::InvalidParameter(_))
+        ));
+        assert!(matches!(
+            CovarianceType::parse("tied"),
+            Err(EngineError::InvalidParameter(_))
+        ));
+    }
+
+    #[test]
+    fn config_validation() {
+        assert!(FitConfig::default().validate().is_ok());
+        let bad = [
+            FitConfig {
+                n_states: 0,
+                ..FitConfig::default()
+            },
+            FitConfig {
+                n_mix: 0,
+                ..FitConfig::default()
+            },
+            FitConfig {
+                tol: f64::NAN,
+                ..FitConfig::default()
+            },
+            FitConfig {
+                covariance_floor: 0.0,
+                ..FitConfig::default()
+            },
+            FitConfig {
+                covariance_floor: f64::INFINITY,
+                ..FitConfig::default()
+            },
+        ];
+        for c in bad {
+            assert!(
+                matches!(c.validate(), Err(EngineError::InvalidParameter(_))),
+                "{c:?}"
+            );
+        }
+        let neg = FitConfig {
+            tol: f64::NEG_INFINITY,
+            ..FitConfig::default()
+        };
+        assert!(neg.validate().is_ok());
+    }
+}

@@ -1,0 +1,185 @@
+//! The paper's greedy cut loop (Eq. 4-5): from the first unassigned data section, score every
+//! prefix run of sections under every candidate skill, cut off the best (skill, run) and repeat
+//! until all sections are assigned.
+//!
+//! Raw log-likelihoods fall with the number of samples, so prefixes of different lengths are
+//! compared by their per-sample score ([`ScoreTable::mean`]).
+
+use super::{Context, Grammar, GrammarMode, ScoreTable, Segment, Segmentation};
+use crate::error::Result;
+
+/// Run the greedy loop.
+///
+/// * `rising` (row-major `(K, K + 1)`, see [`super::rising_table`]) applies the Fig. 5 decision
+///   tree: a rising run may only be a rising skill (Move, Move with), any other run only a
+///   non-rising skill. `None` disables the tree.
+/// * `mode`: [`GrammarMode::Enforce`] considers only allowed transitions; [`GrammarMode::Warn`]
+///   keeps the best choice and reports impossible transitions.
+///
+/// If no candidate passes the filters at some point, they are relaxed (rise decision first, then
+/// the grammar) and a warning says so; the result always covers every section.
+pub fn greedy(
+    table: &ScoreTable,
+    grammar: &Grammar,
+    rising: Option<&[bool]>,
+    mode: GrammarMode,
+) -> Result<Segmentation> {
+    let ctx = Context::new(table, grammar, rising)?;
+    let k = table.n_sections();
+    let enforce = mode == GrammarMode::Enforce;
+    let tiers: &[(bool, bool)] = if enforce {
+        &[(true, true), (false, true), (true, false), (false, false)]
+    } else {
+        &[(true, false), (false, false)]
+    };
+    let mut out = Segmentation::default();
+    let mut prev: Option<usize> = None;
+    let mut i = 0;
+    while i < k {
+        let mut pick = None;
+        for (tier, &(use_rise, use_grammar)) in tiers.iter().enumerate() {
+            let mut best: Option<(f64, usize, usize)> = None;
+            for j in i + 1..=k {
+                for s in 0..table.n_skills() {
+                    if (use_rise && !ctx.rise_ok(i, j, s))
+                        || (use_grammar && !grammar.allows(prev, s))
+                    {
+                        continue;
+                    }
+                    let v = table.mean(i, j, s);
+                    if v.is_finite() && best.is_none_or(|(b, _, _)| v > b) {
+                        best = Some((v, j, s));
+                    }
+                }
+            }
+            if let Some((_, j, s)) = best {
+                if tier > 0 {
+                    out.warnings.push(format!(
+                        "no candidate at samples {}.. satisfied the {}; relaxed it",
+                        table.boundaries()[i],
+                        match (use_rise, use_grammar) {
+                            (false, true) => "TCP rise decision",
+                            (true, false) => "grammar",
+                            _ => "TCP rise decision and the grammar",
+                        }
+                    ));
+                }
+                pick = Some((j, s));
+                break;
+            }
+        }
+        // every score -inf (e.g. all runs longer than the maximum): take one section as it is
+        let (j, s) = pick.unwrap_or_else(|| {
+            out.warnings.push(format!(
+                "no finite score at samples {}..; assigned one section to skill {}",
+                table.boundaries()[i],
+                grammar.skills()[0]
+            ));
+            (i + 1, 0)
+        });
+        out.segments.push(ctx.segment(s, i, j));
+        prev = Some(s);
+        i = j;
+    }
+    if mode == GrammarMode::Warn {
+        out.warnings.extend(ctx.grammar_warnings(&out.segments));
+    }
+    Ok(out)
+}
+
+/// Skill sequence of a segmentation (helper for tests and tools).
+pub fn skills_of(segments: &[Segment]) -> Vec<usize> {
+    segments.iter().map(|s| s.skill).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::segment::grammar::tests::{paper_grammar, paper_skills};
+
+    fn ix(s: &str) -> usize {
+        paper_skills().iter().position(|x| x == s).unwrap()
+    }
+
+    /// 6 sections of 10 samples; the truth is pick_up (0..2), move_with (2..3), place (3..4),
+    /// move (4..6). A run scores 0 per sample for its true skill if it lies inside one true
+    /// segment, -1 for every other skill, -5 when it spans two true segments.
+    fn planted(truth: &[(usize, usize, usize)]) -> ScoreTable {
+        let b: Vec<usize> = (0..=6).map(|x| x * 10).collect();
+        ScoreTable::from_fn(b, 7, |i, j, s| {
+            let inside = truth.iter().find(|&&(a, z, _)| a <= i && j <= z);
+            let per = match inside {
+                Some(&(a, z, t)) if t == s => {
+                    if a == i && z == j {
+                        0.0
+                    } else {
+                        -0.5
+                    }
+                }
+                Some(_) => -1.0,
+                None => -5.0,
+            };
+            per * (10 * (j - i)) as f64
+        })
+        .unwrap()
+    }
+
+    #[test]
+    fn greedy_recovers_planted_segmentation() {
+        let truth = [
+            (0, 2, ix("pick_up")),
+            (2, 3, ix("move_with")),
+            (3, 4, ix("place")),
+            (4, 6, ix("move")),
+        ];
+        let t = planted(&truth);
+        let g = paper_grammar();
+        let r = greedy(&t, &g, None, GrammarMode::Warn).unwrap();
+        let got: Vec<(usize, usize, usize)> = r
+            .segments
+            .iter()
+            .map(|s| (s.start_section, s.end_section, s.skill))
+            .collect();
+        assert_eq!(got, truth.to_vec());
+        assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+        assert!(r
+            .segments
+            .iter()
+            .all(|s| (s.confidence - 1.0).abs() < 1e-12));
+        assert_eq!(r.segments[1].start, 20);
+    }
+
+    #[test]
+    fn warn_reports_and_enforce_avoids_impossible_transition() {
+        // make "place" the best skill for the very first section (place cannot start a demo)
+        let mut t = planted(&[(0, 2, ix("pick_up")), (2, 6, ix("move_with"))]);
+        t.set(0, 1, ix("place"), 1.0);
+        let g = paper_grammar();
+        let warn = greedy(&t, &g, None, GrammarMode::Warn).unwrap();
+        assert_eq!(warn.segments[0].skill, ix("place"));
+        assert!(
+            warn.warnings.iter().any(|w| w.contains("start -> place")),
+            "{:?}",
+            warn.warnings
+        );
+        let enf = greedy(&t, &g, None, GrammarMode::Enforce).unwrap();
+        assert_eq!(
+            skills_of(&enf.segments),
+            vec![ix("pick_up"), ix("move_with")]
+        );
+        assert!(enf.warnings.is_empty());
+    }
+
+    #[test]
+    fn rise_decision_restricts_candidates() {
+        let t = planted(&[(0, 3, ix("place")), (3, 6, ix("pick_up"))]);
+        let g = paper_grammar();
+        // declare the whole demo rising: only move / move_with are candidates
+        let rising = vec![true; 6 * 7];
+        let r = greedy(&t, &g, Some(&rising), GrammarMode::Off).unwrap();
+        assert!(r.segments.iter().all(|s| g.is_rising(s.skill)));
+        let not = vec![false; 6 * 7];
+        let r = greedy(&t, &g, Some(&not), GrammarMode::Off).unwrap();
+        assert_eq!(skills_of(&r.segments), vec![ix("place"), ix("pick_up")]);
+    }
+}

@@ -1,0 +1,153 @@
+//! Stage 2 of the segmentation (paper Sec. III-B.4): merge the stage-1 data sections into skill
+//! segments by HMM template matching.
+//!
+//! * [`grammar`]: the skill semantic ordering (Fig. 6) as data;
+//! * [`templates`]: one HMM per skill x feature, trained by Baum-Welch, saved as versioned JSON;
+//! * [`scores`]: the score table of Eq. 3 for every run of sections, and the TCP rise decision
+//!   of Fig. 5;
+//! * [`greedy`]: the paper's greedy cut loop (Eq. 4-5);
+//! * [`dp`]: a globally optimal segmentation under the grammar (segmental dynamic programming).
+
+pub mod dp;
+pub mod grammar;
+pub mod greedy;
+pub mod scorer;
+pub mod scores;
+pub mod templates;
+
+use serde::{Deserialize, Serialize};
+
+pub use self::grammar::{Grammar, GrammarSpec};
+pub use self::scores::{rising_table, score_table, PrefixScorer, RiseParams, ScoreTable};
+
+/// How the skill grammar is used.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum GrammarMode {
+    /// Ignore the grammar.
+    Off,
+    /// Keep the best segmentation; warn about every impossible transition (the paper).
+    #[default]
+    Warn,
+    /// Consider only allowed transitions.
+    Enforce,
+}
+
+/// One skill segment of a result: sections `start_section..end_section`, samples `start..end`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Segment {
+    /// Skill index (grammar / template order).
+    pub skill: usize,
+    /// First data section.
+    pub start_section: usize,
+    /// One past the last data section.
+    pub end_section: usize,
+    /// First sample.
+    pub start: usize,
+    /// One past the last sample.
+    pub end: usize,
+    /// Summed feature log-likelihood per sample of the chosen skill.
+    pub score: f64,
+    /// Margin (per sample) to the best other skill on the same samples; `inf` without a rival.
+    pub confidence: f64,
+}
+
+/// The ordered segments covering the whole demonstration, and the warnings raised on the way.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct Segmentation {
+    /// Segments in time order.
+    pub segments: Vec<Segment>,
+    /// Human-readable warnings (impossible transitions, relaxed constraints).
+    pub warnings: Vec<String>,
+}
+
+/// What restricts the candidate skills of a run of sections.
+pub(crate) struct Context<'a> {
+    pub table: &'a ScoreTable,
+    pub grammar: &'a Grammar,
+    /// Row-major `(K, K + 1)`: is the TCP rising over sections `i..j`? `None` = no decision tree.
+    pub rising: Option<&'a [bool]>,
+}
+
+impl Context<'_> {
+    pub fn new<'a>(
+        table: &'a ScoreTable,
+        grammar: &'a Grammar,
+        rising: Option<&'a [bool]>,
+    ) -> crate::Result<Context<'a>> {
+        use crate::EngineError;
+        let k = table.n_sections();
+        if grammar.n_skills() != table.n_skills() {
+            return Err(EngineError::ShapeMismatch(format!(
+                "grammar has {} skills, score table {}",
+                grammar.n_skills(),
+                table.n_skills()
+            )));
+        }
+        if let Some(r) = rising {
+            if r.len() != k * (k + 1) {
+                return Err(EngineError::ShapeMismatch(format!(
+                    "rising table has {} entries, expected {}",
+                    r.len(),
+                    k * (k + 1)
+                )));
+            }
+        }
+        Ok(Context {
+            table,
+            grammar,
+            rising,
+        })
+    }
+
+    /// Does skill `s` pass the TCP rise decision for sections `i..j`?
+    pub fn rise_ok(&self, i: usize, j: usize, s: usize) -> bool {
+        self.rising
+            .is_none_or(|r| r[i * (self.table.n_sections() + 1) + j] == self.grammar.is_rising(s))
+    }
+
+    /// Margin of skill `s` over the best other skill passing the rise decision on `i..j`.
+    pub fn confidence(&self, i: usize, j: usize, s: usize) -> f64 {
+        let best_other = (0..self.table.n_skills())
+            .filter(|&o| o != s && self.rise_ok(i, j, o))
+            .map(|o| self.table.mean(i, j, o))
+            .filter(|v| v.is_finite())
+            .fold(f64::NEG_INFINITY, f64::max);
+        if best_other.is_finite() {
+            self.table.mean(i, j, s) - best_other
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    pub fn segment(&self, s: usize, i: usize, j: usize) -> Segment {
+        let b = self.table.boundaries();
+        Segment {
+            skill: s,
+            start_section: i,
+            end_section: j,
+            start: b[i],
+            end: b[j],
+            score: self.table.mean(i, j, s),
+            confidence: self.confidence(i, j, s),
+        }
+    }
+
+    /// Warnings for transitions the grammar does not allow.
+    pub fn grammar_warnings(&self, segments: &[Segment]) -> Vec<String> {
+        let mut out = Vec::new();
+        let mut prev = None;
+        for (n, seg) in segments.iter().enumerate() {
+            if !self.grammar.allows(prev, seg.skill) {
+                out.push(format!(
+                    "impossible skill transition {} (segment {n}, samples {}..{})",
+                    self.grammar.describe(prev, seg.skill),
+                    seg.start,
+                    seg.end
+                ));
+            }
+            prev = Some(seg.skill);
+        }
+        out
+    }
+}

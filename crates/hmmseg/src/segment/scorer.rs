@@ -1,0 +1,507 @@
+//! Fast score tables for template sets: emissions computed once per skill x feature over the
+//! whole demonstration, then one scaled forward pass per (start section, skill, feature).
+//!
+//! Two scores per prefix are available ([`EndState`]):
+//! * [`EndState::Any`]: `ln P(x_0..=t)` (Eq. 3, the model may be in any state at `t`);
+//! * [`EndState::Final`]: `ln P(x_0..=t, q_t = last state)`: the prefix must be a *complete*
+//!   execution of the skill, which for left-right templates stops a fragment of a skill (only
+//!   the reach of a Pick up, say) from scoring as well as the whole skill.
+
+use std::ops::Range;
+
+use nalgebra::DMatrix;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::scores::ScoreTable;
+use crate::error::{EngineError, Result};
+use crate::hmm::{CovarianceType, Hmm};
+
+/// Which states may end a segment.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum EndState {
+    /// Any state (the plain forward likelihood).
+    Any,
+    /// Only the last state of the left-right chain.
+    #[default]
+    Final,
+}
+
+/// One Gaussian component with its precomputed constants.
+#[derive(Debug, Clone)]
+struct Component {
+    /// `ln w - 0.5 (d ln 2 pi + ln det S)`.
+    log_c: f64,
+    mean: Vec<f64>,
+    /// Lower-triangular `L^-1` with `S = L L^T`, row-major `d x d` (diag: only the diagonal
+    /// `1 / sigma` is used).
+    inv_chol: Vec<f64>,
+    diag: bool,
+}
+
+impl Component {
+    fn log_pdf(&self, x: &[f64]) -> f64 {
+        let d = self.mean.len();
+        let mut q = 0.0;
+        if self.diag {
+            for (k, (xk, mk)) in x.iter().zip(&self.mean).enumerate() {
+                let z = (xk - mk) * self.inv_chol[k * d + k];
+                q += z * z;
+            }
+        } else {
+            for r in 0..d {
+                let row = &self.inv_chol[r * d..=r * d + r];
+                let z: f64 = row
+                    .iter()
+                    .zip(x)
+                    .zip(&self.mean)
+                    .map(|((l, xk), mk)| l * (xk - mk))
+                    .sum();
+                q += z * z;
+            }
+        }
+        self.log_c - 0.5 * q
+    }
+}
+
+/// An [`Hmm`] prepared for fast scoring.
+#[derive(Debug, Clone)]
+pub struct CompiledHmm {
+    n: usize,
+    start: Vec<f64>,
+    /// `trans[j * n + i] = P(j | i)` (column-major transition matrix: row `j` holds the
+    /// probabilities of entering `j`).
+    trans: Vec<f64>,
+    /// `n` states x `n_mix` components.
+    comps: Vec<Vec<Component>>,
+}
+
+impl CompiledHmm {
+    /// Precompute the constants of `hmm`.
+    pub fn new(hmm: &Hmm) -> Result<Self> {
+        let n = hmm.n_states();
+        let d = hmm.n_features();
+        let diag = hmm.covariance() == CovarianceType::Diag;
+        let mut comps = Vec::with_capacity(n);
+        for s in 0..n {
+            let mut row = Vec::with_capacity(hmm.n_mix());
+            for m in 0..hmm.n_mix() {
+                let w = hmm.weights()[(s, m)];
+                let cov = &hmm.covars()[s][m];
+                let chol = cov.clone().cholesky().ok_or_else(|| {
+                    EngineError::NotPositiveDefinite(format!("state {s} component {m}"))
+                })?;
+                let l = chol.l();
+                let inv = l.clone().try_inverse().ok_or_else(|| {
+                    EngineError::NotPositiveDefinite(format!("state {s} component {m}"))
+                })?;
+                let log_det: f64 = 2.0 * (0..d).map(|k| l[(k, k)].ln()).sum::<f64>();
+                let mut inv_chol = vec![0.0; d * d];
+                for r in 0..d {
+                    for c in 0..d {
+                        inv_chol[r * d + c] = inv[(r, c)];
+                    }
+                }
+                row.push(Component {
+                    log_c: w.ln() - 0.5 * (d as f64 * (2.0 * std::f64::consts::PI).ln() + log_det),
+                    mean: hmm.means()[s].row(m).iter().copied().collect(),
+                    inv_chol,
+                    diag,
+                });
+            }
+            comps.push(row);
+        }
+        Ok(Self {
+            n,
+            start: hmm.startprob().iter().copied().collect(),
+            trans: hmm.transmat().iter().copied().collect(),
+            comps,
+        })
+    }
+
+    /// `ln p(x_t | state)` for every row of `x` (only the `cols` columns), row-major `T x n`.
+    fn log_emissions(&self, x: &DMatrix<f64>, cols: &Range<usize>) -> Vec<f64> {
+        let t_len = x.nrows();
+        let mut out = vec![0.0; t_len * self.n];
+        let mut row = vec![0.0; cols.len()];
+        let mut tmp = Vec::new();
+        for t in 0..t_len {
+            for (k, c) in cols.clone().enumerate() {
+                row[k] = x[(t, c)];
+            }
+            for s in 0..self.n {
+                tmp.clear();
+                tmp.extend(self.comps[s].iter().map(|c| c.log_pdf(&row)));
+                out[t * self.n + s] = logsumexp(&tmp);
+            }
+        }
+        out
+    }
+
+    /// Prefix scores of the sequence whose emission table is `logb` (`T x n`, row-major).
+    ///
+    /// Scaled forward recursion: each step's emissions are divided by their maximum; if that
+    /// underflows (every reachable state far less likely than an unreachable one), the step is
+    /// redone with the maximum taken over `ln b_j + ln pred_j`, which cannot underflow.
+    #[cfg(test)]
+    fn prefix(&self, logb: &[f64], end: EndState, out: &mut Vec<f64>) {
+        let n = self.n;
+        let t_len = logb.len() / n;
+        out.clear();
+        let mut alpha = vec![0.0; n];
+        let mut pred = vec![0.0; n];
+        let mut next = vec![0.0; n];
+        let mut log_scale = 0.0;
+        for t in 0..t_len {
+            let row = &logb[t * n..(t + 1) * n];
+            if t == 0 {
+                pred.copy_from_slice(&self.start);
+            } else {
+                for (j, p) in pred.iter_mut().enumerate() {
+                    let tr = &self.trans[j * n..(j + 1) * n];
+                    *p = alpha.iter().zip(tr).map(|(a, q)| a * q).sum();
+                }
+            }
+            let mut hi = row.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            let mut sum = 0.0;
+            if hi.is_finite() {
+                for j in 0..n {
+                    next[j] = pred[j] * (row[j] - hi).exp();
+                }
+                sum = next.iter().sum();
+            }
+            if !(sum > 1e-250 && sum.is_finite()) {
+                hi = (0..n)
+                    .filter(|&j| pred[j] > 0.0)
+                    .map(|j| row[j] + pred[j].ln())
+                    .fold(f64::NEG_INFINITY, f64::max);
+                if !hi.is_finite() {
+                    out.resize(t_len, f64::NEG_INFINITY);
+                    return;
+                }
+                for j in 0..n {
+                    next[j] = if pred[j] > 0.0 {
+                        (row[j] + pred[j].ln() - hi).exp()
+                    } else {
+                        0.0
+                    };
+                }
+                sum = next.iter().sum();
+            }
+            log_scale += hi + sum.ln();
+            for j in 0..n {
+                alpha[j] = next[j] / sum;
+            }
+            out.push(match end {
+                EndState::Any => log_scale,
+                EndState::Final => log_scale + alpha[n - 1].ln(),
+            });
+        }
+    }
+
+    /// Log-space forward (reference for the tests).
+    #[cfg(test)]
+    fn prefix_log(&self, logb: &[f64], end: EndState, out: &mut Vec<f64>) {
+        let n = self.n;
+        let t_len = logb.len() / n;
+        out.clear();
+        let log_start: Vec<f64> = self.start.iter().map(|p| p.ln()).collect();
+        let log_trans: Vec<f64> = self.trans.iter().map(|p| p.ln()).collect();
+        let mut alpha: Vec<f64> = (0..n).map(|j| log_start[j] + logb[j]).collect();
+        let mut tmp = vec![0.0; n];
+        for t in 0..t_len {
+            if t > 0 {
+                let mut next = vec![0.0; n];
+                for j in 0..n {
+                    for i in 0..n {
+                        tmp[i] = alpha[i] + log_trans[j * n + i];
+                    }
+                    next[j] = logsumexp(&tmp) + logb[t * n + j];
+                }
+                alpha = next;
+            }
+            out.push(match end {
+                EndState::Any => logsumexp(&alpha),
+                EndState::Final => alpha[n - 1],
+            });
+        }
+    }
+}
+
+/// Emissions of one model over a whole demonstration, scaled for the forward recursion:
+/// `b[t * n + j] = exp(logb - shift[t])`, `shift[t] = max_j logb[t * n + j]`.
+struct Scaled {
+    logb: Vec<f64>,
+    b: Vec<f64>,
+    shift: Vec<f64>,
+}
+
+impl Scaled {
+    fn new(logb: Vec<f64>, n: usize) -> Self {
+        let t_len = logb.len() / n;
+        let mut b = vec![0.0; logb.len()];
+        let mut shift = vec![0.0; t_len];
+        for t in 0..t_len {
+            let row = &logb[t * n..(t + 1) * n];
+            let hi = row.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            shift[t] = hi;
+            if hi.is_finite() {
+                for j in 0..n {
+                    b[t * n + j] = (row[j] - hi).exp();
+                }
+            }
+        }
+        Self { logb, b, shift }
+    }
+}
+
+impl CompiledHmm {
+    /// Prefix scores at the requested ends only: `ends` are sample offsets (ascending) from
+    /// `start`; adds the score at each end to `sums`. `ln` is taken only at the ends.
+    fn add_prefix_at(
+        &self,
+        em: &Scaled,
+        start: usize,
+        ends: &[usize],
+        end: EndState,
+        sums: &mut [f64],
+    ) {
+        let n = self.n;
+        let Some(&last) = ends.last() else { return };
+        let mut alpha = [0.0f64; 16];
+        let mut next = [0.0f64; 16];
+        let mut pred = [0.0f64; 16];
+        let (alpha, next, pred) = (&mut alpha[..n], &mut next[..n], &mut pred[..n]);
+        let mut log_acc = 0.0;
+        let mut prod = 1.0f64;
+        let mut e = 0;
+        for k in 0..=last {
+            let t = start + k;
+            if k == 0 {
+                pred.copy_from_slice(&self.start);
+            } else {
+                for (j, p) in pred.iter_mut().enumerate() {
+                    let tr = &self.trans[j * n..(j + 1) * n];
+                    *p = alpha.iter().zip(tr).map(|(a, q)| a * q).sum();
+                }
+            }
+            let bt = &em.b[t * n..(t + 1) * n];
+            let mut sum = 0.0;
+            for j in 0..n {
+                next[j] = pred[j] * bt[j];
+                sum += next[j];
+            }
+            let mut hi = em.shift[t];
+            if !(sum > 1e-250 && sum.is_finite()) {
+                let row = &em.logb[t * n..(t + 1) * n];
+                hi = (0..n)
+                    .filter(|&j| pred[j] > 0.0)
+                    .map(|j| row[j] + pred[j].ln())
+                    .fold(f64::NEG_INFINITY, f64::max);
+                if !hi.is_finite() {
+                    for slot in &mut sums[e..] {
+                        *slot = f64::NEG_INFINITY;
+                    }
+                    return;
+                }
+                sum = 0.0;
+                for j in 0..n {
+                    next[j] = if pred[j] > 0.0 {
+                        (row[j] + pred[j].ln() - hi).exp()
+                    } else {
+                        0.0
+                    };
+                    sum += next[j];
+                }
+            }
+            log_acc += hi;
+            let inv = 1.0 / sum;
+            for j in 0..n {
+                alpha[j] = next[j] * inv;
+            }
+            prod *= sum;
+            if !(1e-200..=1e200).contains(&prod) {
+                log_acc += prod.ln();
+                prod = 1.0;
+            }
+            while e < ends.len() && ends[e] == k {
+                let base = log_acc + prod.ln();
+                sums[e] += match end {
+                    EndState::Any => base,
+                    EndState::Final => base + alpha[n - 1].ln(),
+                };
+                e += 1;
+            }
+        }
+    }
+}
+
+fn logsumexp(v: &[f64]) -> f64 {
+    let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if !hi.is_finite() {
+        return hi;
+    }
+    hi + v.iter().map(|x| (x - hi).exp()).sum::<f64>().ln()
+}
+
+/// The score table of `observations` (normalised, `n x C`) under `models[skill][feature]`
+/// reading the column `groups[feature]`; see [`super::scores::score_table`] for the layout.
+pub fn compiled_score_table(
+    models: &[Vec<CompiledHmm>],
+    groups: &[Range<usize>],
+    observations: &DMatrix<f64>,
+    boundaries: &[usize],
+    max_len: usize,
+    end: EndState,
+) -> Result<ScoreTable> {
+    let (n, nc) = observations.shape();
+    if models.iter().any(|m| m.len() != groups.len()) || groups.iter().any(|g| g.end > nc) {
+        return Err(EngineError::ShapeMismatch(format!(
+            "models / feature groups do not fit {nc} observation columns"
+        )));
+    }
+    if boundaries.first() != Some(&0) || boundaries.last() != Some(&n) {
+        return Err(EngineError::ShapeMismatch(format!(
+            "boundaries must start at 0 and end at the number of samples {n}"
+        )));
+    }
+    if observations.iter().any(|v| !v.is_finite()) {
+        return Err(EngineError::NonFinite(
+            "observations contain NaN or infinity".into(),
+        ));
+    }
+    let mut table = ScoreTable::new(boundaries.to_vec(), models.len())?;
+    let k = table.n_sections();
+    let max_len = if max_len == 0 { n } else { max_len };
+    // emissions once per (skill, feature) over the whole demonstration
+    let pairs: Vec<(usize, usize)> = (0..models.len())
+        .flat_map(|s| (0..groups.len()).map(move |f| (s, f)))
+        .collect();
+    let emissions: Vec<Scaled> = pairs
+        .par_iter()
+        .map(|&(s, f)| {
+            let m = &models[s][f];
+            Scaled::new(m.log_emissions(observations, &groups[f]), m.n)
+        })
+        .collect();
+    if models.iter().flatten().any(|m| m.n > 16) {
+        return Err(EngineError::InvalidParameter(
+            "at most 16 states per template HMM".into(),
+        ));
+    }
+    let jobs: Vec<(usize, usize)> = (0..k)
+        .flat_map(|i| (0..models.len()).map(move |s| (i, s)))
+        .collect();
+    let results: Vec<(usize, usize, Vec<f64>)> = jobs
+        .par_iter()
+        .map(|&(i, s)| {
+            let start = boundaries[i];
+            let mut last = i + 1;
+            while last < k && boundaries[last + 1] - start <= max_len {
+                last += 1;
+            }
+            let ends: Vec<usize> = (i + 1..=last).map(|j| boundaries[j] - start - 1).collect();
+            let mut sums = vec![0.0; ends.len()];
+            for f in 0..groups.len() {
+                models[s][f].add_prefix_at(
+                    &emissions[s * groups.len() + f],
+                    start,
+                    &ends,
+                    end,
+                    &mut sums,
+                );
+            }
+            (i, s, sums)
+        })
+        .collect();
+    for (i, s, sums) in results {
+        for (off, v) in sums.into_iter().enumerate() {
+            table.set(
+                i,
+                i + 1 + off,
+                s,
+                if v.is_nan() { f64::NEG_INFINITY } else { v },
+            );
+        }
+    }
+    Ok(table)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hmm::{FitConfig, Topology};
+
+    fn model(cov: CovarianceType, d: usize) -> Hmm {
+        let seqs: Vec<DMatrix<f64>> = (0..5)
+            .map(|k| {
+                DMatrix::from_fn(30 + k, d, |t, c| {
+                    (t as f64 / 10.0).sin() + 0.1 * c as f64 + 0.01 * ((t * 7 + k * 3) % 5) as f64
+                })
+            })
+            .collect();
+        let cfg = FitConfig {
+            n_states: 3,
+            n_mix: 2,
+            covariance: cov,
+            topology: Topology::LeftRight,
+            max_iter: 10,
+            ..FitConfig::default()
+        };
+        Hmm::fit(&seqs, &cfg).unwrap().0
+    }
+
+    #[test]
+    fn any_end_matches_engine_prefix_scores() {
+        for (cov, d) in [
+            (CovarianceType::Diag, 1),
+            (CovarianceType::Diag, 2),
+            (CovarianceType::Full, 2),
+        ] {
+            let hmm = model(cov, d);
+            let c = CompiledHmm::new(&hmm).unwrap();
+            // a sine with a far outlier at t = 20 (forces the underflow-safe step)
+            let x = DMatrix::from_fn(40, d, |t, k| {
+                (t as f64 / 9.0).sin() + 0.1 * k as f64 + if t == 20 { 40.0 } else { 0.0 }
+            });
+            let want = hmm.prefix_log_likelihoods(&x).unwrap();
+            let lb = c.log_emissions(&x, &(0..d));
+            let mut got = Vec::new();
+            c.prefix(&lb, EndState::Any, &mut got);
+            for t in 0..40 {
+                assert!(
+                    (got[t] - want[t]).abs() < 1e-8 * want[t].abs().max(1.0),
+                    "{cov:?} t={t}"
+                );
+            }
+            // log-space path agrees, and ending in the last state is never more likely
+            let mut slow = Vec::new();
+            c.prefix_log(&lb, EndState::Any, &mut slow);
+            let mut fin = Vec::new();
+            c.prefix(&lb, EndState::Final, &mut fin);
+            for t in 0..40 {
+                assert!((slow[t] - got[t]).abs() < 1e-8 * got[t].abs().max(1.0));
+                assert!(fin[t] <= got[t] + 1e-9);
+            }
+            // the boundary-only pass gives the same numbers at the ends
+            let em = Scaled::new(lb.clone(), c.n);
+            let ends = [0, 5, 19, 20, 39];
+            for kind in [EndState::Any, EndState::Final] {
+                let mut full = Vec::new();
+                c.prefix(&lb, kind, &mut full);
+                let mut sums = vec![0.0; ends.len()];
+                c.add_prefix_at(&em, 0, &ends, kind, &mut sums);
+                for (e, v) in ends.iter().zip(&sums) {
+                    let w = full[*e];
+                    assert!(
+                        (v - w).abs() < 1e-8 * w.abs().max(1.0)
+                            || (v.is_infinite() && w.is_infinite())
+                    );
+                }
+            }
+            // a 3-state left-right chain cannot be in its last state after one sample
+            assert!(fin[0].is_infinite() || fin[0] < got[0]);
+        }
+    }
+}

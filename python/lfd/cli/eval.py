@@ -1,0 +1,104 @@
+"""``lfd eval DIR_OR_FILES``: compare the segmentation methods on labelled recordings."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+NAME = "eval"
+HELP = "Evaluate greedy, dp and the two baselines against ground-truth labels."
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("inputs", nargs="+", help="directories or .mcap files with skill labels")
+    parser.add_argument("--templates", metavar="FILE", help="template file (default: shipped)")
+    parser.add_argument("--json", metavar="OUT", help="write the full report as JSON")
+    parser.add_argument(
+        "--methods", default="greedy,dp,proximity,gripper", help="comma-separated methods"
+    )
+    parser.add_argument(
+        "--grammar",
+        choices=("warn", "enforce", "off"),
+        default="warn",
+        help="grammar use of greedy and dp (default warn, as the paper)",
+    )
+    from ..viz.cli import add_rerun_arguments
+
+    add_rerun_arguments(parser)  # shows one recording: every method's lane beside the truth
+
+
+def _fmt(k: str, v: float) -> str:
+    if not math.isfinite(v):
+        return "-"
+    if k == "sequence_match":
+        return f"{v:.0f}"
+    if k in ("boundary_error_s",):
+        return f"{v:.3f}"
+    return f"{100 * v:.1f}" if k != "edit_distance" else f"{v:.3f}"
+
+
+def run(args: argparse.Namespace) -> int:
+    from rich.console import Console
+    from rich.progress import Progress
+    from rich.table import Table
+
+    from ..segment import Templates
+    from ..segment.evaluate import evaluate, expand_paths
+    from ..segment.metrics import METRIC_NAMES
+    from ..viz.cli import close_from_args, open_from_args
+
+    console = Console()
+    templates = Templates.load(args.templates) if args.templates else None
+    methods = tuple(m.strip() for m in args.methods.split(",") if m.strip())
+    paths = expand_paths(args.inputs)
+    if open_from_args(args, "lfd_eval"):
+        _show(paths, methods, templates, args.grammar, console)
+    with Progress(console=console, transient=True) as progress:
+        task = progress.add_task("evaluating", total=len(paths))
+        report = evaluate(
+            paths,
+            templates=templates,
+            methods=methods,
+            grammar=args.grammar,
+            progress=lambda name: progress.update(task, advance=1, description=name),
+        )
+    if not report.recordings:
+        console.print("[red]no recordings with ground-truth labels[/]")
+        close_from_args(args)
+        return 1
+    for title, task_name in [*((t, t) for t in report.tasks()), ("overall", None)]:
+        summary = report.summary(task_name)
+        n = int(next(iter(summary.values()))["n"])
+        table = Table(title=f"{title} ({n} recordings)")
+        table.add_column("method")
+        for k in METRIC_NAMES:
+            table.add_column(k.replace("_", " "), justify="right")
+        for m, vals in summary.items():
+            table.add_row(m, *(_fmt(k, vals[k]) for k in METRIC_NAMES))
+        console.print(table)
+    for r in report.recordings:
+        for m, err in r.errors.items():
+            console.print(f"[yellow]{r.name} {m}: {err}[/]")
+    if args.json:
+        Path(args.json).write_text(json.dumps(report.to_dict(), indent=2), encoding="utf-8")
+        console.print(f"wrote {args.json}")
+    close_from_args(args)
+    return 0
+
+
+def _show(
+    paths: list[Path], methods: tuple[str, ...], templates: Any, grammar: str, console: Any
+) -> None:
+    """Log one recording and every method's result to the open Rerun session."""
+    if len(paths) != 1:
+        console.print(f"[yellow]--rerun* shows a single recording; got {len(paths)}[/]")
+        return
+    from ..io import load
+    from ..viz.pipeline import log_methods, log_recorded_demo
+
+    demo = load(paths[0])
+    traj = log_recorded_demo(demo, features=False)  # log_methods logs them
+    log_methods(demo, methods, templates=templates, trajectory=traj, grammar=grammar)

@@ -1,0 +1,142 @@
+"""``lfd segment rec.mcap``: cut a recording into skills and print them (with ground truth)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+NAME = "segment"
+HELP = "Segment a recording into skills (two-stage HMM template matching)."
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("recording", help="an lfd MCAP recording")
+    parser.add_argument("--templates", metavar="FILE", help="template file (default: shipped)")
+    parser.add_argument(
+        "--search",
+        choices=("greedy", "dp"),
+        default="greedy",
+        help="stage-2 search (default greedy)",
+    )
+    parser.add_argument(
+        "--grammar",
+        choices=("warn", "enforce", "off"),
+        default="warn",
+        help="skill grammar: warn about impossible transitions (default) or enforce it",
+    )
+    parser.add_argument("--json", metavar="OUT", help="also write the result as JSON to OUT")
+    from ..viz.cli import add_rerun_arguments
+
+    add_rerun_arguments(parser)
+
+
+def segment_recording(
+    args: argparse.Namespace, on_loaded: Callable[[Any], Any] | None = None
+) -> tuple[Any, Any, dict[str, Any]]:
+    """Load, segment and score: returns (demonstration, segmentation, JSON document).
+
+    ``on_loaded(demo)`` is called as soon as the recording is loaded (e.g. to show it).
+    """
+    from ..io import load
+    from ..segment import Templates, all_metrics, segment
+
+    demo = load(args.recording, images=bool(getattr(args, "rerun_session", None)))
+    if on_loaded is not None:
+        on_loaded(demo)
+    templates = Templates.load(args.templates) if args.templates else None
+    result = segment(demo, templates, search=args.search, grammar=args.grammar)
+    doc: dict[str, Any] = {
+        "recording": str(args.recording),
+        "method": result.method,
+        "segments": [s.to_dict() for s in result.segments],
+        "warnings": list(result.warnings),
+        "ground_truth": [
+            {
+                "skill": lab.skill,
+                "start_s": (lab.start_ns - result.segments[0].start_ns) * 1e-9,
+                "end_s": (lab.end_ns - result.segments[0].start_ns) * 1e-9,
+                "object": lab.object,
+            }
+            for lab in demo.labels
+        ],
+        "metrics": {},
+    }
+    if demo.labels:
+        m = all_metrics(result.segments, demo.labels)
+        doc["metrics"] = {
+            k: (v if v == v and abs(v) != float("inf") else None) for k, v in m.items()
+        }
+    return demo, result, doc
+
+
+def _show_demo(shown: list[Any]) -> Callable[[Any], None]:
+    def show(demo: Any) -> None:
+        from ..viz.pipeline import log_recorded_demo
+
+        shown.append(log_recorded_demo(demo, features=False))
+
+    return show
+
+
+def run(args: argparse.Namespace) -> int:
+    from rich.console import Console
+    from rich.table import Table
+
+    from ..skills import DISPLAY_NAMES
+    from ..viz.cli import close_from_args, open_from_args
+
+    show = open_from_args(args, "lfd_segment")
+    shown: list[Any] = []  # the trajectory made while showing the demonstration
+    demo, result, doc = segment_recording(args, on_loaded=_show_demo(shown) if show else None)
+    if show:
+        from ..segment import Templates
+        from ..viz.pipeline import log_segment_run
+
+        log_segment_run(
+            demo,
+            result,
+            trajectory=shown[0] if shown else None,
+            templates=Templates.load(args.templates) if args.templates else None,
+            ground_truth=False,  # logged with the demonstration
+        )
+    console = Console()
+    table = Table(title=f"{Path(args.recording).name}: {result.method} segmentation")
+    for col in ("#", "skill", "start s", "end s", "object", "score", "confidence"):
+        table.add_column(col, justify="right" if col not in ("skill", "object") else "left")
+    for n, s in enumerate(result.segments):
+        table.add_row(
+            str(n),
+            DISPLAY_NAMES.get(s.skill, s.skill),
+            f"{s.start_s:.2f}",
+            f"{s.end_s:.2f}",
+            s.object or "-",
+            f"{s.score:.2f}",
+            f"{s.confidence:.2f}",
+        )
+    console.print(table)
+    if doc["ground_truth"]:
+        gt = Table(title="ground truth")
+        for col in ("#", "skill", "start s", "end s", "object"):
+            gt.add_column(col)
+        for n, g in enumerate(doc["ground_truth"]):
+            gt.add_row(
+                str(n), DISPLAY_NAMES.get(g["skill"], g["skill"]), f"{g['start_s']:.2f}",
+                f"{g['end_s']:.2f}", g["object"] or "-",
+            )  # fmt: skip
+        console.print(gt)
+        mt = Table(title="metrics")
+        mt.add_column("metric")
+        mt.add_column("value", justify="right")
+        for k, v in doc["metrics"].items():
+            mt.add_row(k, "-" if v is None else f"{v:.3f}")
+        console.print(mt)
+    for w in result.warnings:
+        console.print(f"[yellow]warning:[/] {w}")
+    if args.json:
+        Path(args.json).write_text(json.dumps(doc, indent=2), encoding="utf-8")
+        console.print(f"wrote {args.json}")
+    close_from_args(args)
+    return 0

@@ -1,0 +1,256 @@
+"""The two-stage segmentation of one demonstration (paper Sec. III-B, Fig. 4).
+
+trajectory -> gap filling -> Table I features -> stage 1 (section boundaries) -> stage 2 (score
+table from the templates, TCP rise decision, greedy loop or segmental DP under the grammar)
+-> :class:`~lfd.segment.result.Segmentation` with target objects and skill parameters.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections import Counter
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from .. import _hmmseg
+from ..demo import Demonstration
+from ..errors import DemonstrationError
+from ..trajectory import Trajectory
+from .grammar import grammar_json
+from .params import skill_params
+from .result import Segment, Segmentation
+from .stage1 import Stage1Params, section_boundaries
+from .templates import Templates
+
+Search = Literal["greedy", "dp"]
+GrammarUse = Literal["off", "warn", "enforce"]
+
+
+@dataclass(frozen=True)
+class SegmentParams:
+    """Parameters of the segmentation beyond the templates.
+
+    Attributes
+    ----------
+    stage1 : Stage1Params
+        Stage-1 hysteresis and minimum section length.
+    feature_cutoff_hz : float
+        Low-pass cut-off of the positions when a Demonstration is preprocessed here (2 Hz: the
+        paper's 0.625 Hz smears skill boundaries by ~0.5 s at 5 Hz hand data; measured in
+        docs/segmentation.md). Templates store the value they were trained with, which wins.
+    end : {"final", "any"}
+        ``final``: a segment must end in the last state of the skill's left-right HMM (a
+        complete execution); ``any``: the plain forward likelihood of Eq. 3.
+    min_rise : float
+        A run of sections is "rising" (Fig. 5: only Move / Move with) if the TCP climbs at least
+        this much (metres) in one go (largest rise inside the run)...
+    dominance : float
+        ...and its summed climb is at least ``dominance`` times its summed descent (0: off).
+    max_segment_s : float
+        Longest skill segment considered (seconds; the template skills last 1-4 s); bounds the
+        forward passes.
+    penalty : float
+        Per-segment penalty of the DP (nats).
+    min_duration_s : float
+        A demonstration shorter than this cannot hold a skill (DemonstrationError).
+    """
+
+    stage1: Stage1Params = field(default_factory=Stage1Params)
+    feature_cutoff_hz: float = 2.0
+    end: Literal["final", "any"] = "final"
+    min_rise: float = 0.02
+    dominance: float = 0.0
+    max_segment_s: float = 10.0
+    penalty: float = 10.0
+    min_duration_s: float = 0.5
+
+
+def _interp_columns(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, int]:
+    """Linear interpolation of NaN rows of ``x`` (n, ...) over ``t``; returns (filled, n_missing)."""
+    flat = x.reshape(x.shape[0], -1).copy()
+    ok = np.all(np.isfinite(flat), axis=1)
+    missing = int((~ok).sum())
+    if missing == 0 or not ok.any():
+        return x.copy(), missing
+    for c in range(flat.shape[1]):
+        flat[~ok, c] = np.interp(t[~ok], t[ok], flat[ok, c])
+    return flat.reshape(x.shape), missing
+
+
+def fill_gaps(traj: Trajectory) -> tuple[Trajectory, list[str]]:
+    """Interpolate hand and object tracking gaps (NaN) so the features can be computed.
+
+    Raises :class:`DemonstrationError` if there is no hand data or no object with data.
+    Returns the filled trajectory and warnings describing what was filled or dropped.
+    """
+    n = len(traj)
+    if n == 0:
+        raise DemonstrationError("the demonstration has no samples")
+    t = traj.t_s
+    warnings: list[str] = []
+    if not np.any(np.all(np.isfinite(traj.tcp), axis=1)):
+        raise DemonstrationError("the demonstration has no hand data (the hand was never tracked)")
+    tcp, m1 = _interp_columns(t, traj.tcp)
+    opening, m2 = _interp_columns(t, traj.opening[:, None])
+    rotation, _ = _interp_columns(t, traj.rotation)
+    if max(m1, m2):
+        warnings.append(
+            f"hand not tracked for {max(m1, m2) * traj.dt:.2f} s in total; gaps interpolated"
+        )
+    keep = []
+    pos = []
+    quat = []
+    for k, name in enumerate(traj.object_names):
+        if not np.any(np.all(np.isfinite(traj.object_position[k]), axis=1)):
+            warnings.append(f"object {name!r} never tracked; ignored")
+            continue
+        p, miss = _interp_columns(t, traj.object_position[k])
+        q, _ = _interp_columns(t, traj.object_quaternion[k])
+        if miss:
+            warnings.append(f"object {name!r} not tracked for {miss * traj.dt:.2f} s; interpolated")
+        keep.append(k)
+        pos.append(p)
+        quat.append(q)
+    if not keep:
+        raise DemonstrationError("the demonstration has no tracked objects")
+    filled = dataclasses.replace(
+        traj,
+        tcp=tcp,
+        opening=opening[:, 0],
+        rotation=rotation,
+        object_names=[traj.object_names[k] for k in keep],
+        object_position=np.stack(pos),
+        object_quaternion=np.stack(quat),
+        object_size=traj.object_size[keep],
+        hand_valid=np.ones(n, dtype=bool),
+        object_valid=np.ones((len(keep), n), dtype=bool),
+    )
+    return filled, warnings
+
+
+def segment_trajectory(
+    traj: Trajectory,
+    templates: Templates,
+    *,
+    search: Search = "greedy",
+    grammar: GrammarUse = "warn",
+    params: SegmentParams | None = None,
+) -> Segmentation:
+    """Segment a preprocessed trajectory (see :func:`lfd.segment.segment`)."""
+    from ..features import compute_features
+
+    p = params or SegmentParams()
+    if search not in ("greedy", "dp"):
+        raise ValueError(f"search must be 'greedy' or 'dp', got {search!r}")
+    if grammar not in ("off", "warn", "enforce"):
+        raise ValueError(f"grammar must be 'off', 'warn' or 'enforce', got {grammar!r}")
+    if len(traj) < 2 or traj.dt <= 0 or (len(traj) - 1) * traj.dt < p.min_duration_s:
+        dur = max(len(traj) - 1, 0) * max(traj.dt, 0.0)
+        raise DemonstrationError(
+            f"the demonstration lasts {dur:.2f} s, too short for any skill "
+            f"(at least {p.min_duration_s} s)"
+        )
+    filled, warnings = fill_gaps(traj)
+    feats = compute_features(filled)
+    values = np.ascontiguousarray(feats.values, dtype=np.float64)
+    bounds = section_boundaries(values, feats.thresholds, traj.dt, p.stage1)
+    max_len = max(1, round(p.max_segment_s / traj.dt))
+    scores, best_object = object_scores(filled, templates, bounds, max_len, p.end)
+    rising = _hmmseg.rising_table(
+        np.ascontiguousarray(filled.tcp[:, 2]), bounds, p.min_rise, p.dominance
+    )
+    skills = templates.skills
+    if search == "greedy":
+        raw, warn = _hmmseg.segment_greedy(scores, bounds, skills, grammar_json(), rising, grammar)
+    else:
+        raw, warn = _hmmseg.segment_dp(
+            scores, bounds, skills, grammar_json(), rising, grammar, p.penalty
+        )
+    segments = [
+        _make_segment(filled, skills[s], a, b, int(best_object[i, j, s]), score, conf)
+        for (s, i, j, a, b, score, conf) in raw
+    ]
+    return Segmentation(
+        segments=segments,
+        warnings=warnings + list(warn),
+        method=search,
+        sections=[int(b) for b in bounds],
+        object_names=list(filled.object_names),
+    )
+
+
+def object_scores(
+    traj: Trajectory, templates: Templates, bounds: np.ndarray, max_len: int, end: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """Score table maximised over the target object, and the maximising object.
+
+    The skills are object-centred: for every run of sections and skill the features are taken
+    relative to each object in turn and the best-explaining object is the segment's target
+    (``c^{r,s} = max_o sum_f log P(O_f^{r,o} | lambda_f^s)``). This replaces a fixed per-sample
+    target labelling, which cannot know the target of skills that never move their object
+    (Locate).
+
+    Returns
+    -------
+    scores : array, shape (K, K + 1, S)
+    best_object : array of int, shape (K, K + 1, S)
+    """
+    from ..features import compute_features
+
+    tables = []
+    for o in range(len(traj.object_names)):
+        f = compute_features(traj, target=o)
+        raw = np.ascontiguousarray(f.values, dtype=np.float64)
+        tables.append(templates.engine.score_table(raw, bounds, max_len, end))
+    stack = np.stack(tables)
+    return np.ascontiguousarray(stack.max(axis=0)), stack.argmax(axis=0)
+
+
+def _make_segment(
+    traj: Trajectory,
+    skill: str,
+    start: int,
+    end: int,
+    target: np.ndarray | int | None,
+    score: float = float("nan"),
+    confidence: float = float("nan"),
+) -> Segment:
+    n = len(traj)
+    t_s = traj.t_s
+    obj: int | None = None
+    if isinstance(target, int):
+        obj = target
+    elif target is not None and end > start:
+        obj = Counter(target[start:end].tolist()).most_common(1)[0][0]
+    end_ns = int(traj.t_ns[end]) if end < n else int(traj.t_ns[-1])
+    end_s = float(t_s[end]) if end < n else float(t_s[-1])
+    return Segment(
+        skill=skill,
+        start=int(start),
+        end=int(end),
+        start_s=float(t_s[start]),
+        end_s=end_s,
+        start_ns=int(traj.t_ns[start]),
+        end_ns=end_ns,
+        object=traj.object_names[obj] if obj is not None else None,
+        score=float(score),
+        confidence=float(confidence),
+        params=skill_params(traj, skill, start, end, obj),
+    )
+
+
+def as_trajectory(
+    demo_or_traj: Demonstration | Trajectory, *, feature_cutoff_hz: float = 2.0
+) -> Trajectory:
+    """Preprocess a demonstration (a trajectory passes through)."""
+    if isinstance(demo_or_traj, Trajectory):
+        return demo_or_traj
+    if isinstance(demo_or_traj, Demonstration):
+        from ..preprocess import preprocess
+
+        if len(demo_or_traj.hand) == 0 or not np.isfinite(demo_or_traj.hand.keypoints).any():
+            raise DemonstrationError("the demonstration has no hand data")
+        return preprocess(demo_or_traj, feature_cutoff_hz=feature_cutoff_hz)
+    raise TypeError(f"expected a Demonstration or Trajectory, got {type(demo_or_traj).__name__}")

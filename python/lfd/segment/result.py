@@ -1,0 +1,131 @@
+"""The result of a segmentation: ordered skill segments, warnings and a JSON task program."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..demo import SkillLabel
+
+RESULT_FORMAT_VERSION = 1
+"""Version of the JSON written by :meth:`Segmentation.to_json`."""
+
+
+@dataclass
+class Segment:
+    """One skill segment.
+
+    Attributes
+    ----------
+    skill : str
+        Canonical skill name (:data:`lfd.skills.SKILLS`).
+    start, end : int
+        Sample indices into the trajectory, ``end`` exclusive.
+    start_s, end_s : float
+        Seconds since the first trajectory sample.
+    start_ns, end_ns : int
+        Absolute times (int64 ns, the recording's clock); ``end_ns`` is the next segment's start.
+    object : str or None
+        Target object name (majority of the per-sample target labels in the segment).
+    score : float
+        Summed feature log-likelihood per sample of the chosen skill (NaN for baselines).
+    confidence : float
+        Margin of ``score`` over the best other skill on the same samples (``inf`` when no other
+        skill was a candidate, NaN for baselines).
+    params : dict
+        Skill parameters (grasp pose, place pose, push displacement, ...), see
+        :func:`lfd.segment.params.skill_params`.
+    """
+
+    skill: str
+    start: int
+    end: int
+    start_s: float
+    end_s: float
+    start_ns: int
+    end_ns: int
+    object: str | None = None
+    score: float = float("nan")
+    confidence: float = float("nan")
+    params: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def duration_s(self) -> float:
+        """Length in seconds."""
+        return self.end_s - self.start_s
+
+    def to_label(self) -> SkillLabel:
+        """The segment as a :class:`~lfd.demo.SkillLabel` (e.g. to save into a recording)."""
+        return SkillLabel(self.skill, self.start_ns, self.end_ns, self.object)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict (non-finite numbers become ``None``)."""
+        return {
+            "skill": self.skill,
+            "start_s": self.start_s,
+            "end_s": self.end_s,
+            "start_ns": self.start_ns,
+            "end_ns": self.end_ns,
+            "object": self.object,
+            "score": _finite(self.score),
+            "confidence": _finite(self.confidence),
+            "params": self.params,
+        }
+
+
+def _finite(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+@dataclass
+class Segmentation:
+    """A demonstration cut into skills.
+
+    Attributes
+    ----------
+    segments : list[Segment]
+        In time order, covering the whole trajectory.
+    warnings : list[str]
+        Impossible transitions, relaxed constraints, data problems.
+    method : str
+        ``"greedy"``, ``"dp"``, ``"proximity"`` or ``"gripper"``.
+    sections : list[int]
+        Stage-1 section boundaries (sample indices ``[0, ..., n]``); empty for baselines.
+    object_names : list[str]
+        Names of the trajectory's objects.
+    """
+
+    segments: list[Segment]
+    warnings: list[str] = field(default_factory=list)
+    method: str = "greedy"
+    sections: list[int] = field(default_factory=list)
+    object_names: list[str] = field(default_factory=list)
+
+    def __len__(self) -> int:
+        return len(self.segments)
+
+    @property
+    def skill_sequence(self) -> list[str]:
+        """Skill names in order."""
+        return [s.skill for s in self.segments]
+
+    def to_labels(self) -> list[SkillLabel]:
+        """The segments as :class:`~lfd.demo.SkillLabel` objects."""
+        return [s.to_label() for s in self.segments]
+
+    def to_dict(self) -> dict[str, Any]:
+        """The task program as a JSON-ready dict."""
+        return {
+            "format_version": RESULT_FORMAT_VERSION,
+            "method": self.method,
+            "objects": list(self.object_names),
+            "segments": [s.to_dict() for s in self.segments],
+            "warnings": list(self.warnings),
+        }
+
+    def to_json(self, **kwargs: Any) -> str:
+        """The task program as JSON text (``kwargs`` go to :func:`json.dumps`)."""
+        kwargs.setdefault("indent", 2)
+        return json.dumps(self.to_dict(), **kwargs)

@@ -1,0 +1,226 @@
+"""Skill templates: train them from labelled template recordings, save, load, ship.
+
+A template set holds one left-right HMM with Gaussian-mixture emissions per skill x Table I
+feature, trained by Baum-Welch (in the engine) on the labelled segments of template
+demonstrations, after mapping every feature column to [0, 1] with ranges learned from the
+templates and warping the sequences onto their medoid by DTW (paper Sec. III-B.2). The default
+set ships in the package (``lfd/data/templates.json``) and was trained from
+``recordings/templates`` with ``lfd templates train``.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Iterable, Sequence
+from functools import cache
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import _hmmseg
+from ..demo import Demonstration
+from ..errors import DemonstrationError, ModelFormatError
+from ..skills import SKILLS
+from ..trajectory import Trajectory
+
+FEATURE_GROUPS: tuple[tuple[str, int, int], ...] = (
+    ("fingertip_distance", 0, 1),
+    ("tcp_rise_fall", 1, 2),
+    ("object_proximity", 2, 3),
+    ("object_distance", 3, 4),
+    ("object_height", 4, 5),
+    ("tcp_in_object", 5, 8),
+    ("object_velocity", 8, 9),
+    ("hand_velocity", 9, 10),
+)
+"""The eight features of Table I as ``(name, first column, end column)`` of the feature matrix."""
+
+FEATURE_CUTOFF_HZ = 2.0
+"""Low-pass cut-off (Hz) of the positions the template features are computed from; stored in
+the template file and used again at segmentation time."""
+
+DEFAULT_TEMPLATES = "data/templates.json"
+"""Package resource of the shipped templates."""
+
+
+class Templates:
+    """A trained template set (wraps the engine's ``TemplateSet``).
+
+    Use :meth:`load`, :meth:`default` or :func:`train_templates` to get one.
+    """
+
+    def __init__(self, engine: _hmmseg.TemplateSet, *, meta: dict[str, Any] | None = None):
+        self.engine = engine
+        self.meta: dict[str, Any] = dict(meta or {})
+
+    @property
+    def skills(self) -> list[str]:
+        """Skill names in model order."""
+        return list(self.engine.skills)
+
+    @property
+    def features(self) -> list[tuple[str, int, int]]:
+        """Features as ``(name, first column, end column)``."""
+        return list(self.engine.features)
+
+    @property
+    def ranges(self) -> np.ndarray:
+        """Normalisation ranges, shape (n_columns, 2)."""
+        return np.asarray(self.engine.ranges, dtype=np.float64)
+
+    def to_json(self) -> str:
+        """The templates as JSON text (the engine's format, plus an ``lfd`` metadata block)."""
+        doc = json.loads(self.engine.to_json())
+        doc["lfd"] = self.meta
+        return json.dumps(doc)
+
+    @classmethod
+    def from_json(cls, text: str) -> Templates:
+        """Read templates from JSON text; version or skill problems raise ModelFormatError."""
+        try:
+            doc = json.loads(text)
+        except json.JSONDecodeError as err:
+            raise ModelFormatError(f"template file is not valid JSON: {err}") from None
+        if not isinstance(doc, dict):
+            raise ModelFormatError("template file must contain a JSON object")
+        meta = doc.pop("lfd", {}) if isinstance(doc.get("lfd", {}), dict) else {}
+        unknown = [s for s in doc.get("skills", []) if s not in SKILLS]
+        if unknown:
+            raise ModelFormatError(
+                f"template file names unknown skill(s) {unknown}; known: {', '.join(SKILLS)}"
+            )
+        return cls(_hmmseg.TemplateSet.from_json(json.dumps(doc)), meta=meta)
+
+    @classmethod
+    def load(cls, path: str | Path) -> Templates:
+        """Read a template file."""
+        p = Path(path)
+        try:
+            text = p.read_text(encoding="utf-8")
+        except OSError as err:
+            raise ModelFormatError(f"cannot read template file {p}: {err}") from None
+        try:
+            return cls.from_json(text)
+        except ModelFormatError as err:
+            raise ModelFormatError(f"{p}: {err}") from None
+
+    def save(self, path: str | Path) -> None:
+        """Write the templates as JSON."""
+        Path(path).write_text(self.to_json(), encoding="utf-8")
+
+    @classmethod
+    def default(cls) -> Templates:
+        """The templates shipped with the package."""
+        return _default_templates()
+
+    def __repr__(self) -> str:
+        return f"Templates(skills={self.skills}, features={[f[0] for f in self.features]})"
+
+
+@cache
+def _default_templates() -> Templates:
+    res = resources.files("lfd").joinpath(DEFAULT_TEMPLATES)
+    if not res.is_file():
+        raise ModelFormatError(
+            f"the package has no shipped templates ({DEFAULT_TEMPLATES}); "
+            "train some with `lfd templates train recordings/templates -o templates.json`"
+        )
+    return Templates.from_json(res.read_text(encoding="utf-8"))
+
+
+def target_from_labels(traj: Trajectory, demo: Demonstration) -> np.ndarray | None:
+    """Per-sample target object index from the labels' ``object`` names, shape (n,).
+
+    Samples no label covers (or whose label names no known object) take the object of the
+    nearest labelled sample. ``None`` if no label names an object.
+    """
+    n = len(traj)
+    idx = np.full(n, -1, dtype=np.int64)
+    for lab in demo.labels:
+        if lab.object in traj.object_names:
+            sel = (traj.t_ns >= lab.start_ns) & (traj.t_ns <= lab.end_ns)
+            idx[sel] = traj.object_names.index(lab.object)
+    known = np.flatnonzero(idx >= 0)
+    if known.size == 0:
+        return None
+    nearest = known[np.clip(np.searchsorted(known, np.arange(n)), 0, known.size - 1)]
+    return np.where(idx >= 0, idx, idx[nearest])
+
+
+def label_range(traj: Trajectory, start_ns: int, end_ns: int) -> tuple[int, int]:
+    """Sample index range ``[i0, i1)`` of a labelled span on the trajectory clock."""
+    i0 = int(np.searchsorted(traj.t_ns, start_ns, side="left"))
+    i1 = int(np.searchsorted(traj.t_ns, end_ns, side="left"))
+    return i0, max(i1, i0)
+
+
+def template_examples(
+    demo: Demonstration, *, feature_cutoff_hz: float = FEATURE_CUTOFF_HZ
+) -> list[tuple[str, np.ndarray]]:
+    """The labelled segments of one template demonstration as ``(skill, features (m, 10))``."""
+    from ..features import compute_features
+    from ..preprocess import preprocess
+    from .pipeline import fill_gaps
+
+    if not demo.labels:
+        raise DemonstrationError("a template demonstration needs skill labels")
+    traj, _ = fill_gaps(preprocess(demo, feature_cutoff_hz=feature_cutoff_hz))
+    feats = compute_features(traj, target=target_from_labels(traj, demo))
+    out = []
+    for lab in demo.labels:
+        i0, i1 = label_range(traj, lab.start_ns, lab.end_ns)
+        if i1 - i0 >= 2:
+            out.append((lab.skill, np.asarray(feats.values[i0:i1], dtype=np.float64)))
+    return out
+
+
+def train_templates(
+    recordings: Iterable[str | Path | Demonstration],
+    *,
+    params: dict[str, Any] | None = None,
+    features: Sequence[tuple[str, int, int]] = FEATURE_GROUPS,
+    skills: Sequence[str] = SKILLS,
+    progress: Callable[[str], None] | None = None,
+    feature_cutoff_hz: float = FEATURE_CUTOFF_HZ,
+) -> Templates:
+    """Train templates from labelled template recordings (MCAP paths or demonstrations).
+
+    Parameters
+    ----------
+    recordings : iterable
+        Template demonstrations; every labelled segment becomes a training example.
+    params : dict, optional
+        Overrides of the engine's template parameters (``_hmmseg.default_template_params()``),
+        e.g. ``{"fit": {"n_states": 5}, "align": False}``.
+    features : sequence of (name, start, end)
+        Feature groups, one HMM each.
+    skills : sequence of str
+        Skills to train (each needs at least one example).
+    progress : callable, optional
+        Called with each recording's name after it is processed.
+    feature_cutoff_hz : float
+        Low-pass cut-off of the preprocessing (stored with the templates).
+    """
+    from ..io import load
+
+    examples: list[tuple[int, np.ndarray]] = []
+    names: list[str] = []
+    for rec in recordings:
+        demo = rec if isinstance(rec, Demonstration) else load(rec)
+        name = str(rec) if not isinstance(rec, Demonstration) else demo.metadata.get("name", "demo")
+        for skill, x in template_examples(demo, feature_cutoff_hz=feature_cutoff_hz):
+            if skill in skills:
+                examples.append((list(skills).index(skill), x))
+        names.append(Path(name).name)
+        if progress is not None:
+            progress(name)
+    p = json.loads(_hmmseg.default_template_params())
+    for key, val in (params or {}).items():
+        if isinstance(val, dict) and isinstance(p.get(key), dict):
+            p[key].update(val)
+        else:
+            p[key] = val
+    engine = _hmmseg.TemplateSet.train(list(skills), list(features), examples, json.dumps(p))
+    return Templates(engine, meta={"trained_from": names, "feature_cutoff_hz": feature_cutoff_hz})

@@ -1,0 +1,249 @@
+"""Two-stage skill segmentation: shipped recordings, engine functions, baselines, bad input."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import subprocess
+import sys
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+import pytest
+from lfd import _hmmseg
+from lfd.demo import Demonstration, HandTrack
+from lfd.errors import DemonstrationError, ModelFormatError
+from lfd.segment import (
+    Templates,
+    gripper_segmentation,
+    proximity_segmentation,
+    segment,
+    train_templates,
+)
+from lfd.segment.evaluate import evaluate
+from lfd.segment.grammar import grammar_json, impossible_transitions
+from lfd.segment.metrics import all_metrics
+from lfd.skills import SKILLS
+
+ROOT = Path(__file__).resolve().parents[1]
+EXP1 = ROOT / "recordings" / "exp1.mcap"
+EXP2 = ROOT / "recordings" / "exp2.mcap"
+EXP3 = ROOT / "recordings" / "exp3.mcap"
+TEMPLATE_DIR = ROOT / "recordings" / "templates"
+
+
+@cache
+def _load(path: Path) -> Demonstration:
+    from lfd.io import load
+
+    return load(path, images=False)
+
+
+def demo(path: Path = EXP1) -> Demonstration:
+    return dataclasses.replace(_load(path))
+
+
+# --- the shipped recordings ------------------------------------------------------------------
+@pytest.mark.parametrize(("search", "grammar"), [("dp", "warn"), ("greedy", "enforce")])
+def test_exp1_sequence_equals_ground_truth(search: str, grammar: str) -> None:
+    d = demo()
+    result = segment(d, search=search, grammar=grammar)  # type: ignore[arg-type]
+    assert result.skill_sequence == d.skill_sequence
+    m = all_metrics(result.segments, d.labels)
+    assert m["frame_accuracy"] > (0.85 if search == "dp" else 0.75)
+    assert m["boundary_error_s"] < 0.45
+    # segments tile the trajectory and name the objects the labels name
+    assert result.segments[0].start == 0
+    assert all(a.end == b.start for a, b in zip(result.segments, result.segments[1:], strict=False))
+    picks = [s for s in result.segments if s.skill == "pick_up"]
+    truth = [lab.object for lab in d.labels if lab.skill == "pick_up"]
+    assert [s.object for s in picks] == truth
+    assert "grasp_position" in picks[0].params
+    assert not impossible_transitions(result.skill_sequence)
+
+
+def test_dp_at_least_as_good_as_greedy_on_exp3() -> None:
+    d = demo(EXP3)
+    g = all_metrics(segment(d, search="greedy", grammar="enforce").segments, d.labels)
+    p = all_metrics(segment(d, search="dp", grammar="enforce").segments, d.labels)
+    assert p["sequence_match"] == 1.0
+    assert p["frame_accuracy"] >= g["frame_accuracy"] - 0.02
+
+
+def test_baselines_cover_the_demo_and_are_worse_on_exp2() -> None:
+    d = demo(EXP2)
+    ours = all_metrics(segment(d, search="dp").segments, d.labels)
+    for fn in (proximity_segmentation, gripper_segmentation):
+        r = fn(d)
+        assert r.segments[0].start == 0
+        assert all(s.skill in SKILLS for s in r.segments)
+        m = all_metrics(r.segments, d.labels)
+        assert m["sequence_match"] == 0.0
+        assert m["frame_accuracy"] < ours["frame_accuracy"]
+
+
+def test_result_json_is_a_task_program() -> None:
+    r = segment(demo())
+    doc = json.loads(r.to_json())
+    assert doc["format_version"] == 1
+    assert [s["skill"] for s in doc["segments"]] == r.skill_sequence
+    assert {"start_s", "end_s", "object", "score", "confidence", "params"} <= set(
+        doc["segments"][0]
+    )
+
+
+# --- engine functions on numpy arrays --------------------------------------------------------
+def test_stage1_boundaries_on_a_synthetic_signal() -> None:
+    n = 100
+    values = np.zeros((n, 10))
+    values[30:70, 0] = 1.0  # fingertip distance above its threshold in 30..70
+    values[50:, 9] = 1.0  # hand speed above its threshold from 50
+    thresholds = np.full((n, 10), 0.5)
+    b = _hmmseg.stage1_boundaries(values, thresholds, [0, 9], [0.1, 0.1], 5)
+    assert b.tolist() == [0, 30, 50, 70, 100]
+
+
+def test_greedy_and_dp_on_a_constructed_table() -> None:
+    # 4 sections of 10 samples; pick_up on 0..2 and move_with on 2..4 are the only good runs
+    skills = list(SKILLS)
+    b = np.arange(0, 41, 10, dtype=np.int64)
+    scores = np.full((4, 5, len(skills)), -5.0)
+    for i in range(4):
+        for j in range(5):
+            scores[i, j] *= max(j - i, 0) * 10
+    scores[0, 2, skills.index("pick_up")] = 0.0
+    scores[2, 4, skills.index("move_with")] = 0.0
+    for fn in (_hmmseg.segment_greedy, _hmmseg.segment_dp):
+        segs, warnings = fn(scores, b, skills, grammar_json(), None, "enforce")
+        assert [(skills[s[0]], s[3], s[4]) for s in segs] == [
+            ("pick_up", 0, 20),
+            ("move_with", 20, 40),
+        ]
+        assert warnings == []
+
+
+def test_rising_table() -> None:
+    z = np.concatenate([np.zeros(10), np.linspace(0, 0.1, 10), np.full(10, 0.1)])
+    r = _hmmseg.rising_table(z, np.array([0, 10, 20, 30]), 0.02, 0.0)
+    assert r.shape == (3, 4)
+    assert r[1, 2] and r[0, 3] and not r[0, 1] and not r[2, 3]
+
+
+# --- templates -------------------------------------------------------------------------------
+def test_default_templates_ship_with_the_package() -> None:
+    t = Templates.default()
+    assert set(t.skills) == set(SKILLS)
+    assert len(t.features) == 8
+    assert t.meta.get("feature_cutoff_hz") == 2.0
+
+
+def test_train_save_load_round_trip(tmp_path: Path) -> None:
+    files = [TEMPLATE_DIR / f"{s}_0.mcap" for s in SKILLS]
+    t = train_templates(files, params={"fit": {"max_iter": 5}})
+    assert all(n >= 1 for n in t.engine.n_examples)
+    path = tmp_path / "t.json"
+    t.save(path)
+    back = Templates.load(path)
+    assert back.skills == t.skills
+    assert np.allclose(back.ranges, t.ranges)
+    r = segment(demo(), back)
+    assert len(r.segments) >= 4
+
+
+def test_template_file_errors(tmp_path: Path) -> None:
+    doc = json.loads(Templates.default().to_json())
+    bad = dict(doc, format_version=99)
+    (tmp_path / "v.json").write_text(json.dumps(bad))
+    with pytest.raises(ModelFormatError, match="format_version 99"):
+        Templates.load(tmp_path / "v.json")
+    unknown = dict(doc, skills=["fly", *doc["skills"][1:]])
+    (tmp_path / "u.json").write_text(json.dumps(unknown))
+    with pytest.raises(ModelFormatError, match="fly"):
+        Templates.load(tmp_path / "u.json")
+    (tmp_path / "x.json").write_text("{not json")
+    with pytest.raises(ModelFormatError):
+        Templates.load(tmp_path / "x.json")
+    with pytest.raises(ModelFormatError):
+        Templates.load(tmp_path / "missing.json")
+
+
+# --- bad input -------------------------------------------------------------------------------
+def test_no_hand_data_is_a_clear_error() -> None:
+    d = demo()
+    kp = np.full_like(d.hand.keypoints, np.nan)
+    d.hand = HandTrack(d.hand.t_ns, kp, np.zeros_like(d.hand.confidence))
+    with pytest.raises(DemonstrationError, match="no hand data"):
+        segment(d)
+
+
+def test_too_short_for_any_skill() -> None:
+    from lfd.preprocess import preprocess
+
+    traj = preprocess(demo(), feature_cutoff_hz=2.0)
+    short = dataclasses.replace(
+        traj,
+        t_ns=traj.t_ns[:10],
+        tcp=traj.tcp[:10],
+        rotation=traj.rotation[:10],
+        euler=traj.euler[:10],
+        opening=traj.opening[:10],
+        keypoints=traj.keypoints[:10],
+        object_position=traj.object_position[:, :10],
+        object_quaternion=traj.object_quaternion[:, :10],
+        hand_valid=traj.hand_valid[:10],
+        object_valid=traj.object_valid[:, :10],
+    )
+    with pytest.raises(DemonstrationError, match="too short"):
+        segment(short)
+
+
+def test_nan_stretch_is_interpolated_with_a_warning() -> None:
+    from lfd.preprocess import preprocess
+
+    traj = preprocess(demo(), feature_cutoff_hz=2.0)
+    tcp = traj.tcp.copy()
+    opening = traj.opening.copy()
+    tcp[100:115] = np.nan
+    opening[100:115] = np.nan
+    valid = traj.hand_valid.copy()
+    valid[100:115] = False
+    holed = dataclasses.replace(traj, tcp=tcp, opening=opening, hand_valid=valid)
+    r = segment(holed, search="dp")
+    assert any("not tracked" in w for w in r.warnings)
+    assert r.skill_sequence == demo().skill_sequence
+
+
+# --- evaluation and CLI ----------------------------------------------------------------------
+def test_evaluate_one_recording() -> None:
+    rep = evaluate([EXP1], methods=("dp", "gripper"))
+    assert len(rep.recordings) == 1
+    summary = rep.summary()
+    assert summary["dp"]["sequence_match"] == 1.0
+    assert summary["dp"]["n"] == 1.0
+    assert json.dumps(rep.to_dict())
+
+
+def test_cli_segment_writes_json(tmp_path: Path) -> None:
+    out = tmp_path / "seg.json"
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "lfd.cli",
+            "segment",
+            str(EXP1),
+            "--search",
+            "dp",
+            "--json",
+            str(out),
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert proc.returncode == 0, proc.stderr
+    doc = json.loads(out.read_text())
+    assert [s["skill"] for s in doc["segments"]] == [g["skill"] for g in doc["ground_truth"]]
+    assert doc["metrics"]["sequence_match"] == 1.0
+    assert "Pick up" in proc.stdout
