@@ -268,3 +268,17 @@ def test_clearance_check_sees_objects() -> None:
     assert clear(low_a, low_b, frames, objects, skip=("box_1",))
     high = np.array([0, 0, 0.1, 0])
     assert clear(low_a + high, low_b + high, frames, objects, skip=())
+
+
+def test_missing_pick_up_is_repaired() -> None:
+    traj, program = synthetic_demo("pick_place")
+    # a segmentation that merged the grasp into a move
+    merged = TaskProgram(
+        [
+            Segment("move", 0.0, program.segments[0].end_s),
+            *program.segments[1:],
+        ]
+    )
+    r = reproduce(traj, merged, "skills")
+    assert r.program is not None and r.program.skills[:3] == ["move", "pick_up", "move_with"]
+    assert r.success, r.to_json()

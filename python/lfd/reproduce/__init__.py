@@ -70,6 +70,9 @@ class Reproduction:
     wall_time_s: float
     displacement: dict[str, tuple[float, float]] = field(default_factory=dict)
     execution: Execution | None = None
+    program: TaskProgram | None = None
+    """The executed task program (a missing pick_up may have been inserted); ``segment``
+    indexes its segments."""
 
     @property
     def path_length(self) -> float:
@@ -106,6 +109,7 @@ class Reproduction:
             },
             "base": self.base.tolist(),
             "displacement": {k: list(v) for k, v in self.displacement.items()},
+            "program": self.program.to_json() if self.program is not None else None,
         }
 
 
@@ -204,4 +208,5 @@ def reproduce(
         wall_time_s=ex.wall_time_s,
         displacement=displace,
         execution=ex,
+        program=result.program,
     )

@@ -72,6 +72,8 @@ class PlanResult:
     """Expected final 4x4 pose of every object (the displaced equivalent of the demo's)."""
     goals: list[np.ndarray] = field(default_factory=list)
     """Goal TCP position (3,) of each segment."""
+    program: TaskProgram | None = None
+    """The executed program (after :func:`repair_program`); ``plan.segment`` indexes it."""
 
 
 def _ref_pose(
@@ -146,6 +148,7 @@ def plan_task(
     """
     if mode not in MODES:
         raise DemonstrationError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
+    program = repair_program(frames, program)
     start_i = frames.index(program.segments[0].start_s)
     objects = {n: frames.object_pose(n, start_i) for n in frames.names}
     if initial:
@@ -278,7 +281,39 @@ def plan_task(
     plan = plan_replay(frames, program) if mode == "replay" else Plan.concat(parts)
     # the fingertips never go below the table top (human fingertips may graze it)
     plan.position[:, 2] = np.maximum(plan.position[:, 2], Z_MIN)
-    return PlanResult(plan, expected, goals)
+    return PlanResult(plan, expected, goals, program)
+
+
+def repair_program(frames: DemoFrames, program: TaskProgram) -> TaskProgram:
+    """Insert a missing ``pick_up`` before a ``move_with`` of an object that is not held.
+
+    A segmentation may merge the grasp into the preceding ``move``; the grasp is then cut out
+    of that move from the moment the hand comes closest to the object (the pick_up segment
+    gets the rest).
+    """
+    segs: list[Segment] = []
+    held: str | None = None
+    for seg in program.segments:
+        if seg.skill == "pick_up":
+            held = seg.object
+        elif seg.skill in ("place", "stack"):
+            held = None
+        elif seg.skill == "move_with" and seg.object is not None and held != seg.object:
+            prev = segs[-1] if segs else None
+            if prev is not None and prev.skill in ("move", "locate") and seg.object in frames.names:
+                a, b = frames.index(prev.start_s), frames.index(prev.end_s)
+                obj = np.array([frames.object_pose(seg.object, i)[:3, 3] for i in range(a, b + 1)])
+                dist = np.linalg.norm(frames.tcp[a : b + 1] - obj, axis=1)
+                # the approach starts where the hand comes within 12 cm of the object
+                near = np.flatnonzero(dist < max(0.12, float(dist.min()) + 0.02))
+                cut = frames.t[a + int(near[0])] if near.size else prev.end_s
+                cut = min(max(cut, prev.start_s), prev.end_s)
+                segs[-1] = Segment(prev.skill, prev.start_s, cut, prev.object, prev.params)
+                segs.append(Segment("pick_up", cut, seg.start_s, seg.object))
+                held = seg.object
+        segs.append(seg)
+    segs = [s for s in segs if s.end_s > s.start_s or s.skill != "move"]
+    return TaskProgram(segs)
 
 
 def _pick_goal(
