@@ -75,6 +75,9 @@ pub struct CompiledHmm {
     trans: Vec<f64>,
     /// `n` states x `n_mix` components.
     comps: Vec<Vec<Component>>,
+    /// For each state `j`, the range `lo..hi` of states `i` with `P(j | i) > 0` (left-right
+    /// chains are banded).
+    band: Vec<(usize, usize)>,
 }
 
 impl CompiledHmm {
@@ -112,11 +115,21 @@ impl CompiledHmm {
             }
             comps.push(row);
         }
+        let trans: Vec<f64> = hmm.transmat().iter().copied().collect();
+        let band = (0..n)
+            .map(|j| {
+                let row = &trans[j * n..(j + 1) * n];
+                let lo = row.iter().position(|&p| p > 0.0).unwrap_or(0);
+                let hi = row.iter().rposition(|&p| p > 0.0).map_or(0, |i| i + 1);
+                (lo, hi.max(lo))
+            })
+            .collect();
         Ok(Self {
             n,
             start: hmm.startprob().iter().copied().collect(),
-            trans: hmm.transmat().iter().copied().collect(),
+            trans,
             comps,
+            band,
         })
     }
 
@@ -317,8 +330,9 @@ impl CompiledHmm {
                 pred.copy_from_slice(&self.start);
             } else {
                 for (j, p) in pred.iter_mut().enumerate() {
-                    let tr = &self.trans[j * n..(j + 1) * n];
-                    *p = alpha.iter().zip(tr).map(|(a, q)| a * q).sum();
+                    let (lo, hi) = self.band[j];
+                    let tr = &self.trans[j * n + lo..j * n + hi];
+                    *p = alpha[lo..hi].iter().zip(tr).map(|(a, q)| a * q).sum();
                 }
             }
             let bt = &em.b[t * n..(t + 1) * n];
