@@ -6,6 +6,7 @@ import argparse
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 NAME = "eval"
 HELP = "Evaluate greedy, dp and the two baselines against ground-truth labels."
@@ -24,6 +25,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="warn",
         help="grammar use of greedy and dp (default warn, as the paper)",
     )
+    from ..viz.cli import add_rerun_arguments
+
+    add_rerun_arguments(parser)  # shows one recording: every method's lane beside the truth
 
 
 def _fmt(k: str, v: float) -> str:
@@ -44,11 +48,14 @@ def run(args: argparse.Namespace) -> int:
     from ..segment import Templates
     from ..segment.evaluate import evaluate, expand_paths
     from ..segment.metrics import METRIC_NAMES
+    from ..viz.cli import close_from_args, open_from_args
 
     console = Console()
     templates = Templates.load(args.templates) if args.templates else None
     methods = tuple(m.strip() for m in args.methods.split(",") if m.strip())
     paths = expand_paths(args.inputs)
+    if open_from_args(args, "lfd_eval"):
+        _show(paths, methods, templates, args.grammar, console)
     with Progress(console=console, transient=True) as progress:
         task = progress.add_task("evaluating", total=len(paths))
         report = evaluate(
@@ -60,6 +67,7 @@ def run(args: argparse.Namespace) -> int:
         )
     if not report.recordings:
         console.print("[red]no recordings with ground-truth labels[/]")
+        close_from_args(args)
         return 1
     for title, task_name in [*((t, t) for t in report.tasks()), ("overall", None)]:
         summary = report.summary(task_name)
@@ -77,4 +85,20 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         Path(args.json).write_text(json.dumps(report.to_dict(), indent=2), encoding="utf-8")
         console.print(f"wrote {args.json}")
+    close_from_args(args)
     return 0
+
+
+def _show(
+    paths: list[Path], methods: tuple[str, ...], templates: Any, grammar: str, console: Any
+) -> None:
+    """Log one recording and every method's result to the open Rerun session."""
+    if len(paths) != 1:
+        console.print(f"[yellow]--rerun* shows a single recording; got {len(paths)}[/]")
+        return
+    from ..io import load
+    from ..viz.pipeline import log_methods, log_recorded_demo
+
+    demo = load(paths[0])
+    traj = log_recorded_demo(demo, features=False)  # log_methods logs them
+    log_methods(demo, methods, templates=templates, trajectory=traj, grammar=grammar)

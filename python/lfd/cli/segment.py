@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -27,16 +28,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="skill grammar: warn about impossible transitions (default) or enforce it",
     )
     parser.add_argument("--json", metavar="OUT", help="also write the result as JSON to OUT")
-    # a visualisation flag (--rerun) is added by the visualisation issue; results flow through
-    # `segment_recording`, so it only needs the returned Segmentation and demonstration.
+    from ..viz.cli import add_rerun_arguments
+
+    add_rerun_arguments(parser)
 
 
-def segment_recording(args: argparse.Namespace) -> tuple[Any, Any, dict[str, Any]]:
-    """Load, segment and score: returns (demonstration, segmentation, JSON document)."""
+def segment_recording(
+    args: argparse.Namespace, on_loaded: Callable[[Any], Any] | None = None
+) -> tuple[Any, Any, dict[str, Any]]:
+    """Load, segment and score: returns (demonstration, segmentation, JSON document).
+
+    ``on_loaded(demo)`` is called as soon as the recording is loaded (e.g. to show it).
+    """
     from ..io import load
     from ..segment import Templates, all_metrics, segment
 
-    demo = load(args.recording, images=False)
+    demo = load(args.recording, images=bool(getattr(args, "rerun_session", None)))
+    if on_loaded is not None:
+        on_loaded(demo)
     templates = Templates.load(args.templates) if args.templates else None
     result = segment(demo, templates, search=args.search, grammar=args.grammar)
     doc: dict[str, Any] = {
@@ -63,13 +72,36 @@ def segment_recording(args: argparse.Namespace) -> tuple[Any, Any, dict[str, Any
     return demo, result, doc
 
 
+def _show_demo(shown: list[Any]) -> Callable[[Any], None]:
+    def show(demo: Any) -> None:
+        from ..viz.pipeline import log_recorded_demo
+
+        shown.append(log_recorded_demo(demo, features=False))
+
+    return show
+
+
 def run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.table import Table
 
     from ..skills import DISPLAY_NAMES
+    from ..viz.cli import close_from_args, open_from_args
 
-    _demo, result, doc = segment_recording(args)
+    show = open_from_args(args, "lfd_segment")
+    shown: list[Any] = []  # the trajectory made while showing the demonstration
+    demo, result, doc = segment_recording(args, on_loaded=_show_demo(shown) if show else None)
+    if show:
+        from ..segment import Templates
+        from ..viz.pipeline import log_segment_run
+
+        log_segment_run(
+            demo,
+            result,
+            trajectory=shown[0] if shown else None,
+            templates=Templates.load(args.templates) if args.templates else None,
+            ground_truth=False,  # logged with the demonstration
+        )
     console = Console()
     table = Table(title=f"{Path(args.recording).name}: {result.method} segmentation")
     for col in ("#", "skill", "start s", "end s", "object", "score", "confidence"):
@@ -106,4 +138,5 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         Path(args.json).write_text(json.dumps(doc, indent=2), encoding="utf-8")
         console.print(f"wrote {args.json}")
+    close_from_args(args)
     return 0

@@ -61,6 +61,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     v.add_argument("--approach-deg", type=float, help="max approach azimuth deviation (35)")
     v.add_argument("--hand-miss", type=float, help="fraction of failed hand estimates (0.02)")
     v.add_argument("--noise-free", action="store_true", help="no sensor noise, dropouts, tremor")
+    from ..viz.cli import add_rerun_arguments
+
+    add_rerun_arguments(parser)
 
 
 def _variability(args: argparse.Namespace) -> Any:
@@ -153,6 +156,10 @@ def run(args: argparse.Namespace) -> int:
 
     var = _variability(args)
     if args.set:
+        from ..viz.cli import wants_rerun
+
+        if wants_rerun(args):
+            print("--rerun* shows a single demonstration; ignored with --set")
         jobs = _jobs(args.set, Path(args.output))
         with Progress() as progress:
             bar = progress.add_task(f"simulating {args.set}", total=len(jobs))
@@ -171,6 +178,9 @@ def run(args: argparse.Namespace) -> int:
         return 0
     if not args.task:
         raise DemonstrationError("give a TASK or --set")
+    from ..viz.cli import close_from_args, open_from_args
+
+    show = open_from_args(args, "lfd_simulate")
     with Progress(transient=True) as progress:
         progress.add_task(f"simulating {args.task} (seed {args.seed})", total=None)
         result = record(
@@ -188,4 +198,9 @@ def run(args: argparse.Namespace) -> int:
         f"{args.output}: {args.task} seed {args.seed}, {demo.duration_s:.1f} s, "
         f"{len(demo.hand)} hand samples, skills {' '.join(demo.skill_sequence)}"
     )
+    if show:
+        from ..viz.pipeline import log_recorded_demo
+
+        log_recorded_demo(demo)
+        close_from_args(args)
     return 0

@@ -1,0 +1,91 @@
+"""The ``--rerun*`` command-line flags shared by ``lfd simulate``, ``lfd segment``, ``lfd eval``.
+
+A command calls :func:`add_rerun_arguments` in ``add_arguments`` and, in ``run``::
+
+    if open_from_args(args, "lfd_segment"):    # opens the viewer/file/server, or does nothing
+        lfd.viz.log_demonstration(demo)          # log as results are produced
+    ...
+    close_from_args(args)                        # flush; keep serving until Ctrl+C if serving
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from .session import DEFAULT_GRPC_PORT, DEFAULT_WEB_PORT, Session, open_session
+
+_SESSION_ATTR = "rerun_session"
+
+
+def add_rerun_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add ``--rerun``, ``--rerun-save``, ``--rerun-connect``, ``--rerun-serve`` to a parser."""
+    group = parser.add_argument_group("Rerun visualisation")
+    group.add_argument(
+        "--rerun",
+        action="store_true",
+        help="stream to the native Rerun viewer (spawned; without a display the web viewer is "
+        "served instead)",
+    )
+    group.add_argument(
+        "--rerun-save", metavar="FILE.rrd", help="save the Rerun recording to a file"
+    )
+    group.add_argument(
+        "--rerun-connect",
+        metavar="URL",
+        help="stream to a running viewer, e.g. rerun+http://127.0.0.1:9876/proxy",
+    )
+    group.add_argument(
+        "--rerun-serve",
+        action="store_true",
+        help=f"serve the web viewer on http://localhost:{DEFAULT_WEB_PORT} (gRPC on "
+        f"{DEFAULT_GRPC_PORT}) and print its address",
+    )
+
+
+def wants_rerun(args: argparse.Namespace) -> bool:
+    """Whether any ``--rerun*`` flag was given."""
+    return bool(
+        getattr(args, "rerun", False)
+        or getattr(args, "rerun_save", None)
+        or getattr(args, "rerun_connect", None)
+        or getattr(args, "rerun_serve", False)
+    )
+
+
+def open_from_args(args: argparse.Namespace, app_id: str, **kwargs: Any) -> bool:
+    """Open the Rerun session the flags ask for; False (and nothing opened) without flags.
+
+    The recording becomes the global default, so ``lfd.viz.log_*(...)`` log to it. What was
+    opened (file, viewer, web address) is printed to stderr. Extra keyword arguments go to
+    :func:`lfd.viz.session.open_session` (e.g. ``blueprint=``).
+    """
+    if not wants_rerun(args):
+        setattr(args, _SESSION_ATTR, None)
+        return False
+    session = open_session(
+        app_id,
+        spawn=bool(getattr(args, "rerun", False)),
+        save=getattr(args, "rerun_save", None),
+        connect=getattr(args, "rerun_connect", None),
+        serve=bool(getattr(args, "rerun_serve", False)),
+        **kwargs,
+    )
+    for message in session.messages:
+        print(f"rerun: {message}", file=sys.stderr)
+    setattr(args, _SESSION_ATTR, session)
+    return True
+
+
+def session_from_args(args: argparse.Namespace) -> Session | None:
+    """The session :func:`open_from_args` opened, if any."""
+    return getattr(args, _SESSION_ATTR, None)
+
+
+def close_from_args(args: argparse.Namespace, *, wait_serving: bool | None = None) -> None:
+    """Flush and close the session opened from ``args`` (no-op without one)."""
+    session = session_from_args(args)
+    if session is not None:
+        session.close(wait_serving=wait_serving)
+        setattr(args, _SESSION_ATTR, None)

@@ -1,0 +1,263 @@
+"""Log a whole segmentation run: trajectory, features, sections, greedy scores, skills.
+
+The segmentation returns its segments, warnings and stage-1 sections; the per-iteration HMM
+scores of the greedy loop are recomputed here from the same inputs (features of the gap-filled
+trajectory, the template score table) so the viewer can show why each cut was made.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .features import log_features
+from .segmentation import log_segmentation, log_text
+
+if TYPE_CHECKING:
+    from ..demo import Demonstration
+    from ..segment import Segmentation, SegmentParams, Templates
+    from ..trajectory import Trajectory
+
+
+def greedy_trace(
+    table: np.ndarray,
+    boundaries: Sequence[int] | np.ndarray,
+    segment_starts: Sequence[int],
+    skills: Sequence[str],
+) -> tuple[list[dict[str, np.ndarray]], list[np.ndarray]]:
+    """Per greedy iteration, the per-sample score of every candidate run under every skill.
+
+    Parameters
+    ----------
+    table : array, shape (K, K + 1, S)
+        Summed log-likelihoods of sections ``i..j`` under skill ``s`` (``-inf`` = not scored).
+    boundaries : sequence of int, length K + 1
+        Stage-1 boundaries ``[0, ..., n]`` (sample indices).
+    segment_starts : sequence of int
+        Start sample of each cut segment, in cut order (the greedy loop cuts front to back).
+    skills : sequence of str, length S
+
+    Returns
+    -------
+    scores : list of dict skill -> array, shape (c_k,)
+        Mean log-likelihood per sample of the candidate runs of iteration ``k``.
+    candidate_ends : list of array of int, shape (c_k,)
+        End sample (exclusive) of each candidate run.
+    """
+    tab = np.asarray(table, dtype=np.float64)
+    b = np.asarray(boundaries, dtype=np.int64)
+    k = len(b) - 1
+    if tab.shape[:2] != (k, k + 1) or tab.shape[2] != len(skills):
+        raise ValueError(
+            f"score table {tab.shape} does not match {k} sections, {len(skills)} skills"
+        )
+    where = {int(x): i for i, x in enumerate(b)}
+    scores: list[dict[str, np.ndarray]] = []
+    ends: list[np.ndarray] = []
+    for start in segment_starts:
+        i = where.get(int(start))
+        if i is None or i >= k:
+            continue
+        j = np.arange(i + 1, k + 1)
+        mean = tab[i, j, :] / (b[j] - b[i])[:, None]
+        scores.append({s: mean[:, c] for c, s in enumerate(skills)})
+        ends.append(b[j])
+    return scores, ends
+
+
+def log_recorded_demo(
+    demo: Demonstration, *, features: bool = True, recording: Any = None, **kwargs: Any
+) -> Trajectory | None:
+    """Log a demonstration, its preprocessed trajectory (when it can be made) and its labels.
+
+    With ``features`` also the Table I features of the (gap-filled) trajectory. Extra keyword
+    arguments go to :func:`lfd.viz.log_demonstration`. Returns the trajectory.
+    """
+    from ..errors import LfdError
+    from ..preprocess import preprocess
+    from .demo import log_demonstration
+
+    traj: Trajectory | None = None
+    problem = None
+    try:
+        traj = preprocess(demo)
+    except LfdError as err:
+        problem = f"preprocessing failed: {err}"
+    log_demonstration(demo, trajectory=traj, recording=recording, **kwargs)
+    if traj is not None and features:
+        from ..features import compute_features
+        from ..segment.pipeline import fill_gaps
+
+        try:
+            filled, _ = fill_gaps(traj)
+            feats = compute_features(filled)
+            log_features(feats, object_names=list(filled.object_names), recording=recording)
+        except LfdError as err:
+            problem = f"features failed: {err}"
+    if problem:
+        log_text([problem], recording=recording)
+    if demo.labels:
+        log_segmentation(ground_truth=demo.labels, recording=recording)
+    return traj
+
+
+def log_segment_run(
+    demo: Demonstration | None,
+    result: Segmentation,
+    *,
+    trajectory: Trajectory | None = None,
+    templates: Templates | None = None,
+    params: SegmentParams | None = None,
+    baselines: Mapping[str, Segmentation] | None = None,
+    ground_truth: bool = True,
+    recording: Any = None,
+) -> None:
+    """Log the stages of one segmentation (the demonstration itself is logged separately).
+
+    Parameters
+    ----------
+    demo : Demonstration or None
+        For the ground-truth lane (its labels) and, without ``trajectory``, preprocessing.
+    result : Segmentation
+        The segmentation (lane ``result``, sections, warnings).
+    trajectory : Trajectory, optional
+        The preprocessed demonstration; computed from ``demo`` if omitted.
+    templates, params : optional
+        What the segmentation used (defaults: the shipped templates, default parameters); with
+        ``result.method == "greedy"`` the greedy scores per iteration are recomputed with them.
+    baselines : mapping name -> Segmentation, optional
+        Other methods' results, one lane each.
+    ground_truth : bool
+        Log the demonstration's labels too (off when :func:`log_recorded_demo` did already).
+    """
+    from ..features import compute_features
+    from ..segment import SegmentParams, Templates
+    from ..segment.pipeline import as_trajectory, fill_gaps, object_scores
+
+    traj = trajectory if trajectory is not None else as_trajectory(demo)  # type: ignore[arg-type]
+    filled, _ = fill_gaps(traj)
+    feats = compute_features(filled)
+    log_features(feats, object_names=list(filled.object_names), recording=recording)
+
+    t = np.asarray(filled.t_ns, dtype=np.int64)
+    n = len(t)
+    # a segment's end may be n (exclusive): its time is the last sample's
+    t_end = np.r_[t, t[-1]] if n else t
+    scores: list[dict[str, Any]] | None = None
+    candidate_ns: list[np.ndarray] | None = None
+    spans: list[tuple[int, int]] | None = None
+    if result.method == "greedy" and result.sections and result.segments:
+        tpl = templates or Templates.default()
+        p = params or SegmentParams()
+        bounds = np.asarray(result.sections, dtype=np.int64)
+        max_len = max(1, round(p.max_segment_s / traj.dt)) if traj.dt > 0 else 0
+        table, _ = object_scores(filled, tpl, bounds, max_len, p.end)  # as the segmentation
+        trace, ends = greedy_trace(table, bounds, [s.start for s in result.segments], tpl.skills)
+        scores = list(trace)
+        candidate_ns = [t_end[e] for e in ends]
+    if scores is None:
+        # one score per cut segment: the chosen skill's own
+        scores = [{s.skill: s.score} for s in result.segments if np.isfinite(s.score)]
+        if len(scores) == len(result.segments):
+            spans = [(s.start_ns, s.end_ns) for s in result.segments]
+        else:
+            scores = None
+    log_segmentation(
+        result.segments,
+        ground_truth=demo.labels if ground_truth and demo is not None and demo.labels else None,
+        baselines={k: v.segments for k, v in (baselines or {}).items()},
+        boundaries=np.asarray(result.sections, dtype=np.int64) if result.sections else None,
+        t_ns=t if result.sections else None,
+        scores=scores,
+        spans=spans,
+        candidate_end_ns=candidate_ns,
+        warnings=list(result.warnings),
+        recording=recording,
+    )
+    if candidate_ns is not None:
+        _log_cuts(result, recording)
+    log_text(
+        [(s.start_ns, _describe(k, s)) for k, s in enumerate(result.segments)],
+        path="/segmentation/log",
+        level="INFO",
+        recording=recording,
+    )
+
+
+def _log_cuts(result: Segmentation, recording: Any) -> None:
+    """The chosen (run, skill) of each greedy iteration: a marker at its end and score."""
+    from .session import get_recording, import_rerun
+    from .timeline import current_origin, time_columns
+
+    rr = import_rerun()
+    rec = get_recording(recording)
+    segs = [s for s in result.segments if np.isfinite(s.score)]
+    if not segs:
+        return
+    origin = current_origin(rec) or int(segs[0].start_ns)
+    path = "/segmentation/greedy/chosen"
+    rec.log(
+        path,
+        rr.SeriesPoints(names="cut", colors=[(255, 255, 255)], markers="diamond", marker_sizes=6.0),
+        static=True,
+    )
+    rec.send_columns(
+        path,
+        indexes=time_columns(np.array([s.end_ns for s in segs], dtype=np.int64), origin),
+        columns=rr.Scalars.columns(scalars=np.array([s.score for s in segs])),
+    )
+
+
+def _describe(k: int, s: Any) -> str:
+    obj = f"({s.object})" if s.object else ""
+    return (
+        f"{k}: {s.skill}{obj} {s.start_s:.2f}-{s.end_s:.2f} s, "
+        f"score {s.score:.2f}, margin {s.confidence:.2f}"
+    )
+
+
+def log_methods(
+    demo: Demonstration,
+    methods: Sequence[str],
+    *,
+    templates: Templates | None = None,
+    trajectory: Trajectory | None = None,
+    grammar: str = "warn",
+    recording: Any = None,
+) -> dict[str, Segmentation]:
+    """Run segmentation methods on ``demo`` and log each result as soon as it is ready.
+
+    The first of ``greedy``/``dp`` is logged in full (lane ``result``, features, sections,
+    scores); the others get a lane each (``dp``/``greedy``, ``baseline_<name>``). A method that
+    fails is reported in ``/segmentation/warnings``. Returns the results by method.
+    """
+    from ..errors import LfdError
+    from ..segment.evaluate import run_method
+    from .segmentation import log_skill_spans
+
+    results: dict[str, Segmentation] = {}
+    main = None
+    for method in methods:
+        try:
+            kw = {"grammar": grammar} if method in ("greedy", "dp") else {}
+            seg = run_method(method, demo, templates, **kw)
+        except LfdError as err:
+            log_text([f"{method}: {err}"], recording=recording)
+            continue
+        results[method] = seg
+        if main is None and method in ("greedy", "dp"):
+            main = method
+            log_segment_run(
+                demo,
+                seg,
+                trajectory=trajectory,
+                templates=templates,
+                ground_truth=False,
+                recording=recording,
+            )
+        else:
+            lane = method if method in ("greedy", "dp") else f"baseline_{method}"
+            log_skill_spans(seg.segments, source=lane, recording=recording)
+    return results
