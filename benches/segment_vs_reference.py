@@ -66,12 +66,10 @@ def build_demo() -> dict:
 def engine_stage2(templates, demo: dict) -> list[tuple[int, int, int]]:
     from lfd import _hmmseg
     from lfd.segment.grammar import grammar_json
+    from lfd.segment.pipeline import scores_over_objects
 
     max_len = round(10.0 / demo["dt"])
-    tables = [
-        templates.engine.score_table(x, demo["bounds"], max_len, "final") for x in demo["objects"]
-    ]
-    scores = np.ascontiguousarray(np.max(tables, axis=0))
+    scores, _ = scores_over_objects(demo["objects"], templates, demo["bounds"], max_len, "final")
     rising = _hmmseg.rising_table(demo["z"], demo["bounds"], 0.02, 0.0)
     segs, _ = _hmmseg.segment_greedy(
         scores, demo["bounds"], templates.skills, grammar_json(), rising, "warn"

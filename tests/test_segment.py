@@ -177,6 +177,13 @@ def test_no_hand_data_is_a_clear_error() -> None:
         segment(d)
 
 
+def test_trajectory_filtered_differently_from_the_templates_warns() -> None:
+    from lfd.preprocess import preprocess
+
+    r = segment(preprocess(demo(), feature_cutoff_hz=0.625), search="dp")
+    assert "filtered at 0.625 Hz" in r.warnings[0]
+
+
 def test_too_short_for_any_skill() -> None:
     from lfd.preprocess import preprocess
 

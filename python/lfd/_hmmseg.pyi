@@ -174,4 +174,5 @@ class TemplateSet:
         boundaries: NDArray[np.int64],
         max_len: int = 0,
         end: str = "final",
+        features: list[int] | None = None,
     ) -> NDArray[np.float64]: ...

@@ -317,8 +317,9 @@ impl PyTemplateSet {
     }
 
     /// Summed log-likelihoods `(K, K + 1, S)` of every run of sections of raw observations;
-    /// `end` = "final" (a segment must end in the last HMM state) or "any".
-    #[pyo3(signature = (raw, boundaries, max_len=0, end="final"))]
+    /// `end` = "final" (a segment must end in the last HMM state) or "any"; `features` = the
+    /// feature indices to sum (all if None).
+    #[pyo3(signature = (raw, boundaries, max_len=0, end="final", features=None))]
     fn score_table<'py>(
         &self,
         py: Python<'py>,
@@ -326,6 +327,7 @@ impl PyTemplateSet {
         boundaries: PyReadonlyArray1<'py, i64>,
         max_len: usize,
         end: &str,
+        features: Option<Vec<usize>>,
     ) -> PyResult<Bound<'py, PyArray3<f64>>> {
         let end = match end {
             "final" => EndState::Final,
@@ -340,7 +342,10 @@ impl PyTemplateSet {
         let b = to_indices(py, &boundaries, "boundaries")?;
         let x = to_matrix(&raw);
         let t = py
-            .detach(|| self.inner.score_table(&x, &b, max_len, end))
+            .detach(|| {
+                self.inner
+                    .score_table(&x, &b, max_len, end, features.as_deref())
+            })
             .py_err(py)?;
         Ok(table_to_numpy(py, &t))
     }

@@ -66,7 +66,15 @@ def segment(
     p = params or SegmentParams()
     cutoff = float(templates.meta.get("feature_cutoff_hz", p.feature_cutoff_hz))
     traj = as_trajectory(demo_or_traj, feature_cutoff_hz=cutoff)
-    return segment_trajectory(traj, templates, search=search, grammar=grammar, params=p)
+    result = segment_trajectory(traj, templates, search=search, grammar=grammar, params=p)
+    used = traj.meta.get("feature_cutoff_hz")
+    if isinstance(used, int | float) and abs(float(used) - cutoff) > 1e-9:
+        result.warnings.insert(
+            0,
+            f"the trajectory was filtered at {used} Hz but the templates were trained on "
+            f"{cutoff} Hz features; preprocess with feature_cutoff_hz={cutoff} for best results",
+        )
+    return result
 
 
 __all__ = [

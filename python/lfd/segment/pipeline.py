@@ -199,12 +199,35 @@ def object_scores(
     """
     from ..features import compute_features
 
-    tables = []
-    for o in range(len(traj.object_names)):
-        f = compute_features(traj, target=o)
-        raw = np.ascontiguousarray(f.values, dtype=np.float64)
-        tables.append(templates.engine.score_table(raw, bounds, max_len, end))
-    stack = np.stack(tables)
+    values = [
+        np.ascontiguousarray(compute_features(traj, target=o).values, dtype=np.float64)
+        for o in range(len(traj.object_names))
+    ]
+    return scores_over_objects(values, templates, bounds, max_len, end)
+
+
+def scores_over_objects(
+    values: list[np.ndarray], templates: Templates, bounds: np.ndarray, max_len: int, end: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`object_scores` from the feature matrices, one (n, 10) array per target object."""
+    engine = templates.engine
+    groups = getattr(templates, "features", None)
+    if groups is None:  # a stand-in without feature metadata: score every feature per object
+        stack = np.stack([engine.score_table(v, bounds, max_len, end) for v in values])
+        return np.ascontiguousarray(stack.max(axis=0)), stack.argmax(axis=0)
+    # features that do not depend on the target (fingertip distance, TCP rise, hand speed) are
+    # scored once
+    shared = [
+        g
+        for g, (_name, a, b) in enumerate(groups)
+        if all(np.array_equal(values[0][:, a:b], v[:, a:b]) for v in values[1:])
+    ]
+    rest = [g for g in range(len(groups)) if g not in shared]
+    base = engine.score_table(values[0], bounds, max_len, end, shared) if shared else 0.0
+    if rest:
+        stack = base + np.stack([engine.score_table(v, bounds, max_len, end, rest) for v in values])
+    else:
+        stack = np.asarray(base)[None]
     return np.ascontiguousarray(stack.max(axis=0)), stack.argmax(axis=0)
 
 

@@ -8,6 +8,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
+use super::templates::KNOWN_SKILLS;
 use crate::error::{EngineError, Result};
 
 /// Format version of the grammar JSON this engine reads.
@@ -59,8 +60,9 @@ pub struct Grammar {
 }
 
 impl Grammar {
-    /// Bind `spec` to `skills`. Every name in the spec must be one of `skills`, otherwise a
-    /// [`EngineError::Format`] names the unknown skill.
+    /// Bind `spec` to `skills`. A name in the spec that is one of the engine's skills
+    /// ([`KNOWN_SKILLS`]) but not in `skills` (a template set trained on fewer skills) is left
+    /// out; any other name is a [`EngineError::Format`] naming the unknown skill.
     pub fn for_skills(spec: &GrammarSpec, skills: &[String]) -> Result<Self> {
         let n = skills.len();
         if n == 0 {
@@ -68,28 +70,38 @@ impl Grammar {
                 "grammar needs at least one skill".into(),
             ));
         }
-        let index = |name: &str| -> Result<usize> {
-            skills.iter().position(|s| s == name).ok_or_else(|| {
-                EngineError::Format(format!(
-                    "grammar names unknown skill {name:?} (skills: {})",
-                    skills.join(", ")
-                ))
-            })
+        let index = |name: &str| -> Result<Option<usize>> {
+            if let Some(i) = skills.iter().position(|s| s == name) {
+                return Ok(Some(i));
+            }
+            if KNOWN_SKILLS.contains(&name) {
+                return Ok(None);
+            }
+            Err(EngineError::Format(format!(
+                "grammar names unknown skill {name:?} (skills: {})",
+                skills.join(", ")
+            )))
         };
         let mut start = vec![false; n];
         for s in &spec.start {
-            start[index(s)?] = true;
+            if let Some(i) = index(s)? {
+                start[i] = true;
+            }
         }
         let mut allowed = vec![false; n * n];
         for (from, tos) in &spec.transitions {
             let a = index(from)?;
             for to in tos {
-                allowed[a * n + index(to)?] = true;
+                if let (Some(a), Some(b)) = (a, index(to)?) {
+                    allowed[a * n + b] = true;
+                }
             }
         }
         let mut rising = vec![false; n];
         for s in &spec.rising {
-            rising[index(s)?] = true;
+            if let Some(i) = index(s)? {
+                rising[i] = true;
+            }
         }
         for group in spec.groups.values() {
             for s in group {

@@ -75,6 +75,9 @@ pub struct CompiledHmm {
     trans: Vec<f64>,
     /// `n` states x `n_mix` components.
     comps: Vec<Vec<Component>>,
+    /// For each state `j`, the range `lo..hi` of states `i` with `P(j | i) > 0` (left-right
+    /// chains are banded).
+    band: Vec<(usize, usize)>,
 }
 
 impl CompiledHmm {
@@ -112,15 +115,26 @@ impl CompiledHmm {
             }
             comps.push(row);
         }
+        let trans: Vec<f64> = hmm.transmat().iter().copied().collect();
+        let band = (0..n)
+            .map(|j| {
+                let row = &trans[j * n..(j + 1) * n];
+                let lo = row.iter().position(|&p| p > 0.0).unwrap_or(0);
+                let hi = row.iter().rposition(|&p| p > 0.0).map_or(0, |i| i + 1);
+                (lo, hi.max(lo))
+            })
+            .collect();
         Ok(Self {
             n,
             start: hmm.startprob().iter().copied().collect(),
-            trans: hmm.transmat().iter().copied().collect(),
+            trans,
             comps,
+            band,
         })
     }
 
     /// `ln p(x_t | state)` for every row of `x` (only the `cols` columns), row-major `T x n`.
+    #[cfg(test)]
     fn log_emissions(&self, x: &DMatrix<f64>, cols: &Range<usize>) -> Vec<f64> {
         let t_len = x.nrows();
         let mut out = vec![0.0; t_len * self.n];
@@ -232,13 +246,14 @@ impl CompiledHmm {
 /// Emissions of one model over a whole demonstration, scaled for the forward recursion:
 /// `b[t * n + j] = exp(logb - shift[t])`, `shift[t] = max_j logb[t * n + j]`.
 struct Scaled {
-    logb: Vec<f64>,
     b: Vec<f64>,
     shift: Vec<f64>,
 }
 
 impl Scaled {
-    fn new(logb: Vec<f64>, n: usize) -> Self {
+    /// From an emission log table (`T x n`).
+    #[cfg(test)]
+    fn new(logb: &[f64], n: usize) -> Self {
         let t_len = logb.len() / n;
         let mut b = vec![0.0; logb.len()];
         let mut shift = vec![0.0; t_len];
@@ -252,7 +267,40 @@ impl Scaled {
                 }
             }
         }
-        Self { logb, b, shift }
+        Self { b, shift }
+    }
+
+    /// Directly from the model: `b[t, j] = sum_m exp(ln w_jm N_jm(x_t) - shift[t])` with
+    /// `shift[t]` the largest component term, so no logarithm is taken per sample.
+    fn direct(m: &CompiledHmm, x: &DMatrix<f64>, cols: &Range<usize>) -> Self {
+        let (t_len, n) = (x.nrows(), m.n);
+        let mut b = vec![0.0; t_len * n];
+        let mut shift = vec![0.0; t_len];
+        let mut row = vec![0.0; cols.len()];
+        let mut lp: Vec<f64> = Vec::with_capacity(m.comps.iter().map(Vec::len).sum());
+        for t in 0..t_len {
+            for (k, c) in cols.clone().enumerate() {
+                row[k] = x[(t, c)];
+            }
+            lp.clear();
+            for comps in &m.comps {
+                lp.extend(comps.iter().map(|c| c.log_pdf(&row)));
+            }
+            let hi = lp.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            shift[t] = hi;
+            if hi.is_finite() {
+                let mut k = 0;
+                for (j, comps) in m.comps.iter().enumerate() {
+                    let mut acc = 0.0;
+                    for _ in comps {
+                        acc += (lp[k] - hi).exp();
+                        k += 1;
+                    }
+                    b[t * n + j] = acc;
+                }
+            }
+        }
+        Self { b, shift }
     }
 }
 
@@ -282,8 +330,9 @@ impl CompiledHmm {
                 pred.copy_from_slice(&self.start);
             } else {
                 for (j, p) in pred.iter_mut().enumerate() {
-                    let tr = &self.trans[j * n..(j + 1) * n];
-                    *p = alpha.iter().zip(tr).map(|(a, q)| a * q).sum();
+                    let (lo, hi) = self.band[j];
+                    let tr = &self.trans[j * n + lo..j * n + hi];
+                    *p = alpha[lo..hi].iter().zip(tr).map(|(a, q)| a * q).sum();
                 }
             }
             let bt = &em.b[t * n..(t + 1) * n];
@@ -294,9 +343,11 @@ impl CompiledHmm {
             }
             let mut hi = em.shift[t];
             if !(sum > 1e-250 && sum.is_finite()) {
-                let row = &em.logb[t * n..(t + 1) * n];
+                // ln b_j (relative to shift[t]) + ln pred_j; b_j = 0 counts as impossible
+                let bt = &em.b[t * n..(t + 1) * n];
+                let row: Vec<f64> = bt.iter().map(|v| em.shift[t] + v.ln()).collect();
                 hi = (0..n)
-                    .filter(|&j| pred[j] > 0.0)
+                    .filter(|&j| pred[j] > 0.0 && bt[j] > 0.0)
                     .map(|j| row[j] + pred[j].ln())
                     .fold(f64::NEG_INFINITY, f64::max);
                 if !hi.is_finite() {
@@ -337,6 +388,7 @@ impl CompiledHmm {
     }
 }
 
+#[cfg(test)]
 fn logsumexp(v: &[f64]) -> f64 {
     let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     if !hi.is_finite() {
@@ -382,7 +434,7 @@ pub fn compiled_score_table(
         .par_iter()
         .map(|&(s, f)| {
             let m = &models[s][f];
-            Scaled::new(m.log_emissions(observations, &groups[f]), m.n)
+            Scaled::direct(m, observations, &groups[f])
         })
         .collect();
     if models.iter().flatten().any(|m| m.n > 16) {
@@ -485,7 +537,13 @@ mod tests {
                 assert!(fin[t] <= got[t] + 1e-9);
             }
             // the boundary-only pass gives the same numbers at the ends
-            let em = Scaled::new(lb.clone(), c.n);
+            let em = Scaled::direct(&c, &x, &(0..d));
+            let em_ref = Scaled::new(&lb, c.n);
+            assert!(em
+                .shift
+                .iter()
+                .zip(&em_ref.shift)
+                .all(|(a, b)| (a - b).abs() < 1e-9 * a.abs().max(1.0) + (2.0f64).ln()));
             let ends = [0, 5, 19, 20, 39];
             for kind in [EndState::Any, EndState::Final] {
                 let mut full = Vec::new();

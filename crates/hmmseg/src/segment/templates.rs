@@ -284,20 +284,39 @@ impl TemplateSet {
     }
 
     /// The score table of raw (un-normalised) observations over stage-1 `boundaries`; `end`
-    /// chooses which HMM states may end a segment.
+    /// chooses which HMM states may end a segment. `features` (indices into
+    /// [`Self::features`]) restricts the sum to some features; `None` = all.
     pub fn score_table(
         &self,
         raw: &DMatrix<f64>,
         boundaries: &[usize],
         max_len: usize,
         end: EndState,
+        features: Option<&[usize]>,
     ) -> Result<ScoreTable> {
         let x = self.normalise(raw)?;
-        let groups: Vec<Range<usize>> = self.features.iter().map(FeatureGroup::columns).collect();
+        let all: Vec<usize> = (0..self.features.len()).collect();
+        let chosen = features.unwrap_or(&all);
+        if chosen.is_empty() {
+            return Err(EngineError::EmptySequence("no features chosen".into()));
+        }
+        if let Some(f) = chosen.iter().find(|&&f| f >= self.features.len()) {
+            return Err(EngineError::InvalidParameter(format!(
+                "feature index {f} out of range for {} features",
+                self.features.len()
+            )));
+        }
+        let groups: Vec<Range<usize>> =
+            chosen.iter().map(|&f| self.features[f].columns()).collect();
         let compiled = self
             .models
             .iter()
-            .map(|row| row.iter().map(CompiledHmm::new).collect::<Result<Vec<_>>>())
+            .map(|row| {
+                chosen
+                    .iter()
+                    .map(|&f| CompiledHmm::new(&row[f]))
+                    .collect::<Result<Vec<_>>>()
+            })
             .collect::<Result<Vec<_>>>()?;
         compiled_score_table(&compiled, &groups, &x, boundaries, max_len, end)
     }
@@ -468,7 +487,7 @@ mod tests {
             }
         });
         let table = set
-            .score_table(&x, &[0, n, 2 * n], 0, EndState::Any)
+            .score_table(&x, &[0, n, 2 * n], 0, EndState::Any, None)
             .unwrap();
         let reference = set.score_table_reference(&x, &[0, n, 2 * n], 0).unwrap();
         for (a, b) in table.as_slice().iter().zip(reference.as_slice()) {
@@ -479,16 +498,28 @@ mod tests {
             );
         }
         let fin = set
-            .score_table(&x, &[0, n, 2 * n], 0, EndState::Final)
+            .score_table(&x, &[0, n, 2 * n], 0, EndState::Final, None)
             .unwrap();
         assert!(fin.mean(0, 1, 0) > fin.mean(0, 1, 1));
+        // the sum over features splits into the sums over any partition of them
+        let b3 = [0, n, 2 * n];
+        let a = set
+            .score_table(&x, &b3, 0, EndState::Final, Some(&[0]))
+            .unwrap();
+        let b = set
+            .score_table(&x, &b3, 0, EndState::Final, Some(&[1]))
+            .unwrap();
+        assert!((a.total(0, 1, 0) + b.total(0, 1, 0) - fin.total(0, 1, 0)).abs() < 1e-9);
+        assert!(set
+            .score_table(&x, &b3, 0, EndState::Final, Some(&[5]))
+            .is_err());
         assert!(table.mean(0, 1, 0) > table.mean(0, 1, 1));
         assert!(table.mean(1, 2, 1) > table.mean(1, 2, 0));
         let json = set.to_json().unwrap();
         let back = TemplateSet::from_json(&json).unwrap();
         assert_eq!(back.skills, set.skills);
         let t2 = back
-            .score_table(&x, &[0, n, 2 * n], 0, EndState::Any)
+            .score_table(&x, &[0, n, 2 * n], 0, EndState::Any, None)
             .unwrap();
         assert!((t2.total(0, 2, 1) - table.total(0, 2, 1)).abs() < 1e-9);
     }
