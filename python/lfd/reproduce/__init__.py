@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import _gl  # noqa: F401  (selects the headless GL backend before mujoco loads)
 from ..errors import DemonstrationError
 from ..trajectory import Trajectory
 from .controller import Execution, Plan, execute
