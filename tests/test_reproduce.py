@@ -302,10 +302,8 @@ def test_segment_then_reproduce_with_rerun(tmp_path: Path) -> None:
     rec = Path(__file__).parent.parent / "recordings" / "exp1.mcap"
     out = tmp_path / "out.json"
     rrd = tmp_path / "rep.rrd"
-    code = main(
-        ["reproduce", str(rec), "--mode", "skills", "--segment", "--json", str(out)]
-        + ["--rerun-save", str(rrd)]
-    )
+    args = ["reproduce", str(rec), "--mode", "skills", "--segment", "--json", str(out)]
+    code = main([*args, "--rerun-save", str(rrd)])
     assert code == 0
     doc = json.loads(out.read_text())
     assert [s["skill"] for s in doc["program"]["segments"]] == [
