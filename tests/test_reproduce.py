@@ -292,3 +292,24 @@ def test_missing_pick_up_is_repaired() -> None:
     r = reproduce(traj, merged, "skills")
     assert r.program is not None and r.program.skills[:3] == ["move", "pick_up", "move_with"]
     assert r.success, r.to_json()
+
+
+def test_segment_then_reproduce_with_rerun(tmp_path: Path) -> None:
+    """The whole chain on a shipped recording: segment it, execute the segmentation, view it."""
+    rr = pytest.importorskip("rerun")
+    from lfd.cli import main
+
+    rec = Path(__file__).parent.parent / "recordings" / "exp1.mcap"
+    out = tmp_path / "out.json"
+    rrd = tmp_path / "rep.rrd"
+    args = ["reproduce", str(rec), "--mode", "skills", "--segment", "--json", str(out)]
+    code = main([*args, "--rerun-save", str(rrd)])
+    assert code == 0
+    doc = json.loads(out.read_text())
+    assert [s["skill"] for s in doc["program"]["segments"]] == [
+        "pick_up", "move_with", "place", "move", "pick_up", "move_with", "stack", "move",
+    ]  # fmt: skip
+    assert doc["results"]["skills"]["success"]
+    paths = {chunk.entity_path for chunk in rr.chunk.RrdReader(rrd).stream()}
+    assert any(p.startswith("/world/robot/skills") for p in paths), sorted(paths)
+    assert any(p.startswith("/world/hand") for p in paths), sorted(paths)

@@ -26,9 +26,11 @@ _LAZY = {"McapRecorder": "io", "load": "io", "save": "io", "preprocess": "prepro
 
 
 def __getattr__(name: str) -> Any:
-    if name in _LAZY:
-        import importlib
+    import importlib
 
+    if name == "segment":  # the subpackage is callable: lfd.segment(demo) -> Segmentation
+        return importlib.import_module(".segment", __name__)
+    if name in _LAZY:
         return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
@@ -60,4 +62,5 @@ __all__ = [
     "load",
     "preprocess",
     "save",
+    "segment",
 ]

@@ -33,10 +33,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="segment the recording with lfd.segment instead of using its ground-truth labels",
     )
+    parser.add_argument(
+        "--search",
+        choices=("greedy", "dp"),
+        default="dp",
+        help="stage-2 search used with --segment (default dp, the most accurate)",
+    )
+    parser.add_argument(
+        "--grammar",
+        choices=("warn", "enforce", "off"),
+        default="enforce",
+        help="skill grammar used with --segment (default enforce)",
+    )
     parser.add_argument("--json", metavar="OUT.json", help="write the measurements as JSON")
     parser.add_argument(
         "--video", metavar="OUT.mp4", help="render a video of the (last) mode (imageio or OpenCV)"
     )
+    from ..viz.cli import add_rerun_arguments
+
+    add_rerun_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -54,8 +69,10 @@ def run(args: argparse.Namespace) -> int:
         parse_displacement,
         reproduce,
     )
+    from ..viz.cli import close_from_args, open_from_args
 
     console = Console(stderr=True)
+    show = open_from_args(args, "lfd_reproduce")
     demo = load(args.recording, images=False)
     traj = preprocess(demo)
     t0 = int(traj.t_ns[0])
@@ -66,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
             from ..segment import segment  # type: ignore[import-not-found, unused-ignore]
         except ImportError as err:
             raise LfdError("lfd.segment is not available in this installation") from err
-        program = from_segmentation(segment(traj), t0)
+        program = from_segmentation(segment(demo, search=args.search, grammar=args.grammar), t0)
     else:
         program = from_labels(demo.labels, t0)
     displace = parse_displacement(args.displace)
@@ -83,6 +100,14 @@ def run(args: argparse.Namespace) -> int:
             results[mode] = reproduce(
                 traj, program, mode, displace=displace, video_fps=fps, progress=tick
             )
+    if show:
+        from ..viz import log_demonstration, log_reproduction
+
+        log_demonstration(demo, trajectory=traj)
+        sizes = {n: o.size for n, o in demo.objects.items()}
+        for r in results.values():
+            log_reproduction(r, skills=program.skills, object_sizes=sizes)
+    close_from_args(args)
     table = Table(title=f"{args.recording}: {' '.join(program.skills)}")
     for col in ("mode", "path length (m)", "ratio", "time (s)", "success", "objects"):
         table.add_column(col)

@@ -14,6 +14,10 @@ loop (``search="greedy"``) or by a globally optimal segmental DP (``search="dp"`
 
 from __future__ import annotations
 
+import sys
+import types
+from typing import Any
+
 from ..demo import Demonstration
 from ..trajectory import Trajectory
 from .baselines import gripper_segmentation, proximity_segmentation
@@ -89,3 +93,18 @@ __all__ = [
     "segment",
     "train_templates",
 ]
+
+
+class _CallableModule(types.ModuleType):
+    """Lets ``lfd.segment(demo)`` call :func:`segment` while ``lfd.segment`` stays a package."""
+
+    def __call__(
+        self,
+        demo_or_traj: Demonstration | Trajectory,
+        templates: Templates | None = None,
+        **kwargs: Any,
+    ) -> Segmentation:
+        return segment(demo_or_traj, templates, **kwargs)
+
+
+sys.modules[__name__].__class__ = _CallableModule
