@@ -23,6 +23,7 @@ import numpy as np
 from ..demo import INDEX_MCP, INDEX_TIP, THUMB_TIP, Demonstration
 from ..errors import DemonstrationError
 from ..trajectory import Trajectory
+from .carry import fill_carried_gaps
 from .filters import butter_ba, lowpass, matlab_padlen, unwrap_runs
 from .mapping import EULER_SEQ, euler_from_rotation, gripper_frame, rotation_from_euler
 from .resample import clock, find_gaps, resample_positions, resample_quaternions
@@ -50,6 +51,7 @@ def preprocess(
     euler_cutoff_hz: float = 0.0625,
     feature_cutoff_hz: float = 0.625,
     max_gap_s: float = 0.5,
+    fill_carried: bool = True,
     filter: bool = True,
 ) -> Trajectory:
     """Resample, filter and map a demonstration to a gripper trajectory on one clock.
@@ -66,6 +68,9 @@ def preprocess(
         Low-pass cut-off of the position signals the features come from (paper: 0.625 Hz).
     max_gap_s : float
         Longest gap between real samples that is interpolated.
+    fill_carried : bool
+        Fill longer object gaps during which the hand carried the object (a carried tag is
+        often hidden by the hand): the object follows the TCP, see :mod:`lfd.preprocess.carry`.
     filter : bool
         Apply the low-pass filters.
 
@@ -73,7 +78,8 @@ def preprocess(
     -------
     Trajectory
         ``meta`` holds the parameters, ``gaps`` (``{"hand": [(t0, t1)], "objects": {name:
-        [...]}}`` in ns), ``unfiltered_runs`` and the demonstration's labels and metadata.
+        [...]}, "carried": {name: [...]}}`` in ns; ``carried`` lists the object gaps filled from
+        the hand), ``unfiltered_runs`` and the demonstration's labels and metadata.
 
     Raises
     ------
@@ -156,7 +162,11 @@ def preprocess(
     positions = np.full((k, n, 3), np.nan)
     quats = np.full((k, n, 4), np.nan)
     obj_valid = np.zeros((k, n), dtype=bool)
-    gaps: dict[str, Any] = {"hand": find_gaps(h_t, h_ok, max_gap_s), "objects": {}}
+    gaps: dict[str, Any] = {
+        "hand": find_gaps(h_t, h_ok, max_gap_s),
+        "objects": {},
+        "carried": {},  # object gaps filled because the hand carried the object
+    }
     for j, (name, obj, oi, ok) in enumerate(objs):
         ot = obj.t_ns[oi]
         pos = np.where(ok[:, None], obj.position[oi], np.nan)
@@ -164,6 +174,13 @@ def preprocess(
         p, pv = resample_positions(rel(ot), pos, t_s, max_gap_s=max_gap_s)
         q, qv = resample_quaternions(rel(ot), quat, t_s, max_gap_s=max_gap_s)
         valid = pv.all(axis=1) & qv
+        if fill_carried:
+            p = np.where(valid[:, None], p, np.nan)
+            q = np.where(valid[:, None], q, np.nan)
+            radius = float(np.max(obj.size)) / 2 + 0.03
+            carried = fill_carried_gaps(p, q, valid, tcp, hand_valid, radius)
+            if carried:
+                gaps["carried"][name] = [(int(t_ns[a]), int(t_ns[b - 1])) for a, b in carried]
         positions[j] = smooth(np.where(valid[:, None], p, np.nan), feature_cutoff_hz, name)
         quats[j] = np.where(valid[:, None], q, np.nan)
         obj_valid[j] = valid
