@@ -100,10 +100,12 @@ def record(
     next_hand: int | None = None
     camera_written = False
     viz: _Live | None = None
+    last_poses: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     rec = McapRecorder(output, objects=objects, metadata=meta, color_format="png")
     try:
         for frame in source.frames():
             poses = _process(frame, tracker, rec, stats, save_images)
+            last_poses.update(poses)  # boxes hidden by the hand are where they were last seen
             if not camera_written and tracker.world_T_camera is not None:
                 cam = source.camera
                 rec.add_camera_info(
@@ -122,7 +124,10 @@ def record(
                 ready = estimator is not None and frame.depth is not None
                 if ready and tracker.world_T_camera is not None:
                     kp = estimator.estimate(
-                        frame.depth, source.camera.K, tracker.world_T_camera, _boxes(tracker, poses)
+                        frame.depth,
+                        source.camera.K,
+                        tracker.world_T_camera,
+                        _boxes(tracker, last_poses),
                     )
                 if kp is None:  # marked unobserved (NaN, confidence 0), not invented
                     rec.add_hand(frame.t_ns, np.full((21, 3), np.nan), np.zeros(21))

@@ -33,15 +33,42 @@ MIN_POINTS = 60
 PIXEL_STRIDE = 2
 
 
-def backproject(depth_mm: np.ndarray, K: np.ndarray, world_T_camera: np.ndarray) -> np.ndarray:
-    """World points (n, 3) of every ``PIXEL_STRIDE``-th valid depth pixel (depth (H, W) mm)."""
-    d = np.asarray(depth_mm)[::PIXEL_STRIDE, ::PIXEL_STRIDE].astype(np.float64) * 1e-3
-    v, u = np.nonzero(d > 0)
-    z = d[v, u]
-    u = u * PIXEL_STRIDE
-    v = v * PIXEL_STRIDE
-    P = np.column_stack([(u - K[0, 2]) / K[0, 0] * z, (v - K[1, 2]) / K[1, 1] * z, z])
-    return np.asarray(P @ world_T_camera[:3, :3].T + world_T_camera[:3, 3])
+_RAYS: dict[tuple[Any, ...], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+
+def _ray_grid(K: np.ndarray, shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pixel rays (z = 1) on the ``PIXEL_STRIDE`` grid: x (h, w), y (h, w), flat index."""
+    key = (*np.asarray(K, float).ravel().tolist(), *shape)
+    if key not in _RAYS:
+        v, u = np.mgrid[0 : shape[0] : PIXEL_STRIDE, 0 : shape[1] : PIXEL_STRIDE]
+        x = ((u - K[0, 2]) / K[0, 0]).astype(np.float32)
+        y = ((v - K[1, 2]) / K[1, 1]).astype(np.float32)
+        _RAYS.clear()
+        _RAYS[key] = (x, y, np.zeros(0))
+    return _RAYS[key]
+
+
+def backproject(
+    depth_mm: np.ndarray,
+    K: np.ndarray,
+    world_T_camera: np.ndarray,
+    *,
+    min_height: float = TABLE_CLEARANCE,
+) -> np.ndarray:
+    """World points (n, 3) of every ``PIXEL_STRIDE``-th depth pixel higher than ``min_height``.
+
+    ``depth_mm`` has shape (H, W) (uint16 mm, 0 = no data); the world z of every pixel is
+    computed first, so only the few points above the table are fully back-projected.
+    """
+    d = np.asarray(depth_mm)[::PIXEL_STRIDE, ::PIXEL_STRIDE].astype(np.float32) * 1e-3
+    x, y, _ = _ray_grid(K, np.asarray(depth_mm).shape)
+    R = np.asarray(world_T_camera[:3, :3], np.float32)
+    t = np.asarray(world_T_camera[:3, 3], np.float32)
+    zw = d * (R[2, 0] * x + R[2, 1] * y + R[2, 2]) + t[2]
+    keep = (d > 0) & (zw > min_height)
+    z = d[keep]
+    P = np.column_stack([x[keep] * z, y[keep] * z, z])
+    return np.asarray((P @ R.T + t).astype(np.float64))
 
 
 def hand_points(
