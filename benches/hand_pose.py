@@ -5,7 +5,8 @@ Run: ``python benches/hand_pose.py [--model PATH] [--samples 300] [--threads 2]`
 1. Held-out crops (``render_training_set(seed=99)``, never used for training): mean 3-D
    keypoint error, in mm, with the crop centre found as at run time.
 2. End to end on a simulated demonstration (exp1, seed 5, 5 Hz frames): the estimator on the
-   rendered depth image vs the simulator's true keypoints, and frames per second of the whole
+   rendered depth image (boxes excluded at their true poses, as the recorder does with the tag
+   poses) vs the simulator's true keypoints, and frames per second of the whole
    estimate (back-projection + crop + network) and of the network alone.
 """
 
@@ -32,6 +33,7 @@ def main() -> None:
     from lfd.perception.hand.train import keypoint_error_mm
     from lfd.sim import simulate
     from lfd.sim.render import render_frames
+    from scipy.spatial.transform import Rotation
 
     torch.set_num_threads(args.threads)
     est = HandEstimator(args.model)
@@ -56,8 +58,16 @@ def main() -> None:
     cam = r.demo.camera
     errs, times = [], []
     for k, i in enumerate(idx):
+        boxes = [  # as the recorder passes them: the boxes' (tag) poses
+            (
+                r.truth.object_pos[o.name][i],
+                Rotation.from_euler("z", r.truth.object_yaw[o.name][i]).as_matrix(),
+                np.asarray(o.size),
+            )
+            for o in r.scene.objects
+        ]
         t0 = time.perf_counter()
-        kp = est.estimate(depth.frames[k], cam.K, cam.world_T_camera)
+        kp = est.estimate(depth.frames[k], cam.K, cam.world_T_camera, boxes)
         times.append(time.perf_counter() - t0)
         if kp is not None:
             errs.append(np.linalg.norm(kp - r.truth.keypoints[i], axis=1).mean() * 1000)

@@ -132,10 +132,12 @@ def render_training_set(
     dict with ``points`` (n, STORED_POINTS, 3) float32 and ``keypoints`` (n, 21, 3) float32, both
     relative to the crop centre / :data:`CROP_RADIUS`, and ``centre`` (n, 3) (m).
     """
+    from ... import _gl  # noqa: F401  (headless GL before mujoco loads)
+
+    # isort: split
     import mujoco
     from scipy.spatial.transform import Rotation
 
-    from ... import _gl  # noqa: F401  (headless GL before mujoco loads)
     from ...sim import simulate
     from ...sim.hand import JOINT_NAMES
     from ...sim.scene import build_scene, forearm_quat
