@@ -86,10 +86,13 @@ def test_record_sim_writes_loadable_mcap(tmp_path) -> None:  # type: ignore[no-u
     from lfd.io import load
 
     out = tmp_path / "rec.mcap"
+    rrd = tmp_path / "live.rrd"
     argv = ["record", "--source", "sim:exp1", "--duration", "3", "-o", str(out)]
+    argv += ["--rerun-save", str(rrd)]
     if not _has_torch():
         argv.append("--no-hand")
     assert main(argv) == 0
+    assert rrd.stat().st_size > 10_000  # the live view was logged
     demo = load(out)
     assert demo.metadata["source"] == "sim:exp1"
     assert demo.camera is not None
