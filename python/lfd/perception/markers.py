@@ -36,6 +36,9 @@ TAG_MARGIN = 0.08
 """White margin around a box tag, as a fraction of the top-face side (the simulator's tags)."""
 
 _MIN_PLANE_POINTS = 25
+REFERENCE_GATE_M = 0.01
+REFERENCE_GATE_DEG = 2.0
+"""Reference observations farther than this from the running estimate are rejected."""
 
 
 @dataclass(frozen=True)
@@ -215,10 +218,12 @@ class MarkerTracker:
     K : array, shape (3, 3)
         Camera intrinsics (images are assumed undistorted).
     world_T_camera : array, shape (4, 4), optional
-        Known camera pose in the reference frame (used until the reference tag is seen).
+        Known (calibrated) camera pose in the reference frame; when given, it is kept and the
+        reference tag is not needed.
 
-    The camera is assumed static: the reference pose is averaged over the frames that see it,
-    so later frames where the hand hides the reference marker still have a world frame.
+    The camera is assumed static: the reference pose is averaged over the frames that see it
+    (observations more than 1 cm / 2 deg from the running estimate are rejected as outliers), so
+    later frames where the hand hides the reference marker still have a world frame.
     """
 
     def __init__(
@@ -248,6 +253,8 @@ class MarkerTracker:
         self._boxes = {b.tag_id: b for b in config.boxes}
         self._ref_sum: np.ndarray | None = None
         self._ref_n = 0
+        self.rejected_references = 0
+        self._fixed_camera = world_T_camera is not None
         self.world_T_camera: np.ndarray | None = (
             None if world_T_camera is None else np.asarray(world_T_camera, float).reshape(4, 4)
         )
@@ -313,6 +320,17 @@ class MarkerTracker:
         return best[1]
 
     def _update_reference(self, camera_T_ref: np.ndarray) -> None:
+        if self._fixed_camera:
+            return
+        # the camera is static: an observation far from the current estimate (a hand over the
+        # reference tag spoiling the depth refinement) is an outlier, not a camera motion
+        if self.world_T_camera is not None and self._ref_n > 0:
+            current = np.linalg.inv(self.world_T_camera)
+            dt = np.linalg.norm(camera_T_ref[:3, 3] - current[:3, 3])
+            cos = (np.trace(camera_T_ref[:3, :3].T @ current[:3, :3]) - 1.0) / 2.0
+            if dt > REFERENCE_GATE_M or cos < np.cos(np.deg2rad(REFERENCE_GATE_DEG)):
+                self.rejected_references += 1
+                return
         # average the rotation (chordal mean, re-orthonormalised) and translation
         self._ref_sum = (
             camera_T_ref.copy() if self._ref_sum is None else self._ref_sum + camera_T_ref
