@@ -11,7 +11,7 @@ pytest.importorskip("cv2")
 from lfd.errors import LfdError
 from lfd.perception.markers import MarkerConfig, MarkerTracker, TaggedBox
 
-HAND_ERROR_BOUND_MM = 20.0
+HAND_ERROR_BOUND_MM = 15.0
 """Mean keypoint error bound of the shipped hand model on fresh renders (measured + margin)."""
 
 
