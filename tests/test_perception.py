@@ -194,3 +194,36 @@ def test_shipped_hand_model_accuracy() -> None:
     est = HandEstimator()
     err = keypoint_error_mm(est.model, render_training_set(20, seed=7))
     assert err.mean() < HAND_ERROR_BOUND_MM
+
+
+def _lfd(*argv: str) -> int:
+    """Run the CLI in a fresh process (torch's triton must load before MuJoCo's EGL context)."""
+    import subprocess
+    import sys
+
+    code = "import sys; from lfd.cli import main; sys.exit(main(sys.argv[1:]))"
+    return subprocess.run([sys.executable, "-c", code, *argv], timeout=300).returncode
+
+
+def test_perception_train_cli_checkpoints_and_resumes(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    torch = pytest.importorskip("torch")
+    from lfd.perception.hand.infer import HandEstimator
+
+    out = tmp_path / "m.pt"
+    data = tmp_path / "crops.npz"
+    argv = ["perception", "train", "--out", str(out), "--samples", "64", "--val-samples", "8"]
+    argv += ["--batch", "32", "--epochs", "2", "--threads", "1", "--data", str(data)]
+    assert _lfd(*argv) == 0
+    assert data.exists() and out.exists()
+    ckpt = torch.load(f"{out}.ckpt", weights_only=False)
+    assert ckpt["epoch"] == 2
+    ckpt["epoch"] = 1  # as if interrupted after the first epoch
+    torch.save(ckpt, f"{out}.ckpt")
+    out.unlink()
+    assert _lfd(*argv, "--resume") == 0  # reuses the cached crops, continues at epoch 1
+    assert torch.load(f"{out}.ckpt", weights_only=False)["epoch"] == 2
+    est = HandEstimator(out)
+    assert est.info["training"]["epochs"] == 2
+    longer = [*argv, "--resume"]
+    longer[longer.index("--epochs") + 1] = "3"
+    assert _lfd(*longer) == 2  # a checkpoint of another run is refused (LfdError)

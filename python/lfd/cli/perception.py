@@ -27,6 +27,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     t.add_argument("--seed", type=int, default=1)
     t.add_argument("--threads", type=int, default=2, help="torch CPU threads (2)")
     t.add_argument("--resume", action="store_true", help="continue from <out>.ckpt")
+    t.add_argument("--val-samples", type=int, default=200, help="held-out crops (200)")
     e = sub.add_parser("eval", help="keypoint error on held-out rendered crops")
     e.add_argument("--model", help="weights (default: shipped)")
     e.add_argument("--samples", type=int, default=300)
@@ -51,6 +52,10 @@ def run(args: argparse.Namespace) -> int:
     from ..perception.hand.infer import _torch
 
     _torch()
+    # the optimiser imports torch._dynamo -> triton; loading triton's native library after
+    # MuJoCo's EGL context exists crashes the process, so load it before rendering
+    import torch._dynamo  # noqa: F401
+
     from ..perception.hand.train import keypoint_error_mm, load_arrays, train
 
     if args.action == "eval":
@@ -73,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
                 keypoints=data["keypoints"],
                 centre=data["centre"],
             )
-    val = _render(200, 99)
+    val = _render(args.val_samples, 99)
     summary = train(
         data,
         args.out,

@@ -9,6 +9,7 @@ interrupted run. The loss is the mean Euclidean keypoint error.
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -67,7 +68,12 @@ def train(
     threads: int | None = None,
     seed: int = 0,
 ) -> dict[str, Any]:
-    """Train (or continue training) and save the model to ``out``; returns a summary."""
+    """Train (or continue training) and save the model to ``out``; returns a summary.
+
+    Creating the optimiser imports ``torch._dynamo`` and with it triton, whose native library
+    crashes the process if MuJoCo's EGL context was created first: import ``torch._dynamo``
+    before rendering (as ``lfd perception train`` does) or render in another process.
+    """
     import torch
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
@@ -94,10 +100,20 @@ def train(
     start = 0
     if resume and ckpt_path.exists():
         ck = torch.load(ckpt_path, map_location="cpu", weights_only=False)
+        if ck.get("epochs", epochs) != epochs or ck.get("samples", n) != n:
+            from ...errors import LfdError
+
+            raise LfdError(
+                f"{ckpt_path} belongs to a run of {ck.get('epochs')} epochs on "
+                f"{ck.get('samples')} samples: resume with the same --epochs and data"
+            )
         model.load_state_dict(ck["model"])
         opt.load_state_dict(ck["opt"])
-        sched.load_state_dict(ck["sched"])
         start = int(ck["epoch"])
+        with warnings.catch_warnings():  # fast-forward the schedule to the saved epoch
+            warnings.simplefilter("ignore")
+            for _ in range(start * (n // batch)):
+                sched.step()
     history: list[float] = []
     cols = (TextColumn("{task.description}"), BarColumn(), TimeRemainingColumn())
     with Progress(*cols, TextColumn("{task.fields[info]}")) as progress:
@@ -131,6 +147,8 @@ def train(
                     "opt": opt.state_dict(),
                     "sched": sched.state_dict(),
                     "epoch": epoch + 1,
+                    "epochs": epochs,
+                    "samples": n,
                 },
                 ckpt_path,
             )
