@@ -72,7 +72,7 @@ def engine_stage2(templates, demo: dict) -> list[tuple[int, int, int]]:
     scores, _ = scores_over_objects(demo["objects"], templates, demo["bounds"], max_len, "final")
     rising = _hmmseg.rising_table(demo["z"], demo["bounds"], 0.02, 0.0)
     segs, _ = _hmmseg.segment_greedy(
-        scores, demo["bounds"], templates.skills, grammar_json(), rising, "warn"
+        scores, demo["bounds"], templates.skills, grammar_json(), rising, "warn", True
     )
     return [(s[0], s[1], s[2]) for s in segs]
 
@@ -139,20 +139,38 @@ def reference_stage2(templates, models, demo: dict) -> list[tuple[int, int, int]
                     total += fin[b[i + 1 : last + 1] - b[i] - 1]
                 table[i, i + 1 : last + 1, s] = total
         best = np.maximum(best, table)
-    # the rise decision and the greedy loop (Eq. 4-5, per-sample scores)
+    # the rise decision and the greedy loop (Eq. 4-5, per-sample scores of a cut together with
+    # its best successor: the engine's lookahead)
     rising_skill = np.array([s in ("move", "move_with") for s in templates.skills])
     z = demo["z"]
+    rise = np.zeros((k, k + 1), dtype=bool)
+    for i in range(k):
+        for j in range(i + 1, k + 1):
+            seg = z[b[i] : b[j]]
+            rise[i, j] = float(np.max(seg - np.minimum.accumulate(seg))) >= 0.02
+    ok = rise[:, :, None] == rising_skill[None, None, :]  # (K, K + 1, S)
+
+    def value(i: int, j: int, s: int) -> float:
+        if j == k:
+            return float(best[i, j, s] / (b[j] - b[i]))
+        for use_rise in (True, False):
+            nxt = np.where(ok[j] | (not use_rise), best[j], -np.inf)
+            nxt[:, s] = -np.inf
+            nxt[: j + 1] = -np.inf
+            n = np.maximum(b - b[i], 1)[:, None]
+            v = np.where(np.isfinite(nxt), (best[i, j, s] + nxt) / n, -np.inf)
+            if np.isfinite(v).any():
+                return float(v.max())
+        return -np.inf
+
     out, i = [], 0
     while i < k:
         pick = None
         for j in range(i + 1, k + 1):
-            seg = z[b[i] : b[j]]
-            drawup = float(np.max(seg - np.minimum.accumulate(seg)))
-            ok = rising_skill == (drawup >= 0.02)
-            v = np.where(ok, best[i, j] / (b[j] - b[i]), -np.inf)
-            s = int(np.argmax(v))
-            if np.isfinite(v[s]) and (pick is None or v[s] > pick[0]):
-                pick = (v[s], j, s)
+            for s in np.flatnonzero(ok[i, j] & np.isfinite(best[i, j])):
+                v = value(i, j, int(s))
+                if np.isfinite(v) and (pick is None or v > pick[0]):
+                    pick = (v, j, int(s))
         if pick is None:
             out.append((0, i, i + 1))
             i += 1

@@ -15,6 +15,7 @@ from lfd import _hmmseg
 from lfd.demo import Demonstration, HandTrack
 from lfd.errors import DemonstrationError, ModelFormatError
 from lfd.segment import (
+    SegmentParams,
     Templates,
     gripper_segmentation,
     proximity_segmentation,
@@ -24,6 +25,7 @@ from lfd.segment import (
 from lfd.segment.evaluate import evaluate
 from lfd.segment.grammar import grammar_json, impossible_transitions
 from lfd.segment.metrics import all_metrics
+from lfd.segment.templates import FRAME_SYMMETRY, turn_object_frame
 from lfd.skills import SKILLS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -45,7 +47,9 @@ def demo(path: Path = EXP1) -> Demonstration:
 
 
 # --- the shipped recordings ------------------------------------------------------------------
-@pytest.mark.parametrize(("search", "grammar"), [("dp", "warn"), ("greedy", "enforce")])
+@pytest.mark.parametrize(
+    ("search", "grammar"), [("dp", "warn"), ("greedy", "enforce"), ("greedy", "warn")]
+)
 def test_exp1_sequence_equals_ground_truth(search: str, grammar: str) -> None:
     d = demo()
     result = segment(d, search=search, grammar=grammar)  # type: ignore[arg-type]
@@ -61,6 +65,26 @@ def test_exp1_sequence_equals_ground_truth(search: str, grammar: str) -> None:
     assert [s.object for s in picks] == truth
     assert "grasp_position" in picks[0].params
     assert not impossible_transitions(result.skill_sequence)
+
+
+@pytest.mark.parametrize("grammar", ["warn", "enforce"])
+def test_greedy_finds_the_pushes_of_exp2(grammar: str) -> None:
+    # pushes along the object's y axis: only templates trained with the turned object frames
+    # (FRAME_SYMMETRY) explain them; the lookahead keeps the Move after a Push from swallowing it
+    d = demo(EXP2)
+    r = segment(d, search="greedy", grammar=grammar)  # type: ignore[arg-type]
+    assert r.skill_sequence == d.skill_sequence
+    assert r.skill_sequence.count("push") == 2
+
+
+def test_greedy_lookahead_keeps_a_short_skill_from_being_swallowed() -> None:
+    # exp1: by its own per-sample score alone, a long Move swallows the second Pick up
+    d = demo(EXP1)
+    plain = segment(d, search="greedy", params=SegmentParams(lookahead=False))
+    look = segment(d, search="greedy", params=SegmentParams(lookahead=True))
+    assert plain.sections == look.sections
+    assert plain.skill_sequence != d.skill_sequence
+    assert look.skill_sequence == d.skill_sequence
 
 
 def test_dp_at_least_as_good_as_greedy_on_exp3() -> None:
@@ -141,7 +165,12 @@ def test_default_templates_ship_with_the_package() -> None:
 def test_train_save_load_round_trip(tmp_path: Path) -> None:
     files = [TEMPLATE_DIR / f"{s}_0.mcap" for s in SKILLS]
     t = train_templates(files, params={"fit": {"max_iter": 5}})
-    assert all(n >= 1 for n in t.engine.n_examples)
+    once = train_templates(files, params={"fit": {"max_iter": 5}}, frame_symmetry=1)
+    assert all(n >= 1 for n in once.engine.n_examples)
+    assert list(t.engine.n_examples) == [FRAME_SYMMETRY * n for n in once.engine.n_examples]
+    assert t.meta["frame_symmetry"] == FRAME_SYMMETRY
+    with pytest.raises(ValueError, match="frame_symmetry"):
+        train_templates(files, frame_symmetry=0)
     path = tmp_path / "t.json"
     t.save(path)
     back = Templates.load(path)
@@ -149,6 +178,16 @@ def test_train_save_load_round_trip(tmp_path: Path) -> None:
     assert np.allclose(back.ranges, t.ranges)
     r = segment(demo(), back)
     assert len(r.segments) >= 4
+
+
+def test_turn_object_frame_turns_only_the_horizontal_tcp_in_object() -> None:
+    x = np.arange(20, dtype=np.float64).reshape(2, 10)
+    q = turn_object_frame(x, 1, 4)
+    assert np.allclose(q[:, 5], -x[:, 6]) and np.allclose(q[:, 6], x[:, 5])
+    keep = [c for c in range(10) if c not in (5, 6)]
+    assert np.array_equal(q[:, keep], x[:, keep])
+    assert np.allclose(turn_object_frame(x, 4, 4), x)
+    assert np.allclose(turn_object_frame(turn_object_frame(x, 1, 4), 3, 4), x)
 
 
 def test_template_file_errors(tmp_path: Path) -> None:

@@ -133,6 +133,7 @@ def segment_greedy(
     grammar_json: str,
     rising: NDArray[np.bool_] | None = None,
     mode: str = "warn",
+    lookahead: bool = False,
 ) -> tuple[list[_SegmentTuple], list[str]]: ...
 def segment_dp(
     scores: NDArray[np.float64],

@@ -55,18 +55,7 @@ __all__ = [
     "valid_mask",
 ]
 
-FEATURE_NAMES: tuple[str, ...] = (
-    "fingertip_distance",
-    "tcp_rise_fall",
-    "object_proximity",
-    "object_distance",
-    "object_height",
-    "tcp_in_object_x",
-    "tcp_in_object_y",
-    "tcp_in_object_z",
-    "object_velocity",
-    "hand_velocity",
-)
+FEATURE_NAMES: tuple[str, ...] = tuple(_hmmseg.feature_names())
 """Column names of :attr:`Features.values` and :attr:`Features.thresholds`, in order."""
 
 FEATURE_GROUPS: dict[str, tuple[str, ...]] = {

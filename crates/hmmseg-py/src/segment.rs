@@ -178,9 +178,11 @@ fn rising_vec(rising: Option<PyReadonlyArray2<'_, bool>>) -> Option<Vec<bool>> {
 }
 
 /// The paper's greedy loop on a score table; returns `(segments, warnings)`, a segment being
-/// `(skill, start_section, end_section, start, end, score, confidence)`.
+/// `(skill, start_section, end_section, start, end, score, confidence)`. `lookahead` values each
+/// cut together with its best successor segment (see `hmmseg::segment::greedy`).
 #[pyfunction]
-#[pyo3(signature = (scores, boundaries, skills, grammar_json, rising=None, mode="warn"))]
+#[pyo3(signature = (scores, boundaries, skills, grammar_json, rising=None, mode="warn", lookahead=false))]
+#[allow(clippy::too_many_arguments)]
 fn segment_greedy<'py>(
     py: Python<'py>,
     scores: PyReadonlyArray3<'py, f64>,
@@ -189,13 +191,14 @@ fn segment_greedy<'py>(
     grammar_json: &str,
     rising: Option<PyReadonlyArray2<'py, bool>>,
     mode: &str,
+    lookahead: bool,
 ) -> PyResult<(Vec<SegmentTuple>, Vec<String>)> {
     let mode = parse_mode(py, mode)?;
     let t = table(py, &scores, to_indices(py, &boundaries, "boundaries")?)?;
     let g = grammar(py, grammar_json, &skills)?;
     let r = rising_vec(rising);
     let out = py
-        .detach(|| greedy(&t, &g, r.as_deref(), mode))
+        .detach(|| greedy(&t, &g, r.as_deref(), mode, lookahead))
         .py_err(py)?;
     Ok(result(out))
 }

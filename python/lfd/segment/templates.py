@@ -41,6 +41,15 @@ FEATURE_CUTOFF_HZ = 2.0
 """Low-pass cut-off (Hz) of the positions the template features are computed from; stored in
 the template file and used again at segmentation time."""
 
+FRAME_SYMMETRY = 4
+"""Training examples are augmented with this many turns of the object frame about its vertical
+axis (``k * 360 / FRAME_SYMMETRY`` degrees): the axes of a box are interchangeable for a skill
+(a Push acts on whichever face lies in the push direction), but the nine template demonstrations
+of a skill need not cover every face."""
+
+TCP_IN_OBJECT_XY = (5, 6)
+"""Columns of the horizontal TCP position in the object frame (turned by the augmentation)."""
+
 DEFAULT_TEMPLATES = "data/templates.json"
 """Package resource of the shipped templates."""
 
@@ -176,6 +185,20 @@ def template_examples(
     return out
 
 
+def turn_object_frame(x: np.ndarray, k: int, symmetry: int = FRAME_SYMMETRY) -> np.ndarray:
+    """Feature matrix ``x`` (m, 10) with the object frame turned by ``k * 2 pi / symmetry`` about z.
+
+    Only the horizontal TCP-in-object columns change; every other feature is invariant.
+    """
+    a = 2.0 * np.pi * k / symmetry
+    c, s = np.cos(a), np.sin(a)
+    i, j = TCP_IN_OBJECT_XY
+    out = np.array(x, dtype=np.float64, copy=True)
+    out[:, i] = c * x[:, i] - s * x[:, j]
+    out[:, j] = s * x[:, i] + c * x[:, j]
+    return out
+
+
 def train_templates(
     recordings: Iterable[str | Path | Demonstration],
     *,
@@ -184,6 +207,7 @@ def train_templates(
     skills: Sequence[str] = SKILLS,
     progress: Callable[[str], None] | None = None,
     feature_cutoff_hz: float = FEATURE_CUTOFF_HZ,
+    frame_symmetry: int = FRAME_SYMMETRY,
 ) -> Templates:
     """Train templates from labelled template recordings (MCAP paths or demonstrations).
 
@@ -202,7 +226,12 @@ def train_templates(
         Called with each recording's name after it is processed.
     feature_cutoff_hz : float
         Low-pass cut-off of the preprocessing (stored with the templates).
+    frame_symmetry : int
+        Every example is used ``frame_symmetry`` times, with the object frame turned by
+        multiples of ``360 / frame_symmetry`` degrees about z (:data:`FRAME_SYMMETRY`; 1 = off).
     """
+    if frame_symmetry < 1:
+        raise ValueError(f"frame_symmetry must be at least 1, got {frame_symmetry}")
     from ..io import load
 
     examples: list[tuple[int, np.ndarray]] = []
@@ -212,7 +241,10 @@ def train_templates(
         name = str(rec) if not isinstance(rec, Demonstration) else demo.metadata.get("name", "demo")
         for skill, x in template_examples(demo, feature_cutoff_hz=feature_cutoff_hz):
             if skill in skills:
-                examples.append((list(skills).index(skill), x))
+                examples.extend(
+                    (list(skills).index(skill), turn_object_frame(x, k, frame_symmetry))
+                    for k in range(frame_symmetry)
+                )
         names.append(Path(name).name)
         if progress is not None:
             progress(name)
@@ -223,4 +255,9 @@ def train_templates(
         else:
             p[key] = val
     engine = _hmmseg.TemplateSet.train(list(skills), list(features), examples, json.dumps(p))
-    return Templates(engine, meta={"trained_from": names, "feature_cutoff_hz": feature_cutoff_hz})
+    meta = {
+        "trained_from": names,
+        "feature_cutoff_hz": feature_cutoff_hz,
+        "frame_symmetry": frame_symmetry,
+    }
+    return Templates(engine, meta=meta)

@@ -16,20 +16,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import DemonstrationError
+from ..skills import grammar
 from .scene import WORKSPACE_X, WORKSPACE_Y, ObjectSpec
 
-HOLDING: frozenset[str] = frozenset({"move_with", "place", "stack"})
+HOLDING: frozenset[str] = frozenset(grammar()["groups"]["holding"])
 """Skills performed while holding an object."""
 
 TRANSITIONS: dict[str, frozenset[str]] = {
-    "start": frozenset({"pick_up", "push", "locate", "move"}),
-    "pick_up": frozenset({"move_with"}),
-    "move_with": frozenset({"place", "stack"}),
-    "place": frozenset({"move"}),
-    "stack": frozenset({"move"}),
-    "move": frozenset({"pick_up", "push", "locate"}),
-    "push": frozenset({"move"}),
-    "locate": frozenset({"move", "pick_up", "push"}),
+    "start": frozenset(grammar()["start"]),
+    **{skill: frozenset(nxt) for skill, nxt in grammar()["transitions"].items()},
 }
 """Allowed skill transitions (paper Fig. 6); ``start`` is the state before the first skill."""
 

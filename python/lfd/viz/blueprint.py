@@ -26,22 +26,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+from ..features import FEATURE_NAMES  # the ten feature columns of Table I, one plot each
 from .session import import_rerun
 from .timeline import DEMO_TIME
-
-FEATURE_NAMES: tuple[str, ...] = (
-    "fingertip_distance",
-    "tcp_rise_fall",
-    "object_proximity",
-    "object_distance",
-    "object_height",
-    "tcp_in_object_x",
-    "tcp_in_object_y",
-    "tcp_in_object_z",
-    "object_velocity",
-    "hand_velocity",
-)
-"""The ten feature columns of Table I (``tcp_in_object`` takes three), one plot each."""
 
 
 def default_blueprint(

@@ -163,7 +163,7 @@ mod tests {
         })
         .unwrap();
         let g = paper_grammar();
-        let gr = greedy(&t, &g, None, GrammarMode::Warn).unwrap();
+        let gr = greedy(&t, &g, None, GrammarMode::Warn, false).unwrap();
         assert_eq!(gr.segments[0].skill, push);
         let d = dp(&t, &g, None, GrammarMode::Enforce, 1.0).unwrap();
         assert_eq!(skills_of(&d.segments), vec![pu, mw]);
