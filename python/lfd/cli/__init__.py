@@ -21,6 +21,8 @@ COMMANDS: tuple[str, ...] = (
     "templates",
     "eval",
     "reproduce",
+    "record",
+    "perception",
 )
 
 

@@ -1,0 +1,89 @@
+"""Hand keypoint network: 3-D keypoint error on held-out renders and CPU speed.
+
+Run: ``python benches/hand_pose.py [--model PATH] [--samples 300] [--threads 2]``.
+
+1. Held-out crops (``render_training_set(seed=99)``, never used for training): mean 3-D
+   keypoint error, in mm, with the crop centre found as at run time.
+2. End to end on a simulated demonstration (exp1, seed 5, 5 Hz frames): the estimator on the
+   rendered depth image (boxes excluded at their true poses, as the recorder does with the tag
+   poses) vs the simulator's true keypoints, and frames per second of the whole
+   estimate (back-projection + crop + network) and of the network alone.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+import numpy as np
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--model", help="weights (default: shipped)")
+    parser.add_argument("--samples", type=int, default=300)
+    parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--frames", type=int, default=40, help="end-to-end frames (40)")
+    args = parser.parse_args()
+
+    import torch
+    from lfd.perception.hand.dataset import N_POINTS, render_training_set
+    from lfd.perception.hand.infer import HandEstimator
+    from lfd.perception.hand.train import keypoint_error_mm
+    from lfd.sim import simulate
+    from lfd.sim.render import render_frames
+    from scipy.spatial.transform import Rotation
+
+    torch.set_num_threads(args.threads)
+    est = HandEstimator(args.model)
+    path = args.model or "shipped"
+    size = os.path.getsize(args.model) if args.model else None
+    print(f"model: {path}  ({sum(p.numel() for p in est.model.parameters())} parameters)")
+    if size:
+        print(f"file size {size / 1e6:.2f} MB")
+
+    held = render_training_set(args.samples, seed=99)
+    err = keypoint_error_mm(est.model, held)
+    print(
+        f"held-out crops (n={err.size}): mean keypoint error {err.mean():.1f} mm, "
+        f"median {np.median(err):.1f} mm, 90th pct {np.percentile(err, 90):.1f} mm"
+    )
+
+    r = simulate("exp1", seed=5)
+    step = 6  # 30 Hz camera -> 5 Hz hand estimates
+    idx = np.arange(0, r.truth.t_ns.size, step)[: args.frames]
+    _, depth = render_frames(r.scene, r.truth, idx)
+    assert depth is not None and r.demo.camera is not None
+    cam = r.demo.camera
+    errs, times = [], []
+    for k, i in enumerate(idx):
+        boxes = [  # as the recorder passes them: the boxes' (tag) poses
+            (
+                r.truth.object_pos[o.name][i],
+                Rotation.from_euler("z", r.truth.object_yaw[o.name][i]).as_matrix(),
+                np.asarray(o.size),
+            )
+            for o in r.scene.objects
+        ]
+        t0 = time.perf_counter()
+        kp = est.estimate(depth.frames[k], cam.K, cam.world_T_camera, boxes)
+        times.append(time.perf_counter() - t0)
+        if kp is not None:
+            errs.append(np.linalg.norm(kp - r.truth.keypoints[i], axis=1).mean() * 1000)
+    e = np.array(errs)
+    print(
+        f"end to end (exp1 seed 5, {len(idx)} frames, {e.size} with a hand found): mean "
+        f"{e.mean():.1f} mm, median {np.median(e):.1f} mm"
+    )
+    print(f"whole estimate: {1.0 / np.median(times):.0f} frames/s on {args.threads} threads")
+    x = np.random.default_rng(0).uniform(-0.5, 0.5, (1, N_POINTS, 3)).astype(np.float32)
+    est.predict(x)
+    t0 = time.perf_counter()
+    for _ in range(200):
+        est.predict(x)
+    print(f"network alone: {200 / (time.perf_counter() - t0):.0f} frames/s")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,94 @@
+"""``lfd perception``: train and evaluate the depth hand-keypoint network (needs torch).
+
+    lfd perception train --out model.pt [--samples 6000] [--epochs 40] [--resume]
+    lfd perception eval --model model.pt [--samples 300]
+
+Training renders randomised hand crops with the simulated demonstrator (``--data`` caches them
+as .npz), shows progress, and checkpoints every epoch to ``<out>.ckpt`` (``--resume``).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+NAME = "perception"
+HELP = "Train / evaluate the depth hand-keypoint network (needs the perception extra)."
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    sub = parser.add_subparsers(dest="action", required=True)
+    t = sub.add_parser("train", help="train the hand network on rendered depth crops")
+    t.add_argument("--out", required=True, help="output weights (.pt)")
+    t.add_argument("--samples", type=int, default=6000, help="training crops to render (6000)")
+    t.add_argument("--data", nargs="*", help="use/cache rendered sets (.npz) instead")
+    t.add_argument("--epochs", type=int, default=40)
+    t.add_argument("--batch", type=int, default=64)
+    t.add_argument("--lr", type=float, default=2e-3)
+    t.add_argument("--seed", type=int, default=1)
+    t.add_argument("--threads", type=int, default=2, help="torch CPU threads (2)")
+    t.add_argument("--resume", action="store_true", help="continue from <out>.ckpt")
+    t.add_argument("--val-samples", type=int, default=200, help="held-out crops (200)")
+    e = sub.add_parser("eval", help="keypoint error on held-out rendered crops")
+    e.add_argument("--model", help="weights (default: shipped)")
+    e.add_argument("--samples", type=int, default=300)
+    e.add_argument("--seed", type=int, default=99, help="seed of the held-out renders (99)")
+
+
+def _render(n: int, seed: int) -> dict:  # type: ignore[type-arg]
+    from rich.progress import Progress
+
+    from ..perception.hand.dataset import render_training_set
+
+    with Progress() as progress:
+        task = progress.add_task(f"rendering {n} crops", total=n)
+        return render_training_set(n, seed=seed, progress=lambda k: progress.advance(task, k))
+
+
+def run(args: argparse.Namespace) -> int:
+    import os
+
+    import numpy as np
+
+    from ..perception.hand.infer import _torch
+
+    _torch()
+    # the optimiser imports torch._dynamo -> triton; loading triton's native library after
+    # MuJoCo's EGL context exists crashes the process, so load it before rendering
+    import torch._dynamo  # noqa: F401
+
+    from ..perception.hand.train import keypoint_error_mm, load_arrays, train
+
+    if args.action == "eval":
+        from ..perception.hand.infer import HandEstimator
+
+        est = HandEstimator(args.model, threads=2)
+        err = keypoint_error_mm(est.model, _render(args.samples, args.seed))
+        print(
+            f"mean keypoint error {err.mean():.1f} mm (median {np.median(err):.1f}, n={err.size})"
+        )
+        return 0
+    if args.data and all(os.path.exists(p) for p in args.data):
+        data = load_arrays(args.data)
+    else:
+        data = _render(args.samples, args.seed)
+        if args.data:
+            np.savez(
+                args.data[0],
+                points=data["points"],
+                keypoints=data["keypoints"],
+                centre=data["centre"],
+            )
+    val = _render(args.val_samples, 99)
+    summary = train(
+        data,
+        args.out,
+        epochs=args.epochs,
+        batch=args.batch,
+        lr=args.lr,
+        resume=args.resume,
+        validation=val,
+        threads=args.threads,
+        seed=args.seed,
+    )
+    print(f"saved {args.out}: {summary}")
+    return 0

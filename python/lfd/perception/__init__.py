@@ -1,0 +1,12 @@
+"""Perception: object poses from ArUco tags and hand keypoints from depth (RGB-D frames).
+
+- :mod:`lfd.perception.markers`: tag detection, depth-refined poses in the reference frame;
+- :mod:`lfd.perception.hand`: the depth hand-pose network (needs the ``perception`` extra, torch);
+- :mod:`lfd.perception.record`: ``lfd record`` sources (simulator, image folder, camera).
+"""
+
+from __future__ import annotations
+
+from .markers import FrameObjects, MarkerConfig, MarkerTracker, TaggedBox, TagPose
+
+__all__ = ["FrameObjects", "MarkerConfig", "MarkerTracker", "TagPose", "TaggedBox"]

@@ -1,0 +1,365 @@
+"""Object poses from ArUco tags in RGB-D frames, relative to the reference marker.
+
+Each box carries an ArUco tag on its top face; a reference tag (id 0) lying on the table
+defines the world frame (origin at its centre, Z up). Per frame:
+
+1. detect the tags with :class:`cv2.aruco.ArucoDetector` (sub-pixel corner refinement);
+2. estimate each tag's pose with ``cv2.solvePnP(..., SOLVEPNP_IPPE_SQUARE)``;
+3. refine it from the depth image: the tag is planar, so a plane is fitted to the back-projected
+   depth pixels inside the tag, and the four corner viewing rays are intersected with it. This
+   fixes the range (the weak direction of a 30-50 px tag's PnP) and the tilt; the in-plane
+   rotation comes from the refined corners. Without enough valid depth, the range alone is
+   corrected along the viewing ray of the tag centre (median depth inside the tag), and without
+   depth the PnP pose is kept;
+4. express it in the reference frame and move from the tag to the box centre (half the box
+   height below the tag, along the tag normal).
+
+A tag that is not detected gives no pose (the frame is marked missing, nothing is invented).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from ..errors import LfdError
+
+DEFAULT_DICTIONARY = "DICT_4X4_50"
+REFERENCE_TAG_ID = 0
+REFERENCE_MARKER_SIZE = 0.10
+"""Side of the reference marker's black square (m)."""
+TAG_MARGIN = 0.08
+"""White margin around a box tag, as a fraction of the top-face side (the simulator's tags)."""
+
+_MIN_PLANE_POINTS = 25
+REFERENCE_GATE_M = 0.01
+REFERENCE_GATE_DEG = 2.0
+"""Reference observations farther than this from the running estimate are rejected."""
+
+
+@dataclass(frozen=True)
+class TaggedBox:
+    """A cuboid with an ArUco tag centred on its top face.
+
+    ``tag_size`` is the side of the tag's black square (m); by default the top face's smaller
+    side minus the white margin (:data:`TAG_MARGIN` on each side).
+    """
+
+    name: str
+    tag_id: int
+    size: tuple[float, float, float]
+    tag_size: float | None = None
+
+    @property
+    def marker_side(self) -> float:
+        if self.tag_size is not None:
+            return float(self.tag_size)
+        return float(min(self.size[0], self.size[1]) * (1.0 - 2.0 * TAG_MARGIN))
+
+
+@dataclass(frozen=True)
+class MarkerConfig:
+    """What the tracker looks for: dictionary, reference marker and the tagged boxes."""
+
+    boxes: tuple[TaggedBox, ...]
+    dictionary: str = DEFAULT_DICTIONARY
+    reference_id: int = REFERENCE_TAG_ID
+    reference_size: float = REFERENCE_MARKER_SIZE
+    use_depth: bool = True
+
+    def __post_init__(self) -> None:
+        ids = [b.tag_id for b in self.boxes]
+        if len(set(ids)) != len(ids) or self.reference_id in ids:
+            raise LfdError(f"tag ids must be distinct from each other and the reference: {ids}")
+        for b in self.boxes:
+            if b.marker_side <= 0 or min(b.size) <= 0:
+                raise LfdError(f"box {b.name!r}: sizes must be positive")
+
+    @classmethod
+    def from_objects(cls, objects: Iterable[Any], **kwargs: Any) -> MarkerConfig:
+        """From anything with ``name``, ``tag_id`` and ``size`` (ObjectSpec, ObjectTrack, dicts)."""
+        boxes = []
+        for o in objects:
+            get = o.get if isinstance(o, Mapping) else lambda k, d=None, o=o: getattr(o, k, d)
+            size = tuple(float(v) for v in np.asarray(get("size"), float).ravel())
+            if len(size) != 3:
+                raise LfdError(f"object {get('name')!r}: size must have 3 values")
+            tag = get("tag_size", None)
+            boxes.append(
+                TaggedBox(
+                    str(get("name")),
+                    int(get("tag_id", -1)),
+                    (size[0], size[1], size[2]),
+                    None if tag is None else float(tag),
+                )
+            )
+        return cls(boxes=tuple(boxes), **kwargs)
+
+
+@dataclass
+class TagPose:
+    """A detected tag: id, corners (4, 2) px, camera_T_tag (4, 4) and how range was fixed."""
+
+    tag_id: int
+    corners: np.ndarray
+    camera_T_tag: np.ndarray
+    refined: str  # "plane", "range" or "pnp"
+
+
+@dataclass
+class FrameObjects:
+    """Object poses in one frame (world = reference marker frame).
+
+    ``poses[name] = (position (3,), quaternion (x, y, z, w))`` for every box seen; boxes not seen
+    are absent. ``reference_seen`` tells whether the reference tag was in this frame.
+    """
+
+    poses: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    tags: list[TagPose] = field(default_factory=list)
+    reference_seen: bool = False
+
+
+def rotation_to_quat(R: np.ndarray) -> np.ndarray:
+    """Rotation matrix (3, 3) -> quaternion (x, y, z, w)."""
+    from scipy.spatial.transform import Rotation
+
+    return np.asarray(Rotation.from_matrix(R).as_quat(), float)
+
+
+def _square(side: float) -> np.ndarray:
+    h = side / 2.0
+    return np.array([[-h, h, 0.0], [h, h, 0.0], [h, -h, 0.0], [-h, -h, 0.0]])
+
+
+def _rays(K: np.ndarray, px: np.ndarray) -> np.ndarray:
+    """Viewing rays (n, 3) with z = 1 through pixels ``px`` (n, 2)."""
+    x = (px[:, 0] - K[0, 2]) / K[0, 0]
+    y = (px[:, 1] - K[1, 2]) / K[1, 1]
+    return np.column_stack([x, y, np.ones(len(px))])
+
+
+def _centre_pixel(c: np.ndarray) -> np.ndarray:
+    """Intersection of the quad's diagonals: the projection of a planar square's centre."""
+    p1, p3, p2, p4 = c[0], c[2], c[1], c[3]
+    d1, d2 = p3 - p1, p4 - p2
+    A = np.column_stack([d1, -d2])
+    if abs(np.linalg.det(A)) < 1e-9:
+        return np.asarray(c.mean(axis=0))
+    s = np.linalg.solve(A, p2 - p1)[0]
+    return np.asarray(p1 + s * d1)
+
+
+def _inside_pixels(corners: np.ndarray, shape: tuple[int, int], shrink: float) -> np.ndarray:
+    """Integer pixel coordinates (n, 2) inside the quad shrunk towards its centre."""
+    import cv2
+
+    centre = corners.mean(axis=0)
+    quad = centre + (corners - centre) * shrink
+    mask = np.zeros(shape, np.uint8)
+    cv2.fillConvexPoly(mask, np.round(quad * 16).astype(np.int32), 1, cv2.LINE_8, 4)
+    v, u = np.nonzero(mask)
+    return np.column_stack([u, v])
+
+
+def refine_with_depth(
+    K: np.ndarray, corners: np.ndarray, T: np.ndarray, depth_m: np.ndarray, side: float
+) -> tuple[np.ndarray, str]:
+    """Refine a tag pose ``T`` (4, 4, camera frame) from a depth image (H, W) in metres.
+
+    ``side`` is the tag side (m): depths farther than ``0.75 side`` from the median (the hand
+    or another object in front of the tag) are ignored.
+    """
+    px = _inside_pixels(corners, depth_m.shape, 0.85)
+    if px.size == 0:
+        return T, "pnp"
+    z = depth_m[px[:, 1], px[:, 0]]
+    ok = z > 0
+    px, z = px[ok], z[ok]
+    if z.size < 4:
+        return T, "pnp"
+    # reject the hand or another object in front of the tag: keep depths near the median
+    med = float(np.median(z))
+    near = np.abs(z - med) < 0.75 * side
+    px, z = px[near], z[near]
+    out = T.copy()
+    if z.size >= _MIN_PLANE_POINTS:
+        P = _rays(K, px.astype(float)) * z[:, None]
+        c = P.mean(axis=0)
+        _, sv, vt = np.linalg.svd(P - c, full_matrices=False)
+        n = vt[2]
+        if n @ c > 0:
+            n = -n  # normal towards the camera, like the tag's z axis
+        if sv[2] / np.sqrt(z.size) < 0.003 and n @ T[:3, 2] > np.cos(np.deg2rad(30)):
+            rays = _rays(K, corners)
+            Q = rays * ((n @ c) / (rays @ n))[:, None]  # corners on the plane
+            x = (Q[1] - Q[0]) + (Q[2] - Q[3])
+            x -= n * (x @ n)
+            x /= np.linalg.norm(x)
+            ray_c = _rays(K, _centre_pixel(corners)[None])[0]
+            out[:3, :3] = np.column_stack([x, np.cross(n, x), n])
+            out[:3, 3] = ray_c * ((n @ c) / (ray_c @ n))
+            return out, "plane"
+    ray_c = _rays(K, _centre_pixel(corners)[None])[0]
+    out[:3, 3] = ray_c * med
+    return out, "range"
+
+
+class MarkerTracker:
+    """Detect tags and estimate box poses in the reference marker's frame, frame by frame.
+
+    Parameters
+    ----------
+    config : MarkerConfig
+        Dictionary, reference marker and boxes.
+    K : array, shape (3, 3)
+        Camera intrinsics (images are assumed undistorted).
+    world_T_camera : array, shape (4, 4), optional
+        Known (calibrated) camera pose in the reference frame; when given, it is kept and the
+        reference tag is not needed.
+
+    The camera is assumed static: the reference pose is averaged over the frames that see it
+    (observations more than 1 cm / 2 deg from the running estimate are rejected as outliers), so
+    later frames where the hand hides the reference marker still have a world frame.
+    """
+
+    def __init__(
+        self,
+        config: MarkerConfig,
+        K: npt.ArrayLike,
+        *,
+        world_T_camera: npt.ArrayLike | None = None,
+    ) -> None:
+        import cv2
+
+        name = config.dictionary
+        if not hasattr(cv2.aruco, name):
+            raise LfdError(f"unknown ArUco dictionary {name!r}")
+        self.config = config
+        self.K = np.asarray(K, float).reshape(3, 3)
+        params = cv2.aruco.DetectorParameters()
+        params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
+        params.cornerRefinementWinSize = 3
+        params.cornerRefinementMaxIterations = 50
+        params.cornerRefinementMinAccuracy = 0.01
+        self._detector = cv2.aruco.ArucoDetector(
+            cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, name)), params
+        )
+        self._sides = {b.tag_id: b.marker_side for b in config.boxes}
+        self._sides[config.reference_id] = config.reference_size
+        self._boxes = {b.tag_id: b for b in config.boxes}
+        self._ref_sum: np.ndarray | None = None
+        self._ref_n = 0
+        self.rejected_references = 0
+        self._fixed_camera = world_T_camera is not None
+        self.world_T_camera: np.ndarray | None = (
+            None if world_T_camera is None else np.asarray(world_T_camera, float).reshape(4, 4)
+        )
+
+    def detect(self, color: np.ndarray, depth_mm: np.ndarray | None = None) -> list[TagPose]:
+        """All known tags in one frame (colour (H, W, 3) RGB uint8, depth (H, W) uint16 mm)."""
+        import cv2
+
+        img = np.asarray(color)
+        if img.ndim == 3:
+            gray = cv2.cvtColor(img, cv2.COLOR_RGB2GRAY)
+        elif img.ndim == 2:
+            gray = img
+        else:
+            raise LfdError(f"colour image must be (H, W, 3) or (H, W), got {img.shape}")
+        if gray.dtype != np.uint8:
+            raise LfdError(f"colour image must be uint8, got {gray.dtype}")
+        depth_m = None
+        if depth_mm is not None and self.config.use_depth:
+            d = np.asarray(depth_mm)
+            if d.shape != gray.shape:
+                raise LfdError(f"depth shape {d.shape} differs from colour {gray.shape}")
+            depth_m = d.astype(np.float64) * 1e-3
+        corners, ids, _ = self._detector.detectMarkers(gray)
+        out: list[TagPose] = []
+        if ids is None:
+            return out
+        for c, i in zip(corners, ids.ravel(), strict=True):
+            tag_id = int(i)
+            if tag_id not in self._sides:
+                continue
+            c2 = np.asarray(c, float).reshape(4, 2)
+            T = self._pnp(_square(self._sides[tag_id]), c2)
+            if T is None:
+                continue
+            how = "pnp"
+            if depth_m is not None:
+                T, how = refine_with_depth(self.K, c2, T, depth_m, self._sides[tag_id])
+            out.append(TagPose(tag_id, c2, T, how))
+        return out
+
+    def _pnp(self, obj: np.ndarray, px: np.ndarray) -> np.ndarray | None:
+        """Tag pose by IPPE_SQUARE; checked by reprojection, since OpenCV returns a zero rvec
+        for rotations of exactly 180 degrees (a tag seen upside down, e.g. the reference)."""
+        import cv2
+
+        best: tuple[float, np.ndarray] | None = None
+        for flags in (cv2.SOLVEPNP_IPPE_SQUARE, cv2.SOLVEPNP_SQPNP):
+            ok, rvec, tvec = cv2.solvePnP(obj, px, self.K, None, flags=flags)
+            if not ok:
+                continue
+            proj = cv2.projectPoints(obj, rvec, tvec, self.K, None)[0].reshape(-1, 2)
+            err = float(np.abs(proj - px).max())
+            if best is None or err < best[0]:
+                T = np.eye(4)
+                T[:3, :3] = cv2.Rodrigues(rvec)[0]
+                T[:3, 3] = tvec.ravel()
+                best = (err, T)
+            if err < 1.0:
+                break
+        if best is None or best[0] > 5.0:
+            return None
+        return best[1]
+
+    def _update_reference(self, camera_T_ref: np.ndarray) -> None:
+        if self._fixed_camera:
+            return
+        # the camera is static: an observation far from the current estimate (a hand over the
+        # reference tag spoiling the depth refinement) is an outlier, not a camera motion
+        if self.world_T_camera is not None and self._ref_n > 0:
+            current = np.linalg.inv(self.world_T_camera)
+            dt = np.linalg.norm(camera_T_ref[:3, 3] - current[:3, 3])
+            cos = (np.trace(camera_T_ref[:3, :3].T @ current[:3, :3]) - 1.0) / 2.0
+            if dt > REFERENCE_GATE_M or cos < np.cos(np.deg2rad(REFERENCE_GATE_DEG)):
+                self.rejected_references += 1
+                return
+        # average the rotation (chordal mean, re-orthonormalised) and translation
+        self._ref_sum = (
+            camera_T_ref.copy() if self._ref_sum is None else self._ref_sum + camera_T_ref
+        )
+        self._ref_n += 1
+        M = self._ref_sum / self._ref_n
+        u, _, vt = np.linalg.svd(M[:3, :3])
+        R = u @ vt
+        T = np.eye(4)
+        T[:3, :3] = R
+        T[:3, 3] = M[:3, 3]
+        self.world_T_camera = np.linalg.inv(T)
+
+    def process(self, color: np.ndarray, depth_mm: np.ndarray | None = None) -> FrameObjects:
+        """Box poses in the reference frame for one frame."""
+        tags = self.detect(color, depth_mm)
+        result = FrameObjects(tags=tags)
+        for tag in tags:
+            if tag.tag_id == self.config.reference_id:
+                self._update_reference(tag.camera_T_tag)
+                result.reference_seen = True
+        if self.world_T_camera is None:
+            return result
+        for tag in tags:
+            box = self._boxes.get(tag.tag_id)
+            if box is None:
+                continue
+            W = self.world_T_camera @ tag.camera_T_tag
+            R = W[:3, :3]
+            centre = W[:3, 3] - R[:, 2] * (box.size[2] / 2.0)
+            result.poses[box.name] = (centre, rotation_to_quat(R))
+        return result

@@ -1,0 +1,255 @@
+"""Frame sources for ``lfd record``: the simulator, a folder of images, a camera.
+
+A source has ``camera`` (:class:`~lfd.demo.CameraInfo`; ``world_T_camera`` may be None-like
+identity until the reference marker is seen), ``objects`` (name, tag_id, size), ``metadata``,
+and ``frames()`` yielding :class:`Frame`. Every source goes through the same perception path.
+
+Image folder layout (``--source frames:DIR``)::
+
+    DIR/camera.json        {"width": 640, "height": 480, "K": [[fx,0,cx],[0,fy,cy],[0,0,1]],
+                            "fps": 30,                                   (optional, default 30)
+                            "objects": [{"name": "box_1", "tag_id": 1,
+                                         "size": [0.05, 0.05, 0.05],
+                                         "tag_size": 0.042}],            (tag_size optional)
+                            "world_T_camera": [[...4x4...]]}             (optional)
+    DIR/color/000000.png   colour frames (any OpenCV-readable format), sorted by name
+    DIR/depth/000000.png   depth, 16-bit PNG in millimetres (0 = no data), same names (optional)
+    DIR/timestamps.txt     capture time per frame in integer ns (optional, else from fps)
+
+Camera (``--source camera:N``): ``cv2.VideoCapture(N)`` gives colour; depth comes from a
+:class:`DepthReader` (any object with ``read() -> array (H, W) uint16 mm or None``), e.g. a
+RealSense / Azure Kinect wrapper aligned to the colour camera. Intrinsics come from a
+``camera.json`` as above (``--intrinsics``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+
+from ..demo import CameraInfo
+from ..errors import LfdError
+
+
+@dataclass
+class Frame:
+    """One RGB-D frame: capture time (ns), colour (H, W, 3) uint8 RGB, depth (H, W) uint16 mm."""
+
+    t_ns: int
+    color: np.ndarray
+    depth: np.ndarray | None
+
+
+class DepthReader(Protocol):
+    """A depth camera aligned with the colour camera: the latest depth frame (H, W) uint16 mm."""
+
+    def read(self) -> np.ndarray | None: ...
+
+
+@dataclass
+class Source:
+    """Common fields of a frame source."""
+
+    camera: CameraInfo
+    objects: list[dict[str, Any]]
+    metadata: dict[str, Any] = field(default_factory=dict)
+    camera_pose_known: bool = False
+
+    def frames(self) -> Iterator[Frame]:  # pragma: no cover - overridden
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Release the device (no-op by default)."""
+
+    def world_T_camera_if_known(self) -> np.ndarray | None:
+        """The calibrated camera pose, if the source provides one (else the reference tag)."""
+        return self.camera.world_T_camera if self.camera_pose_known else None
+
+    def calibration_frame(self) -> Frame | None:
+        """A frame of the empty workspace to find the reference marker before recording."""
+        return None
+
+
+def read_camera_json(path: Path) -> tuple[CameraInfo, list[dict[str, Any]], dict[str, Any], bool]:
+    """Parse ``camera.json``: camera, objects, the raw dict, whether the camera pose is given."""
+    if not path.is_file():
+        raise LfdError(f"{path}: missing (intrinsics and objects, see lfd.perception.sources)")
+    try:
+        meta = json.loads(path.read_text())
+        K = np.asarray(meta["K"], float)
+        W = np.asarray(meta.get("world_T_camera", np.eye(4)), float)
+        camera = CameraInfo(int(meta["width"]), int(meta["height"]), K, W)
+        objects = [
+            {
+                "name": str(o["name"]),
+                "tag_id": int(o["tag_id"]),
+                "size": [float(v) for v in o["size"]],
+                **({"tag_size": float(o["tag_size"])} if "tag_size" in o else {}),
+            }
+            for o in meta.get("objects", [])
+        ]
+    except (KeyError, TypeError, ValueError, json.JSONDecodeError) as err:
+        raise LfdError(f"{path}: invalid camera description ({err})") from err
+    if K.shape != (3, 3) or W.shape != (4, 4):
+        raise LfdError(f"{path}: K must be 3x3 and world_T_camera 4x4")
+    return camera, objects, meta, "world_T_camera" in meta
+
+
+class SimSource(Source):
+    """The simulated demonstrator rendered frame by frame (colour + depth, 640x480)."""
+
+    def __init__(
+        self, task: str, *, seed: int = 0, fps: float = 30.0, duration: float | None = None
+    ):
+        from ..sim import simulate
+        from ..sim.demonstrator import crop
+
+        try:
+            self.result = simulate(task, seed=seed, object_rate_hz=fps)
+        except (KeyError, ValueError) as err:
+            raise LfdError(f"sim source: {err}") from err
+        if duration is not None:
+            self.result = crop(self.result, duration)
+        demo = self.result.demo
+        assert demo.camera is not None
+        objects = [
+            {"name": o.name, "tag_id": o.tag_id, "size": list(o.size)}
+            for o in self.result.scene.objects
+        ]
+        meta = {"source": f"sim:{task}", "task": task, "seed": seed, "simulator": "lfd.sim"}
+        super().__init__(demo.camera, objects, meta, camera_pose_known=False)
+        self.labels = list(demo.labels)
+
+    def calibration_frame(self) -> Frame | None:
+        """The first frame rendered with the hand out of view (the workspace before the demo)."""
+        from dataclasses import replace
+
+        from ..sim.render import render_frames
+
+        truth = self.result.truth
+        away = replace(truth, wrist_pos=truth.wrist_pos.copy())
+        away.wrist_pos[0] = (0.0, -1.2, 1.5)
+        color, depth = render_frames(self.result.scene, away, np.array([0]))
+        return Frame(
+            int(color.t_ns[0]), color.frames[0], None if depth is None else depth.frames[0]
+        )
+
+    def frames(self, chunk: int = 10) -> Iterator[Frame]:
+        from ..sim.render import render_frames
+
+        truth = self.result.truth
+        n = truth.t_ns.size
+        for start in range(0, n, chunk):
+            idx = np.arange(start, min(n, start + chunk))
+            color, depth = render_frames(self.result.scene, truth, idx)
+            assert depth is not None
+            for k in range(idx.size):
+                yield Frame(int(color.t_ns[k]), color.frames[k], depth.frames[k])
+
+
+class FolderSource(Source):
+    """Colour (+ depth) image files with a ``camera.json`` (layout in the module docstring)."""
+
+    def __init__(self, directory: str | os.PathLike[str]):
+        self.dir = Path(directory)
+        if not self.dir.is_dir():
+            raise LfdError(f"frames source: {self.dir} is not a directory")
+        camera, objects, meta, known = read_camera_json(self.dir / "camera.json")
+        self.color_files = sorted((self.dir / "color").glob("*.*"))
+        if not self.color_files:
+            raise LfdError(f"frames source: no images in {self.dir / 'color'}")
+        fps = float(meta.get("fps", 30.0))
+        ts = self.dir / "timestamps.txt"
+        if ts.is_file():
+            try:
+                self.t_ns = [int(line) for line in ts.read_text().split()]
+            except ValueError as err:
+                raise LfdError(f"{ts}: one integer nanosecond timestamp per line ({err})") from err
+            if len(self.t_ns) != len(self.color_files):
+                raise LfdError(f"{ts}: {len(self.t_ns)} timestamps, {len(self.color_files)} images")
+        else:
+            self.t_ns = [round(i * 1e9 / fps) for i in range(len(self.color_files))]
+        super().__init__(camera, objects, {"source": f"frames:{self.dir}"}, camera_pose_known=known)
+
+    def frames(self) -> Iterator[Frame]:
+        import cv2
+
+        for t, path in zip(self.t_ns, self.color_files, strict=True):
+            bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
+            if bgr is None:
+                raise LfdError(f"{path}: cannot read image")
+            depth = None
+            dpath = self.dir / "depth" / f"{path.stem}.png"
+            if dpath.is_file():
+                depth = cv2.imread(str(dpath), cv2.IMREAD_UNCHANGED)
+                if depth is None or depth.dtype != np.uint16 or depth.shape != bgr.shape[:2]:
+                    raise LfdError(f"{dpath}: depth must be a 16-bit PNG of the colour image size")
+            yield Frame(t, cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), depth)
+
+
+class CameraSource(Source):
+    """A live OpenCV camera (colour) with an optional :class:`DepthReader`."""
+
+    def __init__(
+        self,
+        index: int,
+        *,
+        intrinsics: str | os.PathLike[str] | None = None,
+        depth_reader: DepthReader | None = None,
+    ):
+        import cv2
+
+        self.cap = cv2.VideoCapture(index)
+        if not self.cap.isOpened():
+            self.cap.release()
+            raise LfdError(f"camera {index}: cannot open the video device (is a camera connected?)")
+        if intrinsics is None:
+            self.cap.release()
+            raise LfdError("camera source needs --intrinsics camera.json (K, width, height)")
+        camera, objects, _, known = read_camera_json(Path(intrinsics))
+        self.depth_reader = depth_reader
+        super().__init__(camera, objects, {"source": f"camera:{index}"}, camera_pose_known=known)
+
+    def frames(self) -> Iterator[Frame]:
+        import cv2
+
+        while True:
+            ok, bgr = self.cap.read()
+            if not ok:
+                return
+            t = time.time_ns()
+            depth = self.depth_reader.read() if self.depth_reader is not None else None
+            yield Frame(t, cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), depth)
+
+    def close(self) -> None:
+        self.cap.release()
+
+
+def open_source(spec: str, **kwargs: Any) -> Source:
+    """``sim:TASK``, ``frames:DIR`` or ``camera:N`` -> a source."""
+    kind, _, arg = spec.partition(":")
+    if not arg:
+        raise LfdError(f"source {spec!r}: expected sim:TASK, frames:DIR or camera:N")
+    if kind == "sim":
+        return SimSource(
+            arg,
+            seed=int(kwargs.get("seed", 0)),
+            fps=float(kwargs.get("fps") or 30.0),
+            duration=kwargs.get("duration"),
+        )
+    if kind == "frames":
+        return FolderSource(arg)
+    if kind == "camera":
+        try:
+            index = int(arg)
+        except ValueError as err:
+            raise LfdError(f"camera source: {arg!r} is not a device index") from err
+        return CameraSource(index, intrinsics=kwargs.get("intrinsics"))
+    raise LfdError(f"unknown source kind {kind!r}: use sim:TASK, frames:DIR or camera:N")

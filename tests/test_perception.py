@@ -1,0 +1,229 @@
+"""Perception: tag poses on rendered frames, ``lfd record`` sources, the hand network."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco")
+pytest.importorskip("cv2")
+
+from lfd.errors import LfdError
+from lfd.perception.markers import MarkerConfig, MarkerTracker, TaggedBox
+
+HAND_ERROR_BOUND_MM = 15.0
+"""Mean keypoint error bound of the shipped hand model on fresh renders (measured + margin)."""
+
+
+@pytest.fixture(scope="module")
+def rendered():  # type: ignore[no-untyped-def]
+    from lfd.sim import simulate
+    from lfd.sim.render import render_frames
+
+    r = simulate("exp1", seed=0)
+    frames = np.linspace(0, r.truth.t_ns.size - 1, 8).astype(int)
+    color, depth = render_frames(r.scene, r.truth, frames)
+    return r, frames, color, depth
+
+
+def _errors(r, frames, color, depth, use_depth):  # type: ignore[no-untyped-def]
+    from scipy.spatial.transform import Rotation
+
+    cfg = MarkerConfig.from_objects(r.scene.objects, use_depth=use_depth)
+    trk = MarkerTracker(cfg, r.demo.camera.K)
+    pos, ang = [], []
+    for k, i in enumerate(frames):
+        seen = trk.process(color.frames[k], None if depth is None else depth.frames[k])
+        for name, (p, q) in seen.poses.items():
+            pos.append(np.linalg.norm(p - r.truth.object_pos[name][i]))
+            rt = Rotation.from_euler("z", r.truth.object_yaw[name][i])
+            ang.append(np.rad2deg((rt.inv() * Rotation.from_quat(q)).magnitude()))
+    return np.array(pos), np.array(ang)
+
+
+def test_marker_pose_error_on_rendered_frames(rendered) -> None:  # type: ignore[no-untyped-def]
+    pos, ang = _errors(*rendered, use_depth=True)
+    assert pos.size >= 6  # boxes seen once the reference marker was seen
+    assert pos.max() < 0.005
+    assert ang.max() < 2.5
+    assert np.mean(ang) < 2.0
+
+
+def test_depth_refinement_beats_pnp_alone(rendered) -> None:  # type: ignore[no-untyped-def]
+    pos_d, _ = _errors(*rendered, use_depth=True)
+    pos_c, _ = _errors(*rendered, use_depth=False)
+    assert np.mean(pos_d) < 0.5 * np.mean(pos_c)
+
+
+def test_missing_tags_are_not_invented(rendered) -> None:  # type: ignore[no-untyped-def]
+    r, _, color, depth = rendered
+    trk = MarkerTracker(MarkerConfig.from_objects(r.scene.objects), r.demo.camera.K)
+    blank = np.full_like(color.frames[0], 200)
+    seen = trk.process(blank, depth.frames[0])
+    assert seen.poses == {} and not seen.reference_seen
+
+
+def test_marker_config_rejects_bad_input() -> None:
+    with pytest.raises(LfdError):
+        MarkerConfig(boxes=(TaggedBox("a", 0, (0.05, 0.05, 0.05)),))
+    with pytest.raises(LfdError):
+        MarkerTracker(MarkerConfig(boxes=(), dictionary="DICT_NOPE"), np.eye(3))
+
+
+# --- lfd record -----------------------------------------------------------------------------
+
+
+def _has_torch() -> bool:
+    try:
+        import torch  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def test_record_sim_writes_loadable_mcap(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from lfd.cli import main
+    from lfd.io import load
+
+    out = tmp_path / "rec.mcap"
+    rrd = tmp_path / "live.rrd"
+    argv = ["record", "--source", "sim:exp1", "--duration", "3", "-o", str(out)]
+    argv += ["--rerun-save", str(rrd)]
+    if not _has_torch():
+        argv.append("--no-hand")
+    assert main(argv) == 0
+    assert rrd.stat().st_size > 10_000  # the live view was logged
+    demo = load(out)
+    assert demo.metadata["source"] == "sim:exp1"
+    assert demo.camera is not None
+    assert sum(int(o.visible.sum()) for o in demo.objects.values()) > 60
+    if _has_torch():
+        # 5 Hz over 3 s, once the reference is known
+        assert 10 <= len(demo.hand) <= 17
+        assert np.all(np.isfinite(demo.hand.keypoints))
+
+
+def test_record_sigint_leaves_complete_file(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    import signal
+    import subprocess
+    import sys
+    import time
+    import warnings
+
+    from lfd.io import load
+
+    out = tmp_path / "int.mcap"
+    code = "import sys; from lfd.cli import main; sys.exit(main(sys.argv[1:]))"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code, "record", "--source", "sim:exp1", "--no-hand", "-o", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    deadline = time.time() + 60
+    while time.time() < deadline and (not out.exists() or out.stat().st_size < 20_000):
+        time.sleep(0.2)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err.decode()
+    assert b"stopped" in err
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a truncated file would warn while recovering
+        demo = load(out)
+    assert sum(len(o) for o in demo.objects.values()) > 0
+
+
+def test_record_frames_directory(tmp_path, rendered) -> None:  # type: ignore[no-untyped-def]
+    import json
+
+    import cv2
+    from lfd.cli import main
+    from lfd.io import load
+
+    r, _, color, depth = rendered
+    d = tmp_path / "frames"
+    (d / "color").mkdir(parents=True)
+    (d / "depth").mkdir()
+    for k in range(3):
+        cv2.imwrite(
+            str(d / "color" / f"{k:06d}.png"), cv2.cvtColor(color.frames[k], cv2.COLOR_RGB2BGR)
+        )
+        cv2.imwrite(str(d / "depth" / f"{k:06d}.png"), depth.frames[k])
+    cam = r.demo.camera
+    objects = [{"name": o.name, "tag_id": o.tag_id, "size": list(o.size)} for o in r.scene.objects]
+    (d / "camera.json").write_text(
+        json.dumps(
+            {
+                "width": cam.width,
+                "height": cam.height,
+                "K": cam.K.tolist(),
+                "world_T_camera": cam.world_T_camera.tolist(),
+                "objects": objects,
+            }
+        )
+    )
+    out = tmp_path / "frames.mcap"
+    assert main(["record", "--source", f"frames:{d}", "--no-hand", "-o", str(out)]) == 0
+    demo = load(out)
+    assert set(demo.objects) == {"box_1", "box_2", "box_3"}
+    assert sum(len(o) for o in demo.objects.values()) >= 6
+
+
+def test_record_bad_sources_give_clear_errors(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    from lfd.cli import main
+    from lfd.perception.sources import open_source
+
+    with pytest.raises(LfdError, match="cannot open"):
+        open_source("camera:37")
+    with pytest.raises(LfdError, match="not a directory"):
+        open_source(f"frames:{tmp_path / 'nope'}")
+    with pytest.raises(LfdError, match="unknown source"):
+        open_source("usb:1")
+    assert main(["record", "--source", "camera:37", "--no-hand", "-o", str(tmp_path / "x")]) == 2
+    assert "cannot open" in capsys.readouterr().err
+
+
+# --- hand network -----------------------------------------------------------------------------
+
+
+def test_shipped_hand_model_accuracy() -> None:
+    pytest.importorskip("torch")
+    from lfd.perception.hand.dataset import render_training_set
+    from lfd.perception.hand.infer import HandEstimator
+    from lfd.perception.hand.train import keypoint_error_mm
+
+    est = HandEstimator()
+    err = keypoint_error_mm(est.model, render_training_set(20, seed=7))
+    assert err.mean() < HAND_ERROR_BOUND_MM
+
+
+def _lfd(*argv: str) -> int:
+    """Run the CLI in a fresh process (torch's triton must load before MuJoCo's EGL context)."""
+    import subprocess
+    import sys
+
+    code = "import sys; from lfd.cli import main; sys.exit(main(sys.argv[1:]))"
+    return subprocess.run([sys.executable, "-c", code, *argv], timeout=300).returncode
+
+
+def test_perception_train_cli_checkpoints_and_resumes(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    torch = pytest.importorskip("torch")
+    from lfd.perception.hand.infer import HandEstimator
+
+    out = tmp_path / "m.pt"
+    data = tmp_path / "crops.npz"
+    argv = ["perception", "train", "--out", str(out), "--samples", "64", "--val-samples", "8"]
+    argv += ["--batch", "32", "--epochs", "2", "--threads", "1", "--data", str(data)]
+    assert _lfd(*argv) == 0
+    assert data.exists() and out.exists()
+    ckpt = torch.load(f"{out}.ckpt", weights_only=False)
+    assert ckpt["epoch"] == 2
+    ckpt["epoch"] = 1  # as if interrupted after the first epoch
+    torch.save(ckpt, f"{out}.ckpt")
+    out.unlink()
+    assert _lfd(*argv, "--resume") == 0  # reuses the cached crops, continues at epoch 1
+    assert torch.load(f"{out}.ckpt", weights_only=False)["epoch"] == 2
+    est = HandEstimator(out)
+    assert est.info["training"]["epochs"] == 2
+    longer = [*argv, "--resume"]
+    longer[longer.index("--epochs") + 1] = "3"
+    assert _lfd(*longer) == 2  # a checkpoint of another run is refused (LfdError)
