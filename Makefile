@@ -2,7 +2,7 @@
 .PHONY: install test rust-test lint bench check
 
 install:
-	python3 -m pip install -e ".[dev,sim]"
+	python3 -m pip install -e ".[dev,sim,perception]"
 
 test:
 	python3 -m pytest -q

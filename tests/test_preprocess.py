@@ -171,7 +171,11 @@ def test_preprocess_synthetic_demo() -> None:
     traj = preprocess(demo)
     n = len(traj)
     assert traj.dt == pytest.approx(1 / 30, abs=1e-9)
-    assert traj.t_ns[0] == max(demo.hand.t_ns[0], *(o.t_ns[0] for o in demo.objects.values()))
+    # the clock spans the hand (objects are held at rest outside their sightings) ...
+    assert traj.t_ns[0] == max(demo.hand.t_ns[0], min(o.t_ns[0] for o in demo.objects.values()))
+    # ... or, without filling, only the time every object was seen
+    strict = preprocess(demo, fill_hidden=False)
+    assert strict.t_ns[0] == max(demo.hand.t_ns[0], *(o.t_ns[0] for o in demo.objects.values()))
     assert traj.t_ns[-1] <= demo.hand.t_ns[-1]
     assert n == pytest.approx((demo.hand.t_ns[-1] - traj.t_ns[0]) * 30e-9, abs=1.01)
     assert traj.tcp.shape == (n, 3) and traj.rotation.shape == (n, 3, 3)
@@ -195,7 +199,8 @@ def test_preprocess_synthetic_demo() -> None:
     back = Rotation.from_matrix(traj.rotation).as_euler("xyz")
     np.testing.assert_allclose(np.angle(np.exp(1j * (back - traj.euler))), 0, atol=1e-9)
     assert traj.meta["labels"][0][0] == "pick_up"
-    assert traj.meta["gaps"] == {"hand": [], "objects": {"cube0": [], "cube1": []}}
+    assert traj.meta["gaps"]["hand"] == [] and traj.meta["gaps"]["carried"] == {}
+    assert traj.meta["gaps"]["objects"] == {"cube0": [], "cube1": []}
 
 
 def test_preprocess_long_hand_gap_is_reported() -> None:
@@ -218,7 +223,7 @@ def test_preprocess_object_gap_and_errors() -> None:
     demo = make_demo(duration_s=10.0)
     obj = demo.objects["cube1"]
     obj.visible[100:160] = False  # 2 s occlusion
-    traj = preprocess(demo, max_gap_s=0.5)
+    traj = preprocess(demo, max_gap_s=0.5, fill_hidden=False)
     assert not traj.object_valid[1].all() and traj.object_valid[0].all()
     assert len(traj.meta["gaps"]["objects"]["cube1"]) == 1
     assert np.isnan(traj.object_position[1][~traj.object_valid[1]]).all()
@@ -236,3 +241,48 @@ def test_preprocess_object_gap_and_errors() -> None:
         preprocess(make_demo(duration_s=0.35, hand_hz=10.0))  # 10 samples on the clock
     short = preprocess(make_demo(duration_s=0.35, hand_hz=10.0), filter=False)
     assert len(short) > 0
+
+
+def test_hidden_object_is_carried_with_the_hand_and_held_at_rest() -> None:
+    """A tag hidden from the approach to the release: at rest, then with the TCP, then at rest."""
+    from lfd.preprocess.carry import fill_carried_gaps, hold_ends
+
+    n = 100
+    tcp = np.zeros((n, 3))
+    tcp[:, 0] = np.linspace(-0.2, 0.4, n)  # the hand sweeps along x ...
+    tcp[:, 2] = 0.05
+    grasp, release = 30, 70  # ... reaching the object at 30, letting go at 70
+    truth = np.empty((n, 3))
+    below = np.array([0.0, 0.0, -0.02])  # the object centre under the TCP while held
+    truth[:grasp] = tcp[grasp] + below
+    truth[grasp : release + 1] = tcp[grasp : release + 1] + below
+    truth[release + 1 :] = tcp[release] + below
+    pos = truth.copy()
+    quat = np.tile([0.0, 0.0, 0.0, 1.0], (n, 1))
+    valid = np.ones(n, dtype=bool)
+    valid[10:85] = False  # hidden from well before the grasp to after the release
+    pos[~valid] = np.nan
+    quat[~valid] = np.nan
+    filled = fill_carried_gaps(pos, quat, valid, tcp, np.ones(n, dtype=bool), grasp_radius=0.021)
+    assert filled == [(10, 85)] and valid.all()
+    np.testing.assert_allclose(pos, truth, atol=0.012)  # radius reached a bit before the grasp
+    np.testing.assert_allclose(pos[:20], truth[:20], atol=1e-12)  # at rest before the grasp
+    np.testing.assert_allclose(pos[-10:], truth[-10:], atol=1e-12)  # at rest after the release
+    np.testing.assert_allclose(np.linalg.norm(quat, axis=1), 1.0)
+
+    # a moved object the hand never came near keeps its gap
+    far = truth + np.array([0.0, 1.0, 0.0])
+    far[40:60] += [0.1, 0, 0]
+    v = np.ones(n, dtype=bool)
+    v[35:65] = False
+    p2, q2 = np.where(v[:, None], far, np.nan), np.tile([0.0, 0, 0, 1], (n, 1))
+    assert fill_carried_gaps(p2, q2, v, tcp, np.ones(n, dtype=bool), 0.05) == []
+    assert not v[35:65].any()
+
+    # outside its sightings an object is held at its first / last pose
+    p3 = np.where(np.arange(n)[:, None] < 5, np.nan, truth)
+    p3[95:] = np.nan
+    v3 = np.isfinite(p3).all(axis=1)
+    q3 = np.tile([0.0, 0, 0, 1], (n, 1))
+    assert hold_ends(p3, q3, v3) == [(0, 5), (95, n)]
+    assert v3.all() and (p3[:5] == truth[5]).all() and (p3[95:] == truth[94]).all()

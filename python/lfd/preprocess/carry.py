@@ -1,17 +1,22 @@
 """Fill an object's tracking gap while it is carried by the hand.
 
-A tag on a carried object is often hidden by the hand for the whole carry, longer than any gap
-that interpolation may bridge. When the hand holds the object at both ends of such a gap (the
-TCP is within grasp distance of the object just before and just after it), the object moved
-with the hand: its position is the TCP plus an offset that changes linearly from the offset at
-the start of the gap to the offset at its end, and its orientation is slerped between the two
-ends. Every filled gap is reported; gaps that do not start and end in the hand stay NaN.
+A tag on a grasped object is often hidden by the hand from the approach to the release, longer
+than any gap that interpolation may bridge. For such a gap: if the object ends where it started
+(within 1 cm) it rested and is interpolated; if it moved, it was carried when the TCP came
+within grasp distance of its old pose (grasp) and later of its new pose (release). Before the
+grasp it rests at the old pose, after the release at the new one, and in between it follows the
+TCP with an offset that changes linearly from the grasp offset to the release offset, its
+orientation slerped between the two. Every filled gap is reported; a moved object that the hand
+never reached keeps its gap (NaN).
 """
 
 from __future__ import annotations
 
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
+
+REST_TOLERANCE = 0.01
+"""An object that moved less than this (m) across a gap was resting: the gap is interpolated."""
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
@@ -55,14 +60,56 @@ def fill_carried_gaps(
     for a, b in _runs(~valid):
         if a == 0 or b >= n or not hand_valid[a - 1 : b + 1].all():
             continue
-        off0 = position[a - 1] - tcp[a - 1]
-        off1 = position[b] - tcp[b]
-        if max(np.linalg.norm(off0), np.linalg.norm(off1)) > grasp_radius:
-            continue
-        w = ((np.arange(a, b) - (a - 1)) / (b - (a - 1)))[:, None]
-        position[a:b] = tcp[a:b] + (1.0 - w) * off0 + w * off1
-        ends = Rotation.from_quat(np.stack([quaternion[a - 1], quaternion[b]]))
-        quaternion[a:b] = Slerp([0.0, 1.0], ends)(w[:, 0]).as_quat()
+        p0, p1 = position[a - 1].copy(), position[b].copy()
+        idx = np.arange(a, b)
+        if np.linalg.norm(p1 - p0) < REST_TOLERANCE:  # hidden while resting: it stayed put
+            w = ((idx - (a - 1)) / (b - (a - 1)))[:, None]
+            position[a:b] = (1.0 - w) * p0 + w * p1
+            quaternion[a:b] = quaternion[a - 1]
+        else:
+            near0 = np.flatnonzero(np.linalg.norm(tcp[a - 1 : b + 1] - p0, axis=1) <= grasp_radius)
+            near1 = np.flatnonzero(np.linalg.norm(tcp[a - 1 : b + 1] - p1, axis=1) <= grasp_radius)
+            if not len(near0) or not len(near1):
+                continue  # the hand never reached the object: no evidence it carried it
+            g, r = a - 1 + int(near0[0]), a - 1 + int(near1[-1])  # grasp and release samples
+            if g >= r:
+                continue
+            off0, off1 = p0 - tcp[g], p1 - tcp[r]
+            w = ((np.arange(g, r + 1) - g) / (r - g))[:, None]
+            carried = tcp[g : r + 1] + (1.0 - w) * off0 + w * off1
+            ends = Rotation.from_quat(np.stack([quaternion[a - 1], quaternion[b]]))
+            turned = Slerp([0.0, 1.0], ends)(w[:, 0]).as_quat()
+            q0, q1 = quaternion[a - 1].copy(), quaternion[b].copy()
+            for i in idx:
+                if i < g:
+                    position[i], quaternion[i] = p0, q0
+                elif i > r:
+                    position[i], quaternion[i] = p1, q1
+                else:
+                    position[i], quaternion[i] = carried[i - g], turned[i - g]
         valid[a:b] = True
         filled.append((int(a), int(b)))
     return filled
+
+
+def hold_ends(
+    position: np.ndarray, quaternion: np.ndarray, valid: np.ndarray
+) -> list[tuple[int, int]]:
+    """Hold an object at its first / last seen pose before / after it was seen (in place).
+
+    An object is at rest until something moves it, and nothing can move it unseen at the start
+    or end of a recording without the hand (which :func:`fill_carried_gaps` covers inside).
+    Returns the filled half-open ranges. ``valid`` must have at least one True entry.
+    """
+    seen = np.flatnonzero(valid)
+    first, last = int(seen[0]), int(seen[-1])
+    held = []
+    if first > 0:
+        position[:first], quaternion[:first] = position[first], quaternion[first]
+        held.append((0, first))
+    if last < len(valid) - 1:
+        position[last + 1 :], quaternion[last + 1 :] = position[last], quaternion[last]
+        held.append((last + 1, len(valid)))
+    valid[:first] = True
+    valid[last + 1 :] = True
+    return held

@@ -23,7 +23,7 @@ import numpy as np
 from ..demo import INDEX_MCP, INDEX_TIP, THUMB_TIP, Demonstration
 from ..errors import DemonstrationError
 from ..trajectory import Trajectory
-from .carry import fill_carried_gaps
+from .carry import fill_carried_gaps, hold_ends
 from .filters import butter_ba, lowpass, matlab_padlen, unwrap_runs
 from .mapping import EULER_SEQ, euler_from_rotation, gripper_frame, rotation_from_euler
 from .resample import clock, find_gaps, resample_positions, resample_quaternions
@@ -51,7 +51,7 @@ def preprocess(
     euler_cutoff_hz: float = 0.0625,
     feature_cutoff_hz: float = 0.625,
     max_gap_s: float = 0.5,
-    fill_carried: bool = True,
+    fill_hidden: bool = True,
     filter: bool = True,
 ) -> Trajectory:
     """Resample, filter and map a demonstration to a gripper trajectory on one clock.
@@ -68,9 +68,11 @@ def preprocess(
         Low-pass cut-off of the position signals the features come from (paper: 0.625 Hz).
     max_gap_s : float
         Longest gap between real samples that is interpolated.
-    fill_carried : bool
-        Fill longer object gaps during which the hand carried the object (a carried tag is
-        often hidden by the hand): the object follows the TCP, see :mod:`lfd.preprocess.carry`.
+    fill_hidden : bool
+        Fill what the camera could not see of an object (see :mod:`lfd.preprocess.carry`): held
+        at rest before its first and after its last sighting (the clock then spans the hand),
+        and carried with the TCP through a long gap in which the hand moved it. Otherwise the
+        clock spans only the time every object was seen and long gaps stay NaN.
     filter : bool
         Apply the low-pass filters.
 
@@ -79,7 +81,7 @@ def preprocess(
     Trajectory
         ``meta`` holds the parameters, ``gaps`` (``{"hand": [(t0, t1)], "objects": {name:
         [...]}, "carried": {name: [...]}}`` in ns; ``carried`` lists the object gaps filled from
-        the hand), ``unfiltered_runs`` and the demonstration's labels and metadata.
+        the hand, ``held`` the stretches held at rest), ``unfiltered_runs`` and the demonstration's labels and metadata.
 
     Raises
     ------
@@ -105,8 +107,13 @@ def preprocess(
         raise DemonstrationError("the hand has no sample with index tip, thumb tip and index base")
     if len(spans) == 1:
         raise DemonstrationError("no object was ever visible")
-    start = max(s[1][0] for s in spans if s[1] is not None)
-    end = min(s[1][1] for s in spans if s[1] is not None)
+    if fill_hidden:  # objects are held at rest before they are first / after they are last seen
+        obj_spans = [s[1] for s in spans[1:] if s[1] is not None]
+        start = max(spans[0][1][0], min(s[0] for s in obj_spans))
+        end = min(spans[0][1][1], max(s[1] for s in obj_spans))
+    else:
+        start = max(s[1][0] for s in spans if s[1] is not None)
+        end = min(s[1][1] for s in spans if s[1] is not None)
     if end <= start:
         raise DemonstrationError(
             "the hand and the objects do not overlap in time: spans (s) "
@@ -166,6 +173,7 @@ def preprocess(
         "hand": find_gaps(h_t, h_ok, max_gap_s),
         "objects": {},
         "carried": {},  # object gaps filled because the hand carried the object
+        "held": {},  # before the first / after the last sighting: held at rest
     }
     for j, (name, obj, oi, ok) in enumerate(objs):
         ot = obj.t_ns[oi]
@@ -174,9 +182,12 @@ def preprocess(
         p, pv = resample_positions(rel(ot), pos, t_s, max_gap_s=max_gap_s)
         q, qv = resample_quaternions(rel(ot), quat, t_s, max_gap_s=max_gap_s)
         valid = pv.all(axis=1) & qv
-        if fill_carried:
+        if fill_hidden and valid.any():
             p = np.where(valid[:, None], p, np.nan)
             q = np.where(valid[:, None], q, np.nan)
+            held = hold_ends(p, q, valid)
+            if held:
+                gaps["held"][name] = [(int(t_ns[a]), int(t_ns[b - 1])) for a, b in held]
             radius = float(np.max(obj.size)) / 2 + 0.03
             carried = fill_carried_gaps(p, q, valid, tcp, hand_valid, radius)
             if carried:
