@@ -89,8 +89,9 @@ def record(
     known = source.world_T_camera_if_known()
     tracker = MarkerTracker(config, source.camera.K, world_T_camera=known)
     calib = source.calibration_frame()
-    if calib is not None:
-        tracker.process(calib.color, calib.depth)
+    calib_poses: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    if calib is not None:  # the empty workspace: reference marker and the boxes' initial poses
+        calib_poses = dict(tracker.process(calib.color, calib.depth).poses)
     meta = {**source.metadata, "hand_rate_hz": hand_rate_hz, "perception": "lfd.perception"}
     if estimator is not None:
         meta["hand_model"] = str(estimator.info.get("training", {}))
@@ -105,6 +106,12 @@ def record(
     try:
         for frame in source.frames():
             poses = _process(frame, tracker, rec, stats, save_images)
+            if stats.frames == 0:  # a box hidden in the first frame starts where calibration saw it
+                for name, (p, q) in calib_poses.items():
+                    if name not in poses:
+                        rec.add_object_pose(name, frame.t_ns, p, q)
+                        stats.object_poses += 1
+                        poses[name] = (p, q)
             last_poses.update(poses)  # boxes hidden by the hand are where they were last seen
             if not camera_written and tracker.world_T_camera is not None:
                 cam = source.camera
