@@ -13,7 +13,7 @@ use nalgebra::DMatrix;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::scores::ScoreTable;
+use super::scores::{check_score_inputs, ScoreTable};
 use crate::error::{EngineError, Result};
 use crate::hmm::{CovarianceType, Hmm};
 
@@ -407,22 +407,9 @@ pub fn compiled_score_table(
     max_len: usize,
     end: EndState,
 ) -> Result<ScoreTable> {
-    let (n, nc) = observations.shape();
-    if models.iter().any(|m| m.len() != groups.len()) || groups.iter().any(|g| g.end > nc) {
-        return Err(EngineError::ShapeMismatch(format!(
-            "models / feature groups do not fit {nc} observation columns"
-        )));
-    }
-    if boundaries.first() != Some(&0) || boundaries.last() != Some(&n) {
-        return Err(EngineError::ShapeMismatch(format!(
-            "boundaries must start at 0 and end at the number of samples {n}"
-        )));
-    }
-    if observations.iter().any(|v| !v.is_finite()) {
-        return Err(EngineError::NonFinite(
-            "observations contain NaN or infinity".into(),
-        ));
-    }
+    let counts: Vec<usize> = models.iter().map(Vec::len).collect();
+    check_score_inputs(&counts, groups, observations, boundaries)?;
+    let n = observations.nrows();
     let mut table = ScoreTable::new(boundaries.to_vec(), models.len())?;
     let k = table.n_sections();
     let max_len = if max_len == 0 { n } else { max_len };

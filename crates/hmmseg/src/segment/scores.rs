@@ -126,29 +126,23 @@ impl ScoreTable {
     }
 }
 
-/// Compute the score table.
-///
-/// * `models[s][g]` scores the columns `groups[g]` of the observations for skill `s` (one HMM per
-///   Table I feature; a feature may span several columns, e.g. the TCP position in the object
-///   frame);
-/// * `observations` is `(n_samples, n_columns)`, finite, already normalised;
-/// * `boundaries` are the stage-1 section boundaries `[0, ..., n_samples]`;
-/// * `max_len` (samples) bounds the length of a segment (longer runs stay `-inf`); `0` = no bound.
-pub fn score_table<M: PrefixScorer>(
-    models: &[Vec<M>],
-    groups: &[Range<usize>],
+/// The input checks shared by the score-table builders: one model per feature group for every
+/// skill, groups inside the observation columns, boundaries from 0 to the number of samples,
+/// finite observations.
+pub(super) fn check_score_inputs(
+    models_per_skill: &[usize],
+    groups: &[std::ops::Range<usize>],
     observations: &DMatrix<f64>,
     boundaries: &[usize],
-    max_len: usize,
-) -> Result<ScoreTable> {
+) -> Result<()> {
     let (n, nc) = observations.shape();
-    if models.is_empty() {
+    if models_per_skill.is_empty() {
         return Err(EngineError::EmptySequence("no skill models".into()));
     }
-    if let Some(s) = models.iter().position(|m| m.len() != groups.len()) {
+    if let Some(s) = models_per_skill.iter().position(|&m| m != groups.len()) {
         return Err(EngineError::ShapeMismatch(format!(
             "skill {s} has {} feature models but there are {} feature groups",
-            models[s].len(),
+            models_per_skill[s],
             groups.len()
         )));
     }
@@ -167,6 +161,27 @@ pub fn score_table<M: PrefixScorer>(
             "observations contain NaN or infinity".into(),
         ));
     }
+    Ok(())
+}
+
+/// Compute the score table.
+///
+/// * `models[s][g]` scores the columns `groups[g]` of the observations for skill `s` (one HMM per
+///   Table I feature; a feature may span several columns, e.g. the TCP position in the object
+///   frame);
+/// * `observations` is `(n_samples, n_columns)`, finite, already normalised;
+/// * `boundaries` are the stage-1 section boundaries `[0, ..., n_samples]`;
+/// * `max_len` (samples) bounds the length of a segment (longer runs stay `-inf`); `0` = no bound.
+pub fn score_table<M: PrefixScorer>(
+    models: &[Vec<M>],
+    groups: &[Range<usize>],
+    observations: &DMatrix<f64>,
+    boundaries: &[usize],
+    max_len: usize,
+) -> Result<ScoreTable> {
+    let counts: Vec<usize> = models.iter().map(Vec::len).collect();
+    check_score_inputs(&counts, groups, observations, boundaries)?;
+    let n = observations.nrows();
     let mut table = ScoreTable::new(boundaries.to_vec(), models.len())?;
     let k = table.n_sections();
     let max_len = if max_len == 0 { n } else { max_len };
