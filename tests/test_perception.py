@@ -55,6 +55,36 @@ def test_depth_refinement_beats_pnp_alone(rendered) -> None:  # type: ignore[no-
     assert np.mean(pos_d) < 0.5 * np.mean(pos_c)
 
 
+def test_depth_plane_overrides_a_mirrored_pnp_pose() -> None:
+    """A small tag's IPPE pose can be the tilted mirror solution; the depth plane decides."""
+    from lfd.perception.markers import _square, refine_with_depth
+    from scipy.spatial.transform import Rotation
+
+    K = np.array([[615.0, 0, 320], [0, 615.0, 240], [0, 0, 1]])
+    T = np.eye(4)  # true tag: 0.7 m away, tilted 35 deg about x, yawed 20 deg
+    T[:3, :3] = (
+        Rotation.from_euler("x", 215, degrees=True) * Rotation.from_euler("z", 20, degrees=True)
+    ).as_matrix()
+    T[:3, 3] = [0.05, -0.03, 0.7]
+    side = 0.042
+    corners_3d = _square(side) @ T[:3, :3].T + T[:3, 3]
+    px = corners_3d[:, :2] / corners_3d[:, 2:] * [615.0, 615.0] + [320, 240]
+    # depth of the tag plane at every pixel (mm), 0 elsewhere
+    v, u = np.mgrid[0:480, 0:640]
+    rays = np.stack([(u - 320) / 615.0, (v - 240) / 615.0, np.ones_like(u, float)], axis=-1)
+    n, c = T[:3, 2], T[:3, 3]
+    depth = np.round(rays[..., 2] * (n @ c) / (rays @ n) * 1000.0) * 1e-3
+    wrong = T.copy()  # the mirror pose: tilt flipped to the other side, range 2 cm off
+    wrong[:3, :3] = Rotation.from_euler("x", 70, degrees=True).as_matrix() @ T[:3, :3]
+    wrong[:3, 3] *= 1.03
+    out, how = refine_with_depth(K, px, wrong, depth, side)
+    assert how == "plane"
+    assert np.rad2deg(np.arccos(out[:3, 2] @ n)) < 1.0
+    assert np.linalg.norm(out[:3, 3] - c) < 0.002
+    angle = Rotation.from_matrix(out[:3, :3].T @ T[:3, :3]).magnitude()
+    assert np.rad2deg(angle) < 1.5
+
+
 def test_missing_tags_are_not_invented(rendered) -> None:  # type: ignore[no-untyped-def]
     r, _, color, depth = rendered
     trk = MarkerTracker(MarkerConfig.from_objects(r.scene.objects), r.demo.camera.K)

@@ -286,3 +286,36 @@ def test_hidden_object_is_carried_with_the_hand_and_held_at_rest() -> None:
     q3 = np.tile([0.0, 0, 0, 1], (n, 1))
     assert hold_ends(p3, q3, v3) == [(0, 5), (95, n)]
     assert v3.all() and (p3[:5] == truth[5]).all() and (p3[95:] == truth[94]).all()
+
+
+def test_carried_object_leaves_when_the_hand_lifts_it() -> None:
+    """The hand hovers and descends over the hidden object before lifting it: the object must
+    stay put until the grasp (not sink with the descending hand) and rest after the release."""
+    from lfd.preprocess.carry import fill_carried_gaps
+
+    n = 150
+    s = np.linspace(0.0, 1.0, n)
+    p0, p1 = np.array([0.0, 0.3, 0.02]), np.array([0.2, 0.3, 0.02])
+    grip = np.array([0.0, 0.0, 0.015])  # TCP above the object centre while holding it
+    above, away = np.array([0.0, 0.0, 0.06]), np.array([0.0, -0.1, 0.15])
+    tcp = np.empty((n, 3))
+    approach, grasp, release, leave = 20, 50, 100, 130
+    tcp[:approach] = p0 + away
+    tcp[approach:grasp] = np.linspace(p0 + above, p0 + grip, grasp - approach)
+    lift = np.linspace(0.0, 1.0, release - grasp)[:, None]
+    arc = np.sin(np.pi * lift) * [0, 0, 0.12]
+    tcp[grasp:release] = (1 - lift) * (p0 + grip) + lift * (p1 + grip) + arc
+    tcp[release:leave] = np.linspace(p1 + grip, p1 + above, leave - release)
+    tcp[leave:] = p1 + away
+    truth = np.where(s[:, None] < s[grasp], p0, p1)
+    truth[grasp:release] = tcp[grasp:release] - grip
+    pos = truth.copy()
+    quat = np.tile([0.0, 0.0, 0.0, 1.0], (n, 1))
+    valid = np.ones(n, dtype=bool)
+    valid[15:140] = False
+    pos[~valid], quat[~valid] = np.nan, np.nan
+    assert fill_carried_gaps(pos, quat, valid, tcp, np.ones(n, dtype=bool), 0.055) == [(15, 140)]
+    np.testing.assert_allclose(pos[:grasp], truth[:grasp], atol=1e-9)  # still while hovered
+    np.testing.assert_allclose(pos[release:], truth[release:], atol=1e-9)
+    np.testing.assert_allclose(pos, truth, atol=0.002)
+    assert pos[:, 2].min() > 0.02 - 1e-9  # never pushed into the table

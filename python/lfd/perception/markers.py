@@ -193,9 +193,15 @@ def refine_with_depth(
         n = vt[2]
         if n @ c > 0:
             n = -n  # normal towards the camera, like the tag's z axis
-        if sv[2] / np.sqrt(z.size) < 0.003 and n @ T[:3, 2] > np.cos(np.deg2rad(30)):
-            rays = _rays(K, corners)
+        rays = _rays(K, corners)
+        with np.errstate(divide="ignore", invalid="ignore"):
             Q = rays * ((n @ c) / (rays @ n))[:, None]  # corners on the plane
+        sides = np.linalg.norm(Q - np.roll(Q, 1, axis=0), axis=1)
+        # a flat patch whose corners span the tag's side: the plane, not the PnP rotation, is
+        # trusted (a 30-50 px tag's IPPE solution can be tilted by 50-70 degrees, the
+        # ambiguous mirror pose)
+        square = bool(np.all(np.isfinite(sides)) and np.all(np.abs(sides / side - 1.0) < 0.2))
+        if sv[2] / np.sqrt(z.size) < 0.003 and square:
             x = (Q[1] - Q[0]) + (Q[2] - Q[3])
             x -= n * (x @ n)
             x /= np.linalg.norm(x)

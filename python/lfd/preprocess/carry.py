@@ -3,10 +3,11 @@
 A tag on a grasped object is often hidden by the hand from the approach to the release, longer
 than any gap that interpolation may bridge. For such a gap: if the object ends where it started
 (within 1 cm) it rested and is interpolated; if it moved, it was carried when the TCP came
-within grasp distance of its old pose (grasp) and later of its new pose (release). Before the
-grasp it rests at the old pose, after the release at the new one, and in between it follows the
-TCP with an offset that changes linearly from the grasp offset to the release offset, its
-orientation slerped between the two. Every filled gap is reported; a moved object that the hand
+within grasp distance of its old pose and later of its new pose: the hand grasps it where it
+comes closest to the old pose (first visit) and releases it where it comes closest to the new
+one (last visit). Before the grasp it rests at the old pose, after the release at the new one, and
+in between it follows the TCP with an offset that changes linearly from the grasp offset to the
+release offset, its orientation slerped between the two. Every filled gap is reported; a moved object that the hand
 never reached keeps its gap (NaN).
 """
 
@@ -23,6 +24,29 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     """Half-open index ranges where ``mask`` is True."""
     edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
     return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True))
+
+
+def _closest_in_run(dist: np.ndarray, near: np.ndarray, first: bool) -> int:
+    """Index of the smallest ``dist`` in the first (or last) run of consecutive ``near`` indices."""
+    breaks = np.flatnonzero(np.diff(near) > 1)
+    run = near[: breaks[0] + 1] if first and breaks.size else near
+    if not first and breaks.size:
+        run = near[breaks[-1] + 1 :]
+    return int(run[np.argmin(dist[run])])
+
+
+def _grasp_release(d0: np.ndarray, d1: np.ndarray, radius: float) -> tuple[int, int] | None:
+    """Grasp and release samples from the TCP distances to the old and the new pose.
+
+    The hand closes on the object where it comes closest to the old pose, in its first visit
+    within ``radius``, and lets go where it comes closest to the new pose, in its last visit.
+    None when the hand never reached one of the two poses or let go before it grasped.
+    """
+    near0, near1 = np.flatnonzero(d0 <= radius), np.flatnonzero(d1 <= radius)
+    if not len(near0) or not len(near1):
+        return None
+    g, r = _closest_in_run(d0, near0, first=True), _closest_in_run(d1, near1, first=False)
+    return (g, r) if g < r else None
 
 
 def fill_carried_gaps(
@@ -67,13 +91,12 @@ def fill_carried_gaps(
             position[a:b] = (1.0 - w) * p0 + w * p1
             quaternion[a:b] = quaternion[a - 1]
         else:
-            near0 = np.flatnonzero(np.linalg.norm(tcp[a - 1 : b + 1] - p0, axis=1) <= grasp_radius)
-            near1 = np.flatnonzero(np.linalg.norm(tcp[a - 1 : b + 1] - p1, axis=1) <= grasp_radius)
-            if not len(near0) or not len(near1):
+            span = tcp[a - 1 : b + 1]
+            d0, d1 = np.linalg.norm(span - p0, axis=1), np.linalg.norm(span - p1, axis=1)
+            found = _grasp_release(d0, d1, grasp_radius)
+            if found is None:
                 continue  # the hand never reached the object: no evidence it carried it
-            g, r = a - 1 + int(near0[0]), a - 1 + int(near1[-1])  # grasp and release samples
-            if g >= r:
-                continue
+            g, r = a - 1 + found[0], a - 1 + found[1]
             off0, off1 = p0 - tcp[g], p1 - tcp[r]
             w = ((np.arange(g, r + 1) - g) / (r - g))[:, None]
             carried = tcp[g : r + 1] + (1.0 - w) * off0 + w * off1
