@@ -96,8 +96,25 @@ def test_missing_tags_are_not_invented(rendered) -> None:  # type: ignore[no-unt
 def test_marker_config_rejects_bad_input() -> None:
     with pytest.raises(LfdError):
         MarkerConfig(boxes=(TaggedBox("a", 0, (0.05, 0.05, 0.05)),))
-    with pytest.raises(LfdError):
+    with pytest.raises(LfdError, match="unknown ArUco dictionary"):
         MarkerTracker(MarkerConfig(boxes=(), dictionary="DICT_NOPE"), np.eye(3))
+    with pytest.raises(LfdError, match="reference marker size"):
+        MarkerConfig(boxes=(), reference_size=0.0)
+
+
+def test_record_with_another_dictionary_finds_no_tags(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """The dictionary is honoured: the simulator's 4x4 tags are not 5x5 tags (none invented)."""
+    from lfd.cli import main
+    from lfd.io import load
+
+    out = tmp_path / "d.mcap"
+    argv = ["record", "--source", "sim:exp1", "--duration", "1", "--no-hand", "-o", str(out)]
+    assert main([*argv, "--aruco-dict", "DICT_5X5_50"]) == 0
+    from lfd.errors import RecordingFormatError
+
+    with pytest.raises(RecordingFormatError, match="object pose"):
+        load(out)  # no tag was recognised, so the file has no object channel
+    assert main([*argv, "--aruco-dict", "DICT_NOPE"]) == 2
 
 
 # --- lfd record -----------------------------------------------------------------------------
@@ -212,6 +229,90 @@ def test_record_bad_sources_give_clear_errors(tmp_path, capsys) -> None:  # type
     assert "cannot open" in capsys.readouterr().err
 
 
+def test_record_camera_source_with_a_plugged_depth_reader(  # type: ignore[no-untyped-def]
+    tmp_path, monkeypatch, capsys, rendered
+) -> None:
+    """``camera:N`` through a stand-in OpenCV device and a ``--depth-reader`` plug-in module."""
+    import json
+
+    import cv2
+    from lfd.cli import main
+    from lfd.io import load
+
+    r, frames, color, depth = rendered
+    served = [cv2.cvtColor(c, cv2.COLOR_RGB2BGR) for c in color.frames]
+
+    class FakeCapture:
+        def __init__(self, index: int) -> None:
+            self.frames = list(served) if index == 0 else []
+
+        def isOpened(self) -> bool:
+            return bool(self.frames)
+
+        def read(self):  # type: ignore[no-untyped-def]
+            return (True, self.frames.pop(0)) if self.frames else (False, None)
+
+        def release(self) -> None:
+            self.frames = []
+
+    monkeypatch.setattr(cv2, "VideoCapture", FakeCapture)
+    np.save(tmp_path / "depth.npy", depth.frames)
+    reader = tmp_path / "my_depth.py"
+    reader.write_text(
+        "import numpy as np\n"
+        "class Reader:\n"
+        "    def __init__(self, path):\n"
+        "        self.frames = list(np.load(path))\n"
+        "    def read(self):\n"
+        "        return self.frames.pop(0) if self.frames else None\n"
+        f"def make():\n    return Reader({str(tmp_path / 'depth.npy')!r})\n"
+    )
+    cam = r.demo.camera
+    objects = [{"name": o.name, "tag_id": o.tag_id, "size": list(o.size)} for o in r.scene.objects]
+    intrinsics = tmp_path / "camera.json"
+    intrinsics.write_text(
+        json.dumps(
+            {"width": cam.width, "height": cam.height, "K": cam.K.tolist(), "objects": objects}
+        )
+    )
+    base = ["record", "--source", "camera:0", "--intrinsics", str(intrinsics)]
+    out = tmp_path / "camera.mcap"
+    argv = [*base, "-o", str(out), "--depth-reader", f"{reader}:make", "--hand-rate", "1000"]
+    if not _has_torch():
+        argv.append("--no-hand")
+    assert main(argv) == 0  # --hand-rate 1000: a hand sample (or a marked miss) every frame
+    demo = load(out)
+    assert demo.metadata["source"] == "camera:0"
+    assert len(demo.hand) == len(frames)
+    errors = []
+    for name, track in demo.objects.items():
+        k = np.searchsorted(demo.hand.t_ns, track.t_ns)  # which served frame
+        errors += list(np.linalg.norm(track.position - r.truth.object_pos[name][frames[k]], axis=1))
+    assert len(errors) >= 6 and max(errors) < 0.005
+    if _has_torch():  # depth came through the reader: the hand is estimated once the
+        # reference tag gave the camera pose (no calibration frame from a live camera)
+        found = np.all(np.isfinite(demo.hand.keypoints), axis=(1, 2))
+        err = np.linalg.norm(demo.hand.keypoints[found] - r.truth.keypoints[frames][found], axis=2)
+        assert found.sum() >= 4 and np.median(err) < 0.02
+
+    # a plug-in that does not load, and depth of the wrong shape, are clear errors
+    missing = ["--depth-reader", f"{tmp_path / 'missing.py'}:make", "--no-hand"]
+    assert main([*base, "-o", str(tmp_path / "x.mcap"), *missing]) == 2
+    (tmp_path / "small.py").write_text(
+        "import numpy as np\n"
+        "class R:\n    def read(self):\n        return np.zeros((4, 4), np.uint16)\n"
+        "def make():\n    return R()\n"
+    )
+    small = ["--depth-reader", f"{tmp_path / 'small.py'}:make", "--no-hand"]
+    partial = tmp_path / "partial.mcap"
+    assert main([*base, "-o", str(partial), *small]) == 2
+    assert "expected uint16 mm" in capsys.readouterr().err
+    from lfd.errors import RecordingFormatError
+
+    with pytest.raises(RecordingFormatError, match="no channels"):  # closed: valid but empty
+        load(partial)
+
+
 # --- hand network -----------------------------------------------------------------------------
 
 
@@ -224,6 +325,30 @@ def test_shipped_hand_model_accuracy() -> None:
     est = HandEstimator()
     err = keypoint_error_mm(est.model, render_training_set(20, seed=7))
     assert err.mean() < HAND_ERROR_BOUND_MM
+
+
+def test_hand_estimator_rejects_bad_input() -> None:
+    pytest.importorskip("torch")
+    from lfd.perception.hand.infer import HandEstimator
+
+    est = HandEstimator()
+    K = np.array([[600.0, 0, 320], [0, 600, 240], [0, 0, 1]])
+    pose = np.diag([1.0, -1.0, -1.0, 1.0])  # looking straight down from 0.8 m
+    pose[2, 3] = 0.8
+    depth = np.full((480, 640), 800, np.uint16)
+    assert est.estimate(depth, K, pose) is None  # the empty table: no hand, nothing invented
+    with pytest.raises(LfdError, match="integer millimetres"):
+        est.estimate(depth * 1e-3, K, pose)  # metres as float
+    with pytest.raises(LfdError, match=r"\(H, W\)"):
+        est.estimate(depth[None], K, pose)
+    with pytest.raises(LfdError, match="K must be"):
+        est.estimate(depth, K[:2], pose)
+    with pytest.raises(LfdError, match="finite"):
+        est.estimate(depth, K, np.full((4, 4), np.nan))
+    with pytest.raises(LfdError, match="views"):
+        HandEstimator(views=0)
+    with pytest.raises(LfdError, match="not found"):
+        HandEstimator("/nonexistent/hand.pt")
 
 
 def _lfd(*argv: str) -> int:

@@ -2,7 +2,8 @@
 
     lfd record --source sim:exp1 -o demo.mcap --duration 10     # simulator, real perception
     lfd record --source frames:DIR -o demo.mcap                  # image folder (see docs)
-    lfd record --source camera:0 --intrinsics camera.json -o demo.mcap
+    lfd record --source camera:0 --intrinsics camera.json -o demo.mcap \
+        --depth-reader my_realsense.py:make_reader
 
 Ctrl+C (SIGINT) or SIGTERM stops the recording; the file is closed and complete.
 """
@@ -28,7 +29,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--fps", type=float, help="sim source: camera frame rate (30)")
     parser.add_argument("--seed", type=int, default=0, help="sim source: random seed (0)")
     parser.add_argument("--intrinsics", help="camera source: camera.json (K, size, objects)")
+    parser.add_argument(
+        "--depth-reader",
+        metavar="MODULE:FACTORY",
+        help="camera source: factory() returns a depth reader (read() -> uint16 mm image)",
+    )
     parser.add_argument("--hand-model", help="hand network weights (default: shipped model)")
+    parser.add_argument(
+        "--aruco-dict", default="DICT_4X4_50", help="ArUco dictionary of the tags (DICT_4X4_50)"
+    )
+    parser.add_argument(
+        "--reference-size",
+        type=float,
+        default=0.10,
+        help="side of the reference tag's black square, m (0.10)",
+    )
     parser.add_argument("--no-hand", action="store_true", help="record object poses only")
     parser.add_argument("--images", action="store_true", help="also store colour + depth frames")
     from ..viz.cli import add_rerun_arguments
@@ -58,6 +73,7 @@ def run(args: argparse.Namespace) -> int:
         fps=args.fps,
         duration=args.duration,
         intrinsics=args.intrinsics,
+        depth_reader=args.depth_reader,
     )
     estimator = None
     if not args.no_hand:
@@ -96,6 +112,7 @@ def run(args: argparse.Namespace) -> int:
                 live=live,
                 max_frames=max_frames,
                 progress=update,
+                markers={"dictionary": args.aruco_dict, "reference_size": args.reference_size},
             )
     finally:
         signal.signal(signal.SIGTERM, old)

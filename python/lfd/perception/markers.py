@@ -78,6 +78,8 @@ class MarkerConfig:
         for b in self.boxes:
             if b.marker_side <= 0 or min(b.size) <= 0:
                 raise LfdError(f"box {b.name!r}: sizes must be positive")
+        if not self.reference_size > 0:
+            raise LfdError(f"reference marker size must be positive, got {self.reference_size}")
 
     @classmethod
     def from_objects(cls, objects: Iterable[Any], **kwargs: Any) -> MarkerConfig:

@@ -75,8 +75,12 @@ def record(
     live: bool = False,
     max_frames: int | None = None,
     progress: Any = None,
+    markers: dict[str, Any] | None = None,
 ) -> RecordStats:
     """Record ``source`` into ``output`` (MCAP). ``estimator`` is a ``HandEstimator`` or None.
+
+    ``markers`` are extra :class:`~lfd.perception.markers.MarkerConfig` fields, e.g.
+    ``{"dictionary": "DICT_5X5_100", "reference_size": 0.15}``.
 
     ``progress(stats)`` is called after every frame. KeyboardInterrupt stops the recording
     cleanly (the file is closed and complete); ``stats.interrupted`` tells it happened.
@@ -85,7 +89,7 @@ def record(
 
     if not hand_rate_hz > 0:
         raise LfdError(f"hand rate must be positive, got {hand_rate_hz}")
-    config = MarkerConfig.from_objects(source.objects)
+    config = MarkerConfig.from_objects(source.objects, **(markers or {}))
     known = source.world_T_camera_if_known()
     tracker = MarkerTracker(config, source.camera.K, world_T_camera=known)
     calib = source.calibration_frame()
@@ -127,20 +131,22 @@ def record(
             if due:
                 next_hand = frame.t_ns + period if next_hand is None else next_hand + period
                 next_hand = max(next_hand, frame.t_ns + period // 2)
-                kp = None
+                found = None
                 ready = estimator is not None and frame.depth is not None
                 if ready and tracker.world_T_camera is not None:
-                    kp = estimator.estimate(
+                    found = _estimate_hand(
+                        estimator,
                         frame.depth,
                         source.camera.K,
                         tracker.world_T_camera,
                         _boxes(tracker, last_poses),
                     )
-                if kp is None:  # marked unobserved (NaN, confidence 0), not invented
+                if found is None:  # marked unobserved (NaN, confidence 0), not invented
                     rec.add_hand(frame.t_ns, np.full((21, 3), np.nan), np.zeros(21))
                     stats.hand_missing += 1
                 else:
-                    rec.add_hand(frame.t_ns, kp, np.ones(21))
+                    kp, confidence = found
+                    rec.add_hand(frame.t_ns, kp, confidence)
                     stats.hand_estimates += 1
                     if viz is not None:
                         viz.hand(kp)
@@ -155,6 +161,23 @@ def record(
         rec.close()
         source.close()
     return stats
+
+
+SPREAD_SCALE_M = 0.005
+"""A keypoint whose estimates over the point subsets spread by this much gets confidence 0.5."""
+
+
+def _estimate_hand(estimator: Any, *args: Any) -> tuple[np.ndarray, np.ndarray] | None:
+    """Keypoints and per-keypoint confidence, 1 / (1 + spread / SPREAD_SCALE_M); an estimator
+    without ``estimate_with_spread`` (any object with ``estimate``) gets confidence 1."""
+    if hasattr(estimator, "estimate_with_spread"):
+        found = estimator.estimate_with_spread(*args)
+        if found is None:
+            return None
+        kp, spread = found
+        return kp, 1.0 / (1.0 + np.asarray(spread) / SPREAD_SCALE_M)
+    kp = estimator.estimate(*args)
+    return None if kp is None else (kp, np.ones(21))
 
 
 def _process(

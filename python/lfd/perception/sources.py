@@ -220,16 +220,59 @@ class CameraSource(Source):
     def frames(self) -> Iterator[Frame]:
         import cv2
 
+        shape = (self.camera.height, self.camera.width)
         while True:
             ok, bgr = self.cap.read()
             if not ok:
                 return
             t = time.time_ns()
+            if bgr.shape[:2] != shape:
+                raise LfdError(
+                    f"camera frame is {bgr.shape[1]}x{bgr.shape[0]}, the intrinsics are for "
+                    f"{shape[1]}x{shape[0]}"
+                )
             depth = self.depth_reader.read() if self.depth_reader is not None else None
+            if depth is not None:
+                depth = np.asarray(depth)
+                if depth.shape != shape or depth.dtype != np.uint16:
+                    raise LfdError(
+                        f"depth reader gave {depth.dtype} {depth.shape}; expected uint16 mm "
+                        f"{shape}, aligned with the colour camera"
+                    )
             yield Frame(t, cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), depth)
 
     def close(self) -> None:
         self.cap.release()
+
+
+def load_depth_reader(spec: str) -> DepthReader:
+    """``module:factory`` -> ``factory()``, a :class:`DepthReader` (e.g. a RealSense wrapper).
+
+    The module is imported (it may be a file path ending in ``.py``) and the factory called
+    without arguments; the result must have a ``read()`` method.
+    """
+    import importlib
+    import importlib.util
+
+    module_name, _, attr = spec.rpartition(":")
+    if not module_name or not attr:
+        raise LfdError(f"depth reader {spec!r}: expected module:factory")
+    try:
+        if module_name.endswith(".py"):
+            loader = importlib.util.spec_from_file_location("lfd_depth_reader", module_name)
+            if loader is None or loader.loader is None:
+                raise ImportError(module_name)
+            module = importlib.util.module_from_spec(loader)
+            loader.loader.exec_module(module)
+        else:
+            module = importlib.import_module(module_name)
+        factory = getattr(module, attr)
+    except (ImportError, OSError, AttributeError) as err:
+        raise LfdError(f"depth reader {spec!r}: {err}") from err
+    reader = factory()
+    if not callable(getattr(reader, "read", None)):
+        raise LfdError(f"depth reader {spec!r}: {attr}() returned an object without read()")
+    return reader  # type: ignore[no-any-return]
 
 
 def open_source(spec: str, **kwargs: Any) -> Source:
@@ -251,5 +294,10 @@ def open_source(spec: str, **kwargs: Any) -> Source:
             index = int(arg)
         except ValueError as err:
             raise LfdError(f"camera source: {arg!r} is not a device index") from err
-        return CameraSource(index, intrinsics=kwargs.get("intrinsics"))
+        reader = kwargs.get("depth_reader")
+        return CameraSource(
+            index,
+            intrinsics=kwargs.get("intrinsics"),
+            depth_reader=load_depth_reader(reader) if isinstance(reader, str) else reader,
+        )
     raise LfdError(f"unknown source kind {kind!r}: use sim:TASK, frames:DIR or camera:N")

@@ -10,7 +10,7 @@ labels. MuJoCo and OpenCV (the ``sim`` extra) are needed.
 from __future__ import annotations
 
 from .. import _gl  # noqa: F401  (selects the headless GL backend before mujoco loads)
-from .demonstrator import SIM_VERSION, SimResult, Truth, simulate
+from .demonstrator import SIM_VERSION, SimResult, Truth, simulate, truth_demonstration
 from .scene import DEFAULT_OBJECTS, CameraSpec, ObjectSpec, Scene, build_scene
 from .tasks import EXPERIMENTS, TASKS, TEMPLATE_TASKS, TRANSITIONS, check_grammar
 from .variability import Variability
@@ -31,4 +31,5 @@ __all__ = [
     "build_scene",
     "check_grammar",
     "simulate",
+    "truth_demonstration",
 ]

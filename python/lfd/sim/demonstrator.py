@@ -332,3 +332,41 @@ def crop(result: SimResult, seconds: float) -> SimResult:
         object_yaw={n: y[keep] for n, y in truth.object_yaw.items()},
     )
     return result
+
+
+def truth_demonstration(result: SimResult, hand_t_ns: np.ndarray | None = None) -> Demonstration:
+    """The demonstration a perfect observer would record: noise-free hand keypoints and object
+    poses from the simulator's ground truth, with the labels, camera and metadata of ``result``.
+
+    ``hand_t_ns`` picks the hand sample times (default: those of the simulated hand stream), so
+    a perceived recording can be compared with the truth at its own estimator times; objects
+    are sampled at every camera frame. This is what "segmenting the true keypoints" means.
+    """
+    from ..demo import HandTrack, ObjectTrack
+
+    truth, demo = result.truth, result.demo
+    t = demo.hand.t_ns if hand_t_ns is None else np.asarray(hand_t_ns, np.int64)
+    idx = np.searchsorted(truth.t_ns, t)
+    if idx.size == 0 or idx.max() >= truth.t_ns.size or np.any(truth.t_ns[idx] != t):
+        raise DemonstrationError("hand_t_ns must be camera frame times of the simulation")
+    hand = HandTrack(t, truth.keypoints[idx].copy(), np.ones((t.size, 21)), demo.hand.side)
+    objects = {}
+    for spec in result.scene.objects:
+        yaw = truth.object_yaw[spec.name]
+        quat = np.column_stack([np.zeros((yaw.size, 2)), np.sin(yaw / 2), np.cos(yaw / 2)])
+        objects[spec.name] = ObjectTrack(
+            name=spec.name,
+            tag_id=spec.tag_id,
+            size=np.array(spec.size),
+            t_ns=truth.t_ns.copy(),
+            position=truth.object_pos[spec.name].copy(),
+            quaternion=quat,
+            visible=np.ones(yaw.size, dtype=bool),
+        )
+    return Demonstration(
+        hand=hand,
+        objects=objects,
+        labels=list(demo.labels),
+        camera=demo.camera,
+        metadata={**demo.metadata, "source": "simulation ground truth"},
+    )

@@ -2,6 +2,8 @@
 
 A depth frame is back-projected into the world (reference marker) frame; points more than
 :data:`TABLE_CLEARANCE` above the table that are not inside a known box are hand or forearm.
+Every point carries a fourth value, 1 when its pixel lies within :data:`BORDER_PX` of the image
+border: a hand cut off by the edge of the view is then seen as cut off, not as a small hand.
 The demonstrator reaches from the -y edge of the table, so the hand is the +y end of that blob:
 the crop centre starts at the farthest points along +y and moves by a few mean-shift steps
 (radius :data:`CROP_RADIUS`). The network sees the points within :data:`CROP_RADIUS` of the
@@ -31,20 +33,26 @@ TABLE_CLEARANCE = 0.012
 MIN_POINTS = 60
 """Fewer hand points than this means no hand in view."""
 PIXEL_STRIDE = 2
+BORDER_PX = 6
+"""Pixels this close to the image border are flagged (a hand leaving the view is cut there)."""
+POINT_DIM = 4
+"""Values per point: world x, y, z and the image-border flag."""
 
 
 _RAYS: dict[tuple[Any, ...], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
 
 def _ray_grid(K: np.ndarray, shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Pixel rays (z = 1) on the ``PIXEL_STRIDE`` grid: x (h, w), y (h, w), flat index."""
+    """Pixel rays (z = 1) on the ``PIXEL_STRIDE`` grid: x (h, w), y (h, w), border flag (h, w)."""
     key = (*np.asarray(K, float).ravel().tolist(), *shape)
     if key not in _RAYS:
         v, u = np.mgrid[0 : shape[0] : PIXEL_STRIDE, 0 : shape[1] : PIXEL_STRIDE]
         x = ((u - K[0, 2]) / K[0, 0]).astype(np.float32)
         y = ((v - K[1, 2]) / K[1, 1]).astype(np.float32)
+        edge = (u < BORDER_PX) | (v < BORDER_PX)
+        edge |= (u >= shape[1] - BORDER_PX) | (v >= shape[0] - BORDER_PX)
         _RAYS.clear()
-        _RAYS[key] = (x, y, np.zeros(0))
+        _RAYS[key] = (x, y, edge.astype(np.float32))
     return _RAYS[key]
 
 
@@ -55,20 +63,23 @@ def backproject(
     *,
     min_height: float = TABLE_CLEARANCE,
 ) -> np.ndarray:
-    """World points (n, 3) of every ``PIXEL_STRIDE``-th depth pixel higher than ``min_height``.
+    """World points (n, 4) of every ``PIXEL_STRIDE``-th depth pixel higher than ``min_height``.
 
-    ``depth_mm`` has shape (H, W) (uint16 mm, 0 = no data); the world z of every pixel is
-    computed first, so only the few points above the table are fully back-projected.
+    Columns: x, y, z (m) and 1.0 where the pixel lies within :data:`BORDER_PX` of the image
+    border (else 0.0). ``depth_mm`` has shape (H, W) (uint16 mm, 0 = no data); the world z of
+    every pixel is computed first, so only the few points above the table are fully
+    back-projected.
     """
-    d = np.asarray(depth_mm)[::PIXEL_STRIDE, ::PIXEL_STRIDE].astype(np.float32) * 1e-3
-    x, y, _ = _ray_grid(K, np.asarray(depth_mm).shape)
+    full = np.asarray(depth_mm)
+    d = full[::PIXEL_STRIDE, ::PIXEL_STRIDE].astype(np.float32) * 1e-3
+    x, y, edge = _ray_grid(K, full.shape)
     R = np.asarray(world_T_camera[:3, :3], np.float32)
     t = np.asarray(world_T_camera[:3, 3], np.float32)
     zw = d * (R[2, 0] * x + R[2, 1] * y + R[2, 2]) + t[2]
     keep = (d > 0) & (zw > min_height)
     z = d[keep]
     P = np.column_stack([x[keep] * z, y[keep] * z, z])
-    return np.asarray((P @ R.T + t).astype(np.float64))
+    return np.column_stack([P @ R.T + t, edge[keep]]).astype(np.float64)
 
 
 def hand_points(
@@ -77,7 +88,7 @@ def hand_points(
     """Keep the points above the table and outside the boxes ``(centre, R (3, 3), size (3,))``."""
     keep = points[:, 2] > TABLE_CLEARANCE
     for centre, R, size in boxes:
-        local = (points - centre) @ R
+        local = (points[:, :3] - centre) @ R
         inside = np.all(np.abs(local) < np.asarray(size) / 2.0 + 0.008, axis=1)
         keep &= ~inside
     return np.asarray(points[keep])
@@ -87,10 +98,11 @@ def crop_centre(points: np.ndarray) -> np.ndarray | None:
     """Centre (3,) of the hand in the above-table points, or None without a hand."""
     if len(points) < MIN_POINTS:
         return None
-    y_top = np.quantile(points[:, 1], 0.98)
-    c = points[points[:, 1] >= y_top].mean(axis=0)
+    xyz = points[:, :3]
+    y_top = np.quantile(xyz[:, 1], 0.98)
+    c = xyz[xyz[:, 1] >= y_top].mean(axis=0)
     for _ in range(4):
-        near = points[np.linalg.norm(points - c, axis=1) < CROP_RADIUS * 0.75]
+        near = xyz[np.linalg.norm(xyz - c, axis=1) < CROP_RADIUS * 0.75]
         if len(near) < MIN_POINTS:
             return None
         c = near.mean(axis=0)
@@ -100,11 +112,13 @@ def crop_centre(points: np.ndarray) -> np.ndarray | None:
 def normalised_crop(
     points: np.ndarray, centre: np.ndarray, rng: np.random.Generator, n: int = N_POINTS
 ) -> np.ndarray:
-    """``n`` points (n, 3) within the crop radius, relative to ``centre`` / CROP_RADIUS."""
-    rel = (points - centre) / CROP_RADIUS
-    rel = rel[np.einsum("ij,ij->i", rel, rel) < 1.0]
+    """``n`` points (n, 4) within the crop radius: xyz relative to ``centre`` / CROP_RADIUS,
+    and the border flag."""
+    rel = (points[:, :3] - centre) / CROP_RADIUS
+    inside = np.einsum("ij,ij->i", rel, rel) < 1.0
+    rel = np.column_stack([rel[inside], points[inside, 3]])
     if len(rel) == 0:
-        return np.zeros((n, 3), np.float32)
+        return np.zeros((n, POINT_DIM), np.float32)
     idx = rng.choice(len(rel), n, replace=len(rel) < n)
     return rel[idx].astype(np.float32)
 
@@ -118,6 +132,22 @@ def _noisy(depth_mm: np.ndarray, rng: np.random.Generator, sigma_mm: float) -> n
     return np.clip(np.round(d), 0, 65535).astype(np.uint16)
 
 
+def _demo_poses(truth: Any, sizes: dict[str, Any]) -> list[tuple[Any, ...]]:
+    """Per frame: wrist position, wrist quaternion (w, x, y, z), finger angles and the box the
+    hand carries as ``(name, centre, yaw)`` (lifted off the table, within 8 cm of the TCP) or
+    None."""
+    out = []
+    for i in range(truth.t_ns.size):
+        held = None
+        for name, size in sizes.items():
+            c = truth.object_pos[name][i]
+            lifted = c[2] > size[2] / 2 + 0.005
+            if lifted and np.linalg.norm(truth.tcp[i] - c) < 0.08:
+                held = (name, c, float(truth.object_yaw[name][i]))
+        out.append((truth.wrist_pos[i], truth.wrist_quat[i], truth.q[i], held))
+    return out
+
+
 def render_training_set(
     n_samples: int,
     *,
@@ -129,8 +159,13 @@ def render_training_set(
 
     Returns
     -------
-    dict with ``points`` (n, STORED_POINTS, 3) float32 and ``keypoints`` (n, 21, 3) float32, both
-    relative to the crop centre / :data:`CROP_RADIUS`, and ``centre`` (n, 3) (m).
+    dict with ``points`` (n, STORED_POINTS, POINT_DIM) float32 (xyz and the border flag) and
+    ``keypoints`` (n, 21, 3) float32, both relative to the crop centre / :data:`CROP_RADIUS`,
+    and ``centre`` (n, 3) (m).
+
+    A demonstration frame in which the hand carries a box keeps that box in the hand (moved with
+    the randomised wrist); half of the time it is not excluded from the crop, as when its tag is
+    hidden by the hand and the recorder only knows where it was last seen.
     """
     from ... import _gl  # noqa: F401  (headless GL before mujoco loads)
 
@@ -143,12 +178,11 @@ def render_training_set(
     from ...sim.scene import build_scene, forearm_quat
 
     rng = np.random.default_rng(seed)
-    poses = []  # (wrist_pos, wrist_quat wxyz, q) from simulated demonstrations
+    poses = []  # (wrist_pos, wrist_quat wxyz, q, carried box) from simulated demonstrations
     for k, task in enumerate(("exp1", "exp2", "exp3", "exp4")):
         r = simulate(task, seed=seed * 10 + k)
-        t = r.truth
-        poses += [(t.wrist_pos[i], t.wrist_quat[i], t.q[i]) for i in range(t.t_ns.size)]
-    out_p = np.empty((n_samples, STORED_POINTS, 3), np.float32)
+        poses += _demo_poses(r.truth, {o.name: o.size for o in r.scene.objects})
+    out_p = np.empty((n_samples, STORED_POINTS, POINT_DIM), np.float32)
     out_k = np.empty((n_samples, 21, 3), np.float32)
     out_c = np.empty((n_samples, 3))
     per_scale = -(-n_samples // len(scales))
@@ -169,11 +203,12 @@ def render_training_set(
         try:
             target = min(n_samples, done + per_scale)
             while done < target:
-                wp, wq, q = poses[int(rng.integers(len(poses)))]
+                wp, wq, q, held = poses[int(rng.integers(len(poses)))]
                 yaw = rng.uniform(-0.5, 0.5)
                 rot = Rotation.from_euler("z", yaw)
                 wrist = rot.apply(wp) + rng.normal(0.0, [0.05, 0.05, 0.03])
                 wrist[2] = max(wrist[2], 0.03)
+                shift = wrist - rot.apply(wp)
                 quat = (rot * Rotation.from_quat(np.roll(wq, -1))).as_quat()
                 data.mocap_pos[hand_mocap] = wrist
                 data.mocap_quat[hand_mocap] = np.roll(quat, 1)
@@ -186,11 +221,15 @@ def render_training_set(
                         [rng.uniform(-0.2, 0.2), rng.uniform(0.1, 0.4), spec.size[2] / 2]
                     )
                     oyaw = rng.uniform(-np.pi, np.pi)
+                    excluded = True
+                    if held is not None and held[0] == spec.name:  # in the hand, moved with it
+                        pos, oyaw = rot.apply(held[1]) + shift, held[2] + yaw
+                        excluded = bool(rng.random() < 0.5)
                     data.qpos[adr : adr + 3] = pos
                     data.qpos[adr + 3 : adr + 7] = (np.cos(oyaw / 2), 0, 0, np.sin(oyaw / 2))
-                    boxes.append(
-                        (pos, Rotation.from_euler("z", oyaw).as_matrix(), np.array(spec.size))
-                    )
+                    if excluded:
+                        R_box = Rotation.from_euler("z", oyaw).as_matrix()
+                        boxes.append((pos, R_box, np.array(spec.size)))
                 mujoco.mj_kinematics(model, data)
                 mujoco.mj_camlight(model, data)
                 renderer.update_scene(data, "cam")

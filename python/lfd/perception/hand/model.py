@@ -1,8 +1,8 @@
 """A compact point-cloud network for the 21 hand keypoints (needs torch: the ``perception`` extra).
 
 PointNet-style, in the spirit of the paper's depth estimator [8]: a shared per-point MLP lifts
-each crop point (x, y, z relative to the crop centre, divided by the crop radius) to 256
-features, a max-pool gives an order-invariant global descriptor, and a small head regresses the
+each crop point (x, y, z relative to the crop centre, divided by the crop radius, and a flag
+that is 1 on the image border, where a hand leaving the view is cut off) to 256 features, a max-pool gives an order-invariant global descriptor, and a small head regresses the
 63 keypoint coordinates (same normalised frame). Each point also votes for every keypoint with
 an offset and a weight (a softmax over points); the final estimate mixes the voted and the
 regressed keypoints, so fingertips near observed points are pinned to the surface while
@@ -20,17 +20,21 @@ import torch  # type: ignore[import-not-found, unused-ignore]
 from torch import nn  # type: ignore[import-not-found, unused-ignore]
 
 N_KEYPOINTS = 21
-MODEL_VERSION = 1
+MODEL_VERSION = 2
+"""Version 2 adds ``in_dim`` (4: the border flag); version-1 files (3 values) still load."""
 
 
 class HandPointNet(nn.Module):  # type: ignore[misc]
     """Point cloud (batch, n_points, 3) -> keypoints (batch, 21, 3), both normalised."""
 
-    def __init__(self, width: int = 32, global_dim: int = 256, vote: bool = False) -> None:
+    def __init__(
+        self, width: int = 32, global_dim: int = 256, vote: bool = False, in_dim: int = 4
+    ) -> None:
         super().__init__()
-        self.config = {"width": width, "global_dim": global_dim, "vote": vote}
+        self.config = {"width": width, "global_dim": global_dim, "vote": vote, "in_dim": in_dim}
+        self.in_dim = in_dim
         self.local = nn.Sequential(
-            nn.Conv1d(3, width, 1),
+            nn.Conv1d(in_dim, width, 1),
             nn.BatchNorm1d(width),
             nn.ReLU(),
             nn.Conv1d(width, 2 * width, 1),
@@ -58,7 +62,7 @@ class HandPointNet(nn.Module):  # type: ignore[misc]
 
     def forward(self, points: Any) -> Any:
         b, n, _ = points.shape
-        x = points.transpose(1, 2)  # (b, 3, n)
+        x = points[:, :, : self.in_dim].transpose(1, 2)  # (b, in_dim, n)
         f_local = self.local(x)
         g = self.lift(f_local).max(dim=2).values  # (b, global_dim)
         direct = self.head(g).view(b, N_KEYPOINTS, 3)
@@ -67,7 +71,7 @@ class HandPointNet(nn.Module):  # type: ignore[misc]
         v = self.vote(torch.cat([f_local, g[:, :, None].expand(-1, -1, n)], dim=1))
         offsets = v[:, : 3 * N_KEYPOINTS].view(b, N_KEYPOINTS, 3, n)
         weights = torch.softmax(v[:, 3 * N_KEYPOINTS :], dim=2)  # (b, 21, n)
-        voted = ((x[:, None] + offsets) * weights[:, :, None]).sum(dim=3)  # (b, 21, 3)
+        voted = ((x[:, None, :3] + offsets) * weights[:, :, None]).sum(dim=3)  # (b, 21, 3)
         a = torch.sigmoid(self.mix)[None, :, None]
         return a * voted + (1 - a) * direct
 
@@ -81,11 +85,11 @@ def save_model(model: HandPointNet, path: str, **extra: Any) -> None:
 def load_model(path: str) -> tuple[HandPointNet, dict[str, Any]]:
     """Load a model saved by :func:`save_model` (eval mode) and its saved extras."""
     ckpt = torch.load(path, map_location="cpu", weights_only=False)
-    if not isinstance(ckpt, dict) or ckpt.get("version") != MODEL_VERSION:
+    if not isinstance(ckpt, dict) or ckpt.get("version") not in (1, MODEL_VERSION):
         from ...errors import LfdError
 
-        raise LfdError(f"{path}: not an lfd hand model (version {MODEL_VERSION})")
-    model = HandPointNet(**ckpt["config"])
+        raise LfdError(f"{path}: not an lfd hand model (version 1 or {MODEL_VERSION})")
+    model = HandPointNet(**{"in_dim": 3, **ckpt["config"]})
     model.load_state_dict(ckpt["state"])
     model.eval()
     return model, {k: v for k, v in ckpt.items() if k not in ("state",)}

@@ -23,25 +23,40 @@ def load_arrays(paths: Sequence[str | os.PathLike[str]]) -> dict[str, np.ndarray
     return {k: np.concatenate([p[k] for p in parts]) for k in ("points", "keypoints", "centre")}
 
 
-def keypoint_error_mm(model: Any, data: dict[str, np.ndarray], batch: int = 256) -> np.ndarray:
-    """Per-sample mean 3-D keypoint error (mm), shape (n,)."""
+def keypoint_error_mm(
+    model: Any, data: dict[str, np.ndarray], batch: int = 256, views: int = 1
+) -> np.ndarray:
+    """Per-sample mean 3-D keypoint error (mm), shape (n,).
+
+    ``views`` > 1 averages the keypoints over that many disjoint point subsets of each stored
+    crop, as :class:`~lfd.perception.hand.infer.HandEstimator` does with fresh draws.
+    """
     import torch
 
     from .dataset import CROP_RADIUS, N_POINTS
 
+    stored = data["points"].shape[1]
+    if views < 1 or views * N_POINTS > stored:
+        from ...errors import LfdError
+
+        raise LfdError(f"views must be 1..{stored // N_POINTS} for {stored} stored points")
     model.eval()
     out = []
     with torch.no_grad():
         for i in range(0, len(data["points"]), batch):
-            crops = np.ascontiguousarray(data["points"][i : i + batch, :N_POINTS])
-            pred = model(torch.from_numpy(crops)).numpy()
+            pred = 0.0
+            for v in range(views):
+                crops = data["points"][i : i + batch, v * N_POINTS : (v + 1) * N_POINTS]
+                pred = pred + model(torch.from_numpy(np.ascontiguousarray(crops))).numpy()
+            pred = pred / views
             err = np.linalg.norm(pred - data["keypoints"][i : i + batch], axis=2).mean(axis=1)
             out.append(err * CROP_RADIUS * 1000.0)
     return np.concatenate(out) if out else np.zeros(0)
 
 
 def _augment(points: Any, keypoints: Any, gen: Any) -> tuple[Any, Any]:
-    """Random rotation about the vertical axis and jitter (same for points and keypoints)."""
+    """Random rotation about the vertical axis and jitter of the xyz values (points and
+    keypoints alike); the border flag is kept."""
     import torch
 
     b = points.shape[0]
@@ -50,10 +65,10 @@ def _augment(points: Any, keypoints: Any, gen: Any) -> tuple[Any, Any]:
     R = torch.zeros(b, 3, 3)
     R[:, 0, 0], R[:, 0, 1], R[:, 1, 0], R[:, 1, 1], R[:, 2, 2] = c, -s, s, c, 1.0
     shift = (torch.rand(b, 1, 3, generator=gen) - 0.5) * 0.1
-    p = points @ R.transpose(1, 2) + shift
+    xyz = points[:, :, :3] @ R.transpose(1, 2) + shift
     k = keypoints @ R.transpose(1, 2) + shift
-    p = p + torch.randn(p.shape, generator=gen) * 0.004
-    return p, k
+    xyz = xyz + torch.randn(xyz.shape, generator=gen) * 0.004
+    return torch.cat([xyz, points[:, :, 3:]], dim=2), k
 
 
 def train(
