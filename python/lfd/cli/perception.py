@@ -27,6 +27,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     t.add_argument("--seed", type=int, default=1)
     t.add_argument("--threads", type=int, default=2, help="torch CPU threads (2)")
     t.add_argument("--resume", action="store_true", help="continue from <out>.ckpt")
+    t.add_argument("--init", help="start from the weights of this model (fine-tune)")
     t.add_argument("--val-samples", type=int, default=200, help="held-out crops (200)")
     e = sub.add_parser("eval", help="keypoint error on held-out rendered crops")
     e.add_argument("--model", help="weights (default: shipped)")
@@ -56,15 +57,16 @@ def run(args: argparse.Namespace) -> int:
     # MuJoCo's EGL context exists crashes the process, so load it before rendering
     import torch._dynamo  # noqa: F401
 
-    from ..perception.hand.train import keypoint_error_mm, load_arrays, train
+    from ..perception.hand.train import heldout_error_mm, load_arrays, train
 
     if args.action == "eval":
         from ..perception.hand.infer import HandEstimator
 
         est = HandEstimator(args.model, threads=2)
-        err = keypoint_error_mm(est.model, _render(args.samples, args.seed))
+        err = heldout_error_mm(est, args.samples, args.seed)
         print(
-            f"mean keypoint error {err.mean():.1f} mm (median {np.median(err):.1f}, n={err.size})"
+            f"mean keypoint error {err.mean():.1f} mm (median {np.median(err):.1f}, n={err.size}; "
+            f"{est.views} point subsets, {est.refine} refining pass(es))"
         )
         return 0
     if args.data and all(os.path.exists(p) for p in args.data):
@@ -77,6 +79,7 @@ def run(args: argparse.Namespace) -> int:
                 points=data["points"],
                 keypoints=data["keypoints"],
                 centre=data["centre"],
+                refined=data["refined"],
             )
     val = _render(args.val_samples, 99)
     summary = train(
@@ -89,6 +92,7 @@ def run(args: argparse.Namespace) -> int:
         validation=val,
         threads=args.threads,
         seed=args.seed,
+        init=args.init,
     )
     print(f"saved {args.out}: {summary}")
     return 0

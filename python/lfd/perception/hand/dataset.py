@@ -17,7 +17,7 @@ depth sensor's noise (Gaussian, quantised to mm, missing pixels).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from typing import Any
 
 import numpy as np
@@ -148,24 +148,23 @@ def _demo_poses(truth: Any, sizes: dict[str, Any]) -> list[tuple[Any, ...]]:
     return out
 
 
-def render_training_set(
+def randomised_views(
     n_samples: int,
     *,
     seed: int = 0,
     scales: Sequence[float] = (0.85, 0.93, 1.0, 1.07, 1.15),
-    progress: Any = None,
-) -> dict[str, np.ndarray]:
-    """Render ``n_samples`` randomised hand crops with their ground-truth keypoints.
+) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """Render ``n_samples`` randomised depth frames with a hand in view.
 
-    Returns
-    -------
-    dict with ``points`` (n, STORED_POINTS, POINT_DIM) float32 (xyz and the border flag) and
-    ``keypoints`` (n, 21, 3) float32, both relative to the crop centre / :data:`CROP_RADIUS`,
-    and ``centre`` (n, 3) (m).
+    Yields the hand points as the recorder extracts them (world frame, (m, POINT_DIM): after
+    back-projection and excluding the known boxes) and the true keypoints (21, 3), m.
 
-    A demonstration frame in which the hand carries a box keeps that box in the hand (moved with
-    the randomised wrist); half of the time it is not excluded from the crop, as when its tag is
-    hidden by the hand and the recorder only knows where it was last seen.
+    Hand poses come from simulated demonstrations of exp1-exp4 (demonstration seeds
+    ``10 seed .. 10 seed + 3``) and are randomised: wrist yaw and position, finger angles, hand
+    size (``scales``), box positions and depth noise. A demonstration frame in which the hand
+    carries a box keeps that box in the hand (moved with the randomised wrist); half of the time
+    it is not excluded, as when its tag is hidden by the hand and the recorder only knows where
+    it was last seen.
     """
     from ... import _gl  # noqa: F401  (headless GL before mujoco loads)
 
@@ -182,9 +181,6 @@ def render_training_set(
     for k, task in enumerate(("exp1", "exp2", "exp3", "exp4")):
         r = simulate(task, seed=seed * 10 + k)
         poses += _demo_poses(r.truth, {o.name: o.size for o in r.scene.objects})
-    out_p = np.empty((n_samples, STORED_POINTS, POINT_DIM), np.float32)
-    out_k = np.empty((n_samples, 21, 3), np.float32)
-    out_c = np.empty((n_samples, 3))
     per_scale = -(-n_samples // len(scales))
     done = 0
     for scale in scales:
@@ -237,16 +233,60 @@ def render_training_set(
                 depth = np.where((z > 0) & (z < 10.0), np.round(z * 1000.0), 0).astype(np.uint16)
                 depth = _noisy(depth, rng, rng.uniform(0.5, 3.0))
                 pts = hand_points(backproject(depth, K, W), boxes)
-                c = crop_centre(pts)
-                if c is None:
+                if crop_centre(pts) is None:
                     continue
-                kp = data.site_xpos[sites]
-                out_p[done] = normalised_crop(pts, c, rng, STORED_POINTS)
-                out_k[done] = (kp - c) / CROP_RADIUS
-                out_c[done] = c
+                yield pts, data.site_xpos[sites].copy()
                 done += 1
-                if progress is not None:
-                    progress(1)
         finally:
             renderer.close()
-    return {"points": out_p, "keypoints": out_k, "centre": out_c}
+
+
+REFINE_JITTER = 0.008
+"""Per-axis sigma (m) of the re-centred training crops' centre about the true keypoint centroid
+(about the centroid error of a first pass)."""
+
+
+def render_training_set(
+    n_samples: int,
+    *,
+    seed: int = 0,
+    scales: Sequence[float] = (0.85, 0.93, 1.0, 1.07, 1.15),
+    refined_share: float = 0.5,
+    progress: Any = None,
+) -> dict[str, np.ndarray]:
+    """Render ``n_samples`` randomised hand crops with their ground-truth keypoints.
+
+    Every rendered frame (:func:`randomised_views`) gives the crop around :func:`crop_centre`,
+    as the estimator's first pass sees it; with probability ``refined_share`` it also gives a
+    crop re-centred on the true keypoint centroid (jittered by :data:`REFINE_JITTER`), as the
+    estimator's refining pass sees it.
+
+    Returns
+    -------
+    dict with ``points`` (n, STORED_POINTS, POINT_DIM) float32 (xyz and the border flag) and
+    ``keypoints`` (n, 21, 3) float32, both relative to the crop centre / :data:`CROP_RADIUS`,
+    ``centre`` (n, 3) (m) and ``refined`` (n,) bool (a re-centred crop).
+    """
+    rng = np.random.default_rng(seed + 10_000)
+    out_p = np.empty((n_samples, STORED_POINTS, POINT_DIM), np.float32)
+    out_k = np.empty((n_samples, 21, 3), np.float32)
+    out_c = np.empty((n_samples, 3))
+    out_r = np.zeros(n_samples, bool)
+    done = 0
+    for pts, kp in randomised_views(n_samples, seed=seed, scales=scales):
+        centres = [crop_centre(pts)]
+        if rng.random() < refined_share:
+            centres.append(kp.mean(axis=0) + rng.normal(0.0, REFINE_JITTER, 3))
+        for j, c in enumerate(centres):
+            if done == n_samples or c is None:
+                break
+            out_p[done] = normalised_crop(pts, c, rng, STORED_POINTS)
+            out_k[done] = (kp - c) / CROP_RADIUS
+            out_c[done] = c
+            out_r[done] = j == 1
+            done += 1
+            if progress is not None:
+                progress(1)
+        if done == n_samples:
+            break
+    return {"points": out_p, "keypoints": out_k, "centre": out_c, "refined": out_r}

@@ -18,9 +18,26 @@ import numpy as np
 
 
 def load_arrays(paths: Sequence[str | os.PathLike[str]]) -> dict[str, np.ndarray]:
-    """Concatenate training sets saved with ``numpy.savez`` (points, keypoints, centre)."""
+    """Concatenate training sets saved with ``numpy.savez`` (points, keypoints, centre and, if
+    present in all of them, refined)."""
     parts = [np.load(p) for p in paths]
-    return {k: np.concatenate([p[k] for p in parts]) for k in ("points", "keypoints", "centre")}
+    keys = ["points", "keypoints", "centre"]
+    if all("refined" in p for p in parts):
+        keys.append("refined")
+    return {k: np.concatenate([p[k] for p in parts]) for k in keys}
+
+
+def heldout_error_mm(estimator: Any, n: int, seed: int = 99) -> np.ndarray:
+    """Per-frame mean 3-D keypoint error (mm) of a whole ``HandEstimator`` (crop, passes,
+    point subsets) on ``n`` freshly rendered randomised frames, shape (n,)."""
+    from .dataset import randomised_views
+
+    out = []
+    for pts, kp in randomised_views(n, seed=seed):
+        found = estimator.estimate_points(pts)
+        if found is not None:
+            out.append(np.linalg.norm(found[0] - kp, axis=1).mean() * 1000.0)
+    return np.asarray(out)
 
 
 def keypoint_error_mm(
@@ -82,8 +99,11 @@ def train(
     validation: dict[str, np.ndarray] | None = None,
     threads: int | None = None,
     seed: int = 0,
+    init: str | os.PathLike[str] | None = None,
 ) -> dict[str, Any]:
     """Train (or continue training) and save the model to ``out``; returns a summary.
+
+    ``init`` starts from the weights of a saved model (fine-tuning) instead of random ones.
 
     Creating the optimiser imports ``torch._dynamo`` and with it triton, whose native library
     crashes the process if MuJoCo's EGL context was created first: import ``torch._dynamo``
@@ -106,7 +126,12 @@ def train(
         from ...errors import LfdError
 
         raise LfdError(f"need at least {batch} training samples, got {n}")
-    model = HandPointNet()
+    if init is not None:
+        from .model import load_model
+
+        model = load_model(os.fspath(init))[0]
+    else:
+        model = HandPointNet()
     opt = torch.optim.AdamW(model.parameters(), lr=lr, weight_decay=1e-4)
     sched = torch.optim.lr_scheduler.OneCycleLR(
         opt, max_lr=lr, total_steps=epochs * (n // batch), pct_start=0.1
@@ -168,6 +193,10 @@ def train(
                 ckpt_path,
             )
     summary: dict[str, Any] = {"samples": int(n), "epochs": int(epochs)}
+    if "refined" in data:
+        summary["refined_share"] = float(np.mean(data["refined"]))
+    if init is not None:
+        summary["init"] = os.path.basename(os.fspath(init))
     if validation is not None:
         summary["held_out_mm"] = float(keypoint_error_mm(model, validation).mean())
     save_model(model, os.fspath(out), training=summary)
