@@ -60,11 +60,13 @@ def main() -> None:
             want = lfd.segment(truth_demonstration(result, demo.hand.t_ns), **kw)
             got = lfd.segment(demo, **kw)
             same = got.skill_sequence == want.skill_sequence
-            rows.append(same)
+            labels = result.demo.skill_sequence
+            rows.append((same, got.skill_sequence == labels, want.skill_sequence == labels))
             print(
                 f"{task} seed {seed}: hand {ok.sum()}/{ok.size} estimates, error mean "
                 f"{e.mean():.1f} / median {np.median(e):.1f} / max {e.max():.0f} mm; boxes seen "
-                f"{seen:.0%} | sequence {'same' if same else 'DIFFERENT'}, frame accuracy "
+                f"{seen:.0%} | sequence {'same' if same else 'DIFFERENT'} (= labels: perceived "
+                f"{rows[-1][1]}, truth {rows[-1][2]}), frame accuracy "
                 f"{frame_accuracy(got.segments, result.demo.labels):.1%} (truth "
                 f"{frame_accuracy(want.segments, result.demo.labels):.1%}), boundary error "
                 f"{boundary_error(got.segments, result.demo.labels):.2f} s",
@@ -74,7 +76,9 @@ def main() -> None:
                 print(f"    truth:     {want.skill_sequence}\n    perceived: {got.skill_sequence}")
     e = np.concatenate(hand_err)
     print(
-        f"\n{sum(rows)}/{len(rows)} perceived recordings segment to the true sequence; hand error "
+        f"\n{sum(r[0] for r in rows)}/{len(rows)} perceived recordings segment like the true "
+        f"keypoints ({sum(r[1] for r in rows)}/{len(rows)} match the labels; the true keypoints "
+        f"{sum(r[2] for r in rows)}/{len(rows)}); hand error "
         f"over {e.size} estimates: mean {e.mean():.1f} mm, median {np.median(e):.1f} mm, 90th "
         f"pct {np.percentile(e, 90):.1f} mm ({time.perf_counter() - t_start:.0f} s)"
     )

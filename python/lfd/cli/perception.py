@@ -66,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
         err = heldout_error_mm(est, args.samples, args.seed)
         print(
             f"mean keypoint error {err.mean():.1f} mm (median {np.median(err):.1f}, n={err.size}; "
-            f"{est.views} point subsets, {est.refine} refining pass(es))"
+            f"{est.views} point subsets)"
         )
         return 0
     if args.data and all(os.path.exists(p) for p in args.data):
@@ -79,7 +79,6 @@ def run(args: argparse.Namespace) -> int:
                 points=data["points"],
                 keypoints=data["keypoints"],
                 centre=data["centre"],
-                refined=data["refined"],
             )
     val = _render(args.val_samples, 99)
     summary = train(

@@ -241,52 +241,32 @@ def randomised_views(
             renderer.close()
 
 
-REFINE_JITTER = 0.008
-"""Per-axis sigma (m) of the re-centred training crops' centre about the true keypoint centroid
-(about the centroid error of a first pass)."""
-
-
 def render_training_set(
     n_samples: int,
     *,
     seed: int = 0,
     scales: Sequence[float] = (0.85, 0.93, 1.0, 1.07, 1.15),
-    refined_share: float = 0.5,
     progress: Any = None,
 ) -> dict[str, np.ndarray]:
-    """Render ``n_samples`` randomised hand crops with their ground-truth keypoints.
-
-    Every rendered frame (:func:`randomised_views`) gives the crop around :func:`crop_centre`,
-    as the estimator's first pass sees it; with probability ``refined_share`` it also gives a
-    crop re-centred on the true keypoint centroid (jittered by :data:`REFINE_JITTER`), as the
-    estimator's refining pass sees it.
+    """Render ``n_samples`` randomised hand crops (:func:`randomised_views`) with their
+    ground-truth keypoints, cropped as at run time.
 
     Returns
     -------
     dict with ``points`` (n, STORED_POINTS, POINT_DIM) float32 (xyz and the border flag) and
     ``keypoints`` (n, 21, 3) float32, both relative to the crop centre / :data:`CROP_RADIUS`,
-    ``centre`` (n, 3) (m) and ``refined`` (n,) bool (a re-centred crop).
+    and ``centre`` (n, 3) (m).
     """
     rng = np.random.default_rng(seed + 10_000)
     out_p = np.empty((n_samples, STORED_POINTS, POINT_DIM), np.float32)
     out_k = np.empty((n_samples, 21, 3), np.float32)
     out_c = np.empty((n_samples, 3))
-    out_r = np.zeros(n_samples, bool)
-    done = 0
-    for pts, kp in randomised_views(n_samples, seed=seed, scales=scales):
-        centres = [crop_centre(pts)]
-        if rng.random() < refined_share:
-            centres.append(kp.mean(axis=0) + rng.normal(0.0, REFINE_JITTER, 3))
-        for j, c in enumerate(centres):
-            if done == n_samples or c is None:
-                break
-            out_p[done] = normalised_crop(pts, c, rng, STORED_POINTS)
-            out_k[done] = (kp - c) / CROP_RADIUS
-            out_c[done] = c
-            out_r[done] = j == 1
-            done += 1
-            if progress is not None:
-                progress(1)
-        if done == n_samples:
-            break
-    return {"points": out_p, "keypoints": out_k, "centre": out_c, "refined": out_r}
+    for i, (pts, kp) in enumerate(randomised_views(n_samples, seed=seed, scales=scales)):
+        c = crop_centre(pts)
+        assert c is not None  # randomised_views only yields frames with a hand
+        out_p[i] = normalised_crop(pts, c, rng, STORED_POINTS)
+        out_k[i] = (kp - c) / CROP_RADIUS
+        out_c[i] = c
+        if progress is not None:
+            progress(1)
+    return {"points": out_p, "keypoints": out_k, "centre": out_c}

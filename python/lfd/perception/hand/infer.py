@@ -50,10 +50,6 @@ class HandEstimator:
     views : int
         Random point subsets of the crop the network sees per estimate; the keypoints are
         averaged over them (test-time augmentation: less variance for a few ms).
-    refine : int, optional
-        Passes that crop again around the previous estimate's keypoint centroid (the first
-        crop, found from the depth points alone, can sit several cm off the hand, e.g. towards
-        the forearm). Default: 1 for a model trained on re-centred crops, else 0.
     """
 
     def __init__(
@@ -62,7 +58,6 @@ class HandEstimator:
         *,
         threads: int | None = None,
         views: int = DEFAULT_VIEWS,
-        refine: int | None = None,
     ):
         torch = _torch()
         from .model import load_model
@@ -76,10 +71,6 @@ class HandEstimator:
             raise LfdError(f"views must be at least 1, got {views}")
         self.model, self.info = load_model(path)
         self.views = views
-        trained_refined = float(self.info.get("training", {}).get("refined_share", 0.0)) > 0
-        self.refine = (1 if trained_refined else 0) if refine is None else int(refine)
-        if self.refine < 0:
-            raise LfdError(f"refine must be >= 0, got {refine}")
         self._rng = np.random.default_rng(0)
 
     def estimate(
@@ -121,18 +112,11 @@ class HandEstimator:
 
     def estimate_points(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
         """Keypoints (21, 3) and their spread (21,) from hand points (m, POINT_DIM) in the world
-        frame (as :func:`~lfd.perception.hand.dataset.hand_points` gives them), or None.
-
-        The first pass crops around :func:`~lfd.perception.hand.dataset.crop_centre`; each of
-        the ``refine`` passes crops again around the previous keypoints' centroid.
-        """
+        frame (as :func:`~lfd.perception.hand.dataset.hand_points` gives them), or None."""
         centre = crop_centre(points)
         if centre is None:
             return None
-        kp, spread = self._pass(points, centre)
-        for _ in range(self.refine):
-            kp, spread = self._pass(points, kp.mean(axis=0))
-        return kp, spread
+        return self._pass(points, centre)
 
     def _pass(self, points: np.ndarray, centre: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         crops = normalised_crop(points, centre, self._rng, N_POINTS * self.views)

@@ -18,18 +18,14 @@ import numpy as np
 
 
 def load_arrays(paths: Sequence[str | os.PathLike[str]]) -> dict[str, np.ndarray]:
-    """Concatenate training sets saved with ``numpy.savez`` (points, keypoints, centre and, if
-    present in all of them, refined)."""
+    """Concatenate training sets saved with ``numpy.savez`` (points, keypoints, centre)."""
     parts = [np.load(p) for p in paths]
-    keys = ["points", "keypoints", "centre"]
-    if all("refined" in p for p in parts):
-        keys.append("refined")
-    return {k: np.concatenate([p[k] for p in parts]) for k in keys}
+    return {k: np.concatenate([p[k] for p in parts]) for k in ("points", "keypoints", "centre")}
 
 
 def heldout_error_mm(estimator: Any, n: int, seed: int = 99) -> np.ndarray:
-    """Per-frame mean 3-D keypoint error (mm) of a whole ``HandEstimator`` (crop, passes,
-    point subsets) on ``n`` freshly rendered randomised frames, shape (n,)."""
+    """Per-frame mean 3-D keypoint error (mm) of a whole ``HandEstimator`` (crop, point
+    subsets) on ``n`` freshly rendered randomised frames, shape (n,)."""
     from .dataset import randomised_views
 
     out = []
@@ -193,8 +189,6 @@ def train(
                 ckpt_path,
             )
     summary: dict[str, Any] = {"samples": int(n), "epochs": int(epochs)}
-    if "refined" in data:
-        summary["refined_share"] = float(np.mean(data["refined"]))
     if init is not None:
         summary["init"] = os.path.basename(os.fspath(init))
     if validation is not None:
