@@ -33,6 +33,7 @@ EXP1 = ROOT / "recordings" / "exp1.mcap"
 EXP2 = ROOT / "recordings" / "exp2.mcap"
 EXP3 = ROOT / "recordings" / "exp3.mcap"
 TEMPLATE_DIR = ROOT / "recordings" / "templates"
+PERCEIVED_EXP1 = ROOT / "recordings" / "perceived" / "exp1.mcap"
 
 
 @cache
@@ -65,6 +66,18 @@ def test_exp1_sequence_equals_ground_truth(search: str, grammar: str) -> None:
     assert [s.object for s in picks] == truth
     assert "grasp_position" in picks[0].params
     assert not impossible_transitions(result.skill_sequence)
+
+
+@pytest.mark.parametrize(("search", "grammar"), [("dp", "enforce"), ("greedy", "warn")])
+def test_perceived_exp1_segments_like_its_ground_truth(search: str, grammar: str) -> None:
+    """The shipped perceived recording (``lfd record --source sim:exp1 --seed 1000``: tags and
+    hand network on rendered frames, no labels) is the demonstration of ``exp1.mcap``."""
+    seen, truth = demo(PERCEIVED_EXP1), demo(EXP1)
+    assert seen.labels == [] and seen.metadata["perception"] == "lfd.perception"
+    assert seen.metadata["seed"] == truth.metadata["seed"] == 1000
+    result = segment(seen, search=search, grammar=grammar)  # type: ignore[arg-type]
+    assert result.skill_sequence == truth.skill_sequence
+    assert all_metrics(result.segments, truth.labels)["boundary_error_s"] < 0.3
 
 
 @pytest.mark.parametrize("grammar", ["warn", "enforce"])
