@@ -165,6 +165,8 @@ def test_record_sigint_leaves_complete_file(tmp_path) -> None:  # type: ignore[n
         [sys.executable, "-c", code, "record", "--source", "sim:exp1", "--no-hand", "-o", str(out)],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
+        # as a shell starts a background job: SIGINT ignored, which Python would keep
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN),
     )
     deadline = time.time() + 60
     while time.time() < deadline and (not out.exists() or out.stat().st_size < 20_000):

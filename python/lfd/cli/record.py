@@ -85,6 +85,9 @@ def run(args: argparse.Namespace) -> int:
     if args.duration is not None and not args.source.startswith("sim:"):
         max_frames = max(1, round(args.duration * float(args.fps or 30.0)))
     old = signal.signal(signal.SIGTERM, _sigterm)
+    # a process started in the background inherits SIGINT ignored, and Python then never raises
+    # KeyboardInterrupt: stopping with SIGINT is part of this command's contract, so catch it
+    old_int = signal.signal(signal.SIGINT, signal.default_int_handler)
     console = Console(stderr=True)
     try:
         with Progress(
@@ -116,6 +119,7 @@ def run(args: argparse.Namespace) -> int:
             )
     finally:
         signal.signal(signal.SIGTERM, old)
+        signal.signal(signal.SIGINT, old_int)
         close_from_args(args)
     how = "stopped" if stats.interrupted else "done"
     console.print(
