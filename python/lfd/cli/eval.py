@@ -8,6 +8,8 @@ import math
 from pathlib import Path
 from typing import Any
 
+from ._options import add_grammar_argument
+
 NAME = "eval"
 HELP = "Evaluate greedy, dp and the two baselines against ground-truth labels."
 
@@ -19,11 +21,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--methods", default="greedy,dp,proximity,gripper", help="comma-separated methods"
     )
-    parser.add_argument(
-        "--grammar",
-        choices=("warn", "enforce", "off"),
-        default="warn",
-        help="grammar use of greedy and dp (default warn, as the paper)",
+    add_grammar_argument(
+        parser, "warn", "grammar use of greedy and dp (default warn, as the paper)"
     )
     from ..viz.cli import add_rerun_arguments
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 
+from ._options import add_grammar_argument, add_search_argument
+
 NAME = "reproduce"
 HELP = "Reproduce a demonstration on a simulated 7-DoF arm (replay, skills or DMP) and measure it."
 
@@ -33,18 +35,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="segment the recording with lfd.segment instead of using its ground-truth labels",
     )
-    parser.add_argument(
-        "--search",
-        choices=("greedy", "dp"),
-        default="dp",
-        help="stage-2 search used with --segment (default dp, the most accurate)",
+    add_search_argument(
+        parser, "dp", "stage-2 search used with --segment (default dp, the most accurate)"
     )
-    parser.add_argument(
-        "--grammar",
-        choices=("warn", "enforce", "off"),
-        default="enforce",
-        help="skill grammar used with --segment (default enforce)",
-    )
+    add_grammar_argument(parser, "enforce", "skill grammar used with --segment (default enforce)")
     parser.add_argument("--json", metavar="OUT.json", help="write the measurements as JSON")
     parser.add_argument(
         "--video", metavar="OUT.mp4", help="render a video of the (last) mode (imageio or OpenCV)"

@@ -8,6 +8,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from ._options import add_grammar_argument, add_search_argument
+
 NAME = "segment"
 HELP = "Segment a recording into skills (two-stage HMM template matching)."
 
@@ -15,17 +17,9 @@ HELP = "Segment a recording into skills (two-stage HMM template matching)."
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("recording", help="an lfd MCAP recording")
     parser.add_argument("--templates", metavar="FILE", help="template file (default: shipped)")
-    parser.add_argument(
-        "--search",
-        choices=("greedy", "dp"),
-        default="greedy",
-        help="stage-2 search (default greedy)",
-    )
-    parser.add_argument(
-        "--grammar",
-        choices=("warn", "enforce", "off"),
-        default="warn",
-        help="skill grammar: warn about impossible transitions (default) or enforce it",
+    add_search_argument(parser, "greedy", "stage-2 search (default greedy)")
+    add_grammar_argument(
+        parser, "warn", "skill grammar: warn about impossible transitions (default) or enforce it"
     )
     parser.add_argument("--json", metavar="OUT", help="also write the result as JSON to OUT")
     from ..viz.cli import add_rerun_arguments
