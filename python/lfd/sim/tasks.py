@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import DemonstrationError
-from ..skills import grammar
+from ..skills import SKILLS, grammar
 from .scene import WORKSPACE_X, WORKSPACE_Y, ObjectSpec
 
 HOLDING: frozenset[str] = frozenset(grammar()["groups"]["holding"])
@@ -74,15 +74,8 @@ TASKS: dict[str, tuple[Step, ...]] = {
 """Every task by name."""
 
 EXPERIMENTS: tuple[str, ...] = ("exp1", "exp2", "exp3", "exp4")
-TEMPLATE_TASKS: tuple[str, ...] = (
-    "pick_up",
-    "place",
-    "locate",
-    "stack",
-    "push",
-    "move",
-    "move_with",
-)
+TEMPLATE_TASKS: tuple[str, ...] = SKILLS
+"""One single-skill task per skill, named after it."""
 
 
 def task_steps(name: str) -> tuple[Step, ...]:

@@ -183,18 +183,7 @@ pub(crate) mod tests {
     }"#;
 
     pub(crate) fn paper_skills() -> Vec<String> {
-        [
-            "pick_up",
-            "place",
-            "locate",
-            "stack",
-            "push",
-            "move",
-            "move_with",
-        ]
-        .iter()
-        .map(ToString::to_string)
-        .collect()
+        KNOWN_SKILLS.iter().map(ToString::to_string).collect()
     }
 
     pub(crate) fn paper_grammar() -> Grammar {
