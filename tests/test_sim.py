@@ -284,3 +284,23 @@ def test_hand_stays_above_table_and_out_of_boxes(exps) -> None:  # type: ignore[
             )
             inside = np.min(obj.size / 2 - np.abs(local), axis=-1)
             assert inside.max() < 0.002, name  # no keypoint more than 2 mm inside a box
+
+
+def test_truth_demonstration_is_the_noise_free_streams(exps) -> None:  # type: ignore[no-untyped-def]
+    from lfd.sim import truth_demonstration
+
+    r = exps["exp1"]
+    d = truth_demonstration(r)
+    assert np.array_equal(d.hand.t_ns, r.demo.hand.t_ns) and d.labels == r.demo.labels
+    idx = np.searchsorted(r.truth.t_ns, d.hand.t_ns)
+    assert np.array_equal(d.hand.keypoints, r.truth.keypoints[idx])
+    box = d.objects["box_1"]
+    assert box.visible.all() and np.array_equal(box.position, r.truth.object_pos["box_1"])
+    yaw = 2 * np.arctan2(box.quaternion[:, 2], box.quaternion[:, 3])
+    assert np.allclose(np.angle(np.exp(1j * (yaw - r.truth.object_yaw["box_1"]))), 0, atol=1e-12)
+    frames = r.truth.t_ns[::7]
+    assert np.array_equal(truth_demonstration(r, frames).hand.t_ns, frames)
+    with pytest.raises(DemonstrationError, match="camera frame times"):
+        truth_demonstration(r, frames + 1)
+    with pytest.raises(DemonstrationError, match="camera frame times"):
+        truth_demonstration(r, frames[:0])

@@ -343,6 +343,7 @@ def truth_demonstration(result: SimResult, hand_t_ns: np.ndarray | None = None) 
     are sampled at every camera frame. This is what "segmenting the true keypoints" means.
     """
     from ..demo import HandTrack, ObjectTrack
+    from .sampling import yaw_quat
 
     truth, demo = result.truth, result.demo
     t = demo.hand.t_ns if hand_t_ns is None else np.asarray(hand_t_ns, np.int64)
@@ -353,7 +354,7 @@ def truth_demonstration(result: SimResult, hand_t_ns: np.ndarray | None = None) 
     objects = {}
     for spec in result.scene.objects:
         yaw = truth.object_yaw[spec.name]
-        quat = np.column_stack([np.zeros((yaw.size, 2)), np.sin(yaw / 2), np.cos(yaw / 2)])
+        quat = yaw_quat(yaw)
         objects[spec.name] = ObjectTrack(
             name=spec.name,
             tag_id=spec.tag_id,

@@ -37,7 +37,8 @@ def _camera_noise(
     return np.asarray(n @ R_cv.T)
 
 
-def _yaw_quat(yaw: np.ndarray) -> np.ndarray:
+def yaw_quat(yaw: np.ndarray) -> np.ndarray:
+    """Quaternions (..., 4), (x, y, z, w), of rotations by ``yaw`` (rad) about z."""
     return np.stack(
         [np.zeros_like(yaw), np.zeros_like(yaw), np.sin(yaw / 2), np.cos(yaw / 2)], axis=-1
     )
@@ -112,7 +113,7 @@ def sample_streams(
     tcp = truth.tcp  # type: ignore[attr-defined]
     for spec in scene.objects:
         pos = truth.object_pos[spec.name].copy()  # type: ignore[attr-defined]
-        quat = _yaw_quat(truth.object_yaw[spec.name])  # type: ignore[attr-defined]
+        quat = yaw_quat(truth.object_yaw[spec.name])  # type: ignore[attr-defined]
         sigma = var.object_noise_mm * 1e-3
         pos += _camera_noise(rng, (n,), sigma, 2.0, R_cv)
         rotvec = rng.normal(0.0, np.deg2rad(var.object_noise_mm * 0.5), (n, 3))

@@ -153,11 +153,12 @@ def randomised_views(
     *,
     seed: int = 0,
     scales: Sequence[float] = (0.85, 0.93, 1.0, 1.07, 1.15),
-) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Render ``n_samples`` randomised depth frames with a hand in view.
 
     Yields the hand points as the recorder extracts them (world frame, (m, POINT_DIM): after
-    back-projection and excluding the known boxes) and the true keypoints (21, 3), m.
+    back-projection and excluding the known boxes), the true keypoints (21, 3), m, and the
+    crop centre (3,) of :func:`crop_centre`.
 
     Hand poses come from simulated demonstrations of exp1-exp4 (demonstration seeds
     ``10 seed .. 10 seed + 3``) and are randomised: wrist yaw and position, finger angles, hand
@@ -233,9 +234,10 @@ def randomised_views(
                 depth = np.where((z > 0) & (z < 10.0), np.round(z * 1000.0), 0).astype(np.uint16)
                 depth = _noisy(depth, rng, rng.uniform(0.5, 3.0))
                 pts = hand_points(backproject(depth, K, W), boxes)
-                if crop_centre(pts) is None:
+                centre = crop_centre(pts)
+                if centre is None:
                     continue
-                yield pts, data.site_xpos[sites].copy()
+                yield pts, data.site_xpos[sites].copy(), centre
                 done += 1
         finally:
             renderer.close()
@@ -261,9 +263,7 @@ def render_training_set(
     out_p = np.empty((n_samples, STORED_POINTS, POINT_DIM), np.float32)
     out_k = np.empty((n_samples, 21, 3), np.float32)
     out_c = np.empty((n_samples, 3))
-    for i, (pts, kp) in enumerate(randomised_views(n_samples, seed=seed, scales=scales)):
-        c = crop_centre(pts)
-        assert c is not None  # randomised_views only yields frames with a hand
+    for i, (pts, kp, c) in enumerate(randomised_views(n_samples, seed=seed, scales=scales)):
         out_p[i] = normalised_crop(pts, c, rng, STORED_POINTS)
         out_k[i] = (kp - c) / CROP_RADIUS
         out_c[i] = c

@@ -116,9 +116,6 @@ class HandEstimator:
         centre = crop_centre(points)
         if centre is None:
             return None
-        return self._pass(points, centre)
-
-    def _pass(self, points: np.ndarray, centre: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         crops = normalised_crop(points, centre, self._rng, N_POINTS * self.views)
         each = self.predict(crops.reshape(self.views, N_POINTS, -1)) * CROP_RADIUS
         mean = each.mean(axis=0)

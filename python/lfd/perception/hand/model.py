@@ -2,7 +2,8 @@
 
 PointNet-style, in the spirit of the paper's depth estimator [8]: a shared per-point MLP lifts
 each crop point (x, y, z relative to the crop centre, divided by the crop radius, and a flag
-that is 1 on the image border, where a hand leaving the view is cut off) to 256 features, a max-pool gives an order-invariant global descriptor, and a small head regresses the
+that is 1 on the image border, where a hand leaving the view is cut off) to 256 features, a
+max-pool gives an order-invariant global descriptor, and a small head regresses the
 63 keypoint coordinates (same normalised frame). Each point also votes for every keypoint with
 an offset and a weight (a softmax over points); the final estimate mixes the voted and the
 regressed keypoints, so fingertips near observed points are pinned to the surface while

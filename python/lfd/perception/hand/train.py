@@ -29,39 +29,25 @@ def heldout_error_mm(estimator: Any, n: int, seed: int = 99) -> np.ndarray:
     from .dataset import randomised_views
 
     out = []
-    for pts, kp in randomised_views(n, seed=seed):
+    for pts, kp, _ in randomised_views(n, seed=seed):
         found = estimator.estimate_points(pts)
         if found is not None:
             out.append(np.linalg.norm(found[0] - kp, axis=1).mean() * 1000.0)
     return np.asarray(out)
 
 
-def keypoint_error_mm(
-    model: Any, data: dict[str, np.ndarray], batch: int = 256, views: int = 1
-) -> np.ndarray:
-    """Per-sample mean 3-D keypoint error (mm), shape (n,).
-
-    ``views`` > 1 averages the keypoints over that many disjoint point subsets of each stored
-    crop, as :class:`~lfd.perception.hand.infer.HandEstimator` does with fresh draws.
-    """
+def keypoint_error_mm(model: Any, data: dict[str, np.ndarray], batch: int = 256) -> np.ndarray:
+    """Per-sample mean 3-D keypoint error (mm) on stored crops, shape (n,)."""
     import torch
 
     from .dataset import CROP_RADIUS, N_POINTS
 
-    stored = data["points"].shape[1]
-    if views < 1 or views * N_POINTS > stored:
-        from ...errors import LfdError
-
-        raise LfdError(f"views must be 1..{stored // N_POINTS} for {stored} stored points")
     model.eval()
     out = []
     with torch.no_grad():
         for i in range(0, len(data["points"]), batch):
-            pred = 0.0
-            for v in range(views):
-                crops = data["points"][i : i + batch, v * N_POINTS : (v + 1) * N_POINTS]
-                pred = pred + model(torch.from_numpy(np.ascontiguousarray(crops))).numpy()
-            pred = pred / views
+            crops = np.ascontiguousarray(data["points"][i : i + batch, :N_POINTS])
+            pred = model(torch.from_numpy(crops)).numpy()
             err = np.linalg.norm(pred - data["keypoints"][i : i + batch], axis=2).mean(axis=1)
             out.append(err * CROP_RADIUS * 1000.0)
     return np.concatenate(out) if out else np.zeros(0)
