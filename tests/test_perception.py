@@ -354,6 +354,20 @@ def test_hand_estimator_rejects_bad_input() -> None:
         HandEstimator("/nonexistent/hand.pt")
 
 
+@pytest.mark.parametrize("content", [b"", b"garbage\n"])
+def test_unreadable_hand_model_is_a_clear_error(tmp_path, content: bytes) -> None:  # type: ignore[no-untyped-def]
+    pytest.importorskip("torch")
+    from lfd.cli import main
+    from lfd.perception.hand.infer import HandEstimator
+
+    bad = tmp_path / "hand.pt"
+    bad.write_bytes(content)
+    with pytest.raises(LfdError, match="not a readable model file"):
+        HandEstimator(bad)
+    argv = ["record", "--source", "sim:exp1", "--duration", "1", "--hand-model", str(bad)]
+    assert main([*argv, "-o", str(tmp_path / "x.mcap")]) == 2
+
+
 def _lfd(*argv: str) -> int:
     """Run the CLI in a fresh process (torch's triton must load before MuJoCo's EGL context)."""
     import subprocess

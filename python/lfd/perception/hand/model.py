@@ -85,12 +85,18 @@ def save_model(model: HandPointNet, path: str, **extra: Any) -> None:
 
 def load_model(path: str) -> tuple[HandPointNet, dict[str, Any]]:
     """Load a model saved by :func:`save_model` (eval mode) and its saved extras."""
-    ckpt = torch.load(path, map_location="cpu", weights_only=False)
-    if not isinstance(ckpt, dict) or ckpt.get("version") not in (1, MODEL_VERSION):
-        from ...errors import LfdError
+    from ...errors import LfdError
 
+    try:
+        ckpt = torch.load(path, map_location="cpu", weights_only=False)
+    except Exception as err:  # torch raises EOFError, UnpicklingError, RuntimeError, ...
+        raise LfdError(f"{path}: not a readable model file ({type(err).__name__}: {err})") from err
+    if not isinstance(ckpt, dict) or ckpt.get("version") not in (1, MODEL_VERSION):
         raise LfdError(f"{path}: not an lfd hand model (version 1 or {MODEL_VERSION})")
-    model = HandPointNet(**{"in_dim": 3, **ckpt["config"]})
-    model.load_state_dict(ckpt["state"])
+    try:
+        model = HandPointNet(**{"in_dim": 3, **ckpt["config"]})
+        model.load_state_dict(ckpt["state"])
+    except (KeyError, TypeError, RuntimeError) as err:
+        raise LfdError(f"{path}: damaged lfd hand model ({err})") from err
     model.eval()
     return model, {k: v for k, v in ckpt.items() if k not in ("state",)}
