@@ -34,7 +34,7 @@ def main() -> None:
     from lfd.perception.hand.infer import HandEstimator
     from lfd.perception.record import record
     from lfd.perception.sources import SimSource
-    from lfd.segment.metrics import boundary_error, frame_accuracy
+    from lfd.segmentation.metrics import boundary_error, frame_accuracy
     from lfd.sim import truth_demonstration
 
     out_dir = Path(args.keep or tempfile.mkdtemp())

@@ -35,7 +35,7 @@ def _displacement(rng: np.random.Generator, traj, program) -> dict[str, tuple[fl
 
 
 def main() -> None:
-    from lfd.preprocess import preprocess
+    from lfd.preprocessing import preprocess
     from lfd.reproduce import from_labels, reproduce
     from lfd.sim import simulate
 

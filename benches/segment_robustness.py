@@ -43,7 +43,7 @@ def simulate_condition(out: Path, given: dict[str, float]) -> list[Path]:
 
 
 def main() -> int:
-    from lfd.segment.evaluate import evaluate
+    from lfd.segmentation.evaluate import evaluate
     from rich.console import Console
     from rich.table import Table
 

@@ -33,9 +33,9 @@ ROOT = Path(__file__).resolve().parents[1]
 def build_demo() -> dict:
     from lfd.features import compute_features
     from lfd.io import load
-    from lfd.preprocess import preprocess
-    from lfd.segment.pipeline import fill_gaps
-    from lfd.segment.stage1 import section_boundaries
+    from lfd.preprocessing import preprocess
+    from lfd.segmentation.pipeline import fill_gaps
+    from lfd.segmentation.stage1 import section_boundaries
 
     values, per_object, bounds, z = [], [], [0], []
     offset = 0
@@ -65,8 +65,8 @@ def build_demo() -> dict:
 
 def engine_stage2(templates, demo: dict) -> list[tuple[int, int, int]]:
     from lfd import _hmmseg
-    from lfd.segment.grammar import grammar_json
-    from lfd.segment.pipeline import scores_over_objects
+    from lfd.segmentation.grammar import grammar_json
+    from lfd.segmentation.pipeline import scores_over_objects
 
     max_len = round(10.0 / demo["dt"])
     scores, _ = scores_over_objects(demo["objects"], templates, demo["bounds"], max_len, "final")
@@ -190,7 +190,7 @@ def timed(fn, repeat: int) -> tuple[float, object]:
 
 
 def main() -> int:
-    from lfd.segment import Templates
+    from lfd.segmentation import Templates
     from rich.console import Console
     from rich.table import Table
 

@@ -289,7 +289,7 @@ def test_bad_input() -> None:
 
 def test_end_to_end_on_a_preprocessed_demonstration() -> None:
     from _synthetic import make_demo
-    from lfd.preprocess import preprocess
+    from lfd.preprocessing import preprocess
 
     traj = preprocess(make_demo(duration_s=8.0))
     assert valid_mask(traj).all()
@@ -308,7 +308,7 @@ def test_targets_agree_with_ground_truth_on_sample_recordings(name: str) -> None
     from pathlib import Path
 
     import lfd
-    from lfd.preprocess import preprocess
+    from lfd.preprocessing import preprocess
 
     path = Path(__file__).resolve().parents[1] / "recordings" / name
     if not path.exists():

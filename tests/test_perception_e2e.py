@@ -34,7 +34,7 @@ def test_perceived_recording_segments_like_the_true_keypoints(  # type: ignore[n
     from lfd.io import load
     from lfd.perception.record import record
     from lfd.perception.sources import SimSource
-    from lfd.segment.metrics import boundary_error
+    from lfd.segmentation.metrics import boundary_error
     from lfd.sim import truth_demonstration
 
     src = SimSource(task, seed=seed)

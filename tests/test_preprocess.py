@@ -7,7 +7,7 @@ import pytest
 from _synthetic import HAND_TEMPLATE, T0, make_demo
 from lfd.demo import INDEX_MCP, INDEX_TIP, THUMB_TIP, HandTrack
 from lfd.errors import DemonstrationError
-from lfd.preprocess import (
+from lfd.preprocessing import (
     gripper_frame,
     lowpass,
     preprocess,
@@ -245,7 +245,7 @@ def test_preprocess_object_gap_and_errors() -> None:
 
 def test_hidden_object_is_carried_with_the_hand_and_held_at_rest() -> None:
     """A tag hidden from the approach to the release: at rest, then with the TCP, then at rest."""
-    from lfd.preprocess.carry import fill_carried_gaps, hold_ends
+    from lfd.preprocessing.carry import fill_carried_gaps, hold_ends
 
     n = 100
     tcp = np.zeros((n, 3))
@@ -291,7 +291,7 @@ def test_hidden_object_is_carried_with_the_hand_and_held_at_rest() -> None:
 def test_carried_object_leaves_when_the_hand_lifts_it() -> None:
     """The hand hovers and descends over the hidden object before lifting it: the object must
     stay put until the grasp (not sink with the descending hand) and rest after the release."""
-    from lfd.preprocess.carry import fill_carried_gaps
+    from lfd.preprocessing.carry import fill_carried_gaps
 
     n = 150
     s = np.linspace(0.0, 1.0, n)

@@ -207,7 +207,7 @@ SHIPPED = Path(__file__).parent.parent / "recordings" / "exp2.mcap"
 @pytest.fixture(scope="module")
 def sim_exp2() -> tuple:
     """The shipped exp2 recording (push, pick/place, push), else a freshly simulated one."""
-    from lfd.preprocess import preprocess
+    from lfd.preprocessing import preprocess
 
     if SHIPPED.exists():
         from lfd.io import load

@@ -14,7 +14,7 @@ import pytest
 from lfd import _hmmseg
 from lfd.demo import Demonstration, HandTrack
 from lfd.errors import DemonstrationError, ModelFormatError
-from lfd.segment import (
+from lfd.segmentation import (
     SegmentParams,
     Templates,
     gripper_segmentation,
@@ -22,10 +22,10 @@ from lfd.segment import (
     segment,
     train_templates,
 )
-from lfd.segment.evaluate import evaluate
-from lfd.segment.grammar import grammar_json, impossible_transitions
-from lfd.segment.metrics import all_metrics
-from lfd.segment.templates import FRAME_SYMMETRY, turn_object_frame
+from lfd.segmentation.evaluate import evaluate
+from lfd.segmentation.grammar import grammar_json, impossible_transitions
+from lfd.segmentation.metrics import all_metrics
+from lfd.segmentation.templates import FRAME_SYMMETRY, turn_object_frame
 from lfd.skills import SKILLS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -230,14 +230,14 @@ def test_no_hand_data_is_a_clear_error() -> None:
 
 
 def test_trajectory_filtered_differently_from_the_templates_warns() -> None:
-    from lfd.preprocess import preprocess
+    from lfd.preprocessing import preprocess
 
     r = segment(preprocess(demo(), feature_cutoff_hz=0.625), search="dp")
     assert "filtered at 0.625 Hz" in r.warnings[0]
 
 
 def test_too_short_for_any_skill() -> None:
-    from lfd.preprocess import preprocess
+    from lfd.preprocessing import preprocess
 
     traj = preprocess(demo(), feature_cutoff_hz=2.0)
     short = dataclasses.replace(
@@ -258,7 +258,7 @@ def test_too_short_for_any_skill() -> None:
 
 
 def test_nan_stretch_is_interpolated_with_a_warning() -> None:
-    from lfd.preprocess import preprocess
+    from lfd.preprocessing import preprocess
 
     traj = preprocess(demo(), feature_cutoff_hz=2.0)
     tcp = traj.tcp.copy()
@@ -310,10 +310,10 @@ def test_cli_segment_writes_json(tmp_path: Path) -> None:
 
 def test_lfd_segment_is_callable_and_a_package() -> None:
     import lfd
-    import lfd.segment.metrics  # importing a submodule must not shadow the callable
+    import lfd.segmentation.metrics  # importing a submodule must not shadow the callable
 
     result = lfd.segment(
         lfd.load(ROOT / "recordings" / "exp3.mcap"), search="dp", grammar="enforce"
     )
     assert result.skill_sequence == lfd.load(ROOT / "recordings" / "exp3.mcap").skill_sequence
-    assert callable(lfd.segment) and lfd.segment.metrics is lfd.segment.metrics
+    assert callable(lfd.segment) and lfd.segmentation.metrics is lfd.segmentation.metrics

@@ -4,7 +4,7 @@ import math
 
 import pytest
 from lfd.demo import SkillLabel
-from lfd.segment.metrics import (
+from lfd.segmentation.metrics import (
     all_metrics,
     boundary_error,
     edit_distance,

@@ -509,8 +509,8 @@ def test_greedy_trace_matches_the_score_table() -> None:
 
 def test_log_segment_run_on_a_preprocessed_demo(session: viz.Session) -> None:
     from _synthetic import make_demo as synthetic_demo
-    from lfd.preprocess import preprocess
-    from lfd.segment import Segment, Segmentation
+    from lfd.preprocessing import preprocess
+    from lfd.segmentation import Segment, Segmentation
     from lfd.viz.pipeline import log_recorded_demo, log_segment_run
 
     demo = synthetic_demo(duration_s=6.0)
@@ -720,7 +720,7 @@ def small_templates(tmp_path_factory: pytest.TempPathFactory) -> list[str]:
     import shutil
 
     from lfd.cli import main
-    from lfd.segment import Templates
+    from lfd.segmentation import Templates
 
     try:
         Templates.default()

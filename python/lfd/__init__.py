@@ -7,38 +7,20 @@ reproduce the task on a simulated arm in MuJoCo.
 
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version
-from typing import TYPE_CHECKING, Any
-
+# The functions are named by verbs (``lfd.preprocess``, ``lfd.segment``), the packages that hold
+# them by nouns (``lfd.preprocessing``, ``lfd.segmentation``), so importing a package never
+# replaces a function. The heavy stages (sim, reproduce, perception, viz) are imported on use.
+from . import errors, io, preprocessing, segmentation
+from ._version import __version__
 from .demo import CameraInfo, Demonstration, HandTrack, ImageStream, ObjectTrack, SkillLabel
 from .engine import GaussianHMM
 from .errors import EngineError, LfdError
 from .features import FEATURE_NAMES, FeatureParams, Features, compute_features, label_targets
+from .io import McapRecorder, load, save
+from .preprocessing import preprocess
+from .segmentation import Segment, Segmentation, Templates, segment
 from .skills import SKILLS
 from .trajectory import Trajectory
-
-if TYPE_CHECKING:
-    from .io import McapRecorder, load, save
-    from .preprocess import preprocess
-
-# Imported on first use so that ``import lfd`` (and ``lfd --help``) stays fast.
-_LAZY = {"McapRecorder": "io", "load": "io", "save": "io", "preprocess": "preprocess"}
-
-
-def __getattr__(name: str) -> Any:
-    import importlib
-
-    if name == "segment":  # the subpackage is callable: lfd.segment(demo) -> Segmentation
-        return importlib.import_module(".segment", __name__)
-    if name in _LAZY:
-        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-try:
-    __version__ = version("lfd")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree
-    __version__ = "0.0.0"
 
 __all__ = [
     "FEATURE_NAMES",
@@ -54,13 +36,20 @@ __all__ = [
     "LfdError",
     "McapRecorder",
     "ObjectTrack",
+    "Segment",
+    "Segmentation",
     "SkillLabel",
+    "Templates",
     "Trajectory",
     "__version__",
     "compute_features",
+    "errors",
+    "io",
     "label_targets",
     "load",
     "preprocess",
+    "preprocessing",
     "save",
     "segment",
+    "segmentation",
 ]

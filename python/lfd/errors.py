@@ -61,6 +61,10 @@ class UnknownSkillError(LfdError, ValueError):
     """A skill name is not one of :data:`lfd.skills.SKILLS`."""
 
 
+class UsageError(LfdError, ValueError):
+    """An argument or option value is invalid (out of range, inconsistent, unusable path)."""
+
+
 # --- warnings -------------------------------------------------------------------------------
 class LfdWarning(UserWarning):
     """Base class of the warnings lfd emits when it repairs or drops data."""

@@ -1,6 +1,6 @@
 """The preprocessed demonstration: every stream on one clock, the hand mapped to a gripper.
 
-Produced by :func:`lfd.preprocess.preprocess` (resample + filter + hand -> gripper mapping) and
+Produced by :func:`lfd.preprocess` (resample + filter + hand -> gripper mapping) and
 consumed by the features, segmentation, reproduction and visualisation stages.
 """
 

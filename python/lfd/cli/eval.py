@@ -6,23 +6,31 @@ import argparse
 import json
 import math
 from pathlib import Path
-from typing import Any
-
-from ._options import add_grammar_argument
+from typing import Any, get_args
 
 NAME = "eval"
-HELP = "Evaluate greedy, dp and the two baselines against ground-truth labels."
+HELP = "Evaluate lfd's default (dp), the paper's method and two baselines against ground truth."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("inputs", nargs="+", help="directories or .mcap files with skill labels")
     parser.add_argument("--templates", metavar="FILE", help="template file (default: shipped)")
     parser.add_argument("--json", metavar="OUT", help="write the full report as JSON")
+    from ..segmentation.evaluate import DEFAULT_METHODS, METHODS
+    from ..segmentation.pipeline import DEFAULT_GRAMMAR, GrammarUse
+
     parser.add_argument(
-        "--methods", default="greedy,dp,proximity,gripper", help="comma-separated methods"
+        "--methods",
+        default=",".join(DEFAULT_METHODS),
+        metavar="M,M,...",
+        help=f"comma-separated methods from {', '.join(METHODS)} "
+        f"(default {','.join(DEFAULT_METHODS)}; dp is lfd's default, paper = greedy + warn)",
     )
-    add_grammar_argument(
-        parser, "warn", "grammar use of greedy and dp (default warn, as the paper)"
+    parser.add_argument(
+        "--grammar",
+        choices=get_args(GrammarUse),
+        default=DEFAULT_GRAMMAR,
+        help=f"grammar use of the dp and greedy methods (default {DEFAULT_GRAMMAR})",
     )
     from ..viz.cli import add_rerun_arguments
 
@@ -44,14 +52,14 @@ def run(args: argparse.Namespace) -> int:
     from rich.progress import Progress
     from rich.table import Table
 
-    from ..segment import Templates
-    from ..segment.evaluate import evaluate, expand_paths
-    from ..segment.metrics import METRIC_NAMES
+    from ..segmentation import Templates
+    from ..segmentation.evaluate import check_methods, evaluate, expand_paths
+    from ..segmentation.metrics import METRIC_NAMES
     from ..viz.cli import close_from_args, open_from_args
 
     console = Console()
     templates = Templates.load(args.templates) if args.templates else None
-    methods = tuple(m.strip() for m in args.methods.split(",") if m.strip())
+    methods = check_methods([m.strip() for m in args.methods.split(",") if m.strip()])
     paths = expand_paths(args.inputs)
     if open_from_args(args, "lfd_eval"):
         _show(paths, methods, templates, args.grammar, console)
@@ -100,4 +108,4 @@ def _show(
 
     demo = load(paths[0])
     traj = log_recorded_demo(demo, features=False)  # log_methods logs them
-    log_methods(demo, methods, templates=templates, trajectory=traj, grammar=grammar)
+    log_methods(demo, methods, templates=templates, trajectory=traj, grammar=grammar)  # type: ignore[arg-type]

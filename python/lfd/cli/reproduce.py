@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from ._options import add_grammar_argument, add_search_argument
+from ._options import add_segmentation_arguments, segmentation_options
 
 NAME = "reproduce"
 HELP = "Reproduce a demonstration on a simulated 7-DoF arm (replay, skills or DMP) and measure it."
@@ -35,10 +35,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="segment the recording with lfd.segment instead of using its ground-truth labels",
     )
-    add_search_argument(
-        parser, "dp", "stage-2 search used with --segment (default dp, the most accurate)"
-    )
-    add_grammar_argument(parser, "enforce", "skill grammar used with --segment (default enforce)")
+    add_segmentation_arguments(parser, used_with="with --segment")
     parser.add_argument("--json", metavar="OUT.json", help="write the measurements as JSON")
     parser.add_argument(
         "--video", metavar="OUT.mp4", help="render a video of the (last) mode (imageio or OpenCV)"
@@ -55,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
 
     from ..errors import LfdError
     from ..io import load
-    from ..preprocess import preprocess
+    from ..preprocessing import preprocess
     from ..reproduce import (
         TaskProgram,
         from_labels,
@@ -74,10 +71,11 @@ def run(args: argparse.Namespace) -> int:
         program = TaskProgram.load(args.task)
     elif args.segment:
         try:
-            from ..segment import segment  # type: ignore[import-not-found, unused-ignore]
+            from ..segmentation import segment  # type: ignore[import-not-found, unused-ignore]
         except ImportError as err:
             raise LfdError("lfd.segment is not available in this installation") from err
-        program = from_segmentation(segment(demo, search=args.search, grammar=args.grammar), t0)
+        search, grammar = segmentation_options(args)
+        program = from_segmentation(segment(demo, search=search, grammar=grammar), t0)  # type: ignore[arg-type]
     else:
         program = from_labels(demo.labels, t0)
     displace = parse_displacement(args.displace)

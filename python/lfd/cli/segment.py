@@ -8,7 +8,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from ._options import add_grammar_argument, add_search_argument
+from ._options import add_segmentation_arguments, segmentation_options
 
 NAME = "segment"
 HELP = "Segment a recording into skills (two-stage HMM template matching)."
@@ -17,10 +17,7 @@ HELP = "Segment a recording into skills (two-stage HMM template matching)."
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("recording", help="an lfd MCAP recording")
     parser.add_argument("--templates", metavar="FILE", help="template file (default: shipped)")
-    add_search_argument(parser, "greedy", "stage-2 search (default greedy)")
-    add_grammar_argument(
-        parser, "warn", "skill grammar: warn about impossible transitions (default) or enforce it"
-    )
+    add_segmentation_arguments(parser)
     parser.add_argument("--json", metavar="OUT", help="also write the result as JSON to OUT")
     from ..viz.cli import add_rerun_arguments
 
@@ -35,13 +32,14 @@ def segment_recording(
     ``on_loaded(demo)`` is called as soon as the recording is loaded (e.g. to show it).
     """
     from ..io import load
-    from ..segment import Templates, all_metrics, segment
+    from ..segmentation import Templates, all_metrics, segment
 
     demo = load(args.recording, images=bool(getattr(args, "rerun_session", None)))
     if on_loaded is not None:
         on_loaded(demo)
     templates = Templates.load(args.templates) if args.templates else None
-    result = segment(demo, templates, search=args.search, grammar=args.grammar)
+    search, grammar = segmentation_options(args)
+    result = segment(demo, templates, search=search, grammar=grammar)  # type: ignore[arg-type]
     doc: dict[str, Any] = {
         "recording": str(args.recording),
         "method": result.method,
@@ -86,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
     shown: list[Any] = []  # the trajectory made while showing the demonstration
     demo, result, doc = segment_recording(args, on_loaded=_show_demo(shown) if show else None)
     if show:
-        from ..segment import Templates
+        from ..segmentation import Templates
         from ..viz.pipeline import log_segment_run
 
         log_segment_run(

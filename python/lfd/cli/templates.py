@@ -26,8 +26,8 @@ def run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.progress import Progress
 
-    from ..segment import Templates, train_templates
-    from ..segment.evaluate import expand_paths
+    from ..segmentation import Templates, train_templates
+    from ..segmentation.evaluate import expand_paths
 
     console = Console()
     if args.action == "show":

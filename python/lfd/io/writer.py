@@ -27,7 +27,7 @@ from mcap.writer import CompressionType
 from mcap.writer import Writer as _McapWriter
 from mcap_protobuf.schema import build_file_descriptor_set
 
-from .. import __version__
+from .._version import __version__
 from ..demo import (
     HAND_BONES,
     KEYPOINT_LAYOUT,

@@ -17,7 +17,7 @@ from .segmentation import log_segmentation, log_text
 
 if TYPE_CHECKING:
     from ..demo import Demonstration
-    from ..segment import Segmentation, SegmentParams, Templates
+    from ..segmentation import GrammarUse, Segmentation, SegmentParams, Templates
     from ..trajectory import Trajectory
 
 
@@ -76,7 +76,7 @@ def log_recorded_demo(
     arguments go to :func:`lfd.viz.log_demonstration`. Returns the trajectory.
     """
     from ..errors import LfdError
-    from ..preprocess import preprocess
+    from ..preprocessing import preprocess
     from .demo import log_demonstration
 
     traj: Trajectory | None = None
@@ -88,7 +88,7 @@ def log_recorded_demo(
     log_demonstration(demo, trajectory=traj, recording=recording, **kwargs)
     if traj is not None and features:
         from ..features import compute_features
-        from ..segment.pipeline import fill_gaps
+        from ..segmentation.pipeline import fill_gaps
 
         try:
             filled, _ = fill_gaps(traj)
@@ -133,8 +133,8 @@ def log_segment_run(
         Log the demonstration's labels too (off when :func:`log_recorded_demo` did already).
     """
     from ..features import compute_features
-    from ..segment import SegmentParams, Templates
-    from ..segment.pipeline import as_trajectory, fill_gaps, object_scores
+    from ..segmentation import SegmentParams, Templates
+    from ..segmentation.pipeline import as_trajectory, fill_gaps, object_scores
 
     traj = trajectory if trajectory is not None else as_trajectory(demo)  # type: ignore[arg-type]
     filled, _ = fill_gaps(traj)
@@ -224,30 +224,30 @@ def log_methods(
     *,
     templates: Templates | None = None,
     trajectory: Trajectory | None = None,
-    grammar: str = "warn",
+    grammar: GrammarUse = "enforce",
     recording: Any = None,
 ) -> dict[str, Segmentation]:
     """Run segmentation methods on ``demo`` and log each result as soon as it is ready.
 
-    The first of ``greedy``/``dp`` is logged in full (lane ``result``, features, sections,
-    scores); the others get a lane each (``dp``/``greedy``, ``baseline_<name>``). A method that
-    fails is reported in ``/segmentation/warnings``. Returns the results by method.
+    The first template method (``dp``, ``paper``, ``greedy``) is logged in full (lane
+    ``result``, features, sections, scores); the others get a lane each (``dp``/``paper``/
+    ``greedy``, ``baseline_<name>``). A method that fails is reported in
+    ``/segmentation/warnings``. Returns the results by method.
     """
     from ..errors import LfdError
-    from ..segment.evaluate import run_method
+    from ..segmentation.evaluate import TEMPLATE_METHODS, run_method
     from .segmentation import log_skill_spans
 
     results: dict[str, Segmentation] = {}
     main = None
     for method in methods:
         try:
-            kw = {"grammar": grammar} if method in ("greedy", "dp") else {}
-            seg = run_method(method, demo, templates, **kw)
+            seg = run_method(method, demo, templates, grammar=grammar)
         except LfdError as err:
             log_text([f"{method}: {err}"], recording=recording)
             continue
         results[method] = seg
-        if main is None and method in ("greedy", "dp"):
+        if main is None and method in TEMPLATE_METHODS:
             main = method
             log_segment_run(
                 demo,
@@ -258,6 +258,6 @@ def log_methods(
                 recording=recording,
             )
         else:
-            lane = method if method in ("greedy", "dp") else f"baseline_{method}"
+            lane = method if method in TEMPLATE_METHODS else f"baseline_{method}"
             log_skill_spans(seg.segments, source=lane, recording=recording)
     return results

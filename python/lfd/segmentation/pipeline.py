@@ -2,7 +2,7 @@
 
 trajectory -> gap filling -> Table I features -> stage 1 (section boundaries) -> stage 2 (score
 table from the templates, TCP rise decision, greedy loop or segmental DP under the grammar)
--> :class:`~lfd.segment.result.Segmentation` with target objects and skill parameters.
+-> :class:`~lfd.segmentation.result.Segmentation` with target objects and skill parameters.
 """
 
 from __future__ import annotations
@@ -24,8 +24,18 @@ from .result import Segment, Segmentation
 from .stage1 import Stage1Params, section_boundaries
 from .templates import Templates
 
-Search = Literal["greedy", "dp"]
-GrammarUse = Literal["off", "warn", "enforce"]
+Search = Literal["dp", "greedy"]
+GrammarUse = Literal["enforce", "warn", "off"]
+
+DEFAULT_SEARCH: Search = "dp"
+"""The default stage-2 search: the segmental DP (11/12 exact sequences on held-out demos, against
+6/12 for the paper's greedy loop; docs/segmentation.md)."""
+DEFAULT_GRAMMAR: GrammarUse = "enforce"
+"""The default grammar use: only allowed skill transitions are considered."""
+PAPER_SEARCH: Search = "greedy"
+"""The paper's algorithm: the greedy cut loop of Eq. 3-5..."""
+PAPER_GRAMMAR: GrammarUse = "warn"
+"""...keeping the best result and warning about impossible transitions (Fig. 6)."""
 
 
 @dataclass(frozen=True)
@@ -139,11 +149,11 @@ def segment_trajectory(
     traj: Trajectory,
     templates: Templates,
     *,
-    search: Search = "greedy",
-    grammar: GrammarUse = "warn",
+    search: Search = "dp",
+    grammar: GrammarUse = "enforce",
     params: SegmentParams | None = None,
 ) -> Segmentation:
-    """Segment a preprocessed trajectory (see :func:`lfd.segment.segment`)."""
+    """Segment a preprocessed trajectory (see :func:`lfd.segment`)."""
     from ..features import compute_features
 
     p = params or SegmentParams()
@@ -278,7 +288,7 @@ def as_trajectory(
     if isinstance(demo_or_traj, Trajectory):
         return demo_or_traj
     if isinstance(demo_or_traj, Demonstration):
-        from ..preprocess import preprocess
+        from ..preprocessing import preprocess
 
         if len(demo_or_traj.hand) == 0 or not np.isfinite(demo_or_traj.hand.keypoints).any():
             raise DemonstrationError("the demonstration has no hand data")

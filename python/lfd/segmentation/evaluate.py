@@ -11,28 +11,53 @@ from typing import Any
 import numpy as np
 
 from ..demo import Demonstration
-from ..errors import LfdError
+from ..errors import LfdError, UsageError
 from .metrics import METRIC_NAMES, all_metrics
+from .pipeline import DEFAULT_GRAMMAR, PAPER_GRAMMAR, PAPER_SEARCH, GrammarUse
 from .result import Segmentation
 from .templates import Templates
 
-METHODS: tuple[str, ...] = ("greedy", "dp", "proximity", "gripper")
-"""The methods compared: ours (greedy, dp) and the paper's two baselines."""
+METHODS: tuple[str, ...] = ("dp", "paper", "greedy", "proximity", "gripper")
+"""Every method :func:`run_method` knows: ``dp`` (lfd's default: segmental DP, with the grammar
+use given, ``enforce`` by default), ``paper`` (the paper's greedy loop with grammar warnings),
+``greedy`` (the greedy loop with the grammar use given) and the paper's two baselines."""
+
+DEFAULT_METHODS: tuple[str, ...] = ("dp", "paper", "proximity", "gripper")
+"""The methods :func:`evaluate` compares by default, the default method first."""
+
+TEMPLATE_METHODS: frozenset[str] = frozenset({"dp", "paper", "greedy"})
+"""The methods that match HMM templates (the others are rule-based baselines)."""
+
+
+def check_methods(methods: Sequence[str]) -> tuple[str, ...]:
+    """``methods`` as a tuple, or :class:`UsageError` naming the unknown ones."""
+    methods = tuple(methods)
+    unknown = [m for m in methods if m not in METHODS]
+    if unknown or not methods:
+        what = f"unknown method {', '.join(map(repr, unknown))}" if unknown else "no method given"
+        raise UsageError(f"{what}; choose from {', '.join(METHODS)}")
+    return methods
 
 
 def run_method(
-    method: str, demo: Demonstration, templates: Templates | None = None, **kwargs: Any
+    method: str,
+    demo: Demonstration,
+    templates: Templates | None = None,
+    *,
+    grammar: GrammarUse = DEFAULT_GRAMMAR,
 ) -> Segmentation:
-    """Segment ``demo`` with one of :data:`METHODS`."""
+    """Segment ``demo`` with one of :data:`METHODS` (``grammar`` applies to dp and greedy)."""
     from . import gripper_segmentation, proximity_segmentation, segment
 
+    if method == "paper":
+        return segment(demo, templates, search=PAPER_SEARCH, grammar=PAPER_GRAMMAR)
     if method in ("greedy", "dp"):
-        return segment(demo, templates, search=method, **kwargs)  # type: ignore[arg-type]
+        return segment(demo, templates, search=method, grammar=grammar)  # type: ignore[arg-type]
     if method == "proximity":
         return proximity_segmentation(demo)
     if method == "gripper":
         return gripper_segmentation(demo)
-    raise ValueError(f"unknown method {method!r}; choose from {', '.join(METHODS)}")
+    raise UsageError(f"unknown method {method!r}; choose from {', '.join(METHODS)}")
 
 
 @dataclass
@@ -52,7 +77,7 @@ class EvalReport:
     """All recordings' results and their aggregates."""
 
     recordings: list[RecordingResult]
-    methods: tuple[str, ...] = METHODS
+    methods: tuple[str, ...] = DEFAULT_METHODS
 
     def tasks(self) -> list[str]:
         """Task names in first-seen order."""
@@ -117,16 +142,15 @@ def evaluate_demo(
     *,
     name: str = "demo",
     templates: Templates | None = None,
-    methods: Sequence[str] = METHODS,
-    grammar: str = "warn",
+    methods: Sequence[str] = DEFAULT_METHODS,
+    grammar: GrammarUse = DEFAULT_GRAMMAR,
 ) -> RecordingResult:
     """Run every method on one labelled demonstration and compute the metrics."""
     task = str(demo.metadata.get("task") or demo.metadata.get("experiment") or "unknown")
     res = RecordingResult(name=name, task=task, truth=demo.skill_sequence)
     for m in methods:
         try:
-            kw = {"grammar": grammar} if m in ("greedy", "dp") else {}
-            seg = run_method(m, demo, templates, **kw)
+            seg = run_method(m, demo, templates, grammar=grammar)
         except LfdError as err:
             res.errors[m] = str(err)
             continue
@@ -148,17 +172,18 @@ def evaluate(
     paths: Iterable[str | Path],
     *,
     templates: Templates | None = None,
-    methods: Sequence[str] = METHODS,
-    grammar: str = "warn",
+    methods: Sequence[str] = DEFAULT_METHODS,
+    grammar: GrammarUse = DEFAULT_GRAMMAR,
     progress: Callable[[str], None] | None = None,
 ) -> EvalReport:
     """Evaluate ``methods`` on every labelled recording among ``paths`` (files or directories).
 
-    ``grammar`` is the grammar use of the greedy and DP methods. Recordings without
-    ground-truth labels are skipped.
+    ``grammar`` is the grammar use of the ``dp`` and ``greedy`` methods (``paper`` always
+    warns). Recordings without ground-truth labels are skipped.
     """
     from ..io import load
 
+    methods = check_methods(methods)
     rows = []
     for path in expand_paths(paths):
         demo = load(path)

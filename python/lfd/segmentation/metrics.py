@@ -2,7 +2,7 @@
 
 Every function takes a predicted and a ground-truth segmentation as sequences of objects with
 ``skill``, ``start_ns`` and ``end_ns`` (e.g. :class:`lfd.SkillLabel` or
-:class:`lfd.segment.Segment`), in time order.
+:class:`lfd.segmentation.Segment`), in time order.
 
 * :func:`sequence_match` -- the skill sequences are identical;
 * :func:`edit_distance` -- Levenshtein distance between the skill sequences divided by the longer

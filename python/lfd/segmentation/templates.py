@@ -170,7 +170,7 @@ def template_examples(
 ) -> list[tuple[str, np.ndarray]]:
     """The labelled segments of one template demonstration as ``(skill, features (m, 10))``."""
     from ..features import compute_features
-    from ..preprocess import preprocess
+    from ..preprocessing import preprocess
     from .pipeline import fill_gaps
 
     if not demo.labels:

@@ -14,7 +14,6 @@ never reached keeps its gap (NaN).
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation, Slerp
 
 REST_TOLERANCE = 0.01
 """An object that moved less than this (m) across a gap was resting: the gap is interpolated."""
@@ -100,6 +99,8 @@ def fill_carried_gaps(
             off0, off1 = p0 - tcp[g], p1 - tcp[r]
             w = ((np.arange(g, r + 1) - g) / (r - g))[:, None]
             carried = tcp[g : r + 1] + (1.0 - w) * off0 + w * off1
+            from scipy.spatial.transform import Rotation, Slerp
+
             ends = Rotation.from_quat(np.stack([quaternion[a - 1], quaternion[b]]))
             turned = Slerp([0.0, 1.0], ends)(w[:, 0]).as_quat()
             q0, q1 = quaternion[a - 1].copy(), quaternion[b].copy()

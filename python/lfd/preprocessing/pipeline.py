@@ -10,7 +10,7 @@
    ``feature_cutoff_hz`` (a linear filter commutes with the linear parts of the features; use
    :func:`lowpass` on feature arrays to filter them directly). The gripper Euler angles are
    unwrapped and filtered at ``euler_cutoff_hz``.
-4. Map the hand to a gripper (:func:`~lfd.preprocess.mapping.gripper_frame`): TCP and opening
+4. Map the hand to a gripper (:func:`~lfd.preprocessing.mapping.gripper_frame`): TCP and opening
    from the filtered keypoints, ``rotation`` rebuilt from the filtered Euler angles.
 """
 
@@ -69,7 +69,7 @@ def preprocess(
     max_gap_s : float
         Longest gap between real samples that is interpolated.
     fill_hidden : bool
-        Fill what the camera could not see of an object (see :mod:`lfd.preprocess.carry`): held
+        Fill what the camera could not see of an object (see :mod:`lfd.preprocessing.carry`): held
         at rest before its first and after its last sighting (the clock then spans the hand),
         and carried with the TCP through a long gap in which the hand moved it. Otherwise the
         clock spans only the time every object was seen and long gaps stay NaN.

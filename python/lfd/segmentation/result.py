@@ -36,7 +36,7 @@ class Segment:
         skill was a candidate, NaN for baselines).
     params : dict
         Skill parameters (grasp pose, place pose, push displacement, ...), see
-        :func:`lfd.segment.params.skill_params`.
+        :func:`lfd.segmentation.params.skill_params`.
     """
 
     skill: str

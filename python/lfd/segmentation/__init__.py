@@ -1,28 +1,36 @@
 """Two-stage skill segmentation of a demonstration (paper Sec. III-B).
 
 >>> import lfd
->>> from lfd.segment import segment
->>> result = segment(lfd.load("recordings/exp1.mcap"))          # doctest: +SKIP
+>>> result = lfd.segment(lfd.load("recordings/exp1.mcap"))      # doctest: +SKIP
 >>> result.skill_sequence                                        # doctest: +SKIP
 ['pick_up', 'move_with', 'place', 'move', ...]
 
 Stage 1 over-segments at threshold crossings of the fingertip distance, hand speed and TCP
 rise/fall; stage 2 merges the data sections into skills by HMM template matching, with the
-TCP-rise decision tree (Fig. 5) and the skill grammar (Fig. 6), either by the paper's greedy cut
-loop (``search="greedy"``) or by a globally optimal segmental DP (``search="dp"``).
+TCP-rise decision tree (Fig. 5) and the skill grammar (Fig. 6), either by a globally optimal
+segmental DP under the grammar (``search="dp", grammar="enforce"``, the default and the most
+accurate) or by the paper's greedy cut loop with grammar warnings (``search="greedy",
+grammar="warn"``, :data:`PAPER`).
 """
 
 from __future__ import annotations
 
-import sys
-import types
-from typing import Any
+from typing import TypedDict
 
 from ..demo import Demonstration
 from ..trajectory import Trajectory
 from .baselines import gripper_segmentation, proximity_segmentation
 from .metrics import all_metrics
-from .pipeline import GrammarUse, Search, SegmentParams, segment_trajectory
+from .pipeline import (
+    DEFAULT_GRAMMAR,
+    DEFAULT_SEARCH,
+    PAPER_GRAMMAR,
+    PAPER_SEARCH,
+    GrammarUse,
+    Search,
+    SegmentParams,
+    segment_trajectory,
+)
 from .result import Segment, Segmentation
 from .stage1 import Stage1Params
 from .templates import Templates, train_templates
@@ -32,8 +40,8 @@ def segment(
     demo_or_traj: Demonstration | Trajectory,
     templates: Templates | None = None,
     *,
-    search: Search = "greedy",
-    grammar: GrammarUse = "warn",
+    search: Search = "dp",
+    grammar: GrammarUse = "enforce",
     params: SegmentParams | None = None,
 ) -> Segmentation:
     """Segment a demonstration into skills.
@@ -44,11 +52,13 @@ def segment(
         A recording (preprocessed here) or an already preprocessed trajectory.
     templates : Templates, optional
         Skill templates; the ones shipped with the package if omitted.
-    search : {"greedy", "dp"}
-        The paper's greedy cut loop, or the globally optimal segmental DP.
-    grammar : {"warn", "enforce", "off"}
-        ``warn``: keep the best result and warn about impossible skill transitions (the paper);
-        ``enforce``: consider only allowed transitions; ``off``: ignore the grammar.
+    search : {"dp", "greedy"}
+        ``dp`` (default): the globally optimal segmental DP; ``greedy``: the paper's greedy cut
+        loop (Eq. 3-5).
+    grammar : {"enforce", "warn", "off"}
+        ``enforce`` (default): consider only allowed skill transitions; ``warn``: keep the best
+        result and warn about impossible transitions (the paper, Fig. 6); ``off``: ignore the
+        grammar. The paper's algorithm is ``search="greedy", grammar="warn"`` (:data:`PAPER`).
     params : SegmentParams, optional
         Stage-1 and stage-2 parameters.
 
@@ -81,7 +91,23 @@ def segment(
     return result
 
 
+class SearchOptions(TypedDict):
+    """The stage-2 options of :func:`segment`, as keyword arguments."""
+
+    search: Search
+    grammar: GrammarUse
+
+
+PAPER: SearchOptions = {"search": PAPER_SEARCH, "grammar": PAPER_GRAMMAR}
+"""The paper's algorithm as keyword arguments: ``lfd.segment(demo, **PAPER)``."""
+
 __all__ = [
+    "DEFAULT_GRAMMAR",
+    "DEFAULT_SEARCH",
+    "PAPER",
+    "GrammarUse",
+    "Search",
+    "SearchOptions",
     "Segment",
     "SegmentParams",
     "Segmentation",
@@ -93,18 +119,3 @@ __all__ = [
     "segment",
     "train_templates",
 ]
-
-
-class _CallableModule(types.ModuleType):
-    """Lets ``lfd.segment(demo)`` call :func:`segment` while ``lfd.segment`` stays a package."""
-
-    def __call__(
-        self,
-        demo_or_traj: Demonstration | Trajectory,
-        templates: Templates | None = None,
-        **kwargs: Any,
-    ) -> Segmentation:
-        return segment(demo_or_traj, templates, **kwargs)
-
-
-sys.modules[__name__].__class__ = _CallableModule

@@ -89,7 +89,7 @@ def gripper_frame(
 def euler_from_rotation(rotation: npt.ArrayLike) -> np.ndarray:
     """XYZ Euler angles, shape (n, 3), of rotation matrices, shape (n, 3, 3); NaN stays NaN.
 
-    The angles are not unwrapped (see :func:`lfd.preprocess.filters.unwrap_runs`).
+    The angles are not unwrapped (see :func:`lfd.preprocessing.filters.unwrap_runs`).
     """
     from scipy.spatial.transform import Rotation
 
