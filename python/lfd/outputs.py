@@ -1,0 +1,135 @@
+"""Output files that never lose data: checked before the work starts, written atomically.
+
+Every command that writes a file checks its destination first with :func:`check_output` (an
+input is never overwritten, the directory exists and is writable, the path is not a
+directory), then writes through :func:`atomic_output` (or :func:`atomic_write_text`): the data
+goes to a temporary file beside the destination, which replaces the destination by an atomic
+rename only once it is complete. A failed or interrupted command therefore leaves either the old
+file or none, never a half-written one, and two runs writing the same file cannot interleave.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+
+from .errors import UsageError
+
+STDOUT = "-"
+"""The path that means standard output, where a command allows it."""
+
+
+def check_output(
+    path: str | os.PathLike[str],
+    *,
+    inputs: Iterable[str | os.PathLike[str]] = (),
+    what: str = "output",
+    allow_stdout: bool = False,
+    suffixes: Iterable[str] = (),
+) -> Path:
+    """Refuse an output destination that cannot be written, before any work is done.
+
+    Parameters
+    ----------
+    path : path-like
+        The requested output file.
+    inputs : iterable of path-like
+        Files the command reads; the output may be none of them.
+    what : str
+        How the error message names the output (e.g. ``"--json"``).
+    allow_stdout : bool
+        Whether ``-`` (standard output) is allowed.
+    suffixes : iterable of str
+        Allowed file extensions (e.g. ``(".json",)``); empty: any.
+
+    Returns
+    -------
+    Path
+        The destination (``Path("-")`` for standard output).
+
+    Raises
+    ------
+    UsageError
+        The destination is an input, a directory, in a missing or read-only directory, or has an
+        extension not in ``suffixes``.
+    """
+    p = Path(path)
+    if str(path) == STDOUT:
+        if allow_stdout:
+            return p
+        raise UsageError(f"{what}: '-' (standard output) is not supported here; give a file name")
+    if str(path) == "":
+        raise UsageError(f"{what}: empty file name")
+    for inp in inputs:
+        q = Path(inp)
+        same = q.exists() and p.exists() and os.path.samefile(p, q)
+        if same or p.resolve() == q.resolve():
+            raise UsageError(f"{what} {p} is also an input; refusing to overwrite it")
+    if p.is_dir():
+        raise UsageError(f"{what} {p} is a directory; give a file name")
+    allowed = tuple(s.lower() for s in suffixes)
+    if allowed and p.suffix.lower() not in allowed:
+        raise UsageError(f"{what} {p}: unsupported extension; use {', '.join(allowed)}")
+    parent = p.parent if str(p.parent) else Path(".")
+    if not parent.exists():
+        raise UsageError(f"{what} {p}: directory {parent} does not exist")
+    if not parent.is_dir():
+        raise UsageError(f"{what} {p}: {parent} is not a directory")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise UsageError(f"{what} {p}: directory {parent} is not writable")
+    if p.exists() and not os.access(p, os.W_OK):
+        raise UsageError(f"{what} {p} exists and is read-only")
+    return p
+
+
+@contextlib.contextmanager
+def atomic_output(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; on success it is renamed onto ``path``.
+
+    On an exception (including KeyboardInterrupt) the temporary file is removed and ``path`` is
+    left as it was. The temporary name starts with ``.`` and ends with ``.partial``.
+    """
+    dest = Path(path)
+    fd, tmp_name = tempfile.mkstemp(
+        prefix=f".{dest.name}.", suffix=".partial", dir=dest.parent if str(dest.parent) else "."
+    )
+    os.close(fd)
+    tmp = Path(tmp_name)
+    try:
+        yield tmp
+        if dest.exists():
+            with contextlib.suppress(OSError):
+                os.chmod(tmp, dest.stat().st_mode & 0o777)
+        else:
+            with contextlib.suppress(OSError):
+                umask = os.umask(0)
+                os.umask(umask)
+                os.chmod(tmp, 0o666 & ~umask)
+        os.replace(tmp, dest)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+
+
+def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically (see :func:`atomic_output`)."""
+    with atomic_output(path) as tmp:
+        with open(tmp, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+
+
+def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:
+    """Write ``text`` (UTF-8) to ``path`` atomically; ``-`` writes to standard output."""
+    if str(path) == STDOUT:
+        import sys
+
+        sys.stdout.write(text if text.endswith("\n") else text + "\n")
+        sys.stdout.flush()
+        return
+    atomic_write_bytes(path, text.encode("utf-8"))
