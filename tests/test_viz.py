@@ -321,7 +321,7 @@ def test_segmentation_lanes_sections_scores_warnings(session: viz.Session) -> No
     np.testing.assert_array_equal(data.times(lane), t[[0, 12, 25, 30, 39]] - T0)
     config = data.static[lane]
     assert config["StateConfiguration:values"] == ["pick_up(cube_a)", "place(cube_a)", "push"]
-    assert config["StateConfiguration:labels"] == ["Pick up cube_a", "Place cube_a", "Push"]
+    assert config["StateConfiguration:labels"] == ["pick_up cube_a", "place cube_a", "push"]
     colors = config["StateConfiguration:colors"]
     assert colors[0] != colors[1] != colors[2]
     assert data.column("/segmentation/skills/ground_truth", "StateChange:state")[-1] == [""]

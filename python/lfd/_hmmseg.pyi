@@ -111,7 +111,7 @@ class Hmm:
     def __eq__(self, value: object, /) -> bool: ...
 
 # --- segmentation: stage 1, stage 2, templates (crates/hmmseg-py/src/segment.rs) -------------
-_SegmentTuple = tuple[int, int, int, int, int, float, float]
+_SegmentTuple = tuple[int, int, int, int, int, float, float, float]
 
 def stage1_boundaries(
     values: NDArray[np.float64],

@@ -16,16 +16,6 @@ from .errors import UnknownSkillError
 SKILLS: tuple[str, ...] = ("pick_up", "place", "locate", "stack", "push", "move", "move_with")
 """Canonical skill names, in the engine's index order."""
 
-DISPLAY_NAMES: dict[str, str] = {
-    "pick_up": "Pick up",
-    "place": "Place",
-    "locate": "Locate",
-    "stack": "Stack",
-    "push": "Push",
-    "move": "Move",
-    "move_with": "Move with",
-}
-
 
 def check_skill(name: str) -> str:
     """Return ``name`` if it is a canonical skill name, else raise :class:`UnknownSkillError`."""

@@ -88,7 +88,7 @@ fn table_to_numpy<'py>(py: Python<'py>, t: &ScoreTable) -> Bound<'py, PyArray3<f
     arr.into_pyarray(py)
 }
 
-type SegmentTuple = (usize, usize, usize, usize, usize, f64, f64);
+type SegmentTuple = (usize, usize, usize, usize, usize, f64, f64, f64);
 
 fn result(r: Segmentation) -> (Vec<SegmentTuple>, Vec<String>) {
     let segs = r
@@ -102,6 +102,7 @@ fn result(r: Segmentation) -> (Vec<SegmentTuple>, Vec<String>) {
                 s.start,
                 s.end,
                 s.score,
+                s.margin,
                 s.confidence,
             )
         })
@@ -178,7 +179,7 @@ fn rising_vec(rising: Option<PyReadonlyArray2<'_, bool>>) -> Option<Vec<bool>> {
 }
 
 /// The paper's greedy loop on a score table; returns `(segments, warnings)`, a segment being
-/// `(skill, start_section, end_section, start, end, score, confidence)`. `lookahead` values each
+/// `(skill, start_section, end_section, start, end, score, margin, confidence)`. `lookahead` values each
 /// cut together with its best successor segment (see `hmmseg::segment::greedy`).
 #[pyfunction]
 #[pyo3(signature = (scores, boundaries, skills, grammar_json, rising=None, mode="warn", lookahead=false))]

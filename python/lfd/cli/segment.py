@@ -77,7 +77,6 @@ def run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.table import Table
 
-    from ..skills import DISPLAY_NAMES
     from ..viz.cli import close_from_args, open_from_args
 
     show = open_from_args(args, "lfd_segment")
@@ -101,7 +100,7 @@ def run(args: argparse.Namespace) -> int:
     for n, s in enumerate(result.segments):
         table.add_row(
             str(n),
-            DISPLAY_NAMES.get(s.skill, s.skill),
+            s.skill,
             f"{s.start_s:.2f}",
             f"{s.end_s:.2f}",
             s.object or "-",
@@ -115,7 +114,7 @@ def run(args: argparse.Namespace) -> int:
             gt.add_column(col)
         for n, g in enumerate(doc["ground_truth"]):
             gt.add_row(
-                str(n), DISPLAY_NAMES.get(g["skill"], g["skill"]), f"{g['start_s']:.2f}",
+                str(n), g["skill"], f"{g['start_s']:.2f}",
                 f"{g['end_s']:.2f}", g["object"] or "-",
             )  # fmt: skip
         console.print(gt)

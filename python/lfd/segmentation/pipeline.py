@@ -186,8 +186,8 @@ def segment_trajectory(
             scores, bounds, skills, grammar_json(), rising, grammar, p.penalty
         )
     segments = [
-        _make_segment(filled, skills[s], a, b, int(best_object[i, j, s]), score, conf)
-        for (s, i, j, a, b, score, conf) in raw
+        _make_segment(filled, skills[s], a, b, int(best_object[i, j, s]), score, conf, margin)
+        for (s, i, j, a, b, score, margin, conf) in raw
     ]
     return Segmentation(
         segments=segments,
@@ -256,6 +256,7 @@ def _make_segment(
     target: np.ndarray | int | None,
     score: float = float("nan"),
     confidence: float = float("nan"),
+    margin: float = float("nan"),
 ) -> Segment:
     n = len(traj)
     t_s = traj.t_s
@@ -277,6 +278,7 @@ def _make_segment(
         object=traj.object_names[obj] if obj is not None else None,
         score=float(score),
         confidence=float(confidence),
+        margin=float(margin),
         params=skill_params(traj, skill, start, end, obj),
     )
 

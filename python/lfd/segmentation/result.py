@@ -9,8 +9,9 @@ from typing import Any
 
 from ..demo import SkillLabel
 
-RESULT_FORMAT_VERSION = 1
-"""Version of the JSON written by :meth:`Segmentation.to_json`."""
+RESULT_FORMAT_VERSION = 2
+"""Version of the JSON written by :meth:`Segmentation.to_json` (2: ``confidence`` is a posterior
+probability in [0, 1]; the raw score margin is ``margin``)."""
 
 
 @dataclass
@@ -32,8 +33,15 @@ class Segment:
     score : float
         Summed feature log-likelihood per sample of the chosen skill (NaN for baselines).
     confidence : float
-        Margin of ``score`` over the best other skill on the same samples (``inf`` when no other
-        skill was a candidate, NaN for baselines).
+        Posterior probability, in [0, 1], of the chosen skill among the candidate skills on the
+        same samples (those the TCP-rise decision allows), from their per-sample scores with
+        equal priors: ``exp(score) / sum(exp(score_o))``. 1 without a rival, at most 0.5 when a
+        rival explains the samples at least as well (the grammar chose this skill). NaN for
+        the baselines.
+    margin : float
+        Raw margin of ``score`` over the best other candidate skill, in nats per sample (``inf``
+        when no other skill was a candidate, negative when a rival is more likely, NaN for the
+        baselines).
     params : dict
         Skill parameters (grasp pose, place pose, push displacement, ...), see
         :func:`lfd.segmentation.params.skill_params`.
@@ -49,6 +57,7 @@ class Segment:
     object: str | None = None
     score: float = float("nan")
     confidence: float = float("nan")
+    margin: float = float("nan")
     params: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -71,6 +80,7 @@ class Segment:
             "object": self.object,
             "score": _finite(self.score),
             "confidence": _finite(self.confidence),
+            "margin": _finite(self.margin),
             "params": self.params,
         }
 

@@ -214,7 +214,7 @@ def _describe(k: int, s: Any) -> str:
     obj = f"({s.object})" if s.object else ""
     return (
         f"{k}: {s.skill}{obj} {s.start_s:.2f}-{s.end_s:.2f} s, "
-        f"score {s.score:.2f}, margin {s.confidence:.2f}"
+        f"score {s.score:.2f}, confidence {s.confidence:.2f}, margin {s.margin:.2f}"
     )
 
 

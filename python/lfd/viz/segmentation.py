@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..errors import DemonstrationError
-from ..skills import DISPLAY_NAMES, SKILLS
+from ..skills import SKILLS
 from .session import get_recording, import_rerun
 from .timeline import GREEDY_ITERATION, as_ns, current_origin, time_columns, time_origin
 
@@ -80,7 +80,7 @@ def log_skill_spans(
     for i, s in enumerate(segs):
         obj = getattr(s, "object", None)
         state = skill_state(s.skill, obj)
-        label = DISPLAY_NAMES.get(s.skill, s.skill) + (f" {obj}" if obj else "")
+        label = s.skill + (f" {obj}" if obj else "")
         values[state] = (label, _rgba(SKILL_COLORS.get(s.skill, UNKNOWN_COLOR)))
         times.append(int(s.start_ns))
         states.append(state)

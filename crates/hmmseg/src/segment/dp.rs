@@ -216,4 +216,32 @@ mod tests {
         assert_eq!(skills_of(&d.segments), vec![ix("place")]);
         assert!(d.warnings.iter().any(|w| w.contains("grammar")));
     }
+
+    proptest::proptest! {
+        /// The confidence is the chosen skill's share of the candidates' posterior: a
+        /// probability, at most 0.5 when a rival is at least as likely (margin <= 0).
+        #[test]
+        fn confidence_is_the_posterior_of_the_chosen_skill(
+            per in proptest::collection::vec(-20.0f64..0.0, 7 * 3 * 4),
+            enforce in proptest::bool::ANY,
+        ) {
+            let b = vec![0, 10, 20, 30];
+            let t = ScoreTable::from_fn(b, 7, |i, j, s| {
+                per[(i * 4 + j) * 7 + s] * (10 * (j - i)) as f64
+            })
+            .unwrap();
+            let mode = if enforce { GrammarMode::Enforce } else { GrammarMode::Off };
+            let d = dp(&t, &paper_grammar(), None, mode, 1.0).unwrap();
+            for seg in &d.segments {
+                let (i, j) = (seg.start_section, seg.end_section);
+                proptest::prop_assert!((0.0..=1.0).contains(&seg.confidence));
+                if seg.margin <= 0.0 {
+                    proptest::prop_assert!(seg.confidence <= 0.5 + 1e-12);
+                }
+                let z: f64 = (0..7).map(|o| t.mean(i, j, o).exp()).sum();
+                let want = t.mean(i, j, seg.skill).exp() / z;
+                proptest::prop_assert!((seg.confidence - want).abs() < 1e-9);
+            }
+        }
+    }
 }

@@ -192,10 +192,13 @@ mod tests {
             .collect();
         assert_eq!(got, truth.to_vec());
         assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+        assert!(r.segments.iter().all(|s| (s.margin - 1.0).abs() < 1e-12));
+        // six rivals, each 1 nat per sample worse: 1 / (1 + 6 / e)
+        let want = 1.0 / (1.0 + 6.0 * (-1.0f64).exp());
         assert!(r
             .segments
             .iter()
-            .all(|s| (s.confidence - 1.0).abs() < 1e-12));
+            .all(|s| (s.confidence - want).abs() < 1e-12));
         assert_eq!(r.segments[1].start, 20);
     }
 

@@ -48,7 +48,14 @@ pub struct Segment {
     pub end: usize,
     /// Summed feature log-likelihood per sample of the chosen skill.
     pub score: f64,
-    /// Margin (per sample) to the best other skill on the same samples; `inf` without a rival.
+    /// Margin (per sample, nats) of `score` over the best other candidate skill on the same
+    /// samples; `inf` without a rival, negative when a rival explains the samples better (the
+    /// grammar or the rise decision chose this skill).
+    pub margin: f64,
+    /// Posterior probability, in `[0, 1]`, of the chosen skill among the candidate skills of the
+    /// same samples (those passing the TCP-rise decision), from their per-sample scores with
+    /// equal priors: `exp(score) / sum_o exp(score_o)`. 1 without a rival; at most 0.5 when a
+    /// rival is at least as likely.
     pub confidence: f64,
 }
 
@@ -107,7 +114,7 @@ impl Context<'_> {
     }
 
     /// Margin of skill `s` over the best other skill passing the rise decision on `i..j`.
-    pub fn confidence(&self, i: usize, j: usize, s: usize) -> f64 {
+    pub fn margin(&self, i: usize, j: usize, s: usize) -> f64 {
         let best_other = (0..self.table.n_skills())
             .filter(|&o| o != s && self.rise_ok(i, j, o))
             .map(|o| self.table.mean(i, j, o))
@@ -120,6 +127,25 @@ impl Context<'_> {
         }
     }
 
+    /// Posterior probability of skill `s` among the skills passing the rise decision on `i..j`
+    /// (and `s` itself), from the per-sample scores with equal priors; 0 when `s` has no finite
+    /// score.
+    pub fn confidence(&self, i: usize, j: usize, s: usize) -> f64 {
+        let own = self.table.mean(i, j, s);
+        if !own.is_finite() {
+            return 0.0;
+        }
+        // sum_o exp(score_o - score_s) over the rivals, plus 1 for s itself (stable: no overflow
+        // of the largest term matters, 1 / inf = 0)
+        let rivals: f64 = (0..self.table.n_skills())
+            .filter(|&o| o != s && self.rise_ok(i, j, o))
+            .map(|o| self.table.mean(i, j, o))
+            .filter(|v| v.is_finite())
+            .map(|v| (v - own).exp())
+            .sum();
+        (1.0 / (1.0 + rivals)).clamp(0.0, 1.0)
+    }
+
     pub fn segment(&self, s: usize, i: usize, j: usize) -> Segment {
         let b = self.table.boundaries();
         Segment {
@@ -129,6 +155,7 @@ impl Context<'_> {
             start: b[i],
             end: b[j],
             score: self.table.mean(i, j, s),
+            margin: self.margin(i, j, s),
             confidence: self.confidence(i, j, s),
         }
     }
