@@ -168,9 +168,13 @@ def test_record_sigint_leaves_complete_file(tmp_path) -> None:  # type: ignore[n
         # as a shell starts a background job: SIGINT ignored, which Python would keep
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN),
     )
+    def written() -> int:  # the recording is written to .int.mcap.*.partial until closed
+        return sum(p.stat().st_size for p in tmp_path.glob(".int.mcap.*.partial"))
+
     deadline = time.time() + 60
-    while time.time() < deadline and (not out.exists() or out.stat().st_size < 20_000):
+    while time.time() < deadline and written() < 20_000:
         time.sleep(0.2)
+    assert not out.exists()
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 0, err.decode()
@@ -179,6 +183,7 @@ def test_record_sigint_leaves_complete_file(tmp_path) -> None:  # type: ignore[n
         warnings.simplefilter("error")  # a truncated file would warn while recovering
         demo = load(out)
     assert sum(len(o) for o in demo.objects.values()) > 0
+    assert written() == 0  # renamed, nothing left beside it
 
 
 def test_record_frames_directory(tmp_path, rendered) -> None:  # type: ignore[no-untyped-def]
@@ -383,7 +388,7 @@ def test_perception_train_cli_checkpoints_and_resumes(tmp_path) -> None:  # type
 
     out = tmp_path / "m.pt"
     data = tmp_path / "crops.npz"
-    argv = ["perception", "train", "--out", str(out), "--samples", "64", "--val-samples", "8"]
+    argv = ["perception", "train", "-o", str(out), "--samples", "64", "--val-samples", "8"]
     argv += ["--batch", "32", "--epochs", "2", "--threads", "1", "--data", str(data)]
     assert _lfd(*argv) == 0
     assert data.exists() and out.exists()
