@@ -50,15 +50,28 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="lfd",
         description="Learn a robot manipulation task from a human hand demonstration.",
+        allow_abbrev=False,
     )
     parser.add_argument("--version", action="version", version=f"lfd {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name in COMMANDS:
         mod = importlib.import_module(f"{__name__}.{name}")
-        p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP)
+        # options are never abbreviated: `--out` is not silently `--output`
+        p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP, allow_abbrev=False)
         mod.add_arguments(p)
         p.set_defaults(_run=mod.run)
+        _mark_leaves(p)
     return parser
+
+
+def _mark_leaves(parser: argparse.ArgumentParser) -> None:
+    """Record in each (sub)command's defaults the parser that reports its usage errors."""
+    parser.set_defaults(_parser=parser)
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for child in action.choices.values():
+                child.allow_abbrev = False
+                _mark_leaves(child)
 
 
 def _warning_printer(command: str):  # type: ignore[no-untyped-def]
@@ -77,7 +90,9 @@ def _one_line(err: BaseException) -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
+    if extra:  # reported by the subcommand's parser: `lfd segment: error: unrecognized ...`
+        getattr(args, "_parser", parser).error(f"unrecognized arguments: {' '.join(extra)}")
     if not hasattr(args, "_run"):
         parser.print_help()
         return 0

@@ -103,3 +103,14 @@ def write_json(path: str, doc: Any) -> None:
 def existing_inputs(*paths: str | os.PathLike[str] | None) -> list[str | os.PathLike[str]]:
     """The given input paths without the ``None``s (for ``check_output(inputs=...)``)."""
     return [p for p in paths if p is not None]
+
+
+def check_inputs(**named: str | os.PathLike[str] | None) -> None:
+    """Refuse input files that do not exist, before heavy imports (``--hand-model=path``...)."""
+    from ..errors import UsageError
+
+    for option, path in named.items():
+        if path is not None and not os.path.isfile(path):
+            flag = "--" + option.replace("_", "-")
+            what = "is a directory" if os.path.isdir(path) else "does not exist"
+            raise UsageError(f"{flag} {path} {what}; give an existing file")

@@ -49,9 +49,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _check(args: argparse.Namespace) -> None:
     """Refuse unusable outputs before torch is imported and anything is rendered."""
     from ..outputs import check_output
+    from ._options import check_inputs
 
     if args.action != "train":
+        check_inputs(hand_model=args.hand_model)
         return
+    check_inputs(init=args.init)
     inputs = [p for p in (args.init, *(args.data or [])) if p]
     check_output(args.output, inputs=inputs, what="-o/--output", suffixes=(".pt",))
     check_output(f"{args.output}.ckpt", inputs=inputs, what="checkpoint")

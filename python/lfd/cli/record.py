@@ -71,6 +71,9 @@ def run(args: argparse.Namespace) -> int:
     from ..outputs import check_output
     from ..viz.cli import check_rerun_args, close_from_args, open_from_args
 
+    from ._options import check_inputs
+
+    check_inputs(intrinsics=args.intrinsics, hand_model=args.hand_model)
     inputs = [p for p in (args.intrinsics, args.hand_model) if p]
     if args.source.startswith("frames:"):
         inputs.append(args.source[len("frames:") :])

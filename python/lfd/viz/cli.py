@@ -51,8 +51,9 @@ def add_rerun_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-CONNECT_SCHEMES = ("rerun", "rerun+http", "rerun+https", "http", "https")
-"""URL schemes of ``--rerun-connect`` (the gRPC URLs the Rerun SDK's ``GrpcSink`` accepts)."""
+CONNECT_SCHEMES = ("rerun", "rerun+http", "rerun+https")
+"""URL schemes of ``--rerun-connect``: those the Rerun SDK's ``GrpcSink`` accepts (its URLs
+end in ``/proxy``)."""
 
 
 def check_rerun_args(
@@ -64,7 +65,7 @@ def check_rerun_args(
     ------
     UsageError
         ``--rerun-save`` is an input, not a ``.rrd`` file, or not writable; ``--rerun-connect``
-        is not a ``rerun+http://HOST:PORT/proxy``-style URL.
+        is not a ``rerun+http://HOST:PORT/proxy`` URL (``rerun://``, ``rerun+https://`` too).
     """
     from ..outputs import check_output
 
@@ -74,7 +75,8 @@ def check_rerun_args(
     url = getattr(args, "rerun_connect", None)
     if url is not None:
         parts = urllib.parse.urlsplit(url)
-        if parts.scheme not in CONNECT_SCHEMES or not parts.hostname:
+        bad_path = parts.path.rstrip("/") != "/proxy"
+        if parts.scheme not in CONNECT_SCHEMES or not parts.hostname or bad_path:
             raise UsageError(
                 f"--rerun-connect {url!r} is not a viewer URL; give e.g. "
                 f"rerun+http://127.0.0.1:{DEFAULT_GRPC_PORT}/proxy "

@@ -227,7 +227,8 @@ def open_session(
         save_path.parent.mkdir(parents=True, exist_ok=True)
         pending = PendingOutput(save_path) if atomic_save else None
         sinks.append(rr.FileSink(str(save_path if pending is None else pending.path)))
-        messages.append(f"saving to {save_path}")
+        if not atomic_save:  # the lfd commands stay quiet about it (stderr is for problems)
+            messages.append(f"saving to {save_path}")
     serve_url = None
     if serve:
         if connect_url is not None and grpc_port == SPAWN_PORT:
