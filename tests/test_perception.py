@@ -168,6 +168,7 @@ def test_record_sigint_leaves_complete_file(tmp_path) -> None:  # type: ignore[n
         # as a shell starts a background job: SIGINT ignored, which Python would keep
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN),
     )
+
     def written() -> int:  # the recording is written to .int.mcap.*.partial until closed
         return sum(p.stat().st_size for p in tmp_path.glob(".int.mcap.*.partial"))
 

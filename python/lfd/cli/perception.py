@@ -19,9 +19,7 @@ HELP = "Train / evaluate the depth hand-keypoint network (needs the perception e
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="action", required=True)
     t = sub.add_parser("train", help="train the hand network on rendered depth crops")
-    t.add_argument(
-        "-o", "--output", required=True, metavar="FILE.pt", help="output weights (.pt)"
-    )
+    t.add_argument("-o", "--output", required=True, metavar="FILE.pt", help="output weights (.pt)")
     t.add_argument("--samples", type=int, default=6000, help="training crops to render (6000)")
     t.add_argument(
         "--data",

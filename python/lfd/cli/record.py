@@ -66,11 +66,10 @@ def run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
+    from ..outputs import check_output
     from ..perception.record import record
     from ..perception.sources import open_source
-    from ..outputs import check_output
     from ..viz.cli import check_rerun_args, close_from_args, open_from_args
-
     from ._options import check_inputs
 
     check_inputs(intrinsics=args.intrinsics, hand_model=args.hand_model)

@@ -18,7 +18,6 @@ from collections.abc import Iterable
 from typing import Any
 
 from ..errors import UsageError
-
 from .session import DEFAULT_GRPC_PORT, DEFAULT_WEB_PORT, Session, open_session
 
 _SESSION_ATTR = "rerun_session"

@@ -83,9 +83,7 @@ def save_model(model: HandPointNet, path: str, **extra: Any) -> None:
 
     state = {k: v.detach().float().cpu() for k, v in model.state_dict().items()}
     with atomic_output(path) as tmp:
-        torch.save(
-            {"version": MODEL_VERSION, "config": model.config, "state": state, **extra}, tmp
-        )
+        torch.save({"version": MODEL_VERSION, "config": model.config, "state": state, **extra}, tmp)
 
 
 def load_model(path: str) -> tuple[HandPointNet, dict[str, Any]]:

@@ -94,8 +94,8 @@ def train(
     import torch
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
-    from .dataset import N_POINTS
     from ...outputs import atomic_output
+    from .dataset import N_POINTS
     from .model import HandPointNet, save_model
 
     if threads:
