@@ -233,7 +233,9 @@ def test_record_bad_sources_give_clear_errors(tmp_path, capsys) -> None:  # type
         open_source(f"frames:{tmp_path / 'nope'}")
     with pytest.raises(LfdError, match="unknown source"):
         open_source("usb:1")
-    assert main(["record", "--source", "camera:37", "--no-hand", "-o", str(tmp_path / "x.mcap")]) == 2
+    assert (
+        main(["record", "--source", "camera:37", "--no-hand", "-o", str(tmp_path / "x.mcap")]) == 2
+    )
     assert "cannot open" in capsys.readouterr().err
 
 
