@@ -100,7 +100,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     old_show = warnings.showwarning
     warnings.showwarning = _warning_printer(command)
     try:
-        return int(args._run(args) or 0)
+        status = int(args._run(args) or 0)
+        sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
+        return status
     except LfdError as err:
         print(f"lfd {command}: error: {_one_line(err)}", file=sys.stderr)
         return 2
