@@ -75,4 +75,3 @@ def test_missing_extra_is_one_line(fresh_venv: Path, tmp_path: Path, args: tuple
     assert len(lines) == 1, proc.stderr
     assert lines[0].startswith(f"lfd {args[0]}: error:") and "pip install" in lines[0], lines
     assert not list(tmp_path.iterdir()), "a failed command left a file behind"
-

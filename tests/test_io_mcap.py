@@ -221,8 +221,11 @@ def test_writer_killed_mid_recording(tmp_path: Path) -> None:
     finally:
         os.kill(proc.pid, signal.SIGKILL)
         proc.wait(timeout=10)
+    # the unfinished recording is left beside the destination as .NAME.XXXXXXXX.partial
+    assert not path.exists()
+    (partial,) = tmp_path.glob(".killed.mcap.*.partial")
     with pytest.warns(RecoveredFileWarning, match="not closed"):
-        demo = load(path)
+        demo = load(partial)
     # chunks are closed every second of capture time: at most ~1 s of the 10 s is lost
     assert len(demo.hand) >= 44
     assert len(demo.objects["cube"]) >= 265
@@ -236,12 +239,28 @@ def test_unclosed_recorder_is_readable(tmp_path: Path) -> None:
         t = T0 + i * 100_000_000
         rec.add_hand(t, np.full((21, 3), 0.01 * i))
         rec.add_object_pose("cube", t, (0, 0, 0), (0, 0, 0, 1))
+    assert not path.exists()  # written beside it until closed
     with pytest.warns(RecoveredFileWarning):
-        demo = load(path)
+        demo = load(rec.partial_path)
     assert 20 <= len(demo.hand) < 30
     rec.close()
     demo, caught = _load_quiet(path)
     assert caught == [] and len(demo.hand) == 30
+    assert not Path(rec.partial_path).exists()
+
+
+def test_failed_save_leaves_no_file(tmp_path: Path) -> None:
+    path = tmp_path / "x.mcap"
+    path.write_bytes(b"old")
+    with McapRecorder(path, objects=CUBE) as rec:
+        rec.add_hand(T0, np.zeros((21, 3)))
+    good = path.read_bytes()
+    with pytest.raises(RecordingFormatError, match="boom"):
+        with McapRecorder(path, objects=CUBE) as rec:
+            rec.add_hand(T0, np.zeros((21, 3)))
+            raise RecordingFormatError("boom")
+    assert path.read_bytes() == good  # the previous file is untouched
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.mcap"]  # no temporary file left
 
 
 @pytest.mark.parametrize(
@@ -301,8 +320,8 @@ def test_unsorted_and_duplicate_timestamps(tmp_path: Path) -> None:
 def test_info_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     path = tmp_path / "d.mcap"
     save(make_demo(), path)
-    assert main(["info", str(path), "--json"]) == 0
-    s = json.loads(capsys.readouterr().out)
+    assert main(["info", str(path), "--json", "-"]) == 0
+    s = json.loads(capsys.readouterr().out)  # stdout is pure JSON, the tables went to stderr
     assert s["complete"] and s["error"] is None and s["warnings"] == []
     hand = next(c for c in s["channels"] if c["topic"] == "/hand/right/keypoints")
     assert hand["count"] == 30 and abs(hand["rate_hz"] - 5.0) < 1e-6
@@ -312,10 +331,14 @@ def test_info_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> Non
     assert main(["info", str(path)]) == 0
     out = capsys.readouterr().out
     assert "pick_up -> place -> move" in out and "cube1" in out
+    out_json = tmp_path / "info.json"
+    assert main(["info", str(path), "--json", str(out_json)]) == 0
+    assert json.loads(out_json.read_text()) == s
     cut = tmp_path / "cut.mcap"
     cut.write_bytes(path.read_bytes()[:30000])
     assert main(["info", str(cut)]) == 0
-    assert "truncated" in capsys.readouterr().out
+    err = capsys.readouterr().err  # warnings: one line each on stderr
+    assert err.startswith("lfd info: warning: ") and "truncated" in err
 
 
 def test_rerun_opens_recording(tmp_path: Path) -> None:

@@ -133,3 +133,34 @@ def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:
         sys.stdout.flush()
         return
     atomic_write_bytes(path, text.encode("utf-8"))
+
+
+class _Discarded(Exception):
+    """Thrown into :func:`atomic_output` to discard the temporary file."""
+
+
+class PendingOutput:
+    """:func:`atomic_output` for a file written over an object's lifetime (a recorder, a sink).
+
+    ``path`` is the temporary file to write; :meth:`commit` renames it onto ``destination``,
+    :meth:`discard` removes it. Both are idempotent, and only the first of them has an effect.
+    """
+
+    def __init__(self, destination: str | os.PathLike[str]) -> None:
+        self.destination = Path(destination)
+        self._cm = atomic_output(destination)
+        self.path: Path = self._cm.__enter__()
+        self._done = False
+
+    def commit(self) -> None:
+        """Move the finished temporary file onto the destination."""
+        if not self._done:
+            self._done = True
+            self._cm.__exit__(None, None, None)
+
+    def discard(self) -> None:
+        """Remove the temporary file; the destination is left as it was."""
+        if not self._done:
+            self._done = True
+            err = _Discarded()
+            self._cm.__exit__(_Discarded, err, None)

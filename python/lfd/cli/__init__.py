@@ -2,14 +2,21 @@
 
 A command module defines ``NAME``, ``HELP``, ``add_arguments(parser)`` and ``run(args) -> int``;
 register it in :data:`COMMANDS`. Heavy imports belong inside ``run`` so ``lfd --help`` is fast.
+
+The error contract (see docs/cli.md): results go to stdout, everything else to stderr; a
+user-caused error is one line, ``lfd <command>: error: <message>``, with exit status 2; a
+warning is one line, ``lfd <command>: warning: <message>``; Ctrl+C exits with 130.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
+import warnings
 from collections.abc import Sequence
+from typing import NoReturn
 
 from ..errors import LfdError
 
@@ -25,38 +32,109 @@ COMMANDS: tuple[str, ...] = (
     "perception",
 )
 
+SIM_MODULES = frozenset({"mujoco", "cv2", "mink"})
+"""Top-level modules of the ``sim`` extra; without them the simulator commands cannot run."""
+SIM_COMMANDS = frozenset({"simulate", "reproduce", "record"})
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line: ``lfd <cmd>: error: ... (see ...)``."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
 
 def build_parser() -> argparse.ArgumentParser:
     from .._version import __version__
 
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="lfd",
         description="Learn a robot manipulation task from a human hand demonstration.",
+        allow_abbrev=False,
     )
     parser.add_argument("--version", action="version", version=f"lfd {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name in COMMANDS:
         mod = importlib.import_module(f"{__name__}.{name}")
-        p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP)
+        # options are never abbreviated: `--out` is not silently `--output`
+        p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP, allow_abbrev=False)
         mod.add_arguments(p)
         p.set_defaults(_run=mod.run)
+        _mark_leaves(p)
     return parser
+
+
+def _mark_leaves(parser: argparse.ArgumentParser) -> None:
+    """Record in each (sub)command's defaults the parser that reports its usage errors."""
+    parser.set_defaults(_parser=parser)
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for child in action.choices.values():
+                child.allow_abbrev = False
+                _mark_leaves(child)
+
+
+def _warning_printer(command: str):  # type: ignore[no-untyped-def]
+    """A ``warnings.showwarning`` that prints ``lfd <command>: warning: <message>``, one line."""
+
+    def show(message, category, filename, lineno, file=None, line=None):  # type: ignore[no-untyped-def]
+        text = " ".join(str(message).split())
+        print(f"lfd {command}: warning: {text}", file=sys.stderr if file is None else file)
+
+    return show
+
+
+def _one_line(err: BaseException) -> str:
+    return " ".join(str(err).split()) or type(err).__name__
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
+    if extra:  # reported by the subcommand's parser: `lfd segment: error: unrecognized ...`
+        getattr(args, "_parser", parser).error(f"unrecognized arguments: {' '.join(extra)}")
     if not hasattr(args, "_run"):
         parser.print_help()
         return 0
+    command = args.command
+    old_show = warnings.showwarning
+    warnings.showwarning = _warning_printer(command)
     try:
-        return int(args._run(args) or 0)
+        status = int(args._run(args) or 0)
+        sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
+        return status
     except LfdError as err:
-        print(f"lfd {args.command}: error: {err}", file=sys.stderr)
+        print(f"lfd {command}: error: {_one_line(err)}", file=sys.stderr)
+        return 2
+    except ModuleNotFoundError as err:
+        top = (err.name or "").split(".")[0]
+        if command in SIM_COMMANDS and top in SIM_MODULES:
+            print(
+                f"lfd {command}: error: this command needs the simulator: pip install 'lfd[sim]'",
+                file=sys.stderr,
+            )
+            return 2
+        raise
+    except BrokenPipeError:
+        # the reader of stdout went away (``lfd info x.mcap --json - | head -1``): stop quietly;
+        # point stdout at devnull so the interpreter's final flush does not fail again
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 141
+    except OSError as err:
+        # a user path that cannot be read or written (missing, permission denied, disk full)
+        where = f"{err.filename}: " if err.filename else ""
+        what = err.strerror or _one_line(err)
+        print(f"lfd {command}: error: {where}{what}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
+        print(f"lfd {command}: interrupted", file=sys.stderr)
         return 130
+    finally:
+        warnings.showwarning = old_show
+        session = getattr(args, "rerun_session", None)
+        if session is not None:  # the command failed: its --rerun-save file is not kept
+            session.abort()
 
 
 if __name__ == "__main__":  # pragma: no cover

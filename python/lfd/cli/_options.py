@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import argparse
-from typing import get_args
+import os
+from collections.abc import Iterable
+from typing import Any, get_args
 
 
 def add_segmentation_arguments(parser: argparse.ArgumentParser, *, used_with: str = "") -> None:
@@ -55,3 +57,60 @@ def segmentation_options(args: argparse.Namespace) -> tuple[str, str]:
             )
         return PAPER_SEARCH, PAPER_GRAMMAR
     return args.search or DEFAULT_SEARCH, args.grammar or DEFAULT_GRAMMAR
+
+
+# --- outputs: one vocabulary (-o/--output FILE, --json OUT|-) -------------------------------
+def add_json_argument(parser: argparse.ArgumentParser, what: str = "the result") -> None:
+    """``--json OUT``: write ``what`` as JSON to OUT, ``-`` for standard output."""
+    parser.add_argument(
+        "--json",
+        metavar="OUT",
+        help=f"write {what} as JSON to OUT ('-': standard output, the tables then go to stderr)",
+    )
+
+
+def json_to_stdout(args: argparse.Namespace) -> bool:
+    """Whether ``--json -`` asked for JSON on standard output (human output then goes to stderr)."""
+    from ..outputs import STDOUT
+
+    return getattr(args, "json", None) == STDOUT
+
+
+def console(args: argparse.Namespace) -> Any:
+    """A rich console for the human-readable output: stdout, or stderr under ``--json -``."""
+    from rich.console import Console
+
+    return Console(stderr=json_to_stdout(args))
+
+
+def check_json(args: argparse.Namespace, inputs: Iterable[str | os.PathLike[str]]) -> None:
+    """Refuse an unusable ``--json`` destination before any work (see :func:`check_output`)."""
+    from ..outputs import check_output
+
+    if getattr(args, "json", None) is not None:
+        check_output(args.json, inputs=inputs, what="--json", allow_stdout=True)
+
+
+def write_json(path: str, doc: Any) -> None:
+    """Write ``doc`` as indented JSON to ``path`` (``-``: stdout), atomically."""
+    import json
+
+    from ..outputs import atomic_write_text
+
+    atomic_write_text(path, json.dumps(doc, indent=2, default=str))
+
+
+def existing_inputs(*paths: str | os.PathLike[str] | None) -> list[str | os.PathLike[str]]:
+    """The given input paths without the ``None``s (for ``check_output(inputs=...)``)."""
+    return [p for p in paths if p is not None]
+
+
+def check_inputs(**named: str | os.PathLike[str] | None) -> None:
+    """Refuse input files that do not exist, before heavy imports (``--hand-model=path``...)."""
+    from ..errors import UsageError
+
+    for option, path in named.items():
+        if path is not None and not os.path.isfile(path):
+            flag = "--" + option.replace("_", "-")
+            what = "is a directory" if os.path.isdir(path) else "does not exist"
+            raise UsageError(f"{flag} {path} {what}; give an existing file")

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
+import sys
 from pathlib import Path
 from typing import Any, get_args
+
+from ._options import add_json_argument, check_json, console, json_to_stdout, write_json
 
 NAME = "eval"
 HELP = "Evaluate lfd's default (dp), the paper's method and two baselines against ground truth."
@@ -15,7 +17,7 @@ HELP = "Evaluate lfd's default (dp), the paper's method and two baselines agains
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("inputs", nargs="+", help="directories or .mcap files with skill labels")
     parser.add_argument("--templates", metavar="FILE", help="template file (default: shipped)")
-    parser.add_argument("--json", metavar="OUT", help="write the full report as JSON")
+    add_json_argument(parser, "the full report")
     from ..segmentation.evaluate import DEFAULT_METHODS, METHODS
     from ..segmentation.pipeline import DEFAULT_GRAMMAR, GrammarUse
 
@@ -48,22 +50,27 @@ def _fmt(k: str, v: float) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.console import Console
     from rich.progress import Progress
     from rich.table import Table
 
+    from ..errors import UsageError
     from ..segmentation import Templates
     from ..segmentation.evaluate import check_methods, evaluate, expand_paths
     from ..segmentation.metrics import METRIC_NAMES
-    from ..viz.cli import close_from_args, open_from_args
+    from ..viz.cli import check_rerun_args, close_from_args, open_from_args
 
-    console = Console()
-    templates = Templates.load(args.templates) if args.templates else None
     methods = check_methods([m.strip() for m in args.methods.split(",") if m.strip()])
     paths = expand_paths(args.inputs)
+    if not paths:
+        raise UsageError(f"no .mcap recordings in {' '.join(args.inputs)}")
+    inputs = [*paths, *([args.templates] if args.templates else [])]
+    check_json(args, inputs)
+    check_rerun_args(args, inputs)
+    con = console(args)
+    templates = Templates.load(args.templates) if args.templates else None
     if open_from_args(args, "lfd_eval"):
-        _show(paths, methods, templates, args.grammar, console)
-    with Progress(console=console, transient=True) as progress:
+        _show(paths, methods, templates, args.grammar, con)
+    with Progress(console=con, transient=True) as progress:
         task = progress.add_task("evaluating", total=len(paths))
         report = evaluate(
             paths,
@@ -73,9 +80,9 @@ def run(args: argparse.Namespace) -> int:
             progress=lambda name: progress.update(task, advance=1, description=name),
         )
     if not report.recordings:
-        console.print("[red]no recordings with ground-truth labels[/]")
-        close_from_args(args)
-        return 1
+        raise UsageError(
+            f"none of the {len(paths)} recordings has ground-truth skill labels to evaluate against"
+        )
     for title, task_name in [*((t, t) for t in report.tasks()), ("overall", None)]:
         summary = report.summary(task_name)
         n = int(next(iter(summary.values()))["n"])
@@ -85,14 +92,15 @@ def run(args: argparse.Namespace) -> int:
             table.add_column(k.replace("_", " "), justify="right")
         for m, vals in summary.items():
             table.add_row(m, *(_fmt(k, vals[k]) for k in METRIC_NAMES))
-        console.print(table)
+        con.print(table)
     for r in report.recordings:
         for m, err in r.errors.items():
-            console.print(f"[yellow]{r.name} {m}: {err}[/]")
-    if args.json:
-        Path(args.json).write_text(json.dumps(report.to_dict(), indent=2), encoding="utf-8")
-        console.print(f"wrote {args.json}")
+            print(f"lfd eval: warning: {r.name} {m}: {' '.join(str(err).split())}", file=sys.stderr)
     close_from_args(args)
+    if args.json:
+        write_json(args.json, report.to_dict())
+        if not json_to_stdout(args):
+            con.print(f"wrote {args.json}")
     return 0
 
 
@@ -101,7 +109,10 @@ def _show(
 ) -> None:
     """Log one recording and every method's result to the open Rerun session."""
     if len(paths) != 1:
-        console.print(f"[yellow]--rerun* shows a single recording; got {len(paths)}[/]")
+        print(
+            f"lfd eval: warning: --rerun* shows a single recording; got {len(paths)}",
+            file=sys.stderr,
+        )
         return
     from ..io import load
     from ..viz.pipeline import log_methods, log_recorded_demo

@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import warnings
+
+from ._options import add_json_argument, check_json, console, json_to_stdout, write_json
 
 NAME = "info"
 HELP = "Summarise a recording: channels, duration, objects, skill labels, metadata, damage."
@@ -12,9 +15,7 @@ HELP = "Summarise a recording: channels, duration, objects, skill labels, metada
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("recording", help="an lfd MCAP recording")
-    parser.add_argument(
-        "--json", action="store_true", help="print a machine-readable JSON summary instead"
-    )
+    add_json_argument(parser, "the summary")
 
 
 def _fmt_t(t_ns: int, t0: int) -> str:
@@ -85,14 +86,13 @@ def summarise(path: str) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_json(args, inputs=[args.recording])
     s = summarise(args.recording)
     if args.json:
-        print(json.dumps(s, indent=2, default=str))
-        return 0 if s["error"] is None else 2
-    from rich.console import Console
+        write_json(args.json, s)
     from rich.table import Table
 
-    con = Console()
+    con = console(args)
     state = "[green]complete[/]" if s["complete"] else f"[red]damaged[/] ({s['damage']})"
     con.print(
         f"[bold]{s['path']}[/]  {s['file_size'] / 1024:.1f} KiB, {s['messages']} messages, "
@@ -131,9 +131,11 @@ def run(args: argparse.Namespace) -> int:
         con.print("metadata: " + json.dumps(s["metadata"], default=str))
     if s.get("camera"):
         con.print(f"camera: {s['camera']['width']} x {s['camera']['height']}")
+    if args.json and not json_to_stdout(args):
+        con.print(f"wrote {args.json}")
     for w in s["warnings"]:
-        con.print(f"[yellow]warning:[/] {w}")
+        print(f"lfd info: warning: {' '.join(str(w).split())}", file=sys.stderr)
     if s["error"]:
-        con.print(f"[red]error:[/] {s['error']}")
+        print(f"lfd info: error: {' '.join(str(s['error']).split())}", file=sys.stderr)
         return 2
     return 0

@@ -1,15 +1,16 @@
 """``lfd perception``: train and evaluate the depth hand-keypoint network (needs torch).
 
-    lfd perception train --out model.pt [--samples 6000] [--epochs 40] [--resume]
-    lfd perception eval --model model.pt [--samples 300]
+    lfd perception train -o model.pt [--samples 6000] [--epochs 40] [--resume]
+    lfd perception eval --hand-model model.pt [--samples 300]
 
 Training renders randomised hand crops with the simulated demonstrator (``--data`` caches them
-as .npz), shows progress, and checkpoints every epoch to ``<out>.ckpt`` (``--resume``).
+as .npz), shows progress, and checkpoints every epoch to ``<output>.ckpt`` (``--resume``).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 
 NAME = "perception"
 HELP = "Train / evaluate the depth hand-keypoint network (needs the perception extra)."
@@ -18,21 +19,45 @@ HELP = "Train / evaluate the depth hand-keypoint network (needs the perception e
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="action", required=True)
     t = sub.add_parser("train", help="train the hand network on rendered depth crops")
-    t.add_argument("--out", required=True, help="output weights (.pt)")
+    t.add_argument("-o", "--output", required=True, metavar="FILE.pt", help="output weights (.pt)")
     t.add_argument("--samples", type=int, default=6000, help="training crops to render (6000)")
-    t.add_argument("--data", nargs="*", help="use/cache rendered sets (.npz) instead")
-    t.add_argument("--epochs", type=int, default=40)
-    t.add_argument("--batch", type=int, default=64)
-    t.add_argument("--lr", type=float, default=2e-3)
-    t.add_argument("--seed", type=int, default=1)
+    t.add_argument(
+        "--data",
+        nargs="*",
+        metavar="SET.npz",
+        help="use these rendered sets (.npz) instead of rendering; a missing first one is "
+        "rendered and cached there",
+    )
+    t.add_argument("--epochs", type=int, default=40, help="training epochs (40)")
+    t.add_argument("--batch", type=int, default=64, help="batch size (64)")
+    t.add_argument("--lr", type=float, default=2e-3, help="Adam learning rate (0.002)")
+    t.add_argument("--seed", type=int, default=1, help="random seed of renders and weights (1)")
     t.add_argument("--threads", type=int, default=2, help="torch CPU threads (2)")
-    t.add_argument("--resume", action="store_true", help="continue from <out>.ckpt")
-    t.add_argument("--init", help="start from the weights of this model (fine-tune)")
+    t.add_argument("--resume", action="store_true", help="continue from <output>.ckpt")
+    t.add_argument(
+        "--init", metavar="FILE.pt", help="start from the weights of this model (fine-tune)"
+    )
     t.add_argument("--val-samples", type=int, default=200, help="held-out crops (200)")
     e = sub.add_parser("eval", help="keypoint error on held-out rendered crops")
-    e.add_argument("--model", help="weights (default: shipped)")
-    e.add_argument("--samples", type=int, default=300)
+    e.add_argument("--hand-model", metavar="FILE.pt", help="weights (default: shipped)")
+    e.add_argument("--samples", type=int, default=300, help="held-out crops to render (300)")
     e.add_argument("--seed", type=int, default=99, help="seed of the held-out renders (99)")
+
+
+def _check(args: argparse.Namespace) -> None:
+    """Refuse unusable outputs before torch is imported and anything is rendered."""
+    from ..outputs import check_output
+    from ._options import check_inputs
+
+    if args.action != "train":
+        check_inputs(hand_model=args.hand_model)
+        return
+    check_inputs(init=args.init)
+    inputs = [p for p in (args.init, *(args.data or [])) if p]
+    check_output(args.output, inputs=inputs, what="-o/--output", suffixes=(".pt",))
+    check_output(f"{args.output}.ckpt", inputs=inputs, what="checkpoint")
+    if args.data and not all(os.path.exists(p) for p in args.data):
+        check_output(args.data[0], what="--data cache", suffixes=(".npz",))
 
 
 def _render(n: int, seed: int) -> dict:  # type: ignore[type-arg]
@@ -46,9 +71,9 @@ def _render(n: int, seed: int) -> dict:  # type: ignore[type-arg]
 
 
 def run(args: argparse.Namespace) -> int:
-    import os
-
     import numpy as np
+
+    _check(args)
 
     from ..perception.hand.infer import _torch
 
@@ -62,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     if args.action == "eval":
         from ..perception.hand.infer import HandEstimator
 
-        est = HandEstimator(args.model, threads=2)
+        est = HandEstimator(args.hand_model, threads=2)
         err = heldout_error_mm(est, args.samples, args.seed)
         print(
             f"mean keypoint error {err.mean():.1f} mm (median {np.median(err):.1f}, n={err.size}; "
@@ -74,16 +99,16 @@ def run(args: argparse.Namespace) -> int:
     else:
         data = _render(args.samples, args.seed)
         if args.data:
-            np.savez(
-                args.data[0],
-                points=data["points"],
-                keypoints=data["keypoints"],
-                centre=data["centre"],
-            )
+            from ..outputs import atomic_output
+
+            with atomic_output(args.data[0]) as tmp, open(tmp, "wb") as fh:
+                np.savez(
+                    fh, points=data["points"], keypoints=data["keypoints"], centre=data["centre"]
+                )
     val = _render(args.val_samples, 99)
     summary = train(
         data,
-        args.out,
+        args.output,
         epochs=args.epochs,
         batch=args.batch,
         lr=args.lr,
@@ -93,5 +118,5 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed,
         init=args.init,
     )
-    print(f"saved {args.out}: {summary}")
+    print(f"saved {args.output}: {summary}")
     return 0

@@ -23,7 +23,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--source", required=True, help="sim:TASK, frames:DIR or camera:N (device index)"
     )
-    parser.add_argument("-o", "--output", required=True, help="output .mcap")
+    parser.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        help="output .mcap (written beside it as .NAME.*.partial until the recording stops)",
+    )
     parser.add_argument("--duration", type=float, help="stop after this many seconds of frames")
     parser.add_argument("--hand-rate", type=float, default=5.0, help="hand estimator rate, Hz (5)")
     parser.add_argument("--fps", type=float, help="sim source: camera frame rate (30)")
@@ -34,7 +39,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="MODULE:FACTORY",
         help="camera source: factory() returns a depth reader (read() -> uint16 mm image)",
     )
-    parser.add_argument("--hand-model", help="hand network weights (default: shipped model)")
+    parser.add_argument(
+        "--hand-model", metavar="FILE.pt", help="hand network weights (default: shipped model)"
+    )
     parser.add_argument(
         "--aruco-dict", default="DICT_4X4_50", help="ArUco dictionary of the tags (DICT_4X4_50)"
     )
@@ -59,10 +66,18 @@ def run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
+    from ..outputs import check_output
     from ..perception.record import record
     from ..perception.sources import open_source
-    from ..viz.cli import close_from_args, open_from_args
+    from ..viz.cli import check_rerun_args, close_from_args, open_from_args
+    from ._options import check_inputs
 
+    check_inputs(intrinsics=args.intrinsics, hand_model=args.hand_model)
+    inputs = [p for p in (args.intrinsics, args.hand_model) if p]
+    if args.source.startswith("frames:"):
+        inputs.append(args.source[len("frames:") :])
+    check_output(args.output, inputs=inputs, what="-o/--output", suffixes=(".mcap",))
+    check_rerun_args(args, inputs=[*inputs, args.output])
     if args.duration is not None and args.duration <= 0:
         from ..errors import LfdError
 

@@ -3,9 +3,15 @@
 from __future__ import annotations
 
 import argparse
-import json
 
-from ._options import add_segmentation_arguments, segmentation_options
+from ._options import (
+    add_json_argument,
+    add_segmentation_arguments,
+    check_json,
+    json_to_stdout,
+    segmentation_options,
+    write_json,
+)
 
 NAME = "reproduce"
 HELP = "Reproduce a demonstration on a simulated 7-DoF arm (replay, skills or DMP) and measure it."
@@ -36,7 +42,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="segment the recording with lfd.segment instead of using its ground-truth labels",
     )
     add_segmentation_arguments(parser, used_with="with --segment")
-    parser.add_argument("--json", metavar="OUT.json", help="write the measurements as JSON")
+    add_json_argument(parser, "the task program and the measurements")
     parser.add_argument(
         "--video", metavar="OUT.mp4", help="render a video of the (last) mode (imageio or OpenCV)"
     )
@@ -60,8 +66,11 @@ def run(args: argparse.Namespace) -> int:
         parse_displacement,
         reproduce,
     )
-    from ..viz.cli import close_from_args, open_from_args
+    from ..viz.cli import check_rerun_args, close_from_args, open_from_args
 
+    inputs = [p for p in (args.recording, args.task) if p]
+    check_json(args, inputs)
+    check_rerun_args(args, inputs)
     console = Console(stderr=True)
     show = open_from_args(args, "lfd_reproduce")
     demo = load(args.recording, images=False)
@@ -119,18 +128,15 @@ def run(args: argparse.Namespace) -> int:
             "yes" if r.success else "no",
             objs,
         )
-    Console().print(table)
+    out = console if json_to_stdout(args) else Console()  # stdout is JSON only under --json -
+    out.print(table)
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(
-                {
-                    "recording": args.recording,
-                    "program": program.to_json(),
-                    "results": {m: r.to_json() for m, r in results.items()},
-                },
-                fh,
-                indent=2,
-            )
+        doc = {
+            "recording": args.recording,
+            "program": program.to_json(),
+            "results": {m: r.to_json() for m, r in results.items()},
+        }
+        write_json(args.json, doc)
     if args.video:
         ex = results[modes[-1]].execution
         if ex is not None and ex.frames:

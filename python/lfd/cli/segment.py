@@ -3,12 +3,20 @@
 from __future__ import annotations
 
 import argparse
-import json
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from ._options import add_segmentation_arguments, segmentation_options
+from ._options import (
+    add_json_argument,
+    add_segmentation_arguments,
+    check_json,
+    console,
+    json_to_stdout,
+    segmentation_options,
+    write_json,
+)
 
 NAME = "segment"
 HELP = "Segment a recording into skills (two-stage HMM template matching)."
@@ -18,7 +26,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("recording", help="an lfd MCAP recording")
     parser.add_argument("--templates", metavar="FILE", help="template file (default: shipped)")
     add_segmentation_arguments(parser)
-    parser.add_argument("--json", metavar="OUT", help="also write the result as JSON to OUT")
+    add_json_argument(parser, "the segments (and metrics against the ground truth)")
     from ..viz.cli import add_rerun_arguments
 
     add_rerun_arguments(parser)
@@ -74,11 +82,13 @@ def _show_demo(shown: list[Any]) -> Callable[[Any], None]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.console import Console
     from rich.table import Table
 
-    from ..viz.cli import close_from_args, open_from_args
+    from ..viz.cli import check_rerun_args, close_from_args, open_from_args
 
+    inputs = [p for p in (args.recording, args.templates) if p]
+    check_json(args, inputs)
+    check_rerun_args(args, inputs)
     show = open_from_args(args, "lfd_segment")
     shown: list[Any] = []  # the trajectory made while showing the demonstration
     demo, result, doc = segment_recording(args, on_loaded=_show_demo(shown) if show else None)
@@ -93,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
             templates=Templates.load(args.templates) if args.templates else None,
             ground_truth=False,  # logged with the demonstration
         )
-    console = Console()
+    con = console(args)
     table = Table(title=f"{Path(args.recording).name}: {result.method} segmentation")
     for col in ("#", "skill", "start s", "end s", "object", "score", "confidence"):
         table.add_column(col, justify="right" if col not in ("skill", "object") else "left")
@@ -107,7 +117,7 @@ def run(args: argparse.Namespace) -> int:
             f"{s.score:.2f}",
             f"{s.confidence:.2f}",
         )
-    console.print(table)
+    con.print(table)
     if doc["ground_truth"]:
         gt = Table(title="ground truth")
         for col in ("#", "skill", "start s", "end s", "object"):
@@ -117,17 +127,18 @@ def run(args: argparse.Namespace) -> int:
                 str(n), g["skill"], f"{g['start_s']:.2f}",
                 f"{g['end_s']:.2f}", g["object"] or "-",
             )  # fmt: skip
-        console.print(gt)
+        con.print(gt)
         mt = Table(title="metrics")
         mt.add_column("metric")
         mt.add_column("value", justify="right")
         for k, v in doc["metrics"].items():
             mt.add_row(k, "-" if v is None else f"{v:.3f}")
-        console.print(mt)
+        con.print(mt)
     for w in result.warnings:
-        console.print(f"[yellow]warning:[/] {w}")
-    if args.json:
-        Path(args.json).write_text(json.dumps(doc, indent=2), encoding="utf-8")
-        console.print(f"wrote {args.json}")
+        print(f"lfd segment: warning: {' '.join(str(w).split())}", file=sys.stderr)
     close_from_args(args)
+    if args.json:
+        write_json(args.json, doc)
+        if not json_to_stdout(args):
+            con.print(f"wrote {args.json}")
     return 0

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -38,15 +39,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"exp1-exp4 or a skill name for its template task ({', '.join(sorted(TASKS))})",
     )
     parser.add_argument(
-        "-o", "--output", required=True, help="output .mcap (or directory with --set)"
+        "-o", "--output", required=True, help="output .mcap (a directory with --set)"
     )
     parser.add_argument(
-        "--set", choices=SETS, help="generate a whole recording set into a directory"
+        "--set",
+        choices=SETS,
+        help="generate a whole recording set into the -o directory (no TASK then)",
     )
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--render", action="store_true", help="also render colour + depth frames")
     parser.add_argument("--render-rate", type=float, default=10.0, help="render rate, Hz (10)")
-    parser.add_argument("--color-format", choices=("raw", "png", "jpeg"), default="png")
+    parser.add_argument(
+        "--color-format",
+        choices=("raw", "png", "jpeg"),
+        default="png",
+        help="how rendered colour frames are stored (png)",
+    )
     parser.add_argument("--duration", type=float, help="keep only the first seconds")
     parser.add_argument("--hand-rate", type=float, default=5.0, help="keypoint rate, Hz (5)")
     v = parser.add_argument_group("variability (default: drawn per demo)")
@@ -148,18 +156,47 @@ def record(
     return result
 
 
+def _check_set_directory(out: Path) -> None:
+    """Refuse a ``--set`` destination that is a file or cannot be created or written."""
+    from ..errors import UsageError
+
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"-o/--output {out}: --set writes a directory, and this is a file")
+    base = out
+    while not base.exists():  # the nearest existing ancestor must let us create the rest
+        base = base.parent
+    if not base.is_dir() or not os.access(base, os.W_OK | os.X_OK):
+        raise UsageError(f"-o/--output {out}: directory {base} is not writable")
+
+
 def run(args: argparse.Namespace) -> int:
     os.environ.setdefault("MUJOCO_GL", "egl")
-    from rich.progress import Progress
+    from ..errors import UsageError
+    from ..outputs import check_output
+    from ..viz.cli import check_rerun_args
 
-    from ..errors import DemonstrationError
+    if args.set and args.task:
+        raise UsageError(
+            f"--set {args.set} generates its own tasks; drop {args.task} (or drop --set)"
+        )
+    if not args.set and not args.task:
+        raise UsageError("give a TASK (e.g. exp1) or --set templates|eval|samples")
+    if args.set:
+        _check_set_directory(Path(args.output))
+    else:
+        check_output(args.output, what="-o/--output", suffixes=(".mcap",))
+    check_rerun_args(args, inputs=[args.output])
+    from rich.progress import Progress
 
     var = _variability(args)
     if args.set:
         from ..viz.cli import wants_rerun
 
         if wants_rerun(args):
-            print("--rerun* shows a single demonstration; ignored with --set")
+            print(
+                "lfd simulate: warning: --rerun* shows a single demonstration; ignored with --set",
+                file=sys.stderr,
+            )
         jobs = _jobs(args.set, Path(args.output))
         with Progress() as progress:
             bar = progress.add_task(f"simulating {args.set}", total=len(jobs))
@@ -176,8 +213,6 @@ def run(args: argparse.Namespace) -> int:
                 progress.advance(bar)
         print(f"wrote {len(jobs)} recordings to {args.output}")
         return 0
-    if not args.task:
-        raise DemonstrationError("give a TASK or --set")
     from ..viz.cli import close_from_args, open_from_args
 
     show = open_from_args(args, "lfd_simulate")

@@ -14,7 +14,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
     train = sub.add_parser("train", help="train templates from a directory of MCAP recordings")
     train.add_argument("inputs", nargs="+", help="directories or .mcap files with skill labels")
-    train.add_argument("-o", "--output", required=True, help="template file to write (JSON)")
+    train.add_argument(
+        "-o", "--output", required=True, metavar="FILE.json", help="template file to write (JSON)"
+    )
     train.add_argument(
         "--params", metavar="JSON", help="engine template parameters to override (JSON object)"
     )
@@ -26,6 +28,8 @@ def run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.progress import Progress
 
+    from ..errors import UsageError
+    from ..outputs import check_output
     from ..segmentation import Templates, train_templates
     from ..segmentation.evaluate import expand_paths
 
@@ -40,8 +44,8 @@ def run(args: argparse.Namespace) -> int:
         return 0
     paths = expand_paths(args.inputs)
     if not paths:
-        console.print("[red]no .mcap recordings found[/]")
-        return 1
+        raise UsageError(f"no .mcap recordings in {' '.join(args.inputs)}")
+    check_output(args.output, inputs=paths, what="-o/--output")
     params = json.loads(args.params) if args.params else None
     with Progress(console=console) as progress:
         task = progress.add_task("reading templates", total=len(paths) + 1)

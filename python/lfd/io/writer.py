@@ -1,9 +1,15 @@
 """Write demonstrations to MCAP, incrementally (:class:`McapRecorder`) or at once (:func:`save`).
 
-The recorder is safe to interrupt: chunks are closed at least every ``max_chunk_duration_s`` of
+The file is written to a temporary file beside the destination, ``.NAME.XXXXXXXX.partial``
+(:attr:`McapRecorder.partial_path`), and renamed to ``NAME`` when it is closed: a recording
+under the requested name is always complete. A recording stopped by Ctrl+C is closed normally
+(see ``lfd record``); :func:`save` failing midway leaves no file.
+
+The recorder is also safe to kill: chunks are closed at least every ``max_chunk_duration_s`` of
 capture time (and whenever they reach ``chunk_size`` bytes) and flushed to the operating system,
-so a process killed mid-recording leaves a file from which :func:`lfd.io.load` recovers every
-complete chunk. See :mod:`lfd.io.topics` for the layout.
+so a process killed hard (SIGKILL, power loss) leaves the ``.partial`` file, from which
+:func:`lfd.io.load` and ``lfd info`` recover every complete chunk (rename it to keep it). See
+:mod:`lfd.io.topics` for the layout.
 """
 
 from __future__ import annotations
@@ -37,6 +43,7 @@ from ..demo import (
     SkillLabel,
 )
 from ..errors import DemonstrationError
+from ..outputs import PendingOutput
 from . import messages as M
 from . import topics as T
 from .images import COLOR_FORMATS, encode_compressed
@@ -62,7 +69,8 @@ class McapRecorder:
     Parameters
     ----------
     path : str or os.PathLike
-        Output file (overwritten).
+        Output file, replaced when the recorder is closed (written until then to
+        :attr:`partial_path` beside it).
     objects : sequence of (name, tag_id, size)
         The AR-tagged boxes; ``size`` has shape (3,), metres. Names become topics and must not
         contain ``/``.
@@ -116,7 +124,10 @@ class McapRecorder:
         self._max_chunk_ns = (
             math.inf if math.isinf(max_chunk_duration_s) else int(max_chunk_duration_s * 1e9)
         )
-        self._file: IO[bytes] = open(self.path, "wb")
+        self._pending = PendingOutput(self.path)
+        self.partial_path = os.fspath(self._pending.path)
+        """The temporary file being written; renamed to :attr:`path` by :meth:`close`."""
+        self._file: IO[bytes] = open(self.partial_path, "wb")
         self._writer = _McapWriter(
             self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD
         )
@@ -373,20 +384,36 @@ class McapRecorder:
 
     # --- lifetime ---------------------------------------------------------------------------
     def close(self) -> None:
-        """Finish the file (summary, index, footer). Idempotent."""
+        """Finish the file (summary, index, footer) and move it to :attr:`path`. Idempotent."""
         if self._closed:
             return
         self._closed = True
         try:
             self._writer.finish()
-        finally:
             self._file.close()
+        except BaseException:
+            self._file.close()
+            self._pending.discard()
+            raise
+        self._pending.commit()
+
+    def discard(self) -> None:
+        """Stop recording and remove the temporary file; :attr:`path` is left as it was."""
+        if self._closed:
+            return
+        self._closed = True
+        self._file.close()
+        self._pending.discard()
 
     def __enter__(self) -> McapRecorder:
         return self
 
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+    def __exit__(self, exc_type: type[BaseException] | None, *exc: object) -> None:
+        """Close the file; an exception (Ctrl+C included) in the block discards it instead."""
+        if exc_type is None:
+            self.close()
+        else:
+            self.discard()
 
 
 def save(demo: Demonstration, path: str | os.PathLike[str], **kwargs: Any) -> None:

@@ -83,7 +83,8 @@ def record(
     ``{"dictionary": "DICT_5X5_100", "reference_size": 0.15}``.
 
     ``progress(stats)`` is called after every frame. KeyboardInterrupt stops the recording
-    cleanly (the file is closed and complete); ``stats.interrupted`` tells it happened.
+    cleanly (the file is closed, complete and renamed to ``output``); ``stats.interrupted``
+    tells it happened. Any other exception removes the unfinished file.
     """
     from ..io import McapRecorder
 
@@ -157,8 +158,11 @@ def record(
                 break
     except KeyboardInterrupt:
         stats.interrupted = True
+    except BaseException:
+        rec.discard()  # a failed recording leaves no file under the requested name
+        raise
     finally:
-        rec.close()
+        rec.close()  # no-op after discard
         source.close()
     return stats
 

@@ -116,8 +116,10 @@ class Templates:
             raise ModelFormatError(f"{p}: {err}") from None
 
     def save(self, path: str | Path) -> None:
-        """Write the templates as JSON."""
-        Path(path).write_text(self.to_json(), encoding="utf-8")
+        """Write the templates as JSON (atomically: a failed write leaves no partial file)."""
+        from ..outputs import atomic_write_text
+
+        atomic_write_text(path, self.to_json())
 
     @classmethod
     def default(cls) -> Templates:

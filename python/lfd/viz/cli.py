@@ -11,9 +11,13 @@ A command calls :func:`add_rerun_arguments` in ``add_arguments`` and, in ``run``
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+import urllib.parse
+from collections.abc import Iterable
 from typing import Any
 
+from ..errors import UsageError
 from .session import DEFAULT_GRPC_PORT, DEFAULT_WEB_PORT, Session, open_session
 
 _SESSION_ATTR = "rerun_session"
@@ -29,7 +33,9 @@ def add_rerun_arguments(parser: argparse.ArgumentParser) -> None:
         "served instead)",
     )
     group.add_argument(
-        "--rerun-save", metavar="FILE.rrd", help="save the Rerun recording to a file"
+        "--rerun-save",
+        metavar="FILE.rrd",
+        help="save the Rerun recording to a .rrd file (written when the command succeeds)",
     )
     group.add_argument(
         "--rerun-connect",
@@ -42,6 +48,43 @@ def add_rerun_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"serve the web viewer on http://localhost:{DEFAULT_WEB_PORT} (gRPC on "
         f"{DEFAULT_GRPC_PORT}) and print its address",
     )
+
+
+CONNECT_SCHEMES = ("rerun", "rerun+http", "rerun+https")
+"""URL schemes of ``--rerun-connect``: those the Rerun SDK's ``GrpcSink`` accepts (its URLs
+end in ``/proxy``)."""
+
+
+def check_rerun_args(
+    args: argparse.Namespace, inputs: Iterable[str | os.PathLike[str]] = ()
+) -> None:
+    """Refuse unusable ``--rerun-save`` / ``--rerun-connect`` values before any work.
+
+    Raises
+    ------
+    UsageError
+        ``--rerun-save`` is an input, not a ``.rrd`` file, or not writable; ``--rerun-connect``
+        is not a ``rerun+http://HOST:PORT/proxy`` URL (``rerun://``, ``rerun+https://`` too).
+    """
+    from ..outputs import check_output
+
+    save = getattr(args, "rerun_save", None)
+    if save is not None:
+        check_output(save, inputs=inputs, what="--rerun-save", suffixes=(".rrd",))
+    url = getattr(args, "rerun_connect", None)
+    if url is not None:
+        parts = urllib.parse.urlsplit(url)
+        bad_path = parts.path.rstrip("/") != "/proxy"
+        if parts.scheme not in CONNECT_SCHEMES or not parts.hostname or bad_path:
+            raise UsageError(
+                f"--rerun-connect {url!r} is not a viewer URL; give e.g. "
+                f"rerun+http://127.0.0.1:{DEFAULT_GRPC_PORT}/proxy "
+                f"(schemes: {', '.join(s + '://' for s in CONNECT_SCHEMES)})"
+            )
+        try:
+            parts.port  # noqa: B018 - raises ValueError on a bad port
+        except ValueError as err:
+            raise UsageError(f"--rerun-connect {url!r}: {err}") from err
 
 
 def wants_rerun(args: argparse.Namespace) -> bool:
@@ -70,6 +113,7 @@ def open_from_args(args: argparse.Namespace, app_id: str, **kwargs: Any) -> bool
         save=getattr(args, "rerun_save", None),
         connect=getattr(args, "rerun_connect", None),
         serve=bool(getattr(args, "rerun_serve", False)),
+        atomic_save=True,
         **kwargs,
     )
     for message in session.messages:
@@ -88,4 +132,12 @@ def close_from_args(args: argparse.Namespace, *, wait_serving: bool | None = Non
     session = session_from_args(args)
     if session is not None:
         session.close(wait_serving=wait_serving)
+        setattr(args, _SESSION_ATTR, None)
+
+
+def abort_from_args(args: argparse.Namespace) -> None:
+    """Drop the session of a failed command: its ``--rerun-save`` file is not written."""
+    session = session_from_args(args)
+    if session is not None:
+        session.abort()
         setattr(args, _SESSION_ATTR, None)

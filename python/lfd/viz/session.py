@@ -18,6 +18,7 @@ from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
 from ..errors import LfdError
+from ..outputs import PendingOutput
 
 if TYPE_CHECKING:
     import rerun as rr
@@ -93,6 +94,8 @@ class Session:
     connect_url: str | None = None
     serve_url: str | None = None
     messages: list[str] = field(default_factory=list)
+    pending_save: PendingOutput | None = None
+    """With ``atomic_save``: the temporary file beside :attr:`save_path` written until close."""
 
     def flush(self) -> None:
         """Send everything logged so far to every sink."""
@@ -127,6 +130,17 @@ class Session:
                     "use --rerun-save FILE.rrd to keep the data",
                     file=sys.stderr,
                 )
+        self._disconnect()
+        if self.pending_save is not None:
+            self.pending_save.commit()
+
+    def abort(self) -> None:
+        """Stop streaming without keeping the ``.rrd`` file (when it was opened atomically)."""
+        self._disconnect()
+        if self.pending_save is not None:
+            self.pending_save.discard()
+
+    def _disconnect(self) -> None:
         self.recording.disconnect()
         rr = import_rerun()
         current = rr.get_global_data_recording()
@@ -146,6 +160,7 @@ def open_session(
     recording_id: str | None = None,
     blueprint: Any = None,
     make_default: bool = True,
+    atomic_save: bool = False,
 ) -> Session:
     """Open a Rerun recording with the requested sinks and send the default blueprint.
 
@@ -168,6 +183,10 @@ def open_session(
         The default blueprint; :func:`lfd.viz.blueprint.default_blueprint` when omitted.
     make_default : bool
         Make the recording the global default, so ``recording=None`` logs to it.
+    atomic_save : bool
+        Write ``save`` to a temporary file beside it, renamed onto it by :meth:`Session.close`
+        (and removed by :meth:`Session.abort`): a failed run leaves no ``.rrd``, and two runs
+        saving to the same file cannot interleave. The ``lfd`` commands use it.
 
     Returns
     -------
@@ -202,17 +221,22 @@ def open_session(
         if connect is not None:
             messages.append(f"streaming to {connect_url}")
     save_path = None
+    pending = None
     if save is not None:
         save_path = Path(save)
         save_path.parent.mkdir(parents=True, exist_ok=True)
-        sinks.append(rr.FileSink(str(save_path)))
-        messages.append(f"saving to {save_path}")
+        pending = PendingOutput(save_path) if atomic_save else None
+        sinks.append(rr.FileSink(str(save_path if pending is None else pending.path)))
+        if not atomic_save:  # the lfd commands stay quiet about it (stderr is for problems)
+            messages.append(f"saving to {save_path}")
     serve_url = None
     if serve:
         if connect_url is not None and grpc_port == SPAWN_PORT:
             grpc_port = SPAWN_PORT + 1  # the spawned viewer holds the default port
         for port in (grpc_port, web_port):
             if _port_open(port):
+                if pending is not None:
+                    pending.discard()
                 raise LfdError(
                     f"cannot serve the Rerun web viewer: port {port} is in use (a viewer "
                     f"already running? stream to it with --rerun-connect "
@@ -237,6 +261,7 @@ def open_session(
         connect_url=connect_url,
         serve_url=serve_url,
         messages=messages,
+        pending_save=pending,
     )
 
 

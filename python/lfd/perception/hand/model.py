@@ -78,9 +78,12 @@ class HandPointNet(nn.Module):  # type: ignore[misc]
 
 
 def save_model(model: HandPointNet, path: str, **extra: Any) -> None:
-    """Save weights (float32) and config to ``path``."""
+    """Save weights (float32) and config to ``path`` (atomically: temporary file + rename)."""
+    from ...outputs import atomic_output
+
     state = {k: v.detach().float().cpu() for k, v in model.state_dict().items()}
-    torch.save({"version": MODEL_VERSION, "config": model.config, "state": state, **extra}, path)
+    with atomic_output(path) as tmp:
+        torch.save({"version": MODEL_VERSION, "config": model.config, "state": state, **extra}, tmp)
 
 
 def load_model(path: str) -> tuple[HandPointNet, dict[str, Any]]:

@@ -1,6 +1,6 @@
 """Train the hand keypoint network on depth crops rendered by the simulated demonstrator.
 
-``lfd perception train --out model.pt`` renders (or loads, ``--data``) the training set, trains
+``lfd perception train -o model.pt`` renders (or loads, ``--data``) the training set, trains
 with Adam and a cosine schedule, shows progress with rich, and writes a checkpoint
 (``<out>.ckpt``: weights, optimiser, epoch) after every epoch so ``--resume`` continues an
 interrupted run. The loss is the mean Euclidean keypoint error.
@@ -94,6 +94,7 @@ def train(
     import torch
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
+    from ...outputs import atomic_output
     from .dataset import N_POINTS
     from .model import HandPointNet, save_model
 
@@ -163,17 +164,18 @@ def train(
                 history.append(val)
                 info += f", held-out {val:.1f} mm"
             progress.update(task, advance=1, info=info)
-            torch.save(
-                {
-                    "model": model.state_dict(),
-                    "opt": opt.state_dict(),
-                    "sched": sched.state_dict(),
-                    "epoch": epoch + 1,
-                    "epochs": epochs,
-                    "samples": n,
-                },
-                ckpt_path,
-            )
+            with atomic_output(ckpt_path) as tmp:  # an interrupted save keeps the last one
+                torch.save(
+                    {
+                        "model": model.state_dict(),
+                        "opt": opt.state_dict(),
+                        "sched": sched.state_dict(),
+                        "epoch": epoch + 1,
+                        "epochs": epochs,
+                        "samples": n,
+                    },
+                    tmp,
+                )
     summary: dict[str, Any] = {"samples": int(n), "epochs": int(epochs)}
     if init is not None:
         summary["init"] = os.path.basename(os.fspath(init))

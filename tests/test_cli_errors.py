@@ -1,0 +1,268 @@
+"""The CLI's error contract: every mistake a user can make ends as one line on stderr, exit 2.
+
+:data:`CASES` is the one list of such mistakes: add a case as one line, ``(id, command line,
+expected part of the message)``. The command line is split like a shell would and these
+placeholders are filled in:
+
+``{rec}``   a copy of ``recordings/exp1.mcap`` (an input: it must come out unchanged)
+``{tmp}``   a fresh empty directory (the test checks that nothing is left behind in it)
+``{ro}``    a read-only directory inside ``{tmp}``
+``{bad}``   a file of garbage bytes, ``{tmp}/bad.json``
+``{docs}``  the repository's ``docs/`` (a folder without recordings)
+
+Every case runs ``python -m lfd.cli`` in a subprocess and must exit with status 2, print exactly
+one non-empty line on stderr, starting with ``lfd `` and without a traceback, modify no input
+and leave no output (nor temporary) file. Keep cases fast: fail before the heavy work.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shlex
+import stat
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+EXP1 = ROOT / "recordings" / "exp1.mcap"
+
+# fmt: off
+CASES: list[tuple[str, str, str]] = [
+    # info
+    ("info-missing", "info {tmp}/nope.mcap", "nope.mcap"),
+    ("info-json-is-input", "info {rec} --json {rec}", "also an input"),
+    ("info-json-missing-dir", "info {rec} --json {tmp}/no/such/dir/x.json", "does not exist"),
+    # simulate
+    ("simulate-task-and-set", "simulate exp1 --set eval -o {tmp}/set", "drop exp1"),
+    ("simulate-no-task", "simulate -o {tmp}/x.mcap", "give a TASK"),
+    ("simulate-set-into-file", "simulate --set eval -o {rec}", "is a file"),
+    ("simulate-output-missing-dir", "simulate exp1 -o {tmp}/no/x.mcap", "does not exist"),
+    ("simulate-output-extension", "simulate exp1 -o {tmp}/x.json", "extension"),
+    ("simulate-unknown-task", "simulate exp9 -o {tmp}/x.mcap", "invalid choice"),
+    # segment
+    ("segment-json-is-input", "segment {rec} --json {rec}", "also an input"),
+    ("segment-rrd-is-input", "segment {rec} --rerun-save {rec}", "also an input"),
+    ("segment-rrd-extension", "segment {rec} --rerun-save {tmp}/x.mcap", "extension"),
+    ("segment-json-missing-dir", "segment {rec} --json {tmp}/no/x.json", "does not exist"),
+    ("segment-json-is-dir", "segment {rec} --json {tmp}", "is a directory"),
+    ("segment-json-read-only-dir", "segment {rec} --json {ro}/x.json", "not writable"),
+    ("segment-missing-input", "segment {tmp}/nope.mcap", "nope.mcap"),
+    ("segment-input-is-dir", "segment {tmp}", ""),
+    ("segment-rerun-connect", "segment {rec} --rerun-connect bogus://", "not a viewer URL"),
+    ("segment-rerun-connect-http", "segment {rec} --rerun-connect http://h:1/proxy", "rerun+http"),
+    ("segment-unknown-option", "segment {rec} --bogus", "unrecognized arguments"),
+    ("segment-bad-choice", "segment {rec} --search nope", "invalid choice"),
+    ("segment-paper-and-dp", "segment {rec} --paper --search dp", "--paper"),
+    ("segment-json-to-stdout-twice", "segment {rec} --json", "expected one argument"),
+    # templates
+    ("templates-train-no-recordings", "templates train {docs} -o {tmp}/t.json", "no .mcap"),
+    ("templates-train-output-is-input", "templates train {rec} -o {rec}", "also an input"),
+    ("templates-train-output-missing-dir", "templates train {rec} -o {tmp}/no/t.json", "not exist"),
+    ("templates-show-missing", "templates show {tmp}/nope.json", "nope.json"),
+    ("templates-no-action", "templates", "required"),
+    # eval
+    ("eval-bogus-method", "eval {rec} --methods bogus", "unknown method"),
+    ("eval-no-recordings", "eval {docs}", "no .mcap"),
+    ("eval-json-is-input", "eval {rec} --json {rec}", "also an input"),
+    ("eval-json-is-dir", "eval {rec} --json {tmp}", "is a directory"),
+    # reproduce
+    ("reproduce-json-is-input", "reproduce {rec} --json {rec}", "also an input"),
+    ("reproduce-json-missing-dir", "reproduce {rec} --json {tmp}/no/x.json", "does not exist"),
+    ("reproduce-rrd-is-input", "reproduce {rec} --rerun-save {rec}", "also an input"),
+    ("reproduce-bad-mode", "reproduce {rec} --mode fly", "invalid choice"),
+    # record
+    ("record-output-missing-dir", "record --source sim:exp1 -o {tmp}/no/x.mcap", "not exist"),
+    ("record-output-is-dir", "record --source sim:exp1 -o {tmp}", "is a directory"),
+    ("record-rerun-connect", "record --source sim:exp1 -o {tmp}/x.mcap --rerun-connect x", "URL"),
+    ("record-no-source", "record -o {tmp}/x.mcap", "--source"),
+    # perception
+    ("perception-train-extension", "perception train -o {tmp}/m.json", "extension"),
+    ("perception-train-missing-dir", "perception train -o {tmp}/no/m.pt", "does not exist"),
+    ("perception-train-old-out", "perception train --out {tmp}/m.pt", "--output"),
+    ("perception-eval-old-model", "perception eval --model {tmp}/m.pt", "unrecognized"),
+    ("perception-eval-missing-model", "perception eval --hand-model {tmp}/nope.pt", "nope.pt"),
+    ("record-missing-model", "record --source sim:exp1 -o {tmp}/x.mcap --hand-model {tmp}/n.pt", "n.pt"),
+    # a failing command that had opened --rerun-save leaves no .rrd
+    ("segment-failed-rrd", "segment {tmp}/no.mcap --rerun-save {tmp}/o.rrd", "no.mcap"),
+]
+# fmt: on
+
+
+def _run(*argv: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "lfd.cli", *argv],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env=env,
+    )
+
+
+def _tree(root: Path) -> dict[str, str]:
+    """Every file under ``root`` (hidden ones included) -> a hash of its content."""
+    return {
+        str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in sorted(root.rglob("*"))
+        if p.is_file()
+    }
+
+
+def _assert_one_error_line(proc: subprocess.CompletedProcess[str], expected: str = "") -> str:
+    lines = [line for line in proc.stderr.splitlines() if line.strip()]
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr, proc.stderr
+    assert len(lines) == 1, proc.stderr
+    assert lines[0].startswith("lfd "), lines[0]
+    assert ": error: " in lines[0], lines[0]
+    assert expected in lines[0], lines[0]
+    return lines[0]
+
+
+@pytest.mark.parametrize(("argv", "expected"), [c[1:] for c in CASES], ids=[c[0] for c in CASES])
+def test_user_error_is_one_line(argv: str, expected: str, tmp_path: Path) -> None:
+    work = tmp_path / "work"
+    work.mkdir()
+    rec = work / "exp1.mcap"
+    rec.write_bytes(EXP1.read_bytes())
+    bad = work / "bad.json"
+    bad.write_bytes(b"\x00\xff garbage {")
+    ro = work / "ro"
+    ro.mkdir()
+    if "{ro}" in argv and os.geteuid() == 0:
+        pytest.skip("root writes into read-only directories")
+    ro.chmod(stat.S_IRUSR | stat.S_IXUSR)
+    fill = {"rec": rec, "tmp": work, "ro": ro, "bad": bad, "docs": ROOT / "docs"}
+    before = _tree(work)
+    try:
+        proc = _run(*(a.format(**fill) for a in shlex.split(argv)))
+    finally:
+        ro.chmod(stat.S_IRWXU)
+    _assert_one_error_line(proc, expected)
+    assert _tree(work) == before  # no input modified, no output nor temporary file left
+
+
+def test_one_case_per_subcommand() -> None:
+    from lfd.cli import COMMANDS
+
+    covered = {c[1].split()[0] for c in CASES}
+    assert covered == set(COMMANDS)
+    assert {c[1].split()[1] for c in CASES if c[1].startswith("perception ")} == {"train", "eval"}
+    assert len({c[0] for c in CASES}) == len(CASES)  # ids are unique
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        "simulate exp1 -o {tmp}/x.mcap",
+        "reproduce {rec}",
+        "record --source sim:exp1 -o {tmp}/x.mcap --duration 1",
+    ],
+)
+def test_without_sim_extra(argv: str, tmp_path: Path) -> None:
+    """Without mujoco / cv2 / mink the simulator commands say how to install them, in one line."""
+    code = (
+        "import sys\n"
+        "for m in ('mujoco', 'cv2', 'mink'): sys.modules[m] = None  # as if not installed\n"
+        "from lfd.cli import main\n"
+        "sys.exit(main(sys.argv[1:]))\n"
+    )
+    args = [a.format(rec=EXP1, tmp=tmp_path) for a in shlex.split(argv)]
+    proc = subprocess.run(
+        [sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=60
+    )
+    cmd = args[0]
+    line = _assert_one_error_line(proc)
+    assert line == f"lfd {cmd}: error: this command needs the simulator: pip install 'lfd[sim]'"
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_every_option_has_help() -> None:
+    import argparse
+
+    from lfd.cli import build_parser
+
+    def walk(parser: argparse.ArgumentParser, prog: str) -> list[str]:
+        missing = []
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for name, sub in action.choices.items():
+                    missing += walk(sub, f"{prog} {name}")
+                continue
+            if not action.help or action.help == argparse.SUPPRESS:
+                missing.append(f"{prog} {'/'.join(action.option_strings) or action.dest}")
+        return missing
+
+    assert walk(build_parser(), "lfd") == []
+
+
+def test_json_to_stdout_is_pure_json(tmp_path: Path) -> None:
+    proc = _run("info", str(EXP1), "--json", "-")
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads(proc.stdout)["complete"] is True  # the tables went to stderr
+    assert not Path("-").exists()
+
+
+def test_broken_pipe_is_quiet() -> None:
+    """``lfd info x.mcap --json - | head -1``: the reader goes away, no traceback."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "lfd.cli", "info", str(EXP1), "--json", "-"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    assert proc.stdout is not None and proc.stderr is not None
+    proc.stdout.close()  # before anything was written: the write fails with EPIPE
+    err = proc.stderr.read().decode()
+    proc.wait(timeout=60)
+    assert proc.returncode in (0, 141), err
+    assert "Traceback" not in err and "BrokenPipeError" not in err, err
+
+
+def test_recovery_warning_is_one_line(tmp_path: Path) -> None:
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(EXP1.read_bytes()[: EXP1.stat().st_size * 3 // 4])
+    proc = _run("segment", str(cut), "--json", str(tmp_path / "seg.json"))
+    assert proc.returncode == 0, proc.stderr
+    warnings = [line for line in proc.stderr.splitlines() if "warning" in line]
+    assert warnings, proc.stderr
+    assert all(line.startswith("lfd segment: warning: ") for line in warnings), proc.stderr
+    assert "warnings.warn" not in proc.stderr and ".py:" not in proc.stderr  # no source line
+    assert json.loads((tmp_path / "seg.json").read_text())["segments"]
+
+
+def test_failing_write_leaves_no_file(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A write that fails midway (e.g. a full disk) leaves the destination absent or as it was."""
+    import errno
+
+    import lfd.outputs
+    from lfd.cli import main
+
+    def full_disk(fd: int) -> None:
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(lfd.outputs.os, "fsync", full_disk)
+    new = tmp_path / "new.json"
+    old = tmp_path / "old.json"
+    old.write_text("previous result")
+    with pytest.raises(OSError, match="No space"):
+        lfd.outputs.atomic_write_text(new, "x" * 100_000)
+    assert not new.exists()
+    # through the CLI: one line, exit 2, the previous file untouched, no temporary file
+    assert main(["info", str(EXP1), "--json", str(old)]) == 2
+    assert old.read_text() == "previous result"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["old.json"]
+
+
+def test_rerun_save_written_at_close(tmp_path: Path) -> None:
+    """``--rerun-save`` goes to a temporary file renamed at the end, so runs cannot interleave."""
+    pytest.importorskip("rerun", reason="rerun-sdk not installed (optional viz extra)")
+    rrd = tmp_path / "seg.rrd"
+    rrd.write_bytes(b"previous")
+    proc = _run("segment", str(EXP1), "--rerun-save", str(rrd))
+    assert proc.returncode == 0, proc.stderr
+    assert rrd.stat().st_size > 10_000 and not rrd.read_bytes().startswith(b"previous")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["seg.rrd"]
