@@ -405,3 +405,27 @@ def test_perception_train_cli_checkpoints_and_resumes(tmp_path) -> None:  # type
     longer = [*argv, "--resume"]
     longer[longer.index("--epochs") + 1] = "3"
     assert _lfd(*longer) == 2  # a checkpoint of another run is refused (LfdError)
+
+
+def test_a_source_failing_mid_recording_keeps_what_was_recorded(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from lfd.errors import LfdError
+    from lfd.io import load
+    from lfd.perception.record import record
+    from lfd.perception.sources import open_source
+
+    source = open_source("sim:exp1", seed=0)
+    frames = source.frames
+
+    def unplugged():  # type: ignore[no-untyped-def]
+        for n, frame in enumerate(frames()):
+            if n == 6:
+                raise LfdError("camera 0: no frame (device unplugged?)")
+            yield frame
+
+    source.frames = unplugged  # type: ignore[method-assign]
+    out = tmp_path / "rec.mcap"
+    with pytest.raises(LfdError, match="6 frames recorded before it are kept"):
+        record(source, out)
+    demo = load(out)  # closed and complete, no recovery warning
+    assert sum(len(o.t_ns) for o in demo.objects.values()) >= 6
+    assert [p.name for p in tmp_path.iterdir()] == ["rec.mcap"]  # no temporary file left

@@ -746,19 +746,25 @@ def test_lfd_segment_and_eval_rerun_save(small_templates: list[str], tmp_path: P
     assert main(["segment", str(rec), *small_templates, "--rerun-save", str(seg)]) == 0
     data = Rrd(seg)
     for path in ("/segmentation/skills/result", "/segmentation/skills/ground_truth",
-                 "/segmentation/sections", "/segmentation/greedy/chosen",
+                 "/segmentation/sections",
                  "/features/object_height/threshold", "/world/hand/keypoints", "/world/gripper"):  # fmt: skip
         assert path in data.rows, path
-    assert any(k.startswith("/segmentation/greedy/iteration_") for k in data.rows)
     assert data.blueprints
+    # the paper's greedy loop also shows its iterations
+    paper = tmp_path / "paper.rrd"
+    args = ["segment", str(rec), *small_templates, "--paper", "--rerun-save", str(paper)]
+    assert main(args) == 0
+    rows = Rrd(paper).rows
+    assert "/segmentation/greedy/chosen" in rows
+    assert any(k.startswith("/segmentation/greedy/iteration_") for k in rows)
 
     ev = tmp_path / "eval.rrd"
     args = ["eval", str(rec), *small_templates, "--rerun-save", str(ev)]
     assert main(args) == 0
     lanes = {k for k in Rrd(ev).rows if k.startswith("/segmentation/skills/")}
     assert lanes == {
-        "/segmentation/skills/result",
-        "/segmentation/skills/dp",
+        "/segmentation/skills/result",  # dp, the default, in full
+        "/segmentation/skills/paper",
         "/segmentation/skills/ground_truth",
         "/segmentation/skills/baseline_proximity",
         "/segmentation/skills/baseline_gripper",

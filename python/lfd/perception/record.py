@@ -84,7 +84,9 @@ def record(
 
     ``progress(stats)`` is called after every frame. KeyboardInterrupt stops the recording
     cleanly (the file is closed, complete and renamed to ``output``); ``stats.interrupted``
-    tells it happened. Any other exception removes the unfinished file.
+    tells it happened. When the source fails after some frames (an :class:`LfdError`, e.g. a
+    camera unplugged), the recording so far is closed, complete, under ``output`` and the error
+    says so; any other exception, or one before the first frame, removes the unfinished file.
     """
     from ..io import McapRecorder
 
@@ -158,8 +160,17 @@ def record(
                 break
     except KeyboardInterrupt:
         stats.interrupted = True
+    except LfdError as err:
+        if stats.frames == 0:
+            rec.discard()  # nothing recorded: no file under the requested name
+            raise
+        # a source that fails mid-demonstration (camera unplugged, unreadable frame) must not
+        # lose what was recorded: the file is closed, complete, under the requested name
+        raise type(err)(
+            f"{err}; the {stats.frames} frames recorded before it are kept, complete, in {output}"
+        ) from err
     except BaseException:
-        rec.discard()  # a failed recording leaves no file under the requested name
+        rec.discard()  # a failure of lfd itself leaves no file under the requested name
         raise
     finally:
         rec.close()  # no-op after discard
