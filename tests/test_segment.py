@@ -123,7 +123,7 @@ def test_baselines_cover_the_demo_and_are_worse_on_exp2() -> None:
 def test_result_json_is_a_task_program() -> None:
     r = segment(demo())
     doc = json.loads(r.to_json())
-    assert doc["format_version"] == 1
+    assert doc["format_version"] == 2
     assert [s["skill"] for s in doc["segments"]] == r.skill_sequence
     assert {"start_s", "end_s", "object", "score", "confidence", "params"} <= set(
         doc["segments"][0]
