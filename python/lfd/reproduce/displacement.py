@@ -135,7 +135,7 @@ def check_displacement(
         reach = float(np.linalg.norm(top - shoulder))
         if reach > REACH_MAX or reach < REACH_MIN - REACH_SLACK:
             raise UsageError(
-                f"{what}, out of the arm's reach ({reach:.2f} m from the shoulder; it reaches "
+                f"{what}, out of the arm's reach ({reach:.3f} m from the shoulder; it reaches "
                 f"{REACH_MIN - REACH_SLACK:.2f}-{REACH_MAX:.2f} m); use a smaller displacement"
             )
         if np.any(np.abs(pos[k, :2] - centre) + size[k, :2].max() / 2 > TABLE_HALF):
