@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import sys
 from pathlib import Path
 
@@ -14,7 +15,7 @@ pytest.importorskip("mink")
 
 sys.path.insert(0, str(Path(__file__).parent))
 
-from lfd.errors import DemonstrationError, UnknownSkillError
+from lfd.errors import DemonstrationError, UnknownSkillError, UsageError
 from lfd.reproduce import (
     Segment,
     TaskProgram,
@@ -162,10 +163,11 @@ def test_from_labels_and_displacement_parsing() -> None:
         "box_1": (0.10, -0.05),
         "box_2": (0.0, 0.02),
     }
-    with pytest.raises(DemonstrationError):
-        parse_displacement("box_1:0.1")
+    for bad in ("box_1:0.1", "box_1:nan,0", "box_1:0,inf", ":0.1,0", "box_1:0.1;0.2"):
+        with pytest.raises(UsageError):
+            parse_displacement(bad)
     traj, program = synthetic_demo("pick_place")
-    with pytest.raises(DemonstrationError):
+    with pytest.raises(UsageError, match="known objects: box_1, box_2"):
         reproduce(traj, program, "dmp", displace={"nope": (0.1, 0.0)})
     with pytest.raises(DemonstrationError):
         reproduce(traj, program, "teleport")
@@ -180,10 +182,14 @@ def test_cli_on_recording(tmp_path: Path) -> None:
     save(synthetic_recording("pick_place"), rec)
     out = tmp_path / "out.json"
     prog = tmp_path / "prog.json"
+    # exit 0: skills and dmp achieve the task; the replay, only the reference of the path
+    # ratio under --mode all, does not (its grasp fails), and says why
     assert main(["reproduce", str(rec), "--mode", "all", "--json", str(out)]) == 0
     res = json.loads(out.read_text())["results"]
     assert set(res) == {"replay", "skills", "dmp"}
     assert res["skills"]["success"] and res["dmp"]["success"]
+    assert not res["replay"]["success"]
+    assert res["replay"]["skills"][0]["reason"].startswith("grasp failed: box_1")
     assert res["replay"]["path_length_m"] > 0.5
     TaskProgram.from_json(json.loads(out.read_text())["program"]).save(prog)
     code = main(
@@ -199,6 +205,8 @@ def test_cli_on_recording(tmp_path: Path) -> None:
         ]
     )
     assert code == 0
+    # asked for on its own, the replay is judged: the task is not achieved, exit 1
+    assert main(["reproduce", str(rec), "--mode", "replay"]) == 1
 
 
 SHIPPED = Path(__file__).parent.parent / "recordings" / "exp2.mcap"
@@ -313,3 +321,125 @@ def test_segment_then_reproduce_with_rerun(tmp_path: Path) -> None:
     paths = {chunk.entity_path for chunk in rr.chunk.RrdReader(rrd).stream()}
     assert any(p.startswith("/world/robot/skills") for p in paths), sorted(paths)
     assert any(p.startswith("/world/hand") for p in paths), sorted(paths)
+
+
+EXP1 = Path(__file__).parent.parent / "recordings" / "exp1.mcap"
+
+
+@pytest.fixture(scope="module")
+def exp1_traj() -> tuple:
+    from lfd.io import load
+    from lfd.preprocessing import preprocess
+
+    demo = load(EXP1, images=False)
+    traj = preprocess(demo)
+    return traj, from_labels(demo.labels, int(traj.t_ns[0]))
+
+
+@pytest.mark.parametrize(
+    ("displace", "message"),
+    [
+        ({"box_2": (8.0, -5.0)}, "in metres; did you mean box_2:0.08,-0.05?"),
+        ({"box_2": (100.0, 100.0)}, "at most 1 m"),
+        ({"box_9": (0.1, 0.0)}, "unknown object 'box_9'; known objects: box_1, box_2, box_3"),
+        ({"box_2": (float("nan"), 0.0)}, "finite"),
+        ({"box_2": (-0.95, 0.0)}, "out of the arm's reach"),
+    ],
+)
+def test_displacement_refused_before_simulation(
+    exp1_traj: tuple, displace: dict, message: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import lfd.reproduce as rp
+
+    traj, program = exp1_traj
+    monkeypatch.setattr(rp, "execute", lambda *a, **k: pytest.fail("simulated a bad displacement"))
+    with pytest.raises(UsageError, match=re.escape(message)):
+        reproduce(traj, program, "dmp", displace=displace)
+
+
+def test_displacement_into_another_object_refused(exp1_traj: tuple) -> None:
+    from lfd.reproduce import check_displacement
+
+    traj, _ = exp1_traj
+    names = list(traj.object_names)
+    p = np.asarray(traj.object_position)[:, 0, :2]
+    d = p[names.index("box_1")] - p[names.index("box_2")]  # box_2 onto box_1
+    with pytest.raises(UsageError, match="overlapping box_1"):
+        check_displacement(traj, {"box_2": (float(d[0]), float(d[1]))}, 0)
+    base = check_displacement(traj, {"box_2": (0.03, 0.0)}, 0)
+    assert base.shape == (3,)
+
+
+def test_cli_bad_input_exit_2_and_clean_cwd(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from lfd.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    for extra in (
+        ["--displace", "box_2:8,-5"],
+        ["--displace", "box_2:nan,0"],
+        ["--displace", "box_2:100,100"],
+        ["--video", "out.gif"],
+        ["--video", str(tmp_path / "missing" / "v.mp4")],
+    ):
+        assert main(["reproduce", str(EXP1), "--mode", "dmp", *extra]) == 2, extra
+        err = capsys.readouterr().err.strip().splitlines()
+        assert err and err[-1].startswith("lfd reproduce: error: "), err
+    assert sorted(p.name for p in tmp_path.iterdir()) == []  # no MUJOCO_LOG.TXT, no video
+
+
+def test_write_video_atomic(tmp_path: Path) -> None:
+    from lfd.cli.reproduce import write_video
+    from lfd.errors import LfdError
+
+    frames = [np.full((48, 64, 3), i * 20, dtype=np.uint8) for i in range(10)]
+    for name in ("v.mp4", "v.avi"):
+        write_video(str(tmp_path / name), frames, fps=10.0)
+        assert (tmp_path / name).stat().st_size > 1000
+    with pytest.raises(LfdError, match="no frames"):
+        write_video(str(tmp_path / "empty.mp4"), [], fps=10.0)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["v.avi", "v.mp4"]
+
+
+def test_quickstart_line(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """README: simulate exp1 --seed 3, then reproduce with DMPs and box_2 (the stack base)
+    displaced: the task is achieved (exit 0) and the JSON lists every skill as ok."""
+    pytest.importorskip("lfd.sim")
+    from lfd.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", "exp1", "--seed", "3", "-o", "demo.mcap"]) == 0
+    args = ["reproduce", "demo.mcap", "--mode", "dmp", "--segment"]
+    assert main([*args, "--displace", "box_2:0.08,-0.05", "--json", "out.json"]) == 0
+    res = json.loads((tmp_path / "out.json").read_text())["results"]["dmp"]
+    assert res["success"]
+    assert [s["skill"] for s in res["skills"]][-2:] == ["stack", "move"]
+    assert all(s["ok"] and s["reason"] is None for s in res["skills"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["demo.mcap", "out.json"]
+
+
+def test_failure_names_skill_and_reason(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """A gripper opened fully at release knocks the displaced stack base (the defect behind the
+    Quickstart failure): the place is blamed for the collision, the stack for its error."""
+    pytest.importorskip("lfd.sim")
+    import lfd.reproduce.modes as modes
+    from lfd.cli import main
+    from lfd.io import save
+    from lfd.sim import simulate
+
+    monkeypatch.setattr(modes, "RELEASE_CLEARANCE", 1.0)  # release = MAX_OPENING, as before
+    rec = tmp_path / "demo.mcap"
+    save(simulate("exp1", seed=3).demo, rec)
+    out = tmp_path / "out.json"
+    args = ["reproduce", str(rec), "--mode", "dmp", "--displace", "box_2:0.08,-0.05"]
+    assert main([*args, "--json", str(out)]) == 1
+    skills = json.loads(out.read_text())["results"]["dmp"]["skills"]
+    bad = {s["index"]: s for s in skills if not s["ok"]}
+    assert bad[2]["skill"] == "place" and "collision: box_2 was knocked" in bad[2]["reason"]
+    assert bad[6]["skill"] == "stack" and "stacked box_1 off target by" in bad[6]["reason"]
+    assert bad[6]["position_error_mm"] > 10
+    err = capsys.readouterr().err
+    assert "dmp: the task was not achieved" in err and "6 stack box_1: stacked box_1" in err

@@ -1,4 +1,11 @@
-"""``lfd reproduce rec.mcap --mode replay|skills|dmp``: execute a demonstration on the robot."""
+"""``lfd reproduce rec.mcap --mode replay|skills|dmp``: execute a demonstration on the robot.
+
+Exit status: 0 = the task was achieved in every requested mode; 1 = the reproduction ran but
+the task was not achieved in some mode (the failed skills and their reasons are printed); 2 = bad
+input (e.g. a ``--displace`` out of reach, an unwritable ``--video``). With ``--mode all`` the
+replay runs as the reference of the path-length ratio: its outcome is reported, and the exit
+status judges skills and dmp.
+"""
 
 from __future__ import annotations
 
@@ -15,6 +22,8 @@ from ._options import (
 
 NAME = "reproduce"
 HELP = "Reproduce a demonstration on a simulated 7-DoF arm (replay, skills or DMP) and measure it."
+VIDEO_SUFFIXES = (".mp4", ".avi")
+"""Video containers the OpenCV writer produces (mp4v in .mp4, MJPG in .avi)."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -29,7 +38,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--displace",
         action="append",
         metavar="NAME:DX,DY",
-        help="shift an object's initial position in the robot scene (m); repeatable",
+        help="shift an object's initial position in the robot scene, in metres (e.g. "
+        "box_2:0.08,-0.05); refused when out of reach or overlapping another object; repeatable",
     )
     parser.add_argument(
         "--task",
@@ -44,7 +54,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_segmentation_arguments(parser, used_with="with --segment")
     add_json_argument(parser, "the task program and the measurements")
     parser.add_argument(
-        "--video", metavar="OUT.mp4", help="render a video of the (last) mode (imageio or OpenCV)"
+        "--video",
+        metavar="OUT.mp4",
+        help="render a video of the (last) mode (.mp4 or .avi, written with OpenCV)",
     )
     from ..viz.cli import add_rerun_arguments
 
@@ -52,15 +64,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
     from rich.console import Console
     from rich.progress import Progress
     from rich.table import Table
 
     from ..errors import LfdError
     from ..io import load
+    from ..outputs import check_output
     from ..preprocessing import preprocess
     from ..reproduce import (
         TaskProgram,
+        check_displacement,
         from_labels,
         from_segmentation,
         parse_displacement,
@@ -72,6 +87,9 @@ def run(args: argparse.Namespace) -> int:
     check_json(args, inputs)
     check_rerun_args(args, inputs)
     console = Console(stderr=True)
+    displace = parse_displacement(args.displace)
+    if args.video:
+        check_output(args.video, inputs=[args.recording], what="--video", suffixes=VIDEO_SUFFIXES)
     show = open_from_args(args, "lfd_reproduce")
     demo = load(args.recording, images=False)
     traj = preprocess(demo)
@@ -87,7 +105,8 @@ def run(args: argparse.Namespace) -> int:
         program = from_segmentation(segment(demo, search=search, grammar=grammar), t0)  # type: ignore[arg-type]
     else:
         program = from_labels(demo.labels, t0)
-    displace = parse_displacement(args.displace)
+    start_i = int(np.clip(np.searchsorted(traj.t_s, program.segments[0].start_s), 0, len(traj) - 1))
+    check_displacement(traj, displace, start_i)  # refused before anything is simulated
     modes = ("replay", "skills", "dmp") if args.mode == "all" else (args.mode,)
     results = {}
     with Progress(console=console, transient=True) as bar:
@@ -130,6 +149,11 @@ def run(args: argparse.Namespace) -> int:
         )
     out = console if json_to_stdout(args) else Console()  # stdout is JSON only under --json -
     out.print(table)
+    for mode, r in results.items():
+        if not r.success:
+            console.print(f"{mode}: the task was not achieved:", highlight=False)
+            for line in r.failures or ["no skill reported a failure"]:
+                console.print(f"  {line}", highlight=False, markup=False)
     if args.json:
         doc = {
             "recording": args.recording,
@@ -139,24 +163,48 @@ def run(args: argparse.Namespace) -> int:
         write_json(args.json, doc)
     if args.video:
         ex = results[modes[-1]].execution
-        if ex is not None and ex.frames:
-            write_video(args.video, ex.frames, fps=30.0)
-            console.print(f"video: {args.video} ({len(ex.frames)} frames, mode {modes[-1]})")
-    return 0 if all(r.success for r in results.values()) or args.mode == "all" else 1
+        frames = ex.frames if ex is not None else []
+        write_video(args.video, frames, fps=30.0)
+        console.print(f"video: {args.video} ({len(frames)} frames, mode {modes[-1]})")
+    # with --mode all, replay is the reference of the path-length ratio, reported but not
+    # judged: the exit status says whether the learned task (skills, dmp) was achieved
+    judged = [m for m in results if not (args.mode == "all" and m == "replay")]
+    return 0 if all(results[m].success for m in judged) else 1
 
 
 def write_video(path: str, frames: list, fps: float) -> None:
-    """Write RGB frames to an MP4 (imageio when installed, else OpenCV's mp4v writer)."""
-    try:
-        import imageio.v2 as imageio
-    except ImportError:
-        import cv2
+    """Write RGB frames to a video atomically (OpenCV: mp4v in .mp4, MJPG in .avi).
 
-        h, w = frames[0].shape[:2]
-        fourcc = cv2.VideoWriter_fourcc(*"mp4v")  # type: ignore[attr-defined]
-        writer = cv2.VideoWriter(path, fourcc, fps, (w, h))
-        for f in frames:
-            writer.write(cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
-        writer.release()
-    else:
-        imageio.mimwrite(path, frames, fps=fps)
+    Raises
+    ------
+    LfdError
+        No frames, or OpenCV could not write the file; nothing is left under ``path``.
+    """
+    import os
+    from pathlib import Path
+
+    import cv2
+
+    from ..errors import LfdError
+    from ..outputs import atomic_output
+
+    if not frames:
+        raise LfdError(f"--video {path}: no frames were rendered")
+    suffix = Path(path).suffix.lower()
+    fourcc = cv2.VideoWriter_fourcc(*("MJPG" if suffix == ".avi" else "mp4v"))  # type: ignore[attr-defined]
+    h, w = frames[0].shape[:2]
+    with atomic_output(path) as tmp:
+        # OpenCV picks the container from the extension: write beside the temporary file
+        video = tmp.with_name(tmp.name + suffix)
+        try:
+            writer = cv2.VideoWriter(str(video), fourcc, fps, (w, h))
+            if not writer.isOpened():
+                raise LfdError(f"--video {path}: OpenCV cannot write {suffix} video here")
+            for f in frames:
+                writer.write(cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
+            writer.release()
+            if not video.exists() or video.stat().st_size == 0:
+                raise LfdError(f"--video {path}: OpenCV wrote no data")
+            os.replace(video, tmp)
+        finally:
+            video.unlink(missing_ok=True)

@@ -14,27 +14,30 @@ Modules: :mod:`.robot` (the arm MJCF), :mod:`.scene`, :mod:`.ik` (mink), :mod:`.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from .. import _gl  # noqa: F401  (selects the headless GL backend before mujoco loads)
-from ..errors import DemonstrationError
 from ..trajectory import Trajectory
 from .controller import Execution, Plan, execute
+from .displacement import check_displacement, parse_displacement
 from .goals import DemoFrames, pose, yaw_of
 from .measures import ObjectResult, object_errors, path_length
 from .modes import MODES, plan_task
+from .outcome import SkillResult, skill_results
 from .program import Segment, TaskProgram, from_labels, from_segmentation
-from .scene import ObjectSpec, choose_base
+from .scene import ObjectSpec
 
 __all__ = [
     "MODES",
     "Reproduction",
     "Segment",
+    "SkillResult",
     "TaskProgram",
+    "check_displacement",
     "from_labels",
     "from_segmentation",
     "parse_displacement",
@@ -74,6 +77,8 @@ class Reproduction:
     program: TaskProgram | None = None
     """The executed task program (a missing pick_up may have been inserted); ``segment``
     indexes its segments."""
+    skills: list[SkillResult] = field(default_factory=list)
+    """One result per segment of ``program``: ``ok``, and the reason when it went wrong."""
 
     @property
     def path_length(self) -> float:
@@ -86,8 +91,13 @@ class Reproduction:
 
     @property
     def success(self) -> bool:
-        """True when every object ended where it should."""
+        """True when every object ended where it should (the task is achieved)."""
         return all(o.success for o in self.objects)
+
+    @property
+    def failures(self) -> list[str]:
+        """One line per skill that went wrong: ``"6 stack box_1: stacked box_1 off target ..."``."""
+        return [f"{s.label()}: {s.reason}" for s in self.skills if not s.ok]
 
     def to_json(self) -> dict[str, Any]:
         """Summary as a JSON-serialisable dict."""
@@ -100,6 +110,7 @@ class Reproduction:
             "wall_time_s": self.wall_time_s,
             "tracking_error_m": {"mean": float(track.mean()), "max": float(track.max())},
             "success": self.success,
+            "skills": [s.to_json() for s in self.skills],
             "objects": {
                 o.name: {
                     "success": o.success,
@@ -112,27 +123,6 @@ class Reproduction:
             "displacement": {k: list(v) for k, v in self.displacement.items()},
             "program": self.program.to_json() if self.program is not None else None,
         }
-
-
-def parse_displacement(spec: Sequence[str] | str | None) -> dict[str, tuple[float, float]]:
-    """Parse ``"box_1:0.10,-0.05"`` (or several) into ``{"box_1": (0.10, -0.05)}``."""
-    if spec is None:
-        return {}
-    items = [spec] if isinstance(spec, str) else list(spec)
-    out: dict[str, tuple[float, float]] = {}
-    for item in items:
-        for part in item.split(";"):
-            if not part.strip():
-                continue
-            try:
-                name, vec = part.split(":")
-                dx, dy = (float(v) for v in vec.split(","))
-            except ValueError as err:
-                raise DemonstrationError(
-                    f"bad displacement {part!r}; expected NAME:DX,DY (metres)"
-                ) from err
-            out[name.strip()] = (dx, dy)
-    return out
 
 
 def reproduce(
@@ -157,29 +147,23 @@ def reproduce(
     displace : dict name -> (dx, dy), optional
         Shift objects' initial poses (m) in the robot's scene.
     base : array, shape (3,), optional
-        Robot base; chosen automatically (:func:`choose_base`) by default.
+        Robot base; chosen automatically (:func:`~lfd.reproduce.scene.choose_base`) by default.
+
+    Raises
+    ------
+    UsageError
+        A displacement that names an unknown object, is not finite, or puts an object out of
+        reach, off the table or into another object (:func:`check_displacement`), before
+        anything is simulated.
     video_fps : float
         Record frames into ``result.execution.frames`` at this rate (0 = off).
     """
     displace = dict(displace or {})
     start_i = int(np.clip(np.searchsorted(traj.t_s, program.segments[0].start_s), 0, len(traj) - 1))
-    if base is None:
-        tcp = np.asarray(traj.tcp, dtype=np.float64)
-        obj0 = np.nan_to_num(np.asarray(traj.object_position)[:, start_i, :])
-        extra = [
-            obj0[traj.object_names.index(k)] + [*v, 0.0]
-            for k, v in displace.items()
-            if k in traj.object_names
-        ]
-        pts = np.concatenate([tcp, obj0, np.array(extra).reshape(-1, 3)])
-        base = choose_base(pts, keep_out=np.concatenate([obj0, np.array(extra).reshape(-1, 3)]))
+    base = check_displacement(traj, displace, start_i, base=base)  # before anything is simulated
     frames = DemoFrames(traj, base)
     initial: dict[str, np.ndarray] = {}
     for name, (dx, dy) in displace.items():
-        if name not in frames.names:
-            raise DemonstrationError(
-                f"cannot displace unknown object {name!r}; known: {frames.names}"
-            )
         T = frames.object_pose(name, start_i)
         initial[name] = pose(T[:3, 3] + [dx, dy, 0.0], yaw_of(T[:3, :3]))
     result = plan_task(frames, program, mode, initial=initial)
@@ -198,6 +182,7 @@ def reproduce(
     objs = object_errors(
         ex.object_names, ex.final_position, ex.final_quaternion, result.expected, frames.size
     )
+    executed = result.program if result.program is not None else program
     return Reproduction(
         mode=mode,
         planned_tcp=plan.position,
@@ -210,4 +195,5 @@ def reproduce(
         displacement=displace,
         execution=ex,
         program=result.program,
+        skills=skill_results(executed, plan, ex, objs),
     )

@@ -93,6 +93,8 @@ class Execution:
     final_quaternion: np.ndarray
     frames: list[np.ndarray] = field(default_factory=list)
     wall_time_s: float = 0.0
+    warnings: list[str] = field(default_factory=list)
+    """MuJoCo warnings raised during the run (e.g. an unstable simulation)."""
 
 
 def execute(
@@ -122,6 +124,29 @@ def execute(
     progress : callable, optional
         Called as ``progress(tick, n_ticks)`` every 100 ticks.
     """
+    import mujoco
+
+    # MuJoCo's default warning handler appends to MUJOCO_LOG.TXT in the working directory;
+    # collect the warnings instead (restored afterwards)
+    warnings: list[str] = []
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(warnings.append)
+    try:
+        return _run(plan, base, objects, settle_s, video_fps, video_size, progress, warnings)
+    finally:
+        mujoco.set_mju_user_warning(previous)
+
+
+def _run(
+    plan: Plan,
+    base: np.ndarray,
+    objects: list[ObjectSpec],
+    settle_s: float,
+    video_fps: float,
+    video_size: tuple[int, int],
+    progress: Callable[[int, int], None] | None,
+    warnings: list[str],
+) -> Execution:
     import time
 
     import mujoco
@@ -203,4 +228,5 @@ def execute(
         final_quaternion=fq,
         frames=frames,
         wall_time_s=time.perf_counter() - t_start,
+        warnings=warnings,
     )

@@ -61,6 +61,9 @@ FUNNEL = 0.04
 object's half height plus the finger length, so open fingers never sweep over its top."""
 RELEASE_LIFT = 0.003
 """Place/stack goals are this much above the exact resting pose (m)."""
+RELEASE_CLEARANCE = 0.02
+"""Opening beyond the held width when releasing (m): a gripper opened fully would sweep its
+fingers 5 cm beside the object and knock a neighbouring box."""
 
 
 @dataclass
@@ -165,7 +168,7 @@ def plan_task(
         i0, i1 = segment_indices(frames, seg)
         demo_yaw = float(frames.yaw[i1])
         close_at_end = open_at_end = False
-        release_top = 0.0
+        release_top, release = 0.0, MAX_OPENING
         grip = opening
         if seg.skill == "pick_up":
             name, goal = _pick_goal(frames, seg, objects, i1)
@@ -175,7 +178,9 @@ def plan_task(
             name, goal, T_end_demo = _place_goal(frames, seg, objects, held, i1)
             objects[name] = T_end_demo
             expected[name] = T_end_demo
-            release_top = T_end_demo[2, 3] + frames.size[frames.object_index(name), 2] / 2
+            size = frames.size[frames.object_index(name)]
+            release_top = T_end_demo[2, 3] + size[2] / 2
+            release = min(MAX_OPENING, _width_across(T_end_demo, size, goal[3]) + RELEASE_CLEARANCE)
             held, open_at_end, grip = None, True, 0.0
         elif seg.skill == "push":
             geo = push_geometry(frames, seg, objects, cur[3])
@@ -265,10 +270,10 @@ def plan_task(
             parts.append(_part(np.repeat(cur[None], round(DWELL_S / TICK), 0), 0.0, -1))
         if open_at_end:
             opening = MAX_OPENING
-            parts.append(_part(np.repeat(cur[None], round(DWELL_S / TICK), 0), MAX_OPENING, -1))
+            parts.append(_part(np.repeat(cur[None], round(DWELL_S / TICK), 0), release, -1))
             up = cur + np.array([0.0, 0.0, HOVER, 0.0])  # leave the released object vertically
             up[2] = max(up[2], release_top + FINGER_BELOW_TCP + 0.02)
-            parts.append(_part(line(cur, up, min_s=0.5), MAX_OPENING, -1))
+            parts.append(_part(line(cur, up, min_s=0.5), release, -1))
             detour = up - cur
             cur = up
         if seg.skill == "push":  # back off the pushed face before anything else moves
@@ -353,6 +358,12 @@ def _place_goal(
     T_goal[2, 3] += RELEASE_LIFT
     goal = _state(T_goal, float(frames.natural_yaw(T_goal[:3, 3])))
     return name, goal, T_end
+
+
+def _width_across(T_obj: np.ndarray, size: np.ndarray, yaw: float) -> float:
+    """Extent (m) of an upright box along the gripper's closing axis (direction ``yaw``)."""
+    d = float(yaw) - yaw_of(T_obj[:3, :3])
+    return float(abs(np.cos(d)) * size[0] + abs(np.sin(d)) * size[1])
 
 
 def _part(path: np.ndarray, grip: float, seg: int) -> Plan:

@@ -18,6 +18,13 @@ REACH_MIN = 0.43
 """Smallest shoulder-wrist distance used when placing the base (elbow limit 120 deg: 0.395 m)."""
 REACH_MAX = 0.76
 """Largest shoulder-wrist distance used when placing the base (stretched arm: 0.79 m)."""
+TABLE_HALF = 1.2
+"""Half side of the square table top (m)."""
+
+
+def table_centre(base: np.ndarray) -> np.ndarray:
+    """Centre (x, y) of the table top: 0.4 m in front of the robot base."""
+    return np.array([base[0] + 0.4, base[1]])
 
 
 @dataclass
@@ -83,7 +90,9 @@ def choose_base(points: np.ndarray, keep_out: np.ndarray | None = None) -> np.nd
     return np.array([best[0], best[1], 0.0])
 
 
-def scene_xml(base: np.ndarray, objects: list[ObjectSpec], *, table_half: float = 1.2) -> str:
+def scene_xml(
+    base: np.ndarray, objects: list[ObjectSpec], *, table_half: float = TABLE_HALF
+) -> str:
     """MJCF of the full scene: floor-less table, robot, free-body cuboids, a camera and lights."""
     bodies = []
     for ob in objects:
@@ -97,11 +106,12 @@ def scene_xml(base: np.ndarray, objects: list[ObjectSpec], *, table_half: float 
             f'mass="0.1" friction="1 0.005 0.0001" condim="4" rgba="{_colour(ob.name)}"/></body>'
         )
     c = np.asarray(base)[:2]
+    t = table_centre(np.asarray(base))
     return f"""<mujoco model="lfd_reproduce">{OPTIONS}{robot_defaults()}
   <visual><quality offsamples="0"/><global offwidth="1280" offheight="960"/></visual>
   <worldbody>
     <light pos="{c[0]:.3f} {c[1]:.3f} 2.5" dir="0 0 -1" directional="true"/>
-    <geom name="table" type="box" pos="{c[0] + 0.4:.3f} {c[1]:.3f} -0.02"
+    <geom name="table" type="box" pos="{t[0]:.3f} {t[1]:.3f} -0.02"
           size="{table_half} {table_half} 0.02" rgba="0.75 0.7 0.62 1" friction="1 0.005 0.0001"/>
     {robot_xml(base)}
     {"".join(bodies)}

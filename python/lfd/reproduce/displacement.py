@@ -1,0 +1,171 @@
+"""``--displace NAME:DX,DY``: parse and check object displacements before anything is simulated.
+
+A displacement shifts an object's initial position in the robot's scene, in metres. It is
+refused (:class:`~lfd.errors.UsageError`, one line) when it is not a finite number, names an
+unknown object, is implausibly large (centimetres typed as metres), puts the object out of the
+arm's reach or off the table, or makes it overlap another object.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+from ..errors import UsageError
+from ..trajectory import Trajectory
+from .goals import quat_to_matrix, yaw_of
+from .robot import TCP_OFFSET
+from .scene import REACH_MAX, REACH_MIN, SHOULDER_Z, TABLE_HALF, choose_base, table_centre
+
+MAX_DISPLACEMENT = 1.0
+"""Largest accepted displacement (m); the arm reaches about 0.8 m, so more is a typo."""
+REACH_SLACK = 0.03
+"""Allowed shortfall below :data:`~lfd.reproduce.scene.REACH_MIN` (the elbow limit is at 0.395 m)."""
+OVERLAP_MARGIN = 0.002
+"""Two objects closer than this (m) count as overlapping."""
+
+
+def parse_displacement(spec: Sequence[str] | str | None) -> dict[str, tuple[float, float]]:
+    """Parse ``"box_1:0.10,-0.05"`` (or several, also ``;``-separated) into ``{"box_1": (0.1, -0.05)}``.
+
+    Raises
+    ------
+    UsageError
+        Not ``NAME:DX,DY``, or a value that is not a finite number.
+    """
+    if spec is None:
+        return {}
+    items = [spec] if isinstance(spec, str) else list(spec)
+    out: dict[str, tuple[float, float]] = {}
+    for item in items:
+        for part in item.split(";"):
+            if not part.strip():
+                continue
+            try:
+                name, vec = part.split(":")
+                dx, dy = (float(v) for v in vec.split(","))
+            except ValueError as err:
+                raise UsageError(
+                    f"--displace {part!r}: expected NAME:DX,DY in metres, e.g. box_1:0.08,-0.05"
+                ) from err
+            if not (np.isfinite(dx) and np.isfinite(dy)):
+                raise UsageError(f"--displace {part!r}: DX and DY must be finite numbers (metres)")
+            if not name.strip():
+                raise UsageError(f"--displace {part!r}: missing object name before ':'")
+            out[name.strip()] = (dx, dy)
+    return out
+
+
+def _fmt(v: float) -> str:
+    return f"{v:.4f}".rstrip("0").rstrip(".") if v else "0"
+
+
+def check_displacement(
+    traj: Trajectory,
+    displace: Mapping[str, tuple[float, float]],
+    start_i: int,
+    *,
+    base: np.ndarray | None = None,
+) -> np.ndarray:
+    """Check displacements against the demonstration and choose the robot base.
+
+    Parameters
+    ----------
+    traj : Trajectory
+        The preprocessed demonstration.
+    displace : dict name -> (dx, dy)
+        Displacements in metres.
+    start_i : int
+        Sample index of the program's start (the objects' initial poses).
+    base : array, shape (3,), optional
+        The robot base; default: chosen to reach the demonstrated TCP path and the objects at
+        their demonstrated and displaced positions.
+
+    Returns
+    -------
+    array, shape (3,)
+        The robot base (:func:`~lfd.reproduce.scene.choose_base`) including the displaced objects.
+
+    Raises
+    ------
+    UsageError
+        Unknown object, non-finite or implausibly large displacement, a displaced object out of
+        reach, off the table or overlapping another object.
+    """
+    names = list(traj.object_names)
+    for name, (dx, dy) in displace.items():
+        if name not in names:
+            known = ", ".join(names) or "none"
+            raise UsageError(f"--displace: unknown object {name!r}; known objects: {known}")
+        if not (np.isfinite(dx) and np.isfinite(dy)):
+            raise UsageError(f"--displace {name}: DX and DY must be finite numbers (metres)")
+        if np.hypot(dx, dy) > MAX_DISPLACEMENT:
+            msg = (
+                f"--displace {name}:{_fmt(dx)},{_fmt(dy)} moves {name} by "
+                f"{np.hypot(dx, dy):.2f} m (at most {MAX_DISPLACEMENT:g} m); displacements are in metres"
+            )
+            if np.hypot(dx, dy) / 100 <= 0.3:  # centimetres typed as metres
+                msg += f"; did you mean {name}:{_fmt(dx / 100)},{_fmt(dy / 100)}?"
+            raise UsageError(msg)
+    opos = np.asarray(traj.object_position, dtype=np.float64)[:, start_i, :]
+    oquat = np.asarray(traj.object_quaternion, dtype=np.float64)[:, start_i, :]
+    size = np.asarray(traj.object_size, dtype=np.float64).reshape(-1, 3)
+    known = np.all(np.isfinite(opos), axis=1)
+    for name in displace:
+        if not known[names.index(name)]:
+            raise UsageError(f"--displace {name}: {name} is not seen at the start of the task")
+    obj0 = np.nan_to_num(opos)
+    pos = obj0.copy()
+    for name, (dx, dy) in displace.items():
+        pos[names.index(name), :2] += (dx, dy)
+    if base is None:
+        moved = pos[[names.index(n) for n in displace]].reshape(-1, 3)
+        tcp = np.asarray(traj.tcp, dtype=np.float64)
+        keep_out = np.concatenate([obj0, moved])
+        base = choose_base(np.concatenate([tcp, keep_out]), keep_out=keep_out)
+    base = np.asarray(base, dtype=np.float64)
+    shoulder = np.array([base[0], base[1], SHOULDER_Z])
+    centre = table_centre(base)
+    yaw = [yaw_of(quat_to_matrix(q)) if np.all(np.isfinite(q)) else 0.0 for q in oquat]
+    for name, (dx, dy) in displace.items():
+        k = names.index(name)
+        what = f"--displace {name}:{_fmt(dx)},{_fmt(dy)} puts {name} at ({pos[k, 0]:.3f}, {pos[k, 1]:.3f}) m"
+        top = pos[k] + [0.0, 0.0, size[k, 2] / 2 + TCP_OFFSET]  # wrist above a top grasp
+        reach = float(np.linalg.norm(top - shoulder))
+        if reach > REACH_MAX or reach < REACH_MIN - REACH_SLACK:
+            raise UsageError(
+                f"{what}, out of the arm's reach ({reach:.3f} m from the shoulder; it reaches "
+                f"{REACH_MIN - REACH_SLACK:.2f}-{REACH_MAX:.2f} m); use a smaller displacement"
+            )
+        if np.any(np.abs(pos[k, :2] - centre) + size[k, :2].max() / 2 > TABLE_HALF):
+            raise UsageError(f"{what}, off the table; use a smaller displacement")
+        for j, other in enumerate(names):
+            if j == k or not known[j]:
+                continue
+            if _overlap(pos[k], yaw[k], size[k], pos[j], yaw[j], size[j]):
+                raise UsageError(
+                    f"{what}, overlapping {other} at ({pos[j, 0]:.3f}, {pos[j, 1]:.3f}) m; "
+                    "choose a displacement that leaves them apart"
+                )
+    return base
+
+
+def _overlap(
+    p: np.ndarray, yaw_p: float, size_p: np.ndarray, q: np.ndarray, yaw_q: float, size_q: np.ndarray
+) -> bool:
+    """Whether two upright boxes intersect (separating axis test, with a small margin)."""
+    if abs(p[2] - q[2]) >= (size_p[2] + size_q[2]) / 2 + OVERLAP_MARGIN:
+        return False
+    axes = [np.array([np.cos(a), np.sin(a)]) for a in (yaw_p, yaw_p + np.pi / 2)]
+    axes += [np.array([np.cos(a), np.sin(a)]) for a in (yaw_q, yaw_q + np.pi / 2)]
+    d = q[:2] - p[:2]
+
+    def half(yaw: float, size: np.ndarray, u: np.ndarray) -> float:
+        c, s = np.cos(yaw), np.sin(yaw)
+        return 0.5 * (abs(u @ [c, s]) * size[0] + abs(u @ [-s, c]) * size[1])
+
+    return all(
+        abs(float(u @ d)) < half(yaw_p, size_p, u) + half(yaw_q, size_q, u) + OVERLAP_MARGIN
+        for u in axes
+    )

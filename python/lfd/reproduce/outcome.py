@@ -1,0 +1,188 @@
+"""Why a reproduction failed: one result per executed skill, with a reason when it went wrong.
+
+The task is achieved when every object ends at its expected pose (:mod:`.measures`). When it
+is not, each skill of the executed program is examined over its ticks (including the dwell and
+lift-off that follow it) and gets one or more reasons:
+
+* ``goal unreachable`` / ``IK limit``: the IK solution ended (or fell) more than
+  :data:`IK_TOL` away from the planned TCP pose;
+* ``grasp failed`` (pick_up: the object was not lifted with the gripper) and ``grasp lost``
+  (move_with: the carried object slipped more than :data:`GRASP_TOL` in the gripper);
+* ``collision``: an object the skill does not handle moved more than the success tolerance;
+* ``placed/stacked/pushed off target by X mm``: the object a place/stack/push handled last ends
+  outside the tolerance (its final error is attributed to that skill).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .controller import LOOKAHEAD, Execution, Plan
+from .measures import POS_TOL, ROT_TOL_DEG, ObjectResult
+from .program import TaskProgram
+
+IK_TOL = 0.01
+"""The IK solution farther than this from the planned TCP (m) means the arm could not follow."""
+GRASP_TOL = 0.02
+"""A carried object moving more than this relative to the TCP (m) was lost from the grasp."""
+LIFT_MIN = 0.01
+"""A grasped object must rise at least this much during the carry (m)."""
+PLACING = ("place", "stack", "push")
+
+
+@dataclass
+class SkillResult:
+    """Outcome of one skill of the executed program."""
+
+    index: int
+    skill: str
+    object: str | None
+    reasons: list[str] = field(default_factory=list)
+    position_error_mm: float | None = None
+    """Final position error of the object this skill placed last (place/stack/push)."""
+    rotation_error_deg: float | None = None
+
+    @property
+    def ok(self) -> bool:
+        return not self.reasons
+
+    @property
+    def reason(self) -> str | None:
+        return "; ".join(self.reasons) if self.reasons else None
+
+    def label(self) -> str:
+        """``"6 stack box_1"``."""
+        return f"{self.index} {self.skill}" + (f" {self.object}" if self.object else "")
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "index": self.index,
+            "skill": self.skill,
+            "object": self.object,
+            "ok": self.ok,
+            "reason": self.reason,
+            "position_error_mm": self.position_error_mm,
+            "rotation_error_deg": self.rotation_error_deg,
+        }
+
+
+def _quat_angle_deg(a: np.ndarray, b: np.ndarray) -> float:
+    d = abs(float(np.dot(a / np.linalg.norm(a), b / np.linalg.norm(b))))
+    return float(np.degrees(2 * np.arccos(min(d, 1.0))))
+
+
+def _spans(plan: Plan, n_segments: int) -> list[tuple[int, int]]:
+    """Tick range [a, b) of each segment, including the dwell/lift-off ticks (-1) after it."""
+    seg = np.asarray(plan.segment)
+    starts = []
+    for k in range(n_segments):
+        idx = np.flatnonzero(seg == k)
+        starts.append(int(idx[0]) if idx.size else -1)
+    spans = []
+    for k, a in enumerate(starts):
+        later = [s for s in starts[k + 1 :] if s >= 0]
+        b = later[0] if later else len(seg)
+        spans.append((a, b) if a >= 0 else (0, 0))
+    return spans
+
+
+def skill_results(
+    program: TaskProgram,
+    plan: Plan,
+    ex: Execution,
+    objects: list[ObjectResult],
+) -> list[SkillResult]:
+    """Examine every skill of an executed program (see the module docstring).
+
+    Parameters
+    ----------
+    program : TaskProgram
+        The executed program; ``plan.segment`` indexes its segments.
+    plan : Plan
+    ex : Execution
+    objects : list of ObjectResult
+        Final errors per object, in ``ex.object_names`` order.
+    """
+    segs = program.segments
+    out = [SkillResult(k, s.skill, s.object) for k, s in enumerate(segs)]
+    spans = _spans(plan, len(segs))
+    n = len(plan)
+    names = ex.object_names
+    ahead = np.minimum(np.arange(n) + LOOKAHEAD, n - 1)
+    ik_err = np.linalg.norm(ex.planned_ik - plan.position[ahead], axis=1)
+    held: str | None = None
+    last_handler: dict[str, int] = {}
+    last_mover: dict[str, int] = {}
+    for k, (seg, (a, b)) in enumerate(zip(segs, spans, strict=True)):
+        if b <= a:
+            continue
+        res = out[k]
+        end = min(b, n) - 1
+        if ik_err[end] > IK_TOL:
+            res.reasons.append(
+                f"goal unreachable: the arm ends {ik_err[end] * 1000:.0f} mm from the planned "
+                f"TCP pose ({', '.join(f'{v:.3f}' for v in plan.position[ahead[end]])}) m"
+            )
+        elif ik_err[a:b].max() > IK_TOL:
+            res.reasons.append(
+                f"IK limit: the arm falls {ik_err[a:b].max() * 1000:.0f} mm behind the planned path"
+            )
+        if seg.skill == "pick_up":
+            held = seg.object
+        handled = {seg.object, held} - {None}
+        for j, name in enumerate(names):
+            moved = float(np.linalg.norm(ex.object_position[j, end] - ex.object_position[j, a]))
+            turned = _quat_angle_deg(ex.object_quaternion[j, end], ex.object_quaternion[j, a])
+            if moved > 0.003 or turned > 3.0:
+                last_mover[name] = k
+            if name in handled:
+                continue
+            if moved > POS_TOL or turned > ROT_TOL_DEG:
+                res.reasons.append(
+                    f"collision: {name} was knocked {moved * 1000:.0f} mm / {turned:.0f} deg"
+                )
+        if seg.skill == "move_with" and held in names:
+            j = names.index(held)
+            rel = ex.object_position[j, a:b] - ex.tcp[a:b]
+            slip = np.linalg.norm(rel - rel[0], axis=1)
+            rise = float(ex.object_position[j, a:b, 2].max() - ex.object_position[j, a, 2])
+            if rise < LIFT_MIN and float(ex.tcp[a:b, 2].max() - ex.tcp[a, 2]) > LIFT_MIN:
+                pick = next((i for i in range(k - 1, -1, -1) if segs[i].skill == "pick_up"), k)
+                out[pick].reasons.append(f"grasp failed: {held} was not lifted by the gripper")
+            elif slip.max() > GRASP_TOL:
+                t = (a + int(np.argmax(slip > GRASP_TOL))) * 0.01
+                res.reasons.append(
+                    f"grasp lost: {held} slipped {slip.max() * 1000:.0f} mm in the gripper "
+                    f"during the carry (from t = {t:.1f} s)"
+                )
+        if seg.skill in PLACING:
+            placed = seg.object or (held if seg.skill != "push" else None)
+            if placed is not None:
+                last_handler[placed] = k
+        if seg.skill in ("place", "stack"):
+            held = None
+    verbs = {"place": "placed", "stack": "stacked", "push": "pushed"}
+    for o in objects:
+        h = last_handler.get(o.name)
+        if h is not None:
+            out[h].position_error_mm = o.position_error * 1000
+            out[h].rotation_error_deg = o.rotation_error_deg
+        if o.success:
+            continue
+        off = f"{o.position_error * 1000:.0f} mm / {o.rotation_error_deg:.0f} deg"
+        mover = last_mover.get(o.name)
+        lost = any(o.name in r and "grasp" in r for s in out[: h or 0] for r in s.reasons)
+        if h is not None and lost:
+            out[h].reasons.append(f"{o.name} never got there (ends {off} off target)")
+        elif h is not None and (mover is None or mover <= h):
+            out[h].reasons.append(f"{verbs[segs[h].skill]} {o.name} off target by {off}")
+        elif mover is not None:
+            if not any(o.name in r for r in out[mover].reasons):
+                out[mover].reasons.append(f"collision: {o.name} was moved and ends {off} off")
+        else:
+            target = h if h is not None else len(segs) - 1
+            out[target].reasons.append(f"{o.name} ends {off} off target")
+    return out
