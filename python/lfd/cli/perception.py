@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import argparse
 
+from ._types import positive_float, positive_int, seed
+
 NAME = "perception"
 HELP = "Train / evaluate the depth hand-keypoint network (needs the perception extra)."
 
@@ -19,20 +21,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="action", required=True)
     t = sub.add_parser("train", help="train the hand network on rendered depth crops")
     t.add_argument("--out", required=True, help="output weights (.pt)")
-    t.add_argument("--samples", type=int, default=6000, help="training crops to render (6000)")
+    t.add_argument(
+        "--samples", type=positive_int, default=6000, help="training crops to render (6000)"
+    )
     t.add_argument("--data", nargs="*", help="use/cache rendered sets (.npz) instead")
-    t.add_argument("--epochs", type=int, default=40)
-    t.add_argument("--batch", type=int, default=64)
-    t.add_argument("--lr", type=float, default=2e-3)
-    t.add_argument("--seed", type=int, default=1)
-    t.add_argument("--threads", type=int, default=2, help="torch CPU threads (2)")
+    t.add_argument("--epochs", type=positive_int, default=40, help="training epochs (40)")
+    t.add_argument("--batch", type=positive_int, default=64, help="batch size (64)")
+    t.add_argument("--lr", type=positive_float, default=2e-3, help="learning rate (0.002)")
+    t.add_argument("--seed", type=seed, default=1, help="random seed, >= 0 (1)")
+    t.add_argument("--threads", type=positive_int, default=2, help="torch CPU threads (2)")
     t.add_argument("--resume", action="store_true", help="continue from <out>.ckpt")
     t.add_argument("--init", help="start from the weights of this model (fine-tune)")
-    t.add_argument("--val-samples", type=int, default=200, help="held-out crops (200)")
+    t.add_argument("--val-samples", type=positive_int, default=200, help="held-out crops (200)")
     e = sub.add_parser("eval", help="keypoint error on held-out rendered crops")
     e.add_argument("--model", help="weights (default: shipped)")
-    e.add_argument("--samples", type=int, default=300)
-    e.add_argument("--seed", type=int, default=99, help="seed of the held-out renders (99)")
+    e.add_argument("--samples", type=positive_int, default=300, help="held-out crops (300)")
+    e.add_argument("--seed", type=seed, default=99, help="seed of the held-out renders (99)")
 
 
 def _render(n: int, seed: int) -> dict:  # type: ignore[type-arg]
