@@ -655,7 +655,7 @@ def _zstd_bomb(path: Path, *, inflated: int, declared: int | None = None) -> Pat
 
 _PEAK_MEMORY = textwrap.dedent(
     """
-    import resource, sys, time
+    import sys, time
     from lfd.errors import RecordingFormatError
     from lfd.io import scan
     t = time.perf_counter()
@@ -664,7 +664,9 @@ _PEAK_MEMORY = textwrap.dedent(
         outcome = f"read: {raw.error}"
     except RecordingFormatError as err:
         outcome = f"refused: {err}"
-    rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    # peak RSS of this process image (ru_maxrss would include the forking parent's)
+    status = open("/proc/self/status").read().split("VmHWM:")[1]
+    rss_mb = int(status.split()[0]) / 1024
     print(f"{time.perf_counter() - t:.3f} {rss_mb:.0f} {outcome}")
     """
 )

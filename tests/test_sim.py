@@ -268,7 +268,9 @@ def test_cli_simulate_writes_a_readable_recording(tmp_path) -> None:  # type: ig
     assert demo.metadata["variability"]["speed"] == 1.1
     assert demo.metadata["target_skill"] == "push"
     assert main(["simulate", "-o", str(out)]) == 2  # no task
-    assert main(["simulate", "push", "-o", str(out), "--dropout", "-1"]) == 2
+    with pytest.raises(SystemExit) as exit_:  # refused by argparse, before simulating
+        main(["simulate", "push", "-o", str(out), "--dropout", "-1"])
+    assert exit_.value.code == 2
 
 
 def test_cropped_rendered_sample(tmp_path) -> None:  # type: ignore[no-untyped-def]
