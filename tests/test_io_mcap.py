@@ -474,3 +474,260 @@ def test_foreign_file_extra_topics_and_missing_sizes(tmp_path: Path) -> None:
             w.write_message("/rosout", Log(message="hello"), t, t)
     with pytest.raises(RecordingFormatError, match="'box' has no size"):
         load(path)
+
+
+# --- malformed values and decompression bombs -----------------------------------------------
+def _small_recording(path: Path, *, confidence: bool = True) -> Path:
+    with McapRecorder(path, objects=CUBE) as rec:
+        for i in range(3):
+            t = T0 + i * 200_000_000
+            rec.add_hand(t, np.zeros((21, 3)), np.ones(21) if confidence else None)
+            rec.add_object_pose("cube", t, (i, 0, 0), (0, 0, 0, 1))
+    return path
+
+
+def _rewrite(src: Path, dst: Path, *, metadata=None, channel=None, message=None) -> Path:
+    """Copy an MCAP record by record through the ``mcap`` writer, letting hooks change the
+    metadata records ``(name, dict) -> dict``, the channel metadata ``(topic, dict) -> dict``
+    and the messages ``(topic, log_time, data) -> (log_time, data)``."""
+    from mcap.writer import Writer
+
+    with open(src, "rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        assert summary is not None
+        records = list(reader.iter_metadata())
+        msgs = list(reader.iter_messages(log_time_order=False))
+    with open(dst, "wb") as out:
+        w = Writer(out)
+        w.start()
+        schema_ids = {
+            sid: w.register_schema(s.name, s.encoding, s.data) for sid, s in summary.schemas.items()
+        }
+        channel_ids = {}
+        for cid, ch in summary.channels.items():
+            meta = dict(ch.metadata)
+            if channel is not None:
+                meta = channel(ch.topic, meta)
+            channel_ids[cid] = w.register_channel(
+                ch.topic, ch.message_encoding, schema_ids.get(ch.schema_id, 0), meta
+            )
+        for _, ch, m in msgs:
+            t, data = m.log_time, m.data
+            if message is not None:
+                t, data = message(ch.topic, t, data)
+            w.add_message(channel_ids[ch.id], t, data, min(t, 2**64 - 1))
+        for rec in records:
+            meta = dict(rec.metadata)
+            if metadata is not None:
+                meta = metadata(rec.name, meta)
+            w.add_metadata(rec.name, meta)
+        w.finish()
+    return dst
+
+
+def _demo_objects(edit):
+    """A metadata hook replacing the 'demo' record's objects list by ``edit(objects)``."""
+
+    def hook(name: str, meta: dict) -> dict:
+        if name == "demo":
+            meta["objects"] = json.dumps(edit(json.loads(meta["objects"])))
+        return meta
+
+    return hook
+
+
+def _set_first(key: str, value):
+    def edit(objects: list) -> list:
+        objects[0][key] = value
+        return objects
+
+    return edit
+
+
+def _no_objects_metadata(name: str, meta: dict) -> dict:
+    if name == "demo":
+        meta["objects"] = "[]"
+    return meta
+
+
+def _channel_meta(key: str, value: str):
+    def hook(topic: str, meta: dict) -> dict:
+        if topic == "/objects/cube/pose":
+            meta[key] = value
+        return meta
+
+    return hook
+
+
+def _confidence(payload: bytes):
+    def hook(topic: str, t: int, data: bytes) -> tuple[int, bytes]:
+        return t, (payload if topic == "/hand/right/confidence" else data)
+
+    return hook
+
+
+def _late_hand(topic: str, t: int, data: bytes) -> tuple[int, bytes]:
+    return (2**63 if topic == "/hand/right/keypoints" else t), data
+
+
+MALFORMED = [
+    ("string tag_id", {"metadata": _demo_objects(_set_first("tag_id", "three"))}, "tag_id"),
+    ("float tag_id", {"metadata": _demo_objects(_set_first("tag_id", 3.5))}, "tag_id"),
+    ("string size", {"metadata": _demo_objects(_set_first("size", "big"))}, "size must be"),
+    ("short size", {"metadata": _demo_objects(_set_first("size", [0.05, 0.05]))}, "size must"),
+    ("nested size", {"metadata": _demo_objects(_set_first("size", [[1], 2, 3]))}, "size must"),
+    ("negative size", {"metadata": _demo_objects(_set_first("size", [0.05, -1, 0.05]))}, "size"),
+    ("bool size", {"metadata": _demo_objects(_set_first("size", [True, 1, 1]))}, "size must"),
+    ("name not a string", {"metadata": _demo_objects(_set_first("name", 7))}, "'name'"),
+    ("objects not a list", {"metadata": _demo_objects(lambda o: {"cube": o})}, "JSON list"),
+    (
+        "channel size not JSON",
+        {"metadata": _no_objects_metadata, "channel": _channel_meta("size", "[0.05, 0.05")},
+        "/objects/cube/pose metadata: size is not JSON",
+    ),
+    (
+        "channel size not numbers",
+        {"metadata": _no_objects_metadata, "channel": _channel_meta("size", '["a", 1, 1]')},
+        "/objects/cube/pose metadata: size must be",
+    ),
+    (
+        "channel tag_id not an integer",
+        {"metadata": _no_objects_metadata, "channel": _channel_meta("tag_id", "x1")},
+        "/objects/cube/pose metadata: tag_id",
+    ),
+    (
+        "string confidences",
+        {"message": _confidence(json.dumps({"confidence": ["0.5"] * 21}).encode())},
+        "/hand/right/confidence at",
+    ),
+    (
+        "confidence out of range",
+        {"message": _confidence(json.dumps({"confidence": [2.0] * 21}).encode())},
+        "in [0, 1]",
+    ),
+    ("confidence not JSON", {"message": _confidence(b"\xff\x00")}, "/hand/right/confidence"),
+    (
+        "confidence not an object",
+        {"message": _confidence(b"[1, 2]")},
+        '{"confidence": [21 numbers]}',
+    ),
+    ("log_time >= 2**63", {"message": _late_hand}, "log_time 9223372036854775808"),
+]
+
+
+@pytest.mark.parametrize(
+    ("edits", "match"), [c[1:] for c in MALFORMED], ids=[c[0] for c in MALFORMED]
+)
+def test_malformed_values_are_format_errors(tmp_path: Path, edits: dict, match: str) -> None:
+    src = _small_recording(tmp_path / "ok.mcap")
+    _load_quiet(src)  # the unmodified copy loads
+    bad = _rewrite(src, tmp_path / "bad.mcap", **edits)
+    with pytest.raises(RecordingFormatError) as err:
+        _load_quiet(bad)
+    text = str(err.value)
+    assert match in text and "\n" not in text, text
+
+
+def test_malformed_value_through_the_cli(tmp_path: Path) -> None:
+    src = _small_recording(tmp_path / "ok.mcap")
+    bad = _rewrite(src, tmp_path / "bad.mcap", metadata=_demo_objects(_set_first("tag_id", "3")))
+    proc = subprocess.run(
+        [sys.executable, "-m", "lfd.cli", "segment", str(bad)], capture_output=True, text=True
+    )
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
+    assert "tag_id must be an integer" in proc.stderr
+
+
+def test_rewrite_helper_keeps_a_good_recording(tmp_path: Path) -> None:
+    src = _small_recording(tmp_path / "ok.mcap")
+    demo, caught = _load_quiet(_rewrite(src, tmp_path / "copy.mcap"))
+    assert caught == []
+    assert demo.objects["cube"].tag_id == 3 and len(demo.hand) == 3
+    # sizes and tag ids may also come from the channel metadata alone
+    demo, _ = _load_quiet(_rewrite(src, tmp_path / "chan.mcap", metadata=_no_objects_metadata))
+    np.testing.assert_array_equal(demo.objects["cube"].size, [0.05, 0.05, 0.05])
+    assert demo.objects["cube"].tag_id == 3
+
+
+def _zstd_bomb(path: Path, *, inflated: int, declared: int | None = None) -> Path:
+    """An MCAP file with one zstd chunk of zeros that inflates to ``inflated`` bytes; its
+    header declares ``declared`` (default: the truth)."""
+    import zstandard
+    from mcap.data_stream import RecordBuilder
+    from mcap.records import Chunk, DataEnd, Footer, Header
+
+    block = 16 * 2**20
+    frame = zstandard.ZstdCompressor(level=19).compress(bytes(block))
+    b = RecordBuilder()
+    Header(profile="", library="bomb").write(b)
+    Chunk(
+        compression="zstd",
+        data=frame * (inflated // block),
+        message_start_time=0,
+        message_end_time=0,
+        uncompressed_size=inflated if declared is None else declared,
+        uncompressed_crc=0,
+    ).write(b)
+    DataEnd(0).write(b)
+    Footer(0, 0, 0).write(b)
+    magic = b"\x89MCAP0\r\n"
+    path.write_bytes(magic + b.end() + magic)
+    return path
+
+
+_PEAK_MEMORY = textwrap.dedent(
+    """
+    import sys, time
+    from lfd.errors import RecordingFormatError
+    from lfd.io import scan
+    t = time.perf_counter()
+    try:
+        raw = scan(sys.argv[1])
+        outcome = f"read: {raw.error}"
+    except RecordingFormatError as err:
+        outcome = f"refused: {err}"
+    # peak RSS of this process image (ru_maxrss would include the forking parent's)
+    status = open("/proc/self/status").read().split("VmHWM:")[1]
+    rss_mb = int(status.split()[0]) / 1024
+    print(f"{time.perf_counter() - t:.3f} {rss_mb:.0f} {outcome}")
+    """
+)
+
+
+@pytest.mark.parametrize("declared", [None, 1000], ids=["honest header", "lying header"])
+def test_decompression_bomb_is_refused_quickly(tmp_path: Path, declared: int | None) -> None:
+    """67 KB of zstd zeros that inflate to 2 GiB: refused from the chunk header (honest) or
+    stopped at the declared size (lying), in well under a second and under 300 MB."""
+    path = _zstd_bomb(tmp_path / "bomb.mcap", inflated=2**31, declared=declared)
+    assert path.stat().st_size < 100_000
+    proc = subprocess.run(
+        [sys.executable, "-c", _PEAK_MEMORY, str(path)], capture_output=True, text=True
+    )
+    assert proc.returncode == 0, proc.stderr
+    seconds, rss_mb, outcome = proc.stdout.split(" ", 2)
+    assert float(seconds) < 1.0 and float(rss_mb) < 300, proc.stdout
+    if declared is None:
+        assert outcome.startswith("refused") and "decompression bomb" in outcome, outcome
+    else:
+        assert "inflates to more than 1000 bytes" in outcome, outcome
+    # the CLI: one line, exit 2
+    proc = subprocess.run(
+        [sys.executable, "-m", "lfd.cli", "info", str(path)], capture_output=True, text=True
+    )
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
+
+
+def test_inflation_limit_leaves_real_recordings_alone() -> None:
+    from lfd.io.mcapfile import MAX_INFLATION, inflate_limit
+
+    rendered = Path(__file__).parents[1] / "recordings" / "rendered" / "exp1_short.mcap"
+    with open(rendered, "rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+    assert summary is not None
+    inflated = sum(c.uncompressed_size for c in summary.chunk_indexes)
+    size = rendered.stat().st_size
+    # the most compressible shipped recording (raw depth frames) is far inside the limit
+    assert inflated < inflate_limit(size) / 10 and inflated / size < MAX_INFLATION / 10
+    assert scan(rendered).complete

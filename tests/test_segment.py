@@ -220,6 +220,73 @@ def test_template_file_errors(tmp_path: Path) -> None:
         Templates.load(tmp_path / "missing.json")
 
 
+@pytest.mark.parametrize(
+    ("edit", "match"),
+    [
+        (lambda d: d["ranges"].__setitem__(0, [1.0, 0.0]), "range of column 0 is .* inverted"),
+        (lambda d: d["ranges"].__setitem__(3, [0.5, 0.5]), "range of column 3 .* empty"),
+        (lambda d: d["ranges"].pop(), "9 ranges for 10 columns"),
+        (lambda d: d["n_examples"].pop(), "example counts"),
+        (lambda d: d["features"][0].update(end=0), "no columns"),
+        (lambda d: d["params"]["fit"].update(n_states=0), "n_states must be >= 1"),
+        (lambda d: d["params"]["fit"].update(extra=1), "unknown field `extra`"),
+        (lambda d: d.update(skills=7), "invalid type: integer `7`"),
+        (lambda d: d["models"][0].pop(), "models do not match"),
+    ],
+    ids=[
+        "inverted",
+        "empty",
+        "count",
+        "examples",
+        "columns",
+        "n_states",
+        "field",
+        "type",
+        "models",
+    ],
+)
+def test_template_file_values_are_checked(tmp_path: Path, edit, match: str) -> None:  # type: ignore[no-untyped-def]
+    """A template file that reads but would segment wrongly (exp1 as push/move x4 with
+    inverted ranges) is refused when loaded."""
+    doc = json.loads(Templates.default().to_json())
+    edit(doc)
+    path = tmp_path / "t.json"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(ModelFormatError, match=match):
+        Templates.load(path)
+
+
+def test_binary_template_file_is_a_format_error(tmp_path: Path) -> None:
+    path = tmp_path / "t.json"
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(range(256)))
+    with pytest.raises(ModelFormatError, match="not a template file"):
+        Templates.load(path)
+
+
+def test_template_params_are_checked_before_training() -> None:
+    """Bad --params are refused before any recording is read (here: none exists)."""
+    from lfd.errors import InvalidParameterError
+    from lfd.segmentation.templates import template_params
+
+    missing = [TEMPLATE_DIR / "no_such_file.mcap"]
+    for params, match in [
+        ({"fit": {"n_states": 0}}, "n_states must be >= 1"),
+        ({"fit": {"covariance_floor": -1.0}}, "covariance_floor"),
+        ({"fit": {"n_mix": 1.5}}, "fit.n_mix"),
+        ({"fit": {"max_iter": -1}}, "fit.max_iter"),
+        ({"fit": {"bogus": 1}}, "unknown template parameter `fit.bogus`"),
+        ({"bogus": {"x": 1}}, "unknown template parameter `bogus`"),
+        ({"fit": {"tol": float("nan")}}, "not plain JSON"),
+        ({"align": "yes"}, "template parameter `align`"),
+    ]:
+        with pytest.raises(InvalidParameterError, match=match):
+            train_templates(missing, params=params)
+    full = json.loads(template_params({"fit": {"n_states": 6}}))
+    assert full["fit"]["n_states"] == 6
+    assert full["fit"]["n_mix"] == json.loads(_hmmseg.default_template_params())["fit"]["n_mix"]
+    assert json.loads(template_params(None)) == json.loads(_hmmseg.default_template_params())
+
+
 # --- bad input -------------------------------------------------------------------------------
 def test_no_hand_data_is_a_clear_error() -> None:
     d = demo()

@@ -193,6 +193,20 @@ def test_seeds_reproducible(tmp_path) -> None:  # type: ignore[no-untyped-def]
     assert back.skill_sequence == a.demo.skill_sequence
 
 
+def test_bad_simulation_arguments_are_usage_errors(exps) -> None:  # type: ignore[no-untyped-def]
+    from lfd.errors import UsageError
+    from lfd.sim.demonstrator import crop
+
+    for kwargs in ({"seed": -1}, {"seed": 1.5}, {"hand_rate_hz": 0.0}, {"hand_rate_hz": 60.0}):
+        with pytest.raises(UsageError):
+            simulate("exp1", **kwargs)  # type: ignore[arg-type]
+    for seconds in (-1.0, 0.0, float("nan"), float("inf"), 0.05):
+        with pytest.raises(UsageError, match="duration"):
+            crop(exps["exp1"], seconds)
+    with pytest.raises(UsageError, match="approach_deg"):
+        Variability(approach_deg=270.0).validate()
+
+
 def test_variability_validation() -> None:
     with pytest.raises(ValueError):
         Variability(speed=0.0).resolve(np.random.default_rng(0))
@@ -254,7 +268,9 @@ def test_cli_simulate_writes_a_readable_recording(tmp_path) -> None:  # type: ig
     assert demo.metadata["variability"]["speed"] == 1.1
     assert demo.metadata["target_skill"] == "push"
     assert main(["simulate", "-o", str(out)]) == 2  # no task
-    assert main(["simulate", "push", "-o", str(out), "--dropout", "-1"]) == 2
+    with pytest.raises(SystemExit) as exit_:  # refused by argparse, before simulating
+        main(["simulate", "push", "-o", str(out), "--dropout", "-1"])
+    assert exit_.value.code == 2
 
 
 def test_cropped_rendered_sample(tmp_path) -> None:  # type: ignore[no-untyped-def]

@@ -246,9 +246,7 @@ impl PyTemplateSet {
         params_json: Option<&str>,
     ) -> PyResult<Self> {
         let params = match params_json {
-            Some(t) => serde_json::from_str::<TemplateParams>(t)
-                .map_err(|e| EngineError::Format(format!("template parameters: {e}")))
-                .py_err(py)?,
+            Some(t) => TemplateParams::with_overrides(t).py_err(py)?,
             None => TemplateParams::default(),
         };
         let features: Vec<FeatureGroup> = features
@@ -361,9 +359,20 @@ fn default_template_params() -> String {
     serde_json::to_string(&TemplateParams::default()).unwrap_or_default()
 }
 
+/// The default template parameters with the overrides in `overrides_json` (a JSON object)
+/// applied and checked, as JSON; unknown keys and bad values raise `InvalidParameterError`.
+#[pyfunction]
+fn template_params(py: Python<'_>, overrides_json: &str) -> PyResult<String> {
+    let params = TemplateParams::with_overrides(overrides_json).py_err(py)?;
+    serde_json::to_string(&params)
+        .map_err(|e| EngineError::Format(format!("template parameters: {e}")))
+        .py_err(py)
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyTemplateSet>()?;
     m.add_function(wrap_pyfunction!(default_template_params, m)?)?;
+    m.add_function(wrap_pyfunction!(template_params, m)?)?;
     m.add_function(wrap_pyfunction!(stage1_boundaries, m)?)?;
     m.add_function(wrap_pyfunction!(rising_table, m)?)?;
     m.add_function(wrap_pyfunction!(segment_greedy, m)?)?;

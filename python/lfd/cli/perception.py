@@ -12,6 +12,8 @@ from __future__ import annotations
 import argparse
 import os
 
+from ._types import positive_float, positive_int, seed
+
 NAME = "perception"
 HELP = "Train / evaluate the depth hand-keypoint network (needs the perception extra)."
 
@@ -20,7 +22,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="action", required=True)
     t = sub.add_parser("train", help="train the hand network on rendered depth crops")
     t.add_argument("-o", "--output", required=True, metavar="FILE.pt", help="output weights (.pt)")
-    t.add_argument("--samples", type=int, default=6000, help="training crops to render (6000)")
+    t.add_argument(
+        "--samples", type=positive_int, default=6000, help="training crops to render (6000)"
+    )
     t.add_argument(
         "--data",
         nargs="*",
@@ -28,20 +32,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="use these rendered sets (.npz) instead of rendering; a missing first one is "
         "rendered and cached there",
     )
-    t.add_argument("--epochs", type=int, default=40, help="training epochs (40)")
-    t.add_argument("--batch", type=int, default=64, help="batch size (64)")
-    t.add_argument("--lr", type=float, default=2e-3, help="Adam learning rate (0.002)")
-    t.add_argument("--seed", type=int, default=1, help="random seed of renders and weights (1)")
-    t.add_argument("--threads", type=int, default=2, help="torch CPU threads (2)")
+    t.add_argument("--epochs", type=positive_int, default=40, help="training epochs (40)")
+    t.add_argument("--batch", type=positive_int, default=64, help="batch size (64)")
+    t.add_argument("--lr", type=positive_float, default=2e-3, help="Adam learning rate (0.002)")
+    t.add_argument(
+        "--seed", type=seed, default=1, help="random seed of renders and weights, >= 0 (1)"
+    )
+    t.add_argument("--threads", type=positive_int, default=2, help="torch CPU threads (2)")
     t.add_argument("--resume", action="store_true", help="continue from <output>.ckpt")
     t.add_argument(
         "--init", metavar="FILE.pt", help="start from the weights of this model (fine-tune)"
     )
-    t.add_argument("--val-samples", type=int, default=200, help="held-out crops (200)")
+    t.add_argument("--val-samples", type=positive_int, default=200, help="held-out crops (200)")
     e = sub.add_parser("eval", help="keypoint error on held-out rendered crops")
     e.add_argument("--hand-model", metavar="FILE.pt", help="weights (default: shipped)")
-    e.add_argument("--samples", type=int, default=300, help="held-out crops to render (300)")
-    e.add_argument("--seed", type=int, default=99, help="seed of the held-out renders (99)")
+    e.add_argument(
+        "--samples", type=positive_int, default=300, help="held-out crops to render (300)"
+    )
+    e.add_argument("--seed", type=seed, default=99, help="seed of the held-out renders (99)")
 
 
 def _check(args: argparse.Namespace) -> None:

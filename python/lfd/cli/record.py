@@ -15,6 +15,8 @@ import signal
 import sys
 from typing import Any
 
+from ._types import float_range, positive_float, seed
+
 NAME = "record"
 HELP = "Record a demonstration from RGB-D frames: object tags + hand keypoints -> MCAP."
 
@@ -29,10 +31,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         required=True,
         help="output .mcap (written beside it as .NAME.*.partial until the recording stops)",
     )
-    parser.add_argument("--duration", type=float, help="stop after this many seconds of frames")
-    parser.add_argument("--hand-rate", type=float, default=5.0, help="hand estimator rate, Hz (5)")
-    parser.add_argument("--fps", type=float, help="sim source: camera frame rate (30)")
-    parser.add_argument("--seed", type=int, default=0, help="sim source: random seed (0)")
+    parser.add_argument(
+        "--duration", type=positive_float, help="stop after this many seconds of frames (> 0)"
+    )
+    parser.add_argument(
+        "--hand-rate", type=positive_float, default=5.0, help="hand estimator rate, Hz, > 0 (5)"
+    )
+    parser.add_argument(
+        "--fps",
+        type=float_range(0.5, 120.0),
+        help="sim / camera source: camera frame rate, Hz, in [0.5, 120] (30)",
+    )
+    parser.add_argument("--seed", type=seed, default=0, help="sim source: random seed, >= 0 (0)")
     parser.add_argument("--intrinsics", help="camera source: camera.json (K, size, objects)")
     parser.add_argument(
         "--depth-reader",
@@ -47,9 +57,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--reference-size",
-        type=float,
+        type=positive_float,
         default=0.10,
-        help="side of the reference tag's black square, m (0.10)",
+        help="side of the reference tag's black square, m, > 0 (0.10)",
     )
     parser.add_argument("--no-hand", action="store_true", help="record object poses only")
     parser.add_argument("--images", action="store_true", help="also store colour + depth frames")
@@ -78,10 +88,6 @@ def run(args: argparse.Namespace) -> int:
         inputs.append(args.source[len("frames:") :])
     check_output(args.output, inputs=inputs, what="-o/--output", suffixes=(".mcap",))
     check_rerun_args(args, inputs=[*inputs, args.output])
-    if args.duration is not None and args.duration <= 0:
-        from ..errors import LfdError
-
-        raise LfdError("--duration must be positive")
     source = open_source(
         args.source,
         seed=args.seed,

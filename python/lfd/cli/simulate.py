@@ -16,8 +16,11 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
+
+from ._types import finite_float, float_range, positive_float, seed
 
 NAME = "simulate"
 HELP = "Record a task performed by the simulated human demonstrator (MuJoCo)."
@@ -26,6 +29,28 @@ SETS = ("templates", "eval", "samples")
 TEMPLATE_SEEDS = range(9)
 EVAL_SEEDS = range(100, 106)
 SAMPLE_SEED = 1000
+OBJECT_RATE_HZ = 30.0
+"""Camera / tag tracking rate of the simulated recordings (``simulate``'s default), Hz: the
+upper limit of the hand and render rates."""
+
+
+def _variability_value(name: str) -> Callable[[str], float]:
+    """A ``type=`` converter for the :class:`~lfd.sim.Variability` field ``name``: a finite
+    number that :meth:`~lfd.sim.Variability.validate` accepts (its ranges are the only copy)."""
+
+    def convert(text: str) -> float:
+        from ..errors import UsageError
+        from ..sim import Variability
+
+        v = finite_float(text)
+        try:
+            Variability(**{name: v}).validate()
+        except UsageError as err:
+            raise argparse.ArgumentTypeError(str(err)) from None
+        return v
+
+    convert.__name__ = name
+    return convert
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -46,28 +71,57 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         choices=SETS,
         help="generate a whole recording set into the -o directory (no TASK then)",
     )
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument("--seed", type=seed, default=0, help="random seed, >= 0 (default 0)")
     parser.add_argument("--render", action="store_true", help="also render colour + depth frames")
-    parser.add_argument("--render-rate", type=float, default=10.0, help="render rate, Hz (10)")
+    parser.add_argument(
+        "--render-rate",
+        type=float_range(0.0, OBJECT_RATE_HZ, lo_open=True),
+        default=10.0,
+        help=f"render rate, Hz, in (0, {OBJECT_RATE_HZ:g}] (10)",
+    )
     parser.add_argument(
         "--color-format",
         choices=("raw", "png", "jpeg"),
         default="png",
         help="how rendered colour frames are stored (png)",
     )
-    parser.add_argument("--duration", type=float, help="keep only the first seconds")
-    parser.add_argument("--hand-rate", type=float, default=5.0, help="keypoint rate, Hz (5)")
+    parser.add_argument("--duration", type=positive_float, help="keep only the first seconds (> 0)")
+    parser.add_argument(
+        "--hand-rate",
+        type=float_range(0.5, OBJECT_RATE_HZ),
+        default=5.0,
+        help=f"keypoint rate, Hz, in [0.5, {OBJECT_RATE_HZ:g}] (5)",
+    )
     v = parser.add_argument_group("variability (default: drawn per demo)")
-    v.add_argument("--speed", type=float, help="speed factor (default U(0.8, 1.25))")
-    v.add_argument("--hand-scale", type=float, help="hand size factor (default U(0.9, 1.1))")
-    v.add_argument("--noise-mm", type=float, help="keypoint noise std, mm (default U(2, 3))")
-    v.add_argument("--dropout", type=float, help="missing tag fraction (default U(0.01, 0.03))")
-    v.add_argument("--tremor-mm", type=float, help="tremor amplitude, mm (default U(0.3, 1))")
-    v.add_argument("--detour", type=float, help="path detour scale, 0 = straight (U(0.5, 1.5))")
-    v.add_argument("--pauses", type=float, help="pause probability (default U(0.15, 0.5))")
-    v.add_argument("--outliers", type=float, help="fraction of hand frames with outliers (0.03)")
-    v.add_argument("--approach-deg", type=float, help="max approach azimuth deviation (35)")
-    v.add_argument("--hand-miss", type=float, help="fraction of failed hand estimates (0.02)")
+    var = _variability_value
+    v.add_argument("--speed", type=var("speed"), help="speed factor in [0.2, 5] (U(0.8, 1.25))")
+    v.add_argument(
+        "--hand-scale", type=var("hand_scale"), help="hand size factor in [0.6, 1.5] (U(0.9, 1.1))"
+    )
+    v.add_argument("--noise-mm", type=var("noise_mm"), help="keypoint noise std, mm (U(2, 3))")
+    v.add_argument(
+        "--dropout", type=var("dropout"), help="missing tag fraction, <= 0.9 (U(0.01, 0.03))"
+    )
+    v.add_argument("--tremor-mm", type=var("tremor_mm"), help="tremor amplitude, mm (U(0.3, 1))")
+    v.add_argument(
+        "--detour", type=var("detour"), help="path detour scale, 0 = straight (U(0.5, 1.5))"
+    )
+    v.add_argument("--pauses", type=var("pauses"), help="pause probability, <= 0.9 (U(0.15, 0.5))")
+    v.add_argument(
+        "--outliers",
+        type=var("outlier_rate"),
+        help="fraction of hand frames with outliers, <= 0.9 (0.03)",
+    )
+    v.add_argument(
+        "--approach-deg",
+        type=var("approach_deg"),
+        help="max approach azimuth deviation, deg, in [0, 180] (35)",
+    )
+    v.add_argument(
+        "--hand-miss",
+        type=var("hand_miss"),
+        help="fraction of failed hand estimates, <= 0.9 (0.02)",
+    )
     v.add_argument("--noise-free", action="store_true", help="no sensor noise, dropouts, tremor")
     from ..viz.cli import add_rerun_arguments
 
@@ -91,12 +145,7 @@ def _variability(args: argparse.Namespace) -> Any:
     }
     given = {k: v for k, v in given.items() if v is not None}
     var = Variability.noise_free(**given) if args.noise_free else Variability(**given)
-    try:
-        var.validate()
-    except ValueError as err:
-        from ..errors import DemonstrationError
-
-        raise DemonstrationError(str(err)) from err
+    var.validate()  # UsageError
     return var
 
 

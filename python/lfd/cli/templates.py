@@ -32,8 +32,16 @@ def run(args: argparse.Namespace) -> int:
     from ..outputs import check_output
     from ..segmentation import Templates, train_templates
     from ..segmentation.evaluate import expand_paths
+    from ..segmentation.templates import template_params
 
     console = Console()
+    if args.action == "train":
+        # check the parameters before any recording is read
+        try:
+            params = json.loads(args.params) if args.params else None
+        except json.JSONDecodeError as err:
+            raise UsageError(f"--params is not valid JSON: {err}") from None
+        template_params(params)
     if args.action == "show":
         t = Templates.load(args.file) if args.file else Templates.default()
         console.print(t)
@@ -46,7 +54,6 @@ def run(args: argparse.Namespace) -> int:
     if not paths:
         raise UsageError(f"no .mcap recordings in {' '.join(args.inputs)}")
     check_output(args.output, inputs=paths, what="-o/--output")
-    params = json.loads(args.params) if args.params else None
     with Progress(console=console) as progress:
         task = progress.add_task("reading templates", total=len(paths) + 1)
 

@@ -10,7 +10,9 @@ keypoints or every object pose, raises :class:`~lfd.errors.RecordingFormatError`
 from __future__ import annotations
 
 import json
+import math
 import os
+import re
 import warnings
 from typing import Any
 
@@ -35,6 +37,52 @@ __all__ = ["load"]
 
 def _ns(stamp: Any) -> int:
     return int(stamp.seconds) * 1_000_000_000 + int(stamp.nanos)
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _tag_id(value: Any, where: str, *, text: bool = False) -> int:
+    """A tag id from JSON (an integer) or, with ``text``, from channel metadata (the text of an
+    integer: channel metadata values are strings)."""
+    if text and isinstance(value, str) and re.fullmatch(r"-?[0-9]+", value.strip()):
+        return int(value)
+    if isinstance(value, int) and not isinstance(value, bool):
+        return value
+    raise RecordingFormatError(f"{where}: tag_id must be an integer, got {value!r}")
+
+
+def _size(value: Any, where: str) -> list[float] | None:
+    """An object size ``[x, y, z]`` (positive, finite, metres) or None if absent."""
+    if value is None:
+        return None
+    if not (
+        isinstance(value, list) and len(value) == 3 and all(_is_number(v) and v > 0 for v in value)
+    ):
+        raise RecordingFormatError(
+            f"{where}: size must be [x, y, z], three positive lengths in metres, got {value!r}"
+        )
+    return [float(v) for v in value]
+
+
+def _confidence(data: bytes, where: str) -> list[float]:
+    """The 21 per-keypoint confidences of one ``{"confidence": [...]}`` JSON message."""
+    try:
+        values = json.loads(data)["confidence"]
+    except (ValueError, KeyError, TypeError) as err:
+        raise RecordingFormatError(
+            f'{where}: not a JSON object {{"confidence": [21 numbers]}} ({err!r})'
+        ) from None
+    if not (
+        isinstance(values, list)
+        and len(values) == 21
+        and all(_is_number(v) and 0 <= v <= 1 for v in values)
+    ):
+        raise RecordingFormatError(
+            f"{where}: confidence must be 21 numbers in [0, 1], got {str(values)[:80]}"
+        )
+    return [float(v) for v in values]
 
 
 def _order(times: np.ndarray) -> tuple[np.ndarray, int, int]:
@@ -86,17 +134,14 @@ class _Loader:
             kp[i] = [(p.position.x, p.position.y, p.position.z) for p in m.poses]
         conf = np.isfinite(kp).all(axis=2).astype(np.float64)
         by_time: dict[int, list[float]] = {}
-        for tc, data in self.raw.messages.get(T.confidence_topic(side), []):
-            try:
-                values = json.loads(data)["confidence"]
-            except (ValueError, KeyError, TypeError):
-                continue
-            if isinstance(values, list) and len(values) == 21:
-                by_time.setdefault(tc, values)
+        topic = T.confidence_topic(side)
+        for tc, data in self.raw.messages.get(topic, []):
+            values = _confidence(data, f"{self.raw.path}: {topic} at {tc} ns")
+            by_time.setdefault(tc, values)
         for i, ti in enumerate(t):
-            values = by_time.get(int(ti))
-            if values is not None:
-                conf[i] = np.array(values, dtype=np.float64)
+            given = by_time.get(int(ti))
+            if given is not None:
+                conf[i] = np.array(given, dtype=np.float64)
         return HandTrack(t_ns=t, keypoints=kp, confidence=conf, side=side)
 
     def object(self, name: str, tag_id: int, size: Any) -> ObjectTrack:
@@ -194,16 +239,38 @@ class _Loader:
 
 
 def _objects(raw: RawRecording) -> list[tuple[str, int, Any]]:
+    """``(name, tag_id, size)`` of every object: from the ``demo`` metadata record, else from
+    the pose channel's metadata. Values of the wrong type raise RecordingFormatError."""
+    where = f"{raw.path}: metadata {T.DEMO_METADATA}/objects"
     declared = raw.json_metadata(T.DEMO_METADATA, "objects", default=[])
+    if not isinstance(declared, list):
+        raise RecordingFormatError(f"{where} must be a JSON list, got {declared!r}"[:200])
     specs: dict[str, tuple[str, int, Any]] = {}
-    for obj in declared if isinstance(declared, list) else []:
-        if isinstance(obj, dict) and "name" in obj:
-            specs[obj["name"]] = (obj["name"], int(obj.get("tag_id", -1)), obj.get("size"))
+    for i, obj in enumerate(declared):
+        if not (isinstance(obj, dict) and isinstance(obj.get("name"), str) and obj["name"]):
+            raise RecordingFormatError(
+                f"{where}[{i}] must be an object with a non-empty string 'name', got {obj!r}"[:200]
+            )
+        at = f"{where}[{i}] ({obj['name']!r})"
+        specs[obj["name"]] = (
+            obj["name"],
+            _tag_id(obj.get("tag_id", -1), at),
+            _size(obj.get("size"), at),
+        )
     for topic, ch in raw.channels.items():
         name = T.object_name_from_topic(topic)
         if name is not None and name not in specs:
-            size = json.loads(ch.metadata["size"]) if "size" in ch.metadata else None
-            specs[name] = (name, int(ch.metadata.get("tag_id", -1)), size)
+            at = f"{raw.path}: channel {topic} metadata"
+            size = None
+            if "size" in ch.metadata:
+                try:
+                    size = json.loads(ch.metadata["size"])
+                except json.JSONDecodeError:
+                    raise RecordingFormatError(
+                        f"{at}: size is not JSON [x, y, z] in metres: {ch.metadata['size']!r}"
+                    ) from None
+            tag_id = _tag_id(ch.metadata.get("tag_id", "-1"), at, text=True)
+            specs[name] = (name, tag_id, _size(size, at))
     return list(specs.values())
 
 

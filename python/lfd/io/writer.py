@@ -252,6 +252,8 @@ class McapRecorder:
             conf = np.asarray(confidence, dtype=np.float64)
             if conf.shape != (21,):
                 raise DemonstrationError(f"hand confidence must have shape (21,), got {conf.shape}")
+            if not np.all((conf >= 0) & (conf <= 1)):
+                raise DemonstrationError(f"hand confidence must be numbers in [0, 1], got {conf}")
         msg = M.hand_poses(t, kp)
         channel = self._channel(
             T.hand_topic(self.side),

@@ -284,7 +284,7 @@ def open_source(spec: str, **kwargs: Any) -> Source:
         return SimSource(
             arg,
             seed=int(kwargs.get("seed", 0)),
-            fps=float(kwargs.get("fps") or 30.0),
+            fps=30.0 if kwargs.get("fps") is None else float(kwargs["fps"]),
             duration=kwargs.get("duration"),
         )
     if kind == "frames":

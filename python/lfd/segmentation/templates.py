@@ -21,7 +21,7 @@ import numpy as np
 
 from .. import _hmmseg
 from ..demo import Demonstration
-from ..errors import DemonstrationError, ModelFormatError
+from ..errors import DemonstrationError, InvalidParameterError, ModelFormatError
 from ..skills import SKILLS
 from ..trajectory import Trajectory
 
@@ -95,7 +95,8 @@ class Templates:
         if not isinstance(doc, dict):
             raise ModelFormatError("template file must contain a JSON object")
         meta = doc.pop("lfd", {}) if isinstance(doc.get("lfd", {}), dict) else {}
-        unknown = [s for s in doc.get("skills", []) if s not in SKILLS]
+        skills = doc.get("skills", [])
+        unknown = [s for s in skills if s not in SKILLS] if isinstance(skills, list) else []
         if unknown:
             raise ModelFormatError(
                 f"template file names unknown skill(s) {unknown}; known: {', '.join(SKILLS)}"
@@ -110,6 +111,11 @@ class Templates:
             text = p.read_text(encoding="utf-8")
         except OSError as err:
             raise ModelFormatError(f"cannot read template file {p}: {err}") from None
+        except UnicodeDecodeError:
+            raise ModelFormatError(
+                f"{p} is not a template file (binary, not UTF-8 JSON text); "
+                "train one with `lfd templates train`"
+            ) from None
         try:
             return cls.from_json(text)
         except ModelFormatError as err:
@@ -201,6 +207,25 @@ def turn_object_frame(x: np.ndarray, k: int, symmetry: int = FRAME_SYMMETRY) -> 
     return out
 
 
+def template_params(params: dict[str, Any] | None = None) -> str:
+    """The engine's default template parameters with ``params`` applied and checked, as JSON.
+
+    Raises :class:`~lfd.errors.InvalidParameterError` for an unknown key (at any level), a value
+    of the wrong type or one out of range (e.g. ``{"fit": {"n_states": 0}}``).
+    """
+    if params is None:
+        params = {}
+    if not isinstance(params, dict):
+        raise InvalidParameterError(
+            f"template parameters must be a dict (JSON object), got {type(params).__name__}"
+        )
+    try:
+        text = json.dumps(params, allow_nan=False)
+    except (TypeError, ValueError) as err:
+        raise InvalidParameterError(f"template parameters are not plain JSON: {err}") from None
+    return _hmmseg.template_params(text)
+
+
 def train_templates(
     recordings: Iterable[str | Path | Demonstration],
     *,
@@ -219,7 +244,9 @@ def train_templates(
         Template demonstrations; every labelled segment becomes a training example.
     params : dict, optional
         Overrides of the engine's template parameters (``_hmmseg.default_template_params()``),
-        e.g. ``{"fit": {"n_states": 5}, "align": False}``.
+        e.g. ``{"fit": {"n_states": 5}, "align": False}``. Checked before any recording is
+        read: an unknown key at any level or a value of the wrong type or out of range raises
+        :class:`~lfd.errors.InvalidParameterError` naming the key.
     features : sequence of (name, start, end)
         Feature groups, one HMM each.
     skills : sequence of str
@@ -234,6 +261,7 @@ def train_templates(
     """
     if frame_symmetry < 1:
         raise ValueError(f"frame_symmetry must be at least 1, got {frame_symmetry}")
+    params_json = template_params(params)
     from ..io import load
 
     examples: list[tuple[int, np.ndarray]] = []
@@ -250,13 +278,7 @@ def train_templates(
         names.append(Path(name).name)
         if progress is not None:
             progress(name)
-    p = json.loads(_hmmseg.default_template_params())
-    for key, val in (params or {}).items():
-        if isinstance(val, dict) and isinstance(p.get(key), dict):
-            p[key].update(val)
-        else:
-            p[key] = val
-    engine = _hmmseg.TemplateSet.train(list(skills), list(features), examples, json.dumps(p))
+    engine = _hmmseg.TemplateSet.train(list(skills), list(features), examples, params_json)
     meta = {
         "trained_from": names,
         "feature_cutoff_hz": feature_cutoff_hz,

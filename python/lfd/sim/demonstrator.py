@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..demo import CameraInfo, Demonstration, SkillLabel
-from ..errors import DemonstrationError
+from ..errors import DemonstrationError, UsageError
 from .hand import JOINTS_PER_FINGER, N_JOINTS, HandKinematics
 from .motion import Plan, rotation, smooth_noise
 from .planner import Attach, Detach, ObjectPose, Planner, Push
@@ -209,7 +209,12 @@ def simulate(
 
     steps = task_steps(task)
     if not 0.5 <= hand_rate_hz <= object_rate_hz <= 120:
-        raise ValueError("need 0.5 <= hand_rate_hz <= object_rate_hz <= 120")
+        raise UsageError(
+            f"need 0.5 <= hand rate <= object (camera) rate <= 120 Hz, got hand rate "
+            f"{hand_rate_hz} Hz and object rate {object_rate_hz} Hz"
+        )
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise UsageError(f"seed must be an integer >= 0, got {seed!r}")
     rng = np.random.default_rng(seed)
     var = (variability or Variability()).resolve(rng)
     scene = build_scene(objects, hand_scale=float(var.hand_scale or 1.0))
@@ -301,9 +306,19 @@ def simulate(
 
 
 def crop(result: SimResult, seconds: float) -> SimResult:
-    """Keep only the first ``seconds`` of a simulated demonstration (streams, labels, truth)."""
+    """Keep only the first ``seconds`` of a simulated demonstration (streams, labels, truth).
+
+    Raises :class:`~lfd.errors.UsageError` unless ``seconds`` is a finite number > 0 that keeps
+    at least two hand samples.
+    """
+    if not (isinstance(seconds, (int, float, np.number)) and np.isfinite(seconds) and seconds > 0):
+        raise UsageError(f"duration must be a finite number of seconds > 0, got {seconds!r}")
     demo, truth = result.demo, result.truth
     end = int(truth.t_ns[0] + round(seconds * 1e9))
+    if np.count_nonzero(demo.hand.t_ns <= end) < 2:
+        raise UsageError(
+            f"a duration of {seconds} s keeps fewer than two hand samples; give a longer one"
+        )
     keep = truth.t_ns <= end
     hand = demo.hand
     h = hand.t_ns <= end

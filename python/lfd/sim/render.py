@@ -12,6 +12,7 @@ import os
 import numpy as np
 
 from ..demo import ImageStream
+from ..errors import UsageError
 from .hand import JOINT_NAMES
 from .scene import Scene, forearm_quat
 
@@ -88,7 +89,7 @@ def add_rendering(
     truth = result.truth  # type: ignore[attr-defined]
     rate = float(demo.metadata.get("object_rate_hz", 30.0))
     if not 0 < rate_hz <= rate:
-        raise ValueError(f"render rate must be in (0, {rate}] Hz, got {rate_hz}")
+        raise UsageError(f"render rate must be in (0, {rate:g}] Hz, got {rate_hz}")
     step = max(1, round(rate / rate_hz))
     frames = np.arange(0, truth.t_ns.size, step)
     if until_s is not None:

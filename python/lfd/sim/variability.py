@@ -12,6 +12,8 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import UsageError
+
 
 @dataclass(frozen=True)
 class Variability:
@@ -103,21 +105,24 @@ class Variability:
         return out
 
     def validate(self) -> None:
-        """Raise ``ValueError`` for values outside their meaningful range."""
+        """Raise :class:`~lfd.errors.UsageError` (a ``ValueError``) for values outside their
+        meaningful range."""
         for f in fields(self):
             v = getattr(self, f.name)
             if v is None:
                 continue
             if not np.isfinite(v) or v < 0:
-                raise ValueError(f"variability {f.name} must be a finite number >= 0, got {v}")
+                raise UsageError(f"variability {f.name} must be a finite number >= 0, got {v}")
         if self.speed is not None and not 0.2 <= self.speed <= 5.0:
-            raise ValueError(f"speed must be in [0.2, 5], got {self.speed}")
+            raise UsageError(f"speed must be in [0.2, 5], got {self.speed}")
         if self.hand_scale is not None and not 0.6 <= self.hand_scale <= 1.5:
-            raise ValueError(f"hand scale must be in [0.6, 1.5], got {self.hand_scale}")
+            raise UsageError(f"hand scale must be in [0.6, 1.5], got {self.hand_scale}")
+        if not self.approach_deg <= 180.0:
+            raise UsageError(f"approach_deg must be in [0, 180], got {self.approach_deg}")
         for name in ("dropout", "pauses", "outlier_rate", "occlusion", "hand_miss"):
             v = getattr(self, name)
             if v is not None and v > 0.9:
-                raise ValueError(f"{name} must be a probability <= 0.9, got {v}")
+                raise UsageError(f"{name} must be a probability <= 0.9, got {v}")
 
     def as_dict(self) -> dict[str, float | None]:
         """Plain dict (for metadata)."""

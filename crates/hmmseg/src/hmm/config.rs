@@ -73,6 +73,7 @@ impl Topology {
 
 /// Options of [`crate::hmm::Hmm::fit`] and [`crate::hmm::Hmm::refit`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct FitConfig {
     /// Number of hidden states (>= 1).
     pub n_states: usize,

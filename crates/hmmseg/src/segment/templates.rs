@@ -7,8 +7,11 @@
 //! the normalised prefix and prefix scores stay valid. Optionally every training sequence of a
 //! skill x feature is warped by DTW onto the time axis of the medoid sequence first (the paper).
 //!
-//! A [`TemplateSet`] serialises to versioned JSON; reading another version or a skill the engine
-//! does not know is a [`EngineError::Format`] error.
+//! A [`TemplateSet`] serialises to versioned JSON; reading another version, a skill the engine
+//! does not know, an unknown field or a value out of range (an empty or inverted normalisation
+//! range, a non-finite number, counts that do not match) is a [`EngineError::Format`] error.
+//! Training parameters are checked by [`TemplateParams::validate`] and
+//! [`TemplateParams::with_overrides`] ([`EngineError::InvalidParameter`]).
 
 use std::ops::Range;
 
@@ -44,6 +47,7 @@ impl PrefixScorer for Hmm {
 
 /// One feature of the templates: a name and the observation columns its HMM reads.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct FeatureGroup {
     /// Feature name (Table I).
     pub name: String,
@@ -62,7 +66,7 @@ impl FeatureGroup {
 
 /// How templates are trained.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct TemplateParams {
     /// Baum-Welch options (states, mixture components, topology, ...).
     pub fit: FitConfig,
@@ -90,8 +94,129 @@ impl Default for TemplateParams {
     }
 }
 
+impl TemplateParams {
+    /// Check every value: the fit options ([`FitConfig::validate`]), a band of at least one
+    /// sample, and percentiles `0 <= lo < hi <= 100`.
+    pub fn validate(&self) -> Result<()> {
+        self.fit.validate().map_err(|e| match e {
+            EngineError::InvalidParameter(m) => EngineError::InvalidParameter(format!("fit: {m}")),
+            other => other,
+        })?;
+        if self.dtw_band == Some(0) {
+            return Err(EngineError::InvalidParameter(
+                "dtw_band must be >= 1 sample (or null for no band)".into(),
+            ));
+        }
+        let [lo, hi] = self.range_percentiles;
+        if !(lo.is_finite() && hi.is_finite() && 0.0 <= lo && lo < hi && hi <= 100.0) {
+            return Err(EngineError::InvalidParameter(format!(
+                "range_percentiles must be [lo, hi] with 0 <= lo < hi <= 100, got [{lo}, {hi}]"
+            )));
+        }
+        Ok(())
+    }
+
+    /// The default parameters with `overrides` (a JSON object, possibly nested like
+    /// `{"fit": {"n_states": 5}, "align": false}`) applied, then validated.
+    ///
+    /// An override naming a key the parameters do not have, at any level, a value of the wrong
+    /// type and a value out of range are [`EngineError::InvalidParameter`] errors that name the
+    /// key, e.g. `fit.n_states`.
+    pub fn with_overrides(overrides: &str) -> Result<Self> {
+        let bad = |m: String| EngineError::InvalidParameter(format!("template parameters: {m}"));
+        let given: serde_json::Value =
+            serde_json::from_str(overrides).map_err(|e| bad(format!("not valid JSON: {e}")))?;
+        if !given.is_object() {
+            return Err(bad(format!("must be a JSON object, got {given}")));
+        }
+        let defaults =
+            serde_json::to_value(Self::default()).map_err(|e| bad(format!("defaults: {e}")))?;
+        let mut merged = defaults.clone();
+        let mut leaves = Vec::new();
+        merge_params(&mut merged, &given, "", &mut leaves)?;
+        if let Err(err) = serde_json::from_value::<Self>(merged.clone()) {
+            // name the first override that fails on its own
+            for (path, value) in &leaves {
+                let mut one = defaults.clone();
+                set_path(&mut one, path, value.clone());
+                if let Err(e) = serde_json::from_value::<Self>(one) {
+                    return Err(EngineError::InvalidParameter(format!(
+                        "template parameter `{path}`: {e}"
+                    )));
+                }
+            }
+            return Err(bad(err.to_string()));
+        }
+        let params: Self = serde_json::from_value(merged).map_err(|e| bad(e.to_string()))?;
+        params.validate().map_err(|e| match e {
+            EngineError::InvalidParameter(m) => bad(m),
+            other => other,
+        })?;
+        Ok(params)
+    }
+}
+
+/// Apply `given` onto `target` (the defaults), recursing into objects; every key must exist in
+/// `target`. Records each replaced leaf as `(dotted path, value)`.
+fn merge_params(
+    target: &mut serde_json::Value,
+    given: &serde_json::Value,
+    prefix: &str,
+    leaves: &mut Vec<(String, serde_json::Value)>,
+) -> Result<()> {
+    let (Some(t), Some(g)) = (target.as_object_mut(), given.as_object()) else {
+        return Ok(());
+    };
+    for (key, value) in g {
+        let path = if prefix.is_empty() {
+            key.clone()
+        } else {
+            format!("{prefix}.{key}")
+        };
+        let Some(slot) = t.get_mut(key) else {
+            let mut known: Vec<&String> = t.keys().collect();
+            known.sort();
+            let known: Vec<&str> = known.iter().map(|k| k.as_str()).collect();
+            return Err(EngineError::InvalidParameter(format!(
+                "unknown template parameter `{path}` (known{}: {})",
+                if prefix.is_empty() {
+                    String::new()
+                } else {
+                    format!(" in `{prefix}`")
+                },
+                known.join(", ")
+            )));
+        };
+        if slot.is_object() {
+            if !value.is_object() {
+                return Err(EngineError::InvalidParameter(format!(
+                    "template parameter `{path}` must be a JSON object, got {value}"
+                )));
+            }
+            merge_params(slot, value, &path, leaves)?;
+        } else {
+            *slot = value.clone();
+            leaves.push((path, value.clone()));
+        }
+    }
+    Ok(())
+}
+
+/// Set the value at a dotted `path` that exists in `target`.
+fn set_path(target: &mut serde_json::Value, path: &str, value: serde_json::Value) {
+    let mut node = target;
+    for key in path.split('.') {
+        match node.get_mut(key) {
+            Some(next) => node = next,
+            None => return,
+        }
+    }
+    *node = value;
+}
+
 /// A trained template set: `models[skill][feature]`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct TemplateSet {
     /// Must equal [`TEMPLATE_FORMAT_VERSION`].
     pub format_version: u32,
@@ -170,6 +295,7 @@ impl TemplateSet {
         params: &TemplateParams,
     ) -> Result<Self> {
         check_skills(skills)?;
+        params.validate()?;
         if features.is_empty() {
             return Err(EngineError::EmptySequence("no features".into()));
         }
@@ -250,7 +376,8 @@ impl TemplateSet {
                 };
                 let shortest = seqs.iter().map(DMatrix::nrows).min().unwrap_or(1);
                 let mut cfg = params.fit.clone();
-                cfg.n_states = cfg.n_states.min(shortest).max(1);
+                // a segment shorter than n_states cannot visit every state of a left-right model
+                cfg.n_states = cfg.n_states.min(shortest);
                 cfg.seed = params.fit.seed.wrapping_add((s * 1000 + f) as u64);
                 Hmm::fit(&seqs, &cfg)
                     .map(|(hmm, _)| hmm)
@@ -364,6 +491,7 @@ impl TemplateSet {
         let set: Self = serde_json::from_str(text)
             .map_err(|e| EngineError::Format(format!("template file: {e}")))?;
         check_skills(&set.skills)?;
+        set.check_contents()?;
         let n_cols = set.features.iter().map(|f| f.end).max().unwrap_or(0);
         if set.ranges.len() != n_cols {
             return Err(EngineError::Format(format!(
@@ -389,6 +517,56 @@ impl TemplateSet {
             }
         }
         Ok(set)
+    }
+}
+
+impl TemplateSet {
+    /// The checks of a read template file beyond its shape: features with columns and distinct
+    /// names, finite ranges with `lo < hi`, one example count per skill, valid parameters.
+    fn check_contents(&self) -> Result<()> {
+        let bad = |m: String| EngineError::Format(format!("template file: {m}"));
+        if self.features.is_empty() {
+            return Err(bad("no features".into()));
+        }
+        for (i, f) in self.features.iter().enumerate() {
+            if f.start >= f.end {
+                return Err(bad(format!(
+                    "feature {:?} has no columns ({}..{})",
+                    f.name, f.start, f.end
+                )));
+            }
+            if self.features[..i].iter().any(|g| g.name == f.name) {
+                return Err(bad(format!("feature {:?} appears twice", f.name)));
+            }
+        }
+        for (c, [lo, hi]) in self.ranges.iter().enumerate() {
+            if !(lo.is_finite() && hi.is_finite()) {
+                return Err(bad(format!(
+                    "range of column {c} is [{lo}, {hi}]; both ends must be finite"
+                )));
+            }
+            if lo >= hi {
+                return Err(bad(format!(
+                    "range of column {c} is [{lo}, {hi}], which is empty or inverted (needs lo < hi)"
+                )));
+            }
+        }
+        if self.n_examples.len() != self.skills.len() {
+            return Err(bad(format!(
+                "{} example counts for {} skills",
+                self.n_examples.len(),
+                self.skills.len()
+            )));
+        }
+        if let Some(s) = self.n_examples.iter().position(|&n| n == 0) {
+            return Err(bad(format!(
+                "skill {:?} has no training examples",
+                self.skills[s]
+            )));
+        }
+        self.params
+            .validate()
+            .map_err(|e| bad(format!("params: {e}")))
     }
 }
 
@@ -543,6 +721,111 @@ mod tests {
         assert!(matches!(
             TemplateSet::from_json("[1,"),
             Err(EngineError::Format(_))
+        ));
+    }
+
+    #[test]
+    fn bad_template_contents_are_format_errors() {
+        let set = TemplateSet::train(&skills(), &features(), &examples(), &small()).unwrap();
+        let doc: serde_json::Value = serde_json::from_str(&set.to_json().unwrap()).unwrap();
+        let refused = |edit: &dyn Fn(&mut serde_json::Value), needle: &str| {
+            let mut d = doc.clone();
+            edit(&mut d);
+            let err = TemplateSet::from_json(&d.to_string()).unwrap_err();
+            assert!(
+                matches!(&err, EngineError::Format(m) if m.contains(needle)),
+                "{needle}: {err}"
+            );
+        };
+        refused(
+            &|d| d["ranges"][0] = serde_json::json!([1.0, 0.0]),
+            "inverted",
+        );
+        refused(&|d| d["ranges"][1] = serde_json::json!([0.5, 0.5]), "empty");
+        refused(&|d| d["ranges"][2] = serde_json::json!([0.0, "inf"]), "");
+        refused(&|d| d["ranges"][2] = serde_json::json!([0.0, null]), "");
+        refused(&|d| d["ranges"] = serde_json::json!([[0, 1]]), "1 ranges");
+        refused(
+            &|d| d["n_examples"] = serde_json::json!([4]),
+            "example counts",
+        );
+        refused(
+            &|d| d["n_examples"] = serde_json::json!([4, 0]),
+            "no training examples",
+        );
+        refused(
+            &|d| d["features"][0]["end"] = serde_json::json!(0),
+            "no columns",
+        );
+        refused(
+            &|d| d["features"][1]["name"] = serde_json::json!("a"),
+            "twice",
+        );
+        refused(&|d| d["features"] = serde_json::json!([]), "");
+        refused(
+            &|d| d["params"]["fit"]["n_states"] = serde_json::json!(0),
+            "n_states",
+        );
+        refused(
+            &|d| d["params"]["range_percentiles"] = serde_json::json!([99, 1]),
+            "range_percentiles",
+        );
+        refused(
+            &|d| d["params"]["fit"]["bogus"] = serde_json::json!(1),
+            "bogus",
+        );
+        refused(&|d| d["surprise"] = serde_json::json!(1), "surprise");
+        refused(
+            &|d| d["skills"] = serde_json::json!(["move", "move"]),
+            "twice",
+        );
+        // the untouched document still reads
+        assert!(TemplateSet::from_json(&doc.to_string()).is_ok());
+    }
+
+    #[test]
+    fn parameter_overrides_are_checked() {
+        let p =
+            TemplateParams::with_overrides(r#"{"fit": {"n_states": 6}, "align": false}"#).unwrap();
+        assert_eq!(p.fit.n_states, 6);
+        assert_eq!(p.fit.n_mix, TemplateParams::default().fit.n_mix);
+        assert!(!p.align);
+        assert_eq!(
+            TemplateParams::with_overrides("{}").unwrap(),
+            TemplateParams::default()
+        );
+        let refused = |json: &str, needle: &str| {
+            let err = TemplateParams::with_overrides(json).unwrap_err();
+            assert!(
+                matches!(&err, EngineError::InvalidParameter(m) if m.contains(needle)),
+                "{json}: {err}"
+            );
+        };
+        refused(r#"{"fit": {"n_states": 0}}"#, "n_states must be >= 1");
+        refused(r#"{"fit": {"n_states": -1}}"#, "fit.n_states");
+        refused(r#"{"fit": {"n_states": "4"}}"#, "fit.n_states");
+        refused(r#"{"fit": {"n_mix": 0}}"#, "n_mix");
+        refused(r#"{"fit": {"covariance_floor": -1}}"#, "covariance_floor");
+        refused(r#"{"fit": {"tol": 1e999}}"#, "");
+        refused(r#"{"fit": {"topology": "ring"}}"#, "fit.topology");
+        refused(
+            r#"{"fit": {"nstates": 3}}"#,
+            "unknown template parameter `fit.nstates`",
+        );
+        refused(r#"{"fitt": {}}"#, "unknown template parameter `fitt`");
+        refused(r#"{"fit": 3}"#, "`fit` must be a JSON object");
+        refused(r#"{"align": "yes"}"#, "`align`");
+        refused(r#"{"dtw_band": 0}"#, "dtw_band");
+        refused(r#"{"range_percentiles": [50, 50]}"#, "range_percentiles");
+        refused(r#"{"range_percentiles": [-1, 50]}"#, "range_percentiles");
+        refused("[1]", "JSON object");
+        refused("{", "not valid JSON");
+        // training checks the parameters too, instead of clamping them
+        let mut zero = small();
+        zero.fit.n_states = 0;
+        assert!(matches!(
+            TemplateSet::train(&skills(), &features(), &examples(), &zero),
+            Err(EngineError::InvalidParameter(_))
         ));
     }
 

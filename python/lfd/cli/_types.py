@@ -1,0 +1,98 @@
+"""argparse ``type=`` converters that refuse out-of-range numbers before any work starts.
+
+Each converter parses one option value and raises :class:`argparse.ArgumentTypeError` with a
+message saying what is expected, so ``lfd simulate --duration -1`` ends with exit status 2 and
+``argument --duration: must be a number > 0, got '-1'``. NaN and infinity are refused by every
+float converter: no option of lfd means anything with them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Callable
+
+
+def _float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
+    return v
+
+
+def _int(text: str) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+
+
+def finite_float(text: str) -> float:
+    """Any finite number."""
+    return _float(text)
+
+
+def positive_float(text: str) -> float:
+    """A finite number > 0."""
+    v = _float(text)
+    if v <= 0:
+        raise argparse.ArgumentTypeError(f"must be a number > 0, got {text!r}")
+    return v
+
+
+def non_negative_float(text: str) -> float:
+    """A finite number >= 0."""
+    v = _float(text)
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"must be a number >= 0, got {text!r}")
+    return v
+
+
+def fraction(text: str) -> float:
+    """A number in [0, 1]."""
+    return float_range(0.0, 1.0)(text)
+
+
+def float_range(lo: float, hi: float, *, lo_open: bool = False) -> Callable[[str], float]:
+    """A converter for a finite number in ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``)."""
+
+    def convert(text: str) -> float:
+        v = _float(text)
+        if (v <= lo if lo_open else v < lo) or v > hi:
+            interval = f"{'(' if lo_open else '['}{lo:g}, {hi:g}]"
+            raise argparse.ArgumentTypeError(f"must be a number in {interval}, got {text!r}")
+        return v
+
+    convert.__name__ = f"number in [{lo:g}, {hi:g}]"
+    return convert
+
+
+def non_negative_int(text: str) -> int:
+    """An integer >= 0."""
+    v = _int(text)
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}")
+    return v
+
+
+def positive_int(text: str) -> int:
+    """An integer >= 1."""
+    v = _int(text)
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
+    return v
+
+
+SEED_MAX = 2**63 - 1
+"""Largest seed accepted (numpy's generators take any non-negative int; recordings store int64)."""
+
+
+def seed(text: str) -> int:
+    """A random seed: an integer in [0, 2**63 - 1]."""
+    v = _int(text)
+    if not 0 <= v <= SEED_MAX:
+        raise argparse.ArgumentTypeError(f"must be an integer in [0, 2**63 - 1], got {text!r}")
+    return v
