@@ -9,6 +9,9 @@ placeholders are filled in:
 ``{ro}``    a read-only directory inside ``{tmp}``
 ``{bad}``   a file of garbage bytes, ``{tmp}/bad.json``
 ``{docs}``  the repository's ``docs/`` (a folder without recordings)
+``{templates}``  the shipped template recordings ``recordings/templates``
+``{binary}``, ``{badjson}``, ``{inverted}``  template files: binary, JSON cut short, and the
+            shipped templates with the range of column 0 inverted
 
 Every case runs ``python -m lfd.cli`` in a subprocess and must exit with status 2, print exactly
 one non-empty line on stderr, starting with ``lfd `` and without a traceback, modify no input
@@ -20,6 +23,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
 import shlex
 import stat
 import subprocess
@@ -89,6 +93,57 @@ CASES: list[tuple[str, str, str]] = [
     ("record-missing-model", "record --source sim:exp1 -o {tmp}/x.mcap --hand-model {tmp}/n.pt", "n.pt"),
     # a failing command that had opened --rerun-save leaves no .rrd
     ("segment-failed-rrd", "segment {tmp}/no.mcap --rerun-save {tmp}/o.rrd", "no.mcap"),
+    # values out of range, NaN / inf, bad --params and template files: refused before any work
+    ('simulate-seed-1', "simulate exp1 -o {tmp}/out.mcap --seed -1", "argument --seed: must be an integer in [0, 2**63 - 1], got '-1'"),
+    ('simulate-seed-1.5', "simulate exp1 -o {tmp}/out.mcap --seed 1.5", "argument --seed: must be an integer, got '1.5'"),
+    ('simulate-duration-1', "simulate exp1 -o {tmp}/out.mcap --duration -1", "argument --duration: must be a number > 0, got '-1'"),
+    ('simulate-duration-0', "simulate exp1 -o {tmp}/out.mcap --duration 0", "argument --duration: must be a number > 0, got '0'"),
+    ('simulate-duration-nan', "simulate exp1 -o {tmp}/out.mcap --duration nan", "argument --duration: must be a finite number, got 'nan'"),
+    ('simulate-hand-rate-0', "simulate exp1 -o {tmp}/out.mcap --hand-rate 0", 'argument --hand-rate: must be a number in [0.5, 30]'),
+    ('simulate-hand-rate-inf', "simulate exp1 -o {tmp}/out.mcap --hand-rate inf", 'argument --hand-rate: must be a finite number'),
+    ('simulate-render-rate-0', "simulate exp1 -o {tmp}/out.mcap --render --render-rate 0", 'argument --render-rate: must be a number in (0'),
+    ('simulate-render-rate-500', "simulate exp1 -o {tmp}/out.mcap --render-rate 500", 'argument --render-rate: must be a number in (0, 30]'),
+    ('simulate-speed-0', "simulate exp1 -o {tmp}/out.mcap --speed 0", 'argument --speed: speed must be in [0.2, 5], got 0.0'),
+    ('simulate-hand-scale-1', "simulate exp1 -o {tmp}/out.mcap --hand-scale -1", 'argument --hand-scale: variability hand_scale must be'),
+    ('simulate-dropout-2', "simulate exp1 -o {tmp}/out.mcap --dropout 2", 'argument --dropout: dropout must be a probability <= 0.9'),
+    ('simulate-pauses-nan', "simulate exp1 -o {tmp}/out.mcap --pauses nan", "argument --pauses: must be a finite number, got 'nan'"),
+    ('simulate-noise-mm-3', "simulate exp1 -o {tmp}/out.mcap --noise-mm -3", 'argument --noise-mm: variability noise_mm must be'),
+    ('simulate-tremor-mm-inf', "simulate exp1 -o {tmp}/out.mcap --tremor-mm inf", 'argument --tremor-mm: must be a finite number'),
+    ('simulate-outliers-1', "simulate exp1 -o {tmp}/out.mcap --outliers 1", 'argument --outliers: outlier_rate must be a probability'),
+    ('simulate-hand-miss-0.1', "simulate exp1 -o {tmp}/out.mcap --hand-miss -0.1", 'argument --hand-miss: variability hand_miss must be'),
+    ('simulate-approach-deg-270', "simulate exp1 -o {tmp}/out.mcap --approach-deg 270", 'argument --approach-deg: approach_deg must be in [0, 180]'),
+    ('simulate-detour-x', "simulate exp1 -o {tmp}/out.mcap --detour x", "argument --detour: must be a number, got 'x'"),
+    ('record-duration-nan', "record --source sim:exp1 -o {tmp}/out.mcap --duration nan", "argument --duration: must be a finite number, got 'nan'"),
+    ('record-duration-2', "record --source sim:exp1 -o {tmp}/out.mcap --duration -2", 'argument --duration: must be a number > 0'),
+    ('record-fps-0', "record --source sim:exp1 -o {tmp}/out.mcap --fps 0", "argument --fps: must be a number in [0.5, 120], got '0'"),
+    ('record-fps-inf', "record --source sim:exp1 -o {tmp}/out.mcap --fps inf", 'argument --fps: must be a finite number'),
+    ('record-hand-rate-0', "record --source sim:exp1 -o {tmp}/out.mcap --hand-rate 0", 'argument --hand-rate: must be a number > 0'),
+    ('record-seed-1', "record --source sim:exp1 -o {tmp}/out.mcap --seed -1", 'argument --seed: must be an integer in [0, 2**63 - 1]'),
+    ('record-reference-size-0', "record --source sim:exp1 -o {tmp}/out.mcap --reference-size 0", 'argument --reference-size: must be a number > 0'),
+    ('perception-train-epochs-0', "perception train -o {tmp}/out.pt --epochs 0", "argument --epochs: must be an integer >= 1, got '0'"),
+    ('perception-train-samples-5', "perception train -o {tmp}/out.pt --samples -5", 'argument --samples: must be an integer >= 1'),
+    ('perception-train-batch-0', "perception train -o {tmp}/out.pt --batch 0", 'argument --batch: must be an integer >= 1'),
+    ('perception-train-lr-nan', "perception train -o {tmp}/out.pt --lr nan", 'argument --lr: must be a finite number'),
+    ('perception-train-lr-0', "perception train -o {tmp}/out.pt --lr 0", 'argument --lr: must be a number > 0'),
+    ('perception-train-threads-0', "perception train -o {tmp}/out.pt --threads 0", 'argument --threads: must be an integer >= 1'),
+    ('perception-train-val-samples-0', "perception train -o {tmp}/out.pt --val-samples 0", 'argument --val-samples: must be an integer >= 1'),
+    ('perception-train-seed-3', "perception train -o {tmp}/out.pt --seed -3", 'argument --seed: must be an integer in [0, 2**63 - 1]'),
+    ('perception-eval-samples-0', 'perception eval --samples 0', 'argument --samples: must be an integer >= 1'),
+    ('templates-train-params-fitnstates0', 'templates train {templates} -o {tmp}/t.json --params \'{"fit": {"n_states": 0}}\'', 'n_states must be >= 1'),
+    ('templates-train-params-fitnstates2', 'templates train {templates} -o {tmp}/t.json --params \'{"fit": {"n_states": -2}}\'', 'template parameter `fit.n_states`'),
+    ('templates-train-params-fitnstates4', 'templates train {templates} -o {tmp}/t.json --params \'{"fit": {"n_states": "4"}}\'', 'template parameter `fit.n_states`'),
+    ('templates-train-params-fitnstates4-2', 'templates train {templates} -o {tmp}/t.json --params \'{"fit": {"nstates": 4}}\'', 'unknown template parameter `fit.nstates`'),
+    ('templates-train-params-allignfalse', 'templates train {templates} -o {tmp}/t.json --params \'{"allign": false}\'', 'unknown template parameter `allign`'),
+    ('templates-train-params-fittolnan', 'templates train {templates} -o {tmp}/t.json --params \'{"fit": {"tol": NaN}}\'', 'template parameters are not plain JSON'),
+    ('templates-train-params-rangepercent', 'templates train {templates} -o {tmp}/t.json --params \'{"range_percentiles": [99, 1]}\'', 'range_percentiles must be'),
+    ('templates-train-params-dtwband0', 'templates train {templates} -o {tmp}/t.json --params \'{"dtw_band": 0}\'', 'dtw_band must be >= 1'),
+    ('templates-train-params-12', "templates train {templates} -o {tmp}/t.json --params '[1, 2]'", 'must be a dict'),
+    ('templates-train-params-fit1', "templates train {templates} -o {tmp}/t.json --params '{fit: 1}'", '--params is not valid JSON'),
+    ('templates-show-binary-templates-binary', "templates show {binary}", 'is not a template file (binary'),
+    ('templates-show-bad-json-templates-badjson', "templates show {badjson}", 'template file is not valid JSON'),
+    ('templates-show-inverted-templates-inverted', "templates show {inverted}", 'range of column 0 is [1, 0], which is empty or inverted'),
+    ('segment-binary-templates-binary', "segment {rec} --templates {binary} --json {tmp}/x.json", 'is not a template file'),
+    ('segment-inverted-templates-inverted', "segment {rec} --templates {inverted} --json {tmp}/x.json", 'empty or inverted'),
 ]
 # fmt: on
 
@@ -101,6 +156,24 @@ def _run(*argv: str, env: dict[str, str] | None = None) -> subprocess.CompletedP
         timeout=60,
         env=env,
     )
+
+
+def _fill(arg: str, values: dict[str, Path]) -> str:
+    """``arg`` with every ``{name}`` placeholder replaced (other braces, e.g. JSON, kept)."""
+    return re.sub(r"\{(\w+)\}", lambda m: str(values.get(m.group(1), m.group(0))), arg)
+
+
+@pytest.fixture(scope="module")
+def bad_templates(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    from lfd.segmentation import Templates
+
+    d = tmp_path_factory.mktemp("bad_templates")
+    (d / "binary.json").write_bytes(bytes(range(256)) * 4)
+    (d / "bad.json").write_text('{"format_version": 1, "skills": [', encoding="utf-8")
+    doc = json.loads(Templates.default().to_json())
+    doc["ranges"][0] = [1.0, 0.0]
+    (d / "inverted.json").write_text(json.dumps(doc), encoding="utf-8")
+    return {"binary": d / "binary.json", "badjson": d / "bad.json", "inverted": d / "inverted.json"}
 
 
 def _tree(root: Path) -> dict[str, str]:
@@ -124,7 +197,9 @@ def _assert_one_error_line(proc: subprocess.CompletedProcess[str], expected: str
 
 
 @pytest.mark.parametrize(("argv", "expected"), [c[1:] for c in CASES], ids=[c[0] for c in CASES])
-def test_user_error_is_one_line(argv: str, expected: str, tmp_path: Path) -> None:
+def test_user_error_is_one_line(
+    argv: str, expected: str, tmp_path: Path, bad_templates: dict[str, Path]
+) -> None:
     work = tmp_path / "work"
     work.mkdir()
     rec = work / "exp1.mcap"
@@ -136,10 +211,18 @@ def test_user_error_is_one_line(argv: str, expected: str, tmp_path: Path) -> Non
     if "{ro}" in argv and os.geteuid() == 0:
         pytest.skip("root writes into read-only directories")
     ro.chmod(stat.S_IRUSR | stat.S_IXUSR)
-    fill = {"rec": rec, "tmp": work, "ro": ro, "bad": bad, "docs": ROOT / "docs"}
+    fill = {
+        "rec": rec,
+        "tmp": work,
+        "ro": ro,
+        "bad": bad,
+        "docs": ROOT / "docs",
+        "templates": ROOT / "recordings" / "templates",
+        **bad_templates,
+    }
     before = _tree(work)
     try:
-        proc = _run(*(a.format(**fill) for a in shlex.split(argv)))
+        proc = _run(*(_fill(a, fill) for a in shlex.split(argv)))
     finally:
         ro.chmod(stat.S_IRWXU)
     _assert_one_error_line(proc, expected)
