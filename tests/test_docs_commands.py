@@ -42,17 +42,17 @@ NOT_RUN: dict[str, str] = {
 RUN_AS: dict[str, tuple[str, str]] = {
     # exact command line (without its comment) -> (what runs instead, why)
     "lfd perception train -o hand.pt --samples 30000 --epochs 40 --data hand_train.npz": (
-        "lfd perception train -o hand.pt --samples 60 --epochs 1 --val-samples 10 "
+        "lfd perception train -o hand.pt --samples 80 --epochs 1 --val-samples 10 "
         "--data hand_train.npz",
         "the documented run trains for hours; the same command at a tiny size",
     ),
     "lfd perception train -o hand.pt --epochs 40 --resume": (
-        "lfd perception train -o hand.pt --samples 60 --epochs 2 --val-samples 10 "
+        "lfd perception train -o hand.pt --samples 80 --epochs 1 --val-samples 10 "
         "--data hand_train.npz --resume",
-        "resumes the tiny run above for one more epoch",
+        "resumes the tiny run above from its checkpoint (same epochs and data, as documented)",
     ),
     "lfd perception train -o hand2.pt --init hand.pt --samples 3000 --epochs 10": (
-        "lfd perception train -o hand2.pt --init hand.pt --samples 60 --epochs 1 "
+        "lfd perception train -o hand2.pt --init hand.pt --samples 80 --epochs 1 "
         "--val-samples 10 --data hand_train.npz",
         "fine-tuning at a tiny size",
     ),
@@ -148,11 +148,18 @@ def _env() -> dict[str, str]:
 
 
 def _run_viewer_line(cmd: str, cwd: Path) -> None:
-    """Start a viewer line, let it do its work, then stop it with SIGINT as a user would."""
+    """Start a viewer line, let it do its work, then stop it with SIGINT as a user would.
+
+    Its stdin is a terminal, as for a user at a shell (a command whose stdin is not a terminal
+    does not keep serving)."""
+    import pty
+
+    _, terminal = pty.openpty()
     proc = subprocess.Popen(
         ["bash", "-c", f"exec {cmd}"],
         cwd=cwd,
         env=_env(),
+        stdin=terminal,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
