@@ -349,3 +349,20 @@ def test_rerun_save_written_at_close(tmp_path: Path) -> None:
     assert proc.returncode == 0, proc.stderr
     assert rrd.stat().st_size > 10_000 and not rrd.read_bytes().startswith(b"previous")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["seg.rrd"]
+
+
+def test_two_runs_writing_one_rrd_leave_a_readable_file(tmp_path: Path) -> None:
+    """Two commands saving to the same ``.rrd`` at once: the last rename wins, whole."""
+    rr = pytest.importorskip("rerun", reason="rerun-sdk not installed (optional viz extra)")
+    rrd = tmp_path / "same.rrd"
+    argv = [sys.executable, "-m", "lfd.cli", "segment", str(EXP1), "--rerun-save", str(rrd)]
+    procs = [
+        subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE) for _ in "ab"
+    ]
+    for p in procs:
+        _, err = p.communicate(timeout=300)
+        assert p.returncode == 0, err
+    reader = rr.chunk.RrdReader(rrd)
+    entities = {chunk.entity_path for chunk in reader.stream()}  # decodes from start to end
+    assert "/segmentation/skills/result" in entities
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["same.rrd"]
