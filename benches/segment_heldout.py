@@ -15,7 +15,8 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-EXPERIMENTS = ("exp1", "exp2", "exp3", "exp4")
+from segment_robustness import EXPERIMENTS, simulate_condition  # same folder: benches/
+
 GROUPS: dict[str, dict[str, float]] = {
     "default demonstrator": {},
     "fast, small, noisy hand": {"speed": 1.4, "hand_scale": 0.85, "noise_mm": 5.0},
@@ -36,21 +37,6 @@ def seeds_of(spec: str) -> list[int]:
     return list(range(int(a), int(b or a) + 1))
 
 
-def simulate_group(out: Path, given: dict[str, float], seeds: list[int]) -> list[Path]:
-    from lfd.cli.simulate import record
-    from lfd.sim import Variability
-
-    out.mkdir(parents=True, exist_ok=True)
-    paths = []
-    for task in EXPERIMENTS:
-        for seed in seeds:
-            path = out / f"{task}_{seed}.mcap"
-            if not path.exists():
-                record(task, seed, path, variability=Variability(**given))  # type: ignore[arg-type]
-            paths.append(path)
-    return paths
-
-
 def main() -> int:
     from lfd.segmentation.evaluate import evaluate
 
@@ -62,7 +48,7 @@ def main() -> int:
     results: dict[str, dict[str, dict[str, float]]] = {}
     for group, given in GROUPS.items():
         slug = group.split(",")[0].replace(" ", "_")
-        paths = simulate_group(Path(args.out) / slug, given, seeds)
+        paths = simulate_condition(Path(args.out) / slug, given, seeds)
         results[group] = {}
         for label, method, kw in ROWS:
             report = evaluate(paths, methods=(method,), **kw)

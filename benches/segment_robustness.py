@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Iterable
 from pathlib import Path
 
 CONDITIONS: dict[str, dict[str, float]] = {
@@ -27,14 +28,17 @@ EXPERIMENTS = ("exp1", "exp2", "exp3", "exp4")
 SEEDS = range(100, 106)
 
 
-def simulate_condition(out: Path, given: dict[str, float]) -> list[Path]:
+def simulate_condition(
+    out: Path, given: dict[str, float], seeds: Iterable[int] = SEEDS
+) -> list[Path]:
+    """Simulate (once; cached in ``out``) every experiment x seed with the given variability."""
     from lfd.cli.simulate import record
     from lfd.sim import Variability
 
     out.mkdir(parents=True, exist_ok=True)
     paths = []
     for task in EXPERIMENTS:
-        for seed in SEEDS:
+        for seed in seeds:
             path = out / f"{task}_{seed}.mcap"
             if not path.exists():
                 record(task, seed, path, variability=Variability(**given))  # type: ignore[arg-type]
