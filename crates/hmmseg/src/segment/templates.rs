@@ -488,8 +488,12 @@ impl TemplateSet {
                 ))
             }
         }
-        let set: Self = serde_json::from_str(text)
-            .map_err(|e| EngineError::Format(format!("template file: {e}")))?;
+        // the error names the field (`models[3][1].transitions: invalid type ...`)
+        let set: Self =
+            serde_path_to_error::deserialize(&mut serde_json::Deserializer::from_str(text))
+                .map_err(|e| {
+                    EngineError::Format(format!("template file: {}: {}", e.path(), e.inner()))
+                })?;
         check_skills(&set.skills)?;
         set.check_contents()?;
         let n_cols = set.features.iter().map(|f| f.end).max().unwrap_or(0);
@@ -742,7 +746,14 @@ mod tests {
             "inverted",
         );
         refused(&|d| d["ranges"][1] = serde_json::json!([0.5, 0.5]), "empty");
-        refused(&|d| d["ranges"][2] = serde_json::json!([0.0, "inf"]), "");
+        refused(
+            &|d| d["ranges"][2] = serde_json::json!([0.0, "inf"]),
+            "ranges[2][1]: invalid type",
+        );
+        refused(
+            &|d| d["skills"] = serde_json::json!(7),
+            "skills: invalid type",
+        );
         refused(&|d| d["ranges"][2] = serde_json::json!([0.0, null]), "");
         refused(&|d| d["ranges"] = serde_json::json!([[0, 1]]), "1 ranges");
         refused(
