@@ -79,6 +79,9 @@ CASES: list[tuple[str, str, str]] = [
     ("reproduce-json-missing-dir", "reproduce {rec} --json {tmp}/no/x.json", "does not exist"),
     ("reproduce-rrd-is-input", "reproduce {rec} --rerun-save {rec}", "also an input"),
     ("reproduce-bad-mode", "reproduce {rec} --mode fly", "invalid choice"),
+    ("reproduce-displace-cm", "reproduce {rec} --displace box_2:8,-5", "did you mean box_2:0.08,-0.05"),
+    ("reproduce-displace-nan", "reproduce {rec} --displace box_2:nan,0", "finite"),
+    ("reproduce-displace-unknown", "reproduce {rec} --displace box_9:0.05,0", "known objects"),
     # record
     ("record-output-missing-dir", "record --source sim:exp1 -o {tmp}/no/x.mcap", "not exist"),
     ("record-output-is-dir", "record --source sim:exp1 -o {tmp}", "is a directory"),

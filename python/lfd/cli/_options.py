@@ -100,11 +100,6 @@ def write_json(path: str, doc: Any) -> None:
     atomic_write_text(path, json.dumps(doc, indent=2, default=str))
 
 
-def existing_inputs(*paths: str | os.PathLike[str] | None) -> list[str | os.PathLike[str]]:
-    """The given input paths without the ``None``s (for ``check_output(inputs=...)``)."""
-    return [p for p in paths if p is not None]
-
-
 def check_inputs(**named: str | os.PathLike[str] | None) -> None:
     """Refuse input files that do not exist, before heavy imports (``--hand-model=path``...)."""
     from ..errors import UsageError

@@ -43,19 +43,6 @@ def positive_float(text: str) -> float:
     return v
 
 
-def non_negative_float(text: str) -> float:
-    """A finite number >= 0."""
-    v = _float(text)
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"must be a number >= 0, got {text!r}")
-    return v
-
-
-def fraction(text: str) -> float:
-    """A number in [0, 1]."""
-    return float_range(0.0, 1.0)(text)
-
-
 def float_range(lo: float, hi: float, *, lo_open: bool = False) -> Callable[[str], float]:
     """A converter for a finite number in ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``)."""
 
@@ -68,14 +55,6 @@ def float_range(lo: float, hi: float, *, lo_open: bool = False) -> Callable[[str
 
     convert.__name__ = f"number in [{lo:g}, {hi:g}]"
     return convert
-
-
-def non_negative_int(text: str) -> int:
-    """An integer >= 0."""
-    v = _int(text)
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}")
-    return v
 
 
 def positive_int(text: str) -> int:

@@ -15,7 +15,7 @@ from ._options import (
     add_json_argument,
     add_segmentation_arguments,
     check_json,
-    json_to_stdout,
+    console,
     segmentation_options,
     write_json,
 )
@@ -64,12 +64,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import numpy as np
     from rich.console import Console
     from rich.progress import Progress
     from rich.table import Table
 
-    from ..errors import LfdError
     from ..io import load
     from ..outputs import check_output
     from ..preprocessing import preprocess
@@ -79,14 +77,16 @@ def run(args: argparse.Namespace) -> int:
         from_labels,
         from_segmentation,
         parse_displacement,
+        program_start,
         reproduce,
     )
+    from ..segmentation import segment
     from ..viz.cli import check_rerun_args, close_from_args, open_from_args
 
     inputs = [p for p in (args.recording, args.task) if p]
     check_json(args, inputs)
     check_rerun_args(args, inputs)
-    console = Console(stderr=True)
+    err = Console(stderr=True)  # progress, failures: stderr
     displace = parse_displacement(args.displace)
     if args.video:
         check_output(args.video, inputs=[args.recording], what="--video", suffixes=VIDEO_SUFFIXES)
@@ -97,19 +97,15 @@ def run(args: argparse.Namespace) -> int:
     if args.task:
         program = TaskProgram.load(args.task)
     elif args.segment:
-        try:
-            from ..segmentation import segment  # type: ignore[import-not-found, unused-ignore]
-        except ImportError as err:
-            raise LfdError("lfd.segment is not available in this installation") from err
         search, grammar = segmentation_options(args)
         program = from_segmentation(segment(demo, search=search, grammar=grammar), t0)  # type: ignore[arg-type]
     else:
         program = from_labels(demo.labels, t0)
-    start_i = int(np.clip(np.searchsorted(traj.t_s, program.segments[0].start_s), 0, len(traj) - 1))
-    check_displacement(traj, displace, start_i)  # refused before anything is simulated
+    # refused here, before the progress bar starts, so the error stays one line on stderr
+    check_displacement(traj, displace, program_start(traj, program))
     modes = ("replay", "skills", "dmp") if args.mode == "all" else (args.mode,)
     results = {}
-    with Progress(console=console, transient=True) as bar:
+    with Progress(console=err, transient=True) as bar:
         for mode in modes:
             task = bar.add_task(f"{mode}", total=1.0)
 
@@ -147,13 +143,12 @@ def run(args: argparse.Namespace) -> int:
             "yes" if r.success else "no",
             objs,
         )
-    out = console if json_to_stdout(args) else Console()  # stdout is JSON only under --json -
-    out.print(table)
+    console(args).print(table)  # stderr under --json -: stdout is the JSON then
     for mode, r in results.items():
         if not r.success:
-            console.print(f"{mode}: the task was not achieved:", highlight=False)
+            err.print(f"{mode}: the task was not achieved:", highlight=False)
             for line in r.failures or ["no skill reported a failure"]:
-                console.print(f"  {line}", highlight=False, markup=False)
+                err.print(f"  {line}", highlight=False, markup=False)
     if args.json:
         doc = {
             "recording": args.recording,
@@ -165,7 +160,7 @@ def run(args: argparse.Namespace) -> int:
         ex = results[modes[-1]].execution
         frames = ex.frames if ex is not None else []
         write_video(args.video, frames, fps=30.0)
-        console.print(f"video: {args.video} ({len(frames)} frames, mode {modes[-1]})")
+        err.print(f"video: {args.video} ({len(frames)} frames, mode {modes[-1]})")
     # with --mode all, replay is the reference of the path-length ratio, reported but not
     # judged: the exit status says whether the learned task (skills, dmp) was achieved
     judged = [m for m in results if not (args.mode == "all" and m == "replay")]

@@ -23,7 +23,7 @@ import numpy as np
 from .. import _gl  # noqa: F401  (selects the headless GL backend before mujoco loads)
 from ..trajectory import Trajectory
 from .controller import Execution, Plan, execute
-from .displacement import check_displacement, parse_displacement
+from .displacement import check_displacement, parse_displacement, program_start
 from .goals import DemoFrames, pose, yaw_of
 from .measures import ObjectResult, object_errors, path_length
 from .modes import MODES, plan_task
@@ -41,6 +41,7 @@ __all__ = [
     "from_labels",
     "from_segmentation",
     "parse_displacement",
+    "program_start",
     "reproduce",
 ]
 
@@ -159,7 +160,7 @@ def reproduce(
         Record frames into ``result.execution.frames`` at this rate (0 = off).
     """
     displace = dict(displace or {})
-    start_i = int(np.clip(np.searchsorted(traj.t_s, program.segments[0].start_s), 0, len(traj) - 1))
+    start_i = program_start(traj, program)
     base = check_displacement(traj, displace, start_i, base=base)  # before anything is simulated
     frames = DemoFrames(traj, base)
     initial: dict[str, np.ndarray] = {}

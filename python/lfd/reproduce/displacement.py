@@ -15,6 +15,7 @@ import numpy as np
 from ..errors import UsageError
 from ..trajectory import Trajectory
 from .goals import quat_to_matrix, yaw_of
+from .program import TaskProgram
 from .robot import TCP_OFFSET
 from .scene import REACH_MAX, REACH_MIN, SHOULDER_Z, TABLE_HALF, choose_base, table_centre
 
@@ -55,6 +56,12 @@ def parse_displacement(spec: Sequence[str] | str | None) -> dict[str, tuple[floa
                 raise UsageError(f"--displace {part!r}: missing object name before ':'")
             out[name.strip()] = (dx, dy)
     return out
+
+
+def program_start(traj: Trajectory, program: TaskProgram) -> int:
+    """Sample index of ``traj`` where ``program`` starts (the objects' initial poses)."""
+    i = np.searchsorted(traj.t_s, program.segments[0].start_s)
+    return int(np.clip(i, 0, len(traj) - 1))
 
 
 def _fmt(v: float) -> str:

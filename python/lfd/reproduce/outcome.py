@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from .controller import LOOKAHEAD, Execution, Plan
+from .controller import LOOKAHEAD, TICK, Execution, Plan
 from .measures import POS_TOL, ROT_TOL_DEG, ObjectResult
 from .program import TaskProgram
 
@@ -153,7 +153,7 @@ def skill_results(
                 pick = next((i for i in range(k - 1, -1, -1) if segs[i].skill == "pick_up"), k)
                 out[pick].reasons.append(f"grasp failed: {held} was not lifted by the gripper")
             elif slip.max() > GRASP_TOL:
-                t = (a + int(np.argmax(slip > GRASP_TOL))) * 0.01
+                t = (a + int(np.argmax(slip > GRASP_TOL))) * TICK
                 res.reasons.append(
                     f"grasp lost: {held} slipped {slip.max() * 1000:.0f} mm in the gripper "
                     f"during the carry (from t = {t:.1f} s)"

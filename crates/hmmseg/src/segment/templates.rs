@@ -129,25 +129,17 @@ impl TemplateParams {
         if !given.is_object() {
             return Err(bad(format!("must be a JSON object, got {given}")));
         }
-        let defaults =
+        let mut merged =
             serde_json::to_value(Self::default()).map_err(|e| bad(format!("defaults: {e}")))?;
-        let mut merged = defaults.clone();
-        let mut leaves = Vec::new();
-        merge_params(&mut merged, &given, "", &mut leaves)?;
-        if let Err(err) = serde_json::from_value::<Self>(merged.clone()) {
-            // name the first override that fails on its own
-            for (path, value) in &leaves {
-                let mut one = defaults.clone();
-                set_path(&mut one, path, value.clone());
-                if let Err(e) = serde_json::from_value::<Self>(one) {
-                    return Err(EngineError::InvalidParameter(format!(
-                        "template parameter `{path}`: {e}"
-                    )));
-                }
-            }
-            return Err(bad(err.to_string()));
-        }
-        let params: Self = serde_json::from_value(merged).map_err(|e| bad(e.to_string()))?;
+        merge_params(&mut merged, &given, "")?;
+        // a wrong type names its key: `template parameter `fit.n_states`: invalid type ...`
+        let params: Self = serde_path_to_error::deserialize(merged).map_err(|e| {
+            EngineError::InvalidParameter(format!(
+                "template parameter `{}`: {}",
+                e.path(),
+                e.inner()
+            ))
+        })?;
         params.validate().map_err(|e| match e {
             EngineError::InvalidParameter(m) => bad(m),
             other => other,
@@ -157,12 +149,11 @@ impl TemplateParams {
 }
 
 /// Apply `given` onto `target` (the defaults), recursing into objects; every key must exist in
-/// `target`. Records each replaced leaf as `(dotted path, value)`.
+/// `target`.
 fn merge_params(
     target: &mut serde_json::Value,
     given: &serde_json::Value,
     prefix: &str,
-    leaves: &mut Vec<(String, serde_json::Value)>,
 ) -> Result<()> {
     let (Some(t), Some(g)) = (target.as_object_mut(), given.as_object()) else {
         return Ok(());
@@ -193,25 +184,12 @@ fn merge_params(
                     "template parameter `{path}` must be a JSON object, got {value}"
                 )));
             }
-            merge_params(slot, value, &path, leaves)?;
+            merge_params(slot, value, &path)?;
         } else {
             *slot = value.clone();
-            leaves.push((path, value.clone()));
         }
     }
     Ok(())
-}
-
-/// Set the value at a dotted `path` that exists in `target`.
-fn set_path(target: &mut serde_json::Value, path: &str, value: serde_json::Value) {
-    let mut node = target;
-    for key in path.split('.') {
-        match node.get_mut(key) {
-            Some(next) => node = next,
-            None => return,
-        }
-    }
-    *node = value;
 }
 
 /// A trained template set: `models[skill][feature]`.
