@@ -5,7 +5,10 @@ from __future__ import annotations
 import argparse
 import os
 from collections.abc import Iterable
-from typing import Any, get_args
+from typing import TYPE_CHECKING, Any, get_args
+
+if TYPE_CHECKING:
+    from ..segmentation.pipeline import GrammarUse, Search
 
 
 def add_segmentation_arguments(parser: argparse.ArgumentParser, *, used_with: str = "") -> None:
@@ -39,7 +42,7 @@ def add_segmentation_arguments(parser: argparse.ArgumentParser, *, used_with: st
     )
 
 
-def segmentation_options(args: argparse.Namespace) -> tuple[str, str]:
+def segmentation_options(args: argparse.Namespace) -> tuple[Search, GrammarUse]:
     """(search, grammar) chosen by :func:`add_segmentation_arguments`'s options."""
     from ..errors import UsageError
     from ..segmentation.pipeline import (

@@ -6,9 +6,12 @@ import argparse
 import math
 import sys
 from pathlib import Path
-from typing import Any, get_args
+from typing import TYPE_CHECKING, Any, get_args
 
 from ._options import add_json_argument, check_json, console, json_to_stdout, write_json
+
+if TYPE_CHECKING:
+    from ..segmentation.pipeline import GrammarUse
 
 NAME = "eval"
 HELP = "Evaluate lfd's default (dp), the paper's method and two baselines against ground truth."
@@ -105,7 +108,11 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _show(
-    paths: list[Path], methods: tuple[str, ...], templates: Any, grammar: str, console: Any
+    paths: list[Path],
+    methods: tuple[str, ...],
+    templates: Any,
+    grammar: GrammarUse,
+    console: Any,
 ) -> None:
     """Log one recording and every method's result to the open Rerun session."""
     if len(paths) != 1:
@@ -119,4 +126,4 @@ def _show(
 
     demo = load(paths[0])
     traj = log_recorded_demo(demo, features=False)  # log_methods logs them
-    log_methods(demo, methods, templates=templates, trajectory=traj, grammar=grammar)  # type: ignore[arg-type]
+    log_methods(demo, methods, templates=templates, trajectory=traj, grammar=grammar)

@@ -47,7 +47,7 @@ def segment_recording(
         on_loaded(demo)
     templates = Templates.load(args.templates) if args.templates else None
     search, grammar = segmentation_options(args)
-    result = segment(demo, templates, search=search, grammar=grammar)  # type: ignore[arg-type]
+    result = segment(demo, templates, search=search, grammar=grammar)
     doc: dict[str, Any] = {
         "recording": str(args.recording),
         "method": result.method,

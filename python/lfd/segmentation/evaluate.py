@@ -51,8 +51,10 @@ def run_method(
 
     if method == "paper":
         return segment(demo, templates, search=PAPER_SEARCH, grammar=PAPER_GRAMMAR)
-    if method in ("greedy", "dp"):
-        return segment(demo, templates, search=method, grammar=grammar)  # type: ignore[arg-type]
+    if method == "dp":
+        return segment(demo, templates, search="dp", grammar=grammar)
+    if method == "greedy":
+        return segment(demo, templates, search="greedy", grammar=grammar)
     if method == "proximity":
         return proximity_segmentation(demo)
     if method == "gripper":
