@@ -105,7 +105,8 @@ def run(args: argparse.Namespace) -> int:
     check_displacement(traj, displace, program_start(traj, program))
     modes = ("replay", "skills", "dmp") if args.mode == "all" else (args.mode,)
     results = {}
-    with Progress(console=err, transient=True) as bar:
+    # a bar only on a terminal: piped, it would leave an empty line before an error's one line
+    with Progress(console=err, transient=True, disable=not err.is_terminal) as bar:
         for mode in modes:
             task = bar.add_task(f"{mode}", total=1.0)
 
