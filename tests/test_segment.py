@@ -32,6 +32,7 @@ ROOT = Path(__file__).resolve().parents[1]
 EXP1 = ROOT / "recordings" / "exp1.mcap"
 EXP2 = ROOT / "recordings" / "exp2.mcap"
 EXP3 = ROOT / "recordings" / "exp3.mcap"
+EXP4 = ROOT / "recordings" / "exp4.mcap"
 TEMPLATE_DIR = ROOT / "recordings" / "templates"
 PERCEIVED_EXP1 = ROOT / "recordings" / "perceived" / "exp1.mcap"
 
@@ -68,7 +69,7 @@ def test_exp1_sequence_equals_ground_truth(search: str, grammar: str) -> None:
     assert not impossible_transitions(result.skill_sequence)
 
 
-@pytest.mark.parametrize(("search", "grammar"), [("dp", "enforce"), ("greedy", "warn")])
+@pytest.mark.parametrize(("search", "grammar"), [("dp", "enforce"), ("greedy", "enforce")])
 def test_perceived_exp1_segments_like_its_ground_truth(search: str, grammar: str) -> None:
     """The shipped perceived recording (``lfd record --source sim:exp1 --seed 1000``: tags and
     hand network on rendered frames, no labels) is the demonstration of ``exp1.mcap``."""
@@ -80,19 +81,19 @@ def test_perceived_exp1_segments_like_its_ground_truth(search: str, grammar: str
     assert all_metrics(result.segments, truth.labels)["boundary_error_s"] < 0.3
 
 
-@pytest.mark.parametrize("grammar", ["warn", "enforce"])
-def test_greedy_finds_the_pushes_of_exp2(grammar: str) -> None:
+@pytest.mark.parametrize("search", ["greedy", "dp"])
+def test_the_pushes_of_exp2_are_found(search: str) -> None:
     # pushes along the object's y axis: only templates trained with the turned object frames
     # (FRAME_SYMMETRY) explain them; the lookahead keeps the Move after a Push from swallowing it
     d = demo(EXP2)
-    r = segment(d, search="greedy", grammar=grammar)  # type: ignore[arg-type]
+    r = segment(d, search=search, grammar="enforce")  # type: ignore[arg-type]
     assert r.skill_sequence == d.skill_sequence
     assert r.skill_sequence.count("push") == 2
 
 
 def test_greedy_lookahead_keeps_a_short_skill_from_being_swallowed() -> None:
-    # exp1: by its own per-sample score alone, a long Move swallows the second Pick up
-    d = demo(EXP1)
+    # exp4: by its own per-sample score alone, a long Move swallows a short skill
+    d = demo(EXP4)
     plain = segment(d, search="greedy", params=SegmentParams(lookahead=False))
     look = segment(d, search="greedy", params=SegmentParams(lookahead=True))
     assert plain.sections == look.sections
@@ -172,7 +173,11 @@ def test_default_templates_ship_with_the_package() -> None:
     t = Templates.default()
     assert set(t.skills) == set(SKILLS)
     assert len(t.features) == 8
-    assert t.meta.get("feature_cutoff_hz") == 2.0
+    assert t.preprocessing == {
+        "feature_cutoff_hz": "auto",
+        "object_cutoff_hz": 10.0,
+        "aperture": "grasp",
+    }
 
 
 def test_train_save_load_round_trip(tmp_path: Path) -> None:
@@ -300,7 +305,8 @@ def test_trajectory_filtered_differently_from_the_templates_warns() -> None:
     from lfd.preprocessing import preprocess
 
     r = segment(preprocess(demo(), feature_cutoff_hz=0.625), search="dp")
-    assert "filtered at 0.625 Hz" in r.warnings[0]
+    assert "preprocessed differently" in r.warnings[0]
+    assert "feature_cutoff_hz=0.625 (templates: 'auto')" in r.warnings[0]
 
 
 def test_too_short_for_any_skill() -> None:

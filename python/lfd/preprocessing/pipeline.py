@@ -16,7 +16,7 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -25,12 +25,25 @@ from ..errors import DemonstrationError
 from ..trajectory import Trajectory
 from .carry import fill_carried_gaps, hold_ends
 from .filters import butter_ba, lowpass, matlab_padlen, unwrap_runs
+from .grasp import APERTURES, Aperture, grasp_aperture
 from .mapping import EULER_SEQ, euler_from_rotation, gripper_frame, rotation_from_euler
 from .resample import clock, find_gaps, resample_positions, resample_quaternions
 
 __all__ = ["preprocess"]
 
 GRIPPER_KEYPOINTS = (THUMB_TIP, INDEX_MCP, INDEX_TIP)
+
+AUTO_CUTOFF_RATIO = 0.4
+"""``feature_cutoff_hz="auto"`` filters the hand at this fraction of its sample rate..."""
+AUTO_CUTOFF_MAX_HZ = 6.0
+"""...and at most at this frequency (hand motion has no skill information above it)."""
+
+
+def auto_cutoff(hand_rate_hz: float) -> float:
+    """The hand's low-pass cut-off for ``feature_cutoff_hz="auto"``: a noisy 5 Hz estimator is
+    smoothed at 2 Hz, smooth 30 Hz motion capture kept up to 6 Hz, so a fast grasp or lift keeps
+    its shape (docs/segmentation.md measures the choice)."""
+    return float(min(AUTO_CUTOFF_MAX_HZ, AUTO_CUTOFF_RATIO * hand_rate_hz))
 
 
 def _sorted_unique(t_ns: np.ndarray) -> np.ndarray:
@@ -49,7 +62,9 @@ def preprocess(
     *,
     rate_hz: float = 30.0,
     euler_cutoff_hz: float = 0.0625,
-    feature_cutoff_hz: float = 0.625,
+    feature_cutoff_hz: float | Literal["auto"] = 0.625,
+    object_cutoff_hz: float | None = None,
+    aperture: Aperture = "grasp",
     max_gap_s: float = 0.5,
     fill_hidden: bool = True,
     filter: bool = True,
@@ -64,8 +79,19 @@ def preprocess(
         Rate of the common clock.
     euler_cutoff_hz : float
         Low-pass cut-off of the gripper Euler angles (paper: 0.0625 Hz).
-    feature_cutoff_hz : float
-        Low-pass cut-off of the position signals the features come from (paper: 0.625 Hz).
+    feature_cutoff_hz : float or "auto"
+        Low-pass cut-off of the hand keypoints the features come from (paper: 0.625 Hz);
+        ``"auto"``: :func:`auto_cutoff` of the hand's median sample rate (2 Hz for a 5 Hz
+        hand-pose estimator, 6 Hz for 30 Hz motion capture).
+    object_cutoff_hz : float, optional
+        Low-pass cut-off of the object positions; ``None``: ``feature_cutoff_hz`` (the paper
+        filters every position signal alike). Tag and motion-capture poses are smooth already,
+        and a hard filter lowers a fast lift and shifts a resting object's height
+        (docs/segmentation.md measures both).
+    aperture : {"grasp", "thumb_index"}
+        What :attr:`Trajectory.opening` measures: the grasp aperture of
+        :func:`~lfd.preprocessing.grasp.grasp_aperture` (the fingers that oppose the thumb on a
+        box, whichever they are) or Table I's thumb-index distance.
     max_gap_s : float
         Longest gap between real samples that is interpolated.
     fill_hidden : bool
@@ -91,7 +117,17 @@ def preprocess(
     """
     if not demo.objects:
         raise DemonstrationError("demonstration has no objects")
+    if aperture not in APERTURES:
+        raise DemonstrationError(
+            f"aperture must be one of {', '.join(APERTURES)}, got {aperture!r}"
+        )
     hand = demo.hand
+    if feature_cutoff_hz == "auto":
+        steps = np.diff(np.unique(hand.t_ns)) * 1e-9
+        hand_fc = auto_cutoff(1.0 / float(np.median(steps))) if steps.size else AUTO_CUTOFF_MAX_HZ
+    else:
+        hand_fc = float(feature_cutoff_hz)
+    obj_fc = hand_fc if object_cutoff_hz is None else float(object_cutoff_hz)
     hi = _sorted_unique(hand.t_ns)
     h_t, h_kp = hand.t_ns[hi], hand.keypoints[hi]
     h_ok = np.isfinite(h_kp[:, list(GRIPPER_KEYPOINTS)]).all(axis=(1, 2))
@@ -127,7 +163,8 @@ def preprocess(
     n = t_ns.size
     if filter:
         pad = max(
-            matlab_padlen(*butter_ba(feature_cutoff_hz, rate_hz)),
+            matlab_padlen(*butter_ba(hand_fc, rate_hz)),
+            matlab_padlen(*butter_ba(obj_fc, rate_hz)),
             matlab_padlen(*butter_ba(euler_cutoff_hz, rate_hz)),
         )
         if n <= pad:
@@ -154,7 +191,7 @@ def preprocess(
     # hand
     kp, kp_valid = resample_positions(rel(h_t), h_kp, t_s, max_gap_s=max_gap_s)
     hand_valid = kp_valid[:, list(GRIPPER_KEYPOINTS)].all(axis=(1, 2))
-    kp = smooth(kp, feature_cutoff_hz, "keypoints")
+    kp = smooth(kp, hand_fc, "keypoints")
     tcp, rot_raw, opening = gripper_frame(kp, side=hand.side)
     hand_valid &= np.isfinite(rot_raw).all(axis=(1, 2))
     euler = unwrap_runs(euler_from_rotation(rot_raw))
@@ -192,18 +229,28 @@ def preprocess(
             carried = fill_carried_gaps(p, q, valid, tcp, hand_valid, radius)
             if carried:
                 gaps["carried"][name] = [(int(t_ns[a]), int(t_ns[b - 1])) for a, b in carried]
-        positions[j] = smooth(np.where(valid[:, None], p, np.nan), feature_cutoff_hz, name)
+        positions[j] = smooth(np.where(valid[:, None], p, np.nan), obj_fc, name)
         quats[j] = np.where(valid[:, None], q, np.nan)
         obj_valid[j] = valid
         gaps["objects"][name] = find_gaps(ot, ok, max_gap_s)
+
+    sizes = np.array([obj.size for _, obj, _, _ in objs], dtype=np.float64).reshape(k, 3)
+    if aperture == "grasp":
+        opening = grasp_aperture(kp, positions, quats, sizes)
+        opening[~hand_valid] = np.nan
 
     meta: dict[str, Any] = {
         "rate_hz": rate_hz,
         "euler_cutoff_hz": euler_cutoff_hz,
         "feature_cutoff_hz": feature_cutoff_hz,
+        "object_cutoff_hz": object_cutoff_hz,
+        "hand_filter_hz": hand_fc,
+        "object_filter_hz": obj_fc,
+        "aperture": aperture,
         "max_gap_s": max_gap_s,
         "filtered": filter,
-        "filter": "butter(4) + filtfilt, MATLAB padding; positions at feature_cutoff_hz",
+        "filter": "butter(4) + filtfilt, MATLAB padding; keypoints at hand_filter_hz, "
+        "object positions at object_filter_hz",
         "euler_seq": EULER_SEQ,
         "gaps": gaps,
         "unfiltered_runs": unfiltered,
@@ -220,7 +267,7 @@ def preprocess(
         object_names=[name for name, *_ in objs],
         object_position=positions,
         object_quaternion=quats,
-        object_size=np.array([obj.size for _, obj, _, _ in objs]).reshape(k, 3),
+        object_size=sizes,
         hand_valid=hand_valid,
         object_valid=obj_valid,
         meta=meta,

@@ -78,15 +78,20 @@ def segment(
 
     templates = templates or Templates.default()
     p = params or SegmentParams()
-    cutoff = float(templates.meta.get("feature_cutoff_hz", p.feature_cutoff_hz))
-    traj = as_trajectory(demo_or_traj, feature_cutoff_hz=cutoff)
+    wanted = templates.preprocessing
+    traj = as_trajectory(demo_or_traj, wanted)
     result = segment_trajectory(traj, templates, search=search, grammar=grammar, params=p)
-    used = traj.meta.get("feature_cutoff_hz")
-    if isinstance(used, int | float) and abs(float(used) - cutoff) > 1e-9:
+    differ = [
+        f"{key}={traj.meta.get(key)!r} (templates: {value!r})"
+        for key, value in wanted.items()
+        if key in traj.meta and traj.meta[key] != value
+    ]
+    if differ:
         result.warnings.insert(
             0,
-            f"the trajectory was filtered at {used} Hz but the templates were trained on "
-            f"{cutoff} Hz features; preprocess with feature_cutoff_hz={cutoff} for best results",
+            "the trajectory was preprocessed differently from the templates' examples: "
+            + ", ".join(differ)
+            + "; preprocess with lfd.preprocess(demo, **templates.preprocessing) for best results",
         )
     return result
 

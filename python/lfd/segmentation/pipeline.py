@@ -10,7 +10,7 @@ from __future__ import annotations
 import dataclasses
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -46,10 +46,6 @@ class SegmentParams:
     ----------
     stage1 : Stage1Params
         Stage-1 hysteresis and minimum section length.
-    feature_cutoff_hz : float
-        Low-pass cut-off of the positions when a Demonstration is preprocessed here (2 Hz: the
-        paper's 0.625 Hz smears skill boundaries by ~0.5 s at 5 Hz hand data; measured in
-        docs/segmentation.md). Templates store the value they were trained with, which wins.
     end : {"final", "any"}
         ``final``: a segment must end in the last state of the skill's left-right HMM (a
         complete execution); ``any``: the plain forward likelihood of Eq. 3.
@@ -72,7 +68,6 @@ class SegmentParams:
     """
 
     stage1: Stage1Params = field(default_factory=Stage1Params)
-    feature_cutoff_hz: float = 2.0
     end: Literal["final", "any"] = "final"
     min_rise: float = 0.02
     dominance: float = 0.0
@@ -170,9 +165,22 @@ def segment_trajectory(
     filled, warnings = fill_gaps(traj)
     feats = compute_features(filled)
     values = np.ascontiguousarray(feats.values, dtype=np.float64)
-    bounds = section_boundaries(values, feats.thresholds, traj.dt, p.stage1)
+    per_object = [compute_features(filled, target=o) for o in range(len(filled.object_names))]
+    bounds = section_boundaries(
+        values,
+        feats.thresholds,
+        traj.dt,
+        p.stage1,
+        objects=[(f.values, f.thresholds) for f in per_object],
+    )
     max_len = max(1, round(p.max_segment_s / traj.dt))
-    scores, best_object = object_scores(filled, templates, bounds, max_len, p.end)
+    scores, best_object = scores_over_objects(
+        [np.ascontiguousarray(f.values, dtype=np.float64) for f in per_object],
+        templates,
+        bounds,
+        max_len,
+        p.end,
+    )
     rising = _hmmseg.rising_table(
         np.ascontiguousarray(filled.tcp[:, 2]), bounds, p.min_rise, p.dominance
     )
@@ -284,9 +292,10 @@ def _make_segment(
 
 
 def as_trajectory(
-    demo_or_traj: Demonstration | Trajectory, *, feature_cutoff_hz: float = 2.0
+    demo_or_traj: Demonstration | Trajectory, preprocessing: dict[str, Any] | None = None
 ) -> Trajectory:
-    """Preprocess a demonstration (a trajectory passes through)."""
+    """Preprocess a demonstration (a trajectory passes through) with the keyword arguments
+    ``preprocessing`` of :func:`lfd.preprocess` (default: those of the shipped templates)."""
     if isinstance(demo_or_traj, Trajectory):
         return demo_or_traj
     if isinstance(demo_or_traj, Demonstration):
@@ -294,5 +303,9 @@ def as_trajectory(
 
         if len(demo_or_traj.hand) == 0 or not np.isfinite(demo_or_traj.hand.keypoints).any():
             raise DemonstrationError("the demonstration has no hand data")
-        return preprocess(demo_or_traj, feature_cutoff_hz=feature_cutoff_hz)
+        if preprocessing is None:
+            from .templates import preprocessing_options
+
+            preprocessing = preprocessing_options()
+        return preprocess(demo_or_traj, **preprocessing)
     raise TypeError(f"expected a Demonstration or Trajectory, got {type(demo_or_traj).__name__}")

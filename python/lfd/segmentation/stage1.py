@@ -2,13 +2,17 @@
 
 Boundaries are put where the fingertip distance crosses ``d_i + gamma``, the hand speed crosses
 ``v_th`` or the TCP vertical velocity changes sign (Table I thresholds, per sample, from
-:func:`lfd.features.compute_features`). A hysteresis band per criterion and a minimum section
+:func:`lfd.features.compute_features`), and — beyond the paper, with ``object_criteria`` — where
+any object leaves or regains its resting height (``+ gamma``) or starts or stops moving
+(``v_th``): lift-off and set-down are skill boundaries the hand signals can miss when a real
+hand lingers at the cube between fast cycles. A hysteresis band per criterion and a minimum section
 length suppress chatter. The crossing logic runs in the engine
 (:func:`lfd._hmmseg.stage1_boundaries`).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,12 +42,22 @@ class Stage1Params:
         TCP vertical velocity band around 0, m/s.
     min_section_s : float
         Minimum section length, seconds.
+    object_criteria : bool
+        Also cut where each object's own height and speed cross their thresholds.
+    height_hysteresis : float
+        Object height band, metres.
     """
 
     opening_hysteresis: float = 0.005
     velocity_hysteresis: float = 0.02
     rise_hysteresis: float = 0.02
     min_section_s: float = 0.2
+    object_criteria: bool = True
+    height_hysteresis: float = 0.005
+
+
+OBJECT_COLUMNS: dict[str, int] = {"object_height": 4, "object_velocity": 8}
+"""Columns of a per-object feature matrix that stage 1 watches with ``object_criteria``."""
 
 
 def section_boundaries(
@@ -51,6 +65,8 @@ def section_boundaries(
     thresholds: npt.ArrayLike,
     dt: float,
     params: Stage1Params | None = None,
+    *,
+    objects: Sequence[tuple[npt.ArrayLike, npt.ArrayLike]] = (),
 ) -> np.ndarray:
     """Section boundaries ``[0, b_1, ..., n]`` (int64 sample indices).
 
@@ -62,11 +78,26 @@ def section_boundaries(
         Sample period in seconds.
     params : Stage1Params, optional
         Hysteresis and minimum length; defaults if omitted.
+    objects : sequence of (values, thresholds)
+        The feature matrices with each object as the target (``compute_features(traj,
+        target=o)``), watched for lift-off, set-down and motion when ``object_criteria`` is on.
     """
     p = params or Stage1Params()
     v = np.ascontiguousarray(values, dtype=np.float64)
     t = np.ascontiguousarray(thresholds, dtype=np.float64)
     cols = [FEATURE_COLUMNS[k] for k in ("fingertip_distance", "hand_velocity", "tcp_rise_fall")]
     hyst = [p.opening_hysteresis, p.velocity_hysteresis, p.rise_hysteresis]
+    if p.object_criteria and objects:
+        vs, ts = [v], [t]
+        for ov, ot in objects:
+            ov = np.asarray(ov, dtype=np.float64)
+            ot = np.asarray(ot, dtype=np.float64)
+            vs.append(ov[:, list(OBJECT_COLUMNS.values())])
+            ts.append(ot[:, list(OBJECT_COLUMNS.values())])
+            base = sum(x.shape[1] for x in vs[:-1])
+            cols += [base, base + 1]
+            hyst += [p.height_hysteresis, p.velocity_hysteresis]
+        v = np.ascontiguousarray(np.hstack(vs))
+        t = np.ascontiguousarray(np.hstack(ts))
     min_len = max(1, round(p.min_section_s / dt)) if dt > 0 else 1
     return np.asarray(_hmmseg.stage1_boundaries(v, t, cols, hyst, min_len), dtype=np.int64)

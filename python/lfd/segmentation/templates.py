@@ -15,13 +15,14 @@ from collections.abc import Callable, Iterable, Sequence
 from functools import cache
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
 from .. import _hmmseg
 from ..demo import Demonstration
 from ..errors import DemonstrationError, InvalidParameterError, ModelFormatError
+from ..preprocessing.grasp import Aperture
 from ..skills import SKILLS
 from ..trajectory import Trajectory
 
@@ -37,9 +38,25 @@ FEATURE_GROUPS: tuple[tuple[str, int, int], ...] = (
 )
 """The eight features of Table I as ``(name, first column, end column)`` of the feature matrix."""
 
-FEATURE_CUTOFF_HZ = 2.0
-"""Low-pass cut-off (Hz) of the positions the template features are computed from; stored in
-the template file and used again at segmentation time."""
+FEATURE_CUTOFF_HZ: float | Literal["auto"] = "auto"
+"""Low-pass cut-off (Hz) of the hand keypoints the template features are computed from; stored
+in the template file and used again at segmentation time. ``"auto"``: 2 Hz for a 5 Hz hand-pose
+estimator, 6 Hz for 30 Hz motion capture (:func:`lfd.preprocessing.pipeline.auto_cutoff`)."""
+
+LEGACY_FEATURE_CUTOFF_HZ = 2.0
+"""The hand cut-off of template files that do not name one."""
+
+OBJECT_CUTOFF_HZ = 10.0
+"""Low-pass cut-off (Hz) of the object positions: tag and motion-capture poses are smooth
+already; 10 Hz keeps a fast lift's height and a resting object's rest height
+(docs/segmentation.md) and still quiets the object speed below ``v_th``."""
+
+APERTURE: Aperture = "grasp"
+"""What the templates' fingertip-distance feature measures (:mod:`lfd.preprocessing.grasp`)."""
+
+LEGACY_PREPROCESSING: dict[str, Any] = {"object_cutoff_hz": None, "aperture": "thumb_index"}
+"""Preprocessing of template files that predate these settings (objects filtered like the hand,
+Table I's thumb-index opening)."""
 
 FRAME_SYMMETRY = 4
 """Training examples are augmented with this many turns of the object frame about its vertical
@@ -132,6 +149,16 @@ class Templates:
         """The templates shipped with the package."""
         return _default_templates()
 
+    @property
+    def preprocessing(self) -> dict[str, Any]:
+        """Keyword arguments of :func:`lfd.preprocess` the templates were trained with."""
+        m = {**LEGACY_PREPROCESSING, **self.meta}
+        return preprocessing_options(
+            m.get("feature_cutoff_hz", LEGACY_FEATURE_CUTOFF_HZ),
+            m["object_cutoff_hz"],
+            m["aperture"],
+        )
+
     def __repr__(self) -> str:
         return f"Templates(skills={self.skills}, features={[f[0] for f in self.features]})"
 
@@ -173,17 +200,41 @@ def label_range(traj: Trajectory, start_ns: int, end_ns: int) -> tuple[int, int]
     return i0, max(i1, i0)
 
 
+def preprocessing_options(
+    feature_cutoff_hz: float | Literal["auto"] = FEATURE_CUTOFF_HZ,
+    object_cutoff_hz: float | None = OBJECT_CUTOFF_HZ,
+    aperture: Aperture = APERTURE,
+) -> dict[str, Any]:
+    """The preprocessing keyword arguments templates are trained (and used) with
+    (``object_cutoff_hz=None``: the objects are filtered like the hand)."""
+    fc = feature_cutoff_hz if feature_cutoff_hz == "auto" else float(feature_cutoff_hz)
+    return {
+        "feature_cutoff_hz": fc,
+        "object_cutoff_hz": object_cutoff_hz
+        if object_cutoff_hz is None
+        else float(object_cutoff_hz),
+        "aperture": aperture,
+    }
+
+
 def template_examples(
-    demo: Demonstration, *, feature_cutoff_hz: float = FEATURE_CUTOFF_HZ
+    demo: Demonstration,
+    *,
+    feature_cutoff_hz: float | Literal["auto"] = FEATURE_CUTOFF_HZ,
+    preprocessing: dict[str, Any] | None = None,
 ) -> list[tuple[str, np.ndarray]]:
-    """The labelled segments of one template demonstration as ``(skill, features (m, 10))``."""
+    """The labelled segments of one template demonstration as ``(skill, features (m, 10))``.
+
+    ``preprocessing``: keyword arguments of :func:`lfd.preprocess` (default:
+    :func:`preprocessing_options` with ``feature_cutoff_hz``)."""
     from ..features import compute_features
     from ..preprocessing import preprocess
     from .pipeline import fill_gaps
 
     if not demo.labels:
         raise DemonstrationError("a template demonstration needs skill labels")
-    traj, _ = fill_gaps(preprocess(demo, feature_cutoff_hz=feature_cutoff_hz))
+    opts = preprocessing or preprocessing_options(feature_cutoff_hz)
+    traj, _ = fill_gaps(preprocess(demo, **opts))
     feats = compute_features(traj, target=target_from_labels(traj, demo))
     out = []
     for lab in demo.labels:
@@ -233,7 +284,9 @@ def train_templates(
     features: Sequence[tuple[str, int, int]] = FEATURE_GROUPS,
     skills: Sequence[str] = SKILLS,
     progress: Callable[[str], None] | None = None,
-    feature_cutoff_hz: float = FEATURE_CUTOFF_HZ,
+    feature_cutoff_hz: float | Literal["auto"] = FEATURE_CUTOFF_HZ,
+    object_cutoff_hz: float | None = OBJECT_CUTOFF_HZ,
+    aperture: Aperture = APERTURE,
     frame_symmetry: int = FRAME_SYMMETRY,
 ) -> Templates:
     """Train templates from labelled template recordings (MCAP paths or demonstrations).
@@ -253,8 +306,9 @@ def train_templates(
         Skills to train (each needs at least one example).
     progress : callable, optional
         Called with each recording's name after it is processed.
-    feature_cutoff_hz : float
-        Low-pass cut-off of the preprocessing (stored with the templates).
+    feature_cutoff_hz, object_cutoff_hz, aperture
+        Preprocessing of the examples (:func:`lfd.preprocess`), stored with the templates and
+        used again when they segment.
     frame_symmetry : int
         Every example is used ``frame_symmetry`` times, with the object frame turned by
         multiples of ``360 / frame_symmetry`` degrees about z (:data:`FRAME_SYMMETRY`; 1 = off).
@@ -262,6 +316,7 @@ def train_templates(
     if frame_symmetry < 1:
         raise ValueError(f"frame_symmetry must be at least 1, got {frame_symmetry}")
     params_json = template_params(params)
+    opts = preprocessing_options(feature_cutoff_hz, object_cutoff_hz, aperture)
     from ..io import load
 
     examples: list[tuple[int, np.ndarray]] = []
@@ -269,7 +324,7 @@ def train_templates(
     for rec in recordings:
         demo = rec if isinstance(rec, Demonstration) else load(rec)
         name = str(rec) if not isinstance(rec, Demonstration) else demo.metadata.get("name", "demo")
-        for skill, x in template_examples(demo, feature_cutoff_hz=feature_cutoff_hz):
+        for skill, x in template_examples(demo, preprocessing=opts):
             if skill in skills:
                 examples.extend(
                     (list(skills).index(skill), turn_object_frame(x, k, frame_symmetry))
@@ -281,7 +336,7 @@ def train_templates(
     engine = _hmmseg.TemplateSet.train(list(skills), list(features), examples, params_json)
     meta = {
         "trained_from": names,
-        "feature_cutoff_hz": feature_cutoff_hz,
+        **opts,
         "frame_symmetry": frame_symmetry,
     }
     return Templates(engine, meta=meta)

@@ -136,7 +136,10 @@ def log_segment_run(
     from ..segmentation import SegmentParams, Templates
     from ..segmentation.pipeline import as_trajectory, fill_gaps, object_scores
 
-    traj = trajectory if trajectory is not None else as_trajectory(demo)  # type: ignore[arg-type]
+    tpl = templates or Templates.default()
+    traj = (
+        trajectory if trajectory is not None else as_trajectory(demo, tpl.preprocessing)  # type: ignore[arg-type]
+    )
     filled, _ = fill_gaps(traj)
     feats = compute_features(filled)
     log_features(feats, object_names=list(filled.object_names), recording=recording)
@@ -149,7 +152,6 @@ def log_segment_run(
     candidate_ns: list[np.ndarray] | None = None
     spans: list[tuple[int, int]] | None = None
     if result.method == "greedy" and result.sections and result.segments:
-        tpl = templates or Templates.default()
         p = params or SegmentParams()
         bounds = np.asarray(result.sections, dtype=np.int64)
         max_len = max(1, round(p.max_segment_s / traj.dt)) if traj.dt > 0 else 0

@@ -84,7 +84,10 @@ impl Default for TemplateParams {
             fit: FitConfig {
                 n_states: 4,
                 n_mix: 2,
-                covariance_floor: 1e-3,
+                // std >= 0.055 of a feature's template range: templates trained on one
+                // demonstrator must not rule out a faster or noisier one (docs/segmentation.md:
+                // 1e-3 loses whole pick-carry-place cycles on fast demonstrations)
+                covariance_floor: 3e-3,
                 ..FitConfig::default()
             },
             align: true,
