@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..demo import THUMB_TIP, Demonstration
+from ..demo import INDEX_TIP, THUMB_TIP, Demonstration
 from ..errors import UsageError
 from ..skills import SKILLS
 from ..trajectory import Trajectory
@@ -81,7 +81,7 @@ NOISE_SPEED = 0.01
 """Hand speed changes smaller than this (m/s) are noise."""
 
 HOVER_HEIGHT = (0.02, 0.14)
-"""Locate: the TCP between 2 and 14 cm above the box top ..."""
+"""Locate: the index fingertip between 2 and 14 cm above the box top ..."""
 
 HOVER_RADIUS = 0.08
 """... within 8 cm of its centre horizontally ..."""
@@ -100,8 +100,8 @@ class _Signals:
     hand_speed: np.ndarray  # (m,)
     aperture: np.ndarray  # (m,)
     contact: np.ndarray  # (k, m) TCP-to-surface distance per box
-    above: np.ndarray  # (k, m) TCP height above the box top
-    horizontal: np.ndarray  # (k, m) horizontal TCP-to-centre distance
+    above: np.ndarray  # (k, m) index fingertip height above the box top
+    horizontal: np.ndarray  # (k, m) horizontal index-fingertip-to-centre distance
     position: np.ndarray  # (k, m, 3) box centres
     box_speed: np.ndarray  # (k, m)
     velocity_z: np.ndarray  # (k, m) vertical box velocity
@@ -135,6 +135,7 @@ def _signals(traj: Trajectory, rate_hz: float) -> _Signals:
     dt = traj.dt * step
     tcp = traj.tcp[idx]
     kp = traj.keypoints[idx]
+    tip = np.stack([_fill(kp[:, INDEX_TIP, c]) for c in range(3)], axis=1)  # points at a box
     aperture = _fill(np.min(np.linalg.norm(kp[:, FINGERTIPS] - kp[:, [THUMB_TIP]], axis=2), axis=1))
     grad = (lambda x, ax: np.gradient(x, dt, axis=ax)) if len(idx) > 1 else np.zeros_like
     hand_speed = np.linalg.norm(grad(tcp, 0), axis=-1)
@@ -145,8 +146,8 @@ def _signals(traj: Trajectory, rate_hz: float) -> _Signals:
         local = Rotation.from_quat(traj.object_quaternion[i, idx]).inv().apply(tcp - pos[i])
         half = 0.5 * traj.object_size[i]
         contact[i] = np.linalg.norm(np.maximum(np.abs(local) - half, 0.0), axis=1)
-        above[i] = tcp[:, 2] - pos[i, :, 2] - half[2]
-    horizontal = np.linalg.norm(tcp[None, :, :2] - pos[:, :, :2], axis=2)
+        above[i] = tip[:, 2] - pos[i, :, 2] - half[2]
+    horizontal = np.linalg.norm(tip[None, :, :2] - pos[:, :, :2], axis=2)
     velocity = grad(pos, 1)
     rest = np.median(pos[:, : max(1, round(0.5 / dt)), 2], axis=1)
     return _Signals(
@@ -200,7 +201,10 @@ def _approach_start(s: _Signals, k: int, first: int, free: np.ndarray) -> int:
         t -= 1
     while t > 0 and free[t - 1] and s.contact[k, t - 1] < REACH and v[t - 1] <= v[t] + NOISE_SPEED:
         t -= 1
-    return 0 if t > 0 and not free[:t].any() else t
+    return 0 if t > 0 and (s.contact[k, :t] < REACH).all() and free[:t].all() else t
+
+
+REACHES = (SKILLS.index("pick_up"), SKILLS.index("push"))
 
 
 def _frame_states(s: _Signals, dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -228,7 +232,8 @@ def _frame_states(s: _Signals, dt: float) -> tuple[np.ndarray, np.ndarray]:
             p = b - 1
             while p > a and s.velocity_z[k, p - 1] < -DESCENT:
                 p -= 1
-            after = "stack" if s.lift[k, b - 1] > LIFTED else "place"
+            rest = np.median(s.lift[k, b : b + round(1.0 / dt)]) if b < m else s.lift[k, -1]
+            after = "stack" if rest > LIFTED else "place"
             put(a, p, "move_with", k)
             put(p, b, after, k)
         e = b
@@ -240,7 +245,7 @@ def _frame_states(s: _Signals, dt: float) -> tuple[np.ndarray, np.ndarray]:
             c -= 1
         put(_approach_start(s, k, c, free), a, "pick_up" if lifted else "push", k)
     # locate: slow, over a box, not touching it
-    near = np.argmin(s.contact, axis=0)
+    near = np.argmin(s.horizontal, axis=0)
     cols = np.arange(m)
     hover = (
         free
@@ -252,7 +257,8 @@ def _frame_states(s: _Signals, dt: float) -> tuple[np.ndarray, np.ndarray]:
     )
     for a, b in _runs(hover):
         k = int(np.bincount(near[a:b]).argmax())
-        if (b - a) * dt >= MIN_HOVER_S:
+        touched = np.isin(skill[b : b + round(0.5 / dt)], REACHES) & (obj[b : b + round(0.5 / dt)] == k)
+        if (b - a) * dt >= MIN_HOVER_S and not touched.any():  # not the start of a reach
             put(_approach_start(s, k, a, free), b, "locate", k)
     return skill, obj
 
