@@ -27,6 +27,7 @@ ROWS: list[tuple[str, str, dict[str, Any]]] = [
     ("greedy, grammar warns (the paper, `--paper`)", "paper", {}),
     ("greedy, grammar enforced", "greedy", {"grammar": "enforce"}),
     ("dp, grammar warns", "dp", {"grammar": "warn"}),
+    ("change points + contact rules (OKAMI / ORION-style baseline)", "changepoint", {}),
     ("proximity baseline", "proximity", {}),
     ("gripper-distance baseline", "gripper", {}),
 ]

@@ -14,7 +14,7 @@ if TYPE_CHECKING:
     from ..segmentation.pipeline import GrammarUse
 
 NAME = "eval"
-HELP = "Evaluate lfd's default (dp), the paper's method and two baselines against ground truth."
+HELP = "Evaluate lfd's default (dp), the paper's method and three baselines against ground truth."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -20,6 +20,7 @@ from typing import TypedDict
 from ..demo import Demonstration
 from ..trajectory import Trajectory
 from .baselines import gripper_segmentation, proximity_segmentation
+from .changepoint import changepoint_segmentation
 from .metrics import all_metrics
 from .pipeline import (
     DEFAULT_GRAMMAR,
@@ -119,6 +120,7 @@ __all__ = [
     "Stage1Params",
     "Templates",
     "all_metrics",
+    "changepoint_segmentation",
     "gripper_segmentation",
     "proximity_segmentation",
     "segment",

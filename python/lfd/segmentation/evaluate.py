@@ -17,12 +17,13 @@ from .pipeline import DEFAULT_GRAMMAR, PAPER_GRAMMAR, PAPER_SEARCH, GrammarUse
 from .result import Segmentation
 from .templates import Templates
 
-METHODS: tuple[str, ...] = ("dp", "paper", "greedy", "proximity", "gripper")
+METHODS: tuple[str, ...] = ("dp", "paper", "greedy", "changepoint", "proximity", "gripper")
 """Every method :func:`run_method` knows: ``dp`` (lfd's default: segmental DP, with the grammar
 use given, ``enforce`` by default), ``paper`` (the paper's greedy loop with grammar warnings),
-``greedy`` (the greedy loop with the grammar use given) and the paper's two baselines."""
+``greedy`` (the greedy loop with the grammar use given), ``changepoint`` (kernel change points +
+contact rules, the OKAMI / ORION-style baseline) and the paper's two baselines."""
 
-DEFAULT_METHODS: tuple[str, ...] = ("dp", "paper", "proximity", "gripper")
+DEFAULT_METHODS: tuple[str, ...] = ("dp", "paper", "changepoint", "proximity", "gripper")
 """The methods :func:`evaluate` compares by default, the default method first."""
 
 TEMPLATE_METHODS: frozenset[str] = frozenset({"dp", "paper", "greedy"})
@@ -47,7 +48,7 @@ def run_method(
     grammar: GrammarUse = DEFAULT_GRAMMAR,
 ) -> Segmentation:
     """Segment ``demo`` with one of :data:`METHODS` (``grammar`` applies to dp and greedy)."""
-    from . import gripper_segmentation, proximity_segmentation, segment
+    from . import changepoint_segmentation, gripper_segmentation, proximity_segmentation, segment
 
     if method == "paper":
         return segment(demo, templates, search=PAPER_SEARCH, grammar=PAPER_GRAMMAR)
@@ -55,6 +56,8 @@ def run_method(
         return segment(demo, templates, search="dp", grammar=grammar)
     if method == "greedy":
         return segment(demo, templates, search="greedy", grammar=grammar)
+    if method == "changepoint":
+        return changepoint_segmentation(demo)
     if method == "proximity":
         return proximity_segmentation(demo)
     if method == "gripper":

@@ -100,7 +100,7 @@ class Segmentation:
     warnings : list[str]
         Impossible transitions, relaxed constraints, data problems.
     method : str
-        ``"greedy"``, ``"dp"``, ``"proximity"`` or ``"gripper"``.
+        ``"greedy"``, ``"dp"``, ``"changepoint"``, ``"proximity"`` or ``"gripper"``.
     sections : list[int]
         Stage-1 section boundaries (sample indices ``[0, ..., n]``); empty for baselines.
     object_names : list[str]
