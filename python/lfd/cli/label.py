@@ -40,9 +40,7 @@ def run(args: argparse.Namespace) -> int:
 
     check_inputs(**{"from": args.labels})
     if args.output is not None:
-        check_output(
-            args.output, inputs=[args.labels], what="-o/--output", suffixes=(".mcap",)
-        )
+        check_output(args.output, inputs=[args.labels], what="-o/--output", suffixes=(".mcap",))
         if args.output == args.recording:
             args.output = None
     else:
