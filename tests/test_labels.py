@@ -12,11 +12,10 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from mcap.reader import make_reader
-
 from lfd.cli import main
 from lfd.io import load
 from lfd.io.topics import GROUND_TRUTH_TOPIC
+from mcap.reader import make_reader
 
 ROOT = Path(__file__).resolve().parents[1]
 EXP1 = ROOT / "recordings" / "exp1.mcap"

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import csv
 import io
+import itertools
 import json
 import math
 import os
@@ -185,7 +186,7 @@ def read_labels(path: str | os.PathLike[str], demo: Demonstration) -> list[Skill
             raise UsageError(f"{what}: ends after the recording (it spans {span})")
         labels.append(SkillLabel(skill, a, min(b, end + END_TOLERANCE_NS), obj))
     labels.sort(key=lambda lab: (lab.start_ns, lab.end_ns))
-    for x, y in zip(labels, labels[1:], strict=False):
+    for x, y in itertools.pairwise(labels):
         if y.start_ns < x.end_ns:
             raise UsageError(
                 f"{p}: labels overlap: {x.skill} {(x.start_ns - t0) * 1e-9:.3f}-"
