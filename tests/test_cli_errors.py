@@ -70,6 +70,9 @@ CASES: list[tuple[str, str, str]] = [
     ("templates-train-output-missing-dir", "templates train {rec} -o {tmp}/no/t.json", "not exist"),
     ("templates-show-missing", "templates show {tmp}/nope.json", "nope.json"),
     ("templates-no-action", "templates", "required"),
+    ("templates-train-base-missing", "templates train {rec} --base {tmp}/no.json -o {tmp}/t.json", "no.json"),
+    ("templates-train-base-and-params", "templates train {rec} --base default --params '{}' -o {tmp}/t.json", "--base keeps"),
+    ("templates-train-base-is-output", "templates train {rec} --base {tmp}/t.json -o {tmp}/t.json", "t.json"),
     # label: bad labels leave the recording byte-identical
     ("label-overlap", "label {rec} --from {overlap}", "labels overlap"),
     ("label-past-end", "label {rec} --from {pastend}", "ends after the recording"),
@@ -90,6 +93,10 @@ CASES: list[tuple[str, str, str]] = [
     ("eval-no-recordings", "eval {docs}", "no .mcap"),
     ("eval-json-is-input", "eval {rec} --json {rec}", "also an input"),
     ("eval-json-is-dir", "eval {rec} --json {tmp}", "is a directory"),
+    ("eval-base-without-loo", "eval {rec} --base default", "add --leave-one-out"),
+    ("eval-loo-one-recording", "eval {rec} --leave-one-out", "at least 2 recordings"),
+    ("eval-loo-baselines-only", "eval {rec} --leave-one-out --methods proximity", "needs one of"),
+    ("eval-loo-base-missing", "eval {rec} --leave-one-out --base {tmp}/no.json", "no.json"),
     # reproduce
     ("reproduce-json-is-input", "reproduce {rec} --json {rec}", "also an input"),
     ("reproduce-json-missing-dir", "reproduce {rec} --json {tmp}/no/x.json", "does not exist"),
