@@ -29,15 +29,27 @@ DEFAULT_PRIOR = 8
 augmentation, which multiplies the user's examples by ``frame_symmetry``)."""
 
 
+MEDOID_SEQUENCES = 24
+"""The alignment reference is the DTW medoid of at most this many distinct sequences (drawn
+evenly), which bounds the quadratic cost of finding it."""
+
+
 def _medoid(seqs: list[np.ndarray], band: int | None) -> int:
-    n = len(seqs)
+    """Index of the sequence with the least summed DTW distance to the others (duplicates,
+    e.g. frame turns that leave a feature unchanged, counted once; see MEDOID_SEQUENCES)."""
+    distinct = list(
+        {x.tobytes() + bytes(str(x.shape), "ascii"): i for i, x in enumerate(seqs)}.values()
+    )
+    if len(distinct) > MEDOID_SEQUENCES:
+        distinct = [distinct[int(k)] for k in np.linspace(0, len(distinct) - 1, MEDOID_SEQUENCES)]
+    n = len(distinct)
     cost = np.zeros(n)
     for a in range(n):
         for b in range(a + 1, n):
-            d = _hmmseg.dtw_distance(seqs[a], seqs[b], band)
+            d = _hmmseg.dtw_distance(seqs[distinct[a]], seqs[distinct[b]], band)
             cost[a] += d
             cost[b] += d
-    return int(np.argmin(cost))
+    return distinct[int(np.argmin(cost))]
 
 
 def adapt_templates(
