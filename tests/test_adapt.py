@@ -6,7 +6,6 @@ import json
 from pathlib import Path
 
 import pytest
-
 from lfd.errors import UsageError
 from lfd.segmentation import Templates
 from lfd.segmentation.adapt import adapt_templates
