@@ -12,6 +12,7 @@ placeholders are filled in:
 ``{templates}``  the shipped template recordings ``recordings/templates``
 ``{binary}``, ``{badjson}``, ``{inverted}``  template files: binary, JSON cut short, and the
             shipped templates with the range of column 0 inverted
+``{overlap}``, ``{pastend}``, ...  label files for ``{rec}`` with one mistake each (:func:`bad_labels`)
 
 Every case runs ``python -m lfd.cli`` in a subprocess and must exit with status 2, print exactly
 one non-empty line on stderr, starting with ``lfd `` and without a traceback, modify no input
@@ -69,11 +70,33 @@ CASES: list[tuple[str, str, str]] = [
     ("templates-train-output-missing-dir", "templates train {rec} -o {tmp}/no/t.json", "not exist"),
     ("templates-show-missing", "templates show {tmp}/nope.json", "nope.json"),
     ("templates-no-action", "templates", "required"),
+    ("templates-train-base-missing", "templates train {rec} --base {tmp}/no.json -o {tmp}/t.json", "no.json"),
+    ("templates-train-base-and-params", "templates train {rec} --base default --params '{}' -o {tmp}/t.json", "--base keeps"),
+    ("templates-train-base-is-output", "templates train {rec} --base {tmp}/t.json -o {tmp}/t.json", "t.json"),
+    # label: bad labels leave the recording byte-identical
+    ("label-overlap", "label {rec} --from {overlap}", "labels overlap"),
+    ("label-past-end", "label {rec} --from {pastend}", "ends after the recording"),
+    ("label-negative", "label {rec} --from {negative}", "starts before the recording"),
+    ("label-inverted", "label {rec} --from {inverted_labels}", "ends before it starts"),
+    ("label-unknown-skill", "label {rec} --from {unknownskill}", "unknown skill 'grab'"),
+    ("label-unknown-object", "label {rec} --from {unknownobject}", "unknown object 'box_9'"),
+    ("label-not-a-number", "label {rec} --from {nan_labels}", "finite number"),
+    ("label-bad-json", "label {rec} --from {badjson}", "not valid JSON"),
+    ("label-binary", "label {rec} --from {bad}", "not a label file"),
+    ("label-missing", "label {rec} --from {tmp}/nope.csv", "--from"),
+    ("label-no-from", "label {rec}", "--from"),
+    ("label-output-extension", "label {rec} --from {overlap} -o {tmp}/x.json", "extension"),
+    ("label-output-missing-dir", "label {rec} --from {overlap} -o {tmp}/no/x.mcap", "not exist"),
+    ("label-not-a-recording", "label {bad} --from {overlap}", "not an MCAP file"),
     # eval
     ("eval-bogus-method", "eval {rec} --methods bogus", "unknown method"),
     ("eval-no-recordings", "eval {docs}", "no .mcap"),
     ("eval-json-is-input", "eval {rec} --json {rec}", "also an input"),
     ("eval-json-is-dir", "eval {rec} --json {tmp}", "is a directory"),
+    ("eval-base-without-loo", "eval {rec} --base default", "add --leave-one-out"),
+    ("eval-loo-one-recording", "eval {rec} --leave-one-out", "at least 2 recordings"),
+    ("eval-loo-baselines-only", "eval {rec} --leave-one-out --methods proximity", "needs one of"),
+    ("eval-loo-base-missing", "eval {rec} --leave-one-out --base {tmp}/no.json", "no.json"),
     # reproduce
     ("reproduce-json-is-input", "reproduce {rec} --json {rec}", "also an input"),
     ("reproduce-json-missing-dir", "reproduce {rec} --json {tmp}/no/x.json", "does not exist"),
@@ -179,6 +202,24 @@ def bad_templates(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     return {"binary": d / "binary.json", "badjson": d / "bad.json", "inverted": d / "inverted.json"}
 
 
+@pytest.fixture(scope="module")
+def bad_labels(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """Label files for exp1 (14.7 s, boxes box_1-3), each with one mistake."""
+    d = tmp_path_factory.mktemp("bad_labels")
+    files = {
+        "overlap": "pick_up,0.5,2.0,box_2\nmove_with,1.5,3.0,box_2\n",
+        "pastend": "skill,start_s,end_s,object\nmove,10,15.2,\n",
+        "negative": "pick_up,-0.5,2.0,box_2\n",
+        "inverted_labels": "pick_up,2.0,1.0,box_2\n",
+        "unknownskill": "grab,0.5,2.0,box_2\n",
+        "unknownobject": "pick_up,0.5,2.0,box_9\n",
+        "nan_labels": "pick_up,nan,2.0,box_2\n",
+    }
+    for name, text in files.items():
+        (d / f"{name}.csv").write_text(text, encoding="utf-8")
+    return {name: d / f"{name}.csv" for name in files}
+
+
 def _tree(root: Path) -> dict[str, str]:
     """Every file under ``root`` (hidden ones included) -> a hash of its content."""
     return {
@@ -201,7 +242,11 @@ def _assert_one_error_line(proc: subprocess.CompletedProcess[str], expected: str
 
 @pytest.mark.parametrize(("argv", "expected"), [c[1:] for c in CASES], ids=[c[0] for c in CASES])
 def test_user_error_is_one_line(
-    argv: str, expected: str, tmp_path: Path, bad_templates: dict[str, Path]
+    argv: str,
+    expected: str,
+    tmp_path: Path,
+    bad_templates: dict[str, Path],
+    bad_labels: dict[str, Path],
 ) -> None:
     work = tmp_path / "work"
     work.mkdir()
@@ -222,6 +267,7 @@ def test_user_error_is_one_line(
         "docs": ROOT / "docs",
         "templates": ROOT / "recordings" / "templates",
         **bad_templates,
+        **bad_labels,
     }
     before = _tree(work)
     try:

@@ -25,6 +25,7 @@ COMMANDS: tuple[str, ...] = (
     "info",
     "simulate",
     "segment",
+    "label",
     "templates",
     "eval",
     "reproduce",

@@ -8,7 +8,14 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, get_args
 
-from ._options import add_json_argument, check_json, console, json_to_stdout, write_json
+from ._options import (
+    add_json_argument,
+    check_inputs,
+    check_json,
+    console,
+    json_to_stdout,
+    write_json,
+)
 
 if TYPE_CHECKING:
     from ..segmentation.pipeline import GrammarUse
@@ -37,6 +44,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=DEFAULT_GRAMMAR,
         help=f"grammar use of the dp and greedy methods (default {DEFAULT_GRAMMAR})",
     )
+    loo = parser.add_argument_group("leave-one-out (your own labelled recordings)")
+    loo.add_argument(
+        "--leave-one-out",
+        action="store_true",
+        help="segment each recording with templates trained on all the others (adapted from "
+        "--base, else made the way --templates FILE was made, else trained from scratch)",
+    )
+    loo.add_argument(
+        "--base",
+        metavar="default|FILE",
+        help="with --leave-one-out: adapt this template set (the shipped one: default) to the "
+        "other recordings, instead of training from scratch",
+    )
     from ..viz.cli import add_rerun_arguments
 
     add_rerun_arguments(parser)  # shows one recording: every method's lane beside the truth
@@ -58,11 +78,21 @@ def run(args: argparse.Namespace) -> int:
 
     from ..errors import UsageError
     from ..segmentation import Templates
-    from ..segmentation.evaluate import check_methods, evaluate, expand_paths
+    from ..segmentation.evaluate import (
+        TEMPLATE_METHODS,
+        check_methods,
+        evaluate,
+        expand_paths,
+        leave_one_out,
+    )
     from ..segmentation.metrics import METRIC_NAMES
     from ..viz.cli import check_rerun_args, close_from_args, open_from_args
 
     methods = check_methods([m.strip() for m in args.methods.split(",") if m.strip()])
+    if args.leave_one_out and not set(methods) & TEMPLATE_METHODS:
+        raise UsageError(
+            f"--leave-one-out trains templates: --methods needs one of {', '.join(TEMPLATE_METHODS)}"
+        )
     paths = expand_paths(args.inputs)
     if not paths:
         raise UsageError(f"no .mcap recordings in {' '.join(args.inputs)}")
@@ -70,22 +100,45 @@ def run(args: argparse.Namespace) -> int:
     check_json(args, inputs)
     check_rerun_args(args, inputs)
     con = console(args)
+    if args.base is not None and not args.leave_one_out:
+        raise UsageError("--base adapts templates for --leave-one-out; add --leave-one-out")
+    rerun = ("rerun", "rerun_save", "rerun_connect", "rerun_serve")
+    if args.leave_one_out and any(getattr(args, a, None) for a in rerun):
+        raise UsageError("--rerun* shows one recording's methods; drop it with --leave-one-out")
+    if args.base is not None and args.base != "default":
+        check_inputs(base=args.base)
     templates = Templates.load(args.templates) if args.templates else None
+    base, base_name = _base(args, templates) if args.leave_one_out else (None, "")
     if open_from_args(args, "lfd_eval"):
         _show(paths, methods, templates, args.grammar, con)
-    with Progress(console=con, transient=True) as progress:
-        task = progress.add_task("evaluating", total=len(paths))
-        report = evaluate(
-            paths,
-            templates=templates,
-            methods=methods,
-            grammar=args.grammar,
-            progress=lambda name: progress.update(task, advance=1, description=name),
-        )
+    with Progress(console=con, transient=True, disable=not con.is_terminal) as progress:
+        total = 2 * len(paths) if args.leave_one_out else len(paths)
+        task = progress.add_task("evaluating", total=total)
+
+        def step(name: str) -> None:
+            progress.update(task, advance=1, description=name)
+
+        if args.leave_one_out:
+            report = leave_one_out(
+                paths,
+                base=base,
+                base_name=base_name,
+                methods=[m for m in methods if m in TEMPLATE_METHODS],
+                grammar=args.grammar,
+                progress=step,
+            )
+        else:
+            report = evaluate(
+                paths, templates=templates, methods=methods, grammar=args.grammar, progress=step
+            )
     if not report.recordings:
         raise UsageError(
             f"none of the {len(paths)} recordings has ground-truth skill labels to evaluate against"
         )
+    if args.leave_one_out:
+        how = f"adapted from {base_name}" if base is not None else "trained from scratch"
+        con.print(f"leave-one-out: each recording segmented by templates {how} on the others")
+        _per_recording(report, con)
     for title, task_name in [*((t, t) for t in report.tasks()), ("overall", None)]:
         summary = report.summary(task_name)
         n = int(next(iter(summary.values()))["n"])
@@ -127,3 +180,39 @@ def _show(
     demo = load(paths[0])
     traj = log_recorded_demo(demo, features=False)  # log_methods logs them
     log_methods(demo, methods, templates=templates, trajectory=traj, grammar=grammar)
+
+
+def _base(args: argparse.Namespace, templates: Any) -> tuple[Any, str]:
+    """The template set --leave-one-out adapts (None: train from scratch) and its name."""
+    from ..errors import UsageError
+    from ..segmentation import Templates
+
+    name = args.base
+    if name is None and templates is not None:  # made the way --templates FILE was made
+        name = templates.meta.get("adapted_from")
+        if name is not None and name != "default" and not Path(name).is_file():
+            raise UsageError(
+                f"--templates {args.templates} was adapted from {name}, which does not exist "
+                "here; give --base default|FILE"
+            )
+    if name is None:
+        return None, ""
+    return (Templates.default() if name == "default" else Templates.load(name)), str(name)
+
+
+def _per_recording(report: Any, con: Any) -> None:
+    from rich.table import Table
+
+    table = Table(title="leave-one-out: each recording with templates from the others")
+    for col in ("recording", "method", "frame accuracy", "exact sequence", "boundary error s"):
+        table.add_column(col, justify="left" if col in ("recording", "method") else "right")
+    for r in report.recordings:
+        for m, v in r.metrics.items():
+            table.add_row(
+                r.name,
+                m,
+                _fmt("frame_accuracy", v["frame_accuracy"]),
+                "yes" if v["sequence_match"] else "no",
+                _fmt("boundary_error_s", v["boundary_error_s"]),
+            )
+    con.print(table)

@@ -51,6 +51,8 @@ def segment_recording(
     doc: dict[str, Any] = {
         "recording": str(args.recording),
         "method": result.method,
+        # start_s / end_s count from here (the first resampled sample); `lfd label` reads it
+        "origin_ns": result.segments[0].start_ns - round(result.segments[0].start_s * 1e9),
         "segments": [s.to_dict() for s in result.segments],
         "warnings": list(result.warnings),
         "ground_truth": [

@@ -20,6 +20,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     train.add_argument(
         "--params", metavar="JSON", help="engine template parameters to override (JSON object)"
     )
+    train.add_argument(
+        "--base",
+        metavar="default|FILE",
+        help="adapt this template set (default: the shipped one) to the recordings instead of "
+        "training from scratch; skills they do not show keep the base's models",
+    )
     show = sub.add_parser("show", help="summarise a template file")
     show.add_argument("file", nargs="?", help="template file (default: the shipped one)")
 
@@ -31,8 +37,10 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import UsageError
     from ..outputs import check_output
     from ..segmentation import Templates, train_templates
+    from ..segmentation.adapt import adapt_templates
     from ..segmentation.evaluate import expand_paths
-    from ..segmentation.templates import template_params
+    from ..segmentation.templates import collect_examples, template_params
+    from ._options import check_inputs
 
     console = Console()
     if args.action == "train":
@@ -42,6 +50,10 @@ def run(args: argparse.Namespace) -> int:
         except json.JSONDecodeError as err:
             raise UsageError(f"--params is not valid JSON: {err}") from None
         template_params(params)
+        if args.base is not None and params is not None:
+            raise UsageError("--params sets how to train from scratch; --base keeps its own")
+        if args.base not in (None, "default"):
+            check_inputs(base=args.base)
     if args.action == "show":
         t = Templates.load(args.file) if args.file else Templates.default()
         console.print(t)
@@ -53,16 +65,36 @@ def run(args: argparse.Namespace) -> int:
     paths = expand_paths(args.inputs)
     if not paths:
         raise UsageError(f"no .mcap recordings in {' '.join(args.inputs)}")
-    check_output(args.output, inputs=paths, what="-o/--output")
-    with Progress(console=console) as progress:
+    base_path = [args.base] if args.base not in (None, "default") else []
+    check_output(args.output, inputs=[*paths, *base_path], what="-o/--output")
+    base = None
+    if args.base is not None:
+        base = Templates.default() if args.base == "default" else Templates.load(args.base)
+    with Progress(console=console, disable=not console.is_terminal) as progress:
         task = progress.add_task("reading templates", total=len(paths) + 1)
 
         def step(name: str) -> None:
             progress.update(task, advance=1, description=f"read {Path(name).name}")
 
-        templates = train_templates(paths, params=params, progress=step)
+        if base is None:
+            templates = train_templates(paths, params=params, progress=step)
+        else:
+            names, examples = collect_examples(
+                paths, preprocessing=base.preprocessing, progress=step
+            )
+            if not examples:
+                raise UsageError(
+                    f"none of the {len(paths)} recordings has ground-truth skill labels; "
+                    "add them with `lfd label`"
+                )
+            templates = adapt_templates(base, examples, names=names, base_name=args.base)
         progress.update(task, advance=1, description="trained")
     templates.save(args.output)
+    if base is not None:
+        console.print(
+            f"adapted {args.base} on {len(paths)} recordings, user examples per skill "
+            f"{templates.meta['adapt_examples']}"
+        )
     console.print(
         f"wrote {args.output}: {len(templates.skills)} skills x {len(templates.features)} features, "
         f"examples {dict(zip(templates.skills, templates.engine.n_examples, strict=True))}"

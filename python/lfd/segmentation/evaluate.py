@@ -12,6 +12,7 @@ import numpy as np
 
 from ..demo import Demonstration
 from ..errors import LfdError, UsageError
+from ..skills import SKILLS
 from .metrics import METRIC_NAMES, all_metrics
 from .pipeline import DEFAULT_GRAMMAR, PAPER_GRAMMAR, PAPER_SEARCH, GrammarUse
 from .result import Segmentation
@@ -200,4 +201,71 @@ def evaluate(
             )
         if progress is not None:
             progress(path.name)
+    return EvalReport(rows, tuple(methods))
+
+
+def leave_one_out(
+    paths: Iterable[str | Path],
+    *,
+    base: Templates | None = None,
+    base_name: str = "default",
+    methods: Sequence[str] = ("dp",),
+    grammar: GrammarUse = DEFAULT_GRAMMAR,
+    progress: Callable[[str], None] | None = None,
+) -> EvalReport:
+    """Segment each labelled recording with templates trained on all the others.
+
+    With ``base``, each fold's templates are ``base`` adapted to the other recordings
+    (:func:`~lfd.segmentation.adapt.adapt_templates`); without, they are trained from scratch
+    on them (only the skills the others show). ``progress`` is called with ``"read NAME"`` for
+    each recording read and ``"NAME"`` after each fold.
+
+    Raises
+    ------
+    UsageError
+        Fewer than two labelled recordings, or (from scratch) a fold whose training recordings
+        leave a skill of its test recording without an example.
+    """
+    from ..io import load
+    from .adapt import adapt_templates
+    from .templates import fit_templates, preprocessing_options, template_examples
+
+    methods = check_methods(methods)
+    if not set(methods) & TEMPLATE_METHODS:
+        raise UsageError(
+            f"leave-one-out trains templates; give a template method ({', '.join(TEMPLATE_METHODS)})"
+        )
+    opts = base.preprocessing if base is not None else preprocessing_options()
+    demos: list[tuple[str, Demonstration, list[tuple[str, np.ndarray]]]] = []
+    for path in expand_paths(paths):
+        demo = load(path, images=False)
+        if demo.labels:
+            demos.append((path.name, demo, template_examples(demo, preprocessing=opts)))
+        if progress is not None:
+            progress(f"read {path.name}")
+    if len(demos) < 2:
+        raise UsageError(
+            f"leave-one-out needs at least 2 recordings with ground-truth labels, got {len(demos)}"
+        )
+    rows = []
+    for i, (name, demo, _) in enumerate(demos):
+        others = [d for j, d in enumerate(demos) if j != i]
+        examples = [e for _, _, ex in others for e in ex]
+        names = [n for n, _, _ in others]
+        if base is not None:
+            templates = adapt_templates(base, examples, names=names, base_name=base_name)
+        else:
+            skills = [s for s in SKILLS if any(k == s for k, _ in examples)]
+            missing = sorted(set(demo.skill_sequence) - set(skills))
+            if missing:
+                raise UsageError(
+                    f"{name} shows {', '.join(missing)}, which no other recording has an "
+                    "example of; give more recordings, or --base to adapt the shipped templates"
+                )
+            templates = fit_templates(examples, names=names, skills=skills)
+        rows.append(
+            evaluate_demo(demo, name=name, templates=templates, methods=methods, grammar=grammar)
+        )
+        if progress is not None:
+            progress(name)
     return EvalReport(rows, tuple(methods))

@@ -315,28 +315,76 @@ def train_templates(
     """
     if frame_symmetry < 1:
         raise ValueError(f"frame_symmetry must be at least 1, got {frame_symmetry}")
-    params_json = template_params(params)
+    template_params(params)  # checked before any recording is read
     opts = preprocessing_options(feature_cutoff_hz, object_cutoff_hz, aperture)
+    names, examples = collect_examples(recordings, preprocessing=opts, progress=progress)
+    return fit_templates(
+        examples,
+        names=names,
+        params=params,
+        features=features,
+        skills=skills,
+        preprocessing=opts,
+        frame_symmetry=frame_symmetry,
+    )
+
+
+def collect_examples(
+    recordings: Iterable[str | Path | Demonstration],
+    *,
+    preprocessing: dict[str, Any] | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> tuple[list[str], list[tuple[str, np.ndarray]]]:
+    """The recordings' names and labelled segments ``(skill, features (m, 10))``, in order,
+    preprocessed with ``preprocessing`` (default: :func:`preprocessing_options`)."""
+    opts = preprocessing or preprocessing_options()
     from ..io import load
 
-    examples: list[tuple[int, np.ndarray]] = []
     names: list[str] = []
+    examples: list[tuple[str, np.ndarray]] = []
     for rec in recordings:
-        demo = rec if isinstance(rec, Demonstration) else load(rec)
+        demo = rec if isinstance(rec, Demonstration) else load(rec, images=False)
         name = str(rec) if not isinstance(rec, Demonstration) else demo.metadata.get("name", "demo")
-        for skill, x in template_examples(demo, preprocessing=opts):
-            if skill in skills:
-                examples.extend(
-                    (list(skills).index(skill), turn_object_frame(x, k, frame_symmetry))
-                    for k in range(frame_symmetry)
-                )
+        examples.extend(template_examples(demo, preprocessing=opts))
         names.append(Path(name).name)
         if progress is not None:
             progress(name)
-    engine = _hmmseg.TemplateSet.train(list(skills), list(features), examples, params_json)
+    return names, examples
+
+
+def augment(
+    examples: Iterable[tuple[str, np.ndarray]],
+    skills: Sequence[str],
+    frame_symmetry: int = FRAME_SYMMETRY,
+) -> list[tuple[int, np.ndarray]]:
+    """``(skill index, x)`` of the examples of ``skills``, each turned ``frame_symmetry`` times."""
+    return [
+        (list(skills).index(skill), turn_object_frame(x, k, frame_symmetry))
+        for skill, x in examples
+        if skill in skills
+        for k in range(frame_symmetry)
+    ]
+
+
+def fit_templates(
+    examples: Sequence[tuple[str, np.ndarray]],
+    *,
+    names: Sequence[str] = (),
+    params: dict[str, Any] | None = None,
+    features: Sequence[tuple[str, int, int]] = FEATURE_GROUPS,
+    skills: Sequence[str] = SKILLS,
+    preprocessing: dict[str, Any] | None = None,
+    frame_symmetry: int = FRAME_SYMMETRY,
+) -> Templates:
+    """Train templates from labelled segments (see :func:`train_templates`) that were
+    preprocessed with ``preprocessing`` (stored in the templates' meta; default:
+    :func:`preprocessing_options`)."""
+    params_json = template_params(params)
+    data = augment(examples, skills, frame_symmetry)
+    engine = _hmmseg.TemplateSet.train(list(skills), list(features), data, params_json)
     meta = {
-        "trained_from": names,
-        **opts,
+        "trained_from": list(names),
+        **(preprocessing or preprocessing_options()),
         "frame_symmetry": frame_symmetry,
     }
     return Templates(engine, meta=meta)

@@ -1,0 +1,137 @@
+"""Adapt a trained template set to a user's own labelled recordings.
+
+Training from scratch needs examples of every skill and forgets what the shipped templates
+learned; adaptation starts from a base template set instead. For every skill x feature HMM of
+the base with user examples, Baum-Welch starts from the base model's parameters (same states,
+mixture components and transitions; :meth:`lfd._hmmseg.Hmm.refit`) and re-estimates them on the
+user's segments, normalised with the base's ranges and, like training, warped by DTW onto their
+medoid. ``prior`` pseudo-sequences sampled from the base model join the user's sequences (a
+MAP-style prior: the base counts as that many examples, so a few user examples move the model
+part of the way). Skills without user examples keep the base model unchanged; the
+normalisation ranges, features and parameters stay the base's, so the adapted set scores on the
+same scale.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from .. import _hmmseg
+from ..errors import EngineError
+from .templates import FRAME_SYMMETRY, Templates, augment
+
+DEFAULT_PRIOR = 8
+"""Pseudo-sequences drawn from the base model per skill x feature (before the frame
+augmentation, which multiplies the user's examples by ``frame_symmetry``)."""
+
+
+MEDOID_SEQUENCES = 24
+"""The alignment reference is the DTW medoid of at most this many distinct sequences (drawn
+evenly), which bounds the quadratic cost of finding it."""
+
+
+def _medoid(seqs: list[np.ndarray], band: int | None) -> int:
+    """Index of the sequence with the least summed DTW distance to the others (duplicates,
+    e.g. frame turns that leave a feature unchanged, counted once; see MEDOID_SEQUENCES)."""
+    distinct = list(
+        {x.tobytes() + bytes(str(x.shape), "ascii"): i for i, x in enumerate(seqs)}.values()
+    )
+    if len(distinct) > MEDOID_SEQUENCES:
+        distinct = [distinct[int(k)] for k in np.linspace(0, len(distinct) - 1, MEDOID_SEQUENCES)]
+    n = len(distinct)
+    cost = np.zeros(n)
+    for a in range(n):
+        for b in range(a + 1, n):
+            d = _hmmseg.dtw_distance(seqs[distinct[a]], seqs[distinct[b]], band)
+            cost[a] += d
+            cost[b] += d
+    return distinct[int(np.argmin(cost))]
+
+
+def adapt_templates(
+    base: Templates,
+    examples: Sequence[tuple[str, np.ndarray]],
+    *,
+    names: Sequence[str] = (),
+    base_name: str = "default",
+    prior: int = DEFAULT_PRIOR,
+    seed: int = 0,
+) -> Templates:
+    """The ``base`` templates re-estimated on labelled segments.
+
+    Parameters
+    ----------
+    base : Templates
+        The template set to start from (e.g. :meth:`Templates.default`).
+    examples : sequence of (skill, array, shape (m, 10))
+        Labelled segments, raw features (see :func:`~lfd.segmentation.templates.collect_examples`).
+    names : sequence of str
+        Names of the recordings the examples come from (recorded in the metadata).
+    base_name : str
+        How the metadata names the base (``"default"`` or its file).
+    prior : int
+        Sequences sampled from each base model that join the user's ones (0: plain
+        re-estimation from the base's parameters).
+    seed : int
+        Seed of the sampling.
+
+    Returns
+    -------
+    Templates
+        With ``meta["adapted_from"]``, ``meta["adapted_on"]`` (the recordings) and
+        ``meta["adapt_examples"]`` (user segments per skill).
+    """
+    if prior < 0:
+        raise ValueError(f"prior must be >= 0, got {prior}")
+    doc = json.loads(base.engine.to_json())
+    params = doc["params"]
+    fit, band = params["fit"], params["dtw_band"]
+    symmetry = int(base.meta.get("frame_symmetry", FRAME_SYMMETRY))
+    skills = base.skills
+    data = augment(examples, skills, symmetry)
+    counts = {s: sum(1 for k, _ in examples if k == s) for s in skills}
+    unchanged: list[str] = []
+    for si, skill in enumerate(skills):
+        mine = [base.engine.normalise(x) for k, x in data if k == si]
+        if not mine:
+            continue
+        for fi, (fname, c0, c1) in enumerate(base.features):
+            model = _hmmseg.Hmm.from_json(json.dumps(doc["models"][si][fi]))
+            seqs = [np.ascontiguousarray(x[:, c0:c1]) for x in mine]
+            lengths = [len(x) for x in seqs]
+            rng_seed = seed + 1000 * si + fi
+            for j in range(prior):
+                n = int(lengths[j % len(lengths)])
+                x, _ = model.sample(n, seed=rng_seed * 1000 + j)
+                seqs.append(np.clip(x, 0.0, 1.0))
+            if params["align"] and len(seqs) > 1:
+                ref = seqs[_medoid(seqs, band)]
+                seqs = list(_hmmseg.align_to_reference(ref, seqs, band))
+            try:
+                new, _, _, _ = model.refit(
+                    seqs,
+                    max_iter=int(fit["max_iter"]),
+                    tol=float(fit["tol"]),
+                    covariance_floor=float(fit["covariance_floor"]),
+                )
+            except EngineError:
+                unchanged.append(f"{skill}/{fname}")
+                continue
+            doc["models"][si][fi] = json.loads(new.to_json())
+        doc["n_examples"][si] += len(mine)
+    meta: dict[str, Any] = {
+        "adapted_from": base_name,
+        "base_trained_from": base.meta.get("trained_from", []),
+        "adapted_on": list(names),
+        "adapt_examples": {s: n for s, n in counts.items() if n},
+        "adapt_prior": prior,
+        **base.preprocessing,
+        "frame_symmetry": symmetry,
+    }
+    if unchanged:
+        meta["adapt_kept_base"] = unchanged
+    return Templates(_hmmseg.TemplateSet.from_json(json.dumps(doc)), meta=meta)
