@@ -22,9 +22,9 @@ import numpy as np
 
 from ..demo import CameraInfo, Demonstration, SkillLabel
 from ..errors import DemonstrationError, UsageError
+from . import natural as nat
 from .hand import GRASP_FINGERTIPS, JOINTS_PER_FINGER, N_JOINTS, HandKinematics
 from .motion import Plan, rotation, smooth_noise
-from . import natural as nat
 from .planner import Attach, Detach, ObjectPose, Planner, Push
 from .scene import DEFAULT_OBJECTS, ObjectSpec, Scene, build_scene
 from .skills import (

@@ -83,7 +83,6 @@ TASKS: dict[str, tuple[Step, ...]] = {
 """Every task by name."""
 
 
-
 def lift_cycles(rng: np.random.Generator, roles: str = "A") -> tuple[Step, ...]:
     """6-10 pick_up -> move_with -> place cycles, on the ``roles`` in turn, joined by moves."""
     steps: list[Step] = []

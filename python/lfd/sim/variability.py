@@ -102,7 +102,7 @@ class Variability:
     @classmethod
     def noise_free(cls, **overrides: Any) -> Variability:
         """Human motion variability only: no sensor noise, outliers, dropouts or tremor."""
-        base = {
+        base: dict[str, Any] = {
             "noise_mm": 0.0,
             "outlier_rate": 0.0,
             "hand_miss": 0.0,
@@ -131,7 +131,8 @@ class Variability:
             drawn = self._careful_draws(rng)
         drawn.update(_FIXED[self.style])
         values = {k: (drawn[k] if getattr(self, k) is None else getattr(self, k)) for k in drawn}
-        out = replace(self, **{k: float(v) for k, v in values.items()})
+        resolved: dict[str, Any] = {k: float(v) for k, v in values.items()}
+        out = replace(self, **resolved)
         out.validate()
         return out
 
@@ -171,6 +172,4 @@ class Variability:
 
     def as_dict(self) -> dict[str, str | float | None]:
         """Plain dict (for metadata)."""
-        return {
-            k: (v if k == "style" or v is None else float(v)) for k, v in asdict(self).items()
-        }
+        return {k: (v if k == "style" or v is None else float(v)) for k, v in asdict(self).items()}
