@@ -105,7 +105,9 @@ def move_with(P: Planner, name: str, onto: str | None = None, *, repeat: bool = 
     above = tcp_final + np.array([0.0, 0.0, rng.uniform(0.01, 0.04)])
     below_tcp = 0.5 * P.specs[name].size[2] - P.grasp_rel[0][2]  # object bottom below the TCP
     z_peak = s.tcp[2] + 0.05 + 0.4 * rng.uniform() ** 1.5  # 5-45 cm, mostly the lower half
-    z_peak = max(z_peak, above[2] + 0.01, _max_top(P, name) + below_tcp + 0.03)
+    z_peak = max(z_peak, above[2] + 0.01)
+    if not repeat:  # a carry across the table clears every object; a repeated lift stays apart
+        z_peak = max(z_peak, _max_top(P, name) + below_tcp + 0.03)
     dist = float(np.linalg.norm(above[:2] - s.tcp[:2]) + 2 * z_peak - s.tcp[2] - above[2])
     duration = P.dur(0.25, 0.4) + 1.5 * dist / P.skill_speed
     rise = rng.uniform(0.4, 0.5)
