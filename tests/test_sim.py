@@ -320,3 +320,151 @@ def test_truth_demonstration_is_the_noise_free_streams(exps) -> None:  # type: i
         truth_demonstration(r, frames + 1)
     with pytest.raises(DemonstrationError, match="camera frame times"):
         truth_demonstration(r, frames[:0])
+
+
+# --- the natural demonstrator -----------------------------------------------------------------
+NATURAL = Variability.noise_free(style="natural")
+
+
+@pytest.fixture(scope="module")
+def lifts() -> list[object]:
+    return [simulate("exp5", seed=s, variability=NATURAL) for s in (501, 502, 503)]
+
+
+def _lift_off(result, grasp: dict) -> tuple[float, float]:  # type: ignore[no-untyped-def]
+    """From the truth: when the thumb started closing (its joints start moving after a still
+    phase) and when the grasped object had risen 1 cm, s."""
+    tr = result.truth
+    t = (tr.t_ns - tr.t_ns[0]) / 1e9
+    closed = int(np.searchsorted(t, grasp["t_closed_s"]))
+    moving = np.any(np.abs(np.diff(tr.q[:, :4], axis=0)) > 1e-9, axis=1)
+    k = closed
+    while k > 0 and moving[k - 1]:
+        k -= 1
+    z = tr.object_pos[grasp["object"]][:, 2]
+    up = np.flatnonzero(z[closed:] > z[closed] + 0.01)[0] + closed
+    return float(t[k]), float(t[up])
+
+
+def test_natural_exp5_repeats_fast_cycles_with_grammatical_labels(lifts) -> None:  # type: ignore[no-untyped-def]
+    for res in lifts:
+        demo, tr = res.demo, res.truth
+        seq = demo.skill_sequence
+        check_grammar(seq)
+        cycles = [
+            i for i in range(len(seq) - 2) if seq[i : i + 3] == ["pick_up", "move_with", "place"]
+        ]
+        assert 6 <= len(cycles) <= 10 and len(demo.metadata["grasps"]) == len(cycles)
+        assert {lab.object for lab in demo.labels if lab.skill != "move" or lab.object} == {
+            demo.metadata["roles"]["A"]
+        }
+        assert (
+            demo.metadata["style"] == "natural"
+            and demo.metadata["variability"]["style"] == "natural"
+        )
+        # the TCP rises only in move / move_with, also between cycles (short, low moves)
+        z = tr.tcp[:, 2]
+        for lab, sel in _intervals(res, {"pick_up", "place"}):
+            assert np.diff(z[sel]).max() < 1e-9, lab
+        for lab, sel in _intervals(res, {"move", "move_with"}):
+            assert z[sel].max() > z[sel][0] + 0.003, lab
+        # grasps are fast: 0.3-0.6 s from closing the fingers to lift-off, cycles 1.5-4 s
+        for g in demo.metadata["grasps"]:
+            t_close, t_lift = _lift_off(res, g)
+            assert 0.3 - 1 / 30 <= t_lift - t_close <= 0.6 + 1 / 30, g
+        starts = np.array([lab.start_ns for lab in demo.labels if lab.skill == "pick_up"]) / 1e9
+        assert np.all((np.diff(starts) > 1.5) & (np.diff(starts) < 4.5))
+        # between cycles the hand mostly stays at the cube: a fingertip within 2 cm of its surface
+        name = demo.metadata["roles"]["A"]
+        half = demo.objects[name].size / 2
+        near = []
+        for a, b in zip(demo.labels, demo.labels[1:], strict=False):
+            if a.skill == "place" and b.skill == "move" and b.object == name:
+                i0, i1 = np.searchsorted(tr.t_ns, [a.end_ns, b.end_ns])
+                d = tr.keypoints[i0:i1, 4::4] - tr.object_pos[name][i0:i1, None]
+                c, s = (
+                    np.cos(-tr.object_yaw[name][i0:i1])[:, None],
+                    np.sin(-tr.object_yaw[name][i0:i1])[:, None],
+                )
+                local = np.stack(
+                    [c * d[..., 0] - s * d[..., 1], s * d[..., 0] + c * d[..., 1], d[..., 2]], -1
+                )
+                gap = np.linalg.norm(np.maximum(np.abs(local) - half, 0.0), axis=-1).min(axis=1)
+                near.append(gap.max() < 0.02 + 0.0068)
+        assert np.mean(near) >= 0.6
+        # lifts 5-45 cm, cube 5-9 cm
+        for lab, sel in _intervals(res, {"move_with"}):
+            rise = tr.object_pos[lab.object][sel, 2].max() - tr.object_pos[lab.object][sel, 2][0]
+            assert 0.05 - 0.005 <= rise <= 0.45 + 0.005
+        assert all(0.05 <= o.size[0] == o.size[2] <= 0.09 for o in demo.objects.values())
+
+
+def test_natural_grasp_types_and_thumb_middle_aperture(lifts) -> None:  # type: ignore[no-untyped-def]
+    held: dict[str, list[float]] = {}
+    for res in lifts:
+        kp = res.truth.keypoints
+        for g, (lab, sel) in zip(
+            res.demo.metadata["grasps"], _intervals(res, {"move_with"}), strict=True
+        ):
+            assert lab.object == g["object"]
+            ti = np.linalg.norm(kp[sel, INDEX_TIP] - kp[sel, THUMB_TIP], axis=1)
+            held.setdefault(g["type"], []).append(float(ti.min()))
+            if g["type"] == "pinch":  # index and thumb tips on two opposite faces
+                assert g["width"] < ti.min() < g["width"] + 0.02
+    assert set(held) == {"pinch", "thumb_middle", "whole_hand"}
+    # thumb + middle finger: the thumb-index distance stays at 12-16 cm while holding
+    assert all(0.12 <= d <= 0.16 for d in held["thumb_middle"])
+
+
+def test_natural_sensing_is_mocap_like() -> None:
+    res = simulate("exp1", seed=510, variability=Variability(style="natural"))
+    demo, tr = res.demo, res.truth
+    check_grammar(demo.skill_sequence)
+    assert demo.skill_sequence == [s.skill for s in TASKS["exp1"]]
+    assert np.array_equal(demo.hand.t_ns, tr.t_ns)  # every frame at 30 Hz
+    err = np.linalg.norm(demo.hand.keypoints - tr.keypoints, axis=-1)
+    assert 0.001 < np.median(err) < 0.004
+    vis = np.concatenate([o.visible for o in demo.objects.values()])
+    assert 1 - vis.mean() < 0.01
+    assert demo.metadata["hand_rate_hz"] == 30.0
+    assert {g["type"] for g in demo.metadata["grasps"]} <= {"pinch", "thumb_middle", "whole_hand"}
+
+
+def test_careful_style_is_unchanged() -> None:
+    # label times of a default (careful) demonstration, from the simulator before styles existed
+    res = simulate("exp2", seed=5)
+    ends = [lab.end_ns - res.demo.start_ns for lab in res.demo.labels]
+    assert ends == [
+        2342939499, 3701442130, 5285019891, 6475824650,
+        8363633736, 9900361738, 11887081365, 13733333333,
+    ]  # fmt: skip
+    assert res.demo.metadata["style"] == "careful"
+    assert [g["type"] for g in res.demo.metadata["grasps"]] == ["pinch"]
+    # the careful style draws exactly what it drew before, whatever the natural style needs
+    a, b = np.random.default_rng(9), np.random.default_rng(9)
+    Variability(style="careful").resolve(a)
+    for _ in range(7):
+        b.uniform()
+    assert a.uniform() == b.uniform()
+
+
+def test_generated_tasks_and_style_arguments(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    import lfd
+    from lfd.cli import main
+    from lfd.errors import UsageError
+    from lfd.sim.tasks import task_steps
+
+    five = [s.skill for s in task_steps("exp5")]
+    check_grammar(five)
+    assert 6 <= five.count("pick_up") <= 10
+    six = task_steps("exp6", np.random.default_rng(3))
+    roles = [s.role for s in six if s.skill == "pick_up"]
+    assert roles[:4] == ["A", "B", "A", "B"]
+    with pytest.raises(UsageError, match="style"):
+        Variability(style="sloppy").validate()  # type: ignore[arg-type]
+    out = tmp_path / "lifts.mcap"
+    args = ["simulate", "exp5", "--style", "natural", "--seed", "505", "-o", str(out)]
+    assert main([*args, "--duration", "4"]) == 0
+    demo = lfd.load(out)
+    assert demo.metadata["style"] == "natural" and demo.metadata["grasps"]
+    assert 29.0 < 1e9 / np.median(np.diff(demo.hand.t_ns)) < 31.0

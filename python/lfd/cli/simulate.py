@@ -3,12 +3,14 @@
 One demonstration::
 
     lfd simulate exp1 --seed 3 -o demo.mcap [--render] [--speed 1.0] [--noise-mm 2.5] ...
+    lfd simulate exp5 --style natural --seed 500 -o lifts.mcap   # repeated lifts, mocap-like
 
 A whole set, deterministically (the shipped recordings are made this way)::
 
     lfd simulate --set templates -o recordings/templates   # 9 demos per skill, seeds 0-8
     lfd simulate --set samples -o recordings               # exp1-4 seed 1000 + rendered sample
     lfd simulate --set eval -o /tmp/eval                   # 4 experiments x seeds 100-105
+    lfd simulate --set eval --style natural -o /tmp/nat    # exp1-exp5 x seeds 100-105
 """
 
 from __future__ import annotations
@@ -44,7 +46,8 @@ def _variability_value(name: str) -> Callable[[str], float]:
 
         v = finite_float(text)
         try:
-            Variability(**{name: v}).validate()
+            given: dict[str, Any] = {name: v}
+            Variability(**given).validate()
         except UsageError as err:
             raise argparse.ArgumentTypeError(str(err)) from None
         return v
@@ -54,14 +57,23 @@ def _variability_value(name: str) -> Callable[[str], float]:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from ..sim.tasks import TASKS
+    from ..sim.tasks import TASK_NAMES
+    from ..sim.variability import STYLES
 
     parser.add_argument(
         "task",
         nargs="?",
-        choices=sorted(TASKS),
+        choices=sorted(TASK_NAMES),
         metavar="TASK",
-        help=f"exp1-exp4 or a skill name for its template task ({', '.join(sorted(TASKS))})",
+        help="exp1-exp4, exp5/exp6 (6-10 repeated lifts of one box / two boxes) or a skill name "
+        f"for its template task ({', '.join(sorted(TASK_NAMES))})",
+    )
+    parser.add_argument(
+        "--style",
+        choices=STYLES,
+        default="careful",
+        help="demonstrator: careful (the paper's, default) or natural (fast grasps of several "
+        "types, hand lingering at the object, 5-9 cm cubes, mocap-like 30 Hz keypoints)",
     )
     parser.add_argument(
         "-o", "--output", required=True, help="output .mcap (a directory with --set)"
@@ -89,10 +101,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--hand-rate",
         type=float_range(0.5, OBJECT_RATE_HZ),
-        default=5.0,
-        help=f"keypoint rate, Hz, in [0.5, {OBJECT_RATE_HZ:g}] (5)",
+        help=f"keypoint rate, Hz, in [0.5, {OBJECT_RATE_HZ:g}] (5; {OBJECT_RATE_HZ:g} with "
+        "--style natural)",
     )
-    v = parser.add_argument_group("variability (default: drawn per demo)")
+    v = parser.add_argument_group(
+        "variability (default: drawn per demo; the careful style's defaults are shown, "
+        "docs/skills.md lists the natural style's)"
+    )
     var = _variability_value
     v.add_argument("--speed", type=var("speed"), help="speed factor in [0.2, 5] (U(0.8, 1.25))")
     v.add_argument(
@@ -144,13 +159,14 @@ def _variability(args: argparse.Namespace) -> Any:
         "approach_deg": args.approach_deg,
     }
     given = {k: v for k, v in given.items() if v is not None}
+    given["style"] = args.style
     var = Variability.noise_free(**given) if args.noise_free else Variability(**given)
     var.validate()  # UsageError
     return var
 
 
-def _jobs(which: str, out: Path) -> list[dict[str, Any]]:
-    from ..sim import EXPERIMENTS, TEMPLATE_TASKS
+def _jobs(which: str, out: Path, style: str = "careful") -> list[dict[str, Any]]:
+    from ..sim import EXPERIMENTS, NATURAL_EXPERIMENTS, TEMPLATE_TASKS
 
     if which == "templates":
         return [
@@ -161,7 +177,7 @@ def _jobs(which: str, out: Path) -> list[dict[str, Any]]:
     if which == "eval":
         return [
             {"task": e, "seed": k, "path": out / f"{e}_{k}.mcap"}
-            for e in EXPERIMENTS
+            for e in (NATURAL_EXPERIMENTS if style == "natural" else EXPERIMENTS)
             for k in EVAL_SEEDS
         ]
     jobs: list[dict[str, Any]] = [
@@ -187,7 +203,7 @@ def record(
     variability: Any = None,
     render_rate: float | None = None,
     duration: float | None = None,
-    hand_rate: float = 5.0,
+    hand_rate: float | None = None,
     color_format: str = "png",
 ) -> Any:
     """Simulate, optionally crop and render, and save one demonstration; returns the result."""
@@ -246,7 +262,7 @@ def run(args: argparse.Namespace) -> int:
                 "lfd simulate: warning: --rerun* shows a single demonstration; ignored with --set",
                 file=sys.stderr,
             )
-        jobs = _jobs(args.set, Path(args.output))
+        jobs = _jobs(args.set, Path(args.output), args.style)
         with Progress() as progress:
             bar = progress.add_task(f"simulating {args.set}", total=len(jobs))
             for job in jobs:

@@ -1,10 +1,11 @@
 """The simulated demonstrator: a capsule human hand performing the seven skills in MuJoCo.
 
 It is the test bed for segmentation, reproduction and perception: :func:`simulate` runs a task
-(``exp1`` ... ``exp4`` or a single-skill template task) like a person would — imprecisely, at
+(``exp1`` ... ``exp6`` or a single-skill template task) like a person would — imprecisely, at
 varying speed, with detours and pauses — and records it like a real demonstration (hand
 keypoints at ~5 Hz, object tag poses at 30 Hz, optional RGB-D frames), with ground-truth skill
-labels. MuJoCo and OpenCV (the ``sim`` extra) are needed.
+labels. ``Variability(style="natural")`` selects a faster demonstrator recorded like motion
+capture (see :mod:`lfd.sim.natural`). MuJoCo and OpenCV (the ``sim`` extra) are needed.
 """
 
 from __future__ import annotations
@@ -12,14 +13,29 @@ from __future__ import annotations
 from .. import _gl  # noqa: F401  (selects the headless GL backend before mujoco loads)
 from .demonstrator import SIM_VERSION, SimResult, Truth, simulate, truth_demonstration
 from .scene import DEFAULT_OBJECTS, CameraSpec, ObjectSpec, Scene, build_scene
-from .tasks import EXPERIMENTS, TASKS, TEMPLATE_TASKS, TRANSITIONS, check_grammar
-from .variability import Variability
+from .tasks import (
+    EXPERIMENTS,
+    NATURAL_EXPERIMENTS,
+    REPEAT_EXPERIMENTS,
+    TASK_GENERATORS,
+    TASK_NAMES,
+    TASKS,
+    TEMPLATE_TASKS,
+    TRANSITIONS,
+    check_grammar,
+)
+from .variability import STYLES, Variability
 
 __all__ = [
     "DEFAULT_OBJECTS",
     "EXPERIMENTS",
+    "NATURAL_EXPERIMENTS",
+    "REPEAT_EXPERIMENTS",
     "SIM_VERSION",
+    "STYLES",
     "TASKS",
+    "TASK_GENERATORS",
+    "TASK_NAMES",
     "TEMPLATE_TASKS",
     "TRANSITIONS",
     "CameraSpec",

@@ -7,18 +7,23 @@ sampled like the paper's sensors: object poses at every camera frame (30 Hz) wit
 dropout bursts, hand keypoints at ~5 Hz on camera frames (the estimator takes every 5th-7th
 frame) with keypoint noise and outliers. Ground truth (noise-free streams at 30 Hz) is returned
 alongside.
+
+The ``natural`` style (:class:`~lfd.sim.Variability`) swaps in the fast grasping skills of
+:mod:`lfd.sim.natural`, draws the cube sizes (5-9 cm) per demonstration and records like motion
+capture: keypoints on every frame (30 Hz by default), small noise, almost no dropouts.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from ..demo import CameraInfo, Demonstration, SkillLabel
 from ..errors import DemonstrationError, UsageError
-from .hand import JOINTS_PER_FINGER, N_JOINTS, HandKinematics
+from . import natural as nat
+from .hand import GRASP_FINGERTIPS, JOINTS_PER_FINGER, N_JOINTS, HandKinematics
 from .motion import Plan, rotation, smooth_noise
 from .planner import Attach, Detach, ObjectPose, Planner, Push
 from .scene import DEFAULT_OBJECTS, ObjectSpec, Scene, build_scene
@@ -35,11 +40,12 @@ from .skills import (
     rest_pose,
     stack,
 )
-from .tasks import TEMPLATE_TASKS, Step, place_objects, task_steps
+from .tasks import TEMPLATE_TASKS, Step, check_task, place_objects, task_steps
 from .variability import Variability
 
-SIM_VERSION = "1.0"
-"""Version of the simulated demonstrator (bump when motions change)."""
+SIM_VERSION = "1.1"
+"""Version of the simulated demonstrator (bump when motions change; 1.1 added the natural
+style, the careful motions are those of 1.0)."""
 
 _MAX_ATTEMPTS = 10
 
@@ -87,7 +93,7 @@ class SimResult:
 def _entry(P: Planner, step: Step, roles: dict[str, str]) -> Any:
     name = roles[step.role] if step.role else None
     if step.skill == "pick_up" and name:
-        return pick_up_entry(P, name)
+        return (nat.pick_up_entry if P.var.style == "natural" else pick_up_entry)(P, name)
     if step.skill == "push" and name:
         return push_entry(P, name)
     if step.skill == "locate" and name:
@@ -98,16 +104,26 @@ def _entry(P: Planner, step: Step, roles: dict[str, str]) -> Any:
 def _execute(P: Planner, steps: tuple[Step, ...], roles: dict[str, str]) -> None:
     P.hand = _entry(P, steps[0], roles)
     P.hold(float(P.rng.uniform(0.3, 0.8)))
+    natural = P.var.style == "natural"
     for i, step in enumerate(steps):
         name = roles[step.role] if step.role else None
         if step.skill == "move":
             nxt = steps[i + 1] if i + 1 < len(steps) else None
             target = _entry(P, nxt, roles) if nxt else rest_pose(P)
-            move(P, target, name)
+            (nat.move if natural else move)(P, target, name)
         elif step.skill == "pick_up":
-            pick_up(P, str(name))
+            (nat.pick_up if natural else pick_up)(P, str(name))
         elif step.skill == "move_with":
-            move_with(P, str(name), roles[step.onto] if step.onto else None)
+            onto = roles[step.onto] if step.onto else None
+            if natural:
+                nat.move_with(P, str(name), onto, repeat=step.repeat)
+            else:
+                move_with(P, str(name), onto)
+        elif natural and step.skill in ("place", "stack"):
+            # the hand lingers when the next skills re-grasp the same object
+            regrasp = [(s.skill, s.role) for s in steps[i + 1 : i + 3]]
+            linger = regrasp == [("move", step.role), ("pick_up", step.role)]
+            nat.put_down(P, str(name), step.skill, linger=linger)
         elif step.skill == "place":
             place(P, str(name))
         elif step.skill == "stack":
@@ -119,6 +135,21 @@ def _execute(P: Planner, steps: tuple[Step, ...], roles: dict[str, str]) -> None
     P.hold(float(P.rng.uniform(0.3, 0.8)))
     last = P.labels[-1]
     P.labels[-1] = type(last)(last.skill, last.t0, P.t, last.object)
+
+
+def _free_fingers(P: Planner, t: np.ndarray) -> np.ndarray:
+    """Weight (n, 20) of each finger joint's drift at times ``t``: 0 for the fingers of a grasp
+    from the start of its closing to 0.3 s after the release, ramped over 0.2 s."""
+    w = np.ones((t.size, N_JOINTS))
+    releases = iter(e.t for e in P.events if isinstance(e, Detach))
+    for grasp in P.grasps:
+        t0, t1 = float(grasp["t_close_s"]), next(releases, float(t[-1])) + 0.3
+        busy = np.interp(t, [t0 - 0.2, t0, t1, t1 + 0.2], [0.0, 1.0, 1.0, 0.0])
+        for tip in GRASP_FINGERTIPS[str(grasp["type"])]:
+            f = (tip - 1) // 4
+            cols = slice(f * JOINTS_PER_FINGER, (f + 1) * JOINTS_PER_FINGER)
+            w[:, cols] = np.minimum(w[:, cols], 1.0 - busy[:, None])
+    return w
 
 
 def _quat_wxyz(R: np.ndarray) -> np.ndarray:
@@ -183,13 +214,27 @@ def _objects_motion(
     return positions, yaws
 
 
+NATURAL_CUBE_SIZES = (0.05, 0.09)
+"""Range of the cube sides (m) the natural style draws per demonstration."""
+
+
+def natural_objects(rng: np.random.Generator) -> tuple[ObjectSpec, ...]:
+    """:data:`DEFAULT_OBJECTS` as cubes with sides drawn from :data:`NATURAL_CUBE_SIZES`."""
+    return tuple(
+        replace(o, size=(side, side, side))
+        for o, side in zip(
+            DEFAULT_OBJECTS, rng.uniform(*NATURAL_CUBE_SIZES, len(DEFAULT_OBJECTS)), strict=True
+        )
+    )
+
+
 def simulate(
     task: str,
     seed: int = 0,
     variability: Variability | None = None,
     *,
-    objects: tuple[ObjectSpec, ...] = DEFAULT_OBJECTS,
-    hand_rate_hz: float = 5.0,
+    objects: tuple[ObjectSpec, ...] | None = None,
+    hand_rate_hz: float | None = None,
     object_rate_hz: float = 30.0,
 ) -> SimResult:
     """Simulate one demonstration of ``task`` (see :data:`lfd.sim.tasks.TASKS`).
@@ -197,17 +242,25 @@ def simulate(
     Parameters
     ----------
     task : str
-        Task name (``exp1`` ... ``exp4`` or a skill name for its template task).
+        Task name (``exp1`` ... ``exp6`` or a skill name for its template task).
     seed : int
         Seed of ``numpy.random.default_rng``; the same seed gives identical output.
     variability : Variability, optional
-        Human variability and sensor imperfection (defaults: :class:`Variability`).
+        Human variability and sensor imperfection (defaults: :class:`Variability`, the careful
+        style); its ``style`` selects the demonstrator.
+    objects : tuple of ObjectSpec, optional
+        The boxes (default :data:`DEFAULT_OBJECTS`; for the natural style, cubes of 5-9 cm drawn
+        per demonstration by :func:`natural_objects`).
     hand_rate_hz, object_rate_hz : float
-        Hand-pose estimator rate (keypoints) and camera / tag tracking rate (object poses).
+        Hand-pose estimator rate (keypoints; default 5 Hz, 30 Hz for the natural style) and
+        camera / tag tracking rate (object poses).
     """
     from .sampling import sample_streams
 
-    steps = task_steps(task)
+    check_task(task)
+    style = (variability or Variability()).style
+    if hand_rate_hz is None:
+        hand_rate_hz = 30.0 if style == "natural" else 5.0
     if not 0.5 <= hand_rate_hz <= object_rate_hz <= 120:
         raise UsageError(
             f"need 0.5 <= hand rate <= object (camera) rate <= 120 Hz, got hand rate "
@@ -217,6 +270,9 @@ def simulate(
         raise UsageError(f"seed must be an integer >= 0, got {seed!r}")
     rng = np.random.default_rng(seed)
     var = (variability or Variability()).resolve(rng)
+    steps = task_steps(task, rng)
+    if objects is None:
+        objects = natural_objects(rng) if style == "natural" else DEFAULT_OBJECTS
     scene = build_scene(objects, hand_scale=float(var.hand_scale or 1.0))
     model = scene.compile()
     kin = HandKinematics(model)
@@ -244,9 +300,12 @@ def simulate(
     t = np.arange((n_frames - 1) * sub + 1) / (object_rate_hz * sub)
     tcp, ang, q = plan.evaluate(t)
     drift_joints = np.arange(2 * JOINTS_PER_FINGER, N_JOINTS)
-    q[:, drift_joints] += smooth_noise(
+    drift = smooth_noise(
         rng, t, drift_joints.size, amplitude=np.deg2rad(var.finger_drift_deg), freq_range=(0.1, 0.6)
     )
+    if var.style == "natural":  # fingers holding an object do not drift
+        drift *= _free_fingers(P, t)[:, drift_joints]
+    q[:, drift_joints] += drift
     tremor = smooth_noise(
         rng, t, 3, amplitude=float(var.tremor_mm or 0.0) * 1e-3, freq_range=(6, 10)
     )
@@ -296,6 +355,8 @@ def simulate(
             for n, p in initial.items()
         },
         "skill_sequence": [lab.skill for lab in P.labels],
+        "style": var.style,
+        "grasps": P.grasps,
         "pushes": [e for e in P.log if "push" in e],
         "stacks": [e for e in P.log if "stack" in e],
     }

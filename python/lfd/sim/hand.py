@@ -142,13 +142,82 @@ POSTURES: dict[str, np.ndarray] = {
             "pinky": _deg(4, 25, 20, 10),
         }
     ),
+    # thumb-middle grasp: thumb and middle tips spread (~12.5 cm) / touching, the index lifted
+    # and extended (thumb-index tip distance 13-15 cm while holding a 5-9 cm cube)
+    "thumb_middle_open": _posture(
+        {
+            "thumb": _deg(-9.6, 9.5, 21.9, 12.8),
+            "index": _deg(-10, -20, 0, 0),
+            "middle": _deg(0, 11.5, 10.9, 0),
+            "ring": _deg(0, 85, 90, 50),
+            "pinky": _deg(0, 85, 90, 50),
+        }
+    ),
+    "thumb_middle": _posture(
+        {
+            "thumb": _deg(-33.2, 25.4, 12.5, 0.2),
+            "index": _deg(-10, -20, 0, 0),
+            "middle": _deg(0, 46.8, 42.0, 41.1),
+            "ring": _deg(0, 85, 90, 50),
+            "pinky": _deg(0, 85, 90, 50),
+        }
+    ),
+    # whole-hand grasp: the four fingertips side by side on one face, the thumb opposite
+    # (thumb to fingertip centroid ~12.5 cm open / 3 cm closed)
+    "whole_hand_open": _posture(
+        {
+            "thumb": _deg(-2.5, 14.9, 22.7, 11.2),
+            "index": _deg(-4, 13.4, 11.3, 8.1),
+            "middle": _deg(0, 13.4, 11.3, 8.1),
+            "ring": _deg(3, 13.4, 11.3, 8.1),
+            "pinky": _deg(6, 13.4, 11.3, 8.1),
+        }
+    ),
+    "whole_hand": _posture(
+        {
+            "thumb": _deg(-47.9, 27.2, 18.0, 9.0),
+            "index": _deg(-4, 65.3, 50.9, 29.7),
+            "middle": _deg(0, 65.3, 50.9, 29.7),
+            "ring": _deg(3, 65.3, 50.9, 29.7),
+            "pinky": _deg(6, 65.3, 50.9, 29.7),
+        }
+    ),
 }
 """Named finger postures (joint angle vectors, shape (20,))."""
+
+GRASP_TYPES: tuple[str, ...] = ("pinch", "thumb_middle", "whole_hand")
+"""Grasp types: thumb-index pinch, thumb-middle (tripod-like, index lifted), whole hand."""
+
+GRASP_FINGERTIPS: dict[str, tuple[int, ...]] = {
+    "pinch": (8,),
+    "thumb_middle": (12,),
+    "whole_hand": (8, 12, 16, 20),
+}
+"""Keypoints of the fingertips that oppose the thumb tip (keypoint 4) in each grasp type."""
 
 
 def pinch_posture(g: float) -> np.ndarray:
     """Posture between ``open`` (``g = 0``) and ``pinch`` (``g = 1``, tips touching)."""
     return (1.0 - g) * POSTURES["open"] + g * POSTURES["pinch"]
+
+
+def grasp_posture(kind: str, g: float) -> np.ndarray:
+    """Posture of grasp type ``kind`` between open (``g = 0``) and closed (``g = 1``)."""
+    if kind == "pinch":
+        return pinch_posture(g)
+    return (1.0 - g) * POSTURES[f"{kind}_open"] + g * POSTURES[kind]
+
+
+def grasp_contacts(kp: np.ndarray, kind: str) -> tuple[np.ndarray, np.ndarray]:
+    """The thumb tip and the opposing contact point of grasp type ``kind`` in keypoints ``kp``
+    of shape (21, 3): the opposing fingertip, or for several the centroid of their tips moved
+    along the grasp axis to the tip nearest to the thumb (so no tip goes into the object)."""
+    thumb, tips = kp[4], kp[list(GRASP_FINGERTIPS[kind])]
+    other = tips.mean(axis=0)
+    if len(tips) > 1:
+        u = (other - thumb) / np.linalg.norm(other - thumb)
+        other = other + u * float(np.min((tips - other) @ u))
+    return thumb, other
 
 
 def hand_mjcf(scale: float = 1.0) -> str:
@@ -241,6 +310,19 @@ class HandKinematics:
         """Distance between the index and thumb tip keypoints (m)."""
         kp = self.local_keypoints(q)
         return float(np.linalg.norm(kp[8] - kp[4]))
+
+    def grasp_for_aperture(self, kind: str, width: float) -> float:
+        """The closure ``g`` of grasp type ``kind`` whose thumb-to-opposing-fingertips distance
+        is ``width`` (clipped to [0, 1]); :meth:`pinch_for_aperture` for ``pinch``."""
+        if kind == "pinch":
+            return self.pinch_for_aperture(width)
+        gs = np.linspace(0.0, 1.0, 41)
+        ap = []
+        for g in gs:
+            thumb, other = grasp_contacts(self.local_keypoints(grasp_posture(kind, g)), kind)
+            ap.append(float(np.linalg.norm(other - thumb)))
+        order = np.argsort(ap)
+        return float(np.clip(np.interp(width, np.array(ap)[order], gs[order]), 0.0, 1.0))
 
     def pinch_for_aperture(self, width: float) -> float:
         """The pinch parameter ``g`` whose tip distance is ``width`` (clipped to [0, 1])."""

@@ -101,6 +101,8 @@ class Planner:
     skill_speed: float = 1.0
     pending: dict[tuple[str, str], dict[str, Any]] = field(default_factory=dict)
     log: list[dict[str, Any]] = field(default_factory=list)
+    last_grasp: str | None = None
+    grasps: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def scale(self) -> float:

@@ -87,17 +87,21 @@ def sample_streams(
     n = t_ns.size
     R_cv = scene.camera.rotation_cv()
 
-    # hand-pose estimator: every 5th-7th frame at 30 Hz (scaled to the requested rate)
+    # hand-pose estimator: every 5th-7th frame at 30 Hz (scaled to the requested rate);
+    # motion capture (natural style): on a fixed clock
     mean_step = object_rate_hz / hand_rate_hz
-    steps = np.maximum(1, np.round(mean_step + rng.choice([-1, 0, 0, 0, 0, 1], size=n)))
-    idx = np.cumsum(np.concatenate([[int(rng.integers(0, max(1, int(mean_step))))], steps]))
-    idx = idx[idx < n].astype(int)
-    idx = idx[rng.random(idx.size) >= var.hand_miss]  # failed estimates leave gaps
+    if var.style == "natural":
+        idx = np.arange(0, n, max(1, round(mean_step)))
+    else:
+        steps = np.maximum(1, np.round(mean_step + rng.choice([-1, 0, 0, 0, 0, 1], size=n)))
+        idx = np.cumsum(np.concatenate([[int(rng.integers(0, max(1, int(mean_step))))], steps]))
+        idx = idx[idx < n].astype(int)
+    idx = idx[rng.random(idx.size) >= float(var.hand_miss or 0.0)]  # failed estimates leave gaps
     kp = truth.keypoints[idx].copy()  # type: ignore[attr-defined]
     noise = _camera_noise(rng, kp.shape[:2], float(var.noise_mm or 0.0) * 1e-3, 1.5, R_cv)
     kp += noise * _KEYPOINT_NOISE[None, :, None]
     conf = rng.uniform(0.8, 0.98, size=kp.shape[:2])
-    outlier_frames = rng.random(idx.size) < var.outlier_rate
+    outlier_frames = rng.random(idx.size) < float(var.outlier_rate or 0.0)
     weights = np.ones(21)
     weights[_FINGERTIPS] = 4.0
     for f in np.flatnonzero(outlier_frames):
@@ -114,9 +118,10 @@ def sample_streams(
     for spec in scene.objects:
         pos = truth.object_pos[spec.name].copy()  # type: ignore[attr-defined]
         quat = yaw_quat(truth.object_yaw[spec.name])  # type: ignore[attr-defined]
-        sigma = var.object_noise_mm * 1e-3
+        obj_noise = float(var.object_noise_mm or 0.0)
+        sigma = obj_noise * 1e-3
         pos += _camera_noise(rng, (n,), sigma, 2.0, R_cv)
-        rotvec = rng.normal(0.0, np.deg2rad(var.object_noise_mm * 0.5), (n, 3))
+        rotvec = rng.normal(0.0, np.deg2rad(obj_noise * 0.5), (n, 3))
         angle = np.linalg.norm(rotvec, axis=1, keepdims=True)
         axis = rotvec / np.maximum(angle, 1e-12)
         dq = np.concatenate([axis * np.sin(angle / 2), np.cos(angle / 2)], axis=1)
@@ -124,7 +129,7 @@ def sample_streams(
         missing = _bursts(rng, n, float(var.dropout or 0.0), mean_len=0.2 * object_rate_hz)
         top = pos[:, 2] + 0.5 * spec.size[2]
         over = (np.linalg.norm(tcp[:, :2] - pos[:, :2], axis=1) < 0.06) & (tcp[:, 2] > top - 0.03)
-        missing |= over & (rng.random(n) < var.occlusion)
+        missing |= over & (rng.random(n) < float(var.occlusion or 0.0))
         pos[missing] = np.nan
         quat[missing] = np.nan
         tracks[spec.name] = ObjectTrack(

@@ -41,15 +41,23 @@ from typing import Any
 
 import numpy as np
 
-from ..demo import INDEX_TIP, THUMB_TIP
 from ..errors import DemonstrationError
-from .hand import FINGERTIP_RADIUS, POSTURES, pinch_posture
+from .hand import (
+    FINGERTIP_RADIUS,
+    GRASP_TYPES,
+    POSTURES,
+    grasp_contacts,
+    grasp_posture,
+    pinch_posture,
+)
 from .motion import HandState, rotation
 from .nonprehensile import locate, locate_entry, push, push_entry
 from .planner import Attach, Detach, ObjectPose, Planner, wrap_angle
 from .scene import WORKSPACE_X, WORKSPACE_Y
 
 __all__ = [
+    "attach",
+    "carry_target",
     "free_spot",
     "locate",
     "locate_entry",
@@ -74,23 +82,36 @@ def _max_top(P: Planner, exclude: str | None = None) -> float:
 
 
 # --- Pick up ---------------------------------------------------------------------------------
+GRASP_WEIGHTS = (0.45, 0.33, 0.22)
+"""How often the natural demonstrator uses each of :data:`~lfd.sim.hand.GRASP_TYPES`."""
+
+
+def _grasp_type(P: Planner) -> str:
+    """``pinch`` for the careful demonstrator; a drawn grasp type for the natural one (the type
+    of the previous grasp of the same object is kept with probability 0.6)."""
+    if P.var.style != "natural":
+        return "pinch"
+    if P.last_grasp is not None and P.rng.random() < 0.6:
+        return P.last_grasp
+    return str(P.rng.choice(GRASP_TYPES, p=GRASP_WEIGHTS))
+
+
 def _grasp(P: Planner, name: str) -> dict[str, Any]:
     key = ("pick_up", name)
     if key in P.pending:
         return P.pending[key]
+    kind = _grasp_type(P)
     rng, spec, pose, s = P.rng, P.specs[name], P.poses[name], P.scale
     roll = _deg(-8, 8, rng)
     natural = P.natural_yaw(pose.pos)
     best: tuple[float, dict[str, Any]] | None = None
     for k in range(4):
         width = spec.size[k % 2]
-        g = P.kin.pinch_for_aperture(width + 2.0 * FINGERTIP_RADIUS * s)
-        kp = P.kin.local_keypoints(pinch_posture(g))
-        a = rotation(np.array(0.0), np.array(0.0), np.array(roll)) @ (kp[INDEX_TIP] - kp[THUMB_TIP])
+        g = P.kin.grasp_for_aperture(kind, width + 2.0 * FINGERTIP_RADIUS * s)
+        thumb, other = grasp_contacts(P.kin.local_keypoints(grasp_posture(kind, g)), kind)
+        a = rotation(np.array(0.0), np.array(0.0), np.array(roll)) @ (other - thumb)
         pitch = float(np.arctan2(a[2], a[0]))
-        a = rotation(np.array(0.0), np.array(pitch), np.array(roll)) @ (
-            kp[INDEX_TIP] - kp[THUMB_TIP]
-        )
+        a = rotation(np.array(0.0), np.array(pitch), np.array(roll)) @ (other - thumb)
         yaw = wrap_angle(pose.yaw + k * np.pi / 2 - float(np.arctan2(a[1], a[0])))
         cost = abs(wrap_angle(yaw - natural))
         if best is None or cost < best[0]:
@@ -100,13 +121,16 @@ def _grasp(P: Planner, name: str) -> dict[str, Any]:
     G["yaw"] = float(G["yaw"]) + _deg(-4, 4, rng)
     G["pitch"] = float(G["pitch"]) + _deg(-4, 4, rng)
     width = float(G["width"])
-    G["g_pre"] = P.kin.pinch_for_aperture(
-        width + 2 * FINGERTIP_RADIUS * s + rng.uniform(0.02, 0.04)
-    )
-    rel = P.relative_keypoints(pinch_posture(float(G["g"])), G["yaw"], G["pitch"], roll)
+    margin = rng.uniform(0.01, 0.025) if P.var.style == "natural" else rng.uniform(0.02, 0.04)
+    G["g_pre"] = P.kin.grasp_for_aperture(kind, width + 2 * FINGERTIP_RADIUS * s + margin)
+    G["kind"] = kind
+    rel = P.relative_keypoints(grasp_posture(kind, float(G["g"])), G["yaw"], G["pitch"], roll)
     z = P.top(name) - rng.uniform(0.012, 0.02)
-    z = max(z, 0.009 * s - float(rel[:, 2].min()))
     xy = pose.pos[:2] + np.clip(rng.normal(0.0, 0.002, 2), -0.004, 0.004)
+    if kind != "pinch":  # the TCP (index-thumb midpoint) is off the contacts' midpoint
+        offset = 0.5 * np.add(*grasp_contacts(rel, kind))
+        xy, z = xy - offset[:2], z - float(offset[2])
+    z = max(z, 0.009 * s - float(rel[:, 2].min()))
     G["tcp"] = np.array([xy[0], xy[1], z])
     P.pending[key] = G
     return G
@@ -120,13 +144,37 @@ def pick_up_entry(P: Planner, name: str) -> HandState:
     side = np.array([-np.sin(yaw), np.cos(yaw)]) * rng.uniform(-0.02, 0.02)
     tcp = np.array(G["tcp"], float)
     p = np.array([*(tcp[:2] + back + side), P.top(name) + rng.uniform(0.06, 0.12)])
-    q = 0.5 * POSTURES["relaxed"] + 0.5 * pinch_posture(float(G["g_pre"]))
+    q = 0.5 * POSTURES["relaxed"] + 0.5 * grasp_posture(str(G["kind"]), float(G["g_pre"]))
     return HandState(
         p,
         yaw + _deg(-12, 12, rng),
         float(G["pitch"]) - _deg(0, 12, rng),
         float(G["roll"]),
         q,
+    )
+
+
+def attach(P: Planner, name: str, G: dict[str, Any], t_close: float) -> None:
+    """The fingers are closed on ``name`` now: it moves with the hand from here on (the grasp
+    ``G`` closed from ``t_close`` on is logged)."""
+    P.events.append(Attach(P.t, name))
+    pose = P.poses[name]
+    c, s_ = np.cos(-P.state.yaw), np.sin(-P.state.yaw)
+    d = pose.pos - P.state.tcp
+    P.grasp_rel = (
+        np.array([c * d[0] - s_ * d[1], s_ * d[0] + c * d[1], d[2]]),
+        pose.yaw - P.state.yaw,
+    )
+    P.held = name
+    P.last_grasp = str(G["kind"])
+    P.grasps.append(
+        {
+            "object": name,
+            "type": str(G["kind"]),
+            "width": round(float(G["width"]), 6),
+            "t_close_s": round(t_close, 6),
+            "t_closed_s": round(P.t, 6),
+        }
     )
 
 
@@ -137,7 +185,7 @@ def pick_up(P: Planner, name: str) -> None:
     P.pending.pop(("pick_up", name), None)
     tcp = np.array(G["tcp"], float)
     ang = {k: float(G[k]) for k in ("yaw", "pitch", "roll")}
-    q_pre = pinch_posture(float(G["g_pre"]))
+    q_pre = grasp_posture(str(G["kind"]), float(G["g_pre"]))
     above = tcp + np.array([0.0, 0.0, rng.uniform(0.005, 0.015)])
     above[2] = min(above[2], P.state.tcp[2])
     reach = HandState(above, q=q_pre, **ang)
@@ -151,30 +199,28 @@ def pick_up(P: Planner, name: str) -> None:
     )
     P.go(P.dur(0.25, 0.45), reach.moved(tcp=tcp))
     P.maybe_pause()
-    P.go(P.dur(0.35, 0.6), P.state.moved(q=pinch_posture(float(G["g"]))))
-    P.events.append(Attach(P.t, name))
-    pose = P.poses[name]
-    c, s_ = np.cos(-P.state.yaw), np.sin(-P.state.yaw)
-    d = pose.pos - P.state.tcp
-    P.grasp_rel = (
-        np.array([c * d[0] - s_ * d[1], s_ * d[0] + c * d[1], d[2]]),
-        pose.yaw - P.state.yaw,
-    )
-    P.held = name
+    t_close = P.t
+    P.go(P.dur(0.35, 0.6), P.state.moved(q=grasp_posture(str(G["kind"]), float(G["g"]))))
+    attach(P, name, G, t_close)
     P.hold(P.dur(0.1, 0.3))
     P.maybe_pause()
     P.label("pick_up", t0, name)
 
 
 # --- Move with, Place, Stack -----------------------------------------------------------------
-def free_spot(P: Planner, name: str, *, min_move: float = 0.10) -> np.ndarray:
-    """A random table position (x, y) for ``name``, clear of other objects and of the marker."""
+def free_spot(
+    P: Planner, name: str, *, min_move: float = 0.10, max_move: float | None = None
+) -> np.ndarray:
+    """A random table position (x, y) for ``name``, clear of other objects and of the marker,
+    ``min_move`` to ``max_move`` (m) from where it is."""
     spec = P.specs[name]
     r = 0.5 * float(np.hypot(spec.size[0], spec.size[1]))
     here = P.poses[name].pos[:2]
     for _ in range(2000):
         xy = np.array([P.rng.uniform(*WORKSPACE_X), P.rng.uniform(*WORKSPACE_Y)])
         if np.linalg.norm(xy - here) < min_move:
+            continue
+        if max_move is not None and np.linalg.norm(xy - here) > max_move:
             continue
         ok = True
         for other, pose in P.poses.items():
@@ -189,19 +235,26 @@ def free_spot(P: Planner, name: str, *, min_move: float = 0.10) -> np.ndarray:
     raise DemonstrationError(f"no free table spot for {name}")
 
 
-def move_with(P: Planner, name: str, onto: str | None = None) -> None:
-    """Lift the held object and carry it above a free table spot or above object ``onto``."""
-    if P.held != name or P.grasp_rel is None:
-        raise RuntimeError(f"move_with needs {name} in the hand")
-    P.begin_skill()
-    t0, rng, s = P.t, P.rng, P.state
+def carry_target(
+    P: Planner,
+    name: str,
+    onto: str | None,
+    *,
+    spot: tuple[float, float | None] = (0.10, None),
+    turn_deg: float = 30.0,
+) -> tuple[float, np.ndarray]:
+    """Where a Move with of the held ``name`` ends: the hand yaw and the TCP at which the object
+    rests on a free table spot ``spot = (min_move, max_move)`` away (turned by up to
+    ``turn_deg``) or on top of ``onto``. The Place / Stack that follows is planned here."""
+    rng = P.rng
     spec = P.specs[name]
+    assert P.grasp_rel is not None
     rel_p, rel_yaw = P.grasp_rel
     yaw_obj = P.poses[name].yaw
     if onto is None:
-        xy = free_spot(P, name)
+        xy = free_spot(P, name, min_move=spot[0], max_move=spot[1])
         pos = np.array([xy[0], xy[1], 0.5 * spec.size[2]])
-        new_yaw = yaw_obj + _deg(-30, 30, rng)
+        new_yaw = yaw_obj + _deg(-turn_deg, turn_deg, rng)
     else:
         base = P.poses[onto]
         pos = np.array([*(base.pos[:2] + np.clip(rng.normal(0, 0.003, 2), -0.006, 0.006)), 0.0])
@@ -216,8 +269,19 @@ def move_with(P: Planner, name: str, onto: str | None = None) -> None:
     P.pending[("place", name)] = {"tcp": tcp_final, "pose": ObjectPose(pos, float(new_yaw))}
     if onto is not None:
         P.log.append({"stack": name, "onto": onto})
+    return hand_yaw, tcp_final
+
+
+def move_with(P: Planner, name: str, onto: str | None = None) -> None:
+    """Lift the held object and carry it above a free table spot or above object ``onto``."""
+    if P.held != name or P.grasp_rel is None:
+        raise RuntimeError(f"move_with needs {name} in the hand")
+    P.begin_skill()
+    t0, rng, s = P.t, P.rng, P.state
+    spec = P.specs[name]
+    hand_yaw, tcp_final = carry_target(P, name, onto)
     above = tcp_final + np.array([0.0, 0.0, rng.uniform(0.03, 0.07)])
-    below_tcp = 0.5 * spec.size[2] - rel_p[2]  # object bottom below the TCP
+    below_tcp = 0.5 * spec.size[2] - P.grasp_rel[0][2]  # object bottom below the TCP
     z_peak = max(s.tcp[2], above[2]) + rng.uniform(0.03, 0.08)
     z_peak = max(z_peak, _max_top(P, name) + below_tcp + 0.03)
     dist = float(np.linalg.norm(above[:2] - s.tcp[:2]) + 2 * z_peak - s.tcp[2] - above[2])

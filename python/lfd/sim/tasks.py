@@ -7,10 +7,16 @@ in the workspace. Every task obeys the skill grammar (:data:`TRANSITIONS`, paper
 Experiment tasks (paper Sec. V): ``exp1`` ... ``exp4``. Single-skill template tasks (one per
 skill, named after it) contain the target skill with the minimal grammatical context around it;
 their metadata names the ``target_skill``.
+
+Repeated-lift tasks (:data:`TASK_GENERATORS`, like real motion-capture sessions): ``exp5`` picks
+up the same box, lifts it and puts it down 6-10 times in a row (place -> short move -> pick_up
+between cycles); ``exp6`` does the same alternating between two boxes. The number of cycles is
+drawn from the demonstration's random stream.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,11 +37,14 @@ TRANSITIONS: dict[str, frozenset[str]] = {
 
 @dataclass(frozen=True)
 class Step:
-    """One skill on an object role; ``onto`` is the base role of a Move with that ends a stack."""
+    """One skill on an object role; ``onto`` is the base role of a Move with that ends a stack;
+    ``repeat`` marks a Move with of a repeated lift (the object is put down near where it was
+    picked up)."""
 
     skill: str
     role: str | None = None
     onto: str | None = None
+    repeat: bool = False
 
 
 def _seq(*items: str) -> tuple[Step, ...]:
@@ -73,16 +82,52 @@ TASKS: dict[str, tuple[Step, ...]] = {
 }  # fmt: skip
 """Every task by name."""
 
+
+def lift_cycles(rng: np.random.Generator, roles: str = "A") -> tuple[Step, ...]:
+    """6-10 pick_up -> move_with -> place cycles, on the ``roles`` in turn, joined by moves."""
+    steps: list[Step] = []
+    for k in range(int(rng.integers(6, 11))):
+        role = roles[k % len(roles)]
+        if k:
+            steps.append(Step("move", role))
+        steps += [Step("pick_up", role), Step("move_with", role, repeat=True), Step("place", role)]
+    steps.append(Step("move"))
+    return tuple(steps)
+
+
+TASK_GENERATORS: dict[str, Callable[[np.random.Generator], tuple[Step, ...]]] = {
+    "exp5": lambda rng: lift_cycles(rng, "A"),
+    "exp6": lambda rng: lift_cycles(rng, "AB"),
+}
+"""Tasks whose steps are drawn per demonstration (from its random stream)."""
+
+TASK_NAMES: tuple[str, ...] = (*TASKS, *TASK_GENERATORS)
+"""Every task name (fixed and generated)."""
+
 EXPERIMENTS: tuple[str, ...] = ("exp1", "exp2", "exp3", "exp4")
+"""The paper's experiments (Sec. V)."""
+REPEAT_EXPERIMENTS: tuple[str, ...] = tuple(TASK_GENERATORS)
+"""The repeated-lift experiments (not in :data:`EXPERIMENTS`: their number of cycles varies)."""
+NATURAL_EXPERIMENTS: tuple[str, ...] = (*EXPERIMENTS, "exp5")
+"""The experiments a natural-style evaluation set covers."""
 TEMPLATE_TASKS: tuple[str, ...] = SKILLS
 """One single-skill task per skill, named after it."""
 
 
-def task_steps(name: str) -> tuple[Step, ...]:
-    """The steps of a task, checked against the grammar."""
-    if name not in TASKS:
-        raise DemonstrationError(f"unknown task {name!r}; known tasks: {', '.join(TASKS)}")
-    steps = TASKS[name]
+def check_task(name: str) -> None:
+    """Raise :class:`DemonstrationError` for an unknown task name."""
+    if name not in TASK_NAMES:
+        raise DemonstrationError(f"unknown task {name!r}; known tasks: {', '.join(TASK_NAMES)}")
+
+
+def task_steps(name: str, rng: np.random.Generator | None = None) -> tuple[Step, ...]:
+    """The steps of a task, checked against the grammar; a generated task draws them from
+    ``rng`` (default: a generator seeded with 0)."""
+    check_task(name)
+    if name in TASK_GENERATORS:
+        steps = TASK_GENERATORS[name](rng if rng is not None else np.random.default_rng(0))
+    else:
+        steps = TASKS[name]
     check_grammar([s.skill for s in steps])
     return steps
 
