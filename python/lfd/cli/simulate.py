@@ -28,6 +28,8 @@ NAME = "simulate"
 HELP = "Record a task performed by the simulated human demonstrator (MuJoCo)."
 
 SETS = ("templates", "eval", "samples")
+NATURAL_EXP5_TEMPLATES = 6
+"""Natural-style template sets also hold this many repeated-lift demos (exp5)."""
 TEMPLATE_SEEDS = range(9)
 EVAL_SEEDS = range(100, 106)
 SAMPLE_SEED = 1000
@@ -169,11 +171,17 @@ def _jobs(which: str, out: Path, style: str = "careful") -> list[dict[str, Any]]
     from ..sim import EXPERIMENTS, NATURAL_EXPERIMENTS, TEMPLATE_TASKS
 
     if which == "templates":
-        return [
+        jobs = [
             {"task": s, "seed": k, "path": out / f"{s}_{k}.mcap"}
             for s in TEMPLATE_TASKS
             for k in TEMPLATE_SEEDS
         ]
+        if style == "natural":  # re-grasps of the object just put down occur in repeated lifts
+            jobs += [
+                {"task": "exp5", "seed": k, "path": out / f"exp5_{k}.mcap"}
+                for k in TEMPLATE_SEEDS[:NATURAL_EXP5_TEMPLATES]
+            ]
+        return jobs
     if which == "eval":
         return [
             {"task": e, "seed": k, "path": out / f"{e}_{k}.mcap"}

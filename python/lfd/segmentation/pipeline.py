@@ -18,7 +18,7 @@ from .. import _hmmseg
 from ..demo import Demonstration
 from ..errors import DemonstrationError
 from ..trajectory import Trajectory
-from .grammar import grammar_json
+from .grammar import grammar_json, implicit_move_grammar_json, needs_implicit_move
 from .params import skill_params
 from .result import Segment, Segmentation
 from .stage1 import Stage1Params, section_boundaries
@@ -65,6 +65,27 @@ class SegmentParams:
         Per-segment penalty of the DP (nats).
     min_duration_s : float
         A demonstration shorter than this cannot hold a skill (DemonstrationError).
+    co_motion : float
+        Co-motion evidence (beyond the paper): a skill acts on its own object only, so every
+        sample of a segment in which another object moves (speed above ``v_th``), or in which
+        the target itself moves during a Move or Locate, costs this many nats
+        (:func:`co_motion_penalty`; 0: off). Without it a segment can explain a real carry of
+        one box as an empty-hand Move "relative to" a box that stays put.
+    co_motion_grace_s : float
+        Object motion this close to a segment's ends is not charged (boundaries are uncertain
+        by about this much).
+    implicit_moves : bool
+        A Move between a release (Place, Stack) and the next skill may be shorter than a stage-1
+        section: when the hand re-grasps the object it has just put down, it opens a little,
+        rises a few millimetres and closes again in 0.1-0.3 s. With this on the search may go
+        from the release straight to the next skill and the Move is inserted around the
+        TCP's highest point between them (:func:`insert_implicit_moves`).
+    implicit_move_s : float
+        Length of an inserted Move (seconds).
+    co_motion_window_s, co_motion_displacement : float
+        An object moves at a sample when it is displaced by more than ``co_motion_displacement``
+        metres between ``co_motion_window_s`` before and after it (:func:`moving_objects`;
+        a displacement, unlike a speed threshold, ignores tag noise and interpolated gaps).
     """
 
     stage1: Stage1Params = field(default_factory=Stage1Params)
@@ -75,6 +96,12 @@ class SegmentParams:
     lookahead: bool = True
     penalty: float = 10.0
     min_duration_s: float = 0.5
+    co_motion: float = 20.0
+    co_motion_grace_s: float = 0.1
+    co_motion_window_s: float = 1.0 / 6.0
+    implicit_moves: bool = True
+    implicit_move_s: float = 0.2
+    co_motion_displacement: float = 0.015
 
 
 def _interp_columns(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, int]:
@@ -174,29 +201,41 @@ def segment_trajectory(
         objects=[(f.values, f.thresholds) for f in per_object],
     )
     max_len = max(1, round(p.max_segment_s / traj.dt))
+    moving = moving_objects(filled, p.co_motion_window_s, p.co_motion_displacement)
     scores, best_object = scores_over_objects(
         [np.ascontiguousarray(f.values, dtype=np.float64) for f in per_object],
         templates,
         bounds,
         max_len,
         p.end,
+        extra=co_motion_penalty(
+            moving,
+            bounds,
+            templates.skills,
+            p.co_motion,
+            lifted=np.stack([f.values[:, 4] > f.thresholds[:, 4] for f in per_object]),
+            grace=round(p.co_motion_grace_s / traj.dt),
+        ),
     )
     rising = _hmmseg.rising_table(
         np.ascontiguousarray(filled.tcp[:, 2]), bounds, p.min_rise, p.dominance
     )
     skills = templates.skills
+    rules = implicit_move_grammar_json() if p.implicit_moves else grammar_json()
     if search == "greedy":
         raw, warn = _hmmseg.segment_greedy(
-            scores, bounds, skills, grammar_json(), rising, grammar, p.lookahead
+            scores, bounds, skills, rules, rising, grammar, p.lookahead
         )
     else:
-        raw, warn = _hmmseg.segment_dp(
-            scores, bounds, skills, grammar_json(), rising, grammar, p.penalty
-        )
+        raw, warn = _hmmseg.segment_dp(scores, bounds, skills, rules, rising, grammar, p.penalty)
     segments = [
         _make_segment(filled, skills[s], a, b, int(best_object[i, j, s]), score, conf, margin)
         for (s, i, j, a, b, score, margin, conf) in raw
     ]
+    if p.implicit_moves:
+        segments = insert_implicit_moves(
+            filled, segments, max(1, round(p.implicit_move_s / traj.dt))
+        )
     return Segmentation(
         segments=segments,
         warnings=warnings + list(warn),
@@ -204,6 +243,35 @@ def segment_trajectory(
         sections=[int(b) for b in bounds],
         object_names=list(filled.object_names),
     )
+
+
+def insert_implicit_moves(traj: Trajectory, segments: list[Segment], length: int) -> list[Segment]:
+    """Insert the Move that a release -> skill transition stands for (see
+    :func:`~lfd.segmentation.grammar.needs_implicit_move`): ``length`` samples centred on the
+    TCP's highest point in the last ``length`` samples of the release and the first ``length``
+    of the next skill, taken from both (each keeps at least one sample)."""
+    out: list[Segment] = []
+    z = traj.tcp[:, 2]
+    for seg in segments:
+        prev = out[-1] if out else None
+        if prev is None or not needs_implicit_move(prev.skill, seg.skill):
+            out.append(seg)
+            continue
+        lo, hi = max(prev.start + 1, seg.start - length), min(seg.end - 1, seg.start + length)
+        peak = lo + int(np.argmax(z[lo:hi])) if hi > lo else seg.start
+        a = min(max(lo, peak - length // 2), seg.start)
+        b = max(min(hi, a + length), seg.start)
+        a = min(a, b - 1)
+        obj = traj.object_names.index(seg.object) if seg.object in traj.object_names else None
+        out[-1] = _resized(traj, prev, prev.start, a)
+        out.append(_make_segment(traj, "move", a, b, obj))
+        out.append(_resized(traj, seg, b, seg.end))
+    return [s for s in out if s.end > s.start]
+
+
+def _resized(traj: Trajectory, seg: Segment, start: int, end: int) -> Segment:
+    obj = traj.object_names.index(seg.object) if seg.object in traj.object_names else None
+    return _make_segment(traj, seg.skill, start, end, obj, seg.score, seg.confidence, seg.margin)
 
 
 def object_scores(
@@ -231,14 +299,112 @@ def object_scores(
     return scores_over_objects(values, templates, bounds, max_len, end)
 
 
+def moving_objects(traj: Trajectory, window_s: float, displacement: float) -> np.ndarray:
+    """``(O, n)``: object ``o`` moves at sample ``t`` if it is displaced by more than
+    ``displacement`` (m) between ``t - window_s`` and ``t + window_s`` (NaN-free input)."""
+    n = len(traj)
+    w = max(1, round(window_s / traj.dt)) if traj.dt > 0 else 1
+    idx = np.arange(n)
+    a, b = np.clip(idx - w, 0, n - 1), np.clip(idx + w, 0, n - 1)
+    pos = np.asarray(traj.object_position, dtype=np.float64)
+    return np.asarray(np.linalg.norm(pos[:, b] - pos[:, a], axis=2) > displacement)
+
+
+TARGET_STILL: frozenset[str] = frozenset({"move", "locate", "pick_up"})
+"""Skills whose target object does not move (a Pick up ends when the fingers have closed, before
+the lift; the other skills move their target or may)."""
+NO_SET_DOWN: frozenset[str] = frozenset({"move_with", "pick_up"})
+"""Skills in which a lifted target is not put down again (that is a Place or a Stack)."""
+NO_LIFT: frozenset[str] = frozenset({"place", "stack", "push"})
+"""Skills in which a resting target is not lifted (after a Place or Stack that is a new Pick up;
+a Push slides its object on the table)."""
+
+
+def _next_true(mask: np.ndarray) -> np.ndarray:
+    """``(O, n + 1)``: the first index ``>= t`` where ``mask[o]`` is true (``n`` if none)."""
+    n_obj, n = mask.shape
+    out = np.full((n_obj, n + 1), n, dtype=np.int64)
+    for t in range(n - 1, -1, -1):
+        out[:, t] = np.where(mask[:, t], t, out[:, t + 1])
+    return out
+
+
+def _count_after(mask: np.ndarray, first: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """``(O, K, K + 1)``: samples of ``mask`` in ``[max(lo, first[lo]), hi)`` per run."""
+    n_obj, n = mask.shape
+    cum = np.zeros((n_obj, n + 1))
+    cum[:, 1:] = np.cumsum(mask, axis=1)
+    start = first[:, lo]  # (O, K): first index >= lo
+    a = np.take_along_axis(cum, start, axis=1)[:, :, None]  # (O, K, 1)
+    b = cum[:, hi][:, None, :]  # (O, 1, K + 1)
+    return np.asarray(np.where(hi[None, None, :] > start[:, :, None], np.maximum(b - a, 0.0), 0.0))
+
+
+def co_motion_penalty(
+    moving: np.ndarray,
+    bounds: np.ndarray,
+    skills: list[str],
+    weight: float,
+    *,
+    lifted: np.ndarray | None = None,
+    grace: int = 0,
+) -> np.ndarray | None:
+    """Penalty ``(O, K, K + 1, S)`` of object motion a segment cannot explain.
+
+    ``moving`` (O, n) says where each object moves, ``lifted`` (O, n) where it is above its
+    resting height. A segment from section ``i`` to ``j`` with target ``o`` and skill ``s`` is
+    charged ``weight`` per sample
+
+    - in which another object moves (a skill acts on its own object only);
+    - in which ``o`` moves, if ``s`` keeps its target still (:data:`TARGET_STILL`);
+    - in which ``o`` rests after it was lifted in the segment, if ``s`` does not put it down
+      (:data:`NO_SET_DOWN`), or is lifted after it rested, if ``s`` does not lift it
+      (:data:`NO_LIFT`): repeated cycles on one object come out as separate segments.
+
+    ``grace`` samples at each end of a segment are free. ``None`` if ``weight`` is 0.
+    """
+    if weight == 0 or moving.size == 0:
+        return None
+    n_obj, n = moving.shape
+    b = np.asarray(bounds, dtype=np.int64)
+    lo = np.minimum(b[:-1] + grace, n)  # (K,)
+    hi = np.maximum(b - grace, 0)  # (K + 1,)
+    everywhere = np.zeros((n_obj, n + 1), dtype=np.int64)  # "first index >= t" is t itself
+    everywhere[:] = np.arange(n + 1)
+    own = _count_after(moving, everywhere, lo, hi)  # (O, K, K + 1)
+    others = own.sum(axis=0, keepdims=True) - own
+    out = others[..., None] + own[..., None] * _skill_mask(skills, TARGET_STILL)
+    if lifted is not None:
+        resting = ~lifted
+        set_down = _count_after(resting, _next_true(lifted), lo, hi)
+        relift = _count_after(lifted, _next_true(resting), lo, hi)
+        out = out + set_down[..., None] * _skill_mask(skills, NO_SET_DOWN)
+        out = out + relift[..., None] * _skill_mask(skills, NO_LIFT)
+    return np.asarray(-weight * out, dtype=np.float64)
+
+
+def _skill_mask(skills: list[str], which: frozenset[str]) -> np.ndarray:
+    return np.array([s in which for s in skills], dtype=np.float64)
+
+
 def scores_over_objects(
-    values: list[np.ndarray], templates: Templates, bounds: np.ndarray, max_len: int, end: str
+    values: list[np.ndarray],
+    templates: Templates,
+    bounds: np.ndarray,
+    max_len: int,
+    end: str,
+    *,
+    extra: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`object_scores` from the feature matrices, one (n, 10) array per target object."""
+    """:func:`object_scores` from the feature matrices, one (n, 10) array per target object;
+    ``extra`` (O, K, K + 1, S) is added per target before the maximum (e.g.
+    :func:`co_motion_penalty`)."""
     engine = templates.engine
     groups = getattr(templates, "features", None)
     if groups is None:  # a stand-in without feature metadata: score every feature per object
         stack = np.stack([engine.score_table(v, bounds, max_len, end) for v in values])
+        if extra is not None:
+            stack = stack + extra
         return np.ascontiguousarray(stack.max(axis=0)), stack.argmax(axis=0)
     # features that do not depend on the target (fingertip distance, TCP rise, hand speed) are
     # scored once
@@ -253,6 +419,8 @@ def scores_over_objects(
         stack = base + np.stack([engine.score_table(v, bounds, max_len, end, rest) for v in values])
     else:
         stack = np.asarray(base)[None]
+    if extra is not None:
+        stack = stack + extra
     return np.ascontiguousarray(stack.max(axis=0)), stack.argmax(axis=0)
 
 
