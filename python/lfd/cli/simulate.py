@@ -170,6 +170,7 @@ def _variability(args: argparse.Namespace) -> Any:
 def _jobs(which: str, out: Path, style: str = "careful") -> list[dict[str, Any]]:
     from ..sim import EXPERIMENTS, NATURAL_EXPERIMENTS, TEMPLATE_TASKS
 
+    jobs: list[dict[str, Any]]
     if which == "templates":
         jobs = [
             {"task": s, "seed": k, "path": out / f"{s}_{k}.mcap"}
@@ -188,7 +189,7 @@ def _jobs(which: str, out: Path, style: str = "careful") -> list[dict[str, Any]]
             for e in (NATURAL_EXPERIMENTS if style == "natural" else EXPERIMENTS)
             for k in EVAL_SEEDS
         ]
-    jobs: list[dict[str, Any]] = [
+    jobs = [
         {"task": e, "seed": SAMPLE_SEED, "path": out / f"{e}.mcap"} for e in EXPERIMENTS
     ]
     jobs.append(
