@@ -766,6 +766,7 @@ def test_lfd_segment_and_eval_rerun_save(small_templates: list[str], tmp_path: P
         "/segmentation/skills/result",  # dp, the default, in full
         "/segmentation/skills/paper",
         "/segmentation/skills/ground_truth",
+        "/segmentation/skills/baseline_changepoint",
         "/segmentation/skills/baseline_proximity",
         "/segmentation/skills/baseline_gripper",
     }

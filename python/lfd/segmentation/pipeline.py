@@ -97,7 +97,7 @@ class SegmentParams:
     penalty: float = 10.0
     min_duration_s: float = 0.5
     co_motion: float = 20.0
-    co_motion_grace_s: float = 0.1
+    co_motion_grace_s: float = 0.0
     co_motion_window_s: float = 1.0 / 6.0
     implicit_moves: bool = True
     implicit_move_s: float = 0.2

@@ -51,7 +51,7 @@ class Stage1Params:
     opening_hysteresis: float = 0.005
     velocity_hysteresis: float = 0.02
     rise_hysteresis: float = 0.02
-    min_section_s: float = 0.2
+    min_section_s: float = 0.1
     object_criteria: bool = True
     height_hysteresis: float = 0.005
 
