@@ -27,7 +27,7 @@ from typing import Any
 
 GROUPS: dict[str, tuple[dict[str, Any], tuple[str, ...]]] = {
     "careful": ({}, ("exp1", "exp2", "exp3", "exp4")),
-    "careful, fast small noisy hand": (
+    "fast small noisy": (
         {"speed": 1.4, "hand_scale": 0.85, "noise_mm": 5.0},
         ("exp1", "exp2", "exp3", "exp4"),
     ),
@@ -106,7 +106,7 @@ def main() -> int:
     sizes: dict[str, int] = {}
     for group in groups:
         given, tasks = GROUPS[group]
-        slug = group.replace(",", "").replace(" ", "_")
+        slug = group.replace(" ", "_")
         paths = simulate_group(Path(args.out) / slug, given, tasks, seeds)
         sizes[group] = len(paths)
         results[group] = {}

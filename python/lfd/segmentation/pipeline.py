@@ -90,7 +90,7 @@ class SegmentParams:
 
     stage1: Stage1Params = field(default_factory=Stage1Params)
     end: Literal["final", "any"] = "final"
-    min_rise: float = 0.02
+    min_rise: float = 0.025
     dominance: float = 0.0
     max_segment_s: float = 10.0
     lookahead: bool = True
