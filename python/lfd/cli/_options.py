@@ -8,7 +8,7 @@ from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any, get_args
 
 if TYPE_CHECKING:
-    from ..segmentation.pipeline import GrammarUse, Search
+    pass
 
 
 def add_segmentation_arguments(parser: argparse.ArgumentParser, *, used_with: str = "") -> None:
@@ -42,24 +42,28 @@ def add_segmentation_arguments(parser: argparse.ArgumentParser, *, used_with: st
     )
 
 
-def segmentation_options(args: argparse.Namespace) -> tuple[Search, GrammarUse]:
-    """(search, grammar) chosen by :func:`add_segmentation_arguments`'s options."""
+def segmentation_options(args: argparse.Namespace) -> dict[str, Any]:
+    """Keyword arguments of :func:`lfd.segment` chosen by :func:`add_segmentation_arguments`'s
+    options and ``--templates`` (a file wins over the shipped set ``--paper`` selects)."""
     from ..errors import UsageError
-    from ..segmentation.pipeline import (
-        DEFAULT_GRAMMAR,
-        DEFAULT_SEARCH,
-        PAPER_GRAMMAR,
-        PAPER_SEARCH,
-    )
+    from ..segmentation import PAPER
+    from ..segmentation.pipeline import DEFAULT_GRAMMAR, DEFAULT_SEARCH, PAPER_GRAMMAR, PAPER_SEARCH
+    from ..segmentation.templates import Templates
 
+    given = getattr(args, "templates", None)
+    templates = Templates.load(given) if given else None
     if args.paper:
         if args.search not in (None, PAPER_SEARCH) or args.grammar not in (None, PAPER_GRAMMAR):
             raise UsageError(
                 f"--paper means --search {PAPER_SEARCH} --grammar {PAPER_GRAMMAR}; "
                 "drop --paper to choose other values"
             )
-        return PAPER_SEARCH, PAPER_GRAMMAR
-    return args.search or DEFAULT_SEARCH, args.grammar or DEFAULT_GRAMMAR
+        return {**PAPER, "templates": templates or PAPER["templates"]}
+    return {
+        "search": args.search or DEFAULT_SEARCH,
+        "grammar": args.grammar or DEFAULT_GRAMMAR,
+        "templates": templates,
+    }
 
 
 # --- outputs: one vocabulary (-o/--output FILE, --json OUT|-) -------------------------------

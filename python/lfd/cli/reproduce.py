@@ -97,8 +97,7 @@ def run(args: argparse.Namespace) -> int:
     if args.task:
         program = TaskProgram.load(args.task)
     elif args.segment:
-        search, grammar = segmentation_options(args)
-        program = from_segmentation(segment(demo, search=search, grammar=grammar), t0)
+        program = from_segmentation(segment(demo, **segmentation_options(args)), t0)
     else:
         program = from_labels(demo.labels, t0)
     # refused here, before the progress bar starts, so the error stays one line on stderr

@@ -40,14 +40,12 @@ def segment_recording(
     ``on_loaded(demo)`` is called as soon as the recording is loaded (e.g. to show it).
     """
     from ..io import load
-    from ..segmentation import Templates, all_metrics, segment
+    from ..segmentation import all_metrics, segment
 
     demo = load(args.recording, images=bool(getattr(args, "rerun_session", None)))
     if on_loaded is not None:
         on_loaded(demo)
-    templates = Templates.load(args.templates) if args.templates else None
-    search, grammar = segmentation_options(args)
-    result = segment(demo, templates, search=search, grammar=grammar)
+    result = segment(demo, **segmentation_options(args))
     doc: dict[str, Any] = {
         "recording": str(args.recording),
         "method": result.method,
@@ -95,14 +93,16 @@ def run(args: argparse.Namespace) -> int:
     shown: list[Any] = []  # the trajectory made while showing the demonstration
     demo, result, doc = segment_recording(args, on_loaded=_show_demo(shown) if show else None)
     if show:
-        from ..segmentation import Templates
+        from ..segmentation.templates import resolve_templates
         from ..viz.pipeline import log_segment_run
 
+        opts = segmentation_options(args)
         log_segment_run(
             demo,
             result,
             trajectory=shown[0] if shown else None,
-            templates=Templates.load(args.templates) if args.templates else None,
+            templates=resolve_templates(opts["templates"]),
+            params=opts.get("params"),
             ground_truth=False,  # logged with the demonstration
         )
     con = console(args)

@@ -189,9 +189,7 @@ def _jobs(which: str, out: Path, style: str = "careful") -> list[dict[str, Any]]
             for e in (NATURAL_EXPERIMENTS if style == "natural" else EXPERIMENTS)
             for k in EVAL_SEEDS
         ]
-    jobs = [
-        {"task": e, "seed": SAMPLE_SEED, "path": out / f"{e}.mcap"} for e in EXPERIMENTS
-    ]
+    jobs = [{"task": e, "seed": SAMPLE_SEED, "path": out / f"{e}.mcap"} for e in EXPERIMENTS]
     jobs.append(
         {
             "task": "exp1",

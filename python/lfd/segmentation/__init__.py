@@ -10,7 +10,7 @@ rise/fall; stage 2 merges the data sections into skills by HMM template matching
 TCP-rise decision tree (Fig. 5) and the skill grammar (Fig. 6), either by a globally optimal
 segmental DP under the grammar (``search="dp", grammar="enforce"``, the default and the most
 accurate) or by the paper's greedy cut loop with grammar warnings (``search="greedy",
-grammar="warn"``, :data:`PAPER`).
+grammar="warn"``; with the paper-recipe templates and pipeline, :data:`PAPER`).
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ from .pipeline import (
     DEFAULT_GRAMMAR,
     DEFAULT_SEARCH,
     PAPER_GRAMMAR,
+    PAPER_PARAMS,
     PAPER_SEARCH,
     GrammarUse,
     Search,
@@ -34,12 +35,12 @@ from .pipeline import (
 )
 from .result import Segment, Segmentation
 from .stage1 import Stage1Params
-from .templates import Templates, train_templates
+from .templates import TemplateChoice, Templates, resolve_templates, train_templates
 
 
 def segment(
     demo_or_traj: Demonstration | Trajectory,
-    templates: Templates | None = None,
+    templates: Templates | TemplateChoice | None = None,
     *,
     search: Search = "dp",
     grammar: GrammarUse = "enforce",
@@ -51,15 +52,17 @@ def segment(
     ----------
     demo_or_traj : Demonstration or Trajectory
         A recording (preprocessed here) or an already preprocessed trajectory.
-    templates : Templates, optional
-        Skill templates; the ones shipped with the package if omitted.
+    templates : Templates or {"default", "paper"}, optional
+        Skill templates; the ones shipped with the package if omitted (``"default"``);
+        ``"paper"``: the shipped templates of the paper's recipe (:data:`PAPER`).
     search : {"dp", "greedy"}
         ``dp`` (default): the globally optimal segmental DP; ``greedy``: the paper's greedy cut
         loop (Eq. 3-5).
     grammar : {"enforce", "warn", "off"}
         ``enforce`` (default): consider only allowed skill transitions; ``warn``: keep the best
         result and warn about impossible transitions (the paper, Fig. 6); ``off``: ignore the
-        grammar. The paper's algorithm is ``search="greedy", grammar="warn"`` (:data:`PAPER`).
+        grammar. The paper's algorithm is ``search="greedy", grammar="warn"``, with the paper-recipe
+        templates and pipeline (:data:`PAPER`).
     params : SegmentParams, optional
         Stage-1 and stage-2 parameters.
 
@@ -77,7 +80,7 @@ def segment(
     """
     from .pipeline import as_trajectory
 
-    templates = templates or Templates.default()
+    templates = resolve_templates(templates)
     p = params or SegmentParams()
     wanted = templates.preprocessing
     traj = as_trajectory(demo_or_traj, wanted)
@@ -98,14 +101,23 @@ def segment(
 
 
 class SearchOptions(TypedDict):
-    """The stage-2 options of :func:`segment`, as keyword arguments."""
+    """A segmentation method as keyword arguments of :func:`segment`."""
 
     search: Search
     grammar: GrammarUse
+    templates: TemplateChoice
+    params: SegmentParams
 
 
-PAPER: SearchOptions = {"search": PAPER_SEARCH, "grammar": PAPER_GRAMMAR}
-"""The paper's algorithm as keyword arguments: ``lfd.segment(demo, **PAPER)``."""
+PAPER: SearchOptions = {
+    "search": PAPER_SEARCH,
+    "grammar": PAPER_GRAMMAR,
+    "templates": "paper",
+    "params": PAPER_PARAMS,
+}
+"""The paper's method as keyword arguments, ``lfd.segment(demo, **PAPER)``: the greedy cut loop
+that only warns about impossible transitions, on templates of the paper's recipe (careful
+demos, 2 Hz filters, Table I's thumb-index opening) and stage 1 on the hand signals only."""
 
 __all__ = [
     "DEFAULT_GRAMMAR",

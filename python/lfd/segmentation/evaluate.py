@@ -14,7 +14,7 @@ from ..demo import Demonstration
 from ..errors import LfdError, UsageError
 from ..skills import SKILLS
 from .metrics import METRIC_NAMES, all_metrics
-from .pipeline import DEFAULT_GRAMMAR, PAPER_GRAMMAR, PAPER_SEARCH, GrammarUse
+from .pipeline import DEFAULT_GRAMMAR, GrammarUse
 from .result import Segmentation
 from .templates import Templates
 
@@ -49,10 +49,22 @@ def run_method(
     grammar: GrammarUse = DEFAULT_GRAMMAR,
 ) -> Segmentation:
     """Segment ``demo`` with one of :data:`METHODS` (``grammar`` applies to dp and greedy)."""
-    from . import changepoint_segmentation, gripper_segmentation, proximity_segmentation, segment
+    from . import (
+        PAPER,
+        changepoint_segmentation,
+        gripper_segmentation,
+        proximity_segmentation,
+        segment,
+    )
 
     if method == "paper":
-        return segment(demo, templates, search=PAPER_SEARCH, grammar=PAPER_GRAMMAR)
+        return segment(
+            demo,
+            templates or PAPER["templates"],
+            search=PAPER["search"],
+            grammar=PAPER["grammar"],
+            params=PAPER["params"],
+        )
     if method == "dp":
         return segment(demo, templates, search="dp", grammar=grammar)
     if method == "greedy":

@@ -10,7 +10,7 @@ from __future__ import annotations
 import dataclasses
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
@@ -18,6 +18,9 @@ from .. import _hmmseg
 from ..demo import Demonstration
 from ..errors import DemonstrationError
 from ..trajectory import Trajectory
+
+if TYPE_CHECKING:
+    from ..features import Features
 from .grammar import grammar_json, implicit_move_grammar_json, needs_implicit_move
 from .params import skill_params
 from .result import Segment, Segmentation
@@ -102,6 +105,17 @@ class SegmentParams:
     implicit_moves: bool = True
     implicit_move_s: float = 0.2
     co_motion_displacement: float = 0.015
+
+
+PAPER_PARAMS = SegmentParams(
+    stage1=Stage1Params(object_criteria=False, min_section_s=0.2),
+    min_rise=0.02,
+    co_motion=0.0,
+    implicit_moves=False,
+)
+"""The paper's pipeline around the search (with :data:`PAPER_SEARCH`, :data:`PAPER_GRAMMAR` and the
+paper-recipe templates, ``lfd segment --paper``): stage 1 on the hand signals only (sections
+>= 0.2 s), a 2 cm rise threshold, no co-motion evidence, no implicit moves."""
 
 
 def _interp_columns(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, int]:
@@ -200,23 +214,7 @@ def segment_trajectory(
         p.stage1,
         objects=[(f.values, f.thresholds) for f in per_object],
     )
-    max_len = max(1, round(p.max_segment_s / traj.dt))
-    moving = moving_objects(filled, p.co_motion_window_s, p.co_motion_displacement)
-    scores, best_object = scores_over_objects(
-        [np.ascontiguousarray(f.values, dtype=np.float64) for f in per_object],
-        templates,
-        bounds,
-        max_len,
-        p.end,
-        extra=co_motion_penalty(
-            moving,
-            bounds,
-            templates.skills,
-            p.co_motion,
-            lifted=np.stack([f.values[:, 4] > f.thresholds[:, 4] for f in per_object]),
-            grace=round(p.co_motion_grace_s / traj.dt),
-        ),
-    )
+    scores, best_object = stage2_scores(filled, templates, bounds, p, per_object)
     rising = _hmmseg.rising_table(
         np.ascontiguousarray(filled.tcp[:, 2]), bounds, p.min_rise, p.dominance
     )
@@ -242,6 +240,47 @@ def segment_trajectory(
         method=search,
         sections=[int(b) for b in bounds],
         object_names=list(filled.object_names),
+    )
+
+
+def stage2_scores(
+    traj: Trajectory,
+    templates: Templates,
+    bounds: np.ndarray,
+    params: SegmentParams,
+    per_object: list[Features] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The score table ``(K, K + 1, S)`` of a gap-free trajectory's runs of sections as the search
+    sees it, and the target object of each entry.
+
+    The skills are object-centred: for every run of sections and skill the features are taken
+    relative to each object in turn, the co-motion evidence (:func:`co_motion_penalty`) is
+    added, and the best-explaining object is the segment's target (``c^{r,s} = max_o sum_f log
+    P(O_f^{r,o} | lambda_f^s) + co-motion``). This replaces a fixed per-sample target labelling,
+    which cannot know the target of skills that never move their object (Locate).
+    ``per_object``: ``compute_features(traj, target=o)`` for every object (computed if None).
+    """
+    from ..features import compute_features
+
+    p = params
+    if per_object is None:
+        per_object = [compute_features(traj, target=o) for o in range(len(traj.object_names))]
+    max_len = max(1, round(p.max_segment_s / traj.dt))
+    moving = moving_objects(traj, p.co_motion_window_s, p.co_motion_displacement)
+    return scores_over_objects(
+        [np.ascontiguousarray(f.values, dtype=np.float64) for f in per_object],
+        templates,
+        bounds,
+        max_len,
+        p.end,
+        extra=co_motion_penalty(
+            moving,
+            bounds,
+            templates.skills,
+            p.co_motion,
+            lifted=np.stack([f.values[:, 4] > f.thresholds[:, 4] for f in per_object]),
+            grace=round(p.co_motion_grace_s / traj.dt),
+        ),
     )
 
 
@@ -272,31 +311,6 @@ def insert_implicit_moves(traj: Trajectory, segments: list[Segment], length: int
 def _resized(traj: Trajectory, seg: Segment, start: int, end: int) -> Segment:
     obj = traj.object_names.index(seg.object) if seg.object in traj.object_names else None
     return _make_segment(traj, seg.skill, start, end, obj, seg.score, seg.confidence, seg.margin)
-
-
-def object_scores(
-    traj: Trajectory, templates: Templates, bounds: np.ndarray, max_len: int, end: str
-) -> tuple[np.ndarray, np.ndarray]:
-    """Score table maximised over the target object, and the maximising object.
-
-    The skills are object-centred: for every run of sections and skill the features are taken
-    relative to each object in turn and the best-explaining object is the segment's target
-    (``c^{r,s} = max_o sum_f log P(O_f^{r,o} | lambda_f^s)``). This replaces a fixed per-sample
-    target labelling, which cannot know the target of skills that never move their object
-    (Locate).
-
-    Returns
-    -------
-    scores : array, shape (K, K + 1, S)
-    best_object : array of int, shape (K, K + 1, S)
-    """
-    from ..features import compute_features
-
-    values = [
-        np.ascontiguousarray(compute_features(traj, target=o).values, dtype=np.float64)
-        for o in range(len(traj.object_names))
-    ]
-    return scores_over_objects(values, templates, bounds, max_len, end)
 
 
 def moving_objects(traj: Trajectory, window_s: float, displacement: float) -> np.ndarray:
@@ -396,7 +410,8 @@ def scores_over_objects(
     *,
     extra: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`object_scores` from the feature matrices, one (n, 10) array per target object;
+    """The score table maximised over the target object, from the feature matrices, one (n, 10)
+    array per target object;
     ``extra`` (O, K, K + 1, S) is added per target before the maximum (e.g.
     :func:`co_motion_penalty`)."""
     engine = templates.engine

@@ -69,6 +69,13 @@ TCP_IN_OBJECT_XY = (5, 6)
 
 DEFAULT_TEMPLATES = "data/templates.json"
 """Package resource of the shipped templates."""
+PAPER_TEMPLATES = "data/templates_paper.json"
+"""Package resource of the templates of the paper's recipe (``lfd segment --paper``): careful
+template demos only, hand and objects low-passed at 2 Hz, Table I's thumb-index opening,
+covariance floor 1e-3 (lfd 0.1's shipped templates)."""
+
+TemplateChoice = Literal["default", "paper"]
+"""Names of the shipped template sets."""
 
 
 class Templates:
@@ -147,7 +154,12 @@ class Templates:
     @classmethod
     def default(cls) -> Templates:
         """The templates shipped with the package."""
-        return _default_templates()
+        return _shipped(DEFAULT_TEMPLATES)
+
+    @classmethod
+    def paper(cls) -> Templates:
+        """The shipped templates of the paper's recipe (:data:`PAPER_TEMPLATES`)."""
+        return _shipped(PAPER_TEMPLATES)
 
     @property
     def preprocessing(self) -> dict[str, Any]:
@@ -163,12 +175,25 @@ class Templates:
         return f"Templates(skills={self.skills}, features={[f[0] for f in self.features]})"
 
 
+def resolve_templates(templates: Templates | TemplateChoice | None) -> Templates:
+    """A template set, the shipped ``"default"`` (also for ``None``) or ``"paper"`` one."""
+    if templates is None or templates == "default":
+        return Templates.default()
+    if templates == "paper":
+        return Templates.paper()
+    if isinstance(templates, Templates):
+        return templates
+    raise InvalidParameterError(
+        f"templates must be a Templates object, 'default' or 'paper', got {templates!r}"
+    )
+
+
 @cache
-def _default_templates() -> Templates:
-    res = resources.files("lfd").joinpath(DEFAULT_TEMPLATES)
+def _shipped(resource: str) -> Templates:
+    res = resources.files("lfd").joinpath(resource)
     if not res.is_file():
         raise ModelFormatError(
-            f"the package has no shipped templates ({DEFAULT_TEMPLATES}); "
+            f"the package has no shipped templates ({resource}); "
             "train some with `lfd templates train recordings/templates -o templates.json`"
         )
     return Templates.from_json(res.read_text(encoding="utf-8"))

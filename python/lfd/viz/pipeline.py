@@ -134,7 +134,7 @@ def log_segment_run(
     """
     from ..features import compute_features
     from ..segmentation import SegmentParams, Templates
-    from ..segmentation.pipeline import as_trajectory, fill_gaps, object_scores
+    from ..segmentation.pipeline import as_trajectory, fill_gaps, stage2_scores
 
     tpl = templates or Templates.default()
     traj = (
@@ -154,8 +154,7 @@ def log_segment_run(
     if result.method == "greedy" and result.sections and result.segments:
         p = params or SegmentParams()
         bounds = np.asarray(result.sections, dtype=np.int64)
-        max_len = max(1, round(p.max_segment_s / traj.dt)) if traj.dt > 0 else 0
-        table, _ = object_scores(filled, tpl, bounds, max_len, p.end)  # as the segmentation
+        table, _ = stage2_scores(filled, tpl, bounds, p)  # as the segmentation
         trace, ends = greedy_trace(table, bounds, [s.start for s in result.segments], tpl.skills)
         scores = list(trace)
         candidate_ns = [t_end[e] for e in ends]
