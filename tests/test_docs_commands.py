@@ -56,6 +56,11 @@ RUN_AS: dict[str, tuple[str, str]] = {
         "--val-samples 10 --data hand_train.npz",
         "fine-tuning at a tiny size",
     ),
+    "lfd templates train recordings/templates recordings/templates/natural -o "
+    "python/lfd/data/templates.json": (
+        "lfd templates train recordings/templates recordings/templates/natural -o templates.json",
+        "the documented run rewrites the package's shipped templates; the test writes a copy",
+    ),
     "lfd perception eval --hand-model hand.pt": (
         "lfd perception eval --hand-model hand.pt --samples 20",
         "20 held-out renders instead of 300",
