@@ -31,13 +31,15 @@ class Segment:
     object : str or None
         Target object name (majority of the per-sample target labels in the segment).
     score : float
-        Summed feature log-likelihood per sample of the chosen skill (NaN for baselines).
+        Summed feature log-likelihood per sample of the chosen skill (NaN for baselines and for
+        an implicit re-grasp Move, which the grammar implies and no template scored; ``null``
+        in JSON).
     confidence : float
         Posterior probability, in [0, 1], of the chosen skill among the candidate skills on the
         same samples (those the TCP-rise decision allows), from their per-sample scores with
         equal priors: ``exp(score) / sum(exp(score_o))``. 1 without a rival, at most 0.5 when a
         rival explains the samples at least as well (the grammar chose this skill). NaN for
-        the baselines.
+        the baselines and implicit Moves.
     margin : float
         Raw margin of ``score`` over the best other candidate skill, in nats per sample (``inf``
         when no other skill was a candidate, negative when a rival is more likely, NaN for the
