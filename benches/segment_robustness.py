@@ -32,18 +32,9 @@ def simulate_condition(
     out: Path, given: dict[str, float], seeds: Iterable[int] = SEEDS
 ) -> list[Path]:
     """Simulate (once; cached in ``out``) every experiment x seed with the given variability."""
-    from lfd.cli.simulate import record
-    from lfd.sim import Variability
+    from segment_heldout import simulate_group  # same folder: benches/
 
-    out.mkdir(parents=True, exist_ok=True)
-    paths = []
-    for task in EXPERIMENTS:
-        for seed in seeds:
-            path = out / f"{task}_{seed}.mcap"
-            if not path.exists():
-                record(task, seed, path, variability=Variability(**given))  # type: ignore[arg-type]
-            paths.append(path)
-    return paths
+    return simulate_group(out, dict(given), EXPERIMENTS, list(seeds))
 
 
 def main() -> int:
