@@ -24,7 +24,7 @@ if TYPE_CHECKING:
 from .grammar import grammar_json, implicit_move_grammar_json, needs_implicit_move
 from .params import skill_params
 from .result import Segment, Segmentation
-from .stage1 import Stage1Params, section_boundaries
+from .stage1 import OBJECT_COLUMNS, Stage1Params, section_boundaries
 from .templates import Templates
 
 Search = Literal["dp", "greedy"]
@@ -267,6 +267,7 @@ def stage2_scores(
         per_object = [compute_features(traj, target=o) for o in range(len(traj.object_names))]
     max_len = max(1, round(p.max_segment_s / traj.dt))
     moving = moving_objects(traj, p.co_motion_window_s, p.co_motion_displacement)
+    height = OBJECT_COLUMNS["object_height"]  # above the object's rest height + gamma: lifted
     return scores_over_objects(
         [np.ascontiguousarray(f.values, dtype=np.float64) for f in per_object],
         templates,
@@ -278,7 +279,7 @@ def stage2_scores(
             bounds,
             templates.skills,
             p.co_motion,
-            lifted=np.stack([f.values[:, 4] > f.thresholds[:, 4] for f in per_object]),
+            lifted=np.stack([f.values[:, height] > f.thresholds[:, height] for f in per_object]),
             grace=round(p.co_motion_grace_s / traj.dt),
         ),
     )
