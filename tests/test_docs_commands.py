@@ -152,6 +152,13 @@ def _env() -> dict[str, str]:
     return env
 
 
+def _run(args: list[str], cwd: Path, timeout: float) -> subprocess.CompletedProcess[str]:
+    """Run a documented command or snippet as a user would, output captured."""
+    return subprocess.run(
+        args, cwd=cwd, env=_env(), capture_output=True, text=True, timeout=timeout, check=False
+    )
+
+
 def _run_viewer_line(cmd: str, cwd: Path) -> None:
     """Start a viewer line, let it do its work, then stop it with SIGINT as a user would.
 
@@ -218,15 +225,7 @@ def test_command_lines_work_as_shown(document: str, tmp_path: Path) -> None:
             _run_viewer_line(cmd, work)
             ran += 1
             continue
-        proc = subprocess.run(
-            ["bash", "-c", cmd],
-            cwd=work,
-            env=_env(),
-            capture_output=True,
-            text=True,
-            timeout=900,
-            check=False,
-        )
+        proc = _run(["bash", "-c", cmd], work, timeout=900)
         assert proc.returncode == 0, f"{line}\nexit {proc.returncode}\n{proc.stderr[-3000:]}"
         assert "Traceback" not in proc.stderr, f"{line}\n{proc.stderr[-3000:]}"
         ran += 1
@@ -243,13 +242,6 @@ def test_python_snippets_work_twice_in_a_fresh_interpreter(document: str, tmp_pa
             continue
         # a viewer cannot be spawned in a test: the snippet saves to a file instead
         code = code.replace("spawn=True", f"save={str(tmp_path / 'snippet.rrd')!r}")
-        proc = subprocess.run(
-            [sys.executable, "-c", code + "\n\n" + code],  # every call works more than once
-            cwd=ROOT,
-            env=_env(),
-            capture_output=True,
-            text=True,
-            timeout=600,
-            check=False,
-        )
+        # every call works more than once
+        proc = _run([sys.executable, "-c", code + "\n\n" + code], ROOT, timeout=600)
         assert proc.returncode == 0, f"{document}:{start}\n{proc.stderr[-3000:]}"

@@ -35,6 +35,8 @@ import numpy as np
 
 from ..demo import INDEX_TIP, THUMB_TIP, Demonstration
 from ..errors import UsageError
+from ..preprocessing.filters import finite_runs
+from ..preprocessing.grasp import box_distance
 from ..skills import SKILLS
 from ..trajectory import Trajectory
 from .pipeline import _make_segment, as_trajectory, fill_gaps
@@ -131,8 +133,6 @@ def _fill(x: np.ndarray) -> np.ndarray:
 
 
 def _signals(traj: Trajectory, rate_hz: float) -> _Signals:
-    from scipy.spatial.transform import Rotation
-
     step = max(1, round(1.0 / (rate_hz * traj.dt))) if traj.dt > 0 else 1
     idx = np.arange(0, len(traj), step)
     dt = traj.dt * step
@@ -149,10 +149,9 @@ def _signals(traj: Trajectory, rate_hz: float) -> _Signals:
     k, m = pos.shape[:2]
     contact, above = np.empty((k, m)), np.empty((k, m))
     for i in range(k):
-        local = Rotation.from_quat(traj.object_quaternion[i, idx]).inv().apply(tcp - pos[i])
-        half = 0.5 * traj.object_size[i]
-        contact[i] = np.linalg.norm(np.maximum(np.abs(local) - half, 0.0), axis=1)
-        above[i] = tip[:, 2] - pos[i, :, 2] - half[2]
+        size = traj.object_size[i]
+        contact[i] = box_distance(tcp, pos[i], traj.object_quaternion[i, idx], size)
+        above[i] = tip[:, 2] - pos[i, :, 2] - 0.5 * size[2]
     horizontal = np.linalg.norm(tip[None, :, :2] - pos[:, :, :2], axis=2)
     velocity = grad(pos, 1)
     rest = np.median(pos[:, : max(1, round(0.5 / dt)), 2], axis=1)
@@ -171,17 +170,11 @@ def _signals(traj: Trajectory, rate_hz: float) -> _Signals:
     )
 
 
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """Maximal runs ``[a, b)`` of True in a bool array."""
-    edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(np.int8), 0]))
-    return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
-
-
 def _episodes(s: _Signals, k: int, dt: float) -> list[tuple[int, int]]:
     """Motions ``[a, b)`` of box ``k``: runs faster than :data:`MOVING`, joined across short
     stops and across stops in the air (a carry paused above both ends), at least
     :data:`MIN_SHIFT` long in displacement."""
-    runs = _runs(s.box_speed[k] > MOVING)
+    runs = finite_runs(s.box_speed[k] > MOVING)
     out: list[tuple[int, int]] = []
     for a, b in runs:
         if out:
@@ -261,7 +254,7 @@ def _frame_states(s: _Signals, dt: float) -> tuple[np.ndarray, np.ndarray]:
         & (s.above[near, cols] < HOVER_HEIGHT[1])
         & (s.horizontal[near, cols] < HOVER_RADIUS)
     )
-    for a, b in _runs(hover):
+    for a, b in finite_runs(hover):
         k = int(np.bincount(near[a:b]).argmax())
         soon = slice(b, b + round(0.5 / dt))
         touched = np.isin(skill[soon], REACHES) & (obj[soon] == k)
