@@ -1,7 +1,11 @@
-"""``lfd perception``: train and evaluate the depth hand-keypoint network (needs torch).
+"""``lfd perception``: check the hand model on photos; train / evaluate the depth network.
 
+    lfd perception hands IMAGE... [--depth D.png... --intrinsics K.json] [--json OUT] [--rerun]
     lfd perception train -o model.pt [--samples 6000] [--epochs 40] [--resume]
     lfd perception eval --hand-model model.pt [--samples 300]
+
+``hands`` runs MediaPipe Hands (the real-camera model) on still images: for checking a camera
+setup. ``train`` / ``eval`` concern the depth network of the simulator (needs torch).
 
 Training renders randomised hand crops with the simulated demonstrator (``--data`` caches them
 as .npz), shows progress, and checkpoints every epoch to ``<output>.ckpt`` (``--resume``).
@@ -15,11 +19,27 @@ import os
 from ._types import positive_float, positive_int, seed
 
 NAME = "perception"
-HELP = "Train / evaluate the depth hand-keypoint network (needs the perception extra)."
+HELP = "Hands in photos (MediaPipe); train / evaluate the depth hand network (perception extra)."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="action", required=True)
+    h = sub.add_parser("hands", help="find hands and their 21 keypoints in photos (MediaPipe)")
+    h.add_argument("images", nargs="+", metavar="IMAGE", help="colour images (any OpenCV format)")
+    h.add_argument(
+        "--depth",
+        nargs="+",
+        metavar="D.png",
+        help="aligned 16-bit depth PNGs in mm, one per image, in order: adds keypoints_3d (m)",
+    )
+    h.add_argument("--intrinsics", metavar="K.json", help='{"K": 3x3} or a camera.json')
+    h.add_argument("--max-hands", type=positive_int, default=2, help="hands per image (2)")
+    h.add_argument("--mirrored", action="store_true", help="the photos are mirrored (selfie view)")
+    from ..viz.cli import add_rerun_arguments
+    from ._options import add_json_argument
+
+    add_json_argument(h, "the hands (keypoints in MediaPipe-21 order)")
+    add_rerun_arguments(h)
     t = sub.add_parser("train", help="train the hand network on rendered depth crops")
     t.add_argument("-o", "--output", required=True, metavar="FILE.pt", help="output weights (.pt)")
     t.add_argument(
@@ -52,6 +72,51 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     e.add_argument("--seed", type=seed, default=99, help="seed of the held-out renders (99)")
 
 
+def _hands(args: argparse.Namespace) -> int:
+    from rich.progress import Progress
+
+    from ..perception.hand.mediapipe import MediaPipeHands
+    from ..perception.hand.stills import hands_in_images, log_hands_rerun
+    from ..viz.cli import check_rerun_args, close_from_args, open_from_args
+    from ._options import check_json, console, json_to_stdout, write_json
+
+    inputs = [*args.images, *(args.depth or []), *([args.intrinsics] if args.intrinsics else [])]
+    check_json(args, inputs)
+    check_rerun_args(args, inputs=inputs)
+    con = console(args)
+    model = MediaPipeHands(mirrored=args.mirrored)
+    with Progress(console=con, transient=True) as progress:
+        task = progress.add_task(f"{len(args.images)} images", total=len(args.images))
+        doc = hands_in_images(
+            args.images,
+            depth=args.depth,
+            intrinsics=args.intrinsics,
+            model=model,
+            max_hands=args.max_hands,
+            progress=lambda k: progress.update(task, completed=k),
+        )
+    for entry in doc["images"]:
+        hands = ", ".join(
+            f"{h['handedness']} ({h['score']:.2f}"
+            + (", 3-D" if h["keypoints_3d"] is not None else "")
+            + ")"
+            for h in entry["hands"]
+        )
+        con.print(
+            f"{entry['image']}: {len(entry['hands'])} hands" + (f": {hands}" if hands else "")
+        )
+    if open_from_args(args, "lfd_perception_hands"):
+        try:
+            log_hands_rerun(doc)
+        finally:
+            close_from_args(args)
+    if args.json:
+        write_json(args.json, doc)
+        if not json_to_stdout(args):
+            con.print(f"wrote {args.json}")
+    return 0
+
+
 def _check(args: argparse.Namespace) -> None:
     """Refuse unusable outputs before torch is imported and anything is rendered."""
     from ..outputs import check_output
@@ -81,6 +146,8 @@ def _render(n: int, seed: int) -> dict:  # type: ignore[type-arg]
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
+    if args.action == "hands":
+        return _hands(args)
     _check(args)
 
     from ..perception.hand.infer import _torch

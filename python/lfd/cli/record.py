@@ -1,9 +1,13 @@
-"""``lfd record``: perceive an RGB-D source (tags + hand network) into a demonstration MCAP.
+"""``lfd record``: perceive an RGB-D source (tags + hand model) into a demonstration MCAP.
 
     lfd record --source sim:exp1 -o demo.mcap --duration 10     # simulator, real perception
     lfd record --source frames:DIR -o demo.mcap                  # image folder (see docs)
     lfd record --source camera:0 --intrinsics camera.json -o demo.mcap \
-        --depth-reader my_realsense.py:make_reader
+        --depth-reader docs/examples/realsense_reader.py:make_reader --hand right
+
+The hand model: ``mediapipe`` (MediaPipe Hands on the colour image, lifted with depth; the
+default for real cameras and image folders) or ``depth-net`` (lfd's depth network, trained on
+the simulator's hand; the default for ``sim:`` sources), or a ``.pt`` file of the depth network.
 
 Ctrl+C (SIGINT) or SIGTERM stops the recording; the file is closed and complete.
 """
@@ -35,7 +39,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--duration", type=positive_float, help="stop after this many seconds of frames (> 0)"
     )
     parser.add_argument(
-        "--hand-rate", type=positive_float, default=5.0, help="hand estimator rate, Hz, > 0 (5)"
+        "--hand-rate",
+        type=positive_float,
+        help="hand samples per second, > 0 (default: every frame with mediapipe, 5 with depth-net)",
     )
     parser.add_argument(
         "--fps",
@@ -50,7 +56,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="camera source: factory() returns a depth reader (read() -> uint16 mm image)",
     )
     parser.add_argument(
-        "--hand-model", metavar="FILE.pt", help="hand network weights (default: shipped model)"
+        "--hand-model",
+        metavar="MODEL",
+        help="mediapipe, depth-net or a depth-net FILE.pt (default: mediapipe for cameras and "
+        "image folders, depth-net for sim: sources)",
+    )
+    parser.add_argument(
+        "--hand",
+        choices=("right", "left"),
+        default="right",
+        help="the demonstrator's hand (right); another hand in view is tracked and ignored",
+    )
+    parser.add_argument(
+        "--mirrored",
+        action="store_true",
+        help="the colour images are mirrored (a selfie view): swaps MediaPipe's handedness",
     )
     parser.add_argument(
         "--aruco-dict", default="DICT_4X4_50", help="ArUco dictionary of the tags (DICT_4X4_50)"
@@ -68,6 +88,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_rerun_arguments(parser)
 
 
+def hand_model_choice(option: str | None, source: str) -> str:
+    """``mediapipe`` or ``depth-net`` for ``--hand-model`` (None: by the source's kind)."""
+    if option is None:
+        return "depth-net" if source.startswith("sim:") else "mediapipe"
+    if option in ("mediapipe", "depth-net"):
+        return option
+    if option.endswith(".pt"):
+        return "depth-net"
+    from ..errors import UsageError
+
+    raise UsageError(
+        f"--hand-model {option}: expected mediapipe, depth-net or a depth-net weights file .pt"
+    )
+
+
 def _sigterm(signum: int, frame: Any) -> None:
     raise KeyboardInterrupt
 
@@ -82,8 +117,12 @@ def run(args: argparse.Namespace) -> int:
     from ..viz.cli import check_rerun_args, close_from_args, open_from_args
     from ._options import check_inputs
 
-    check_inputs(intrinsics=args.intrinsics, hand_model=args.hand_model)
-    inputs = [p for p in (args.intrinsics, args.hand_model) if p]
+    model = hand_model_choice(args.hand_model, args.source)
+    model_file = (
+        args.hand_model if model == "depth-net" and args.hand_model != "depth-net" else None
+    )
+    check_inputs(intrinsics=args.intrinsics, hand_model=model_file)
+    inputs = [p for p in (args.intrinsics, model_file) if p]
     if args.source.startswith("frames:"):
         inputs.append(args.source[len("frames:") :])
     check_output(args.output, inputs=inputs, what="-o/--output", suffixes=(".mcap",))
@@ -96,11 +135,17 @@ def run(args: argparse.Namespace) -> int:
         intrinsics=args.intrinsics,
         depth_reader=args.depth_reader,
     )
-    estimator = None
-    if not args.no_hand:
+    estimator: Any = None
+    hand_rate = args.hand_rate
+    if not args.no_hand and model == "mediapipe":
+        from ..perception.hand.rgbd import MediaPipeEstimator
+
+        estimator = MediaPipeEstimator(args.hand, threads=1, mirrored=args.mirrored)
+    elif not args.no_hand:
         from ..perception.hand.infer import HandEstimator
 
-        estimator = HandEstimator(args.hand_model, threads=1)
+        estimator = HandEstimator(model_file, threads=1)
+        hand_rate = hand_rate or 5.0
     live = open_from_args(args, "lfd_record")
     max_frames = None
     if args.duration is not None and not args.source.startswith("sim:"):
@@ -130,7 +175,8 @@ def run(args: argparse.Namespace) -> int:
             stats = record(
                 source,
                 args.output,
-                hand_rate_hz=args.hand_rate,
+                hand_rate_hz=hand_rate,
+                side=args.hand,
                 estimator=estimator,
                 save_images=args.images,
                 live=live,

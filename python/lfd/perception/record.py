@@ -1,8 +1,11 @@
 """``lfd record``: perceive RGB-D frames from a source and write a demonstration MCAP live.
 
 Per frame, object poses come from the tags (:class:`~lfd.perception.markers.MarkerTracker`,
-at frame rate); every ``1 / hand_rate_hz`` seconds the hand network estimates the 21 keypoints
-from the depth image (5 Hz by default, like the paper). Samples go to a
+at frame rate); every ``1 / hand_rate_hz`` seconds the hand estimator gives the 21 keypoints with
+a confidence and a visibility each: MediaPipe Hands on the colour image lifted with the depth
+image (:class:`~lfd.perception.hand.rgbd.MediaPipeEstimator`, for real cameras, every frame by
+default) or the depth network (:class:`~lfd.perception.hand.infer.HandEstimator`, trained on the
+simulator's hand, 5 Hz like the paper). Samples go to a
 :class:`~lfd.io.McapRecorder` as they are produced, so an interrupted recording (Ctrl+C,
 SIGTERM) is a complete, loadable file up to the last frame.
 """
@@ -69,15 +72,19 @@ def record(
     source: Source,
     output: str | os.PathLike[str],
     *,
-    hand_rate_hz: float = 5.0,
+    hand_rate_hz: float | None = 5.0,
     estimator: Any = None,
     save_images: bool = False,
     live: bool = False,
     max_frames: int | None = None,
     progress: Any = None,
     markers: dict[str, Any] | None = None,
+    side: str = "right",
 ) -> RecordStats:
-    """Record ``source`` into ``output`` (MCAP). ``estimator`` is a ``HandEstimator`` or None.
+    """Record ``source`` into ``output`` (MCAP). ``estimator`` is a ``MediaPipeEstimator``, a
+    ``HandEstimator`` or None; ``side`` names the hand topics (``/hand/<side>/...``).
+
+    ``hand_rate_hz`` None estimates the hand on every frame.
 
     ``markers`` are extra :class:`~lfd.perception.markers.MarkerConfig` fields, e.g.
     ``{"dictionary": "DICT_5X5_100", "reference_size": 0.15}``.
@@ -90,7 +97,7 @@ def record(
     """
     from ..io import McapRecorder
 
-    if not hand_rate_hz > 0:
+    if hand_rate_hz is not None and not hand_rate_hz > 0:
         raise LfdError(f"hand rate must be positive, got {hand_rate_hz}")
     config = MarkerConfig.from_objects(source.objects, **(markers or {}))
     known = source.world_T_camera_if_known()
@@ -99,17 +106,24 @@ def record(
     calib_poses: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     if calib is not None:  # the empty workspace: reference marker and the boxes' initial poses
         calib_poses = dict(tracker.process(calib.color, calib.depth).poses)
-    meta = {**source.metadata, "hand_rate_hz": hand_rate_hz, "perception": "lfd.perception"}
+    meta = {
+        **source.metadata,
+        "hand_rate_hz": "every frame" if hand_rate_hz is None else hand_rate_hz,
+        "perception": "lfd.perception",
+    }
     if estimator is not None:
-        meta["hand_model"] = str(estimator.info.get("training", {}))
+        info = getattr(estimator, "info", {})
+        meta["hand_model"] = str(info.get("model") or info.get("training", {}))
+        meta["hand_side"] = side
     objects = [(o["name"], o["tag_id"], np.asarray(o["size"], float)) for o in source.objects]
     stats = RecordStats()
-    period = round(1e9 / hand_rate_hz)
+    period = 0 if hand_rate_hz is None else round(1e9 / hand_rate_hz)  # 0: every frame
     next_hand: int | None = None
     camera_written = False
     viz: _Live | None = None
     last_poses: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-    rec = McapRecorder(output, objects=objects, metadata=meta, color_format="png")
+    rec = McapRecorder(output, objects=objects, metadata=meta, color_format="png", side=side)
+    tracks_every_frame = getattr(estimator, "needs_colour", False)
     try:
         for frame in source.frames():
             poses = _process(frame, tracker, rec, stats, save_images)
@@ -131,25 +145,26 @@ def record(
             if viz is not None:
                 viz.frame(frame.t_ns, frame.color, poses)
             due = next_hand is None or frame.t_ns >= next_hand
+            found = None
+            if estimator is not None and (due or tracks_every_frame):
+                # a colour tracker sees every frame it is given: it follows the hand from the
+                # previous one, so it is fed at the hand rate and its result kept when due
+                found = _estimate_hand(
+                    estimator,
+                    frame,
+                    source.camera.K,
+                    tracker.world_T_camera,
+                    _boxes(tracker, last_poses),
+                )
             if due:
                 next_hand = frame.t_ns + period if next_hand is None else next_hand + period
                 next_hand = max(next_hand, frame.t_ns + period // 2)
-                found = None
-                ready = estimator is not None and frame.depth is not None
-                if ready and tracker.world_T_camera is not None:
-                    found = _estimate_hand(
-                        estimator,
-                        frame.depth,
-                        source.camera.K,
-                        tracker.world_T_camera,
-                        _boxes(tracker, last_poses),
-                    )
                 if found is None:  # marked unobserved (NaN, confidence 0), not invented
                     rec.add_hand(frame.t_ns, np.full((21, 3), np.nan), np.zeros(21))
                     stats.hand_missing += 1
                 else:
-                    kp, confidence = found
-                    rec.add_hand(frame.t_ns, kp, confidence)
+                    kp, confidence, visible = found
+                    rec.add_hand(frame.t_ns, kp, confidence, visible=visible)
                     stats.hand_estimates += 1
                     if viz is not None:
                         viz.hand(kp)
@@ -182,17 +197,34 @@ SPREAD_SCALE_M = 0.005
 """A keypoint whose estimates over the point subsets spread by this much gets confidence 0.5."""
 
 
-def _estimate_hand(estimator: Any, *args: Any) -> tuple[np.ndarray, np.ndarray] | None:
-    """Keypoints and per-keypoint confidence, 1 / (1 + spread / SPREAD_SCALE_M); an estimator
-    without ``estimate_with_spread`` (any object with ``estimate``) gets confidence 1."""
+def _estimate_hand(
+    estimator: Any,
+    frame: Frame,
+    K: np.ndarray,
+    world_T_camera: np.ndarray | None,
+    boxes: list[Any],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """World keypoints (21, 3), confidence (21,) and visibility (21,) of one frame, or None.
+
+    A colour estimator (``estimate_frame``) gets every frame; a depth estimator needs depth and
+    the camera pose. The depth network's confidence is 1 / (1 + spread / SPREAD_SCALE_M) over
+    its point subsets; an estimator with only ``estimate`` gets confidence 1."""
+    if hasattr(estimator, "estimate_frame"):
+        est = estimator.estimate_frame(frame.color, frame.depth, K, world_T_camera, boxes)
+        if est is None or world_T_camera is None:
+            return None
+        return est.keypoints, est.confidence, est.visible
+    if frame.depth is None or world_T_camera is None:
+        return None
+    args = (frame.depth, K, world_T_camera, boxes)
     if hasattr(estimator, "estimate_with_spread"):
         found = estimator.estimate_with_spread(*args)
         if found is None:
             return None
         kp, spread = found
-        return kp, 1.0 / (1.0 + np.asarray(spread) / SPREAD_SCALE_M)
+        return kp, 1.0 / (1.0 + np.asarray(spread) / SPREAD_SCALE_M), np.ones(21, bool)
     kp = estimator.estimate(*args)
-    return None if kp is None else (kp, np.ones(21))
+    return None if kp is None else (kp, np.ones(21), np.ones(21, bool))
 
 
 def _process(

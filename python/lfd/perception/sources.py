@@ -18,8 +18,11 @@ Image folder layout (``--source frames:DIR``)::
 
 Camera (``--source camera:N``): ``cv2.VideoCapture(N)`` gives colour; depth comes from a
 :class:`DepthReader` (any object with ``read() -> array (H, W) uint16 mm or None``), e.g. a
-RealSense / Azure Kinect wrapper aligned to the colour camera. Intrinsics come from a
-``camera.json`` as above (``--intrinsics``).
+RealSense / Azure Kinect wrapper aligned to the colour camera. A reader that also has
+``read_frame() -> (rgb (H, W, 3) uint8, depth (H, W) uint16 mm)`` supplies both images (an
+RGB-D camera whose colour stream is not a separate video device, e.g. a RealSense through
+pyrealsense2: ``docs/examples/realsense_reader.py``); then no video device is opened. Intrinsics
+come from a ``camera.json`` as above (``--intrinsics``).
 """
 
 from __future__ import annotations
@@ -206,32 +209,51 @@ class CameraSource(Source):
     ):
         import cv2
 
-        self.cap = cv2.VideoCapture(index)
-        if not self.cap.isOpened():
-            self.cap.release()
-            raise LfdError(f"camera {index}: cannot open the video device (is a camera connected?)")
         if intrinsics is None:
-            self.cap.release()
             raise LfdError("camera source needs --intrinsics camera.json (K, width, height)")
         camera, objects, _, known = read_camera_json(Path(intrinsics))
         self.depth_reader = depth_reader
+        self.rgbd = callable(getattr(depth_reader, "read_frame", None))
+        self.cap = None
+        if not self.rgbd:
+            self.cap = cv2.VideoCapture(index)
+            if not self.cap.isOpened():
+                self.cap.release()
+                raise LfdError(
+                    f"camera {index}: cannot open the video device (is a camera connected?)"
+                )
         super().__init__(camera, objects, {"source": f"camera:{index}"}, camera_pose_known=known)
 
-    def frames(self) -> Iterator[Frame]:
+    def _read(self) -> tuple[np.ndarray, np.ndarray | None] | None:
+        """(RGB, depth or None) of the next frame, or None at the end of the stream."""
         import cv2
 
+        if self.rgbd:
+            got = self.depth_reader.read_frame()  # type: ignore[union-attr]
+            if got is None:
+                return None
+            rgb, depth = got
+            return np.asarray(rgb), depth
+        assert self.cap is not None
+        ok, bgr = self.cap.read()
+        if not ok:
+            return None
+        depth = self.depth_reader.read() if self.depth_reader is not None else None
+        return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), depth
+
+    def frames(self) -> Iterator[Frame]:
         shape = (self.camera.height, self.camera.width)
         while True:
-            ok, bgr = self.cap.read()
-            if not ok:
+            got = self._read()
+            if got is None:
                 return
             t = time.time_ns()
-            if bgr.shape[:2] != shape:
+            rgb, depth = got
+            if rgb.shape[:2] != shape or rgb.dtype != np.uint8 or rgb.ndim != 3:
                 raise LfdError(
-                    f"camera frame is {bgr.shape[1]}x{bgr.shape[0]}, the intrinsics are for "
-                    f"{shape[1]}x{shape[0]}"
+                    f"camera frame is {rgb.dtype} {rgb.shape}, the intrinsics are for "
+                    f"{shape[1]}x{shape[0]} uint8 colour"
                 )
-            depth = self.depth_reader.read() if self.depth_reader is not None else None
             if depth is not None:
                 depth = np.asarray(depth)
                 if depth.shape != shape or depth.dtype != np.uint16:
@@ -239,10 +261,14 @@ class CameraSource(Source):
                         f"depth reader gave {depth.dtype} {depth.shape}; expected uint16 mm "
                         f"{shape}, aligned with the colour camera"
                     )
-            yield Frame(t, cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), depth)
+            yield Frame(t, np.ascontiguousarray(rgb[:, :, :3]), depth)
 
     def close(self) -> None:
-        self.cap.release()
+        if self.cap is not None:
+            self.cap.release()
+        closer = getattr(self.depth_reader, "close", None)
+        if callable(closer):
+            closer()
 
 
 def load_depth_reader(spec: str) -> DepthReader:

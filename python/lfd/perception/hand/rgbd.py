@@ -1,0 +1,147 @@
+"""The real-camera hand estimator of ``lfd record``: MediaPipe on colour, lifted with depth.
+
+Per frame: :class:`~lfd.perception.hand.mediapipe.HandTracker` finds and tracks the hands in the
+colour image, :func:`~lfd.perception.hand.mediapipe.select_hand` keeps the demonstrator's hand
+(``side``, locked to one track while it is seen, so a second hand in view never takes its
+place), and :func:`~lfd.perception.hand.lift.lift_keypoints` reads metric depth at the keypoints
+(pixels on the table or inside a tagged box are not the hand) before the points go to the
+reference-marker (world) frame.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ...errors import LfdError
+from .lift import lift_keypoints
+from .mediapipe import HANDS, Hand, HandTracker, MediaPipeHands, select_hand
+
+TABLE_MARGIN_M = 0.004
+"""Depth pixels less than this above the table plane (world z = 0) are the table, not the hand."""
+BOX_MARGIN_M = 0.006
+"""Depth pixels within this of a tagged box's faces belong to the box."""
+REGION_MARGIN = 0.25
+"""The object mask is computed over the keypoints' bounds grown by this fraction on each side."""
+
+Box = tuple[np.ndarray, np.ndarray, np.ndarray]
+
+
+@dataclass
+class HandEstimate:
+    """One frame's hand: keypoints (21, 3) world metres, confidence (21,), visible (21,) bool,
+    and the 2-D detection it came from."""
+
+    keypoints: np.ndarray
+    confidence: np.ndarray
+    visible: np.ndarray
+    hand: Hand | None = None
+
+
+def not_hand_mask(
+    depth_mm: np.ndarray,
+    K: np.ndarray,
+    world_T_camera: np.ndarray | None,
+    boxes: Sequence[Box],
+    region: tuple[int, int, int, int] | None = None,
+) -> np.ndarray:
+    """(H, W) bool: depth pixels that are the table (world z below :data:`TABLE_MARGIN_M`) or
+    inside a box ``(centre, R, size)``; only ``region`` (u0, v0, u1, v1) is examined."""
+    d = np.asarray(depth_mm)
+    mask = np.zeros(d.shape, bool)
+    if world_T_camera is None:
+        return mask
+    h, w = d.shape
+    u0, v0, u1, v1 = region if region is not None else (0, 0, w, h)
+    u0, v0, u1, v1 = max(0, u0), max(0, v0), min(w, u1), min(h, v1)
+    if u1 <= u0 or v1 <= v0:
+        return mask
+    v, u = np.mgrid[v0:v1, u0:u1]
+    z = d[v0:v1, u0:u1].astype(np.float64) * 1e-3
+    cam = np.stack([(u - K[0, 2]) / K[0, 0] * z, (v - K[1, 2]) / K[1, 1] * z, z], axis=-1)
+    R, t = np.asarray(world_T_camera)[:3, :3], np.asarray(world_T_camera)[:3, 3]
+    world = cam @ R.T + t
+    out = (z > 0) & (world[..., 2] < TABLE_MARGIN_M)
+    for centre, Rb, size in boxes:
+        local = (world - centre) @ Rb
+        out |= (z > 0) & np.all(np.abs(local) < np.asarray(size) / 2 + BOX_MARGIN_M, axis=-1)
+    mask[v0:v1, u0:u1] = out
+    return mask
+
+
+class MediaPipeEstimator:
+    """MediaPipe Hands + depth lifting, for a real RGB-D camera.
+
+    Parameters
+    ----------
+    side : "right" or "left"
+        The demonstrator's hand.
+    threads : int
+        TFLite CPU threads.
+    mirrored : bool
+        Whether the colour images are mirrored (selfie view); see
+        :mod:`lfd.perception.hand.mediapipe`.
+    max_hands : int
+        Hands tracked at once, so that another hand in view is known and never confused.
+    """
+
+    needs_colour = True
+
+    def __init__(
+        self,
+        side: str = "right",
+        *,
+        threads: int = 1,
+        mirrored: bool = False,
+        max_hands: int = 2,
+        model: MediaPipeHands | None = None,
+    ) -> None:
+        if side not in HANDS:
+            raise LfdError(f"hand must be one of {', '.join(HANDS)}, got {side!r}")
+        self.model = (
+            model if model is not None else MediaPipeHands(threads=threads, mirrored=mirrored)
+        )
+        self.tracker = HandTracker(self.model, max_hands=max_hands)
+        self.side = side
+        self._locked: int | None = None
+        self.info: dict[str, Any] = {
+            **self.model.info,
+            "side": side,
+            "lifting": "depth patch median",
+        }
+
+    def estimate_frame(
+        self,
+        color: np.ndarray,
+        depth_mm: np.ndarray | None,
+        K: np.ndarray,
+        world_T_camera: np.ndarray | None,
+        boxes: Sequence[Box] = (),
+    ) -> HandEstimate | None:
+        """The demonstrator's hand in one RGB-D frame (world frame), or None when it is not in
+        view or has no depth. ``world_T_camera`` None gives camera-frame keypoints."""
+        hands = self.tracker.update(color)
+        hand = select_hand(hands, self.side, self._locked)
+        self._locked = None if hand is None else hand.track_id
+        if hand is None or depth_mm is None:
+            return None
+        depth = np.asarray(depth_mm)
+        if depth.shape != np.asarray(color).shape[:2]:
+            raise LfdError(
+                f"depth image is {depth.shape[1]}x{depth.shape[0]}, the colour image "
+                f"{np.asarray(color).shape[1]}x{np.asarray(color).shape[0]}: they must be aligned"
+            )
+        lo, hi = hand.keypoints_2d.min(0), hand.keypoints_2d.max(0)
+        grow = (hi - lo) * REGION_MARGIN + 8
+        region = (*np.floor(lo - grow).astype(int), *np.ceil(hi + grow).astype(int))
+        exclude = not_hand_mask(depth, K, world_T_camera, boxes, region)  # type: ignore[arg-type]
+        lifted = lift_keypoints(
+            hand.keypoints_2d, hand.relative_z, depth, K, exclude=exclude, score=hand.score
+        )
+        if lifted is None:
+            return None
+        pts = lifted.points if world_T_camera is None else lifted.to_world(world_T_camera)
+        return HandEstimate(pts, lifted.confidence, lifted.visible, hand)

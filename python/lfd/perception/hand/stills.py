@@ -1,0 +1,175 @@
+"""Hands in still images, for checking a camera setup (``lfd perception hands``).
+
+:func:`hands_in_images` runs MediaPipe Hands on each image and, given an aligned depth image and
+the intrinsics, lifts the keypoints to metres in the camera frame. The result is a JSON-ready
+document::
+
+    {"images": [{"image": PATH, "width": W, "height": H,
+                 "hands": [{"handedness": "right", "handedness_score": s, "score": s,
+                            "keypoints_2d": [[u, v] x 21],        pixels from the top-left corner
+                            "keypoints_3d": [[x, y, z] x 21] or null,   metres, camera frame
+                            "visible": [21 bools] or null, "confidence": [21] or null}]}],
+     "keypoint_order": "mediapipe21", "keypoint_names": [...], "frame": "camera (x right,
+     y down, z forward)", "model": "mediapipe-hands-full"}
+
+A photo without a hand gives ``"hands": []``, not an error.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ...errors import LfdError
+from .mediapipe import KEYPOINT_NAMES, Hand, MediaPipeHands
+
+PathLike = str | os.PathLike[str]
+
+
+def read_image(path: PathLike) -> np.ndarray:
+    """An image file as (H, W, 3) uint8 RGB; one-line error naming the file otherwise."""
+    import cv2
+
+    p = Path(path)
+    if not p.is_file():
+        raise LfdError(f"{p}: image not found")
+    data = np.fromfile(p, np.uint8)
+    img = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
+    if img is None:
+        raise LfdError(f"{p}: not a readable image (OpenCV cannot decode it)")
+    return np.asarray(cv2.cvtColor(img, cv2.COLOR_BGR2RGB))
+
+
+def read_depth(path: PathLike, shape: tuple[int, int]) -> np.ndarray:
+    """A 16-bit depth PNG in millimetres of the given (H, W); one-line error otherwise."""
+    import cv2
+
+    p = Path(path)
+    if not p.is_file():
+        raise LfdError(f"{p}: depth image not found")
+    data = np.fromfile(p, np.uint8)
+    d = cv2.imdecode(data, cv2.IMREAD_UNCHANGED) if data.size else None
+    if d is None:
+        raise LfdError(f"{p}: not a readable image (OpenCV cannot decode it)")
+    if d.ndim != 2 or d.dtype != np.uint16:
+        raise LfdError(
+            f"{p}: depth must be a single-channel 16-bit image in mm, got {d.dtype} {d.shape}"
+        )
+    if d.shape != shape:
+        raise LfdError(
+            f"{p}: depth image is {d.shape[1]}x{d.shape[0]}, its colour image {shape[1]}x{shape[0]}"
+            " (they must be aligned, the same size)"
+        )
+    return np.asarray(d)
+
+
+def read_intrinsics(path: PathLike) -> np.ndarray:
+    """K (3, 3) from a JSON file: a ``camera.json`` (``{"K": [[...]], ...}``) or a bare 3x3 list."""
+    p = Path(path)
+    if not p.is_file():
+        raise LfdError(f"{p}: intrinsics file not found")
+    try:
+        doc = json.loads(p.read_text())
+        K = np.asarray(doc["K"] if isinstance(doc, dict) else doc, float)
+    except (KeyError, TypeError, ValueError, UnicodeDecodeError) as err:
+        raise LfdError(
+            f'{p}: expected JSON {{"K": [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]}} ({err})'
+        ) from err
+    if K.shape != (3, 3) or not np.isfinite(K).all() or K[0, 0] <= 0 or K[1, 1] <= 0:
+        raise LfdError(f"{p}: K must be a finite 3x3 matrix with positive focal lengths")
+    return K
+
+
+def _hand_doc(hand: Hand, lifted: Any) -> dict[str, Any]:
+    doc = hand.to_json()
+    doc["keypoints_3d"] = None if lifted is None else np.round(lifted.points, 5).tolist()
+    doc["visible"] = None if lifted is None else [bool(v) for v in lifted.visible]
+    doc["confidence"] = None if lifted is None else np.round(lifted.confidence, 4).tolist()
+    return doc
+
+
+def hands_in_images(
+    images: Sequence[PathLike],
+    *,
+    depth: Sequence[PathLike] | None = None,
+    intrinsics: PathLike | None = None,
+    model: MediaPipeHands | None = None,
+    max_hands: int = 2,
+    progress: Callable[[int], None] | None = None,
+) -> dict[str, Any]:
+    """Hands in each image (see the module docstring for the document).
+
+    ``depth`` (one 16-bit mm PNG per image, aligned) needs ``intrinsics``; every file is checked
+    before the model runs, so a bad input fails fast and names the file."""
+    from .lift import lift_keypoints
+
+    if depth is not None and len(depth) != len(images):
+        raise LfdError(f"--depth: {len(depth)} depth images for {len(images)} colour images")
+    if depth is not None and intrinsics is None:
+        raise LfdError("depth images need --intrinsics K.json (the colour camera's K)")
+    K = read_intrinsics(intrinsics) if intrinsics is not None else None
+    rgbs = [read_image(p) for p in images]
+    depths = (
+        [read_depth(d, rgb.shape[:2]) for d, rgb in zip(depth, rgbs, strict=True)]
+        if depth is not None
+        else [None] * len(rgbs)
+    )
+    model = model if model is not None else MediaPipeHands()
+    out = []
+    for i, (path, rgb, d) in enumerate(zip(images, rgbs, depths, strict=True)):
+        hands = model.detect(rgb, max_hands=max_hands)
+        docs = []
+        for hand in hands:
+            lifted = None
+            if d is not None and K is not None:
+                lifted = lift_keypoints(hand.keypoints_2d, hand.relative_z, d, K, score=hand.score)
+            docs.append(_hand_doc(hand, lifted))
+        out.append(
+            {"image": os.fspath(path), "width": rgb.shape[1], "height": rgb.shape[0], "hands": docs}
+        )
+        if progress is not None:
+            progress(i + 1)
+    return {
+        "images": out,
+        "keypoint_order": "mediapipe21",
+        "keypoint_names": list(KEYPOINT_NAMES),
+        "frame": "camera (x right, y down, z forward), metres",
+        "model": model.info["model"],
+        "mirrored": model.mirrored,
+    }
+
+
+def log_hands_rerun(doc: dict[str, Any], images: Sequence[np.ndarray] | None = None) -> None:
+    """Each image with its hands' skeletons (and 3-D keypoints when lifted) to the open Rerun
+    recording, one step of the ``image`` timeline per image."""
+    from ...viz.session import import_rerun
+    from .mediapipe import SKELETON
+
+    rr = import_rerun()
+    for i, entry in enumerate(doc["images"]):
+        rr.set_time("image", sequence=i)
+        rgb = images[i] if images is not None else read_image(entry["image"])
+        rr.log("/image", rr.Image(rgb))
+        rr.log("/image/hands", rr.Clear(recursive=True))
+        rr.log("/hands3d", rr.Clear(recursive=True))
+        for j, hand in enumerate(entry["hands"]):
+            kp = np.asarray(hand["keypoints_2d"], float)
+            colour = (230, 80, 60) if hand["handedness"] == "right" else (60, 120, 230)
+            rr.log(
+                f"/image/hands/{j}",
+                rr.LineStrips2D([kp[[a, b]] for a, b in SKELETON], colors=colour),
+                rr.Points2D(kp, colors=colour, radii=3.0),
+            )
+            if hand.get("keypoints_3d") is not None:
+                rr.log(
+                    f"/hands3d/{j}",
+                    rr.LineStrips3D(
+                        [np.asarray(hand["keypoints_3d"])[[a, b]] for a, b in SKELETON],
+                        colors=colour,
+                    ),
+                )
