@@ -6,19 +6,22 @@ distance to the nearest surface at every pixel. :func:`lift_keypoints` combines 
 
 1. Per keypoint, the depth pixels of a small square patch around (u, v) (clipped to the image),
    without missing pixels (0) and pixels of ``exclude`` (known objects).
-2. A hand reference depth: every patch pixel of the palm keypoints (wrist and the four finger
-   MCPs) votes for the wrist depth (its depth, plus the keypoint's surface-to-centre offset,
-   minus the keypoint's relative depth in metres); the reference is the median of the densest
-   :data:`VOTE_WINDOW` of the votes, so background and objects in a palm patch are outvoted.
+2. A hand reference depth: every patch pixel votes for the wrist depth (its depth, plus the
+   keypoint's surface-to-centre offset, minus the keypoint's relative depth in metres). The
+   reference is the depth most keypoints agree on (:func:`_reference`; palm keypoints weigh
+   :data:`PALM_WEIGHT`), penalised where the camera would see through a keypoint: a forearm
+   over the palm, the table or an object beside the fingers are outvoted.
 3. The expected depth of every keypoint is the reference plus its relative depth (pixels times
-   the hand depth / fx). Patch pixels farther than :data:`TOL_FAR` behind or :data:`TOL_NEAR`
-   in front of the keypoint's expected surface are dropped (background seen beside a finger,
-   an object or another finger in front of it); the median of the rest is the measured surface.
-4. The relative depth's scale and the reference are re-fitted to the measured keypoints (the
-   landmark model's z is only roughly in pixel units), and step 3 is repeated with the fit.
-5. Keypoints with fewer than :data:`MIN_PIXEL_FRACTION` of their patch left are hidden (occluded,
-   no depth, or off the hand): their depth is the expected depth (``visible`` False, lower
-   confidence).
+   the hand depth / fx). Patch pixels more than a tolerance (:data:`FIRST_PASS_TOL`) in front
+   of or behind the keypoint's expected skin are dropped (another finger or an object in front
+   of it, background beside it); the median of the rest is the measured skin depth.
+4. The reference and the scale of the relative depth are fitted to the measured keypoints (the
+   landmark model's z is only roughly in pixel units), and step 3 is repeated around the fit
+   with tolerances from its residual spread (:data:`NEAR_SPREADS`, :data:`FAR_SPREADS`): tight
+   when the landmark model's z agrees with the depth, looser when it does not.
+5. Keypoints left with fewer than :data:`MIN_PIXEL_FRACTION` of their patch are hidden
+   (occluded, no depth, or off the hand): their depth is the expected depth of the final fit
+   (``visible`` False, lower confidence).
 
 Depth measures the skin, keypoints are joint centres: each measured surface point is moved
 along its viewing ray by the keypoint's :data:`JOINT_RADIUS`.
@@ -38,7 +41,7 @@ from ...errors import LfdError
 
 N_KEYPOINTS = 21
 PALM: tuple[int, ...] = (0, 5, 9, 13, 17)
-"""Wrist and the four finger MCPs: the keypoints the hand reference depth is voted from."""
+"""Wrist and the four finger MCPs: the keypoints that weigh most in the hand reference depth."""
 
 JOINT_RADIUS = np.array(
     [
@@ -52,7 +55,9 @@ JOINT_RADIUS = np.array(
 )
 """Distance (m) from the skin seen by the camera to each keypoint (MediaPipe order), for an
 adult hand: about half the thickness of the hand at that joint. The measured surface is moved
-this far along the viewing ray. Fingertips are thinnest, the palm and wrist thickest."""
+this far along the viewing ray. Fingertips are thinnest, the palm and wrist thickest. (The
+simulator's capsule hand, :mod:`lfd.sim.hand`, has a thicker wrist, 24 mm, and its thumb CMC
+~27 mm under the back of the palm, so lifting its wrist and CMC comes out ~4 mm short.)"""
 
 NEAR_SPREADS = 1.5
 NEAR_RANGE = (0.008, 0.02)
@@ -103,8 +108,9 @@ class LiftedHand:
         (21,) bool: the keypoint's depth was measured on the hand (else filled from the landmark
         model's relative depth).
     confidence : np.ndarray
-        (21,) in [0, 1]: measured keypoints high (more with more hand pixels), filled ones lower;
-        all scaled by the hand presence score.
+        (21,) in [0, 1], times the hand presence score: a measured keypoint 0.6 + 0.4 f, f the
+        fraction of hand pixels in its patch (1 from half the patch on); a filled one
+        :data:`FILLED_CONFIDENCE` (less when fewer than :data:`FULL_SUPPORT` are measured).
     """
 
     points: np.ndarray
@@ -242,11 +248,11 @@ def _measure(
     hi = (surface + tol_far)[:, None]
     keep = (z >= lo) & (z <= hi)  # NaN compares False
     n = keep.sum(axis=1)
-    med = np.full(len(z), np.nan)
-    rows = n >= min_px
-    if np.any(rows):
-        med[rows] = np.nanmedian(np.where(keep[rows], z[rows], np.nan), axis=1)
-    return med, n
+    srt = np.sort(np.where(keep, z, np.inf), axis=1)  # kept pixels first, in order
+    i = np.arange(len(z))
+    lo, hi = np.maximum(n - 1, 0) // 2, n // 2
+    med = 0.5 * (srt[i, lo] + srt[i, np.minimum(hi, z.shape[1] - 1)])
+    return np.where(n >= min_px, med, np.nan), n
 
 
 def _fit_relative(
@@ -269,8 +275,9 @@ def _fit_relative(
     for _ in range(2):
         mk, ok_ = m[keep], o[keep]
         if fit_scale and mk.size >= 5 and np.ptp(ok_) >= MIN_FIT_SPAN:
-            A = np.column_stack([np.ones_like(ok_), ok_])
-            scale = float(np.clip(np.linalg.lstsq(A, mk, rcond=None)[0][1], *SCALE_RANGE))
+            do = ok_ - ok_.mean()
+            slope = float(do @ (mk - mk.mean()) / (do @ do))
+            scale = float(np.clip(slope, *SCALE_RANGE))
         z0 = float(np.median(mk - scale * ok_))
         res = m - z0 - scale * o
         if m.size >= 4:
