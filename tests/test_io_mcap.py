@@ -612,6 +612,25 @@ MALFORMED = [
         {"message": _confidence(b"[1, 2]")},
         '{"confidence": [21 numbers]}',
     ),
+    (
+        "visible not booleans",
+        {
+            "message": _confidence(
+                json.dumps({"confidence": [1] * 21, "visible": [1] * 21}).encode()
+            )
+        },
+        "/hand/right/confidence at",
+    ),
+    (
+        "visible too short",
+        {"message": _confidence(json.dumps({"confidence": [1] * 21, "visible": [True]}).encode())},
+        "visible must be 21 booleans",
+    ),
+    (
+        "visible not a list",
+        {"message": _confidence(json.dumps({"confidence": [1] * 21, "visible": "yes"}).encode())},
+        "visible must be 21 booleans",
+    ),
     ("log_time >= 2**63", {"message": _late_hand}, "log_time 9223372036854775808"),
 ]
 
@@ -731,3 +750,78 @@ def test_inflation_limit_leaves_real_recordings_alone() -> None:
     # the most compressible shipped recording (raw depth frames) is far inside the limit
     assert inflated < inflate_limit(size) / 10 and inflated / size < MAX_INFLATION / 10
     assert scan(rendered).complete
+
+
+# --- keypoint visibility ----------------------------------------------------------------------
+def test_visibility_round_trip(tmp_path: Path) -> None:
+    """``visible`` goes through McapRecorder and save/load; the default is "observed with
+    confidence > 0"."""
+    rng = np.random.default_rng(3)
+    kp = rng.normal(size=(4, 21, 3))
+    kp[1, 7] = np.nan
+    conf = rng.uniform(0.1, 1.0, size=(4, 21))
+    conf[2, 3] = 0.0
+    vis = rng.random((4, 21)) < 0.5
+    path = tmp_path / "v.mcap"
+    with McapRecorder(path, objects=CUBE) as rec:
+        for i in range(4):
+            t = T0 + i * 200_000_000
+            rec.add_hand(t, kp[i], conf[i], vis[i] if i < 2 else None)
+            rec.add_object_pose("cube", t, (i, 0, 0), (0, 0, 0, 1))
+        with pytest.raises(DemonstrationError, match=r"v\.mcap: /hand/right/confidence .*visible"):
+            rec.add_hand(T0, kp[0], conf[0], np.ones(21))  # not booleans
+        with pytest.raises(DemonstrationError, match="visible must be 21 booleans"):
+            rec.add_hand(T0, kp[0], conf[0], np.ones(20, dtype=bool))
+    demo, caught = _load_quiet(path)
+    assert caught == []
+    assert demo.hand.visible.dtype == np.bool_ and demo.hand.visible.shape == (4, 21)
+    np.testing.assert_array_equal(demo.hand.visible[:2], vis[:2])
+    default = np.isfinite(kp[2:]).all(axis=2) & (conf[2:] > 0)
+    assert not default[0, 3]
+    np.testing.assert_array_equal(demo.hand.visible[2:], default)
+    np.testing.assert_array_equal(demo.hand.confidence, conf)
+    # the whole-demo writer keeps it
+    save(demo, tmp_path / "again.mcap")
+    again, _ = _load_quiet(tmp_path / "again.mcap")
+    np.testing.assert_array_equal(again.hand.visible, demo.hand.visible)
+
+
+def test_files_without_visibility_load_with_the_default(tmp_path: Path) -> None:
+    """Recordings written before ``visible`` existed (only ``confidence``) still load."""
+    src = _small_recording(tmp_path / "ok.mcap")
+    conf = [0.0] * 3 + [0.5] * 18
+
+    def old_format(topic: str, t: int, data: bytes) -> tuple[int, bytes]:
+        if topic == "/hand/right/confidence":
+            assert "visible" in json.loads(data)  # new files have it
+            return t, json.dumps({"confidence": conf}).encode()
+        return t, data
+
+    demo, caught = _load_quiet(_rewrite(src, tmp_path / "old.mcap", message=old_format))
+    assert caught == []
+    np.testing.assert_array_equal(demo.hand.confidence, np.tile(conf, (3, 1)))
+    np.testing.assert_array_equal(demo.hand.visible, np.tile(np.array(conf) > 0, (3, 1)))
+
+
+def test_shipped_recordings_load_with_visibility() -> None:
+    root = Path(__file__).resolve().parents[1] / "recordings"
+    demo = load(root / "exp1.mcap", images=False)
+    h = demo.hand
+    np.testing.assert_array_equal(
+        h.visible, np.isfinite(h.keypoints).all(axis=2) & (h.confidence > 0)
+    )
+
+
+def test_hand_track_checks_visibility() -> None:
+    from lfd.demo import HandTrack
+
+    t = np.array([0, 1], dtype=np.int64)
+    kp = np.zeros((2, 21, 3))
+    with pytest.raises(DemonstrationError, match=r"visible must be booleans of shape \(2, 21\)"):
+        HandTrack(t, kp, np.ones((2, 21)), visible=np.ones((2, 21)))
+    with pytest.raises(DemonstrationError, match="visible"):
+        HandTrack(t, kp, np.ones((2, 21)), visible=np.ones((2, 20), dtype=bool))
+    assert (
+        HandTrack(t, kp, np.ones((2, 21)), "right", np.zeros((2, 21), dtype=bool)).visible.sum()
+        == 0
+    )

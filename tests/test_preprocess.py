@@ -319,3 +319,115 @@ def test_carried_object_leaves_when_the_hand_lifts_it() -> None:
     np.testing.assert_allclose(pos[release:], truth[release:], atol=1e-9)
     np.testing.assert_allclose(pos, truth, atol=0.002)
     assert pos[:, 2].min() > 0.02 - 1e-9  # never pushed into the table
+
+
+# --- hand confidence ----------------------------------------------------------------------
+GRIPPER = [THUMB_TIP, INDEX_MCP, INDEX_TIP]
+
+
+def _with_confidence(demo, conf: np.ndarray, keypoints: np.ndarray | None = None, **kw):
+    h = demo.hand
+    demo.hand = HandTrack(h.t_ns, h.keypoints if keypoints is None else keypoints, conf, **kw)
+    return demo
+
+
+def _outlier_demo(confidence: float) -> tuple:
+    """A clean demo (confidence 1) and a copy in which every 4th hand sample has its gripper
+    keypoints thrown 10 cm off, with ``confidence``."""
+    clean = make_demo(duration_s=10.0)
+    observed = np.isfinite(clean.hand.keypoints).all(axis=2)
+    clean = _with_confidence(clean, observed.astype(float))
+    rng = np.random.default_rng(1)
+    kp = clean.hand.keypoints.copy()
+    conf = clean.hand.confidence.copy()
+    bad = np.arange(3, len(clean.hand) - 3, 4)
+    offset = rng.normal(size=(bad.size, 3, 3))
+    kp[np.ix_(bad, GRIPPER)] += 0.10 * offset / np.linalg.norm(offset, axis=2, keepdims=True)
+    conf[np.ix_(bad, GRIPPER)] = confidence
+    return clean, _with_confidence(make_demo(duration_s=10.0), conf, kp), bad
+
+
+def _tcp_error_mm(traj, ref) -> np.ndarray:
+    assert np.array_equal(traj.t_ns, ref.t_ns)
+    return np.linalg.norm(traj.tcp - ref.tcp, axis=1) * 1e3
+
+
+def test_low_confidence_outliers_are_dropped() -> None:
+    clean, noisy, bad = _outlier_demo(confidence=0.1)
+    ref = preprocess(clean)
+    used = preprocess(noisy)  # default: min_keypoint_confidence 0.3
+    ignored = preprocess(noisy, min_keypoint_confidence=0)
+    err_used, err_ignored = _tcp_error_mm(used, ref), _tcp_error_mm(ignored, ref)
+    assert err_used.max() < 0.5, err_used.max()  # measured 0.002 mm
+    assert err_ignored.max() > 20 and np.sqrt(np.mean(err_ignored**2)) > 10  # 25.5, 15.9 mm
+    assert used.meta["min_keypoint_confidence"] == 0.3
+    assert ignored.meta["min_keypoint_confidence"] == 0
+    assert used.meta["low_confidence"] == {
+        "keypoints": 3 * bad.size,
+        "samples": bad.size,
+        "gripper_samples": bad.size,
+    }
+    assert ignored.meta["low_confidence"] == {"keypoints": 0, "samples": 0, "gripper_samples": 0}
+    assert used.hand_valid.all()  # the dropped samples are short gaps, interpolated
+
+
+def test_confident_enough_samples_are_weighted() -> None:
+    """Above the threshold, a less confident sample is pulled towards its neighbours."""
+    clean, noisy, _ = _outlier_demo(confidence=0.4)
+    ref = preprocess(clean)
+    used, ignored = preprocess(noisy), preprocess(noisy, min_keypoint_confidence=0)
+    assert used.meta["low_confidence"]["keypoints"] == 0
+    err_used, err_ignored = _tcp_error_mm(used, ref), _tcp_error_mm(ignored, ref)
+    # about 0.4 x the unweighted error (10.2 vs 25.5 mm)
+    assert err_used.max() < 0.5 * err_ignored.max()
+
+
+def test_all_ones_confidence_is_bit_identical_to_ignoring_it() -> None:
+    """Confidence 1 everywhere: the same bits as the pipeline without confidence."""
+    demo = make_demo(duration_s=10.0)
+    demo = _with_confidence(demo, np.isfinite(demo.hand.keypoints).all(axis=2).astype(float))
+    a, b = preprocess(demo), preprocess(demo, min_keypoint_confidence=0.0)
+    for field in ("t_ns", "tcp", "rotation", "euler", "opening", "keypoints", "object_position"):
+        np.testing.assert_array_equal(getattr(a, field), getattr(b, field), err_msg=field)
+    assert a.meta["low_confidence"]["keypoints"] == 0
+
+
+def test_not_visible_but_confident_keypoints_are_kept() -> None:
+    demo = make_demo(duration_s=10.0)
+    seen = preprocess(demo)
+    hidden = demo.hand.visible.copy()
+    hidden[::3, INDEX_TIP] = False  # occluded, estimated (confidence 0.5-1)
+    demo = _with_confidence(demo, demo.hand.confidence, visible=hidden)
+    traj = preprocess(demo)
+    np.testing.assert_array_equal(traj.tcp, seen.tcp)
+    assert traj.meta["low_confidence"]["keypoints"] == 0
+
+
+def test_confidence_threshold_is_checked() -> None:
+    with pytest.raises(DemonstrationError, match=r"min_keypoint_confidence must be in \[0, 1\]"):
+        preprocess(make_demo(), min_keypoint_confidence=1.5)
+
+
+def test_weighted_nodes() -> None:
+    from lfd.preprocessing.resample import weighted_nodes
+
+    t = np.arange(6) * 0.2
+    x = np.array([0.0, 1, 2, 30, 4, 5])[:, None]
+    w = np.array([1, 1, 1, 0.1, 1, 1])
+    y = weighted_nodes(t, x, w, max_gap_s=0.5)
+    np.testing.assert_array_equal(y[w == 1], x[w == 1])  # weight 1: kept exactly
+    assert y[3, 0] == pytest.approx(0.1 * 30 + 0.9 * 3)  # pulled towards its neighbours
+    # a long gap cuts the pull: the sample after it is pulled towards its other neighbour only
+    t2 = np.array([0, 0.2, 0.4, 2.0, 2.2])
+    y2 = weighted_nodes(t2, np.array([0.0, 1, 2, 3, 10])[:, None], np.full(5, 0.5), 0.5)
+    assert np.all(np.isfinite(y2))
+    assert y2[3, 0] == pytest.approx(0.5 * 3 + 0.5 * y2[4, 0])
+    # through resample_positions: all-ones weights change nothing, bad weights are refused
+    td = np.linspace(0, 1, 31)
+    plain, _ = resample_positions(t, x, td, max_gap_s=0.5)
+    ones, _ = resample_positions(t, x, td, max_gap_s=0.5, weights=np.ones(6)[:, None])
+    np.testing.assert_array_equal(plain, ones)
+    weighted, _ = resample_positions(t, x, td, max_gap_s=0.5, weights=w[:, None])
+    assert np.abs(weighted).max() < 10 < np.abs(plain).max()
+    with pytest.raises(DemonstrationError, match=r"in \(0, 1\]"):
+        resample_positions(t, x, td, max_gap_s=0.5, weights=np.zeros((6, 1)))

@@ -187,13 +187,16 @@ def test_default_templates_ship_with_the_package() -> None:
         "feature_cutoff_hz": "auto",
         "object_cutoff_hz": 10.0,
         "aperture": "grasp",
+        "min_keypoint_confidence": 0.0,  # trained before the hand's confidence was used
     }
 
 
 def test_train_save_load_round_trip(tmp_path: Path) -> None:
     files = [TEMPLATE_DIR / f"{s}_0.mcap" for s in SKILLS]
     t = train_templates(files, params={"fit": {"max_iter": 5}})
-    once = train_templates(files, params={"fit": {"max_iter": 5}}, frame_symmetry=1)
+    once = train_templates(
+        files, params={"fit": {"max_iter": 5}}, frame_symmetry=1, min_keypoint_confidence=0.3
+    )
     assert all(n >= 1 for n in once.engine.n_examples)
     assert list(t.engine.n_examples) == [FRAME_SYMMETRY * n for n in once.engine.n_examples]
     assert t.meta["frame_symmetry"] == FRAME_SYMMETRY
@@ -206,6 +209,13 @@ def test_train_save_load_round_trip(tmp_path: Path) -> None:
     assert np.allclose(back.ranges, t.ranges)
     r = segment(demo(), back)
     assert len(r.segments) >= 4
+    # the confidence threshold is stored with the templates and used again when they segment
+    assert back.preprocessing["min_keypoint_confidence"] == 0.0
+    once.save(tmp_path / "once.json")
+    back_once = Templates.load(tmp_path / "once.json")
+    assert back_once.preprocessing["min_keypoint_confidence"] == 0.3
+    r = segment(demo(), back_once)
+    assert not any("preprocessed differently" in w for w in r.warnings), r.warnings
 
 
 def test_turn_object_frame_turns_only_the_horizontal_tcp_in_object() -> None:

@@ -72,12 +72,18 @@ class HandTrack:
         Per-keypoint confidence in [0, 1] (0 where not observed).
     side : str
         ``"right"`` or ``"left"``.
+    visible : array, shape (n, 21), bool
+        True where the keypoint was seen (e.g. its depth measured on the hand); False where it
+        was estimated (occluded, filled from the model) or not observed. Estimated keypoints
+        are kept as data, weighted by their confidence. Default (and for recordings without
+        the field): finite keypoints with confidence > 0.
     """
 
     t_ns: np.ndarray
     keypoints: np.ndarray
     confidence: np.ndarray
     side: str = "right"
+    visible: np.ndarray = None  # type: ignore[assignment]  # None -> the default above
 
     def __post_init__(self) -> None:
         self.t_ns = _timestamps(self.t_ns, "hand")
@@ -92,6 +98,15 @@ class HandTrack:
             raise DemonstrationError(
                 f"hand confidence must have shape ({n}, 21), got {self.confidence.shape}"
             )
+        if self.visible is None:
+            self.visible = np.isfinite(self.keypoints).all(axis=2) & (self.confidence > 0)
+        else:
+            self.visible = np.asarray(self.visible)
+            if self.visible.shape != (n, 21) or self.visible.dtype != np.bool_:
+                raise DemonstrationError(
+                    f"hand visible must be booleans of shape ({n}, 21), got "
+                    f"{self.visible.dtype} {self.visible.shape}"
+                )
 
     def __len__(self) -> int:
         return int(self.t_ns.shape[0])

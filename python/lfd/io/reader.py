@@ -66,10 +66,12 @@ def _size(value: Any, where: str) -> list[float] | None:
     return [float(v) for v in value]
 
 
-def _confidence(data: bytes, where: str) -> list[float]:
-    """The 21 per-keypoint confidences of one ``{"confidence": [...]}`` JSON message."""
+def _confidence(data: bytes, where: str) -> tuple[list[float], list[bool] | None]:
+    """The 21 per-keypoint confidences and, if present, visibilities of one
+    ``{"confidence": [...], "visible": [...]}`` JSON message."""
     try:
-        values = json.loads(data)["confidence"]
+        record = json.loads(data)
+        values = record["confidence"]
     except (ValueError, KeyError, TypeError) as err:
         raise RecordingFormatError(
             f'{where}: not a JSON object {{"confidence": [21 numbers]}} ({err!r})'
@@ -82,7 +84,14 @@ def _confidence(data: bytes, where: str) -> list[float]:
         raise RecordingFormatError(
             f"{where}: confidence must be 21 numbers in [0, 1], got {str(values)[:80]}"
         )
-    return [float(v) for v in values]
+    visible = record.get("visible")
+    if visible is not None and not (
+        isinstance(visible, list)
+        and len(visible) == 21
+        and all(isinstance(v, bool) for v in visible)
+    ):
+        raise RecordingFormatError(f"{where}: visible must be 21 booleans, got {str(visible)[:80]}")
+    return [float(v) for v in values], visible
 
 
 def _order(times: np.ndarray) -> tuple[np.ndarray, int, int]:
@@ -132,17 +141,21 @@ class _Loader:
                     f"{self.raw.path}: hand message at {t[i]} ns has {len(m.poses)} poses, not 21"
                 )
             kp[i] = [(p.position.x, p.position.y, p.position.z) for p in m.poses]
-        conf = np.isfinite(kp).all(axis=2).astype(np.float64)
-        by_time: dict[int, list[float]] = {}
+        finite = np.isfinite(kp).all(axis=2)
+        conf = finite.astype(np.float64)
+        by_time: dict[int, tuple[list[float], list[bool] | None]] = {}
         topic = T.confidence_topic(side)
         for tc, data in self.raw.messages.get(topic, []):
             values = _confidence(data, f"{self.raw.path}: {topic} at {tc} ns")
             by_time.setdefault(tc, values)
+        vis = np.zeros_like(finite)
         for i, ti in enumerate(t):
-            given = by_time.get(int(ti))
+            given, seen = by_time.get(int(ti), (None, None))
             if given is not None:
                 conf[i] = np.array(given, dtype=np.float64)
-        return HandTrack(t_ns=t, keypoints=kp, confidence=conf, side=side)
+            # files written before "visible" existed: observed with confidence > 0
+            vis[i] = np.array(seen, dtype=bool) if seen is not None else finite[i] & (conf[i] > 0)
+        return HandTrack(t_ns=t, keypoints=kp, confidence=conf, side=side, visible=vis)
 
     def object(self, name: str, tag_id: int, size: Any) -> ObjectTrack:
         t, msgs = self.decode(T.object_topic(name), PoseInFrame)

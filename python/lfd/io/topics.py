@@ -8,7 +8,10 @@ topic                                 schema                        content
 ====================================  ============================  ===============================
 ``/hand/<side>/keypoints``            foxglove.PosesInFrame         21 keypoints (metres, identity
                                                                     orientations, NaN = unobserved)
-``/hand/<side>/confidence``           JSON ``{"confidence": [21]}`` per-keypoint confidence
+``/hand/<side>/confidence``           JSON ``{"confidence": [21],   per-keypoint confidence in
+                                      "visible": [21]}``            [0, 1] and (optional) whether
+                                                                    the keypoint was seen (False:
+                                                                    estimated, e.g. occluded)
 ``/objects/<name>/pose``              foxglove.PoseInFrame          box centre + orientation in
                                                                     ``world``; a sample is written
                                                                     only when the tag was visible
@@ -60,10 +63,18 @@ CONFIDENCE_JSON_SCHEMA = {
             "items": {"type": "number"},
             "minItems": 21,
             "maxItems": 21,
-        }
+        },
+        "visible": {
+            "type": "array",
+            "items": {"type": "boolean"},
+            "minItems": 21,
+            "maxItems": 21,
+        },
     },
     "required": ["confidence"],
 }
+"""Schema of the ``/hand/<side>/confidence`` messages. ``visible`` is optional (files written
+before it was added lack it); readers default it to "observed with confidence > 0"."""
 
 POSES_SCHEMA = "foxglove.PosesInFrame"
 POSE_SCHEMA = "foxglove.PoseInFrame"

@@ -93,7 +93,7 @@ class McapRecorder:
     Examples
     --------
     >>> with McapRecorder("demo.mcap", objects=[("cube", 1, (0.05, 0.05, 0.05))]) as rec:
-    ...     rec.add_hand(t_ns, keypoints, confidence)
+    ...     rec.add_hand(t_ns, keypoints, confidence, visible)
     ...     rec.add_object_pose("cube", t_ns, position, quaternion)
     """
 
@@ -230,6 +230,7 @@ class McapRecorder:
         t_ns: int,
         keypoints: npt.ArrayLike,
         confidence: npt.ArrayLike | None = None,
+        visible: npt.ArrayLike | None = None,
     ) -> None:
         """Write one hand observation.
 
@@ -241,6 +242,9 @@ class McapRecorder:
             Keypoint positions in metres (world frame), NaN where not observed.
         confidence : array, shape (21,), optional
             Per-keypoint confidence in [0, 1]; default 1 where observed, 0 elsewhere.
+        visible : array of bool, shape (21,), optional
+            Whether each keypoint was seen (False: estimated, e.g. occluded and filled from the
+            model); default: finite keypoints with confidence > 0.
         """
         t = _check_time(t_ns)
         kp = np.asarray(keypoints, dtype=np.float64)
@@ -254,6 +258,15 @@ class McapRecorder:
                 raise DemonstrationError(f"hand confidence must have shape (21,), got {conf.shape}")
             if not np.all((conf >= 0) & (conf <= 1)):
                 raise DemonstrationError(f"hand confidence must be numbers in [0, 1], got {conf}")
+        if visible is None:
+            vis = np.isfinite(kp).all(axis=1) & (conf > 0)
+        else:
+            vis = np.asarray(visible)
+            if vis.shape != (21,) or vis.dtype != np.bool_:
+                raise DemonstrationError(
+                    f"{self.path}: {T.confidence_topic(self.side)} at {t} ns: visible must be "
+                    f"21 booleans, got {vis.dtype} {vis.shape}"
+                )
         msg = M.hand_poses(t, kp)
         channel = self._channel(
             T.hand_topic(self.side),
@@ -273,7 +286,8 @@ class McapRecorder:
             json_schema=(T.CONFIDENCE_SCHEMA, T.CONFIDENCE_JSON_SCHEMA),
             metadata={"layout": KEYPOINT_LAYOUT},
         )
-        self._write(channel, t, M.dumps({"confidence": conf.tolist()}).encode())
+        record = {"confidence": conf.tolist(), "visible": vis.tolist()}
+        self._write(channel, t, M.dumps(record).encode())
 
     def add_object_pose(
         self,
@@ -444,7 +458,8 @@ def save(demo: Demonstration, path: str | os.PathLike[str], **kwargs: Any) -> No
             rec.add_camera_info(demo.camera, t0)
         for t, _, stream, i in events:
             if stream == "hand":
-                rec.add_hand(t, demo.hand.keypoints[i], demo.hand.confidence[i])
+                hand = demo.hand
+                rec.add_hand(t, hand.keypoints[i], hand.confidence[i], hand.visible[i])
             elif stream == "\0color":
                 assert demo.color is not None
                 rec.add_color(t, demo.color.frames[i])

@@ -1,9 +1,15 @@
 """``preprocess``: a :class:`~lfd.demo.Demonstration` -> a :class:`~lfd.trajectory.Trajectory`.
 
+0. Confidence: hand keypoints whose confidence is below ``min_keypoint_confidence`` are treated
+   as unobserved (NaN); the others are weighted by their confidence when resampled (a keypoint
+   the estimator could not see but estimated with enough confidence is kept).
 1. Clock: ``rate_hz`` samples spanning the overlap of the hand and every observed object.
 2. Resample: hand keypoints (~5 Hz) and object positions (~30 Hz) by cubic splines, object
    orientations by slerp; gaps up to ``max_gap_s`` are interpolated, longer ones stay NaN and
-   are reported in ``meta["gaps"]`` and the ``hand_valid`` / ``object_valid`` masks.
+   are reported in ``meta["gaps"]`` and the ``hand_valid`` / ``object_valid`` masks. The
+   keypoint spline goes through confidence-weighted nodes
+   (:func:`~lfd.preprocessing.resample.weighted_nodes`: a sample of confidence 1 is kept, a
+   less confident one is pulled towards its neighbours).
 3. Filter (zero-phase 4th-order Butterworth, MATLAB ``filtfilt`` padding): the paper low-passes
    the *feature* signals at 0.625 Hz; the features are computed later (Rust) from positions, so
    here the position signals — keypoints and object centres — are filtered at
@@ -32,6 +38,10 @@ from .resample import clock, find_gaps, resample_positions, resample_quaternions
 __all__ = ["preprocess"]
 
 GRIPPER_KEYPOINTS = (THUMB_TIP, INDEX_MCP, INDEX_TIP)
+
+MIN_KEYPOINT_CONFIDENCE = 0.3
+"""Default ``min_keypoint_confidence`` of :func:`preprocess`: hand keypoints estimated with a
+lower confidence are dropped."""
 
 AUTO_CUTOFF_RATIO = 0.4
 """``feature_cutoff_hz="auto"`` filters the hand at this fraction of its sample rate..."""
@@ -68,6 +78,7 @@ def preprocess(
     max_gap_s: float = 0.5,
     fill_hidden: bool = True,
     filter: bool = True,
+    min_keypoint_confidence: float = MIN_KEYPOINT_CONFIDENCE,
 ) -> Trajectory:
     """Resample, filter and map a demonstration to a gripper trajectory on one clock.
 
@@ -101,13 +112,21 @@ def preprocess(
         clock spans only the time every object was seen and long gaps stay NaN.
     filter : bool
         Apply the low-pass filters.
+    min_keypoint_confidence : float
+        Hand keypoints with a lower confidence (``demo.hand.confidence``) are treated as
+        unobserved; the kept ones are weighted by their confidence when resampled (confidence
+        1: interpolated exactly, as without weights). Keypoints the estimator marked not
+        visible but estimated above the threshold are kept. ``0``: confidence is ignored.
 
     Returns
     -------
     Trajectory
         ``meta`` holds the parameters, ``gaps`` (``{"hand": [(t0, t1)], "objects": {name:
         [...]}, "carried": {name: [...]}}`` in ns; ``carried`` lists the object gaps filled from
-        the hand, ``held`` the stretches held at rest), ``unfiltered_runs`` and the demonstration's labels and metadata.
+        the hand, ``held`` the stretches held at rest), ``unfiltered_runs``,
+        ``low_confidence`` (``keypoints`` dropped, hand ``samples`` that lost any keypoint and
+        ``gripper_samples`` that lost a thumb tip, index tip or index base, so give no TCP) and
+        the demonstration's labels and metadata.
 
     Raises
     ------
@@ -121,6 +140,10 @@ def preprocess(
         raise DemonstrationError(
             f"aperture must be one of {', '.join(APERTURES)}, got {aperture!r}"
         )
+    if not (0.0 <= min_keypoint_confidence <= 1.0):
+        raise DemonstrationError(
+            f"min_keypoint_confidence must be in [0, 1], got {min_keypoint_confidence!r}"
+        )
     hand = demo.hand
     if feature_cutoff_hz == "auto":
         steps = np.diff(np.unique(hand.t_ns)) * 1e-9
@@ -130,6 +153,18 @@ def preprocess(
     obj_fc = hand_fc if object_cutoff_hz is None else float(object_cutoff_hz)
     hi = _sorted_unique(hand.t_ns)
     h_t, h_kp = hand.t_ns[hi], hand.keypoints[hi]
+    h_weights: np.ndarray | None = None
+    low = np.zeros(h_kp.shape[:2], dtype=bool)
+    if min_keypoint_confidence > 0:
+        h_conf = hand.confidence[hi]
+        low = np.isfinite(h_kp).all(axis=2) & (h_conf < min_keypoint_confidence)
+        h_kp = np.where(low[:, :, None], np.nan, h_kp)
+        h_weights = np.where(low, 1.0, h_conf)[:, :, None]  # dropped samples carry no weight
+    low_confidence = {
+        "keypoints": int(low.sum()),
+        "samples": int(low.any(axis=1).sum()),
+        "gripper_samples": int(low[:, list(GRIPPER_KEYPOINTS)].any(axis=1).sum()),
+    }
     h_ok = np.isfinite(h_kp[:, list(GRIPPER_KEYPOINTS)]).all(axis=(1, 2))
     spans = [("hand", _span(h_t, h_ok))]
     objs = []
@@ -189,7 +224,7 @@ def preprocess(
         return y
 
     # hand
-    kp, kp_valid = resample_positions(rel(h_t), h_kp, t_s, max_gap_s=max_gap_s)
+    kp, kp_valid = resample_positions(rel(h_t), h_kp, t_s, max_gap_s=max_gap_s, weights=h_weights)
     hand_valid = kp_valid[:, list(GRIPPER_KEYPOINTS)].all(axis=(1, 2))
     kp = smooth(kp, hand_fc, "keypoints")
     tcp, rot_raw, opening = gripper_frame(kp, side=hand.side)
@@ -248,6 +283,8 @@ def preprocess(
         "object_filter_hz": obj_fc,
         "aperture": aperture,
         "max_gap_s": max_gap_s,
+        "min_keypoint_confidence": min_keypoint_confidence,
+        "low_confidence": low_confidence,
         "filtered": filter,
         "filter": "butter(4) + filtfilt, MATLAB padding; keypoints at hand_filter_hz, "
         "object positions at object_filter_hz",

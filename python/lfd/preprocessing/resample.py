@@ -3,6 +3,11 @@
 Samples that are NaN (unobserved keypoints, invisible markers) are ignored; a target time is
 interpolated when the surrounding real samples are at most ``max_gap_s`` apart, else it is NaN
 and marked invalid. Nothing is extrapolated beyond a stream's first and last real sample.
+
+Samples can carry weights in (0, 1] (a hand-pose estimator's per-keypoint confidence):
+:func:`weighted_nodes` then pulls each sample towards its neighbours in proportion to
+``1 - weight`` before the spline is fitted; weight 1 keeps a sample exactly, and all-ones weights
+give the unweighted result bit for bit.
 """
 
 from __future__ import annotations
@@ -12,7 +17,14 @@ import numpy.typing as npt
 
 from ..errors import DemonstrationError
 
-__all__ = ["clock", "find_gaps", "gap_mask", "resample_positions", "resample_quaternions"]
+__all__ = [
+    "clock",
+    "find_gaps",
+    "gap_mask",
+    "resample_positions",
+    "resample_quaternions",
+    "weighted_nodes",
+]
 
 
 def clock(start_ns: int, end_ns: int, rate_hz: float) -> np.ndarray:
@@ -60,12 +72,56 @@ def find_gaps(t_ns: np.ndarray, valid: np.ndarray, max_gap_s: float) -> list[tup
     return [(int(t[k]), int(t[k + 1])) for k in idx]
 
 
+def weighted_nodes(t_s: np.ndarray, x: np.ndarray, w: np.ndarray, max_gap_s: float) -> np.ndarray:
+    """Sample values adjusted by their weights: the nodes a spline is then fitted through.
+
+    Solves ``y_i = w_i x_i + (1 - w_i) yhat_i`` for all samples at once, where ``yhat_i`` is
+    the linear interpolation at ``t_i`` of the adjusted neighbours ``y_(i-1)``, ``y_(i+1)`` (the
+    one neighbour at an end or next to a gap longer than ``max_gap_s``; a sample without
+    neighbours is kept). A sample of weight 1 is kept exactly; an isolated sample of weight
+    ``w`` between weight-1 neighbours becomes ``w x_i + (1 - w) yhat_i``; a run of low-weight
+    samples is bridged by its better neighbours. The system is strictly diagonally dominant
+    for weights in (0, 1], so it always has one solution.
+
+    Parameters
+    ----------
+    t_s : array, shape (m,)
+        Strictly increasing times, seconds.
+    x : array, shape (m, c)
+        Finite values.
+    w : array, shape (m,)
+        Weights in (0, 1].
+    max_gap_s : float
+        Samples further apart do not pull on each other.
+    """
+    m = t_s.size
+    if m < 2 or np.all(w == 1.0):
+        return x
+    from scipy.linalg import solve_banded
+
+    step = np.diff(t_s)
+    near = step <= max_gap_s  # near[i]: samples i and i+1 pull on each other
+    has_left = np.concatenate([[False], near])
+    has_right = np.concatenate([near, [False]])
+    left = np.concatenate([[np.inf], step])
+    right = np.concatenate([step, [np.inf]])
+    both = has_left & has_right
+    alpha = np.where(both, right / np.where(both, left + right, 1.0), has_left.astype(float))
+    beta = np.where(both, 1.0 - alpha, has_right.astype(float))
+    ab = np.zeros((3, m))
+    ab[0, 1:] = -(1.0 - w[:-1]) * beta[:-1]  # row i, column i + 1
+    ab[1] = 1.0
+    ab[2, :-1] = -(1.0 - w[1:]) * alpha[1:]  # row i, column i - 1
+    return np.asarray(solve_banded((1, 1), ab, w[:, None] * x), dtype=np.float64)
+
+
 def resample_positions(
     t_src_s: npt.ArrayLike,
     x: npt.ArrayLike,
     t_dst_s: npt.ArrayLike,
     *,
     max_gap_s: float,
+    weights: npt.ArrayLike | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Cubic-spline resampling with gaps, each column on its own finite samples.
 
@@ -79,6 +135,10 @@ def resample_positions(
         Target times, seconds.
     max_gap_s : float
         Longer gaps between finite samples are left NaN.
+    weights : array, optional
+        Weights in (0, 1] of the finite samples, broadcastable to ``x`` (e.g. shape (m, 21, 1)
+        for keypoints): the spline goes through :func:`weighted_nodes` instead of the samples.
+        ``None`` or all ones: plain interpolation.
 
     Returns
     -------
@@ -98,11 +158,26 @@ def resample_positions(
         raise DemonstrationError("source timestamps must be strictly increasing")
     flat = arr.reshape(arr.shape[0], int(np.prod(arr.shape[1:])))
     finite = np.isfinite(flat)
+    wflat = None
+    if weights is not None:
+        try:
+            wflat = np.broadcast_to(np.asarray(weights, dtype=np.float64), arr.shape)
+        except ValueError:
+            raise DemonstrationError(
+                f"weights of shape {np.shape(weights)} do not fit values of shape {arr.shape}"
+            ) from None
+        wflat = wflat.reshape(flat.shape)
+        wk = wflat[finite]
+        if not np.all((wk > 0) & (wk <= 1)):
+            raise DemonstrationError("weights of observed samples must be in (0, 1]")
     out = np.full((td.size, flat.shape[1]), np.nan)
     valid = np.zeros((td.size, flat.shape[1]), dtype=bool)
-    groups: dict[bytes, list[int]] = {}  # columns with the same gaps
+    groups: dict[bytes, list[int]] = {}  # columns with the same gaps (and weights)
     for j in range(flat.shape[1]):
-        groups.setdefault(finite[:, j].tobytes(), []).append(j)
+        key = finite[:, j].tobytes()
+        if wflat is not None:
+            key += np.where(finite[:, j], wflat[:, j], 0.0).tobytes()
+        groups.setdefault(key, []).append(j)
     for col_list in groups.values():
         cols = np.array(col_list)
         keep = finite[:, cols[0]]
@@ -110,10 +185,13 @@ def resample_positions(
         ok = gap_mask(tk, td, max_gap_s)
         if tk.size == 0 or not ok.any():
             continue
+        nodes = flat[keep][:, cols]
+        if wflat is not None:
+            nodes = weighted_nodes(tk, nodes, wflat[keep, cols[0]], max_gap_s)
         if tk.size == 1:
-            out[np.ix_(ok, cols)] = flat[keep][:, cols]
+            out[np.ix_(ok, cols)] = nodes
         else:
-            spline = CubicSpline(tk, flat[keep][:, cols], axis=0)
+            spline = CubicSpline(tk, nodes, axis=0)
             out[np.ix_(ok, cols)] = spline(td[ok])
         valid[np.ix_(ok, cols)] = True
     return out.reshape((td.size, *arr.shape[1:])), valid.reshape((td.size, *arr.shape[1:]))

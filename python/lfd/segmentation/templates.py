@@ -54,9 +54,18 @@ already; 10 Hz keeps a fast lift's height and a resting object's rest height
 APERTURE: Aperture = "grasp"
 """What the templates' fingertip-distance feature measures (:mod:`lfd.preprocessing.grasp`)."""
 
-LEGACY_PREPROCESSING: dict[str, Any] = {"object_cutoff_hz": None, "aperture": "thumb_index"}
+MIN_KEYPOINT_CONFIDENCE = 0.0
+"""``min_keypoint_confidence`` of :func:`lfd.preprocess` for training templates (stored in the
+template file and used again at segmentation time). 0: the hand's confidence is ignored, as when
+the shipped templates were trained; templates trained with a threshold record it."""
+
+LEGACY_PREPROCESSING: dict[str, Any] = {
+    "object_cutoff_hz": None,
+    "aperture": "thumb_index",
+    "min_keypoint_confidence": 0.0,
+}
 """Preprocessing of template files that predate these settings (objects filtered like the hand,
-Table I's thumb-index opening)."""
+Table I's thumb-index opening, the hand's confidence ignored)."""
 
 FRAME_SYMMETRY = 4
 """Training examples are augmented with this many turns of the object frame about its vertical
@@ -169,6 +178,7 @@ class Templates:
             m.get("feature_cutoff_hz", LEGACY_FEATURE_CUTOFF_HZ),
             m["object_cutoff_hz"],
             m["aperture"],
+            m["min_keypoint_confidence"],
         )
 
     def __repr__(self) -> str:
@@ -229,6 +239,7 @@ def preprocessing_options(
     feature_cutoff_hz: float | Literal["auto"] = FEATURE_CUTOFF_HZ,
     object_cutoff_hz: float | None = OBJECT_CUTOFF_HZ,
     aperture: Aperture = APERTURE,
+    min_keypoint_confidence: float = MIN_KEYPOINT_CONFIDENCE,
 ) -> dict[str, Any]:
     """The preprocessing keyword arguments templates are trained (and used) with
     (``object_cutoff_hz=None``: the objects are filtered like the hand)."""
@@ -239,6 +250,7 @@ def preprocessing_options(
         if object_cutoff_hz is None
         else float(object_cutoff_hz),
         "aperture": aperture,
+        "min_keypoint_confidence": float(min_keypoint_confidence),
     }
 
 
@@ -313,6 +325,7 @@ def train_templates(
     object_cutoff_hz: float | None = OBJECT_CUTOFF_HZ,
     aperture: Aperture = APERTURE,
     frame_symmetry: int = FRAME_SYMMETRY,
+    min_keypoint_confidence: float = MIN_KEYPOINT_CONFIDENCE,
 ) -> Templates:
     """Train templates from labelled template recordings (MCAP paths or demonstrations).
 
@@ -331,7 +344,7 @@ def train_templates(
         Skills to train (each needs at least one example).
     progress : callable, optional
         Called with each recording's name after it is processed.
-    feature_cutoff_hz, object_cutoff_hz, aperture
+    feature_cutoff_hz, object_cutoff_hz, aperture, min_keypoint_confidence
         Preprocessing of the examples (:func:`lfd.preprocess`), stored with the templates and
         used again when they segment.
     frame_symmetry : int
@@ -341,7 +354,9 @@ def train_templates(
     if frame_symmetry < 1:
         raise ValueError(f"frame_symmetry must be at least 1, got {frame_symmetry}")
     template_params(params)  # checked before any recording is read
-    opts = preprocessing_options(feature_cutoff_hz, object_cutoff_hz, aperture)
+    opts = preprocessing_options(
+        feature_cutoff_hz, object_cutoff_hz, aperture, min_keypoint_confidence
+    )
     names, examples = collect_examples(recordings, preprocessing=opts, progress=progress)
     return fit_templates(
         examples,

@@ -383,7 +383,9 @@ def crop(result: SimResult, seconds: float) -> SimResult:
     keep = truth.t_ns <= end
     hand = demo.hand
     h = hand.t_ns <= end
-    demo.hand = type(hand)(hand.t_ns[h], hand.keypoints[h], hand.confidence[h], hand.side)
+    demo.hand = type(hand)(
+        hand.t_ns[h], hand.keypoints[h], hand.confidence[h], hand.side, hand.visible[h]
+    )
     for name, tr in list(demo.objects.items()):
         k = tr.t_ns <= end
         demo.objects[name] = type(tr)(
