@@ -76,7 +76,7 @@ def _hands(args: argparse.Namespace) -> int:
     from rich.progress import Progress
 
     from ..perception.hand.mediapipe import MediaPipeHands
-    from ..perception.hand.stills import hands_in_images, log_hands_rerun
+    from ..perception.hand.stills import hands_in_images, log_hands_rerun, read_inputs
     from ..viz.cli import check_rerun_args, close_from_args, open_from_args
     from ._options import check_json, console, json_to_stdout, write_json
 
@@ -84,13 +84,12 @@ def _hands(args: argparse.Namespace) -> int:
     check_json(args, inputs)
     check_rerun_args(args, inputs=inputs)
     con = console(args)
+    loaded = read_inputs(args.images, args.depth, args.intrinsics)
     model = MediaPipeHands(mirrored=args.mirrored)
     with Progress(console=con, transient=True) as progress:
         task = progress.add_task(f"{len(args.images)} images", total=len(args.images))
         doc = hands_in_images(
-            args.images,
-            depth=args.depth,
-            intrinsics=args.intrinsics,
+            loaded,
             model=model,
             max_hands=args.max_hands,
             progress=lambda k: progress.update(task, completed=k),
@@ -107,7 +106,7 @@ def _hands(args: argparse.Namespace) -> int:
         )
     if open_from_args(args, "lfd_perception_hands"):
         try:
-            log_hands_rerun(doc)
+            log_hands_rerun(doc, loaded.rgb)
         finally:
             close_from_args(args)
     if args.json:

@@ -20,6 +20,7 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -93,8 +94,38 @@ def _hand_doc(hand: Hand, lifted: Any) -> dict[str, Any]:
     return doc
 
 
-def hands_in_images(
+@dataclass
+class StillInputs:
+    """Decoded colour images, their aligned depth images (or None) and K (or None)."""
+
+    paths: list[str]
+    rgb: list[np.ndarray]
+    depth: list[np.ndarray | None]
+    K: np.ndarray | None
+
+
+def read_inputs(
     images: Sequence[PathLike],
+    depth: Sequence[PathLike] | None = None,
+    intrinsics: PathLike | None = None,
+) -> StillInputs:
+    """Read and check every input file (one-line :class:`LfdError` naming a bad one)."""
+    if depth is not None and len(depth) != len(images):
+        raise LfdError(f"--depth: {len(depth)} depth images for {len(images)} colour images")
+    if depth is not None and intrinsics is None:
+        raise LfdError("depth images need --intrinsics K.json (the colour camera's K)")
+    K = read_intrinsics(intrinsics) if intrinsics is not None else None
+    rgbs = [read_image(p) for p in images]
+    depths: list[np.ndarray | None] = (
+        [read_depth(d, rgb.shape[:2]) for d, rgb in zip(depth, rgbs, strict=True)]
+        if depth is not None
+        else [None] * len(rgbs)
+    )
+    return StillInputs([os.fspath(p) for p in images], rgbs, depths, K)
+
+
+def hands_in_images(
+    images: Sequence[PathLike] | StillInputs,
     *,
     depth: Sequence[PathLike] | None = None,
     intrinsics: PathLike | None = None,
@@ -104,24 +135,16 @@ def hands_in_images(
 ) -> dict[str, Any]:
     """Hands in each image (see the module docstring for the document).
 
-    ``depth`` (one 16-bit mm PNG per image, aligned) needs ``intrinsics``; every file is checked
-    before the model runs, so a bad input fails fast and names the file."""
+    ``depth`` (one 16-bit mm PNG per image, aligned) needs ``intrinsics``; every file is read
+    and checked (:func:`read_inputs`, or pass its result as ``images``) before the model runs,
+    so a bad input fails fast and names the file."""
     from .lift import lift_keypoints
 
-    if depth is not None and len(depth) != len(images):
-        raise LfdError(f"--depth: {len(depth)} depth images for {len(images)} colour images")
-    if depth is not None and intrinsics is None:
-        raise LfdError("depth images need --intrinsics K.json (the colour camera's K)")
-    K = read_intrinsics(intrinsics) if intrinsics is not None else None
-    rgbs = [read_image(p) for p in images]
-    depths = (
-        [read_depth(d, rgb.shape[:2]) for d, rgb in zip(depth, rgbs, strict=True)]
-        if depth is not None
-        else [None] * len(rgbs)
-    )
+    inputs = images if isinstance(images, StillInputs) else read_inputs(images, depth, intrinsics)
+    K = inputs.K
     model = model if model is not None else MediaPipeHands()
     out = []
-    for i, (path, rgb, d) in enumerate(zip(images, rgbs, depths, strict=True)):
+    for i, (path, rgb, d) in enumerate(zip(inputs.paths, inputs.rgb, inputs.depth, strict=True)):
         hands = model.detect(rgb, max_hands=max_hands)
         docs = []
         for hand in hands:
@@ -129,9 +152,7 @@ def hands_in_images(
             if d is not None and K is not None:
                 lifted = lift_keypoints(hand.keypoints_2d, hand.relative_z, d, K, score=hand.score)
             docs.append(_hand_doc(hand, lifted))
-        out.append(
-            {"image": os.fspath(path), "width": rgb.shape[1], "height": rgb.shape[0], "hands": docs}
-        )
+        out.append({"image": path, "width": rgb.shape[1], "height": rgb.shape[0], "hands": docs})
         if progress is not None:
             progress(i + 1)
     return {
