@@ -20,6 +20,24 @@ WORLD_T_CAMERA = np.array(
 HAND_HEIGHT = {"left": 0.06, "right": 0.10}
 """Height (m) of each hand's top (the sheet the depth image shows) above the table."""
 TABLE_RGB = (150, 140, 125)
+BOX = {"name": "box_1", "tag_id": 1, "size": [0.08, 0.08, 0.08], "tag_size": 0.06}
+BOX_CENTRE = np.array([0.288, 0.168, 0.04])
+"""A tagged cube on the table, seen at pixel (560, 100), where the hands never pass."""
+
+
+def _box_pixels() -> tuple[np.ndarray, np.ndarray, int]:
+    """The box top's white square and the tag (uint8 RGB patches) and its top-left pixel."""
+    import cv2
+
+    z = CAMERA_HEIGHT - 2 * BOX_CENTRE[2]
+    top = round(BOX["size"][0] * K[0, 0] / z)
+    tag = round(BOX["tag_size"] * K[0, 0] / z)
+    white = np.full((top, top, 3), 255, np.uint8)
+    d = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_4X4_50)
+    marker = cv2.aruco.generateImageMarker(d, BOX["tag_id"], tag)
+    o = (top - tag) // 2
+    white[o : o + tag, o : o + tag] = marker[:, :, None]
+    return white, np.array([560 - top / 2, 100 - top / 2]).round().astype(int), round(z * 1000)
 
 
 def cutouts(realhands: Path, scale: float = 0.5) -> dict[str, tuple[np.ndarray, np.ndarray]]:
@@ -41,6 +59,9 @@ def frame(
     color = np.empty((H, W, 3), np.uint8)
     color[:] = TABLE_RGB
     depth = np.full((H, W), round(CAMERA_HEIGHT * 1000), np.uint16)
+    box, (bu, bv), bz = _box_pixels()
+    color[bv : bv + box.shape[0], bu : bu + box.shape[1]] = box
+    depth[bv : bv + box.shape[0], bu : bu + box.shape[1]] = bz
     masks = {}
     places = {"left": (20 + 7 * f, 40), "right": (W - 200 - 7 * f, 250)}
     for side in ("left", "right"):
@@ -76,7 +97,7 @@ def write_folder(out: Path, realhands: Path, n: int = 20, fps: float = 15.0) -> 
         "K": K.tolist(),
         "fps": fps,
         "world_T_camera": WORLD_T_CAMERA.tolist(),
-        "objects": [{"name": "box_1", "tag_id": 1, "size": [0.05, 0.05, 0.05]}],
+        "objects": [BOX],
     }
     (out / "camera.json").write_text(json.dumps(doc))
     return out

@@ -117,6 +117,16 @@ CASES: list[tuple[str, str, str]] = [
     ("perception-eval-old-model", "perception eval --model {tmp}/m.pt", "unrecognized"),
     ("perception-eval-missing-model", "perception eval --hand-model {tmp}/nope.pt", "nope.pt"),
     ("record-missing-model", "record --source sim:exp1 -o {tmp}/x.mcap --hand-model {tmp}/n.pt", "n.pt"),
+    ("record-bad-hand-model", "record --source sim:exp1 -o {tmp}/x.mcap --hand-model openpose", "expected mediapipe, depth-net"),
+    ("record-bad-hand", "record --source sim:exp1 -o {tmp}/x.mcap --hand both", "invalid choice"),
+    ("hands-unreadable-image", "perception hands {bad}", "bad.json: not a readable image"),
+    ("hands-missing-image", "perception hands {tmp}/none.png", "none.png: image not found"),
+    ("hands-depth-no-intrinsics", "perception hands {photo} --depth {photo}", "need --intrinsics"),
+    ("hands-depth-count", "perception hands {photo} {photo} --depth {depth} --intrinsics {k}", "2 colour images"),
+    ("hands-depth-not-16bit", "perception hands {photo} --depth {photo} --intrinsics {k}", "16-bit"),
+    ("hands-depth-wrong-size", "perception hands {photo} --depth {depth} --intrinsics {k}", "must be aligned"),
+    ("hands-bad-intrinsics", "perception hands {photo} --depth {depth} --intrinsics {bad}", "bad.json: expected JSON"),
+    ("hands-json-is-input", "perception hands {photo} --json {photo}", "also an input"),
     # a failing command that had opened --rerun-save leaves no .rrd
     ("segment-failed-rrd", "segment {tmp}/no.mcap --rerun-save {tmp}/o.rrd", "no.mcap"),
     # values out of range, NaN / inf, bad --params and template files: refused before any work
@@ -268,6 +278,7 @@ def test_user_error_is_one_line(
         "templates": ROOT / "recordings" / "templates",
         **bad_templates,
         **bad_labels,
+        **(_still_inputs(work) if "{photo}" in argv else {}),
     }
     before = _tree(work)
     try:
@@ -278,12 +289,24 @@ def test_user_error_is_one_line(
     assert _tree(work) == before  # no input modified, no output nor temporary file left
 
 
+def _still_inputs(work: Path) -> dict[str, Path]:
+    """A 64x48 colour PNG, a 16-bit depth PNG of another size and an intrinsics file."""
+    import cv2
+    import numpy as np
+
+    cv2.imwrite(str(work / "photo.png"), np.full((48, 64, 3), 120, np.uint8))
+    cv2.imwrite(str(work / "depth.png"), np.full((10, 10), 700, np.uint16))
+    (work / "k.json").write_text('{"K": [[500, 0, 32], [0, 500, 24], [0, 0, 1]]}')
+    return {"photo": work / "photo.png", "depth": work / "depth.png", "k": work / "k.json"}
+
+
 def test_one_case_per_subcommand() -> None:
     from lfd.cli import COMMANDS
 
     covered = {c[1].split()[0] for c in CASES}
     assert covered == set(COMMANDS)
-    assert {c[1].split()[1] for c in CASES if c[1].startswith("perception ")} == {"train", "eval"}
+    perception = {c[1].split()[1] for c in CASES if c[1].startswith("perception ")}
+    assert perception == {"train", "eval", "hands"}
     assert len({c[0] for c in CASES}) == len(CASES)  # ids are unique
 
 
