@@ -37,6 +37,9 @@ NOT_RUN: dict[str, str] = {
     "python3 -m pytest": "the test suite itself",
     "make ": "developer shortcuts for the install, lint and test commands (make check is CI)",
     "python benches/": "benchmarks: minutes to hours; their figures are in the README",
+    "lfd record --source camera:0": "needs a camera: the camera source is tested with an RGB-D "
+    "reader plug-in in tests/test_record_realhands.py",
+    "python docs/examples/realsense_reader.py": "needs a RealSense (the module is compiled below)",
 }
 
 RUN_AS: dict[str, tuple[str, str]] = {
@@ -60,6 +63,11 @@ RUN_AS: dict[str, tuple[str, str]] = {
     "python/lfd/data/templates.json": (
         "lfd templates train recordings/templates recordings/templates/natural -o templates.json",
         "the documented run rewrites the package's shipped templates; the test writes a copy",
+    ),
+    "lfd perception hands photo.jpg --json hands.json": (
+        f"lfd perception hands {ROOT.parent / 'shared' / 'realhands' / 'tfjs_hands.jpg'} "
+        "--json hands.json",
+        "a real photograph of hands from ../shared/realhands",
     ),
     "lfd perception eval --hand-model hand.pt": (
         "lfd perception eval --hand-model hand.pt --samples 20",
@@ -245,3 +253,17 @@ def test_python_snippets_work_twice_in_a_fresh_interpreter(document: str, tmp_pa
         # every call works more than once
         proc = _run([sys.executable, "-c", code + "\n\n" + code], ROOT, timeout=600)
         assert proc.returncode == 0, f"{document}:{start}\n{proc.stderr[-3000:]}"
+
+
+def test_example_modules_compile_and_offer_the_plugin_factory() -> None:
+    """docs/examples/*.py (the RealSense reader) need hardware: compiled, and the factory the
+    docs name is there."""
+    import ast
+
+    examples = sorted((ROOT / "docs" / "examples").glob("*.py"))
+    assert examples
+    for path in examples:
+        tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
+        compile(tree, str(path), "exec")
+        names = {n.name for n in tree.body if isinstance(n, ast.FunctionDef | ast.ClassDef)}
+        assert "make_reader" in names, path

@@ -167,3 +167,21 @@ def make_reader():
     demo = load(out)
     assert demo.hand.t_ns.size == 6 and np.isfinite(demo.hand.keypoints).all()
     assert "box_1" in demo.objects
+
+
+def test_record_and_hands_rerun_show_the_skeleton(frames: Path, tmp_path: Path) -> None:
+    rr = pytest.importorskip("rerun")
+    rrd = tmp_path / "rec.rrd"
+    proc = _lfd(
+        "record", "--source", f"frames:{frames}", "-o", str(tmp_path / "r.mcap"),
+        "--duration", "0.4", "--rerun-save", str(rrd),
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    photos = tmp_path / "p.rrd"
+    proc = _lfd(
+        "perception", "hands", str(REALHANDS / "tfjs_hands.jpg"), "--rerun-save", str(photos)
+    )
+    assert proc.returncode == 0, proc.stderr
+    for path, entity in ((rrd, "/camera/color/hand"), (photos, "/image/hands/1")):
+        paths = {chunk.entity_path for chunk in rr.chunk.RrdReader(path).stream()}
+        assert entity in paths, sorted(paths)

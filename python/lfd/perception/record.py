@@ -60,12 +60,19 @@ class _Live:
         for name, (p, q) in poses.items():
             rr.log(f"/world/objects/{name}", rr.Transform3D(translation=p, quaternion=q))
 
-    def hand(self, kp: np.ndarray) -> None:
+    def hand(self, kp: np.ndarray, kp_2d: np.ndarray | None = None) -> None:
         rr = self.rr
         rr.log(
             "/world/hand/keypoints",
             rr.Points3D(kp, keypoint_ids=np.arange(21), class_ids=np.zeros(21, int)),
         )
+        if kp_2d is not None:  # the colour model's skeleton over the camera image
+            from .hand.mediapipe import SKELETON
+
+            rr.log(
+                "/camera/color/hand",
+                rr.LineStrips2D([kp_2d[[a, b]] for a, b in SKELETON], colors=(230, 80, 60)),
+            )
 
 
 def record(
@@ -163,11 +170,11 @@ def record(
                     rec.add_hand(frame.t_ns, np.full((21, 3), np.nan), np.zeros(21))
                     stats.hand_missing += 1
                 else:
-                    kp, confidence, visible = found
+                    kp, confidence, visible, kp_2d = found
                     rec.add_hand(frame.t_ns, kp, confidence, visible=visible)
                     stats.hand_estimates += 1
                     if viz is not None:
-                        viz.hand(kp)
+                        viz.hand(kp, kp_2d)
             stats.frames += 1
             if progress is not None:
                 progress(stats)
@@ -203,8 +210,9 @@ def _estimate_hand(
     K: np.ndarray,
     world_T_camera: np.ndarray | None,
     boxes: list[Any],
-) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """World keypoints (21, 3), confidence (21,) and visibility (21,) of one frame, or None.
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None] | None:
+    """World keypoints (21, 3), confidence (21,), visibility (21,) and, from a colour model,
+    the 2-D keypoints (21, 2) of one frame, or None.
 
     A colour estimator (``estimate_frame``) gets every frame; a depth estimator needs depth and
     the camera pose. The depth network's confidence is 1 / (1 + spread / SPREAD_SCALE_M) over
@@ -213,7 +221,8 @@ def _estimate_hand(
         est = estimator.estimate_frame(frame.color, frame.depth, K, world_T_camera, boxes)
         if est is None or world_T_camera is None:
             return None
-        return est.keypoints, est.confidence, est.visible
+        kp_2d = None if est.hand is None else est.hand.keypoints_2d
+        return est.keypoints, est.confidence, est.visible, kp_2d
     if frame.depth is None or world_T_camera is None:
         return None
     args = (frame.depth, K, world_T_camera, boxes)
@@ -222,9 +231,9 @@ def _estimate_hand(
         if found is None:
             return None
         kp, spread = found
-        return kp, 1.0 / (1.0 + np.asarray(spread) / SPREAD_SCALE_M), np.ones(21, bool)
+        return kp, 1.0 / (1.0 + np.asarray(spread) / SPREAD_SCALE_M), np.ones(21, bool), None
     kp = estimator.estimate(*args)
-    return None if kp is None else (kp, np.ones(21), np.ones(21, bool))
+    return None if kp is None else (kp, np.ones(21), np.ones(21, bool), None)
 
 
 def _process(
