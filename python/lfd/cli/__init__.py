@@ -36,6 +36,9 @@ COMMANDS: tuple[str, ...] = (
 SIM_MODULES = frozenset({"mujoco", "cv2", "mink"})
 """Top-level modules of the ``sim`` extra; without them the simulator commands cannot run."""
 SIM_COMMANDS = frozenset({"simulate", "reproduce", "record"})
+PERCEPTION_MODULES = frozenset({"cv2", "ai_edge_litert", "torch"})
+"""Top-level modules of the ``perception`` extra (the hand models, image reading)."""
+PERCEPTION_COMMANDS = frozenset({"perception", "record"})
 
 
 class _Parser(argparse.ArgumentParser):
@@ -112,6 +115,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         if command in SIM_COMMANDS and top in SIM_MODULES:
             print(
                 f"lfd {command}: error: this command needs the simulator: pip install 'lfd[sim]'",
+                file=sys.stderr,
+            )
+            return 2
+        if command in PERCEPTION_COMMANDS and top in PERCEPTION_MODULES:
+            print(
+                f"lfd {command}: error: this command needs the hand models: "
+                "pip install 'lfd[perception]'",
                 file=sys.stderr,
             )
             return 2
