@@ -37,7 +37,8 @@ SIM_MODULES = frozenset({"mujoco", "cv2", "mink"})
 """Top-level modules of the ``sim`` extra; without them the simulator commands cannot run."""
 SIM_COMMANDS = frozenset({"simulate", "reproduce", "record"})
 PERCEPTION_MODULES = frozenset({"cv2", "ai_edge_litert", "torch"})
-"""Top-level modules of the ``perception`` extra (the hand models, image reading)."""
+"""Top-level modules the perception commands need: the ``perception`` extra (the hand models)
+and OpenCV, which comes with the ``sim`` extra (kept out of ``perception``: 150 MB)."""
 PERCEPTION_COMMANDS = frozenset({"perception", "record"})
 
 
@@ -120,8 +121,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 2
         if command in PERCEPTION_COMMANDS and top in PERCEPTION_MODULES:
             print(
-                f"lfd {command}: error: this command needs the hand models: "
-                "pip install 'lfd[perception]'",
+                f"lfd {command}: error: this command needs the hand models and OpenCV: "
+                "pip install 'lfd[sim,perception]'",
                 file=sys.stderr,
             )
             return 2
