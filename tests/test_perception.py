@@ -227,15 +227,18 @@ def test_record_bad_sources_give_clear_errors(tmp_path, capsys) -> None:  # type
     from lfd.cli import main
     from lfd.perception.sources import open_source
 
+    with pytest.raises(LfdError, match="needs --intrinsics"):
+        open_source("camera:37")  # refused before any device is opened
+    cam = tmp_path / "camera.json"
+    cam.write_text('{"width": 640, "height": 480, "K": [[600, 0, 320], [0, 600, 240], [0, 0, 1]]}')
     with pytest.raises(LfdError, match="cannot open"):
-        open_source("camera:37")
+        open_source("camera:37", intrinsics=str(cam))
     with pytest.raises(LfdError, match="not a directory"):
         open_source(f"frames:{tmp_path / 'nope'}")
     with pytest.raises(LfdError, match="unknown source"):
         open_source("usb:1")
-    assert (
-        main(["record", "--source", "camera:37", "--no-hand", "-o", str(tmp_path / "x.mcap")]) == 2
-    )
+    argv = ["record", "--source", "camera:37", "--no-hand", "-o", str(tmp_path / "x.mcap")]
+    assert main([*argv, "--intrinsics", str(cam)]) == 2
     assert "cannot open" in capsys.readouterr().err
 
 
@@ -288,8 +291,8 @@ def test_record_camera_source_with_a_plugged_depth_reader(  # type: ignore[no-un
     base = ["record", "--source", "camera:0", "--intrinsics", str(intrinsics)]
     out = tmp_path / "camera.mcap"
     argv = [*base, "-o", str(out), "--depth-reader", f"{reader}:make", "--hand-rate", "1000"]
-    if not _has_torch():
-        argv.append("--no-hand")
+    # the rendered hand is the simulator's capsule hand: the depth network, not MediaPipe
+    argv += ["--hand-model", "depth-net"] if _has_torch() else ["--no-hand"]
     assert main(argv) == 0  # --hand-rate 1000: a hand sample (or a marked miss) every frame
     demo = load(out)
     assert demo.metadata["source"] == "camera:0"
