@@ -107,6 +107,14 @@ def write_json(path: str, doc: Any) -> None:
     atomic_write_text(path, json.dumps(doc, indent=2, default=str))
 
 
+def emit_json(args: argparse.Namespace, doc: Any, con: Any) -> None:
+    """Write ``doc`` to ``--json`` when given, and say where on ``con`` (not under ``--json -``)."""
+    if getattr(args, "json", None):
+        write_json(args.json, doc)
+        if not json_to_stdout(args):
+            con.print(f"wrote {args.json}")
+
+
 def check_inputs(**named: str | os.PathLike[str] | None) -> None:
     """Refuse input files that do not exist, before heavy imports (``--hand-model=path``...)."""
     from ..errors import UsageError

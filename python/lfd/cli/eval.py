@@ -13,8 +13,7 @@ from ._options import (
     check_inputs,
     check_json,
     console,
-    json_to_stdout,
-    write_json,
+    emit_json,
 )
 
 if TYPE_CHECKING:
@@ -153,10 +152,7 @@ def run(args: argparse.Namespace) -> int:
         for m, err in r.errors.items():
             print(f"lfd eval: warning: {r.name} {m}: {' '.join(str(err).split())}", file=sys.stderr)
     close_from_args(args)
-    if args.json:
-        write_json(args.json, report.to_dict())
-        if not json_to_stdout(args):
-            con.print(f"wrote {args.json}")
+    emit_json(args, report.to_dict(), con)
     return 0
 
 

@@ -78,7 +78,7 @@ def _hands(args: argparse.Namespace) -> int:
     from ..perception.hand.mediapipe import MediaPipeHands
     from ..perception.hand.stills import hands_in_images, log_hands_rerun, read_inputs
     from ..viz.cli import check_rerun_args, close_from_args, open_from_args
-    from ._options import check_json, console, json_to_stdout, write_json
+    from ._options import check_json, console, emit_json
 
     inputs = [*args.images, *(args.depth or []), *([args.intrinsics] if args.intrinsics else [])]
     check_json(args, inputs)
@@ -109,10 +109,7 @@ def _hands(args: argparse.Namespace) -> int:
             log_hands_rerun(doc, loaded.rgb)
         finally:
             close_from_args(args)
-    if args.json:
-        write_json(args.json, doc)
-        if not json_to_stdout(args):
-            con.print(f"wrote {args.json}")
+    emit_json(args, doc, con)
     return 0
 
 

@@ -13,9 +13,8 @@ from ._options import (
     add_segmentation_arguments,
     check_json,
     console,
-    json_to_stdout,
+    emit_json,
     segmentation_options,
-    write_json,
 )
 
 NAME = "segment"
@@ -139,8 +138,5 @@ def run(args: argparse.Namespace) -> int:
     for w in result.warnings:
         print(f"lfd segment: warning: {' '.join(str(w).split())}", file=sys.stderr)
     close_from_args(args)
-    if args.json:
-        write_json(args.json, doc)
-        if not json_to_stdout(args):
-            con.print(f"wrote {args.json}")
+    emit_json(args, doc, con)
     return 0

@@ -37,6 +37,8 @@ from typing import Any
 
 import numpy as np
 
+from ...demo import HAND_BONES
+from ...demo import KEYPOINT_NAMES as _KEYPOINT_NAMES
 from ...errors import LfdError
 
 PALM_MODEL = "palm_detection_full.tflite"
@@ -61,38 +63,10 @@ MIN_PRESENCE = 0.5
 TRACK_IOU = 0.5
 """A new palm detection overlapping a tracked hand by more than this is the same hand."""
 
-KEYPOINT_NAMES = (
-    "wrist",
-    "thumb_cmc",
-    "thumb_mcp",
-    "thumb_ip",
-    "thumb_tip",
-    "index_mcp",
-    "index_pip",
-    "index_dip",
-    "index_tip",
-    "middle_mcp",
-    "middle_pip",
-    "middle_dip",
-    "middle_tip",
-    "ring_mcp",
-    "ring_pip",
-    "ring_dip",
-    "ring_tip",
-    "pinky_mcp",
-    "pinky_pip",
-    "pinky_dip",
-    "pinky_tip",
-)
-"""MediaPipe-21 keypoint order (the order of lfd's hand keypoints too)."""
-SKELETON = (
-    (0, 1), (1, 2), (2, 3), (3, 4),
-    (0, 5), (5, 6), (6, 7), (7, 8),
-    (5, 9), (9, 10), (10, 11), (11, 12),
-    (9, 13), (13, 14), (14, 15), (15, 16),
-    (13, 17), (0, 17), (17, 18), (18, 19), (19, 20),
-)  # fmt: skip
-"""Bones between MediaPipe-21 keypoints (for drawing)."""
+KEYPOINT_NAMES = _KEYPOINT_NAMES
+"""MediaPipe-21 keypoint order: lfd's hand keypoint order (:data:`lfd.demo.KEYPOINT_NAMES`)."""
+SKELETON = HAND_BONES
+"""Bones between the keypoints (for drawing; :data:`lfd.demo.HAND_BONES`)."""
 HANDS = ("left", "right")
 
 

@@ -32,18 +32,25 @@ from .mediapipe import KEYPOINT_NAMES, Hand, MediaPipeHands
 PathLike = str | os.PathLike[str]
 
 
-def read_image(path: PathLike) -> np.ndarray:
-    """An image file as (H, W, 3) uint8 RGB; one-line error naming the file otherwise."""
+def _decode(path: PathLike, what: str, flags: int) -> np.ndarray:
+    """The decoded image file (OpenCV ``flags``), or a one-line error naming it."""
     import cv2
 
     p = Path(path)
     if not p.is_file():
-        raise LfdError(f"{p}: image not found")
+        raise LfdError(f"{p}: {what} not found")
     data = np.fromfile(p, np.uint8)
-    img = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
+    img = cv2.imdecode(data, flags) if data.size else None
     if img is None:
         raise LfdError(f"{p}: not a readable image (OpenCV cannot decode it)")
-    return np.asarray(cv2.cvtColor(img, cv2.COLOR_BGR2RGB))
+    return np.asarray(img)
+
+
+def read_image(path: PathLike) -> np.ndarray:
+    """An image file as (H, W, 3) uint8 RGB; one-line error naming the file otherwise."""
+    import cv2
+
+    return np.asarray(cv2.cvtColor(_decode(path, "image", cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB))
 
 
 def read_depth(path: PathLike, shape: tuple[int, int]) -> np.ndarray:
@@ -51,12 +58,7 @@ def read_depth(path: PathLike, shape: tuple[int, int]) -> np.ndarray:
     import cv2
 
     p = Path(path)
-    if not p.is_file():
-        raise LfdError(f"{p}: depth image not found")
-    data = np.fromfile(p, np.uint8)
-    d = cv2.imdecode(data, cv2.IMREAD_UNCHANGED) if data.size else None
-    if d is None:
-        raise LfdError(f"{p}: not a readable image (OpenCV cannot decode it)")
+    d = _decode(p, "depth image", cv2.IMREAD_UNCHANGED)
     if d.ndim != 2 or d.dtype != np.uint16:
         raise LfdError(
             f"{p}: depth must be a single-channel 16-bit image in mm, got {d.dtype} {d.shape}"
@@ -66,7 +68,7 @@ def read_depth(path: PathLike, shape: tuple[int, int]) -> np.ndarray:
             f"{p}: depth image is {d.shape[1]}x{d.shape[0]}, its colour image {shape[1]}x{shape[0]}"
             " (they must be aligned, the same size)"
         )
-    return np.asarray(d)
+    return d
 
 
 def read_intrinsics(path: PathLike) -> np.ndarray:
