@@ -73,6 +73,11 @@ CASES: list[tuple[str, str, str]] = [
     ("templates-train-base-missing", "templates train {rec} --base {tmp}/no.json -o {tmp}/t.json", "no.json"),
     ("templates-train-base-and-params", "templates train {rec} --base default --params '{}' -o {tmp}/t.json", "--base keeps"),
     ("templates-train-base-is-output", "templates train {rec} --base {tmp}/t.json -o {tmp}/t.json", "t.json"),
+    ("templates-train-confidence-above-1", "templates train {rec} --min-keypoint-confidence 1.5 -o {tmp}/t.json", "--min-keypoint-confidence must be in [0, 1], got 1.5"),
+    ("templates-train-confidence-negative", "templates train {rec} --min-keypoint-confidence=-0.1 -o {tmp}/t.json", "--min-keypoint-confidence must be in [0, 1], got -0.1"),
+    ("templates-train-confidence-nan", "templates train {rec} --min-keypoint-confidence nan -o {tmp}/t.json", "got nan"),
+    ("templates-train-confidence-not-number", "templates train {rec} --min-keypoint-confidence high -o {tmp}/t.json", "invalid float value"),
+    ("templates-train-base-and-confidence", "templates train {rec} --base default --min-keypoint-confidence 0.3 -o {tmp}/t.json", "--base keeps its own"),
     # label: bad labels leave the recording byte-identical
     ("label-overlap", "label {rec} --from {overlap}", "labels overlap"),
     ("label-past-end", "label {rec} --from {pastend}", "ends after the recording"),

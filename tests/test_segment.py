@@ -218,6 +218,20 @@ def test_train_save_load_round_trip(tmp_path: Path) -> None:
     assert not any("preprocessed differently" in w for w in r.warnings), r.warnings
 
 
+def test_cli_templates_train_stores_the_confidence_threshold(tmp_path: Path) -> None:
+    from lfd.cli import main
+
+    files = [str(TEMPLATE_DIR / f"{s}_0.mcap") for s in SKILLS]
+    fast = ["--params", '{"fit": {"max_iter": 2}}']
+    assert main(["templates", "train", *files, "-o", str(tmp_path / "a.json"), *fast]) == 0
+    args = ["--min-keypoint-confidence", "0.3"]
+    assert main(["templates", "train", *files, "-o", str(tmp_path / "b.json"), *fast, *args]) == 0
+    a, b = Templates.load(tmp_path / "a.json"), Templates.load(tmp_path / "b.json")
+    assert a.preprocessing["min_keypoint_confidence"] == 0.0
+    assert b.preprocessing["min_keypoint_confidence"] == 0.3
+    assert a.engine.to_json() != b.engine.to_json()  # the examples were preprocessed differently
+
+
 def test_turn_object_frame_turns_only_the_horizontal_tcp_in_object() -> None:
     x = np.arange(20, dtype=np.float64).reshape(2, 10)
     q = turn_object_frame(x, 1, 4)

@@ -26,6 +26,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="adapt this template set (default: the shipped one) to the recordings instead of "
         "training from scratch; skills they do not show keep the base's models",
     )
+    train.add_argument(
+        "--min-keypoint-confidence",
+        type=float,
+        metavar="C",
+        help="drop hand keypoints estimated with a confidence below C (0-1) when preprocessing "
+        "the examples, and weight the rest by confidence; stored in the templates and used "
+        "again when they segment (default: 0, confidence ignored; not with --base, which keeps "
+        "the base's preprocessing)",
+    )
     show = sub.add_parser("show", help="summarise a template file")
     show.add_argument("file", nargs="?", help="template file (default: the shipped one)")
 
@@ -39,7 +48,11 @@ def run(args: argparse.Namespace) -> int:
     from ..segmentation import Templates, train_templates
     from ..segmentation.adapt import adapt_templates
     from ..segmentation.evaluate import expand_paths
-    from ..segmentation.templates import collect_examples, template_params
+    from ..segmentation.templates import (
+        MIN_KEYPOINT_CONFIDENCE,
+        collect_examples,
+        template_params,
+    )
     from ._options import check_inputs
 
     console = Console()
@@ -54,6 +67,13 @@ def run(args: argparse.Namespace) -> int:
             raise UsageError("--params sets how to train from scratch; --base keeps its own")
         if args.base not in (None, "default"):
             check_inputs(base=args.base)
+        conf = args.min_keypoint_confidence
+        if conf is not None and not 0.0 <= conf <= 1.0:
+            raise UsageError(f"--min-keypoint-confidence must be in [0, 1], got {conf:g}")
+        if args.base is not None and conf is not None:
+            raise UsageError(
+                "--min-keypoint-confidence sets how to train from scratch; --base keeps its own"
+            )
     if args.action == "show":
         t = Templates.load(args.file) if args.file else Templates.default()
         console.print(t)
@@ -77,7 +97,13 @@ def run(args: argparse.Namespace) -> int:
             progress.update(task, advance=1, description=f"read {Path(name).name}")
 
         if base is None:
-            templates = train_templates(paths, params=params, progress=step)
+            conf = args.min_keypoint_confidence
+            templates = train_templates(
+                paths,
+                params=params,
+                progress=step,
+                min_keypoint_confidence=MIN_KEYPOINT_CONFIDENCE if conf is None else conf,
+            )
         else:
             names, examples = collect_examples(
                 paths, preprocessing=base.preprocessing, progress=step
