@@ -124,9 +124,9 @@ def lifting(seeds: list[int], per_seed: int) -> dict[str, float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--realhands", default=str(ROOT.parent / "shared" / "realhands"))
-    parser.add_argument("--frames", type=int, default=200, help="frames timed (200)")
+    parser.add_argument("--frames", type=int, default=150, help="frames timed (150)")
     parser.add_argument("--seeds", default="0,5,7,11", help="render seeds of the lifting test")
-    parser.add_argument("--views", type=int, default=72, help="rendered views per seed (72)")
+    parser.add_argument("--views", type=int, default=24, help="rendered views per seed (24)")
     parser.add_argument("--json", help="write every number here")
     args = parser.parse_args()
     realhands = Path(args.realhands)
