@@ -34,7 +34,7 @@ def build_demo() -> dict:
     from lfd.features import compute_features
     from lfd.io import load
     from lfd.preprocessing import preprocess
-    from lfd.segmentation.pipeline import fill_gaps
+    from lfd.segmentation.gaps import fill_gaps
     from lfd.segmentation.stage1 import section_boundaries
 
     values, per_object, bounds, z = [], [], [0], []

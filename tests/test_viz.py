@@ -420,17 +420,19 @@ def test_telemetry_is_off_by_default() -> None:
 
 
 def test_cli_flags_save_and_stream(tmp_path: Path) -> None:
+    from lfd.cli import _rerun
+
     parser = argparse.ArgumentParser()
-    viz.add_rerun_arguments(parser)
+    _rerun.add_rerun_arguments(parser)
     args = parser.parse_args([])
-    assert viz.open_from_args(args, "lfd_test") is False
-    viz.close_from_args(args)  # no-op
+    assert _rerun.open_from_args(args, "lfd_test") is False
+    _rerun.close_from_args(args)  # no-op
 
     out = tmp_path / "sub" / "cli.rrd"
     args = parser.parse_args(["--rerun-save", str(out)])
-    assert viz.open_from_args(args, "lfd_test") is True
+    assert _rerun.open_from_args(args, "lfd_test") is True
     viz.log_skill_spans([SkillLabel("stack", T0, T0 + 10)], origin_ns=T0)  # the default recording
-    viz.close_from_args(args)
+    _rerun.close_from_args(args)
     assert rr.get_global_data_recording() is None  # closed: no longer the default
     data = Rrd(out)
     assert data.column("/segmentation/skills/result", "StateChange:state") == [["stack"], [""]]
@@ -443,16 +445,43 @@ def test_rerun_without_display_serves_the_web_viewer(
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     monkeypatch.setattr("sys.platform", "linux")
+    from lfd.cli import _rerun
+
     parser = argparse.ArgumentParser()
-    viz.add_rerun_arguments(parser)
+    _rerun.add_rerun_arguments(parser)
     args = parser.parse_args(["--rerun"])
     web = free_port()
-    assert viz.open_from_args(args, "lfd_test", grpc_port=free_port(), web_port=web)
+    assert _rerun.open_from_args(args, "lfd_test", grpc_port=free_port(), web_port=web)
     err = capsys.readouterr().err
     assert "no display" in err and f"http://localhost:{web}/?url=rerun" in err
     with urllib.request.urlopen(f"http://127.0.0.1:{web}/", timeout=10) as resp:
         assert resp.status == 200
-    viz.close_from_args(args, wait_serving=False)
+    _rerun.close_from_args(args, wait_serving=False)
+
+
+def test_viewer_url_check_takes_plain_values() -> None:
+    """The library checks a URL without argparse; the message names what the caller passes."""
+    from lfd.errors import UsageError
+    from lfd.viz.session import check_viewer_url
+
+    check_viewer_url("rerun+http://127.0.0.1:9876/proxy")
+    check_viewer_url("rerun://example.org:1/proxy/")
+    for bad in ("http://127.0.0.1:9876/proxy", "rerun+http://h:1/other", "rerun+http:///proxy"):
+        with pytest.raises(UsageError, match=r"^url .* is not a viewer URL"):
+            check_viewer_url(bad, what="url")
+    with pytest.raises(UsageError, match="Port out of range"):
+        check_viewer_url("rerun+http://h:99999/proxy")
+
+
+def test_library_has_no_argparse() -> None:
+    """Command-line parsing lives in lfd.cli only: no other module of lfd imports argparse."""
+    root = Path(viz.__file__).parents[1]
+    users = sorted(
+        str(p.relative_to(root))
+        for p in root.rglob("*.py")
+        if p.relative_to(root).parts[0] != "cli" and "argparse" in p.read_text()
+    )
+    assert users == []
 
 
 # --- the viewer (opt-in) ----------------------------------------------------------------------

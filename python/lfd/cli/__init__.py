@@ -144,9 +144,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130
     finally:
         warnings.showwarning = old_show
-        if "lfd.viz.cli" in sys.modules:  # imported by every command with --rerun* options
+        if "lfd.cli._rerun" in sys.modules:  # imported by every command with --rerun* options
             # a session still open here belongs to a command that failed: no --rerun-save file
-            sys.modules["lfd.viz.cli"].abort_from_args(args)
+            sys.modules["lfd.cli._rerun"].abort_from_args(args)
 
 
 if __name__ == "__main__":  # pragma: no cover

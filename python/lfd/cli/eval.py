@@ -56,7 +56,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="with --leave-one-out: adapt this template set (the shipped one: default) to the "
         "other recordings, instead of training from scratch",
     )
-    from ..viz.cli import add_rerun_arguments
+    from ._rerun import add_rerun_arguments
 
     add_rerun_arguments(parser)  # shows one recording: every method's lane beside the truth
 
@@ -85,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
         leave_one_out,
     )
     from ..segmentation.metrics import METRIC_NAMES
-    from ..viz.cli import check_rerun_args, close_from_args, open_from_args
+    from ._rerun import check_rerun_args, close_from_args, open_from_args
 
     methods = check_methods([m.strip() for m in args.methods.split(",") if m.strip()])
     if args.leave_one_out and not set(methods) & TEMPLATE_METHODS:

@@ -35,8 +35,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     h.add_argument("--intrinsics", metavar="K.json", help='{"K": 3x3} or a camera.json')
     h.add_argument("--max-hands", type=positive_int, default=2, help="hands per image (2)")
     h.add_argument("--mirrored", action="store_true", help="the photos are mirrored (selfie view)")
-    from ..viz.cli import add_rerun_arguments
     from ._options import add_json_argument
+    from ._rerun import add_rerun_arguments
 
     add_json_argument(h, "the hands (keypoints in MediaPipe-21 order)")
     add_rerun_arguments(h)
@@ -77,8 +77,8 @@ def _hands(args: argparse.Namespace) -> int:
 
     from ..perception.hand.mediapipe import MediaPipeHands
     from ..perception.hand.stills import hands_in_images, log_hands_rerun, read_inputs
-    from ..viz.cli import check_rerun_args, close_from_args, open_from_args
     from ._options import check_json, console, emit_json
+    from ._rerun import check_rerun_args, close_from_args, open_from_args
 
     inputs = [*args.images, *(args.depth or []), *([args.intrinsics] if args.intrinsics else [])]
     check_json(args, inputs)

@@ -83,7 +83,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--no-hand", action="store_true", help="record object poses only")
     parser.add_argument("--images", action="store_true", help="also store colour + depth frames")
-    from ..viz.cli import add_rerun_arguments
+    from ._rerun import add_rerun_arguments
 
     add_rerun_arguments(parser)
 
@@ -114,8 +114,8 @@ def run(args: argparse.Namespace) -> int:
     from ..outputs import check_output
     from ..perception.record import record
     from ..perception.sources import open_source
-    from ..viz.cli import check_rerun_args, close_from_args, open_from_args
     from ._options import check_inputs
+    from ._rerun import check_rerun_args, close_from_args, open_from_args
 
     model = hand_model_choice(args.hand_model, args.source)
     model_file = (

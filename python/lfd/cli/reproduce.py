@@ -58,7 +58,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="OUT.mp4",
         help="render a video of the (last) mode (.mp4 or .avi, written with OpenCV)",
     )
-    from ..viz.cli import add_rerun_arguments
+    from ._rerun import add_rerun_arguments
 
     add_rerun_arguments(parser)
 
@@ -81,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
         reproduce,
     )
     from ..segmentation import segment
-    from ..viz.cli import check_rerun_args, close_from_args, open_from_args
+    from ._rerun import check_rerun_args, close_from_args, open_from_args
 
     inputs = [p for p in (args.recording, args.task) if p]
     check_json(args, inputs)

@@ -26,7 +26,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--templates", metavar="FILE", help="template file (default: shipped)")
     add_segmentation_arguments(parser)
     add_json_argument(parser, "the segments (and metrics against the ground truth)")
-    from ..viz.cli import add_rerun_arguments
+    from ._rerun import add_rerun_arguments
 
     add_rerun_arguments(parser)
 
@@ -83,7 +83,7 @@ def _show_demo(shown: list[Any]) -> Callable[[Any], None]:
 def run(args: argparse.Namespace) -> int:
     from rich.table import Table
 
-    from ..viz.cli import check_rerun_args, close_from_args, open_from_args
+    from ._rerun import check_rerun_args, close_from_args, open_from_args
 
     inputs = [p for p in (args.recording, args.templates) if p]
     check_json(args, inputs)

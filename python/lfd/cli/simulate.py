@@ -140,7 +140,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="fraction of failed hand estimates, <= 0.9 (0.02)",
     )
     v.add_argument("--noise-free", action="store_true", help="no sensor noise, dropouts, tremor")
-    from ..viz.cli import add_rerun_arguments
+    from ._rerun import add_rerun_arguments
 
     add_rerun_arguments(parser)
 
@@ -245,7 +245,7 @@ def run(args: argparse.Namespace) -> int:
     os.environ.setdefault("MUJOCO_GL", "egl")
     from ..errors import UsageError
     from ..outputs import check_output
-    from ..viz.cli import check_rerun_args
+    from ._rerun import check_rerun_args
 
     if args.set and args.task:
         raise UsageError(
@@ -262,7 +262,7 @@ def run(args: argparse.Namespace) -> int:
 
     var = _variability(args)
     if args.set:
-        from ..viz.cli import wants_rerun
+        from ._rerun import wants_rerun
 
         if wants_rerun(args):
             print(
@@ -285,7 +285,7 @@ def run(args: argparse.Namespace) -> int:
                 progress.advance(bar)
         print(f"wrote {len(jobs)} recordings to {args.output}")
         return 0
-    from ..viz.cli import close_from_args, open_from_args
+    from ._rerun import close_from_args, open_from_args
 
     show = open_from_args(args, "lfd_simulate")
     with Progress(transient=True) as progress:

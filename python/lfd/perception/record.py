@@ -47,7 +47,7 @@ class _Live:
 
     def __init__(self, origin_ns: int) -> None:
         from ..viz.demo import log_static_scene
-        from ..viz.session import import_rerun
+        from ..viz.recording import import_rerun
 
         self.rr = import_rerun()
         self.origin = origin_ns

@@ -24,7 +24,8 @@ import numpy as np
 
 from ..demo import Demonstration
 from ..trajectory import Trajectory
-from .pipeline import _make_segment, as_trajectory, fill_gaps
+from .gaps import fill_gaps
+from .pipeline import _make_segment, as_trajectory
 from .result import Segmentation
 from .stage1 import Stage1Params
 

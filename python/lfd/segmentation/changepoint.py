@@ -39,7 +39,8 @@ from ..preprocessing.filters import finite_runs
 from ..preprocessing.grasp import box_distance
 from ..skills import SKILLS
 from ..trajectory import Trajectory
-from .pipeline import _make_segment, as_trajectory, fill_gaps
+from .gaps import fill_gaps
+from .pipeline import _make_segment, as_trajectory
 from .result import Segmentation
 
 DEFAULT_PENALTY = 0.02

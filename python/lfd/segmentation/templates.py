@@ -266,7 +266,7 @@ def template_examples(
     :func:`preprocessing_options` with ``feature_cutoff_hz``)."""
     from ..features import compute_features
     from ..preprocessing import preprocess
-    from .pipeline import fill_gaps
+    from .gaps import fill_gaps
 
     if not demo.labels:
         raise DemonstrationError("a template demonstration needs skill labels")

@@ -17,9 +17,9 @@ this package is cheap. Entity paths and the layout: :mod:`lfd.viz.blueprint`; ti
 from __future__ import annotations
 
 from .blueprint import FEATURE_NAMES, default_blueprint
-from .cli import add_rerun_arguments, close_from_args, open_from_args
 from .demo import log_demonstration
 from .features import log_feature_arrays, log_features
+from .recording import import_rerun
 from .robot import log_reproduction, log_robot_paths
 from .segmentation import (
     log_greedy_scores,
@@ -28,7 +28,7 @@ from .segmentation import (
     log_skill_spans,
     log_text,
 )
-from .session import Session, import_rerun, init, open_session
+from .session import Session, init, open_session
 from .timeline import DEMO_TIME, FRAME, ROBOT_TIME, set_time_origin
 
 __all__ = [
@@ -37,8 +37,6 @@ __all__ = [
     "FRAME",
     "ROBOT_TIME",
     "Session",
-    "add_rerun_arguments",
-    "close_from_args",
     "default_blueprint",
     "import_rerun",
     "init",
@@ -52,7 +50,6 @@ __all__ = [
     "log_segmentation",
     "log_skill_spans",
     "log_text",
-    "open_from_args",
     "open_session",
     "set_time_origin",
 ]

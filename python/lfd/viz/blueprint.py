@@ -27,7 +27,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from ..features import FEATURE_NAMES  # the ten feature columns of Table I, one plot each
-from .session import import_rerun
+from .recording import import_rerun
 from .timeline import DEMO_TIME
 
 

@@ -10,7 +10,7 @@ import numpy as np
 from ..demo import HAND_BONES, KEYPOINT_NAMES, Demonstration, ImageStream
 from ..errors import DemonstrationError
 from ..trajectory import Trajectory
-from .session import get_recording, import_rerun
+from .recording import get_recording, import_rerun
 from .timeline import time_columns, time_origin
 
 HAND_CLASS_ID = 0

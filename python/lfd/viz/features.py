@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..errors import DemonstrationError
-from .session import get_recording, import_rerun
+from .recording import get_recording, import_rerun
 from .timeline import time_columns, time_origin
 
 VALUE_COLOR = (60, 160, 255)

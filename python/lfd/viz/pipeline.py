@@ -88,7 +88,7 @@ def log_recorded_demo(
     log_demonstration(demo, trajectory=traj, recording=recording, **kwargs)
     if traj is not None and features:
         from ..features import compute_features
-        from ..segmentation.pipeline import fill_gaps
+        from ..segmentation.gaps import fill_gaps
 
         try:
             filled, _ = fill_gaps(traj)
@@ -134,7 +134,8 @@ def log_segment_run(
     """
     from ..features import compute_features
     from ..segmentation import SegmentParams, Templates
-    from ..segmentation.pipeline import as_trajectory, fill_gaps, stage2_scores
+    from ..segmentation.gaps import fill_gaps
+    from ..segmentation.pipeline import as_trajectory, stage2_scores
 
     tpl = templates or Templates.default()
     traj = (
@@ -189,7 +190,7 @@ def log_segment_run(
 
 def _log_cuts(result: Segmentation, recording: Any) -> None:
     """The chosen (run, skill) of each greedy iteration: a marker at its end and score."""
-    from .session import get_recording, import_rerun
+    from .recording import get_recording, import_rerun
     from .timeline import current_origin, time_columns
 
     rr = import_rerun()

@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..errors import DemonstrationError
-from .session import get_recording, import_rerun
+from .recording import get_recording, import_rerun
 from .timeline import ROBOT_TIME, as_ns, time_columns
 
 PLANNED_COLOR = (120, 200, 120)

@@ -1,5 +1,7 @@
 """Screenshots of a saved recording in the headless native viewer (docs, tests).
 
+From a shell: ``python -m lfd.cli.screenshot IN.rrd OUT.png`` (:mod:`lfd.cli.screenshot`).
+
 Needs a Vulkan driver; on Debian without a GPU: ``apt-get install mesa-vulkan-drivers``
 (software rendering with llvmpipe).
 """
@@ -11,7 +13,7 @@ import socket
 import time
 from pathlib import Path
 
-from .session import import_rerun
+from .recording import import_rerun
 
 
 def free_port() -> int:
@@ -89,31 +91,3 @@ def screenshot(
             rgb = rgb.resize((max_width, h), Image.Resampling.LANCZOS)
         rgb.quantize(colors=256, method=Image.Quantize.MEDIANCUT).save(out, optimize=True)
     return out
-
-
-def main(argv: list[str] | None = None) -> int:
-    """``python -m lfd.viz.screenshot IN.rrd OUT.png [--time S] [--width PX] [--view NAME]``."""
-    import argparse
-
-    parser = argparse.ArgumentParser(prog="python -m lfd.viz.screenshot", description=main.__doc__)
-    parser.add_argument("rrd")
-    parser.add_argument("png")
-    parser.add_argument("--time", type=float, help="pause demo_time at this many seconds")
-    parser.add_argument("--width", type=int, help="downscale to at most this width (pixels)")
-    parser.add_argument("--view", help="capture only the view with this name")
-    parser.add_argument("--settle", type=float, default=6.0, help="seconds to wait (6)")
-    args = parser.parse_args(argv)
-    out = screenshot(
-        args.rrd,
-        args.png,
-        settle_s=args.settle,
-        max_width=args.width,
-        time_s=args.time,
-        view=args.view,
-    )
-    print(out)
-    return 0
-
-
-if __name__ == "__main__":  # pragma: no cover
-    raise SystemExit(main())

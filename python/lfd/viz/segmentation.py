@@ -10,7 +10,7 @@ import numpy.typing as npt
 
 from ..errors import DemonstrationError
 from ..skills import SKILLS
-from .session import get_recording, import_rerun
+from .recording import get_recording, import_rerun
 from .timeline import GREEDY_ITERATION, as_ns, current_origin, time_columns, time_origin
 
 SKILL_COLORS: dict[str, tuple[int, int, int]] = {

@@ -1,4 +1,4 @@
-"""Rerun sessions: import rerun lazily (telemetry off), open a recording with its sinks.
+"""Rerun sessions: open a recording with its sinks (rerun itself: :mod:`lfd.viz.recording`).
 
 A :class:`Session` is one Rerun recording stream with any combination of sinks: the native
 viewer (spawned, or the fallback when there is no display), an ``.rrd`` file, a remote viewer
@@ -14,11 +14,12 @@ import time
 import urllib.parse
 from dataclasses import dataclass, field
 from pathlib import Path
-from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
-from ..errors import LfdError
+from ..errors import LfdError, UsageError
 from ..outputs import PendingOutput
+from .blueprint import default_blueprint
+from .recording import import_rerun
 
 if TYPE_CHECKING:
     import rerun as rr
@@ -31,23 +32,34 @@ SPAWN_PORT = 9876
 """Port the spawned native viewer listens on."""
 
 
-def import_rerun() -> ModuleType:
-    """Import ``rerun`` with telemetry off unless the user chose otherwise.
+CONNECT_SCHEMES = ("rerun", "rerun+http", "rerun+https")
+"""URL schemes of a viewer to stream to: those the Rerun SDK's ``GrpcSink`` accepts (its URLs
+end in ``/proxy``)."""
 
-    Sets ``RERUN_TELEMETRY=0`` in the environment before the first import (a value the user
-    set is kept), so the SDK and any viewer it spawns send nothing.
+
+def check_viewer_url(url: str, *, what: str = "connect") -> None:
+    """Refuse a viewer URL :func:`open_session` cannot stream to, before any work.
+
+    ``what`` names the value in the message (the ``lfd`` commands pass ``--rerun-connect``).
 
     Raises
     ------
-    LfdError
-        If the ``rerun-sdk`` package is not installed.
+    UsageError
+        ``url`` is not a ``rerun+http://HOST:PORT/proxy`` URL (``rerun://``, ``rerun+https://``
+        too), or its port is not a number in range.
     """
-    os.environ.setdefault("RERUN_TELEMETRY", "0")
+    parts = urllib.parse.urlsplit(url)
+    bad_path = parts.path.rstrip("/") != "/proxy"
+    if parts.scheme not in CONNECT_SCHEMES or not parts.hostname or bad_path:
+        raise UsageError(
+            f"{what} {url!r} is not a viewer URL; give e.g. "
+            f"rerun+http://127.0.0.1:{DEFAULT_GRPC_PORT}/proxy "
+            f"(schemes: {', '.join(s + '://' for s in CONNECT_SCHEMES)})"
+        )
     try:
-        import rerun
-    except ImportError as err:  # pragma: no cover - rerun-sdk is in the dev and viz extras
-        raise LfdError("Rerun views need the rerun-sdk package: pip install 'lfd[viz]'") from err
-    return rerun
+        parts.port  # noqa: B018 - raises ValueError on a bad port
+    except ValueError as err:
+        raise UsageError(f"{what} {url!r}: {err}") from err
 
 
 def has_display() -> bool:
@@ -193,7 +205,6 @@ def open_session(
     Session
     """
     rr = import_rerun()
-    from .blueprint import default_blueprint
 
     messages: list[str] = []
     if spawn and not has_display():
@@ -282,23 +293,3 @@ def init(
     for message in session.messages:
         print(message)
     return session
-
-
-def get_recording(recording: Any = None) -> rr.RecordingStream:
-    """The recording to log to: ``recording`` or the current default one.
-
-    Raises
-    ------
-    LfdError
-        If none is given and no default recording exists.
-    """
-    rr = import_rerun()
-    if recording is not None:
-        return recording  # type: ignore[no-any-return]
-    rec = rr.get_data_recording()
-    if rec is None:
-        raise LfdError(
-            "no Rerun recording to log to: call lfd.viz.init(...) or rerun.init(...) first, "
-            "or pass recording="
-        )
-    return rec  # type: ignore[no-any-return]

@@ -17,7 +17,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..errors import DemonstrationError
-from .session import get_recording, import_rerun
+from .recording import get_recording, import_rerun
 
 DEMO_TIME = "demo_time"
 """Duration timeline of the demonstration, nanoseconds since the recording's origin."""

@@ -170,7 +170,7 @@ def hands_in_images(
 def log_hands_rerun(doc: dict[str, Any], images: Sequence[np.ndarray] | None = None) -> None:
     """Each image with its hands' skeletons (and 3-D keypoints when lifted) to the open Rerun
     recording, one step of the ``image`` timeline per image."""
-    from ...viz.session import import_rerun
+    from ...viz.recording import import_rerun
     from .mediapipe import SKELETON
 
     rr = import_rerun()

@@ -1,11 +1,16 @@
-"""The ``--rerun*`` command-line flags shared by ``lfd simulate``, ``lfd segment``, ``lfd eval``.
+"""The ``--rerun*`` options shared by the commands that show their work in Rerun.
 
 A command calls :func:`add_rerun_arguments` in ``add_arguments`` and, in ``run``::
 
+    check_rerun_args(args, inputs)             # refuse bad values before any work
     if open_from_args(args, "lfd_segment"):    # opens the viewer/file/server, or does nothing
         lfd.viz.log_demonstration(demo)          # log as results are produced
     ...
     close_from_args(args)                        # flush; keep serving until Ctrl+C if serving
+
+The session itself is :func:`lfd.viz.session.open_session` (plain values, no argparse);
+:func:`lfd.cli.main` calls :func:`abort_from_args` when a command fails, so a failed run
+leaves no ``--rerun-save`` file.
 """
 
 from __future__ import annotations
@@ -13,12 +18,16 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import urllib.parse
 from collections.abc import Iterable
 from typing import Any
 
-from ..errors import UsageError
-from .session import DEFAULT_GRPC_PORT, DEFAULT_WEB_PORT, Session, open_session
+from ..viz.session import (
+    DEFAULT_GRPC_PORT,
+    DEFAULT_WEB_PORT,
+    Session,
+    check_viewer_url,
+    open_session,
+)
 
 _SESSION_ATTR = "rerun_session"
 
@@ -50,11 +59,6 @@ def add_rerun_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-CONNECT_SCHEMES = ("rerun", "rerun+http", "rerun+https")
-"""URL schemes of ``--rerun-connect``: those the Rerun SDK's ``GrpcSink`` accepts (its URLs
-end in ``/proxy``)."""
-
-
 def check_rerun_args(
     args: argparse.Namespace, inputs: Iterable[str | os.PathLike[str]] = ()
 ) -> None:
@@ -64,7 +68,7 @@ def check_rerun_args(
     ------
     UsageError
         ``--rerun-save`` is an input, not a ``.rrd`` file, or not writable; ``--rerun-connect``
-        is not a ``rerun+http://HOST:PORT/proxy`` URL (``rerun://``, ``rerun+https://`` too).
+        is not a viewer URL (:func:`lfd.viz.session.check_viewer_url`).
     """
     from ..outputs import check_output
 
@@ -73,22 +77,11 @@ def check_rerun_args(
         check_output(save, inputs=inputs, what="--rerun-save", suffixes=(".rrd",))
     url = getattr(args, "rerun_connect", None)
     if url is not None:
-        parts = urllib.parse.urlsplit(url)
-        bad_path = parts.path.rstrip("/") != "/proxy"
-        if parts.scheme not in CONNECT_SCHEMES or not parts.hostname or bad_path:
-            raise UsageError(
-                f"--rerun-connect {url!r} is not a viewer URL; give e.g. "
-                f"rerun+http://127.0.0.1:{DEFAULT_GRPC_PORT}/proxy "
-                f"(schemes: {', '.join(s + '://' for s in CONNECT_SCHEMES)})"
-            )
-        try:
-            parts.port  # noqa: B018 - raises ValueError on a bad port
-        except ValueError as err:
-            raise UsageError(f"--rerun-connect {url!r}: {err}") from err
+        check_viewer_url(url, what="--rerun-connect")
 
 
 def wants_rerun(args: argparse.Namespace) -> bool:
-    """Whether any ``--rerun*`` flag was given."""
+    """Whether any ``--rerun*`` option was given."""
     return bool(
         getattr(args, "rerun", False)
         or getattr(args, "rerun_save", None)
@@ -98,7 +91,7 @@ def wants_rerun(args: argparse.Namespace) -> bool:
 
 
 def open_from_args(args: argparse.Namespace, app_id: str, **kwargs: Any) -> bool:
-    """Open the Rerun session the flags ask for; False (and nothing opened) without flags.
+    """Open the Rerun session the options ask for; False (and nothing opened) without them.
 
     The recording becomes the global default, so ``lfd.viz.log_*(...)`` log to it. What was
     opened (file, viewer, web address) is printed to stderr. Extra keyword arguments go to
