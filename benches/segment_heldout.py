@@ -51,8 +51,8 @@ def seeds_of(spec: str) -> list[int]:
 
 def simulate_group(out: Path, given: dict[str, Any], tasks: tuple[str, ...], seeds: list[int]):
     """Simulate (once; cached in ``out``) every task x seed with the given variability."""
-    from lfd.cli.simulate import record
     from lfd.sim import Variability
+    from lfd.sim.sets import record
 
     out.mkdir(parents=True, exist_ok=True)
     paths = []

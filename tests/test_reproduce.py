@@ -390,8 +390,8 @@ def test_cli_bad_input_exit_2_and_clean_cwd(
 
 
 def test_write_video_atomic(tmp_path: Path) -> None:
-    from lfd.cli.reproduce import write_video
     from lfd.errors import LfdError
+    from lfd.reproduce.video import write_video
 
     frames = [np.full((48, 64, 3), i * 20, dtype=np.uint8) for i in range(10)]
     for name in ("v.mp4", "v.avi"):

@@ -4,6 +4,7 @@ reproducibility, and rendered depth / markers that agree with the simulated geom
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -273,9 +274,32 @@ def test_cli_simulate_writes_a_readable_recording(tmp_path) -> None:  # type: ig
     assert exit_.value.code == 2
 
 
+def test_simulation_sets() -> None:
+    """The library owns the sets; the command offers exactly their names (without importing the
+    simulator for ``lfd --help``)."""
+    from lfd.cli.simulate import SETS as CLI_SETS
+    from lfd.errors import UsageError
+    from lfd.sim.sets import SETS, set_jobs
+
+    assert CLI_SETS == SETS
+    out = Path("out")
+    assert len(set_jobs("templates", out)) == 9 * 7
+    assert len(set_jobs("templates", out, "natural")) == 9 * 7 + 6
+    samples = set_jobs("samples", out)
+    assert samples[-1] == {
+        "task": "exp1",
+        "seed": 1000,
+        "path": out / "rendered" / "exp1_short.mcap",
+        "render": 5.0,
+        "duration": 8.0,
+    }
+    with pytest.raises(UsageError, match="unknown set 'all'"):
+        set_jobs("all", out)
+
+
 def test_cropped_rendered_sample(tmp_path) -> None:  # type: ignore[no-untyped-def]
     import lfd
-    from lfd.cli.simulate import record
+    from lfd.sim.sets import record
 
     out = tmp_path / "short.mcap"
     record("exp1", 1, out, render_rate=2.0, duration=1.5)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import warnings
 
 from ._options import add_json_argument, check_json, console, json_to_stdout, write_json
 
@@ -18,75 +17,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_json_argument(parser, "the summary")
 
 
-def _fmt_t(t_ns: int, t0: int) -> str:
-    return f"{(t_ns - t0) * 1e-9:7.2f}"
-
-
-def summarise(path: str) -> dict:
-    """A JSON-able summary of a recording (used by ``lfd info``)."""
-    from ..errors import LfdError
-    from ..io import load, scan
-
-    raw = scan(path)
-    firsts = [c.first_ns for c in raw.channels.values() if c.first_ns is not None]
-    t0 = min(firsts) if firsts else 0
-    summary: dict = {
-        "path": raw.path,
-        "file_size": raw.file_size,
-        "library": raw.library,
-        "complete": raw.complete,
-        "damage": raw.error,
-        "messages": raw.message_count,
-        "duration_s": raw.span_s,
-        "start_ns": t0,
-        "channels": [
-            {
-                "topic": c.topic,
-                "schema": c.schema,
-                "count": c.count,
-                "rate_hz": round(c.rate_hz, 3),
-                "first_s": None if c.first_ns is None else (c.first_ns - t0) * 1e-9,
-                "last_s": None if c.last_ns is None else (c.last_ns - t0) * 1e-9,
-            }
-            for c in sorted(raw.channels.values(), key=lambda c: c.topic)
-        ],
-        "metadata_records": raw.metadata,
-        "warnings": [],
-        "error": None,
-    }
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        try:
-            demo = load(path, images=False)
-        except LfdError as err:
-            summary["error"] = str(err)
-            demo = None
-    summary["warnings"] = [str(w.message) for w in caught]
-    if demo is not None:
-        summary["objects"] = [
-            {"name": o.name, "tag_id": o.tag_id, "size": o.size.tolist(), "samples": len(o)}
-            for o in demo.objects.values()
-        ]
-        summary["labels"] = [
-            {
-                "skill": lab.skill,
-                "object": lab.object,
-                "start_s": (lab.start_ns - t0) * 1e-9,
-                "end_s": (lab.end_ns - t0) * 1e-9,
-            }
-            for lab in demo.labels
-        ]
-        summary["metadata"] = {k: v for k, v in demo.metadata.items() if k != "load_report"}
-        summary["camera"] = (
-            None
-            if demo.camera is None
-            else {"width": demo.camera.width, "height": demo.camera.height}
-        )
-    return summary
-
-
 def run(args: argparse.Namespace) -> int:
     check_json(args, inputs=[args.recording])
+    from ..io import summarise
+
     s = summarise(args.recording)
     if args.json:
         write_json(args.json, s)

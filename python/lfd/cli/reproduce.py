@@ -22,8 +22,6 @@ from ._options import (
 
 NAME = "reproduce"
 HELP = "Reproduce a demonstration on a simulated 7-DoF arm (replay, skills or DMP) and measure it."
-VIDEO_SUFFIXES = (".mp4", ".avi")
-"""Video containers the OpenCV writer produces (mp4v in .mp4, MJPG in .avi)."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -79,7 +77,9 @@ def run(args: argparse.Namespace) -> int:
         parse_displacement,
         program_start,
         reproduce,
+        reproduction_report,
     )
+    from ..reproduce.video import VIDEO_SUFFIXES, write_video
     from ..segmentation import segment
     from ._rerun import check_rerun_args, close_from_args, open_from_args
 
@@ -150,56 +150,13 @@ def run(args: argparse.Namespace) -> int:
             for line in r.failures or ["no skill reported a failure"]:
                 err.print(f"  {line}", highlight=False, markup=False)
     if args.json:
-        doc = {
-            "recording": args.recording,
-            "program": program.to_json(),
-            "results": {m: r.to_json() for m, r in results.items()},
-        }
-        write_json(args.json, doc)
+        write_json(args.json, reproduction_report(program, results, recording=args.recording))
     if args.video:
         ex = results[modes[-1]].execution
         frames = ex.frames if ex is not None else []
-        write_video(args.video, frames, fps=30.0)
+        write_video(args.video, frames, fps=30.0, what="--video")
         err.print(f"video: {args.video} ({len(frames)} frames, mode {modes[-1]})")
     # with --mode all, replay is the reference of the path-length ratio, reported but not
     # judged: the exit status says whether the learned task (skills, dmp) was achieved
     judged = [m for m in results if not (args.mode == "all" and m == "replay")]
     return 0 if all(results[m].success for m in judged) else 1
-
-
-def write_video(path: str, frames: list, fps: float) -> None:
-    """Write RGB frames to a video atomically (OpenCV: mp4v in .mp4, MJPG in .avi).
-
-    Raises
-    ------
-    LfdError
-        No frames, or OpenCV could not write the file; nothing is left under ``path``.
-    """
-    import os
-    from pathlib import Path
-
-    import cv2
-
-    from ..errors import LfdError
-    from ..outputs import atomic_output
-
-    if not frames:
-        raise LfdError(f"--video {path}: no frames were rendered")
-    suffix = Path(path).suffix.lower()
-    fourcc = cv2.VideoWriter_fourcc(*("MJPG" if suffix == ".avi" else "mp4v"))  # type: ignore[attr-defined]
-    h, w = frames[0].shape[:2]
-    with atomic_output(path) as tmp:
-        # OpenCV picks the container from the extension: write beside the temporary file
-        video = tmp.with_name(tmp.name + suffix)
-        try:
-            writer = cv2.VideoWriter(str(video), fourcc, fps, (w, h))
-            if not writer.isOpened():
-                raise LfdError(f"--video {path}: OpenCV cannot write {suffix} video here")
-            for f in frames:
-                writer.write(cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
-            writer.release()
-            if not video.exists() or video.stat().st_size == 0:
-                raise LfdError(f"--video {path}: OpenCV wrote no data")
-            os.replace(video, tmp)
-        finally:
-            video.unlink(missing_ok=True)

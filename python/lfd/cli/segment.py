@@ -39,36 +39,13 @@ def segment_recording(
     ``on_loaded(demo)`` is called as soon as the recording is loaded (e.g. to show it).
     """
     from ..io import load
-    from ..segmentation import all_metrics, segment
+    from ..segmentation import segment
 
     demo = load(args.recording, images=bool(getattr(args, "rerun_session", None)))
     if on_loaded is not None:
         on_loaded(demo)
     result = segment(demo, **segmentation_options(args))
-    doc: dict[str, Any] = {
-        "recording": str(args.recording),
-        "method": result.method,
-        # start_s / end_s count from here (the first resampled sample); `lfd label` reads it
-        "origin_ns": result.segments[0].start_ns - round(result.segments[0].start_s * 1e9),
-        "segments": [s.to_dict() for s in result.segments],
-        "warnings": list(result.warnings),
-        "ground_truth": [
-            {
-                "skill": lab.skill,
-                "start_s": (lab.start_ns - result.segments[0].start_ns) * 1e-9,
-                "end_s": (lab.end_ns - result.segments[0].start_ns) * 1e-9,
-                "object": lab.object,
-            }
-            for lab in demo.labels
-        ],
-        "metrics": {},
-    }
-    if demo.labels:
-        m = all_metrics(result.segments, demo.labels)
-        doc["metrics"] = {
-            k: (v if v == v and abs(v) != float("inf") else None) for k, v in m.items()
-        }
-    return demo, result, doc
+    return demo, result, result.report(demo.labels, recording=str(args.recording))
 
 
 def _show_demo(shown: list[Any]) -> Callable[[Any], None]:

@@ -28,11 +28,8 @@ NAME = "simulate"
 HELP = "Record a task performed by the simulated human demonstrator (MuJoCo)."
 
 SETS = ("templates", "eval", "samples")
-NATURAL_EXP5_TEMPLATES = 6
-"""Natural-style template sets also hold this many repeated-lift demos (exp5)."""
-TEMPLATE_SEEDS = range(9)
-EVAL_SEEDS = range(100, 106)
-SAMPLE_SEED = 1000
+"""The names of :data:`lfd.sim.sets.SETS` (not imported: ``lfd --help`` runs without the sim
+extra; tests/test_sim.py checks they agree)."""
 OBJECT_RATE_HZ = 30.0
 """Camera / tag tracking rate of the simulated recordings (``simulate``'s default), Hz: the
 upper limit of the hand and render rates."""
@@ -167,67 +164,6 @@ def _variability(args: argparse.Namespace) -> Any:
     return var
 
 
-def _jobs(which: str, out: Path, style: str = "careful") -> list[dict[str, Any]]:
-    from ..sim import EXPERIMENTS, NATURAL_EXPERIMENTS, TEMPLATE_TASKS
-
-    jobs: list[dict[str, Any]]
-    if which == "templates":
-        jobs = [
-            {"task": s, "seed": k, "path": out / f"{s}_{k}.mcap"}
-            for s in TEMPLATE_TASKS
-            for k in TEMPLATE_SEEDS
-        ]
-        if style == "natural":  # re-grasps of the object just put down occur in repeated lifts
-            jobs += [
-                {"task": "exp5", "seed": k, "path": out / f"exp5_{k}.mcap"}
-                for k in TEMPLATE_SEEDS[:NATURAL_EXP5_TEMPLATES]
-            ]
-        return jobs
-    if which == "eval":
-        return [
-            {"task": e, "seed": k, "path": out / f"{e}_{k}.mcap"}
-            for e in (NATURAL_EXPERIMENTS if style == "natural" else EXPERIMENTS)
-            for k in EVAL_SEEDS
-        ]
-    jobs = [{"task": e, "seed": SAMPLE_SEED, "path": out / f"{e}.mcap"} for e in EXPERIMENTS]
-    jobs.append(
-        {
-            "task": "exp1",
-            "seed": SAMPLE_SEED,
-            "path": out / "rendered" / "exp1_short.mcap",
-            "render": 5.0,
-            "duration": 8.0,
-        }
-    )
-    return jobs
-
-
-def record(
-    task: str,
-    seed: int,
-    path: str | os.PathLike[str],
-    *,
-    variability: Any = None,
-    render_rate: float | None = None,
-    duration: float | None = None,
-    hand_rate: float | None = None,
-    color_format: str = "png",
-) -> Any:
-    """Simulate, optionally crop and render, and save one demonstration; returns the result."""
-    from .. import io
-    from ..sim.demonstrator import crop, simulate
-    from ..sim.render import add_rendering
-
-    result = simulate(task, seed, variability, hand_rate_hz=hand_rate)
-    if duration is not None:
-        crop(result, duration)
-    if render_rate:
-        add_rendering(result, rate_hz=render_rate)
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    io.save(result.demo, path, color_format=color_format)
-    return result
-
-
 def _check_set_directory(out: Path) -> None:
     """Refuse a ``--set`` destination that is a file or cannot be created or written."""
     from ..errors import UsageError
@@ -245,6 +181,7 @@ def run(args: argparse.Namespace) -> int:
     os.environ.setdefault("MUJOCO_GL", "egl")
     from ..errors import UsageError
     from ..outputs import check_output
+    from ..sim.sets import record, set_jobs
     from ._rerun import check_rerun_args
 
     if args.set and args.task:
@@ -269,7 +206,7 @@ def run(args: argparse.Namespace) -> int:
                 "lfd simulate: warning: --rerun* shows a single demonstration; ignored with --set",
                 file=sys.stderr,
             )
-        jobs = _jobs(args.set, Path(args.output), args.style)
+        jobs = set_jobs(args.set, Path(args.output), args.style)
         with Progress() as progress:
             bar = progress.add_task(f"simulating {args.set}", total=len(jobs))
             for job in jobs:

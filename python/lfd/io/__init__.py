@@ -3,7 +3,8 @@
 - :class:`McapRecorder` writes a recording sample by sample (safe to interrupt);
 - :func:`save` writes a whole :class:`~lfd.demo.Demonstration`;
 - :func:`load` reads one back, recovering truncated files with a warning;
-- :func:`scan` lists a file's channels, metadata and damage without decoding (``lfd info``).
+- :func:`scan` lists a file's channels, metadata and damage without decoding;
+- :func:`summarise` tells what a recording holds (``lfd info``).
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ from __future__ import annotations
 from ..errors import RecordingFormatError, RecoveredFileWarning, TimestampWarning
 from .mcapfile import ChannelSummary, RawRecording, scan
 from .reader import load
+from .summary import summarise
 from .writer import McapRecorder, save
 
 __all__ = [
@@ -23,4 +25,5 @@ __all__ = [
     "load",
     "save",
     "scan",
+    "summarise",
 ]

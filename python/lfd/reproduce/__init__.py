@@ -9,7 +9,7 @@ Typical use::
 
 Modules: :mod:`.robot` (the arm MJCF), :mod:`.scene`, :mod:`.ik` (mink), :mod:`.controller`,
 :mod:`.program` (the task program), :mod:`.goals` (Eq. 2), :mod:`.modes`, :mod:`.dmp`,
-:mod:`.measures`.
+:mod:`.measures`, :mod:`.video`.
 """
 
 from __future__ import annotations
@@ -43,6 +43,7 @@ __all__ = [
     "parse_displacement",
     "program_start",
     "reproduce",
+    "reproduction_report",
 ]
 
 
@@ -198,3 +199,14 @@ def reproduce(
         program=result.program,
         skills=skill_results(executed, plan, ex, objs),
     )
+
+
+def reproduction_report(
+    program: TaskProgram, results: Mapping[str, Reproduction], *, recording: str | None = None
+) -> dict[str, Any]:
+    """The document of ``lfd reproduce --json``: the task program and every mode's result."""
+    return {
+        "recording": recording,
+        "program": program.to_json(),
+        "results": {mode: r.to_json() for mode, r in results.items()},
+    }

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 from ..demo import SkillLabel
+from .metrics import all_metrics
 
 RESULT_FORMAT_VERSION = 2
 """Version of the JSON written by :meth:`Segmentation.to_json` (2: ``confidence`` is a posterior
@@ -141,3 +143,41 @@ class Segmentation:
         """The task program as JSON text (``kwargs`` go to :func:`json.dumps`)."""
         kwargs.setdefault("indent", 2)
         return json.dumps(self.to_dict(), **kwargs)
+
+    @property
+    def origin_ns(self) -> int:
+        """The absolute time (ns) that ``start_s`` / ``end_s`` count from: the first sample."""
+        first = self.segments[0]
+        return first.start_ns - round(first.start_s * 1e9)
+
+    def report(
+        self, ground_truth: Sequence[SkillLabel] = (), *, recording: str | None = None
+    ) -> dict[str, Any]:
+        """The document of ``lfd segment --json``: the segments, the ground truth on the same
+        clock, and the metrics against it (``{}`` without ground truth; non-finite -> ``None``).
+
+        ``origin_ns`` is the absolute time ``start_s`` / ``end_s`` count from; ``lfd label``
+        reads it back (:func:`lfd.io.labels.read_labels`).
+        """
+        t0 = self.segments[0].start_ns
+        doc: dict[str, Any] = {
+            "recording": recording,
+            "method": self.method,
+            "origin_ns": self.origin_ns,
+            "segments": [s.to_dict() for s in self.segments],
+            "warnings": list(self.warnings),
+            "ground_truth": [
+                {
+                    "skill": lab.skill,
+                    "start_s": (lab.start_ns - t0) * 1e-9,
+                    "end_s": (lab.end_ns - t0) * 1e-9,
+                    "object": lab.object,
+                }
+                for lab in ground_truth
+            ],
+            "metrics": {},
+        }
+        if ground_truth:
+            metrics = all_metrics(self.segments, ground_truth)
+            doc["metrics"] = {k: _finite(v) for k, v in metrics.items()}
+        return doc

@@ -1,0 +1,78 @@
+"""What a recording holds, for people and scripts (``lfd info``): channels, objects, labels."""
+
+from __future__ import annotations
+
+import os
+import warnings
+from typing import Any
+
+from ..errors import LfdError
+from .mcapfile import scan
+from .reader import load
+
+
+def summarise(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """A JSON-ready summary of a recording: the document of ``lfd info --json``.
+
+    The file's channels, metadata and damage come from :func:`lfd.io.scan` (never fails on a
+    damaged file); its objects, skill labels, metadata and camera from :func:`lfd.io.load` when
+    that succeeds. A failed load is reported in ``error`` (its warnings in ``warnings``), not
+    raised, so a damaged file can still be summarised. Times are seconds from ``start_ns``, the
+    first message.
+    """
+    raw = scan(path)
+    firsts = [c.first_ns for c in raw.channels.values() if c.first_ns is not None]
+    t0 = min(firsts) if firsts else 0
+    summary: dict[str, Any] = {
+        "path": raw.path,
+        "file_size": raw.file_size,
+        "library": raw.library,
+        "complete": raw.complete,
+        "damage": raw.error,
+        "messages": raw.message_count,
+        "duration_s": raw.span_s,
+        "start_ns": t0,
+        "channels": [
+            {
+                "topic": c.topic,
+                "schema": c.schema,
+                "count": c.count,
+                "rate_hz": round(c.rate_hz, 3),
+                "first_s": None if c.first_ns is None else (c.first_ns - t0) * 1e-9,
+                "last_s": None if c.last_ns is None else (c.last_ns - t0) * 1e-9,
+            }
+            for c in sorted(raw.channels.values(), key=lambda c: c.topic)
+        ],
+        "metadata_records": raw.metadata,
+        "warnings": [],
+        "error": None,
+    }
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            demo = load(path, images=False)
+        except LfdError as err:
+            summary["error"] = str(err)
+            demo = None
+    summary["warnings"] = [str(w.message) for w in caught]
+    if demo is not None:
+        summary["objects"] = [
+            {"name": o.name, "tag_id": o.tag_id, "size": o.size.tolist(), "samples": len(o)}
+            for o in demo.objects.values()
+        ]
+        summary["labels"] = [
+            {
+                "skill": lab.skill,
+                "object": lab.object,
+                "start_s": (lab.start_ns - t0) * 1e-9,
+                "end_s": (lab.end_ns - t0) * 1e-9,
+            }
+            for lab in demo.labels
+        ]
+        summary["metadata"] = {k: v for k, v in demo.metadata.items() if k != "load_report"}
+        summary["camera"] = (
+            None
+            if demo.camera is None
+            else {"width": demo.camera.width, "height": demo.camera.height}
+        )
+    return summary
