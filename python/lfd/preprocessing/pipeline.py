@@ -22,11 +22,12 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
 
-from ..demo import INDEX_MCP, INDEX_TIP, THUMB_TIP, Demonstration
+from ..demo import INDEX_MCP, INDEX_TIP, THUMB_TIP, Demonstration, HandTrack, ObjectTrack
 from ..errors import DemonstrationError
 from ..trajectory import Trajectory
 from .carry import fill_carried_gaps, hold_ends
@@ -134,6 +135,64 @@ def preprocess(
         No overlap between the hand and the objects, no valid hand sample, or a demonstration
         too short to filter (not more than 12 samples on the clock).
     """
+    _check_options(demo, aperture, min_keypoint_confidence)
+    hand_fc = _hand_cutoff(demo.hand, feature_cutoff_hz)
+    obj_fc = hand_fc if object_cutoff_hz is None else float(object_cutoff_hz)
+    hand = _hand_samples(demo.hand, min_keypoint_confidence)
+    objs = _object_samples(demo)
+    start, end = _overlap(demo, hand, objs, fill_hidden)
+    t_ns = clock(start, end, rate_hz)
+    if filter:
+        _check_filterable(t_ns.size, rate_hz, (hand_fc, obj_fc, euler_cutoff_hz), end - start)
+    smooth = _Smoother(t_ns, rate_hz, filter)
+    t_s = (t_ns - start) * 1e-9
+    g = _gripper_track(
+        hand, demo.hand.side, start, t_s, max_gap_s, hand_fc, euler_cutoff_hz, smooth
+    )
+    o = _object_tracks(objs, hand, g, start, t_ns, max_gap_s, obj_fc, fill_hidden, smooth)
+    opening = g.opening
+    if aperture == "grasp":
+        opening = grasp_aperture(g.keypoints, o.position, o.quaternion, o.size)
+        opening[~g.valid] = np.nan
+    meta: dict[str, Any] = {
+        "rate_hz": rate_hz,
+        "euler_cutoff_hz": euler_cutoff_hz,
+        "feature_cutoff_hz": feature_cutoff_hz,
+        "object_cutoff_hz": object_cutoff_hz,
+        "hand_filter_hz": hand_fc,
+        "object_filter_hz": obj_fc,
+        "aperture": aperture,
+        "max_gap_s": max_gap_s,
+        "min_keypoint_confidence": min_keypoint_confidence,
+        "low_confidence": hand.low_confidence,
+        "filtered": filter,
+        "filter": "butter(4) + filtfilt, MATLAB padding; keypoints at hand_filter_hz, "
+        "object positions at object_filter_hz",
+        "euler_seq": EULER_SEQ,
+        "gaps": o.gaps,
+        "unfiltered_runs": smooth.unfiltered,
+        "labels": [(lab.skill, lab.start_ns, lab.end_ns, lab.object) for lab in demo.labels],
+        "demo_metadata": {k: v for k, v in demo.metadata.items() if k != "load_report"},
+    }
+    return Trajectory(
+        t_ns=t_ns,
+        tcp=g.tcp,
+        rotation=g.rotation,
+        euler=g.euler,
+        opening=opening,
+        keypoints=g.keypoints,
+        object_names=[ob.name for ob in objs],
+        object_position=o.position,
+        object_quaternion=o.quaternion,
+        object_size=o.size,
+        hand_valid=g.valid,
+        object_valid=o.valid,
+        meta=meta,
+    )
+
+
+# --- the steps of preprocess -------------------------------------------------------------
+def _check_options(demo: Demonstration, aperture: str, min_keypoint_confidence: float) -> None:
     if not demo.objects:
         raise DemonstrationError("demonstration has no objects")
     if aperture not in APERTURES:
@@ -144,13 +203,34 @@ def preprocess(
         raise DemonstrationError(
             f"min_keypoint_confidence must be in [0, 1], got {min_keypoint_confidence!r}"
         )
-    hand = demo.hand
-    if feature_cutoff_hz == "auto":
-        steps = np.diff(np.unique(hand.t_ns)) * 1e-9
-        hand_fc = auto_cutoff(1.0 / float(np.median(steps))) if steps.size else AUTO_CUTOFF_MAX_HZ
-    else:
-        hand_fc = float(feature_cutoff_hz)
-    obj_fc = hand_fc if object_cutoff_hz is None else float(object_cutoff_hz)
+
+
+def _hand_cutoff(hand: HandTrack, feature_cutoff_hz: float | Literal["auto"]) -> float:
+    """The hand's low-pass cut-off: ``feature_cutoff_hz`` or :func:`auto_cutoff` of its rate."""
+    if feature_cutoff_hz != "auto":
+        return float(feature_cutoff_hz)
+    steps = np.diff(np.unique(hand.t_ns)) * 1e-9
+    return auto_cutoff(1.0 / float(np.median(steps))) if steps.size else AUTO_CUTOFF_MAX_HZ
+
+
+@dataclass
+class _HandSamples:
+    """The hand's samples in time order, low-confidence keypoints dropped (step 0)."""
+
+    t_ns: np.ndarray
+    keypoints: np.ndarray
+    weights: np.ndarray | None
+    """Resampling weights (n, 21, 1), None when confidence is ignored."""
+    ok: np.ndarray
+    """Samples with the three gripper keypoints."""
+    low_confidence: dict[str, int]
+
+    @property
+    def span(self) -> tuple[int, int] | None:
+        return _span(self.t_ns, self.ok)
+
+
+def _hand_samples(hand: HandTrack, min_keypoint_confidence: float) -> _HandSamples:
     hi = _sorted_unique(hand.t_ns)
     h_t, h_kp = hand.t_ns[hi], hand.keypoints[hi]
     h_weights: np.ndarray | None = None
@@ -166,22 +246,46 @@ def preprocess(
         "gripper_samples": int(low[:, list(GRIPPER_KEYPOINTS)].any(axis=1).sum()),
     }
     h_ok = np.isfinite(h_kp[:, list(GRIPPER_KEYPOINTS)]).all(axis=(1, 2))
-    spans = [("hand", _span(h_t, h_ok))]
+    return _HandSamples(h_t, h_kp, h_weights, h_ok, low_confidence)
+
+
+@dataclass
+class _ObjectSamples:
+    """One object's samples: ``order`` sorts them in time, ``ok`` marks the seen ones."""
+
+    name: str
+    track: ObjectTrack
+    order: np.ndarray
+    ok: np.ndarray
+
+    @property
+    def span(self) -> tuple[int, int] | None:
+        return _span(self.track.t_ns[self.order], self.ok) if self.ok.any() else None
+
+
+def _object_samples(demo: Demonstration) -> list[_ObjectSamples]:
     objs = []
     for name, obj in demo.objects.items():
         oi = _sorted_unique(obj.t_ns)
         ok = obj.visible[oi] & np.isfinite(obj.position[oi]).all(axis=1)
-        objs.append((name, obj, oi, ok))
-        if ok.any():
-            spans.append((name, _span(obj.t_ns[oi], ok)))
-    if spans[0][1] is None:
+        objs.append(_ObjectSamples(name, obj, oi, ok))
+    return objs
+
+
+def _overlap(
+    demo: Demonstration, hand: _HandSamples, objs: list[_ObjectSamples], fill_hidden: bool
+) -> tuple[int, int]:
+    """The span of the clock (step 1): the hand and the objects, ns."""
+    spans = [("hand", hand.span)] + [(ob.name, ob.span) for ob in objs if ob.span is not None]
+    hand_span = spans[0][1]
+    if hand_span is None:
         raise DemonstrationError("the hand has no sample with index tip, thumb tip and index base")
     if len(spans) == 1:
         raise DemonstrationError("no object was ever visible")
     if fill_hidden:  # objects are held at rest before they are first / after they are last seen
         obj_spans = [s[1] for s in spans[1:] if s[1] is not None]
-        start = max(spans[0][1][0], min(s[0] for s in obj_spans))
-        end = min(spans[0][1][1], max(s[1] for s in obj_spans))
+        start = max(hand_span[0], min(s[0] for s in obj_spans))
+        end = min(hand_span[1], max(s[1] for s in obj_spans))
     else:
         start = max(s[1][0] for s in spans if s[1] is not None)
         end = min(s[1][1] for s in spans if s[1] is not None)
@@ -194,65 +298,123 @@ def preprocess(
                 if s is not None
             )
         )
-    t_ns = clock(start, end, rate_hz)
-    n = t_ns.size
-    if filter:
-        pad = max(
-            matlab_padlen(*butter_ba(hand_fc, rate_hz)),
-            matlab_padlen(*butter_ba(obj_fc, rate_hz)),
-            matlab_padlen(*butter_ba(euler_cutoff_hz, rate_hz)),
+    return start, end
+
+
+def _check_filterable(
+    n: int, rate_hz: float, cutoffs_hz: tuple[float, ...], overlap_ns: int
+) -> None:
+    pad = max(matlab_padlen(*butter_ba(fc, rate_hz)) for fc in cutoffs_hz)
+    if n <= pad:
+        raise DemonstrationError(
+            f"demonstration too short to filter: {n} samples at {rate_hz} Hz over the "
+            f"hand/object overlap ({overlap_ns * 1e-9:.2f} s); needs more than {pad}"
         )
-        if n <= pad:
-            raise DemonstrationError(
-                f"demonstration too short to filter: {n} samples at {rate_hz} Hz over the "
-                f"hand/object overlap ({(end - start) * 1e-9:.2f} s); needs more than {pad}"
-            )
-    t_s = (t_ns - start) * 1e-9
 
-    def rel(t: np.ndarray) -> np.ndarray:
-        return (t - start) * 1e-9
 
-    unfiltered: dict[str, list[tuple[int, int]]] = {}
+class _Smoother:
+    """The low-pass filter of step 3 (or none), recording the runs too short to filter."""
 
-    def smooth(x: np.ndarray, fc: float, what: str) -> np.ndarray:
-        if not filter:
+    def __init__(self, t_ns: np.ndarray, rate_hz: float, enabled: bool) -> None:
+        self.t_ns, self.rate_hz, self.enabled = t_ns, rate_hz, enabled
+        self.unfiltered: dict[str, list[tuple[int, int]]] = {}
+
+    def __call__(self, x: np.ndarray, fc: float, what: str) -> np.ndarray:
+        if not self.enabled:
             return x
         report: list[tuple[int, int]] = []
-        y = lowpass(x, fc, rate_hz, report=report)
+        y = lowpass(x, fc, self.rate_hz, report=report)
         if report:
-            unfiltered[what] = [(int(t_ns[a]), int(t_ns[b - 1])) for a, b in report]
+            self.unfiltered[what] = [(int(self.t_ns[a]), int(self.t_ns[b - 1])) for a, b in report]
         return y
 
-    # hand
-    kp, kp_valid = resample_positions(rel(h_t), h_kp, t_s, max_gap_s=max_gap_s, weights=h_weights)
+
+@dataclass
+class _GripperTrack:
+    """The hand on the clock, mapped to a gripper (steps 2-4); NaN where ``valid`` is False."""
+
+    keypoints: np.ndarray
+    tcp: np.ndarray
+    rotation: np.ndarray
+    euler: np.ndarray
+    opening: np.ndarray
+    """Thumb-index opening (the grasp aperture needs the objects)."""
+    valid: np.ndarray
+
+
+def _gripper_track(
+    hand: _HandSamples,
+    side: str,
+    start: int,
+    t_s: np.ndarray,
+    max_gap_s: float,
+    hand_fc: float,
+    euler_fc: float,
+    smooth: _Smoother,
+) -> _GripperTrack:
+    h_rel = (hand.t_ns - start) * 1e-9
+    kp, kp_valid = resample_positions(
+        h_rel, hand.keypoints, t_s, max_gap_s=max_gap_s, weights=hand.weights
+    )
     hand_valid = kp_valid[:, list(GRIPPER_KEYPOINTS)].all(axis=(1, 2))
     kp = smooth(kp, hand_fc, "keypoints")
-    tcp, rot_raw, opening = gripper_frame(kp, side=hand.side)
+    tcp, rot_raw, opening = gripper_frame(kp, side=side)
     hand_valid &= np.isfinite(rot_raw).all(axis=(1, 2))
     euler = unwrap_runs(euler_from_rotation(rot_raw))
     euler[~hand_valid] = np.nan
-    euler = smooth(euler, euler_cutoff_hz, "euler")
+    euler = smooth(euler, euler_fc, "euler")
     rotation = rotation_from_euler(euler)
     tcp[~hand_valid] = np.nan
     opening[~hand_valid] = np.nan
+    return _GripperTrack(kp, tcp, rotation, euler, opening, hand_valid)
 
-    # objects
-    k = len(objs)
+
+@dataclass
+class _ObjectTracks:
+    """Every object on the clock (steps 2-3), with the gaps report of ``meta["gaps"]``."""
+
+    position: np.ndarray
+    quaternion: np.ndarray
+    valid: np.ndarray
+    size: np.ndarray
+    gaps: dict[str, Any]
+
+
+CARRY_RADIUS_MARGIN = 0.03
+"""An object gap is filled from the hand when the TCP stays within half the object's largest
+side plus this much (m) of it (:func:`~lfd.preprocessing.carry.fill_carried_gaps`)."""
+
+
+def _object_tracks(
+    objs: list[_ObjectSamples],
+    hand: _HandSamples,
+    gripper: _GripperTrack,
+    start: int,
+    t_ns: np.ndarray,
+    max_gap_s: float,
+    obj_fc: float,
+    fill_hidden: bool,
+    smooth: _Smoother,
+) -> _ObjectTracks:
+    k, n = len(objs), t_ns.size
+    t_s = (t_ns - start) * 1e-9
     positions = np.full((k, n, 3), np.nan)
     quats = np.full((k, n, 4), np.nan)
     obj_valid = np.zeros((k, n), dtype=bool)
     gaps: dict[str, Any] = {
-        "hand": find_gaps(h_t, h_ok, max_gap_s),
+        "hand": find_gaps(hand.t_ns, hand.ok, max_gap_s),
         "objects": {},
         "carried": {},  # object gaps filled because the hand carried the object
         "held": {},  # before the first / after the last sighting: held at rest
     }
-    for j, (name, obj, oi, ok) in enumerate(objs):
+    for j, ob in enumerate(objs):
+        name, obj, oi, ok = ob.name, ob.track, ob.order, ob.ok
         ot = obj.t_ns[oi]
         pos = np.where(ok[:, None], obj.position[oi], np.nan)
         quat = np.where(ok[:, None], obj.quaternion[oi], np.nan)
-        p, pv = resample_positions(rel(ot), pos, t_s, max_gap_s=max_gap_s)
-        q, qv = resample_quaternions(rel(ot), quat, t_s, max_gap_s=max_gap_s)
+        rel = (ot - start) * 1e-9
+        p, pv = resample_positions(rel, pos, t_s, max_gap_s=max_gap_s)
+        q, qv = resample_quaternions(rel, quat, t_s, max_gap_s=max_gap_s)
         valid = pv.all(axis=1) & qv
         if fill_hidden and valid.any():
             p = np.where(valid[:, None], p, np.nan)
@@ -260,52 +422,13 @@ def preprocess(
             held = hold_ends(p, q, valid)
             if held:
                 gaps["held"][name] = [(int(t_ns[a]), int(t_ns[b - 1])) for a, b in held]
-            radius = float(np.max(obj.size)) / 2 + 0.03
-            carried = fill_carried_gaps(p, q, valid, tcp, hand_valid, radius)
+            radius = float(np.max(obj.size)) / 2 + CARRY_RADIUS_MARGIN
+            carried = fill_carried_gaps(p, q, valid, gripper.tcp, gripper.valid, radius)
             if carried:
                 gaps["carried"][name] = [(int(t_ns[a]), int(t_ns[b - 1])) for a, b in carried]
         positions[j] = smooth(np.where(valid[:, None], p, np.nan), obj_fc, name)
         quats[j] = np.where(valid[:, None], q, np.nan)
         obj_valid[j] = valid
         gaps["objects"][name] = find_gaps(ot, ok, max_gap_s)
-
-    sizes = np.array([obj.size for _, obj, _, _ in objs], dtype=np.float64).reshape(k, 3)
-    if aperture == "grasp":
-        opening = grasp_aperture(kp, positions, quats, sizes)
-        opening[~hand_valid] = np.nan
-
-    meta: dict[str, Any] = {
-        "rate_hz": rate_hz,
-        "euler_cutoff_hz": euler_cutoff_hz,
-        "feature_cutoff_hz": feature_cutoff_hz,
-        "object_cutoff_hz": object_cutoff_hz,
-        "hand_filter_hz": hand_fc,
-        "object_filter_hz": obj_fc,
-        "aperture": aperture,
-        "max_gap_s": max_gap_s,
-        "min_keypoint_confidence": min_keypoint_confidence,
-        "low_confidence": low_confidence,
-        "filtered": filter,
-        "filter": "butter(4) + filtfilt, MATLAB padding; keypoints at hand_filter_hz, "
-        "object positions at object_filter_hz",
-        "euler_seq": EULER_SEQ,
-        "gaps": gaps,
-        "unfiltered_runs": unfiltered,
-        "labels": [(lab.skill, lab.start_ns, lab.end_ns, lab.object) for lab in demo.labels],
-        "demo_metadata": {k: v for k, v in demo.metadata.items() if k != "load_report"},
-    }
-    return Trajectory(
-        t_ns=t_ns,
-        tcp=tcp,
-        rotation=rotation,
-        euler=euler,
-        opening=opening,
-        keypoints=kp,
-        object_names=[name for name, *_ in objs],
-        object_position=positions,
-        object_quaternion=quats,
-        object_size=sizes,
-        hand_valid=hand_valid,
-        object_valid=obj_valid,
-        meta=meta,
-    )
+    sizes = np.array([ob.track.size for ob in objs], dtype=np.float64).reshape(k, 3)
+    return _ObjectTracks(positions, quats, obj_valid, sizes, gaps)

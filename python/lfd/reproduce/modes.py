@@ -28,6 +28,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from functools import partial
 from itertools import pairwise
+from typing import Any
 
 import numpy as np
 
@@ -120,7 +121,9 @@ def plan_replay(frames: DemoFrames, program: TaskProgram) -> Plan:
     t, y = _demo_states(frames, i0, i1)
     opening = np.asarray(frames.traj.opening, dtype=np.float64)[i0 : i1 + 1]
     good = np.isfinite(opening)
-    opening = np.interp(t, t[good], opening[good]) if good.any() else np.full(t.shape, 0.08)
+    opening = (
+        np.interp(t, t[good], opening[good]) if good.any() else np.full(t.shape, REPLAY_OPENING)
+    )
     path = resample(t, np.column_stack([y, opening]), TICK)
     seg_of = np.full(len(path), -1)
     tt = np.linspace(t[0], t[-1], len(path))
@@ -128,6 +131,253 @@ def plan_replay(frames: DemoFrames, program: TaskProgram) -> Plan:
         seg_of[(tt >= seg.start_s) & (tt <= seg.end_s)] = k
     width = np.clip(path[:, 4] - PAD_OFFSET, 0.0, MAX_OPENING)
     return Plan(path[:, :3], path[:, 3], width, seg_of)
+
+
+# skill knowledge in plan_task's steps (metres and seconds unless said otherwise)
+CARRY_CLEARANCE = 0.016
+"""Clearance around a carried box's half diagonal that a move_with keeps from other objects."""
+RISE_STEP = 0.01
+"""A blocked move rises in steps of this much until its straight line to the goal is free."""
+RISE_MIN_S = 0.4
+"""Shortest duration of each leg of such a rise (and of the crossing at the safe height)."""
+YAW_TURN = 0.3
+"""Fraction of a pick_up/place/stack over which the gripper turns to the goal yaw (then holds)."""
+FUNNEL_MARGIN = 0.015
+"""Added to half the object's height plus the finger length for a tall object's funnel."""
+LIFT_MIN_S = 0.5
+"""Shortest duration of the vertical lift-off after a release."""
+LIFT_ABOVE_RELEASED = 0.02
+"""The lift-off ends at least this far above the released object's top (fingertips)."""
+PUSH_BACK_OFF = 0.015
+"""After a push the fingers back away from the pushed face by this much..."""
+PUSH_BACK_UP = 0.005
+"""...while rising this much..."""
+PUSH_BACK_MIN_S = 0.3
+"""...over at least this long."""
+REPLAY_OPENING = 0.08
+"""Replay: the opening commanded when the recording has no fingertip distance at all."""
+_GRASP_SKILLS = ("pick_up", "place", "stack")
+"""Skills that grasp or release: they keep their goal's yaw and end in a vertical funnel."""
+
+
+@dataclass
+class _SkillGoal:
+    """What a skill's planner decides for its segment, before the path is made."""
+
+    goal: np.ndarray
+    """TCP goal ``[x, y, z, yaw]``."""
+    grip: float
+    """Gripper opening commanded during the segment (m)."""
+    name: str | None = None
+    """The object grasped or released (pick_up, place, stack)."""
+    close_at_end: bool = False
+    open_at_end: bool = False
+    release_top: float = 0.0
+    """Height of the released object's top (m; place, stack)."""
+    release: float = MAX_OPENING
+    """Opening when releasing (m; place, stack)."""
+    push: dict[str, Any] | None = None
+    """:func:`~lfd.reproduce.motion.push_geometry` of a push."""
+
+
+class _TaskPlanner:
+    """The state of :func:`plan_task` along the program: where the TCP is, what is held, where
+    every object is; one planner method per skill decides the goal, the shared steps make the
+    path."""
+
+    def __init__(
+        self,
+        frames: DemoFrames,
+        program: TaskProgram,
+        mode: str,
+        initial: dict[str, np.ndarray] | None,
+    ) -> None:
+        self.frames, self.program, self.mode = frames, program, mode
+        self.segs = program.segments
+        start_i = frames.index(self.segs[0].start_s)
+        self.objects = {n: frames.object_pose(n, start_i) for n in frames.names}
+        if initial:
+            self.objects.update({k: upright(v) for k, v in initial.items()})
+        self.expected = dict(self.objects)  # propagated through the program
+        self.parts: list[Plan] = []
+        self.goals: list[np.ndarray] = []
+        self.cur = _state(frames.tcp_pose(start_i), float(frames.yaw[start_i]))
+        self.opening = MAX_OPENING
+        self.held: tuple[str, np.ndarray] | None = None
+        self.detour = np.zeros(4)
+
+    def plan(self) -> PlanResult:
+        for k, seg in enumerate(self.segs):
+            self._segment(k, seg)
+        frames, program = self.frames, self.program
+        plan = plan_replay(frames, program) if self.mode == "replay" else Plan.concat(self.parts)
+        # the fingertips never go below the table top (human fingertips may graze it)
+        plan.position[:, 2] = np.maximum(plan.position[:, 2], Z_MIN)
+        return PlanResult(plan, self.expected, self.goals, program)
+
+    # --- one planner per skill: the goal, the grip, what changes in the scene -------------
+    def _pick_up(self, k: int, seg: Segment, i1: int) -> _SkillGoal:
+        name, goal = _pick_goal(self.frames, seg, self.objects, i1)
+        self.held = (name, np.linalg.inv(self.objects[name]) @ pose(goal[:3], goal[3]))
+        return _SkillGoal(goal, MAX_OPENING, name=name, close_at_end=True)
+
+    def _place(self, k: int, seg: Segment, i1: int) -> _SkillGoal:  # place and stack
+        name, goal, T_end_demo = _place_goal(self.frames, seg, self.objects, self.held, i1)
+        self.objects[name] = self.expected[name] = T_end_demo
+        size = self.frames.size[self.frames.object_index(name)]
+        release = min(MAX_OPENING, _width_across(T_end_demo, size, goal[3]) + RELEASE_CLEARANCE)
+        self.held = None
+        return _SkillGoal(
+            goal,
+            0.0,
+            name=name,
+            open_at_end=True,
+            release_top=T_end_demo[2, 3] + size[2] / 2,
+            release=release,
+        )
+
+    def _push(self, k: int, seg: Segment, i1: int) -> _SkillGoal:
+        geo = push_geometry(self.frames, seg, self.objects, self.cur[3])
+        self.objects[seg.object] = self.expected[seg.object] = geo["T_new"]  # type: ignore[index]
+        return _SkillGoal(geo["goal"], 0.0, push=geo)
+
+    def _locate(self, k: int, seg: Segment, i1: int) -> _SkillGoal:
+        goal = _state(_map(self.frames, seg, i1, self.objects), float(self.frames.yaw[i1]))
+        return _SkillGoal(goal, self.opening)
+
+    def _move(self, k: int, seg: Segment, i1: int) -> _SkillGoal:  # move and move_with
+        """To the (mapped) start of the next skill, set up for it."""
+        frames, objects = self.frames, self.objects
+        grip = 0.0 if seg.skill == "move_with" else MAX_OPENING
+        if k + 1 >= len(self.segs):
+            return _SkillGoal(_state(frames.tcp_pose(i1), float(frames.yaw[i1])), grip)
+        nxt = self.segs[k + 1]
+        j0, _ = segment_indices(frames, nxt)
+        goal = _state(_map(frames, nxt, j0, objects), float(frames.yaw[j0]))
+        if nxt.skill == "push":  # straight behind the object, or via a hover pose
+            ng = push_geometry(frames, nxt, objects, self.cur[3])
+            direct = clear(self.cur, ng["start"], frames, objects, skip=())
+            goal = ng["start"] if direct else ng["hover"]
+        elif nxt.skill == "pick_up":  # arrive with the grasp yaw already set
+            goal[3] = _pick_goal(frames, nxt, objects, _end_index(frames, nxt))[1][3]
+        elif nxt.skill in ("place", "stack"):
+            nxt_goal = _place_goal(frames, nxt, objects, self.held, _end_index(frames, nxt))[1]
+            goal[3] = nxt_goal[3]
+        return _SkillGoal(goal, grip)
+
+    # --- the steps every segment goes through ------------------------------------------
+    def _segment(self, k: int, seg: Segment) -> None:
+        frames = self.frames
+        i0, i1 = segment_indices(frames, seg)
+        planner = {
+            "pick_up": self._pick_up,
+            "place": self._place,
+            "stack": self._place,
+            "push": self._push,
+            "locate": self._locate,
+        }.get(seg.skill, self._move)
+        sg = planner(k, seg, i1)
+        goal = sg.goal
+        nxt_grasps = k + 1 < len(self.segs) and self.segs[k + 1].skill in _GRASP_SKILLS
+        if seg.skill not in ("push", *_GRASP_SKILLS) and not nxt_grasps:
+            # (those keep the yaw of their goal, already wrist-friendly)
+            goal[3] = float(wrap_near(goal[3], float(frames.natural_yaw(goal[:3]))))
+        self.goals.append(goal[:3].copy())
+        rise = self._rise(seg, goal)
+        path = np.concatenate([rise, self._path(seg, sg, i0, i1)])
+        if seg.skill in _GRASP_SKILLS:
+            self._funnel(path, goal, str(sg.name))
+        self.detour = np.zeros(4)
+        part = _part(path, sg.grip, k)
+        if seg.skill == "move" and k + 1 < len(self.segs) and self.segs[k + 1].skill == "push":
+            part.opening[len(part) // 2 :] = 0.0  # close the fingers on the way to a push
+        self.parts.append(part)
+        self.cur = path[-1].copy()
+        self._after(sg)
+
+    def _rise(self, seg: Segment, goal: np.ndarray) -> np.ndarray:
+        """A move whose straight line is blocked first rises (as little as needed) above what is
+        near the line; if no height clears the line to the goal, it crosses at the safe height
+        and descends onto the goal vertically. Returns the rise path (empty when free)."""
+        frames, cur = self.frames, self.cur
+        skip: tuple[str, ...] = ()
+        below, extra = FINGER_BELOW_TCP, MAX_OPENING / 2
+        if seg.skill == "move_with" and self.held is not None:  # the carried box hangs lower
+            hsize = frames.size[frames.object_index(self.held[0])]
+            skip = (self.held[0],)
+            below = max(below, float(self.held[1][2, 3]) + hsize[2] / 2)
+            extra = 0.5 * float(np.hypot(hsize[0], hsize[1])) + CARRY_CLEARANCE
+        free = partial(
+            clear, frames=frames, objects=self.objects, skip=skip, below=below, extra=extra
+        )
+        if seg.skill not in ("move", "move_with") or free(cur, goal):
+            return np.zeros((0, 4))
+        top = safe_height(frames, {n: T for n, T in self.objects.items() if n not in skip}, below)
+        ways: list[np.ndarray] = []
+        stop = max(top, cur[2]) + (RISE_STEP + 0.001)  # (the last step may reach the top)
+        for h in np.arange(cur[2] + RISE_STEP, stop, RISE_STEP):
+            if free(np.array([*cur[:2], h, cur[3]]), goal):
+                ways = [np.array([*cur[:2], h, cur[3]])]
+                break
+        if not ways:
+            h = max(top, cur[2])
+            ways = [np.array([*cur[:2], h, cur[3]]), np.array([*goal[:2], h, goal[3]])]
+        rise = np.concatenate([line(a, b, min_s=RISE_MIN_S) for a, b in pairwise([cur, *ways])])
+        self.detour = self.detour + (ways[-1] - cur)
+        self.cur = ways[-1]
+        return rise
+
+    def _path(self, seg: Segment, sg: _SkillGoal, i0: int, i1: int) -> np.ndarray:
+        """The segment's path from the current TCP state to its goal."""
+        cur, goal = self.cur, sg.goal
+        if sg.push is not None:
+            return push_path(self.frames, str(seg.object), sg.push, (i0, i1), cur, self.mode)
+        t, y = _demo_states(self.frames, i0, i1)
+        if self.mode == "dmp":
+            # the DMP runs between skill end points; the robot's own detours at the start
+            # (lift-offs) are blended out like a warp, so the DMP's spring does not dip to undo them
+            path = dmp_rollout(t, y, cur - self.detour, goal, dt=TICK)
+            path += (1 - min_jerk(len(path)))[:, None] * self.detour
+            return path
+        if seg.skill in ("move", "move_with"):
+            return line(cur, goal)
+        return warp(resample(t, y, TICK), cur, goal)
+
+    def _funnel(self, path: np.ndarray, goal: np.ndarray, name: str) -> None:
+        """Grasp and release: turn early, then keep the yaw; never below the goal height (the
+        human's hand may dip lower); a vertical final approach (within the funnel above the
+        goal, x-y converge onto it). Changes ``path`` in place."""
+        cur = self.cur
+        path[:, 3] = cur[3] + min_jerk_clip(len(path), YAW_TURN) * (goal[3] - cur[3])
+        path[:, 2] = np.maximum(path[:, 2], goal[2])
+        obj_h = self.frames.size[self.frames.object_index(name), 2]
+        funnel = max(FUNNEL, obj_h / 2 + FINGER_BELOW_TCP + FUNNEL_MARGIN)
+        w = np.clip((path[:, 2] - goal[2]) / funnel, 0.0, 1.0)[:, None]
+        path[:, :2] = goal[:2] + w * (path[:, :2] - goal[:2])
+
+    def _after(self, sg: _SkillGoal) -> None:
+        """What follows the segment: close (pick_up), open and lift off (place, stack), back
+        off the pushed face (push)."""
+        cur = self.cur
+        dwell = round(DWELL_S / TICK)
+        if sg.close_at_end:
+            self.opening = 0.0
+            self.parts.append(_part(np.repeat(cur[None], dwell, 0), 0.0, -1))
+        if sg.open_at_end:
+            self.opening = MAX_OPENING
+            self.parts.append(_part(np.repeat(cur[None], dwell, 0), sg.release, -1))
+            up = cur + np.array([0.0, 0.0, HOVER, 0.0])  # leave the released object vertically
+            up[2] = max(up[2], sg.release_top + FINGER_BELOW_TCP + LIFT_ABOVE_RELEASED)
+            self.parts.append(_part(line(cur, up, min_s=LIFT_MIN_S), sg.release, -1))
+            self.detour = up - cur
+            self.cur = up
+        if sg.push is not None:  # back off the pushed face before anything else moves
+            self.opening = 0.0
+            u = sg.push["u"]
+            back = cur + np.array([-PUSH_BACK_OFF * u[0], -PUSH_BACK_OFF * u[1], PUSH_BACK_UP, 0.0])
+            self.parts.append(_part(line(cur, back, min_s=PUSH_BACK_MIN_S), 0.0, -1))
+            self.detour = back - cur
+            self.cur = back
 
 
 def plan_task(
@@ -151,142 +401,7 @@ def plan_task(
     """
     if mode not in MODES:
         raise DemonstrationError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
-    program = repair_program(frames, program)
-    start_i = frames.index(program.segments[0].start_s)
-    objects = {n: frames.object_pose(n, start_i) for n in frames.names}
-    if initial:
-        objects.update({k: upright(v) for k, v in initial.items()})
-    expected = dict(objects)  # propagated through the program below
-    parts: list[Plan] = []
-    goals: list[np.ndarray] = []
-    cur = _state(frames.tcp_pose(start_i), float(frames.yaw[start_i]))
-    opening = MAX_OPENING
-    held: tuple[str, np.ndarray] | None = None
-    detour = np.zeros(4)
-    segs = program.segments
-    for k, seg in enumerate(segs):
-        i0, i1 = segment_indices(frames, seg)
-        demo_yaw = float(frames.yaw[i1])
-        close_at_end = open_at_end = False
-        release_top, release = 0.0, MAX_OPENING
-        grip = opening
-        if seg.skill == "pick_up":
-            name, goal = _pick_goal(frames, seg, objects, i1)
-            held = (name, np.linalg.inv(objects[name]) @ pose(goal[:3], goal[3]))
-            grip, close_at_end = MAX_OPENING, True
-        elif seg.skill in ("place", "stack"):
-            name, goal, T_end_demo = _place_goal(frames, seg, objects, held, i1)
-            objects[name] = T_end_demo
-            expected[name] = T_end_demo
-            size = frames.size[frames.object_index(name)]
-            release_top = T_end_demo[2, 3] + size[2] / 2
-            release = min(MAX_OPENING, _width_across(T_end_demo, size, goal[3]) + RELEASE_CLEARANCE)
-            held, open_at_end, grip = None, True, 0.0
-        elif seg.skill == "push":
-            geo = push_geometry(frames, seg, objects, cur[3])
-            goal = geo["goal"]
-            objects[seg.object] = expected[seg.object] = geo["T_new"]  # type: ignore[index]
-            grip = 0.0
-        elif seg.skill == "locate":
-            goal = _state(_map(frames, seg, i1, objects), demo_yaw)
-        else:  # move / move_with: to the (mapped) start of the next skill
-            if k + 1 < len(segs):
-                nxt = segs[k + 1]
-                j0, _ = segment_indices(frames, nxt)
-                goal = _state(_map(frames, nxt, j0, objects), float(frames.yaw[j0]))
-                if nxt.skill == "push":  # straight behind the object, or via a hover pose
-                    ng = push_geometry(frames, nxt, objects, cur[3])
-                    direct = clear(cur, ng["start"], frames, objects, skip=())
-                    goal = ng["start"] if direct else ng["hover"]
-                elif nxt.skill == "pick_up":  # arrive with the grasp yaw already set
-                    goal[3] = _pick_goal(frames, nxt, objects, _end_index(frames, nxt))[1][3]
-                elif nxt.skill in ("place", "stack"):
-                    nxt_goal = _place_goal(frames, nxt, objects, held, _end_index(frames, nxt))[1]
-                    goal[3] = nxt_goal[3]
-            else:
-                goal = _state(frames.tcp_pose(i1), demo_yaw)
-            grip = 0.0 if seg.skill == "move_with" else MAX_OPENING
-        if seg.skill not in ("push", "pick_up", "place", "stack") and not (
-            k + 1 < len(segs) and segs[k + 1].skill in ("pick_up", "place", "stack")
-        ):  # (those keep the yaw of their goal, already wrist-friendly)
-            goal[3] = float(wrap_near(goal[3], float(frames.natural_yaw(goal[:3]))))
-        goals.append(goal[:3].copy())
-        t, y = _demo_states(frames, i0, i1)
-        rise = np.zeros((0, 4))
-        skip: tuple[str, ...] = ()
-        below, extra = FINGER_BELOW_TCP, MAX_OPENING / 2
-        if seg.skill == "move_with" and held is not None:  # the carried box hangs lower
-            hsize = frames.size[frames.object_index(held[0])]
-            skip = (held[0],)
-            below = max(below, float(held[1][2, 3]) + hsize[2] / 2)
-            extra = 0.5 * float(np.hypot(hsize[0], hsize[1])) + 0.016
-        free = partial(clear, frames=frames, objects=objects, skip=skip, below=below, extra=extra)
-
-        if seg.skill in ("move", "move_with") and not free(cur, goal):
-            # rise (as little as needed) above what is near the line; if no height clears the
-            # line to the goal, cross at the safe height and descend onto the goal vertically
-            top = safe_height(frames, {n: T for n, T in objects.items() if n not in skip}, below)
-            ways: list[np.ndarray] = []
-            for h in np.arange(cur[2] + 0.01, max(top, cur[2]) + 0.011, 0.01):
-                if free(np.array([*cur[:2], h, cur[3]]), goal):
-                    ways = [np.array([*cur[:2], h, cur[3]])]
-                    break
-            if not ways:
-                h = max(top, cur[2])
-                ways = [np.array([*cur[:2], h, cur[3]]), np.array([*goal[:2], h, goal[3]])]
-            pts = [cur, *ways]
-            rise = np.concatenate([line(a, b, min_s=0.4) for a, b in pairwise(pts)])
-            detour = detour + (ways[-1] - cur)
-            cur = ways[-1]
-        if seg.skill == "push":
-            path = push_path(frames, str(seg.object), geo, (i0, i1), cur, mode)
-        elif mode == "dmp":
-            # the DMP runs between skill end points; the robot's own detours at the start
-            # (lift-offs) are blended out like a warp, so the DMP's spring does not dip to undo them
-            path = dmp_rollout(t, y, cur - detour, goal, dt=TICK)
-            path += (1 - min_jerk(len(path)))[:, None] * detour
-        elif seg.skill in ("move", "move_with"):
-            path = line(cur, goal)
-        else:
-            path = warp(resample(t, y, TICK), cur, goal)
-        path = np.concatenate([rise, path])
-        if seg.skill in ("pick_up", "place", "stack"):  # turn early, then keep the yaw
-            path[:, 3] = cur[3] + min_jerk_clip(len(path), 0.3) * (goal[3] - cur[3])
-            # never below the grasp/release height (the human's hand may dip lower), and a
-            # vertical final approach: within FUNNEL above the goal, x-y converge onto it
-            path[:, 2] = np.maximum(path[:, 2], goal[2])
-            obj_h = frames.size[frames.object_index(name), 2]
-            funnel = max(FUNNEL, obj_h / 2 + FINGER_BELOW_TCP + 0.015)
-            w = np.clip((path[:, 2] - goal[2]) / funnel, 0.0, 1.0)[:, None]
-            path[:, :2] = goal[:2] + w * (path[:, :2] - goal[:2])
-        detour = np.zeros(4)
-        part = _part(path, grip, k)
-        if seg.skill == "move" and k + 1 < len(segs) and segs[k + 1].skill == "push":
-            part.opening[len(part) // 2 :] = 0.0  # close the fingers on the way to a push
-        parts.append(part)
-        cur = path[-1].copy()
-        if close_at_end:
-            opening = 0.0
-            parts.append(_part(np.repeat(cur[None], round(DWELL_S / TICK), 0), 0.0, -1))
-        if open_at_end:
-            opening = MAX_OPENING
-            parts.append(_part(np.repeat(cur[None], round(DWELL_S / TICK), 0), release, -1))
-            up = cur + np.array([0.0, 0.0, HOVER, 0.0])  # leave the released object vertically
-            up[2] = max(up[2], release_top + FINGER_BELOW_TCP + 0.02)
-            parts.append(_part(line(cur, up, min_s=0.5), release, -1))
-            detour = up - cur
-            cur = up
-        if seg.skill == "push":  # back off the pushed face before anything else moves
-            opening = 0.0
-            u = geo["u"]
-            back = cur + np.array([-0.015 * u[0], -0.015 * u[1], 0.005, 0.0])
-            parts.append(_part(line(cur, back, min_s=0.3), 0.0, -1))
-            detour = back - cur
-            cur = back
-    plan = plan_replay(frames, program) if mode == "replay" else Plan.concat(parts)
-    # the fingertips never go below the table top (human fingertips may graze it)
-    plan.position[:, 2] = np.maximum(plan.position[:, 2], Z_MIN)
-    return PlanResult(plan, expected, goals, program)
+    return _TaskPlanner(frames, repair_program(frames, program), mode, initial).plan()
 
 
 def repair_program(frames: DemoFrames, program: TaskProgram) -> TaskProgram:
