@@ -159,3 +159,35 @@ def _write(root: Path, files: dict[str, str]) -> Path:
 def test_cycles_are_found(tmp_path: Path, files: dict[str, str], cycle: list[str] | None) -> None:
     graph = import_graph(_write(tmp_path, files))
     assert find_cycle(graph) == cycle
+
+
+HEAVY = ("mujoco", "mink", "torch", "cv2", "rerun", "ai_edge_litert", "movement_primitives")
+"""The extras' big modules (ARCHITECTURE.md, "Heavy imports")."""
+
+
+def test_plain_install_segments_without_heavy_modules(tmp_path: Path) -> None:
+    """With the extras' modules blocked, lfd imports, builds its command line and segments a
+    shipped recording (also through ``lfd segment``), and none of them was loaded."""
+    import subprocess
+    import sys
+
+    rec = ROOT.parents[1] / "recordings" / "exp1.mcap"
+    code = (
+        "import sys\n"
+        "class Block:  # an import of the extras' modules fails, as if not installed\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        f"        if name.split('.')[0] in {HEAVY!r}:\n"
+        "            raise ModuleNotFoundError(f'blocked: {name}', name=name)\n"
+        "sys.meta_path.insert(0, Block())\n"
+        "import lfd, lfd.viz\n"
+        "from lfd.cli import build_parser, main\n"
+        "build_parser()\n"
+        f"result = lfd.segment(lfd.load({str(rec)!r}))\n"
+        "assert len(result.segments) > 3, result\n"
+        f"assert main(['segment', {str(rec)!r}, '--json', {str(tmp_path / 's.json')!r}]) == 0\n"
+        f"loaded = [m for m in {HEAVY!r} if m in sys.modules]\n"
+        "assert not loaded, loaded\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert (tmp_path / "s.json").stat().st_size > 0
