@@ -143,7 +143,10 @@ fn panic_message(payload: &(dyn Any + Send)) -> String {
 /// is left half-updated) and the engine works on copies of the caller's arrays.
 pub fn guard<T>(py: Python<'_>, body: impl FnOnce() -> PyResult<T>) -> PyResult<T> {
     catch_unwind(AssertUnwindSafe(body)).unwrap_or_else(|payload| {
-        Err(internal(py, &format!("panic: {}", panic_message(&*payload))))
+        Err(internal(
+            py,
+            &format!("panic: {}", panic_message(&*payload)),
+        ))
     })
 }
 
@@ -181,7 +184,9 @@ pub mod hooks {
                 "NotPositiveDefinite" => EngineError::NotPositiveDefinite(msg),
                 "NotConverged" => EngineError::NotConverged(msg),
                 "Format" => EngineError::Format(msg),
-                other => EngineError::InvalidParameter(format!("no engine error variant {other:?}")),
+                other => {
+                    EngineError::InvalidParameter(format!("no engine error variant {other:?}"))
+                }
             };
             Err(err).py_err(py)
         })

@@ -42,11 +42,7 @@ fn compute_features<'py>(
             tcp: matrix(&tcp, "tcp", "(n, 3)")?,
             opening: DVector::from_vec(vector(&opening, "opening", "(n,)")?),
             object_position: matrix_stack(&object_position, "object_position", "(k, n, 3)")?,
-            object_quaternion: matrix_stack(
-                &object_quaternion,
-                "object_quaternion",
-                "(k, n, 4)",
-            )?,
+            object_quaternion: matrix_stack(&object_quaternion, "object_quaternion", "(k, n, 4)")?,
             object_size: matrix(&object_size, "object_size", "(k, 3)")?,
             dt,
         };

@@ -147,13 +147,14 @@ impl PyHmm {
                 CovarianceType::Diag => (3, vec![n, m, f]),
                 CovarianceType::Full => (4, vec![n, m, f, f]),
             };
-            let c = ndconv::array_nd(&covars, "covars", ndim, &format!("{want:?}"))?;
+            let want_text = ndconv::py_shape(&want);
+            let c = ndconv::array_nd(&covars, "covars", ndim, &want_text)?;
             if c.shape() != want.as_slice() {
                 return Err(crate::errors::shape(
                     py,
                     format!(
-                        "covars has shape {:?}, expected {want:?} for {covariance} covariances",
-                        c.shape()
+                        "covars has shape {}, expected {want_text} for {covariance} covariances",
+                        ndconv::py_shape(c.shape())
                     ),
                 ));
             }
@@ -167,9 +168,7 @@ impl PyHmm {
                             CovarianceType::Diag => {
                                 DMatrix::from_diagonal(&DVector::from_fn(f, |d, _| c[[j, k, d]]))
                             }
-                            CovarianceType::Full => {
-                                DMatrix::from_fn(f, f, |r, s| c[[j, k, r, s]])
-                            }
+                            CovarianceType::Full => DMatrix::from_fn(f, f, |r, s| c[[j, k, r, s]]),
                         })
                         .collect()
                 })
@@ -191,7 +190,9 @@ impl PyHmm {
     /// Read a model written by `to_json`.
     #[staticmethod]
     fn from_json(py: Python<'_>, s: &str) -> PyResult<Self> {
-        guard(py, || Hmm::from_json(s).map(|inner| Self { inner }).py_err(py))
+        guard(py, || {
+            Hmm::from_json(s).map(|inner| Self { inner }).py_err(py)
+        })
     }
 
     /// Serialise to JSON (with a format version); `from_json` restores it bit for bit.

@@ -34,17 +34,16 @@ fn human(bytes: u128) -> String {
         v /= 1000.0;
         u += 1;
     }
-    format!("{v:.1} {}", UNITS[u])
+    if v >= 1000.0 {
+        format!("{v:.1e} {}", UNITS[u])
+    } else {
+        format!("{v:.1} {}", UNITS[u])
+    }
 }
 
 /// Refuse a table of `dims` elements of `elem_bytes` bytes each if it exceeds the budget.
 /// `what` names the table and where its size comes from, e.g. `"n_samples x n_features"`.
-pub fn check_table(
-    py: Python<'_>,
-    what: &str,
-    dims: &[usize],
-    elem_bytes: usize,
-) -> PyResult<()> {
+pub fn check_table(py: Python<'_>, what: &str, dims: &[usize], elem_bytes: usize) -> PyResult<()> {
     let bytes = dims
         .iter()
         .try_fold(elem_bytes as u128, |acc, &d| acc.checked_mul(d as u128));
@@ -57,8 +56,8 @@ pub fn check_table(
             Err(invalid(
                 py,
                 format!(
-                    "{what} = {} would need {need}, more than the {} this engine allows for \
-                     one table (half the machine's memory)",
+                    "{what} = {} needs {need}; one table may use at most {} (half the \
+                     machine's memory)",
                     shape.join(" x "),
                     human(budget)
                 ),
@@ -77,17 +76,30 @@ pub fn check_hmm(
     full: bool,
     max_len: usize,
 ) -> PyResult<()> {
-    check_table(py, "n_states x n_states (transition matrix)", &[n_states, n_states], 8)?;
-    let cov = if full { n_features } else { 1 };
     check_table(
         py,
-        "n_states x n_mix x n_features x (n_features if full) (emission parameters)",
-        &[n_states, n_mix, n_features, cov],
+        "n_states x n_states (transitions)",
+        &[n_states, n_states],
         8,
     )?;
+    if full {
+        check_table(
+            py,
+            "n_states x n_mix x n_features x n_features (full covariances)",
+            &[n_states, n_mix, n_features, n_features],
+            8,
+        )?;
+    } else {
+        check_table(
+            py,
+            "n_states x n_mix x n_features (means)",
+            &[n_states, n_mix, n_features],
+            8,
+        )?;
+    }
     check_table(
         py,
-        "max sequence length x n_states x n_mix (posteriors)",
+        "longest sequence x n_states x n_mix (posteriors)",
         &[max_len, n_states, n_mix],
         8,
     )

@@ -21,6 +21,16 @@ use pyo3::prelude::*;
 
 use crate::errors::{internal, invalid, shape};
 
+/// A shape as Python writes it: `(3,)`, `(2, 4)`.
+pub fn py_shape(shape: &[usize]) -> String {
+    if let [n] = shape {
+        format!("({n},)")
+    } else {
+        let dims: Vec<String> = shape.iter().map(ToString::to_string).collect();
+        format!("({})", dims.join(", "))
+    }
+}
+
 /// Read-only view of `obj` as an `ndim`-dimensional array of `T` (`D::NDIM`; any for `IxDyn`).
 /// `what` describes the expected shape for the message, e.g. `"(n_samples, n_features)"`.
 fn readonly<'py, T: Element, D: Dimension>(
@@ -31,7 +41,10 @@ fn readonly<'py, T: Element, D: Dimension>(
     let py = obj.py();
     let want = numpy::dtype::<T>(py);
     let Ok(untyped) = obj.cast::<PyUntypedArray>() else {
-        let ty = obj.get_type().name().map_or_else(|_| "?".into(), |n| n.to_string());
+        let ty = obj
+            .get_type()
+            .name()
+            .map_or_else(|_| "?".into(), |n| n.to_string());
         return Err(invalid(
             py,
             format!("{name} must be a numpy array of {want} {what}, got {ty}"),
@@ -42,8 +55,8 @@ fn readonly<'py, T: Element, D: Dimension>(
             return Err(shape(
                 py,
                 format!(
-                    "{name} must be a {nd}-D array {what}, got shape {:?}",
-                    untyped.shape()
+                    "{name} must be a {nd}-D array {what}, got shape {}",
+                    py_shape(untyped.shape())
                 ),
             ));
         }
@@ -134,7 +147,10 @@ pub fn array_nd(
     if v.ndim() != ndim {
         return Err(shape(
             obj.py(),
-            format!("{name} must be a {ndim}-D array {what}, got shape {:?}", v.shape()),
+            format!(
+                "{name} must be a {ndim}-D array {what}, got shape {}",
+                py_shape(v.shape())
+            ),
         ));
     }
     Ok(v.to_owned())
@@ -166,7 +182,7 @@ pub fn bool_matrix(
     if v.dim() != (rows, cols) {
         return Err(shape(
             obj.py(),
-            format!("{name} must have shape {what}, got {:?}", v.shape()),
+            format!("{name} must have shape {what}, got {}", py_shape(v.shape())),
         ));
     }
     Ok(v.iter().copied().collect())
@@ -179,9 +195,9 @@ pub fn bool_matrix(
 pub fn int_arg(obj: &Bound<'_, PyAny>) -> PyResult<i128> {
     match obj.extract::<i128>() {
         Ok(v) => Ok(v),
-        Err(e) if e.is_instance_of::<pyo3::exceptions::PyOverflowError>(obj.py()) => Err(
-            invalid(obj.py(), format!("integer {obj} is out of range")),
-        ),
+        Err(e) if e.is_instance_of::<pyo3::exceptions::PyOverflowError>(obj.py()) => {
+            Err(invalid(obj.py(), format!("integer {obj} is out of range")))
+        }
         Err(e) => Err(e),
     }
 }

@@ -40,9 +40,18 @@ fn n_sections(py: Python<'_>, boundaries: &[usize]) -> PyResult<usize> {
 }
 
 /// A `(K, K + 1, S)` array of summed log-likelihoods -> [`ScoreTable`].
-fn table(py: Python<'_>, scores: &Bound<'_, PyAny>, boundaries: Vec<usize>) -> PyResult<ScoreTable> {
+fn table(
+    py: Python<'_>,
+    scores: &Bound<'_, PyAny>,
+    boundaries: Vec<usize>,
+) -> PyResult<ScoreTable> {
     let k = n_sections(py, &boundaries)?;
-    let a = ndconv::array_nd(scores, "scores", 3, "(n_sections, n_sections + 1, n_skills)")?;
+    let a = ndconv::array_nd(
+        scores,
+        "scores",
+        3,
+        "(n_sections, n_sections + 1, n_skills)",
+    )?;
     let (d0, d1, ns) = (a.shape()[0], a.shape()[1], a.shape()[2]);
     if d0 != k || d1 != k + 1 {
         return Err(EngineError::ShapeMismatch(format!(
@@ -147,7 +156,12 @@ fn rising_table<'py>(
         let b = indices(&boundaries, "boundaries")?;
         let z = vector(&z, "z", "(n_samples,)")?;
         let k = n_sections(py, &b)?;
-        check_table(py, "n_sections x (n_sections + 1) (rise table)", &[k, k + 1], 1)?;
+        check_table(
+            py,
+            "n_sections x (n_sections + 1) (rise table)",
+            &[k, k + 1],
+            1,
+        )?;
         let params = RiseParams {
             min_rise,
             dominance,
@@ -219,11 +233,7 @@ struct PyTemplateSet {
 }
 
 /// A serialisation result (an `lfd.errors.ModelFormatError` if it could not be written).
-fn to_json_text(
-    py: Python<'_>,
-    what: &str,
-    text: serde_json::Result<String>,
-) -> PyResult<String> {
+fn to_json_text(py: Python<'_>, what: &str, text: serde_json::Result<String>) -> PyResult<String> {
     text.map_err(|e| EngineError::Format(format!("{what}: {e}")))
         .py_err(py)
 }
@@ -334,7 +344,13 @@ impl PyTemplateSet {
     /// Training parameters as JSON.
     #[getter]
     fn params_json(&self, py: Python<'_>) -> PyResult<String> {
-        guard(py, || to_json_text(py, "template parameters", serde_json::to_string(&self.inner.params)))
+        guard(py, || {
+            to_json_text(
+                py,
+                "template parameters",
+                serde_json::to_string(&self.inner.params),
+            )
+        })
     }
 
     /// Map raw observations `(n, C)` to `[0, 1]` with the template ranges.

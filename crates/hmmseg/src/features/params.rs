@@ -90,14 +90,24 @@ impl FeatureParams {
     /// object is an [`EngineError::Format`] error; an unknown field, a wrong type or a bad
     /// value (e.g. an unknown `size_measure`) is an [`EngineError::InvalidParameter`] error.
     pub fn from_json(text: &str) -> Result<Self> {
-        let p: Self = serde_json::from_str(text).map_err(|e| {
-            let msg = format!("feature parameters: {e}");
-            if e.classify() == serde_json::error::Category::Data {
+        let mut de = serde_json::Deserializer::from_str(text);
+        let p: Self = serde_path_to_error::deserialize(&mut de).map_err(|e| {
+            // the message names the field: `feature parameter size_measure: unknown variant ...`
+            let path = e.path().to_string();
+            let inner = e.into_inner();
+            let msg = if path == "." {
+                format!("feature parameters: {inner}")
+            } else {
+                format!("feature parameter {path}: {inner}")
+            };
+            if inner.classify() == serde_json::error::Category::Data {
                 EngineError::InvalidParameter(msg)
             } else {
                 EngineError::Format(msg)
             }
         })?;
+        de.end()
+            .map_err(|e| EngineError::Format(format!("feature parameters: {e}")))?;
         p.validate()?;
         Ok(p)
     }

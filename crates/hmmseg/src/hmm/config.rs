@@ -131,7 +131,10 @@ mod tests {
             "\"left-right\""
         );
         assert_eq!("ergodic".parse::<Topology>().unwrap(), Topology::Ergodic);
-        assert_eq!("diag".parse::<CovarianceType>().unwrap(), CovarianceType::Diag);
+        assert_eq!(
+            "diag".parse::<CovarianceType>().unwrap(),
+            CovarianceType::Diag
+        );
         assert!(matches!(
             "ring".parse::<Topology>(),
             Err(EngineError::InvalidParameter(_))
