@@ -5,7 +5,7 @@
 
 use hmmseg::hmm::{CovarianceType, FitConfig, FitReport, Hmm, Topology};
 use nalgebra::{DMatrix, DVector};
-use numpy::ndarray::{Array1, Array3, Array4};
+use numpy::ndarray::{Array3, Array4};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyArray4};
 use pyo3::prelude::*;
 
@@ -318,7 +318,10 @@ impl PyHmm {
     #[getter]
     fn startprob<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
         guard(py, || {
-            Ok(Array1::from_vec(self.inner.startprob().as_slice().to_vec()).into_pyarray(py))
+            Ok(ndconv::vector_to_numpy(
+                py,
+                self.inner.startprob().as_slice().to_vec(),
+            ))
         })
     }
 
