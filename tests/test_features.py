@@ -80,7 +80,7 @@ def two_picks() -> Trajectory:
 
 
 def test_names_and_params_mirror_the_engine() -> None:
-    assert list(FEATURE_NAMES) == _hmmseg.feature_names()
+    assert FEATURE_NAMES == _hmmseg.FEATURE_NAMES
     assert sum(len(c) for c in FEATURE_GROUPS.values()) == len(FEATURE_NAMES) == 10
     assert FeatureParams().to_dict() == json.loads(_hmmseg.default_feature_params())
 
@@ -276,8 +276,10 @@ def test_bad_input() -> None:
         compute_features(traj, params={"gama": 0.1})
     with pytest.raises(InvalidParameterError):
         compute_features(traj, params=FeatureParams(v_th=0.0))
-    with pytest.raises(ModelFormatError):
+    with pytest.raises(InvalidParameterError, match="size_measure"):
         label_targets(traj, params='{"size_measure": "huge"}')
+    with pytest.raises(ModelFormatError):
+        label_targets(traj, params='{"size_measure": ')
     bad = two_picks()
     bad.object_size[0, 0] = -0.05
     with pytest.raises(InvalidParameterError, match="object_size"):

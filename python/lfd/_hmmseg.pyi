@@ -1,11 +1,28 @@
-"""Type stubs for the compiled engine ``lfd._hmmseg`` (checked by ``mypy.stubtest``)."""
+"""Type stubs for the compiled engine ``lfd._hmmseg`` (checked by ``mypy.stubtest``).
 
-from typing import final
+Arrays are numpy arrays of the dtype shown, in any memory layout (C, Fortran, strided); a
+wrong dtype, a non-array or a wrong number of dimensions raises an ``lfd.errors`` exception
+naming the argument. Sizes are refused before anything is allocated when a table would not fit
+(``InvalidParameterError``); a Rust panic is ``lfd.errors.InternalError``.
+"""
+
+from typing import Literal, final
 
 import numpy as np
 from numpy.typing import NDArray
 
 __version__: str
+
+# --- option names (the engine's enums; at runtime ``typing.Literal`` objects built from them) ---
+CovarianceType = Literal["diag", "full"]
+Topology = Literal["ergodic", "left-right"]
+GrammarMode = Literal["off", "warn", "enforce"]
+EndState = Literal["any", "final"]
+SizeMeasure = Literal["max_horizontal", "min_horizontal", "max"]
+
+# --- test hooks (not API): raise an engine error variant by name / panic inside the boundary --
+def _raise_engine_error(variant: str) -> None: ...
+def _panic(message: str) -> None: ...
 
 # --- DTW and normalisation (crates/hmmseg-py/src/dtw.rs) --------------------------------------
 def dtw(
@@ -40,7 +57,10 @@ def label_targets(
     dt: float,
     params_json: str | None = None,
 ) -> NDArray[np.int64]: ...
-def feature_names() -> list[str]: ...
+
+FEATURE_NAMES: tuple[str, ...]
+FEATURE_GROUPS: tuple[tuple[str, int, int], ...]
+
 def default_feature_params() -> str: ...
 def check_feature_params(params_json: str) -> str: ...
 
@@ -57,8 +77,8 @@ class Hmm:
         *,
         n_states: int,
         n_mix: int = 1,
-        covariance: str = "diag",
-        topology: str = "left-right",
+        covariance: CovarianceType = "diag",
+        topology: Topology = "left-right",
         seed: int = 0,
         max_iter: int = 100,
         tol: float = 1e-4,
@@ -79,7 +99,7 @@ class Hmm:
         weights: _F64,
         means: _F64,
         covars: _F64,
-        covariance: str = "diag",
+        covariance: CovarianceType = "diag",
     ) -> Hmm: ...
     @staticmethod
     def from_json(s: str) -> Hmm: ...
@@ -97,7 +117,7 @@ class Hmm:
     @property
     def n_mix(self) -> int: ...
     @property
-    def covariance(self) -> str: ...
+    def covariance(self) -> CovarianceType: ...
     @property
     def startprob(self) -> _F64: ...
     @property
@@ -132,7 +152,7 @@ def segment_greedy(
     skills: list[str],
     grammar_json: str,
     rising: NDArray[np.bool_] | None = None,
-    mode: str = "warn",
+    mode: GrammarMode = "warn",
     lookahead: bool = False,
 ) -> tuple[list[_SegmentTuple], list[str]]: ...
 def segment_dp(
@@ -141,7 +161,7 @@ def segment_dp(
     skills: list[str],
     grammar_json: str,
     rising: NDArray[np.bool_] | None = None,
-    mode: str = "warn",
+    mode: GrammarMode = "warn",
     penalty: float = 0.0,
 ) -> tuple[list[_SegmentTuple], list[str]]: ...
 def default_template_params() -> str: ...
@@ -175,6 +195,6 @@ class TemplateSet:
         raw: NDArray[np.float64],
         boundaries: NDArray[np.int64],
         max_len: int = 0,
-        end: str = "final",
+        end: EndState = "final",
         features: list[int] | None = None,
     ) -> NDArray[np.float64]: ...

@@ -15,18 +15,21 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar, get_args
 
 import numpy as np
 import numpy.typing as npt
 
 from . import _hmmseg
+from ._hmmseg import CovarianceType, Topology
 from .errors import InvalidParameterError, ShapeMismatchError
 
 __all__ = ["FitMonitor", "GaussianHMM"]
 
-_COVARIANCES = ("diag", "full")
-_TOPOLOGIES = ("ergodic", "left-right")
+_Choice = TypeVar("_Choice", bound=str)
+
+_COVARIANCES: tuple[CovarianceType, ...] = get_args(CovarianceType)
+_TOPOLOGIES: tuple[Topology, ...] = get_args(Topology)
 
 
 @dataclass(frozen=True)
@@ -88,10 +91,11 @@ def _check_int(value: Any, name: str, minimum: int) -> int:
     return int(value)
 
 
-def _check_choice(value: Any, name: str, choices: tuple[str, ...]) -> str:
-    if value not in choices:
-        raise InvalidParameterError(f"{name} must be one of {choices}, got {value!r}")
-    return str(value)
+def _check_choice(value: Any, name: str, choices: tuple[_Choice, ...]) -> _Choice:
+    for choice in choices:
+        if isinstance(value, str) and value == choice:
+            return choice
+    raise InvalidParameterError(f"{name} must be one of {choices}, got {value!r}")
 
 
 class GaussianHMM:
@@ -133,8 +137,8 @@ class GaussianHMM:
         n_states: int,
         *,
         n_mix: int = 1,
-        covariance: str = "diag",
-        topology: str = "left-right",
+        covariance: CovarianceType = "diag",
+        topology: Topology = "left-right",
         seed: int = 0,
         max_iter: int = 100,
         tol: float = 1e-4,
@@ -173,7 +177,7 @@ class GaussianHMM:
         covars: npt.ArrayLike,
         *,
         weights: npt.ArrayLike | None = None,
-        covariance: str = "diag",
+        covariance: CovarianceType = "diag",
         **options: Any,
     ) -> GaussianHMM:
         """Build a model from parameters in hmmlearn's shapes.

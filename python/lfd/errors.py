@@ -1,7 +1,9 @@
 """Exceptions raised by lfd. Catch :class:`LfdError` for everything, or a specific subclass.
 
-The compiled engine (``lfd._hmmseg``) raises the :class:`EngineError` subclasses below; the
-binding looks them up here by name, so their names are part of the engine's contract.
+The compiled engine (``lfd._hmmseg``) raises the :class:`EngineError` subclasses below. The
+binding imports them once, when it is loaded (a missing class makes ``import lfd._hmmseg``
+fail), and maps each engine error variant to one class; a Rust panic is an
+:class:`InternalError`. Their names are part of the engine's contract.
 """
 
 from __future__ import annotations
@@ -46,6 +48,10 @@ class NotConvergedError(EngineError):
 
 class ModelFormatError(EngineError, ValueError):
     """A serialised model or template file cannot be read (bad JSON, version, unknown skill)."""
+
+
+class InternalError(EngineError):
+    """A bug in the engine (a Rust panic or an impossible state), not the caller's fault."""
 
 
 # --- data and files -------------------------------------------------------------------------

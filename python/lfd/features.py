@@ -36,12 +36,13 @@ from __future__ import annotations
 import json
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, fields
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from . import _hmmseg
+from ._hmmseg import SizeMeasure
 from .errors import DemonstrationError, InvalidParameterError, ShapeMismatchError
 from .trajectory import Trajectory
 
@@ -55,22 +56,15 @@ __all__ = [
     "valid_mask",
 ]
 
-FEATURE_NAMES: tuple[str, ...] = tuple(_hmmseg.feature_names())
-"""Column names of :attr:`Features.values` and :attr:`Features.thresholds`, in order."""
+FEATURE_NAMES: tuple[str, ...] = _hmmseg.FEATURE_NAMES
+"""Column names of :attr:`Features.values` and :attr:`Features.thresholds`, in order (defined
+in the engine)."""
 
 FEATURE_GROUPS: dict[str, tuple[str, ...]] = {
-    "fingertip_distance": ("fingertip_distance",),
-    "tcp_rise_fall": ("tcp_rise_fall",),
-    "object_proximity": ("object_proximity",),
-    "object_distance": ("object_distance",),
-    "object_height": ("object_height",),
-    "tcp_in_object": ("tcp_in_object_x", "tcp_in_object_y", "tcp_in_object_z"),
-    "object_velocity": ("object_velocity",),
-    "hand_velocity": ("hand_velocity",),
+    name: FEATURE_NAMES[start:end] for name, start, end in _hmmseg.FEATURE_GROUPS
 }
-"""The eight features of Table I and their columns (one HMM per feature)."""
-
-SizeMeasure = Literal["max_horizontal", "min_horizontal", "max"]
+"""The eight features of Table I and their columns (one HMM per feature; defined in the
+engine, ``lfd._hmmseg.FEATURE_GROUPS``)."""
 
 
 @dataclass(frozen=True)

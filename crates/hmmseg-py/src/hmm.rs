@@ -4,34 +4,26 @@
 //! observations are `(n_samples, n_features)`. Work runs with the interpreter released.
 
 use hmmseg::hmm::{CovarianceType, FitConfig, FitReport, Hmm, Topology};
-use hmmseg::EngineError;
 use nalgebra::{DMatrix, DVector};
-use numpy::ndarray::{Array1, Array2, Array3, Array4};
-use numpy::{
-    IntoPyArray, PyArray1, PyArray2, PyArray3, PyArray4, PyReadonlyArray1, PyReadonlyArray2,
-    PyReadonlyArray3, PyReadonlyArrayDyn, PyUntypedArrayMethods,
-};
+use numpy::ndarray::{Array3, Array4};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyArray4};
 use pyo3::prelude::*;
 
-use crate::errors::IntoPyResult;
+use crate::errors::{guard, IntoPyResult};
+use crate::limits::{check_hmm, check_table};
+use crate::ndconv::{self, count, int_arg, matrix, matrix_list};
 
-/// Copy a 2-D numpy array (any strides) into a column-major matrix.
-fn matrix(a: &PyReadonlyArray2<'_, f64>) -> DMatrix<f64> {
-    let (r, c) = (a.shape()[0], a.shape()[1]);
-    if let Ok(s) = a.as_slice() {
-        DMatrix::from_row_slice(r, c, s)
-    } else {
-        let v = a.as_array();
-        DMatrix::from_fn(r, c, |i, j| v[[i, j]])
-    }
+const OBS: &str = "(n_samples, n_features)";
+
+/// Parse an option name with the engine's `FromStr` (`InvalidParameterError` if unknown).
+fn option<T: std::str::FromStr<Err = hmmseg::EngineError>>(py: Python<'_>, s: &str) -> PyResult<T> {
+    s.parse::<T>().py_err(py)
 }
 
-fn matrices(xs: &[PyReadonlyArray2<'_, f64>]) -> Vec<DMatrix<f64>> {
-    xs.iter().map(matrix).collect()
-}
-
-fn row_major(m: &DMatrix<f64>) -> Vec<f64> {
-    m.transpose().as_slice().to_vec()
+/// The longest sequence and the feature count of the first one (0 for none).
+fn extent(xs: &[DMatrix<f64>]) -> (usize, usize) {
+    let longest = xs.iter().map(DMatrix::nrows).max().unwrap_or(0);
+    (longest, xs.first().map_or(0, DMatrix::ncols))
 }
 
 /// `(model, history, n_iter, converged)` as returned to Python.
@@ -63,30 +55,41 @@ impl PyHmm {
     #[pyo3(signature = (sequences, *, n_states, n_mix = 1, covariance = "diag", topology = "left-right", seed = 0, max_iter = 100, tol = 1e-4, covariance_floor = 1e-3))]
     fn fit(
         py: Python<'_>,
-        sequences: Vec<PyReadonlyArray2<'_, f64>>,
-        n_states: usize,
-        n_mix: usize,
+        sequences: Vec<Bound<'_, PyAny>>,
+        #[pyo3(from_py_with = int_arg)] n_states: i128,
+        #[pyo3(from_py_with = int_arg)] n_mix: i128,
         covariance: &str,
         topology: &str,
-        seed: u64,
-        max_iter: usize,
+        #[pyo3(from_py_with = int_arg)] seed: i128,
+        #[pyo3(from_py_with = int_arg)] max_iter: i128,
         tol: f64,
         covariance_floor: f64,
     ) -> PyResult<FitResult> {
-        let config = FitConfig {
-            n_states,
-            n_mix,
-            covariance: CovarianceType::parse(covariance).py_err(py)?,
-            topology: Topology::parse(topology).py_err(py)?,
-            seed,
-            max_iter,
-            tol,
-            covariance_floor,
-        };
-        let xs = matrices(&sequences);
-        py.detach(|| Hmm::fit(&xs, &config))
-            .map(fit_result)
-            .py_err(py)
+        guard(py, || {
+            let config = FitConfig {
+                n_states: count(py, n_states, "n_states", 1)?,
+                n_mix: count(py, n_mix, "n_mix", 1)?,
+                covariance: option(py, covariance)?,
+                topology: option::<Topology>(py, topology)?,
+                seed: ndconv::seed(py, seed)?,
+                max_iter: count(py, max_iter, "max_iter", 0)?,
+                tol,
+                covariance_floor,
+            };
+            let xs = matrix_list(&sequences, "sequences", OBS)?;
+            let (longest, f) = extent(&xs);
+            check_hmm(
+                py,
+                config.n_states,
+                config.n_mix,
+                f,
+                config.covariance == CovarianceType::Full,
+                longest,
+            )?;
+            py.detach(|| Hmm::fit(&xs, &config))
+                .map(fit_result)
+                .py_err(py)
+        })
     }
 
     /// Baum-Welch from this model's parameters (no re-initialisation).
@@ -95,21 +98,32 @@ impl PyHmm {
     fn refit(
         &self,
         py: Python<'_>,
-        sequences: Vec<PyReadonlyArray2<'_, f64>>,
-        max_iter: usize,
+        sequences: Vec<Bound<'_, PyAny>>,
+        #[pyo3(from_py_with = int_arg)] max_iter: i128,
         tol: f64,
         covariance_floor: f64,
     ) -> PyResult<FitResult> {
-        let config = FitConfig {
-            max_iter,
-            tol,
-            covariance_floor,
-            ..FitConfig::default()
-        };
-        let xs = matrices(&sequences);
-        py.detach(|| self.inner.refit(&xs, &config))
-            .map(fit_result)
-            .py_err(py)
+        guard(py, || {
+            let config = FitConfig {
+                max_iter: count(py, max_iter, "max_iter", 0)?,
+                tol,
+                covariance_floor,
+                ..FitConfig::default()
+            };
+            let xs = matrix_list(&sequences, "sequences", OBS)?;
+            let h = &self.inner;
+            check_hmm(
+                py,
+                h.n_states(),
+                h.n_mix(),
+                h.n_features(),
+                h.covariance() == CovarianceType::Full,
+                extent(&xs).0,
+            )?;
+            py.detach(|| h.refit(&xs, &config))
+                .map(fit_result)
+                .py_err(py)
+        })
     }
 
     /// Build from parameters: `startprob (n,)`, `transmat (n, n)`, `weights (n, m)`,
@@ -118,138 +132,162 @@ impl PyHmm {
     #[pyo3(signature = (startprob, transmat, weights, means, covars, covariance = "diag"))]
     fn from_params(
         py: Python<'_>,
-        startprob: PyReadonlyArray1<'_, f64>,
-        transmat: PyReadonlyArray2<'_, f64>,
-        weights: PyReadonlyArray2<'_, f64>,
-        means: PyReadonlyArray3<'_, f64>,
-        covars: PyReadonlyArrayDyn<'_, f64>,
+        startprob: Bound<'_, PyAny>,
+        transmat: Bound<'_, PyAny>,
+        weights: Bound<'_, PyAny>,
+        means: Bound<'_, PyAny>,
+        covars: Bound<'_, PyAny>,
         covariance: &str,
     ) -> PyResult<Self> {
-        let cov = CovarianceType::parse(covariance).py_err(py)?;
-        let mu = means.as_array();
-        let (n, m, f) = mu.dim();
-        let c = covars.as_array();
-        let want: Vec<usize> = match cov {
-            CovarianceType::Diag => vec![n, m, f],
-            CovarianceType::Full => vec![n, m, f, f],
-        };
-        if c.shape() != want.as_slice() {
-            return Err(EngineError::ShapeMismatch(format!(
-                "covars has shape {:?}, expected {want:?} for {covariance} covariances",
-                c.shape()
-            )))
-            .py_err(py);
-        }
-        let means_v = (0..n)
-            .map(|j| DMatrix::from_fn(m, f, |k, d| mu[[j, k, d]]))
-            .collect();
-        let covars_v = (0..n)
-            .map(|j| {
-                (0..m)
-                    .map(|k| match cov {
-                        CovarianceType::Diag => {
-                            DMatrix::from_diagonal(&DVector::from_fn(f, |d, _| c[[j, k, d]]))
-                        }
-                        CovarianceType::Full => DMatrix::from_fn(f, f, |r, s| c[[j, k, r, s]]),
-                    })
-                    .collect()
-            })
-            .collect();
-        let start = DVector::from_iterator(startprob.len(), startprob.as_array().iter().copied());
-        let inner = Hmm::from_params(
-            start,
-            matrix(&transmat),
-            matrix(&weights),
-            means_v,
-            covars_v,
-            cov,
-        )
-        .py_err(py)?;
-        Ok(Self { inner })
+        guard(py, || {
+            let cov: CovarianceType = option(py, covariance)?;
+            let mu = ndconv::array_nd(&means, "means", 3, "(n_states, n_mix, n_features)")?;
+            let (n, m, f) = (mu.shape()[0], mu.shape()[1], mu.shape()[2]);
+            let (ndim, want) = match cov {
+                CovarianceType::Diag => (3, vec![n, m, f]),
+                CovarianceType::Full => (4, vec![n, m, f, f]),
+            };
+            let want_text = ndconv::py_shape(&want);
+            let c = ndconv::array_nd(&covars, "covars", ndim, &want_text)?;
+            if c.shape() != want.as_slice() {
+                return Err(crate::errors::shape(
+                    py,
+                    format!(
+                        "covars has shape {}, expected {want_text} for {covariance} covariances",
+                        ndconv::py_shape(c.shape())
+                    ),
+                ));
+            }
+            let means_v = (0..n)
+                .map(|j| DMatrix::from_fn(m, f, |k, d| mu[[j, k, d]]))
+                .collect();
+            let covars_v = (0..n)
+                .map(|j| {
+                    (0..m)
+                        .map(|k| match cov {
+                            CovarianceType::Diag => {
+                                DMatrix::from_diagonal(&DVector::from_fn(f, |d, _| c[[j, k, d]]))
+                            }
+                            CovarianceType::Full => DMatrix::from_fn(f, f, |r, s| c[[j, k, r, s]]),
+                        })
+                        .collect()
+                })
+                .collect();
+            let start = DVector::from_vec(ndconv::vector(&startprob, "startprob", "(n_states,)")?);
+            let inner = Hmm::from_params(
+                start,
+                matrix(&transmat, "transmat", "(n_states, n_states)")?,
+                matrix(&weights, "weights", "(n_states, n_mix)")?,
+                means_v,
+                covars_v,
+                cov,
+            )
+            .py_err(py)?;
+            Ok(Self { inner })
+        })
     }
 
     /// Read a model written by `to_json`.
     #[staticmethod]
     fn from_json(py: Python<'_>, s: &str) -> PyResult<Self> {
-        Hmm::from_json(s).map(|inner| Self { inner }).py_err(py)
+        guard(py, || {
+            Hmm::from_json(s).map(|inner| Self { inner }).py_err(py)
+        })
     }
 
     /// Serialise to JSON (with a format version); `from_json` restores it bit for bit.
     fn to_json(&self, py: Python<'_>) -> PyResult<String> {
-        self.inner.to_json().py_err(py)
+        guard(py, || self.inner.to_json().py_err(py))
     }
 
     /// `ln P(x)` by the forward algorithm; `x` is `(n_samples, n_features)`.
-    fn log_likelihood(&self, py: Python<'_>, x: PyReadonlyArray2<'_, f64>) -> PyResult<f64> {
-        let x = matrix(&x);
-        py.detach(|| self.inner.log_likelihood(&x)).py_err(py)
+    fn log_likelihood(&self, py: Python<'_>, x: Bound<'_, PyAny>) -> PyResult<f64> {
+        guard(py, || {
+            let x = self.observations(py, &x, "x")?;
+            py.detach(|| self.inner.log_likelihood(&x)).py_err(py)
+        })
     }
 
     /// `ln P(x)` of every sequence (in parallel), as a float64 array.
     fn log_likelihood_many<'py>(
         &self,
         py: Python<'py>,
-        sequences: Vec<PyReadonlyArray2<'py, f64>>,
+        sequences: Vec<Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let xs = matrices(&sequences);
-        let out = py
-            .detach(|| self.inner.log_likelihood_many(&xs))
-            .py_err(py)?;
-        Ok(Array1::from_vec(out).into_pyarray(py))
+        guard(py, || {
+            let xs = matrix_list(&sequences, "sequences", OBS)?;
+            self.check_len(py, extent(&xs).0)?;
+            let out = py
+                .detach(|| self.inner.log_likelihood_many(&xs))
+                .py_err(py)?;
+            Ok(ndconv::vector_to_numpy(py, out))
+        })
     }
 
     /// `out[t] = ln P(x[0..=t])` for every `t`, in one forward pass.
     fn prefix_log_likelihoods<'py>(
         &self,
         py: Python<'py>,
-        x: PyReadonlyArray2<'py, f64>,
+        x: Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let x = matrix(&x);
-        let out = py
-            .detach(|| self.inner.prefix_log_likelihoods(&x))
-            .py_err(py)?;
-        Ok(Array1::from_vec(out.as_slice().to_vec()).into_pyarray(py))
+        guard(py, || {
+            let x = self.observations(py, &x, "x")?;
+            let out = py
+                .detach(|| self.inner.prefix_log_likelihoods(&x))
+                .py_err(py)?;
+            Ok(ndconv::vector_to_numpy(py, out.as_slice().to_vec()))
+        })
     }
 
     /// Most likely state path: `(ln P(x, path), path)` with `path` an int64 array.
     fn viterbi<'py>(
         &self,
         py: Python<'py>,
-        x: PyReadonlyArray2<'py, f64>,
+        x: Bound<'py, PyAny>,
     ) -> PyResult<(f64, Bound<'py, PyArray1<i64>>)> {
-        let x = matrix(&x);
-        let (score, path) = py.detach(|| self.inner.viterbi(&x)).py_err(py)?;
-        let path: Vec<i64> = path.into_iter().map(|s| s as i64).collect();
-        Ok((score, Array1::from_vec(path).into_pyarray(py)))
+        guard(py, || {
+            let x = self.observations(py, &x, "x")?;
+            let (score, path) = py.detach(|| self.inner.viterbi(&x)).py_err(py)?;
+            Ok((score, ndconv::indices_to_numpy(py, &path)))
+        })
     }
 
     /// State posteriors, `(n_samples, n_states)`, rows sum to 1.
     fn posteriors<'py>(
         &self,
         py: Python<'py>,
-        x: PyReadonlyArray2<'py, f64>,
+        x: Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let x = matrix(&x);
-        let p = py.detach(|| self.inner.posteriors(&x)).py_err(py)?;
-        let a = Array2::from_shape_vec(p.shape(), row_major(&p)).map_err(|e| {
-            pyo3::exceptions::PyRuntimeError::new_err(format!("internal shape error: {e}"))
-        })?;
-        Ok(a.into_pyarray(py))
+        guard(py, || {
+            let x = self.observations(py, &x, "x")?;
+            let p = py.detach(|| self.inner.posteriors(&x)).py_err(py)?;
+            Ok(ndconv::to_numpy(py, &p))
+        })
     }
 
     /// Draw `n_samples` observations and their states: `(x (n_samples, n_features), states)`.
     #[pyo3(signature = (n_samples, *, seed = 0))]
-    fn sample<'py>(&self, py: Python<'py>, n_samples: usize, seed: u64) -> PyResult<Sampled<'py>> {
-        let (x, states) = self.inner.sample(n_samples, seed).py_err(py)?;
-        let f = self.inner.n_features();
-        let x = Array2::from_shape_vec((n_samples, f), row_major(&x)).map_err(|e| {
-            pyo3::exceptions::PyRuntimeError::new_err(format!("internal shape error: {e}"))
-        })?;
-        let states: Vec<i64> = states.into_iter().map(|s| s as i64).collect();
-        Ok((
-            x.into_pyarray(py),
-            Array1::from_vec(states).into_pyarray(py),
-        ))
+    fn sample<'py>(
+        &self,
+        py: Python<'py>,
+        #[pyo3(from_py_with = int_arg)] n_samples: i128,
+        #[pyo3(from_py_with = int_arg)] seed: i128,
+    ) -> PyResult<Sampled<'py>> {
+        guard(py, || {
+            let n = count(py, n_samples, "n_samples", 1)?;
+            let seed = ndconv::seed(py, seed)?;
+            check_table(
+                py,
+                "n_samples x n_features (samples)",
+                &[n, self.inner.n_features()],
+                8,
+            )?;
+            let (x, states) = py.detach(|| self.inner.sample(n, seed)).py_err(py)?;
+            Ok((
+                ndconv::to_numpy(py, &x),
+                ndconv::indices_to_numpy(py, &states),
+            ))
+        })
     }
 
     /// Number of hidden states.
@@ -278,39 +316,48 @@ impl PyHmm {
 
     /// Start probabilities, `(n_states,)`.
     #[getter]
-    fn startprob<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        Array1::from_vec(self.inner.startprob().as_slice().to_vec()).into_pyarray(py)
+    fn startprob<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        guard(py, || {
+            Ok(ndconv::vector_to_numpy(
+                py,
+                self.inner.startprob().as_slice().to_vec(),
+            ))
+        })
     }
 
     /// Transition matrix, `(n_states, n_states)`.
     #[getter]
-    fn transmat<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        let a = self.inner.transmat();
-        Array2::from_shape_fn(a.shape(), |(i, j)| a[(i, j)]).into_pyarray(py)
+    fn transmat<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        guard(py, || Ok(ndconv::to_numpy(py, self.inner.transmat())))
     }
 
     /// Mixture weights, `(n_states, n_mix)`.
     #[getter]
-    fn weights<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        let w = self.inner.weights();
-        Array2::from_shape_fn(w.shape(), |(i, j)| w[(i, j)]).into_pyarray(py)
+    fn weights<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        guard(py, || Ok(ndconv::to_numpy(py, self.inner.weights())))
     }
 
     /// Component means, `(n_states, n_mix, n_features)`.
     #[getter]
-    fn means<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray3<f64>> {
-        let h = &self.inner;
-        let shape = (h.n_states(), h.n_mix(), h.n_features());
-        Array3::from_shape_fn(shape, |(j, k, d)| h.means()[j][(k, d)]).into_pyarray(py)
+    fn means<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        guard(py, || {
+            let h = &self.inner;
+            let shape = (h.n_states(), h.n_mix(), h.n_features());
+            Ok(Array3::from_shape_fn(shape, |(j, k, d)| h.means()[j][(k, d)]).into_pyarray(py))
+        })
     }
 
     /// Component covariances as full matrices, `(n_states, n_mix, n_features, n_features)`.
     #[getter]
-    fn covars<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray4<f64>> {
-        let h = &self.inner;
-        let (n, m, f) = (h.n_states(), h.n_mix(), h.n_features());
-        Array4::from_shape_fn((n, m, f, f), |(j, k, r, s)| h.covars()[j][k][(r, s)])
-            .into_pyarray(py)
+    fn covars<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray4<f64>>> {
+        guard(py, || {
+            let h = &self.inner;
+            let (n, m, f) = (h.n_states(), h.n_mix(), h.n_features());
+            Ok(
+                Array4::from_shape_fn((n, m, f, f), |(j, k, r, s)| h.covars()[j][k][(r, s)])
+                    .into_pyarray(py),
+            )
+        })
     }
 
     fn __repr__(&self) -> String {
@@ -328,6 +375,30 @@ impl PyHmm {
         other
             .cast::<Self>()
             .is_ok_and(|o| o.get().inner == self.inner)
+    }
+}
+
+impl PyHmm {
+    /// One observation sequence, with the forward tables it needs checked against the budget.
+    fn observations(
+        &self,
+        py: Python<'_>,
+        x: &Bound<'_, PyAny>,
+        name: &str,
+    ) -> PyResult<DMatrix<f64>> {
+        let x = matrix(x, name, OBS)?;
+        self.check_len(py, x.nrows())?;
+        Ok(x)
+    }
+
+    /// Refuse sequences whose `n_samples x n_states` tables exceed the budget.
+    fn check_len(&self, py: Python<'_>, longest: usize) -> PyResult<()> {
+        check_table(
+            py,
+            "n_samples x n_states (forward table)",
+            &[longest, self.inner.n_states()],
+            8,
+        )
     }
 }
 

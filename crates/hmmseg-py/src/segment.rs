@@ -10,60 +10,49 @@ use hmmseg::segment::{
 use hmmseg::stage1::{section_boundaries, Criterion, Stage1Params};
 use hmmseg::EngineError;
 use nalgebra::DMatrix;
-use numpy::ndarray::{Array2, Array3};
-use numpy::{
-    IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3,
-};
+use numpy::{PyArray2, PyArrayDyn};
 use pyo3::prelude::*;
 
-use crate::errors::IntoPyResult;
+use crate::errors::{guard, IntoPyResult};
+use crate::limits::{check_hmm, check_table};
+use crate::ndconv::{
+    self, bool_matrix, count, counts, indices, int_arg, int_list_arg, matrix, opt_int_list_arg,
+    shaped, to_numpy, vector,
+};
 
-/// numpy (row-major) -> nalgebra.
-fn to_matrix(x: &PyReadonlyArray2<'_, f64>) -> DMatrix<f64> {
-    let a = x.as_array();
-    DMatrix::from_fn(a.nrows(), a.ncols(), |r, c| a[(r, c)])
-}
-
-/// int64 sample indices -> usize, rejecting negative values.
-fn to_indices(py: Python<'_>, x: &PyReadonlyArray1<'_, i64>, what: &str) -> PyResult<Vec<usize>> {
-    x.as_array()
-        .iter()
-        .enumerate()
-        .map(|(i, &v)| {
-            usize::try_from(v).map_err(|_| {
-                EngineError::InvalidParameter(format!("{what}[{i}] = {v} is negative"))
-            })
-        })
-        .collect::<hmmseg::Result<Vec<usize>>>()
-        .py_err(py)
-}
-
-fn parse_mode(py: Python<'_>, mode: &str) -> PyResult<GrammarMode> {
-    match mode {
-        "off" => Ok(GrammarMode::Off),
-        "warn" => Ok(GrammarMode::Warn),
-        "enforce" => Ok(GrammarMode::Enforce),
-        other => Err(EngineError::InvalidParameter(format!(
-            "grammar mode must be 'off', 'warn' or 'enforce', got {other:?}"
-        )))
-        .py_err(py),
-    }
-}
+const OBS: &str = "(n_samples, n_columns)";
 
 fn grammar(py: Python<'_>, grammar_json: &str, skills: &[String]) -> PyResult<Grammar> {
     let spec = GrammarSpec::from_json(grammar_json).py_err(py)?;
     Grammar::for_skills(&spec, skills).py_err(py)
 }
 
+/// Number of sections `K` of `K + 1` boundaries (at least one section).
+fn n_sections(py: Python<'_>, boundaries: &[usize]) -> PyResult<usize> {
+    match boundaries.len() {
+        0 | 1 => Err(EngineError::ShapeMismatch(format!(
+            "boundaries must hold at least 2 values (one section), got {}",
+            boundaries.len()
+        )))
+        .py_err(py),
+        n => Ok(n - 1),
+    }
+}
+
 /// A `(K, K + 1, S)` array of summed log-likelihoods -> [`ScoreTable`].
 fn table(
     py: Python<'_>,
-    scores: &PyReadonlyArray3<'_, f64>,
+    scores: &Bound<'_, PyAny>,
     boundaries: Vec<usize>,
 ) -> PyResult<ScoreTable> {
-    let a = scores.as_array();
-    let k = boundaries.len().saturating_sub(1);
-    let (d0, d1, ns) = a.dim();
+    let k = n_sections(py, &boundaries)?;
+    let a = ndconv::array_nd(
+        scores,
+        "scores",
+        3,
+        "(n_sections, n_sections + 1, n_skills)",
+    )?;
+    let (d0, d1, ns) = (a.shape()[0], a.shape()[1], a.shape()[2]);
     if d0 != k || d1 != k + 1 {
         return Err(EngineError::ShapeMismatch(format!(
             "scores must have shape ({k}, {}, n_skills) for {} boundaries, got ({d0}, {d1}, {ns})",
@@ -78,14 +67,19 @@ fn table(
         ))
         .py_err(py);
     }
-    ScoreTable::from_fn(boundaries, ns, |i, j, s| a[(i, j, s)]).py_err(py)
+    ScoreTable::from_fn(boundaries, ns, |i, j, s| a[[i, j, s]]).py_err(py)
 }
 
-fn table_to_numpy<'py>(py: Python<'py>, t: &ScoreTable) -> Bound<'py, PyArray3<f64>> {
+fn table_to_numpy<'py>(py: Python<'py>, t: &ScoreTable) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
     let k = t.n_sections();
-    let arr = Array3::from_shape_vec((k, k + 1, t.n_skills()), t.as_slice().to_vec())
-        .unwrap_or_else(|_| Array3::zeros((k, k + 1, t.n_skills())));
-    arr.into_pyarray(py)
+    shaped(py, &[k, k + 1, t.n_skills()], t.as_slice().to_vec())
+}
+
+/// The Fig. 5 rise table `(K, K + 1)` as a row-major vector, if given.
+fn rising_vec(rising: Option<&Bound<'_, PyAny>>, k: usize) -> PyResult<Option<Vec<bool>>> {
+    rising
+        .map(|r| bool_matrix(r, "rising", k, k + 1))
+        .transpose()
 }
 
 type SegmentTuple = (usize, usize, usize, usize, usize, f64, f64, f64);
@@ -115,36 +109,37 @@ fn result(r: Segmentation) -> (Vec<SegmentTuple>, Vec<String>) {
 #[pyo3(signature = (values, thresholds, columns, hysteresis, min_section))]
 fn stage1_boundaries<'py>(
     py: Python<'py>,
-    values: PyReadonlyArray2<'py, f64>,
-    thresholds: PyReadonlyArray2<'py, f64>,
-    columns: Vec<usize>,
+    values: Bound<'py, PyAny>,
+    thresholds: Bound<'py, PyAny>,
+    #[pyo3(from_py_with = int_list_arg)] columns: Vec<i128>,
     hysteresis: Vec<f64>,
-    min_section: usize,
-) -> PyResult<Bound<'py, PyArray1<i64>>> {
-    if columns.len() != hysteresis.len() {
-        return Err(EngineError::ShapeMismatch(format!(
-            "{} columns but {} hysteresis values",
-            columns.len(),
-            hysteresis.len()
-        )))
-        .py_err(py);
-    }
-    let params = Stage1Params {
-        criteria: columns
-            .iter()
-            .zip(&hysteresis)
-            .map(|(&column, &hysteresis)| Criterion { column, hysteresis })
-            .collect(),
-        min_section,
-    };
-    let (v, t) = (to_matrix(&values), to_matrix(&thresholds));
-    let b = py
-        .detach(|| section_boundaries(&v, &t, &params))
-        .py_err(py)?;
-    Ok(b.iter()
-        .map(|&x| x as i64)
-        .collect::<Vec<_>>()
-        .into_pyarray(py))
+    #[pyo3(from_py_with = int_arg)] min_section: i128,
+) -> PyResult<Bound<'py, numpy::PyArray1<i64>>> {
+    guard(py, || {
+        let columns = counts(py, &columns, "columns", 0)?;
+        if columns.len() != hysteresis.len() {
+            return Err(EngineError::ShapeMismatch(format!(
+                "{} columns but {} hysteresis values",
+                columns.len(),
+                hysteresis.len()
+            )))
+            .py_err(py);
+        }
+        let params = Stage1Params {
+            criteria: columns
+                .iter()
+                .zip(&hysteresis)
+                .map(|(&column, &hysteresis)| Criterion { column, hysteresis })
+                .collect(),
+            min_section: count(py, min_section, "min_section", 0)?,
+        };
+        let v = matrix(&values, "values", "(n_samples, n_features)")?;
+        let t = matrix(&thresholds, "thresholds", "(n_samples, n_features)")?;
+        let b = py
+            .detach(|| section_boundaries(&v, &t, &params))
+            .py_err(py)?;
+        Ok(ndconv::indices_to_numpy(py, &b))
+    })
 }
 
 /// Is the TCP rising over each run of sections? `(K, K + 1)` bool.
@@ -152,30 +147,30 @@ fn stage1_boundaries<'py>(
 #[pyo3(signature = (z, boundaries, min_rise=0.02, dominance=0.0))]
 fn rising_table<'py>(
     py: Python<'py>,
-    z: PyReadonlyArray1<'py, f64>,
-    boundaries: PyReadonlyArray1<'py, i64>,
+    z: Bound<'py, PyAny>,
+    boundaries: Bound<'py, PyAny>,
     min_rise: f64,
     dominance: f64,
-) -> PyResult<Bound<'py, PyArray2<bool>>> {
-    let b = to_indices(py, &boundaries, "boundaries")?;
-    let z: Vec<f64> = z.as_array().iter().copied().collect();
-    let r = hmmseg::segment::rising_table(
-        &z,
-        &b,
-        RiseParams {
+) -> PyResult<Bound<'py, PyArrayDyn<bool>>> {
+    guard(py, || {
+        let b = indices(&boundaries, "boundaries")?;
+        let z = vector(&z, "z", "(n_samples,)")?;
+        let k = n_sections(py, &b)?;
+        check_table(
+            py,
+            "n_sections x (n_sections + 1) (rise table)",
+            &[k, k + 1],
+            1,
+        )?;
+        let params = RiseParams {
             min_rise,
             dominance,
-        },
-    )
-    .py_err(py)?;
-    let k = b.len() - 1;
-    let arr = Array2::from_shape_vec((k, k + 1), r)
-        .unwrap_or_else(|_| Array2::from_elem((k, k + 1), false));
-    Ok(arr.into_pyarray(py))
-}
-
-fn rising_vec(rising: Option<PyReadonlyArray2<'_, bool>>) -> Option<Vec<bool>> {
-    rising.map(|r| r.as_array().iter().copied().collect())
+        };
+        let r = py
+            .detach(|| hmmseg::segment::rising_table(&z, &b, params))
+            .py_err(py)?;
+        shaped(py, &[k, k + 1], r)
+    })
 }
 
 /// The paper's greedy loop on a score table; returns `(segments, warnings)`, a segment being
@@ -186,22 +181,24 @@ fn rising_vec(rising: Option<PyReadonlyArray2<'_, bool>>) -> Option<Vec<bool>> {
 #[allow(clippy::too_many_arguments)]
 fn segment_greedy<'py>(
     py: Python<'py>,
-    scores: PyReadonlyArray3<'py, f64>,
-    boundaries: PyReadonlyArray1<'py, i64>,
+    scores: Bound<'py, PyAny>,
+    boundaries: Bound<'py, PyAny>,
     skills: Vec<String>,
     grammar_json: &str,
-    rising: Option<PyReadonlyArray2<'py, bool>>,
+    rising: Option<Bound<'py, PyAny>>,
     mode: &str,
     lookahead: bool,
 ) -> PyResult<(Vec<SegmentTuple>, Vec<String>)> {
-    let mode = parse_mode(py, mode)?;
-    let t = table(py, &scores, to_indices(py, &boundaries, "boundaries")?)?;
-    let g = grammar(py, grammar_json, &skills)?;
-    let r = rising_vec(rising);
-    let out = py
-        .detach(|| greedy(&t, &g, r.as_deref(), mode, lookahead))
-        .py_err(py)?;
-    Ok(result(out))
+    guard(py, || {
+        let mode: GrammarMode = mode.parse().py_err(py)?;
+        let t = table(py, &scores, indices(&boundaries, "boundaries")?)?;
+        let g = grammar(py, grammar_json, &skills)?;
+        let r = rising_vec(rising.as_ref(), t.n_sections())?;
+        let out = py
+            .detach(|| greedy(&t, &g, r.as_deref(), mode, lookahead))
+            .py_err(py)?;
+        Ok(result(out))
+    })
 }
 
 /// The segmental DP on a score table (see `segment_greedy` for the result).
@@ -209,28 +206,36 @@ fn segment_greedy<'py>(
 #[pyo3(signature = (scores, boundaries, skills, grammar_json, rising=None, mode="warn", penalty=0.0))]
 fn segment_dp<'py>(
     py: Python<'py>,
-    scores: PyReadonlyArray3<'py, f64>,
-    boundaries: PyReadonlyArray1<'py, i64>,
+    scores: Bound<'py, PyAny>,
+    boundaries: Bound<'py, PyAny>,
     skills: Vec<String>,
     grammar_json: &str,
-    rising: Option<PyReadonlyArray2<'py, bool>>,
+    rising: Option<Bound<'py, PyAny>>,
     mode: &str,
     penalty: f64,
 ) -> PyResult<(Vec<SegmentTuple>, Vec<String>)> {
-    let mode = parse_mode(py, mode)?;
-    let t = table(py, &scores, to_indices(py, &boundaries, "boundaries")?)?;
-    let g = grammar(py, grammar_json, &skills)?;
-    let r = rising_vec(rising);
-    let out = py
-        .detach(|| dp(&t, &g, r.as_deref(), mode, penalty))
-        .py_err(py)?;
-    Ok(result(out))
+    guard(py, || {
+        let mode: GrammarMode = mode.parse().py_err(py)?;
+        let t = table(py, &scores, indices(&boundaries, "boundaries")?)?;
+        let g = grammar(py, grammar_json, &skills)?;
+        let r = rising_vec(rising.as_ref(), t.n_sections())?;
+        let out = py
+            .detach(|| dp(&t, &g, r.as_deref(), mode, penalty))
+            .py_err(py)?;
+        Ok(result(out))
+    })
 }
 
 /// Trained skill templates: one HMM per skill x feature plus the normalisation ranges.
 #[pyclass(name = "TemplateSet", module = "lfd._hmmseg", frozen)]
 struct PyTemplateSet {
     inner: TemplateSet,
+}
+
+/// A serialisation result (an `lfd.errors.ModelFormatError` if it could not be written).
+fn to_json_text(py: Python<'_>, what: &str, text: serde_json::Result<String>) -> PyResult<String> {
+    text.map_err(|e| EngineError::Format(format!("{what}: {e}")))
+        .py_err(py)
 }
 
 #[pymethods]
@@ -241,37 +246,71 @@ impl PyTemplateSet {
     fn train(
         py: Python<'_>,
         skills: Vec<String>,
-        features: Vec<(String, usize, usize)>,
-        examples: Vec<(usize, PyReadonlyArray2<'_, f64>)>,
+        features: Vec<(String, i128, i128)>,
+        examples: Vec<(i128, Bound<'_, PyAny>)>,
         params_json: Option<&str>,
     ) -> PyResult<Self> {
-        let params = match params_json {
-            Some(t) => TemplateParams::with_overrides(t).py_err(py)?,
-            None => TemplateParams::default(),
-        };
-        let features: Vec<FeatureGroup> = features
-            .into_iter()
-            .map(|(name, start, end)| FeatureGroup { name, start, end })
-            .collect();
-        let examples: Vec<(usize, DMatrix<f64>)> =
-            examples.iter().map(|(s, x)| (*s, to_matrix(x))).collect();
-        let inner = py
-            .detach(|| TemplateSet::train(&skills, &features, &examples, &params))
-            .py_err(py)?;
-        Ok(Self { inner })
+        guard(py, || {
+            let params = match params_json {
+                Some(t) => TemplateParams::with_overrides(t).py_err(py)?,
+                None => TemplateParams::default(),
+            };
+            let features: Vec<FeatureGroup> = features
+                .into_iter()
+                .enumerate()
+                .map(|(i, (name, start, end))| {
+                    Ok(FeatureGroup {
+                        name,
+                        start: count(py, start, &format!("features[{i}] start"), 0)?,
+                        end: count(py, end, &format!("features[{i}] end"), 0)?,
+                    })
+                })
+                .collect::<PyResult<_>>()?;
+            let examples: Vec<(usize, DMatrix<f64>)> = examples
+                .iter()
+                .enumerate()
+                .map(|(i, (s, x))| {
+                    Ok((
+                        count(py, *s, &format!("examples[{i}] skill"), 0)?,
+                        matrix(x, &format!("examples[{i}] observations"), OBS)?,
+                    ))
+                })
+                .collect::<PyResult<_>>()?;
+            let longest = examples.iter().map(|(_, x)| x.nrows()).max().unwrap_or(0);
+            let widest = features
+                .iter()
+                .map(|f| f.end.saturating_sub(f.start))
+                .max()
+                .unwrap_or(0);
+            let fit = &params.fit;
+            check_hmm(
+                py,
+                fit.n_states,
+                fit.n_mix,
+                widest,
+                fit.covariance == hmmseg::hmm::CovarianceType::Full,
+                longest,
+            )?;
+            let inner = py
+                .detach(|| TemplateSet::train(&skills, &features, &examples, &params))
+                .py_err(py)?;
+            Ok(Self { inner })
+        })
     }
 
     /// Read templates from JSON text (checks version, skills and shapes).
     #[staticmethod]
     fn from_json(py: Python<'_>, text: &str) -> PyResult<Self> {
-        Ok(Self {
-            inner: TemplateSet::from_json(text).py_err(py)?,
+        guard(py, || {
+            Ok(Self {
+                inner: TemplateSet::from_json(text).py_err(py)?,
+            })
         })
     }
 
     /// The templates as JSON text.
     fn to_json(&self, py: Python<'_>) -> PyResult<String> {
-        self.inner.to_json().py_err(py)
+        guard(py, || self.inner.to_json().py_err(py))
     }
 
     /// Skill names, in model order.
@@ -304,18 +343,27 @@ impl PyTemplateSet {
 
     /// Training parameters as JSON.
     #[getter]
-    fn params_json(&self) -> String {
-        serde_json::to_string(&self.inner.params).unwrap_or_default()
+    fn params_json(&self, py: Python<'_>) -> PyResult<String> {
+        guard(py, || {
+            to_json_text(
+                py,
+                "template parameters",
+                serde_json::to_string(&self.inner.params),
+            )
+        })
     }
 
     /// Map raw observations `(n, C)` to `[0, 1]` with the template ranges.
     fn normalise<'py>(
         &self,
         py: Python<'py>,
-        x: PyReadonlyArray2<'py, f64>,
+        x: Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let y = self.inner.normalise(&to_matrix(&x)).py_err(py)?;
-        Ok(Array2::from_shape_fn(y.shape(), |(r, c)| y[(r, c)]).into_pyarray(py))
+        guard(py, || {
+            let x = matrix(&x, "x", OBS)?;
+            let y = py.detach(|| self.inner.normalise(&x)).py_err(py)?;
+            Ok(to_numpy(py, &y))
+        })
     }
 
     /// Summed log-likelihoods `(K, K + 1, S)` of every run of sections of raw observations;
@@ -325,48 +373,58 @@ impl PyTemplateSet {
     fn score_table<'py>(
         &self,
         py: Python<'py>,
-        raw: PyReadonlyArray2<'py, f64>,
-        boundaries: PyReadonlyArray1<'py, i64>,
-        max_len: usize,
+        raw: Bound<'py, PyAny>,
+        boundaries: Bound<'py, PyAny>,
+        #[pyo3(from_py_with = int_arg)] max_len: i128,
         end: &str,
-        features: Option<Vec<usize>>,
-    ) -> PyResult<Bound<'py, PyArray3<f64>>> {
-        let end = match end {
-            "final" => EndState::Final,
-            "any" => EndState::Any,
-            other => {
-                return Err(EngineError::InvalidParameter(format!(
-                    "end must be 'final' or 'any', got {other:?}"
-                )))
-                .py_err(py)
-            }
-        };
-        let b = to_indices(py, &boundaries, "boundaries")?;
-        let x = to_matrix(&raw);
-        let t = py
-            .detach(|| {
-                self.inner
-                    .score_table(&x, &b, max_len, end, features.as_deref())
-            })
-            .py_err(py)?;
-        Ok(table_to_numpy(py, &t))
+        #[pyo3(from_py_with = opt_int_list_arg)] features: Option<Vec<i128>>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        guard(py, || {
+            let end: EndState = end.parse().py_err(py)?;
+            let max_len = count(py, max_len, "max_len", 0)?;
+            let features = features
+                .map(|f| counts(py, &f, "features", 0))
+                .transpose()?;
+            let b = indices(&boundaries, "boundaries")?;
+            let k = n_sections(py, &b)?;
+            check_table(
+                py,
+                "n_sections x (n_sections + 1) x n_skills (score table)",
+                &[k, k + 1, self.inner.skills.len()],
+                8,
+            )?;
+            let x = matrix(&raw, "raw", OBS)?;
+            let t = py
+                .detach(|| {
+                    self.inner
+                        .score_table(&x, &b, max_len, end, features.as_deref())
+                })
+                .py_err(py)?;
+            table_to_numpy(py, &t)
+        })
     }
 }
 
 /// The default template training parameters as JSON.
 #[pyfunction]
-fn default_template_params() -> String {
-    serde_json::to_string(&TemplateParams::default()).unwrap_or_default()
+fn default_template_params(py: Python<'_>) -> PyResult<String> {
+    guard(py, || {
+        to_json_text(
+            py,
+            "template parameters",
+            serde_json::to_string(&TemplateParams::default()),
+        )
+    })
 }
 
 /// The default template parameters with the overrides in `overrides_json` (a JSON object)
 /// applied and checked, as JSON; unknown keys and bad values raise `InvalidParameterError`.
 #[pyfunction]
 fn template_params(py: Python<'_>, overrides_json: &str) -> PyResult<String> {
-    let params = TemplateParams::with_overrides(overrides_json).py_err(py)?;
-    serde_json::to_string(&params)
-        .map_err(|e| EngineError::Format(format!("template parameters: {e}")))
-        .py_err(py)
+    guard(py, || {
+        let params = TemplateParams::with_overrides(overrides_json).py_err(py)?;
+        to_json_text(py, "template parameters", serde_json::to_string(&params))
+    })
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

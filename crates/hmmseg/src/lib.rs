@@ -10,7 +10,9 @@ pub mod error;
 pub mod features;
 pub mod hmm;
 pub mod normalize;
+pub mod options;
 
 pub use error::{EngineError, Result};
+pub use options::OptionEnum;
 pub mod segment;
 pub mod stage1;

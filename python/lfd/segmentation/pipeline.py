@@ -9,13 +9,14 @@ from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Any, Literal, get_args
 
 import numpy as np
 
 from .. import _hmmseg
+from .._hmmseg import EndState, GrammarMode
 from ..demo import Demonstration
-from ..errors import DemonstrationError
+from ..errors import DemonstrationError, InvalidParameterError
 from ..trajectory import Trajectory
 
 if TYPE_CHECKING:
@@ -28,7 +29,9 @@ from .stage1 import OBJECT_COLUMNS, Stage1Params, section_boundaries
 from .templates import Templates
 
 Search = Literal["dp", "greedy"]
-GrammarUse = Literal["enforce", "warn", "off"]
+"""The stage-2 search: the segmental DP or the paper's greedy loop."""
+GrammarUse = GrammarMode
+"""How the skill grammar is used (the engine's ``GrammarMode``: "off", "warn", "enforce")."""
 
 DEFAULT_SEARCH: Search = "dp"
 """The default stage-2 search: the segmental DP (11/12 exact sequences on held-out demos, against
@@ -92,7 +95,7 @@ class SegmentParams:
     """
 
     stage1: Stage1Params = field(default_factory=Stage1Params)
-    end: Literal["final", "any"] = "final"
+    end: EndState = "final"
     min_rise: float = 0.025
     dominance: float = 0.0
     max_segment_s: float = 10.0
@@ -130,10 +133,15 @@ def segment_trajectory(
     from ..features import compute_features
 
     p = params or SegmentParams()
-    if search not in ("greedy", "dp"):
-        raise ValueError(f"search must be 'greedy' or 'dp', got {search!r}")
-    if grammar not in ("off", "warn", "enforce"):
-        raise ValueError(f"grammar must be 'off', 'warn' or 'enforce', got {grammar!r}")
+    for option, value, allowed in (
+        ("search", search, get_args(Search)),
+        ("grammar", grammar, get_args(GrammarMode)),
+        ("end", p.end, get_args(EndState)),
+    ):
+        if value not in allowed:
+            raise InvalidParameterError(
+                f"{option} must be one of {', '.join(map(repr, allowed))}, got {value!r}"
+            )
     if len(traj) < 2 or traj.dt <= 0 or (len(traj) - 1) * traj.dt < p.min_duration_s:
         dur = max(len(traj) - 1, 0) * max(traj.dt, 0.0)
         raise DemonstrationError(
@@ -344,7 +352,7 @@ def scores_over_objects(
     templates: Templates,
     bounds: np.ndarray,
     max_len: int,
-    end: str,
+    end: EndState,
     *,
     extra: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:

@@ -21,9 +21,8 @@ import numpy.typing as npt
 from .. import _hmmseg
 
 FEATURE_COLUMNS: dict[str, int] = {
-    "fingertip_distance": 0,
-    "tcp_rise_fall": 1,
-    "hand_velocity": 9,
+    name: _hmmseg.FEATURE_NAMES.index(name)
+    for name in ("fingertip_distance", "tcp_rise_fall", "hand_velocity")
 }
 """Columns of the feature matrix that stage 1 watches."""
 

@@ -26,17 +26,9 @@ from ..preprocessing.grasp import Aperture
 from ..skills import SKILLS
 from ..trajectory import Trajectory
 
-FEATURE_GROUPS: tuple[tuple[str, int, int], ...] = (
-    ("fingertip_distance", 0, 1),
-    ("tcp_rise_fall", 1, 2),
-    ("object_proximity", 2, 3),
-    ("object_distance", 3, 4),
-    ("object_height", 4, 5),
-    ("tcp_in_object", 5, 8),
-    ("object_velocity", 8, 9),
-    ("hand_velocity", 9, 10),
-)
-"""The eight features of Table I as ``(name, first column, end column)`` of the feature matrix."""
+FEATURE_GROUPS: tuple[tuple[str, int, int], ...] = _hmmseg.FEATURE_GROUPS
+"""The eight features of Table I as ``(name, first column, end column)`` of the feature matrix
+(defined in the engine, ``lfd._hmmseg.FEATURE_GROUPS``)."""
 
 FEATURE_CUTOFF_HZ: float | Literal["auto"] = "auto"
 """Low-pass cut-off (Hz) of the hand keypoints the template features are computed from; stored

@@ -22,6 +22,12 @@ pub enum SizeMeasure {
     Max,
 }
 
+crate::option_enum!(SizeMeasure, "size_measure", [
+    MaxHorizontal => "max_horizontal",
+    MinHorizontal => "min_horizontal",
+    Max => "max",
+]);
+
 impl SizeMeasure {
     /// `d_i` of a box with extents `size = [x, y, z]` in its own frame.
     pub fn of(self, size: [f64; 3]) -> f64 {
@@ -80,17 +86,36 @@ impl Default for FeatureParams {
 }
 
 impl FeatureParams {
-    /// Parse from JSON (missing fields take defaults) and validate.
+    /// Parse from JSON (missing fields take defaults) and validate. Text that is not a JSON
+    /// object is an [`EngineError::Format`] error; an unknown field, a wrong type or a bad
+    /// value (e.g. an unknown `size_measure`) is an [`EngineError::InvalidParameter`] error.
     pub fn from_json(text: &str) -> Result<Self> {
-        let p: Self = serde_json::from_str(text)
+        let mut de = serde_json::Deserializer::from_str(text);
+        let p: Self = serde_path_to_error::deserialize(&mut de).map_err(|e| {
+            // the message names the field: `feature parameter size_measure: unknown variant ...`
+            let path = e.path().to_string();
+            let inner = e.into_inner();
+            let msg = if path == "." {
+                format!("feature parameters: {inner}")
+            } else {
+                format!("feature parameter {path}: {inner}")
+            };
+            if inner.classify() == serde_json::error::Category::Data {
+                EngineError::InvalidParameter(msg)
+            } else {
+                EngineError::Format(msg)
+            }
+        })?;
+        de.end()
             .map_err(|e| EngineError::Format(format!("feature parameters: {e}")))?;
         p.validate()?;
         Ok(p)
     }
 
     /// Serialise to JSON.
-    pub fn to_json(&self) -> String {
-        serde_json::to_string(self).unwrap_or_default()
+    pub fn to_json(&self) -> Result<String> {
+        serde_json::to_string(self)
+            .map_err(|e| EngineError::Format(format!("feature parameters: {e}")))
     }
 
     /// Check that every value is finite and in range.
@@ -131,13 +156,21 @@ mod tests {
         assert!((p.gamma - 0.03).abs() < 1e-15);
         assert_eq!(p.size_measure, SizeMeasure::Max);
         assert!((p.v_th - 0.05).abs() < 1e-15);
-        assert_eq!(FeatureParams::from_json(&p.to_json()).unwrap(), p);
+        assert_eq!(FeatureParams::from_json(&p.to_json().unwrap()).unwrap(), p);
     }
 
     #[test]
     fn rejects_bad_values() {
         assert!(matches!(
             FeatureParams::from_json(r#"{"gama": 1}"#),
+            Err(EngineError::InvalidParameter(_))
+        ));
+        assert!(matches!(
+            FeatureParams::from_json(r#"{"size_measure": "widest"}"#),
+            Err(EngineError::InvalidParameter(_))
+        ));
+        assert!(matches!(
+            FeatureParams::from_json(r#"{"gamma": "#),
             Err(EngineError::Format(_))
         ));
         assert!(matches!(

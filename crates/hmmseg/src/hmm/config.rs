@@ -16,26 +16,7 @@ pub enum CovarianceType {
     Full,
 }
 
-impl CovarianceType {
-    /// The name used in JSON and in the Python binding: `"diag"` or `"full"`.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Diag => "diag",
-            Self::Full => "full",
-        }
-    }
-
-    /// Parse `"diag"` / `"full"`.
-    pub fn parse(s: &str) -> Result<Self> {
-        match s {
-            "diag" => Ok(Self::Diag),
-            "full" => Ok(Self::Full),
-            other => Err(EngineError::InvalidParameter(format!(
-                "covariance must be \"diag\" or \"full\", got {other:?}"
-            ))),
-        }
-    }
-}
+crate::option_enum!(CovarianceType, "covariance", [Diag => "diag", Full => "full"]);
 
 /// Allowed state transitions of a model trained with [`crate::hmm::Hmm::fit`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
@@ -50,26 +31,7 @@ pub enum Topology {
     LeftRight,
 }
 
-impl Topology {
-    /// The name used in JSON and in the Python binding: `"ergodic"` or `"left-right"`.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Ergodic => "ergodic",
-            Self::LeftRight => "left-right",
-        }
-    }
-
-    /// Parse `"ergodic"` / `"left-right"`.
-    pub fn parse(s: &str) -> Result<Self> {
-        match s {
-            "ergodic" => Ok(Self::Ergodic),
-            "left-right" => Ok(Self::LeftRight),
-            other => Err(EngineError::InvalidParameter(format!(
-                "topology must be \"ergodic\" or \"left-right\", got {other:?}"
-            ))),
-        }
-    }
-}
+crate::option_enum!(Topology, "topology", [Ergodic => "ergodic", LeftRight => "left-right"]);
 
 /// Options of [`crate::hmm::Hmm::fit`] and [`crate::hmm::Hmm::refit`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -168,14 +130,17 @@ mod tests {
             serde_json::to_string(&Topology::LeftRight).unwrap(),
             "\"left-right\""
         );
-        assert_eq!(Topology::parse("ergodic").unwrap(), Topology::Ergodic);
-        assert_eq!(CovarianceType::parse("diag").unwrap(), CovarianceType::Diag);
+        assert_eq!("ergodic".parse::<Topology>().unwrap(), Topology::Ergodic);
+        assert_eq!(
+            "diag".parse::<CovarianceType>().unwrap(),
+            CovarianceType::Diag
+        );
         assert!(matches!(
-            Topology::parse("ring"),
+            "ring".parse::<Topology>(),
             Err(EngineError::InvalidParameter(_))
         ));
         assert!(matches!(
-            CovarianceType::parse("tied"),
+            "tied".parse::<CovarianceType>(),
             Err(EngineError::InvalidParameter(_))
         ));
     }

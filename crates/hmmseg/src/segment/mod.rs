@@ -33,6 +33,8 @@ pub enum GrammarMode {
     Enforce,
 }
 
+crate::option_enum!(GrammarMode, "grammar mode", [Off => "off", Warn => "warn", Enforce => "enforce"]);
+
 /// One skill segment of a result: sections `start_section..end_section`, samples `start..end`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Segment {

@@ -28,6 +28,8 @@ pub enum EndState {
     Final,
 }
 
+crate::option_enum!(EndState, "end", [Any => "any", Final => "final"]);
+
 /// One Gaussian component with its precomputed constants.
 #[derive(Debug, Clone)]
 struct Component {
