@@ -121,7 +121,9 @@ def main() -> None:
     ref = theirs(p)
     x = ours.sample(200, seed=1)[0]
     assert abs(ours.score(x) - ref.score(x)) <= 1e-9 * abs(ref.score(x))
-    add("score T=200, 5 states, 1-D diag", *paired_time(lambda: ours.score(x), lambda: ref.score(x)))
+    add(
+        "score T=200, 5 states, 1-D diag", *paired_time(lambda: ours.score(x), lambda: ref.score(x))
+    )
 
     # 2. score with 3-component GMM emissions (2-D diag).
     pg = left_right(5, 3, 2)

@@ -95,6 +95,7 @@ impl Emission {
     /// observations column-major (`t_len` rows, feature `d` at `data[d * t_len..]`);
     /// `comp` has at least `n_components() * len` entries. A log-density below the range of
     /// doubles is `-inf` (never NaN).
+    #[allow(clippy::inline_always)] // must be compiled inside the AVX2 function (simd)
     #[inline(always)]
     pub(crate) fn component_block(
         &self,
@@ -193,6 +194,7 @@ impl Emission {
         }
         impl Kernel for Block<'_> {
             type Output = ();
+            #[allow(clippy::inline_always)] // must be compiled inside the AVX2 function (simd)
             #[inline(always)]
             fn run<const FMA: bool>(self) {
                 let Block {
@@ -225,6 +227,7 @@ impl Emission {
             }
         }
         /// `out[k][i] = exp(comp[k][i] - hi[i])` with `hi[i] = max_k comp[k][i]`.
+        #[allow(clippy::inline_always)] // must be compiled inside the AVX2 function (simd)
         #[inline(always)]
         fn exp_shifted<const FMA: bool>(
             e: &Emission,

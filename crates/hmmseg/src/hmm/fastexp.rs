@@ -23,6 +23,7 @@ pub(crate) fn exp_nonpos(x: f64) -> f64 {
 }
 
 /// [`exp_nonpos`], with fused multiply-adds in the polynomial when `FMA` (see `simd`).
+#[allow(clippy::inline_always)] // must be compiled inside the AVX2 function (simd)
 #[inline(always)]
 pub(crate) fn exp_nonpos_k<const FMA: bool>(x: f64) -> f64 {
     let xc = x.max(-708.0);

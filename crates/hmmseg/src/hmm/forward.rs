@@ -197,7 +197,9 @@ fn forward_log(chain: &Chain, logb: &[f64], alpha: &mut Vec<f64>, shift: &mut Ve
             return;
         }
         shift[t] = hi;
-        row.iter_mut().for_each(|v| *v -= hi);
+        for v in row.iter_mut() {
+            *v -= hi;
+        }
     }
 }
 
@@ -219,7 +221,9 @@ fn backward_log(chain: &Chain, logb: &[f64], beta: &mut Vec<f64>) {
         let row = &mut beta[t * n..(t + 1) * n];
         let hi = row.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         if hi.is_finite() {
-            row.iter_mut().for_each(|v| *v -= hi);
+            for v in row.iter_mut() {
+                *v -= hi;
+            }
         }
     }
 }
@@ -361,7 +365,9 @@ fn forward_backward_log(chain: &Chain, ws: &mut Workspace, want_xi: bool, xi: &m
         .extend(ws.alpha.iter().zip(&ws.beta).map(|(a, b)| a + b));
     for row in ws.gamma.chunks_exact_mut(n) {
         let hi = row.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        row.iter_mut().for_each(|v| *v = (*v - hi).exp());
+        for v in row.iter_mut() {
+            *v = (*v - hi).exp();
+        }
     }
     normalise_rows(&mut ws.gamma, n);
     if want_xi {

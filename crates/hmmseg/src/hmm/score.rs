@@ -167,7 +167,7 @@ fn run<const N: usize, const BANDED: bool>(
 
 /// Renormalise `v` (whose sum is `sum`) if it became small or large; false on underflow,
 /// overflow or NaN.
-#[inline(always)]
+#[inline]
 fn rescale<const N: usize>(v: &mut [f64; N], sum: f64, log_scale: &mut f64) -> bool {
     // Also false for NaN.
     if !(sum > f64::MIN_POSITIVE && sum < f64::INFINITY) {

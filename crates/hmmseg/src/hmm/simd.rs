@@ -44,6 +44,7 @@ unsafe fn run_avx2_fma<K: Kernel>(kernel: K) -> K::Output {
 
 /// `a * b + c`, fused (one rounding) when `FMA`; a plain multiply and add otherwise (without
 /// FMA hardware `mul_add` would call a slow software routine).
+#[allow(clippy::inline_always)] // must be compiled inside the AVX2 function (simd)
 #[inline(always)]
 pub(crate) fn madd<const FMA: bool>(a: f64, b: f64, c: f64) -> f64 {
     if FMA {
@@ -58,6 +59,7 @@ pub(crate) fn exp_nonpos_in_place(v: &mut [f64]) {
     struct Exp<'a>(&'a mut [f64]);
     impl Kernel for Exp<'_> {
         type Output = ();
+        #[allow(clippy::inline_always)] // must be compiled inside the AVX2 function (simd)
         #[inline(always)]
         fn run<const FMA: bool>(self) {
             for x in self.0.iter_mut() {
