@@ -2,7 +2,9 @@
 
 Run: ``python benches/engine_vs_hmmlearn.py`` (build the extension in release first:
 ``pip install -e .``). Both run single-threaded (``OMP_NUM_THREADS=1``, ``RAYON_NUM_THREADS=1``)
-on the same parameters and data; the table shows the median time per call and hmmlearn / ours.
+on the same parameters and data. The two are measured side by side: batches of ours and of
+hmmlearn's calls alternate (ours, theirs, ours, ...), so both see the same machine load, and the
+table shows the minimum time per call over the batches and hmmlearn / ours.
 Times are process CPU time (``time.process_time``), which on a shared, loaded machine is far
 more stable than wall time; with one thread each they equal wall time on an idle machine.
 Pass ``--wall`` to use ``time.perf_counter`` instead. The DTW row lives in
@@ -16,7 +18,6 @@ import os
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("RAYON_NUM_THREADS", "1")
 
-import statistics
 import sys
 import time
 import warnings
@@ -29,22 +30,39 @@ from lfd.engine import GaussianHMM
 CLOCK = time.perf_counter if "--wall" in sys.argv else time.process_time
 
 
-def median_time(fn: Callable[[], object], *, budget: float = 1.0, repeats: int = 7) -> float:
-    """Median seconds per call over ``repeats`` batches sized to fill about ``budget`` seconds."""
-    fn()
-    start = CLOCK()
-    calls = 0
-    while CLOCK() - start < budget / repeats / 4:
+def paired_time(
+    ours: Callable[[], object],
+    ref: Callable[[], object],
+    *,
+    budget: float = 2.0,
+    repeats: int = 21,
+) -> tuple[float, float]:
+    """Seconds per call of ``ours`` and ``ref``, timed in alternating batches.
+
+    Each batch lasts about ``budget / repeats / 2`` seconds; the result is the minimum over the
+    ``repeats`` batches of each (the least disturbed by other work on the machine).
+    """
+
+    def batch_size(fn: Callable[[], object]) -> int:
         fn()
-        calls += 1
-    batch = max(1, calls * 4)
-    times = []
-    for _ in range(repeats):
-        t0 = CLOCK()
-        for _ in range(batch):
+        start, calls = CLOCK(), 0
+        while CLOCK() - start < budget / repeats / 8:
             fn()
-        times.append((CLOCK() - t0) / batch)
-    return statistics.median(times)
+            calls += 1
+        return max(1, calls * 4)
+
+    def timed(fn: Callable[[], object], calls: int) -> float:
+        t0 = CLOCK()
+        for _ in range(calls):
+            fn()
+        return (CLOCK() - t0) / calls
+
+    n_ours, n_ref = batch_size(ours), batch_size(ref)
+    t_ours, t_ref = [], []
+    for _ in range(repeats):
+        t_ours.append(timed(ours, n_ours))
+        t_ref.append(timed(ref, n_ref))
+    return min(t_ours), min(t_ref)
 
 
 def fmt(seconds: float) -> str:
@@ -103,8 +121,9 @@ def main() -> None:
     ref = theirs(p)
     x = ours.sample(200, seed=1)[0]
     assert abs(ours.score(x) - ref.score(x)) <= 1e-9 * abs(ref.score(x))
-    add("score T=200, 5 states, 1-D diag", median_time(lambda: ours.score(x)),
-        median_time(lambda: ref.score(x)))  # fmt: skip
+    add(
+        "score T=200, 5 states, 1-D diag", *paired_time(lambda: ours.score(x), lambda: ref.score(x))
+    )
 
     # 2. score with 3-component GMM emissions (2-D diag).
     pg = left_right(5, 3, 2)
@@ -114,8 +133,10 @@ def main() -> None:
     ref_g = theirs(pg)
     xg = ours_g.sample(200, seed=2)[0]
     assert abs(ours_g.score(xg) - ref_g.score(xg)) <= 1e-9 * abs(ref_g.score(xg))
-    add("score T=200, 5 states, GMM 3 mix 2-D diag", median_time(lambda: ours_g.score(xg)),
-        median_time(lambda: ref_g.score(xg)))  # fmt: skip
+    add(
+        "score T=200, 5 states, GMM 3 mix 2-D diag",
+        *paired_time(lambda: ours_g.score(xg), lambda: ref_g.score(xg)),
+    )
 
     # 3. Baum-Welch, 9 sequences x 200, the same 10 iterations from the same parameters.
     xs = [ours.sample(200, seed=10 + i)[0] for i in range(9)]
@@ -135,13 +156,15 @@ def main() -> None:
             warnings.simplefilter("ignore")
             return m.fit(cat, lengths)
 
-    t_ours, t_ref = median_time(fit_ours, repeats=5), median_time(fit_ref, repeats=5)
+    t_ours, t_ref = paired_time(fit_ours, fit_ref, budget=4.0, repeats=7)
     ll_ours = float(fit_ours().score_many(xs).sum())
     ll_ref = float(fit_ref().score(cat, lengths))
     add(f"fit 9x200, 5 states, 1-D diag, {n_iter} EM iterations", t_ours, t_ref)
 
     # 4. The same with our own initialisation (left-right uniform segmentation) for reference.
-    t_init = median_time(lambda: GaussianHMM(5, max_iter=n_iter, tol=-np.inf).fit(xs), repeats=5)
+    t_init = paired_time(
+        lambda: GaussianHMM(5, max_iter=n_iter, tol=-np.inf).fit(xs), fit_ours, repeats=7
+    )[0]
     rows.append((f"  (ours incl. init, {n_iter} iterations)", fmt(t_init), "", ""))
     rows.append(("dtw 200x200 (see benches/dtw_vs_dtaidistance.py)", "", "", ""))
 

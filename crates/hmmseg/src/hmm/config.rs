@@ -3,6 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::limits::checked_elements;
 use crate::error::{EngineError, Result};
 
 /// Shape of every covariance matrix of the emission Gaussians.
@@ -82,7 +83,43 @@ impl FitConfig {
         if self.n_mix == 0 {
             return Err(EngineError::InvalidParameter("n_mix must be >= 1".into()));
         }
+        checked_elements(
+            &[self.n_states, self.n_states],
+            "the transition matrix (n_states x n_states)",
+        )?;
+        checked_elements(
+            &[self.n_states, self.n_mix],
+            "the mixture weights (n_states x n_mix)",
+        )?;
         self.validate_em()
+    }
+
+    /// Check the model size against the training data: at least one sample per state and per
+    /// mixture component, and parameter / work buffers within [`super::MAX_ELEMENTS`].
+    /// `total`: samples over all sequences, `longest`: the longest sequence, `f`: features.
+    pub(crate) fn validate_sizes(&self, total: usize, longest: usize, f: usize) -> Result<()> {
+        let (n, m) = (self.n_states, self.n_mix);
+        if n > total {
+            return Err(EngineError::InvalidParameter(format!(
+                "more states ({n}) than training samples ({total})"
+            )));
+        }
+        let k = checked_elements(&[n, m], "the mixture weights (n_states x n_mix)")?;
+        if k > total {
+            return Err(EngineError::InvalidParameter(format!(
+                "more mixture components (n_states x n_mix = {n} x {m}) than training samples ({total})"
+            )));
+        }
+        let f2 = match self.covariance {
+            CovarianceType::Diag => f,
+            CovarianceType::Full => checked_elements(&[f, f], "one full covariance")?,
+        };
+        checked_elements(&[k, f2], "the covariances (components x features)")?;
+        checked_elements(
+            &[longest, k],
+            "the emission table (samples x n_states x n_mix)",
+        )?;
+        Ok(())
     }
 
     /// Check the options EM itself uses (`tol`, `covariance_floor`).

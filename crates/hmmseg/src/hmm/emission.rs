@@ -8,6 +8,8 @@ use nalgebra::DMatrix;
 use nalgebra::DVector;
 
 use super::config::CovarianceType;
+use super::fastexp::exp_nonpos_k;
+use super::simd::{dispatch, Kernel};
 use crate::error::{EngineError, Result};
 
 /// Precomputed constants of the `n_states * n_mix` Gaussian components, stored flat.
@@ -84,26 +86,48 @@ impl Emission {
     /// `comp[k * T + t] = ln w_k + ln N(x_t | mu_k, Sigma_k)` for every component `k`.
     pub fn component_log_probs(&self, x: &DMatrix<f64>, comp: &mut Vec<f64>) {
         let t_len = x.nrows();
+        comp.clear();
+        comp.resize(self.n_components() * t_len, 0.0);
+        self.component_block(x.as_slice(), t_len, 0, t_len, comp);
+    }
+
+    /// `comp[k * len + i] = ln w_k + ln N(x_(start + i) | k)` for `i < len`. `data` holds the
+    /// observations column-major (`t_len` rows, feature `d` at `data[d * t_len..]`);
+    /// `comp` has at least `n_components() * len` entries. A log-density below the range of
+    /// doubles is `-inf` (never NaN).
+    #[allow(clippy::inline_always)] // must be compiled inside the AVX2 function (simd)
+    #[inline(always)]
+    pub(crate) fn component_block(
+        &self,
+        data: &[f64],
+        t_len: usize,
+        start: usize,
+        len: usize,
+        comp: &mut [f64],
+    ) {
+        if len == 0 {
+            return;
+        }
         let f = self.n_features;
-        let data = x.as_slice(); // column-major: feature `d` is data[d*T .. (d+1)*T]
+        let col = |d: usize| &data[d * t_len + start..d * t_len + start + len];
         match self.covariance {
             CovarianceType::Diag => {
-                // Written in place without a zero-fill first: the first feature initialises.
-                comp.clear();
-                for k in 0..self.n_components() {
+                for (k, out) in comp
+                    .chunks_exact_mut(len)
+                    .take(self.n_components())
+                    .enumerate()
+                {
                     let c0 = self.log_weights[k] + self.log_norm[k];
-                    let start = comp.len();
+                    // The first feature initialises (no zero-fill pass).
                     let (mu, half_iv) = (self.means[k * f], 0.5 * self.precision[k * f]);
-                    comp.extend(data[..t_len].iter().map(|&v| {
+                    for (o, &v) in out.iter_mut().zip(col(0)) {
                         let z = v - mu;
-                        c0 - half_iv * z * z
-                    }));
-                    let out = &mut comp[start..];
+                        *o = c0 - half_iv * z * z;
+                    }
                     for d in 1..f {
                         let mu = self.means[k * f + d];
                         let half_iv = 0.5 * self.precision[k * f + d];
-                        let col = &data[d * t_len..(d + 1) * t_len];
-                        for (o, &v) in out.iter_mut().zip(col) {
+                        for (o, &v) in out.iter_mut().zip(col(d)) {
                             let z = v - mu;
                             *o -= half_iv * z * z;
                         }
@@ -111,16 +135,18 @@ impl Emission {
                 }
             }
             CovarianceType::Full => {
-                comp.clear();
-                comp.resize(self.n_components() * t_len, 0.0);
                 let mut diff = vec![0.0; f];
-                for (k, out) in comp.chunks_exact_mut(t_len).enumerate() {
+                for (k, out) in comp
+                    .chunks_exact_mut(len)
+                    .take(self.n_components())
+                    .enumerate()
+                {
                     let c0 = self.log_weights[k] + self.log_norm[k];
                     let mu = &self.means[k * f..(k + 1) * f];
                     let li = &self.precision[k * f * f..(k + 1) * f * f];
-                    for (t, o) in out.iter_mut().enumerate() {
+                    for (i, o) in out.iter_mut().enumerate() {
                         for d in 0..f {
-                            diff[d] = data[d * t_len + t] - mu[d];
+                            diff[d] = data[d * t_len + start + i] - mu[d];
                         }
                         let mut quad = 0.0;
                         for r in 0..f {
@@ -128,11 +154,113 @@ impl Emission {
                             let y: f64 = row.iter().zip(&diff).map(|(a, b)| a * b).sum();
                             quad += y * y;
                         }
+                        // inf - inf in an astronomically distant sample: density 0.
+                        if quad.is_nan() {
+                            quad = f64::INFINITY;
+                        }
                         *o = c0 - 0.5 * quad;
                     }
                 }
             }
         }
+    }
+
+    /// Emission probabilities of samples `start..start + len`, scaled per sample so that no
+    /// logarithm or per-state `exp` beyond one per component is needed:
+    /// `hi[i] = max_k comp[k][i]` and `b[j * len + i] = sum_m exp(comp[j, m][i] - hi[i])`
+    /// (so `ln p(x | j) = hi[i] + ln b[j * len + i]`, and the largest component gives 1).
+    /// `comp` is scratch of `n_components() * len` entries (unused with one component per
+    /// state), `b` has `n_states * len`, `hi` `len`. If every component of a sample is `-inf`,
+    /// `hi` is `-inf` and `b` is 0. Vectorised with runtime CPU dispatch (see `simd`).
+    pub(crate) fn scaled_block(
+        &self,
+        data: &[f64],
+        t_len: usize,
+        start: usize,
+        len: usize,
+        comp: &mut [f64],
+        b: &mut [f64],
+        hi: &mut [f64],
+    ) {
+        struct Block<'a> {
+            e: &'a Emission,
+            data: &'a [f64],
+            t_len: usize,
+            start: usize,
+            len: usize,
+            comp: &'a mut [f64],
+            b: &'a mut [f64],
+            hi: &'a mut [f64],
+        }
+        impl Kernel for Block<'_> {
+            type Output = ();
+            #[allow(clippy::inline_always)] // must be compiled inside the AVX2 function (simd)
+            #[inline(always)]
+            fn run<const FMA: bool>(self) {
+                let Block {
+                    e,
+                    data,
+                    t_len,
+                    start,
+                    len,
+                    comp,
+                    b,
+                    hi,
+                } = self;
+                let hi = &mut hi[..len];
+                let k_total = e.n_components();
+                if e.n_mix == 1 {
+                    exp_shifted::<FMA>(e, data, t_len, start, &mut b[..k_total * len], hi);
+                    return;
+                }
+                let src = &mut comp[..k_total * len];
+                exp_shifted::<FMA>(e, data, t_len, start, src, hi);
+                let m = e.n_mix;
+                for (j, out) in b.chunks_exact_mut(len).take(e.n_states).enumerate() {
+                    out.copy_from_slice(&src[j * m * len..(j * m + 1) * len]);
+                    for col in src[(j * m + 1) * len..(j + 1) * m * len].chunks_exact(len) {
+                        for (o, &v) in out.iter_mut().zip(col) {
+                            *o += v;
+                        }
+                    }
+                }
+            }
+        }
+        /// `out[k][i] = exp(comp[k][i] - hi[i])` with `hi[i] = max_k comp[k][i]`.
+        #[allow(clippy::inline_always)] // must be compiled inside the AVX2 function (simd)
+        #[inline(always)]
+        fn exp_shifted<const FMA: bool>(
+            e: &Emission,
+            data: &[f64],
+            t_len: usize,
+            start: usize,
+            out: &mut [f64],
+            hi: &mut [f64],
+        ) {
+            let len = hi.len();
+            e.component_block(data, t_len, start, len, out);
+            hi.copy_from_slice(&out[..len]);
+            for col in out.chunks_exact(len).skip(1) {
+                for (h, &v) in hi.iter_mut().zip(col) {
+                    *h = h.max(v);
+                }
+            }
+            for col in out.chunks_exact_mut(len) {
+                for (v, &h) in col.iter_mut().zip(hi.iter()) {
+                    *v = exp_nonpos_k::<FMA>(*v - h);
+                }
+            }
+        }
+        dispatch(Block {
+            e: self,
+            data,
+            t_len,
+            start,
+            len,
+            comp,
+            b,
+            hi,
+        });
     }
 
     /// `logb[t * N + j] = ln p(x_t | state j)` (log-sum-exp over the state's components).
@@ -171,44 +299,6 @@ impl Emission {
         }
     }
 
-    /// State-major emission table: `sm[j * T + t] = ln p(x_t | state j)`. With one
-    /// component per state this is `comp` itself (moved, not copied).
-    pub fn log_emissions_state_major(
-        &self,
-        x: &DMatrix<f64>,
-        comp: &mut Vec<f64>,
-        sm: &mut Vec<f64>,
-    ) {
-        let t_len = x.nrows();
-        let m_count = self.n_mix;
-        self.component_log_probs(x, comp);
-        if m_count == 1 {
-            std::mem::swap(comp, sm);
-            return;
-        }
-        sm.clear();
-        sm.resize(self.n_states * t_len, f64::NEG_INFINITY);
-        for (j, out) in sm.chunks_exact_mut(t_len).enumerate() {
-            let block = &comp[j * m_count * t_len..(j + 1) * m_count * t_len];
-            for col in block.chunks_exact(t_len) {
-                for (o, &v) in out.iter_mut().zip(col) {
-                    *o = o.max(v);
-                }
-            }
-            let mut acc = vec![0.0; t_len];
-            for col in block.chunks_exact(t_len) {
-                for ((a, &v), &hi) in acc.iter_mut().zip(col).zip(out.iter()) {
-                    *a += super::fastexp::exp_nonpos(v - hi);
-                }
-            }
-            for (o, a) in out.iter_mut().zip(&acc) {
-                if o.is_finite() {
-                    *o += a.ln();
-                }
-            }
-        }
-    }
-
     /// Mean of component `k` (length `F`).
     pub fn mean(&self, k: usize) -> &[f64] {
         &self.means[k * self.n_features..(k + 1) * self.n_features]
@@ -237,8 +327,14 @@ fn diag_precision(c: &DMatrix<f64>, what: &str, out: &mut Vec<f64>) -> Result<f6
                 "{what}: variance {r} is {v} (must be > 0)"
             )));
         }
+        let iv = 1.0 / v;
+        if !iv.is_finite() {
+            return Err(EngineError::NotPositiveDefinite(format!(
+                "{what}: variance {r} is {v}, too small to invert in double precision"
+            )));
+        }
         log_det += v.ln();
-        out.push(1.0 / v);
+        out.push(iv);
     }
     Ok(log_det)
 }

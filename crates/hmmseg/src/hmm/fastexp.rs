@@ -7,6 +7,8 @@
 //! Arguments below -708 (results below the smallest normal number) return exactly 0, so
 //! underflow is still detected by the caller.
 
+use super::simd::madd;
+
 const LOG2E: f64 = std::f64::consts::LOG2_E;
 const LN2_HI: f64 = 6.931_471_803_691_238e-1;
 const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
@@ -14,34 +16,45 @@ const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
 const SHIFT: f64 = 6_755_399_441_055_744.0;
 const SHIFT_BITS: i64 = 0x4338_0000_0000_0000;
 
-/// `e^x` for `x <= 0` (`-inf` gives 0); relative error a few ulp.
-#[inline]
+/// `e^x` for `x <= 0` (`-inf` and NaN give 0); relative error a few ulp.
+#[cfg(test)]
 pub(crate) fn exp_nonpos(x: f64) -> f64 {
+    exp_nonpos_k::<false>(x)
+}
+
+/// [`exp_nonpos`], with fused multiply-adds in the polynomial when `FMA` (see `simd`).
+#[allow(clippy::inline_always)] // must be compiled inside the AVX2 function (simd)
+#[inline(always)]
+pub(crate) fn exp_nonpos_k<const FMA: bool>(x: f64) -> f64 {
     let xc = x.max(-708.0);
-    // Plain multiply-add: `mul_add` would call the (slow) software fma without FMA hardware.
-    let shifted = xc * LOG2E + SHIFT;
+    let shifted = madd::<FMA>(xc, LOG2E, SHIFT);
     let k = shifted - SHIFT;
-    let r = xc - k * LN2_HI - k * LN2_LO;
+    let r = madd::<FMA>(-k, LN2_LO, madd::<FMA>(-k, LN2_HI, xc));
     let mut p = 1.0 / 6_227_020_800.0; // 1/13!
-    p = p * r + 1.0 / 479_001_600.0;
-    p = p * r + 1.0 / 39_916_800.0;
-    p = p * r + 1.0 / 3_628_800.0;
-    p = p * r + 1.0 / 362_880.0;
-    p = p * r + 1.0 / 40_320.0;
-    p = p * r + 1.0 / 5_040.0;
-    p = p * r + 1.0 / 720.0;
-    p = p * r + 1.0 / 120.0;
-    p = p * r + 1.0 / 24.0;
-    p = p * r + 1.0 / 6.0;
-    p = p * r + 0.5;
-    p = p * r + 1.0;
-    p = p * r + 1.0;
+    for c in [
+        1.0 / 479_001_600.0,
+        1.0 / 39_916_800.0,
+        1.0 / 3_628_800.0,
+        1.0 / 362_880.0,
+        1.0 / 40_320.0,
+        1.0 / 5_040.0,
+        1.0 / 720.0,
+        1.0 / 120.0,
+        1.0 / 24.0,
+        1.0 / 6.0,
+        0.5,
+        1.0,
+        1.0,
+    ] {
+        p = madd::<FMA>(p, r, c);
+    }
     let ki = shifted.to_bits() as i64 - SHIFT_BITS;
     let scale = f64::from_bits(((ki + 1023) << 52) as u64);
-    if x < -708.0 {
-        0.0
-    } else {
+    // Written so that NaN (a comparison that is false) also gives 0.
+    if x >= -708.0 {
         p * scale
+    } else {
+        0.0
     }
 }
 
@@ -73,5 +86,6 @@ mod tests {
         assert_eq!(exp_nonpos(0.0), 1.0);
         assert_eq!(exp_nonpos(-708.5), 0.0);
         assert_eq!(exp_nonpos(f64::NEG_INFINITY), 0.0);
+        assert_eq!(exp_nonpos(f64::NAN), 0.0);
     }
 }

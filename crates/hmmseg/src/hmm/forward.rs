@@ -7,7 +7,7 @@
 //! overflows, the sequence is redone in log space, which cannot underflow.
 
 use super::emission::logsumexp;
-use super::fastexp::exp_nonpos;
+use super::simd::exp_nonpos_in_place;
 
 /// The Markov chain of a model: start and transition probabilities and their logs.
 #[derive(Clone, Debug, PartialEq)]
@@ -18,6 +18,8 @@ pub(crate) struct Chain {
     pub trans: Vec<f64>,
     pub log_start: Vec<f64>,
     pub log_trans: Vec<f64>,
+    /// True if only `i -> i` and `i -> i + 1` transitions are non-zero (a left-right chain).
+    pub left_right: bool,
     /// Non-zero transitions by target (left-right models have ~2n instead of n^2):
     /// the predecessors of `j` are `pred_from[pred_start[j]..pred_start[j + 1]]`.
     pred_start: Vec<usize>,
@@ -44,23 +46,20 @@ impl Chain {
             }
             pred_start.push(pred_from.len());
         }
+        let left_right =
+            (0..n).all(|i| (0..n).all(|j| j == i || j == i + 1 || trans[i * n + j] == 0.0));
         Self {
             n,
             start,
             trans,
             log_start,
             log_trans,
+            left_right,
             pred_start,
             pred_from,
             pred_p,
             pred_logp,
         }
-    }
-
-    /// True if only `i -> i` and `i -> i + 1` transitions are non-zero.
-    pub fn is_left_right(&self) -> bool {
-        let n = self.n;
-        (0..n).all(|i| (0..n).all(|j| j == i || j == i + 1 || self.trans[i * n + j] == 0.0))
     }
 
     /// `(from, P(j | from), ln P(j | from))` of the non-zero transitions into `j`.
@@ -113,9 +112,7 @@ fn scale_rows(logb: &[f64], n: usize, b: &mut Vec<f64>, shift: &mut Vec<f64>) ->
         }
     }
     // One flat pass, so the branch-free exp vectorises.
-    for v in b.iter_mut() {
-        *v = exp_nonpos(*v);
-    }
+    exp_nonpos_in_place(b);
     true
 }
 
@@ -167,26 +164,47 @@ fn forward_scaled(chain: &Chain, ws: &mut Workspace) -> bool {
     true
 }
 
-/// Log-space forward: `alpha[t*n + j] = ln P(x_0..=t, s_t = j)`.
-fn forward_log(chain: &Chain, logb: &[f64], alpha: &mut Vec<f64>) {
+/// Log-space forward, normalised per step so that no value grows with the sequence:
+/// `alpha[t*n + j] = ln P(x_0..=t, s_t = j) - m_0 - ... - m_t` with `max_j alpha[t*n + j] = 0`
+/// and `shift[t] = m_t` (`-inf` from the first step at which every state is impossible).
+/// Posteriors are differences of these values, which stay small even when the log-densities
+/// are astronomically large (observations of 1e150).
+fn forward_log(chain: &Chain, logb: &[f64], alpha: &mut Vec<f64>, shift: &mut Vec<f64>) {
     let n = chain.n;
+    let t_len = logb.len() / n;
     alpha.clear();
     alpha.resize(logb.len(), f64::NEG_INFINITY);
+    shift.clear();
+    shift.resize(t_len, f64::NEG_INFINITY);
     let mut tmp = vec![0.0; n];
-    for j in 0..n {
-        alpha[j] = chain.log_start[j] + logb[j];
-    }
-    for t in 1..logb.len() / n {
+    for t in 0..t_len {
         for j in 0..n {
-            for i in 0..n {
-                tmp[i] = alpha[(t - 1) * n + i] + chain.log_trans[i * n + j];
-            }
-            alpha[t * n + j] = logsumexp(&tmp) + logb[t * n + j];
+            alpha[t * n + j] = if t == 0 {
+                chain.log_start[j] + logb[j]
+            } else {
+                for i in 0..n {
+                    tmp[i] = alpha[(t - 1) * n + i] + chain.log_trans[i * n + j];
+                }
+                logsumexp(&tmp) + logb[t * n + j]
+            };
+        }
+        let row = &mut alpha[t * n..(t + 1) * n];
+        let hi = row.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        if !hi.is_finite() {
+            // Every state impossible (or a log-density below the range of doubles): the
+            // likelihood of this and every later prefix is -inf; callers report it.
+            row.fill(f64::NEG_INFINITY);
+            return;
+        }
+        shift[t] = hi;
+        for v in row.iter_mut() {
+            *v -= hi;
         }
     }
 }
 
-/// Log-space backward: `beta[t*n + i] = ln P(x_t+1.. | s_t = i)`.
+/// Log-space backward, normalised per step like [`forward_log`]: `beta[t*n + i]` is
+/// `ln P(x_t+1.. | s_t = i)` up to a per-step constant, with `max_i beta[t*n + i] = 0`.
 fn backward_log(chain: &Chain, logb: &[f64], beta: &mut Vec<f64>) {
     let n = chain.n;
     let t_len = logb.len() / n;
@@ -200,7 +218,23 @@ fn backward_log(chain: &Chain, logb: &[f64], beta: &mut Vec<f64>) {
             }
             beta[t * n + i] = logsumexp(&tmp);
         }
+        let row = &mut beta[t * n..(t + 1) * n];
+        let hi = row.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        if hi.is_finite() {
+            for v in row.iter_mut() {
+                *v -= hi;
+            }
+        }
     }
+}
+
+/// `ln P(x_0..=t)` from the normalised log-space forward of step `t` and the running sum of
+/// its shifts.
+fn log_prefix(shift_sum: f64, alpha_row: &[f64]) -> f64 {
+    if shift_sum == f64::NEG_INFINITY {
+        return f64::NEG_INFINITY;
+    }
+    shift_sum + logsumexp(alpha_row)
 }
 
 /// `ln P(x)` of the sequence whose emission table is `ws.logb`.
@@ -209,9 +243,9 @@ pub(crate) fn log_likelihood(chain: &Chain, ws: &mut Workspace) -> f64 {
     if scale_rows(&ws.logb, n, &mut ws.b, &mut ws.shift) && forward_scaled(chain, ws) {
         return ws.shift.iter().zip(&ws.c).map(|(s, c)| s + c.ln()).sum();
     }
-    forward_log(chain, &ws.logb, &mut ws.alpha);
+    forward_log(chain, &ws.logb, &mut ws.alpha, &mut ws.c);
     let t_len = ws.logb.len() / n;
-    logsumexp(&ws.alpha[(t_len - 1) * n..])
+    log_prefix(ws.c.iter().sum(), &ws.alpha[(t_len - 1) * n..])
 }
 
 /// `out[t] = ln P(x_0..=t)` for every `t`, in one forward pass.
@@ -229,8 +263,16 @@ pub(crate) fn prefix_log_likelihoods(chain: &Chain, ws: &mut Workspace) -> Vec<f
             })
             .collect();
     }
-    forward_log(chain, &ws.logb, &mut ws.alpha);
-    ws.alpha.chunks_exact(n).map(logsumexp).collect()
+    forward_log(chain, &ws.logb, &mut ws.alpha, &mut ws.c);
+    let mut acc = 0.0;
+    ws.alpha
+        .chunks_exact(n)
+        .zip(&ws.c)
+        .map(|(row, m)| {
+            acc += m;
+            log_prefix(acc, row)
+        })
+        .collect()
 }
 
 /// Forward-backward: fills `ws.gamma` (`T * n`, rows sum to 1), adds the expected transition
@@ -303,28 +345,55 @@ fn forward_backward_scaled(
     Some(ws.shift.iter().zip(&ws.c).map(|(s, c)| s + c.ln()).sum())
 }
 
+/// Log-space forward-backward on the normalised recursions: every posterior row and every
+/// step's expected transitions are normalised on their own, so they are exact to rounding
+/// whatever the magnitude of the log-densities. Returns `ln P(x)` (`-inf` or NaN if it is
+/// below the range of doubles; `gamma` is then not meaningful and callers report an error).
 fn forward_backward_log(chain: &Chain, ws: &mut Workspace, want_xi: bool, xi: &mut [f64]) -> f64 {
     let n = chain.n;
-    forward_log(chain, &ws.logb, &mut ws.alpha);
+    forward_log(chain, &ws.logb, &mut ws.alpha, &mut ws.c);
     backward_log(chain, &ws.logb, &mut ws.beta);
     let t_len = ws.logb.len() / n;
-    let ll = logsumexp(&ws.alpha[(t_len - 1) * n..]);
+    let ll = log_prefix(ws.c.iter().sum(), &ws.alpha[(t_len - 1) * n..]);
+    if !ll.is_finite() {
+        ws.gamma.clear();
+        ws.gamma.resize(t_len * n, f64::NAN);
+        return ll;
+    }
     ws.gamma.clear();
-    ws.gamma.extend(
-        ws.alpha
-            .iter()
-            .zip(&ws.beta)
-            .map(|(a, b)| (a + b - ll).exp()),
-    );
+    ws.gamma
+        .extend(ws.alpha.iter().zip(&ws.beta).map(|(a, b)| a + b));
+    for row in ws.gamma.chunks_exact_mut(n) {
+        let hi = row.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        for v in row.iter_mut() {
+            *v = (*v - hi).exp();
+        }
+    }
     normalise_rows(&mut ws.gamma, n);
     if want_xi {
+        let mut e = vec![0.0; n * n];
         for t in 0..t_len - 1 {
+            // xi_t(i, j) = exp(e_ij + ln A_ij - z_t), sum over (i, j) = 1; the transition factor
+            // is applied by the caller, so only exp(e_ij - z_t) is accumulated.
+            let mut z = f64::NEG_INFINITY;
             for i in 0..n {
-                let a = ws.alpha[t * n + i] - ll;
+                let a = ws.alpha[t * n + i];
                 for j in 0..n {
-                    // The transition factor is applied by the caller.
-                    let e = a + ws.logb[(t + 1) * n + j] + ws.beta[(t + 1) * n + j];
-                    xi[i * n + j] += e.exp();
+                    let v = a + ws.logb[(t + 1) * n + j] + ws.beta[(t + 1) * n + j];
+                    e[i * n + j] = v;
+                    z = z.max(v + chain.log_trans[i * n + j]);
+                }
+            }
+            let total: f64 = e
+                .iter()
+                .zip(&chain.log_trans)
+                .map(|(v, lt)| (v + lt - z).exp())
+                .sum();
+            let z = z + total.ln();
+            for (x, v) in xi.iter_mut().zip(&e) {
+                let w = (v - z).exp();
+                if w.is_finite() {
+                    *x += w;
                 }
             }
         }
@@ -446,9 +515,22 @@ mod tests {
         let lps: Vec<f64> = paths.iter().map(|p| p.1).collect();
         let want = logsumexp(&lps);
         assert!((log_likelihood(&h.chain, &mut ws) - want).abs() < 1e-12);
-        let mut alpha = Vec::new();
-        forward_log(&h.chain, &ws.logb, &mut alpha);
-        assert!((logsumexp(&alpha[4 * 3..]) - want).abs() < 1e-12);
+        let (mut alpha, mut shift) = (Vec::new(), Vec::new());
+        forward_log(&h.chain, &ws.logb, &mut alpha, &mut shift);
+        assert!((log_prefix(shift.iter().sum(), &alpha[4 * 3..]) - want).abs() < 1e-12);
+        // The log-space forward-backward agrees with the scaled one.
+        let mut xi_log = vec![0.0; 9];
+        let ll_log = forward_backward_log(&h.chain, &mut ws, true, &mut xi_log);
+        let gamma_log = ws.gamma.clone();
+        let mut xi = vec![0.0; 9];
+        let ll = forward_backward_scaled(&h.chain, &mut ws, true, &mut xi).unwrap();
+        assert!((ll_log - ll).abs() < 1e-12 && (ll - want).abs() < 1e-12);
+        for (a, b) in gamma_log.iter().zip(&ws.gamma) {
+            assert!((a - b).abs() < 1e-12);
+        }
+        for (a, b) in xi_log.iter().zip(&xi) {
+            assert!((a - b).abs() < 1e-12, "{xi_log:?} {xi:?}");
+        }
         let prefix = prefix_log_likelihoods(&h.chain, &mut ws);
         for t in 0..5 {
             let sub = table(&h, &x.rows(0, t + 1).into_owned());

@@ -5,13 +5,16 @@
 //!
 //! Numerics: the forward-backward recursions run on probabilities scaled per time step, with
 //! every emission row divided by its maximum first; when a step underflows anyway (an observation
-//! far from every reachable state) the whole sequence is redone in log space (log-sum-exp), so
-//! the result is always correct and the common case is fast.
+//! far from every reachable state) the whole sequence is redone in log space (log-sum-exp,
+//! normalised per step so posteriors stay exact for astronomically large log-densities), so
+//! the result is always correct and the common case is fast. A log-likelihood below the range
+//! of doubles is an [`crate::EngineError::NonFinite`] error, never `-inf` or NaN in a result.
 //!
 //! Files: `model` (the [`Hmm`] type, validation, JSON), `config` ([`FitConfig`] and friends),
 //! `emission` (Gaussian mixtures and their precomputed constants), `forward` (the recursions),
 //! `score` (fixed-size fast path of the forward log-likelihood for up to 8 states), `fastexp`
-//! (a vectorisable `exp`), `train` (Baum-Welch), `init` (seeded k-means / uniform
+//! (a vectorisable `exp`), `simd` (runtime AVX2/FMA dispatch, the engine's only `unsafe`),
+//! `limits` (the size limit [`MAX_ELEMENTS`] checked before allocating), `train` (Baum-Welch), `init` (seeded k-means / uniform
 //! segmentation start), `kmeans`, `moments` (means, covariances, the covariance floor),
 //! `sample` (drawing sequences), `validate` (input checks).
 //!
@@ -35,12 +38,16 @@ mod fastexp;
 mod forward;
 mod init;
 mod kmeans;
+mod limits;
 mod model;
 mod moments;
 mod sample;
 mod score;
+mod simd;
 mod train;
 mod validate;
 
 pub use config::{CovarianceType, FitConfig, FitReport, Topology};
+pub(crate) use emission::Emission;
+pub use limits::MAX_ELEMENTS;
 pub use model::{Hmm, HmmParams, FORMAT_VERSION};

@@ -7,6 +7,7 @@ use serde::{Deserialize, Serialize};
 use super::config::CovarianceType;
 use super::emission::Emission;
 use super::forward::{self, Chain, Workspace};
+use super::limits::checked_elements;
 use super::score;
 use super::validate::{check_sequence, check_stochastic};
 use crate::error::{EngineError, Result};
@@ -63,6 +64,18 @@ fn matrix(rows: &[Vec<f64>], n_cols: usize, what: &str) -> Result<DMatrix<f64>> 
         )));
     }
     Ok(DMatrix::from_fn(rows.len(), n_cols, |r, c| rows[r][c]))
+}
+
+/// `v` if finite, else the error for a log-probability below the range of doubles.
+fn finite(v: f64, what: &str) -> Result<f64> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(EngineError::NonFinite(format!(
+            "{what}: the log-likelihood is {v}, outside the range of double precision \
+             (observations astronomically far from every state; rescale the features)"
+        )))
+    }
 }
 
 impl From<Hmm> for HmmParams {
@@ -270,6 +283,16 @@ impl Hmm {
         self.covariance
     }
 
+    /// Refuse a sequence of `t_len` samples whose work buffers (`t_len x n_states x n_mix`
+    /// values) would exceed [`super::MAX_ELEMENTS`].
+    pub(crate) fn check_work(&self, t_len: usize) -> Result<()> {
+        checked_elements(
+            &[t_len, self.emission.n_components()],
+            "scoring this sequence (samples x n_states x n_mix)",
+        )
+        .map(|_| ())
+    }
+
     /// Validate `x` and fill `ws.logb` (and `ws.comp`) with its emission log-probabilities.
     pub(crate) fn emissions_into(
         &self,
@@ -278,11 +301,15 @@ impl Hmm {
         what: &str,
     ) -> Result<()> {
         check_sequence(x, self.n_features(), what)?;
+        self.check_work(x.nrows())?;
         self.emission.log_emissions(x, &mut ws.comp, &mut ws.logb);
         Ok(())
     }
 
     /// `ln P(x | model)` by the forward algorithm. `x`: `(n_samples, n_features)`.
+    ///
+    /// A likelihood below the range of doubles (observations astronomically far from every
+    /// state, e.g. 1e160 against unit-scale means) is an [`EngineError::NonFinite`] error.
     pub fn log_likelihood(&self, x: &DMatrix<f64>) -> Result<f64> {
         let mut ws = Workspace::default();
         self.score_into(x, &mut ws, "sequence")
@@ -291,16 +318,12 @@ impl Hmm {
     /// Validate and score one sequence: the small-model fast path, else the general one.
     fn score_into(&self, x: &DMatrix<f64>, ws: &mut Workspace, what: &str) -> Result<f64> {
         check_sequence(x, self.n_features(), what)?;
-        if self.n_states() <= 8 {
-            self.emission
-                .log_emissions_state_major(x, &mut ws.comp, &mut ws.logb);
-            if let Some(ll) = score::log_likelihood_small(&self.chain, &mut ws.logb, &mut ws.gamma)
-            {
-                return Ok(ll);
-            }
+        self.check_work(x.nrows())?;
+        if let Some(ll) = score::log_likelihood_small(&self.chain, &self.emission, x) {
+            return Ok(ll);
         }
         self.emission.log_emissions(x, &mut ws.comp, &mut ws.logb);
-        Ok(forward::log_likelihood(&self.chain, ws))
+        finite(forward::log_likelihood(&self.chain, ws), what)
     }
 
     /// [`Self::log_likelihood`] of every sequence, in parallel (rayon), in input order.
@@ -320,24 +343,32 @@ impl Hmm {
     pub fn prefix_log_likelihoods(&self, x: &DMatrix<f64>) -> Result<DVector<f64>> {
         let mut ws = Workspace::default();
         self.emissions_into(x, &mut ws, "sequence")?;
-        Ok(DVector::from_vec(forward::prefix_log_likelihoods(
-            &self.chain,
-            &mut ws,
-        )))
+        let out = forward::prefix_log_likelihoods(&self.chain, &mut ws);
+        for v in &out {
+            finite(*v, "sequence")?;
+        }
+        Ok(DVector::from_vec(out))
     }
 
     /// Most likely state path (Viterbi) and its joint log-probability `ln P(x, path)`.
     pub fn viterbi(&self, x: &DMatrix<f64>) -> Result<(f64, Vec<usize>)> {
         let mut ws = Workspace::default();
         self.emissions_into(x, &mut ws, "sequence")?;
-        Ok(forward::viterbi(&self.chain, &ws.logb))
+        let (score, path) = forward::viterbi(&self.chain, &ws.logb);
+        Ok((finite(score, "sequence")?, path))
     }
 
     /// State posteriors `P(s_t = j | x)`, shape `(n_samples, n_states)`; rows sum to 1.
     pub fn posteriors(&self, x: &DMatrix<f64>) -> Result<DMatrix<f64>> {
         let mut ws = Workspace::default();
         self.emissions_into(x, &mut ws, "sequence")?;
-        forward::forward_backward(&self.chain, &mut ws, None);
+        let ll = forward::forward_backward(&self.chain, &mut ws, None);
+        finite(ll, "sequence")?;
+        if ws.gamma.iter().any(|v| !v.is_finite()) {
+            return Err(EngineError::NonFinite(
+                "sequence: the state posteriors are not representable in double precision".into(),
+            ));
+        }
         Ok(DMatrix::from_row_slice(
             x.nrows(),
             self.n_states(),

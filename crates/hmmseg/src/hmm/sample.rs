@@ -4,6 +4,7 @@ use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+use super::limits::checked_elements;
 use super::model::Hmm;
 use crate::error::{EngineError, Result};
 
@@ -40,6 +41,7 @@ impl Hmm {
             ));
         }
         let f = self.n_features();
+        checked_elements(&[n_samples, f], "sampling (n_samples x n_features)")?;
         let factors = self
             .covars()
             .iter()

@@ -259,6 +259,9 @@ impl Hmm {
     pub fn fit(sequences: &[DMatrix<f64>], config: &FitConfig) -> Result<(Hmm, FitReport)> {
         config.validate()?;
         let f = check_sequences(sequences, None)?;
+        let total = sequences.iter().map(DMatrix::nrows).sum();
+        let longest = sequences.iter().map(DMatrix::nrows).max().unwrap_or(0);
+        config.validate_sizes(total, longest, f)?;
         let init = initial_model(sequences, f, config)?;
         em(init, sequences, config)
     }
@@ -272,6 +275,9 @@ impl Hmm {
     ) -> Result<(Hmm, FitReport)> {
         config.validate_em()?;
         check_sequences(sequences, Some(self.n_features()))?;
+        for x in sequences {
+            self.check_work(x.nrows())?;
+        }
         em(self.clone(), sequences, config)
     }
 

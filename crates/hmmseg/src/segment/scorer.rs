@@ -15,7 +15,9 @@ use serde::{Deserialize, Serialize};
 
 use super::scores::{check_score_inputs, ScoreTable};
 use crate::error::{EngineError, Result};
-use crate::hmm::{CovarianceType, Hmm};
+#[cfg(test)]
+use crate::hmm::CovarianceType;
+use crate::hmm::{Emission, Hmm};
 
 /// Which states may end a segment.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -30,43 +32,6 @@ pub enum EndState {
 
 crate::option_enum!(EndState, "end", [Any => "any", Final => "final"]);
 
-/// One Gaussian component with its precomputed constants.
-#[derive(Debug, Clone)]
-struct Component {
-    /// `ln w - 0.5 (d ln 2 pi + ln det S)`.
-    log_c: f64,
-    mean: Vec<f64>,
-    /// Lower-triangular `L^-1` with `S = L L^T`, row-major `d x d` (diag: only the diagonal
-    /// `1 / sigma` is used).
-    inv_chol: Vec<f64>,
-    diag: bool,
-}
-
-impl Component {
-    fn log_pdf(&self, x: &[f64]) -> f64 {
-        let d = self.mean.len();
-        let mut q = 0.0;
-        if self.diag {
-            for (k, (xk, mk)) in x.iter().zip(&self.mean).enumerate() {
-                let z = (xk - mk) * self.inv_chol[k * d + k];
-                q += z * z;
-            }
-        } else {
-            for r in 0..d {
-                let row = &self.inv_chol[r * d..=r * d + r];
-                let z: f64 = row
-                    .iter()
-                    .zip(x)
-                    .zip(&self.mean)
-                    .map(|((l, xk), mk)| l * (xk - mk))
-                    .sum();
-                q += z * z;
-            }
-        }
-        self.log_c - 0.5 * q
-    }
-}
-
 /// An [`Hmm`] prepared for fast scoring.
 #[derive(Debug, Clone)]
 pub struct CompiledHmm {
@@ -75,48 +40,19 @@ pub struct CompiledHmm {
     /// `trans[j * n + i] = P(j | i)` (column-major transition matrix: row `j` holds the
     /// probabilities of entering `j`).
     trans: Vec<f64>,
-    /// `n` states x `n_mix` components.
-    comps: Vec<Vec<Component>>,
+    /// The model's emission constants (Cholesky factors, inverses and log-determinants are
+    /// computed once, by the engine's [`Hmm`]).
+    emission: Emission,
     /// For each state `j`, the range `lo..hi` of states `i` with `P(j | i) > 0` (left-right
     /// chains are banded).
     band: Vec<(usize, usize)>,
 }
 
 impl CompiledHmm {
-    /// Precompute the constants of `hmm`.
+    /// Precompute the constants of `hmm` (the emission constants are shared with it).
     pub fn new(hmm: &Hmm) -> Result<Self> {
         let n = hmm.n_states();
-        let d = hmm.n_features();
-        let diag = hmm.covariance() == CovarianceType::Diag;
-        let mut comps = Vec::with_capacity(n);
-        for s in 0..n {
-            let mut row = Vec::with_capacity(hmm.n_mix());
-            for m in 0..hmm.n_mix() {
-                let w = hmm.weights()[(s, m)];
-                let cov = &hmm.covars()[s][m];
-                let chol = cov.clone().cholesky().ok_or_else(|| {
-                    EngineError::NotPositiveDefinite(format!("state {s} component {m}"))
-                })?;
-                let l = chol.l();
-                let inv = l.clone().try_inverse().ok_or_else(|| {
-                    EngineError::NotPositiveDefinite(format!("state {s} component {m}"))
-                })?;
-                let log_det: f64 = 2.0 * (0..d).map(|k| l[(k, k)].ln()).sum::<f64>();
-                let mut inv_chol = vec![0.0; d * d];
-                for r in 0..d {
-                    for c in 0..d {
-                        inv_chol[r * d + c] = inv[(r, c)];
-                    }
-                }
-                row.push(Component {
-                    log_c: w.ln() - 0.5 * (d as f64 * (2.0 * std::f64::consts::PI).ln() + log_det),
-                    mean: hmm.means()[s].row(m).iter().copied().collect(),
-                    inv_chol,
-                    diag,
-                });
-            }
-            comps.push(row);
-        }
+        let emission = hmm.emission.clone();
         let trans: Vec<f64> = hmm.transmat().iter().copied().collect();
         let band = (0..n)
             .map(|j| {
@@ -130,7 +66,7 @@ impl CompiledHmm {
             n,
             start: hmm.startprob().iter().copied().collect(),
             trans,
-            comps,
+            emission,
             band,
         })
     }
@@ -138,21 +74,10 @@ impl CompiledHmm {
     /// `ln p(x_t | state)` for every row of `x` (only the `cols` columns), row-major `T x n`.
     #[cfg(test)]
     fn log_emissions(&self, x: &DMatrix<f64>, cols: &Range<usize>) -> Vec<f64> {
-        let t_len = x.nrows();
-        let mut out = vec![0.0; t_len * self.n];
-        let mut row = vec![0.0; cols.len()];
-        let mut tmp = Vec::new();
-        for t in 0..t_len {
-            for (k, c) in cols.clone().enumerate() {
-                row[k] = x[(t, c)];
-            }
-            for s in 0..self.n {
-                tmp.clear();
-                tmp.extend(self.comps[s].iter().map(|c| c.log_pdf(&row)));
-                out[t * self.n + s] = logsumexp(&tmp);
-            }
-        }
-        out
+        let sub = x.columns(cols.start, cols.len()).into_owned();
+        let (mut comp, mut logb) = (Vec::new(), Vec::new());
+        self.emission.log_emissions(&sub, &mut comp, &mut logb);
+        logb
     }
 
     /// Prefix scores of the sequence whose emission table is `logb` (`T x n`, row-major).
@@ -273,33 +198,23 @@ impl Scaled {
     }
 
     /// Directly from the model: `b[t, j] = sum_m exp(ln w_jm N_jm(x_t) - shift[t])` with
-    /// `shift[t]` the largest component term, so no logarithm is taken per sample.
+    /// `shift[t]` the largest component term, so no logarithm is taken per sample
+    /// ([`Emission::scaled_block`], vectorised).
     fn direct(m: &CompiledHmm, x: &DMatrix<f64>, cols: &Range<usize>) -> Self {
         let (t_len, n) = (x.nrows(), m.n);
+        let data = &x.as_slice()[cols.start * t_len..cols.end * t_len];
         let mut b = vec![0.0; t_len * n];
         let mut shift = vec![0.0; t_len];
-        let mut row = vec![0.0; cols.len()];
-        let mut lp: Vec<f64> = Vec::with_capacity(m.comps.iter().map(Vec::len).sum());
-        for t in 0..t_len {
-            for (k, c) in cols.clone().enumerate() {
-                row[k] = x[(t, c)];
-            }
-            lp.clear();
-            for comps in &m.comps {
-                lp.extend(comps.iter().map(|c| c.log_pdf(&row)));
-            }
-            let hi = lp.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            shift[t] = hi;
-            if hi.is_finite() {
-                let mut k = 0;
-                for (j, comps) in m.comps.iter().enumerate() {
-                    let mut acc = 0.0;
-                    for _ in comps {
-                        acc += (lp[k] - hi).exp();
-                        k += 1;
-                    }
-                    b[t * n + j] = acc;
-                }
+        if t_len == 0 {
+            return Self { b, shift };
+        }
+        let mut comp = vec![0.0; m.emission.n_components() * t_len];
+        let mut sm = vec![0.0; t_len * n];
+        m.emission
+            .scaled_block(data, t_len, 0, t_len, &mut comp, &mut sm, &mut shift);
+        for (j, col) in sm.chunks_exact(t_len).enumerate() {
+            for (t, &v) in col.iter().enumerate() {
+                b[t * n + j] = v;
             }
         }
         Self { b, shift }
