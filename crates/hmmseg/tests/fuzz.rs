@@ -48,11 +48,11 @@ fn matrix(
 ) -> DMatrix<f64> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut m = DMatrix::from_fn(rows, cols, |_, _| {
-        (rng.gen::<f64>() * 2.0 - 1.0) * magnitude
+        (rng.random::<f64>() * 2.0 - 1.0) * magnitude
     });
     if let Some(v) = special {
         if rows * cols > 0 {
-            let k = rng.gen_range(0..rows * cols);
+            let k = rng.random_range(0..rows * cols);
             m[k] = v;
         }
     }
