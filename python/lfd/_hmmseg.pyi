@@ -126,6 +126,14 @@ def rising_table(
     min_rise: float = 0.02,
     dominance: float = 0.0,
 ) -> NDArray[np.bool_]: ...
+def rising_band(
+    z: NDArray[np.float64],
+    boundaries: NDArray[np.int64],
+    max_len: int,
+    min_rise: float = 0.02,
+    dominance: float = 0.0,
+) -> NDArray[np.bool_]: ...
+def band_ends(boundaries: NDArray[np.int64], max_len: int) -> NDArray[np.int64]: ...
 def segment_greedy(
     scores: NDArray[np.float64],
     boundaries: NDArray[np.int64],
@@ -134,6 +142,7 @@ def segment_greedy(
     rising: NDArray[np.bool_] | None = None,
     mode: str = "warn",
     lookahead: bool = False,
+    max_len: int = 0,
 ) -> tuple[list[_SegmentTuple], list[str]]: ...
 def segment_dp(
     scores: NDArray[np.float64],
@@ -143,6 +152,7 @@ def segment_dp(
     rising: NDArray[np.bool_] | None = None,
     mode: str = "warn",
     penalty: float = 0.0,
+    max_len: int = 0,
 ) -> tuple[list[_SegmentTuple], list[str]]: ...
 def default_template_params() -> str: ...
 def template_params(overrides_json: str) -> str: ...
@@ -171,6 +181,14 @@ class TemplateSet:
     def params_json(self) -> str: ...
     def normalise(self, x: NDArray[np.float64]) -> NDArray[np.float64]: ...
     def score_table(
+        self,
+        raw: NDArray[np.float64],
+        boundaries: NDArray[np.int64],
+        max_len: int = 0,
+        end: str = "final",
+        features: list[int] | None = None,
+    ) -> NDArray[np.float64]: ...
+    def score_band(
         self,
         raw: NDArray[np.float64],
         boundaries: NDArray[np.int64],

@@ -5,14 +5,15 @@ use hmmseg::segment::greedy::greedy;
 use hmmseg::segment::scorer::EndState;
 use hmmseg::segment::templates::{FeatureGroup, TemplateParams, TemplateSet};
 use hmmseg::segment::{
-    dp::dp, Grammar, GrammarMode, GrammarSpec, RiseParams, ScoreTable, Segmentation,
+    dp::dp, Band, Grammar, GrammarMode, GrammarSpec, RiseParams, ScoreTable, Segmentation,
 };
 use hmmseg::stage1::{section_boundaries, Criterion, Stage1Params};
 use hmmseg::EngineError;
 use nalgebra::DMatrix;
 use numpy::ndarray::{Array2, Array3};
 use numpy::{
-    IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3,
+    IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2,
+    PyReadonlyArrayDyn,
 };
 use pyo3::prelude::*;
 
@@ -55,37 +56,106 @@ fn grammar(py: Python<'_>, grammar_json: &str, skills: &[String]) -> PyResult<Gr
     Grammar::for_skills(&spec, skills).py_err(py)
 }
 
-/// A `(K, K + 1, S)` array of summed log-likelihoods -> [`ScoreTable`].
-fn table(
+/// Scores and rise decisions from numpy -> a [`ScoreTable`] and its rise decisions in band order.
+///
+/// Either banded, `scores` `(N, S)` over the runs of `Band(boundaries, max_len)` with `rising`
+/// `(N,)`, or dense, `scores` `(K, K + 1, S)` over every run with `rising` `(K, K + 1)` (no
+/// `max_len` then: a dense table holds every run).
+fn inputs(
     py: Python<'_>,
-    scores: &PyReadonlyArray3<'_, f64>,
+    scores: &PyReadonlyArrayDyn<'_, f64>,
     boundaries: Vec<usize>,
-) -> PyResult<ScoreTable> {
+    rising: Option<&PyReadonlyArrayDyn<'_, bool>>,
+    max_len: usize,
+) -> PyResult<(ScoreTable, Option<Vec<bool>>)> {
     let a = scores.as_array();
     let k = boundaries.len().saturating_sub(1);
-    let (d0, d1, ns) = a.dim();
-    if d0 != k || d1 != k + 1 {
-        return Err(EngineError::ShapeMismatch(format!(
-            "scores must have shape ({k}, {}, n_skills) for {} boundaries, got ({d0}, {d1}, {ns})",
-            k + 1,
-            k + 1
-        )))
-        .py_err(py);
-    }
+    let shape = a.shape().to_vec();
+    let (table, dense) = match shape[..] {
+        [d0, d1, ns] => {
+            if d0 != k || d1 != k + 1 {
+                return Err(EngineError::ShapeMismatch(format!(
+                    "scores must have shape ({k}, {}, n_skills) for {} boundaries, got \
+                     ({d0}, {d1}, {ns})",
+                    k + 1,
+                    k + 1
+                )))
+                .py_err(py);
+            }
+            if max_len != 0 {
+                return Err(EngineError::InvalidParameter(
+                    "max_len applies to banded (N, n_skills) scores; a (K, K + 1, n_skills) \
+                     table holds every run"
+                        .into(),
+                ))
+                .py_err(py);
+            }
+            let band = Band::new(boundaries, 0).py_err(py)?;
+            let t = ScoreTable::from_band_fn(band, ns, |i, j, s| a[[i, j, s]]).py_err(py)?;
+            (t, true)
+        }
+        [_, ns] => {
+            let band = Band::new(boundaries, max_len).py_err(py)?;
+            let t = ScoreTable::from_values(band, ns, a.iter().copied().collect()).py_err(py)?;
+            (t, false)
+        }
+        _ => {
+            return Err(EngineError::ShapeMismatch(format!(
+                "scores must be banded (N, n_skills) or dense (K, K + 1, n_skills), got shape \
+                 {shape:?}"
+            )))
+            .py_err(py)
+        }
+    };
     if a.iter().any(|v| v.is_nan()) {
         return Err(EngineError::NonFinite(
             "scores contain NaN (use -inf to exclude)".into(),
         ))
         .py_err(py);
     }
-    ScoreTable::from_fn(boundaries, ns, |i, j, s| a[(i, j, s)]).py_err(py)
+    let rising = match rising {
+        None => None,
+        Some(r) => {
+            let r = r.as_array();
+            let band = table.band();
+            let want = if dense { k * (k + 1) } else { band.n_runs() };
+            let ndim = if dense { 2 } else { 1 };
+            if r.ndim() != ndim || r.len() != want {
+                return Err(EngineError::ShapeMismatch(format!(
+                    "rising must have shape {} for these scores, got {:?}",
+                    if dense {
+                        format!("({k}, {})", k + 1)
+                    } else {
+                        format!("({want},)")
+                    },
+                    r.shape()
+                )))
+                .py_err(py);
+            }
+            let flat: Vec<bool> = r.iter().copied().collect();
+            Some(if dense {
+                band.runs().map(|(i, j)| flat[i * (k + 1) + j]).collect()
+            } else {
+                flat
+            })
+        }
+    };
+    Ok((table, rising))
 }
 
-fn table_to_numpy<'py>(py: Python<'py>, t: &ScoreTable) -> Bound<'py, PyArray3<f64>> {
+fn dense_to_numpy<'py>(py: Python<'py>, t: &ScoreTable) -> PyResult<Bound<'py, PyArray3<f64>>> {
     let k = t.n_sections();
-    let arr = Array3::from_shape_vec((k, k + 1, t.n_skills()), t.as_slice().to_vec())
-        .unwrap_or_else(|_| Array3::zeros((k, k + 1, t.n_skills())));
-    arr.into_pyarray(py)
+    Array3::from_shape_vec((k, k + 1, t.n_skills()), t.to_dense())
+        .map(|a| a.into_pyarray(py))
+        .map_err(|e| EngineError::ShapeMismatch(format!("score table: {e}")))
+        .py_err(py)
+}
+
+fn band_to_numpy<'py>(py: Python<'py>, t: &ScoreTable) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    Array2::from_shape_vec((t.band().n_runs(), t.n_skills()), t.as_slice().to_vec())
+        .map(|a| a.into_pyarray(py))
+        .map_err(|e| EngineError::ShapeMismatch(format!("score table: {e}")))
+        .py_err(py)
 }
 
 type SegmentTuple = (usize, usize, usize, usize, usize, f64, f64, f64);
@@ -147,7 +217,8 @@ fn stage1_boundaries<'py>(
         .into_pyarray(py))
 }
 
-/// Is the TCP rising over each run of sections? `(K, K + 1)` bool.
+/// Is the TCP rising over each run of sections? `(K, K + 1)` bool (every run: for small inputs;
+/// see `rising_band`).
 #[pyfunction]
 #[pyo3(signature = (z, boundaries, min_rise=0.02, dominance=0.0))]
 fn rising_table<'py>(
@@ -169,58 +240,103 @@ fn rising_table<'py>(
     )
     .py_err(py)?;
     let k = b.len() - 1;
-    let arr = Array2::from_shape_vec((k, k + 1), r)
-        .unwrap_or_else(|_| Array2::from_elem((k, k + 1), false));
-    Ok(arr.into_pyarray(py))
+    Array2::from_shape_vec((k, k + 1), r)
+        .map(|a| a.into_pyarray(py))
+        .map_err(|e| EngineError::ShapeMismatch(format!("rise table: {e}")))
+        .py_err(py)
 }
 
-fn rising_vec(rising: Option<PyReadonlyArray2<'_, bool>>) -> Option<Vec<bool>> {
-    rising.map(|r| r.as_array().iter().copied().collect())
+/// Is the TCP rising over each run of the band of `max_len` samples? `(N,)` bool, in the band's
+/// run order (see `band_ends`).
+#[pyfunction]
+#[pyo3(signature = (z, boundaries, max_len, min_rise=0.02, dominance=0.0))]
+fn rising_band<'py>(
+    py: Python<'py>,
+    z: PyReadonlyArray1<'py, f64>,
+    boundaries: PyReadonlyArray1<'py, i64>,
+    max_len: usize,
+    min_rise: f64,
+    dominance: f64,
+) -> PyResult<Bound<'py, PyArray1<bool>>> {
+    let b = to_indices(py, &boundaries, "boundaries")?;
+    let z: Vec<f64> = z.as_array().iter().copied().collect();
+    let params = RiseParams {
+        min_rise,
+        dominance,
+    };
+    let r = py
+        .detach(|| {
+            let band = Band::new(b, max_len)?;
+            hmmseg::segment::rising_band(&z, &band, params)
+        })
+        .py_err(py)?;
+    Ok(r.into_pyarray(py))
+}
+
+/// The band of runs of at most `max_len` samples (0: no bound) over `boundaries`: the last
+/// admissible end section of the runs starting at each section, `(K,)` int64. The runs of start
+/// section `i` are `i..i + 1`, ..., `i..last[i]`, stored start by start.
+#[pyfunction]
+fn band_ends<'py>(
+    py: Python<'py>,
+    boundaries: PyReadonlyArray1<'py, i64>,
+    max_len: usize,
+) -> PyResult<Bound<'py, PyArray1<i64>>> {
+    let band = Band::new(to_indices(py, &boundaries, "boundaries")?, max_len).py_err(py)?;
+    Ok((0..band.n_sections())
+        .map(|i| band.last_end(i) as i64)
+        .collect::<Vec<_>>()
+        .into_pyarray(py))
 }
 
 /// The paper's greedy loop on a score table; returns `(segments, warnings)`, a segment being
 /// `(skill, start_section, end_section, start, end, score, margin, confidence)`. `lookahead` values each
-/// cut together with its best successor segment (see `hmmseg::segment::greedy`).
+/// cut together with its best successor segment (see `hmmseg::segment::greedy`). `scores` is
+/// banded, `(N, S)` over the runs of the band of `max_len` samples (with `rising` `(N,)`), or
+/// dense, `(K, K + 1, S)` (with `rising` `(K, K + 1)`, no `max_len`).
 #[pyfunction]
-#[pyo3(signature = (scores, boundaries, skills, grammar_json, rising=None, mode="warn", lookahead=false))]
+#[pyo3(signature = (scores, boundaries, skills, grammar_json, rising=None, mode="warn", lookahead=false, max_len=0))]
 #[allow(clippy::too_many_arguments)]
 fn segment_greedy<'py>(
     py: Python<'py>,
-    scores: PyReadonlyArray3<'py, f64>,
+    scores: PyReadonlyArrayDyn<'py, f64>,
     boundaries: PyReadonlyArray1<'py, i64>,
     skills: Vec<String>,
     grammar_json: &str,
-    rising: Option<PyReadonlyArray2<'py, bool>>,
+    rising: Option<PyReadonlyArrayDyn<'py, bool>>,
     mode: &str,
     lookahead: bool,
+    max_len: usize,
 ) -> PyResult<(Vec<SegmentTuple>, Vec<String>)> {
     let mode = parse_mode(py, mode)?;
-    let t = table(py, &scores, to_indices(py, &boundaries, "boundaries")?)?;
+    let b = to_indices(py, &boundaries, "boundaries")?;
+    let (t, r) = inputs(py, &scores, b, rising.as_ref(), max_len)?;
     let g = grammar(py, grammar_json, &skills)?;
-    let r = rising_vec(rising);
     let out = py
         .detach(|| greedy(&t, &g, r.as_deref(), mode, lookahead))
         .py_err(py)?;
     Ok(result(out))
 }
 
-/// The segmental DP on a score table (see `segment_greedy` for the result).
+/// The segmental DP on a score table (see `segment_greedy` for the inputs and the result).
 #[pyfunction]
-#[pyo3(signature = (scores, boundaries, skills, grammar_json, rising=None, mode="warn", penalty=0.0))]
+#[pyo3(signature = (scores, boundaries, skills, grammar_json, rising=None, mode="warn", penalty=0.0, max_len=0))]
+#[allow(clippy::too_many_arguments)]
 fn segment_dp<'py>(
     py: Python<'py>,
-    scores: PyReadonlyArray3<'py, f64>,
+    scores: PyReadonlyArrayDyn<'py, f64>,
     boundaries: PyReadonlyArray1<'py, i64>,
     skills: Vec<String>,
     grammar_json: &str,
-    rising: Option<PyReadonlyArray2<'py, bool>>,
+    rising: Option<PyReadonlyArrayDyn<'py, bool>>,
     mode: &str,
     penalty: f64,
+    max_len: usize,
 ) -> PyResult<(Vec<SegmentTuple>, Vec<String>)> {
     let mode = parse_mode(py, mode)?;
-    let t = table(py, &scores, to_indices(py, &boundaries, "boundaries")?)?;
+    let b = to_indices(py, &boundaries, "boundaries")?;
+    let (t, r) = inputs(py, &scores, b, rising.as_ref(), max_len)?;
     let g = grammar(py, grammar_json, &skills)?;
-    let r = rising_vec(rising);
     let out = py
         .detach(|| dp(&t, &g, r.as_deref(), mode, penalty))
         .py_err(py)?;
@@ -318,9 +434,10 @@ impl PyTemplateSet {
         Ok(Array2::from_shape_fn(y.shape(), |(r, c)| y[(r, c)]).into_pyarray(py))
     }
 
-    /// Summed log-likelihoods `(K, K + 1, S)` of every run of sections of raw observations;
-    /// `end` = "final" (a segment must end in the last HMM state) or "any"; `features` = the
-    /// feature indices to sum (all if None).
+    /// Summed log-likelihoods `(K, K + 1, S)` of every run of sections of raw observations,
+    /// `-inf` for runs longer than `max_len` samples (quadratic in the number of sections: for
+    /// small inputs; see `score_band`); `end` = "final" (a segment must end in the last HMM
+    /// state) or "any"; `features` = the feature indices to sum (all if None).
     #[pyo3(signature = (raw, boundaries, max_len=0, end="final", features=None))]
     fn score_table<'py>(
         &self,
@@ -331,6 +448,37 @@ impl PyTemplateSet {
         end: &str,
         features: Option<Vec<usize>>,
     ) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        let t = self.scores(py, &raw, &boundaries, max_len, end, features)?;
+        dense_to_numpy(py, &t)
+    }
+
+    /// Summed log-likelihoods `(N, S)` of the runs of sections of at most `max_len` samples
+    /// (the band of `band_ends(boundaries, max_len)`, in its run order); see `score_table`.
+    #[pyo3(signature = (raw, boundaries, max_len=0, end="final", features=None))]
+    fn score_band<'py>(
+        &self,
+        py: Python<'py>,
+        raw: PyReadonlyArray2<'py, f64>,
+        boundaries: PyReadonlyArray1<'py, i64>,
+        max_len: usize,
+        end: &str,
+        features: Option<Vec<usize>>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let t = self.scores(py, &raw, &boundaries, max_len, end, features)?;
+        band_to_numpy(py, &t)
+    }
+}
+
+impl PyTemplateSet {
+    fn scores(
+        &self,
+        py: Python<'_>,
+        raw: &PyReadonlyArray2<'_, f64>,
+        boundaries: &PyReadonlyArray1<'_, i64>,
+        max_len: usize,
+        end: &str,
+        features: Option<Vec<usize>>,
+    ) -> PyResult<ScoreTable> {
         let end = match end {
             "final" => EndState::Final,
             "any" => EndState::Any,
@@ -341,15 +489,13 @@ impl PyTemplateSet {
                 .py_err(py)
             }
         };
-        let b = to_indices(py, &boundaries, "boundaries")?;
-        let x = to_matrix(&raw);
-        let t = py
-            .detach(|| {
-                self.inner
-                    .score_table(&x, &b, max_len, end, features.as_deref())
-            })
-            .py_err(py)?;
-        Ok(table_to_numpy(py, &t))
+        let b = to_indices(py, boundaries, "boundaries")?;
+        let x = to_matrix(raw);
+        py.detach(|| {
+            self.inner
+                .score_table(&x, &b, max_len, end, features.as_deref())
+        })
+        .py_err(py)
     }
 }
 
@@ -375,6 +521,8 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(template_params, m)?)?;
     m.add_function(wrap_pyfunction!(stage1_boundaries, m)?)?;
     m.add_function(wrap_pyfunction!(rising_table, m)?)?;
+    m.add_function(wrap_pyfunction!(rising_band, m)?)?;
+    m.add_function(wrap_pyfunction!(band_ends, m)?)?;
     m.add_function(wrap_pyfunction!(segment_greedy, m)?)?;
     m.add_function(wrap_pyfunction!(segment_dp, m)?)?;
     Ok(())
