@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -286,7 +287,7 @@ def stage2_scores(
         templates,
         band,
         p.end,
-        extra=co_motion_penalty(
+        extra=co_motion_per_object(
             moving,
             bounds,
             templates.skills,
@@ -395,6 +396,22 @@ def co_motion_penalty(
 
     ``grace`` samples at each end of a segment are free. ``None`` if ``weight`` is 0.
     """
+    of = co_motion_per_object(moving, bounds, skills, weight, lifted=lifted, grace=grace, band=band)
+    return None if of is None else np.stack([of(o) for o in range(moving.shape[0])])
+
+
+def co_motion_per_object(
+    moving: np.ndarray,
+    bounds: np.ndarray,
+    skills: list[str],
+    weight: float,
+    *,
+    lifted: np.ndarray | None = None,
+    grace: int = 0,
+    band: Band | None = None,
+) -> Callable[[int], np.ndarray] | None:
+    """:func:`co_motion_penalty` one target object at a time: ``of(o)`` is its ``[o]`` (the
+    sample counts behind it are computed once, per object and run, without the skill axis)."""
     if weight == 0 or moving.size == 0:
         return None
     n_obj, n = moving.shape
@@ -409,14 +426,23 @@ def co_motion_penalty(
     everywhere[:] = np.arange(n + 1)
     own = _count_after(moving, everywhere, lo, hi)  # (O, *runs)
     others = own.sum(axis=0, keepdims=True) - own
-    out = others[..., None] + own[..., None] * _skill_mask(skills, TARGET_STILL)
+    still = _skill_mask(skills, TARGET_STILL)
+    set_down = relift = None
     if lifted is not None:
         resting = ~lifted
         set_down = _count_after(resting, _next_true(lifted), lo, hi)
         relift = _count_after(lifted, _next_true(resting), lo, hi)
-        out = out + set_down[..., None] * _skill_mask(skills, NO_SET_DOWN)
-        out = out + relift[..., None] * _skill_mask(skills, NO_LIFT)
-    return np.asarray(-weight * out, dtype=np.float64)
+    no_set_down, no_lift = _skill_mask(skills, NO_SET_DOWN), _skill_mask(skills, NO_LIFT)
+
+    def of(o: int) -> np.ndarray:
+        out = others[o][..., None] + own[o][..., None] * still
+        if set_down is not None and relift is not None:
+            out += set_down[o][..., None] * no_set_down
+            out += relift[o][..., None] * no_lift
+        out *= -weight
+        return np.asarray(out, dtype=np.float64)
+
+    return of
 
 
 def _skill_mask(skills: list[str], which: frozenset[str]) -> np.ndarray:
@@ -429,35 +455,53 @@ def scores_over_objects(
     band: Band,
     end: str,
     *,
-    extra: np.ndarray | None = None,
+    extra: np.ndarray | Callable[[int], np.ndarray] | None = None,
 ) -> StageTwoScores:
     """The score table over the runs of ``band`` maximised over the target object, from the
-    feature matrices, one (n, 10) array per target object; ``extra`` (O, N, S) is added per
-    target before the maximum (e.g. :func:`co_motion_penalty`)."""
+    feature matrices, one (n, 10) array per target object; ``extra`` (O, N, S), or a function
+    of the object giving its (N, S) (:func:`co_motion_per_object`), is added per target before
+    the maximum (e.g. :func:`co_motion_penalty`). One object's table at a time is held."""
     engine = templates.engine
     groups = getattr(templates, "features", None)
     bounds, max_len = band.bounds, band.max_len
+    extra_of = extra if callable(extra) or extra is None else extra.__getitem__
     if groups is None:  # a stand-in without feature metadata: a dense table per object
-        stack = np.stack([band.take(engine.score_table(v, bounds, max_len, end)) for v in values])
-        if extra is not None:
-            stack = stack + extra
-        return StageTwoScores(band, np.ascontiguousarray(stack.max(axis=0)), stack.argmax(axis=0))
-    # features that do not depend on the target (fingertip distance, TCP rise, hand speed) are
-    # scored once
-    shared = [
-        g
-        for g, (_name, a, b) in enumerate(groups)
-        if all(np.array_equal(values[0][:, a:b], v[:, a:b]) for v in values[1:])
-    ]
-    rest = [g for g in range(len(groups)) if g not in shared]
-    base = engine.score_band(values[0], bounds, max_len, end, shared) if shared else 0.0
-    if rest:
-        stack = base + np.stack([engine.score_band(v, bounds, max_len, end, rest) for v in values])
+        shared: list[int] = []
+        rest: list[int] | None = None
+        n_obj = len(values)
     else:
-        stack = np.asarray(base)[None]
-    if extra is not None:
-        stack = stack + extra
-    return StageTwoScores(band, np.ascontiguousarray(stack.max(axis=0)), stack.argmax(axis=0))
+        # features that do not depend on the target (fingertip distance, TCP rise, hand speed)
+        # are scored once
+        shared = [
+            g
+            for g, (_name, a, b) in enumerate(groups)
+            if all(np.array_equal(values[0][:, a:b], v[:, a:b]) for v in values[1:])
+        ]
+        rest = [g for g in range(len(groups)) if g not in shared]
+        n_obj = len(values) if rest or extra is not None else 1
+    base = engine.score_band(values[0], bounds, max_len, end, shared) if shared else 0.0
+
+    def scores_of(o: int) -> np.ndarray:
+        if rest is None:
+            cur = band.take(engine.score_table(values[o], bounds, max_len, end))
+        elif rest:
+            cur = base + engine.score_band(values[o], bounds, max_len, end, rest)
+        else:
+            cur = np.array(base, dtype=np.float64)
+        if extra_of is not None:
+            cur = cur + extra_of(o)
+        return np.asarray(cur, dtype=np.float64)
+
+    # the maximum and the first object reaching it (np.max / np.argmax over the objects; the
+    # scores are never NaN)
+    best = np.ascontiguousarray(scores_of(0))
+    target = np.zeros(best.shape, dtype=np.min_scalar_type(n_obj - 1))
+    for o in range(1, n_obj):
+        cur = scores_of(o)
+        better = cur > best
+        np.copyto(best, cur, where=better)
+        target[better] = o
+    return StageTwoScores(band, best, target)
 
 
 def _make_segment(
