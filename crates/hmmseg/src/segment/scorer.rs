@@ -593,17 +593,17 @@ mod tests {
         let mut b: Vec<usize> = (0..300).filter(|t| t % 7 == 0 || t % 11 == 0).collect();
         b.push(300);
         let bits = |t: &ScoreTable| t.as_slice().iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        let g: Vec<Range<usize>> = std::iter::once(0..2).collect();
         for max_len in [0, 20, 45] {
             for end in [EndState::Any, EndState::Final] {
-                let whole = blocked_score_table(&models, &[0..2], &x, &b, max_len, end, usize::MAX)
-                    .unwrap();
+                let whole =
+                    blocked_score_table(&models, &g, &x, &b, max_len, end, usize::MAX).unwrap();
                 assert!(whole.as_slice().iter().any(|v| v.is_finite()));
                 for block in [1, 10, 64] {
-                    let t =
-                        blocked_score_table(&models, &[0..2], &x, &b, max_len, end, block).unwrap();
+                    let t = blocked_score_table(&models, &g, &x, &b, max_len, end, block).unwrap();
                     assert_eq!(bits(&t), bits(&whole), "max_len {max_len} block {block}");
                 }
-                let t = compiled_score_table(&models, &[0..2], &x, &b, max_len, end).unwrap();
+                let t = compiled_score_table(&models, &g, &x, &b, max_len, end).unwrap();
                 assert_eq!(bits(&t), bits(&whole));
             }
         }
