@@ -163,14 +163,14 @@ class _Loader:
         topic = T.confidence_topic(side)
         for tc, data in self.raw.messages.get(topic, []):
             given, seen = _confidence(data, f"{self.raw.path}: {topic} at {tc} ns")
-            i = row.get(tc)
-            if i is None or tc in done:  # the first message of a hand frame counts
+            at = row.get(tc)
+            if at is None or tc in done:  # the first message of a hand frame counts
                 continue
             done.add(tc)
-            conf[i] = np.array(given, dtype=np.float64)
+            conf[at] = np.array(given, dtype=np.float64)
             if seen is not None:
-                vis[i] = np.array(seen, dtype=bool)
-                has_vis[i] = True
+                vis[at] = np.array(seen, dtype=bool)
+                has_vis[at] = True
         # files written before "visible" existed: observed with confidence > 0
         vis[~has_vis] = finite[~has_vis] & (conf[~has_vis] > 0)
         return HandTrack(t_ns=t, keypoints=kp, confidence=conf, side=side, visible=vis)
