@@ -13,7 +13,12 @@ import numpy as np
 import pytest
 from lfd import _hmmseg
 from lfd.demo import Demonstration, HandTrack
-from lfd.errors import DemonstrationError, ModelFormatError
+from lfd.errors import (
+    DemonstrationError,
+    InvalidParameterError,
+    ModelFormatError,
+    ShapeMismatchError,
+)
 from lfd.segmentation import (
     SegmentParams,
     Templates,
@@ -176,6 +181,92 @@ def test_rising_table() -> None:
     r = _hmmseg.rising_table(z, np.array([0, 10, 20, 30]), 0.02, 0.0)
     assert r.shape == (3, 4)
     assert r[1, 2] and r[0, 3] and not r[0, 1] and not r[2, 3]
+
+
+def test_band_holds_the_runs_of_at_most_max_len_samples() -> None:
+    from lfd.segmentation.band import Band
+
+    # sections of 3, 4, 5, 2 samples, runs of at most 7: 0..2 fits, 0..3 does not; a single
+    # section is a run however long
+    band = Band.of([0, 3, 7, 12, 14], 7)
+    assert band.last.tolist() == [2, 2, 4, 4]
+    runs = list(zip(band.start.tolist(), band.end.tolist(), strict=True))
+    assert runs == [(0, 1), (0, 2), (1, 2), (2, 3), (2, 4), (3, 4)]
+    assert [band.index(i, j) for i, j in runs] == list(range(6))
+    assert band.index(0, 3) is None and band.index(2, 2) is None and band.index(3, 5) is None
+    assert band.ends(2).tolist() == [3, 4] and band.rows(2) == slice(3, 5)
+    values = np.arange(12.0).reshape(6, 2)
+    dense = band.dense(values)
+    assert dense.shape == (4, 5, 2) and dense[2, 4, 1] == 9.0 and dense[0, 3, 0] == -np.inf
+    np.testing.assert_array_equal(band.take(dense), values)
+    assert Band.of([0, 3, 7, 12, 14], 0).n_runs == 10  # no bound: every run
+    assert Band.of([0, 10, 11], 5).n_runs == 2
+
+
+def test_banded_engine_functions_agree_with_the_dense_ones() -> None:
+    from lfd.segmentation.band import Band
+
+    rng = np.random.default_rng(3)
+    skills = list(SKILLS)
+    b = np.r_[0, np.cumsum(rng.integers(3, 12, 40))].astype(np.int64)
+    n, k = int(b[-1]), len(b) - 1
+    max_len = 30
+    band = Band.of(b, max_len)
+    assert band.n_runs < k * (k + 1) // 2
+    # a dense table holding -inf outside the band, like the score tables
+    dense = np.full((k, k + 1, len(skills)), -np.inf)
+    dense[band.start, band.end] = (
+        -rng.uniform(1, 5, (band.n_runs, len(skills))) * (b[band.end] - b[band.start])[:, None]
+    )
+    z = np.cumsum(rng.normal(0, 0.01, n))
+    rising = _hmmseg.rising_table(z, b, 0.02, 0.0)
+    rising_band = _hmmseg.rising_band(z, b, max_len, 0.02, 0.0)
+    np.testing.assert_array_equal(rising_band, rising[band.start, band.end])
+    for mode in ("off", "warn", "enforce"):
+        for lookahead in (False, True):
+            assert _hmmseg.segment_greedy(
+                band.take(dense), b, skills, grammar_json(), rising_band, mode, lookahead, max_len
+            ) == _hmmseg.segment_greedy(dense, b, skills, grammar_json(), rising, mode, lookahead)
+        assert _hmmseg.segment_dp(
+            band.take(dense), b, skills, grammar_json(), rising_band, mode, 5.0, max_len
+        ) == _hmmseg.segment_dp(dense, b, skills, grammar_json(), rising, mode, 5.0)
+    # the layouts must match: a band of another length, a dense rise table, max_len with a
+    # dense table
+    with pytest.raises(ShapeMismatchError):
+        _hmmseg.segment_dp(band.take(dense), b, skills, grammar_json(), None, "warn", 0.0, 20)
+    with pytest.raises(ShapeMismatchError):
+        _hmmseg.segment_dp(band.take(dense), b, skills, grammar_json(), rising, "warn", 0.0, 30)
+    with pytest.raises(InvalidParameterError):
+        _hmmseg.segment_dp(dense, b, skills, grammar_json(), rising, "warn", 0.0, 30)
+    # the template scores: the band is the dense table's entries
+    t = Templates.default()
+    x = np.ascontiguousarray(rng.uniform(0, 1, (n, 10)) * (t.ranges[:, 1] - t.ranges[:, 0]))
+    x += t.ranges[:, 0]
+    full = t.engine.score_table(x, b, max_len, "final", [0, 2])
+    banded = t.engine.score_band(x, b, max_len, "final", [0, 2])
+    np.testing.assert_array_equal(banded, band.take(full))
+    np.testing.assert_array_equal(band.dense(band.take(full)), full)  # -inf outside the band
+
+
+def test_banded_co_motion_penalty_is_the_dense_one_on_the_band() -> None:
+    from lfd.segmentation.band import Band
+    from lfd.segmentation.pipeline import co_motion_penalty
+
+    rng = np.random.default_rng(5)
+    n, skills = 300, list(SKILLS)
+    moving = rng.random((3, n)) < 0.2
+    lifted = np.cumsum(rng.random((3, n)) < 0.05, axis=1) % 2 == 1
+    b = np.r_[0, np.cumsum(rng.integers(2, 15, 60))]
+    b = [*b[b < n].tolist(), n]
+    band = Band.of(b, 40)
+    for grace in (0, 2):
+        dense = co_motion_penalty(moving, np.array(b), skills, 20.0, lifted=lifted, grace=grace)
+        banded = co_motion_penalty(
+            moving, np.array(b), skills, 20.0, lifted=lifted, grace=grace, band=band
+        )
+        assert dense is not None and banded is not None
+        assert banded.shape == (3, band.n_runs, len(skills))
+        np.testing.assert_array_equal(banded, dense[:, band.start, band.end])
 
 
 # --- templates -------------------------------------------------------------------------------

@@ -65,3 +65,84 @@ def test_edge_cases() -> None:
     assert f1_at([], TRUTH, 0.1) == 0.0
     with pytest.raises(ValueError):
         frame_accuracy(TRUTH, [])
+
+
+def _naive(pred: list[SkillLabel], truth: list[SkillLabel]) -> dict[str, float]:
+    """The metrics by their definitions, quadratic (the reference for the linear versions)."""
+    import numpy as np
+
+    def lev(a: list[str], b: list[str]) -> int:
+        prev = list(range(len(b) + 1))
+        for i, x in enumerate(a, 1):
+            cur = [i]
+            for j, y in enumerate(b, 1):
+                cur.append(min(prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (x != y)))
+            prev = cur
+        return prev[-1]
+
+    def at(spans: list[SkillLabel], t: np.ndarray) -> np.ndarray:
+        out = np.full(t.shape, "", dtype=object)
+        for s in spans:
+            out[(t >= s.start_ns) & (t < s.end_ns)] = s.skill
+        if spans:
+            out[t == spans[-1].end_ns] = spans[-1].skill
+        return out
+
+    def f1(iou: float) -> float:
+        matched, tp = [False] * len(truth), 0
+        for p in pred:
+            best, best_j = 0.0, -1
+            for j, t in enumerate(truth):
+                if t.skill != p.skill:
+                    continue
+                inter = min(p.end_ns, t.end_ns) - max(p.start_ns, t.start_ns)
+                union = max(p.end_ns, t.end_ns) - min(p.start_ns, t.start_ns)
+                v = inter / union if union > 0 else 0.0
+                if v > best:
+                    best, best_j = v, j
+            if best_j >= 0 and best >= iou and not matched[best_j]:
+                matched[best_j] = True
+                tp += 1
+        prec, rec = tp / len(pred), tp / len(truth)
+        return 0.0 if prec + rec == 0 else 2 * prec * rec / (prec + rec)
+
+    t = np.arange(truth[0].start_ns, truth[-1].end_ns + 1, 10_000_000, dtype=np.int64)
+    want, got = at(truth, t), at(pred, t)
+    keep = want != ""
+    wb = np.array([s.start_ns for s in truth[1:]], dtype=np.float64) * 1e-9
+    gb = np.array([s.start_ns for s in pred[1:]], dtype=np.float64) * 1e-9
+    a, b = [s.skill for s in pred], [s.skill for s in truth]
+    return {
+        "sequence_match": float(a == b),
+        "edit_distance": lev(a, b) / max(len(a), len(b)),
+        "frame_accuracy": float(np.mean(want[keep] == got[keep])),
+        "boundary_error_s": float(np.mean(np.min(np.abs(wb[:, None] - gb[None, :]), axis=1))),
+        "f1@10": f1(0.10),
+        "f1@25": f1(0.25),
+        "f1@50": f1(0.50),
+    }
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_linear_metrics_equal_their_quadratic_definitions(seed: int) -> None:
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    skills = ["pick_up", "move_with", "place", "move"]
+
+    def spans(n: int, gaps: bool) -> list[SkillLabel]:
+        ends = np.cumsum(rng.integers(1, 40, 2 * n)) * 50_000_000
+        out = []
+        for k in range(n):
+            a, b = (ends[2 * k], ends[2 * k + 1]) if gaps else (ends[2 * k - 1] if k else 0, ends[2 * k + 1])  # fmt: skip
+            out.append(SkillLabel(skills[int(rng.integers(0, 4))], int(a), int(b)))
+        return out
+
+    truth = spans(int(rng.integers(2, 60)), gaps=seed % 2 == 1)
+    pred = spans(int(rng.integers(2, 60)), gaps=False)
+    if seed == 5:  # out of time order: the f1 window does not apply
+        truth = truth[::-1]
+        truth.sort(key=lambda s: s.end_ns - s.start_ns)
+        truth = [*truth[1:], truth[0]]
+    got, want = all_metrics(pred, truth), _naive(pred, truth)
+    assert got == want

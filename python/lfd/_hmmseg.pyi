@@ -146,6 +146,14 @@ def rising_table(
     min_rise: float = 0.02,
     dominance: float = 0.0,
 ) -> NDArray[np.bool_]: ...
+def rising_band(
+    z: NDArray[np.float64],
+    boundaries: NDArray[np.int64],
+    max_len: int,
+    min_rise: float = 0.02,
+    dominance: float = 0.0,
+) -> NDArray[np.bool_]: ...
+def band_ends(boundaries: NDArray[np.int64], max_len: int) -> NDArray[np.int64]: ...
 def segment_greedy(
     scores: NDArray[np.float64],
     boundaries: NDArray[np.int64],
@@ -154,6 +162,7 @@ def segment_greedy(
     rising: NDArray[np.bool_] | None = None,
     mode: GrammarMode = "warn",
     lookahead: bool = False,
+    max_len: int = 0,
 ) -> tuple[list[_SegmentTuple], list[str]]: ...
 def segment_dp(
     scores: NDArray[np.float64],
@@ -163,6 +172,7 @@ def segment_dp(
     rising: NDArray[np.bool_] | None = None,
     mode: GrammarMode = "warn",
     penalty: float = 0.0,
+    max_len: int = 0,
 ) -> tuple[list[_SegmentTuple], list[str]]: ...
 def default_template_params() -> str: ...
 def template_params(overrides_json: str) -> str: ...
@@ -191,6 +201,14 @@ class TemplateSet:
     def params_json(self) -> str: ...
     def normalise(self, x: NDArray[np.float64]) -> NDArray[np.float64]: ...
     def score_table(
+        self,
+        raw: NDArray[np.float64],
+        boundaries: NDArray[np.int64],
+        max_len: int = 0,
+        end: EndState = "final",
+        features: list[int] | None = None,
+    ) -> NDArray[np.float64]: ...
+    def score_band(
         self,
         raw: NDArray[np.float64],
         boundaries: NDArray[np.int64],

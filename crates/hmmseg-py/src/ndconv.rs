@@ -156,6 +156,30 @@ pub fn array_nd(
     Ok(v.to_owned())
 }
 
+/// An array of any number of dimensions as an owned array in logical (C) order.
+pub fn array_any<T: Element + Clone>(
+    obj: &Bound<'_, PyAny>,
+    name: &str,
+    what: &str,
+) -> PyResult<ArrayD<T>> {
+    let a = readonly::<T, IxDyn>(obj, name, what)?;
+    Ok(a.as_array().to_owned())
+}
+
+/// A 1-D bool array of `len` values.
+pub fn bool_vector(obj: &Bound<'_, PyAny>, name: &str, len: usize) -> PyResult<Vec<bool>> {
+    let what = format!("({len},)");
+    let a = readonly::<bool, Ix1>(obj, name, &what)?;
+    let v = a.as_array();
+    if v.len() != len {
+        return Err(shape(
+            obj.py(),
+            format!("{name} must have shape {what}, got {}", py_shape(v.shape())),
+        ));
+    }
+    Ok(v.iter().copied().collect())
+}
+
 /// A 1-D int64 array of non-negative indices.
 pub fn indices(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<usize>> {
     let a = readonly::<i64, Ix1>(obj, name, "of indices")?;

@@ -5,12 +5,12 @@ use hmmseg::segment::greedy::greedy;
 use hmmseg::segment::scorer::EndState;
 use hmmseg::segment::templates::{FeatureGroup, TemplateParams, TemplateSet};
 use hmmseg::segment::{
-    dp::dp, Grammar, GrammarMode, GrammarSpec, RiseParams, ScoreTable, Segmentation,
+    dp::dp, Band, Grammar, GrammarMode, GrammarSpec, RiseParams, ScoreTable, Segmentation,
 };
 use hmmseg::stage1::{section_boundaries, Criterion, Stage1Params};
 use hmmseg::EngineError;
 use nalgebra::DMatrix;
-use numpy::{PyArray2, PyArrayDyn};
+use numpy::{PyArray1, PyArray2, PyArrayDyn};
 use pyo3::prelude::*;
 
 use crate::errors::{guard, IntoPyResult};
@@ -39,47 +39,95 @@ fn n_sections(py: Python<'_>, boundaries: &[usize]) -> PyResult<usize> {
     }
 }
 
-/// A `(K, K + 1, S)` array of summed log-likelihoods -> [`ScoreTable`].
-fn table(
+/// Scores and rise decisions from numpy -> a [`ScoreTable`] and its rise decisions in band order.
+///
+/// Either banded, `scores` `(N, S)` over the runs of `Band(boundaries, max_len)` with `rising`
+/// `(N,)`, or dense, `scores` `(K, K + 1, S)` over every run with `rising` `(K, K + 1)` (no
+/// `max_len` then: a dense table holds every run).
+fn inputs(
     py: Python<'_>,
     scores: &Bound<'_, PyAny>,
     boundaries: Vec<usize>,
-) -> PyResult<ScoreTable> {
+    rising: Option<&Bound<'_, PyAny>>,
+    max_len: usize,
+) -> PyResult<(ScoreTable, Option<Vec<bool>>)> {
     let k = n_sections(py, &boundaries)?;
-    let a = ndconv::array_nd(
+    let a = ndconv::array_any::<f64>(
         scores,
         "scores",
-        3,
-        "(n_sections, n_sections + 1, n_skills)",
+        "(n_runs, n_skills) or (n_sections, n_sections + 1, n_skills)",
     )?;
-    let (d0, d1, ns) = (a.shape()[0], a.shape()[1], a.shape()[2]);
-    if d0 != k || d1 != k + 1 {
-        return Err(EngineError::ShapeMismatch(format!(
-            "scores must have shape ({k}, {}, n_skills) for {} boundaries, got ({d0}, {d1}, {ns})",
-            k + 1,
-            k + 1
-        )))
-        .py_err(py);
-    }
+    let shape = a.shape().to_vec();
+    let (table, dense) = match shape[..] {
+        [d0, d1, ns] => {
+            if d0 != k || d1 != k + 1 {
+                return Err(EngineError::ShapeMismatch(format!(
+                    "scores must have shape ({k}, {}, n_skills) for {} boundaries, got \
+                     ({d0}, {d1}, {ns})",
+                    k + 1,
+                    k + 1
+                )))
+                .py_err(py);
+            }
+            if max_len != 0 {
+                return Err(EngineError::InvalidParameter(
+                    "max_len applies to banded (N, n_skills) scores; a (K, K + 1, n_skills) \
+                     table holds every run"
+                        .into(),
+                ))
+                .py_err(py);
+            }
+            let band = Band::new(boundaries, 0).py_err(py)?;
+            let t = ScoreTable::from_band_fn(band, ns, |i, j, s| a[[i, j, s]]).py_err(py)?;
+            (t, true)
+        }
+        [_, ns] => {
+            let band = Band::new(boundaries, max_len).py_err(py)?;
+            let t = ScoreTable::from_values(band, ns, a.iter().copied().collect()).py_err(py)?;
+            (t, false)
+        }
+        _ => {
+            return Err(EngineError::ShapeMismatch(format!(
+                "scores must be banded (N, n_skills) or dense (K, K + 1, n_skills), got shape \
+                 {}",
+                ndconv::py_shape(&shape)
+            )))
+            .py_err(py)
+        }
+    };
     if a.iter().any(|v| v.is_nan()) {
         return Err(EngineError::NonFinite(
             "scores contain NaN (use -inf to exclude)".into(),
         ))
         .py_err(py);
     }
-    ScoreTable::from_fn(boundaries, ns, |i, j, s| a[[i, j, s]]).py_err(py)
+    let rising = match rising {
+        None => None,
+        Some(r) => {
+            let band = table.band();
+            let flat = if dense {
+                let flat = bool_matrix(r, "rising", k, k + 1)?;
+                band.runs().map(|(i, j)| flat[i * (k + 1) + j]).collect()
+            } else {
+                ndconv::bool_vector(r, "rising", band.n_runs())?
+            };
+            Some(flat)
+        }
+    };
+    Ok((table, rising))
 }
 
-fn table_to_numpy<'py>(py: Python<'py>, t: &ScoreTable) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+fn dense_to_numpy<'py>(py: Python<'py>, t: &ScoreTable) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
     let k = t.n_sections();
-    shaped(py, &[k, k + 1, t.n_skills()], t.as_slice().to_vec())
+    shaped(py, &[k, k + 1, t.n_skills()], t.to_dense())
 }
 
-/// The Fig. 5 rise table `(K, K + 1)` as a row-major vector, if given.
-fn rising_vec(rising: Option<&Bound<'_, PyAny>>, k: usize) -> PyResult<Option<Vec<bool>>> {
-    rising
-        .map(|r| bool_matrix(r, "rising", k, k + 1))
-        .transpose()
+fn band_to_numpy<'py>(py: Python<'py>, t: &ScoreTable) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    shaped(
+        py,
+        &[t.band().n_runs(), t.n_skills()],
+        t.as_slice().to_vec(),
+    )
 }
 
 type SegmentTuple = (usize, usize, usize, usize, usize, f64, f64, f64);
@@ -142,7 +190,8 @@ fn stage1_boundaries<'py>(
     })
 }
 
-/// Is the TCP rising over each run of sections? `(K, K + 1)` bool.
+/// Is the TCP rising over each run of sections? `(K, K + 1)` bool (every run: for small inputs;
+/// see `rising_band`).
 #[pyfunction]
 #[pyo3(signature = (z, boundaries, min_rise=0.02, dominance=0.0))]
 fn rising_table<'py>(
@@ -173,11 +222,63 @@ fn rising_table<'py>(
     })
 }
 
+/// Is the TCP rising over each run of the band of `max_len` samples? `(N,)` bool, in the band's
+/// run order (see `band_ends`).
+#[pyfunction]
+#[pyo3(signature = (z, boundaries, max_len, min_rise=0.02, dominance=0.0))]
+fn rising_band<'py>(
+    py: Python<'py>,
+    z: Bound<'py, PyAny>,
+    boundaries: Bound<'py, PyAny>,
+    #[pyo3(from_py_with = int_arg)] max_len: i128,
+    min_rise: f64,
+    dominance: f64,
+) -> PyResult<Bound<'py, PyArray1<bool>>> {
+    guard(py, || {
+        let b = indices(&boundaries, "boundaries")?;
+        n_sections(py, &b)?;
+        let max_len = count(py, max_len, "max_len", 0)?;
+        let z = vector(&z, "z", "(n_samples,)")?;
+        let params = RiseParams {
+            min_rise,
+            dominance,
+        };
+        let r = py
+            .detach(|| {
+                let band = Band::new(b, max_len)?;
+                hmmseg::segment::rising_band(&z, &band, params)
+            })
+            .py_err(py)?;
+        Ok(PyArray1::from_vec(py, r))
+    })
+}
+
+/// The band of runs of at most `max_len` samples (0: no bound) over `boundaries`: the last
+/// admissible end section of the runs starting at each section, `(K,)` int64. The runs of start
+/// section `i` are `i..i + 1`, ..., `i..last[i]`, stored start by start.
+#[pyfunction]
+fn band_ends<'py>(
+    py: Python<'py>,
+    boundaries: Bound<'py, PyAny>,
+    #[pyo3(from_py_with = int_arg)] max_len: i128,
+) -> PyResult<Bound<'py, PyArray1<i64>>> {
+    guard(py, || {
+        let b = indices(&boundaries, "boundaries")?;
+        n_sections(py, &b)?;
+        let max_len = count(py, max_len, "max_len", 0)?;
+        let band = Band::new(b, max_len).py_err(py)?;
+        let ends: Vec<usize> = (0..band.n_sections()).map(|i| band.last_end(i)).collect();
+        Ok(ndconv::indices_to_numpy(py, &ends))
+    })
+}
+
 /// The paper's greedy loop on a score table; returns `(segments, warnings)`, a segment being
 /// `(skill, start_section, end_section, start, end, score, margin, confidence)`. `lookahead` values each
-/// cut together with its best successor segment (see `hmmseg::segment::greedy`).
+/// cut together with its best successor segment (see `hmmseg::segment::greedy`). `scores` is
+/// banded, `(N, S)` over the runs of the band of `max_len` samples (with `rising` `(N,)`), or
+/// dense, `(K, K + 1, S)` (with `rising` `(K, K + 1)`, no `max_len`).
 #[pyfunction]
-#[pyo3(signature = (scores, boundaries, skills, grammar_json, rising=None, mode="warn", lookahead=false))]
+#[pyo3(signature = (scores, boundaries, skills, grammar_json, rising=None, mode="warn", lookahead=false, max_len=0))]
 #[allow(clippy::too_many_arguments)]
 fn segment_greedy<'py>(
     py: Python<'py>,
@@ -188,12 +289,19 @@ fn segment_greedy<'py>(
     rising: Option<Bound<'py, PyAny>>,
     mode: &str,
     lookahead: bool,
+    #[pyo3(from_py_with = int_arg)] max_len: i128,
 ) -> PyResult<(Vec<SegmentTuple>, Vec<String>)> {
     guard(py, || {
         let mode: GrammarMode = mode.parse().py_err(py)?;
-        let t = table(py, &scores, indices(&boundaries, "boundaries")?)?;
+        let max_len = count(py, max_len, "max_len", 0)?;
+        let (t, r) = inputs(
+            py,
+            &scores,
+            indices(&boundaries, "boundaries")?,
+            rising.as_ref(),
+            max_len,
+        )?;
         let g = grammar(py, grammar_json, &skills)?;
-        let r = rising_vec(rising.as_ref(), t.n_sections())?;
         let out = py
             .detach(|| greedy(&t, &g, r.as_deref(), mode, lookahead))
             .py_err(py)?;
@@ -201,9 +309,10 @@ fn segment_greedy<'py>(
     })
 }
 
-/// The segmental DP on a score table (see `segment_greedy` for the result).
+/// The segmental DP on a score table (see `segment_greedy` for the inputs and the result).
 #[pyfunction]
-#[pyo3(signature = (scores, boundaries, skills, grammar_json, rising=None, mode="warn", penalty=0.0))]
+#[pyo3(signature = (scores, boundaries, skills, grammar_json, rising=None, mode="warn", penalty=0.0, max_len=0))]
+#[allow(clippy::too_many_arguments)]
 fn segment_dp<'py>(
     py: Python<'py>,
     scores: Bound<'py, PyAny>,
@@ -213,12 +322,19 @@ fn segment_dp<'py>(
     rising: Option<Bound<'py, PyAny>>,
     mode: &str,
     penalty: f64,
+    #[pyo3(from_py_with = int_arg)] max_len: i128,
 ) -> PyResult<(Vec<SegmentTuple>, Vec<String>)> {
     guard(py, || {
         let mode: GrammarMode = mode.parse().py_err(py)?;
-        let t = table(py, &scores, indices(&boundaries, "boundaries")?)?;
+        let max_len = count(py, max_len, "max_len", 0)?;
+        let (t, r) = inputs(
+            py,
+            &scores,
+            indices(&boundaries, "boundaries")?,
+            rising.as_ref(),
+            max_len,
+        )?;
         let g = grammar(py, grammar_json, &skills)?;
-        let r = rising_vec(rising.as_ref(), t.n_sections())?;
         let out = py
             .detach(|| dp(&t, &g, r.as_deref(), mode, penalty))
             .py_err(py)?;
@@ -366,9 +482,10 @@ impl PyTemplateSet {
         })
     }
 
-    /// Summed log-likelihoods `(K, K + 1, S)` of every run of sections of raw observations;
-    /// `end` = "final" (a segment must end in the last HMM state) or "any"; `features` = the
-    /// feature indices to sum (all if None).
+    /// Summed log-likelihoods `(K, K + 1, S)` of every run of sections of raw observations,
+    /// `-inf` for runs longer than `max_len` samples (quadratic in the number of sections: for
+    /// small inputs; see `score_band`); `end` = "final" (a segment must end in the last HMM
+    /// state) or "any"; `features` = the feature indices to sum (all if None).
     #[pyo3(signature = (raw, boundaries, max_len=0, end="final", features=None))]
     fn score_table<'py>(
         &self,
@@ -380,28 +497,74 @@ impl PyTemplateSet {
         #[pyo3(from_py_with = opt_int_list_arg)] features: Option<Vec<i128>>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         guard(py, || {
-            let end: EndState = end.parse().py_err(py)?;
-            let max_len = count(py, max_len, "max_len", 0)?;
-            let features = features
-                .map(|f| counts(py, &f, "features", 0))
-                .transpose()?;
-            let b = indices(&boundaries, "boundaries")?;
-            let k = n_sections(py, &b)?;
+            let t = self.scores(py, &raw, &boundaries, max_len, end, features, true)?;
+            dense_to_numpy(py, &t)
+        })
+    }
+
+    /// Summed log-likelihoods `(N, S)` of the runs of sections of at most `max_len` samples
+    /// (the band of `band_ends(boundaries, max_len)`, in its run order); see `score_table`.
+    #[pyo3(signature = (raw, boundaries, max_len=0, end="final", features=None))]
+    fn score_band<'py>(
+        &self,
+        py: Python<'py>,
+        raw: Bound<'py, PyAny>,
+        boundaries: Bound<'py, PyAny>,
+        #[pyo3(from_py_with = int_arg)] max_len: i128,
+        end: &str,
+        #[pyo3(from_py_with = opt_int_list_arg)] features: Option<Vec<i128>>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        guard(py, || {
+            let t = self.scores(py, &raw, &boundaries, max_len, end, features, false)?;
+            band_to_numpy(py, &t)
+        })
+    }
+}
+
+impl PyTemplateSet {
+    /// The score table of `raw` over `boundaries` (`dense`: checked against the size budget as
+    /// a `(K, K + 1, S)` table, else as its band).
+    #[allow(clippy::too_many_arguments)]
+    fn scores(
+        &self,
+        py: Python<'_>,
+        raw: &Bound<'_, PyAny>,
+        boundaries: &Bound<'_, PyAny>,
+        max_len: i128,
+        end: &str,
+        features: Option<Vec<i128>>,
+        dense: bool,
+    ) -> PyResult<ScoreTable> {
+        let end: EndState = end.parse().py_err(py)?;
+        let max_len = count(py, max_len, "max_len", 0)?;
+        let features = features
+            .map(|f| counts(py, &f, "features", 0))
+            .transpose()?;
+        let b = indices(boundaries, "boundaries")?;
+        let k = n_sections(py, &b)?;
+        let n_skills = self.inner.skills.len();
+        if dense {
             check_table(
                 py,
                 "n_sections x (n_sections + 1) x n_skills (score table)",
-                &[k, k + 1, self.inner.skills.len()],
+                &[k, k + 1, n_skills],
                 8,
             )?;
-            let x = matrix(&raw, "raw", OBS)?;
-            let t = py
-                .detach(|| {
-                    self.inner
-                        .score_table(&x, &b, max_len, end, features.as_deref())
-                })
-                .py_err(py)?;
-            table_to_numpy(py, &t)
+        } else {
+            let band = Band::new(b.clone(), max_len).py_err(py)?;
+            check_table(
+                py,
+                "n_runs x n_skills (banded score table)",
+                &[band.n_runs(), n_skills],
+                8,
+            )?;
+        }
+        let x = matrix(raw, "raw", OBS)?;
+        py.detach(|| {
+            self.inner
+                .score_table(&x, &b, max_len, end, features.as_deref())
         })
+        .py_err(py)
     }
 }
 
@@ -433,6 +596,8 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(template_params, m)?)?;
     m.add_function(wrap_pyfunction!(stage1_boundaries, m)?)?;
     m.add_function(wrap_pyfunction!(rising_table, m)?)?;
+    m.add_function(wrap_pyfunction!(rising_band, m)?)?;
+    m.add_function(wrap_pyfunction!(band_ends, m)?)?;
     m.add_function(wrap_pyfunction!(segment_greedy, m)?)?;
     m.add_function(wrap_pyfunction!(segment_dp, m)?)?;
     Ok(())

@@ -14,6 +14,7 @@ import math
 import os
 import re
 import warnings
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -112,6 +113,12 @@ class _Loader:
 
     def decode(self, topic: str, cls: Any) -> tuple[np.ndarray, list[Any]]:
         """Decode a topic's messages, sorted by log time, duplicates dropped."""
+        t, each = self.each(topic, cls)
+        return t, list(each)
+
+    def each(self, topic: str, cls: Any) -> tuple[np.ndarray, Iterator[Any]]:
+        """:meth:`decode` one message at a time (a long recording's messages are not all held
+        decoded at once)."""
         items = self.raw.messages.get(topic, [])
         times = np.array([t for t, _ in items], dtype=np.int64)
         idx, unsorted, dups = _order(times)
@@ -119,51 +126,63 @@ class _Loader:
             self.unsorted[topic] = unsorted
         if dups:
             self.duplicates[topic] = dups
-        msgs = []
-        for i in idx:
-            msg = cls()
-            try:
-                msg.ParseFromString(items[i][1])
-            except DecodeError as err:
-                raise RecordingFormatError(
-                    f"{self.raw.path}: cannot decode a {cls.DESCRIPTOR.full_name} on {topic} "
-                    f"at {items[i][0]} ns: {err}"
-                ) from err
-            msgs.append(msg)
-        return times[idx], msgs
+
+        def parse() -> Iterator[Any]:
+            for i in idx:
+                msg = cls()
+                try:
+                    msg.ParseFromString(items[i][1])
+                except DecodeError as err:
+                    raise RecordingFormatError(
+                        f"{self.raw.path}: cannot decode a {cls.DESCRIPTOR.full_name} on "
+                        f"{topic} at {items[i][0]} ns: {err}"
+                    ) from err
+                yield msg
+
+        return times[idx], parse()
 
     def hand(self, side: str) -> HandTrack:
-        t, msgs = self.decode(T.hand_topic(side), PosesInFrame)
-        kp = np.full((len(msgs), 21, 3), np.nan)
+        t, msgs = self.each(T.hand_topic(side), PosesInFrame)
+        kp = np.full((len(t), 21, 3), np.nan)
+        bad: str | None = None  # reported once every message decoded, as before streaming
         for i, m in enumerate(msgs):
             if len(m.poses) != 21:
-                raise RecordingFormatError(
+                bad = bad or (
                     f"{self.raw.path}: hand message at {t[i]} ns has {len(m.poses)} poses, not 21"
                 )
+                continue
             kp[i] = [(p.position.x, p.position.y, p.position.z) for p in m.poses]
+        if bad is not None:
+            raise RecordingFormatError(bad)
         finite = np.isfinite(kp).all(axis=2)
         conf = finite.astype(np.float64)
-        by_time: dict[int, tuple[list[float], list[bool] | None]] = {}
+        vis = np.zeros_like(finite)
+        has_vis = np.zeros(len(t), dtype=bool)
+        row = {int(ti): i for i, ti in enumerate(t)}
+        done: set[int] = set()
         topic = T.confidence_topic(side)
         for tc, data in self.raw.messages.get(topic, []):
-            values = _confidence(data, f"{self.raw.path}: {topic} at {tc} ns")
-            by_time.setdefault(tc, values)
-        vis = np.zeros_like(finite)
-        for i, ti in enumerate(t):
-            given, seen = by_time.get(int(ti), (None, None))
-            if given is not None:
-                conf[i] = np.array(given, dtype=np.float64)
-            # files written before "visible" existed: observed with confidence > 0
-            vis[i] = np.array(seen, dtype=bool) if seen is not None else finite[i] & (conf[i] > 0)
+            given, seen = _confidence(data, f"{self.raw.path}: {topic} at {tc} ns")
+            at = row.get(tc)
+            if at is None or tc in done:  # the first message of a hand frame counts
+                continue
+            done.add(tc)
+            conf[at] = np.array(given, dtype=np.float64)
+            if seen is not None:
+                vis[at] = np.array(seen, dtype=bool)
+                has_vis[at] = True
+        # files written before "visible" existed: observed with confidence > 0
+        vis[~has_vis] = finite[~has_vis] & (conf[~has_vis] > 0)
         return HandTrack(t_ns=t, keypoints=kp, confidence=conf, side=side, visible=vis)
 
     def object(self, name: str, tag_id: int, size: Any) -> ObjectTrack:
-        t, msgs = self.decode(T.object_topic(name), PoseInFrame)
-        pos = np.array(
-            [(m.pose.position.x, m.pose.position.y, m.pose.position.z) for m in msgs]
-        ).reshape(-1, 3)
-        o = [m.pose.orientation for m in msgs]
-        quat = np.array([(q.x, q.y, q.z, q.w) for q in o]).reshape(-1, 4)
+        t, msgs = self.each(T.object_topic(name), PoseInFrame)
+        pos = np.empty((len(t), 3))
+        quat = np.empty((len(t), 4))
+        for i, m in enumerate(msgs):
+            p, q = m.pose.position, m.pose.orientation
+            pos[i] = (p.x, p.y, p.z)
+            quat[i] = (q.x, q.y, q.z, q.w)
         return ObjectTrack(
             name=name,
             tag_id=tag_id,
@@ -171,7 +190,7 @@ class _Loader:
             t_ns=t,
             position=pos,
             quaternion=quat,
-            visible=np.ones(len(msgs), dtype=bool),
+            visible=np.ones(len(t), dtype=bool),
         )
 
     def labels(self) -> list[SkillLabel]:

@@ -115,6 +115,10 @@ def weighted_nodes(t_s: np.ndarray, x: np.ndarray, w: np.ndarray, max_gap_s: flo
     return np.asarray(solve_banded((1, 1), ab, w[:, None] * x), dtype=np.float64)
 
 
+SPLINE_COLUMNS = 3
+"""Columns fitted per cubic spline in :func:`resample_positions` (a keypoint's x, y, z)."""
+
+
 def resample_positions(
     t_src_s: npt.ArrayLike,
     x: npt.ArrayLike,
@@ -191,8 +195,14 @@ def resample_positions(
         if tk.size == 1:
             out[np.ix_(ok, cols)] = nodes
         else:
-            spline = CubicSpline(tk, nodes, axis=0)
-            out[np.ix_(ok, cols)] = spline(td[ok])
+            # a few columns at a time: each column's spline is its own (same numbers), and the
+            # coefficients of all 63 keypoint columns of a long demonstration would take
+            # hundreds of MB at once
+            at = td[ok]
+            for c in range(0, cols.size, SPLINE_COLUMNS):
+                part = slice(c, c + SPLINE_COLUMNS)
+                spline = CubicSpline(tk, nodes[:, part], axis=0)
+                out[np.ix_(ok, cols[part])] = spline(at)
         valid[np.ix_(ok, cols)] = True
     return out.reshape((td.size, *arr.shape[1:])), valid.reshape((td.size, *arr.shape[1:]))
 

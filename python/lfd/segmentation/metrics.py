@@ -36,13 +36,18 @@ class Span(Protocol):
 
 
 def _levenshtein(a: Sequence[str], b: Sequence[str]) -> int:
-    prev = list(range(len(b) + 1))
+    """Edit distance, one row of the table at a time in numpy (exact integers): the insertion
+    chain ``cur[j] = min(c[j], cur[j - 1] + 1)`` is ``min_{k <= j} (c[k] + j - k)``."""
+    codes = {s: n for n, s in enumerate(dict.fromkeys([*a, *b]))}
+    bb = np.array([codes[y] for y in b], dtype=np.int64)
+    ramp = np.arange(len(b) + 1, dtype=np.int64)
+    prev = ramp.copy()
     for i, x in enumerate(a, 1):
-        cur = [i]
-        for j, y in enumerate(b, 1):
-            cur.append(min(prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (x != y)))
-        prev = cur
-    return prev[-1]
+        c = np.empty_like(prev)
+        c[0] = i
+        c[1:] = np.minimum(prev[1:] + 1, prev[:-1] + (bb != codes[x]))
+        prev = np.minimum.accumulate(c - ramp) + ramp
+    return int(prev[-1])
 
 
 def sequence_match(pred: Sequence[Span], truth: Sequence[Span]) -> bool:
@@ -60,9 +65,11 @@ def edit_distance(pred: Sequence[Span], truth: Sequence[Span]) -> float:
 
 
 def _labels_at(spans: Sequence[Span], t_ns: np.ndarray) -> np.ndarray:
+    """The skill of each instant of ``t_ns`` (ascending): later spans overwrite earlier ones."""
     out = np.full(t_ns.shape, "", dtype=object)
     for s in spans:
-        out[(t_ns >= s.start_ns) & (t_ns < s.end_ns)] = s.skill
+        lo, hi = np.searchsorted(t_ns, [s.start_ns, s.end_ns], side="left")
+        out[lo:hi] = s.skill  # start_ns <= t < end_ns
     if spans:  # the last segment includes its end
         out[t_ns == spans[-1].end_ns] = spans[-1].skill
     return out
@@ -102,7 +109,12 @@ def boundary_error(pred: Sequence[Span], truth: Sequence[Span]) -> float:
     got = _interior(pred)
     if got.size == 0:
         return float("inf")
-    return float(np.mean(np.min(np.abs(want[:, None] - got[None, :]), axis=1)))
+    # the nearest predicted boundary is a neighbour in sorted order (linear, not |want| x |got|)
+    got = np.sort(got)
+    at = np.searchsorted(got, want)
+    below = np.abs(want - got[np.maximum(at - 1, 0)])
+    above = np.abs(want - got[np.minimum(at, got.size - 1)])
+    return float(np.mean(np.minimum(below, above)))
 
 
 def f1_at(pred: Sequence[Span], truth: Sequence[Span], iou: float) -> float:
@@ -111,9 +123,19 @@ def f1_at(pred: Sequence[Span], truth: Sequence[Span], iou: float) -> float:
         return 1.0
     matched = [False] * len(truth)
     tp = 0
+    # only overlapping spans have a positive IoU: with the truth in time order (starts and ends
+    # ascending) they are a window found by bisection, else every span is looked at
+    starts = np.array([t.start_ns for t in truth], dtype=np.int64)
+    ends = np.array([t.end_ns for t in truth], dtype=np.int64)
+    ordered = bool(np.all(np.diff(starts) >= 0) and np.all(np.diff(ends) >= 0))
     for p in pred:
         best, best_j = 0.0, -1
-        for j, t in enumerate(truth):
+        lo, hi = 0, len(truth)
+        if ordered:
+            lo = int(np.searchsorted(ends, p.start_ns, side="right"))  # ends after p starts
+            hi = int(np.searchsorted(starts, p.end_ns, side="left"))  # starts before p ends
+        for j in range(lo, hi):
+            t = truth[j]
             if t.skill != p.skill:
                 continue
             inter = min(p.end_ns, t.end_ns) - max(p.start_ns, t.start_ns)

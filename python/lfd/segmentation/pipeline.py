@@ -8,6 +8,7 @@ table from the templates, TCP rise decision, greedy loop or segmental DP under t
 from __future__ import annotations
 
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal, get_args
 
@@ -21,6 +22,7 @@ from ..trajectory import Trajectory
 
 if TYPE_CHECKING:
     from ..features import Features
+from .band import Band, StageTwoScores
 from .gaps import fill_gaps
 from .grammar import grammar_json, implicit_move_grammar_json, needs_implicit_move
 from .params import skill_params
@@ -159,20 +161,23 @@ def segment_trajectory(
         p.stage1,
         objects=[(f.values, f.thresholds) for f in per_object],
     )
-    scores, best_object = stage2_scores(filled, templates, bounds, p, per_object)
-    rising = _hmmseg.rising_table(
-        np.ascontiguousarray(filled.tcp[:, 2]), bounds, p.min_rise, p.dominance
+    st = stage2_scores(filled, templates, bounds, p, per_object)
+    max_len = st.band.max_len
+    rising = _hmmseg.rising_band(
+        np.ascontiguousarray(filled.tcp[:, 2]), bounds, max_len, p.min_rise, p.dominance
     )
     skills = templates.skills
     rules = implicit_move_grammar_json() if p.implicit_moves else grammar_json()
     if search == "greedy":
         raw, warn = _hmmseg.segment_greedy(
-            scores, bounds, skills, rules, rising, grammar, p.lookahead
+            st.scores, bounds, skills, rules, rising, grammar, p.lookahead, max_len
         )
     else:
-        raw, warn = _hmmseg.segment_dp(scores, bounds, skills, rules, rising, grammar, p.penalty)
+        raw, warn = _hmmseg.segment_dp(
+            st.scores, bounds, skills, rules, rising, grammar, p.penalty, max_len
+        )
     segments = [
-        _make_segment(filled, skills[s], a, b, int(best_object[i, j, s]), score, conf, margin)
+        _make_segment(filled, skills[s], a, b, _target(st, i, j, s), score, conf, margin)
         for (s, i, j, a, b, score, margin, conf) in raw
     ]
     if p.implicit_moves:
@@ -188,15 +193,24 @@ def segment_trajectory(
     )
 
 
+def _target(st: StageTwoScores, i: int, j: int, s: int) -> int:
+    """The target object of a chosen segment (a run of the band: the search picks no other)."""
+    r = st.band.index(i, j)
+    if r is None:
+        raise AssertionError(f"the search chose sections {i}..{j}, outside the score band")
+    return int(st.target[r, s])
+
+
 def stage2_scores(
     traj: Trajectory,
     templates: Templates,
     bounds: np.ndarray,
     params: SegmentParams,
     per_object: list[Features] | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """The score table ``(K, K + 1, S)`` of a gap-free trajectory's runs of sections as the search
-    sees it, and the target object of each entry.
+) -> StageTwoScores:
+    """The score table of a gap-free trajectory's runs of sections as the search sees it, and
+    the target object of each entry, over the runs of at most ``max_segment_s`` (a
+    :class:`~lfd.segmentation.band.Band`: memory and time linear in the demonstration).
 
     The skills are object-centred: for every run of sections and skill the features are taken
     relative to each object in turn, the co-motion evidence (:func:`co_motion_penalty`) is
@@ -210,22 +224,22 @@ def stage2_scores(
     p = params
     if per_object is None:
         per_object = [compute_features(traj, target=o) for o in range(len(traj.object_names))]
-    max_len = max(1, round(p.max_segment_s / traj.dt))
+    band = Band.of(bounds, max(1, round(p.max_segment_s / traj.dt)))
     moving = moving_objects(traj, p.co_motion_window_s, p.co_motion_displacement)
     height = OBJECT_COLUMNS["object_height"]  # above the object's rest height + gamma: lifted
     return scores_over_objects(
         [np.ascontiguousarray(f.values, dtype=np.float64) for f in per_object],
         templates,
-        bounds,
-        max_len,
+        band,
         p.end,
-        extra=co_motion_penalty(
+        extra=co_motion_per_object(
             moving,
             bounds,
             templates.skills,
             p.co_motion,
             lifted=np.stack([f.values[:, height] > f.thresholds[:, height] for f in per_object]),
             grace=round(p.co_motion_grace_s / traj.dt),
+            band=band,
         ),
     )
 
@@ -284,20 +298,22 @@ def _next_true(mask: np.ndarray) -> np.ndarray:
     """``(O, n + 1)``: the first index ``>= t`` where ``mask[o]`` is true (``n`` if none)."""
     n_obj, n = mask.shape
     out = np.full((n_obj, n + 1), n, dtype=np.int64)
-    for t in range(n - 1, -1, -1):
-        out[:, t] = np.where(mask[:, t], t, out[:, t + 1])
+    at = np.where(mask, np.arange(n), n)  # t where true
+    out[:, :n] = np.minimum.accumulate(at[:, ::-1], axis=1)[:, ::-1]  # smallest from t on
     return out
 
 
 def _count_after(mask: np.ndarray, first: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """``(O, K, K + 1)``: samples of ``mask`` in ``[max(lo, first[lo]), hi)`` per run."""
+    """``(O, *runs)``: samples of ``mask`` in ``[max(lo, first[lo]), hi)`` per run, for sample
+    indices ``lo`` and ``hi`` of broadcastable shapes (one pair per run)."""
     n_obj, n = mask.shape
     cum = np.zeros((n_obj, n + 1))
     cum[:, 1:] = np.cumsum(mask, axis=1)
-    start = first[:, lo]  # (O, K): first index >= lo
-    a = np.take_along_axis(cum, start, axis=1)[:, :, None]  # (O, K, 1)
-    b = cum[:, hi][:, None, :]  # (O, 1, K + 1)
-    return np.asarray(np.where(hi[None, None, :] > start[:, :, None], np.maximum(b - a, 0.0), 0.0))
+    rows = np.arange(n_obj).reshape(n_obj, *([1] * np.ndim(lo)))
+    start = first[rows, lo]  # first index >= lo
+    a = cum[rows, start]
+    b = cum[rows, hi]
+    return np.asarray(np.where(hi > start, np.maximum(b - a, 0.0), 0.0))
 
 
 def co_motion_penalty(
@@ -308,8 +324,10 @@ def co_motion_penalty(
     *,
     lifted: np.ndarray | None = None,
     grace: int = 0,
+    band: Band | None = None,
 ) -> np.ndarray | None:
-    """Penalty ``(O, K, K + 1, S)`` of object motion a segment cannot explain.
+    """Penalty ``(O, N, S)`` over the runs of ``band``, or ``(O, K, K + 1, S)`` over every run
+    without one (quadratic in ``K``), of object motion a segment cannot explain.
 
     ``moving`` (O, n) says where each object moves, ``lifted`` (O, n) where it is above its
     resting height. A segment from section ``i`` to ``j`` with target ``o`` and skill ``s`` is
@@ -323,24 +341,53 @@ def co_motion_penalty(
 
     ``grace`` samples at each end of a segment are free. ``None`` if ``weight`` is 0.
     """
+    of = co_motion_per_object(moving, bounds, skills, weight, lifted=lifted, grace=grace, band=band)
+    return None if of is None else np.stack([of(o) for o in range(moving.shape[0])])
+
+
+def co_motion_per_object(
+    moving: np.ndarray,
+    bounds: np.ndarray,
+    skills: list[str],
+    weight: float,
+    *,
+    lifted: np.ndarray | None = None,
+    grace: int = 0,
+    band: Band | None = None,
+) -> Callable[[int], np.ndarray] | None:
+    """:func:`co_motion_penalty` one target object at a time: ``of(o)`` is its ``[o]`` (the
+    sample counts behind it are computed once, per object and run, without the skill axis)."""
     if weight == 0 or moving.size == 0:
         return None
     n_obj, n = moving.shape
     b = np.asarray(bounds, dtype=np.int64)
     lo = np.minimum(b[:-1] + grace, n)  # (K,)
     hi = np.maximum(b - grace, 0)  # (K + 1,)
+    if band is None:  # every run: (K, 1) x (1, K + 1)
+        lo, hi = lo[:, None], hi[None, :]
+    else:  # the band's runs: (N,)
+        lo, hi = lo[band.start], hi[band.end]
     everywhere = np.zeros((n_obj, n + 1), dtype=np.int64)  # "first index >= t" is t itself
     everywhere[:] = np.arange(n + 1)
-    own = _count_after(moving, everywhere, lo, hi)  # (O, K, K + 1)
+    own = _count_after(moving, everywhere, lo, hi)  # (O, *runs)
     others = own.sum(axis=0, keepdims=True) - own
-    out = others[..., None] + own[..., None] * _skill_mask(skills, TARGET_STILL)
+    still = _skill_mask(skills, TARGET_STILL)
+    set_down = relift = None
     if lifted is not None:
         resting = ~lifted
         set_down = _count_after(resting, _next_true(lifted), lo, hi)
         relift = _count_after(lifted, _next_true(resting), lo, hi)
-        out = out + set_down[..., None] * _skill_mask(skills, NO_SET_DOWN)
-        out = out + relift[..., None] * _skill_mask(skills, NO_LIFT)
-    return np.asarray(-weight * out, dtype=np.float64)
+    no_set_down, no_lift = _skill_mask(skills, NO_SET_DOWN), _skill_mask(skills, NO_LIFT)
+
+    def of(o: int) -> np.ndarray:
+        out = others[o][..., None] + own[o][..., None] * still
+        if set_down is not None and relift is not None:
+            out += set_down[o][..., None] * no_set_down
+            out += relift[o][..., None] * no_lift
+        out *= -weight
+        return np.asarray(out, dtype=np.float64)
+
+    return of
 
 
 def _skill_mask(skills: list[str], which: frozenset[str]) -> np.ndarray:
@@ -350,39 +397,56 @@ def _skill_mask(skills: list[str], which: frozenset[str]) -> np.ndarray:
 def scores_over_objects(
     values: list[np.ndarray],
     templates: Templates,
-    bounds: np.ndarray,
-    max_len: int,
+    band: Band,
     end: EndState,
     *,
-    extra: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """The score table maximised over the target object, from the feature matrices, one (n, 10)
-    array per target object;
-    ``extra`` (O, K, K + 1, S) is added per target before the maximum (e.g.
-    :func:`co_motion_penalty`)."""
+    extra: np.ndarray | Callable[[int], np.ndarray] | None = None,
+) -> StageTwoScores:
+    """The score table over the runs of ``band`` maximised over the target object, from the
+    feature matrices, one (n, 10) array per target object; ``extra`` (O, N, S), or a function
+    of the object giving its (N, S) (:func:`co_motion_per_object`), is added per target before
+    the maximum (e.g. :func:`co_motion_penalty`). One object's table at a time is held."""
     engine = templates.engine
     groups = getattr(templates, "features", None)
-    if groups is None:  # a stand-in without feature metadata: score every feature per object
-        stack = np.stack([engine.score_table(v, bounds, max_len, end) for v in values])
-        if extra is not None:
-            stack = stack + extra
-        return np.ascontiguousarray(stack.max(axis=0)), stack.argmax(axis=0)
-    # features that do not depend on the target (fingertip distance, TCP rise, hand speed) are
-    # scored once
-    shared = [
-        g
-        for g, (_name, a, b) in enumerate(groups)
-        if all(np.array_equal(values[0][:, a:b], v[:, a:b]) for v in values[1:])
-    ]
-    rest = [g for g in range(len(groups)) if g not in shared]
-    base = engine.score_table(values[0], bounds, max_len, end, shared) if shared else 0.0
-    if rest:
-        stack = base + np.stack([engine.score_table(v, bounds, max_len, end, rest) for v in values])
+    bounds, max_len = band.bounds, band.max_len
+    extra_of = extra if callable(extra) or extra is None else extra.__getitem__
+    if groups is None:  # a stand-in without feature metadata: a dense table per object
+        shared: list[int] = []
+        rest: list[int] | None = None
+        n_obj = len(values)
     else:
-        stack = np.asarray(base)[None]
-    if extra is not None:
-        stack = stack + extra
-    return np.ascontiguousarray(stack.max(axis=0)), stack.argmax(axis=0)
+        # features that do not depend on the target (fingertip distance, TCP rise, hand speed)
+        # are scored once
+        shared = [
+            g
+            for g, (_name, a, b) in enumerate(groups)
+            if all(np.array_equal(values[0][:, a:b], v[:, a:b]) for v in values[1:])
+        ]
+        rest = [g for g in range(len(groups)) if g not in shared]
+        n_obj = len(values) if rest or extra is not None else 1
+    base = engine.score_band(values[0], bounds, max_len, end, shared) if shared else 0.0
+
+    def scores_of(o: int) -> np.ndarray:
+        if rest is None:
+            cur = band.take(engine.score_table(values[o], bounds, max_len, end))
+        elif rest:
+            cur = base + engine.score_band(values[o], bounds, max_len, end, rest)
+        else:
+            cur = np.array(base, dtype=np.float64)
+        if extra_of is not None:
+            cur = cur + extra_of(o)
+        return np.asarray(cur, dtype=np.float64)
+
+    # the maximum and the first object reaching it (np.max / np.argmax over the objects; the
+    # scores are never NaN)
+    best = np.ascontiguousarray(scores_of(0))
+    target = np.zeros(best.shape, dtype=np.min_scalar_type(n_obj - 1))
+    for o in range(1, n_obj):
+        cur = scores_of(o)
+        better = cur > best
+        np.copyto(best, cur, where=better)
+        target[better] = o
+    return StageTwoScores(band, best, target)
 
 
 def _make_segment(

@@ -18,11 +18,12 @@ from .segmentation import log_segmentation, log_text
 if TYPE_CHECKING:
     from ..demo import Demonstration
     from ..segmentation import GrammarUse, Segmentation, SegmentParams, Templates
+    from ..segmentation.band import StageTwoScores
     from ..trajectory import Trajectory
 
 
 def greedy_trace(
-    table: np.ndarray,
+    table: np.ndarray | StageTwoScores,
     boundaries: Sequence[int] | np.ndarray,
     segment_starts: Sequence[int],
     skills: Sequence[str],
@@ -31,8 +32,9 @@ def greedy_trace(
 
     Parameters
     ----------
-    table : array, shape (K, K + 1, S)
-        Summed log-likelihoods of sections ``i..j`` under skill ``s`` (``-inf`` = not scored).
+    table : array, shape (K, K + 1, S), or StageTwoScores
+        Summed log-likelihoods of sections ``i..j`` under skill ``s`` (``-inf`` = not scored),
+        dense or over a band of runs (whose runs are then the candidates).
     boundaries : sequence of int, length K + 1
         Stage-1 boundaries ``[0, ..., n]`` (sample indices).
     segment_starts : sequence of int
@@ -46,10 +48,21 @@ def greedy_trace(
     candidate_ends : list of array of int, shape (c_k,)
         End sample (exclusive) of each candidate run.
     """
-    tab = np.asarray(table, dtype=np.float64)
     b = np.asarray(boundaries, dtype=np.int64)
     k = len(b) - 1
-    if tab.shape[:2] != (k, k + 1) or tab.shape[2] != len(skills):
+    band = getattr(table, "band", None)  # a StageTwoScores
+    tab = np.asarray(getattr(table, "scores", table), dtype=np.float64)
+    if band is not None:
+        if (
+            band.n_sections != k
+            or not np.array_equal(band.bounds, b)
+            or tab.shape[1:] != (len(skills),)
+        ):
+            raise ValueError(
+                f"score band over {band.n_sections} sections, {tab.shape[1:]} skills does not "
+                f"match {k} sections, {len(skills)} skills"
+            )
+    elif tab.shape[:2] != (k, k + 1) or tab.shape[2] != len(skills):
         raise ValueError(
             f"score table {tab.shape} does not match {k} sections, {len(skills)} skills"
         )
@@ -60,8 +73,12 @@ def greedy_trace(
         i = where.get(int(start))
         if i is None or i >= k:
             continue
-        j = np.arange(i + 1, k + 1)
-        mean = tab[i, j, :] / (b[j] - b[i])[:, None]
+        if band is not None:
+            j = band.ends(i)
+            mean = tab[band.rows(i)] / (b[j] - b[i])[:, None]
+        else:
+            j = np.arange(i + 1, k + 1)
+            mean = tab[i, j, :] / (b[j] - b[i])[:, None]
         scores.append({s: mean[:, c] for c, s in enumerate(skills)})
         ends.append(b[j])
     return scores, ends
@@ -155,7 +172,7 @@ def log_segment_run(
     if result.method == "greedy" and result.sections and result.segments:
         p = params or SegmentParams()
         bounds = np.asarray(result.sections, dtype=np.int64)
-        table, _ = stage2_scores(filled, tpl, bounds, p)  # as the segmentation
+        table = stage2_scores(filled, tpl, bounds, p)  # as the segmentation
         trace, ends = greedy_trace(table, bounds, [s.start for s in result.segments], tpl.skills)
         scores = list(trace)
         candidate_ns = [t_end[e] for e in ends]

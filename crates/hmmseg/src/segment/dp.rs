@@ -6,7 +6,8 @@
 //! `sum over segments (c^{r,s} - penalty)`
 //!
 //! subject to the TCP rise decision and (in [`GrammarMode::Enforce`]) the grammar. The state is
-//! (sections consumed, last skill): `O(K^2 S^2)`. The per-segment `penalty` (nats) counters the
+//! (sections consumed, last skill); only the runs of the score table's band are candidates:
+//! `O(N S^2)` for `N` runs (`O(K^2 S^2)` without a length bound). The per-segment `penalty` (nats) counters the
 //! tendency of more, shorter segments to fit better.
 
 use super::{Context, Grammar, GrammarMode, ScoreTable, Segmentation};
@@ -82,7 +83,8 @@ fn solve(
         for s in 0..ns {
             let mut top = f64::NEG_INFINITY;
             let mut arg = (usize::MAX, usize::MAX);
-            for i in 0..j {
+            // runs outside the band score -inf: only the band's starts can end at j
+            for i in t.band().starts(j) {
                 if use_rise && !ctx.rise_ok(i, j, s) {
                     continue;
                 }

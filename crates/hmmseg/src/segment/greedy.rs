@@ -17,7 +17,7 @@ use crate::error::Result;
 
 /// Run the greedy loop.
 ///
-/// * `rising` (row-major `(K, K + 1)`, see [`super::rising_table`]) applies the Fig. 5 decision
+/// * `rising` (one entry per run of the table's band, see [`super::rising_band`]) applies the Fig. 5 decision
 ///   tree: a rising run may only be a rising skill (Move, Move with), any other run only a
 ///   non-rising skill. `None` disables the tree.
 /// * `mode`: [`GrammarMode::Enforce`] considers only allowed transitions; [`GrammarMode::Warn`]
@@ -50,7 +50,8 @@ pub fn greedy(
         let mut pick = None;
         for (tier, &(use_rise, use_grammar)) in tiers.iter().enumerate() {
             let mut best: Option<(f64, usize, usize)> = None;
-            for j in i + 1..=k {
+            // runs outside the band score -inf: only its ends are candidates
+            for j in table.band().ends(i) {
                 for s in 0..table.n_skills() {
                     if (use_rise && !ctx.rise_ok(i, j, s))
                         || (use_grammar && !grammar.allows(prev, s))
@@ -115,7 +116,7 @@ fn with_successor(ctx: &Context<'_>, i: usize, j: usize, s: usize, use_grammar: 
     }
     for use_rise in [true, false] {
         let mut best = f64::NEG_INFINITY;
-        for j2 in j + 1..=k {
+        for j2 in table.band().ends(j) {
             let n = table.len(i, j2) as f64;
             for s2 in 0..table.n_skills() {
                 if s2 == s
@@ -274,10 +275,10 @@ mod tests {
         let t = planted(&[(0, 3, ix("place")), (3, 6, ix("pick_up"))]);
         let g = paper_grammar();
         // declare the whole demo rising: only move / move_with are candidates
-        let rising = vec![true; 6 * 7];
+        let rising = vec![true; t.band().n_runs()];
         let r = greedy(&t, &g, Some(&rising), GrammarMode::Off, false).unwrap();
         assert!(r.segments.iter().all(|s| g.is_rising(s.skill)));
-        let not = vec![false; 6 * 7];
+        let not = vec![false; t.band().n_runs()];
         let r = greedy(&t, &g, Some(&not), GrammarMode::Off, false).unwrap();
         assert_eq!(skills_of(&r.segments), vec![ix("place"), ix("pick_up")]);
     }

@@ -18,7 +18,9 @@ pub mod templates;
 use serde::{Deserialize, Serialize};
 
 pub use self::grammar::{Grammar, GrammarSpec};
-pub use self::scores::{rising_table, score_table, PrefixScorer, RiseParams, ScoreTable};
+pub use self::scores::{
+    rising_band, rising_table, score_table, Band, PrefixScorer, RiseParams, ScoreTable,
+};
 
 /// How the skill grammar is used.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -74,7 +76,8 @@ pub struct Segmentation {
 pub(crate) struct Context<'a> {
     pub table: &'a ScoreTable,
     pub grammar: &'a Grammar,
-    /// Row-major `(K, K + 1)`: is the TCP rising over sections `i..j`? `None` = no decision tree.
+    /// Is the TCP rising over sections `i..j`? One entry per run of the table's band (flat run
+    /// order, see [`rising_band`]); `None` = no decision tree.
     pub rising: Option<&'a [bool]>,
 }
 
@@ -85,7 +88,6 @@ impl Context<'_> {
         rising: Option<&'a [bool]>,
     ) -> crate::Result<Context<'a>> {
         use crate::EngineError;
-        let k = table.n_sections();
         if grammar.n_skills() != table.n_skills() {
             return Err(EngineError::ShapeMismatch(format!(
                 "grammar has {} skills, score table {}",
@@ -94,11 +96,11 @@ impl Context<'_> {
             )));
         }
         if let Some(r) = rising {
-            if r.len() != k * (k + 1) {
+            let n = table.band().n_runs();
+            if r.len() != n {
                 return Err(EngineError::ShapeMismatch(format!(
-                    "rising table has {} entries, expected {}",
+                    "rising table has {} entries, expected {n} (one per run of the band)",
                     r.len(),
-                    k * (k + 1)
                 )));
             }
         }
@@ -109,10 +111,15 @@ impl Context<'_> {
         })
     }
 
-    /// Does skill `s` pass the TCP rise decision for sections `i..j`?
+    /// Does skill `s` pass the TCP rise decision for sections `i..j`? (Never outside the band,
+    /// where no run is scored.)
     pub fn rise_ok(&self, i: usize, j: usize, s: usize) -> bool {
-        self.rising
-            .is_none_or(|r| r[i * (self.table.n_sections() + 1) + j] == self.grammar.is_rising(s))
+        self.rising.is_none_or(|r| {
+            self.table
+                .band()
+                .index(i, j)
+                .is_some_and(|x| r[x] == self.grammar.is_rising(s))
+        })
     }
 
     /// Margin of skill `s` over the best other skill passing the rise decision on `i..j`.

@@ -13,7 +13,7 @@ use nalgebra::DMatrix;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::scores::{check_score_inputs, ScoreTable};
+use super::scores::{check_score_inputs, Band, ScoreTable};
 use crate::error::{EngineError, Result};
 #[cfg(test)]
 use crate::hmm::CovarianceType;
@@ -197,12 +197,13 @@ impl Scaled {
         Self { b, shift }
     }
 
-    /// Directly from the model: `b[t, j] = sum_m exp(ln w_jm N_jm(x_t) - shift[t])` with
-    /// `shift[t]` the largest component term, so no logarithm is taken per sample
-    /// ([`Emission::scaled_block`], vectorised).
-    fn direct(m: &CompiledHmm, x: &DMatrix<f64>, cols: &Range<usize>) -> Self {
-        let (t_len, n) = (x.nrows(), m.n);
-        let data = &x.as_slice()[cols.start * t_len..cols.end * t_len];
+    /// Directly from the model, for the samples `rows` of `x` (entry `t` is sample
+    /// `rows.start + t`): `b[t, j] = sum_m exp(ln w_jm N_jm(x_t) - shift[t])` with `shift[t]` the
+    /// largest component term, so no logarithm is taken per sample ([`Emission::scaled_block`],
+    /// vectorised). Each sample's entries depend on that sample only.
+    fn direct(m: &CompiledHmm, x: &DMatrix<f64>, rows: Range<usize>, cols: &Range<usize>) -> Self {
+        let (t_all, t_len, n) = (x.nrows(), rows.len(), m.n);
+        let data = &x.as_slice()[cols.start * t_all..cols.end * t_all];
         let mut b = vec![0.0; t_len * n];
         let mut shift = vec![0.0; t_len];
         if t_len == 0 {
@@ -210,8 +211,9 @@ impl Scaled {
         }
         let mut comp = vec![0.0; m.emission.n_components() * t_len];
         let mut sm = vec![0.0; t_len * n];
-        m.emission
-            .scaled_block(data, t_len, 0, t_len, &mut comp, &mut sm, &mut shift);
+        m.emission.scaled_block(
+            data, t_all, rows.start, t_len, &mut comp, &mut sm, &mut shift,
+        );
         for (j, col) in sm.chunks_exact(t_len).enumerate() {
             for (t, &v) in col.iter().enumerate() {
                 b[t * n + j] = v;
@@ -324,65 +326,93 @@ pub fn compiled_score_table(
     max_len: usize,
     end: EndState,
 ) -> Result<ScoreTable> {
+    let block = if max_len == 0 {
+        usize::MAX
+    } else {
+        EMISSION_BLOCK.max(4 * max_len)
+    };
+    blocked_score_table(
+        models,
+        groups,
+        observations,
+        boundaries,
+        max_len,
+        end,
+        block,
+    )
+}
+
+/// [`compiled_score_table`] with start sections scored in blocks of about `block` samples: the
+/// emissions of a block's samples (and of the runs reaching past it) are computed once per
+/// (skill, feature) and dropped after the block, so memory stays bounded however long the
+/// demonstration. The entries do not depend on `block`.
+fn blocked_score_table(
+    models: &[Vec<CompiledHmm>],
+    groups: &[Range<usize>],
+    observations: &DMatrix<f64>,
+    boundaries: &[usize],
+    max_len: usize,
+    end: EndState,
+    block: usize,
+) -> Result<ScoreTable> {
     let counts: Vec<usize> = models.iter().map(Vec::len).collect();
     check_score_inputs(&counts, groups, observations, boundaries)?;
-    let n = observations.nrows();
-    let mut table = ScoreTable::new(boundaries.to_vec(), models.len())?;
-    let k = table.n_sections();
-    let max_len = if max_len == 0 { n } else { max_len };
-    // emissions once per (skill, feature) over the whole demonstration
-    let pairs: Vec<(usize, usize)> = (0..models.len())
-        .flat_map(|s| (0..groups.len()).map(move |f| (s, f)))
-        .collect();
-    let emissions: Vec<Scaled> = pairs
-        .par_iter()
-        .map(|&(s, f)| {
-            let m = &models[s][f];
-            Scaled::direct(m, observations, &groups[f])
-        })
-        .collect();
     if models.iter().flatten().any(|m| m.n > 16) {
         return Err(EngineError::InvalidParameter(
             "at most 16 states per template HMM".into(),
         ));
     }
-    let jobs: Vec<(usize, usize)> = (0..k)
-        .flat_map(|i| (0..models.len()).map(move |s| (i, s)))
+    let band = Band::new(boundaries.to_vec(), max_len)?;
+    let k = band.n_sections();
+    let mut table = ScoreTable::with_band(band, models.len())?;
+    let pairs: Vec<(usize, usize)> = (0..models.len())
+        .flat_map(|s| (0..groups.len()).map(move |f| (s, f)))
         .collect();
-    let results: Vec<(usize, usize, Vec<f64>)> = jobs
-        .par_iter()
-        .map(|&(i, s)| {
-            let start = boundaries[i];
-            let mut last = i + 1;
-            while last < k && boundaries[last + 1] - start <= max_len {
-                last += 1;
-            }
-            let ends: Vec<usize> = (i + 1..=last).map(|j| boundaries[j] - start - 1).collect();
-            let mut sums = vec![0.0; ends.len()];
-            for f in 0..groups.len() {
-                models[s][f].add_prefix_at(
-                    &emissions[s * groups.len() + f],
-                    start,
-                    &ends,
-                    end,
-                    &mut sums,
-                );
-            }
-            (i, s, sums)
-        })
-        .collect();
-    for (i, s, sums) in results {
-        for (off, v) in sums.into_iter().enumerate() {
-            table.set(
-                i,
-                i + 1 + off,
-                s,
-                if v.is_nan() { f64::NEG_INFINITY } else { v },
-            );
+    let mut i0 = 0;
+    while i0 < k {
+        let mut i1 = i0 + 1;
+        while i1 < k && boundaries[i1] - boundaries[i0] < block {
+            i1 += 1;
         }
+        // last_end never decreases: the block's last start reaches furthest
+        let (lo, hi) = (boundaries[i0], boundaries[table.band().last_end(i1 - 1)]);
+        let emissions: Vec<Scaled> = pairs
+            .par_iter()
+            .map(|&(s, f)| Scaled::direct(&models[s][f], observations, lo..hi, &groups[f]))
+            .collect();
+        let band = table.band();
+        let jobs: Vec<(usize, usize)> = (i0..i1)
+            .flat_map(|i| (0..models.len()).map(move |s| (i, s)))
+            .collect();
+        let results: Vec<(usize, usize, Vec<f64>)> = jobs
+            .par_iter()
+            .map(|&(i, s)| {
+                let start = boundaries[i];
+                let ends: Vec<usize> = band.ends(i).map(|j| boundaries[j] - start - 1).collect();
+                let mut sums = vec![0.0; ends.len()];
+                for f in 0..groups.len() {
+                    models[s][f].add_prefix_at(
+                        &emissions[s * groups.len() + f],
+                        start - lo,
+                        &ends,
+                        end,
+                        &mut sums,
+                    );
+                }
+                (i, s, sums)
+            })
+            .collect();
+        for (i, s, sums) in results {
+            table.set_band_row(i, s, sums);
+        }
+        i0 = i1;
     }
     Ok(table)
 }
+
+/// Start sections are scored in blocks of at least this many samples (and 4 maximum segment
+/// lengths), each with the emissions of its own samples only.
+const EMISSION_BLOCK: usize = 8192;
 
 #[cfg(test)]
 mod tests {
@@ -441,7 +471,7 @@ mod tests {
                 assert!(fin[t] <= got[t] + 1e-9);
             }
             // the boundary-only pass gives the same numbers at the ends
-            let em = Scaled::direct(&c, &x, &(0..d));
+            let em = Scaled::direct(&c, &x, 0..x.nrows(), &(0..d));
             let em_ref = Scaled::new(&lb, c.n);
             assert!(em
                 .shift
@@ -464,6 +494,35 @@ mod tests {
             }
             // a 3-state left-right chain cannot be in its last state after one sample
             assert!(fin[0].is_infinite() || fin[0] < got[0]);
+        }
+    }
+
+    #[test]
+    fn emission_blocks_do_not_change_the_table() {
+        let models = vec![
+            vec![CompiledHmm::new(&model(CovarianceType::Diag, 2)).unwrap()],
+            vec![CompiledHmm::new(&model(CovarianceType::Full, 2)).unwrap()],
+        ];
+        // a sine with far outliers (the underflow-safe step) over irregular sections
+        let x = DMatrix::from_fn(300, 2, |t, k| {
+            (t as f64 / 13.0).sin() + 0.1 * k as f64 + if t % 97 == 5 { 30.0 } else { 0.0 }
+        });
+        let mut b: Vec<usize> = (0..300).filter(|t| t % 7 == 0 || t % 11 == 0).collect();
+        b.push(300);
+        let bits = |t: &ScoreTable| t.as_slice().iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        let g: Vec<Range<usize>> = std::iter::once(0..2).collect();
+        for max_len in [0, 20, 45] {
+            for end in [EndState::Any, EndState::Final] {
+                let whole =
+                    blocked_score_table(&models, &g, &x, &b, max_len, end, usize::MAX).unwrap();
+                assert!(whole.as_slice().iter().any(|v| v.is_finite()));
+                for block in [1, 10, 64] {
+                    let t = blocked_score_table(&models, &g, &x, &b, max_len, end, block).unwrap();
+                    assert_eq!(bits(&t), bits(&whole), "max_len {max_len} block {block}");
+                }
+                let t = compiled_score_table(&models, &g, &x, &b, max_len, end).unwrap();
+                assert_eq!(bits(&t), bits(&whole));
+            }
         }
     }
 }

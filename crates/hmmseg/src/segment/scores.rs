@@ -19,21 +19,29 @@ pub trait PrefixScorer: Sync {
     fn prefix_scores(&self, x: &DMatrix<f64>) -> Result<DVector<f64>>;
 }
 
-/// Summed log-likelihoods of every section run and skill.
+/// The runs of consecutive data sections a segment may span.
 ///
-/// Entry `(i, j, s)` with `0 <= i < j <= K` is the log-likelihood of sections `i..j` (samples
-/// `b_i .. b_j`) under skill `s`, summed over features; `-inf` where not computed (longer than
-/// the maximum segment length) or excluded.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ScoreTable {
+/// Run `i..j` (`0 <= i < j <= K`, samples `b_i .. b_j`) is admissible if it lasts at most
+/// `max_len` samples; the single section `i..i + 1` always is (a section longer than `max_len`
+/// is still a candidate on its own). The boundaries increase, so the admissible ends of start
+/// section `i` form the contiguous range `i + 1 ..= last_end(i)` and `last_end` never decreases:
+/// the runs are stored start by start (an offset per start section and a dense band of ends),
+/// `N ~ K * (sections per max_len)` of them instead of `K (K + 1)`.
+///
+/// Run `r` of the flat layout is `(i, j)` with `offsets[i] <= r < offsets[i + 1]` and
+/// `j = i + 1 + r - offsets[i]`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Band {
     boundaries: Vec<usize>,
-    n_skills: usize,
-    total: Vec<f64>,
+    max_len: usize,
+    /// `offsets[i]..offsets[i + 1]`: the runs starting at section `i` (`K + 1` entries).
+    offsets: Vec<usize>,
 }
 
-impl ScoreTable {
-    /// An empty table (all `-inf`) over the given section `boundaries` (`[0, ..., n]`).
-    pub fn new(boundaries: Vec<usize>, n_skills: usize) -> Result<Self> {
+impl Band {
+    /// The band of runs of at most `max_len` samples over `boundaries` (`[b_0, ..., b_K]`,
+    /// strictly increasing); `max_len = 0`: no bound (every run `i < j`).
+    pub fn new(boundaries: Vec<usize>, max_len: usize) -> Result<Self> {
         if boundaries.len() < 2 {
             return Err(EngineError::EmptySequence(
                 "need at least one data section".into(),
@@ -44,26 +52,147 @@ impl ScoreTable {
                 "section boundaries must be strictly increasing".into(),
             ));
         }
-        if n_skills == 0 {
-            return Err(EngineError::EmptySequence("need at least one skill".into()));
-        }
         let k = boundaries.len() - 1;
+        let limit = if max_len == 0 { usize::MAX } else { max_len };
+        let mut offsets = Vec::with_capacity(k + 1);
+        offsets.push(0);
+        // the longest run from i that fits (at least one section); it never ends before the
+        // previous start's, so one sweep finds them all
+        let mut last = 1;
+        for i in 0..k {
+            last = last.max(i + 1);
+            while last < k && boundaries[last + 1] - boundaries[i] <= limit {
+                last += 1;
+            }
+            offsets.push(offsets[i] + last - i);
+        }
         Ok(Self {
             boundaries,
-            n_skills,
-            total: vec![f64::NEG_INFINITY; k * (k + 1) * n_skills],
+            max_len,
+            offsets,
         })
-    }
-
-    fn index(&self, i: usize, j: usize, s: usize) -> usize {
-        let k = self.n_sections();
-        debug_assert!(i < j && j <= k && s < self.n_skills);
-        (i * (k + 1) + j) * self.n_skills + s
     }
 
     /// Number of data sections `K`.
     pub fn n_sections(&self) -> usize {
         self.boundaries.len() - 1
+    }
+
+    /// Section boundaries `[b_0, ..., b_K]` (sample indices).
+    pub fn boundaries(&self) -> &[usize] {
+        &self.boundaries
+    }
+
+    /// The bound on a run's length in samples (0: none).
+    pub fn max_len(&self) -> usize {
+        self.max_len
+    }
+
+    /// Number of admissible runs `N`.
+    pub fn n_runs(&self) -> usize {
+        self.offsets[self.offsets.len() - 1]
+    }
+
+    /// `offsets[i]..offsets[i + 1]` are the flat indices of the runs starting at section `i`.
+    pub fn offsets(&self) -> &[usize] {
+        &self.offsets
+    }
+
+    /// The last admissible end section of the runs starting at section `i < K`.
+    pub fn last_end(&self, i: usize) -> usize {
+        i + self.offsets[i + 1] - self.offsets[i]
+    }
+
+    /// The admissible end sections of the runs starting at section `i < K`.
+    pub fn ends(&self, i: usize) -> Range<usize> {
+        i + 1..self.last_end(i) + 1
+    }
+
+    /// The admissible start sections of the runs ending at section `0 < j <= K`.
+    pub fn starts(&self, j: usize) -> Range<usize> {
+        // last_end is non-decreasing and last_end(j - 1) >= j: binary search the first start
+        // that reaches j
+        let (mut lo, mut hi) = (0, j - 1);
+        while lo < hi {
+            let mid = lo + (hi - lo) / 2;
+            if self.last_end(mid) >= j {
+                hi = mid;
+            } else {
+                lo = mid + 1;
+            }
+        }
+        lo..j
+    }
+
+    /// Flat index of run `i..j`, `None` outside the band.
+    pub fn index(&self, i: usize, j: usize) -> Option<usize> {
+        (i < j && j <= self.n_sections() && j <= self.last_end(i))
+            .then(|| self.offsets[i] + j - i - 1)
+    }
+
+    /// Every admissible run `(i, j)`, in flat order.
+    pub fn runs(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        (0..self.n_sections()).flat_map(move |i| self.ends(i).map(move |j| (i, j)))
+    }
+}
+
+/// Summed log-likelihoods of the admissible section runs and every skill.
+///
+/// Entry `(i, j, s)` is the log-likelihood of sections `i..j` (samples `b_i .. b_j`) under skill
+/// `s`, summed over features; `-inf` where not computed or excluded, and for every run outside
+/// the table's [`Band`] (longer than the maximum segment length), which is not stored: memory
+/// is `N * n_skills`, linear in the demonstration's length for a bounded band.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ScoreTable {
+    band: Band,
+    n_skills: usize,
+    /// Row-major `(N, n_skills)` over the band's runs.
+    total: Vec<f64>,
+}
+
+impl ScoreTable {
+    /// An empty table (all `-inf`) over every run of the given section `boundaries`
+    /// (`[0, ..., n]`), without a length bound (`K (K + 1) / 2` runs: for small tables and
+    /// tests; see [`Self::with_band`]).
+    pub fn new(boundaries: Vec<usize>, n_skills: usize) -> Result<Self> {
+        Self::with_band(Band::new(boundaries, 0)?, n_skills)
+    }
+
+    /// An empty table (all `-inf`) over the runs of `band`.
+    pub fn with_band(band: Band, n_skills: usize) -> Result<Self> {
+        if n_skills == 0 {
+            return Err(EngineError::EmptySequence("need at least one skill".into()));
+        }
+        let len = band.n_runs() * n_skills;
+        Ok(Self {
+            band,
+            n_skills,
+            total: vec![f64::NEG_INFINITY; len],
+        })
+    }
+
+    /// A table over the runs of `band` from its raw entries, row-major `(N, n_skills)`.
+    pub fn from_values(band: Band, n_skills: usize, total: Vec<f64>) -> Result<Self> {
+        let t = Self::with_band(band, n_skills)?;
+        if total.len() != t.total.len() {
+            return Err(EngineError::ShapeMismatch(format!(
+                "a banded score table of {} runs x {n_skills} skills has {} entries, got {}",
+                t.band.n_runs(),
+                t.total.len(),
+                total.len()
+            )));
+        }
+        Ok(Self { total, ..t })
+    }
+
+    /// The admissible runs.
+    pub fn band(&self) -> &Band {
+        &self.band
+    }
+
+    /// Number of data sections `K`.
+    pub fn n_sections(&self) -> usize {
+        self.band.n_sections()
     }
 
     /// Number of skills.
@@ -73,22 +202,25 @@ impl ScoreTable {
 
     /// Section boundaries `[0, ..., n]` (sample indices).
     pub fn boundaries(&self) -> &[usize] {
-        &self.boundaries
+        self.band.boundaries()
     }
 
     /// Number of samples in sections `i..j`.
     pub fn len(&self, i: usize, j: usize) -> usize {
-        self.boundaries[j] - self.boundaries[i]
+        self.band.boundaries[j] - self.band.boundaries[i]
     }
 
     /// True if the table covers no samples (never, by construction).
     pub fn is_empty(&self) -> bool {
-        self.boundaries.last() == self.boundaries.first()
+        self.band.boundaries.last() == self.band.boundaries.first()
     }
 
-    /// Summed log-likelihood of sections `i..j` under skill `s`.
+    /// Summed log-likelihood of sections `i..j` under skill `s`; `-inf` outside the band.
     pub fn total(&self, i: usize, j: usize, s: usize) -> f64 {
-        self.total[self.index(i, j, s)]
+        assert!(s < self.n_skills, "skill {s} of {}", self.n_skills);
+        self.band
+            .index(i, j)
+            .map_or(f64::NEG_INFINITY, |r| self.total[r * self.n_skills + s])
     }
 
     /// Length-normalised score: summed log-likelihood per sample.
@@ -97,32 +229,63 @@ impl ScoreTable {
     }
 
     /// Set the summed log-likelihood of sections `i..j` under skill `s`.
+    ///
+    /// # Panics
+    /// If `i..j` lies outside the band and `value` is not `-inf` (what the table holds there).
     pub fn set(&mut self, i: usize, j: usize, s: usize, value: f64) {
-        let ix = self.index(i, j, s);
-        self.total[ix] = value;
+        assert!(s < self.n_skills, "skill {s} of {}", self.n_skills);
+        match self.band.index(i, j) {
+            Some(r) => self.total[r * self.n_skills + s] = value,
+            None => assert!(
+                value == f64::NEG_INFINITY,
+                "run {i}..{j} lies outside the score table's band"
+            ),
+        }
     }
 
-    /// Build a table from a function of `(i, j, s)` (mainly for tests and tools).
+    /// Build a table over every run from a function of `(i, j, s)` (mainly for tests and tools).
     pub fn from_fn(
         boundaries: Vec<usize>,
         n_skills: usize,
         f: impl Fn(usize, usize, usize) -> f64,
     ) -> Result<Self> {
-        let mut t = Self::new(boundaries, n_skills)?;
-        let k = t.n_sections();
-        for i in 0..k {
-            for j in i + 1..=k {
+        Self::from_band_fn(Band::new(boundaries, 0)?, n_skills, f)
+    }
+
+    /// Build a table over the runs of `band` from a function of `(i, j, s)`.
+    pub fn from_band_fn(
+        band: Band,
+        n_skills: usize,
+        f: impl Fn(usize, usize, usize) -> f64,
+    ) -> Result<Self> {
+        let mut t = Self::with_band(band, n_skills)?;
+        let mut r = 0;
+        for i in 0..t.n_sections() {
+            for j in t.band.ends(i) {
                 for s in 0..n_skills {
-                    t.set(i, j, s, f(i, j, s));
+                    t.total[r * n_skills + s] = f(i, j, s);
                 }
+                r += 1;
             }
         }
         Ok(t)
     }
 
-    /// The raw entries, row-major `(K, K + 1, n_skills)`.
+    /// The raw entries, row-major `(N, n_skills)` in the band's run order.
     pub fn as_slice(&self) -> &[f64] {
         &self.total
+    }
+
+    /// The entries as a dense row-major `(K, K + 1, n_skills)` table, `-inf` outside the band
+    /// (quadratic in `K`: for small tables and tools).
+    pub fn to_dense(&self) -> Vec<f64> {
+        let (k, ns) = (self.n_sections(), self.n_skills);
+        let mut out = vec![f64::NEG_INFINITY; k * (k + 1) * ns];
+        for (r, (i, j)) in self.band.runs().enumerate() {
+            let at = (i * (k + 1) + j) * ns;
+            out[at..at + ns].copy_from_slice(&self.total[r * ns..(r + 1) * ns]);
+        }
+        out
     }
 }
 
@@ -171,7 +334,8 @@ pub(super) fn check_score_inputs(
 ///   frame);
 /// * `observations` is `(n_samples, n_columns)`, finite, already normalised;
 /// * `boundaries` are the stage-1 section boundaries `[0, ..., n_samples]`;
-/// * `max_len` (samples) bounds the length of a segment (longer runs stay `-inf`); `0` = no bound.
+/// * `max_len` (samples) bounds the length of a segment: only the runs of the [`Band`] of
+///   `max_len` are scored and stored (longer runs read `-inf`); `0` = no bound.
 pub fn score_table<M: PrefixScorer>(
     models: &[Vec<M>],
     groups: &[Range<usize>],
@@ -181,10 +345,8 @@ pub fn score_table<M: PrefixScorer>(
 ) -> Result<ScoreTable> {
     let counts: Vec<usize> = models.iter().map(Vec::len).collect();
     check_score_inputs(&counts, groups, observations, boundaries)?;
-    let n = observations.nrows();
-    let mut table = ScoreTable::new(boundaries.to_vec(), models.len())?;
-    let k = table.n_sections();
-    let max_len = if max_len == 0 { n } else { max_len };
+    let band = Band::new(boundaries.to_vec(), max_len)?;
+    let k = band.n_sections();
     let jobs: Vec<(usize, usize)> = (0..k)
         .flat_map(|i| (0..models.len()).map(move |s| (i, s)))
         .collect();
@@ -192,11 +354,7 @@ pub fn score_table<M: PrefixScorer>(
         .par_iter()
         .map(|&(i, s)| {
             let start = boundaries[i];
-            // the longest run from section i that fits in max_len (at least one section)
-            let mut last = i + 1;
-            while last < k && boundaries[last + 1] - start <= max_len {
-                last += 1;
-            }
+            let last = band.last_end(i);
             let len = boundaries[last] - start;
             let mut sums = vec![0.0; last - i];
             for (g, model) in groups.iter().zip(&models[s]) {
@@ -217,18 +375,24 @@ pub fn score_table<M: PrefixScorer>(
             Ok((i, s, sums))
         })
         .collect();
+    let mut table = ScoreTable::with_band(band, models.len())?;
     for r in results {
         let (i, s, sums) = r?;
-        for (off, v) in sums.into_iter().enumerate() {
-            table.set(
-                i,
-                i + 1 + off,
-                s,
-                if v.is_nan() { f64::NEG_INFINITY } else { v },
-            );
-        }
+        table.set_band_row(i, s, sums);
     }
     Ok(table)
+}
+
+impl ScoreTable {
+    /// Store the sums of the runs `i..i + 1 ..= last_end(i)` of skill `s` (NaN -> `-inf`).
+    pub(super) fn set_band_row(&mut self, i: usize, s: usize, sums: Vec<f64>) {
+        let first = self.band.offsets[i];
+        debug_assert_eq!(sums.len(), self.band.offsets[i + 1] - first);
+        for (off, v) in sums.into_iter().enumerate() {
+            self.total[(first + off) * self.n_skills + s] =
+                if v.is_nan() { f64::NEG_INFINITY } else { v };
+        }
+    }
 }
 
 /// Parameters of the TCP rise/fall decision (paper Fig. 5).
@@ -253,9 +417,20 @@ impl Default for RiseParams {
 
 /// Is the TCP rising over each section run? Returns a row-major `(K, K + 1)` table, entry
 /// `(i, j)` for sections `i..j`, from the TCP height `z` (metres, one value per sample; NaN
-/// samples are skipped). Cost `O(K n)`.
+/// samples are skipped). Cost `O(K n)` and `K (K + 1)` entries: for small inputs; the
+/// segmentation uses [`rising_band`].
 pub fn rising_table(z: &[f64], boundaries: &[usize], params: RiseParams) -> Result<Vec<bool>> {
-    let n = z.len();
+    check_rise_boundaries(z.len(), boundaries)?;
+    let band = Band::new(boundaries.to_vec(), 0)?;
+    let k = band.n_sections();
+    let mut out = vec![false; k * (k + 1)];
+    for ((i, j), r) in band.runs().zip(rising_band(z, &band, params)?) {
+        out[i * (k + 1) + j] = r;
+    }
+    Ok(out)
+}
+
+fn check_rise_boundaries(n: usize, boundaries: &[usize]) -> Result<()> {
     if boundaries.len() < 2 || boundaries.first() != Some(&0) || boundaries.last() != Some(&n) {
         return Err(EngineError::ShapeMismatch(format!(
             "boundaries must be [0, ..., {n}] with at least one section"
@@ -266,11 +441,20 @@ pub fn rising_table(z: &[f64], boundaries: &[usize], params: RiseParams) -> Resu
             "section boundaries must be strictly increasing".into(),
         ));
     }
-    let k = boundaries.len() - 1;
-    let mut out = vec![false; k * (k + 1)];
-    for i in 0..k {
+    Ok(())
+}
+
+/// Is the TCP rising over each run of `band` (flat run order, `N` entries)? See
+/// [`rising_table`]; cost `O(N + sum of the runs' longest lengths)`, linear in the
+/// demonstration's length for a bounded band.
+pub fn rising_band(z: &[f64], band: &Band, params: RiseParams) -> Result<Vec<bool>> {
+    let boundaries = band.boundaries();
+    check_rise_boundaries(z.len(), boundaries)?;
+    let mut out = vec![false; band.n_runs()];
+    for i in 0..band.n_sections() {
         let (mut low, mut drawup, mut up, mut down) = (f64::INFINITY, 0.0_f64, 0.0, 0.0);
         let mut prev = f64::NAN;
+        let (first, last) = (band.offsets()[i], band.last_end(i));
         let mut j = i + 1;
         for (t, &v) in z.iter().enumerate().skip(boundaries[i]) {
             if v.is_finite() {
@@ -283,9 +467,9 @@ pub fn rising_table(z: &[f64], boundaries: &[usize], params: RiseParams) -> Resu
                 prev = v;
             }
             if t + 1 == boundaries[j] {
-                out[i * (k + 1) + j] = drawup >= params.min_rise && up >= params.dominance * down;
+                out[first + j - i - 1] = drawup >= params.min_rise && up >= params.dominance * down;
                 j += 1;
-                if j > k {
+                if j > last {
                     break;
                 }
             }
@@ -398,5 +582,220 @@ mod tests {
         let tremor: Vec<f64> = (0..200).map(|t| 0.004 * f64::from(t % 2)).collect();
         let r = rising_table(&tremor, &[0, 200], RiseParams::default()).unwrap();
         assert!(!r[1]);
+    }
+
+    #[test]
+    fn band_holds_the_runs_that_fit() {
+        // sections of 3, 4, 5, 2 samples; max 7: 0..2 (7) fits, 0..3 (12) not; 2..3 (5) alone;
+        // 2..4 (7) fits
+        let band = Band::new(vec![0, 3, 7, 12, 14], 7).unwrap();
+        assert_eq!(band.n_sections(), 4);
+        let ends: Vec<_> = (0..4).map(|i| band.ends(i)).collect();
+        assert_eq!(ends, vec![1..3, 2..3, 3..5, 4..5]);
+        assert_eq!(band.n_runs(), 6);
+        assert_eq!(band.offsets(), &[0, 2, 3, 5, 6]);
+        let runs: Vec<_> = band.runs().collect();
+        assert_eq!(runs, vec![(0, 1), (0, 2), (1, 2), (2, 3), (2, 4), (3, 4)]);
+        for (r, &(i, j)) in runs.iter().enumerate() {
+            assert_eq!(band.index(i, j), Some(r));
+        }
+        assert_eq!(band.index(0, 3), None);
+        assert_eq!(band.index(1, 1), None);
+        assert_eq!(band.index(2, 1), None);
+        assert_eq!(band.index(3, 5), None);
+        assert_eq!(band.starts(1), 0..1);
+        assert_eq!(band.starts(2), 0..2);
+        assert_eq!(band.starts(3), 2..3); // 1..3 (9 samples) is too long
+        assert_eq!(band.starts(4), 2..4);
+        // a section longer than the bound is still a run on its own
+        let b = Band::new(vec![0, 10, 11], 5).unwrap();
+        assert_eq!(b.runs().collect::<Vec<_>>(), vec![(0, 1), (1, 2)]);
+        // no bound: every run
+        let all = Band::new(vec![0, 3, 7, 12, 14], 0).unwrap();
+        assert_eq!(all.n_runs(), 10);
+        assert!(Band::new(vec![0], 3).is_err());
+        assert!(Band::new(vec![0, 2, 2], 3).is_err());
+    }
+
+    #[test]
+    fn table_reads_minus_infinity_outside_its_band() {
+        let band = Band::new(vec![0, 3, 7, 12, 14], 7).unwrap();
+        let mut t =
+            ScoreTable::from_band_fn(band.clone(), 2, |i, j, s| (10 * i + j + s) as f64).unwrap();
+        assert_eq!(t.as_slice().len(), 6 * 2);
+        assert_eq!(t.total(2, 4, 1).to_bits(), 25.0f64.to_bits());
+        assert_eq!(t.total(0, 3, 0).to_bits(), f64::NEG_INFINITY.to_bits());
+        assert_eq!(t.total(3, 2, 0).to_bits(), f64::NEG_INFINITY.to_bits());
+        t.set(0, 3, 0, f64::NEG_INFINITY); // what it holds there: allowed
+        t.set(0, 2, 1, -1.5);
+        assert_eq!(t.total(0, 2, 1).to_bits(), (-1.5f64).to_bits());
+        let dense = t.to_dense();
+        assert_eq!(dense.len(), 4 * 5 * 2);
+        assert_eq!(dense[(2 * 5 + 4) * 2 + 1].to_bits(), 25.0f64.to_bits());
+        assert_eq!(dense[(5 + 4) * 2].to_bits(), f64::NEG_INFINITY.to_bits());
+        let back = ScoreTable::from_values(band.clone(), 2, t.as_slice().to_vec()).unwrap();
+        assert_eq!(back, t);
+        assert!(matches!(
+            ScoreTable::from_values(band, 2, vec![0.0; 5]),
+            Err(EngineError::ShapeMismatch(_))
+        ));
+    }
+
+    #[test]
+    #[should_panic(expected = "outside the score table's band")]
+    fn setting_a_score_outside_the_band_panics() {
+        let mut t = ScoreTable::with_band(Band::new(vec![0, 3, 7, 12], 7).unwrap(), 1).unwrap();
+        t.set(0, 3, 0, -1.0);
+    }
+
+    /// The dense `(K, K + 1, S)` table as `score_table` built it before the band (reference).
+    fn dense_reference<M: PrefixScorer>(
+        models: &[Vec<M>],
+        groups: &[Range<usize>],
+        obs: &DMatrix<f64>,
+        b: &[usize],
+        max_len: usize,
+    ) -> Vec<f64> {
+        let (n, k, ns) = (obs.nrows(), b.len() - 1, models.len());
+        let max_len = if max_len == 0 { n } else { max_len };
+        let mut out = vec![f64::NEG_INFINITY; k * (k + 1) * ns];
+        for i in 0..k {
+            for (s, row) in models.iter().enumerate() {
+                let mut last = i + 1;
+                while last < k && b[last + 1] - b[i] <= max_len {
+                    last += 1;
+                }
+                let len = b[last] - b[i];
+                let mut sums = vec![0.0; last - i];
+                for (g, model) in groups.iter().zip(row) {
+                    let x = obs.view((b[i], g.start), (len, g.len())).into_owned();
+                    let prefix = model.prefix_scores(&x).unwrap();
+                    for (slot, j) in sums.iter_mut().zip(i + 1..=last) {
+                        *slot += prefix[b[j] - b[i] - 1];
+                    }
+                }
+                for (off, v) in sums.into_iter().enumerate() {
+                    out[(i * (k + 1) + i + 1 + off) * ns + s] = v;
+                }
+            }
+        }
+        out
+    }
+
+    /// The dense rise table as `rising_table` computed it before the band (reference).
+    fn dense_rising(z: &[f64], b: &[usize], p: RiseParams) -> Vec<bool> {
+        let k = b.len() - 1;
+        let mut out = vec![false; k * (k + 1)];
+        for i in 0..k {
+            let (mut low, mut drawup, mut up, mut down) = (f64::INFINITY, 0.0_f64, 0.0, 0.0);
+            let mut prev = f64::NAN;
+            let mut j = i + 1;
+            for (t, &v) in z.iter().enumerate().skip(b[i]) {
+                if v.is_finite() {
+                    low = low.min(v);
+                    drawup = drawup.max(v - low);
+                    if prev.is_finite() {
+                        up += (v - prev).max(0.0);
+                        down += (prev - v).max(0.0);
+                    }
+                    prev = v;
+                }
+                if t + 1 == b[j] {
+                    out[i * (k + 1) + j] = drawup >= p.min_rise && up >= p.dominance * down;
+                    j += 1;
+                    if j > k {
+                        break;
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(200))]
+
+        /// The banded table holds exactly the dense table's entries (bit for bit), reads
+        /// `-inf` everywhere else, and the rise decisions and both searches agree with the
+        /// unbounded (dense) layout.
+        #[test]
+        fn banded_table_matches_the_dense_reference(
+            lens in proptest::collection::vec(1usize..9, 1..28),
+            max_len in 0usize..40,
+            mus in proptest::collection::vec(-1.0f64..2.0, 14),
+            seed in 0u64..1000,
+            dominance in 0.0f64..2.0,
+            penalty in 0.0f64..5.0,
+            enforce in proptest::bool::ANY,
+        ) {
+            use crate::segment::grammar::tests::paper_grammar;
+            use crate::segment::{dp::dp, greedy::greedy, GrammarMode};
+            let mut b = vec![0];
+            for l in &lens {
+                b.push(b[b.len() - 1] + l);
+            }
+            let (n, k) = (b[b.len() - 1], lens.len());
+            let obs = DMatrix::from_fn(n, 2, |t, c| {
+                (((t as u64 * 7919 + c as u64 * 104_729 + seed) % 1000) as f64) / 500.0
+            });
+            let models: Vec<Vec<Quadratic>> = (0..7)
+                .map(|s| vec![Quadratic(mus[2 * s]), Quadratic(mus[2 * s + 1])])
+                .collect();
+            let groups = [0..1, 1..2];
+            let t = score_table(&models, &groups, &obs, &b, max_len).unwrap();
+            let want = dense_reference(&models, &groups, &obs, &b, max_len);
+            proptest::prop_assert_eq!(t.to_dense(), want.clone());
+            for i in 0..=k {
+                for j in 0..=k {
+                    for s in 0..7 {
+                        let w = if i < j { want[(i * (k + 1) + j) * 7 + s] } else { f64::NEG_INFINITY };
+                        proptest::prop_assert_eq!(t.total(i, j, s).to_bits(), w.to_bits());
+                    }
+                }
+            }
+            // memory: the band's runs, never more than every run
+            proptest::prop_assert!(t.as_slice().len() <= k * (k + 1) / 2 * 7);
+            if max_len > 0 {
+                let fits = (0..k)
+                    .flat_map(|i| (i + 1..=k).map(move |j| (i, j)))
+                    .filter(|&(i, j)| j == i + 1 || b[j] - b[i] <= max_len)
+                    .count();
+                proptest::prop_assert_eq!(t.band().n_runs(), fits);
+            }
+            // the rise decision on the band is the dense one's
+            let z: Vec<f64> = (0..n)
+                .map(|x| if (x as u64 + seed) % 11 == 0 { f64::NAN } else { obs[(x, 0)] * 0.05 })
+                .collect();
+            let p = RiseParams { min_rise: 0.02, dominance };
+            let dense_r = dense_rising(&z, &b, p);
+            proptest::prop_assert_eq!(rising_table(&z, &b, p).unwrap(), dense_r.clone());
+            let banded_r = rising_band(&z, t.band(), p).unwrap();
+            let runs: Vec<(usize, usize)> = t.band().runs().collect();
+            for (&(i, j), &r) in runs.iter().zip(&banded_r) {
+                proptest::prop_assert_eq!(r, dense_r[i * (k + 1) + j]);
+            }
+            // the searches see the same candidates in both layouts
+            let full = ScoreTable::from_fn(b.clone(), 7, |i, j, s| want[(i * (k + 1) + j) * 7 + s]).unwrap();
+            let full_r: Vec<bool> = full.band().runs().map(|(i, j)| dense_r[i * (k + 1) + j]).collect();
+            let g = paper_grammar();
+            let mode = if enforce { GrammarMode::Enforce } else { GrammarMode::Warn };
+            for rising in [false, true] {
+                let (rb, rf) = if rising {
+                    (Some(banded_r.as_slice()), Some(full_r.as_slice()))
+                } else {
+                    (None, None)
+                };
+                proptest::prop_assert_eq!(
+                    dp(&t, &g, rb, mode, penalty).unwrap(),
+                    dp(&full, &g, rf, mode, penalty).unwrap()
+                );
+                for lookahead in [false, true] {
+                    proptest::prop_assert_eq!(
+                        greedy(&t, &g, rb, mode, lookahead).unwrap(),
+                        greedy(&full, &g, rf, mode, lookahead).unwrap()
+                    );
+                }
+            }
+        }
     }
 }
