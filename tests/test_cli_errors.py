@@ -12,6 +12,8 @@ placeholders are filled in:
 ``{templates}``  the shipped template recordings ``recordings/templates``
 ``{binary}``, ``{badjson}``, ``{inverted}``  template files: binary, JSON cut short, and the
             shipped templates with the range of column 0 inverted
+``{photo}``, ``{depth}``, ``{k}``, ``{truncated}``  a colour PNG, a depth PNG, intrinsics and a
+            PNG cut in half (:func:`_still_inputs`)
 ``{overlap}``, ``{pastend}``, ...  label files for ``{rec}`` with one mistake each (:func:`bad_labels`)
 
 Every case runs ``python -m lfd.cli`` in a subprocess and must exit with status 2, print exactly
@@ -126,6 +128,7 @@ CASES: list[tuple[str, str, str]] = [
     ("record-bad-hand", "record --source sim:exp1 -o {tmp}/x.mcap --hand both", "invalid choice"),
     ("hands-unreadable-image", "perception hands {bad}", "bad.json: not a readable image"),
     ("hands-missing-image", "perception hands {tmp}/none.png", "none.png: image not found"),
+    ("hands-truncated-png", "perception hands {truncated}", "cut.png: not a readable image"),
     ("hands-depth-no-intrinsics", "perception hands {photo} --depth {photo}", "need --intrinsics"),
     ("hands-depth-count", "perception hands {photo} {photo} --depth {depth} --intrinsics {k}", "2 colour images"),
     ("hands-depth-not-16bit", "perception hands {photo} --depth {photo} --intrinsics {k}", "16-bit"),
@@ -283,7 +286,7 @@ def test_user_error_is_one_line(
         "templates": ROOT / "recordings" / "templates",
         **bad_templates,
         **bad_labels,
-        **(_still_inputs(work) if "{photo}" in argv else {}),
+        **(_still_inputs(work) if "{photo}" in argv or "{truncated}" in argv else {}),
     }
     before = _tree(work)
     try:
@@ -302,7 +305,14 @@ def _still_inputs(work: Path) -> dict[str, Path]:
     cv2.imwrite(str(work / "photo.png"), np.full((48, 64, 3), 120, np.uint8))
     cv2.imwrite(str(work / "depth.png"), np.full((10, 10), 700, np.uint16))
     (work / "k.json").write_text('{"K": [[500, 0, 32], [0, 500, 24], [0, 0, 1]]}')
-    return {"photo": work / "photo.png", "depth": work / "depth.png", "k": work / "k.json"}
+    png = (work / "photo.png").read_bytes()
+    (work / "cut.png").write_bytes(png[: len(png) // 2])  # OpenCV warns on its own for these
+    return {
+        "photo": work / "photo.png",
+        "depth": work / "depth.png",
+        "k": work / "k.json",
+        "truncated": work / "cut.png",
+    }
 
 
 def test_one_case_per_subcommand() -> None:

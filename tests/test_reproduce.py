@@ -15,7 +15,7 @@ pytest.importorskip("mink")
 
 sys.path.insert(0, str(Path(__file__).parent))
 
-from lfd.errors import DemonstrationError, UnknownSkillError, UsageError
+from lfd.errors import DemonstrationError, InvalidParameterError, UnknownSkillError, UsageError
 from lfd.reproduce import (
     Segment,
     TaskProgram,
@@ -169,7 +169,7 @@ def test_from_labels_and_displacement_parsing() -> None:
     traj, program = synthetic_demo("pick_place")
     with pytest.raises(UsageError, match="known objects: box_1, box_2"):
         reproduce(traj, program, "dmp", displace={"nope": (0.1, 0.0)})
-    with pytest.raises(DemonstrationError):
+    with pytest.raises(InvalidParameterError, match="unknown mode 'teleport'; choose one of"):
         reproduce(traj, program, "teleport")
 
 

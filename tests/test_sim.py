@@ -14,7 +14,7 @@ pytest.importorskip("cv2")
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from lfd.demo import HAND_BONES, INDEX_TIP, THUMB_TIP
-from lfd.errors import DemonstrationError
+from lfd.errors import DemonstrationError, InvalidParameterError
 from lfd.sim import TASKS, Variability, check_grammar, simulate
 from lfd.sim.tasks import TRANSITIONS
 
@@ -58,7 +58,7 @@ def test_grammar_rejects_bad_sequences() -> None:
     with pytest.raises(DemonstrationError):
         check_grammar(["pick_up", "move"])
     assert TRANSITIONS["locate"] == {"move", "pick_up", "push"}
-    with pytest.raises(DemonstrationError, match="unknown task"):
+    with pytest.raises(InvalidParameterError, match="unknown task"):
         simulate("juggle")
 
 

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import DemonstrationError
+from ..errors import InvalidParameterError
 from .controller import TICK, Plan
 from .dmp import dmp_rollout, min_jerk, resample, warp
 from .goals import DemoFrames, grasp_goal, pose, upright, wrap_near, yaw_of
@@ -400,7 +400,7 @@ def plan_task(
         Initial 4x4 object poses (displaced); default: the demonstrated initial poses.
     """
     if mode not in MODES:
-        raise DemonstrationError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
+        raise InvalidParameterError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
     return _TaskPlanner(frames, repair_program(frames, program), mode, initial).plan()
 
 

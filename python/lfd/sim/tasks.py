@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import DemonstrationError
+from ..errors import DemonstrationError, InvalidParameterError
 from ..skills import SKILLS, grammar
 from .scene import WORKSPACE_X, WORKSPACE_Y, ObjectSpec
 
@@ -115,9 +115,9 @@ TEMPLATE_TASKS: tuple[str, ...] = SKILLS
 
 
 def check_task(name: str) -> None:
-    """Raise :class:`DemonstrationError` for an unknown task name."""
+    """Raise :class:`~lfd.errors.InvalidParameterError` for an unknown task name."""
     if name not in TASK_NAMES:
-        raise DemonstrationError(f"unknown task {name!r}; known tasks: {', '.join(TASK_NAMES)}")
+        raise InvalidParameterError(f"unknown task {name!r}; known tasks: {', '.join(TASK_NAMES)}")
 
 
 def task_steps(name: str, rng: np.random.Generator | None = None) -> tuple[Step, ...]:

@@ -263,6 +263,108 @@ fn medoid(seqs: &[DMatrix<f64>], band: Option<usize>) -> Result<usize> {
         .map_or(0, |(i, _)| i))
 }
 
+/// Check labelled examples against the skills and features; returns the number of observation
+/// columns and the number of examples per skill (every skill needs one).
+fn check_examples(
+    skills: &[String],
+    features: &[FeatureGroup],
+    examples: &[(usize, DMatrix<f64>)],
+) -> Result<(usize, Vec<usize>)> {
+    if features.is_empty() {
+        return Err(EngineError::EmptySequence("no features".into()));
+    }
+    if let Some(f) = features.iter().find(|f| f.start >= f.end) {
+        return Err(EngineError::InvalidParameter(format!(
+            "feature {:?} has no columns",
+            f.name
+        )));
+    }
+    let n_cols = features.iter().map(|f| f.end).max().unwrap_or(0);
+    for (k, (s, x)) in examples.iter().enumerate() {
+        if *s >= skills.len() {
+            return Err(EngineError::InvalidParameter(format!(
+                "example {k} has skill index {s}, only {} skills",
+                skills.len()
+            )));
+        }
+        if x.ncols() != n_cols {
+            return Err(EngineError::ShapeMismatch(format!(
+                "example {k} has {} columns, features need {n_cols}",
+                x.ncols()
+            )));
+        }
+        if x.nrows() == 0 {
+            return Err(EngineError::EmptySequence(format!(
+                "example {k} has no samples"
+            )));
+        }
+        if x.iter().any(|v| !v.is_finite()) {
+            return Err(EngineError::NonFinite(format!(
+                "example {k} contains NaN or inf"
+            )));
+        }
+    }
+    let mut n_examples = vec![0; skills.len()];
+    for (s, _) in examples {
+        n_examples[*s] += 1;
+    }
+    if let Some(s) = n_examples.iter().position(|&c| c == 0) {
+        return Err(EngineError::EmptySequence(format!(
+            "no examples of skill {:?}",
+            skills[s]
+        )));
+    }
+    Ok((n_cols, n_examples))
+}
+
+/// Fixed per-column normalisation ranges: the `[lo, hi]` percentiles of all example samples.
+fn column_ranges(
+    examples: &[(usize, DMatrix<f64>)],
+    n_cols: usize,
+    [p_lo, p_hi]: [f64; 2],
+) -> Vec<[f64; 2]> {
+    (0..n_cols)
+        .map(|c| {
+            let mut v: Vec<f64> = examples
+                .iter()
+                .flat_map(|(_, x)| x.column(c).iter().copied().collect::<Vec<_>>())
+                .collect();
+            v.sort_by(f64::total_cmp);
+            [percentile(&v, p_lo), percentile(&v, p_hi)]
+        })
+        .collect()
+}
+
+/// The template of skill `s` for feature group `feature`: its normalised examples (restricted
+/// to the group's columns and, with `params.align`, DTW-aligned to their medoid) fitted by
+/// Baum-Welch with at most as many states as the shortest example has samples.
+fn fit_template(
+    s: usize,
+    f: usize,
+    feature: &FeatureGroup,
+    normed: &[(usize, DMatrix<f64>)],
+    params: &TemplateParams,
+) -> Result<Hmm> {
+    let cols = feature.columns();
+    let seqs: Vec<DMatrix<f64>> = normed
+        .iter()
+        .filter(|(k, _)| *k == s)
+        .map(|(_, x)| x.columns(cols.start, cols.len()).into_owned())
+        .collect();
+    let seqs = if params.align && seqs.len() > 1 {
+        let m = medoid(&seqs, params.dtw_band)?;
+        align_to_reference(&seqs[m], &seqs, params.dtw_band)?
+    } else {
+        seqs
+    };
+    let shortest = seqs.iter().map(DMatrix::nrows).min().unwrap_or(1);
+    let mut cfg = params.fit.clone();
+    // a segment shorter than n_states cannot visit every state of a left-right model
+    cfg.n_states = cfg.n_states.min(shortest);
+    cfg.seed = params.fit.seed.wrapping_add((s * 1000 + f) as u64);
+    Hmm::fit(&seqs, &cfg).map(|(hmm, _)| hmm)
+}
+
 impl TemplateSet {
     /// Train templates.
     ///
@@ -277,62 +379,8 @@ impl TemplateSet {
     ) -> Result<Self> {
         check_skills(skills)?;
         params.validate()?;
-        if features.is_empty() {
-            return Err(EngineError::EmptySequence("no features".into()));
-        }
-        let n_cols = features.iter().map(|f| f.end).max().unwrap_or(0);
-        if let Some(f) = features.iter().find(|f| f.start >= f.end) {
-            return Err(EngineError::InvalidParameter(format!(
-                "feature {:?} has no columns",
-                f.name
-            )));
-        }
-        for (k, (s, x)) in examples.iter().enumerate() {
-            if *s >= skills.len() {
-                return Err(EngineError::InvalidParameter(format!(
-                    "example {k} has skill index {s}, only {} skills",
-                    skills.len()
-                )));
-            }
-            if x.ncols() != n_cols {
-                return Err(EngineError::ShapeMismatch(format!(
-                    "example {k} has {} columns, features need {n_cols}",
-                    x.ncols()
-                )));
-            }
-            if x.nrows() == 0 {
-                return Err(EngineError::EmptySequence(format!(
-                    "example {k} has no samples"
-                )));
-            }
-            if x.iter().any(|v| !v.is_finite()) {
-                return Err(EngineError::NonFinite(format!(
-                    "example {k} contains NaN or inf"
-                )));
-            }
-        }
-        let mut n_examples = vec![0; skills.len()];
-        for (s, _) in examples {
-            n_examples[*s] += 1;
-        }
-        if let Some(s) = n_examples.iter().position(|&c| c == 0) {
-            return Err(EngineError::EmptySequence(format!(
-                "no examples of skill {:?}",
-                skills[s]
-            )));
-        }
-        // fixed per-column ranges from robust percentiles of all template samples
-        let [p_lo, p_hi] = params.range_percentiles;
-        let ranges: Vec<[f64; 2]> = (0..n_cols)
-            .map(|c| {
-                let mut v: Vec<f64> = examples
-                    .iter()
-                    .flat_map(|(_, x)| x.column(c).iter().copied().collect::<Vec<_>>())
-                    .collect();
-                v.sort_by(f64::total_cmp);
-                [percentile(&v, p_lo), percentile(&v, p_hi)]
-            })
-            .collect();
+        let (n_cols, n_examples) = check_examples(skills, features, examples)?;
+        let ranges = column_ranges(examples, n_cols, params.range_percentiles);
         let normed: Vec<(usize, DMatrix<f64>)> = examples
             .iter()
             .map(|(s, x)| Ok((*s, normalise(x, &ranges)?)))
@@ -343,32 +391,13 @@ impl TemplateSet {
         let fitted: Vec<Result<Hmm>> = jobs
             .par_iter()
             .map(|&(s, f)| {
-                let cols = features[f].columns();
-                let seqs: Vec<DMatrix<f64>> = normed
-                    .iter()
-                    .filter(|(k, _)| *k == s)
-                    .map(|(_, x)| x.columns(cols.start, cols.len()).into_owned())
-                    .collect();
-                let seqs = if params.align && seqs.len() > 1 {
-                    let m = medoid(&seqs, params.dtw_band)?;
-                    align_to_reference(&seqs[m], &seqs, params.dtw_band)?
-                } else {
-                    seqs
-                };
-                let shortest = seqs.iter().map(DMatrix::nrows).min().unwrap_or(1);
-                let mut cfg = params.fit.clone();
-                // a segment shorter than n_states cannot visit every state of a left-right model
-                cfg.n_states = cfg.n_states.min(shortest);
-                cfg.seed = params.fit.seed.wrapping_add((s * 1000 + f) as u64);
-                Hmm::fit(&seqs, &cfg)
-                    .map(|(hmm, _)| hmm)
-                    .map_err(|e| match e {
-                        EngineError::InvalidParameter(m) => EngineError::InvalidParameter(format!(
-                            "skill {:?}, feature {:?}: {m}",
-                            skills[s], features[f].name
-                        )),
-                        other => other,
-                    })
+                fit_template(s, f, &features[f], &normed, params).map_err(|e| match e {
+                    EngineError::InvalidParameter(m) => EngineError::InvalidParameter(format!(
+                        "skill {:?}, feature {:?}: {m}",
+                        skills[s], features[f].name
+                    )),
+                    other => other,
+                })
             })
             .collect();
         let mut models: Vec<Vec<Hmm>> = vec![Vec::with_capacity(features.len()); skills.len()];

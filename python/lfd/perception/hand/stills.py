@@ -40,7 +40,13 @@ def _decode(path: PathLike, what: str, flags: int) -> np.ndarray:
     if not p.is_file():
         raise LfdError(f"{p}: {what} not found")
     data = np.fromfile(p, np.uint8)
-    img = cv2.imdecode(data, flags) if data.size else None
+    # OpenCV logs its own "[ WARN ]" line for a truncated file; the error below says it once.
+    level = cv2.utils.logging.getLogLevel()
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
+    try:
+        img = cv2.imdecode(data, flags) if data.size else None
+    finally:
+        cv2.utils.logging.setLogLevel(level)
     if img is None:
         raise LfdError(f"{p}: not a readable image (OpenCV cannot decode it)")
     return np.asarray(img)
