@@ -43,7 +43,7 @@ mod model;
 mod moments;
 mod sample;
 mod score;
-mod simd;
+pub(crate) mod simd;
 mod train;
 mod validate;
 

@@ -15,6 +15,7 @@ use serde::{Deserialize, Serialize};
 
 use super::scores::{check_score_inputs, Band, ScoreTable};
 use crate::error::{EngineError, Result};
+use crate::hmm::simd::{dispatch, Kernel};
 #[cfg(test)]
 use crate::hmm::CovarianceType;
 use crate::hmm::{Emission, Hmm};
@@ -223,9 +224,116 @@ impl Scaled {
     }
 }
 
+/// The scaled forward recursion of one run, advanced one sample at a time: `alpha` is the
+/// normalised forward vector, `ln P(x_0..=t, q_t = j) = log_acc + ln prod + ln alpha[j]`.
+/// Shared by every scorer (offline runs, and any caller advancing runs sample by sample), so
+/// the numerics exist once. `N` is the capacity in states; with `EXACT` the model has exactly
+/// `N` states (the loops are unrolled), otherwise at most `N`.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct ForwardState<const N: usize, const EXACT: bool> {
+    alpha: [f64; N],
+    log_acc: f64,
+    prod: f64,
+    started: bool,
+}
+
+impl<const N: usize, const EXACT: bool> ForwardState<N, EXACT> {
+    /// Before the run's first sample.
+    pub(crate) fn new() -> Self {
+        Self {
+            alpha: [0.0; N],
+            log_acc: 0.0,
+            prod: 1.0,
+            started: false,
+        }
+    }
+
+    #[inline]
+    fn n(m: &CompiledHmm) -> usize {
+        if EXACT {
+            N
+        } else {
+            m.n
+        }
+    }
+
+    /// Advance over sample `t` of `em` under model `m`; `false` once the run is impossible
+    /// (every later score is `-inf`).
+    #[inline]
+    fn advance(&mut self, m: &CompiledHmm, em: &Scaled, t: usize) -> bool {
+        let n = Self::n(m);
+        let mut pred = [0.0f64; N];
+        let mut next = [0.0f64; N];
+        let (alpha, pred, next) = (&mut self.alpha[..n], &mut pred[..n], &mut next[..n]);
+        if self.started {
+            for (j, p) in pred.iter_mut().enumerate() {
+                let (lo, hi) = m.band[j];
+                let tr = &m.trans[j * n + lo..j * n + hi];
+                *p = alpha[lo..hi].iter().zip(tr).map(|(a, q)| a * q).sum();
+            }
+        } else {
+            pred.copy_from_slice(&m.start);
+            self.started = true;
+        }
+        let bt = &em.b[t * n..(t + 1) * n];
+        let mut sum = 0.0;
+        for j in 0..n {
+            next[j] = pred[j] * bt[j];
+            sum += next[j];
+        }
+        let mut hi = em.shift[t];
+        if !(sum > 1e-250 && sum.is_finite()) {
+            // ln b_j (relative to shift[t]) + ln pred_j; b_j = 0 counts as impossible
+            let row: Vec<f64> = bt.iter().map(|v| em.shift[t] + v.ln()).collect();
+            hi = (0..n)
+                .filter(|&j| pred[j] > 0.0 && bt[j] > 0.0)
+                .map(|j| row[j] + pred[j].ln())
+                .fold(f64::NEG_INFINITY, f64::max);
+            if !hi.is_finite() {
+                return false;
+            }
+            sum = 0.0;
+            for j in 0..n {
+                next[j] = if pred[j] > 0.0 {
+                    (row[j] + pred[j].ln() - hi).exp()
+                } else {
+                    0.0
+                };
+                sum += next[j];
+            }
+        }
+        self.log_acc += hi;
+        let inv = 1.0 / sum;
+        for j in 0..n {
+            alpha[j] = next[j] * inv;
+        }
+        self.prod *= sum;
+        if !(1e-200..=1e200).contains(&self.prod) {
+            self.log_acc += self.prod.ln();
+            self.prod = 1.0;
+        }
+        true
+    }
+
+    /// The score of the samples seen so far.
+    #[inline]
+    fn score(&self, m: &CompiledHmm, end: EndState) -> f64 {
+        let base = self.log_acc + self.prod.ln();
+        match end {
+            EndState::Any => base,
+            EndState::Final => base + self.alpha[Self::n(m) - 1].ln(),
+        }
+    }
+}
+
+/// At most this many states per template HMM.
+const MAX_STATES: usize = 16;
+
 impl CompiledHmm {
     /// Prefix scores at the requested ends only: `ends` are sample offsets (ascending) from
-    /// `start`; adds the score at each end to `sums`. `ln` is taken only at the ends.
+    /// `start`; adds the score at each end to `sums`. `ln` is taken only at the ends. (One run
+    /// at a time: the reference of [`sweep`], which advances all runs of a block together.)
+    #[cfg(test)]
     fn add_prefix_at(
         &self,
         em: &Scaled,
@@ -234,76 +342,293 @@ impl CompiledHmm {
         end: EndState,
         sums: &mut [f64],
     ) {
-        let n = self.n;
         let Some(&last) = ends.last() else { return };
-        let mut alpha = [0.0f64; 16];
-        let mut next = [0.0f64; 16];
-        let mut pred = [0.0f64; 16];
-        let (alpha, next, pred) = (&mut alpha[..n], &mut next[..n], &mut pred[..n]);
-        let mut log_acc = 0.0;
-        let mut prod = 1.0f64;
+        let mut st = ForwardState::<MAX_STATES, false>::new();
         let mut e = 0;
         for k in 0..=last {
-            let t = start + k;
-            if k == 0 {
-                pred.copy_from_slice(&self.start);
-            } else {
-                for (j, p) in pred.iter_mut().enumerate() {
-                    let (lo, hi) = self.band[j];
-                    let tr = &self.trans[j * n + lo..j * n + hi];
-                    *p = alpha[lo..hi].iter().zip(tr).map(|(a, q)| a * q).sum();
+            if !st.advance(self, em, start + k) {
+                for slot in &mut sums[e..] {
+                    *slot = f64::NEG_INFINITY;
                 }
-            }
-            let bt = &em.b[t * n..(t + 1) * n];
-            let mut sum = 0.0;
-            for j in 0..n {
-                next[j] = pred[j] * bt[j];
-                sum += next[j];
-            }
-            let mut hi = em.shift[t];
-            if !(sum > 1e-250 && sum.is_finite()) {
-                // ln b_j (relative to shift[t]) + ln pred_j; b_j = 0 counts as impossible
-                let bt = &em.b[t * n..(t + 1) * n];
-                let row: Vec<f64> = bt.iter().map(|v| em.shift[t] + v.ln()).collect();
-                hi = (0..n)
-                    .filter(|&j| pred[j] > 0.0 && bt[j] > 0.0)
-                    .map(|j| row[j] + pred[j].ln())
-                    .fold(f64::NEG_INFINITY, f64::max);
-                if !hi.is_finite() {
-                    for slot in &mut sums[e..] {
-                        *slot = f64::NEG_INFINITY;
-                    }
-                    return;
-                }
-                sum = 0.0;
-                for j in 0..n {
-                    next[j] = if pred[j] > 0.0 {
-                        (row[j] + pred[j].ln() - hi).exp()
-                    } else {
-                        0.0
-                    };
-                    sum += next[j];
-                }
-            }
-            log_acc += hi;
-            let inv = 1.0 / sum;
-            for j in 0..n {
-                alpha[j] = next[j] * inv;
-            }
-            prod *= sum;
-            if !(1e-200..=1e200).contains(&prod) {
-                log_acc += prod.ln();
-                prod = 1.0;
+                return;
             }
             while e < ends.len() && ends[e] == k {
-                let base = log_acc + prod.ln();
-                sums[e] += match end {
-                    EndState::Any => base,
-                    EndState::Final => base + alpha[n - 1].ln(),
-                };
+                sums[e] += st.score(self, end);
                 e += 1;
             }
         }
+    }
+}
+
+/// The scores of model `m` for every run of the band starting at sections `starts` (whose
+/// samples `lo..` are `em`'s rows `0..`), written to `out[r - offsets[starts.start]]` for run
+/// `r` of the band. The forward passes of all runs that cover a sample advance together, so
+/// the independent recursions interleave (the passes are latency-bound one at a time).
+fn sweep(
+    m: &CompiledHmm,
+    em: &Scaled,
+    band: &Band,
+    starts: Range<usize>,
+    lo: usize,
+    end: EndState,
+    out: &mut [f64],
+) {
+    macro_rules! soa {
+        ($n:literal) => {
+            dispatch(SoaSweep::<$n> {
+                m,
+                em,
+                band,
+                starts,
+                lo,
+                end,
+                out,
+            })
+        };
+    }
+    // every state reachable from some state: the structure-of-arrays sweep applies
+    if m.band.iter().all(|&(a, b)| a < b) {
+        match m.n {
+            1 => return soa!(1),
+            2 => return soa!(2),
+            3 => return soa!(3),
+            4 => return soa!(4),
+            5 => return soa!(5),
+            6 => return soa!(6),
+            _ => {}
+        }
+    }
+    sweep_n::<MAX_STATES, false>(m, em, band, starts, lo, end, out);
+}
+
+/// [`sweep`] for models of exactly `N` states, with the runs' forward vectors stored state by
+/// state (`alpha[j * R + r]`), so each step is a few vector operations over all active runs
+/// (compiled for AVX2 where the CPU has it; no fused operations, so every entry is bitwise the
+/// one [`ForwardState`] computes). A run whose step would underflow takes the scalar
+/// [`ForwardState::advance`] (its log-space fallback) for that step.
+struct SoaSweep<'a, const N: usize> {
+    m: &'a CompiledHmm,
+    em: &'a Scaled,
+    band: &'a Band,
+    starts: Range<usize>,
+    lo: usize,
+    end: EndState,
+    out: &'a mut [f64],
+}
+
+impl<const N: usize> Kernel for SoaSweep<'_, N> {
+    type Output = ();
+
+    #[allow(clippy::inline_always, clippy::too_many_lines)] // compiled inside the AVX2 function
+    #[inline(always)]
+    fn run<const FMA: bool>(self) {
+        let SoaSweep {
+            m,
+            em,
+            band,
+            starts,
+            lo,
+            end,
+            out,
+        } = self;
+        if starts.is_empty() {
+            return;
+        }
+        let nr = starts.len();
+        let b = band.boundaries();
+        let off0 = band.offsets()[starts.start];
+        let t_end = b[band.last_end(starts.end - 1)];
+        let last_j: Vec<usize> = starts.clone().map(|i| band.last_end(i)).collect();
+        let base: Vec<usize> = starts.clone().map(|i| band.offsets()[i] - off0).collect();
+        let mut next_j: Vec<usize> = starts.clone().map(|i| i + 1).collect();
+        let mut alpha = vec![0.0f64; N * nr];
+        let mut next = vec![0.0f64; N * nr];
+        let mut sum = vec![0.0f64; nr];
+        let mut inv = vec![0.0f64; nr];
+        let mut log_acc = vec![0.0f64; nr];
+        let mut prod = vec![1.0f64; nr];
+        let mut dead = vec![false; nr];
+        let gather = |alpha: &[f64], log_acc: &[f64], prod: &[f64], r: usize| {
+            let mut st = ForwardState::<N, true>::new();
+            for j in 0..N {
+                st.alpha[j] = alpha[j * nr + r];
+            }
+            st.log_acc = log_acc[r];
+            st.prod = prod[r];
+            st.started = true;
+            st
+        };
+        let (mut head, mut tail) = (0usize, 0usize);
+        for t in b[starts.start]..t_end {
+            let tt = t - lo;
+            // 1. the runs started before t, together
+            if head < tail {
+                let (h, z) = (head, tail);
+                let bt = &em.b[tt * N..(tt + 1) * N];
+                for j in 0..N {
+                    let (blo, bhi) = m.band[j];
+                    let (nj, _) = next[j * nr + h..].split_at_mut(z - h);
+                    let q0 = m.trans[j * N + blo];
+                    for (o, &a) in nj.iter_mut().zip(&alpha[blo * nr + h..blo * nr + z]) {
+                        *o = a * q0;
+                    }
+                    for i in blo + 1..bhi {
+                        let q = m.trans[j * N + i];
+                        for (o, &a) in nj.iter_mut().zip(&alpha[i * nr + h..i * nr + z]) {
+                            *o += a * q;
+                        }
+                    }
+                    let bj = bt[j];
+                    for o in nj.iter_mut() {
+                        *o *= bj;
+                    }
+                }
+                let s = &mut sum[h..z];
+                s.copy_from_slice(&next[h..z]);
+                for j in 1..N {
+                    for (o, &v) in s.iter_mut().zip(&next[j * nr + h..j * nr + z]) {
+                        *o += v;
+                    }
+                }
+                let ok = |v: f64| v > 1e-250 && v.is_finite();
+                let shift = em.shift[tt];
+                if s.iter().all(|&v| ok(v)) {
+                    for a in &mut log_acc[h..z] {
+                        *a += shift;
+                    }
+                    for (o, &v) in inv[h..z].iter_mut().zip(s.iter()) {
+                        *o = 1.0 / v;
+                    }
+                    for j in 0..N {
+                        let (aj, nj) = (
+                            &mut alpha[j * nr + h..j * nr + z],
+                            &next[j * nr + h..j * nr + z],
+                        );
+                        for ((a, &v), &w) in aj.iter_mut().zip(nj).zip(&inv[h..z]) {
+                            *a = v * w;
+                        }
+                    }
+                    for (p, &v) in prod[h..z].iter_mut().zip(s.iter()) {
+                        *p *= v;
+                    }
+                    for r in h..z {
+                        if !(1e-200..=1e200).contains(&prod[r]) {
+                            log_acc[r] += prod[r].ln();
+                            prod[r] = 1.0;
+                        }
+                    }
+                } else {
+                    for r in h..z {
+                        if dead[r] {
+                            continue;
+                        }
+                        let mut st = gather(&alpha, &log_acc, &prod, r);
+                        if st.advance(m, em, tt) {
+                            for j in 0..N {
+                                alpha[j * nr + r] = st.alpha[j];
+                            }
+                            log_acc[r] = st.log_acc;
+                            prod[r] = st.prod;
+                        } else {
+                            dead[r] = true;
+                            for j in next_j[r]..=last_j[r] {
+                                out[base[r] + j - (starts.start + r) - 1] = f64::NEG_INFINITY;
+                            }
+                            next_j[r] = last_j[r] + 1;
+                        }
+                    }
+                }
+            }
+            // 2. the run starting at t
+            if tail < nr && b[starts.start + tail] == t {
+                let r = tail;
+                let mut st = ForwardState::<N, true>::new();
+                if st.advance(m, em, tt) {
+                    for j in 0..N {
+                        alpha[j * nr + r] = st.alpha[j];
+                    }
+                    log_acc[r] = st.log_acc;
+                    prod[r] = st.prod;
+                } else {
+                    dead[r] = true;
+                    for j in next_j[r]..=last_j[r] {
+                        out[base[r] + j - (starts.start + r) - 1] = f64::NEG_INFINITY;
+                    }
+                    next_j[r] = last_j[r] + 1;
+                }
+                tail += 1;
+            }
+            // 3. the runs ending at t (run i..j covers samples b[i]..b[j])
+            for r in head..tail {
+                while next_j[r] <= last_j[r] && b[next_j[r]] == t + 1 {
+                    let base_score = log_acc[r] + prod[r].ln();
+                    out[base[r] + next_j[r] - (starts.start + r) - 1] = match end {
+                        EndState::Any => base_score,
+                        EndState::Final => base_score + alpha[(N - 1) * nr + r].ln(),
+                    };
+                    next_j[r] += 1;
+                }
+            }
+            while head < tail && next_j[head] > last_j[head] {
+                head += 1;
+            }
+        }
+    }
+}
+
+/// [`sweep`] for models of `N` states (`EXACT`) or at most `N`.
+fn sweep_n<const N: usize, const EXACT: bool>(
+    m: &CompiledHmm,
+    em: &Scaled,
+    band: &Band,
+    starts: Range<usize>,
+    lo: usize,
+    end: EndState,
+    out: &mut [f64],
+) {
+    struct Run<const N: usize, const EXACT: bool> {
+        st: ForwardState<N, EXACT>,
+        /// start section
+        i: usize,
+        /// the next end section to score, and the last
+        next_j: usize,
+        last_j: usize,
+        /// `out` index of run `i..i + 1`
+        base: usize,
+    }
+    if starts.is_empty() {
+        return;
+    }
+    let b = band.boundaries();
+    let off0 = band.offsets()[starts.start];
+    let t_end = b[band.last_end(starts.end - 1)];
+    let mut active: Vec<Run<N, EXACT>> = Vec::new();
+    let mut next = starts.start;
+    for t in b[starts.start]..t_end {
+        if next < starts.end && b[next] == t {
+            active.push(Run {
+                st: ForwardState::new(),
+                i: next,
+                next_j: next + 1,
+                last_j: band.last_end(next),
+                base: band.offsets()[next] - off0,
+            });
+            next += 1;
+        }
+        active.retain_mut(|r| {
+            if !r.st.advance(m, em, t - lo) {
+                for j in r.next_j..=r.last_j {
+                    out[r.base + j - r.i - 1] = f64::NEG_INFINITY;
+                }
+                return false;
+            }
+            // run i..j covers samples b[i]..b[j]
+            while r.next_j <= r.last_j && b[r.next_j] == t + 1 {
+                out[r.base + r.next_j - r.i - 1] = r.st.score(m, end);
+                r.next_j += 1;
+            }
+            r.next_j <= r.last_j
+        });
     }
 }
 
@@ -357,14 +682,14 @@ fn blocked_score_table(
 ) -> Result<ScoreTable> {
     let counts: Vec<usize> = models.iter().map(Vec::len).collect();
     check_score_inputs(&counts, groups, observations, boundaries)?;
-    if models.iter().flatten().any(|m| m.n > 16) {
+    if models.iter().flatten().any(|m| m.n > MAX_STATES) {
         return Err(EngineError::InvalidParameter(
             "at most 16 states per template HMM".into(),
         ));
     }
     let band = Band::new(boundaries.to_vec(), max_len)?;
     let k = band.n_sections();
-    let mut table = ScoreTable::with_band(band, models.len())?;
+    let mut table = ScoreTable::with_band(band.clone(), models.len())?;
     let pairs: Vec<(usize, usize)> = (0..models.len())
         .flat_map(|s| (0..groups.len()).map(move |f| (s, f)))
         .collect();
@@ -376,34 +701,32 @@ fn blocked_score_table(
         }
         // last_end never decreases: the block's last start reaches furthest
         let (lo, hi) = (boundaries[i0], boundaries[table.band().last_end(i1 - 1)]);
-        let emissions: Vec<Scaled> = pairs
+        let (r0, r1) = (band.offsets()[i0], band.offsets()[i1]);
+        // per (skill, feature): the emissions of the block's samples, then every run's score
+        let per_pair: Vec<Vec<f64>> = pairs
             .par_iter()
-            .map(|&(s, f)| Scaled::direct(&models[s][f], observations, lo..hi, &groups[f]))
-            .collect();
-        let band = table.band();
-        let jobs: Vec<(usize, usize)> = (i0..i1)
-            .flat_map(|i| (0..models.len()).map(move |s| (i, s)))
-            .collect();
-        let results: Vec<(usize, usize, Vec<f64>)> = jobs
-            .par_iter()
-            .map(|&(i, s)| {
-                let start = boundaries[i];
-                let ends: Vec<usize> = band.ends(i).map(|j| boundaries[j] - start - 1).collect();
-                let mut sums = vec![0.0; ends.len()];
-                for f in 0..groups.len() {
-                    models[s][f].add_prefix_at(
-                        &emissions[s * groups.len() + f],
-                        start - lo,
-                        &ends,
-                        end,
-                        &mut sums,
-                    );
-                }
-                (i, s, sums)
+            .map(|&(s, f)| {
+                let em = Scaled::direct(&models[s][f], observations, lo..hi, &groups[f]);
+                let mut out = vec![0.0; r1 - r0];
+                sweep(&models[s][f], &em, &band, i0..i1, lo, end, &mut out);
+                out
             })
             .collect();
-        for (i, s, sums) in results {
-            table.set_band_row(i, s, sums);
+        let n_groups = groups.len();
+        for s in 0..models.len() {
+            for i in i0..i1 {
+                let rows = band.offsets()[i] - r0..band.offsets()[i + 1] - r0;
+                let sums: Vec<f64> = rows
+                    .map(|r| {
+                        let mut acc = 0.0;
+                        for scores in &per_pair[s * n_groups..(s + 1) * n_groups] {
+                            acc += scores[r];
+                        }
+                        acc
+                    })
+                    .collect();
+                table.set_band_row(i, s, sums);
+            }
         }
         i0 = i1;
     }
@@ -420,6 +743,10 @@ mod tests {
     use crate::hmm::{FitConfig, Topology};
 
     fn model(cov: CovarianceType, d: usize) -> Hmm {
+        model_n(cov, d, 3, Topology::LeftRight)
+    }
+
+    fn model_n(cov: CovarianceType, d: usize, n_states: usize, topology: Topology) -> Hmm {
         let seqs: Vec<DMatrix<f64>> = (0..5)
             .map(|k| {
                 DMatrix::from_fn(30 + k, d, |t, c| {
@@ -428,10 +755,10 @@ mod tests {
             })
             .collect();
         let cfg = FitConfig {
-            n_states: 3,
+            n_states,
             n_mix: 2,
             covariance: cov,
-            topology: Topology::LeftRight,
+            topology,
             max_iter: 10,
             ..FitConfig::default()
         };
@@ -522,6 +849,68 @@ mod tests {
                 }
                 let t = compiled_score_table(&models, &g, &x, &b, max_len, end).unwrap();
                 assert_eq!(bits(&t), bits(&whole));
+            }
+        }
+    }
+
+    #[test]
+    fn sweep_equals_one_run_at_a_time() {
+        // two feature groups (sums in feature order), far outliers, one impossible sample;
+        // left-right models of 3 and 5 states (the vectorised sweep), an ergodic one and one
+        // of 7 states (the one-run-at-a-time sweep)
+        let c = |m: Hmm| CompiledHmm::new(&m).unwrap();
+        let (diag, full) = (CovarianceType::Diag, CovarianceType::Full);
+        let models = vec![
+            vec![c(model(diag, 2)), c(model(full, 2))],
+            vec![
+                c(model(full, 2)),
+                c(model_n(diag, 2, 5, Topology::LeftRight)),
+            ],
+            vec![
+                c(model_n(diag, 2, 7, Topology::LeftRight)),
+                c(model_n(full, 2, 4, Topology::Ergodic)),
+            ],
+        ];
+        let x = DMatrix::from_fn(260, 4, |t, k| {
+            let far = match t % 89 {
+                3 => 40.0,
+                50 => 1e200,
+                _ => 0.0,
+            };
+            (t as f64 / (9.0 + k as f64)).sin() + 0.1 * k as f64 + far
+        });
+        let g: Vec<Range<usize>> = vec![0..2, 2..4];
+        let mut b: Vec<usize> = (0..260).filter(|t| t % 5 == 0 || t % 13 == 0).collect();
+        b.push(260);
+        for max_len in [0, 30, 77] {
+            for end in [EndState::Any, EndState::Final] {
+                let band = Band::new(b.clone(), max_len).unwrap();
+                let t = compiled_score_table(&models, &g, &x, &b, max_len, end).unwrap();
+                for (s, row) in models.iter().enumerate() {
+                    let ems: Vec<Scaled> = row
+                        .iter()
+                        .zip(&g)
+                        .map(|(m, cols)| Scaled::direct(m, &x, 0..x.nrows(), cols))
+                        .collect();
+                    for i in 0..band.n_sections() {
+                        let ends: Vec<usize> = band.ends(i).map(|j| b[j] - b[i] - 1).collect();
+                        let mut sums = vec![0.0; ends.len()];
+                        for (m, em) in row.iter().zip(&ems) {
+                            m.add_prefix_at(em, b[i], &ends, end, &mut sums);
+                        }
+                        for (j, want) in band.ends(i).zip(sums) {
+                            let want = if want.is_nan() {
+                                f64::NEG_INFINITY
+                            } else {
+                                want
+                            };
+                            let got = t.total(i, j, s);
+                            assert_eq!(got.to_bits(), want.to_bits(), "run {i}..{j} skill {s}");
+                        }
+                    }
+                }
+                assert!(t.as_slice().iter().any(|v| v.is_finite()));
+                assert!(t.as_slice().iter().any(|v| v.is_infinite()));
             }
         }
     }
