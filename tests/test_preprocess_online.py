@@ -88,9 +88,7 @@ def _stage1(values, thresholds, objects, dt):  # type: ignore[no-untyped-def]
 
 
 @pytest.mark.parametrize("name", CASES)
-def test_online_features_track_the_offline_features(
-    name: str, sim_demo: lfd.Demonstration
-) -> None:
+def test_online_features_track_the_offline_features(name: str, sim_demo: lfd.Demonstration) -> None:
     demo = _demo(name, sim_demo)
     pre, feats = _run(demo)
     a = feats.arrays()
@@ -166,7 +164,7 @@ def test_out_of_order_messages() -> None:
     late = [m for m in msgs if isinstance(m, HandMessage)][10]
     pos = next(i for i, m in enumerate(msgs) if m.t_ns > late.t_ns + 2_000_000_000)
     pre = OnlinePreprocessor.for_demonstration(demo, **OPTIONS)
-    _feed(pre, msgs[:pos] + [late] + msgs[pos:])
+    _feed(pre, [*msgs[:pos], late, *msgs[pos:]])
     assert pre.dropped == 1 and len(pre.warnings) == 1 and "dropped" in pre.warnings[0]
     np.testing.assert_array_equal(pre.trajectory().tcp, ref.trajectory().tcp)
     # object messages a little out of order (not yet emitted) are sorted in: same output
@@ -222,7 +220,7 @@ def test_object_gap_without_filling_is_invalid_like_offline() -> None:
     demo.objects[name] = dataclasses.replace(ob, visible=vis)
     options = {**OPTIONS, "fill_hidden": False}
     off = lfd.preprocess(demo, **options)
-    pre, feats = _run(demo, **options)
+    pre, _ = _run(demo, **options)
     traj = pre.trajectory()
     n = min(len(off), len(traj))
     np.testing.assert_array_equal(traj.object_valid[:, :n], off.object_valid[:, :n])

@@ -281,7 +281,14 @@ class _Stream:
         return self.x[p][0], self.x[n][0], (t - self.t[p]) / (self.t[n] - self.t[p])
 
     def decided(self, t: int, cols: Sequence[int], max_gap: int, now: int, max_wait: int) -> bool:
-        """Whether the columns ``cols`` at time ``t`` no longer depend on data to come."""
+        """Whether the columns ``cols`` at time ``t`` no longer depend on data to come.
+
+        Messages of one stream arrive in time order and at most ``max_wait`` after newer
+        messages of the others (``now``): a sample is decided when a valid sample at or after
+        ``t`` is there, or the stream has shown (or, by the wait bound, must have) a gap longer
+        than ``max_gap`` around ``t``, or ``now`` is ``max_wait`` past ``t``. (A stream silent for
+        longer than ``max_gap + max_wait`` after a valid sample is decided at once: a late sample
+        exactly at ``t`` would have made ``t`` valid, a measure-zero case.)"""
         if now >= t + max_wait:
             return True
         if self.t and self.t[-1] >= t and self.ok[-1][list(cols)].all():
@@ -292,7 +299,8 @@ class _Stream:
             if n >= 0 or (p >= 0 and self.t[p] == t):
                 return True
             tp = self.t[p] if p >= 0 else -(2**62)
-            return latest >= t and latest > tp + max_gap
+            silent = p >= 0 and tp + max_gap < now - max_wait
+            return (latest >= t and latest > tp + max_gap) or silent
         prev, nxt, ts, _ = self.bracket(t)
         for c in cols:
             if nxt[c] >= 0 or (prev[c] >= 0 and ts[prev[c]] == t):
@@ -300,22 +308,25 @@ class _Stream:
             tp = ts[prev[c]] if prev[c] >= 0 else -(2**62)
             if latest >= t and latest > tp + max_gap:  # the next valid sample comes too late
                 continue
+            if prev[c] >= 0 and tp + max_gap < now - max_wait:  # silent for a gap + the wait
+                continue
             return False
         return True
 
     def at(self, t: int, max_gap: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per column the two bracketing values, the weight of the second, and validity."""
         prev, nxt, ts, xs = self.bracket(t)
+        if not ts.size:
+            nothing = np.zeros(self.columns, dtype=bool)
+            return np.full((2, self.columns, self.width), np.nan), np.zeros(self.columns), nothing
         c = np.arange(self.columns)
         has_p, has_n = prev >= 0, nxt >= 0
-        tp = np.where(has_p, ts[np.maximum(prev, 0)] if ts.size else 0, 0)
-        tn = np.where(has_n, ts[np.maximum(nxt, 0)] if ts.size else 0, 0)
+        tp = np.where(has_p, ts[np.maximum(prev, 0)], 0)
+        tn = np.where(has_n, ts[np.maximum(nxt, 0)], 0)
         on_p = has_p & (tp == t)
         on_n = has_n & (tn == t)
         both = has_p & has_n & ((tn - tp) <= max_gap)
         valid = on_p | on_n | both
-        if not ts.size:
-            return np.full((2, self.columns, self.width), np.nan), np.zeros(self.columns), valid
         xp = xs[np.maximum(prev, 0), c]
         xn = xs[np.maximum(nxt, 0), c]
         span = np.where(both & (tn > tp), tn - tp, 1)
@@ -524,7 +535,7 @@ class OnlinePreprocessor:
         the clock samples it determined."""
         t = int(t_ns)
         kp = np.array(keypoints, dtype=np.float64).reshape(21, 3)
-        ok = np.isfinite(kp).all(axis=1)
+        ok = np.asarray(np.isfinite(kp).all(axis=1), dtype=bool)
         if confidence is not None and self.min_keypoint_confidence > 0:
             conf = np.asarray(confidence, dtype=np.float64).reshape(21)
             ok &= conf >= self.min_keypoint_confidence
@@ -533,7 +544,7 @@ class OnlinePreprocessor:
         if self._hand.insert(t, kp, ok):
             if ok[list(GRIPPER_KEYPOINTS)].all():
                 self._seen(self._hand, t)
-        return self._advance(t)
+        return self._advance()
 
     def add_object(
         self,
@@ -556,7 +567,7 @@ class OnlinePreprocessor:
         stream = self._objects[self._index[name]]
         if stream.insert(t, np.concatenate([p, q])[None, :], np.array([ok])) and ok:
             self._seen(stream, t)
-        return self._advance(t)
+        return self._advance()
 
     def flush(self) -> list[OnlineSample]:
         """End of the recording: emit the samples up to the last time the hand and the objects
@@ -569,7 +580,7 @@ class OnlinePreprocessor:
             return []
         end = min(h_last, max(obj_last) if self.fill_hidden else min(obj_last))
         self._now = 2**62
-        return self._advance(None, end)
+        return self._advance(end)
 
     def _accept(self, what: str, t: int) -> bool:
         if self._emitted_t is not None and t <= self._emitted_t:
@@ -599,7 +610,7 @@ class OnlinePreprocessor:
         assert self._start is not None
         return self._start + round(i * self._period)
 
-    def _advance(self, _t: int | None, end: int | None = None) -> list[OnlineSample]:
+    def _advance(self, end: int | None = None) -> list[OnlineSample]:
         if self._start is None or self._now is None:
             return []
         times: list[int] = []
@@ -963,7 +974,6 @@ class OnlineFeatures:
         rows = self._rows
         row = rows[i]
         window = [r for r in rows[max(i - 1, 0) : i + 2] if r.ready]
-        k = self.k
         if not row.ready or len(window) < 1:
             fs = self._nan(row)
         else:
@@ -972,7 +982,6 @@ class OnlineFeatures:
             at = next(j for j, r in enumerate(window) if r is row)
             fs = self._compute(window, at, row)
         self.emitted.append(fs)
-        del k
         return [fs]
 
     def _nan(self, row: _Row) -> FeatureSample:
@@ -997,10 +1006,10 @@ class OnlineFeatures:
         tcp = np.array([r.tcp for r in window], dtype=np.float64)
         opening = np.array([r.opening for r in window], dtype=np.float64)
         pos = np.ascontiguousarray(
-            np.stack([r.position for r in window], axis=1), dtype=np.float64
+            np.stack([np.asarray(r.position) for r in window], axis=1), dtype=np.float64
         )
         quat = np.ascontiguousarray(
-            np.stack([r.quaternion for r in window], axis=1), dtype=np.float64
+            np.stack([np.asarray(r.quaternion) for r in window], axis=1), dtype=np.float64
         )
         vals = np.empty((self.k, 10))
         thr = np.empty((self.k, 10))
