@@ -28,9 +28,8 @@ import argparse
 import time
 from pathlib import Path
 
-import numpy as np
-
 import lfd
+import numpy as np
 from lfd.features import FEATURE_NAMES, compute_features
 from lfd.preprocessing.online import OnlineFeatures, OnlinePreprocessor, demo_messages
 from lfd.segmentation.gaps import fill_gaps
