@@ -247,3 +247,16 @@ def test_a_stalled_stream_is_waited_for_at_most_max_wait() -> None:
             assert m.t_ns - last_t <= 0.3e9 + 34e6  # never more than max_wait behind
     assert not pre.samples[-1].hand_valid  # emitted as a gap, not waited for forever
     assert last_t > t_cut + 1e9
+
+
+def test_options_are_checked_and_the_buffers_stay_small_before_the_start() -> None:
+    demo = lfd.load(RECORDINGS / "exp1.mcap")
+    with pytest.raises(lfd.errors.UsageError, match="hand frame period"):
+        OnlinePreprocessor.for_demonstration(demo, max_wait_s=0.1)
+    with pytest.raises(lfd.errors.DemonstrationError, match="unknown object"):
+        OnlinePreprocessor.for_demonstration(demo).add_object("nope", 0, [0, 0, 0], [0, 0, 0, 1])
+    # objects without a hand: nothing is emitted, and old poses are not kept
+    pre = OnlinePreprocessor.for_demonstration(demo, **OPTIONS)
+    objects = [m for m in _messages(demo) if isinstance(m, ObjectMessage)]
+    assert all(pre.push(m) == [] for m in objects) and pre.flush() == []
+    assert max(len(s.t) for s in pre._objects) <= 40  # 1 s at 30 Hz

@@ -402,14 +402,17 @@ class OnlinePreprocessor:
     rate_hz, euler_cutoff_hz, feature_cutoff_hz, object_cutoff_hz, aperture, max_gap_s,
     fill_hidden, filter, min_keypoint_confidence
         As :func:`~lfd.preprocessing.preprocess` (``fill_hidden``: see the module docs).
-    hand_rate_hz : float
+    hand_rate_hz : float, optional
         The hand-pose estimator's frame rate, for ``feature_cutoff_hz="auto"`` (offline it is
-        measured on the whole recording).
+        measured on the whole recording; ``None``: the 6 Hz maximum of ``auto``) and to check
+        ``max_wait_s``.
     filter_order : int
         Order of the causal Butterworth filters (offline: 4, run twice).
     max_wait_s : float, optional
         Longest wait for a silent stream, in seconds of newer data from the others; ``None``:
-        ``max_gap_s`` (then gaps are decided exactly as offline).
+        ``max_gap_s`` (then gaps are decided exactly as offline). It must be longer than the
+        slowest stream's frame period (the hand's), else that stream's samples become gaps;
+        shorter waits lower the latency while a tag is occluded (docs/live.md).
 
     Attributes
     ----------
@@ -457,6 +460,11 @@ class OnlinePreprocessor:
             raise DemonstrationError(f"rate must be positive, got {rate_hz}")
         if max_gap_s < 0 or (max_wait_s is not None and max_wait_s < 0):
             raise UsageError("max_gap_s and max_wait_s must not be negative")
+        if hand_rate_hz and (max_wait_s is not None and max_wait_s * hand_rate_hz <= 1.0):
+            raise UsageError(
+                f"max_wait_s ({max_wait_s} s) must be longer than a hand frame period "
+                f"({1.0 / hand_rate_hz:.3f} s), or every hand sample becomes a gap"
+            )
         if feature_cutoff_hz == "auto":
             hand_fc = auto_cutoff(hand_rate_hz) if hand_rate_hz else AUTO_CUTOFF_MAX_HZ
         else:
@@ -611,7 +619,13 @@ class OnlinePreprocessor:
         return self._start + round(i * self._period)
 
     def _advance(self, end: int | None = None) -> list[OnlineSample]:
-        if self._start is None or self._now is None:
+        if self._now is None:
+            return []
+        if self._start is None:  # the clock starts after the hand's first frame, >= now - wait
+            floor = self._now - self._max_wait - self._max_gap - 1
+            self._hand.prune(floor)
+            for s in self._objects:
+                s.prune(floor)
             return []
         times: list[int] = []
         while True:
