@@ -74,7 +74,7 @@ import numpy.typing as npt
 
 from ..demo import INDEX_MCP, INDEX_TIP, THUMB_TIP, Demonstration
 from ..errors import DemonstrationError, UsageError
-from ..features import FeatureParams, _params_json
+from ..features import FeatureParams, checked_params, feature_rows
 from ..trajectory import Trajectory
 from .carry import REST_TOLERANCE
 from .filters import butter_ba
@@ -911,11 +911,8 @@ class OnlineFeatures:
         params: FeatureParams | dict[str, Any] | str | None = None,
         derivative: Literal["central", "backward"] = "central",
     ) -> None:
-        from .. import _hmmseg
-
         if derivative not in ("central", "backward"):
             raise UsageError(f"derivative must be 'central' or 'backward', got {derivative!r}")
-        self._engine = _hmmseg.compute_features
         self.object_names = list(object_names)
         self.k = len(self.object_names)
         self.sizes = np.ascontiguousarray(object_sizes, dtype=np.float64).reshape(self.k, 3)
@@ -930,7 +927,7 @@ class OnlineFeatures:
         else:
             p = FeatureParams.from_dict(params)
         self.params = p
-        self._json = _params_json(p)
+        self._json = checked_params(p)
         self.dt = 1.0 / float(rate_hz)
         self.derivative = derivative
         self.min_len = max(round(p.min_motion_s / self.dt), 1)
@@ -1028,7 +1025,7 @@ class OnlineFeatures:
         vals = np.empty((self.k, 10))
         thr = np.empty((self.k, 10))
         for o in range(self.k):
-            v, th, _ = self._engine(
+            v, th, _ = feature_rows(
                 tcp, opening, pos, quat, self.sizes, self.dt, self._targets[o][:w], self._json
             )
             vals[o], thr[o] = v[at], th[at]
