@@ -18,7 +18,7 @@ options of the shipped templates, as ``lfd segment`` uses them). Printed per rec
   distance.
 
 Run: ``python benches/preprocess_online.py [FILES] [--order 4] [--derivative central]
-[--max-wait S]``
+[--max-wait S] [--no-match-lag]``
 (default: recordings/exp1-4.mcap and recordings/perceived/exp1.mcap).
 """
 
@@ -42,11 +42,13 @@ DEFAULT.append(ROOT / "recordings" / "perceived" / "exp1.mcap")
 SHORT = ["fing", "rise", "prox", "dist", "height", "in_x", "in_y", "in_z", "o_vel", "h_vel"]
 
 
-def run(path: Path, order: int, derivative: str, max_wait: float | None) -> dict[str, object]:
+def run(
+    path: Path, order: int, derivative: str, max_wait: float | None, match_lag: bool
+) -> dict[str, object]:
     demo = lfd.load(path)
     opts = preprocessing_options()
     pre = OnlinePreprocessor.for_demonstration(
-        demo, filter_order=order, max_wait_s=max_wait, **opts
+        demo, filter_order=order, max_wait_s=max_wait, match_lag=match_lag, **opts
     )
     feats = OnlineFeatures(
         pre.object_names,
@@ -73,7 +75,8 @@ def run(path: Path, order: int, derivative: str, max_wait: float | None) -> dict
     offline = compute_features(filled)
     per_object = [compute_features(filled, target=o) for o in range(len(off.object_names))]
     lag = pre.lag_s()
-    hl, ol = round(lag["hand"] * pre.rate_hz), round(lag["objects"] * pre.rate_hz)
+    hl = round(lag["hand"] * pre.rate_hz)
+    ol = round(lag["objects"] * pre.rate_hz) + pre.object_delay_samples
     n = min(len(off), n_out)
     err = np.zeros(10)
     for o, ref in enumerate(per_object):
@@ -127,9 +130,14 @@ def main() -> None:
     ap.add_argument("--order", type=int, default=4, help="causal Butterworth order")
     ap.add_argument("--derivative", default="central", choices=["central", "backward"])
     ap.add_argument("--max-wait", type=float, default=None, help="seconds (default max_gap_s)")
+    ap.add_argument("--no-match-lag", action="store_true", help="objects not delayed")
     args = ap.parse_args()
-    res = [run(p, args.order, args.derivative, args.max_wait) for p in args.files]
-    print(f"order {args.order}, derivative {args.derivative}, max_wait_s {args.max_wait}")
+    match = not args.no_match_lag
+    res = [run(p, args.order, args.derivative, args.max_wait, match) for p in args.files]
+    print(
+        f"order {args.order}, derivative {args.derivative}, max_wait_s {args.max_wait}, "
+        f"match_lag {match}"
+    )
     print(
         f"{'recording':16s} {'n':>5s} {'msg p50':>8s} {'msg p99':>8s} {'ms/smp':>7s} "
         f"{'cpu/smp':>7s} {'lat p50':>8s} {'lat p99':>8s} {'lag h/o ms':>11s}"

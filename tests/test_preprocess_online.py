@@ -96,7 +96,7 @@ def test_online_features_track_the_offline_features(name: str, sim_demo: lfd.Dem
     np.testing.assert_array_equal(pre.trajectory().t_ns[: len(off)], off.t_ns[: len(a["t_ns"])])
     filled, _ = fill_gaps(off)
     hand_lag = round(pre.lag_s()["hand"] * pre.rate_hz)
-    obj_lag = round(pre.lag_s()["objects"] * pre.rate_hz)
+    obj_lag = round(pre.lag_s()["objects"] * pre.rate_hz) + pre.object_delay_samples
     n = min(len(off), len(a["t_ns"]))
     per_object = [compute_features(filled, target=o) for o in range(len(off.object_names))]
     for o, ref in enumerate(per_object):
@@ -104,7 +104,8 @@ def test_online_features_track_the_offline_features(name: str, sim_demo: lfd.Dem
             lag = obj_lag if c in (3, 4, 8) else hand_lag  # object-only columns lag less
             want, got = ref.values[: n - lag, c], a["object_values"][o][lag:n, c]
             err = np.sqrt(np.mean((want - got) ** 2)) / max(float(np.ptp(ref.values[:, c])), 1e-9)
-            assert err < 0.15, (o, ref.names[c], err)
+            # hand-object columns need the objects delayed to the hand's lag (match_lag)
+            assert err < (0.03 if c in (2, 5, 6, 7) else 0.15), (o, ref.names[c], err)
     offline = compute_features(filled)
     for c in (0, 1, 9):  # the hand's own columns: lag only
         want, got = offline.values[: n - hand_lag, c], a["values"][hand_lag:n, c]
@@ -120,8 +121,8 @@ def test_online_features_track_the_offline_features(name: str, sim_demo: lfd.Dem
         off.dt,
     )
     dist = np.array([np.min(np.abs(b_on - hand_lag - b)) for b in b_off])
-    assert np.mean(dist <= 3) >= 0.7, dist
-    assert np.median(dist) <= 2
+    assert np.mean(dist <= 3) >= 0.8, dist
+    assert np.median(dist) <= 1
     assert 0.7 * len(b_off) <= len(b_on) <= 1.3 * len(b_off)
 
 
@@ -223,7 +224,9 @@ def test_object_gap_without_filling_is_invalid_like_offline() -> None:
     pre, _ = _run(demo, **options)
     traj = pre.trajectory()
     n = min(len(off), len(traj))
-    np.testing.assert_array_equal(traj.object_valid[:, :n], off.object_valid[:, :n])
+    d = pre.object_delay_samples  # the objects are delayed to the hand's lag
+    assert d == 5
+    np.testing.assert_array_equal(traj.object_valid[:, d:n], off.object_valid[:, : n - d])
     assert (~traj.object_valid[0]).sum() > 30
     # with filling, the hidden object is held (valid, flagged as filled)
     pre = OnlinePreprocessor.for_demonstration(demo, **OPTIONS)

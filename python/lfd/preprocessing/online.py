@@ -36,7 +36,10 @@ What differs from the offline path, step by step (docs/live.md measures the diff
    ``2.61 / (2 pi fc)`` — 208 ms (6.2 samples at 30 Hz) for the hand at 2 Hz, 42 ms (1.2
    samples) for objects at 10 Hz, 665 ms at the paper's 0.625 Hz, and 6.7 s for the Euler
    angles at 0.0625 Hz (the features do not use the orientation). Its gain at ``fc`` is
-   ``1/sqrt(2)`` where ``filtfilt``'s is ``1/2``.
+   ``1/sqrt(2)`` where ``filtfilt``'s is ``1/2``. With ``match_lag`` (default) the object
+   poses are then delayed by the difference of the hand's and the objects' lag (5 samples), so
+   that features relating the hand to an object compare both at the same time: the whole row
+   lags by the hand's filter delay.
 4. Hand -> gripper: the same :func:`~lfd.preprocessing.mapping.gripper_frame` and
    :func:`~lfd.preprocessing.grasp.grasp_aperture` per sample; Euler angles unwrapped against
    the previous sample.
@@ -65,6 +68,7 @@ from __future__ import annotations
 
 import bisect
 import math
+from collections import deque
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
@@ -408,6 +412,11 @@ class OnlinePreprocessor:
         ``max_wait_s``.
     filter_order : int
         Order of the causal Butterworth filters (offline: 4, run twice).
+    match_lag : bool
+        Delay the object poses by the difference of the hand's and the objects' filter lag
+        (:meth:`object_delay_samples`), so that features relating the hand to an object
+        (proximity, TCP in the object frame, grasp aperture) compare the two at the same time.
+        The whole row then lags by the hand's filter delay.
     max_wait_s : float, optional
         Longest wait for a silent stream, in seconds of newer data from the others; ``None``:
         ``max_gap_s`` (then gaps are decided exactly as offline). It must be longer than the
@@ -437,6 +446,7 @@ class OnlinePreprocessor:
         fill_hidden: bool = True,
         filter: bool = True,
         filter_order: int = 4,
+        match_lag: bool = True,
         min_keypoint_confidence: float = MIN_KEYPOINT_CONFIDENCE,
     ) -> None:
         self.object_names = [str(n) for n in object_names]
@@ -496,6 +506,14 @@ class OnlinePreprocessor:
         self._hidden: list[_Hidden | None] = [None] * k
         self._last_pose: list[tuple[np.ndarray, np.ndarray] | None] = [None] * k
         self._radius = np.max(sizes, axis=1) / 2 + CARRY_RADIUS_MARGIN
+        self.match_lag = bool(match_lag)
+        lag = self.lag_s()
+        self._delay = (
+            max(0, round((lag["hand"] - lag["objects"]) * self.rate_hz)) if match_lag else 0
+        )
+        self._fifo: deque[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = deque(
+            maxlen=self._delay + 1
+        )
         self.samples: list[OnlineSample] = []
         self.warnings: list[str] = []
         self.dropped = 0
@@ -514,9 +532,15 @@ class OnlinePreprocessor:
         )
 
     # --- lag ---------------------------------------------------------------------------
+    @property
+    def object_delay_samples(self) -> int:
+        """Samples the object poses are delayed by to match the hand's lag (``match_lag``)."""
+        return self._delay
+
     def lag_s(self) -> dict[str, float]:
         """Group delay (s) of the causal filter of each signal: ``hand`` (keypoints, TCP,
-        opening), ``objects`` (positions), ``euler``; 0 without filtering."""
+        opening), ``objects`` (positions; with ``match_lag`` they are further delayed by
+        :attr:`object_delay_samples`), ``euler``; 0 without filtering."""
         out = {"hand": 0.0, "objects": 0.0, "euler": 0.0}
         for key, f in (
             ("hand", self._kp_filter),
@@ -661,10 +685,12 @@ class OnlinePreprocessor:
         # hand: resample, filter, map
         kp = np.empty((m, 21, 3))
         kp_ok = np.empty((m, 21), dtype=bool)
+        raw_tcp = np.empty((m, 3))
         for i, t in enumerate(times):
             (x0, x1), w, ok = self._hand.at(t, self._max_gap)
             kp[i] = np.where(ok[:, None], x0 + w[:, None] * (x1 - x0), np.nan)
             kp_ok[i] = ok
+            raw_tcp[i] = 0.5 * (kp[i, INDEX_TIP] + kp[i, THUMB_TIP])  # unfiltered: no lag
             if self._kp_filter is not None:
                 kp[i] = self._kp_filter.step(kp[i].reshape(63), np.repeat(ok, 3)).reshape(21, 3)
         tcp, rot_raw, opening = gripper_frame(kp, side=self.side)
@@ -676,7 +702,9 @@ class OnlinePreprocessor:
                 euler[i] = self._euler_filter.step(euler[i], np.full(3, hand_valid[i]))
         rotation = rotation_from_euler(euler)
         tcp[~hand_valid] = np.nan
-        # objects: resample, fill what was hidden, filter
+        # objects: resample, fill what was hidden (carried with the unfiltered TCP, in step with
+        # the object's own unfiltered samples), filter
+        raw_ok = kp_ok[:, grip].all(axis=1)
         pos = np.full((m, k, 3), np.nan)
         quat = np.full((m, k, 4), np.nan)
         valid = np.zeros((m, k), dtype=bool)
@@ -692,7 +720,7 @@ class OnlinePreprocessor:
                     self._hidden[j] = None
                     self._last_pose[j] = (pos[i, j].copy(), quat[i, j].copy())
                 elif self.fill_hidden and self._last_pose[j] is not None:
-                    pos[i, j], quat[i, j] = self._fill(j, tcp[i], bool(hand_valid[i]))
+                    pos[i, j], quat[i, j] = self._fill(j, raw_tcp[i], bool(raw_ok[i]))
                     valid[i, j] = filled[i, j] = True
                 prev = self._quat_prev[j]
                 if valid[i, j] and prev is not None and float(quat[i, j] @ prev) < 0:
@@ -702,6 +730,11 @@ class OnlinePreprocessor:
                 pos[i] = self._obj_filter.step(
                     pos[i].reshape(3 * k), np.repeat(valid[i], 3)
                 ).reshape(k, 3)
+            if self._delay:  # objects as late as the hand (match_lag)
+                self._fifo.append(
+                    (pos[i].copy(), quat[i].copy(), valid[i].copy(), filled[i].copy())
+                )
+                pos[i], quat[i], valid[i], filled[i] = self._fifo[0]
         if self.aperture == "grasp":
             opening = grasp_aperture(
                 kp, pos.transpose(1, 0, 2), quat.transpose(1, 0, 2), self.object_sizes
