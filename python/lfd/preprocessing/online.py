@@ -704,7 +704,7 @@ class OnlinePreprocessor:
         tcp[~hand_valid] = np.nan
         # objects: resample, fill what was hidden (carried with the unfiltered TCP, in step with
         # the object's own unfiltered samples), filter
-        raw_ok = kp_ok[:, grip].all(axis=1)
+        raw_ok = np.asarray(kp_ok[:, grip].all(axis=1), dtype=bool)
         pos = np.full((m, k, 3), np.nan)
         quat = np.full((m, k, 4), np.nan)
         valid = np.zeros((m, k), dtype=bool)
