@@ -51,7 +51,9 @@ __all__ = [
     "FEATURE_NAMES",
     "FeatureParams",
     "Features",
+    "checked_params",
     "compute_features",
+    "feature_rows",
     "label_targets",
     "valid_mask",
 ]
@@ -289,7 +291,7 @@ def compute_features(
         if tgt.shape != (n,):
             raise ShapeMismatchError(f"target has shape {tgt.shape}, expected ({n},)")
         tgt = np.ascontiguousarray(tgt, dtype=np.int64)
-    values, thresholds, labels = _hmmseg.compute_features(
+    values, thresholds, labels = feature_rows(
         arrays["tcp"],
         arrays["opening"],
         arrays["object_position"],
@@ -297,7 +299,7 @@ def compute_features(
         arrays["object_size"],
         dt,
         tgt,
-        _params_json(params),
+        checked_params(params),
     )
     return Features(
         names=FEATURE_NAMES,
@@ -305,6 +307,35 @@ def compute_features(
         thresholds=thresholds,
         target=labels,
         t_ns=np.asarray(traj.t_ns, dtype=np.int64).copy(),
+    )
+
+
+def checked_params(params: FeatureParams | Mapping[str, Any] | str | None) -> str | None:
+    """Feature parameters as the engine's validated JSON (``None``: the defaults), to pass to
+    :func:`feature_rows` many times."""
+    return _params_json(params)
+
+
+def feature_rows(
+    tcp: np.ndarray,
+    opening: np.ndarray,
+    object_position: np.ndarray,
+    object_quaternion: np.ndarray,
+    object_size: np.ndarray,
+    dt: float,
+    target: np.ndarray | None,
+    params_json: str | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The engine's Table I computation on raw, checked float64 arrays — the core of
+    :func:`compute_features`, for callers that compute features of short windows many times
+    (:class:`lfd.preprocessing.online.OnlineFeatures`: three samples around each new one).
+
+    ``tcp`` (n, 3), ``opening`` (n,), ``object_position`` (k, n, 3), ``object_quaternion``
+    (k, n, 4), ``object_size`` (k, 3), ``target`` int64 (n,) or None, ``params_json`` from
+    :func:`checked_params`. Returns ``(values, thresholds, target)``.
+    """
+    return _hmmseg.compute_features(
+        tcp, opening, object_position, object_quaternion, object_size, dt, target, params_json
     )
 
 

@@ -50,8 +50,15 @@ def _rotate_inverse(q_xyzw: np.ndarray, v: np.ndarray) -> np.ndarray:
     """``R(q)^T v`` for unit quaternions (x, y, z, w), broadcast over the leading axis."""
     u = -q_xyzw[..., :3]
     w = q_xyzw[..., 3:4]
-    t = 2.0 * np.cross(u, v)
-    return np.asarray(v + w * t + np.cross(u, t))
+    t = 2.0 * _cross(u, v)
+    return np.asarray(v + w * t + _cross(u, t))
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.cross`` of 3-vectors on the last axis (the same products, without its axis moves)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
 def box_distance(
@@ -93,6 +100,9 @@ def grasp_aperture(
     thumb = kp[:, THUMB_TIP]
     aperture = np.linalg.norm(kp[:, INDEX_TIP] - thumb, axis=1)
     best = np.full(aperture.shape, np.inf)
+    tips = kp[:, [THUMB_TIP, *OPPOSING_TIPS]]  # (n, 5, 3): the thumb, then the fingers
+    span = tips[:, 1:] - thumb[:, None]  # thumb -> finger
+    length = np.linalg.norm(span, axis=2)
     for pos, quat, size in zip(object_position, object_quaternion, object_size, strict=True):
         ok = np.isfinite(pos).all(axis=1) & np.isfinite(quat).all(axis=1)
         if not ok.any():
@@ -100,16 +110,12 @@ def grasp_aperture(
         c = np.where(ok[:, None], pos, 0.0)
         q = np.where(ok[:, None], quat, np.array([0.0, 0.0, 0.0, 1.0]))
         with np.errstate(invalid="ignore"):
-            thumb_on = ok & (box_distance(thumb, c, q, size) <= contact_radius)
-            for tip in OPPOSING_TIPS:
-                f = kp[:, tip]
-                span = f - thumb
-                opposed = (
-                    thumb_on
-                    & (box_distance(f, c, q, size) <= contact_radius)
-                    & (np.einsum("ij,ij->i", c - thumb, span) > 0)
-                    & (np.einsum("ij,ij->i", c - f, -span) > 0)
-                )
-                d = np.linalg.norm(span, axis=1)
-                best = np.where(opposed & (d < best), d, best)
+            touch = box_distance(tips, c[:, None], q[:, None], size) <= contact_radius
+            opposed = (
+                (ok & touch[:, 0])[:, None]
+                & touch[:, 1:]
+                & (np.einsum("ij,itj->it", c - thumb, span) > 0)
+                & (np.einsum("itj,itj->it", c[:, None] - tips[:, 1:], -span) > 0)
+            )
+            best = np.minimum(best, np.where(opposed, length, np.inf).min(axis=1))
     return np.where(np.isfinite(best), best, aperture)
