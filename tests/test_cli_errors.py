@@ -62,6 +62,8 @@ CASES: list[tuple[str, str, str]] = [
     ("segment-input-is-dir", "segment {tmp}", ""),
     ("segment-rerun-connect", "segment {rec} --rerun-connect bogus://", "not a viewer URL"),
     ("segment-rerun-connect-http", "segment {rec} --rerun-connect http://h:1/proxy", "rerun+http"),
+    ("segment-rerun-bind", "segment {rec} --rerun-serve --rerun-bind localhost", "not an IP"),
+    ("segment-rerun-serve-for", "segment {rec} --rerun-serve-for -1", "seconds >= 0"),
     ("segment-unknown-option", "segment {rec} --bogus", "unrecognized arguments"),
     ("segment-bad-choice", "segment {rec} --search nope", "invalid choice"),
     ("segment-paper-and-dp", "segment {rec} --paper --search dp", "--paper"),

@@ -453,10 +453,106 @@ def test_rerun_without_display_serves_the_web_viewer(
     web = free_port()
     assert _rerun.open_from_args(args, "lfd_test", grpc_port=free_port(), web_port=web)
     err = capsys.readouterr().err
-    assert "no display" in err and f"http://localhost:{web}/?url=rerun" in err
+    assert "no display" in err and f"http://127.0.0.1:{web}/?url=rerun" in err
     with urllib.request.urlopen(f"http://127.0.0.1:{web}/", timeout=10) as resp:
         assert resp.status == 200
     _rerun.close_from_args(args, wait_serving=False)
+
+
+def _listening(port: int) -> list[str]:
+    """Local addresses something listens on at TCP ``port`` (from /proc/net/tcp*)."""
+    import ipaddress
+
+    found = []
+    for name, size in (("/proc/net/tcp", 4), ("/proc/net/tcp6", 16)):
+        try:
+            lines = Path(name).read_text().splitlines()[1:]
+        except OSError:
+            continue
+        for line in lines:
+            local, state = line.split()[1], line.split()[3]
+            addr, hexport = local.split(":")
+            if state != "0A" or int(hexport, 16) != port:  # 0A: LISTEN
+                continue
+            raw = bytes.fromhex(addr)
+            # the kernel prints each 32-bit word in host (little-endian) order
+            raw = b"".join(raw[i : i + 4][::-1] for i in range(0, size, 4))
+            found.append(str(ipaddress.ip_address(raw)))
+    return found
+
+
+@pytest.mark.skipif(not Path("/proc/net/tcp").exists(), reason="needs Linux /proc/net/tcp")
+def test_served_viewer_listens_on_localhost_unless_asked() -> None:
+    """--rerun-serve binds the web viewer and its gRPC server to 127.0.0.1 by default, the
+    address --rerun-bind gives otherwise; closing the session stops both."""
+    import socket
+
+    from lfd.cli import _rerun
+
+    parser = argparse.ArgumentParser()
+    _rerun.add_rerun_arguments(parser)
+    for argv, want in (([], "127.0.0.1"), (["--rerun-bind", "0.0.0.0"], "0.0.0.0")):
+        args = parser.parse_args(["--rerun-serve", *argv])
+        _rerun.check_rerun_args(args)
+        grpc, web = free_port(), free_port()
+        assert _rerun.open_from_args(args, "lfd_test", grpc_port=grpc, web_port=web)
+        session = _rerun.session_from_args(args)
+        assert session is not None and session.serve_url is not None
+        try:
+            assert _listening(web) == [want] and _listening(grpc) == [want]
+            if want == "127.0.0.1":  # another address of this machine is refused
+                host_ip = socket.gethostbyname(socket.gethostname())
+                if not host_ip.startswith("127."):
+                    with socket.socket() as s:
+                        s.settimeout(2)
+                        assert s.connect_ex((host_ip, web)) != 0
+        finally:
+            _rerun.close_from_args(args, wait_serving=False)
+        assert _listening(web) == [] and _listening(grpc) == []
+
+
+def test_rerun_serve_for_keeps_serving_then_exits(tmp_path: Path) -> None:
+    """Without a terminal, --rerun-serve-for N keeps the viewer served N seconds after the
+    work, then the command exits and the server is gone."""
+    import subprocess
+    import sys
+    import time
+
+    grpc, web = free_port(), free_port()
+    code = (
+        "import argparse, sys; from lfd.cli import _rerun; from lfd import viz;"
+        "p = argparse.ArgumentParser(); _rerun.add_rerun_arguments(p);"
+        "a = p.parse_args(sys.argv[1:]);"
+        f"_rerun.open_from_args(a, 'lfd_test', grpc_port={grpc}, web_port={web});"
+        "print('served', flush=True); _rerun.close_from_args(a)"
+    )
+    t0 = time.monotonic()
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code, "--rerun-serve-for", "2"],
+        stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    assert proc.stdout is not None and proc.stdout.readline().strip() == "served"
+    time.sleep(1.0)
+    with urllib.request.urlopen(f"http://127.0.0.1:{web}/", timeout=10) as resp:
+        assert resp.status == 200  # still serving after the work is done
+    out, err = proc.communicate(timeout=30)
+    took = time.monotonic() - t0
+    assert proc.returncode == 0, err
+    assert "serving until 2 s" in out and 2.0 <= took < 15.0
+    assert _listening(web) == []
+
+    # inf: until SIGTERM
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code, "--rerun-serve-for", "inf"],
+        stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    assert proc.stdout is not None and proc.stdout.readline().strip() == "served"
+    time.sleep(1.5)
+    assert proc.poll() is None
+    proc.terminate()
+    out, err = proc.communicate(timeout=30)
+    assert proc.returncode == 0, err
+    assert _listening(web) == []
 
 
 def test_viewer_url_check_takes_plain_values() -> None:

@@ -6,7 +6,7 @@ A command calls :func:`add_rerun_arguments` in ``add_arguments`` and, in ``run``
     if open_from_args(args, "lfd_segment"):    # opens the viewer/file/server, or does nothing
         lfd.viz.log_demonstration(demo)          # log as results are produced
     ...
-    close_from_args(args)                        # flush; keep serving until Ctrl+C if serving
+    close_from_args(args)                        # flush; keep serving (Ctrl+C, --rerun-serve-for)
 
 The session itself is :func:`lfd.viz.session.open_session` (plain values, no argparse);
 :func:`lfd.cli.main` calls :func:`abort_from_args` when a command fails, so a failed run
@@ -22,18 +22,22 @@ from collections.abc import Iterable
 from typing import Any
 
 from ..viz.session import (
+    DEFAULT_BIND,
     DEFAULT_GRPC_PORT,
     DEFAULT_WEB_PORT,
     Session,
+    check_bind_address,
     check_viewer_url,
     open_session,
 )
+from ._types import seconds_or_forever
 
 _SESSION_ATTR = "rerun_session"
 
 
 def add_rerun_arguments(parser: argparse.ArgumentParser) -> None:
-    """Add ``--rerun``, ``--rerun-save``, ``--rerun-connect``, ``--rerun-serve`` to a parser."""
+    """Add ``--rerun``, ``--rerun-save``, ``--rerun-connect``, ``--rerun-serve``,
+    ``--rerun-bind`` and ``--rerun-serve-for`` to a parser."""
     group = parser.add_argument_group("Rerun visualisation")
     group.add_argument(
         "--rerun",
@@ -54,8 +58,22 @@ def add_rerun_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument(
         "--rerun-serve",
         action="store_true",
-        help=f"serve the web viewer on http://localhost:{DEFAULT_WEB_PORT} (gRPC on "
+        help=f"serve the web viewer on http://{DEFAULT_BIND}:{DEFAULT_WEB_PORT} (gRPC on "
         f"{DEFAULT_GRPC_PORT}) and print its address",
+    )
+    group.add_argument(
+        "--rerun-bind",
+        metavar="ADDR",
+        default=DEFAULT_BIND,
+        help=f"address the served web viewer listens on ({DEFAULT_BIND}: this machine only; "
+        "0.0.0.0: every network interface, anyone on the network can watch)",
+    )
+    group.add_argument(
+        "--rerun-serve-for",
+        metavar="SECONDS",
+        type=seconds_or_forever,
+        help="serve the web viewer (implies --rerun-serve) and keep serving this long after "
+        "the command is done, also without a terminal; inf: until Ctrl+C or SIGTERM",
     )
 
 
@@ -68,7 +86,8 @@ def check_rerun_args(
     ------
     UsageError
         ``--rerun-save`` is an input, not a ``.rrd`` file, or not writable; ``--rerun-connect``
-        is not a viewer URL (:func:`lfd.viz.session.check_viewer_url`).
+        is not a viewer URL (:func:`lfd.viz.session.check_viewer_url`); ``--rerun-bind`` is
+        not an IP address.
     """
     from ..outputs import check_output
 
@@ -78,6 +97,7 @@ def check_rerun_args(
     url = getattr(args, "rerun_connect", None)
     if url is not None:
         check_viewer_url(url, what="--rerun-connect")
+    check_bind_address(getattr(args, "rerun_bind", DEFAULT_BIND), what="--rerun-bind")
 
 
 def wants_rerun(args: argparse.Namespace) -> bool:
@@ -86,7 +106,13 @@ def wants_rerun(args: argparse.Namespace) -> bool:
         getattr(args, "rerun", False)
         or getattr(args, "rerun_save", None)
         or getattr(args, "rerun_connect", None)
-        or getattr(args, "rerun_serve", False)
+        or _serving(args)
+    )
+
+
+def _serving(args: argparse.Namespace) -> bool:
+    return bool(
+        getattr(args, "rerun_serve", False) or getattr(args, "rerun_serve_for", None) is not None
     )
 
 
@@ -105,7 +131,8 @@ def open_from_args(args: argparse.Namespace, app_id: str, **kwargs: Any) -> bool
         spawn=bool(getattr(args, "rerun", False)),
         save=getattr(args, "rerun_save", None),
         connect=getattr(args, "rerun_connect", None),
-        serve=bool(getattr(args, "rerun_serve", False)),
+        serve=_serving(args),
+        bind=getattr(args, "rerun_bind", DEFAULT_BIND),
         atomic_save=True,
         **kwargs,
     )
@@ -124,8 +151,9 @@ def close_from_args(args: argparse.Namespace, *, wait_serving: bool | None = Non
     """Flush and close the session opened from ``args`` (no-op without one)."""
     session = session_from_args(args)
     if session is not None:
-        session.close(wait_serving=wait_serving)
         setattr(args, _SESSION_ATTR, None)
+        serve_for = getattr(args, "rerun_serve_for", None)
+        session.close(wait_serving=wait_serving, serve_for=serve_for)
 
 
 def abort_from_args(args: argparse.Namespace) -> None:

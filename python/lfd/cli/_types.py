@@ -75,3 +75,13 @@ def seed(text: str) -> int:
     if not 0 <= v <= SEED_MAX:
         raise argparse.ArgumentTypeError(f"must be an integer in [0, 2**63 - 1], got {text!r}")
     return v
+
+
+def seconds_or_forever(text: str) -> float:
+    """A number of seconds >= 0, or ``inf`` / ``forever`` (``math.inf``)."""
+    if text.strip().lower() in ("inf", "forever"):
+        return math.inf
+    v = _float(text)
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"must be seconds >= 0 or 'inf', got {text!r}")
+    return v

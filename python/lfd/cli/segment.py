@@ -1,10 +1,17 @@
-"""``lfd segment rec.mcap``: cut a recording into skills and print them (with ground truth)."""
+"""``lfd segment rec.mcap``: cut a recording into skills and print them (with ground truth).
+
+``lfd segment --follow rec.mcap`` follows a recording another process (``lfd record``) is still
+writing: every sample as its chunk lands (:func:`lfd.io.follow`), shown live in Rerun with the
+``--rerun*`` options (:class:`lfd.viz.live.LiveTimeline`), until the recorder closes the file,
+the file stops growing (``--idle-timeout``) or Ctrl+C. The online segmenter plugs in at
+:func:`segment_stream`.
+"""
 
 from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +23,7 @@ from ._options import (
     emit_json,
     segmentation_options,
 )
+from ._types import positive_float
 
 NAME = "segment"
 HELP = "Segment a recording into skills (two-stage HMM template matching)."
@@ -23,6 +31,20 @@ HELP = "Segment a recording into skills (two-stage HMM template matching)."
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("recording", help="an lfd MCAP recording")
+    parser.add_argument(
+        "--follow",
+        action="store_true",
+        help="follow a recording that is still being written (lfd record -o REC.mcap): read "
+        "each sample as it lands, until the recorder closes the file, it stops growing, or "
+        "Ctrl+C",
+    )
+    parser.add_argument(
+        "--idle-timeout",
+        type=positive_float,
+        default=10.0,
+        metavar="SECONDS",
+        help="--follow: stop when the file has not grown for this long without its end marker (10)",
+    )
     parser.add_argument("--templates", metavar="FILE", help="template file (default: shipped)")
     add_segmentation_arguments(parser)
     add_json_argument(parser, "the segments (and metrics against the ground truth)")
@@ -57,11 +79,107 @@ def _show_demo(shown: list[Any]) -> Callable[[Any], None]:
     return show
 
 
+def segment_stream(messages: Iterator[Any], follower: Any, live: Any, args: Any) -> Any:
+    """The hook of the online segmenter: consume a followed recording, return its result.
+
+    ``messages`` yields the :class:`lfd.io.LiveMessage` s in file order as they land (already
+    shown in Rerun when ``live`` is a :class:`lfd.viz.live.LiveTimeline`: log features with
+    ``live.log_samples``, sections with ``live.log_section``, settled spans with
+    ``live.log_skill`` and the open one with ``live.log_provisional``); ``follower`` tells the
+    objects and the hand side (:class:`lfd.io.Follower`). Returns None until
+    ``lfd.segmentation.online`` is plugged in here: the messages are only followed and shown.
+    """
+    for _ in messages:
+        pass
+    return None
+
+
+def _run_follow(args: argparse.Namespace) -> int:
+    import signal
+
+    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+    from ..errors import UsageError
+    from ..io import follow
+    from ._rerun import check_rerun_args, close_from_args, open_from_args, session_from_args
+
+    if getattr(args, "json", None):
+        raise UsageError("--json is not available with --follow (no online segmenter yet)")
+    inputs = [p for p in (args.recording, args.templates) if p]
+    check_rerun_args(args, inputs)
+    show = open_from_args(args, "lfd_segment")
+    follower = follow(args.recording, idle_timeout_s=args.idle_timeout)
+    counts = {"hand": 0, "object": 0}
+    state: dict[str, Any] = {"live": None, "first": None, "last": None}
+
+    def stream(progress: Any, task: Any) -> Iterator[Any]:
+        from ..viz.live import LiveTimeline
+
+        for msg in follower:
+            if show and state["live"] is None:
+                rec = session_from_args(args)
+                state["live"] = LiveTimeline(
+                    rec.recording if rec else None, objects=follower.objects
+                )
+            if state["live"] is not None:
+                state["live"].log_message(msg)
+            counts[msg.kind] = counts.get(msg.kind, 0) + 1
+            state["first"] = msg.t_ns if state["first"] is None else state["first"]
+            state["last"] = msg.t_ns
+            span = (state["last"] - state["first"]) * 1e-9
+            progress.update(
+                task,
+                description=f"{follower.message_count} messages, {span:.1f} s: "
+                f"{counts['hand']} hand, {counts['object']} object samples",
+            )
+            yield msg
+
+    def on_term(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGTERM, on_term)
+    old_int = signal.signal(signal.SIGINT, signal.default_int_handler)
+    from rich.console import Console
+
+    con = console(args)
+    try:
+        with Progress(
+            SpinnerColumn(),
+            TextColumn("{task.description}"),
+            TimeElapsedColumn(),
+            console=Console(stderr=True),
+            transient=not sys.stderr.isatty(),
+        ) as progress:
+            task = progress.add_task(f"waiting for {args.recording}", total=None)
+            try:
+                segment_stream(stream(progress, task), follower, state["live"], args)
+            except KeyboardInterrupt:
+                follower.stop_reason = "interrupted"
+    finally:
+        signal.signal(signal.SIGTERM, old)
+        signal.signal(signal.SIGINT, old_int)
+    how = {
+        "end": "the recording was closed",
+        "idle": f"the file stopped growing for {args.idle_timeout:g} s",
+        "interrupted": "interrupted",
+    }.get(follower.stop_reason or "", str(follower.stop_reason))
+    span = 0.0 if state["first"] is None else (state["last"] - state["first"]) * 1e-9
+    con.print(
+        f"followed {follower.source or args.recording}: {follower.message_count} messages over "
+        f"{span:.1f} s ({counts['hand']} hand, {counts['object']} object samples); "
+        f"stopped: {how}"
+    )
+    close_from_args(args)
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     from rich.table import Table
 
     from ._rerun import check_rerun_args, close_from_args, open_from_args
 
+    if getattr(args, "follow", False):
+        return _run_follow(args)
     inputs = [p for p in (args.recording, args.templates) if p]
     check_json(args, inputs)
     check_rerun_args(args, inputs)

@@ -3,6 +3,7 @@
 - :class:`McapRecorder` writes a recording sample by sample (safe to interrupt);
 - :func:`save` writes a whole :class:`~lfd.demo.Demonstration`;
 - :func:`load` reads one back, recovering truncated files with a warning;
+- :func:`follow` reads a recording while another process still writes it;
 - :func:`scan` lists a file's channels, metadata and damage without decoding;
 - :func:`summarise` tells what a recording holds (``lfd info``).
 """
@@ -10,6 +11,7 @@
 from __future__ import annotations
 
 from ..errors import RecordingFormatError, RecoveredFileWarning, TimestampWarning
+from .follow import Follower, LiveMessage, follow
 from .mcapfile import ChannelSummary, RawRecording, scan
 from .reader import load
 from .summary import summarise
@@ -17,11 +19,14 @@ from .writer import McapRecorder, save
 
 __all__ = [
     "ChannelSummary",
+    "Follower",
+    "LiveMessage",
     "McapRecorder",
     "RawRecording",
     "RecordingFormatError",
     "RecoveredFileWarning",
     "TimestampWarning",
+    "follow",
     "load",
     "save",
     "scan",

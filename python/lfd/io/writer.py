@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import time
 from collections.abc import Iterable, Mapping, Sequence
 from typing import IO, Any
 
@@ -83,6 +84,11 @@ class McapRecorder:
     max_chunk_duration_s : float
         A chunk is closed and flushed once it spans this much capture time, bounding what a
         killed recorder loses. ``math.inf`` disables it.
+    max_chunk_wall_s : float
+        A chunk is also closed and flushed once its first message is this many seconds old
+        (wall clock), checked at every write and by :meth:`flush_if_due`: a process following
+        the file (:func:`lfd.io.follow`) sees every sample within about this long, even when
+        capture is slower than real time. ``math.inf`` disables it.
     write_tf : bool
         Also publish world -> object transforms on ``/tf`` (for viewers).
     color_format : str
@@ -106,6 +112,7 @@ class McapRecorder:
         side: str = "right",
         chunk_size: int = 128 * 1024,
         max_chunk_duration_s: float = 1.0,
+        max_chunk_wall_s: float = 1.0,
         write_tf: bool = True,
         color_format: str = "raw",
     ) -> None:
@@ -124,6 +131,8 @@ class McapRecorder:
         self._max_chunk_ns = (
             math.inf if math.isinf(max_chunk_duration_s) else int(max_chunk_duration_s * 1e9)
         )
+        self._max_chunk_wall_s = float(max_chunk_wall_s)
+        self._chunk_wall0: float | None = None
         self._pending = PendingOutput(self.path)
         self.partial_path = os.fspath(self._pending.path)
         """The temporary file being written; renamed to :attr:`path` by :meth:`close`."""
@@ -212,10 +221,28 @@ class McapRecorder:
         self.message_count += 1
         lo, hi = self._chunk_t if self._chunk_t is not None else (t_ns, t_ns)
         self._chunk_t = (min(lo, t_ns), max(hi, t_ns))
+        if self._chunk_wall0 is None:
+            self._chunk_wall0 = time.monotonic()
         if self._chunk_t[1] - self._chunk_t[0] >= self._max_chunk_ns:
-            self._writer.flush()  # closes the chunk and flushes the file
-            self._chunk_t = None
+            self.flush()
+        else:
+            self.flush_if_due()
         self._sync()
+
+    def flush(self) -> None:
+        """Close the open chunk and hand the file's bytes to the OS (no fsync)."""
+        if self._closed:
+            return
+        self._writer.flush()  # closes the chunk and flushes the file
+        self._chunk_t = None
+        self._chunk_wall0 = None
+        self._sync()
+
+    def flush_if_due(self) -> None:
+        """:meth:`flush` when the open chunk is ``max_chunk_wall_s`` old (call it while idle)."""
+        wall0 = self._chunk_wall0
+        if wall0 is not None and time.monotonic() - wall0 >= self._max_chunk_wall_s:
+            self.flush()
 
     def _sync(self) -> None:
         """Hand every finished chunk to the OS so that a killed process loses only the last one."""
@@ -224,6 +251,7 @@ class McapRecorder:
             self._file.flush()
             self._written = pos
             self._chunk_t = None  # bytes only reach the file when a chunk is finished
+            self._chunk_wall0 = None
 
     def add_hand(
         self,

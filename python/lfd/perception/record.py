@@ -176,6 +176,7 @@ def record(
                     if viz is not None:
                         viz.hand(kp, kp_2d)
             stats.frames += 1
+            rec.flush_if_due()  # a follower (lfd segment --follow) sees each frame within ~1 s
             if progress is not None:
                 progress(stats)
             if max_frames is not None and stats.frames >= max_frames:

@@ -10,6 +10,7 @@ import numpy as np
 from ..demo import HAND_BONES, KEYPOINT_NAMES, Demonstration, ImageStream
 from ..errors import DemonstrationError
 from ..trajectory import Trajectory
+from .paths import HAND_KEYPOINTS, object_path
 from .recording import get_recording, import_rerun
 from .timeline import time_columns, time_origin
 
@@ -66,13 +67,13 @@ def log_hand(demo: Demonstration, origin_ns: int, rec: Any) -> None:
     lengths = finite.sum(axis=1)
     ids = np.broadcast_to(np.arange(21), (n, 21))[finite]
     rec.send_columns(
-        "/world/hand/keypoints",
+        HAND_KEYPOINTS,
         indexes=time_columns(hand.t_ns, origin_ns, frame=np.arange(n)),
         columns=rr.Points3D.columns(
             positions=kp[finite], keypoint_ids=ids, class_ids=np.full(ids.shape, HAND_CLASS_ID)
         ).partition(lengths),
     )
-    rec.log("/world/hand/keypoints", rr.Points3D.from_fields(show_labels=False), static=True)
+    rec.log(HAND_KEYPOINTS, rr.Points3D.from_fields(show_labels=False), static=True)
     tcp = 0.5 * (kp[:, 4] + kp[:, 8])
     ok = np.all(np.isfinite(tcp), axis=1)
     if ok.sum() >= 2:
@@ -87,7 +88,7 @@ def log_objects(demo: Demonstration, origin_ns: int, rec: Any) -> None:
     """Object frames over time (visible samples) and their boxes labelled with the tag id."""
     rr = import_rerun()
     for k, (name, obj) in enumerate(demo.objects.items()):
-        path = f"/world/objects/{rr.escape_entity_path_part(name)}"
+        path = object_path(name)
         color = OBJECT_PALETTE[k % len(OBJECT_PALETTE)]
         rec.log(path, rr.TransformAxes3D(0.5 * float(obj.size.max()) + 0.02), static=True)
         rec.log(

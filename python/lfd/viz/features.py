@@ -9,6 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..errors import DemonstrationError
+from .paths import FEATURE_TARGET, feature_path
 from .recording import get_recording, import_rerun
 from .timeline import time_columns, time_origin
 
@@ -108,7 +109,7 @@ def log_feature_arrays(
     )
 
     for j, name in enumerate(names):
-        base = f"/features/{name}"
+        base = feature_path(name)
         series: list[tuple[str, np.ndarray, str, tuple[int, int, int], float]] = [
             ("value", vals[:, j], name, VALUE_COLOR, 2.0)
         ]
@@ -143,7 +144,7 @@ def log_feature_arrays(
         arr = np.asarray(labels, dtype=object)
         ch = _changes(arr)
         rec.send_columns(
-            "/features/target",
+            FEATURE_TARGET,
             indexes=time_columns(t[ch], origin, frame=frames[ch]),
             columns=rr.StateChange.columns(state=[f"target: {s}" for s in arr[ch]]),
         )

@@ -10,6 +10,7 @@ import numpy.typing as npt
 
 from ..errors import DemonstrationError
 from ..skills import SKILLS
+from .paths import LOG, SECTIONS, WARNINGS, skill_lane
 from .recording import get_recording, import_rerun
 from .timeline import GREEDY_ITERATION, as_ns, current_origin, time_columns, time_origin
 
@@ -73,7 +74,7 @@ def log_skill_spans(
         if int(s.end_ns) < int(s.start_ns):
             raise DemonstrationError(f"segment {s.skill!r} ends before it starts")
     origin = time_origin(rec, first_ns=int(segs[0].start_ns), origin_ns=origin_ns)
-    path = f"/segmentation/skills/{rr.escape_entity_path_part(source)}"
+    path = skill_lane(source)
     values: dict[str, tuple[str, int]] = {}
     times: list[int] = []
     states: list[str] = []
@@ -138,7 +139,7 @@ def log_sections(
     origin = time_origin(rec, first_ns=int(t[0]), origin_ns=origin_ns)
     names = [f"section {i}" for i in range(len(starts))]
     rec.log(
-        "/segmentation/sections",
+        SECTIONS,
         rr.StateConfiguration(
             values=names,
             colors=np.array(
@@ -149,7 +150,7 @@ def log_sections(
     )
     idx = np.r_[starts, n - 1]
     rec.send_columns(
-        "/segmentation/sections",
+        SECTIONS,
         indexes=time_columns(t[idx], origin, frame=idx),
         columns=rr.StateChange.columns(state=[*names, ""]),
     )
@@ -232,7 +233,7 @@ def log_greedy_scores(
 def log_text(
     messages: Sequence[Any],
     *,
-    path: str = "/segmentation/warnings",
+    path: str = WARNINGS,
     level: str = "WARN",
     recording: Any = None,
     origin_ns: int | None = None,
@@ -328,4 +329,4 @@ def log_segmentation(
     if warnings:
         log_text(warnings, recording=rec, origin_ns=origin_ns)
     if log:
-        log_text(log, path="/segmentation/log", level="INFO", recording=rec, origin_ns=origin_ns)
+        log_text(log, path=LOG, level="INFO", recording=rec, origin_ns=origin_ns)

@@ -1,0 +1,133 @@
+"""Live views: lfd.viz.live.LiveTimeline and ``lfd segment --follow`` on a growing recording."""
+
+from __future__ import annotations
+
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+rr = pytest.importorskip("rerun", reason="rerun-sdk not installed (optional viz extra)")
+
+from lfd import viz  # noqa: E402
+from lfd.demo import SkillLabel  # noqa: E402
+from lfd.io import McapRecorder, load  # noqa: E402
+from test_viz import Rrd  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+EXP1 = ROOT / "recordings" / "exp1.mcap"
+
+
+def _replay(out: Path, speed: float, done: threading.Event | None = None) -> None:
+    """Write exp1's tracks and labels to ``out`` with McapRecorder at ``speed`` x real time."""
+    demo = load(EXP1, images=False)
+    events = [(int(t), "hand", i) for i, t in enumerate(demo.hand.t_ns)]
+    for name, obj in demo.objects.items():
+        events += [(int(t), name, i) for i, t in enumerate(obj.t_ns)]
+    events.sort(key=lambda e: e[0])
+    objects = [(o.name, o.tag_id, o.size) for o in demo.objects.values()]
+    with McapRecorder(out, objects=objects) as rec:
+        t_prev = events[0][0]
+        for t, stream, i in events:
+            time.sleep(max(0.0, (t - t_prev) * 1e-9 / speed))
+            t_prev = t
+            if stream == "hand":
+                h = demo.hand
+                rec.add_hand(t, h.keypoints[i], h.confidence[i], h.visible[i])
+            else:
+                o = demo.objects[stream]
+                rec.add_object_pose(stream, t, o.position[i], o.quaternion[i])
+        for label in demo.labels:
+            rec.add_label(label)
+    if done is not None:
+        done.set()
+
+
+def _row_times(path: Path, entity: str) -> np.ndarray:
+    """When each row of ``entity`` was logged: the time part of its row id (a TUID, whose first
+    8 bytes are big-endian nanoseconds since the epoch)."""
+    out = []
+    for chunk in rr.chunk.RrdReader(path).stream():
+        if chunk.entity_path == entity and not chunk.is_static:
+            ids = chunk.to_record_batch().column("rerun.controls.RowId").to_pylist()
+            out += [int.from_bytes(i[:8], "big") for i in ids]
+    return np.array(out, dtype=np.int64)
+
+
+def test_live_timeline_matches_the_offline_paths(tmp_path: Path) -> None:
+    """Samples, sections, settled and provisional skills logged one by one land on the entity
+    paths of the offline views, at their demo_time."""
+    from lfd.viz.live import LiveTimeline
+
+    demo = load(EXP1, images=False)
+    t0 = int(demo.start_ns)
+    session = viz.open_session("lfd_live_test", save=tmp_path / "live.rrd", make_default=False)
+    objects = [(n, o.tag_id, o.size) for n, o in demo.objects.items()]
+    live = LiveTimeline(session.recording, origin_ns=t0, objects=objects)
+    for i, t in enumerate(demo.hand.t_ns):
+        live.log_hand(int(t), demo.hand.keypoints[i])
+    name, obj = next(iter(demo.objects.items()))
+    for i in range(0, len(obj), 10):
+        live.log_object(name, int(obj.t_ns[i]), obj.position[i], obj.quaternion[i])
+    rng = np.random.default_rng(0)
+    ft = demo.hand.t_ns[:20]
+    for i, t in enumerate(ft):
+        live.log_sample(int(t), rng.standard_normal(10), np.full(10, 0.5), target=i // 10)
+    live.log_section(int(ft[0]))
+    live.log_section(int(ft[8]))
+    first, second = demo.labels[0], demo.labels[1]
+    live.log_provisional(SkillLabel(first.skill, first.start_ns, first.start_ns + 1, first.object))
+    live.log_skill(first)
+    live.log_provisional(None, first.end_ns)
+    live.log_skill(second)
+    live.log_score(first.skill, int(first.end_ns), -12.5)
+    session.close()
+
+    data = Rrd(tmp_path / "live.rrd")
+    np.testing.assert_array_equal(data.times("/world/hand/keypoints"), demo.hand.t_ns - t0)
+    assert f"/world/objects/{name}/box" in data.static
+    assert len(data.times(f"/world/objects/{name}")) == len(range(0, len(obj), 10))
+    np.testing.assert_array_equal(data.times("/features/object_height/value"), ft - t0)
+    assert data.column("/features/target", "StateChange:state")[:2] == [["target: object 0"]] * 2
+    assert data.column("/segmentation/sections", "StateChange:state") == [
+        ["section 0"],
+        ["section 1"],
+    ]
+    lane = data.entity("/segmentation/skills/result")
+    states = [r["StateChange:state"][0] for r in lane]
+    want = f"{first.skill}({first.object})" if first.object else first.skill
+    assert states[0] == want and lane[0]["demo_time"] == first.start_ns - t0
+    assert "/segmentation/skills/provisional" in data.rows
+    assert data.one("/segmentation/greedy/scores/" + first.skill, "Scalars:scalars") == [-12.5]
+    assert data.blueprints
+
+
+def test_segment_follow_streams_a_growing_recording_to_rerun(tmp_path: Path) -> None:
+    """``lfd segment --follow`` on a recording written at 4x real time: every hand sample of
+    the final file reaches the .rrd, logged while the recorder was still writing."""
+    from lfd.cli import main
+
+    rec = tmp_path / "rec.mcap"
+    rrd = tmp_path / "live.rrd"
+    done = threading.Event()
+    writer = threading.Thread(target=_replay, args=(rec, 4.0, done))
+    writer.start()
+    try:
+        code = main(
+            ["segment", "--follow", str(rec), "--rerun-save", str(rrd), "--idle-timeout", "5"]
+        )
+    finally:
+        writer.join()
+    assert code == 0 and done.is_set()
+    final = load(rec, images=False)
+    data = Rrd(rrd)
+    t = data.times("/world/hand/keypoints")
+    np.testing.assert_array_equal(t, final.hand.t_ns - final.start_ns)
+    # logged as the samples came: the first rows were written seconds before the last ones
+    logged = _row_times(rrd, "/world/hand/keypoints")
+    assert len(logged) == len(t) and (logged.max() - logged.min()) * 1e-9 > 1.5
+    lanes = {k for k in data.rows if k.startswith("/segmentation/skills/")}
+    assert lanes == {"/segmentation/skills/ground_truth"}  # no segmenter yet: no result lane
+    assert data.blueprints
