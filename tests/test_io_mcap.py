@@ -825,3 +825,39 @@ def test_hand_track_checks_visibility() -> None:
         HandTrack(t, kp, np.ones((2, 21)), "right", np.zeros((2, 21), dtype=bool)).visible.sum()
         == 0
     )
+
+
+def test_live_segments_are_kept_apart_from_ground_truth(tmp_path: Path) -> None:
+    demo = make_demo()
+    truth = list(demo.labels)
+    assert truth
+    path = tmp_path / "live.mcap"
+    objects = [(o.name, o.tag_id, o.size) for o in demo.objects.values()]
+    first = SkillLabel("pick_up", T0 + 1_000_000_000, T0 + 2_000_000_000, objects[0][0])
+    second = SkillLabel("place", T0 + 2_000_000_000, T0 + 2_500_000_000, None)
+    with McapRecorder(path, objects=objects) as rec:
+        for i, t in enumerate(demo.hand.t_ns):
+            rec.add_hand(int(t), demo.hand.keypoints[i], demo.hand.confidence[i])
+        for obj in demo.objects.values():
+            for i, t in enumerate(obj.t_ns):
+                if obj.visible[i]:
+                    rec.add_object_pose(obj.name, int(t), obj.position[i], obj.quaternion[i])
+        for label in truth:
+            rec.add_label(label)
+        rec.add_live_segment(first, T0 + 3_000_000_000, {"score": "-12.5", "confidence": "0.9"})
+        rec.add_live_segment(second, T0 + 3_500_000_000)
+    back = load(path)
+    assert back.labels == truth  # the ground truth is untouched
+    assert back.live_segments == [first, second]
+    with path.open("rb") as f:
+        reader = make_reader(f)
+        events = [
+            (m.log_time, c.topic) for _, c, m in reader.iter_messages(topics=["/lfd/live/segments"])
+        ]
+    assert events == [
+        (T0 + 3_000_000_000, "/lfd/live/segments"),
+        (T0 + 3_500_000_000, "/lfd/live/segments"),
+    ]
+    again = tmp_path / "again.mcap"
+    save(back, again)
+    assert load(again).live_segments == [first, second]

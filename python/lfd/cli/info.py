@@ -47,11 +47,13 @@ def run(args: argparse.Namespace) -> int:
             size = " x ".join(f"{v:.3f}" for v in o["size"])
             ot.add_row(o["name"], str(o["tag_id"]), size, str(o["samples"]))
         con.print(ot)
-    if s.get("labels"):
-        lt = Table(title="ground-truth skills")
+    for key, title in (("labels", "ground-truth skills"), ("live_segments", "live segments")):
+        if not s.get(key):
+            continue
+        lt = Table(title=title)
         for col in ("#", "skill", "object", "start s", "end s"):
             lt.add_column(col)
-        for i, lab in enumerate(s["labels"]):
+        for i, lab in enumerate(s[key]):
             lt.add_row(
                 str(i + 1),
                 lab["skill"],
@@ -60,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
                 f"{lab['end_s']:.2f}",
             )
         con.print(lt)
-        con.print("sequence: " + " -> ".join(lab["skill"] for lab in s["labels"]))
+        con.print("sequence: " + " -> ".join(lab["skill"] for lab in s[key]))
     if s.get("metadata"):
         con.print("metadata: " + json.dumps(s["metadata"], default=str))
     if s.get("camera"):

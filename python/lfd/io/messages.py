@@ -135,9 +135,11 @@ def calibration(t: int, camera: CameraInfo) -> CameraCalibration:
     )
 
 
-def event(label: SkillLabel) -> Event:
-    """A skill label as an Event with metadata ``skill`` (and ``object`` when known)."""
+def event(label: SkillLabel, extra: dict[str, str] | None = None) -> Event:
+    """A skill label as an Event with metadata ``skill`` (and ``object`` when known), then
+    ``extra`` (e.g. ``score``, ``confidence`` of a live result)."""
     meta = [KeyValuePair(key="skill", value=label.skill)]
     if label.object is not None:
         meta.append(KeyValuePair(key="object", value=label.object))
+    meta.extend(KeyValuePair(key=k, value=v) for k, v in (extra or {}).items())
     return Event(start_time=stamp(label.start_ns), end_time=stamp(label.end_ns), metadata=meta)

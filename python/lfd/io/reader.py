@@ -193,8 +193,8 @@ class _Loader:
             visible=np.ones(len(t), dtype=bool),
         )
 
-    def labels(self) -> list[SkillLabel]:
-        _, msgs = self.decode(T.GROUND_TRUTH_TOPIC, Event)
+    def labels(self, topic: str = T.GROUND_TRUTH_TOPIC) -> list[SkillLabel]:
+        _, msgs = self.decode(topic, Event)
         labels = []
         for m in msgs:
             meta = {kv.key: kv.value for kv in m.metadata}
@@ -363,6 +363,7 @@ def load(path: str | os.PathLike[str], *, images: bool = True) -> Demonstration:
             )
         objects[name] = loader.object(name, tag_id, size)
     labels = loader.labels()
+    live = loader.labels(T.LIVE_SEGMENTS_TOPIC)
     camera = loader.camera()
     color = loader.images(T.COLOR_TOPIC) if images else None
     depth = loader.images(T.DEPTH_TOPIC) if images else None
@@ -384,6 +385,7 @@ def load(path: str | os.PathLike[str], *, images: bool = True) -> Demonstration:
         hand=hand,
         objects=objects,
         labels=labels,
+        live_segments=live,
         camera=camera,
         color=color,
         depth=depth,

@@ -60,15 +60,16 @@ def summarise(path: str | os.PathLike[str]) -> dict[str, Any]:
             {"name": o.name, "tag_id": o.tag_id, "size": o.size.tolist(), "samples": len(o)}
             for o in demo.objects.values()
         ]
-        summary["labels"] = [
-            {
-                "skill": lab.skill,
-                "object": lab.object,
-                "start_s": (lab.start_ns - t0) * 1e-9,
-                "end_s": (lab.end_ns - t0) * 1e-9,
-            }
-            for lab in demo.labels
-        ]
+        for key, labels in (("labels", demo.labels), ("live_segments", demo.live_segments)):
+            summary[key] = [
+                {
+                    "skill": lab.skill,
+                    "object": lab.object,
+                    "start_s": (lab.start_ns - t0) * 1e-9,
+                    "end_s": (lab.end_ns - t0) * 1e-9,
+                }
+                for lab in labels
+            ]
         summary["metadata"] = {k: v for k, v in demo.metadata.items() if k != "load_report"}
         summary["camera"] = (
             None

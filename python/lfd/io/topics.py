@@ -23,6 +23,12 @@ topic                                 schema                        content
 ``/lfd/ground_truth``                 foxglove.Event                one skill label per message,
                                                                     ``log_time`` = label start;
                                                                     metadata ``skill``, ``object``
+``/lfd/live/segments``                foxglove.Event                skills the live segmenter
+                                                                    settled while recording
+                                                                    (``lfd record --live-segment``),
+                                                                    ``log_time`` = when settled;
+                                                                    metadata ``skill``, ``object``,
+                                                                    ``score``, ``confidence``
 ====================================  ============================  ===============================
 
 A metadata record named ``demo`` holds ``format``, ``version``, ``objects`` (JSON list of
@@ -45,6 +51,7 @@ DEPTH_TOPIC = "/camera/depth/image_raw"
 CAMERA_INFO_TOPIC = "/camera/color/camera_info"
 TF_TOPIC = "/tf"
 GROUND_TRUTH_TOPIC = "/lfd/ground_truth"
+LIVE_SEGMENTS_TOPIC = "/lfd/live/segments"
 
 DEMO_METADATA = "demo"
 CALIBRATION_METADATA = "calibration"

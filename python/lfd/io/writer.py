@@ -426,6 +426,18 @@ class McapRecorder:
         channel = self._channel(T.GROUND_TRUTH_TOPIC, Event)
         self._write(channel, label.start_ns, msg.SerializeToString())
 
+    def add_live_segment(
+        self, label: SkillLabel, settled_ns: int, extra: dict[str, str] | None = None
+    ) -> None:
+        """Write a skill the live segmenter settled at ``settled_ns`` (the ``log_time``) on
+        ``/lfd/live/segments``, with the ground truth's metadata keys plus ``extra`` (kept apart
+        from ``/lfd/ground_truth``)."""
+        _check_time(label.start_ns)
+        _check_time(settled_ns)
+        msg = M.event(label, extra)
+        channel = self._channel(T.LIVE_SEGMENTS_TOPIC, Event)
+        self._write(channel, settled_ns, msg.SerializeToString())
+
     # --- lifetime ---------------------------------------------------------------------------
     def close(self) -> None:
         """Finish the file (summary, index, footer) and move it to :attr:`path`. Idempotent."""
@@ -499,3 +511,5 @@ def save(demo: Demonstration, path: str | os.PathLike[str], **kwargs: Any) -> No
                 rec.add_object_pose(stream, t, obj.position[i], obj.quaternion[i])
         for label in demo.labels:
             rec.add_label(label)
+        for label in demo.live_segments:  # settle times and scores are not kept by load
+            rec.add_live_segment(label, label.end_ns)
