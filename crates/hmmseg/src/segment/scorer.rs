@@ -459,6 +459,7 @@ impl<const N: usize> Kernel for SoaSweep<'_, N> {
             st
         };
         let (mut head, mut tail) = (0usize, 0usize);
+        let mut next_b = starts.start;
         for t in b[starts.start]..t_end {
             let tt = t - lo;
             // 1. the runs started before t, together
@@ -490,9 +491,12 @@ impl<const N: usize> Kernel for SoaSweep<'_, N> {
                         *o += v;
                     }
                 }
-                let ok = |v: f64| v > 1e-250 && v.is_finite();
+                // every sum in (1e-250, inf) (NaN fails both): no run needs the fallback
+                let all_ok = s
+                    .iter()
+                    .fold(true, |acc, &v| acc & (v > 1e-250) & (v < f64::INFINITY));
                 let shift = em.shift[tt];
-                if s.iter().all(|&v| ok(v)) {
+                if all_ok {
                     for a in &mut log_acc[h..z] {
                         *a += shift;
                     }
@@ -511,10 +515,15 @@ impl<const N: usize> Kernel for SoaSweep<'_, N> {
                     for (p, &v) in prod[h..z].iter_mut().zip(s.iter()) {
                         *p *= v;
                     }
-                    for r in h..z {
-                        if !(1e-200..=1e200).contains(&prod[r]) {
-                            log_acc[r] += prod[r].ln();
-                            prod[r] = 1.0;
+                    let in_range = prod[h..z]
+                        .iter()
+                        .fold(true, |acc, &p| acc & (p >= 1e-200) & (p <= 1e200));
+                    if !in_range {
+                        for r in h..z {
+                            if !(1e-200..=1e200).contains(&prod[r]) {
+                                log_acc[r] += prod[r].ln();
+                                prod[r] = 1.0;
+                            }
                         }
                     }
                 } else {
@@ -558,7 +567,14 @@ impl<const N: usize> Kernel for SoaSweep<'_, N> {
                 }
                 tail += 1;
             }
-            // 3. the runs ending at t (run i..j covers samples b[i]..b[j])
+            // 3. the runs ending at t (run i..j covers samples b[i]..b[j]): runs end only at
+            // section boundaries
+            while next_b < b.len() && b[next_b] <= t {
+                next_b += 1;
+            }
+            if next_b == b.len() || b[next_b] != t + 1 {
+                continue;
+            }
             for r in head..tail {
                 while next_j[r] <= last_j[r] && b[next_j[r]] == t + 1 {
                     let base_score = log_acc[r] + prod[r].ln();
