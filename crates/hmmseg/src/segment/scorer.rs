@@ -419,7 +419,13 @@ struct SoaSweep<'a, const N: usize> {
 impl<const N: usize> Kernel for SoaSweep<'_, N> {
     type Output = ();
 
-    #[allow(clippy::inline_always, clippy::too_many_lines)] // compiled inside the AVX2 function
+    // inline: compiled inside the AVX2 function; bitwise tests: branch-free over the runs
+    #[allow(
+        clippy::inline_always,
+        clippy::too_many_lines,
+        clippy::needless_bitwise_bool,
+        clippy::manual_range_contains
+    )]
     #[inline(always)]
     fn run<const FMA: bool>(self) {
         let SoaSweep {
