@@ -244,25 +244,25 @@ class Demonstration:
         Object poses by name (about 30 Hz), relative to the reference marker.
     labels : list[SkillLabel]
         Ground-truth skill segments, in time order (empty when unknown).
-    live_segments : list[SkillLabel]
-        Skills a live segmenter settled while the demonstration was recorded
-        (``/lfd/live/segments``), kept apart from the ground truth.
     camera : CameraInfo or None
         Camera calibration, when known.
     color, depth : ImageStream or None
         Optional rendered or captured images.
     metadata : dict
         Free metadata: task, demonstrator, seed, units, ...
+    live_segments : list[SkillLabel]
+        Skills a live segmenter settled while the demonstration was recorded
+        (``/lfd/live/segments``), kept apart from the ground truth.
     """
 
     hand: HandTrack
     objects: dict[str, ObjectTrack]
     labels: list[SkillLabel] = field(default_factory=list)
-    live_segments: list[SkillLabel] = field(default_factory=list)
     camera: CameraInfo | None = None
     color: ImageStream | None = None
     depth: ImageStream | None = None
     metadata: dict[str, Any] = field(default_factory=dict)
+    live_segments: list[SkillLabel] = field(default_factory=list)
 
     @property
     def start_ns(self) -> int:
