@@ -16,13 +16,13 @@ checkout's ``lfd segment`` (e.g. ``git worktree add /tmp/old <commit>`` with its
 engine) on the lengths up to ``--reference-max-min``.
 
 Run: ``python benches/segment_memory.py`` (defaults: 5, 15, 30 and 60 minutes). Measured on
-the 2-core development machine under load 4-5 (docs/segmentation.md, "Memory"):
+the 2-core development machine under load about 1 (docs/segmentation.md, "Memory"):
 
     minutes  samples  sections    runs  seconds  peak MB  dense table MB  dense est. MB
-          5     9086      1412   64356      8.5      189             107           1279
-         15    27246      4237  195396     15.6      320             959          11508
-         30    54479      8473  391918     26.2      493            3835          46015
-         60   108415     16855  780233     69.4      815           15173         182076
+          5     9086      1412   64356      4.7      191             107           1279
+         15    27246      4237  195396     11.1      325             959          11508
+         30    54479      8473  391918     22.4      499            3835          46015
+         60   108415     16855  780233     38.2      833          15173         182076
 
 The dense implementation measured on the same files: 19.9 s / 1468 MB (5 min), 122 s /
 11870 MB (15 min), with byte-identical JSON.
