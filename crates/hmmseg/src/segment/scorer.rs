@@ -464,10 +464,31 @@ impl<const N: usize> Kernel for SoaSweep<'_, N> {
             st.started = true;
             st
         };
+        // one step of run r by the scalar recursion (a new run, or its log-space fallback)
+        let scalar = |mut st: ForwardState<N, true>,
+                      r: usize,
+                      alpha: &mut [f64],
+                      log_acc: &mut [f64],
+                      prod: &mut [f64],
+                      dead: &mut [bool],
+                      tt: usize| {
+            if st.advance(m, em, tt) {
+                for j in 0..N {
+                    alpha[j * nr + r] = st.alpha[j];
+                }
+                log_acc[r] = st.log_acc;
+                prod[r] = st.prod;
+                false
+            } else {
+                dead[r] = true;
+                true
+            }
+        };
         let (mut head, mut tail) = (0usize, 0usize);
         let mut next_b = starts.start;
         for t in b[starts.start]..t_end {
             let tt = t - lo;
+            let mut died = false;
             // 1. the runs started before t, together
             if head < tail {
                 let (h, z) = (head, tail);
@@ -534,44 +555,28 @@ impl<const N: usize> Kernel for SoaSweep<'_, N> {
                     }
                 } else {
                     for r in h..z {
-                        if dead[r] {
-                            continue;
-                        }
-                        let mut st = gather(&alpha, &log_acc, &prod, r);
-                        if st.advance(m, em, tt) {
-                            for j in 0..N {
-                                alpha[j * nr + r] = st.alpha[j];
-                            }
-                            log_acc[r] = st.log_acc;
-                            prod[r] = st.prod;
-                        } else {
-                            dead[r] = true;
-                            for j in next_j[r]..=last_j[r] {
-                                out[base[r] + j - (starts.start + r) - 1] = f64::NEG_INFINITY;
-                            }
-                            next_j[r] = last_j[r] + 1;
+                        if !dead[r] {
+                            let st = gather(&alpha, &log_acc, &prod, r);
+                            died |=
+                                scalar(st, r, &mut alpha, &mut log_acc, &mut prod, &mut dead, tt);
                         }
                     }
                 }
             }
             // 2. the run starting at t
             if tail < nr && b[starts.start + tail] == t {
-                let r = tail;
-                let mut st = ForwardState::<N, true>::new();
-                if st.advance(m, em, tt) {
-                    for j in 0..N {
-                        alpha[j * nr + r] = st.alpha[j];
-                    }
-                    log_acc[r] = st.log_acc;
-                    prod[r] = st.prod;
-                } else {
-                    dead[r] = true;
+                let st = ForwardState::<N, true>::new();
+                died |= scalar(st, tail, &mut alpha, &mut log_acc, &mut prod, &mut dead, tt);
+                tail += 1;
+            }
+            // runs found impossible: every later end is -inf
+            for r in (head..tail).filter(|_| died) {
+                if dead[r] && next_j[r] <= last_j[r] {
                     for j in next_j[r]..=last_j[r] {
                         out[base[r] + j - (starts.start + r) - 1] = f64::NEG_INFINITY;
                     }
                     next_j[r] = last_j[r] + 1;
                 }
-                tail += 1;
             }
             // 3. the runs ending at t (run i..j covers samples b[i]..b[j]): runs end only at
             // section boundaries
