@@ -224,30 +224,40 @@ impl Scaled {
     }
 }
 
-/// The scaled forward recursion of one run, advanced one sample at a time: `alpha` is the
-/// normalised forward vector, `ln P(x_0..=t, q_t = j) = log_acc + ln prod + ln alpha[j]`.
-/// Shared by every scorer (offline runs, and any caller advancing runs sample by sample), so
-/// the numerics exist once. `N` is the capacity in states; with `EXACT` the model has exactly
-/// `N` states (the loops are unrolled), otherwise at most `N`.
+/// The scaled forward recursion of one [`CompiledHmm`] from a start sample, advanced one sample
+/// at a time: `alpha` is the normalised forward vector, `ln P(x_0..=t, q_t = j) = log_acc +
+/// ln prod + ln alpha[j]`. The state of every scorer (the batch sweeps and the online
+/// segmenter, `super::online`), so the numerics exist once. `N` is the capacity in states;
+/// with `EXACT` the model has exactly `N` states (the loops are unrolled), otherwise at most
+/// `N`.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct ForwardState<const N: usize, const EXACT: bool> {
+pub(crate) struct Forward<const N: usize, const EXACT: bool> {
     alpha: [f64; N],
     log_acc: f64,
     prod: f64,
-    started: bool,
+    /// Samples consumed.
+    steps: usize,
+    /// Every state impossible: the prefix score is `-inf` from now on.
+    dead: bool,
 }
 
-impl<const N: usize, const EXACT: bool> ForwardState<N, EXACT> {
-    /// Before the run's first sample.
-    pub(crate) fn new() -> Self {
+/// [`Forward`] for any template (at most [`MAX_STATES`] states).
+#[allow(dead_code)] // the one-run-at-a-time scorers: the tests' reference, the online segmenter
+pub(crate) type ForwardState = Forward<MAX_STATES, false>;
+
+impl<const N: usize, const EXACT: bool> Default for Forward<N, EXACT> {
+    fn default() -> Self {
         Self {
             alpha: [0.0; N],
             log_acc: 0.0,
             prod: 1.0,
-            started: false,
+            steps: 0,
+            dead: false,
         }
     }
+}
 
+impl<const N: usize, const EXACT: bool> Forward<N, EXACT> {
     #[inline]
     fn n(m: &CompiledHmm) -> usize {
         if EXACT {
@@ -257,40 +267,43 @@ impl<const N: usize, const EXACT: bool> ForwardState<N, EXACT> {
         }
     }
 
-    /// Advance over sample `t` of `em` under model `m`; `false` once the run is impossible
-    /// (every later score is `-inf`).
+    /// Consume one sample: `bt` its scaled emissions (`n` values), `shift` their scale.
     #[inline]
-    fn advance(&mut self, m: &CompiledHmm, em: &Scaled, t: usize) -> bool {
+    pub(crate) fn step(&mut self, m: &CompiledHmm, bt: &[f64], shift: f64) {
+        if self.dead {
+            return;
+        }
         let n = Self::n(m);
         let mut pred = [0.0f64; N];
         let mut next = [0.0f64; N];
         let (alpha, pred, next) = (&mut self.alpha[..n], &mut pred[..n], &mut next[..n]);
-        if self.started {
+        if self.steps == 0 {
+            pred.copy_from_slice(&m.start);
+        } else {
             for (j, p) in pred.iter_mut().enumerate() {
                 let (lo, hi) = m.band[j];
                 let tr = &m.trans[j * n + lo..j * n + hi];
                 *p = alpha[lo..hi].iter().zip(tr).map(|(a, q)| a * q).sum();
             }
-        } else {
-            pred.copy_from_slice(&m.start);
-            self.started = true;
         }
-        let bt = &em.b[t * n..(t + 1) * n];
+        self.steps += 1;
+        let bt = &bt[..n];
         let mut sum = 0.0;
         for j in 0..n {
             next[j] = pred[j] * bt[j];
             sum += next[j];
         }
-        let mut hi = em.shift[t];
+        let mut hi = shift;
         if !(sum > 1e-250 && sum.is_finite()) {
-            // ln b_j (relative to shift[t]) + ln pred_j; b_j = 0 counts as impossible
-            let row: Vec<f64> = bt.iter().map(|v| em.shift[t] + v.ln()).collect();
+            // ln b_j (relative to shift) + ln pred_j; b_j = 0 counts as impossible
+            let row: Vec<f64> = bt.iter().map(|v| shift + v.ln()).collect();
             hi = (0..n)
                 .filter(|&j| pred[j] > 0.0 && bt[j] > 0.0)
                 .map(|j| row[j] + pred[j].ln())
                 .fold(f64::NEG_INFINITY, f64::max);
             if !hi.is_finite() {
-                return false;
+                self.dead = true;
+                return;
             }
             sum = 0.0;
             for j in 0..n {
@@ -312,17 +325,31 @@ impl<const N: usize, const EXACT: bool> ForwardState<N, EXACT> {
             self.log_acc += self.prod.ln();
             self.prod = 1.0;
         }
-        true
     }
 
-    /// The score of the samples seen so far.
+    /// [`Self::step`] over sample `t` of `em`.
     #[inline]
-    fn score(&self, m: &CompiledHmm, end: EndState) -> f64 {
+    fn advance(&mut self, m: &CompiledHmm, em: &Scaled, t: usize) {
+        let n = Self::n(m);
+        self.step(m, &em.b[t * n..(t + 1) * n], em.shift[t]);
+    }
+
+    /// The prefix score of the samples consumed so far (`-inf` once impossible).
+    #[inline]
+    pub(crate) fn value(&self, m: &CompiledHmm, end: EndState) -> f64 {
+        if self.dead {
+            return f64::NEG_INFINITY;
+        }
         let base = self.log_acc + self.prod.ln();
         match end {
             EndState::Any => base,
             EndState::Final => base + self.alpha[Self::n(m) - 1].ln(),
         }
+    }
+
+    /// No state possible any more.
+    pub(crate) fn is_dead(&self) -> bool {
+        self.dead
     }
 }
 
@@ -343,17 +370,18 @@ impl CompiledHmm {
         sums: &mut [f64],
     ) {
         let Some(&last) = ends.last() else { return };
-        let mut st = ForwardState::<MAX_STATES, false>::new();
+        let mut st = ForwardState::default();
         let mut e = 0;
         for k in 0..=last {
-            if !st.advance(self, em, start + k) {
+            st.advance(self, em, start + k);
+            if st.is_dead() {
                 for slot in &mut sums[e..] {
                     *slot = f64::NEG_INFINITY;
                 }
                 return;
             }
             while e < ends.len() && ends[e] == k {
-                sums[e] += st.score(self, end);
+                sums[e] += st.value(self, end);
                 e += 1;
             }
         }
@@ -405,7 +433,7 @@ fn sweep(
 /// state (`alpha[j * R + r]`), so each step is a few vector operations over all active runs
 /// (compiled for AVX2 where the CPU has it; no fused operations, so every entry is bitwise the
 /// one [`ForwardState`] computes). A run whose step would underflow takes the scalar
-/// [`ForwardState::advance`] (its log-space fallback) for that step.
+/// [`Forward::step`] (its log-space fallback) for that step.
 struct SoaSweep<'a, const N: usize> {
     m: &'a CompiledHmm,
     em: &'a Scaled,
@@ -455,34 +483,34 @@ impl<const N: usize> Kernel for SoaSweep<'_, N> {
         let mut prod = vec![1.0f64; nr];
         let mut dead = vec![false; nr];
         let gather = |alpha: &[f64], log_acc: &[f64], prod: &[f64], r: usize| {
-            let mut st = ForwardState::<N, true>::new();
+            let mut st = Forward::<N, true>::default();
             for j in 0..N {
                 st.alpha[j] = alpha[j * nr + r];
             }
             st.log_acc = log_acc[r];
             st.prod = prod[r];
-            st.started = true;
+            st.steps = 1;
             st
         };
         // one step of run r by the scalar recursion (a new run, or its log-space fallback)
-        let scalar = |mut st: ForwardState<N, true>,
+        let scalar = |mut st: Forward<N, true>,
                       r: usize,
                       alpha: &mut [f64],
                       log_acc: &mut [f64],
                       prod: &mut [f64],
                       dead: &mut [bool],
                       tt: usize| {
-            if st.advance(m, em, tt) {
-                for j in 0..N {
-                    alpha[j * nr + r] = st.alpha[j];
-                }
-                log_acc[r] = st.log_acc;
-                prod[r] = st.prod;
-                false
-            } else {
+            st.advance(m, em, tt);
+            if st.is_dead() {
                 dead[r] = true;
-                true
+                return true;
             }
+            for j in 0..N {
+                alpha[j * nr + r] = st.alpha[j];
+            }
+            log_acc[r] = st.log_acc;
+            prod[r] = st.prod;
+            false
         };
         let (mut head, mut tail) = (0usize, 0usize);
         let mut next_b = starts.start;
@@ -565,7 +593,7 @@ impl<const N: usize> Kernel for SoaSweep<'_, N> {
             }
             // 2. the run starting at t
             if tail < nr && b[starts.start + tail] == t {
-                let st = ForwardState::<N, true>::new();
+                let st = Forward::<N, true>::default();
                 died |= scalar(st, tail, &mut alpha, &mut log_acc, &mut prod, &mut dead, tt);
                 tail += 1;
             }
@@ -614,7 +642,7 @@ fn sweep_n<const N: usize, const EXACT: bool>(
     out: &mut [f64],
 ) {
     struct Run<const N: usize, const EXACT: bool> {
-        st: ForwardState<N, EXACT>,
+        st: Forward<N, EXACT>,
         /// start section
         i: usize,
         /// the next end section to score, and the last
@@ -634,7 +662,7 @@ fn sweep_n<const N: usize, const EXACT: bool>(
     for t in b[starts.start]..t_end {
         if next < starts.end && b[next] == t {
             active.push(Run {
-                st: ForwardState::new(),
+                st: Forward::default(),
                 i: next,
                 next_j: next + 1,
                 last_j: band.last_end(next),
@@ -643,7 +671,8 @@ fn sweep_n<const N: usize, const EXACT: bool>(
             next += 1;
         }
         active.retain_mut(|r| {
-            if !r.st.advance(m, em, t - lo) {
+            r.st.advance(m, em, t - lo);
+            if r.st.is_dead() {
                 for j in r.next_j..=r.last_j {
                     out[r.base + j - r.i - 1] = f64::NEG_INFINITY;
                 }
@@ -651,7 +680,7 @@ fn sweep_n<const N: usize, const EXACT: bool>(
             }
             // run i..j covers samples b[i]..b[j]
             while r.next_j <= r.last_j && b[r.next_j] == t + 1 {
-                out[r.base + r.next_j - r.i - 1] = r.st.score(m, end);
+                out[r.base + r.next_j - r.i - 1] = r.st.value(m, end);
                 r.next_j += 1;
             }
             r.next_j <= r.last_j
