@@ -223,7 +223,126 @@ impl Scaled {
     }
 }
 
+/// The scaled forward recursion of one [`CompiledHmm`] from a start sample, advanced one sample
+/// at a time: the state of the batch pass ([`CompiledHmm::add_prefix_at`]) and of the online
+/// segmenter (`super::online`), so both compute the same numbers.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct ForwardState {
+    alpha: [f64; 16],
+    log_acc: f64,
+    prod: f64,
+    /// Samples consumed.
+    steps: usize,
+    /// Every state impossible: the prefix score is `-inf` from now on.
+    dead: bool,
+}
+
+impl Default for ForwardState {
+    fn default() -> Self {
+        Self {
+            alpha: [0.0; 16],
+            log_acc: 0.0,
+            prod: 1.0,
+            steps: 0,
+            dead: false,
+        }
+    }
+}
+
+impl ForwardState {
+    /// Consume one sample: `bt` its scaled emissions (`n` values), `shift` their scale.
+    pub(crate) fn step(&mut self, m: &CompiledHmm, bt: &[f64], shift: f64) {
+        if self.dead {
+            return;
+        }
+        let n = m.n;
+        let mut next = [0.0f64; 16];
+        let mut pred = [0.0f64; 16];
+        let (alpha, next, pred) = (&mut self.alpha[..n], &mut next[..n], &mut pred[..n]);
+        if self.steps == 0 {
+            pred.copy_from_slice(&m.start);
+        } else {
+            for (j, p) in pred.iter_mut().enumerate() {
+                let (lo, hi) = m.band[j];
+                let tr = &m.trans[j * n + lo..j * n + hi];
+                *p = alpha[lo..hi].iter().zip(tr).map(|(a, q)| a * q).sum();
+            }
+        }
+        self.steps += 1;
+        let mut sum = 0.0;
+        for j in 0..n {
+            next[j] = pred[j] * bt[j];
+            sum += next[j];
+        }
+        let mut hi = shift;
+        if !(sum > 1e-250 && sum.is_finite()) {
+            // ln b_j (relative to shift) + ln pred_j; b_j = 0 counts as impossible
+            let row: Vec<f64> = bt.iter().map(|v| shift + v.ln()).collect();
+            hi = (0..n)
+                .filter(|&j| pred[j] > 0.0 && bt[j] > 0.0)
+                .map(|j| row[j] + pred[j].ln())
+                .fold(f64::NEG_INFINITY, f64::max);
+            if !hi.is_finite() {
+                self.dead = true;
+                return;
+            }
+            sum = 0.0;
+            for j in 0..n {
+                next[j] = if pred[j] > 0.0 {
+                    (row[j] + pred[j].ln() - hi).exp()
+                } else {
+                    0.0
+                };
+                sum += next[j];
+            }
+        }
+        self.log_acc += hi;
+        let inv = 1.0 / sum;
+        for j in 0..n {
+            alpha[j] = next[j] * inv;
+        }
+        self.prod *= sum;
+        if !(1e-200..=1e200).contains(&self.prod) {
+            self.log_acc += self.prod.ln();
+            self.prod = 1.0;
+        }
+    }
+
+    /// The prefix score of the samples consumed so far (`-inf` once impossible).
+    pub(crate) fn value(&self, m: &CompiledHmm, end: EndState) -> f64 {
+        if self.dead {
+            return f64::NEG_INFINITY;
+        }
+        let base = self.log_acc + self.prod.ln();
+        match end {
+            EndState::Any => base,
+            EndState::Final => base + self.alpha[m.n - 1].ln(),
+        }
+    }
+
+    /// No state possible any more.
+    pub(crate) fn is_dead(&self) -> bool {
+        self.dead
+    }
+}
+
 impl CompiledHmm {
+    /// Number of states.
+    pub(crate) fn n_states(&self) -> usize {
+        self.n
+    }
+
+    /// Scaled emissions (`b`, `n` values) and their scale (`shift`) of one sample, `x` its
+    /// observation columns (the per-sample entries of [`Scaled::direct`]).
+    /// `comp` is scratch.
+    pub(crate) fn scaled_emission(&self, x: &[f64], b: &mut [f64], comp: &mut Vec<f64>) -> f64 {
+        let mut shift = [0.0];
+        comp.resize(self.emission.n_components(), 0.0);
+        self.emission
+            .scaled_block(x, 1, 0, 1, comp, &mut b[..self.n], &mut shift);
+        shift[0]
+    }
+
     /// Prefix scores at the requested ends only: `ends` are sample offsets (ascending) from
     /// `start`; adds the score at each end to `sums`. `ln` is taken only at the ends.
     fn add_prefix_at(
@@ -236,71 +355,19 @@ impl CompiledHmm {
     ) {
         let n = self.n;
         let Some(&last) = ends.last() else { return };
-        let mut alpha = [0.0f64; 16];
-        let mut next = [0.0f64; 16];
-        let mut pred = [0.0f64; 16];
-        let (alpha, next, pred) = (&mut alpha[..n], &mut next[..n], &mut pred[..n]);
-        let mut log_acc = 0.0;
-        let mut prod = 1.0f64;
+        let mut state = ForwardState::default();
         let mut e = 0;
         for k in 0..=last {
             let t = start + k;
-            if k == 0 {
-                pred.copy_from_slice(&self.start);
-            } else {
-                for (j, p) in pred.iter_mut().enumerate() {
-                    let (lo, hi) = self.band[j];
-                    let tr = &self.trans[j * n + lo..j * n + hi];
-                    *p = alpha[lo..hi].iter().zip(tr).map(|(a, q)| a * q).sum();
+            state.step(self, &em.b[t * n..(t + 1) * n], em.shift[t]);
+            if state.is_dead() {
+                for slot in &mut sums[e..] {
+                    *slot = f64::NEG_INFINITY;
                 }
-            }
-            let bt = &em.b[t * n..(t + 1) * n];
-            let mut sum = 0.0;
-            for j in 0..n {
-                next[j] = pred[j] * bt[j];
-                sum += next[j];
-            }
-            let mut hi = em.shift[t];
-            if !(sum > 1e-250 && sum.is_finite()) {
-                // ln b_j (relative to shift[t]) + ln pred_j; b_j = 0 counts as impossible
-                let bt = &em.b[t * n..(t + 1) * n];
-                let row: Vec<f64> = bt.iter().map(|v| em.shift[t] + v.ln()).collect();
-                hi = (0..n)
-                    .filter(|&j| pred[j] > 0.0 && bt[j] > 0.0)
-                    .map(|j| row[j] + pred[j].ln())
-                    .fold(f64::NEG_INFINITY, f64::max);
-                if !hi.is_finite() {
-                    for slot in &mut sums[e..] {
-                        *slot = f64::NEG_INFINITY;
-                    }
-                    return;
-                }
-                sum = 0.0;
-                for j in 0..n {
-                    next[j] = if pred[j] > 0.0 {
-                        (row[j] + pred[j].ln() - hi).exp()
-                    } else {
-                        0.0
-                    };
-                    sum += next[j];
-                }
-            }
-            log_acc += hi;
-            let inv = 1.0 / sum;
-            for j in 0..n {
-                alpha[j] = next[j] * inv;
-            }
-            prod *= sum;
-            if !(1e-200..=1e200).contains(&prod) {
-                log_acc += prod.ln();
-                prod = 1.0;
+                return;
             }
             while e < ends.len() && ends[e] == k {
-                let base = log_acc + prod.ln();
-                sums[e] += match end {
-                    EndState::Any => base,
-                    EndState::Final => base + alpha[n - 1].ln(),
-                };
+                sums[e] += state.value(self, end);
                 e += 1;
             }
         }
