@@ -633,16 +633,22 @@ impl OnlineDp {
             return Some(0);
         }
         (0..self.tiers.len()).find(|&t| {
-            live.clone()
-                .any(|i| self.best[t][i * ns..(i + 1) * ns].iter().any(|v| v.is_finite()))
+            live.clone().any(|i| {
+                self.best[t][i * ns..(i + 1) * ns]
+                    .iter()
+                    .any(|v| v.is_finite())
+            })
         })
     }
 
     /// The first tier with a finite state at the last boundary (the batch DP's choice).
     fn final_tier(&self) -> Option<usize> {
         let (j, ns) = (self.n_sections(), self.ns());
-        (0..self.tiers.len())
-            .find(|&t| self.best[t][j * ns..(j + 1) * ns].iter().any(|v| v.is_finite()))
+        (0..self.tiers.len()).find(|&t| {
+            self.best[t][j * ns..(j + 1) * ns]
+                .iter()
+                .any(|v| v.is_finite())
+        })
     }
 
     /// The nodes `(boundary, skill)` after the settled one on the path to state `(j, s)`, in
@@ -844,7 +850,9 @@ impl OnlineDp {
         let ns = self.ns();
         self.live().rev().find_map(|j| {
             let s = self.argmax(tier, j);
-            self.best[tier][j * ns + s].is_finite().then_some((tier, j, s))
+            self.best[tier][j * ns + s]
+                .is_finite()
+                .then_some((tier, j, s))
         })
     }
 
@@ -861,7 +869,6 @@ impl OnlineDp {
         if j == self.settled.0 {
             return Ok(out);
         }
-        let ns = self.ns();
         if let Some(tier) = self.final_tier() {
             let (use_rise, use_grammar) = self.tiers[tier];
             if tier > 0 {
