@@ -238,6 +238,7 @@ class OnlineSegmenter:
         min_rise: float = 0.02,
         dominance: float = 0.0,
         lag: int = 0,
+        beam: float = ...,
     ) -> None: ...
     def push_sample(
         self,
@@ -245,7 +246,7 @@ class OnlineSegmenter:
         stage1_thresholds: NDArray[np.float64],
         obs: NDArray[np.float64],
         z: float,
-    ) -> _RowsTuple | None: ...
+    ) -> tuple[_RowsTuple | None, list[_SettledTuple]]: ...
     def finish_samples(self) -> _RowsTuple: ...
     def add_section(
         self,

@@ -61,6 +61,7 @@ pub struct PyOnlineSegmenter {
     n_objects: usize,
     n_stage1: usize,
     n_columns: usize,
+    beam: f64,
 }
 
 #[pymethods]
@@ -68,7 +69,7 @@ impl PyOnlineSegmenter {
     #[new]
     #[pyo3(signature = (templates, grammar_json, shared, n_objects, n_stage1, columns, hysteresis,
         min_section, max_len, end="final", mode="enforce", penalty=0.0, min_rise=0.02,
-        dominance=0.0, lag=0))]
+        dominance=0.0, lag=0, beam=f64::INFINITY))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -87,6 +88,7 @@ impl PyOnlineSegmenter {
         min_rise: f64,
         dominance: f64,
         #[pyo3(from_py_with = int_arg)] lag: i128,
+        beam: f64,
     ) -> PyResult<Self> {
         guard(py, || {
             let end: EndState = end.parse().py_err(py)?;
@@ -136,13 +138,16 @@ impl PyOnlineSegmenter {
                 n_objects,
                 n_stage1,
                 n_columns: set.ranges.len(),
+                beam,
             })
         })
     }
 
     /// Consume one sample: the stage-1 row and thresholds `(n_stage1,)`, the raw feature rows
     /// with each object as the target `(n_objects, n_columns)` (finite), the TCP height. Returns
-    /// the rows of a boundary that became final, or None.
+    /// the rows of a boundary that became final (or None) and the segments settled by the
+    /// hypotheses within `beam` nats agreeing (unless the beam is NaN: off).
+    /// Returns the rows of a boundary that became final, or None.
     fn push_sample<'py>(
         &mut self,
         py: Python<'py>,
@@ -205,6 +210,52 @@ impl PyOnlineSegmenter {
                 .add_section(bound, first_start, totals, rising, now)
                 .py_err(py)?;
             Ok(settled(out))
+        })
+    }
+
+    /// The segments still going on: for every start section the DP has reached, the summed
+    /// log-likelihood of its samples so far per object and skill (any end state): `(start
+    /// sections (R,), scores (R, O, S))`.
+    fn running<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyArray1<i64>>, Bound<'py, PyArrayDyn<f64>>)> {
+        guard(py, || {
+            let (sections, scores) = self.scorer.running(self.dp.n_sections());
+            let shape = [sections.len(), self.n_objects, self.dp.n_skills()];
+            Ok((
+                ndconv::indices_to_numpy(py, &sections),
+                shaped(py, &shape, scores)?,
+            ))
+        })
+    }
+
+    /// Settle what every hypothesis within the beam agrees on: `sections` `(R,)` and `scores`
+    /// `(R, S)` the running segments (from `running`, with the caller's evidence and object
+    /// choice).
+    fn converge(
+        &mut self,
+        py: Python<'_>,
+        sections: Bound<'_, PyAny>,
+        scores: Bound<'_, PyAny>,
+    ) -> PyResult<Vec<SettledTuple>> {
+        guard(py, || {
+            if self.beam.is_nan() {
+                return Ok(Vec::new());
+            }
+            let sections = ndconv::indices(&sections, "sections")?;
+            let (values, r, c) = ndconv::row_major(&scores, "scores", "(n_starts, n_skills)")?;
+            if r != sections.len() || c != self.dp.n_skills() {
+                return Err(EngineError::ShapeMismatch(format!(
+                    "scores must have shape ({}, {}), got ({r}, {c})",
+                    sections.len(),
+                    self.dp.n_skills()
+                )))
+                .py_err(py);
+            }
+            Ok(settled(
+                self.dp.converge_running(&sections, &values, self.beam),
+            ))
         })
     }
 

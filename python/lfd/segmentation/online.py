@@ -66,6 +66,10 @@ TARGET_INDEPENDENT: frozenset[str] = frozenset(
 )
 """Features that do not depend on the target object (scored once per sample)."""
 
+DEFAULT_BEAM = 30.0
+"""Default beam (nats): a segment settles when every hypothesis within this of the best
+agrees on it (``inf``: every hypothesis, exact; ``nan``: off, only the lag settles)."""
+
 DEFAULT_LAG_S = 2.0
 """Default bound (seconds after its end) by which the best path's oldest segment is forced."""
 
@@ -141,6 +145,11 @@ class OnlineSegmenter:
         As offline; only the DP search runs online.
     lag_s : float
         Bound on settling (see the module docs).
+    beam : float
+        Hypotheses within this many nats of the best must agree for a segment to settle before
+        the lag (``inf``: all of them, exact; ``nan``: only the lag settles).
+    check_every : int
+        Samples between two agreement checks.
     max_gap_s : float
         Longest gap in time bridged by repeating the last sample.
     t0_ns : int, optional
@@ -157,6 +166,8 @@ class OnlineSegmenter:
         search: Search = "dp",
         grammar: GrammarUse = "enforce",
         lag_s: float = DEFAULT_LAG_S,
+        beam: float = DEFAULT_BEAM,
+        check_every: int = 1,
         max_gap_s: float = 2.0,
     ):
         p = params or SegmentParams()
@@ -202,7 +213,10 @@ class OnlineSegmenter:
             p.min_rise,
             p.dominance,
             self._lag,
+            beam,
         )
+        self._beam_on = not np.isnan(beam)
+        self._check_every = max(1, int(check_every))
         # histories (samples), for the co-motion evidence, implicit moves and skill parameters
         self._t_ns = _Grow((), np.int64)
         self._tcp = _Grow((3,))
@@ -370,6 +384,8 @@ class OnlineSegmenter:
             _, bound, first, scores, rising = rows
             self._queue.append(_Section(bound, first, scores, rising))
         out = self._drain(final=False)
+        if self._beam_on and n % self._check_every == 0:
+            out += self._converge()
         out += self._settled(self._engine.tick(n))
         out += self._flush_held(final=False)
         return out
@@ -423,6 +439,44 @@ class OnlineSegmenter:
             self._t_ns.n,
         )
         return self._settled(settled)
+
+    def _converge(self) -> list[Segment]:
+        """Settle what the hypotheses within the beam agree on: the DP states followed by a
+        segment still going on, with the co-motion evidence of its samples whose object motion
+        is known, on its best object."""
+        p = self.params
+        secs, scores = self._engine.running()
+        if len(secs) == 0:
+            return []
+        e = self._moving.n
+        starts = np.asarray([self._bounds[i] for i in secs], dtype=np.int64)
+        k = int(np.searchsorted(starts, e))  # runs with samples of known motion
+        extra = None
+        if p.co_motion != 0 and k > 0:
+            lo = int(starts[0])
+            local = np.append(starts[:k], e) - lo
+            band = Band(
+                local, 0, np.full(k, k), np.arange(k + 1), np.arange(k), np.full(k, k)
+            )
+            of = co_motion_per_object(
+                np.ascontiguousarray(self._moving.view()[lo:e].T),
+                local,
+                self.skills,
+                p.co_motion,
+                lifted=np.ascontiguousarray(self._lifted.view()[lo:e].T),
+                grace=round(p.co_motion_grace_s / self.dt),
+                band=band,
+            )
+            if of is not None:
+                pad = np.zeros((len(secs) - k, len(self.skills)))
+                extra = lambda o: np.concatenate([of(o), pad])  # noqa: E731
+
+        def scores_of(o: int) -> np.ndarray:
+            cur = scores[:, o, :]
+            return cur + extra(o) if extra is not None else np.array(cur, dtype=np.float64)
+
+        best, _ = max_over_objects(scores_of, scores.shape[1])
+        return self._settled(self._engine.converge(secs, np.ascontiguousarray(best)))
 
     def _band(self, local: np.ndarray) -> Band:
         key = tuple(int(b) for b in local)
@@ -569,6 +623,7 @@ def segment_online(
     search: Search = "dp",
     grammar: GrammarUse = "enforce",
     lag_s: float = DEFAULT_LAG_S,
+    beam: float = DEFAULT_BEAM,
 ) -> tuple[Segmentation, np.ndarray]:
     """Feed a whole preprocessed trajectory to an :class:`OnlineSegmenter` sample by sample,
     with the batch pipeline's features (gaps filled as offline, for comparison); returns the
@@ -579,7 +634,7 @@ def segment_online(
     feats = compute_features(filled)
     per_object = [compute_features(filled, target=o) for o in range(len(filled.object_names))]
     seg = OnlineSegmenter(
-        templates, filled.object_names, filled.dt, params=params, search=search, grammar=grammar, lag_s=lag_s
+        templates, filled.object_names, filled.dt, params=params, search=search, grammar=grammar, lag_s=lag_s, beam=beam
     )
     ov = np.stack([f.values for f in per_object], axis=1)
     ot = np.stack([f.thresholds for f in per_object], axis=1)

@@ -381,6 +381,37 @@ impl OnlineScorer {
         }
     }
 
+    /// The running scores: for every kept start at a final boundary `<= upto`, the summed
+    /// log-likelihood of its samples so far under each object and skill (any end state): a
+    /// segment still going on. Returns the start sections and row-major `(R, O, S)` scores.
+    pub fn running(&self, upto: usize) -> (Vec<usize>, Vec<f64>) {
+        let (nf, no) = (self.n_features(), self.n_objects);
+        let pending = self.pending.as_ref().map(|p| p.cut);
+        let mut sections = Vec::new();
+        let mut out = Vec::new();
+        for st in &self.starts {
+            if st.section > upto || Some(st.sample) == pending {
+                continue;
+            }
+            sections.push(st.section);
+            for o in 0..no {
+                for (s, row) in self.models.iter().enumerate() {
+                    let (mut shared, mut rest) = (0.0, 0.0);
+                    for (f, m) in row.iter().enumerate() {
+                        if self.shared[f] {
+                            shared += st.fwd[(s * nf + f) * no].value(m, EndState::Any);
+                        } else {
+                            rest += st.fwd[(s * nf + f) * no + o].value(m, EndState::Any);
+                        }
+                    }
+                    let v = shared + rest;
+                    out.push(if v.is_nan() { f64::NEG_INFINITY } else { v });
+                }
+            }
+        }
+        (sections, out)
+    }
+
     /// The rows of the runs from every kept start ending at sample `b` (boundary `index`).
     fn rows_at(&self, b: usize, index: usize) -> SectionRows {
         let (ns, nf, no) = (self.models.len(), self.n_features(), self.n_objects);
@@ -511,6 +542,11 @@ impl OnlineDp {
     }
 
     fn ns(&self) -> usize {
+        self.grammar.n_skills()
+    }
+
+    /// Number of skills.
+    pub fn n_skills(&self) -> usize {
         self.grammar.n_skills()
     }
 
@@ -726,6 +762,91 @@ impl OnlineDp {
             .into_iter()
             .map(|node| self.settle(node, false))
             .collect()
+    }
+
+    /// Settle what every hypothesis within `beam` nats of the best agrees on. A hypothesis is a
+    /// live state followed by a segment still going on from it, scored over every sample so far
+    /// (`running`: [`OnlineScorer::running`]), so hypotheses at different boundaries compare.
+    /// States outside the beam are dropped once something settles (as after a forced
+    /// settlement); an infinite beam is the exact agreement of every live state.
+    pub fn converge_running(
+        &mut self,
+        sections: &[usize],
+        running: &[f64],
+        beam: f64,
+    ) -> Vec<Settled> {
+        let Some(tier) = self.active_tier() else {
+            return Vec::new();
+        };
+        let (use_rise, use_grammar) = self.tiers[tier];
+        let _ = use_rise;
+        let ns = self.ns();
+        let (sj, _) = self.settled;
+        // (state, score); None = the start of the demonstration
+        let mut hyps: Vec<(Option<(usize, usize)>, f64)> = Vec::new();
+        if running.len() != sections.len() * ns {
+            return Vec::new();
+        }
+        for (&i, r) in sections.iter().zip(running.chunks_exact(ns)) {
+            if i < sj || i > self.n_sections() {
+                continue;
+            }
+            if i == 0 {
+                let h = (0..ns)
+                    .filter(|&s| !use_grammar || self.grammar.allows(None, s))
+                    .map(|s| r[s] - self.penalty)
+                    .fold(f64::NEG_INFINITY, f64::max);
+                hyps.push((None, h));
+                continue;
+            }
+            for p in 0..ns {
+                let b = self.best[tier][i * ns + p];
+                if !b.is_finite() {
+                    continue;
+                }
+                let h = (0..ns)
+                    .filter(|&s| !use_grammar || self.grammar.allows(Some(p), s))
+                    .map(|s| b + r[s] - self.penalty)
+                    .fold(f64::NEG_INFINITY, f64::max);
+                hyps.push((Some((i, p)), h));
+            }
+        }
+        let top = hyps.iter().map(|h| h.1).fold(f64::NEG_INFINITY, f64::max);
+        if !top.is_finite() {
+            return Vec::new();
+        }
+        let mut common: Option<Vec<(usize, usize)>> = None;
+        for (state, h) in &hyps {
+            if !(*h >= top - beam) {
+                continue;
+            }
+            let Some((i, p)) = *state else {
+                return Vec::new(); // the start is itself in the beam: nothing is agreed
+            };
+            let Some(path) = self.path(tier, i, p) else {
+                continue;
+            };
+            common = Some(match common {
+                None => path,
+                Some(c) => c
+                    .into_iter()
+                    .zip(path)
+                    .take_while(|(a, b)| a == b)
+                    .map(|(a, _)| a)
+                    .collect(),
+            });
+            if common.as_ref().is_some_and(Vec::is_empty) {
+                return Vec::new();
+            }
+        }
+        let nodes = common.unwrap_or_default();
+        if nodes.is_empty() {
+            return Vec::new();
+        }
+        let old = self.settled.0;
+        let out = nodes.into_iter().map(|n| self.settle(n, false)).collect();
+        self.prune(old);
+        out
     }
 
     /// Force the best path's segments whose end is older than the lag.
