@@ -220,9 +220,10 @@ class TemplateSet:
 _SettledTuple = tuple[int, int, int, int, int, float, float, float, bool]
 _RowsTuple = tuple[int, int, int, NDArray[np.float64], NDArray[np.bool_]]
 
+@final
 class OnlineSegmenter:
-    def __init__(
-        self,
+    def __new__(
+        cls,
         templates: TemplateSet,
         grammar_json: str,
         shared: list[bool],
@@ -239,14 +240,14 @@ class OnlineSegmenter:
         dominance: float = 0.0,
         lag: int = 0,
         beam: float = ...,
-    ) -> None: ...
+    ) -> OnlineSegmenter: ...
     def push_sample(
         self,
         stage1_values: NDArray[np.float64],
         stage1_thresholds: NDArray[np.float64],
         obs: NDArray[np.float64],
         z: float,
-    ) -> tuple[_RowsTuple | None, list[_SettledTuple]]: ...
+    ) -> _RowsTuple | None: ...
     def finish_samples(self) -> _RowsTuple: ...
     def add_section(
         self,
@@ -259,6 +260,11 @@ class OnlineSegmenter:
     def tick(self, now: int) -> list[_SettledTuple]: ...
     def finish(self) -> list[_SettledTuple]: ...
     def provisional(self) -> tuple[int, int, int] | None: ...
+    def best_path(self) -> list[tuple[int, int, int]]: ...
+    def running(self) -> tuple[NDArray[np.int64], NDArray[np.float64]]: ...
+    def converge(
+        self, sections: NDArray[np.int64], scores: NDArray[np.float64]
+    ) -> list[_SettledTuple]: ...
     @property
     def warnings(self) -> list[str]: ...
     @property

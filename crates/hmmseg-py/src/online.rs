@@ -25,6 +25,9 @@ type RowsTuple<'py> = (
     Bound<'py, PyArray1<bool>>,
 );
 
+/// `(start sections (R,), scores (R, O, S))`.
+type RunningTuple<'py> = (Bound<'py, PyArray1<i64>>, Bound<'py, PyArrayDyn<f64>>);
+
 fn settled(v: Vec<Settled>) -> Vec<SettledTuple> {
     v.into_iter()
         .map(|x| {
@@ -219,7 +222,7 @@ impl PyOnlineSegmenter {
     fn running<'py>(
         &self,
         py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyArray1<i64>>, Bound<'py, PyArrayDyn<f64>>)> {
+    ) -> PyResult<RunningTuple<'py>> {
         guard(py, || {
             let (sections, scores) = self.scorer.running(self.dp.n_sections());
             let shape = [sections.len(), self.n_objects, self.dp.n_skills()];
@@ -279,6 +282,11 @@ impl PyOnlineSegmenter {
     /// The best current path's last segment `(skill, start, end)`, or None.
     fn provisional(&self, py: Python<'_>) -> PyResult<Option<(usize, usize, usize)>> {
         guard(py, || Ok(self.dp.provisional()))
+    }
+
+    /// The best current path's unsettled segments `(skill, start, end)`.
+    fn best_path(&self, py: Python<'_>) -> PyResult<Vec<(usize, usize, usize)>> {
+        guard(py, || Ok(self.dp.best_path()))
     }
 
     /// Warnings of the DP so far.

@@ -12,10 +12,10 @@ the score table and the search, with the same functions:
   ending at each new section; an object's motion at a sample needs the positions
   ``co_motion_window_s`` later, so a section is scored that much after its boundary);
 - the maximum over target objects (:func:`~lfd.segmentation.pipeline.max_over_objects`);
-- the implicit Moves (:func:`~lfd.segmentation.pipeline.insert_implicit_moves`): a Place or
-  Stack is held back until the next segment settles (the Move between them takes samples from
-  both), at most ``lag_s``; past that it is emitted and a Move the next segment needs is taken
-  from the next segment alone.
+- the implicit Moves (:func:`~lfd.segmentation.pipeline.insert_implicit_moves`): a settled Place
+  or Stack is held back while the best current path continues with a skill that needs the Move
+  (the Move between them takes samples from both), at most ``lag_s``; once emitted, a Move the
+  next segment needs is taken from the next segment alone.
 
 **Settling.** A segment is emitted once every DP hypothesis a future segment can still extend
 traces back through it (then the batch optimum contains it too), or, at the latest, once the
@@ -66,11 +66,11 @@ TARGET_INDEPENDENT: frozenset[str] = frozenset(
 )
 """Features that do not depend on the target object (scored once per sample)."""
 
-DEFAULT_BEAM = 30.0
+DEFAULT_BEAM = 10.0
 """Default beam (nats): a segment settles when every hypothesis within this of the best
 agrees on it (``inf``: every hypothesis, exact; ``nan``: off, only the lag settles)."""
 
-DEFAULT_LAG_S = 2.0
+DEFAULT_LAG_S = 2.5
 """Default bound (seconds after its end) by which the best path's oldest segment is forced."""
 
 
@@ -172,9 +172,13 @@ class OnlineSegmenter:
     ):
         p = params or SegmentParams()
         if search != "dp":
-            raise InvalidParameterError(f"the online segmenter runs the 'dp' search, got {search!r}")
+            raise InvalidParameterError(
+                f"the online segmenter runs the 'dp' search, got {search!r}"
+            )
         if grammar not in get_args(_hmmseg.GrammarMode):
-            raise InvalidParameterError(f"grammar must be 'off', 'warn' or 'enforce', got {grammar!r}")
+            raise InvalidParameterError(
+                f"grammar must be 'off', 'warn' or 'enforce', got {grammar!r}"
+            )
         if not dt > 0 or not np.isfinite(dt):
             raise InvalidParameterError(f"dt must be positive, got {dt}")
         if not object_names:
@@ -236,6 +240,7 @@ class OnlineSegmenter:
         """Segments settled by the lag bound."""
         self.warnings: list[str] = []
         self._hold = _Hold()
+        self._last: tuple[np.ndarray, ...] = ()
         self._finished = False
         self._band_cache: dict[tuple[int, ...], Band] = {}
 
@@ -322,7 +327,9 @@ class OnlineSegmenter:
         t = self._t_ns.n
         rows = (
             self._held_row("hand features", np.asarray(values, dtype=np.float64).reshape(-1), t),
-            self._held_row("hand thresholds", np.asarray(thresholds, dtype=np.float64).reshape(-1), t),
+            self._held_row(
+                "hand thresholds", np.asarray(thresholds, dtype=np.float64).reshape(-1), t
+            ),
             self._held_row(
                 "object features", np.asarray(object_values, dtype=np.float64).reshape(n_obj, -1), t
             ),
@@ -333,7 +340,9 @@ class OnlineSegmenter:
             ),
             self._held_row("tcp", np.asarray(tcp, dtype=np.float64).reshape(3), t),
             self._held_row(
-                "object positions", np.asarray(object_position, dtype=np.float64).reshape(n_obj, 3), t
+                "object positions",
+                np.asarray(object_position, dtype=np.float64).reshape(n_obj, 3),
+                t,
             ),
             np.full((3, 3), np.nan) if rotation is None else np.asarray(rotation, dtype=np.float64),
             np.full((n_obj, 4), np.nan)
@@ -378,7 +387,10 @@ class OnlineSegmenter:
         else:
             s1v, s1t = values, thresholds
         rows = self._engine.push_sample(
-            np.ascontiguousarray(s1v), np.ascontiguousarray(s1t), np.ascontiguousarray(ov), float(tcp[2])
+            np.ascontiguousarray(s1v),
+            np.ascontiguousarray(s1t),
+            np.ascontiguousarray(ov),
+            float(tcp[2]),
         )
         if rows is not None:
             _, bound, first, scores, rising = rows
@@ -403,7 +415,7 @@ class OnlineSegmenter:
     def _add(self, sec: _Section) -> list[Segment]:
         p = self.params
         j = len(self._bounds)
-        local = np.asarray(self._bounds[sec.first_start :] + [sec.bound], dtype=np.int64)
+        local = np.asarray([*self._bounds[sec.first_start :], sec.bound], dtype=np.int64)
         lo = int(local[0])
         local = local - lo
         n_obj, ns = sec.scores.shape[1], sec.scores.shape[2]
@@ -455,9 +467,7 @@ class OnlineSegmenter:
         if p.co_motion != 0 and k > 0:
             lo = int(starts[0])
             local = np.append(starts[:k], e) - lo
-            band = Band(
-                local, 0, np.full(k, k), np.arange(k + 1), np.arange(k), np.full(k, k)
-            )
+            band = Band(local, 0, np.full(k, k), np.arange(k + 1), np.arange(k), np.full(k, k))
             of = co_motion_per_object(
                 np.ascontiguousarray(self._moving.view()[lo:e].T),
                 local,
@@ -546,10 +556,13 @@ class OnlineSegmenter:
         held = self._held
         if held is None:
             return []
-        if final or self._t_ns.n - held.end > self._lag:
-            self._held = None
-            return self._emit([held])
-        return []
+        if not final and self._t_ns.n - held.end <= self._lag:
+            # emit it unless the best current path continues with a skill that needs the Move
+            nxt = self._engine.best_path()
+            if not nxt or needs_implicit_move(held.skill, self.skills[nxt[0][0]]):
+                return []
+        self._held = None
+        return self._emit([held])
 
     def _emit(self, segs: list[Segment]) -> list[Segment]:
         segs = [s for s in segs if s.end > s.start]
@@ -586,7 +599,9 @@ class OnlineSegmenter:
         for t in range(self._moving.n, n):
             self._moving.append(
                 displaced(
-                    p[max(t - self._w, 0)], p[min(t + self._w, n - 1)], self.params.co_motion_displacement
+                    p[max(t - self._w, 0)],
+                    p[min(t + self._w, n - 1)],
+                    self.params.co_motion_displacement,
                 )
             )
         _, bound, first, scores, rising = self._engine.finish_samples()
@@ -612,7 +627,9 @@ class OnlineSegmenter:
 
 def _resize(traj: Trajectory, seg: Segment, start: int) -> Segment:
     obj = traj.object_names.index(seg.object) if seg.object in traj.object_names else None
-    return _make_segment(traj, seg.skill, start, seg.end, obj, seg.score, seg.confidence, seg.margin)
+    return _make_segment(
+        traj, seg.skill, start, seg.end, obj, seg.score, seg.confidence, seg.margin
+    )
 
 
 def segment_online(
@@ -634,7 +651,14 @@ def segment_online(
     feats = compute_features(filled)
     per_object = [compute_features(filled, target=o) for o in range(len(filled.object_names))]
     seg = OnlineSegmenter(
-        templates, filled.object_names, filled.dt, params=params, search=search, grammar=grammar, lag_s=lag_s, beam=beam
+        templates,
+        filled.object_names,
+        filled.dt,
+        params=params,
+        search=search,
+        grammar=grammar,
+        lag_s=lag_s,
+        beam=beam,
     )
     ov = np.stack([f.values for f in per_object], axis=1)
     ot = np.stack([f.thresholds for f in per_object], axis=1)

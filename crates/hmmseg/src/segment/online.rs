@@ -154,7 +154,11 @@ impl OnlineScorer {
                 "at most 16 states per template HMM".into(),
             ));
         }
-        let groups = templates.features.iter().map(|f| f.columns()).collect();
+        let groups = templates
+            .features
+            .iter()
+            .map(super::templates::FeatureGroup::columns)
+            .collect();
         let slots = models.len() * nf * n_objects;
         Ok(Self {
             models,
@@ -817,7 +821,7 @@ impl OnlineDp {
         }
         let mut common: Option<Vec<(usize, usize)>> = None;
         for (state, h) in &hyps {
-            if !(*h >= top - beam) {
+            if h.is_nan() || *h < top - beam {
                 continue;
             }
             let Some((i, p)) = *state else {
@@ -922,16 +926,13 @@ impl OnlineDp {
         let ns = self.ns();
         let rows = self.rows[j].as_ref();
         let len = (self.bounds[j] - self.bounds[i]) as f64;
-        let (mean, ok): (Box<dyn Fn(usize) -> f64>, Box<dyn Fn(usize) -> bool>) = match rows {
-            Some(r) if i >= r.first_start => {
-                let x = i - r.first_start;
-                (
-                    Box::new(move |o| r.totals[x * ns + o] / len),
-                    Box::new(move |o| r.rising[x] == self.grammar.is_rising(o)),
-                )
-            }
-            _ => (Box::new(|_| f64::NEG_INFINITY), Box::new(|_| false)),
-        };
+        // the run's per-sample scores and rise decision (none: outside the rows, -inf)
+        let row = rows.filter(|r| i >= r.first_start).map(|r| {
+            let x = i - r.first_start;
+            (&r.totals[x * ns..(x + 1) * ns], r.rising[x])
+        });
+        let mean = |o: usize| row.map_or(f64::NEG_INFINITY, |(t, _)| t[o] / len);
+        let ok = |o: usize| row.is_some_and(|(_, up)| up == self.grammar.is_rising(o));
         Segment {
             skill: s,
             start_section: i,
@@ -939,8 +940,8 @@ impl OnlineDp {
             start: self.bounds[i],
             end: self.bounds[j],
             score: mean(s),
-            margin: margin(ns, s, &mean, &ok),
-            confidence: confidence(ns, s, &mean, &ok),
+            margin: margin(ns, s, mean, ok),
+            confidence: confidence(ns, s, mean, ok),
         }
     }
 
@@ -962,6 +963,23 @@ impl OnlineDp {
         let (tier, j, s) = self.best_state()?;
         let (i, _) = self.back[tier][j * self.ns() + s];
         (i != usize::MAX).then(|| (s, self.bounds[i], self.bounds[j]))
+    }
+
+    /// The best current path's unsettled segments `(skill, start, end)` in time order.
+    pub fn best_path(&self) -> Vec<(usize, usize, usize)> {
+        let Some((tier, j, s)) = self.best_state() else {
+            return Vec::new();
+        };
+        let mut prev = self.settled.0;
+        self.path(tier, j, s)
+            .unwrap_or_default()
+            .into_iter()
+            .map(|(j, s)| {
+                let seg = (s, self.bounds[prev], self.bounds[j]);
+                prev = j;
+                seg
+            })
+            .collect()
     }
 
     /// The end state of the best current path: in the active tier, the best state at the last
