@@ -219,10 +219,7 @@ impl PyOnlineSegmenter {
     /// The segments still going on: for every start section the DP has reached, the summed
     /// log-likelihood of its samples so far per object and skill (any end state): `(start
     /// sections (R,), scores (R, O, S))`.
-    fn running<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<RunningTuple<'py>> {
+    fn running<'py>(&self, py: Python<'py>) -> PyResult<RunningTuple<'py>> {
         guard(py, || {
             let (sections, scores) = self.scorer.running(self.dp.n_sections());
             let shape = [sections.len(), self.n_objects, self.dp.n_skills()];

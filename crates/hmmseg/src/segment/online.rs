@@ -1043,6 +1043,7 @@ mod tests {
     use crate::stage1::{section_boundaries, Criterion};
 
     /// Feed a banded table section by section; `lag` in samples.
+    #[allow(clippy::needless_range_loop)]
     fn online_dp(
         t: &ScoreTable,
         rising: &[bool],
@@ -1278,9 +1279,9 @@ mod tests {
                 assert_eq!(r.first_start, band.starts(j).start);
                 for (x, i) in band.starts(j).enumerate() {
                     assert_eq!(r.rising[x], rising[band.index(i, j).unwrap()]);
-                    for o in 0..no {
+                    for (o, rest_o) in rest.iter().enumerate() {
                         for s in 0..2 {
-                            let want = shared.total(i, j, s) + rest[o].total(i, j, s);
+                            let want = shared.total(i, j, s) + rest_o.total(i, j, s);
                             let got = r.scores[(x * no + o) * 2 + s];
                             assert!(
                                 got.to_bits() == want.to_bits()
