@@ -209,6 +209,8 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=Path("/tmp/lfd_heldout_online"))
     ap.add_argument("--lag", type=float, default=None, help="lag_s (default: the library's)")
     ap.add_argument("--beam", type=float, default=None, help="beam (default: the library's)")
+    ap.add_argument("--stable", type=float, default=None, help="stable_s (default: the library's)")
+    ap.add_argument("--no-stable", action="store_true", help="stable_s=None")
     ap.add_argument("--skip-cost", action="store_true")
     ap.add_argument("--skip-heldout", action="store_true")
     args = ap.parse_args()
@@ -218,6 +220,10 @@ def main() -> None:
         OPTIONS["lag_s"] = args.lag
     if args.beam is not None:
         OPTIONS["beam"] = args.beam
+    if args.stable is not None:
+        OPTIONS["stable_s"] = args.stable
+    if args.no_stable:
+        OPTIONS["stable_s"] = None
 
     if not args.skip_cost:
         cost(args.minutes)

@@ -8,6 +8,7 @@ import itertools
 import warnings
 from functools import cache
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -69,28 +70,56 @@ def _feed(traj: Trajectory, seg: OnlineSegmenter) -> list[list[tuple[str, int, i
     return emitted
 
 
+EXACT: dict[str, Any] = {"lag_s": 1e9, "beam": float("inf"), "stable_s": None}
+"""Settle only what every hypothesis agrees on (no lag, no beam, no leader rule)."""
+
+
 @pytest.mark.parametrize("path", RECORDINGS, ids=lambda p: p.stem)
-def test_online_sequence_equals_offline_on_the_recordings(path: Path) -> None:
+def test_exact_online_sequence_equals_offline_on_the_recordings(path: Path) -> None:
+    traj = _traj(path)
+    offline = segment(traj, _templates())
+    online, settled_s = segment_online(traj, _templates(), **EXACT)
+    assert _key(online) == _key(offline)
+    for a, b in zip(online.segments, offline.segments, strict=True):
+        assert (a.score, a.margin, a.confidence) == (b.score, b.margin, b.confidence)
+        assert a.params == b.params
+    # (every hypothesis of the last max_segment_s = 10 s is live: in these 15-19 s demos the
+    # exact agreement settles everything at the end)
+    assert len(settled_s) == len(online.segments)
+
+
+@pytest.mark.parametrize("path", RECORDINGS, ids=lambda p: p.stem)
+def test_default_online_segmentation_settles_fast_and_agrees(path: Path) -> None:
     traj = _traj(path)
     offline = segment(traj, _templates())
     online, settled_s = segment_online(traj, _templates())
-    assert _key(online) == _key(offline)
-    for a, b in zip(online.segments, offline.segments, strict=True):
-        assert a.score == pytest.approx(b.score, rel=1e-9, abs=1e-9) or a.skill == "move"
-        assert a.params.keys() == b.params.keys()
-    # each segment settles after its end, within the lag plus the time its boundary takes to
-    # become final and its objects' motion to be known, and a release the next segment
+    assert online.skill_sequence == offline.skill_sequence
+    n = len(traj)
+    agree = np.mean(_frames(online, n) == _frames(offline, n))
+    assert agree >= 0.95
+    # each segment settles after its end, at worst the lag plus the time a boundary takes to
+    # become final and its objects' motion to be known (the median over held-out demos is
+    # measured by benches/segment_online.py)
     ends = np.array([s.end_s for s in online.segments])
     assert np.all(settled_s >= ends - 1e-9)
-    assert np.median(settled_s - ends) <= 1.5
+    assert np.median(settled_s - ends) <= 2.0
     assert np.max(settled_s - ends) <= DEFAULT_LAG_S + 0.1
+
+
+def _frames(result: Segmentation, n: int) -> np.ndarray:
+    out = np.full(n, "", dtype=object)
+    for s in result.segments:
+        out[s.start : s.end] = s.skill
+    return out
 
 
 def test_online_sequence_equals_offline_on_a_simulated_demo() -> None:
     traj = _sim_traj()
     offline = segment(traj, _templates())
-    online, _ = segment_online(traj, _templates())
+    online, _ = segment_online(traj, _templates(), **EXACT)
     assert _key(online) == _key(offline)
+    online, _ = segment_online(traj, _templates())
+    assert online.skill_sequence == offline.skill_sequence
 
 
 def test_emitted_segments_are_never_revised_and_settle_within_the_lag() -> None:

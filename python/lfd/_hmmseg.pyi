@@ -240,6 +240,7 @@ class OnlineSegmenter:
         dominance: float = 0.0,
         lag: int = 0,
         beam: float = ...,
+        stable: int | None = None,
     ) -> OnlineSegmenter: ...
     def push_sample(
         self,

@@ -10,7 +10,7 @@ use numpy::{PyArray1, PyArrayDyn};
 use pyo3::prelude::*;
 
 use crate::errors::{guard, IntoPyResult};
-use crate::ndconv::{self, count, counts, int_arg, int_list_arg, shaped, vector};
+use crate::ndconv::{self, count, counts, int_arg, int_list_arg, opt_int_arg, shaped, vector};
 use crate::segment::PyTemplateSet;
 
 /// `(skill, start section, end section, start, end, score, margin, confidence, forced)`.
@@ -65,6 +65,7 @@ pub struct PyOnlineSegmenter {
     n_stage1: usize,
     n_columns: usize,
     beam: f64,
+    stable: Option<usize>,
 }
 
 #[pymethods]
@@ -72,7 +73,7 @@ impl PyOnlineSegmenter {
     #[new]
     #[pyo3(signature = (templates, grammar_json, shared, n_objects, n_stage1, columns, hysteresis,
         min_section, max_len, end="final", mode="enforce", penalty=0.0, min_rise=0.02,
-        dominance=0.0, lag=0, beam=f64::INFINITY))]
+        dominance=0.0, lag=0, beam=f64::INFINITY, stable=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -92,6 +93,7 @@ impl PyOnlineSegmenter {
         dominance: f64,
         #[pyo3(from_py_with = int_arg)] lag: i128,
         beam: f64,
+        #[pyo3(from_py_with = opt_int_arg)] stable: Option<i128>,
     ) -> PyResult<Self> {
         guard(py, || {
             let end: EndState = end.parse().py_err(py)?;
@@ -142,6 +144,10 @@ impl PyOnlineSegmenter {
                 n_stage1,
                 n_columns: set.ranges.len(),
                 beam,
+                stable: match stable {
+                    Some(v) => Some(count(py, v, "stable", 0)?),
+                    None => None,
+                },
             })
         })
     }
@@ -253,9 +259,13 @@ impl PyOnlineSegmenter {
                 )))
                 .py_err(py);
             }
-            Ok(settled(
-                self.dp.converge_running(&sections, &values, self.beam),
-            ))
+            Ok(settled(self.dp.converge_running(
+                &sections,
+                &values,
+                self.beam,
+                self.stable,
+                self.scorer.n_samples(),
+            )))
         })
     }
 

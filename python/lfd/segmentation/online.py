@@ -66,9 +66,12 @@ TARGET_INDEPENDENT: frozenset[str] = frozenset(
 )
 """Features that do not depend on the target object (scored once per sample)."""
 
-DEFAULT_BEAM = 10.0
+DEFAULT_BEAM = 80.0
 """Default beam (nats): a segment settles when every hypothesis within this of the best
 agrees on it (``inf``: every hypothesis, exact; ``nan``: off, only the lag settles)."""
+
+DEFAULT_STABLE_S: float | None = 1.2
+"""Default time (s) the best hypothesis's oldest unsettled segment must lead to settle."""
 
 DEFAULT_LAG_S = 2.5
 """Default bound (seconds after its end) by which the best path's oldest segment is forced."""
@@ -148,6 +151,9 @@ class OnlineSegmenter:
     beam : float
         Hypotheses within this many nats of the best must agree for a segment to settle before
         the lag (``inf``: all of them, exact; ``nan``: only the lag settles).
+    stable_s : float or None
+        The best hypothesis's oldest unsettled segment also settles once it has led this long
+        (None: off).
     check_every : int
         Samples between two agreement checks.
     max_gap_s : float
@@ -167,6 +173,7 @@ class OnlineSegmenter:
         grammar: GrammarUse = "enforce",
         lag_s: float = DEFAULT_LAG_S,
         beam: float = DEFAULT_BEAM,
+        stable_s: float | None = DEFAULT_STABLE_S,
         check_every: int = 1,
         max_gap_s: float = 2.0,
     ):
@@ -218,6 +225,7 @@ class OnlineSegmenter:
             p.dominance,
             self._lag,
             beam,
+            None if stable_s is None else round(stable_s / dt),
         )
         self._beam_on = not np.isnan(beam)
         self._check_every = max(1, int(check_every))
@@ -641,6 +649,7 @@ def segment_online(
     grammar: GrammarUse = "enforce",
     lag_s: float = DEFAULT_LAG_S,
     beam: float = DEFAULT_BEAM,
+    stable_s: float | None = DEFAULT_STABLE_S,
 ) -> tuple[Segmentation, np.ndarray]:
     """Feed a whole preprocessed trajectory to an :class:`OnlineSegmenter` sample by sample,
     with the batch pipeline's features (gaps filled as offline, for comparison); returns the
@@ -659,6 +668,7 @@ def segment_online(
         grammar=grammar,
         lag_s=lag_s,
         beam=beam,
+        stable_s=stable_s,
     )
     ov = np.stack([f.values for f in per_object], axis=1)
     ot = np.stack([f.thresholds for f in per_object], axis=1)

@@ -506,6 +506,8 @@ pub struct OnlineDp {
     warnings: Vec<String>,
     prev_skill: Option<usize>,
     count: usize,
+    /// The best hypothesis's first unsettled node and the sample since which it leads.
+    lead: Option<((usize, usize), usize)>,
 }
 
 impl OnlineDp {
@@ -542,6 +544,7 @@ impl OnlineDp {
             warnings: Vec::new(),
             prev_skill: None,
             count: 0,
+            lead: None,
         })
     }
 
@@ -773,17 +776,23 @@ impl OnlineDp {
     /// (`running`: [`OnlineScorer::running`]), so hypotheses at different boundaries compare.
     /// States outside the beam are dropped once something settles (as after a forced
     /// settlement); an infinite beam is the exact agreement of every live state.
+    ///
+    /// With `stable` (samples, `Some`), the first unsettled segment of the best hypothesis also
+    /// settles once it has stayed the same for that long (`now`: samples seen): alternatives
+    /// that differ only in where a boundary lies keep a bounded difference, which a beam does
+    /// not resolve.
     pub fn converge_running(
         &mut self,
         sections: &[usize],
         running: &[f64],
         beam: f64,
+        stable: Option<usize>,
+        now: usize,
     ) -> Vec<Settled> {
         let Some(tier) = self.active_tier() else {
             return Vec::new();
         };
-        let (use_rise, use_grammar) = self.tiers[tier];
-        let _ = use_rise;
+        let (_, use_grammar) = self.tiers[tier];
         let ns = self.ns();
         let (sj, _) = self.settled;
         // (state, score); None = the start of the demonstration
@@ -818,6 +827,29 @@ impl OnlineDp {
         let top = hyps.iter().map(|h| h.1).fold(f64::NEG_INFINITY, f64::max);
         if !top.is_finite() {
             return Vec::new();
+        }
+        if let Some(stable) = stable {
+            // the leader's first unsettled node, and since when it leads
+            let lead = hyps
+                .iter()
+                .find(|h| h.1 == top)
+                .and_then(|h| h.0)
+                .and_then(|(i, p)| self.path(tier, i, p))
+                .and_then(|path| path.first().copied());
+            match (lead, self.lead) {
+                (Some(node), Some((old, _))) if node == old => {}
+                (Some(node), _) => self.lead = Some((node, now)),
+                (None, _) => self.lead = None,
+            }
+            if let Some((node, since)) = self.lead {
+                if now.saturating_sub(since) >= stable {
+                    let old = self.settled.0;
+                    let out = vec![self.settle(node, false)];
+                    self.prune(old);
+                    self.lead = None;
+                    return out;
+                }
+            }
         }
         let mut common: Option<Vec<(usize, usize)>> = None;
         for (state, h) in &hyps {
