@@ -34,6 +34,10 @@ use super::{confidence, margin, Grammar, GrammarMode, Segment};
 use crate::error::{EngineError, Result};
 use crate::stage1::Stage1Params;
 
+/// The leader rule does not settle a segment while a hypothesis within this many nats of the
+/// best (or the beam, if narrower) has a segment going on across its end.
+pub const ACROSS_BEAM: f64 = 20.0;
+
 /// The band rows of the runs ending at one new section boundary.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SectionRows {
@@ -467,6 +471,17 @@ impl OnlineScorer {
     }
 }
 
+/// The best hypothesis with a segment going on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Leader {
+    /// Not checked yet.
+    Unknown,
+    /// One segment from the start of the demonstration.
+    Start,
+    /// A DP state `(boundary, skill)` and a segment from there.
+    State((usize, usize)),
+}
+
 /// Segments settled by the online DP, and how.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Settled {
@@ -508,6 +523,9 @@ pub struct OnlineDp {
     count: usize,
     /// The best hypothesis's first unsettled node and the sample since which it leads.
     lead: Option<((usize, usize), usize)>,
+    /// The state of the best hypothesis with a segment going on, from the last agreement
+    /// check; the lag forces its path.
+    leader: Leader,
 }
 
 impl OnlineDp {
@@ -545,6 +563,7 @@ impl OnlineDp {
             prev_skill: None,
             count: 0,
             lead: None,
+            leader: Leader::Unknown,
         })
     }
 
@@ -778,9 +797,9 @@ impl OnlineDp {
     /// settlement); an infinite beam is the exact agreement of every live state.
     ///
     /// With `stable` (samples, `Some`), the first unsettled segment of the best hypothesis also
-    /// settles once it has stayed the same for that long (`now`: samples seen): alternatives
-    /// that differ only in where a boundary lies keep a bounded difference, which a beam does
-    /// not resolve.
+    /// settles once it has stayed the same for that long (`now`: samples seen) and no hypothesis
+    /// within the beam has a segment going on across its end: alternatives that differ only in
+    /// where a boundary lies keep a bounded difference, which a beam does not resolve.
     pub fn converge_running(
         &mut self,
         sections: &[usize],
@@ -828,11 +847,16 @@ impl OnlineDp {
         if !top.is_finite() {
             return Vec::new();
         }
+        self.leader = match hyps.iter().max_by(|a, b| a.1.total_cmp(&b.1)) {
+            Some((Some(state), _)) => Leader::State(*state),
+            Some((None, _)) => Leader::Start,
+            None => Leader::Unknown,
+        };
         if let Some(stable) = stable {
             // the leader's first unsettled node, and since when it leads
             let lead = hyps
                 .iter()
-                .find(|h| h.1 == top)
+                .max_by(|a, b| a.1.total_cmp(&b.1))
                 .and_then(|h| h.0)
                 .and_then(|(i, p)| self.path(tier, i, p))
                 .and_then(|path| path.first().copied());
@@ -841,8 +865,15 @@ impl OnlineDp {
                 (Some(node), _) => self.lead = Some((node, now)),
                 (None, _) => self.lead = None,
             }
+            // only boundary placement is decided so: no hypothesis within the beam may have a
+            // segment still going on across the node's end
+            let near = beam.min(ACROSS_BEAM);
+            let across = |node: (usize, usize)| {
+                hyps.iter()
+                    .any(|(state, h)| *h >= top - near && state.is_none_or(|(i, _)| i < node.0))
+            };
             if let Some((node, since)) = self.lead {
-                if now.saturating_sub(since) >= stable {
+                if now.saturating_sub(since) >= stable && !across(node) {
                     let old = self.settled.0;
                     let out = vec![self.settle(node, false)];
                     self.prune(old);
@@ -889,10 +920,15 @@ impl OnlineDp {
     fn force(&mut self) -> Vec<Settled> {
         let mut out = Vec::new();
         loop {
-            let Some((tier, j, s)) = self.best_state() else {
-                return out;
+            // the best hypothesis with a segment going on, else the best complete path
+            let path = match self.leader {
+                Leader::Start => return out,
+                Leader::State((i, p)) => self.active_tier().and_then(|tier| self.path(tier, i, p)),
+                Leader::Unknown => self
+                    .best_state()
+                    .and_then(|(tier, j, s)| self.path(tier, j, s)),
             };
-            let Some(path) = self.path(tier, j, s) else {
+            let Some(path) = path else {
                 return out;
             };
             let Some(&(nj, nsk)) = path.first() else {
@@ -943,7 +979,7 @@ impl OnlineDp {
         self.prev_skill = Some(s);
         self.settled = (j, Some(s));
         self.count += 1;
-        for r in self.rows.iter_mut().take(j + 1) {
+        for r in &mut self.rows[i..=j] {
             *r = None;
         }
         Settled { segment, forced }
