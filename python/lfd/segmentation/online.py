@@ -18,9 +18,13 @@ the score table and the search, with the same functions:
   next segment needs is taken from the next segment alone.
 
 **Settling.** A segment is emitted once every DP hypothesis a future segment can still extend
-traces back through it (then the batch optimum contains it too), or, at the latest, once the
-best current path's oldest unsettled segment ended more than ``lag_s`` ago: it is then *forced*
-(the hypotheses disagreeing with it are dropped). Emitted segments never change. After
+traces back through it (then the batch optimum contains it too); when every hypothesis within
+``beam`` nats of the best agrees on it (a hypothesis: a DP state and a segment still going on,
+scored over the same samples); when it has led for ``stable_s`` and no close hypothesis has a
+segment going on across its end; or, at the latest, once it is the best hypothesis's oldest
+unsettled segment and ended more than ``lag_s`` ago (the best complete path's: ``7/6 lag_s``),
+*forced*. Each of the last three drops the hypotheses disagreeing with it (docs/segmentation.md,
+"Online"). Emitted segments never change. After
 :meth:`OnlineSegmenter.finish`, without forced segments, the sequence equals
 :func:`lfd.segment`'s on the same features (``tests/test_segment_online.py``).
 
@@ -70,7 +74,7 @@ DEFAULT_BEAM = 80.0
 """Default beam (nats): a segment settles when every hypothesis within this of the best
 agrees on it (``inf``: every hypothesis, exact; ``nan``: off, only the lag settles)."""
 
-DEFAULT_STABLE_S: float | None = 1.2
+DEFAULT_STABLE_S: float | None = 1.0
 """Default time (s) the best hypothesis's oldest unsettled segment must lead to settle."""
 
 DEFAULT_LAG_S = 2.5

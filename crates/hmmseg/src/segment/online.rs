@@ -920,25 +920,28 @@ impl OnlineDp {
     fn force(&mut self) -> Vec<Settled> {
         let mut out = Vec::new();
         loop {
-            // the best hypothesis with a segment going on, else the best complete path
-            let path = match self.leader {
-                Leader::Start => return out,
+            // the best hypothesis with a segment going on past the lag; past a sixth more, the
+            // best complete path (the hypothesis may keep a segment going on)
+            let leader = match self.leader {
+                Leader::Start | Leader::Unknown => None,
                 Leader::State((i, p)) => self.active_tier().and_then(|tier| self.path(tier, i, p)),
-                Leader::Unknown => self
-                    .best_state()
-                    .and_then(|(tier, j, s)| self.path(tier, j, s)),
             };
-            let Some(path) = path else {
+            let complete = || {
+                self.best_state()
+                    .and_then(|(tier, j, s)| self.path(tier, j, s))
+            };
+            let old_enough = |path: &Option<Vec<(usize, usize)>>, lag: usize| {
+                path.as_ref()
+                    .and_then(|p| p.first().copied())
+                    .filter(|&(j, _)| self.now.saturating_sub(self.bounds[j]) > lag)
+            };
+            let node = old_enough(&leader, self.lag)
+                .or_else(|| old_enough(&complete(), self.lag + self.lag / 6));
+            let Some(node) = node else {
                 return out;
             };
-            let Some(&(nj, nsk)) = path.first() else {
-                return out;
-            };
-            if self.now.saturating_sub(self.bounds[nj]) <= self.lag {
-                return out;
-            }
             let old = self.settled.0;
-            out.push(self.settle((nj, nsk), true));
+            out.push(self.settle(node, true));
             self.prune(old);
         }
     }
