@@ -741,7 +741,7 @@ impl OnlineDp {
         let mut lo = j;
         if self.max_len != 0 {
             let next = self.bounds[j] + 1;
-            while lo > self.settled.0 && self.bounds[lo - 1] + self.max_len >= next {
+            while lo > self.settled.0 && self.bounds[lo - 1].saturating_add(self.max_len) >= next {
                 lo -= 1;
             }
         } else {
@@ -936,7 +936,7 @@ impl OnlineDp {
                     .filter(|&(j, _)| self.now.saturating_sub(self.bounds[j]) > lag)
             };
             let node = old_enough(&leader, self.lag)
-                .or_else(|| old_enough(&complete(), self.lag + self.lag / 6));
+                .or_else(|| old_enough(&complete(), self.lag.saturating_add(self.lag / 6)));
             let Some(node) = node else {
                 return out;
             };
