@@ -216,3 +216,61 @@ class TemplateSet:
         end: EndState = "final",
         features: list[int] | None = None,
     ) -> NDArray[np.float64]: ...
+
+_SettledTuple = tuple[int, int, int, int, int, float, float, float, bool]
+_RowsTuple = tuple[int, int, int, NDArray[np.float64], NDArray[np.bool_]]
+
+@final
+class OnlineSegmenter:
+    def __new__(
+        cls,
+        templates: TemplateSet,
+        grammar_json: str,
+        shared: list[bool],
+        n_objects: int,
+        n_stage1: int,
+        columns: list[int],
+        hysteresis: list[float],
+        min_section: int,
+        max_len: int,
+        end: EndState = "final",
+        mode: GrammarMode = "enforce",
+        penalty: float = 0.0,
+        min_rise: float = 0.02,
+        dominance: float = 0.0,
+        lag: int = 0,
+        beam: float = ...,
+        stable: int | None = None,
+    ) -> OnlineSegmenter: ...
+    def push_sample(
+        self,
+        stage1_values: NDArray[np.float64],
+        stage1_thresholds: NDArray[np.float64],
+        obs: NDArray[np.float64],
+        z: float,
+    ) -> _RowsTuple | None: ...
+    def finish_samples(self) -> _RowsTuple: ...
+    def add_section(
+        self,
+        bound: int,
+        first_start: int,
+        scores: NDArray[np.float64],
+        rising: NDArray[np.bool_],
+        now: int,
+    ) -> list[_SettledTuple]: ...
+    def tick(self, now: int) -> list[_SettledTuple]: ...
+    def finish(self) -> list[_SettledTuple]: ...
+    def provisional(self) -> tuple[int, int, int] | None: ...
+    def best_path(self) -> list[tuple[int, int, int]]: ...
+    def running(self) -> tuple[NDArray[np.int64], NDArray[np.float64]]: ...
+    def converge(
+        self, sections: NDArray[np.int64], scores: NDArray[np.float64]
+    ) -> list[_SettledTuple]: ...
+    @property
+    def warnings(self) -> list[str]: ...
+    @property
+    def n_samples(self) -> int: ...
+    @property
+    def bounds(self) -> NDArray[np.int64]: ...
+    @property
+    def n_active(self) -> int: ...

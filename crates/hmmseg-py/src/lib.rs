@@ -12,6 +12,7 @@ mod features;
 mod hmm;
 mod limits;
 mod ndconv;
+mod online;
 mod segment;
 
 use hmmseg::features::SizeMeasure;
@@ -45,6 +46,7 @@ fn _hmmseg(m: &Bound<'_, PyModule>) -> PyResult<()> {
     features::register(m)?;
     hmm::register(m)?;
     segment::register(m)?;
+    online::register(m)?;
     m.add_function(wrap_pyfunction!(errors::hooks::raise_engine_error, m)?)?;
     m.add_function(wrap_pyfunction!(errors::hooks::panic, m)?)?;
     Ok(())

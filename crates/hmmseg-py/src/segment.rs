@@ -344,8 +344,15 @@ fn segment_dp<'py>(
 
 /// Trained skill templates: one HMM per skill x feature plus the normalisation ranges.
 #[pyclass(name = "TemplateSet", module = "lfd._hmmseg", frozen)]
-struct PyTemplateSet {
+pub struct PyTemplateSet {
     inner: TemplateSet,
+}
+
+impl PyTemplateSet {
+    /// The engine's template set.
+    pub fn set(&self) -> &TemplateSet {
+        &self.inner
+    }
 }
 
 /// A serialisation result (an `lfd.errors.ModelFormatError` if it could not be written).

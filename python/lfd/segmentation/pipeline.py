@@ -277,11 +277,22 @@ def moving_objects(traj: Trajectory, window_s: float, displacement: float) -> np
     """``(O, n)``: object ``o`` moves at sample ``t`` if it is displaced by more than
     ``displacement`` (m) between ``t - window_s`` and ``t + window_s`` (NaN-free input)."""
     n = len(traj)
-    w = max(1, round(window_s / traj.dt)) if traj.dt > 0 else 1
+    w = motion_window(traj.dt, window_s)
     idx = np.arange(n)
     a, b = np.clip(idx - w, 0, n - 1), np.clip(idx + w, 0, n - 1)
     pos = np.asarray(traj.object_position, dtype=np.float64)
-    return np.asarray(np.linalg.norm(pos[:, b] - pos[:, a], axis=2) > displacement)
+    return displaced(pos[:, a], pos[:, b], displacement)
+
+
+def motion_window(dt: float, window_s: float) -> int:
+    """Half-width in samples of the window of :func:`moving_objects`."""
+    return max(1, round(window_s / dt)) if dt > 0 else 1
+
+
+def displaced(before: np.ndarray, after: np.ndarray, displacement: float) -> np.ndarray:
+    """Is an object displaced by more than ``displacement`` (m) between two positions (``(...,
+    3)`` each)? The co-motion rule of :func:`moving_objects` (and of the online segmenter)."""
+    return np.asarray(np.linalg.norm(after - before, axis=-1) > displacement)
 
 
 TARGET_STILL: frozenset[str] = frozenset({"move", "locate", "pick_up"})
@@ -437,8 +448,16 @@ def scores_over_objects(
             cur = cur + extra_of(o)
         return np.asarray(cur, dtype=np.float64)
 
-    # the maximum and the first object reaching it (np.max / np.argmax over the objects; the
-    # scores are never NaN)
+    best, target = max_over_objects(scores_of, n_obj)
+    return StageTwoScores(band, best, target)
+
+
+def max_over_objects(
+    scores_of: Callable[[int], np.ndarray], n_obj: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """The maximum over the target objects of ``scores_of(o)`` and the first object reaching it
+    (np.max / np.argmax over the objects; the scores are never NaN), one object's table at a
+    time. Shared by the batch pipeline and the online segmenter."""
     best = np.ascontiguousarray(scores_of(0))
     target = np.zeros(best.shape, dtype=np.min_scalar_type(n_obj - 1))
     for o in range(1, n_obj):
@@ -446,7 +465,7 @@ def scores_over_objects(
         better = cur > best
         np.copyto(best, cur, where=better)
         target[better] = o
-    return StageTwoScores(band, best, target)
+    return best, target
 
 
 def _make_segment(

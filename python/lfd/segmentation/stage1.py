@@ -84,19 +84,34 @@ def section_boundaries(
     p = params or Stage1Params()
     v = np.ascontiguousarray(values, dtype=np.float64)
     t = np.ascontiguousarray(thresholds, dtype=np.float64)
-    cols = [FEATURE_COLUMNS[k] for k in ("fingertip_distance", "hand_velocity", "tcp_rise_fall")]
-    hyst = [p.opening_hysteresis, p.velocity_hysteresis, p.rise_hysteresis]
+    cols, hyst = criteria(p, len(objects), v.shape[1])
     if p.object_criteria and objects:
         vs, ts = [v], [t]
         for ov, ot in objects:
-            ov = np.asarray(ov, dtype=np.float64)
-            ot = np.asarray(ot, dtype=np.float64)
-            vs.append(ov[:, list(OBJECT_COLUMNS.values())])
-            ts.append(ot[:, list(OBJECT_COLUMNS.values())])
-            base = sum(x.shape[1] for x in vs[:-1])
-            cols += [base, base + 1]
-            hyst += [p.height_hysteresis, p.velocity_hysteresis]
+            vs.append(np.asarray(ov, dtype=np.float64)[:, list(OBJECT_COLUMNS.values())])
+            ts.append(np.asarray(ot, dtype=np.float64)[:, list(OBJECT_COLUMNS.values())])
         v = np.ascontiguousarray(np.hstack(vs))
         t = np.ascontiguousarray(np.hstack(ts))
-    min_len = max(1, round(p.min_section_s / dt)) if dt > 0 else 1
-    return np.asarray(_hmmseg.stage1_boundaries(v, t, cols, hyst, min_len), dtype=np.int64)
+    return np.asarray(
+        _hmmseg.stage1_boundaries(v, t, cols, hyst, min_section(p, dt)), dtype=np.int64
+    )
+
+
+def min_section(params: Stage1Params, dt: float) -> int:
+    """The minimum section length in samples."""
+    return max(1, round(params.min_section_s / dt)) if dt > 0 else 1
+
+
+def criteria(params: Stage1Params, n_objects: int, n_columns: int) -> tuple[list[int], list[float]]:
+    """The watched columns and their hysteresis in a stage-1 row: the hand feature row
+    (``n_columns`` wide) followed, with ``object_criteria``, by the :data:`OBJECT_COLUMNS` of
+    every object (what :func:`section_boundaries` stacks, and the online segmenter per sample)."""
+    p = params
+    cols = [FEATURE_COLUMNS[k] for k in ("fingertip_distance", "hand_velocity", "tcp_rise_fall")]
+    hyst = [p.opening_hysteresis, p.velocity_hysteresis, p.rise_hysteresis]
+    if p.object_criteria:
+        for o in range(n_objects):
+            base = n_columns + len(OBJECT_COLUMNS) * o
+            cols += [base, base + 1]
+            hyst += [p.height_hysteresis, p.velocity_hysteresis]
+    return cols, hyst

@@ -28,24 +28,11 @@ pub fn dp(
         )));
     }
     let ctx = Context::new(table, grammar, rising)?;
-    let enforce = mode == GrammarMode::Enforce;
-    let tiers: &[(bool, bool)] = if enforce {
-        &[(true, true), (false, true), (true, false), (false, false)]
-    } else {
-        &[(true, false), (false, false)]
-    };
     let mut out = Segmentation::default();
-    for (tier, &(use_rise, use_grammar)) in tiers.iter().enumerate() {
+    for (tier, &(use_rise, use_grammar)) in tiers(mode).iter().enumerate() {
         if let Some(path) = solve(&ctx, use_rise, use_grammar, penalty) {
             if tier > 0 {
-                out.warnings.push(format!(
-                    "no complete segmentation satisfies the {}; relaxed it",
-                    match (use_rise, use_grammar) {
-                        (false, true) => "TCP rise decision",
-                        (true, false) => "grammar",
-                        _ => "TCP rise decision and the grammar",
-                    }
-                ));
+                out.warnings.push(relaxed_warning(use_rise, use_grammar));
             }
             out.segments = path
                 .into_iter()
@@ -66,6 +53,76 @@ pub fn dp(
     Ok(out)
 }
 
+/// The constraints `(rise decision, grammar)` tried in turn: filters that leave no complete
+/// path are relaxed, the rise decision first, then the grammar.
+pub(crate) fn tiers(mode: GrammarMode) -> &'static [(bool, bool)] {
+    if mode == GrammarMode::Enforce {
+        &[(true, true), (false, true), (true, false), (false, false)]
+    } else {
+        &[(true, false), (false, false)]
+    }
+}
+
+/// The warning of a relaxed tier.
+pub(crate) fn relaxed_warning(use_rise: bool, use_grammar: bool) -> String {
+    format!(
+        "no complete segmentation satisfies the {}; relaxed it",
+        match (use_rise, use_grammar) {
+            (false, true) => "TCP rise decision",
+            (true, false) => "grammar",
+            _ => "TCP rise decision and the grammar",
+        }
+    )
+}
+
+/// One cell of the DP: the best score of the sections up to some `j` ending with skill `s`, and
+/// its back pointer `(start section, previous skill)` (`(0, usize::MAX)` for a first segment,
+/// `usize::MAX` twice if none), over the runs from `starts` with summed scores `total(i)` that
+/// pass `rise_ok(i)`, after the states `best(i, p)`. Shared by the batch and the online DP.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn dp_cell(
+    grammar: &Grammar,
+    s: usize,
+    starts: std::ops::Range<usize>,
+    total: impl Fn(usize) -> f64,
+    rise_ok: impl Fn(usize) -> bool,
+    best: impl Fn(usize, usize) -> f64,
+    use_grammar: bool,
+    penalty: f64,
+) -> (f64, (usize, usize)) {
+    let ns = grammar.n_skills();
+    let mut top = f64::NEG_INFINITY;
+    let mut arg = (usize::MAX, usize::MAX);
+    for i in starts {
+        if !rise_ok(i) {
+            continue;
+        }
+        let c = total(i);
+        if !c.is_finite() {
+            continue;
+        }
+        if i == 0 {
+            if (!use_grammar || grammar.allows(None, s)) && c - penalty > top {
+                top = c - penalty;
+                arg = (0, usize::MAX);
+            }
+            continue;
+        }
+        for p in 0..ns {
+            let before = best(i, p);
+            if !before.is_finite() || (use_grammar && !grammar.allows(Some(p), s)) {
+                continue;
+            }
+            let v = before + c - penalty;
+            if v > top {
+                top = v;
+                arg = (i, p);
+            }
+        }
+    }
+    (top, arg)
+}
+
 /// Best path as (skill, start section, end section) triples, or `None` if none is finite.
 fn solve(
     ctx: &Context<'_>,
@@ -81,36 +138,17 @@ fn solve(
     let mut back = vec![(usize::MAX, usize::MAX); (k + 1) * ns];
     for j in 1..=k {
         for s in 0..ns {
-            let mut top = f64::NEG_INFINITY;
-            let mut arg = (usize::MAX, usize::MAX);
             // runs outside the band score -inf: only the band's starts can end at j
-            for i in t.band().starts(j) {
-                if use_rise && !ctx.rise_ok(i, j, s) {
-                    continue;
-                }
-                let c = t.total(i, j, s);
-                if !c.is_finite() {
-                    continue;
-                }
-                if i == 0 {
-                    if (!use_grammar || ctx.grammar.allows(None, s)) && c - penalty > top {
-                        top = c - penalty;
-                        arg = (0, usize::MAX);
-                    }
-                    continue;
-                }
-                for p in 0..ns {
-                    let before = best[i * ns + p];
-                    if !before.is_finite() || (use_grammar && !ctx.grammar.allows(Some(p), s)) {
-                        continue;
-                    }
-                    let v = before + c - penalty;
-                    if v > top {
-                        top = v;
-                        arg = (i, p);
-                    }
-                }
-            }
+            let (top, arg) = dp_cell(
+                ctx.grammar,
+                s,
+                t.band().starts(j),
+                |i| t.total(i, j, s),
+                |i| !use_rise || ctx.rise_ok(i, j, s),
+                |i, p| best[i * ns + p],
+                use_grammar,
+                penalty,
+            );
             best[j * ns + s] = top;
             back[j * ns + s] = arg;
         }

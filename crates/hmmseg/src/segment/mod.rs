@@ -11,6 +11,7 @@
 pub mod dp;
 pub mod grammar;
 pub mod greedy;
+pub mod online;
 pub mod scorer;
 pub mod scores;
 pub mod templates;
@@ -124,35 +125,24 @@ impl Context<'_> {
 
     /// Margin of skill `s` over the best other skill passing the rise decision on `i..j`.
     pub fn margin(&self, i: usize, j: usize, s: usize) -> f64 {
-        let best_other = (0..self.table.n_skills())
-            .filter(|&o| o != s && self.rise_ok(i, j, o))
-            .map(|o| self.table.mean(i, j, o))
-            .filter(|v| v.is_finite())
-            .fold(f64::NEG_INFINITY, f64::max);
-        if best_other.is_finite() {
-            self.table.mean(i, j, s) - best_other
-        } else {
-            f64::INFINITY
-        }
+        margin(
+            self.table.n_skills(),
+            s,
+            |o| self.table.mean(i, j, o),
+            |o| self.rise_ok(i, j, o),
+        )
     }
 
     /// Posterior probability of skill `s` among the skills passing the rise decision on `i..j`
     /// (and `s` itself), from the per-sample scores with equal priors; 0 when `s` has no finite
     /// score.
     pub fn confidence(&self, i: usize, j: usize, s: usize) -> f64 {
-        let own = self.table.mean(i, j, s);
-        if !own.is_finite() {
-            return 0.0;
-        }
-        // sum_o exp(score_o - score_s) over the rivals, plus 1 for s itself (stable: no overflow
-        // of the largest term matters, 1 / inf = 0)
-        let rivals: f64 = (0..self.table.n_skills())
-            .filter(|&o| o != s && self.rise_ok(i, j, o))
-            .map(|o| self.table.mean(i, j, o))
-            .filter(|v| v.is_finite())
-            .map(|v| (v - own).exp())
-            .sum();
-        (1.0 / (1.0 + rivals)).clamp(0.0, 1.0)
+        confidence(
+            self.table.n_skills(),
+            s,
+            |o| self.table.mean(i, j, o),
+            |o| self.rise_ok(i, j, o),
+        )
     }
 
     pub fn segment(&self, s: usize, i: usize, j: usize) -> Segment {
@@ -186,4 +176,47 @@ impl Context<'_> {
         }
         out
     }
+}
+
+/// Margin of skill `s` over the best other of `n_skills` skills passing `ok`, from the
+/// per-sample scores `mean` of one run (see [`Segment::margin`]).
+pub(crate) fn margin(
+    n_skills: usize,
+    s: usize,
+    mean: impl Fn(usize) -> f64,
+    ok: impl Fn(usize) -> bool,
+) -> f64 {
+    let best_other = (0..n_skills)
+        .filter(|&o| o != s && ok(o))
+        .map(&mean)
+        .filter(|v| v.is_finite())
+        .fold(f64::NEG_INFINITY, f64::max);
+    if best_other.is_finite() {
+        mean(s) - best_other
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// Posterior probability of skill `s` among the skills passing `ok` (and `s` itself), from the
+/// per-sample scores `mean` of one run with equal priors (see [`Segment::confidence`]).
+pub(crate) fn confidence(
+    n_skills: usize,
+    s: usize,
+    mean: impl Fn(usize) -> f64,
+    ok: impl Fn(usize) -> bool,
+) -> f64 {
+    let own = mean(s);
+    if !own.is_finite() {
+        return 0.0;
+    }
+    // sum_o exp(score_o - score_s) over the rivals, plus 1 for s itself (stable: no overflow
+    // of the largest term matters, 1 / inf = 0)
+    let rivals: f64 = (0..n_skills)
+        .filter(|&o| o != s && ok(o))
+        .map(&mean)
+        .filter(|v| v.is_finite())
+        .map(|v| (v - own).exp())
+        .sum();
+    (1.0 / (1.0 + rivals)).clamp(0.0, 1.0)
 }

@@ -242,7 +242,6 @@ pub(crate) struct Forward<const N: usize, const EXACT: bool> {
 }
 
 /// [`Forward`] for any template (at most [`MAX_STATES`] states).
-#[allow(dead_code)] // the one-run-at-a-time scorers: the tests' reference, the online segmenter
 pub(crate) type ForwardState = Forward<MAX_STATES, false>;
 
 impl<const N: usize, const EXACT: bool> Default for Forward<N, EXACT> {
@@ -357,6 +356,22 @@ impl<const N: usize, const EXACT: bool> Forward<N, EXACT> {
 const MAX_STATES: usize = 16;
 
 impl CompiledHmm {
+    /// Number of states.
+    pub(crate) fn n_states(&self) -> usize {
+        self.n
+    }
+
+    /// Scaled emissions (`b`, `n` values) and their scale (`shift`) of one sample, `x` its
+    /// observation columns (the per-sample entries of [`Scaled::direct`]).
+    /// `comp` is scratch.
+    pub(crate) fn scaled_emission(&self, x: &[f64], b: &mut [f64], comp: &mut Vec<f64>) -> f64 {
+        let mut shift = [0.0];
+        comp.resize(self.emission.n_components(), 0.0);
+        self.emission
+            .scaled_block(x, 1, 0, 1, comp, &mut b[..self.n], &mut shift);
+        shift[0]
+    }
+
     /// Prefix scores at the requested ends only: `ends` are sample offsets (ascending) from
     /// `start`; adds the score at each end to `sums`. `ln` is taken only at the ends. (One run
     /// at a time: the reference of [`sweep`], which advances all runs of a block together.)

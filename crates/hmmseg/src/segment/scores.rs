@@ -452,22 +452,13 @@ pub fn rising_band(z: &[f64], band: &Band, params: RiseParams) -> Result<Vec<boo
     check_rise_boundaries(z.len(), boundaries)?;
     let mut out = vec![false; band.n_runs()];
     for i in 0..band.n_sections() {
-        let (mut low, mut drawup, mut up, mut down) = (f64::INFINITY, 0.0_f64, 0.0, 0.0);
-        let mut prev = f64::NAN;
+        let mut rise = RiseState::default();
         let (first, last) = (band.offsets()[i], band.last_end(i));
         let mut j = i + 1;
         for (t, &v) in z.iter().enumerate().skip(boundaries[i]) {
-            if v.is_finite() {
-                low = low.min(v);
-                drawup = drawup.max(v - low);
-                if prev.is_finite() {
-                    up += (v - prev).max(0.0);
-                    down += (prev - v).max(0.0);
-                }
-                prev = v;
-            }
+            rise.push(v);
             if t + 1 == boundaries[j] {
-                out[first + j - i - 1] = drawup >= params.min_rise && up >= params.dominance * down;
+                out[first + j - i - 1] = rise.rising(params);
                 j += 1;
                 if j > last {
                     break;
@@ -476,6 +467,49 @@ pub fn rising_band(z: &[f64], band: &Band, params: RiseParams) -> Result<Vec<boo
         }
     }
     Ok(out)
+}
+
+/// The TCP rise decision of a run growing one sample at a time (the state of [`rising_band`],
+/// shared with the online segmenter).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct RiseState {
+    low: f64,
+    drawup: f64,
+    up: f64,
+    down: f64,
+    prev: f64,
+}
+
+impl Default for RiseState {
+    fn default() -> Self {
+        Self {
+            low: f64::INFINITY,
+            drawup: 0.0,
+            up: 0.0,
+            down: 0.0,
+            prev: f64::NAN,
+        }
+    }
+}
+
+impl RiseState {
+    /// Add the TCP height of the next sample (NaN is skipped).
+    pub(crate) fn push(&mut self, v: f64) {
+        if v.is_finite() {
+            self.low = self.low.min(v);
+            self.drawup = self.drawup.max(v - self.low);
+            if self.prev.is_finite() {
+                self.up += (v - self.prev).max(0.0);
+                self.down += (self.prev - v).max(0.0);
+            }
+            self.prev = v;
+        }
+    }
+
+    /// Is the run so far rising?
+    pub(crate) fn rising(&self, params: RiseParams) -> bool {
+        self.drawup >= params.min_rise && self.up >= params.dominance * self.down
+    }
 }
 
 #[cfg(test)]

@@ -605,14 +605,14 @@ fn check_skills(skills: &[String]) -> Result<()> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn skills() -> Vec<String> {
+    pub(crate) fn skills() -> Vec<String> {
         vec!["pick_up".into(), "move".into()]
     }
 
-    fn features() -> Vec<FeatureGroup> {
+    pub(crate) fn features() -> Vec<FeatureGroup> {
         vec![
             FeatureGroup {
                 name: "a".into(),
@@ -628,7 +628,7 @@ mod tests {
     }
 
     /// pick_up: column 0 falls 1 -> 0; move: column 0 rises 0 -> 1. Columns 1-2 noise-free ramps.
-    fn examples() -> Vec<(usize, DMatrix<f64>)> {
+    pub(crate) fn examples() -> Vec<(usize, DMatrix<f64>)> {
         let mut out = Vec::new();
         for k in 0..4 {
             let n = 20 + 3 * k;
@@ -651,7 +651,7 @@ mod tests {
         out
     }
 
-    fn small() -> TemplateParams {
+    pub(crate) fn small() -> TemplateParams {
         TemplateParams {
             fit: FitConfig {
                 n_states: 3,
