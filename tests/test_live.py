@@ -129,5 +129,8 @@ def test_segment_follow_streams_a_growing_recording_to_rerun(tmp_path: Path) -> 
     logged = _row_times(rrd, "/world/hand/keypoints")
     assert len(logged) == len(t) and (logged.max() - logged.min()) * 1e-9 > 1.5
     lanes = {k for k in data.rows if k.startswith("/segmentation/skills/")}
-    assert lanes == {"/segmentation/skills/ground_truth"}  # no segmenter yet: no result lane
+    assert {"/segmentation/skills/ground_truth", "/segmentation/skills/result"} <= lanes
+    # the online segmenter's skills were logged as they settled, not at the end
+    spans = _row_times(rrd, "/segmentation/skills/result")
+    assert len(spans) >= 2 * 6 and (logged.max() - spans.min()) * 1e-9 > 1.0
     assert data.blueprints

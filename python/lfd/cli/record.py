@@ -83,6 +83,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--no-hand", action="store_true", help="record object poses only")
     parser.add_argument("--images", action="store_true", help="also store colour + depth frames")
+    parser.add_argument(
+        "--live-segment",
+        action="store_true",
+        help="segment while recording: skills appear in Rerun as they settle and are written to "
+        "/lfd/live/segments (kept apart from /lfd/ground_truth)",
+    )
     from ._rerun import add_rerun_arguments
 
     add_rerun_arguments(parser)
@@ -117,6 +123,10 @@ def run(args: argparse.Namespace) -> int:
     from ._options import check_inputs
     from ._rerun import check_rerun_args, close_from_args, open_from_args
 
+    if args.live_segment and args.no_hand:
+        from ..errors import UsageError
+
+        raise UsageError("--live-segment needs the hand: drop --no-hand")
     model = hand_model_choice(args.hand_model, args.source)
     model_file = (
         args.hand_model if model == "depth-net" and args.hand_model != "depth-net" else None
@@ -146,6 +156,16 @@ def run(args: argparse.Namespace) -> int:
 
         estimator = HandEstimator(model_file, threads=1)
         hand_rate = hand_rate or 5.0
+    segmenter = None
+    if args.live_segment:
+        from ..segmentation.live import LiveSegmentation
+
+        segmenter = LiveSegmentation(
+            [o["name"] for o in source.objects],
+            [o["size"] for o in source.objects],
+            side=args.hand,
+            hand_rate_hz=hand_rate,
+        )
     live = open_from_args(args, "lfd_record")
     max_frames = None
     if args.duration is not None and not args.source.startswith("sim:"):
@@ -183,6 +203,7 @@ def run(args: argparse.Namespace) -> int:
                 max_frames=max_frames,
                 progress=update,
                 markers={"dictionary": args.aruco_dict, "reference_size": args.reference_size},
+                live_segment=segmenter,
             )
     finally:
         signal.signal(signal.SIGTERM, old)
@@ -191,6 +212,8 @@ def run(args: argparse.Namespace) -> int:
     how = "stopped" if stats.interrupted else "done"
     console.print(
         f"{how}: {stats.frames} frames, {stats.object_poses} object poses, "
-        f"{stats.hand_estimates} hand estimates ({stats.hand_missing} missed) -> {args.output}"
+        f"{stats.hand_estimates} hand estimates ({stats.hand_missing} missed)"
+        + (f", {stats.live_segments} live segments" if segmenter is not None else "")
+        + f" -> {args.output}"
     )
     return 0

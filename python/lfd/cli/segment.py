@@ -79,19 +79,71 @@ def _show_demo(shown: list[Any]) -> Callable[[Any], None]:
     return show
 
 
-def segment_stream(messages: Iterator[Any], follower: Any, live: Any, args: Any) -> Any:
-    """The hook of the online segmenter: consume a followed recording, return its result.
+def segment_stream(
+    messages: Iterator[Any], follower: Any, timeline: Callable[[], Any], args: Any
+) -> tuple[Any, list[Any], list[int]]:
+    """Segment a followed recording as it lands: returns ``(segmentation or None, ground-truth
+    labels, settle times ns)``. ``messages`` yields :class:`lfd.io.LiveMessage` s in file order;
+    ``follower`` tells the objects and the hand side (:class:`lfd.io.Follower`); ``timeline()``
+    is the :class:`lfd.viz.live.LiveTimeline` once one is open (features, settled spans and
+    the provisional one are logged to it). Each skill is printed as it settles."""
+    from ..errors import RecordingFormatError
+    from ..segmentation.live import LiveSegmentation
 
-    ``messages`` yields the :class:`lfd.io.LiveMessage` s in file order as they land (already
-    shown in Rerun when ``live`` is a :class:`lfd.viz.live.LiveTimeline`: log features with
-    ``live.log_samples``, sections with ``live.log_section``, settled spans with
-    ``live.log_skill`` and the open one with ``live.log_provisional``); ``follower`` tells the
-    objects and the hand side (:class:`lfd.io.Follower`). Returns None until
-    ``lfd.segmentation.online`` is plugged in here: the messages are only followed and shown.
-    """
-    for _ in messages:
-        pass
-    return None
+    opts = segmentation_options(args)
+    con = console(args)
+    seg: LiveSegmentation | None = None
+    labels: list[Any] = []
+    for msg in messages:
+        if msg.kind == "label":
+            labels.append(msg.value)
+        if seg is None and msg.kind in ("hand", "object"):
+            objects = follower.objects
+            missing = [name for name, _, size in objects if size is None]
+            if not objects or missing:
+                raise RecordingFormatError(
+                    f"{args.recording}: the objects' sizes are not declared "
+                    f"({', '.join(missing) or 'no objects'}); cannot segment it live"
+                )
+            seg = LiveSegmentation(
+                [o[0] for o in objects],
+                [o[2] for o in objects],
+                opts["templates"],
+                side=follower.hand_side,
+                params=opts.get("params"),
+            )
+        if seg is None:
+            continue
+        _show_update(seg, seg.push_recorded(msg.kind, msg.t_ns, msg.value), timeline(), con)
+    if seg is None:
+        return None, labels, []
+    _show_update(seg, seg.finish(), timeline(), con)
+    return seg.result(), labels, list(seg.settled_ns)
+
+
+def _show_update(seg: Any, update: Any, timeline: Any, con: Any) -> None:
+    """Print the skills an update settled; log it to the live timeline if one is open."""
+    for s in update.segments:
+        con.print(
+            f"settled: {s.skill:<10} {s.object or '-':<8} {s.start_s:7.2f} - {s.end_s:7.2f} s"
+            f"  confidence {s.confidence:.2f}"
+        )
+    if timeline is None:
+        return
+    if update.rows:
+        import numpy as np
+
+        timeline.log_samples(
+            [r.t_ns for r in update.rows],
+            np.stack([r.values for r in update.rows]),
+            np.stack([r.thresholds for r in update.rows]),
+            target=[r.target for r in update.rows],
+        )
+    for s in update.segments:
+        timeline.log_skill(s)
+    span = seg.provisional_span()
+    if span is not None:
+        timeline.log_provisional(span)
 
 
 def _run_follow(args: argparse.Namespace) -> int:
@@ -103,9 +155,8 @@ def _run_follow(args: argparse.Namespace) -> int:
     from ..io import follow
     from ._rerun import check_rerun_args, close_from_args, open_from_args, session_from_args
 
-    if getattr(args, "json", None):
-        raise UsageError("--json is not available with --follow (no online segmenter yet)")
     inputs = [p for p in (args.recording, args.templates) if p]
+    check_json(args, inputs)
     check_rerun_args(args, inputs)
     show = open_from_args(args, "lfd_segment")
     follower = follow(args.recording, idle_timeout_s=args.idle_timeout)
@@ -152,9 +203,12 @@ def _run_follow(args: argparse.Namespace) -> int:
         ) as progress:
             task = progress.add_task(f"waiting for {args.recording}", total=None)
             try:
-                segment_stream(stream(progress, task), follower, state["live"], args)
+                result, labels, settled = segment_stream(
+                    stream(progress, task), follower, lambda: state["live"], args
+                )
             except KeyboardInterrupt:
                 follower.stop_reason = "interrupted"
+                result, labels, settled = None, [], []
     finally:
         signal.signal(signal.SIGTERM, old)
         signal.signal(signal.SIGINT, old_int)
@@ -169,6 +223,21 @@ def _run_follow(args: argparse.Namespace) -> int:
         f"{span:.1f} s ({counts['hand']} hand, {counts['object']} object samples); "
         f"stopped: {how}"
     )
+    if result is not None:
+        con.print(
+            f"{len(result.segments)} skills: "
+            + " -> ".join(f"{s.skill}({s.object or '-'})" for s in result.segments)
+        )
+    if args.json:
+        if result is None:
+            raise UsageError(f"{args.recording}: nothing to segment (no hand or object samples)")
+        doc = result.report(labels, recording=str(args.recording))
+        first = state["first"] or 0
+        doc["live"] = {
+            "settled_s": [(t - first) * 1e-9 for t in settled],
+            "stopped": follower.stop_reason,
+        }
+        emit_json(args, doc, con)
     close_from_args(args)
     return 0
 

@@ -439,6 +439,11 @@ class McapRecorder:
         self._write(channel, settled_ns, msg.SerializeToString())
 
     # --- lifetime ---------------------------------------------------------------------------
+    @property
+    def closed(self) -> bool:
+        """Whether the file was closed or discarded."""
+        return self._closed
+
     def close(self) -> None:
         """Finish the file (summary, index, footer) and move it to :attr:`path`. Idempotent."""
         if self._closed:

@@ -33,6 +33,7 @@ class RecordStats:
     hand_estimates: int = 0
     hand_missing: int = 0
     interrupted: bool = False
+    live_segments: int = 0
 
 
 def _boxes(tracker: MarkerTracker, poses: dict[str, tuple[np.ndarray, np.ndarray]]) -> list[Any]:
@@ -75,6 +76,50 @@ class _Live:
             )
 
 
+class _LiveSegments:
+    """Skills segmented while recording (``lfd record --live-segment``): every hand frame and
+    object pose written is also fed to a :class:`~lfd.segmentation.live.LiveSegmentation`;
+    each skill it settles goes to ``/lfd/live/segments`` at once (and to Rerun)."""
+
+    def __init__(self, segmenter: Any, rec: Any, show: bool) -> None:
+        self.seg, self.rec = segmenter, rec
+        self.timeline: Any = None
+        if show:
+            from ..viz.live import LiveTimeline
+
+            self.timeline = LiveTimeline(object_names=segmenter.object_names)
+        self.count = 0
+
+    def hand(self, t_ns: int, kp: np.ndarray, confidence: np.ndarray | None) -> None:
+        self._emit(self.seg.push_hand(t_ns, kp, confidence), t_ns)
+
+    def object(self, name: str, t_ns: int, p: np.ndarray, q: np.ndarray) -> None:
+        self._emit(self.seg.push_object(name, t_ns, p, q), t_ns)
+
+    def finish(self, t_ns: int) -> None:
+        self._emit(self.seg.finish(), t_ns)
+
+    def _emit(self, update: Any, t_ns: int) -> None:
+        from ..segmentation.live import label_of
+
+        for s in update.segments:
+            extra = {"score": f"{s.score:.6g}", "confidence": f"{s.confidence:.6g}"}
+            self.rec.add_live_segment(label_of(s), max(int(t_ns), int(s.end_ns)), extra)
+            self.count += 1
+        if self.timeline is not None:
+            if update.rows:
+                self.timeline.log_samples(
+                    [r.t_ns for r in update.rows],
+                    np.stack([r.values for r in update.rows]),
+                    np.stack([r.thresholds for r in update.rows]),
+                    target=[r.target for r in update.rows],
+                )
+            for s in update.segments:
+                self.timeline.log_skill(s)
+            span = self.seg.provisional_span()
+            self.timeline.log_provisional(span, None if span else int(t_ns))
+
+
 def record(
     source: Source,
     output: str | os.PathLike[str],
@@ -87,11 +132,16 @@ def record(
     progress: Any = None,
     markers: dict[str, Any] | None = None,
     side: str = "right",
+    live_segment: Any = None,
 ) -> RecordStats:
     """Record ``source`` into ``output`` (MCAP). ``estimator`` is a ``MediaPipeEstimator``, a
     ``HandEstimator`` or None; ``side`` names the hand topics (``/hand/<side>/...``).
 
     ``hand_rate_hz`` None estimates the hand on every frame.
+
+    ``live_segment``: a :class:`~lfd.segmentation.live.LiveSegmentation` for the source's
+    objects: the skills it settles are written to ``/lfd/live/segments`` during the recording
+    (and shown with ``live``); the rest when the recording ends.
 
     ``markers`` are extra :class:`~lfd.perception.markers.MarkerConfig` fields, e.g.
     ``{"dictionary": "DICT_5X5_100", "reference_size": 0.15}``.
@@ -130,6 +180,8 @@ def record(
     viz: _Live | None = None
     last_poses: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     rec = McapRecorder(output, objects=objects, metadata=meta, color_format="png", side=side)
+    segs = None if live_segment is None else _LiveSegments(live_segment, rec, live)
+    last_t: int | None = None
     tracks_every_frame = getattr(estimator, "needs_colour", False)
     try:
         for frame in source.frames():
@@ -141,6 +193,10 @@ def record(
                         stats.object_poses += 1
                         poses[name] = (p, q)
             last_poses.update(poses)  # boxes hidden by the hand are where they were last seen
+            last_t = frame.t_ns
+            if segs is not None:
+                for name, (p, q) in poses.items():
+                    segs.object(name, frame.t_ns, p, q)
             if not camera_written and tracker.world_T_camera is not None:
                 cam = source.camera
                 rec.add_camera_info(
@@ -169,10 +225,14 @@ def record(
                 if found is None:  # marked unobserved (NaN, confidence 0), not invented
                     rec.add_hand(frame.t_ns, np.full((21, 3), np.nan), np.zeros(21))
                     stats.hand_missing += 1
+                    if segs is not None:
+                        segs.hand(frame.t_ns, np.full((21, 3), np.nan), np.zeros(21))
                 else:
                     kp, confidence, visible, kp_2d = found
                     rec.add_hand(frame.t_ns, kp, confidence, visible=visible)
                     stats.hand_estimates += 1
+                    if segs is not None:
+                        segs.hand(frame.t_ns, kp, confidence)
                     if viz is not None:
                         viz.hand(kp, kp_2d)
             stats.frames += 1
@@ -196,7 +256,12 @@ def record(
         rec.discard()  # a failure of lfd itself leaves no file under the requested name
         raise
     finally:
-        rec.close()  # no-op after discard
+        try:
+            if segs is not None and last_t is not None and not rec.closed:
+                segs.finish(last_t)  # the skills still open when the recording ends
+                stats.live_segments = segs.count
+        finally:
+            rec.close()  # no-op after discard
         source.close()
     return stats
 

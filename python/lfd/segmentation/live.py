@@ -1,0 +1,308 @@
+"""Live segmentation: raw recording messages in, settled skills out.
+
+:class:`LiveSegmentation` chains the causal preprocessing and features
+(:class:`~lfd.preprocessing.online.OnlinePreprocessor`,
+:class:`~lfd.preprocessing.online.OnlineFeatures`, docs/live.md) and the online segmenter
+(:class:`~lfd.segmentation.online.OnlineSegmenter`). It is what ``lfd record --live-segment``
+and ``lfd segment --follow`` run, and what ``benches/segment_live.py`` measures: hand keypoint
+frames and object poses go in as they arrive, in any interleaving; skill segments come out
+once they settle, with their object, score and confidence, and never change afterwards.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from ..demo import Demonstration, SkillLabel
+from ..preprocessing.online import (
+    FeatureSample,
+    HandMessage,
+    ObjectMessage,
+    OnlineFeatures,
+    OnlinePreprocessor,
+    demo_messages,
+)
+from .online import DEFAULT_BEAM, DEFAULT_LAG_S, OnlineSegmenter, Provisional
+from .pipeline import SegmentParams
+from .result import Segment, Segmentation
+from .templates import TemplateChoice, Templates, resolve_templates
+
+
+@dataclass(frozen=True)
+class Span:
+    """A skill span on the recording's clock (what the live views draw)."""
+
+    skill: str
+    start_ns: int
+    end_ns: int
+    object: str | None = None
+
+
+@dataclass
+class LiveUpdate:
+    """What one message produced."""
+
+    segments: list[Segment] = field(default_factory=list)
+    """Newly settled segments, in time order (never revised)."""
+    rows: list[FeatureSample] = field(default_factory=list)
+    """Feature rows determined by the message (for live views)."""
+    provisional: Provisional | None = None
+    """The skill the best current hypothesis ends with."""
+
+
+class LiveSegmentation:
+    """Segment a demonstration from its raw messages while it is recorded.
+
+    Parameters
+    ----------
+    object_names, object_sizes :
+        The objects and their box sizes (k, 3), metres.
+    templates : Templates or {"default", "paper"}, optional
+        As :func:`lfd.segment`; their preprocessing options are used (causally).
+    side : {"right", "left"}
+        The demonstrating hand.
+    hand_rate_hz : float, optional
+        The hand-pose estimator's frame rate (for the ``auto`` filter cut-off).
+    params : SegmentParams, optional
+        As offline.
+    lag_s, beam :
+        Settling of the online segmenter (see :class:`~lfd.segmentation.online.OnlineSegmenter`).
+    max_wait_s : float, optional
+        Longest wait for a silent stream (see
+        :class:`~lfd.preprocessing.online.OnlinePreprocessor`).
+    """
+
+    def __init__(
+        self,
+        object_names: Sequence[str],
+        object_sizes: npt.ArrayLike,
+        templates: Templates | TemplateChoice | None = None,
+        *,
+        side: str = "right",
+        hand_rate_hz: float | None = None,
+        params: SegmentParams | None = None,
+        lag_s: float = DEFAULT_LAG_S,
+        beam: float = DEFAULT_BEAM,
+        max_wait_s: float | None = None,
+    ) -> None:
+        self.templates = resolve_templates(templates)
+        options: dict[str, Any] = dict(self.templates.preprocessing or {})
+        self.pre = OnlinePreprocessor(
+            object_names,
+            object_sizes,
+            side=side,
+            hand_rate_hz=hand_rate_hz,
+            max_wait_s=max_wait_s,
+            **options,
+        )
+        self.features = OnlineFeatures(
+            self.pre.object_names, self.pre.object_sizes, self.pre.rate_hz
+        )
+        self.segmenter = OnlineSegmenter(
+            self.templates,
+            self.pre.object_names,
+            1.0 / self.pre.rate_hz,
+            params=params,
+            lag_s=lag_s,
+            beam=beam,
+        )
+        self.settled_ns: list[int] = []
+        """Message time at which each emitted segment settled (same order as the segments)."""
+        self.lag_samples = round(self.pre.lag_s()["hand"] * self.pre.rate_hz)
+        """The causal filters' delay, in samples: emitted segments are moved back by it, so
+        their boundaries are where the skills happened rather than where the filtered signals
+        showed them."""
+        self._emitted: list[Segment] = []
+        self._now: int | None = None
+        self._first: int | None = None
+        self._pending: HandMessage | None = None
+        self._started = False
+        self._skipped = 0
+
+    @classmethod
+    def for_demonstration(
+        cls,
+        demo: Demonstration,
+        templates: Templates | TemplateChoice | None = None,
+        **options: Any,
+    ) -> LiveSegmentation:
+        """For the objects, sizes, hand side and hand rate of a recording."""
+        names = list(demo.objects)
+        sizes = np.stack([demo.objects[n].size for n in names])
+        hand_rate = None
+        if len(demo.hand) > 1:
+            span = (int(demo.hand.t_ns[-1]) - int(demo.hand.t_ns[0])) * 1e-9
+            hand_rate = (len(demo.hand) - 1) / span if span > 0 else None
+        return cls(names, sizes, templates, side=demo.hand.side, hand_rate_hz=hand_rate, **options)
+
+    @property
+    def object_names(self) -> list[str]:
+        return self.pre.object_names
+
+    @property
+    def warnings(self) -> list[str]:
+        """Dropped or repaired input, from every stage, in order of the stages."""
+        return list(self.pre.warnings) + list(self.segmenter.warnings)
+
+    def push(self, message: HandMessage | ObjectMessage) -> LiveUpdate:
+        """One hand frame or object pose, as it arrives."""
+        self._now = max(self._now or message.t_ns, message.t_ns)
+        rows: list[FeatureSample] = []
+        for s in self.pre.push(message):
+            rows += self.features.push(s)
+        return self._feed(rows)
+
+    def push_hand(
+        self, t_ns: int, keypoints: npt.ArrayLike, confidence: npt.ArrayLike | None = None
+    ) -> LiveUpdate:
+        """A hand keypoint frame (21, 3), metres, with per-keypoint confidence."""
+        kp = np.asarray(keypoints, dtype=np.float64).reshape(21, 3)
+        conf = None if confidence is None else np.asarray(confidence, dtype=np.float64)
+        return self.push(HandMessage(int(t_ns), kp, conf))
+
+    def push_object(
+        self, name: str, t_ns: int, position: npt.ArrayLike, quaternion: npt.ArrayLike
+    ) -> LiveUpdate:
+        """An object pose (centre, metres; quaternion xyzw)."""
+        return self.push(
+            ObjectMessage(
+                int(t_ns),
+                name,
+                np.asarray(position, dtype=np.float64).reshape(3),
+                np.asarray(quaternion, dtype=np.float64).reshape(4),
+            )
+        )
+
+    def push_recorded(self, kind: str, t_ns: int, value: Any) -> LiveUpdate:
+        """A decoded message of a recording as :func:`lfd.io.follow` yields it (``kind``
+        ``hand``: keypoints (21, 3); ``confidence``: ``(confidence, visible)``; ``object``: an
+        object pose; any other kind is ignored). A hand frame is held until its confidence
+        (written right after it, same time) or any later message arrives."""
+        out = LiveUpdate()
+        if kind == "confidence" and self._pending is not None and self._pending.t_ns == t_ns:
+            conf = np.asarray(value[0], dtype=np.float64)
+            held, self._pending = self._pending, None
+            return self.push(HandMessage(held.t_ns, held.keypoints, conf))
+        if kind in ("hand", "object") and self._pending is not None:
+            held, self._pending = self._pending, None
+            out = self.push(held)
+        if kind == "hand":
+            kp = np.asarray(value, dtype=np.float64).reshape(21, 3)
+            self._pending = HandMessage(int(t_ns), kp, None)
+        elif kind == "object":
+            more = self.push_object(value.name, t_ns, value.position, value.quaternion)
+            out.segments += more.segments
+            out.rows += more.rows
+            out.provisional = more.provisional
+        return out
+
+    def _feed(self, rows: list[FeatureSample]) -> LiveUpdate:
+        out = LiveUpdate(rows=rows, provisional=self.segmenter.provisional)
+        for r in rows:
+            # rows before the hand and every object were seen once are NaN: nothing to segment
+            if not self._started and not (
+                np.isfinite(r.values).all() and np.isfinite(r.object_values).all()
+            ):
+                self._skipped += 1
+                continue
+            self._started = True
+            if self._first is None:
+                self._first = r.t_ns
+            s = r.sample
+            up = self.segmenter.push(
+                r.t_ns,
+                r.values,
+                r.thresholds,
+                r.object_values,
+                r.object_thresholds,
+                s.tcp,
+                r.object_position,
+                rotation=s.rotation,
+                object_quaternion=s.object_quaternion,
+            )
+            out.segments += [self._back(s) for s in up.segments]
+            out.provisional = up.provisional
+        self.settled_ns += [self._now or 0] * len(out.segments)
+        self._emitted += out.segments
+        return out
+
+    def _back(self, seg: Segment, *, last: bool = False) -> Segment:
+        """``seg`` moved back by the filters' delay (the recording's last segment keeps its
+        end; the first sample stays the first)."""
+        k = self.lag_samples
+        if k == 0 or self._first is None:
+            return seg
+        start = max(seg.start - k, 0)
+        end = seg.end if last else max(seg.end - k, start + 1)
+        dt = 1.0 / self.pre.rate_hz
+        first = self._first
+        return dataclasses.replace(
+            seg,
+            start=start,
+            end=end,
+            start_s=start * dt,
+            end_s=end * dt,
+            start_ns=first + round(start * dt * 1e9),
+            end_ns=seg.end_ns if last else first + round(end * dt * 1e9),
+        )
+
+    def finish(self) -> LiveUpdate:
+        """End of the recording: the samples still buffered, and every remaining segment."""
+        first = LiveUpdate()
+        if self._pending is not None:
+            held, self._pending = self._pending, None
+            first = self.push(held)
+        rows: list[FeatureSample] = []
+        for s in self.pre.flush():
+            rows += self.features.push(s)
+        rows += self.features.flush()
+        out = self._feed(rows)
+        if self._started:
+            n = self.segmenter.n_samples
+            last = [self._back(s, last=s.end >= n) for s in self.segmenter.finish()]
+            out.segments += last
+            self.settled_ns += [self._now or 0] * len(last)
+            self._emitted += last
+        out.provisional = None
+        out.segments[:0] = first.segments
+        out.rows[:0] = first.rows
+        return out
+
+    def provisional_span(self) -> Span | None:
+        """The provisional skill from its start to the newest sample (None before any)."""
+        p = self.segmenter.provisional
+        if p is None or self._first is None:
+            return None
+        start = self._first + round(max(p.start - self.lag_samples, 0) / self.pre.rate_hz * 1e9)
+        return Span(p.skill, start, max(start, self._now or start))
+
+    def result(self) -> Segmentation:
+        """Everything emitted so far, as a :class:`Segmentation`."""
+        return dataclasses.replace(self.segmenter.result(), segments=list(self._emitted))
+
+
+def label_of(seg: Segment) -> SkillLabel:
+    """A settled segment as a skill label (for ``/lfd/live/segments``)."""
+    return SkillLabel(seg.skill, int(seg.start_ns), int(seg.end_ns), seg.object)
+
+
+def segment_live(
+    demo: Demonstration,
+    templates: Templates | TemplateChoice | None = None,
+    *,
+    messages: Iterable[HandMessage | ObjectMessage] | None = None,
+    **options: Any,
+) -> tuple[Segmentation, np.ndarray]:
+    """Replay a recording's messages in time order through :class:`LiveSegmentation`; returns
+    the final segmentation and, per segment, the message time (ns) it settled at."""
+    live = LiveSegmentation.for_demonstration(demo, templates, **options)
+    for msg in messages if messages is not None else demo_messages(demo):
+        live.push(msg)
+    live.finish()
+    return live.result(), np.asarray(live.settled_ns, dtype=np.int64)

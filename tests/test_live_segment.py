@@ -1,0 +1,117 @@
+"""Live segmentation: raw messages -> causal preprocessing -> online segmenter
+(:mod:`lfd.segmentation.live`), ``lfd record --live-segment`` and ``lfd segment --follow``."""
+
+from __future__ import annotations
+
+import json
+import warnings
+from pathlib import Path
+
+import lfd
+import numpy as np
+import pytest
+from lfd.io import load
+from lfd.preprocessing.online import demo_messages
+from lfd.segmentation.live import LiveSegmentation, segment_live
+
+ROOT = Path(__file__).resolve().parent.parent
+RECORDINGS = [ROOT / "recordings" / f"exp{k}.mcap" for k in range(1, 5)]
+
+
+@pytest.mark.parametrize("path", RECORDINGS, ids=lambda p: p.stem)
+def test_live_chain_finds_the_offline_skills_soon_after_they_end(path: Path) -> None:
+    """From the recording's raw messages in time order (causal filters, online features, online
+    segmenter): the offline sequence, with the same objects, each skill settled within 3.5 s
+    of its offline end (the last one at the end of the recording)."""
+    demo = load(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        offline = lfd.segment(demo)
+        live, settled = segment_live(demo)
+    assert [(s.skill, s.object) for s in live.segments] == [
+        (s.skill, s.object) for s in offline.segments
+    ]
+    late = (settled - np.array([s.end_ns for s in offline.segments])) * 1e-9
+    assert np.all(late[:-1] <= 3.5), late
+    assert np.median(late[:-1]) <= 2.5, late
+    # the boundaries agree with the offline ones to a few samples
+    starts = np.array([s.start for s in live.segments]) - np.array(
+        [s.start for s in offline.segments]
+    )
+    assert np.median(np.abs(starts)) <= 4, starts
+
+
+def test_recorded_message_pairs_and_emitted_segments_are_final() -> None:
+    """``push_recorded`` (what ``lfd segment --follow`` feeds) pairs each hand frame with its
+    confidence and gives the result of typed messages; what was emitted is never revised: the
+    segments emitted one update at a time are exactly the final result."""
+    from lfd.skills import SKILLS
+
+    demo = load(RECORDINGS[0])
+    a = LiveSegmentation.for_demonstration(demo)
+    b = LiveSegmentation.for_demonstration(demo)
+    emitted = []
+    provisional = set()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for msg in demo_messages(demo):
+            a.push(msg)
+            if hasattr(msg, "keypoints"):
+                emitted += b.push_recorded("hand", msg.t_ns, msg.keypoints).segments
+                up = b.push_recorded("confidence", msg.t_ns, (msg.confidence, None))
+            else:
+                pose = type("Pose", (), {})()
+                pose.name, pose.position, pose.quaternion = msg.name, msg.position, msg.quaternion
+                up = b.push_recorded("object", msg.t_ns, pose)
+            emitted += up.segments
+            span = b.provisional_span()
+            if span is not None:
+                provisional.add(span.skill)
+        a.finish()
+        emitted += b.finish().segments
+    key = [(s.skill, s.object, s.start, s.end) for s in b.result().segments]
+    assert [(s.skill, s.object, s.start, s.end) for s in emitted] == key
+    assert key == [(s.skill, s.object, s.start, s.end) for s in a.result().segments]
+    assert len(b.settled_ns) == len(key) and b.settled_ns == sorted(b.settled_ns)
+    assert provisional and provisional <= set(SKILLS)
+
+
+def test_record_live_segment_writes_and_shows_skills_while_recording(tmp_path: Path) -> None:
+    """``lfd record --source sim:exp1 --live-segment --rerun-save``: the skills are written to
+    /lfd/live/segments with log times before the recording's end, and the .rrd read back has
+    settled skill spans logged long before the last hand sample."""
+    pytest.importorskip("rerun", reason="rerun-sdk not installed (optional viz extra)")
+    from lfd.cli import main
+    from mcap.reader import make_reader
+    from test_live import _row_times
+
+    out, rrd = tmp_path / "live.mcap", tmp_path / "live.rrd"
+    code = main(
+        [
+            "record",
+            "--source",
+            "sim:exp1",
+            "-o",
+            str(out),
+            "--live-segment",
+            "--rerun-save",
+            str(rrd),
+        ]
+    )
+    assert code == 0
+    demo = load(out)
+    assert [s.skill for s in demo.live_segments] == [
+        "pick_up", "move_with", "place", "move", "pick_up", "move_with", "stack", "move",
+    ]  # fmt: skip
+    assert demo.labels == []  # nothing written to the ground truth
+    with out.open("rb") as f:
+        times = [
+            m.log_time for _, _, m in make_reader(f).iter_messages(topics=["/lfd/live/segments"])
+        ]
+    end = int(demo.hand.t_ns[-1])
+    assert sum(t < end - 2_000_000_000 for t in times) >= len(times) // 2  # settled during it
+    meta = json.dumps(demo.metadata)
+    assert "hand_model" in meta
+    spans = _row_times(rrd, "/segmentation/skills/result")
+    hand = _row_times(rrd, "/world/hand/keypoints")
+    assert len(spans) >= 2 * 7 and (hand.max() - spans.min()) * 1e-9 > 5.0
