@@ -28,7 +28,7 @@ from ..preprocessing.online import (
     OnlinePreprocessor,
     demo_messages,
 )
-from .online import DEFAULT_BEAM, DEFAULT_LAG_S, OnlineSegmenter, Provisional
+from .online import DEFAULT_BEAM, DEFAULT_LAG_S, DEFAULT_STABLE_S, OnlineSegmenter, Provisional
 from .pipeline import SegmentParams
 from .result import Segment, Segmentation
 from .templates import TemplateChoice, Templates, resolve_templates
@@ -71,7 +71,7 @@ class LiveSegmentation:
         The hand-pose estimator's frame rate (for the ``auto`` filter cut-off).
     params : SegmentParams, optional
         As offline.
-    lag_s, beam :
+    lag_s, beam, stable_s :
         Settling of the online segmenter (see :class:`~lfd.segmentation.online.OnlineSegmenter`).
     max_wait_s : float, optional
         Longest wait for a silent stream (see
@@ -89,6 +89,7 @@ class LiveSegmentation:
         params: SegmentParams | None = None,
         lag_s: float = DEFAULT_LAG_S,
         beam: float = DEFAULT_BEAM,
+        stable_s: float | None = DEFAULT_STABLE_S,
         max_wait_s: float | None = None,
     ) -> None:
         self.templates = resolve_templates(templates)
@@ -111,6 +112,7 @@ class LiveSegmentation:
             params=params,
             lag_s=lag_s,
             beam=beam,
+            stable_s=stable_s,
         )
         self.settled_ns: list[int] = []
         """Message time at which each emitted segment settled (same order as the segments)."""
