@@ -112,6 +112,10 @@ def test_record_live_segment_writes_and_shows_skills_while_recording(tmp_path: P
     assert sum(t < end - 2_000_000_000 for t in times) >= len(times) // 2  # settled during it
     meta = json.dumps(demo.metadata)
     assert "hand_model" in meta
+    from lfd.viz.paths import SECTIONS
+
     spans = _row_times(rrd, "/segmentation/skills/result")
     hand = _row_times(rrd, "/world/hand/keypoints")
     assert len(spans) >= 2 * 7 and (hand.max() - spans.min()) * 1e-9 > 5.0
+    sections = _row_times(rrd, SECTIONS)  # stage-1 sections streamed as they were found
+    assert len(sections) >= 8 and (hand.max() - np.median(sections)) * 1e-9 > 2.0

@@ -128,22 +128,8 @@ def _show_update(seg: Any, update: Any, timeline: Any, con: Any) -> None:
             f"settled: {s.skill:<10} {s.object or '-':<8} {s.start_s:7.2f} - {s.end_s:7.2f} s"
             f"  confidence {s.confidence:.2f}"
         )
-    if timeline is None:
-        return
-    if update.rows:
-        import numpy as np
-
-        timeline.log_samples(
-            [r.t_ns for r in update.rows],
-            np.stack([r.values for r in update.rows]),
-            np.stack([r.thresholds for r in update.rows]),
-            target=[r.target for r in update.rows],
-        )
-    for s in update.segments:
-        timeline.log_skill(s)
-    span = seg.provisional_span()
-    if span is not None:
-        timeline.log_provisional(span)
+    if timeline is not None:
+        timeline.log_update(update, seg.provisional_span())
 
 
 def _run_follow(args: argparse.Namespace) -> int:

@@ -107,17 +107,7 @@ class _LiveSegments:
             self.rec.add_live_segment(label_of(s), max(int(t_ns), int(s.end_ns)), extra)
             self.count += 1
         if self.timeline is not None:
-            if update.rows:
-                self.timeline.log_samples(
-                    [r.t_ns for r in update.rows],
-                    np.stack([r.values for r in update.rows]),
-                    np.stack([r.thresholds for r in update.rows]),
-                    target=[r.target for r in update.rows],
-                )
-            for s in update.segments:
-                self.timeline.log_skill(s)
-            span = self.seg.provisional_span()
-            self.timeline.log_provisional(span, None if span else int(t_ns))
+            self.timeline.log_update(update, self.seg.provisional_span())
 
 
 def record(

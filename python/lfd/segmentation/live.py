@@ -54,6 +54,9 @@ class LiveUpdate:
     """Feature rows determined by the message (for live views)."""
     provisional: Provisional | None = None
     """The skill the best current hypothesis ends with."""
+    sections: list[int] = field(default_factory=list)
+    """Stage-1 section boundaries found (ns on the recording's clock, moved back by the
+    filters' delay like the segments)."""
 
 
 class LiveSegmentation:
@@ -121,6 +124,7 @@ class LiveSegmentation:
         their boundaries are where the skills happened rather than where the filtered signals
         showed them."""
         self._emitted: list[Segment] = []
+        self._n_bounds = 0
         self._now: int | None = None
         self._first: int | None = None
         self._pending: HandMessage | None = None
@@ -201,6 +205,7 @@ class LiveSegmentation:
             more = self.push_object(value.name, t_ns, value.position, value.quaternion)
             out.segments += more.segments
             out.rows += more.rows
+            out.sections += more.sections
             out.provisional = more.provisional
         return out
 
@@ -232,7 +237,16 @@ class LiveSegmentation:
             out.provisional = up.provisional
         self.settled_ns += [self._now or 0] * len(out.segments)
         self._emitted += out.segments
+        out.sections = self._new_sections()
         return out
+
+    def _new_sections(self) -> list[int]:
+        if self._first is None:
+            return []
+        new = self.segmenter.boundaries(self._n_bounds)
+        self._n_bounds += len(new)
+        dt_ns = 1e9 / self.pre.rate_hz
+        return [self._first + round(max(b - self.lag_samples, 0) * dt_ns) for b in new]
 
     def _back(self, seg: Segment, *, last: bool = False) -> Segment:
         """``seg`` moved back by the filters' delay (the recording's last segment keeps its
@@ -271,9 +285,11 @@ class LiveSegmentation:
             out.segments += last
             self.settled_ns += [self._now or 0] * len(last)
             self._emitted += last
+            out.sections += self._new_sections()
         out.provisional = None
         out.segments[:0] = first.segments
         out.rows[:0] = first.rows
+        out.sections[:0] = first.sections
         return out
 
     def provisional_span(self) -> Span | None:

@@ -258,6 +258,11 @@ class OnlineSegmenter:
 
     # -- input ----------------------------------------------------------------------------------
 
+    def boundaries(self, since: int = 0) -> list[int]:
+        """Stage-1 section boundaries (sample indices) found so far, from the ``since``-th on
+        (boundary 0 is the first sample)."""
+        return self._bounds[since:]
+
     @property
     def n_samples(self) -> int:
         """Samples consumed (including repeated ones bridging gaps)."""

@@ -273,6 +273,25 @@ class LiveTimeline:
             return
         self._state(PROVISIONAL, segment, int(segment.start_ns))
 
+    def log_update(self, update: Any, provisional: SegmentLike | None = None) -> None:
+        """What one step of a live segmenter produced (a
+        :class:`~lfd.segmentation.live.LiveUpdate`: feature ``rows``, new ``sections``, settled
+        ``segments``) and the provisional span, if any."""
+        rows = update.rows
+        if rows:
+            self.log_samples(
+                [r.t_ns for r in rows],
+                np.stack([r.values for r in rows]),
+                np.stack([r.thresholds for r in rows]),
+                target=[r.target for r in rows],
+            )
+        for t in update.sections:
+            self.log_section(t)
+        for s in update.segments:
+            self.log_skill(s)
+        if provisional is not None:
+            self.log_provisional(provisional)
+
     def log_score(self, skill: str, t_ns: int, score: float) -> None:
         """A stage-2 score of ``skill`` at ``t_ns`` (``/segmentation/greedy/scores/<skill>``)."""
         rr = self.rr
