@@ -59,36 +59,19 @@ class TimedEngine:
 def feed(traj: Any, templates: Any, **kw: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray]:
     """Feed a trajectory sample by sample (batch features); returns the online segmenter, the
     settle times (s) of its segments, and the engine and driver cost of each sample (s)."""
-    from lfd.features import compute_features
     from lfd.segmentation.gaps import fill_gaps
-    from lfd.segmentation.online import OnlineSegmenter
+    from lfd.segmentation.online import OnlineSegmenter, batch_samples
 
     filled, _ = fill_gaps(traj)
-    feats = compute_features(filled)
-    per = [compute_features(filled, target=o) for o in range(len(filled.object_names))]
-    ov = np.stack([f.values for f in per], axis=1)
-    ot = np.stack([f.thresholds for f in per], axis=1)
-    pos = filled.object_position.transpose(1, 0, 2)
-    quat = filled.object_quaternion.transpose(1, 0, 2)
     seg = OnlineSegmenter(templates, filled.object_names, filled.dt, **kw)
     eng = TimedEngine(seg._engine)
     seg._engine = eng  # type: ignore[assignment]
     n = len(filled)
     engine_s, driver_s = np.zeros(n), np.zeros(n)
-    for t in range(n):
+    for t, sample in enumerate(batch_samples(filled)):
         before = eng.spent
         t0 = time.perf_counter()
-        seg.push(
-            int(filled.t_ns[t]),
-            feats.values[t],
-            feats.thresholds[t],
-            ov[t],
-            ot[t],
-            filled.tcp[t],
-            pos[t],
-            rotation=filled.rotation[t],
-            object_quaternion=quat[t],
-        )
+        seg.push(**sample)
         driver_s[t] = time.perf_counter() - t0
         engine_s[t] = eng.spent - before
     seg.finish()

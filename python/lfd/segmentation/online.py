@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import dataclasses
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any, get_args
 
@@ -649,6 +649,31 @@ def _resize(traj: Trajectory, seg: Segment, start: int) -> Segment:
     )
 
 
+def batch_samples(filled: Trajectory) -> Iterator[dict[str, Any]]:
+    """The keyword arguments of :meth:`OnlineSegmenter.push` for every sample of a gap-free
+    trajectory, with the batch pipeline's features (for comparing online with offline)."""
+    from ..features import compute_features
+
+    feats = compute_features(filled)
+    per_object = [compute_features(filled, target=o) for o in range(len(filled.object_names))]
+    ov = np.stack([f.values for f in per_object], axis=1)
+    ot = np.stack([f.thresholds for f in per_object], axis=1)
+    pos = filled.object_position.transpose(1, 0, 2)
+    quat = filled.object_quaternion.transpose(1, 0, 2)
+    for t in range(len(filled)):
+        yield {
+            "t_ns": int(filled.t_ns[t]),
+            "values": feats.values[t],
+            "thresholds": feats.thresholds[t],
+            "object_values": ov[t],
+            "object_thresholds": ot[t],
+            "tcp": filled.tcp[t],
+            "object_position": pos[t],
+            "rotation": filled.rotation[t],
+            "object_quaternion": quat[t],
+        }
+
+
 def segment_online(
     traj: Trajectory,
     templates: Templates,
@@ -663,11 +688,7 @@ def segment_online(
     """Feed a whole preprocessed trajectory to an :class:`OnlineSegmenter` sample by sample,
     with the batch pipeline's features (gaps filled as offline, for comparison); returns the
     segmentation and, per segment, the time (s, from the first sample) it was settled at."""
-    from ..features import compute_features
-
     filled, warns = fill_gaps(traj)
-    feats = compute_features(filled)
-    per_object = [compute_features(filled, target=o) for o in range(len(filled.object_names))]
     seg = OnlineSegmenter(
         templates,
         filled.object_names,
@@ -679,22 +700,8 @@ def segment_online(
         beam=beam,
         stable_s=stable_s,
     )
-    ov = np.stack([f.values for f in per_object], axis=1)
-    ot = np.stack([f.thresholds for f in per_object], axis=1)
-    pos = filled.object_position.transpose(1, 0, 2)
-    quat = filled.object_quaternion.transpose(1, 0, 2)
-    for t in range(len(filled)):
-        seg.push(
-            int(filled.t_ns[t]),
-            feats.values[t],
-            feats.thresholds[t],
-            ov[t],
-            ot[t],
-            filled.tcp[t],
-            pos[t],
-            rotation=filled.rotation[t],
-            object_quaternion=quat[t],
-        )
+    for sample in batch_samples(filled):
+        seg.push(**sample)
     seg.finish()
     result = seg.result()
     result.warnings[:0] = warns

@@ -769,15 +769,7 @@ impl OnlineDp {
                 let Some(path) = self.path(tier, i, p) else {
                     continue;
                 };
-                common = Some(match common {
-                    None => path,
-                    Some(c) => c
-                        .into_iter()
-                        .zip(path)
-                        .take_while(|(a, b)| a == b)
-                        .map(|(a, _)| a)
-                        .collect(),
-                });
+                common = Some(common_prefix(common, path));
                 if common.as_ref().is_some_and(Vec::is_empty) {
                     return Vec::new();
                 }
@@ -893,15 +885,7 @@ impl OnlineDp {
             let Some(path) = self.path(tier, i, p) else {
                 continue;
             };
-            common = Some(match common {
-                None => path,
-                Some(c) => c
-                    .into_iter()
-                    .zip(path)
-                    .take_while(|(a, b)| a == b)
-                    .map(|(a, _)| a)
-                    .collect(),
-            });
+            common = Some(common_prefix(common, path));
             if common.as_ref().is_some_and(Vec::is_empty) {
                 return Vec::new();
             }
@@ -1098,6 +1082,19 @@ impl OnlineDp {
             out.push(self.settle((k, 0), false));
         }
         Ok(out)
+    }
+}
+
+/// The longest common prefix of `common` (None: none seen yet, then `path` itself) and `path`.
+fn common_prefix<T: PartialEq>(common: Option<Vec<T>>, path: Vec<T>) -> Vec<T> {
+    match common {
+        None => path,
+        Some(c) => c
+            .into_iter()
+            .zip(path)
+            .take_while(|(a, b)| a == b)
+            .map(|(a, _)| a)
+            .collect(),
     }
 }
 
