@@ -233,6 +233,14 @@ def test_record_bad_sources_give_clear_errors(tmp_path, capsys) -> None:  # type
     cam.write_text('{"width": 640, "height": 480, "K": [[600, 0, 320], [0, 600, 240], [0, 0, 1]]}')
     with pytest.raises(LfdError, match="cannot open"):
         open_source("camera:37", intrinsics=str(cam))
+    bad = tmp_path / "bad_camera.json"
+    for K in (
+        "[[600, 0, 320], [0, NaN, 240], [0, 0, 1]]",
+        "[[0, 0, 320], [0, 600, 240], [0, 0, 1]]",
+    ):
+        bad.write_text(f'{{"width": 640, "height": 480, "K": {K}}}')
+        with pytest.raises(LfdError, match="finite 3x3 matrix with positive focal lengths"):
+            open_source("camera:37", intrinsics=str(bad))
     with pytest.raises(LfdError, match="not a directory"):
         open_source(f"frames:{tmp_path / 'nope'}")
     with pytest.raises(LfdError, match="unknown source"):

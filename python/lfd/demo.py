@@ -186,6 +186,15 @@ class SkillLabel:
             )
 
 
+def intrinsics_problem(K: np.ndarray) -> str | None:
+    """What is wrong with a pinhole matrix ``K`` (None: usable): it must be a finite 3x3 matrix
+    with positive focal lengths."""
+    K = np.asarray(K)
+    if K.shape != (3, 3) or not np.isfinite(K).all() or K[0, 0] <= 0 or K[1, 1] <= 0:
+        return "K must be a finite 3x3 matrix with positive focal lengths"
+    return None
+
+
 @dataclass
 class CameraInfo:
     """Pinhole intrinsics and the camera pose in the world frame.

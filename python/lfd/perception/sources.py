@@ -37,7 +37,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from ..demo import CameraInfo
+from ..demo import CameraInfo, intrinsics_problem
 from ..errors import LfdError
 
 
@@ -100,8 +100,11 @@ def read_camera_json(path: Path) -> tuple[CameraInfo, list[dict[str, Any]], dict
         ]
     except (KeyError, TypeError, ValueError, json.JSONDecodeError) as err:
         raise LfdError(f"{path}: invalid camera description ({err})") from err
-    if K.shape != (3, 3) or W.shape != (4, 4):
-        raise LfdError(f"{path}: K must be 3x3 and world_T_camera 4x4")
+    problem = intrinsics_problem(K)
+    if problem is not None:
+        raise LfdError(f"{path}: {problem}")
+    if W.shape != (4, 4) or not np.isfinite(W).all():
+        raise LfdError(f"{path}: world_T_camera must be a finite 4x4 matrix")
     return camera, objects, meta, "world_T_camera" in meta
 
 

@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from ...demo import intrinsics_problem
 from ...errors import LfdError
 from .mediapipe import KEYPOINT_NAMES, Hand, MediaPipeHands
 
@@ -89,8 +90,9 @@ def read_intrinsics(path: PathLike) -> np.ndarray:
         raise LfdError(
             f'{p}: expected JSON {{"K": [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]}} ({err})'
         ) from err
-    if K.shape != (3, 3) or not np.isfinite(K).all() or K[0, 0] <= 0 or K[1, 1] <= 0:
-        raise LfdError(f"{p}: K must be a finite 3x3 matrix with positive focal lengths")
+    problem = intrinsics_problem(K)
+    if problem is not None:
+        raise LfdError(f"{p}: {problem}")
     return K
 
 
