@@ -118,6 +118,8 @@ def segment_stream(
     if seg is None:
         return None, labels, []
     _show_update(seg, seg.finish(), timeline(), con)
+    for w in seg.pre.warnings:  # the segmenter's own warnings were printed as they came
+        print(f"lfd segment: warning: {' '.join(str(w).split())}", file=sys.stderr)
     return seg.result(), labels, list(seg.settled_ns)
 
 

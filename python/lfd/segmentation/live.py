@@ -302,7 +302,10 @@ class LiveSegmentation:
 
     def result(self) -> Segmentation:
         """Everything emitted so far, as a :class:`Segmentation`."""
-        return dataclasses.replace(self.segmenter.result(), segments=list(self._emitted))
+        result = self.segmenter.result()
+        return dataclasses.replace(
+            result, segments=list(self._emitted), warnings=[*self.pre.warnings, *result.warnings]
+        )
 
 
 def label_of(seg: Segment) -> SkillLabel:
