@@ -76,6 +76,10 @@ class LiveSegmentation:
         As offline.
     lag_s, beam, stable_s :
         Settling of the online segmenter (see :class:`~lfd.segmentation.online.OnlineSegmenter`).
+    preprocessor : OnlinePreprocessor, optional
+        A causal preprocessor made by the caller; it replaces the one built from
+        ``object_names``, ``object_sizes``, ``side``, ``hand_rate_hz``, ``max_wait_s`` and the
+        templates' options.
     max_wait_s : float, optional
         Longest wait for a silent stream (see
         :class:`~lfd.preprocessing.online.OnlinePreprocessor`).
@@ -94,16 +98,16 @@ class LiveSegmentation:
         beam: float = DEFAULT_BEAM,
         stable_s: float | None = DEFAULT_STABLE_S,
         max_wait_s: float | None = None,
+        preprocessor: OnlinePreprocessor | None = None,
     ) -> None:
         self.templates = resolve_templates(templates)
-        options: dict[str, Any] = dict(self.templates.preprocessing or {})
-        self.pre = OnlinePreprocessor(
+        self.pre = preprocessor or OnlinePreprocessor(
             object_names,
             object_sizes,
             side=side,
             hand_rate_hz=hand_rate_hz,
             max_wait_s=max_wait_s,
-            **options,
+            **(self.templates.preprocessing or {}),
         )
         self.features = OnlineFeatures(
             self.pre.object_names, self.pre.object_sizes, self.pre.rate_hz
@@ -129,7 +133,6 @@ class LiveSegmentation:
         self._first: int | None = None
         self._pending: HandMessage | None = None
         self._started = False
-        self._skipped = 0
 
     @classmethod
     def for_demonstration(
@@ -138,14 +141,13 @@ class LiveSegmentation:
         templates: Templates | TemplateChoice | None = None,
         **options: Any,
     ) -> LiveSegmentation:
-        """For the objects, sizes, hand side and hand rate of a recording."""
-        names = list(demo.objects)
-        sizes = np.stack([demo.objects[n].size for n in names])
-        hand_rate = None
-        if len(demo.hand) > 1:
-            span = (int(demo.hand.t_ns[-1]) - int(demo.hand.t_ns[0])) * 1e-9
-            hand_rate = (len(demo.hand) - 1) / span if span > 0 else None
-        return cls(names, sizes, templates, side=demo.hand.side, hand_rate_hz=hand_rate, **options)
+        """For the objects, sizes, hand side and hand rate of a recording
+        (:meth:`OnlinePreprocessor.for_demonstration`)."""
+        resolved = resolve_templates(templates)
+        pre = OnlinePreprocessor.for_demonstration(
+            demo, max_wait_s=options.pop("max_wait_s", None), **(resolved.preprocessing or {})
+        )
+        return cls(pre.object_names, pre.object_sizes, resolved, preprocessor=pre, **options)
 
     @property
     def object_names(self) -> list[str]:
@@ -216,7 +218,6 @@ class LiveSegmentation:
             if not self._started and not (
                 np.isfinite(r.values).all() and np.isfinite(r.object_values).all()
             ):
-                self._skipped += 1
                 continue
             self._started = True
             if self._first is None:
@@ -240,13 +241,16 @@ class LiveSegmentation:
         out.sections = self._new_sections()
         return out
 
+    def _ns(self, index: int) -> int:
+        """The recording time of sample ``index`` of the online trajectory."""
+        return (self._first or 0) + round(index * (1.0 / self.pre.rate_hz) * 1e9)
+
     def _new_sections(self) -> list[int]:
         if self._first is None:
             return []
         new = self.segmenter.boundaries(self._n_bounds)
         self._n_bounds += len(new)
-        dt_ns = 1e9 / self.pre.rate_hz
-        return [self._first + round(max(b - self.lag_samples, 0) * dt_ns) for b in new]
+        return [self._ns(max(b - self.lag_samples, 0)) for b in new]
 
     def _back(self, seg: Segment, *, last: bool = False) -> Segment:
         """``seg`` moved back by the filters' delay (the recording's last segment keeps its
@@ -257,15 +261,14 @@ class LiveSegmentation:
         start = max(seg.start - k, 0)
         end = seg.end if last else max(seg.end - k, start + 1)
         dt = 1.0 / self.pre.rate_hz
-        first = self._first
         return dataclasses.replace(
             seg,
             start=start,
             end=end,
             start_s=start * dt,
             end_s=end * dt,
-            start_ns=first + round(start * dt * 1e9),
-            end_ns=seg.end_ns if last else first + round(end * dt * 1e9),
+            start_ns=self._ns(start),
+            end_ns=seg.end_ns if last else self._ns(end),
         )
 
     def finish(self) -> LiveUpdate:
@@ -297,7 +300,7 @@ class LiveSegmentation:
         p = self.segmenter.provisional
         if p is None or self._first is None:
             return None
-        start = self._first + round(max(p.start - self.lag_samples, 0) / self.pre.rate_hz * 1e9)
+        start = self._ns(max(p.start - self.lag_samples, 0))
         return Span(p.skill, start, max(start, self._now or start))
 
     def result(self) -> Segmentation:

@@ -441,7 +441,7 @@ fn sweep(
             _ => {}
         }
     }
-    sweep_n::<MAX_STATES, false>(m, em, band, starts, lo, end, out);
+    sweep_runs(m, em, band, starts, lo, end, out);
 }
 
 /// [`sweep`] for models of exactly `N` states, with the runs' forward vectors stored state by
@@ -646,8 +646,8 @@ impl<const N: usize> Kernel for SoaSweep<'_, N> {
     }
 }
 
-/// [`sweep`] for models of `N` states (`EXACT`) or at most `N`.
-fn sweep_n<const N: usize, const EXACT: bool>(
+/// [`sweep`] one run at a time (any model of at most [`MAX_STATES`] states).
+fn sweep_runs(
     m: &CompiledHmm,
     em: &Scaled,
     band: &Band,
@@ -656,8 +656,8 @@ fn sweep_n<const N: usize, const EXACT: bool>(
     end: EndState,
     out: &mut [f64],
 ) {
-    struct Run<const N: usize, const EXACT: bool> {
-        st: Forward<N, EXACT>,
+    struct Run {
+        st: ForwardState,
         /// start section
         i: usize,
         /// the next end section to score, and the last
@@ -672,12 +672,12 @@ fn sweep_n<const N: usize, const EXACT: bool>(
     let b = band.boundaries();
     let off0 = band.offsets()[starts.start];
     let t_end = b[band.last_end(starts.end - 1)];
-    let mut active: Vec<Run<N, EXACT>> = Vec::new();
+    let mut active: Vec<Run> = Vec::new();
     let mut next = starts.start;
     for t in b[starts.start]..t_end {
         if next < starts.end && b[next] == t {
             active.push(Run {
-                st: Forward::default(),
+                st: ForwardState::default(),
                 i: next,
                 next_j: next + 1,
                 last_j: band.last_end(next),
