@@ -43,12 +43,22 @@ SHORT = ["fing", "rise", "prox", "dist", "height", "in_x", "in_y", "in_z", "o_ve
 
 
 def run(
-    path: Path, order: int, derivative: str, max_wait: float | None, match_lag: bool
+    path: Path,
+    order: int,
+    derivative: str,
+    max_wait: float | None,
+    match_lag: bool,
+    smoother: str = "fixed-lag",
 ) -> dict[str, object]:
     demo = lfd.load(path)
     opts = preprocessing_options()
     pre = OnlinePreprocessor.for_demonstration(
-        demo, filter_order=order, max_wait_s=max_wait, match_lag=match_lag, **opts
+        demo,
+        filter_order=order,
+        max_wait_s=max_wait,
+        match_lag=match_lag,
+        smoother=smoother,  # type: ignore[arg-type]
+        **opts,
     )
     feats = OnlineFeatures(
         pre.object_names,
@@ -75,8 +85,8 @@ def run(
     offline = compute_features(filled)
     per_object = [compute_features(filled, target=o) for o in range(len(off.object_names))]
     lag = pre.lag_s()
-    hl = round(lag["hand"] * pre.rate_hz)
-    ol = round(lag["objects"] * pre.rate_hz) + pre.object_delay_samples
+    hl = pre.shift_samples  # 0 for the fixed-lag smoother: its rows carry their own time
+    ol = (hl and round(lag["objects"] * pre.rate_hz)) + pre.object_delay_samples
     n = min(len(off), n_out)
     err = np.zeros(10)
     for o, ref in enumerate(per_object):
@@ -131,12 +141,15 @@ def main() -> None:
     ap.add_argument("--derivative", default="central", choices=["central", "backward"])
     ap.add_argument("--max-wait", type=float, default=None, help="seconds (default max_gap_s)")
     ap.add_argument("--no-match-lag", action="store_true", help="objects not delayed")
+    ap.add_argument("--smoother", default="fixed-lag", choices=["fixed-lag", "causal"])
     args = ap.parse_args()
     match = not args.no_match_lag
-    res = [run(p, args.order, args.derivative, args.max_wait, match) for p in args.files]
+    res = [
+        run(p, args.order, args.derivative, args.max_wait, match, args.smoother) for p in args.files
+    ]
     print(
-        f"order {args.order}, derivative {args.derivative}, max_wait_s {args.max_wait}, "
-        f"match_lag {match}"
+        f"smoother {args.smoother}, order {args.order}, derivative {args.derivative}, "
+        f"max_wait_s {args.max_wait}, match_lag {match}"
     )
     print(
         f"{'recording':16s} {'n':>5s} {'msg p50':>8s} {'msg p99':>8s} {'ms/smp':>7s} "

@@ -91,8 +91,16 @@ def main() -> None:
     ap.add_argument("--beam", type=float, help="beam (default: the library's)")
     ap.add_argument("--stable", type=float, help="stable_s (default: the library's)")
     ap.add_argument("--no-stable", action="store_true", help="stable_s=None (no leader rule)")
+    ap.add_argument("--lookahead", type=float, help="lookahead_s of the fixed-lag smoother")
+    ap.add_argument("--smoother", choices=("fixed-lag", "causal"), help="the preprocessor's")
     args = ap.parse_args()
-    for key, value in (("lag_s", args.lag), ("beam", args.beam), ("stable_s", args.stable)):
+    for key, value in (
+        ("lag_s", args.lag),
+        ("beam", args.beam),
+        ("stable_s", args.stable),
+        ("lookahead_s", args.lookahead),
+        ("smoother", args.smoother),
+    ):
         if value is not None:
             OPTIONS[key] = value
     if args.no_stable:

@@ -34,6 +34,11 @@ from .result import Segment, Segmentation
 from .templates import TemplateChoice, Templates, resolve_templates
 
 
+PREPROCESSOR_OPTIONS = ("max_wait_s", "smoother", "lookahead_s", "window_s")
+"""Options of :meth:`LiveSegmentation.for_demonstration` that go to its
+:class:`~lfd.preprocessing.online.OnlinePreprocessor`."""
+
+
 @dataclass(frozen=True)
 class Span:
     """A skill span on the recording's clock (what the live views draw)."""
@@ -123,7 +128,7 @@ class LiveSegmentation:
         )
         self.settled_ns: list[int] = []
         """Message time at which each emitted segment settled (same order as the segments)."""
-        self.lag_samples = round(self.pre.lag_s()["hand"] * self.pre.rate_hz)
+        self.lag_samples = self.pre.shift_samples
         """The causal filters' delay, in samples: emitted segments are moved back by it, so
         their boundaries are where the skills happened rather than where the filtered signals
         showed them."""
@@ -144,8 +149,9 @@ class LiveSegmentation:
         """For the objects, sizes, hand side and hand rate of a recording
         (:meth:`OnlinePreprocessor.for_demonstration`)."""
         resolved = resolve_templates(templates)
+        causal = {k: options.pop(k) for k in PREPROCESSOR_OPTIONS if k in options}
         pre = OnlinePreprocessor.for_demonstration(
-            demo, max_wait_s=options.pop("max_wait_s", None), **(resolved.preprocessing or {})
+            demo, **{"max_wait_s": None, **causal}, **(resolved.preprocessing or {})
         )
         return cls(pre.object_names, pre.object_sizes, resolved, preprocessor=pre, **options)
 
