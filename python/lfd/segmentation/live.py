@@ -33,7 +33,6 @@ from .pipeline import SegmentParams
 from .result import Segment, Segmentation
 from .templates import TemplateChoice, Templates, resolve_templates
 
-
 PREPROCESSOR_OPTIONS = ("max_wait_s", "smoother", "lookahead_s", "window_s")
 """Options of :meth:`LiveSegmentation.for_demonstration` that go to its
 :class:`~lfd.preprocessing.online.OnlinePreprocessor`."""
