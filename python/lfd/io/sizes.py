@@ -78,12 +78,15 @@ def parse_object_size(text: str) -> tuple[str, Size]:
     name = name.strip()
     where = f"--object-size {text}"
     if not sep or not name:
-        raise UsageError(f"{where}: expected NAME=X,Y,Z in metres, e.g. box_1=0.05,0.05,0.05")
+        raise UsageError(
+            f"{where}: expected NAME=X,Y,Z in metres, e.g. box_1=0.05,0.05,0.05, got {text!r}"
+        )
     try:
         values = [float(v) for v in rest.split(",")]
     except ValueError:
         raise UsageError(
-            f"{where}: expected NAME=X,Y,Z with three numbers in metres, e.g. box_1=0.05,0.05,0.05"
+            f"{where}: expected NAME=X,Y,Z with three numbers in metres, e.g. "
+            f"box_1=0.05,0.05,0.05, got {text!r}"
         ) from None
     return name, check_size(values, where)
 
@@ -119,8 +122,8 @@ def _unknown(given: Mapping[str, Any], names: Sequence[str], where: str) -> None
     unknown = [n for n in given if n not in names]
     if unknown:
         raise UsageError(
-            f"{where} names object {unknown[0]!r}, which the recording does not have; "
-            f"its objects are {', '.join(names) or 'none'}"
+            f"{where} gives a size for object {unknown[0]!r}, which the recording does not "
+            f"have; its objects are {', '.join(names) or 'none'}"
         )
 
 
@@ -139,7 +142,7 @@ def resolve_sizes(
     given = {
         str(k): check_size(v, f"object size of {k!r}") for k, v in (object_sizes or {}).items()
     }
-    _unknown(given, names, "--object-size (object_sizes)")
+    _unknown(given, names, "--object-size")
     side = read_sidecar(path) or {}
     _unknown(side, names, sidecar_path(path))
     out: dict[str, Size] = {}
