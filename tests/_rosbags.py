@@ -18,10 +18,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import lfd
 import numpy as np
 from scipy.spatial.transform import Rotation
-
-import lfd
 
 WORLD_T_CAMERA = np.eye(4)
 WORLD_T_CAMERA[:3, :3] = Rotation.from_euler("xyz", [2.4, 0.1, -0.7]).as_matrix()
@@ -78,14 +77,14 @@ def _objects_toml(demo: lfd.Demonstration, how: str) -> str:
 def write_ros1(demo: lfd.Demonstration, path: Path) -> str:
     """A ROS 1 bag of ``demo`` (layout in the module docstring); returns its mapping."""
     from rosbags.rosbag1 import Writer
-    from rosbags.typesys import Stores, get_typestore
-
-    from rosbags.typesys import get_types_from_msg
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     store = get_typestore(Stores.ROS1_NOETIC)
     if "tf2_msgs/msg/TFMessage" not in store.types:  # not in rosbags' noetic store
         store.register(
-            get_types_from_msg("geometry_msgs/TransformStamped[] transforms", "tf2_msgs/msg/TFMessage")
+            get_types_from_msg(
+                "geometry_msgs/TransformStamped[] transforms", "tf2_msgs/msg/TFMessage"
+            )
         )
     T = store.types
     cam_T_world = np.linalg.inv(WORLD_T_CAMERA)

@@ -190,7 +190,7 @@ def _parse_mapping(doc: Mapping[str, Any], where: str) -> RosMapping:
         order = tuple(order_doc)
     else:
         raise UsageError(
-            f"{where}: hand.order must be \"mediapipe\" or {N_KEYPOINTS} distinct indices "
+            f'{where}: hand.order must be "mediapipe" or {N_KEYPOINTS} distinct indices '
             f"(the message index of each MediaPipe keypoint), got {order_doc!r}"[:240]
         )
     if frame_names and max(order) >= N_KEYPOINTS:
@@ -293,12 +293,12 @@ class _Bag:
         self.raw = raw
         self.reader: Any = None
         self.topics: dict[str, _Topic] = {}
+        rosbags = _rosbags()
         if raw is not None:
             self.kind = "ROS 2 MCAP file"
             for topic, ch in raw.channels.items():
                 self.topics[topic] = _Topic(ch.schema, ch.count)
             return
-        rosbags = _rosbags()
         from rosbags.typesys import Stores, get_typestore
 
         target = path
@@ -369,7 +369,7 @@ def _stamp(header: Any, log_ns: int, time: str) -> int:
     return ns if ns > 0 else log_ns
 
 
-def _matrix(p: Sequence[float], q: Sequence[float]) -> np.ndarray:
+def _matrix(p: Any, q: Any) -> np.ndarray:
     """A 4x4 transform of a translation and an (x, y, z, w) quaternion."""
     from scipy.spatial.transform import Rotation
 
@@ -568,7 +568,9 @@ def _check_topics(bag: _Bag, m: RosMapping) -> None:
             )
 
 
-def _read(bag: _Bag, m: RosMapping, object_sizes: Mapping[str, Sequence[float]] | None) -> Demonstration:
+def _read(
+    bag: _Bag, m: RosMapping, object_sizes: Mapping[str, Sequence[float]] | None
+) -> Demonstration:
     _check_topics(bag, m)
     where = m.source or "the topic mapping"
     scale = UNITS[m.units]
@@ -604,7 +606,11 @@ def _read(bag: _Bag, m: RosMapping, object_sizes: Mapping[str, Sequence[float]] 
             else:
                 header, pts = got
                 hand_raw.append(
-                    (_stamp(header, log_ns, m.time), _frame(header.frame_id), pts[list(m.hand.order)])
+                    (
+                        _stamp(header, log_ns, m.time),
+                        _frame(header.frame_id),
+                        pts[list(m.hand.order)],
+                    )
                 )
         for o in by_topic.get(topic, []):
             pos, quat = _pose_xyzq(msg.pose, scale)
@@ -613,8 +619,7 @@ def _read(bag: _Bag, m: RosMapping, object_sizes: Mapping[str, Sequence[float]] 
             )
     if skipped:
         warnings.warn(
-            f"{bag.path}: skipped {skipped} message(s) on {m.hand.topic} without "
-            f"{need} keypoints",
+            f"{bag.path}: skipped {skipped} message(s) on {m.hand.topic} without {need} keypoints",
             LfdWarning,
             stacklevel=3,
         )

@@ -58,10 +58,7 @@ def check_size(value: Any, where: str) -> Size:
         isinstance(value, (list, tuple))
         and len(value) == 3
         and all(
-            isinstance(v, (int, float))
-            and not isinstance(v, bool)
-            and math.isfinite(v)
-            and v > 0
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0
             for v in value
         )
     )
@@ -151,9 +148,8 @@ def resolve_sizes(
         if size is None and declared[name] is not None:
             size = tuple(float(v) for v in declared[name])  # type: ignore[assignment]
         if size is None:
-            x, y, z = DEFAULT_OBJECT_SIZE
             warnings.warn(
-                f"object {name} has no size; using {x:g} m cube, give it with "
+                f"object {name} has no size; using {DEFAULT_OBJECT_SIZE[0]:g} m cube, give it with "
                 f"--object-size {name}=X,Y,Z (metres) or in {os.path.basename(sidecar_path(path))}",
                 DefaultSizeWarning,
                 stacklevel=3,

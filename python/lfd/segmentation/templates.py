@@ -382,7 +382,11 @@ def collect_examples(
     names: list[str] = []
     examples: list[tuple[str, np.ndarray]] = []
     for rec in recordings:
-        demo = rec if isinstance(rec, Demonstration) else load(rec, images=False, object_sizes=object_sizes)
+        demo = (
+            rec
+            if isinstance(rec, Demonstration)
+            else load(rec, images=False, object_sizes=object_sizes)
+        )
         name = str(rec) if not isinstance(rec, Demonstration) else demo.metadata.get("name", "demo")
         examples.extend(template_examples(demo, preprocessing=opts))
         names.append(Path(name).name)
