@@ -74,8 +74,9 @@ def _objects_toml(demo: lfd.Demonstration, how: str) -> str:
     return "\n".join(out)
 
 
-def write_ros1(demo: lfd.Demonstration, path: Path) -> str:
-    """A ROS 1 bag of ``demo`` (layout in the module docstring); returns its mapping."""
+def write_ros1(demo: lfd.Demonstration, path: Path, *, compression: str | None = None) -> str:
+    """A ROS 1 bag of ``demo`` (layout in the module docstring), chunks compressed with
+    ``compression`` (``bz2``, ``lz4``) if given; returns its mapping."""
     from rosbags.rosbag1 import Writer
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
@@ -107,7 +108,10 @@ def write_ros1(demo: lfd.Demonstration, path: Path) -> str:
         "/tf_static": "tf2_msgs/msg/TFMessage",
         "/hand/keypoints": "geometry_msgs/msg/PoseArray",
     }
-    with Writer(path) as w:
+    w = Writer(path)
+    if compression is not None:
+        w.set_compression(Writer.CompressionFormat[compression.upper()])
+    with w:
         conns = {k: w.add_connection(k, v, typestore=store) for k, v in types.items()}
         for t, topic, msg in sorted(msgs, key=lambda m: m[0]):
             w.write(conns[topic], t, store.serialize_ros1(msg, types[topic]))
@@ -181,3 +185,11 @@ def write_ros2(demo: lfd.Demonstration, path: Path, storage: str) -> str:
             w.write(conns[topic], t, store.serialize_cdr(msg, types[topic]))
     units = "mm" if mm else "m"
     return f'units = "{units}"\n\n{hand}\n' + _objects_toml(demo, "topic")
+
+
+if __name__ == "__main__":  # regenerates recordings/ros/exp1.bag (see recordings/README.md)
+    import sys
+
+    src, dst = sys.argv[1:3]
+    Path(dst).unlink(missing_ok=True)
+    write_ros1(lfd.load(src, images=False), Path(dst), compression="bz2")

@@ -221,3 +221,13 @@ def test_without_rosbags_one_line_says_which_extra(bags, tmp_path: Path) -> None
     assert proc.stderr.strip() == (
         "lfd segment: error: reading ROS bags needs the rosbags package: pip install 'lfd[ros]'"
     )
+
+
+def test_shipped_example_bag_is_exp1(exp1) -> None:
+    """recordings/ros/exp1.bag (bz2 chunks) with its commented mapping, docs/ros.md's example."""
+    demo = lfd.load(ROOT / "recordings/ros/exp1.bag", mapping=ROOT / "recordings/ros/exp1.toml")
+    np.testing.assert_allclose(demo.hand.keypoints, exp1.hand.keypoints, atol=1e-9)
+    for name, o in exp1.objects.items():
+        np.testing.assert_allclose(demo.objects[name].position, o.position, atol=1e-9)
+        np.testing.assert_array_equal(demo.objects[name].size, o.size)
+    assert _skills(lfd.segment(demo)) == _skills(lfd.segment(exp1))
