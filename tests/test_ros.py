@@ -231,3 +231,66 @@ def test_shipped_example_bag_is_exp1(exp1) -> None:
         np.testing.assert_allclose(demo.objects[name].position, o.position, atol=1e-9)
         np.testing.assert_array_equal(demo.objects[name].size, o.size)
     assert _skills(lfd.segment(demo)) == _skills(lfd.segment(exp1))
+
+
+def test_foxy_markers_one_per_keypoint_in_a_lone_mcap(exp1, tmp_path: Path) -> None:
+    """A ROS 2 Foxy bag (its Marker lacks Humble's texture and mesh_file fields: decoded with the
+    definitions the .mcap embeds), the hand as 21 SPHERE markers (ids in MediaPipe order,
+    written shuffled), read from the lone .mcap file."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_FOXY)
+    T = store.types
+    Marker = T["visualization_msgs/msg/Marker"]
+    assert "texture" not in Marker.__dataclass_fields__
+
+    def stamp(t: int):
+        return T["std_msgs/msg/Header"](
+            stamp=T["builtin_interfaces/msg/Time"](sec=t // 10**9, nanosec=t % 10**9),
+            frame_id="world",
+        )
+
+    def pose(p, q=(0.0, 0.0, 0.0, 1.0)):
+        return T["geometry_msgs/msg/Pose"](
+            position=T["geometry_msgs/msg/Point"](x=p[0], y=p[1], z=p[2]),
+            orientation=T["geometry_msgs/msg/Quaternion"](x=q[0], y=q[1], z=q[2], w=q[3]),
+        )
+
+    rng = np.random.default_rng(0)
+    msgs = []
+    for t, kp in zip(exp1.hand.t_ns, exp1.hand.keypoints, strict=True):
+        markers = [
+            Marker(
+                header=stamp(int(t)), ns="hand", id=int(k), type=Marker.SPHERE,
+                action=Marker.ADD, pose=pose(kp[k]),
+                scale=T["geometry_msgs/msg/Vector3"](x=0.01, y=0.01, z=0.01),
+                color=T["std_msgs/msg/ColorRGBA"](r=1.0, g=0.0, b=0.0, a=1.0),
+                lifetime=T["builtin_interfaces/msg/Duration"](sec=0, nanosec=0),
+                frame_locked=False, points=[], colors=[], text="", mesh_resource="",
+                mesh_use_embedded_materials=False,
+            )
+            for k in rng.permutation(21)
+        ]  # fmt: skip
+        msgs.append((int(t), "/hand", T["visualization_msgs/msg/MarkerArray"](markers=markers)))
+    for o in exp1.objects.values():
+        for t, p, q in zip(o.t_ns, o.position, o.quaternion, strict=True):
+            msg = T["geometry_msgs/msg/PoseStamped"](header=stamp(int(t)), pose=pose(p, q))
+            msgs.append((int(t), f"/{o.name}", msg))
+    types = {"/hand": "visualization_msgs/msg/MarkerArray"}
+    types.update({f"/{n}": "geometry_msgs/msg/PoseStamped" for n in exp1.objects})
+    path = tmp_path / "foxy"
+    with Writer(path, version=8, storage_plugin=StoragePlugin.MCAP) as w:
+        conns = {k: w.add_connection(k, v, typestore=store) for k, v in types.items()}
+        for t, topic, msg in sorted(msgs, key=lambda m: m[0]):
+            w.write(conns[topic], t, store.serialize_cdr(msg, types[topic]))
+    mapping = {
+        "hand": {"topic": "/hand"},
+        "objects": {
+            n: {"topic": f"/{n}", "size": o.size.tolist()} for n, o in exp1.objects.items()
+        },
+    }
+    (lone,) = path.glob("*.mcap")
+    demo = lfd.load(lone, mapping=mapping)
+    np.testing.assert_allclose(demo.hand.keypoints, exp1.hand.keypoints, atol=1e-12)
+    assert _skills(lfd.segment(demo)) == _skills(lfd.segment(exp1))

@@ -336,9 +336,7 @@ class _Bag:
     def messages(self, topics: Sequence[str]) -> Iterator[tuple[str, int, Any]]:
         wanted = set(topics)
         if self.raw is not None:
-            from rosbags.typesys import Stores, get_typestore
-
-            store = get_typestore(Stores.ROS2_HUMBLE)
+            store = _mcap_typestore(self.raw)
             for topic in topics:
                 msgtype = self.topics[topic].msgtype
                 for t, data in self.raw.messages.get(topic, []):
@@ -359,6 +357,32 @@ class _Bag:
                     f"{self.path}: cannot decode a {conn.msgtype} on {conn.topic} at {t} ns: {err}"
                 ) from None
             yield conn.topic, int(t), msg
+
+
+def _mcap_typestore(raw: RawRecording) -> Any:
+    """A typestore with the message definitions an MCAP file embeds (``ros2msg`` or
+    ``ros2idl`` schemas, so messages of any distribution decode), on top of ROS 2 Humble's
+    (for a file without them)."""
+    from rosbags.typesys import Stores, get_types_from_idl, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    types: dict[str, Any] = {}
+    for ch in raw.channels.values():
+        if not ch.schema_data or ch.encoding != "cdr":
+            continue
+        try:
+            text = ch.schema_data.decode("utf-8")
+            if ch.schema_encoding == "ros2msg":
+                types.update(get_types_from_msg(text, ch.schema))
+            elif ch.schema_encoding == "ros2idl":
+                types.update(get_types_from_idl(text))
+        except Exception:  # a definition rosbags cannot parse: Humble's (if it has the type)
+            continue
+    if types:
+        fresh = get_typestore(Stores.EMPTY)
+        fresh.register({**store.fielddefs, **types})
+        return fresh
+    return store
 
 
 def _stamp(header: Any, log_ns: int, time: str) -> int:
