@@ -157,3 +157,21 @@ def test_cli_object_size(tmp_path: Path, reference) -> None:
     assert info.returncode == 0, info.stderr
     objs = {o["name"]: tuple(o["size"]) for o in json.loads(info.stdout)["objects"]}
     assert objs == TRUE
+
+
+def test_follow_takes_the_same_sizes(tmp_path: Path) -> None:
+    """``lfd segment --follow`` (the live segmenter) sizes the objects as lfd.load does."""
+    path = strip_sizes(EXP1, tmp_path / "nosize.mcap")
+    given = [f"--object-size={n}={','.join(map(str, s))}" for n, s in TRUE.items()]
+    docs = []
+    for rec, extra in ((EXP1, []), (path, given)):
+        out = tmp_path / "f.json"
+        proc = _cli("segment", "--follow", str(rec), *extra, "--json", str(out))
+        assert proc.returncode == 0 and proc.stderr.strip() == "", proc.stderr
+        docs.append(json.loads(out.read_text())["segments"])
+    assert docs[0] == docs[1] and len(docs[0]) > 3
+    proc = _cli("segment", "--follow", str(path), "--json", str(tmp_path / "g.json"))
+    assert proc.returncode == 0, proc.stderr
+    lines = [line for line in proc.stderr.splitlines() if line.strip()]
+    assert len(lines) == 3  # one default-size warning per object
+    assert all("has no size; using 0.05 m cube" in line for line in lines)

@@ -133,18 +133,14 @@ def segment_stream(
 
 
 def _sized(objects: list[Any], args: Any) -> list[Any]:
-    """The followed recording's ``(name, tag, size)`` with the ``--object-size`` sizes."""
-    from ..errors import UsageError
+    """The followed recording's ``(name, tag, size)`` with the sizes :func:`lfd.load` would
+    give them: ``--object-size``, the sidecar, the file's, else the default cube (warned)."""
+    from ..io.sizes import resolve_sizes
 
-    given = load_options(args)["object_sizes"] or {}
-    names = [o[0] for o in objects]
-    unknown = [n for n in given if n not in names]
-    if unknown:
-        raise UsageError(
-            f"--object-size names object {unknown[0]!r}, which the recording does not have; "
-            f"its objects are {', '.join(names) or 'none'}"
-        )
-    return [(n, tag, given.get(n, size)) for n, tag, size in objects]
+    sizes = resolve_sizes(
+        args.recording, {n: size for n, _, size in objects}, load_options(args)["object_sizes"]
+    )
+    return [(n, tag, sizes[n]) for n, tag, _ in objects]
 
 
 def _show_update(seg: Any, update: Any, timeline: Any, con: Any) -> None:
