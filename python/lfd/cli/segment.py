@@ -108,11 +108,9 @@ def segment_stream(
             labels.append(msg.value)
         if seg is None and msg.kind in ("hand", "object"):
             objects = _sized(follower.objects, args)
-            missing = [name for name, _, size in objects if size is None]
-            if not objects or missing:
+            if not objects:
                 raise RecordingFormatError(
-                    f"{args.recording}: the objects' sizes are not declared "
-                    f"({', '.join(missing) or 'no objects'}); cannot segment it live"
+                    f"{args.recording}: the recording declares no objects; cannot segment it live"
                 )
             seg = LiveSegmentation(
                 [o[0] for o in objects],
