@@ -294,3 +294,59 @@ def test_foxy_markers_one_per_keypoint_in_a_lone_mcap(exp1, tmp_path: Path) -> N
     demo = lfd.load(lone, mapping=mapping)
     np.testing.assert_allclose(demo.hand.keypoints, exp1.hand.keypoints, atol=1e-12)
     assert _skills(lfd.segment(demo)) == _skills(lfd.segment(exp1))
+
+
+def test_ros1_messages_in_an_mcap_file(exp1, tmp_path: Path) -> None:
+    """An .mcap of ROS 1 messages (message encoding ros1, ros1msg schemas), as ROS 1 tools
+    write them: read through the same mapping."""
+    from mcap.writer import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    T = store.types
+    path = tmp_path / "ros1.mcap"
+    with open(path, "wb") as f:
+        w = Writer(f)
+        w.start(profile="ros1", library="test")
+        chans = {}
+        for topic, typ in [("/hand", "geometry_msgs/msg/PoseArray")] + [
+            (f"/{n}", "geometry_msgs/msg/PoseStamped") for n in exp1.objects
+        ]:
+            text, _ = store.generate_msgdef(typ)
+            sid = w.register_schema(typ.replace("/msg/", "/"), "ros1msg", text.encode())
+            chans[topic] = (w.register_channel(topic, "ros1", sid), typ)
+
+        def header(t: int):
+            stamp = T["builtin_interfaces/msg/Time"](sec=t // 10**9, nanosec=t % 10**9)
+            return T["std_msgs/msg/Header"](seq=0, stamp=stamp, frame_id="world")
+
+        def pose(p, q=(0.0, 0.0, 0.0, 1.0)):
+            return T["geometry_msgs/msg/Pose"](
+                position=T["geometry_msgs/msg/Point"](x=p[0], y=p[1], z=p[2]),
+                orientation=T["geometry_msgs/msg/Quaternion"](x=q[0], y=q[1], z=q[2], w=q[3]),
+            )
+
+        def write(topic: str, t: int, msg) -> None:
+            cid, typ = chans[topic]
+            w.add_message(cid, t, bytes(store.serialize_ros1(msg, typ)), t)
+
+        for t, kp in zip(exp1.hand.t_ns, exp1.hand.keypoints, strict=True):
+            msg = T["geometry_msgs/msg/PoseArray"](
+                header=header(int(t)), poses=[pose(p) for p in kp]
+            )
+            write("/hand", int(t), msg)
+        for o in exp1.objects.values():
+            for t, p, q in zip(o.t_ns, o.position, o.quaternion, strict=True):
+                msg = T["geometry_msgs/msg/PoseStamped"](header=header(int(t)), pose=pose(p, q))
+                write(f"/{o.name}", int(t), msg)
+        w.finish()
+    mapping = {
+        "hand": {"topic": "/hand"},
+        "objects": {
+            n: {"topic": f"/{n}", "size": o.size.tolist()} for n, o in exp1.objects.items()
+        },
+    }
+    demo = lfd.load(path, mapping=mapping)
+    assert demo.metadata["ros"]["format"] == "ROS 1 MCAP file"
+    np.testing.assert_allclose(demo.hand.keypoints, exp1.hand.keypoints, atol=1e-12)
+    assert _skills(lfd.segment(demo)) == _skills(lfd.segment(exp1))

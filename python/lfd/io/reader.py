@@ -434,7 +434,8 @@ def is_ros_path(path: str | os.PathLike[str]) -> bool:
 
 
 def is_ros_recording(raw: RawRecording) -> bool:
-    """Whether an MCAP file holds ROS 2 messages (a channel with message encoding ``cdr``)."""
+    """Whether an MCAP file holds ROS messages (a channel with message encoding ``cdr``, ROS 2,
+    or ``ros1``)."""
     return any(c.encoding in ("cdr", "ros1") for c in raw.channels.values())
 
 
@@ -450,5 +451,12 @@ def _load_ros(
         raise UsageError(
             f"{os.fspath(path)} is a ROS bag: give a topic mapping with --map MAP.toml "
             "(lfd.load(..., mapping=...); see docs/ros.md)"
+        )
+    if raw is not None and not raw.complete:
+        warnings.warn(
+            f"{raw.path} is truncated or was not closed ({raw.error}); recovered "
+            f"{raw.message_count} messages covering {raw.span_s:.2f} s from its complete chunks",
+            RecoveredFileWarning,
+            stacklevel=3,
         )
     return load_ros(path, mapping, object_sizes=object_sizes, raw=raw)

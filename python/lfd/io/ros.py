@@ -295,7 +295,8 @@ class _Bag:
         self.topics: dict[str, _Topic] = {}
         rosbags = _rosbags()
         if raw is not None:
-            self.kind = "ROS 2 MCAP file"
+            ros1 = any(c.encoding == "ros1" for c in raw.channels.values())
+            self.kind = "ROS 1 MCAP file" if ros1 else "ROS 2 MCAP file"
             for topic, ch in raw.channels.items():
                 self.topics[topic] = _Topic(ch.schema, ch.count)
             return
@@ -339,9 +340,11 @@ class _Bag:
             store = _mcap_typestore(self.raw)
             for topic in topics:
                 msgtype = self.topics[topic].msgtype
+                ros1 = self.raw.channels[topic].encoding == "ros1"
+                decode = store.deserialize_ros1 if ros1 else store.deserialize_cdr
                 for t, data in self.raw.messages.get(topic, []):
                     try:
-                        msg = store.deserialize_cdr(data, msgtype)
+                        msg = decode(data, _full(msgtype))
                     except Exception as err:
                         raise RecordingFormatError(
                             f"{self.path}: cannot decode a {msgtype} on {topic} at {t} ns: {err}"
@@ -359,21 +362,28 @@ class _Bag:
             yield conn.topic, int(t), msg
 
 
+def _full(msgtype: str) -> str:
+    """``pkg/Type`` (ROS 1 names) -> ``pkg/msg/Type``, the names of rosbags' typestores."""
+    parts = msgtype.split("/")
+    return f"{parts[0]}/msg/{parts[1]}" if len(parts) == 2 else msgtype
+
+
 def _mcap_typestore(raw: RawRecording) -> Any:
-    """A typestore with the message definitions an MCAP file embeds (``ros2msg`` or
-    ``ros2idl`` schemas, so messages of any distribution decode), on top of ROS 2 Humble's
-    (for a file without them)."""
+    """A typestore with the message definitions an MCAP file embeds (``ros2msg``,
+    ``ros2idl`` or ``ros1msg`` schemas, so messages of any distribution decode), on top of ROS 2
+    Humble's (ROS 1 Noetic's for ROS 1 messages) for a file without them."""
     from rosbags.typesys import Stores, get_types_from_idl, get_types_from_msg, get_typestore
 
-    store = get_typestore(Stores.ROS2_HUMBLE)
+    ros1 = any(ch.encoding == "ros1" for ch in raw.channels.values())
+    store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
     types: dict[str, Any] = {}
     for ch in raw.channels.values():
-        if not ch.schema_data or ch.encoding != "cdr":
+        if not ch.schema_data or ch.encoding not in ("cdr", "ros1"):
             continue
         try:
             text = ch.schema_data.decode("utf-8")
-            if ch.schema_encoding == "ros2msg":
-                types.update(get_types_from_msg(text, ch.schema))
+            if ch.schema_encoding in ("ros2msg", "ros1msg"):
+                types.update(get_types_from_msg(text, _full(ch.schema)))
             elif ch.schema_encoding == "ros2idl":
                 types.update(get_types_from_idl(text))
         except Exception:  # a definition rosbags cannot parse: Humble's (if it has the type)
