@@ -350,3 +350,20 @@ def test_ros1_messages_in_an_mcap_file(exp1, tmp_path: Path) -> None:
     assert demo.metadata["ros"]["format"] == "ROS 1 MCAP file"
     np.testing.assert_allclose(demo.hand.keypoints, exp1.hand.keypoints, atol=1e-12)
     assert _skills(lfd.segment(demo)) == _skills(lfd.segment(exp1))
+
+
+@pytest.mark.parametrize("kind", ["ros1", "ros2-sqlite3"])
+def test_info_of_a_bag(kind: str, bags) -> None:
+    bag, mapping = bags[kind]
+    ours = {c["topic"]: c for c in lfd.io.summarise(EXP1)["channels"]}
+    s = lfd.io.summarise(bag, mapping=mapping)
+    assert s["error"] is None and s["warnings"] == []
+    assert [o["name"] for o in s["objects"]] == ["box_1", "box_2", "box_3"]
+    chans = {c["topic"]: c for c in s["channels"]}
+    hand = chans["/hand/keypoints" if kind == "ros1" else "/hand/markers"]
+    assert hand["count"] == ours["/hand/right/keypoints"]["count"]
+    assert hand["rate_hz"] == pytest.approx(ours["/hand/right/keypoints"]["rate_hz"], abs=1e-3)
+    assert s["duration_s"] == pytest.approx(lfd.load(EXP1).duration_s, abs=1e-6)
+    without = lfd.io.summarise(bag)  # the channels, and why it cannot be read
+    assert without["channels"] == s["channels"]
+    assert "give a topic mapping with --map" in without["error"]

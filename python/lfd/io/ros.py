@@ -743,37 +743,47 @@ def _read(
 
 
 def bag_summary(path: str | os.PathLike[str]) -> dict[str, Any]:
-    """What a ROS bag holds, in the shape of :func:`lfd.io.summarise`'s file part: topics
-    with their message types and counts (per-topic times are not in a bag's index: None)."""
+    """What a ROS bag holds, in the shape of :func:`lfd.io.summarise`'s file part: every topic
+    with its message type, count, rate and time span (the messages are read, not decoded)."""
     p = os.fspath(path)
     bag = _Bag(p, None)
     try:
-        start, end = int(bag.reader.start_time), int(bag.reader.end_time)
+        stats: dict[str, list[int]] = {}
+        for conn, t, _ in bag.reader.messages():
+            s = stats.setdefault(conn.topic, [0, int(t), int(t)])
+            s[0] += 1
+            s[1], s[2] = min(s[1], int(t)), max(s[2], int(t))
+        t0 = min((s[1] for s in stats.values()), default=0)
+        t1 = max((s[2] for s in stats.values()), default=0)
         size = (
             os.path.getsize(p)
             if os.path.isfile(p)
             else sum(f.stat().st_size for f in os.scandir(p) if f.is_file())
         )
+        channels = []
+        for topic, info in sorted(bag.topics.items()):
+            count, first, last = stats.get(topic, [0, 0, 0])
+            span = (last - first) * 1e-9
+            channels.append(
+                {
+                    "topic": topic,
+                    "schema": info.msgtype,
+                    "count": count,
+                    "rate_hz": round((count - 1) / span, 3) if span > 0 else 0.0,
+                    "first_s": (first - t0) * 1e-9 if count else None,
+                    "last_s": (last - t0) * 1e-9 if count else None,
+                }
+            )
         return {
             "path": p,
             "file_size": size,
             "library": bag.kind,
             "complete": True,
             "damage": None,
-            "messages": sum(t.count for t in bag.topics.values()),
-            "duration_s": max(0, end - start) * 1e-9,
-            "start_ns": start,
-            "channels": [
-                {
-                    "topic": topic,
-                    "schema": t.msgtype,
-                    "count": t.count,
-                    "rate_hz": 0.0,
-                    "first_s": None,
-                    "last_s": None,
-                }
-                for topic, t in sorted(bag.topics.items())
-            ],
+            "messages": sum(c["count"] for c in channels),
+            "duration_s": (t1 - t0) * 1e-9,
+            "start_ns": t0,
+            "channels": channels,
             "metadata_records": {},
         }
     finally:
