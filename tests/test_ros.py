@@ -367,3 +367,41 @@ def test_info_of_a_bag(kind: str, bags) -> None:
     without = lfd.io.summarise(bag)  # the channels, and why it cannot be read
     assert without["channels"] == s["channels"]
     assert "give a topic mapping with --map" in without["error"]
+
+
+def test_reference_frame_below_the_root(bags, exp1, tmp_path: Path) -> None:
+    """reference_frame = camera: the chain goes up to world and back down through the inverse."""
+    from _rosbags import WORLD_T_CAMERA
+
+    bag, mapping = bags["ros1"]
+    text = mapping.read_text(encoding="utf-8").replace(
+        'reference_frame = "world"', 'reference_frame = "camera"'
+    )
+    (tmp_path / "cam.toml").write_text(text, encoding="utf-8")
+    demo = lfd.load(bag, mapping=tmp_path / "cam.toml")
+    cam_T_world = np.linalg.inv(WORLD_T_CAMERA)
+    for name, o in exp1.objects.items():
+        want = o.position @ cam_T_world[:3, :3].T + cam_T_world[:3, 3]
+        np.testing.assert_allclose(demo.objects[name].position, want, atol=1e-9)
+    want = exp1.hand.keypoints @ cam_T_world[:3, :3].T + cam_T_world[:3, 3]
+    np.testing.assert_allclose(demo.hand.keypoints, want, atol=1e-9)
+
+
+def test_tf_chain_interpolates_dynamic_edges() -> None:
+    """world -> a moves (x 0 -> 1 m, yaw 0 -> 90 deg over 1 s), a -> b is static (0.1 m along
+    a's x): at 0.5 s b is at a's midpoint plus 0.1 m along yaw 45 deg; before the first and after
+    the last sample the edge holds."""
+    from lfd.io.ros import _TfTree
+    from scipy.spatial.transform import Rotation
+
+    tf = _TfTree()
+    q0, q1 = Rotation.from_euler("z", [[0], [90]], degrees=True).as_quat()
+    tf.add("world", "a", 1_000_000_000, np.zeros(3), q0, False)
+    tf.add("/world", "/a", 2_000_000_000, np.array([1.0, 0, 0]), q1, False)
+    tf.add("a", "b", 0, np.array([0.1, 0, 0]), np.array([0, 0, 0, 1.0]), True)
+    t = np.array([0, 1_500_000_000, 3_000_000_000])
+    got = tf.ref_T("world", "b", t, "test")[:, :3, 3]
+    c = np.cos(np.pi / 4) * 0.1
+    np.testing.assert_allclose(got, [[0.1, 0, 0], [0.5 + c, c, 0], [1.0, 0.1, 0]], atol=1e-12)
+    back = tf.ref_T("b", "world", t, "test") @ tf.ref_T("world", "b", t, "test")
+    np.testing.assert_allclose(back, np.tile(np.eye(4), (3, 1, 1)), atol=1e-12)
