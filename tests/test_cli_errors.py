@@ -138,6 +138,35 @@ CASES: list[tuple[str, str, str]] = [
     ("hands-depth-wrong-size", "perception hands {photo} --depth {depth} --intrinsics {k}", "must be aligned"),
     ("hands-bad-intrinsics", "perception hands {photo} --depth {depth} --intrinsics {bad}", "bad.json: expected JSON"),
     ("hands-json-is-input", "perception hands {photo} --json {photo}", "also an input"),
+    # recordings from other tools: --object-size, ROS bags (--map, lfd import ros)
+    ("segment-object-size-unknown", "segment {rec} --object-size box_9=0.1,0.1,0.1", "'box_9', which the recording does not have; its objects are box_1, box_2, box_3"),
+    ("segment-object-size-nan", "segment {rec} --object-size box_1=nan,0.1,0.1", "argument --object-size: a size is three positive finite lengths"),
+    ("segment-object-size-zero", "segment {rec} --object-size box_1=0.1,0,0.1", "positive finite"),
+    ("segment-object-size-no-name", "segment {rec} --object-size 0.1,0.1,0.1", "expected NAME=X,Y,Z"),
+    ("segment-object-size-twice", "segment {rec} --object-size box_1=0.1,0.1,0.1 --object-size box_1=0.2,0.2,0.2", "given twice"),
+    ("info-object-size-unknown", "info {rec} --object-size box_9=0.1,0.1,0.1", "its objects are box_1"),
+    ("eval-object-size-unknown", "eval {rec} --object-size box_9=0.1,0.1,0.1", "its objects are box_1"),
+    ("templates-train-object-size-unknown", "templates train {rec} -o {tmp}/t.json --object-size box_9=0.1,0.1,0.1", "its objects are box_1"),
+    ("label-object-size-unknown", "label {rec} --from {overlap} --object-size box_9=0.1,0.1,0.1", "its objects are box_1"),
+    ("reproduce-object-size-unknown", "reproduce {rec} --object-size box_9=0.1,0.1,0.1", "its objects are box_1"),
+    ("segment-map-for-lfd-recording", "segment {rec} --map {bagmap}", "not a ROS bag: drop the topic mapping"),
+    ("segment-bag-without-map", "segment {bag}", "is a ROS bag: give a topic mapping with --map"),
+    ("info-bag-without-map", "info {bag}", "is a ROS bag: give a topic mapping with --map"),
+    ("reproduce-bag-without-map", "reproduce {bag} --segment", "--map"),
+    ("segment-map-missing-topic", "segment {bag} --map {map_missing}", "does not have: /hand/kp (hand); the bag has: /hand/keypoints (geometry_msgs/msg/PoseArray, 73 msgs), /tf"),
+    ("segment-map-unknown-type", "segment {bag} --map {map_type}", "has message type tf2_msgs/msg/TFMessage, which lfd cannot read as hand keypoints; supported: geometry_msgs/PoseArray, visualization_msgs/MarkerArray"),
+    ("segment-map-malformed", "segment {bag} --map {map_bad}", "hand.side must be"),
+    ("segment-map-not-toml", "segment {bag} --map {bad}", "not a valid TOML topic mapping"),
+    ("segment-map-missing", "segment {bag} --map {tmp}/no.toml", "--map"),
+    ("segment-follow-map", "segment {rec} --follow --map {bagmap}", "drop --map"),
+    ("import-no-map", "import ros {bag} -o {tmp}/x.mcap", "--map"),
+    ("import-no-source", "import", "required"),
+    ("import-map-missing-topic", "import ros {bag} --map {map_missing} -o {tmp}/x.mcap", "the bag has: /hand/keypoints"),
+    ("import-map-unknown-key", "import ros {bag} --map {map_key} -o {tmp}/x.mcap", "unknown key 'hnad'"),
+    ("import-output-extension", "import ros {bag} --map {bagmap} -o {tmp}/x.json", "extension"),
+    ("import-output-is-dir", "import ros {bag} --map {bagmap} -o {tmp}", "is a directory"),
+    ("import-missing-bag", "import ros {tmp}/no.bag --map {bagmap} -o {tmp}/x.mcap", "no.bag"),
+    ("import-not-a-bag", "import ros {bad} --map {bagmap} -o {tmp}/x.mcap", "not an MCAP file"),
     # a failing command that had opened --rerun-save leaves no .rrd
     ("segment-failed-rrd", "segment {tmp}/no.mcap --rerun-save {tmp}/o.rrd", "no.mcap"),
     # values out of range, NaN / inf, bad --params and template files: refused before any work
@@ -241,6 +270,26 @@ def bad_labels(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     return {name: d / f"{name}.csv" for name in files}
 
 
+@pytest.fixture(scope="module")
+def ros_inputs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """A ROS 1 bag of exp1 (tests/_rosbags.py), its mapping and mappings with one mistake."""
+    import lfd
+    from _rosbags import write_ros1
+
+    d = tmp_path_factory.mktemp("ros")
+    text = write_ros1(lfd.load(EXP1, images=False), d / "exp1.bag")
+    maps = {
+        "bagmap": text,
+        "map_missing": text.replace("/hand/keypoints", "/hand/kp"),
+        "map_type": text.replace('topic = "/hand/keypoints"', 'topic = "/tf"'),
+        "map_bad": text.replace('side = "right"', 'side = "both"'),
+        "map_key": text.replace("[hand]", "[hnad]"),
+    }
+    for name, t in maps.items():
+        (d / f"{name}.toml").write_text(t, encoding="utf-8")
+    return {"bag": d / "exp1.bag", **{name: d / f"{name}.toml" for name in maps}}
+
+
 def _tree(root: Path) -> dict[str, str]:
     """Every file under ``root`` (hidden ones included) -> a hash of its content."""
     return {
@@ -268,6 +317,7 @@ def test_user_error_is_one_line(
     tmp_path: Path,
     bad_templates: dict[str, Path],
     bad_labels: dict[str, Path],
+    request: pytest.FixtureRequest,
 ) -> None:
     work = tmp_path / "work"
     work.mkdir()
@@ -290,6 +340,7 @@ def test_user_error_is_one_line(
         **bad_templates,
         **bad_labels,
         **(_still_inputs(work) if "{photo}" in argv or "{truncated}" in argv else {}),
+        **(request.getfixturevalue("ros_inputs") if "{bag" in argv or "{map" in argv else {}),
     }
     before = _tree(work)
     try:
@@ -319,10 +370,12 @@ def _still_inputs(work: Path) -> dict[str, Path]:
 
 
 def test_one_case_per_subcommand() -> None:
+    import importlib
+
     from lfd.cli import COMMANDS
 
     covered = {c[1].split()[0] for c in CASES}
-    assert covered == set(COMMANDS)
+    assert covered == {importlib.import_module(f"lfd.cli.{m}").NAME for m in COMMANDS}
     perception = {c[1].split()[1] for c in CASES if c[1].startswith("perception ")}
     assert perception == {"train", "eval", "hands"}
     assert len({c[0] for c in CASES}) == len(CASES)  # ids are unique

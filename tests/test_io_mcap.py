@@ -456,7 +456,8 @@ def test_round_trip_property(steps: list[int], nan_mask: list[bool], seed: int) 
 
 
 def test_foreign_file_extra_topics_and_missing_sizes(tmp_path: Path) -> None:
-    """A file from another tool: unknown topics are ignored, a box without size is an error."""
+    """A file from another tool: unknown topics are ignored, a box without size gets the
+    default cube with a warning (tests/test_object_sizes.py gives sizes)."""
     from foxglove_schemas_protobuf.Log_pb2 import Log
     from lfd.io import messages
     from mcap_protobuf.writer import Writer
@@ -472,8 +473,11 @@ def test_foreign_file_extra_topics_and_missing_sizes(tmp_path: Path) -> None:
                 "/objects/box/pose", messages.object_pose(t, np.zeros(3), np.eye(4)[3]), t, t
             )
             w.write_message("/rosout", Log(message="hello"), t, t)
-    with pytest.raises(RecordingFormatError, match="'box' has no size"):
-        load(path)
+    from lfd.errors import DefaultSizeWarning
+
+    with pytest.warns(DefaultSizeWarning, match="object box has no size; using 0.05 m cube"):
+        demo = load(path)
+    np.testing.assert_array_equal(demo.objects["box"].size, [0.05, 0.05, 0.05])
 
 
 # --- malformed values and decompression bombs -----------------------------------------------

@@ -82,3 +82,8 @@ class RecoveredFileWarning(LfdWarning):
 
 class TimestampWarning(LfdWarning):
     """Out-of-order samples were sorted or duplicate timestamps dropped while loading."""
+
+
+class DefaultSizeWarning(LfdWarning):
+    """An object's size was not given anywhere; a default cube was used (see
+    :data:`lfd.io.sizes.DEFAULT_OBJECT_SIZE`)."""

@@ -26,6 +26,7 @@ COMMANDS: tuple[str, ...] = (
     "simulate",
     "segment",
     "label",
+    "import_",
     "templates",
     "eval",
     "reproduce",

@@ -124,3 +124,48 @@ def check_inputs(**named: str | os.PathLike[str] | None) -> None:
             flag = "--" + option.replace("_", "-")
             what = "is a directory" if os.path.isdir(path) else "does not exist"
             raise UsageError(f"{flag} {path} {what}; give an existing file")
+
+
+# --- recordings from other tools: --object-size, --map ---------------------------------------
+def add_recording_arguments(parser: argparse.ArgumentParser, *, ros: bool = True) -> None:
+    """``--object-size NAME=X,Y,Z`` (repeatable) and, with ``ros``, ``--map MAP.toml``: how
+    :func:`lfd.load` reads a file without object sizes or a ROS bag (read them with
+    :func:`load_options`)."""
+    from ._types import object_size
+
+    group = parser.add_argument_group("recordings from other tools")
+    group.add_argument(
+        "--object-size",
+        action="append",
+        type=object_size,
+        metavar="NAME=X,Y,Z",
+        help="an object's box size in metres, e.g. box_1=0.05,0.05,0.05; wins over the sidecar "
+        "REC.sizes.toml and the file's own sizes (an object with none: 0.05 m cube and a "
+        "warning); repeatable",
+    )
+    if ros:
+        group.add_argument(
+            "--map",
+            metavar="MAP.toml",
+            help="topic mapping of a ROS bag (.bag, ROS 2 bag directory or .db3, ROS 2 .mcap): "
+            "which topics or tf frames are the hand and the objects (docs/ros.md)",
+        )
+
+
+def load_options(args: argparse.Namespace) -> dict[str, Any]:
+    """Keyword arguments of :func:`lfd.load` chosen by :func:`add_recording_arguments`'s
+    options: ``object_sizes`` and (when the command has ``--map``) ``mapping``. The mapping
+    file is read and checked here, before any recording."""
+    from ..errors import UsageError
+
+    sizes: dict[str, Any] = {}
+    for name, size in getattr(args, "object_size", None) or []:
+        if name in sizes:
+            raise UsageError(f"--object-size {name}=... is given twice; give each object once")
+        sizes[name] = size
+    out: dict[str, Any] = {"object_sizes": sizes or None}
+    if getattr(args, "map", None) is not None:
+        from ..io.ros import read_mapping
+
+        out["mapping"] = read_mapping(args.map)
+    return out

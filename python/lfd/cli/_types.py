@@ -85,3 +85,14 @@ def seconds_or_forever(text: str) -> float:
     if v < 0:
         raise argparse.ArgumentTypeError(f"must be seconds >= 0 or 'inf', got {text!r}")
     return v
+
+
+def object_size(text: str) -> tuple[str, tuple[float, float, float]]:
+    """``NAME=X,Y,Z``: an object's box size, three positive finite lengths in metres."""
+    from ..errors import UsageError
+    from ..io.sizes import parse_object_size
+
+    try:
+        return parse_object_size(text)
+    except UsageError as err:
+        raise argparse.ArgumentTypeError(str(err).removeprefix(f"--object-size {text}: ")) from None

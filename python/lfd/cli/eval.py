@@ -10,10 +10,12 @@ from typing import TYPE_CHECKING, Any, get_args
 
 from ._options import (
     add_json_argument,
+    add_recording_arguments,
     check_inputs,
     check_json,
     console,
     emit_json,
+    load_options,
 )
 
 if TYPE_CHECKING:
@@ -56,6 +58,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="with --leave-one-out: adapt this template set (the shipped one: default) to the "
         "other recordings, instead of training from scratch",
     )
+    add_recording_arguments(parser, ros=False)  # ROS bags carry no ground truth
     from ._rerun import add_rerun_arguments
 
     add_rerun_arguments(parser)  # shows one recording: every method's lane beside the truth
@@ -106,10 +109,11 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("--rerun* shows one recording's methods; drop it with --leave-one-out")
     if args.base is not None and args.base != "default":
         check_inputs(base=args.base)
+    sizes = load_options(args)["object_sizes"]
     templates = Templates.load(args.templates) if args.templates else None
     base, base_name = _base(args, templates) if args.leave_one_out else (None, "")
     if open_from_args(args, "lfd_eval"):
-        _show(paths, methods, templates, args.grammar, con)
+        _show(paths, methods, templates, args.grammar, con, sizes)
     with Progress(console=con, transient=True, disable=not con.is_terminal) as progress:
         total = 2 * len(paths) if args.leave_one_out else len(paths)
         task = progress.add_task("evaluating", total=total)
@@ -125,10 +129,16 @@ def run(args: argparse.Namespace) -> int:
                 methods=[m for m in methods if m in TEMPLATE_METHODS],
                 grammar=args.grammar,
                 progress=step,
+                object_sizes=sizes,
             )
         else:
             report = evaluate(
-                paths, templates=templates, methods=methods, grammar=args.grammar, progress=step
+                paths,
+                templates=templates,
+                methods=methods,
+                grammar=args.grammar,
+                progress=step,
+                object_sizes=sizes,
             )
     if not report.recordings:
         raise UsageError(
@@ -162,6 +172,7 @@ def _show(
     templates: Any,
     grammar: GrammarUse,
     console: Any,
+    object_sizes: Any = None,
 ) -> None:
     """Log one recording and every method's result to the open Rerun session."""
     if len(paths) != 1:
@@ -173,7 +184,7 @@ def _show(
     from ..io import load
     from ..viz.pipeline import log_methods, log_recorded_demo
 
-    demo = load(paths[0])
+    demo = load(paths[0], object_sizes=object_sizes)
     traj = log_recorded_demo(demo, features=False)  # log_methods logs them
     log_methods(demo, methods, templates=templates, trajectory=traj, grammar=grammar)
 

@@ -6,22 +6,33 @@ import argparse
 import json
 import sys
 
-from ._options import add_json_argument, check_json, console, json_to_stdout, write_json
+from ._options import (
+    add_json_argument,
+    add_recording_arguments,
+    check_json,
+    console,
+    json_to_stdout,
+    load_options,
+    write_json,
+)
 
 NAME = "info"
 HELP = "Summarise a recording: channels, duration, objects, skill labels, metadata, damage."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("recording", help="an lfd MCAP recording")
+    parser.add_argument(
+        "recording", help="an lfd MCAP recording, or a ROS bag with --map (docs/ros.md)"
+    )
     add_json_argument(parser, "the summary")
+    add_recording_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
-    check_json(args, inputs=[args.recording])
+    check_json(args, inputs=[p for p in (args.recording, args.map) if p])
     from ..io import summarise
 
-    s = summarise(args.recording)
+    s = summarise(args.recording, **load_options(args))
     if args.json:
         write_json(args.json, s)
     from rich.table import Table

@@ -28,6 +28,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="OUT.mcap",
         help="write the labelled copy here instead of replacing the recording",
     )
+    from ._options import add_recording_arguments
+
+    add_recording_arguments(parser, ros=False)  # labels are written into an lfd recording
 
 
 def run(args: argparse.Namespace) -> int:
@@ -36,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
     from ..io import load
     from ..io.labels import read_labels, write_labels
     from ..outputs import check_output
-    from ._options import check_inputs
+    from ._options import check_inputs, load_options
 
     check_inputs(**{"from": args.labels})
     if args.output is not None:
@@ -45,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
             args.output = None
     else:
         check_output(args.recording, inputs=[args.labels], what="the recording")
-    demo = load(args.recording, images=False)
+    demo = load(args.recording, images=False, **load_options(args))
     labels = read_labels(args.labels, demo)
     dest = write_labels(args.recording, labels, args.output)
     origin = demo.start_ns

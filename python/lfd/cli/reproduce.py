@@ -13,9 +13,11 @@ import argparse
 
 from ._options import (
     add_json_argument,
+    add_recording_arguments,
     add_segmentation_arguments,
     check_json,
     console,
+    load_options,
     segmentation_options,
     write_json,
 )
@@ -25,7 +27,9 @@ HELP = "Reproduce a demonstration on a simulated 7-DoF arm (replay, skills or DM
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("recording", help="an lfd MCAP recording")
+    parser.add_argument(
+        "recording", help="an lfd MCAP recording, or a ROS bag with --map (docs/ros.md)"
+    )
     parser.add_argument(
         "--mode",
         choices=("replay", "skills", "dmp", "all"),
@@ -50,6 +54,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="segment the recording with lfd.segment instead of using its ground-truth labels",
     )
     add_segmentation_arguments(parser, used_with="with --segment")
+    add_recording_arguments(parser)
     add_json_argument(parser, "the task program and the measurements")
     parser.add_argument(
         "--video",
@@ -83,15 +88,16 @@ def run(args: argparse.Namespace) -> int:
     from ..segmentation import segment
     from ._rerun import check_rerun_args, close_from_args, open_from_args
 
-    inputs = [p for p in (args.recording, args.task) if p]
+    inputs = [p for p in (args.recording, args.task, args.map) if p]
     check_json(args, inputs)
     check_rerun_args(args, inputs)
     err = Console(stderr=True)  # progress, failures: stderr
     displace = parse_displacement(args.displace)
+    loading = load_options(args)
     if args.video:
         check_output(args.video, inputs=[args.recording], what="--video", suffixes=VIDEO_SUFFIXES)
     show = open_from_args(args, "lfd_reproduce")
-    demo = load(args.recording, images=False)
+    demo = load(args.recording, images=False, **loading)
     traj = preprocess(demo)
     t0 = int(traj.t_ns[0])
     if args.task:

@@ -17,10 +17,12 @@ from typing import Any
 
 from ._options import (
     add_json_argument,
+    add_recording_arguments,
     add_segmentation_arguments,
     check_json,
     console,
     emit_json,
+    load_options,
     segmentation_options,
 )
 from ._types import positive_float
@@ -30,7 +32,9 @@ HELP = "Segment a recording into skills (two-stage HMM template matching)."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("recording", help="an lfd MCAP recording")
+    parser.add_argument(
+        "recording", help="an lfd MCAP recording, or a ROS bag with --map (docs/ros.md)"
+    )
     parser.add_argument(
         "--follow",
         action="store_true",
@@ -47,6 +51,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--templates", metavar="FILE", help="template file (default: shipped)")
     add_segmentation_arguments(parser)
+    add_recording_arguments(parser)
     add_json_argument(parser, "the segments (and metrics against the ground truth)")
     from ._rerun import add_rerun_arguments
 
@@ -63,7 +68,11 @@ def segment_recording(
     from ..io import load
     from ..segmentation import segment
 
-    demo = load(args.recording, images=bool(getattr(args, "rerun_session", None)))
+    demo = load(
+        args.recording,
+        images=bool(getattr(args, "rerun_session", None)),
+        **load_options(args),
+    )
     if on_loaded is not None:
         on_loaded(demo)
     result = segment(demo, **segmentation_options(args))
@@ -98,12 +107,10 @@ def segment_stream(
         if msg.kind == "label":
             labels.append(msg.value)
         if seg is None and msg.kind in ("hand", "object"):
-            objects = follower.objects
-            missing = [name for name, _, size in objects if size is None]
-            if not objects or missing:
+            objects = _sized(follower.objects, args)
+            if not objects:
                 raise RecordingFormatError(
-                    f"{args.recording}: the objects' sizes are not declared "
-                    f"({', '.join(missing) or 'no objects'}); cannot segment it live"
+                    f"{args.recording}: the recording declares no objects; cannot segment it live"
                 )
             seg = LiveSegmentation(
                 [o[0] for o in objects],
@@ -121,6 +128,17 @@ def segment_stream(
     for w in seg.pre.warnings:  # the segmenter's own warnings were printed as they came
         print(f"lfd segment: warning: {' '.join(str(w).split())}", file=sys.stderr)
     return seg.result(), labels, list(seg.settled_ns)
+
+
+def _sized(objects: list[Any], args: Any) -> list[Any]:
+    """The followed recording's ``(name, tag, size)`` with the sizes :func:`lfd.load` would
+    give them: ``--object-size``, the sidecar, the file's, else the default cube (warned)."""
+    from ..io.sizes import resolve_sizes
+
+    sizes = resolve_sizes(
+        args.recording, {n: size for n, _, size in objects}, load_options(args)["object_sizes"]
+    )
+    return [(n, tag, sizes[n]) for n, tag, _ in objects]
 
 
 def _show_update(seg: Any, update: Any, timeline: Any, con: Any) -> None:
@@ -236,10 +254,15 @@ def run(args: argparse.Namespace) -> int:
     from ._rerun import check_rerun_args, close_from_args, open_from_args
 
     if getattr(args, "follow", False):
+        if args.map is not None:
+            from ..errors import UsageError
+
+            raise UsageError("--follow reads an lfd recording as it is written; drop --map")
         return _run_follow(args)
-    inputs = [p for p in (args.recording, args.templates) if p]
+    inputs = [p for p in (args.recording, args.templates, args.map) if p]
     check_json(args, inputs)
     check_rerun_args(args, inputs)
+    load_options(args)  # a bad --map fails before a viewer opens
     show = open_from_args(args, "lfd_segment")
     shown: list[Any] = []  # the trajectory made while showing the demonstration
     demo, result, doc = segment_recording(args, on_loaded=_show_demo(shown) if show else None)

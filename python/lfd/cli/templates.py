@@ -35,6 +35,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "again when they segment (default: 0, confidence ignored; not with --base, which keeps "
         "the base's preprocessing)",
     )
+    from ._options import add_recording_arguments
+
+    add_recording_arguments(train, ros=False)  # ROS bags carry no ground truth
     show = sub.add_parser("show", help="summarise a template file")
     show.add_argument("file", nargs="?", help="template file (default: the shipped one)")
 
@@ -53,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
         collect_examples,
         template_params,
     )
-    from ._options import check_inputs
+    from ._options import check_inputs, load_options
 
     console = Console()
     if args.action == "train":
@@ -74,6 +77,7 @@ def run(args: argparse.Namespace) -> int:
             raise UsageError(
                 "--min-keypoint-confidence sets how to train from scratch; --base keeps its own"
             )
+        sizes = load_options(args)["object_sizes"]
     if args.action == "show":
         t = Templates.load(args.file) if args.file else Templates.default()
         console.print(t)
@@ -103,10 +107,11 @@ def run(args: argparse.Namespace) -> int:
                 params=params,
                 progress=step,
                 min_keypoint_confidence=MIN_KEYPOINT_CONFIDENCE if conf is None else conf,
+                object_sizes=sizes,
             )
         else:
             names, examples = collect_examples(
-                paths, preprocessing=base.preprocessing, progress=step
+                paths, preprocessing=base.preprocessing, progress=step, object_sizes=sizes
             )
             if not examples:
                 raise UsageError(

@@ -5,12 +5,19 @@
 - :func:`load` reads one back, recovering truncated files with a warning;
 - :func:`follow` reads a recording while another process still writes it;
 - :func:`scan` lists a file's channels, metadata and damage without decoding;
-- :func:`summarise` tells what a recording holds (``lfd info``).
+- :func:`summarise` tells what a recording holds (``lfd info``);
+- :mod:`lfd.io.sizes` sizes the objects a file does not (``--object-size``, ``REC.sizes.toml``);
+- :mod:`lfd.io.ros` reads ROS 1/2 bags through a topic mapping (the ``ros`` extra).
 """
 
 from __future__ import annotations
 
-from ..errors import RecordingFormatError, RecoveredFileWarning, TimestampWarning
+from ..errors import (
+    DefaultSizeWarning,
+    RecordingFormatError,
+    RecoveredFileWarning,
+    TimestampWarning,
+)
 from .follow import Follower, LiveMessage, follow
 from .mcapfile import ChannelSummary, RawRecording, scan
 from .reader import load
@@ -19,6 +26,7 @@ from .writer import McapRecorder, save
 
 __all__ = [
     "ChannelSummary",
+    "DefaultSizeWarning",
     "Follower",
     "LiveMessage",
     "McapRecorder",

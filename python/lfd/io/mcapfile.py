@@ -59,6 +59,8 @@ class ChannelSummary:
     count: int = 0
     first_ns: int | None = None
     last_ns: int | None = None
+    schema_encoding: str = ""
+    schema_data: bytes = b""
 
     @property
     def duration_s(self) -> float:
@@ -222,6 +224,8 @@ def scan(path: str | os.PathLike[str]) -> RawRecording:
                             schema=name,
                             encoding=record.message_encoding,
                             metadata=dict(record.metadata),
+                            schema_encoding=schema.encoding if schema is not None else "",
+                            schema_data=bytes(schema.data) if schema is not None else b"",
                         )
                         raw.messages[record.topic] = []
                 elif isinstance(record, Metadata):

@@ -14,7 +14,7 @@ import math
 import os
 import re
 import warnings
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -28,10 +28,17 @@ from foxglove_schemas_protobuf.RawImage_pb2 import RawImage
 from google.protobuf.message import DecodeError
 
 from ..demo import CameraInfo, Demonstration, HandTrack, ImageStream, ObjectTrack, SkillLabel
-from ..errors import LfdError, RecordingFormatError, RecoveredFileWarning, TimestampWarning
+from ..errors import (
+    LfdError,
+    RecordingFormatError,
+    RecoveredFileWarning,
+    TimestampWarning,
+    UsageError,
+)
 from . import topics as T
 from .images import decode_compressed, decode_raw
 from .mcapfile import RawRecording, scan
+from .sizes import resolve_sizes
 
 __all__ = ["load"]
 
@@ -306,15 +313,30 @@ def _objects(raw: RawRecording) -> list[tuple[str, int, Any]]:
     return list(specs.values())
 
 
-def load(path: str | os.PathLike[str], *, images: bool = True) -> Demonstration:
-    """Read a recording.
+def load(
+    path: str | os.PathLike[str],
+    *,
+    images: bool = True,
+    object_sizes: Mapping[str, Sequence[float]] | None = None,
+    mapping: Any = None,
+) -> Demonstration:
+    """Read a recording: an lfd MCAP file, or a ROS bag with a topic ``mapping``.
 
     Parameters
     ----------
     path : str or os.PathLike
-        An MCAP file written by :class:`lfd.io.McapRecorder` (or any file with the same topics).
+        An MCAP file written by :class:`lfd.io.McapRecorder` (or any file with the same topics),
+        or a ROS bag: a ROS 1 ``.bag``, a ROS 2 bag directory (``metadata.yaml``) or its
+        ``.db3``, or an ``.mcap`` whose channels are ROS 2 (``cdr``) messages.
     images : bool
         Decode the colour and depth images (set False to load only the tracks, faster).
+    object_sizes : mapping of name -> (x, y, z), optional
+        Object sizes in metres; they win over the sidecar ``REC.sizes.toml`` and the file's
+        own sizes. An object no source sizes gets a 5 cm cube and a
+        :class:`~lfd.errors.DefaultSizeWarning` (:mod:`lfd.io.sizes`).
+    mapping : lfd.io.ros.RosMapping or path, optional
+        How a ROS bag's topics map to the hand and the objects (TOML, docs/ros.md); needed
+        for a ROS bag, refused for an lfd recording.
 
     Returns
     -------
@@ -326,8 +348,19 @@ def load(path: str | os.PathLike[str], *, images: bool = True) -> Demonstration:
     ------
     RecordingFormatError
         Not an MCAP file, empty, or missing the hand keypoints / every object pose.
+    UsageError
+        A ROS bag without ``mapping``, a ``mapping`` for an lfd recording, or an object size
+        for an object the recording does not have.
     """
+    if is_ros_path(path):
+        return _load_ros(path, None, object_sizes, mapping)
     raw = scan(path)
+    if is_ros_recording(raw):
+        return _load_ros(path, raw, object_sizes, mapping)
+    if mapping is not None:
+        raise UsageError(
+            f"{raw.path} is an lfd recording, not a ROS bag: drop the topic mapping (--map)"
+        )
     report: dict[str, Any] = {"complete": raw.complete, "messages": raw.message_count}
     report["recovered"] = None
     if not raw.complete:
@@ -355,13 +388,10 @@ def load(path: str | os.PathLike[str], *, images: bool = True) -> Demonstration:
     loader = _Loader(raw)
     hand = loader.hand(sides[0])
     objects = {}
-    for name, tag_id, size in _objects(raw):
-        if size is None:
-            raise RecordingFormatError(
-                f"{raw.path}: object {name!r} has no size (expected in the 'demo' metadata "
-                "record or as channel metadata 'size': JSON [x, y, z] in metres)"
-            )
-        objects[name] = loader.object(name, tag_id, size)
+    specs = _objects(raw)
+    sizes = resolve_sizes(raw.path, {name: size for name, _, size in specs}, object_sizes)
+    for name, tag_id, _ in specs:
+        objects[name] = loader.object(name, tag_id, sizes[name])
     labels = loader.labels()
     live = loader.labels(T.LIVE_SEGMENTS_TOPIC)
     camera = loader.camera()
@@ -391,3 +421,42 @@ def load(path: str | os.PathLike[str], *, images: bool = True) -> Demonstration:
         depth=depth,
         metadata=metadata,
     )
+
+
+def is_ros_path(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is a ROS bag by its name alone: a ``.bag`` or ``.db3`` file or a
+    directory (a ROS 2 bag holds ``metadata.yaml``). An ``.mcap`` needs a look inside
+    (:func:`is_ros_recording`)."""
+    p = os.fspath(path)
+    if os.path.isdir(p):
+        return os.path.isfile(os.path.join(p, "metadata.yaml"))
+    return p.endswith((".bag", ".db3"))
+
+
+def is_ros_recording(raw: RawRecording) -> bool:
+    """Whether an MCAP file holds ROS messages (a channel with message encoding ``cdr``, ROS 2,
+    or ``ros1``)."""
+    return any(c.encoding in ("cdr", "ros1") for c in raw.channels.values())
+
+
+def _load_ros(
+    path: str | os.PathLike[str],
+    raw: RawRecording | None,
+    object_sizes: Mapping[str, Sequence[float]] | None,
+    mapping: Any,
+) -> Demonstration:
+    from .ros import load_ros  # rosbags is an optional extra: imported on use
+
+    if mapping is None:
+        raise UsageError(
+            f"{os.fspath(path)} is a ROS bag: give a topic mapping with --map MAP.toml "
+            "(lfd.load(..., mapping=...); see docs/ros.md)"
+        )
+    if raw is not None and not raw.complete:
+        warnings.warn(
+            f"{raw.path} is truncated or was not closed ({raw.error}); recovered "
+            f"{raw.message_count} messages covering {raw.span_s:.2f} s from its complete chunks",
+            RecoveredFileWarning,
+            stacklevel=3,
+        )
+    return load_ros(path, mapping, object_sizes=object_sizes, raw=raw)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -193,18 +193,20 @@ def evaluate(
     methods: Sequence[str] = DEFAULT_METHODS,
     grammar: GrammarUse = DEFAULT_GRAMMAR,
     progress: Callable[[str], None] | None = None,
+    object_sizes: Mapping[str, Sequence[float]] | None = None,
 ) -> EvalReport:
     """Evaluate ``methods`` on every labelled recording among ``paths`` (files or directories).
 
     ``grammar`` is the grammar use of the ``dp`` and ``greedy`` methods (``paper`` always
-    warns). Recordings without ground-truth labels are skipped.
+    warns). Recordings without ground-truth labels are skipped. ``object_sizes`` go to
+    :func:`lfd.load` (for files that do not carry them).
     """
     from ..io import load
 
     methods = check_methods(methods)
     rows = []
     for path in expand_paths(paths):
-        demo = load(path)
+        demo = load(path, object_sizes=object_sizes)
         if demo.labels:
             rows.append(
                 evaluate_demo(
@@ -224,6 +226,7 @@ def leave_one_out(
     methods: Sequence[str] = ("dp",),
     grammar: GrammarUse = DEFAULT_GRAMMAR,
     progress: Callable[[str], None] | None = None,
+    object_sizes: Mapping[str, Sequence[float]] | None = None,
 ) -> EvalReport:
     """Segment each labelled recording with templates trained on all the others.
 
@@ -250,7 +253,7 @@ def leave_one_out(
     opts = base.preprocessing if base is not None else preprocessing_options()
     demos: list[tuple[str, Demonstration, list[tuple[str, np.ndarray]]]] = []
     for path in expand_paths(paths):
-        demo = load(path, images=False)
+        demo = load(path, images=False, object_sizes=object_sizes)
         if demo.labels:
             demos.append((path.name, demo, template_examples(demo, preprocessing=opts)))
         if progress is not None:

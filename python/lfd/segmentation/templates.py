@@ -11,7 +11,7 @@ set ships in the package (``lfd/data/templates.json``) and was trained from
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from functools import cache
 from importlib import resources
 from pathlib import Path
@@ -318,6 +318,7 @@ def train_templates(
     aperture: Aperture = APERTURE,
     frame_symmetry: int = FRAME_SYMMETRY,
     min_keypoint_confidence: float = MIN_KEYPOINT_CONFIDENCE,
+    object_sizes: Mapping[str, Sequence[float]] | None = None,
 ) -> Templates:
     """Train templates from labelled template recordings (MCAP paths or demonstrations).
 
@@ -342,6 +343,8 @@ def train_templates(
     frame_symmetry : int
         Every example is used ``frame_symmetry`` times, with the object frame turned by
         multiples of ``360 / frame_symmetry`` degrees about z (:data:`FRAME_SYMMETRY`; 1 = off).
+    object_sizes : mapping of name -> (x, y, z), optional
+        Object sizes for recordings that do not carry them (:func:`lfd.load`).
     """
     if frame_symmetry < 1:
         raise ValueError(f"frame_symmetry must be at least 1, got {frame_symmetry}")
@@ -349,7 +352,9 @@ def train_templates(
     opts = preprocessing_options(
         feature_cutoff_hz, object_cutoff_hz, aperture, min_keypoint_confidence
     )
-    names, examples = collect_examples(recordings, preprocessing=opts, progress=progress)
+    names, examples = collect_examples(
+        recordings, preprocessing=opts, progress=progress, object_sizes=object_sizes
+    )
     return fit_templates(
         examples,
         names=names,
@@ -366,16 +371,22 @@ def collect_examples(
     *,
     preprocessing: dict[str, Any] | None = None,
     progress: Callable[[str], None] | None = None,
+    object_sizes: Mapping[str, Sequence[float]] | None = None,
 ) -> tuple[list[str], list[tuple[str, np.ndarray]]]:
     """The recordings' names and labelled segments ``(skill, features (m, 10))``, in order,
-    preprocessed with ``preprocessing`` (default: :func:`preprocessing_options`)."""
+    preprocessed with ``preprocessing`` (default: :func:`preprocessing_options`); recordings
+    given as paths are read with ``object_sizes`` (:func:`lfd.load`)."""
     opts = preprocessing or preprocessing_options()
     from ..io import load
 
     names: list[str] = []
     examples: list[tuple[str, np.ndarray]] = []
     for rec in recordings:
-        demo = rec if isinstance(rec, Demonstration) else load(rec, images=False)
+        demo = (
+            rec
+            if isinstance(rec, Demonstration)
+            else load(rec, images=False, object_sizes=object_sizes)
+        )
         name = str(rec) if not isinstance(rec, Demonstration) else demo.metadata.get("name", "demo")
         examples.extend(template_examples(demo, preprocessing=opts))
         names.append(Path(name).name)
