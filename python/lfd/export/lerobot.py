@@ -593,21 +593,35 @@ def export_lerobot(
 
 
 class _quiet:
-    """Silence the progress bars and INFO logs of ``datasets`` and lerobot while writing."""
+    """Silence ``datasets``' progress bars and the video encoders' banners while writing (the
+    command's stderr carries one line per problem)."""
 
     def __enter__(self) -> None:
+        import av
         import datasets
 
         self._bars = datasets.utils.logging.is_progress_bar_enabled()
         datasets.utils.logging.disable_progress_bar()
+        self._av_level = av.logging.get_level()
+        av.logging.set_level(av.logging.ERROR)  # libx264's statistics
+        self._svt = os.environ.get("SVT_LOG")
+        os.environ["SVT_LOG"] = "1"  # SVT-AV1: errors only (its banner goes to stderr)
         self._warnings = warnings.catch_warnings()
         self._warnings.__enter__()
-        # lerobot's statistics of the boolean observation.valid (histogram of 0/1: right)
-        warnings.filterwarnings("ignore", message="Converting input from bool", category=RuntimeWarning)
+        # lerobot's statistics of the boolean observation.valid (a histogram of 0/1: right)
+        warnings.filterwarnings(
+            "ignore", message="Converting input from bool", category=RuntimeWarning
+        )
 
     def __exit__(self, *exc: object) -> None:
+        import av
         import datasets
 
         self._warnings.__exit__(None, None, None)
+        if self._svt is None:
+            os.environ.pop("SVT_LOG", None)
+        else:
+            os.environ["SVT_LOG"] = self._svt
+        av.logging.set_level(self._av_level)
         if self._bars:
             datasets.utils.logging.enable_progress_bar()
