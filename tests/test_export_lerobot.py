@@ -9,11 +9,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+import lfd
 import numpy as np
 import pytest
 from lerobot.datasets.lerobot_dataset import LeRobotDataset
-
-import lfd
 from lfd.errors import LfdError, UsageError
 from lfd.export import export_lerobot
 from lfd.export.lerobot import NO_SKILL
@@ -76,7 +75,9 @@ def test_loads_back_with_labels_and_values(exported: Path) -> None:
         for i in range(0, n, 7):
             gt = _gt_at(demo.labels, int(traj.t_ns[i]))
             item = ds[start + i]
-            want = NO_SKILL if gt is None else (f"{gt.skill} {gt.object}" if gt.object else gt.skill)
+            want = (
+                NO_SKILL if gt is None else (f"{gt.skill} {gt.object}" if gt.object else gt.skill)
+            )
             assert item["subtask"] == want
             assert int(item["skill_index"]) == (SKILLS.index(gt.skill) if gt else -1)
             obj = int(item["object_index"])
@@ -175,8 +176,17 @@ def test_cli_reports_skipped_file(tmp_path: Path) -> None:
     out = tmp_path / "ds"
     env = {**os.environ, "PYTHONPATH": str(ROOT / "python"), "HF_HUB_OFFLINE": "1"}
     proc = subprocess.run(
-        [sys.executable, "-m", "lfd.cli", "export", "lerobot", str(bad), str(RECORDINGS[0])]
-        + ["-o", str(out)],
+        [
+            sys.executable,
+            "-m",
+            "lfd.cli",
+            "export",
+            "lerobot",
+            str(bad),
+            str(RECORDINGS[0]),
+            "-o",
+            str(out),
+        ],
         capture_output=True,
         text=True,
         env=env,
@@ -186,3 +196,26 @@ def test_cli_reports_skipped_file(tmp_path: Path) -> None:
     errors = [line for line in proc.stderr.splitlines() if ": error: " in line]
     assert len(errors) == 1 and "bad.mcap" in errors[0] and "skipped" in errors[0]
     assert "1 episode(s)" in proc.stdout
+
+
+def test_without_lerobot_says_how_to_install(tmp_path: Path) -> None:
+    """lerobot missing: one line with the install command, before any output is made."""
+    code = (
+        "import sys\n"
+        "class Block:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name.split('.')[0] == 'lerobot':\n"
+        "            raise ModuleNotFoundError(f'blocked: {name}', name=name)\n"
+        "sys.meta_path.insert(0, Block())\n"
+        "from lfd.cli import main\n"
+        f"sys.exit(main(['export', 'lerobot', {str(RECORDINGS[0])!r}, '-o', "
+        f"{str(tmp_path / 'ds')!r}]))\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "python")}
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.strip().splitlines() == [
+        "lfd export: error: the LeRobot export needs lerobot (lerobot is missing): "
+        "pip install 'lfd[lerobot]' && pip install --no-deps lerobot==0.4.4"
+    ]
+    assert list(tmp_path.iterdir()) == []

@@ -76,7 +76,9 @@ def import_lerobot() -> Any:
     try:
         from lerobot.datasets.lerobot_dataset import LeRobotDataset
     except ModuleNotFoundError as err:
-        raise LfdError(f"the LeRobot export needs lerobot ({err.name} is missing): {INSTALL_HINT}")
+        raise LfdError(
+            f"the LeRobot export needs lerobot ({err.name} is missing): {INSTALL_HINT}"
+        ) from None
     return LeRobotDataset
 
 
@@ -483,9 +485,7 @@ def export_recording(
         else:
             text = " ".join(str(err).split())
         return RecordingResult(where, error=text, seconds=time.perf_counter() - start)
-    return RecordingResult(
-        where, index, len(ep), ep.label_source, time.perf_counter() - start
-    )
+    return RecordingResult(where, index, len(ep), ep.label_source, time.perf_counter() - start)
 
 
 @dataclass
@@ -579,9 +579,7 @@ def export_lerobot(
     with atomic_directory(dest) as root, _quiet():
         writer = LeRobotWriter(root, repo, vcodec=vcodec)
         for path in paths:
-            result = export_recording(
-                writer, path, labels=labels, templates=templates, video=video
-            )
+            result = export_recording(writer, path, labels=labels, templates=templates, video=video)
             report.results.append(result)
             if on_result is not None:
                 on_result(result)
