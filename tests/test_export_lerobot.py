@@ -110,11 +110,12 @@ def test_segmentation_labels_without_ground_truth(tmp_path: Path) -> None:
         assert int(ds[i]["skill_index"]) == (SKILLS.index(gt.skill) if gt else -1)
 
 
-def test_video_from_rendered_recording(tmp_path: Path) -> None:
+def test_video_from_rendered_recording(tmp_path: Path, capfd: pytest.CaptureFixture[str]) -> None:
     import av
 
     out = tmp_path / "video"
     export_lerobot([RENDERED], out)
+    assert capfd.readouterr().err == ""  # no encoder banner, no progress bar
     ds = LeRobotDataset("lfd/video", root=out, video_backend="pyav")
     assert "observation.images.color" in ds.meta.video_keys
     files = list((out / "videos").rglob("*.mp4"))
@@ -193,8 +194,9 @@ def test_cli_reports_skipped_file(tmp_path: Path) -> None:
         timeout=120,
     )
     assert proc.returncode == 1, proc.stderr
-    errors = [line for line in proc.stderr.splitlines() if ": error: " in line]
-    assert len(errors) == 1 and "bad.mcap" in errors[0] and "skipped" in errors[0]
+    errors = proc.stderr.strip().splitlines()
+    assert len(errors) == 1 and "bad.mcap" in errors[0] and errors[0].endswith("(skipped)")
+    assert errors[0].startswith("lfd export: error: ")
     assert "1 episode(s)" in proc.stdout
 
 

@@ -600,8 +600,11 @@ class _quiet:
 
         self._bars = datasets.utils.logging.is_progress_bar_enabled()
         datasets.utils.logging.disable_progress_bar()
+        # libx264 prints its statistics when the encoder is freed, after lerobot restored
+        # FFmpeg's own log callback: FFmpeg's level, not only PyAV's
         self._av_level = av.logging.get_level()
-        av.logging.set_level(av.logging.ERROR)  # libx264's statistics
+        av.logging.set_level(av.logging.ERROR)
+        av.logging.set_libav_level(av.logging.ERROR)
         self._svt = os.environ.get("SVT_LOG")
         os.environ["SVT_LOG"] = "1"  # SVT-AV1: errors only (its banner goes to stderr)
         self._warnings = warnings.catch_warnings()
@@ -621,5 +624,6 @@ class _quiet:
         else:
             os.environ["SVT_LOG"] = self._svt
         av.logging.set_level(self._av_level)
+        av.logging.set_libav_level(av.logging.INFO)  # FFmpeg's default
         if self._bars:
             datasets.utils.logging.enable_progress_bar()
