@@ -221,3 +221,37 @@ def test_without_lerobot_says_how_to_install(tmp_path: Path) -> None:
         "pip install 'lfd[lerobot]' && pip install --no-deps lerobot==0.4.4"
     ]
     assert list(tmp_path.iterdir()) == []
+
+
+def test_tracking_gap_marked_invalid_and_values_finite(tmp_path: Path) -> None:
+    """A 1.5 s hand gap: ``observation.valid`` False there, values interpolated, so lerobot's
+    normalisation statistics stay finite."""
+    from lfd.export import LeRobotWriter, prepare_episode
+
+    demo = lfd.load(RECORDINGS[0])
+    t = (demo.hand.t_ns - demo.hand.t_ns[0]) * 1e-9
+    gap = (t > 5.0) & (t < 6.5)
+    demo.hand.keypoints[gap] = np.nan
+    demo.hand.confidence[gap] = 0.0
+    demo.hand.visible[gap] = False
+    ep = prepare_episode(demo, name="gap")
+    traj = lfd.preprocess(demo)
+    assert (ep.valid[:, 0] == traj.hand_valid).all() and not ep.valid[:, 0].all()
+    writer = LeRobotWriter(tmp_path / "ds", "lfd/gap")
+    writer.add(ep)
+    writer.close()
+    ds = LeRobotDataset("lfd/gap", root=tmp_path / "ds", video_backend="pyav")
+    for key in ("observation.state", "observation.hand_keypoints", "action"):
+        assert np.isfinite(ds.meta.stats[key]["mean"]).all(), key
+    inside = int(np.flatnonzero(~traj.hand_valid)[0])
+    item = ds[inside]
+    assert not bool(item["observation.valid"][0]) and bool(item["observation.valid"][1])
+    assert np.isfinite(item["observation.state"].numpy()).all()
+    q = item["observation.state"].numpy()[3:7]
+    assert abs(np.linalg.norm(q) - 1.0) < 1e-5
+    # tracked frames keep the trajectory's values
+    ok = np.flatnonzero(traj.hand_valid)[::25]
+    table = ds.hf_dataset.with_format("numpy")[:]
+    np.testing.assert_allclose(
+        np.stack(table["observation.state"])[ok, :3], traj.tcp[ok], rtol=1e-6, atol=1e-7
+    )

@@ -12,7 +12,7 @@ The columns (docs/export.md):
 ``observation.hand_keypoints`` (63,) float32  the 21 keypoints x, y, z (m), reference-marker frame
 ``observation.objects``    (7k,) float32  per object: x, y, z (m), quaternion x, y, z, w
 ``observation.valid``      (1+k,) bool    hand, then each object: tracked (False inside long gaps,
-                                           where the values are NaN)
+                                           where the values are interpolated)
 ``action``                 (8,)  float32  the next frame's ``observation.state`` (the last frame:
                                            its own)
 ``skill_index``            (1,)  int64    index into :data:`lfd.skills.SKILLS`, -1: no skill
@@ -188,6 +188,27 @@ def _quaternions(rotation: np.ndarray) -> np.ndarray:
     return q
 
 
+def _fill(values: np.ndarray) -> np.ndarray:
+    """Columns of ``values`` (n, d) with their NaN runs linearly interpolated over the frame
+    index (held at the ends); a column with no finite value becomes 0. Keeps lerobot's
+    normalisation statistics finite; ``observation.valid`` says which frames were tracked."""
+    out = np.array(values, dtype=np.float64)
+    idx = np.arange(out.shape[0])
+    for j in range(out.shape[1]):
+        ok = np.isfinite(out[:, j])
+        if ok.all():
+            continue
+        out[:, j] = np.interp(idx, idx[ok], out[ok, j]) if ok.any() else 0.0
+    return out
+
+
+def _fill_quaternions(values: np.ndarray, start: int) -> None:
+    """Re-normalise the interpolated quaternions in columns ``start:start + 4`` in place."""
+    q = values[:, start : start + 4]
+    norm = np.linalg.norm(q, axis=1, keepdims=True)
+    q[:] = np.where(norm > 1e-9, q / np.where(norm > 1e-9, norm, 1.0), [0.0, 0.0, 0.0, 1.0])
+
+
 def frame_labels(labels: Sequence[SkillLabel], t_ns: np.ndarray) -> list[SkillLabel | None]:
     """The label covering each time: ``start_ns <= t < end_ns`` (the last label also at its
     end); None where no label does."""
@@ -285,14 +306,19 @@ def prepare_episode(
     )
     subtask = [subtask_name(lab.skill, lab.object) if lab else NO_SKILL for lab in per_frame]
 
-    state = np.concatenate(
-        [traj.tcp, _quaternions(traj.rotation), traj.opening[:, None]], axis=1
-    ).astype(np.float32)
-    action = np.concatenate([state[1:], state[-1:]], axis=0)
+    state = _fill(np.concatenate([traj.tcp, _quaternions(traj.rotation), traj.opening[:, None]], 1))
+    _fill_quaternions(state, 3)
     k = len(names)
     objects = np.concatenate([traj.object_position, traj.object_quaternion], axis=2)  # (k, n, 7)
-    objects = objects.transpose(1, 0, 2).reshape(n, 7 * k).astype(np.float32)
+    objects = _fill(objects.transpose(1, 0, 2).reshape(n, 7 * k))
+    for j in range(k):
+        _fill_quaternions(objects, 7 * j + 3)
+    keypoints = _fill(traj.keypoints.reshape(n, 63))
     valid = np.concatenate([traj.hand_valid[:, None], traj.object_valid.T], axis=1).astype(bool)
+    # a gripper or object NaN the preprocessing left outside its long-gap masks is untracked too
+    valid[:, 0] &= np.isfinite(traj.tcp).all(axis=1)
+    valid[:, 1:] &= np.isfinite(traj.object_position).all(axis=2).T
+    state32 = state.astype(np.float32)
 
     color = color_index = None
     if video and demo.color is not None and len(demo.color):
@@ -311,10 +337,10 @@ def prepare_episode(
         fps=fps,
         t0_ns=t0,
         object_names=names,
-        state=state,
-        action=action,
-        keypoints=traj.keypoints.reshape(n, 63).astype(np.float32),
-        objects=objects,
+        state=state32,
+        action=np.concatenate([state32[1:], state32[-1:]], axis=0),
+        keypoints=keypoints.astype(np.float32),
+        objects=objects.astype(np.float32),
         valid=valid,
         skill_index=skill_index,
         object_index=object_index,
@@ -411,7 +437,8 @@ class LeRobotWriter:
             ds.clear_episode_buffer()
             raise
         index = int(ds.meta.total_episodes)
-        ds.save_episode()
+        with _quiet():
+            ds.save_episode()
         self.episodes.append(
             {
                 "episode_index": index,
@@ -434,7 +461,8 @@ class LeRobotWriter:
 
         from .._version import __version__
 
-        self._dataset.finalize()
+        with _quiet():
+            self._dataset.finalize()
         names = list(self.subtasks)
         table = pd.DataFrame({"subtask_index": range(len(names))}, index=names)
         table.to_parquet(self.root / SUBTASKS_PATH)
@@ -576,7 +604,7 @@ def export_lerobot(
     import_lerobot()
     start = time.perf_counter()
     report = ExportReport(dest, repo)
-    with atomic_directory(dest) as root, _quiet():
+    with atomic_directory(dest) as root:
         writer = LeRobotWriter(root, repo, vcodec=vcodec)
         for path in paths:
             result = export_recording(writer, path, labels=labels, templates=templates, video=video)
