@@ -255,3 +255,23 @@ def test_tracking_gap_marked_invalid_and_values_finite(tmp_path: Path) -> None:
     np.testing.assert_allclose(
         np.stack(table["observation.state"])[ok, :3], traj.tcp[ok], rtol=1e-6, atol=1e-7
     )
+
+
+def test_atomic_directory_keeps_the_old_one_on_failure(tmp_path: Path) -> None:
+    from lfd.outputs import atomic_directory
+
+    dest = tmp_path / "ds"
+    dest.mkdir()
+    (dest / "old.txt").write_text("old")
+    with pytest.raises(KeyboardInterrupt), atomic_directory(dest) as new:
+        new.mkdir()
+        (new / "half.txt").write_text("half")
+        raise KeyboardInterrupt
+    assert [p.name for p in tmp_path.iterdir()] == ["ds"]
+    assert [p.name for p in dest.iterdir()] == ["old.txt"]
+    with atomic_directory(dest) as new:
+        new.mkdir()
+        (new / "new.txt").write_text("new")
+        assert not (dest / "new.txt").exists()  # nothing under the name until the end
+    assert [p.name for p in tmp_path.iterdir()] == ["ds"]
+    assert [p.name for p in dest.iterdir()] == ["new.txt"]
