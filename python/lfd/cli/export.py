@@ -44,7 +44,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     lr.add_argument(
         "--vcodec",
-        choices=("libsvtav1", "h264", "hevc"),
+        choices=("libsvtav1", "h264"),
         default="libsvtav1",
         help="video codec of the colour frames (default libsvtav1, lerobot's)",
     )

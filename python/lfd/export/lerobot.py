@@ -63,7 +63,10 @@ NO_SKILL = "none"
 """The subtask of frames no label covers (``skill_index`` -1)."""
 COLOR_KEY = "observation.images.color"
 DEFAULT_VCODEC = "libsvtav1"
-"""lerobot's default codec (AV1); ``h264`` and ``hevc`` are the others it accepts."""
+"""lerobot's default codec (AV1, the smallest files)."""
+VCODECS: tuple[str, ...] = ("libsvtav1", "h264")
+"""The software codecs lerobot accepts that encode quietly (its ``hevc``, x265, prints its
+settings to stderr and is the slowest)."""
 
 SCALAR_KEYS = ("skill_index", "object_index", "subtask_index")
 
@@ -578,7 +581,7 @@ def export_lerobot(
     repo_id : str, optional
         The dataset's ``repo_id`` (default ``lfd/<output name>``).
     vcodec : str
-        Video codec for the colour frames (lerobot's: ``libsvtav1``, ``h264``, ``hevc``).
+        Video codec for the colour frames (:data:`VCODECS`).
     on_result : callable, optional
         Called with each recording's :class:`RecordingResult`, in order, as it finishes.
 
@@ -594,8 +597,8 @@ def export_lerobot(
 
     if labels not in LABEL_SOURCES:
         raise UsageError(f"--labels must be one of {', '.join(LABEL_SOURCES)}, got {labels!r}")
-    if vcodec not in ("libsvtav1", "h264", "hevc"):
-        raise UsageError(f"--vcodec must be libsvtav1, h264 or hevc, got {vcodec!r}")
+    if vcodec not in VCODECS:
+        raise UsageError(f"--vcodec must be one of {', '.join(VCODECS)}, got {vcodec!r}")
     paths = recording_paths(inputs)
     dest = check_output_dir(output, inputs=paths, what="output", overwrite=overwrite)
     repo = repo_id or f"lfd/{dest.resolve().name}"
