@@ -85,6 +85,16 @@ def test_loads_back_with_labels_and_values(exported: Path) -> None:
         assert {int(s) for s in table["skill_index"][rows]} == {
             SKILLS.index(lab.skill) for lab in demo.labels
         }
+        # the segments as lerobot's per-episode subtask annotation (SARM layout)
+        meta = ds.meta.episodes[ep]
+        texts = [f"{lab.skill} {lab.object}" if lab.object else lab.skill for lab in demo.labels]
+        assert list(meta["subtask_names"]) == texts == list(meta["sparse_subtask_names"])
+        subtasks = [ds.meta.subtasks.index[int(v)] for v in table["subtask_index"][rows]]
+        for name, first, last in zip(
+            texts, meta["subtask_start_frames"], meta["subtask_end_frames"], strict=True
+        ):
+            assert set(subtasks[first : last + 1]) == {name}
+        assert meta["subtask_start_frames"][0] == 0 and meta["subtask_end_frames"][-1] == n - 1
         # the task program in the metadata, lerobot's task the program as a sentence
         entry = program["episodes"][ep]
         assert entry["recording"] == str(path) and entry["labels"] == "ground-truth"

@@ -105,6 +105,8 @@ class Episode:
     skill_index, object_index : array, shape (n,), int64 (-1: none)
     subtask : list[str]
         Per frame, ``"skill object"`` (or the skill alone, or :data:`NO_SKILL`).
+    segment : array, shape (n,), int64
+        Per frame, the number of its label (segment of the program) in time order, -1: none.
     task : str
         The episode's skill program as a sentence (lerobot's ``task``).
     label_source : str
@@ -128,6 +130,7 @@ class Episode:
     skill_index: np.ndarray
     object_index: np.ndarray
     subtask: list[str]
+    segment: np.ndarray
     task: str
     label_source: str
     program: dict[str, Any]
@@ -136,6 +139,29 @@ class Episode:
 
     def __len__(self) -> int:
         return int(self.state.shape[0])
+
+    def annotation(self) -> dict[str, list[Any]]:
+        """The episode's skill segments as lerobot's per-episode subtask annotation: names,
+        first and last frame (inclusive) and their times in seconds, one entry per labelled
+        segment in time order (the layout of lerobot's SARM annotations)."""
+        names: list[str] = []
+        first: list[int] = []
+        last: list[int] = []
+        for i, seg in enumerate(self.segment.tolist()):
+            if seg < 0:
+                continue
+            if i == 0 or self.segment[i - 1] != seg:
+                names.append(self.subtask[i])
+                first.append(i)
+                last.append(i)
+            last[-1] = i
+        return {
+            "subtask_names": names,
+            "subtask_start_times": [f / self.fps for f in first],
+            "subtask_end_times": [f / self.fps for f in last],
+            "subtask_start_frames": first,
+            "subtask_end_frames": last,
+        }
 
     def features(self) -> dict[str, dict[str, Any]]:
         """The lerobot feature specification of these columns."""
@@ -299,7 +325,10 @@ def prepare_episode(
         program = from_segmentation(seg, t0)
 
     names = list(traj.object_names)
+    skill_labels = sorted(skill_labels, key=lambda lab: lab.start_ns)
     per_frame = frame_labels(skill_labels, traj.t_ns)
+    number = {id(lab): k for k, lab in enumerate(skill_labels)}
+    segment = np.array([number[id(lab)] if lab else -1 for lab in per_frame], dtype=np.int64)
     skill_index = np.array(
         [SKILLS.index(lab.skill) if lab else -1 for lab in per_frame], dtype=np.int64
     )
@@ -348,6 +377,7 @@ def prepare_episode(
         skill_index=skill_index,
         object_index=object_index,
         subtask=subtask,
+        segment=segment,
         task=", ".join(steps),
         label_source=source,
         program=program.to_json(),
@@ -374,6 +404,7 @@ class LeRobotWriter:
         self._schema: tuple[Any, ...] | None = None
         self.subtasks: dict[str, int] = {}
         self.episodes: list[dict[str, Any]] = []
+        self._annotations: dict[int, dict[str, list[Any]]] = {}
 
     def _check(self, ep: Episode) -> None:
         shape = None if ep.color is None else tuple(ep.color.shape[1:])
@@ -454,6 +485,7 @@ class LeRobotWriter:
                 "program": ep.program,
             }
         )
+        self._annotations[index] = ep.annotation()
         return index
 
     def close(self) -> None:
@@ -477,6 +509,20 @@ class LeRobotWriter:
             "episodes": self.episodes,
         }
         (self.root / PROGRAM_PATH).write_text(json.dumps(doc, indent=2) + "\n")
+        self._write_annotations()
+
+    def _write_annotations(self) -> None:
+        """The skill segments as per-episode columns of ``meta/episodes``: ``sparse_subtask_*``
+        and the unprefixed ``subtask_*``, as lerobot's SARM annotation tool writes them (its
+        reward model reads them); lerobot's loader keeps the extra columns."""
+        import pandas as pd
+
+        for path in sorted((self.root / "meta" / "episodes").glob("chunk-*/file-*.parquet")):
+            table = pd.read_parquet(path)
+            for key in next(iter(self._annotations.values())):
+                for column in (f"sparse_{key}", key):
+                    table[column] = [self._annotations[int(e)][key] for e in table["episode_index"]]
+            table.to_parquet(path, engine="pyarrow", compression="snappy")
 
 
 @dataclass
