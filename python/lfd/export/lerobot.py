@@ -328,7 +328,7 @@ def prepare_episode(
     skill_labels = sorted(skill_labels, key=lambda lab: lab.start_ns)
     per_frame = frame_labels(skill_labels, traj.t_ns)
     number = {id(lab): k for k, lab in enumerate(skill_labels)}
-    segment = np.array([number[id(lab)] if lab else -1 for lab in per_frame], dtype=np.int64)
+    seg_number = np.array([number[id(lab)] if lab else -1 for lab in per_frame], dtype=np.int64)
     skill_index = np.array(
         [SKILLS.index(lab.skill) if lab else -1 for lab in per_frame], dtype=np.int64
     )
@@ -377,7 +377,7 @@ def prepare_episode(
         skill_index=skill_index,
         object_index=object_index,
         subtask=subtask,
-        segment=segment,
+        segment=seg_number,
         task=", ".join(steps),
         label_source=source,
         program=program.to_json(),
