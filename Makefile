@@ -2,7 +2,7 @@
 .PHONY: install test rust-test lint bench check
 
 install:
-	python3 -m pip install -e ".[dev,sim,perception]"
+	python3 -m pip install -e ".[dev,sim,perception,lerobot]" && python3 -m pip install --no-deps lerobot==0.4.4
 
 test:
 	python3 -m pytest -q

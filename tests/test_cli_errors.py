@@ -128,6 +128,10 @@ CASES: list[tuple[str, str, str]] = [
     ("record-missing-model", "record --source sim:exp1 -o {tmp}/x.mcap --hand-model {tmp}/n.pt", "n.pt"),
     ("record-bad-hand-model", "record --source sim:exp1 -o {tmp}/x.mcap --hand-model openpose", "expected mediapipe, depth-net"),
     ("record-bad-hand", "record --source sim:exp1 -o {tmp}/x.mcap --hand both", "invalid choice"),
+    # export
+    ("export-lerobot-not-empty", "export lerobot {rec} -o {tmp}", "is not empty; pass --overwrite"),
+    ("export-lerobot-holds-input", "export lerobot {rec} -o {tmp} --overwrite", "holds the input"),
+    ("export-no-format", "export {rec}", "invalid choice"),
     ("record-live-no-hand", "record --source sim:exp1 -o {tmp}/x.mcap --no-hand --live-segment", "needs the hand"),
     ("hands-unreadable-image", "perception hands {bad}", "bad.json: not a readable image"),
     ("hands-missing-image", "perception hands {tmp}/none.png", "none.png: image not found"),

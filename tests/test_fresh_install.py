@@ -67,6 +67,7 @@ def test_plain_install_segments_a_shipped_recording(fresh_venv: Path, tmp_path: 
         ("record", "--source", "sim:exp1", "-o", "seen.mcap"),
         ("segment", str(ROOT / "recordings" / "exp1.mcap"), "--rerun-save", "x.rrd"),
         ("perception", "hands", str(ROOT / "docs" / "rerun.png")),
+        ("export", "lerobot", str(ROOT / "recordings" / "exp1.mcap"), "-o", "dataset"),
     ],
 )
 def test_missing_extra_is_one_line(fresh_venv: Path, tmp_path: Path, args: tuple[str, ...]) -> None:

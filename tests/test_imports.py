@@ -170,6 +170,8 @@ HEAVY = (
     "ai_edge_litert",
     "movement_primitives",
     "rosbags",
+    "lerobot",
+    "datasets",
 )
 """The extras' big modules (ARCHITECTURE.md, "Heavy imports")."""
 

@@ -164,3 +164,76 @@ class PendingOutput:
             self._done = True
             err = _Discarded()
             self._cm.__exit__(_Discarded, err, None)
+
+
+def check_output_dir(
+    path: str | os.PathLike[str],
+    *,
+    inputs: Iterable[str | os.PathLike[str]] = (),
+    what: str = "output",
+    overwrite: bool = False,
+) -> Path:
+    """Refuse an output directory that cannot be written, before any work is done.
+
+    The directory may be missing (it is created) or empty; a non-empty one only with
+    ``overwrite``, and never one that holds an input (replacing it would delete the input).
+
+    Raises
+    ------
+    UsageError
+        The path is a file, non-empty without ``overwrite``, holds an input, or its parent is
+        missing or read-only.
+    """
+    p = Path(path)
+    if str(path) in ("", STDOUT):
+        raise UsageError(f"{what}: give a directory name")
+    if p.exists() and not p.is_dir():
+        raise UsageError(f"{what} {p} is a file; give a directory")
+    if p.is_dir() and any(p.iterdir()):
+        if not overwrite:
+            raise UsageError(f"{what} {p} is not empty; pass --overwrite to replace it")
+        root = p.resolve()
+        for inp in inputs:
+            q = Path(inp).resolve()
+            if q == root or root in q.parents:
+                raise UsageError(f"{what} {p} holds the input {inp}; refusing to replace it")
+    parent = p.resolve().parent
+    if not parent.is_dir():
+        raise UsageError(f"{what} {p}: directory {parent} does not exist")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise UsageError(f"{what} {p}: directory {parent} is not writable")
+    return p
+
+
+@contextlib.contextmanager
+def atomic_directory(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """:func:`atomic_output` for a directory: yield a path beside ``path`` to create and fill.
+
+    The yielded path does not exist yet (the caller creates it, e.g. a library that insists on
+    a new directory); it lies in a temporary directory ``.<name>.*.partial`` beside ``path``. On
+    success it replaces ``path`` (an existing directory is moved aside first and removed only
+    after the rename); on an exception the temporary directory is removed and ``path`` is left
+    as it was.
+    """
+    import shutil
+
+    dest = Path(path)
+    parent = dest.parent if str(dest.parent) else Path(".")
+    holder = Path(tempfile.mkdtemp(prefix=f".{dest.name}.", suffix=".partial", dir=parent))
+    new = holder / dest.name
+    old: Path | None = None
+    try:
+        yield new
+        if not new.is_dir():
+            raise FileNotFoundError(f"{new} was not created")
+        if dest.is_dir() and any(dest.iterdir()):
+            old = holder / ".old"
+            os.replace(dest, old)
+        try:
+            os.replace(new, dest)  # onto a missing or empty directory
+        except BaseException:
+            if old is not None:
+                os.replace(old, dest)
+            raise
+    finally:
+        shutil.rmtree(holder, ignore_errors=True)

@@ -32,6 +32,7 @@ COMMANDS: tuple[str, ...] = (
     "reproduce",
     "record",
     "perception",
+    "export",
 )
 
 SIM_MODULES = frozenset({"mujoco", "cv2", "mink"})
