@@ -1,0 +1,323 @@
+"""Run one function over many recordings: in this process, a local process pool, or Ray.
+
+:func:`run_batch` calls ``func(item)`` for every item and returns one :class:`ItemResult` per
+item, in input order, whatever order they finish in. An item whose call raises (or whose worker
+process dies) becomes an :class:`ItemResult` with ``error`` set; the batch goes on.
+
+- ``jobs=1`` (or a single item): in this process, one after the other.
+- ``jobs=N``: a :class:`concurrent.futures.ProcessPoolExecutor` of N processes started with
+  ``spawn`` (MuJoCo/EGL, the engine's thread pool and rich's threads do not survive ``fork``).
+- ``ray_address``: Ray tasks, one per item (``"local"``: a new local Ray instance with ``jobs``
+  CPUs; ``"auto"`` or ``"HOST:PORT"`` / ``"ray://HOST:PORT"``: an existing cluster). Items are
+  sent as they are (paths), so every node must see the recordings at the same path.
+
+``func`` must be a picklable top-level function taking the item (a path) and plain options (bind
+them with :func:`functools.partial`). Workers run with one thread each for the engine (rayon)
+and numpy's BLAS (:data:`WORKER_ENV`): the parallelism is across items.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from contextlib import contextmanager
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from dataclasses import dataclass, field
+from typing import Any, Generic, TypeVar
+
+from .errors import UsageError
+
+T = TypeVar("T")
+
+WORKER_ENV: Mapping[str, str] = {
+    "RAYON_NUM_THREADS": "1",
+    "OMP_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+    "OPENBLAS_NUM_THREADS": "1",
+    "NUMEXPR_NUM_THREADS": "1",
+}
+"""Environment of every worker process: one thread per worker for the engine and BLAS."""
+
+RAY_INSTALL_HINT = "--ray needs Ray: pip install 'lfd[ray]'"
+
+LOCAL_RAY = "local"
+"""``ray_address`` that starts a new local Ray instance with ``jobs`` CPUs."""
+
+
+@dataclass
+class ItemResult(Generic[T]):
+    """What one item of a batch gave: ``value`` or ``error`` (a one-line message)."""
+
+    item: Any
+    value: T | None = None
+    error: str | None = None
+    seconds: float = 0.0
+    """Wall time of the call in its worker."""
+    warnings: list[str] = field(default_factory=list)
+    """The warnings the call raised (one line each, in order, each once)."""
+
+    @property
+    def ok(self) -> bool:
+        return self.error is None
+
+
+def one_line(err: BaseException) -> str:
+    """An exception as one line: its message (an :class:`~lfd.errors.LfdError`'s is meant for
+    the user), or ``Type: message`` for anything else."""
+    from .errors import LfdError
+
+    text = " ".join(str(err).split())
+    if isinstance(err, LfdError):
+        return text or type(err).__name__
+    if isinstance(err, OSError) and err.strerror:
+        where = f"{err.filename}: " if err.filename else ""
+        return f"{where}{err.strerror}"
+    return f"{type(err).__name__}: {text}" if text else type(err).__name__
+
+
+def call_item(func: Callable[[Any], T], item: Any) -> ItemResult[T]:
+    """``func(item)`` as an :class:`ItemResult`: its value, or the exception as one line."""
+    import warnings
+
+    t0 = time.perf_counter()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            value = func(item)
+        except Exception as err:  # one item's failure, whatever it is, is that item's result
+            res: ItemResult[T] = ItemResult(item, error=one_line(err))
+        else:
+            res = ItemResult(item, value=value)
+    res.seconds = time.perf_counter() - t0
+    res.warnings = list(dict.fromkeys(" ".join(str(w.message).split()) for w in caught))
+    return res
+
+
+def _init_worker() -> None:
+    os.environ.update(WORKER_ENV)
+
+
+@contextmanager
+def _worker_env() -> Iterator[None]:
+    """:data:`WORKER_ENV` in this process's environment while workers start (a spawned worker
+    loads numpy and the engine before any initializer runs: they read it at load)."""
+    old = {k: os.environ.get(k) for k in WORKER_ENV}
+    os.environ.update(WORKER_ENV)
+    try:
+        yield
+    finally:
+        for k, v in old.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+def check_jobs(jobs: int | None) -> int:
+    """``jobs`` (default: the machine's cores) checked: a positive number."""
+    if jobs is None:
+        return os.cpu_count() or 1
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise UsageError(f"--jobs must be a positive number of processes, got {jobs}")
+    return jobs
+
+
+def run_batch(
+    func: Callable[[Any], T],
+    items: Iterable[Any],
+    *,
+    jobs: int | None = None,
+    ray_address: str | None = None,
+    progress: Callable[[ItemResult[T]], Any] | None = None,
+) -> list[ItemResult[T]]:
+    """``func(item)`` for every item, in parallel; the results in input order.
+
+    Parameters
+    ----------
+    func : callable
+        A picklable top-level function (or :func:`functools.partial` of one) of one item.
+    items : iterable
+        Usually recording paths; with Ray they are read where they are.
+    jobs : int, optional
+        Worker processes (default: :func:`os.cpu_count`); 1 runs in this process. With
+        ``ray_address="local"`` the CPUs of the local Ray instance; ignored with a cluster.
+    ray_address : str, optional
+        Run on Ray: ``"local"`` (a new local instance), ``"auto"`` (the cluster this machine
+        joined with ``ray start``) or a cluster address. An already initialised Ray is used
+        as it is and left running.
+    progress : callable, optional
+        Called with each :class:`ItemResult` as it finishes (completion order), in this
+        process.
+
+    Raises
+    ------
+    UsageError
+        ``jobs`` is not a positive integer, or Ray is asked for but not installed.
+    """
+    jobs = check_jobs(jobs)
+    todo = list(items)
+    if ray_address is not None:
+        return _run_ray(func, todo, jobs, ray_address, progress)
+    if jobs == 1 or len(todo) <= 1:
+        out = []
+        for item in todo:
+            # the same worker environment is not forced on this process: its threads are free
+            res = call_item(func, item)
+            out.append(res)
+            if progress is not None:
+                progress(res)
+        return out
+    return _run_pool(func, todo, min(jobs, len(todo)), progress)
+
+
+def _run_pool(
+    func: Callable[[Any], T],
+    items: list[Any],
+    jobs: int,
+    progress: Callable[[ItemResult[T]], Any] | None,
+) -> list[ItemResult[T]]:
+    import multiprocessing
+
+    from concurrent.futures.process import BrokenProcessPool
+
+    results: list[ItemResult[T] | None] = [None] * len(items)
+    pending = list(enumerate(items))
+    ctx = multiprocessing.get_context("spawn")
+    # a worker that dies (a crash in native code) breaks the whole pool: the items it took
+    # down are failed, the ones never started go to a fresh pool
+    while pending:
+        started: dict[Future[ItemResult[T]], int] = {}
+        with (
+            _worker_env(),
+            ProcessPoolExecutor(
+                max_workers=min(jobs, len(pending)), mp_context=ctx, initializer=_init_worker
+            ) as pool,
+        ):
+            for i, item in pending:
+                started[pool.submit(call_item, func, item)] = i
+            waiting = set(started)
+            broken = False
+            while waiting:
+                finished, waiting = wait(waiting, return_when=FIRST_COMPLETED)
+                for fut in finished:
+                    i = started[fut]
+                    try:
+                        res = fut.result()
+                    except BrokenProcessPool:
+                        broken = True
+                        continue
+                    except Exception as err:  # the result could not be sent back
+                        res = ItemResult(items[i], error=one_line(err))
+                    results[i] = res
+                    if progress is not None:
+                        progress(res)
+        if not broken:
+            break
+        lost = [i for i, r in enumerate(results) if r is None]
+        # the running items (which died with the worker) cannot be told from the queued ones:
+        # retry each of them alone, so only the one that crashes is failed
+        pending = []
+        for i in lost:
+            res = _run_alone(func, items[i], ctx)
+            results[i] = res
+            if progress is not None:
+                progress(res)
+    return [r if r is not None else ItemResult(items[i], error="not run") for i, r in enumerate(results)]
+
+
+def _run_alone(func: Callable[[Any], T], item: Any, ctx: Any) -> ItemResult[T]:
+    """One item in a process of its own: a crash of that process is this item's error."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    with (
+        _worker_env(),
+        ProcessPoolExecutor(max_workers=1, mp_context=ctx, initializer=_init_worker) as pool,
+    ):
+        try:
+            return pool.submit(call_item, func, item).result()
+        except BrokenProcessPool:
+            return ItemResult(item, error="the worker process died (a crash while reading it)")
+        except Exception as err:
+            return ItemResult(item, error=one_line(err))
+
+
+def recording_paths(inputs: Iterable[str | os.PathLike[str]]) -> list[str]:
+    """The recordings ``inputs`` name: each file as given, each directory's ``*.mcap`` sorted.
+
+    Raises :class:`UsageError` when there is none (e.g. only empty directories)."""
+    from pathlib import Path
+
+    given = [os.fspath(it) for it in inputs]
+    out: list[str] = []
+    for it in given:
+        if Path(it).is_dir():
+            out.extend(str(f) for f in sorted(Path(it).glob("*.mcap")))
+        else:
+            out.append(it)
+    if not out:
+        raise UsageError(f"no .mcap recordings in {' '.join(given)}")
+    return out
+
+
+def _import_ray() -> Any:
+    try:
+        import ray
+    except ModuleNotFoundError as err:
+        if (err.name or "").split(".")[0] != "ray":
+            raise
+        raise UsageError(RAY_INSTALL_HINT) from None
+    return ray
+
+
+def _run_ray(
+    func: Callable[[Any], T],
+    items: list[Any],
+    jobs: int,
+    address: str,
+    progress: Callable[[ItemResult[T]], Any] | None,
+) -> list[ItemResult[T]]:
+    ray = _import_ray()
+    started_here = not ray.is_initialized()
+    if started_here:
+        env = {"env_vars": dict(WORKER_ENV)}
+        kwargs: dict[str, Any] = {
+            "runtime_env": env,
+            "include_dashboard": False,
+            "logging_level": "ERROR",
+            "log_to_driver": False,
+        }
+        if address == LOCAL_RAY:
+            ray.init(num_cpus=jobs, **kwargs)
+        else:
+            ray.init(address=address, **kwargs)
+    try:
+        task = ray.remote(num_cpus=1, max_retries=0)(call_item)
+        refs = [task.remote(func, item) for item in items]
+        index = {ref: i for i, ref in enumerate(refs)}
+        results: list[ItemResult[T] | None] = [None] * len(items)
+        waiting = list(refs)
+        while waiting:
+            done, waiting = ray.wait(waiting, num_returns=1)
+            for ref in done:
+                i = index[ref]
+                try:
+                    res = ray.get(ref)
+                except Exception as err:  # the worker died, the node went away, ...
+                    res = ItemResult(items[i], error=_ray_error(err))
+                results[i] = res
+                if progress is not None:
+                    progress(res)
+    finally:
+        if started_here:
+            ray.shutdown()
+    return [r if r is not None else ItemResult(items[i], error="not run") for i, r in enumerate(results)]
+
+
+def _ray_error(err: BaseException) -> str:
+    name = type(err).__name__
+    if "WorkerCrashed" in name or "ActorDied" in name:
+        return "the worker process died (a crash while reading it)"
+    if "NodeDied" in name or "ObjectLost" in name:
+        return f"the Ray node running it went away ({name})"
+    return one_line(err)
