@@ -21,8 +21,8 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Callable, Iterable, Iterator, Mapping
-from contextlib import contextmanager
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any, Generic, TypeVar
 
@@ -41,6 +41,8 @@ WORKER_ENV: Mapping[str, str] = {
 
 RAY_INSTALL_HINT = "--ray needs Ray: pip install 'lfd[ray]'"
 
+WORKER_DIED = "the worker process died"
+
 LOCAL_RAY = "local"
 """``ray_address`` that starts a new local Ray instance with ``jobs`` CPUs."""
 
@@ -56,6 +58,10 @@ class ItemResult(Generic[T]):
     """Wall time of the call in its worker."""
     warnings: list[str] = field(default_factory=list)
     """The warnings the call raised (one line each, in order, each once)."""
+    categories: list[type[Warning]] = field(default_factory=list, repr=False, compare=False)
+    """The class of each of :attr:`warnings`."""
+    exception: BaseException | None = field(default=None, repr=False, compare=False)
+    """The exception itself, when the call ran in this process (``None`` from a worker)."""
 
     @property
     def ok(self) -> bool:
@@ -86,12 +92,42 @@ def call_item(func: Callable[[Any], T], item: Any) -> ItemResult[T]:
         try:
             value = func(item)
         except Exception as err:  # one item's failure, whatever it is, is that item's result
-            res: ItemResult[T] = ItemResult(item, error=one_line(err))
+            res: ItemResult[T] = ItemResult(item, error=one_line(err), exception=err)
         else:
             res = ItemResult(item, value=value)
     res.seconds = time.perf_counter() - t0
-    res.warnings = list(dict.fromkeys(" ".join(str(w.message).split()) for w in caught))
+    seen: dict[str, type[Warning]] = {}
+    for w in caught:
+        seen.setdefault(" ".join(str(w.message).split()), w.category)
+    res.warnings, res.categories = list(seen), list(seen.values())
     return res
+
+
+def reemit_warnings(res: ItemResult[Any], prefix: str = "") -> None:
+    """Warn again (:func:`warnings.warn`, same classes) what ``res``'s call warned."""
+    import warnings
+
+    for message, category in zip(res.warnings, res.categories, strict=False):
+        warnings.warn(f"{prefix}{message}", category, stacklevel=2)
+
+
+def call_in_worker(func: Callable[[Any], T], item: Any) -> ItemResult[T]:
+    """:func:`call_item` in a worker: the exception stays there (it may not pickle)."""
+    res = call_item(func, item)
+    res.exception = None
+    return res
+
+
+def raise_failed(results: Iterable[ItemResult[Any]], name: Callable[[Any], str] = str) -> None:
+    """Raise the first failed item's error: its own exception when it ran in this process,
+    else :class:`~lfd.errors.BatchError` with ``NAME: message``."""
+    from .errors import BatchError
+
+    for res in results:
+        if res.exception is not None:
+            raise res.exception
+        if res.error is not None:
+            raise BatchError(f"{name(res.item)}: {res.error}")
 
 
 def _init_worker() -> None:
@@ -178,52 +214,49 @@ def _run_pool(
     progress: Callable[[ItemResult[T]], Any] | None,
 ) -> list[ItemResult[T]]:
     import multiprocessing
-
     from concurrent.futures.process import BrokenProcessPool
 
     results: list[ItemResult[T] | None] = [None] * len(items)
-    pending = list(enumerate(items))
+
+    def finish(i: int, res: ItemResult[T]) -> None:
+        results[i] = res
+        if progress is not None:
+            progress(res)
+
     ctx = multiprocessing.get_context("spawn")
-    # a worker that dies (a crash in native code) breaks the whole pool: the items it took
-    # down are failed, the ones never started go to a fresh pool
-    while pending:
-        started: dict[Future[ItemResult[T]], int] = {}
-        with (
-            _worker_env(),
-            ProcessPoolExecutor(
-                max_workers=min(jobs, len(pending)), mp_context=ctx, initializer=_init_worker
-            ) as pool,
-        ):
-            for i, item in pending:
-                started[pool.submit(call_item, func, item)] = i
-            waiting = set(started)
-            broken = False
-            while waiting:
-                finished, waiting = wait(waiting, return_when=FIRST_COMPLETED)
-                for fut in finished:
-                    i = started[fut]
-                    try:
-                        res = fut.result()
-                    except BrokenProcessPool:
-                        broken = True
-                        continue
-                    except Exception as err:  # the result could not be sent back
-                        res = ItemResult(items[i], error=one_line(err))
-                    results[i] = res
-                    if progress is not None:
-                        progress(res)
-        if not broken:
-            break
+    broken = False
+    with (
+        _worker_env(),
+        ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_init_worker) as pool,
+    ):
+        started = {pool.submit(call_in_worker, func, item): i for i, item in enumerate(items)}
+        waiting: set[Future[ItemResult[T]]] = set(started)
+        while waiting:
+            finished, waiting = wait(waiting, return_when=FIRST_COMPLETED)
+            for fut in finished:
+                try:
+                    finish(started[fut], fut.result())
+                except BrokenProcessPool:
+                    broken = True
+                except Exception as err:  # the result could not be sent back
+                    finish(started[fut], ItemResult(items[started[fut]], error=one_line(err)))
+    if broken:
+        # a worker died (a crash in native code) and took the pool down: the items it was
+        # running cannot be told from the queued ones, so each unfinished item is retried in a
+        # process of its own and only the one that crashes fails. If nothing had finished and
+        # the first retry dies too, no worker can run at all: fail them all at once.
         lost = [i for i, r in enumerate(results) if r is None]
-        # the running items (which died with the worker) cannot be told from the queued ones:
-        # retry each of them alone, so only the one that crashes is failed
-        pending = []
-        for i in lost:
+        nothing_ran = len(lost) == len(items)
+        for n, i in enumerate(lost):
             res = _run_alone(func, items[i], ctx)
-            results[i] = res
-            if progress is not None:
-                progress(res)
-    return [r if r is not None else ItemResult(items[i], error="not run") for i, r in enumerate(results)]
+            if n == 0 and nothing_ran and res.error == WORKER_DIED:
+                for j in lost:
+                    finish(j, ItemResult(items[j], error=f"{WORKER_DIED}; no worker could run"))
+                break
+            finish(i, res)
+    return [
+        r if r is not None else ItemResult(items[i], error="not run") for i, r in enumerate(results)
+    ]
 
 
 def _run_alone(func: Callable[[Any], T], item: Any, ctx: Any) -> ItemResult[T]:
@@ -235,9 +268,9 @@ def _run_alone(func: Callable[[Any], T], item: Any, ctx: Any) -> ItemResult[T]:
         ProcessPoolExecutor(max_workers=1, mp_context=ctx, initializer=_init_worker) as pool,
     ):
         try:
-            return pool.submit(call_item, func, item).result()
+            return pool.submit(call_in_worker, func, item).result()
         except BrokenProcessPool:
-            return ItemResult(item, error="the worker process died (a crash while reading it)")
+            return ItemResult(item, error=WORKER_DIED)
         except Exception as err:
             return ItemResult(item, error=one_line(err))
 
@@ -292,7 +325,7 @@ def _run_ray(
         else:
             ray.init(address=address, **kwargs)
     try:
-        task = ray.remote(num_cpus=1, max_retries=0)(call_item)
+        task = ray.remote(num_cpus=1, max_retries=0)(call_in_worker)
         refs = [task.remote(func, item) for item in items]
         index = {ref: i for i, ref in enumerate(refs)}
         results: list[ItemResult[T] | None] = [None] * len(items)
@@ -311,13 +344,15 @@ def _run_ray(
     finally:
         if started_here:
             ray.shutdown()
-    return [r if r is not None else ItemResult(items[i], error="not run") for i, r in enumerate(results)]
+    return [
+        r if r is not None else ItemResult(items[i], error="not run") for i, r in enumerate(results)
+    ]
 
 
 def _ray_error(err: BaseException) -> str:
     name = type(err).__name__
     if "WorkerCrashed" in name or "ActorDied" in name:
-        return "the worker process died (a crash while reading it)"
+        return WORKER_DIED
     if "NodeDied" in name or "ObjectLost" in name:
         return f"the Ray node running it went away ({name})"
     return one_line(err)

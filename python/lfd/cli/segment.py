@@ -346,7 +346,7 @@ def _run_batch(args: argparse.Namespace) -> int:
     con = console(args)
     con.print(batch_table(results, title=f"{len(paths)} recordings"))
     for res in results:  # the segmentation's own warnings, as the single-file run prints them
-        if res.ok:
+        if res.value is not None:
             res.warnings = list(dict.fromkeys([*res.warnings, *res.value["warnings"]]))
     status = report_batch_errors("segment", results)
     if args.json:
@@ -357,9 +357,7 @@ def _run_batch(args: argparse.Namespace) -> int:
 def batch_document(results: list[Any]) -> list[dict[str, Any]]:
     """``lfd segment --json`` of a batch: per recording, in input order, its single-file
     document (which names it in ``"recording"``) or ``{"recording", "error"}``."""
-    return [
-        r.value if r.ok else {"recording": str(r.item), "error": r.error} for r in results
-    ]
+    return [r.value if r.ok else {"recording": str(r.item), "error": r.error} for r in results]
 
 
 def batch_table(results: list[Any], *, title: str) -> Any:
