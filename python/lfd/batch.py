@@ -313,17 +313,16 @@ def _run_ray(
     ray = _import_ray()
     started_here = not ray.is_initialized()
     if started_here:
-        env = {"env_vars": dict(WORKER_ENV)}
         kwargs: dict[str, Any] = {
-            "runtime_env": env,
             "include_dashboard": False,
             "logging_level": "ERROR",
             "log_to_driver": False,
         }
         if address == LOCAL_RAY:
-            ray.init(num_cpus=jobs, **kwargs)
-        else:
-            ray.init(address=address, **kwargs)
+            with _worker_env():  # the local workers inherit it (a runtime_env costs seconds)
+                ray.init(num_cpus=jobs, **kwargs)
+        else:  # the cluster's nodes get it per job
+            ray.init(address=address, runtime_env={"env_vars": dict(WORKER_ENV)}, **kwargs)
     try:
         task = ray.remote(num_cpus=1, max_retries=0)(call_in_worker)
         refs = [task.remote(func, item) for item in items]

@@ -244,8 +244,10 @@ def _run_follow(args: argparse.Namespace) -> int:
 def run(args: argparse.Namespace) -> int:
     from rich.table import Table
 
+    from ._options import batch_options
     from ._rerun import check_rerun_args, close_from_args, open_from_args
 
+    batch_options(args)  # checked with one recording too (--ray may have taken it)
     if is_batch(args.recordings):
         return _run_batch(args)
     args.recording = args.recordings[0]
