@@ -59,6 +59,11 @@ def test_run_batch_keeps_order_and_isolates_failures() -> None:
     seen: list[ItemResult[int]] = []
     run_batch(_tenfold_or_crash, [1, 4], jobs=1, progress=seen.append)
     assert [r.value for r in seen] == [10, 40]
+    from rich.progress import Progress
+
+    with Progress(disable=True) as bar:  # a rich progress gets a task advanced per item
+        run_batch(_tenfold_or_crash, [1, 3, 4], jobs=1, progress=bar)
+        assert bar.tasks[0].completed == 3 and "1 failed" in bar.tasks[0].description
     with pytest.raises(UsageError, match="--jobs"):
         run_batch(_tenfold_or_crash, [1], jobs=0)
 
@@ -133,3 +138,22 @@ def test_segment_batch_on_local_ray_equals_local(tmp_path: Path, broken: str) ->
     local_status, local = _batch([*inputs, "--jobs", "1"], tmp_path, "local.json")
     ray_status, on_ray = _batch([*inputs, "--jobs", "2", "--ray"], tmp_path, "ray.json")
     assert (ray_status, on_ray) == (local_status, local) == (2, local)
+
+
+def test_ray_missing_says_which_extra(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "class Block:  # ray is not installed\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name.split('.')[0] == 'ray':\n"
+        "            raise ModuleNotFoundError(f'blocked: {name}', name=name)\n"
+        "sys.meta_path.insert(0, Block())\n"
+        "from lfd.cli import main\n"
+        f"sys.exit(main(['segment', {EXP[0]!r}, {EXP[1]!r}, '--ray']))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 2
+    assert out.stderr.strip() == "lfd segment: error: --ray needs Ray: pip install 'lfd[ray]'"

@@ -161,7 +161,7 @@ def test_cycles_are_found(tmp_path: Path, files: dict[str, str], cycle: list[str
     assert find_cycle(graph) == cycle
 
 
-HEAVY = ("mujoco", "mink", "torch", "cv2", "rerun", "ai_edge_litert", "movement_primitives")
+HEAVY = ("mujoco", "mink", "torch", "cv2", "rerun", "ai_edge_litert", "movement_primitives", "ray")
 """The extras' big modules (ARCHITECTURE.md, "Heavy imports")."""
 
 

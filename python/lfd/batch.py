@@ -182,9 +182,10 @@ def run_batch(
         Run on Ray: ``"local"`` (a new local instance), ``"auto"`` (the cluster this machine
         joined with ``ray start``) or a cluster address. An already initialised Ray is used
         as it is and left running.
-    progress : callable, optional
+    progress : callable or rich.progress.Progress, optional
         Called with each :class:`ItemResult` as it finishes (completion order), in this
-        process.
+        process; or a rich ``Progress``, to which a task of ``len(items)`` steps is added and
+        advanced.
 
     Raises
     ------
@@ -193,6 +194,8 @@ def run_batch(
     """
     jobs = check_jobs(jobs)
     todo = list(items)
+    if progress is not None and hasattr(progress, "add_task"):
+        progress = _rich_steps(progress, len(todo))
     if ray_address is not None:
         return _run_ray(func, todo, jobs, ray_address, progress)
     if jobs == 1 or len(todo) <= 1:
@@ -205,6 +208,21 @@ def run_batch(
                 progress(res)
         return out
     return _run_pool(func, todo, min(jobs, len(todo)), progress)
+
+
+def _rich_steps(bar: Any, total: int) -> Callable[[ItemResult[Any]], None]:
+    task = bar.add_task("recordings", total=total)
+    failed = [0]
+
+    def step(res: ItemResult[Any]) -> None:
+        failed[0] += 0 if res.ok else 1
+        bar.update(
+            task,
+            advance=1,
+            description=f"recordings ({failed[0]} failed)" if failed[0] else "recordings",
+        )
+
+    return step
 
 
 def _run_pool(
