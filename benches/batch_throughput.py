@@ -9,7 +9,9 @@ list and the other 199 results are written, identical in every mode.
 Reported: recordings per second per mode, each mode's ratio against ``--jobs 1`` (the
 reference), the scaling efficiency from 1 to 2 processes ((T1 / T2) / 2, target >= 80 %), and
 Ray's overhead per recording against the local pool of the same size ((T_ray - T_2) / N).
-Every mode runs one engine/BLAS thread per process (:data:`lfd.batch.WORKER_ENV`), so
+The machine may be shared: the load average before each mode, the CPU seconds the command and
+its processes used and how many cores that kept busy on average (CPU / wall) are printed, so a
+lack of scaling from other load shows. Every mode runs one engine/BLAS thread per process (:data:`lfd.batch.WORKER_ENV`), so
 ``--jobs 1`` is one core and ``--jobs 2`` two.
 
 Run: ``MUJOCO_GL=egl python benches/batch_throughput.py [--n 200] [--cache DIR]``. The demos are
@@ -71,17 +73,23 @@ def generate(n: int, cache: Path) -> Path:
     return folder
 
 
-def run_mode(folder: Path, out: Path, extra: list[str]) -> tuple[float, int, list[dict]]:
+def run_mode(folder: Path, out: Path, extra: list[str]) -> tuple[float, float, int, list[dict]]:
+    """Run the command: (wall s, CPU s of it and its processes, exit status, JSON list)."""
+    import resource
+
     from lfd.batch import WORKER_ENV
 
     cmd = [sys.executable, "-m", "lfd.cli", "segment", str(folder), "--json", str(out), *extra]
     # one thread per process in every mode, --jobs 1 too (in-process it would otherwise use
     # every core through the engine's thread pool): 1 -> 2 processes is 1 -> 2 cores
     env = {**os.environ, **WORKER_ENV}
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, capture_output=True, text=True, check=False, env=env)
     wall = time.perf_counter() - t0
-    return wall, proc.returncode, json.loads(out.read_text())
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+    return wall, cpu, proc.returncode, json.loads(out.read_text())
 
 
 def main() -> None:
@@ -105,14 +113,17 @@ def main() -> None:
     docs: dict[str, list[dict]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         for name, extra in modes:
-            wall, status, doc = run_mode(folder, Path(tmp) / "out.json", extra)
+            load = os.getloadavg()[0]
+            wall, cpu, status, doc = run_mode(folder, Path(tmp) / "out.json", extra)
             failed = [d for d in doc if "error" in d]
             assert status == 2, f"{name}: exit status {status}, expected 2 (one file failed)"
             assert len(doc) == n and [d["recording"] for d in doc] == [str(f) for f in files]
             assert [d["recording"] for d in failed] == [str(folder / "exp0_broken.mcap")], name
             walls[name], docs[name] = wall, doc
             print(f"{name:18s} {wall:7.1f} s  {n / wall:6.2f} recordings/s  "
-                  f"({n - len(failed)} results, {len(failed)} error: {failed[0]['error'][:60]}...)")  # fmt: skip
+                  f"CPU {cpu:6.1f} s ({1e3 * cpu / n:5.0f} ms/recording, {cpu / wall:.2f} cores busy)  "
+                  f"load {load:.1f}  ({n - len(failed)} results, {len(failed)} error: "
+                  f"{failed[0]['error'][:40]}...)")  # fmt: skip
     ref = walls["--jobs 1"]
     assert docs["--jobs 2"] == docs["--jobs 1"] == docs["local Ray, 2 CPUs"], "results differ"
     print("\nratios against --jobs 1 (the reference): throughput")

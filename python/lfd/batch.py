@@ -135,11 +135,12 @@ def _init_worker() -> None:
 
 
 @contextmanager
-def _worker_env() -> Iterator[None]:
-    """:data:`WORKER_ENV` in this process's environment while workers start (a spawned worker
-    loads numpy and the engine before any initializer runs: they read it at load)."""
-    old = {k: os.environ.get(k) for k in WORKER_ENV}
-    os.environ.update(WORKER_ENV)
+def _worker_env(**more: str) -> Iterator[None]:
+    """:data:`WORKER_ENV` (and ``more``) in this process's environment while workers start (a
+    spawned worker loads numpy and the engine before any initializer runs: they read it then)."""
+    env = {**WORKER_ENV, **more}
+    old = {k: os.environ.get(k) for k in env}
+    os.environ.update(env)
     try:
         yield
     finally:
@@ -337,7 +338,9 @@ def _run_ray(
             "log_to_driver": False,
         }
         if address == LOCAL_RAY:
-            with _worker_env():  # the local workers inherit it (a runtime_env costs seconds)
+            # the local workers inherit the environment (a runtime_env costs seconds), and run
+            # at normal priority, as the local pool's do (Ray's default niceness is 15)
+            with _worker_env(RAY_worker_niceness="0"):
                 ray.init(num_cpus=jobs, **kwargs)
         else:  # the cluster's nodes get it per job
             ray.init(address=address, runtime_env={"env_vars": dict(WORKER_ENV)}, **kwargs)
