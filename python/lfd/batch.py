@@ -166,7 +166,7 @@ def run_batch(
     *,
     jobs: int | None = None,
     ray_address: str | None = None,
-    progress: Callable[[ItemResult[T]], Any] | None = None,
+    progress: Callable[[ItemResult[T]], Any] | Any | None = None,
 ) -> list[ItemResult[T]]:
     """``func(item)`` for every item, in parallel; the results in input order.
 
@@ -250,15 +250,19 @@ def _run_pool(
     ):
         started = {pool.submit(call_in_worker, func, item): i for i, item in enumerate(items)}
         waiting: set[Future[ItemResult[T]]] = set(started)
-        while waiting:
-            finished, waiting = wait(waiting, return_when=FIRST_COMPLETED)
-            for fut in finished:
-                try:
-                    finish(started[fut], fut.result())
-                except BrokenProcessPool:
-                    broken = True
-                except Exception as err:  # the result could not be sent back
-                    finish(started[fut], ItemResult(items[started[fut]], error=one_line(err)))
+        try:
+            while waiting:
+                finished, waiting = wait(waiting, return_when=FIRST_COMPLETED)
+                for fut in finished:
+                    try:
+                        finish(started[fut], fut.result())
+                    except BrokenProcessPool:
+                        broken = True
+                    except Exception as err:  # the result could not be sent back
+                        finish(started[fut], ItemResult(items[started[fut]], error=one_line(err)))
+        except BaseException:  # Ctrl+C: drop the queued items instead of running them first
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
     if broken:
         # a worker died (a crash in native code) and took the pool down: the items it was
         # running cannot be told from the queued ones, so each unfinished item is retried in a
