@@ -157,3 +157,37 @@ def test_ray_missing_says_which_extra(tmp_path: Path) -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 2
     assert out.stderr.strip() == "lfd segment: error: --ray needs Ray: pip install 'lfd[ray]'"
+
+
+def test_ctrl_c_stops_a_batch_at_once() -> None:
+    """Ctrl+C (SIGINT to the process group) ends a running batch with 130, without finishing
+    the queued recordings first, and leaves no worker behind."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    argv = [sys.executable, "-m", "lfd.cli", "segment", *(EXP * 20), "--jobs", "2"]
+    proc = subprocess.Popen(
+        argv,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    time.sleep(4)  # the pool is up and segmenting (60 recordings take far longer)
+    assert proc.poll() is None
+    t0 = time.perf_counter()
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130 and err.strip().endswith("lfd segment: interrupted")
+    assert time.perf_counter() - t0 < 5
+    for _ in range(50):  # no worker left in the command's process group
+        left = subprocess.run(
+            ["pgrep", "-g", str(proc.pid), "-f", "spawn_main"], capture_output=True
+        )
+        if not left.stdout:
+            break
+        time.sleep(0.1)
+    assert not left.stdout, left.stdout

@@ -131,7 +131,12 @@ def raise_failed(results: Iterable[ItemResult[Any]], name: Callable[[Any], str] 
 
 
 def _init_worker() -> None:
+    import signal
+
     os.environ.update(WORKER_ENV)
+    # Ctrl+C reaches the whole process group: the parent stops the batch (drops the queued
+    # items, waits for the running ones); a worker interrupted mid-task would break the pool
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 @contextmanager
@@ -260,8 +265,11 @@ def _run_pool(
                         broken = True
                     except Exception as err:  # the result could not be sent back
                         finish(started[fut], ItemResult(items[started[fut]], error=one_line(err)))
-        except BaseException:  # Ctrl+C: drop the queued items instead of running them first
+        except BaseException:  # Ctrl+C: stop now, neither running nor finishing the rest
+            workers = list((getattr(pool, "_processes", None) or {}).values())
             pool.shutdown(wait=False, cancel_futures=True)
+            for proc in workers:
+                proc.terminate()
             raise
     if broken:
         # a worker died (a crash in native code) and took the pool down: the items it was

@@ -364,20 +364,23 @@ def batch_document(results: list[Any]) -> list[dict[str, Any]]:
 
 def batch_table(results: list[Any], *, title: str) -> Any:
     """The summary of a segmented batch: recording, skills found, exact sequence, seconds,
-    error."""
+    error (cut to the width left; the full message follows as an error line)."""
     from rich.table import Table
 
     table = Table(title=title)
-    for col in ("recording", "skills", "exact", "seconds"):
-        table.add_column(col, justify="right" if col in ("skills", "seconds") else "left")
-    table.add_column("error", no_wrap=True, overflow="ellipsis", max_width=48)
+    table.add_column("recording", overflow="fold")
+    table.add_column("skills", justify="right", no_wrap=True)
+    table.add_column("exact", no_wrap=True)
+    table.add_column("seconds", justify="right", no_wrap=True)
+    table.add_column("error", overflow="fold")
     for r in results:
         if r.ok:
             match = r.value["metrics"].get("sequence_match")
             exact = "-" if match is None else ("yes" if match else "no")
             table.add_row(str(r.item), str(len(r.value["segments"])), exact, f"{r.seconds:.2f}", "")
         else:
-            table.add_row(str(r.item), "-", "-", f"{r.seconds:.2f}", r.error)
+            error = r.error if len(r.error) <= 30 else r.error[:29] + "…"
+            table.add_row(str(r.item), "-", "-", f"{r.seconds:.2f}", error)
     ok = sum(r.ok for r in results)
     table.caption = f"{ok} of {len(results)} segmented" + (
         f", {len(results) - ok} failed" if ok < len(results) else ""
