@@ -131,8 +131,8 @@ def test_templates_train_jobs_agree(tmp_path: Path, broken: str, capsys) -> None
     assert f"lfd templates: error: {broken}: " in capsys.readouterr().err
 
 
-@pytest.mark.slow
 def test_segment_batch_on_local_ray_equals_local(tmp_path: Path, broken: str) -> None:
+    # a local Ray instance with 2 CPUs (--ray without an address): about 10 s, mostly start-up
     pytest.importorskip("ray")
     inputs = [EXP[0], broken, EXP[2]]
     local_status, local = _batch([*inputs, "--jobs", "1"], tmp_path, "local.json")
