@@ -167,7 +167,7 @@ def test_ctrl_c_stops_a_batch_at_once() -> None:
     import sys
     import time
 
-    argv = [sys.executable, "-m", "lfd.cli", "segment", *(EXP * 20), "--jobs", "2"]
+    argv = [sys.executable, "-m", "lfd.cli", "segment", *(EXP * 300), "--jobs", "2"]
     proc = subprocess.Popen(
         argv,
         stdout=subprocess.DEVNULL,
@@ -176,7 +176,7 @@ def test_ctrl_c_stops_a_batch_at_once() -> None:
         start_new_session=True,
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
-    time.sleep(4)  # the pool is up and segmenting (60 recordings take far longer)
+    time.sleep(4)  # the pool is up and segmenting (900 recordings take far longer)
     assert proc.poll() is None
     t0 = time.perf_counter()
     os.killpg(proc.pid, signal.SIGINT)
