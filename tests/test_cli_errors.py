@@ -59,7 +59,7 @@ CASES: list[tuple[str, str, str]] = [
     ("segment-json-is-dir", "segment {rec} --json {tmp}", "is a directory"),
     ("segment-json-read-only-dir", "segment {rec} --json {ro}/x.json", "not writable"),
     ("segment-missing-input", "segment {tmp}/nope.mcap", "nope.mcap"),
-    ("segment-input-is-dir", "segment {tmp}", ""),
+    ("segment-input-is-dir", "segment {docs}", "no .mcap recordings in"),
     ("segment-rerun-connect", "segment {rec} --rerun-connect bogus://", "not a viewer URL"),
     ("segment-rerun-connect-http", "segment {rec} --rerun-connect http://h:1/proxy", "rerun+http"),
     ("segment-rerun-bind", "segment {rec} --rerun-serve --rerun-bind localhost", "not an IP"),
@@ -68,6 +68,14 @@ CASES: list[tuple[str, str, str]] = [
     ("segment-bad-choice", "segment {rec} --search nope", "invalid choice"),
     ("segment-paper-and-dp", "segment {rec} --paper --search dp", "--paper"),
     ("segment-json-to-stdout-twice", "segment {rec} --json", "expected one argument"),
+    # many recordings (docs/batch.md)
+    ("segment-batch-jobs-0", "segment {rec} {rec} --jobs 0", "argument --jobs: must be an integer >= 1, got '0'"),
+    ("segment-batch-follow", "segment {rec} {rec} --follow", "--follow follows one recording"),
+    ("segment-batch-rerun", "segment {rec} {rec} --rerun-save {tmp}/x.rrd", "--rerun* shows one recording"),
+    ("segment-batch-ray-took-input", "segment --ray {rec} {rec}", "put --ray after the recordings"),
+    ("eval-jobs-not-number", "eval {rec} --jobs many", "argument --jobs: must be an integer"),
+    ("eval-loo-ray", "eval {rec} {rec} --leave-one-out --ray", "drop it with --leave-one-out"),
+    ("templates-train-jobs-0", "templates train {rec} -o {tmp}/t.json --jobs 0", "argument --jobs"),
     # templates
     ("templates-train-no-recordings", "templates train {docs} -o {tmp}/t.json", "no .mcap"),
     ("templates-train-output-is-input", "templates train {rec} -o {rec}", "also an input"),

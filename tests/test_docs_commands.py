@@ -40,6 +40,8 @@ NOT_RUN: dict[str, str] = {
     "lfd record --source camera:0": "needs a camera: the camera source is tested with an RGB-D "
     "reader plug-in in tests/test_record_realhands.py",
     "python docs/examples/realsense_reader.py": "needs a RealSense (the module is compiled below)",
+    "lfd segment /shared/": "needs a Ray cluster (docs/batch.md); a local Ray runs in tests/test_batch.py",
+    "lfd templates train /shared/": "needs a Ray cluster (docs/batch.md)",
 }
 
 RUN_AS: dict[str, tuple[str, str]] = {

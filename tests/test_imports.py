@@ -172,6 +172,7 @@ HEAVY = (
     "rosbags",
     "lerobot",
     "datasets",
+    "ray",
 )
 """The extras' big modules (ARCHITECTURE.md, "Heavy imports")."""
 

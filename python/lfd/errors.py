@@ -72,6 +72,10 @@ class UsageError(LfdError, ValueError):
 
 
 # --- warnings -------------------------------------------------------------------------------
+class BatchError(LfdError):
+    """A recording of a batch failed in another process (its error, as one line)."""
+
+
 class LfdWarning(UserWarning):
     """Base class of the warnings lfd emits when it repairs or drops data."""
 

@@ -169,3 +169,103 @@ def load_options(args: argparse.Namespace) -> dict[str, Any]:
 
         out["mapping"] = read_mapping(args.map)
     return out
+
+
+# --- many recordings: --jobs N, --ray [ADDRESS] (lfd.batch) ------------------------------------
+def add_batch_options(parser: argparse.ArgumentParser) -> None:
+    """``--jobs N`` and ``--ray [ADDRESS]``: how a command runs over many recordings
+    (:func:`lfd.batch.run_batch`; docs/batch.md). Read them with :func:`batch_options`."""
+    from ._types import positive_int
+
+    group = parser.add_argument_group("many recordings (docs/batch.md)")
+    group.add_argument(
+        "--jobs",
+        type=positive_int,
+        default=None,
+        metavar="N",
+        help="recordings processed in parallel, one process each (default: the cores, "
+        f"{os.cpu_count()} here; 1: one after the other in this process)",
+    )
+    group.add_argument(
+        "--ray",
+        nargs="?",
+        const="local",
+        default=None,
+        metavar="ADDRESS",
+        help="run the recordings as Ray tasks: without ADDRESS on a new local Ray instance with "
+        "--jobs CPUs, 'auto' or HOST:PORT on a running cluster (recordings are read at the "
+        "same path on every node); write --ray=ADDRESS or put --ray after the recordings",
+    )
+
+
+def batch_options(args: argparse.Namespace) -> dict[str, Any]:
+    """``jobs`` and ``ray_address`` keyword arguments of :func:`lfd.batch.run_batch` chosen by
+    :func:`add_batch_options`'s options."""
+    from ..errors import UsageError
+
+    ray = getattr(args, "ray", None)
+    if ray is not None and (ray.endswith(".mcap") or os.path.exists(ray)):
+        raise UsageError(
+            f"--ray took {ray} as the cluster address; put --ray after the recordings "
+            "or write --ray=ADDRESS"
+        )
+    return {"jobs": getattr(args, "jobs", None), "ray_address": ray}
+
+
+def batch_progress(total: int, description: str) -> Any:
+    """One rich progress bar on stderr for a batch of ``total`` recordings (shown only when
+    stderr is a terminal). Use as a context manager; call the result with each finished
+    :class:`lfd.batch.ItemResult`."""
+    import contextlib
+
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    con = Console(stderr=True)
+
+    @contextlib.contextmanager
+    def bar() -> Any:
+        with Progress(
+            TextColumn("{task.description}"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TimeElapsedColumn(),
+            TimeRemainingColumn(),
+            console=con,
+            transient=False,
+            disable=not con.is_terminal,
+        ) as progress:
+            task = progress.add_task(description, total=total)
+            failed = [0]
+
+            def step(res: Any) -> None:
+                failed[0] += 0 if res.ok else 1
+                what = f"{description} ({failed[0]} failed)" if failed[0] else description
+                progress.update(task, advance=1, description=what)
+
+            yield step
+
+    return bar()
+
+
+def report_batch_errors(command: str, results: Iterable[Any], name: Any = str) -> int:
+    """Print each failed recording's error as one line, ``lfd <command>: error: NAME: message``,
+    and each warning as ``lfd <command>: warning: NAME: message``, in input order; return the
+    exit status of the batch: 0 if every recording succeeded, 2 if some failed."""
+    import sys
+
+    status = 0
+    for res in results:
+        for w in res.warnings:
+            print(f"lfd {command}: warning: {name(res.item)}: {w}", file=sys.stderr)
+        if not res.ok:
+            print(f"lfd {command}: error: {name(res.item)}: {res.error}", file=sys.stderr)
+            status = 2
+    return status

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, get_args
 
 from ._options import (
+    add_batch_options,
     add_json_argument,
     add_recording_arguments,
     check_inputs,
@@ -62,6 +63,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     from ._rerun import add_rerun_arguments
 
     add_rerun_arguments(parser)  # shows one recording: every method's lane beside the truth
+    add_batch_options(parser)  # the recordings in parallel (not --leave-one-out's folds)
 
 
 def _fmt(k: str, v: float) -> str:
@@ -88,6 +90,7 @@ def run(args: argparse.Namespace) -> int:
         leave_one_out,
     )
     from ..segmentation.metrics import METRIC_NAMES
+    from ._options import batch_options
     from ._rerun import check_rerun_args, close_from_args, open_from_args
 
     methods = check_methods([m.strip() for m in args.methods.split(",") if m.strip()])
@@ -112,9 +115,16 @@ def run(args: argparse.Namespace) -> int:
     sizes = load_options(args)["object_sizes"]
     templates = Templates.load(args.templates) if args.templates else None
     base, base_name = _base(args, templates) if args.leave_one_out else (None, "")
+    batch = batch_options(args)
+    if args.leave_one_out and batch["ray_address"] is not None:
+        raise UsageError("--ray runs the recordings of a plain eval; drop it with --leave-one-out")
+    failed: dict[str, str] = {}
     if open_from_args(args, "lfd_eval"):
         _show(paths, methods, templates, args.grammar, con, sizes)
-    with Progress(console=con, transient=True, disable=not con.is_terminal) as progress:
+    from rich.console import Console
+
+    stderr = Console(stderr=True)
+    with Progress(console=stderr, transient=True, disable=not stderr.is_terminal) as progress:
         total = 2 * len(paths) if args.leave_one_out else len(paths)
         task = progress.add_task("evaluating", total=total)
 
@@ -139,7 +149,13 @@ def run(args: argparse.Namespace) -> int:
                 grammar=args.grammar,
                 progress=step,
                 object_sizes=sizes,
+                failed=failed,
+                **batch,
             )
+    for path, message in failed.items():
+        print(f"lfd eval: error: {path}: {message}", file=sys.stderr)
+    if not report.recordings and failed:
+        return 2
     if not report.recordings:
         raise UsageError(
             f"none of the {len(paths)} recordings has ground-truth skill labels to evaluate against"
@@ -162,8 +178,17 @@ def run(args: argparse.Namespace) -> int:
         for m, err in r.errors.items():
             print(f"lfd eval: warning: {r.name} {m}: {' '.join(str(err).split())}", file=sys.stderr)
     close_from_args(args)
-    emit_json(args, report.to_dict(), con)
-    return 0
+    doc = report.to_dict()
+    if failed:  # only a batch with failures has the key: a complete run's document is as before
+        doc["failed"] = [{"recording": p, "error": m} for p, m in failed.items()]
+    emit_json(args, doc, con)
+    if failed:
+        print(
+            f"lfd eval: {len(paths) - len(failed)} of {len(paths)} recordings evaluated; "
+            f"{len(failed)} failed",
+            file=sys.stderr,
+        )
+    return 2 if failed else 0
 
 
 def _show(

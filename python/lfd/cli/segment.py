@@ -1,5 +1,9 @@
 """``lfd segment rec.mcap``: cut a recording into skills and print them (with ground truth).
 
+``lfd segment A.mcap B.mcap ... | DIR`` segments many recordings in parallel (``--jobs``,
+``--ray``; :func:`lfd.batch.run_batch`): one progress bar, a summary table, one error line per
+failed recording, and with ``--json`` a list of the single-file documents (docs/batch.md).
+
 ``lfd segment --follow rec.mcap`` follows a recording another process (``lfd record``) is still
 writing: every sample as its chunk lands (:func:`lfd.io.follow`), shown live in Rerun with the
 ``--rerun*`` options (:class:`lfd.viz.live.LiveTimeline`), until the recorder closes the file,
@@ -16,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from ._options import (
+    add_batch_options,
     add_json_argument,
     add_recording_arguments,
     add_segmentation_arguments,
@@ -33,7 +38,10 @@ HELP = "Segment a recording into skills (two-stage HMM template matching)."
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
-        "recording", help="an lfd MCAP recording, or a ROS bag with --map (docs/ros.md)"
+        "recordings",
+        nargs="+",
+        metavar="RECORDING",
+        help="an lfd MCAP recording or a ROS bag with --map (docs/ros.md); several, or a directory (its *.mcap), run as a batch",
     )
     parser.add_argument(
         "--follow",
@@ -56,6 +64,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     from ._rerun import add_rerun_arguments
 
     add_rerun_arguments(parser)
+    add_batch_options(parser)
 
 
 def segment_recording(
@@ -251,8 +260,13 @@ def _run_follow(args: argparse.Namespace) -> int:
 def run(args: argparse.Namespace) -> int:
     from rich.table import Table
 
+    from ._options import batch_options
     from ._rerun import check_rerun_args, close_from_args, open_from_args
 
+    batch_options(args)  # checked with one recording too (--ray may have taken it)
+    if is_batch(args.recordings):
+        return _run_batch(args)
+    args.recording = args.recordings[0]
     if getattr(args, "follow", False):
         if args.map is not None:
             from ..errors import UsageError
@@ -315,3 +329,82 @@ def run(args: argparse.Namespace) -> int:
     close_from_args(args)
     emit_json(args, doc, con)
     return 0
+
+
+def is_batch(inputs: list[str]) -> bool:
+    """Several inputs, or a directory: a batch (a JSON list); one file: the single-file run."""
+    import os
+
+    return len(inputs) > 1 or any(os.path.isdir(p) for p in inputs)
+
+
+def _run_batch(args: argparse.Namespace) -> int:
+    from functools import partial
+
+    from ..batch import recording_paths, run_batch
+    from ..errors import UsageError
+    from ..segmentation.files import portable_templates, segment_file
+    from ._options import batch_options, batch_progress, report_batch_errors
+
+    if args.follow:
+        raise UsageError("--follow follows one recording while it is written; give only one")
+    rerun = ("rerun", "rerun_save", "rerun_connect", "rerun_serve")
+    if any(getattr(args, a, None) for a in rerun):
+        raise UsageError(
+            "--rerun* shows one recording; give one recording, or drop --rerun* for a batch"
+        )
+    paths = recording_paths(args.recordings)
+    check_json(args, [*paths, *([args.templates] if args.templates else [])])
+    opts = segmentation_options(args)
+    how = batch_options(args)
+    task = partial(
+        segment_file,
+        templates=portable_templates(opts["templates"]),
+        search=opts["search"],
+        grammar=opts["grammar"],
+        params=opts.get("params"),
+        load_options=load_options(args),
+    )
+    with batch_progress(len(paths), "segmenting") as step:
+        results = run_batch(task, paths, progress=step, **how)
+    con = console(args)
+    con.print(batch_table(results, title=f"{len(paths)} recordings"))
+    for res in results:  # the segmentation's own warnings, as the single-file run prints them
+        if res.value is not None:
+            res.warnings = list(dict.fromkeys([*res.warnings, *res.value["warnings"]]))
+    status = report_batch_errors("segment", results)
+    if args.json:
+        emit_json(args, batch_document(results), con)
+    return status
+
+
+def batch_document(results: list[Any]) -> list[dict[str, Any]]:
+    """``lfd segment --json`` of a batch: per recording, in input order, its single-file
+    document (which names it in ``"recording"``) or ``{"recording", "error"}``."""
+    return [r.value if r.ok else {"recording": str(r.item), "error": r.error} for r in results]
+
+
+def batch_table(results: list[Any], *, title: str) -> Any:
+    """The summary of a segmented batch: recording, skills found, exact sequence, seconds,
+    error (cut to the width left; the full message follows as an error line)."""
+    from rich.table import Table
+
+    table = Table(title=title)
+    table.add_column("recording", overflow="fold")
+    table.add_column("skills", justify="right", no_wrap=True)
+    table.add_column("exact", no_wrap=True)
+    table.add_column("seconds", justify="right", no_wrap=True)
+    table.add_column("error", overflow="fold")
+    for r in results:
+        if r.ok:
+            match = r.value["metrics"].get("sequence_match")
+            exact = "-" if match is None else ("yes" if match else "no")
+            table.add_row(str(r.item), str(len(r.value["segments"])), exact, f"{r.seconds:.2f}", "")
+        else:
+            error = r.error if len(r.error) <= 30 else r.error[:29] + "…"
+            table.add_row(str(r.item), "-", "-", f"{r.seconds:.2f}", error)
+    ok = sum(r.ok for r in results)
+    table.caption = f"{ok} of {len(results)} segmented" + (
+        f", {len(results) - ok} failed" if ok < len(results) else ""
+    )
+    return table

@@ -38,25 +38,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     from ._options import add_recording_arguments
 
     add_recording_arguments(train, ros=False)  # ROS bags carry no ground truth
+    from ._options import add_batch_options
+
+    add_batch_options(train)  # reading and preprocessing the recordings; training is one step
     show = sub.add_parser("show", help="summarise a template file")
     show.add_argument("file", nargs="?", help="template file (default: the shipped one)")
 
 
 def run(args: argparse.Namespace) -> int:
     from rich.console import Console
-    from rich.progress import Progress
 
     from ..errors import UsageError
     from ..outputs import check_output
-    from ..segmentation import Templates, train_templates
-    from ..segmentation.adapt import adapt_templates
+    from ..segmentation import Templates
     from ..segmentation.evaluate import expand_paths
     from ..segmentation.templates import (
-        MIN_KEYPOINT_CONFIDENCE,
-        collect_examples,
         template_params,
     )
-    from ._options import check_inputs, load_options
+    from ._options import batch_options, check_inputs, load_options
 
     console = Console()
     if args.action == "train":
@@ -77,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
             raise UsageError(
                 "--min-keypoint-confidence sets how to train from scratch; --base keeps its own"
             )
-        sizes = load_options(args)["object_sizes"]
+        load_options(args)  # a bad --object-size fails before any recording is read
     if args.action == "show":
         t = Templates.load(args.file) if args.file else Templates.default()
         console.print(t)
@@ -91,10 +90,59 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"no .mcap recordings in {' '.join(args.inputs)}")
     base_path = [args.base] if args.base not in (None, "default") else []
     check_output(args.output, inputs=[*paths, *base_path], what="-o/--output")
+    how = batch_options(args)
+    failed: dict[str, str] = {}
     base = None
     if args.base is not None:
         base = Templates.default() if args.base == "default" else Templates.load(args.base)
-    with Progress(console=console, disable=not console.is_terminal) as progress:
+    try:
+        templates = _train(args, paths, base, params, how, failed, console)
+    except BaseException:
+        _report_failed(failed, len(paths))  # the recordings that failed before training did
+        raise
+    templates.save(args.output)
+    status = _report_failed(failed, len(paths))
+    if base is not None:
+        console.print(
+            f"adapted {args.base} on {len(paths)} recordings, user examples per skill "
+            f"{templates.meta['adapt_examples']}"
+        )
+    console.print(
+        f"wrote {args.output}: {len(templates.skills)} skills x {len(templates.features)} features, "
+        f"examples {dict(zip(templates.skills, templates.engine.n_examples, strict=True))}"
+    )
+    return status
+
+
+def _report_failed(failed: dict[str, str], total: int) -> int:
+    """Print the recordings that could not be read, one line each: exit status 2 if any."""
+    import sys
+
+    for path, message in failed.items():
+        print(f"lfd templates: error: {path}: {message}", file=sys.stderr)
+    if failed:
+        print(
+            f"lfd templates: trained on {total - len(failed)} of {total} recordings; "
+            f"{len(failed)} failed",
+            file=sys.stderr,
+        )
+    return 2 if failed else 0
+
+
+def _train(args, paths, base, params, how, failed, console):  # type: ignore[no-untyped-def]
+    """Read the recordings (in parallel) and train or adapt the templates, with a progress bar."""
+    from rich.console import Console
+    from rich.progress import Progress
+
+    from ..errors import UsageError
+    from ..segmentation import train_templates
+    from ..segmentation.adapt import adapt_templates
+    from ..segmentation.templates import MIN_KEYPOINT_CONFIDENCE, collect_examples
+    from ._options import load_options
+
+    sizes = load_options(args)["object_sizes"]
+    err = Console(stderr=True)
+    with Progress(console=err, disable=not err.is_terminal) as progress:
         task = progress.add_task("reading templates", total=len(paths) + 1)
 
         def step(name: str) -> None:
@@ -107,11 +155,18 @@ def run(args: argparse.Namespace) -> int:
                 params=params,
                 progress=step,
                 min_keypoint_confidence=MIN_KEYPOINT_CONFIDENCE if conf is None else conf,
+                failed=failed if len(paths) > 1 else None,
                 object_sizes=sizes,
+                **how,
             )
         else:
             names, examples = collect_examples(
-                paths, preprocessing=base.preprocessing, progress=step, object_sizes=sizes
+                paths,
+                preprocessing=base.preprocessing,
+                progress=step,
+                failed=failed if len(paths) > 1 else None,
+                object_sizes=sizes,
+                **how,
             )
             if not examples:
                 raise UsageError(
@@ -120,14 +175,4 @@ def run(args: argparse.Namespace) -> int:
                 )
             templates = adapt_templates(base, examples, names=names, base_name=args.base)
         progress.update(task, advance=1, description="trained")
-    templates.save(args.output)
-    if base is not None:
-        console.print(
-            f"adapted {args.base} on {len(paths)} recordings, user examples per skill "
-            f"{templates.meta['adapt_examples']}"
-        )
-    console.print(
-        f"wrote {args.output}: {len(templates.skills)} skills x {len(templates.features)} features, "
-        f"examples {dict(zip(templates.skills, templates.engine.n_examples, strict=True))}"
-    )
-    return 0
+    return templates

@@ -186,6 +186,33 @@ def expand_paths(items: Iterable[str | Path]) -> list[Path]:
     return out
 
 
+def evaluate_file(
+    path: str | Path,
+    *,
+    templates: str | None = None,
+    methods: Sequence[str] = DEFAULT_METHODS,
+    grammar: GrammarUse = DEFAULT_GRAMMAR,
+    object_sizes: Mapping[str, Sequence[float]] | None = None,
+) -> RecordingResult | None:
+    """:func:`evaluate_demo` of one recording file (``None`` without ground-truth labels): the
+    task :func:`evaluate` runs per recording (``templates`` as
+    :func:`~lfd.segmentation.files.portable_templates` gives them; ``object_sizes`` for files
+    that do not carry them, :func:`lfd.load`)."""
+    from ..io import load
+    from .files import worker_templates
+
+    demo = load(path, object_sizes=object_sizes)
+    if not demo.labels:
+        return None
+    return evaluate_demo(
+        demo,
+        name=Path(path).name,
+        templates=worker_templates(templates),  # type: ignore[arg-type]
+        methods=methods,
+        grammar=grammar,
+    )
+
+
 def evaluate(
     paths: Iterable[str | Path],
     *,
@@ -194,27 +221,49 @@ def evaluate(
     grammar: GrammarUse = DEFAULT_GRAMMAR,
     progress: Callable[[str], None] | None = None,
     object_sizes: Mapping[str, Sequence[float]] | None = None,
+    jobs: int | None = 1,
+    ray_address: str | None = None,
+    failed: dict[str, str] | None = None,
 ) -> EvalReport:
     """Evaluate ``methods`` on every labelled recording among ``paths`` (files or directories).
 
     ``grammar`` is the grammar use of the ``dp`` and ``greedy`` methods (``paper`` always
-    warns). Recordings without ground-truth labels are skipped. ``object_sizes`` go to
+    warns). Recordings without ground-truth labels are skipped. ``jobs`` / ``ray_address``:
+    how many recordings at once, and where (:func:`lfd.batch.run_batch`). A recording that
+    cannot be evaluated raises its error, or with ``failed`` (a dict) is recorded there as
+    ``{path: message}`` and skipped. ``object_sizes`` go to
     :func:`lfd.load` (for files that do not carry them).
     """
-    from ..io import load
+    from functools import partial
+
+    from ..batch import raise_failed, reemit_warnings, run_batch
+    from .files import portable_templates
 
     methods = check_methods(methods)
-    rows = []
-    for path in expand_paths(paths):
-        demo = load(path, object_sizes=object_sizes)
-        if demo.labels:
-            rows.append(
-                evaluate_demo(
-                    demo, name=path.name, templates=templates, methods=methods, grammar=grammar
-                )
-            )
+    task = partial(
+        evaluate_file,
+        templates=portable_templates(templates),
+        methods=methods,
+        grammar=grammar,
+        object_sizes=dict(object_sizes) if object_sizes else None,
+    )
+
+    def step(res: Any) -> None:
         if progress is not None:
-            progress(path.name)
+            progress(Path(res.item).name)
+
+    results = run_batch(
+        task, expand_paths(paths), jobs=jobs, ray_address=ray_address, progress=step
+    )
+    rows = []
+    for res in results:
+        reemit_warnings(res)
+        if not res.ok and failed is not None:
+            failed[str(res.item)] = str(res.error)
+        elif not res.ok:
+            raise_failed([res])
+        elif res.value is not None:
+            rows.append(res.value)
     return EvalReport(rows, tuple(methods))
 
 

@@ -319,6 +319,9 @@ def train_templates(
     frame_symmetry: int = FRAME_SYMMETRY,
     min_keypoint_confidence: float = MIN_KEYPOINT_CONFIDENCE,
     object_sizes: Mapping[str, Sequence[float]] | None = None,
+    jobs: int | None = 1,
+    ray_address: str | None = None,
+    failed: dict[str, str] | None = None,
 ) -> Templates:
     """Train templates from labelled template recordings (MCAP paths or demonstrations).
 
@@ -345,6 +348,9 @@ def train_templates(
         multiples of ``360 / frame_symmetry`` degrees about z (:data:`FRAME_SYMMETRY`; 1 = off).
     object_sizes : mapping of name -> (x, y, z), optional
         Object sizes for recordings that do not carry them (:func:`lfd.load`).
+    jobs, ray_address, failed
+        How the recordings are read and preprocessed (in parallel; training is one step), and
+        what a recording that fails does (:func:`collect_examples`).
     """
     if frame_symmetry < 1:
         raise ValueError(f"frame_symmetry must be at least 1, got {frame_symmetry}")
@@ -353,7 +359,13 @@ def train_templates(
         feature_cutoff_hz, object_cutoff_hz, aperture, min_keypoint_confidence
     )
     names, examples = collect_examples(
-        recordings, preprocessing=opts, progress=progress, object_sizes=object_sizes
+        recordings,
+        preprocessing=opts,
+        progress=progress,
+        jobs=jobs,
+        ray_address=ray_address,
+        failed=failed,
+        object_sizes=object_sizes,
     )
     return fit_templates(
         examples,
@@ -372,27 +384,71 @@ def collect_examples(
     preprocessing: dict[str, Any] | None = None,
     progress: Callable[[str], None] | None = None,
     object_sizes: Mapping[str, Sequence[float]] | None = None,
+    jobs: int | None = 1,
+    ray_address: str | None = None,
+    failed: dict[str, str] | None = None,
 ) -> tuple[list[str], list[tuple[str, np.ndarray]]]:
     """The recordings' names and labelled segments ``(skill, features (m, 10))``, in order,
-    preprocessed with ``preprocessing`` (default: :func:`preprocessing_options`); recordings
-    given as paths are read with ``object_sizes`` (:func:`lfd.load`)."""
-    opts = preprocessing or preprocessing_options()
-    from ..io import load
+    preprocessed with ``preprocessing`` (default: :func:`preprocessing_options`);
+    recordings given as paths are read with ``object_sizes`` (:func:`lfd.load`).
 
+    ``jobs`` / ``ray_address``: how many recordings are read and preprocessed at once, and
+    where (:func:`lfd.batch.run_batch`). A recording that fails raises its error, or with
+    ``failed`` (a dict) is recorded there as ``{path: message}`` and left out."""
+    from functools import partial
+
+    from ..batch import raise_failed, reemit_warnings, run_batch
+
+    opts = preprocessing or preprocessing_options()
+
+    def step(res: Any) -> None:
+        if progress is not None:
+            progress(res.value[0] if res.ok else str(res.item))
+
+    results = run_batch(
+        partial(
+            recording_examples,
+            preprocessing=opts,
+            object_sizes=dict(object_sizes) if object_sizes else None,
+        ),
+        list(recordings),
+        jobs=jobs,
+        ray_address=ray_address,
+        progress=step,
+    )
     names: list[str] = []
     examples: list[tuple[str, np.ndarray]] = []
-    for rec in recordings:
-        demo = (
-            rec
-            if isinstance(rec, Demonstration)
-            else load(rec, images=False, object_sizes=object_sizes)
-        )
-        name = str(rec) if not isinstance(rec, Demonstration) else demo.metadata.get("name", "demo")
-        examples.extend(template_examples(demo, preprocessing=opts))
+    for res in results:
+        reemit_warnings(res)
+        if not res.ok:
+            if failed is None:
+                raise_failed([res])
+            else:
+                failed[str(res.item)] = str(res.error)
+            continue
+        name, ex = res.value  # type: ignore[misc]
+        examples.extend(ex)
         names.append(Path(name).name)
-        if progress is not None:
-            progress(name)
     return names, examples
+
+
+def recording_examples(
+    rec: str | Path | Demonstration,
+    *,
+    preprocessing: dict[str, Any] | None = None,
+    object_sizes: Mapping[str, Sequence[float]] | None = None,
+) -> tuple[str, list[tuple[str, np.ndarray]]]:
+    """One recording's name and :func:`template_examples`: the task :func:`collect_examples`
+    runs per recording (a path read with ``object_sizes``, :func:`lfd.load`)."""
+    from ..io import load
+
+    demo = (
+        rec
+        if isinstance(rec, Demonstration)
+        else load(rec, images=False, object_sizes=object_sizes)
+    )
+    name = str(rec) if not isinstance(rec, Demonstration) else demo.metadata.get("name", "demo")
+    return str(name), template_examples(demo, preprocessing=preprocessing)
 
 
 def augment(
