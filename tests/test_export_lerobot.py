@@ -285,3 +285,20 @@ def test_atomic_directory_keeps_the_old_one_on_failure(tmp_path: Path) -> None:
         assert not (dest / "new.txt").exists()  # nothing under the name until the end
     assert [p.name for p in tmp_path.iterdir()] == ["ds"]
     assert [p.name for p in dest.iterdir()] == ["new.txt"]
+
+
+def test_parallel_preparation_writes_the_same_dataset(exported: Path, tmp_path: Path) -> None:
+    """``--jobs 2``: the recordings are read and labelled in two worker processes, the episodes
+    written in input order; a broken file among them is skipped at its place."""
+    bad = tmp_path / "bad.mcap"
+    bad.write_bytes(b"\x00\xff not an mcap file")
+    out = tmp_path / "demos"
+    report = export_lerobot([RECORDINGS[0], bad, RECORDINGS[1]], out, jobs=2)
+    errors = [r.error for r in report.results]
+    assert errors[0] is None and errors[2] is None and errors[1] and "bad.mcap" in errors[1]
+    assert [r.episode_index for r in report.exported] == [0, 1]
+    one = LeRobotDataset("lfd/demos", root=exported, video_backend="pyav")
+    two = LeRobotDataset("lfd/demos", root=out, video_backend="pyav")
+    a, b = one.hf_dataset.with_format("numpy")[:], two.hf_dataset.with_format("numpy")[:]
+    for key in ("observation.state", "observation.objects", "skill_index", "subtask_index"):
+        np.testing.assert_array_equal(a[key], b[key])

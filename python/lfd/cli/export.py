@@ -42,6 +42,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     lr.add_argument(
         "--no-video", action="store_true", help="leave the recordings' colour images out"
     )
+    from ._options import add_batch_options
+
+    add_batch_options(lr)  # reading and labelling the recordings; the dataset is written in order
     lr.add_argument(
         "--vcodec",
         choices=("libsvtav1", "h264"),
@@ -51,7 +54,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ._options import check_inputs
+    from ._options import batch_options, check_inputs
 
     check_inputs(templates=args.templates)
     from ..export.lerobot import RecordingResult, export_lerobot
@@ -81,6 +84,7 @@ def run(args: argparse.Namespace) -> int:
         vcodec=args.vcodec,
         templates=templates,
         on_result=show,
+        **batch_options(args),
     )
     failed = len(report.failed)
     print(

@@ -611,6 +611,8 @@ def export_lerobot(
     vcodec: str = DEFAULT_VCODEC,
     templates: Any = None,
     on_result: Callable[[RecordingResult], None] | None = None,
+    jobs: int | None = 1,
+    ray_address: str | None = None,
 ) -> ExportReport:
     """Export recordings into one LeRobot dataset at ``output``, one episode per recording.
 
@@ -630,6 +632,11 @@ def export_lerobot(
         Video codec for the colour frames (:data:`VCODECS`).
     on_result : callable, optional
         Called with each recording's :class:`RecordingResult`, in order, as it finishes.
+    jobs, ray_address
+        Where the recordings are read, preprocessed and labelled (:func:`prepare_episode`,
+        in parallel: :func:`lfd.batch.run_batch`); the episodes are written one after the
+        other, in input order, in this process. ``jobs=1`` without Ray: one recording at a
+        time.
 
     Raises
     ------
@@ -653,10 +660,19 @@ def export_lerobot(
     import_lerobot()
     start = time.perf_counter()
     report = ExportReport(dest, repo)
+    parallel = ray_address is not None or jobs != 1
+    prepared = (
+        _prepare_all(paths, labels, templates, video, jobs, ray_address) if parallel else None
+    )
     with atomic_directory(dest) as root:
         writer = LeRobotWriter(root, repo, vcodec=vcodec)
-        for path in paths:
-            result = export_recording(writer, path, labels=labels, templates=templates, video=video)
+        for i, path in enumerate(paths):
+            if prepared is None:
+                result = export_recording(
+                    writer, path, labels=labels, templates=templates, video=video
+                )
+            else:
+                result = _add_prepared(writer, str(path), prepared[i])
             report.results.append(result)
             if on_result is not None:
                 on_result(result)
@@ -665,6 +681,55 @@ def export_lerobot(
         writer.close()
     report.seconds = time.perf_counter() - start
     return report
+
+
+def prepare_file(
+    path: str,
+    *,
+    labels: LabelSource = "auto",
+    templates: str | None = None,
+    video: bool = True,
+) -> Episode:
+    """:func:`prepare_episode` of one file as a batch worker runs it (``templates`` as
+    :func:`~lfd.segmentation.files.portable_templates` gives them)."""
+    from ..segmentation.files import worker_templates
+
+    return prepare_episode(path, labels=labels, templates=worker_templates(templates), video=video)
+
+
+def _prepare_all(
+    paths: list[Path],
+    labels: LabelSource,
+    templates: Any,
+    video: bool,
+    jobs: int | None,
+    ray_address: str | None,
+) -> list[Any]:
+    """Every recording's episode (or its error), prepared in parallel, in input order."""
+    from functools import partial
+
+    from ..batch import run_batch
+    from ..segmentation.files import portable_templates
+
+    task = partial(
+        prepare_file, labels=labels, templates=portable_templates(templates), video=video
+    )
+    return run_batch(task, [str(p) for p in paths], jobs=jobs, ray_address=ray_address)
+
+
+def _add_prepared(writer: LeRobotWriter, where: str, res: Any) -> RecordingResult:
+    """Write one prepared episode (a :class:`lfd.batch.ItemResult`) as :func:`export_recording`
+    does."""
+    start = time.perf_counter()
+    if not res.ok:
+        return RecordingResult(where, error=" ".join(str(res.error).split()), seconds=res.seconds)
+    ep = res.value
+    try:
+        index = writer.add(ep)
+    except (LfdError, OSError) as err:
+        return RecordingResult(where, error=" ".join(str(err).split()), seconds=res.seconds)
+    took = res.seconds + time.perf_counter() - start
+    return RecordingResult(where, index, len(ep), ep.label_source, took)
 
 
 class _quiet:
