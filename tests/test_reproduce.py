@@ -443,3 +443,95 @@ def test_failure_names_skill_and_reason(
     assert bad[6]["position_error_mm"] > 10
     err = capsys.readouterr().err
     assert "dmp: the task was not achieved" in err and "6 stack box_1: stacked box_1" in err
+
+
+@pytest.fixture(scope="module")
+def sim_demos() -> dict:
+    """Simulated exp1 and exp2 (seed 3): trajectory and ground-truth program."""
+    pytest.importorskip("lfd.sim")
+    from lfd.preprocessing import preprocess
+    from lfd.sim import simulate
+
+    out = {}
+    for exp in ("exp1", "exp2"):
+        demo = simulate(exp, seed=3).demo
+        traj = preprocess(demo)
+        out[exp] = (traj, from_labels(demo.labels, int(traj.t_ns[0])))
+    return out
+
+
+def _expected(traj, program, displace: dict) -> dict:  # type: ignore[no-untyped-def]
+    from lfd.reproduce.displacement import check_displacement, initial_poses, program_start
+    from lfd.reproduce.goals import DemoFrames
+    from lfd.reproduce.modes import plan_task
+
+    start = program_start(traj, program)
+    frames = DemoFrames(traj, check_displacement(traj, displace, start))
+    init = initial_poses(frames, displace, start)
+    return plan_task(frames, program, "skills", initial=init).expected
+
+
+def test_place_follows_the_object_it_was_placed_next_to(sim_demos: dict) -> None:
+    """exp1 seed 3 puts box_3 down 15 cm or closer to box_1: shifting and turning box_1 moves
+    box_3's place goal with it (Eq. 2), and the robot puts it there."""
+    from lfd.reproduce.goals import DemoFrames, yaw_of
+    from lfd.reproduce.modes import place_reference
+
+    traj, program = sim_demos["exp1"]
+    frames = DemoFrames(traj, np.zeros(3))
+    place = next(s for s in program.segments if s.skill == "place")
+    assert place_reference(frames, place, "box_3", frames.index(place.end_s)) == "box_1"
+    before = _expected(traj, program, {})
+    after = _expected(traj, program, {"box_1": (0.04, -0.03, 20.0)})
+    start = frames.object_pose("box_1", 0)
+    T, moved = before["box_3"], after["box_3"]
+    assert np.linalg.norm(T[:2, 3] - start[:2, 3]) < 0.15
+    turned = np.degrees(yaw_of(moved[:3, :3]) - yaw_of(T[:3, :3]))
+    assert (turned + 180) % 360 - 180 == pytest.approx(20.0, abs=0.5)
+    c, s = np.cos(np.radians(20.0)), np.sin(np.radians(20.0))
+    want = start[:2, 3] + [0.04, -0.03] + np.array([[c, -s], [s, c]]) @ (T[:2, 3] - start[:2, 3])
+    assert moved[:2, 3] == pytest.approx(want, abs=1e-6)
+    assert before["box_2"][:2, 3] == pytest.approx(after["box_2"][:2, 3], abs=1e-9)
+    for mode in ("skills", "dmp"):
+        r = reproduce(traj, program, mode, displace={"box_1": (0.04, -0.03, 20.0)})
+        assert r.success, (mode, r.failures)
+
+
+def test_push_turns_with_the_box(sim_demos: dict) -> None:
+    """A box turned by 30 deg is pushed on the same face along its turned direction."""
+    traj, program = sim_demos["exp2"]
+    push = program.segments[0]
+    assert push.skill == "push"
+    name = str(push.object)
+    before = _expected(traj, program, {name: (0.0, 0.0)})
+    after = _expected(traj, program, {name: (0.0, 0.0, 30.0)})
+    from lfd.reproduce.goals import DemoFrames
+
+    p0 = DemoFrames(traj, np.zeros(3)).object_pose(name, 0)[:2, 3]
+    d0, d1 = before[name][:2, 3] - p0, after[name][:2, 3] - p0
+    assert np.linalg.norm(d0) > 0.03
+    ang = np.degrees(np.arctan2(d1[1], d1[0]) - np.arctan2(d0[1], d0[0]))
+    assert (ang + 180) % 360 - 180 == pytest.approx(30.0, abs=1.0)
+    assert np.linalg.norm(d1) == pytest.approx(np.linalg.norm(d0), abs=1e-6)
+    r = reproduce(traj, program, "skills", displace={name: (0.0, 0.0, 30.0)})
+    assert r.success, r.failures
+
+
+def test_impossible_regrounded_task_refused(
+    sim_demos: dict, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A displacement whose re-grounded place lands on another object is refused unsimulated."""
+    import lfd.reproduce as rp
+
+    traj, program = sim_demos["exp1"]
+    monkeypatch.setattr(rp, "execute", lambda *a, **k: pytest.fail("simulated a bad layout"))
+    from lfd.reproduce.goals import DemoFrames
+
+    frames = DemoFrames(traj, np.zeros(3))
+    # move box_1 so that box_3 (placed relative to it) would land on box_2
+    place = next(s for s in program.segments if s.skill == "place")
+    i1 = frames.index(place.end_s)
+    off = frames.object_pose("box_2", 0)[:2, 3] - frames.object_pose("box_3", i1)[:2, 3]
+    disp = {"box_1": (float(off[0]), float(off[1]))}
+    with pytest.raises(UsageError, match=r"the task would put box_3 at .* overlapping box_2"):
+        reproduce(traj, program, "dmp", displace=disp)

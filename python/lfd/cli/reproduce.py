@@ -39,9 +39,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--displace",
         action="append",
-        metavar="NAME:DX,DY",
-        help="shift an object's initial position in the robot scene, in metres (e.g. "
-        "box_2:0.08,-0.05); refused when out of reach or overlapping another object; repeatable",
+        metavar="NAME:DX,DY[,DEG]",
+        help="shift (metres) and optionally turn (degrees) an object's initial pose in the robot "
+        "scene (e.g. box_2:0.08,-0.05); every skill's goal follows the objects it is relative to; "
+        "refused when it or the re-grounded task puts an object out of reach or into another; "
+        "repeatable",
     )
     parser.add_argument(
         "--task",

@@ -23,8 +23,15 @@ import numpy as np
 from .. import _gl  # noqa: F401  (selects the headless GL backend before mujoco loads)
 from ..trajectory import Trajectory
 from .controller import Execution, Plan, execute
-from .displacement import check_displacement, parse_displacement, program_start
-from .goals import DemoFrames, pose, yaw_of
+from .displacement import (
+    Displacement,
+    check_displacement,
+    check_goals,
+    initial_poses,
+    parse_displacement,
+    program_start,
+)
+from .goals import DemoFrames, yaw_of
 from .measures import ObjectResult, object_errors, path_length
 from .modes import MODES, plan_task
 from .outcome import SkillResult, skill_results
@@ -74,7 +81,7 @@ class Reproduction:
     base: np.ndarray
     execution_time_s: float
     wall_time_s: float
-    displacement: dict[str, tuple[float, float]] = field(default_factory=dict)
+    displacement: dict[str, Displacement] = field(default_factory=dict)
     execution: Execution | None = None
     program: TaskProgram | None = None
     """The executed task program (a missing pick_up may have been inserted); ``segment``
@@ -132,7 +139,7 @@ def reproduce(
     program: TaskProgram,
     mode: str,
     *,
-    displace: Mapping[str, tuple[float, float]] | None = None,
+    displace: Mapping[str, Displacement] | None = None,
     base: np.ndarray | None = None,
     video_fps: float = 0.0,
     progress: Callable[[int, int], None] | None = None,
@@ -146,8 +153,10 @@ def reproduce(
     program : TaskProgram
         The segmentation to execute.
     mode : {"replay", "skills", "dmp"}
-    displace : dict name -> (dx, dy), optional
-        Shift objects' initial poses (m) in the robot's scene.
+    displace : dict name -> (dx, dy) or (dx, dy, deg), optional
+        Shift (m) and turn (deg, about the vertical) objects' initial poses in the robot's
+        scene; an object resting on a displaced one moves with it. Every skill's goal follows
+        the objects it is relative to (Eq. 2, :mod:`.goals`).
     base : array, shape (3,), optional
         Robot base; chosen automatically (:func:`~lfd.reproduce.scene.choose_base`) by default.
 
@@ -155,8 +164,9 @@ def reproduce(
     ------
     UsageError
         A displacement that names an unknown object, is not finite, or puts an object out of
-        reach, off the table or into another object (:func:`check_displacement`), before
-        anything is simulated.
+        reach, off the table or into another object (:func:`check_displacement`), or whose
+        re-grounded task would put an object out of reach or into another one
+        (:func:`~lfd.reproduce.displacement.check_goals`), before anything is simulated.
     video_fps : float
         Record frames into ``result.execution.frames`` at this rate (0 = off).
     """
@@ -164,12 +174,12 @@ def reproduce(
     start_i = program_start(traj, program)
     base = check_displacement(traj, displace, start_i, base=base)  # before anything is simulated
     frames = DemoFrames(traj, base)
-    initial: dict[str, np.ndarray] = {}
-    for name, (dx, dy) in displace.items():
-        T = frames.object_pose(name, start_i)
-        initial[name] = pose(T[:3, 3] + [dx, dy, 0.0], yaw_of(T[:3, :3]))
+    initial = initial_poses(frames, displace, start_i)
     result = plan_task(frames, program, mode, initial=initial)
-    if not displace:  # where the demonstration left the objects
+    if displace:  # the re-grounded task must fit the table, also before anything is simulated
+        start = {n: initial.get(n, frames.object_pose(n, start_i)) for n in frames.names}
+        check_goals(frames, start, result.scenes, displace)
+    else:  # where the demonstration left the objects
         end_i = frames.index(program.segments[-1].end_s)
         result.expected = {n: frames.object_pose(n, end_i) for n in frames.names}
     specs = []

@@ -1,10 +1,15 @@
 """Object-relative skill goals (paper Eq. 2) and the demo quantities they are built from.
 
 A goal is a top-down TCP pose ``(position, yaw)``. Every skill goal is attached to a reference
-frame: ``pick_up``/``locate`` to the target object, ``place`` to the world, ``stack`` to the
-supporting object, ``push`` to the pushed object's displaced pose, and ``move``/``move_with`` to
-the start of the next skill. With displaced objects the goal follows its reference,
-``T_goal' = T_ref' · T_ref^-1 · T_goal`` (Eq. 2). Skill knowledge adapts the human's poses to
+frame, the pose of an object it involves: ``pick_up``/``locate`` to the target object,
+``stack`` to the supporting object, ``place`` to the nearest other object within
+:data:`PLACE_NEIGHBOUR_RADIUS` of where the demonstration put the object down
+(:meth:`DemoFrames.neighbour_of`; the world when none is that close), ``push`` to the pushed
+object's pose when the push starts (the pushed face and the push direction turn with the box),
+and ``move``/``move_with`` to the start of the next skill (in that skill's reference). With
+displaced objects the goal follows its reference, ``T_goal' = T_ref' · T_ref^-1 · T_goal``
+(Eq. 2), recomputed from the objects' poses when the skill is planned (an object moved by an
+earlier skill is a reference at its new pose). Skill knowledge adapts the human's poses to
 the gripper: grasps are centred on the object with the closing axis along a face normal, placed
 objects stay upright, pushes keep the closed fingers against the face opposite the push.
 """
@@ -54,6 +59,9 @@ def upright(T: np.ndarray) -> np.ndarray:
     return pose(T[:3, 3], yaw_of(T[:3, :3]))
 
 
+PLACE_NEIGHBOUR_RADIUS = 0.15
+"""A place is relative to the nearest other object whose centre is within this distance (m,
+horizontal) of the placed object's demonstrated resting position; farther, to the world."""
 WRIST_RANGE = np.radians(150.0)
 """Largest wrist rotation away from the natural yaw that a demonstrated yaw is mapped to."""
 
@@ -161,6 +169,19 @@ class DemoFrames:
             if 0.5 * (self.size[k, 2] + self.size[j, 2]) * 0.6 < dz < self.size[j, 2] * 1.5 + 0.02:
                 if dxy < 0.6 * max(self.size[j, :2].max(), self.size[k, :2].max()) and dxy < best_d:
                     best, best_d = other, dxy
+        return best
+
+    def neighbour_of(self, name: str, i: int, radius: float = PLACE_NEIGHBOUR_RADIUS) -> str | None:
+        """The object nearest to ``name`` at sample ``i`` (horizontal centre distance), if
+        closer than ``radius``; None otherwise (the reference of a place, see the module doc)."""
+        p = self.object_pose(name, i)[:3, 3]
+        best, best_d = None, float(radius)
+        for other in self.names:
+            if other == name:
+                continue
+            d = float(np.hypot(*(self.object_pose(other, i)[:2, 3] - p[:2])))
+            if d < best_d:
+                best, best_d = other, d
         return best
 
 

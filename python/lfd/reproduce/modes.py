@@ -78,6 +78,9 @@ class PlanResult:
     """Goal TCP position (3,) of each segment."""
     program: TaskProgram | None = None
     """The executed program (after :func:`repair_program`); ``plan.segment`` indexes it."""
+    scenes: list[dict[str, np.ndarray]] = field(default_factory=list)
+    """Every object's planned pose right after each place, stack and push, then at the end
+    (:func:`~lfd.reproduce.displacement.check_goals` checks each for overlaps and reach)."""
 
 
 def _ref_pose(
@@ -86,11 +89,26 @@ def _ref_pose(
     """Reference frame of a segment: (demo pose, current pose) — Eq. 2's T_o and T_o'."""
     if seg.skill in ("pick_up", "locate", "push") and seg.object in objects:
         return frames.object_pose(seg.object, i), objects[seg.object]
-    if seg.skill == "stack" and seg.object is not None:
-        sup = seg.params.get("support") or frames.support_of(seg.object, _end_index(frames, seg))
-        if sup in objects:
-            return frames.object_pose(sup, i), objects[sup]
+    if seg.skill in ("place", "stack") and seg.object is not None:
+        ref = place_reference(frames, seg, seg.object, _end_index(frames, seg))
+        if ref in objects:
+            return frames.object_pose(ref, i), objects[ref]
     return np.eye(4), np.eye(4)
+
+
+def place_reference(frames: DemoFrames, seg: Segment, name: str, i1: int) -> str | None:
+    """The object a place/stack of ``name`` ending at sample ``i1`` is relative to (Eq. 2).
+
+    stack: its support (``params["support"]``, else what it rests on in the demonstration);
+    place: ``params["reference"]`` if given, else the nearest other object within
+    :data:`~lfd.reproduce.goals.PLACE_NEIGHBOUR_RADIUS` of the demonstrated resting position
+    (:meth:`~lfd.reproduce.goals.DemoFrames.neighbour_of`); None: the world.
+    """
+    if seg.skill == "stack":
+        return seg.params.get("support") or frames.support_of(name, i1)
+    if seg.skill == "place":
+        return seg.params.get("reference") or frames.neighbour_of(name, i1)
+    return None
 
 
 def _end_index(frames: DemoFrames, seg: Segment) -> int:
@@ -199,6 +217,7 @@ class _TaskPlanner:
         if initial:
             self.objects.update({k: upright(v) for k, v in initial.items()})
         self.expected = dict(self.objects)  # propagated through the program
+        self.scenes: list[dict[str, np.ndarray]] = []
         self.parts: list[Plan] = []
         self.goals: list[np.ndarray] = []
         self.cur = _state(frames.tcp_pose(start_i), float(frames.yaw[start_i]))
@@ -213,7 +232,8 @@ class _TaskPlanner:
         plan = plan_replay(frames, program) if self.mode == "replay" else Plan.concat(self.parts)
         # the fingertips never go below the table top (human fingertips may graze it)
         plan.position[:, 2] = np.maximum(plan.position[:, 2], Z_MIN)
-        return PlanResult(plan, self.expected, self.goals, program)
+        self.scenes.append(dict(self.expected))
+        return PlanResult(plan, self.expected, self.goals, program, self.scenes)
 
     # --- one planner per skill: the goal, the grip, what changes in the scene -------------
     def _pick_up(self, k: int, seg: Segment, i1: int) -> _SkillGoal:
@@ -224,6 +244,7 @@ class _TaskPlanner:
     def _place(self, k: int, seg: Segment, i1: int) -> _SkillGoal:  # place and stack
         name, goal, T_end_demo = _place_goal(self.frames, seg, self.objects, self.held, i1)
         self.objects[name] = self.expected[name] = T_end_demo
+        self.scenes.append(dict(self.objects))
         size = self.frames.size[self.frames.object_index(name)]
         release = min(MAX_OPENING, _width_across(T_end_demo, size, goal[3]) + RELEASE_CLEARANCE)
         self.held = None
@@ -239,6 +260,7 @@ class _TaskPlanner:
     def _push(self, k: int, seg: Segment, i1: int) -> _SkillGoal:
         geo = push_geometry(self.frames, seg, self.objects, self.cur[3])
         self.objects[seg.object] = self.expected[seg.object] = geo["T_new"]  # type: ignore[index]
+        self.scenes.append(dict(self.objects))
         return _SkillGoal(geo["goal"], 0.0, push=geo)
 
     def _locate(self, k: int, seg: Segment, i1: int) -> _SkillGoal:
@@ -456,18 +478,18 @@ def _place_goal(
     held: tuple[str, np.ndarray] | None,
     i1: int,
 ) -> tuple[str, np.ndarray, np.ndarray]:
-    """TCP goal of a place/stack and the object's resting pose there (Eq. 2 for stacks)."""
+    """TCP goal of a place/stack and the object's resting pose there, relative to
+    :func:`place_reference` (Eq. 2)."""
     carried = seg.object or (held[0] if held else None)
     name = need_object(Segment(seg.skill, 0, 0, carried), objects)
     T_end = frames.object_pose(name, i1)
     h = frames.size[frames.object_index(name), 2]
+    ref = place_reference(frames, seg, name, i1)
+    if ref in objects and ref != name:  # Eq. 2: the resting pose follows its reference
+        T_end = objects[ref] @ np.linalg.inv(frames.object_pose(ref, i1)) @ T_end
     T_end[2, 3] = h / 2  # objects rest on the table (the tracked height is noisy) ...
-    if seg.skill == "stack":
-        sup = seg.params.get("support") or frames.support_of(name, i1)
-        if sup in objects:
-            T_end = objects[sup] @ np.linalg.inv(frames.object_pose(sup, i1)) @ T_end
-            # ... or on top of their support
-            T_end[2, 3] = objects[sup][2, 3] + frames.size[frames.object_index(sup), 2] / 2 + h / 2
+    if seg.skill == "stack" and ref in objects:  # ... or on top of their support
+        T_end[2, 3] = objects[ref][2, 3] + frames.size[frames.object_index(ref), 2] / 2 + h / 2
     rel = held[1] if held and held[0] == name else np.linalg.inv(T_end) @ frames.tcp_pose(i1)
     T_goal = T_end @ rel
     T_goal[2, 3] += RELEASE_LIFT
