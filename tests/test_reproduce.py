@@ -431,6 +431,7 @@ def test_failure_names_skill_and_reason(
     from lfd.sim import simulate
 
     monkeypatch.setattr(modes, "RELEASE_CLEARANCE", 1.0)  # release = MAX_OPENING, as before
+    monkeypatch.setenv("COLUMNS", "300")  # the table on one line per mode
     rec = tmp_path / "demo.mcap"
     save(simulate("exp1", seed=3).demo, rec)
     out = tmp_path / "out.json"
@@ -441,8 +442,12 @@ def test_failure_names_skill_and_reason(
     assert bad[2]["skill"] == "place" and "collision: box_2 was knocked" in bad[2]["reason"]
     assert bad[6]["skill"] == "stack" and "stacked box_1 off target by" in bad[6]["reason"]
     assert bad[6]["position_error_mm"] > 10
-    err = capsys.readouterr().err
+    doc = json.loads(out.read_text())["results"]["dmp"]
+    assert any(f.startswith("6 stack box_1: stacked box_1 off target") for f in doc["failures"])
+    captured = capsys.readouterr()
+    err = captured.err
     assert "dmp: the task was not achieved" in err and "6 stack box_1: stacked box_1" in err
+    assert "6 stack box_1" in captured.out  # the table's "failed" column
 
 
 @pytest.fixture(scope="module")

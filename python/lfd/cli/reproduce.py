@@ -133,7 +133,7 @@ def run(args: argparse.Namespace) -> int:
             log_reproduction(r, skills=program.skills, object_sizes=sizes)
     close_from_args(args)
     table = Table(title=f"{args.recording}: {' '.join(program.skills)}")
-    for col in ("mode", "path length (m)", "ratio", "time (s)", "success", "objects"):
+    for col in ("mode", "path length (m)", "ratio", "time (s)", "success", "objects", "failed"):
         table.add_column(col)
     ref = results["replay"].path_length if "replay" in results else None
     for mode, r in results.items():
@@ -150,6 +150,8 @@ def run(args: argparse.Namespace) -> int:
             f"{r.execution_time_s:.1f}",
             "yes" if r.success else "no",
             objs,
+            # which skill failed and its first reason (all of them below and in --json)
+            "; ".join(f"{sk.label()}: {sk.reasons[0]}" for sk in r.skills if not sk.ok) or "-",
         )
     console(args).print(table)  # stderr under --json -: stdout is the JSON then
     for mode, r in results.items():

@@ -119,6 +119,7 @@ class Reproduction:
             "wall_time_s": self.wall_time_s,
             "tracking_error_m": {"mean": float(track.mean()), "max": float(track.max())},
             "success": self.success,
+            "failures": self.failures,
             "skills": [s.to_json() for s in self.skills],
             "objects": {
                 o.name: {
