@@ -9,12 +9,13 @@ Typical use::
 
 Modules: :mod:`.robot` (the arm MJCF), :mod:`.scene`, :mod:`.ik` (mink), :mod:`.controller`,
 :mod:`.program` (the task program), :mod:`.goals` (Eq. 2), :mod:`.modes`, :mod:`.dmp`,
-:mod:`.measures`, :mod:`.video`.
+:mod:`.measures`, :mod:`.outcome` (why a run failed), :mod:`.displacement` (``--displace``),
+:mod:`.randomise` (randomised layouts: :func:`reproduce_randomised`), :mod:`.video`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -36,10 +37,12 @@ from .measures import ObjectResult, object_errors, path_length
 from .modes import MODES, plan_task
 from .outcome import SkillResult, skill_results
 from .program import Segment, TaskProgram, from_labels, from_segmentation
+from .randomise import MAX_SHIFT, MAX_TURN_DEG, Randomised, random_layouts, run_randomised
 from .scene import ObjectSpec
 
 __all__ = [
     "MODES",
+    "Randomised",
     "Reproduction",
     "Segment",
     "SkillResult",
@@ -49,7 +52,9 @@ __all__ = [
     "from_segmentation",
     "parse_displacement",
     "program_start",
+    "random_layouts",
     "reproduce",
+    "reproduce_randomised",
     "reproduction_report",
 ]
 
@@ -221,3 +226,42 @@ def reproduction_report(
         "program": program.to_json(),
         "results": {mode: r.to_json() for mode, r in results.items()},
     }
+
+
+def reproduce_randomised(
+    traj: Trajectory,
+    program: TaskProgram,
+    n: int,
+    *,
+    modes: Sequence[str] = ("skills", "dmp"),
+    seed: int = 0,
+    max_shift: float = MAX_SHIFT,
+    max_turn_deg: float = MAX_TURN_DEG,
+    progress: Callable[[int, int], None] | None = None,
+) -> Randomised:
+    """Reproduce ``program`` in every mode on ``n`` randomised layouts (``lfd reproduce
+    --randomise N``): every object shifted up to ``max_shift`` m and turned up to
+    ``max_turn_deg``, reachable and collision-free (:mod:`.randomise`).
+
+    Returns
+    -------
+    Randomised
+        The layouts and every run; ``success_rate(mode)``, ``skill_rates(mode)``,
+        ``reasons(mode)``, ``to_json()`` (the document of ``--randomise --json``).
+
+    Raises
+    ------
+    UsageError
+        Bad settings, or no valid layout found (before anything is simulated).
+    """
+    return run_randomised(
+        traj,
+        program,
+        n,
+        reproduce,
+        modes=modes,
+        seed=seed,
+        max_shift=max_shift,
+        max_turn_deg=max_turn_deg,
+        progress=progress,
+    )
