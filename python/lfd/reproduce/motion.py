@@ -125,6 +125,7 @@ def push_geometry(
         "u": u,
         "d": d,
         "T0_demo": T0_demo,
+        "T_now": T_now,
         "d_demo": np.array([*(T1_demo[:2, 3] - T0_demo[:2, 3]), 0.0]),
     }
 
@@ -163,8 +164,12 @@ def push_path(
         a, b = (moving[0], moving[-1] + 1) if moving.size >= 2 else (0, len(idx) - 1)
         t = frames.t[idx[a : b + 1]]
         if mode == "dmp":
+            # the demonstrated object path carried into the box's current frame (Eq. 2), so a
+            # turned box is pushed along the turned path, not sideways
+            M = geo["T_now"] @ np.linalg.inv(geo["T0_demo"])
+            xy = obj[a : b + 1] @ M[:3, :3].T + M[:3, 3]
             y = np.column_stack(
-                [obj[a : b + 1, :2], np.full(b - a + 1, contact[2]), np.full(b - a + 1, contact[3])]
+                [xy[:, :2], np.full(b - a + 1, contact[2]), np.full(b - a + 1, contact[3])]
             )
             pieces.append(dmp_rollout(t, y, contact, goal, dt=TICK))
         else:
