@@ -222,7 +222,13 @@ def _run_randomised(
 
     # drawn (and refused, one line) before the progress bar starts
     random_layouts(
-        traj, program, 1, seed=args.seed, max_shift=args.max_shift, max_turn_deg=args.max_turn
+        traj,
+        program,
+        1,
+        seed=args.seed,
+        max_shift=args.max_shift,
+        max_turn_deg=args.max_turn,
+        modes=modes,
     )
     with Progress(console=err, transient=True, disable=not err.is_terminal) as bar:
         task = bar.add_task("layouts", total=1.0)

@@ -27,14 +27,13 @@ from .controller import Execution, Plan, execute
 from .displacement import (
     Displacement,
     check_displacement,
-    check_goals,
-    initial_poses,
     parse_displacement,
+    plan_layout,
     program_start,
 )
-from .goals import DemoFrames, yaw_of
+from .goals import yaw_of
 from .measures import ObjectResult, object_errors, path_length
-from .modes import MODES, plan_task
+from .modes import MODES
 from .outcome import SkillResult, skill_results
 from .program import Segment, TaskProgram, from_labels, from_segmentation
 from .randomise import MAX_SHIFT, MAX_TURN_DEG, Randomised, random_layouts, run_randomised
@@ -177,20 +176,15 @@ def reproduce(
         Record frames into ``result.execution.frames`` at this rate (0 = off).
     """
     displace = dict(displace or {})
-    start_i = program_start(traj, program)
-    base = check_displacement(traj, displace, start_i, base=base)  # before anything is simulated
-    frames = DemoFrames(traj, base)
-    initial = initial_poses(frames, displace, start_i)
-    result = plan_task(frames, program, mode, initial=initial)
-    if displace:  # the re-grounded task must fit the table, also before anything is simulated
-        start = {n: initial.get(n, frames.object_pose(n, start_i)) for n in frames.names}
-        check_goals(frames, start, result.scenes, displace)
-    else:  # where the demonstration left the objects
+    # checked, base chosen and planned before anything is simulated
+    frames, initial, result = plan_layout(traj, program, mode, displace, base=base)
+    base = frames.base
+    if not displace:  # where the demonstration left the objects
         end_i = frames.index(program.segments[-1].end_s)
         result.expected = {n: frames.object_pose(n, end_i) for n in frames.names}
     specs = []
     for k, name in enumerate(frames.names):
-        T = initial.get(name, frames.object_pose(name, start_i))
+        T = initial[name]
         c, s = np.cos(yaw_of(T[:3, :3]) / 2), np.sin(yaw_of(T[:3, :3]) / 2)
         p = T[:3, 3].copy()
         p[2] = max(p[2], frames.size[k, 2] / 2)  # never start inside the table

@@ -9,6 +9,7 @@ arm's reach or off the table, or makes it overlap another object.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -16,6 +17,9 @@ from ..errors import UsageError
 from ..trajectory import Trajectory
 from .goals import DemoFrames, pose, quat_to_matrix, yaw_of
 from .program import TaskProgram
+
+if TYPE_CHECKING:
+    from .modes import PlanResult
 from .robot import TCP_OFFSET
 from .scene import REACH_MAX, REACH_MIN, SHOULDER_Z, TABLE_HALF, choose_base, table_centre
 
@@ -271,3 +275,52 @@ def check_goals(
                         f"{what}, overlapping {other} at ({Q[0, 3]:.3f}, {Q[1, 3]:.3f}) m; "
                         "choose a displacement that leaves room"
                     )
+
+
+def plan_layout(
+    traj: Trajectory,
+    program: TaskProgram,
+    mode: str,
+    displace: Mapping[str, Displacement],
+    *,
+    base: np.ndarray | None = None,
+) -> tuple[DemoFrames, dict[str, np.ndarray], PlanResult]:
+    """Check a displacement, choose the robot base and plan the re-grounded task.
+
+    With displaced objects (and no ``base`` given) the base is chosen twice: first for the
+    demonstrated path and the objects (:func:`check_displacement`), then for the planned,
+    re-grounded path and every object pose of the plan (a place that follows a displaced box
+    may leave the demonstration's workspace), and the task is planned again from there.
+
+    Returns
+    -------
+    frames : DemoFrames
+        The demonstration seen from the chosen base (``frames.base``).
+    initial : dict name -> 4x4
+        Initial pose of every object.
+    result : PlanResult
+
+    Raises
+    ------
+    UsageError
+        :func:`check_displacement` and :func:`check_goals`, before anything is simulated.
+    """
+    from .modes import plan_task
+
+    start_i = program_start(traj, program)
+    fixed = base is not None
+    base = check_displacement(traj, displace, start_i, base=base)
+    frames = DemoFrames(traj, base)
+    moved = initial_poses(frames, displace, start_i)
+    initial = {n: moved.get(n, frames.object_pose(n, start_i)) for n in frames.names}
+    result = plan_task(frames, program, mode, initial=moved)
+    if displace and not fixed:
+        objs = np.array([T[:3, 3] for sc in [initial, *result.scenes] for T in sc.values()])
+        new = choose_base(np.concatenate([result.plan.position, objs]), keep_out=objs)
+        if np.linalg.norm(new - base) > 1e-9:
+            base = check_displacement(traj, displace, start_i, base=new)
+            frames = DemoFrames(traj, base)
+            result = plan_task(frames, program, mode, initial=moved)
+    if displace:
+        check_goals(frames, initial, result.scenes, displace)
+    return frames, initial, result

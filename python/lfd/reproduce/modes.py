@@ -25,7 +25,7 @@ fingers (or a carried box) over an object; the fingertips never go below the tab
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 from itertools import pairwise
 from typing import Any
@@ -174,6 +174,11 @@ PUSH_BACK_MIN_S = 0.3
 """...over at least this long."""
 REPLAY_OPENING = 0.08
 """Replay: the opening commanded when the recording has no fingertip distance at all."""
+GRASP_CLEAR = 0.01
+"""A pick_up's path ends this far (m) above the height where the open fingertips reach the
+object's top, then descends vertically onto the grasp pose (the fingers never sweep into it)."""
+GRASP_DESCENT_MIN_S = 0.4
+"""Shortest duration of that vertical descent (s)."""
 _GRASP_SKILLS = ("pick_up", "place", "stack")
 """Skills that grasp or release: they keep their goal's yaw and end in a vertical funnel."""
 
@@ -224,6 +229,8 @@ class _TaskPlanner:
         self.opening = MAX_OPENING
         self.held: tuple[str, np.ndarray] | None = None
         self.detour = np.zeros(4)
+        self.crossed = False
+        """The current move crossed over the objects at the safe height (:meth:`_rise`)."""
 
     def plan(self) -> PlanResult:
         for k, seg in enumerate(self.segs):
@@ -306,10 +313,20 @@ class _TaskPlanner:
             goal[3] = float(wrap_near(goal[3], float(frames.natural_yaw(goal[:3]))))
         self.goals.append(goal[:3].copy())
         rise = self._rise(seg, goal)
-        path = np.concatenate([rise, self._path(seg, sg, i0, i1)])
+        descent = np.zeros((0, 4))
+        if seg.skill == "pick_up":  # the open fingers pass the object's top only vertically
+            T = self.objects[str(sg.name)]
+            top = T[2, 3] + self.frames.size[self.frames.object_index(str(sg.name)), 2] / 2
+            hover = goal.copy()
+            hover[2] = max(goal[2], top + FINGER_BELOW_TCP + GRASP_CLEAR)
+            if hover[2] > goal[2] + 1e-4:
+                descent = line(hover, goal, min_s=GRASP_DESCENT_MIN_S)[1:]
+                sg = replace(sg, goal=hover)
+        path = np.concatenate([rise, self._path(seg, sg, i0, i1), descent])
         if seg.skill in _GRASP_SKILLS:
             self._funnel(path, goal, str(sg.name))
         self.detour = np.zeros(4)
+        self.crossed = False
         part = _part(path, sg.grip, k)
         if seg.skill == "move" and k + 1 < len(self.segs) and self.segs[k + 1].skill == "push":
             part.opening[len(part) // 2 :] = 0.0  # close the fingers on the way to a push
@@ -344,6 +361,7 @@ class _TaskPlanner:
         if not ways:
             h = max(top, cur[2])
             ways = [np.array([*cur[:2], h, cur[3]]), np.array([*goal[:2], h, goal[3]])]
+            self.crossed = True
         rise = np.concatenate([line(a, b, min_s=RISE_MIN_S) for a, b in pairwise([cur, *ways])])
         self.detour = self.detour + (ways[-1] - cur)
         self.cur = ways[-1]
@@ -355,6 +373,8 @@ class _TaskPlanner:
         if sg.push is not None:
             return push_path(self.frames, str(seg.object), sg.push, (i0, i1), cur, self.mode)
         t, y = _demo_states(self.frames, i0, i1)
+        if self.crossed:  # crossed at the safe height to above the goal: descend straight
+            return line(cur, goal)
         if self.mode == "dmp":
             # the DMP runs between skill end points; the robot's own detours at the start
             # (lift-offs) are blended out like a warp, so the DMP's spring does not dip to undo them

@@ -29,15 +29,9 @@ import numpy as np
 
 from ..errors import InvalidParameterError, LfdError, UsageError
 from ..trajectory import Trajectory
-from .displacement import (
-    Displacement,
-    check_displacement,
-    check_goals,
-    initial_poses,
-    program_start,
-)
+from .displacement import Displacement, plan_layout, program_start
 from .goals import DemoFrames
-from .modes import MODES, plan_task
+from .modes import MODES
 from .program import TaskProgram
 
 LAYOUT_GAP = 0.03
@@ -97,23 +91,20 @@ def check_layout(
     program: TaskProgram,
     displace: dict[str, Displacement],
     *,
+    modes: Sequence[str] = ("skills", "dmp"),
     gap: float = LAYOUT_GAP,
 ) -> str | None:
-    """Why a layout cannot be used (one line), or None when it is reachable and collision-free."""
-    start_i = program_start(traj, program)
-    try:
-        base = check_displacement(traj, displace, start_i)
-        frames = DemoFrames(traj, base)
-        initial = initial_poses(frames, displace, start_i)
-        start = {n: initial.get(n, frames.object_pose(n, start_i)) for n in frames.names}
-        plan = plan_task(frames, program, "skills", initial=initial)
-        check_goals(frames, start, plan.scenes, displace)
-    except UsageError as err:
-        return str(err)
-    for scene in [start, *plan.scenes]:
-        crowded = _crowded(frames, scene, gap)
-        if crowded:
-            return crowded
+    """Why a layout cannot be used (one line), or None when it is reachable and collision-free
+    as planned in each of ``modes`` (replay is not re-grounded: it is planned as skills)."""
+    for mode in dict.fromkeys(m if m != "replay" else "skills" for m in modes):
+        try:
+            frames, start, plan = plan_layout(traj, program, mode, displace)
+        except UsageError as err:
+            return str(err)
+        for scene in [start, *plan.scenes]:
+            crowded = _crowded(frames, scene, gap)
+            if crowded:
+                return crowded
     return None
 
 
@@ -126,6 +117,7 @@ def random_layouts(
     max_shift: float = MAX_SHIFT,
     max_turn_deg: float = MAX_TURN_DEG,
     gap: float = LAYOUT_GAP,
+    modes: Sequence[str] = ("skills", "dmp"),
 ) -> list[Layout]:
     """``n`` reachable, collision-free layouts (see the module docstring), reproducibly from
     ``seed``.
@@ -161,7 +153,7 @@ def random_layouts(
                 a = float(rng.uniform(-np.pi, np.pi))
                 turn = float(rng.uniform(-max_turn_deg, max_turn_deg))
                 displace[name] = (r * np.cos(a), r * np.sin(a), turn)
-            problem = check_layout(traj, program, displace, gap=gap)
+            problem = check_layout(traj, program, displace, modes=modes, gap=gap)
             if problem is None:
                 layouts.append(Layout(index, displace, dict(rejected)))
                 break
@@ -314,7 +306,7 @@ def run_randomised(
         if mode not in MODES:
             raise InvalidParameterError(f"unknown mode {mode!r}; choose from {', '.join(MODES)}")
     layouts = random_layouts(
-        traj, program, n, seed=seed, max_shift=max_shift, max_turn_deg=max_turn_deg
+        traj, program, n, seed=seed, max_shift=max_shift, max_turn_deg=max_turn_deg, modes=modes
     )
     runs: list[LayoutRun] = []
     total = len(layouts) * len(modes)
