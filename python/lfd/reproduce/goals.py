@@ -185,8 +185,37 @@ class DemoFrames:
         return best
 
 
-def grasp_goal(T_obj: np.ndarray, size: np.ndarray, demo_yaw: float) -> tuple[np.ndarray, float]:
+GRASP_OPENING_CLEARANCE = 0.03
+"""A pick_up approaches with the fingers opened to the grasped width plus this much (m), not
+fully: open fingers reach less far beside the box."""
+FINGER_ROOM = 0.008
+"""A grasp direction whose open fingers come closer than this (m) to another object is used only
+when no direction leaves that much room."""
+
+
+def grasp_opening(size: np.ndarray, width: float) -> float:
+    """Opening (m) a pick_up approaches with for a closing width ``width``."""
+    return float(min(MAX_OPENING, width + GRASP_OPENING_CLEARANCE))
+
+
+def _box_distance(q: np.ndarray, T: np.ndarray, size: np.ndarray) -> float:
+    """Horizontal distance (m) from point ``q`` to an upright box (0 inside)."""
+    local = T[:2, :2].T @ (np.asarray(q[:2]) - T[:2, 3])
+    out = np.maximum(np.abs(local) - np.asarray(size[:2]) / 2, 0.0)
+    return float(np.hypot(*out))
+
+
+def grasp_goal(
+    T_obj: np.ndarray,
+    size: np.ndarray,
+    demo_yaw: float,
+    neighbours: list[tuple[np.ndarray, np.ndarray]] | None = None,
+) -> tuple[np.ndarray, float]:
     """Skill-knowledge grasp: centred on the object, closing across a face that fits the gripper.
+
+    Of the two face directions, the one whose open fingers (:func:`grasp_opening`) keep
+    :data:`FINGER_ROOM` from every ``neighbours`` box (``(pose, size)``, upright) is preferred
+    (then the one nearest, modulo 180 deg, to the demonstrated yaw).
 
     Returns the TCP position (3,) and the yaw nearest (modulo 180 deg) to the demonstrated one.
     """
@@ -195,7 +224,20 @@ def grasp_goal(T_obj: np.ndarray, size: np.ndarray, demo_yaw: float) -> tuple[np
     psi = yaw_of(T_obj[:3, :3])
     cands = [(psi, size[0]), (psi + np.pi / 2, size[1])]
     fits = [c for c in cands if c[1] <= MAX_OPENING - 0.015] or cands
-    best = min(fits, key=lambda c: abs(float(wrap_near(c[0], demo_yaw)) - demo_yaw))
+
+    def room(c: tuple[float, float]) -> float:
+        u = np.array([np.cos(c[0]), np.sin(c[0])])
+        reach = grasp_opening(size, c[1]) / 2 + FINGER_HALF_X
+        fingers = [p[:2] + reach * u, p[:2] - reach * u]
+        d = [_box_distance(f, T, sz) for T, sz in neighbours or [] for f in fingers]
+        return min(d, default=np.inf)
+
+    roomy = [c for c in fits if room(c) >= FINGER_ROOM]
+    best = (
+        min(roomy, key=lambda c: abs(float(wrap_near(c[0], demo_yaw)) - demo_yaw))
+        if roomy
+        else max(fits, key=room)
+    )
     return p, float(wrap_near(best[0], demo_yaw))
 
 

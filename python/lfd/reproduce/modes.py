@@ -25,7 +25,7 @@ fingers (or a carried box) over an object; the fingertips never go below the tab
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from functools import partial
 from itertools import pairwise
 from typing import Any
@@ -35,7 +35,7 @@ import numpy as np
 from ..errors import InvalidParameterError
 from .controller import TICK, Plan
 from .dmp import dmp_rollout, min_jerk, resample, warp
-from .goals import DemoFrames, grasp_goal, pose, upright, wrap_near, yaw_of
+from .goals import DemoFrames, grasp_goal, grasp_opening, pose, upright, wrap_near, yaw_of
 from .motion import (
     HOVER,
     clear,
@@ -175,8 +175,11 @@ PUSH_BACK_MIN_S = 0.3
 REPLAY_OPENING = 0.08
 """Replay: the opening commanded when the recording has no fingertip distance at all."""
 GRASP_CLEAR = 0.01
-"""A pick_up's path ends this far (m) above the height where the open fingertips reach the
-object's top, then descends vertically onto the grasp pose (the fingers never sweep into it)."""
+"""A pick_up whose fingers would sweep into the object approaches this far (m) above the height
+where the open fingertips reach the object's top, then descends vertically onto the grasp pose."""
+GRASP_SLACK = 0.006
+"""Horizontal offset from the grasp pose (m) allowed while the open fingertips are below the
+object's top (plus :data:`GRASP_CLEAR`)."""
 GRASP_DESCENT_MIN_S = 0.4
 """Shortest duration of that vertical descent (s)."""
 _GRASP_SKILLS = ("pick_up", "place", "stack")
@@ -246,7 +249,9 @@ class _TaskPlanner:
     def _pick_up(self, k: int, seg: Segment, i1: int) -> _SkillGoal:
         name, goal = _pick_goal(self.frames, seg, self.objects, i1)
         self.held = (name, np.linalg.inv(self.objects[name]) @ pose(goal[:3], goal[3]))
-        return _SkillGoal(goal, MAX_OPENING, name=name, close_at_end=True)
+        size = self.frames.size[self.frames.object_index(name)]
+        grip = grasp_opening(size, _width_across(self.objects[name], size, goal[3]))
+        return _SkillGoal(goal, grip, name=name, close_at_end=True)
 
     def _place(self, k: int, seg: Segment, i1: int) -> _SkillGoal:  # place and stack
         name, goal, T_end_demo = _place_goal(self.frames, seg, self.objects, self.held, i1)
@@ -313,18 +318,11 @@ class _TaskPlanner:
             goal[3] = float(wrap_near(goal[3], float(frames.natural_yaw(goal[:3]))))
         self.goals.append(goal[:3].copy())
         rise = self._rise(seg, goal)
-        descent = np.zeros((0, 4))
-        if seg.skill == "pick_up":  # the open fingers pass the object's top only vertically
-            T = self.objects[str(sg.name)]
-            top = T[2, 3] + self.frames.size[self.frames.object_index(str(sg.name)), 2] / 2
-            hover = goal.copy()
-            hover[2] = max(goal[2], top + FINGER_BELOW_TCP + GRASP_CLEAR)
-            if hover[2] > goal[2] + 1e-4:
-                descent = line(hover, goal, min_s=GRASP_DESCENT_MIN_S)[1:]
-                sg = replace(sg, goal=hover)
-        path = np.concatenate([rise, self._path(seg, sg, i0, i1), descent])
+        path = np.concatenate([rise, self._path(seg, sg, i0, i1)])
         if seg.skill in _GRASP_SKILLS:
             self._funnel(path, goal, str(sg.name))
+        if seg.skill == "pick_up":
+            path = self._vertical_grasp(path, goal, str(sg.name))
         self.detour = np.zeros(4)
         self.crossed = False
         part = _part(path, sg.grip, k)
@@ -396,6 +394,21 @@ class _TaskPlanner:
         funnel = max(FUNNEL, obj_h / 2 + FINGER_BELOW_TCP + FUNNEL_MARGIN)
         w = np.clip((path[:, 2] - goal[2]) / funnel, 0.0, 1.0)[:, None]
         path[:, :2] = goal[:2] + w * (path[:, :2] - goal[:2])
+
+    def _vertical_grasp(self, path: np.ndarray, goal: np.ndarray, name: str) -> np.ndarray:
+        """A pick_up whose open fingertips would pass below the object's top more than
+        :data:`GRASP_SLACK` beside the grasp pose (they would hit it) instead stays above
+        :data:`GRASP_CLEAR` over the top and descends vertically onto the grasp pose."""
+        T = self.objects[name]
+        top = T[2, 3] + self.frames.size[self.frames.object_index(name), 2] / 2
+        low = path[:, 2] - FINGER_BELOW_TCP < top + GRASP_CLEAR
+        off = np.hypot(path[:, 0] - goal[0], path[:, 1] - goal[1])
+        if not np.any(low & (off > GRASP_SLACK)):
+            return path
+        hover = np.array([*goal[:2], max(goal[2], top + FINGER_BELOW_TCP + GRASP_CLEAR), goal[3]])
+        path = path.copy()
+        path[:, 2] = np.maximum(path[:, 2], hover[2])
+        return np.concatenate([path, line(hover, goal, min_s=GRASP_DESCENT_MIN_S)[1:]])
 
     def _after(self, sg: _SkillGoal) -> None:
         """What follows the segment: close (pick_up), open and lift off (place, stack), back
@@ -483,9 +496,15 @@ def _pick_goal(
 ) -> tuple[str, np.ndarray]:
     """Grasp goal ``[x, y, z, yaw]`` of a pick_up (object-centred, wrist-friendly yaw)."""
     name = need_object(seg, objects)
-    p, yaw = grasp_goal(
-        objects[name], frames.size[frames.object_index(name)], float(frames.yaw[i1])
-    )
+    size = frames.size[frames.object_index(name)]
+    others = [(T, frames.size[frames.object_index(n)]) for n, T in objects.items() if n != name]
+    # (only the boxes on the same level: a box it rests on or under is no obstacle for fingers)
+    near = [
+        (T, sz)
+        for T, sz in others
+        if abs(T[2, 3] - objects[name][2, 3]) < 0.5 * (sz[2] + size[2]) - 0.005
+    ]
+    p, yaw = grasp_goal(objects[name], size, float(frames.yaw[i1]), near)
     # the gripper is symmetric: take the representative the wrist reaches most easily
     yaw = float(wrap_near(yaw, float(frames.natural_yaw(p))))
     return name, np.array([*p, yaw])
