@@ -539,3 +539,42 @@ def test_impossible_regrounded_task_refused(
     disp = {"box_1": (float(off[0]), float(off[1]))}
     with pytest.raises(UsageError, match=r"the task would put box_3 at .* overlapping box_2"):
         reproduce(traj, program, "dmp", displace=disp)
+
+
+def test_random_layouts_bounded_valid_and_reproducible(sim_demos: dict) -> None:
+    """Layouts keep within --max-shift/--max-turn, pass the layout check, repeat with the seed."""
+    from lfd.reproduce import random_layouts
+    from lfd.reproduce.randomise import check_layout
+
+    traj, program = sim_demos["exp1"]
+    a = random_layouts(traj, program, 2, seed=7, max_shift=0.06, max_turn_deg=30.0)
+    b = random_layouts(traj, program, 2, seed=7, max_shift=0.06, max_turn_deg=30.0)
+    assert [x.displace for x in a] == [x.displace for x in b]
+    for lay in a:
+        assert set(lay.displace) == set(traj.object_names)  # nothing starts stacked in exp1
+        for dx, dy, turn in lay.displace.values():
+            assert np.hypot(dx, dy) <= 0.06 + 1e-12 and abs(turn) <= 30.0
+        assert check_layout(traj, program, lay.displace) is None
+    with pytest.raises(UsageError, match="--max-turn"):
+        random_layouts(traj, program, 1, max_turn_deg=-1.0)
+
+
+def test_cli_randomise(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """--randomise 1: a table of success per mode and skill, the layout in --json, exit 0/1
+    matching the runs; --randomise with --displace is refused (exit 2)."""
+    pytest.importorskip("lfd.sim")
+    from lfd.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", "exp1", "--seed", "3", "-o", "demo.mcap"]) == 0
+    args = ["reproduce", "demo.mcap", "--randomise", "1", "--seed", "4", "--json", "r.json"]
+    rc = main(args)
+    doc = json.loads((tmp_path / "r.json").read_text())
+    run = doc["layouts"][0]["results"]["skills"]
+    assert rc == (0 if run["success"] else 1)
+    assert doc["summary"]["skills"]["layouts"] == 1
+    assert doc["summary"]["skills"]["skills"]["stack"][1] == 1
+    assert set(doc["layouts"][0]["displace"]) == {"box_1", "box_2", "box_3"}
+    assert run["success"] or any(not s["ok"] and s["reason"] for s in run["skills"])
+    bad = ["reproduce", "demo.mcap", "--randomise", "1", "--displace", "box_1:0.01,0"]
+    assert main(bad) == 2
