@@ -578,3 +578,37 @@ def test_cli_randomise(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     assert run["success"] or any(not s["ok"] and s["reason"] for s in run["skills"])
     bad = ["reproduce", "demo.mcap", "--randomise", "1", "--displace", "box_1:0.01,0"]
     assert main(bad) == 2
+
+
+def test_toppled_box_is_named_at_its_pick_up() -> None:
+    """A box that tips over while it is being grasped fails that pick_up ("toppled over"), not
+    a later skill."""
+    from lfd.reproduce.controller import Execution, Plan
+    from lfd.reproduce.measures import ObjectResult
+    from lfd.reproduce.outcome import skill_results
+    from lfd.reproduce.randomise import reason_kind
+
+    n = 40
+    seg = np.repeat([0, 1], n // 2)
+    pos = np.tile([0.4, 0.0, 0.1], (n, 1))  # the arm follows its plan exactly
+    plan = Plan(pos, np.zeros(n), np.zeros(n), seg)
+    upright = np.tile([0.0, 0.0, 0.0, 1.0], (n, 1))
+    lying = np.array([np.sin(np.pi / 4), 0.0, 0.0, np.cos(np.pi / 4)])  # 90 deg about x
+    quat = upright.copy()
+    quat[10:] = lying  # tips over during the pick_up and stays on its side
+    ex = Execution(
+        tcp=pos,
+        planned_ik=pos,
+        object_names=["box_1"],
+        object_position=np.zeros((1, n, 3)),
+        object_quaternion=quat[None],
+        final_position=np.zeros((1, 3)),
+        final_quaternion=quat[-1:],
+    )
+    program = TaskProgram([Segment("pick_up", 0, 1, "box_1"), Segment("move_with", 1, 2, "box_1")])
+    out = skill_results(program, plan, ex, [ObjectResult("box_1", 0.2, 90.0)])
+    assert (
+        out[0].reason is not None and "grasp failed: box_1 toppled over (90 deg)" in out[0].reason
+    )
+    assert not any("toppled" in r for r in out[1].reasons)  # already lying: not toppled again
+    assert reason_kind(out[0].reasons[0]) == "toppled over"

@@ -168,6 +168,7 @@ def random_layouts(
 
 
 _KINDS = (
+    "toppled over",
     "goal unreachable",
     "IK limit",
     "grasp failed",
