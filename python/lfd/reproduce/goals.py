@@ -193,7 +193,7 @@ FINGER_ROOM = 0.008
 when no direction leaves that much room."""
 
 
-def grasp_opening(size: np.ndarray, width: float) -> float:
+def grasp_opening(width: float) -> float:
     """Opening (m) a pick_up approaches with for a closing width ``width``."""
     return float(min(MAX_OPENING, width + GRASP_OPENING_CLEARANCE))
 
@@ -227,7 +227,7 @@ def grasp_goal(
 
     def room(c: tuple[float, float]) -> float:
         u = np.array([np.cos(c[0]), np.sin(c[0])])
-        reach = grasp_opening(size, c[1]) / 2 + FINGER_HALF_X
+        reach = grasp_opening(c[1]) / 2 + FINGER_HALF_X
         fingers = [p[:2] + reach * u, p[:2] - reach * u]
         d = [_box_distance(f, T, sz) for T, sz in neighbours or [] for f in fingers]
         return min(d, default=np.inf)

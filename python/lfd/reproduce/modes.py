@@ -16,7 +16,9 @@
   demonstrated motion and re-targeted to the new start and goal (Eq. 2 with displaced objects).
 
 Skill knowledge that adapts the human's motion to the robot (skills and dmp): grasps centred on
-the object with the closing axis across a face; resting heights from the box sizes; the gripper
+the object with the closing axis across a face (the face direction whose open fingers keep room
+from neighbouring boxes), approached with the fingers opened to the box's width plus 3 cm and,
+when the demonstrated approach would sweep the fingers into the box, from above it vertically; resting heights from the box sizes; the gripper
 yaw turned during the preceding move and held constant while grasping/releasing; a vertical final
 approach ("funnel") onto grasp and release poses, never dipping below them; a vertical lift-off
 after a release; a move rises only as much as needed when its straight line would sweep the open
@@ -250,7 +252,7 @@ class _TaskPlanner:
         name, goal = _pick_goal(self.frames, seg, self.objects, i1)
         self.held = (name, np.linalg.inv(self.objects[name]) @ pose(goal[:3], goal[3]))
         size = self.frames.size[self.frames.object_index(name)]
-        grip = grasp_opening(size, _width_across(self.objects[name], size, goal[3]))
+        grip = grasp_opening(_width_across(self.objects[name], size, goal[3]))
         return _SkillGoal(goal, grip, name=name, close_at_end=True)
 
     def _place(self, k: int, seg: Segment, i1: int) -> _SkillGoal:  # place and stack
