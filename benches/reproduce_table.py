@@ -6,7 +6,8 @@ Usage::
 
 For every experiment and seed: simulate a demonstration (``lfd.sim``), preprocess it, execute the
 ground-truth task program with replay / skills / dmp, and once more with dmp after displacing the
-first manipulated object by 5-10 cm in a random direction clear of the other objects.
+first manipulated object by 5-10 cm in a random direction clear of the other objects (and such
+that the re-grounded task fits: :func:`lfd.reproduce.randomise.check_layout`).
 """
 
 from __future__ import annotations
@@ -19,6 +20,8 @@ import numpy as np
 
 
 def _displacement(rng: np.random.Generator, traj, program) -> dict[str, tuple[float, float]]:  # type: ignore[no-untyped-def]
+    from lfd.reproduce.randomise import check_layout
+
     target = next(s.object for s in program.segments if s.skill in ("pick_up", "push", "locate"))
     names = list(traj.object_names)
     p0 = np.nan_to_num(np.asarray(traj.object_position)[:, 0, :2])
@@ -29,8 +32,13 @@ def _displacement(rng: np.random.Generator, traj, program) -> dict[str, tuple[fl
         d = r * np.array([np.cos(a), np.sin(a)])
         new = p0[k] + d
         others = np.delete(p0, k, axis=0)
-        if np.min(np.linalg.norm(others - new, axis=1)) > 0.10:
-            return {target: (float(d[0]), float(d[1]))}
+        disp = {target: (float(d[0]), float(d[1]))}
+        # clear of the others, and the re-grounded task fits (nothing placed into another box)
+        if (
+            np.min(np.linalg.norm(others - new, axis=1)) > 0.10
+            and check_layout(traj, program, disp) is None
+        ):
+            return disp
     return {target: (0.0, 0.0)}
 
 

@@ -1,8 +1,10 @@
 """``lfd reproduce rec.mcap --mode replay|skills|dmp``: execute a demonstration on the robot.
 
-Exit status: 0 = the task was achieved in every requested mode; 1 = the reproduction ran but
-the task was not achieved in some mode (the failed skills and their reasons are printed); 2 = bad
-input (e.g. a ``--displace`` out of reach, an unwritable ``--video``). With ``--mode all`` the
+Exit status: 0 = the task was achieved in every requested mode (with ``--randomise N``: on
+every layout); 1 = the reproduction ran but the task was not achieved in some mode (the failed
+skills and their reasons are printed, and listed in the table's "failed" column and the JSON);
+2 = bad input (e.g. a ``--displace`` out of reach or whose re-grounded task would put an object
+into another, an unwritable ``--video``, no valid layout for ``--randomise``). With ``--mode all`` the
 replay runs as the reference of the path-length ratio: its outcome is reported, and the exit
 status judges skills and dmp.
 """
@@ -10,6 +12,7 @@ status judges skills and dmp.
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 from ._options import (
     add_json_argument,
@@ -21,6 +24,7 @@ from ._options import (
     segmentation_options,
     write_json,
 )
+from ._types import float_range, positive_int, seed
 
 NAME = "reproduce"
 HELP = "Reproduce a demonstration on a simulated 7-DoF arm (replay, skills or DMP) and measure it."
@@ -39,9 +43,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--displace",
         action="append",
-        metavar="NAME:DX,DY",
-        help="shift an object's initial position in the robot scene, in metres (e.g. "
-        "box_2:0.08,-0.05); refused when out of reach or overlapping another object; repeatable",
+        metavar="NAME:DX,DY[,DEG]",
+        help="shift (metres) and optionally turn (degrees) an object's initial pose in the robot "
+        "scene (e.g. box_2:0.08,-0.05); every skill's goal follows the objects it is relative to; "
+        "refused when it or the re-grounded task puts an object out of reach or into another; "
+        "repeatable",
     )
     parser.add_argument(
         "--task",
@@ -52,6 +58,29 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--segment",
         action="store_true",
         help="segment the recording with lfd.segment instead of using its ground-truth labels",
+    )
+    rnd = parser.add_argument_group("randomised layouts")
+    rnd.add_argument(
+        "--randomise",
+        type=positive_int,
+        metavar="N",
+        help="run the mode(s) on N layouts with every object shifted and turned (reachable, "
+        "collision-free) and print the success per mode and per skill and the failure reasons",
+    )
+    rnd.add_argument("--seed", type=seed, default=0, help="--randomise: random seed (default 0)")
+    rnd.add_argument(
+        "--max-shift",
+        type=float_range(0.0, 0.5),
+        default=0.10,
+        metavar="M",
+        help="--randomise: largest shift of an object, metres (default 0.10)",
+    )
+    rnd.add_argument(
+        "--max-turn",
+        type=float_range(0.0, 180.0),
+        default=45.0,
+        metavar="DEG",
+        help="--randomise: largest turn of an object, degrees (default 45)",
     )
     add_segmentation_arguments(parser, used_with="with --segment")
     add_recording_arguments(parser)
@@ -89,6 +118,16 @@ def run(args: argparse.Namespace) -> int:
     from ._rerun import check_rerun_args, close_from_args, open_from_args
 
     inputs = [p for p in (args.recording, args.task, args.map) if p]
+    if args.randomise:
+        from ..errors import UsageError
+
+        clash = [
+            opt for opt, used in (("--displace", args.displace), ("--video", args.video)) if used
+        ]
+        from ._rerun import wants_rerun
+
+        if clash or wants_rerun(args):
+            raise UsageError(f"--randomise cannot be combined with {(clash or ['--rerun'])[0]}")
     check_json(args, inputs)
     check_rerun_args(args, inputs)
     err = Console(stderr=True)  # progress, failures: stderr
@@ -106,9 +145,11 @@ def run(args: argparse.Namespace) -> int:
         program = from_segmentation(segment(demo, **segmentation_options(args)), t0)
     else:
         program = from_labels(demo.labels, t0)
+    modes = ("replay", "skills", "dmp") if args.mode == "all" else (args.mode,)
+    if args.randomise:
+        return _run_randomised(args, traj, program, modes, err)
     # refused here, before the progress bar starts, so the error stays one line on stderr
     check_displacement(traj, displace, program_start(traj, program))
-    modes = ("replay", "skills", "dmp") if args.mode == "all" else (args.mode,)
     results = {}
     # a bar only on a terminal: piped, it would leave an empty line before an error's one line
     with Progress(console=err, transient=True, disable=not err.is_terminal) as bar:
@@ -131,7 +172,7 @@ def run(args: argparse.Namespace) -> int:
             log_reproduction(r, skills=program.skills, object_sizes=sizes)
     close_from_args(args)
     table = Table(title=f"{args.recording}: {' '.join(program.skills)}")
-    for col in ("mode", "path length (m)", "ratio", "time (s)", "success", "objects"):
+    for col in ("mode", "path length (m)", "ratio", "time (s)", "success", "objects", "failed"):
         table.add_column(col)
     ref = results["replay"].path_length if "replay" in results else None
     for mode, r in results.items():
@@ -148,6 +189,8 @@ def run(args: argparse.Namespace) -> int:
             f"{r.execution_time_s:.1f}",
             "yes" if r.success else "no",
             objs,
+            # which skill failed and its first reason (all of them below and in --json)
+            "; ".join(f"{sk.label()}: {sk.reasons[0]}" for sk in r.skills if not sk.ok) or "-",
         )
     console(args).print(table)  # stderr under --json -: stdout is the JSON then
     for mode, r in results.items():
@@ -166,3 +209,72 @@ def run(args: argparse.Namespace) -> int:
     # judged: the exit status says whether the learned task (skills, dmp) was achieved
     judged = [m for m in results if not (args.mode == "all" and m == "replay")]
     return 0 if all(results[m].success for m in judged) else 1
+
+
+def _run_randomised(
+    args: argparse.Namespace, traj: Any, program: Any, modes: tuple[str, ...], err: Any
+) -> int:
+    """``--randomise N``: every mode on N layouts; a success table per mode and skill."""
+    from rich.progress import Progress
+    from rich.table import Table
+
+    from ..reproduce import random_layouts, reproduce_randomised
+
+    # drawn (and refused, one line) before the progress bar starts
+    random_layouts(
+        traj,
+        program,
+        1,
+        seed=args.seed,
+        max_shift=args.max_shift,
+        max_turn_deg=args.max_turn,
+        modes=modes,
+    )
+    with Progress(console=err, transient=True, disable=not err.is_terminal) as bar:
+        task = bar.add_task("layouts", total=1.0)
+
+        def tick(i: int, n: int) -> None:
+            bar.update(task, completed=i / max(n, 1))
+
+        res = reproduce_randomised(
+            traj,
+            program,
+            args.randomise,
+            modes=modes,
+            seed=args.seed,
+            max_shift=args.max_shift,
+            max_turn_deg=args.max_turn,
+            progress=tick,
+        )
+    skills = list(dict.fromkeys(program.skills))
+    table = Table(
+        title=f"{args.recording}: {args.randomise} layouts (shift <= {args.max_shift:g} m, "
+        f"turn <= {args.max_turn:g} deg, seed {args.seed})"
+    )
+    for col in ("mode", "success", *skills, "failure reasons"):
+        table.add_column(col)
+    for mode in modes:
+        rates = res.skill_rates(mode)
+        ok = sum(r.success for r in res.runs if r.mode == mode)
+        reasons = ", ".join(f"{k} {v}" for k, v in res.reasons(mode).most_common()) or "-"
+        table.add_row(
+            mode,
+            f"{ok}/{args.randomise} ({100 * res.success_rate(mode):.0f}%)",
+            *(f"{rates[k][0]}/{rates[k][1]}" if k in rates else "-" for k in skills),
+            reasons,
+        )
+    console(args).print(table)
+    for r in res.runs:
+        if not r.success:
+            for line in r.failures:
+                err.print(
+                    f"layout {r.layout} {r.mode}: {line}",
+                    highlight=False,
+                    markup=False,
+                    soft_wrap=True,
+                )
+    if args.json:
+        doc = {"recording": args.recording, "program": program.to_json()} | res.to_json()
+        write_json(args.json, doc)
+    judged = [m for m in modes if not (args.mode == "all" and m == "replay")]
+    return 0 if all(r.success for r in res.runs if r.mode in judged) else 1

@@ -9,12 +9,13 @@ Typical use::
 
 Modules: :mod:`.robot` (the arm MJCF), :mod:`.scene`, :mod:`.ik` (mink), :mod:`.controller`,
 :mod:`.program` (the task program), :mod:`.goals` (Eq. 2), :mod:`.modes`, :mod:`.dmp`,
-:mod:`.measures`, :mod:`.video`.
+:mod:`.measures`, :mod:`.outcome` (why a run failed), :mod:`.displacement` (``--displace``),
+:mod:`.randomise` (randomised layouts: :func:`reproduce_randomised`), :mod:`.video`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -23,16 +24,24 @@ import numpy as np
 from .. import _gl  # noqa: F401  (selects the headless GL backend before mujoco loads)
 from ..trajectory import Trajectory
 from .controller import Execution, Plan, execute
-from .displacement import check_displacement, parse_displacement, program_start
-from .goals import DemoFrames, pose, yaw_of
+from .displacement import (
+    Displacement,
+    check_displacement,
+    parse_displacement,
+    plan_layout,
+    program_start,
+)
+from .goals import yaw_of
 from .measures import ObjectResult, object_errors, path_length
-from .modes import MODES, plan_task
+from .modes import MODES
 from .outcome import SkillResult, skill_results
 from .program import Segment, TaskProgram, from_labels, from_segmentation
+from .randomise import MAX_SHIFT, MAX_TURN_DEG, Randomised, random_layouts, run_randomised
 from .scene import ObjectSpec
 
 __all__ = [
     "MODES",
+    "Randomised",
     "Reproduction",
     "Segment",
     "SkillResult",
@@ -42,7 +51,9 @@ __all__ = [
     "from_segmentation",
     "parse_displacement",
     "program_start",
+    "random_layouts",
     "reproduce",
+    "reproduce_randomised",
     "reproduction_report",
 ]
 
@@ -74,7 +85,7 @@ class Reproduction:
     base: np.ndarray
     execution_time_s: float
     wall_time_s: float
-    displacement: dict[str, tuple[float, float]] = field(default_factory=dict)
+    displacement: dict[str, Displacement] = field(default_factory=dict)
     execution: Execution | None = None
     program: TaskProgram | None = None
     """The executed task program (a missing pick_up may have been inserted); ``segment``
@@ -112,6 +123,7 @@ class Reproduction:
             "wall_time_s": self.wall_time_s,
             "tracking_error_m": {"mean": float(track.mean()), "max": float(track.max())},
             "success": self.success,
+            "failures": self.failures,
             "skills": [s.to_json() for s in self.skills],
             "objects": {
                 o.name: {
@@ -132,7 +144,7 @@ def reproduce(
     program: TaskProgram,
     mode: str,
     *,
-    displace: Mapping[str, tuple[float, float]] | None = None,
+    displace: Mapping[str, Displacement] | None = None,
     base: np.ndarray | None = None,
     video_fps: float = 0.0,
     progress: Callable[[int, int], None] | None = None,
@@ -146,8 +158,10 @@ def reproduce(
     program : TaskProgram
         The segmentation to execute.
     mode : {"replay", "skills", "dmp"}
-    displace : dict name -> (dx, dy), optional
-        Shift objects' initial poses (m) in the robot's scene.
+    displace : dict name -> (dx, dy) or (dx, dy, deg), optional
+        Shift (m) and turn (deg, about the vertical) objects' initial poses in the robot's
+        scene; an object resting on a displaced one moves with it. Every skill's goal follows
+        the objects it is relative to (Eq. 2, :mod:`.goals`).
     base : array, shape (3,), optional
         Robot base; chosen automatically (:func:`~lfd.reproduce.scene.choose_base`) by default.
 
@@ -155,26 +169,22 @@ def reproduce(
     ------
     UsageError
         A displacement that names an unknown object, is not finite, or puts an object out of
-        reach, off the table or into another object (:func:`check_displacement`), before
-        anything is simulated.
+        reach, off the table or into another object (:func:`check_displacement`), or whose
+        re-grounded task would put an object out of reach or into another one
+        (:func:`~lfd.reproduce.displacement.check_goals`), before anything is simulated.
     video_fps : float
         Record frames into ``result.execution.frames`` at this rate (0 = off).
     """
     displace = dict(displace or {})
-    start_i = program_start(traj, program)
-    base = check_displacement(traj, displace, start_i, base=base)  # before anything is simulated
-    frames = DemoFrames(traj, base)
-    initial: dict[str, np.ndarray] = {}
-    for name, (dx, dy) in displace.items():
-        T = frames.object_pose(name, start_i)
-        initial[name] = pose(T[:3, 3] + [dx, dy, 0.0], yaw_of(T[:3, :3]))
-    result = plan_task(frames, program, mode, initial=initial)
+    # checked, base chosen and planned before anything is simulated
+    frames, initial, result = plan_layout(traj, program, mode, displace, base=base)
+    base = frames.base
     if not displace:  # where the demonstration left the objects
         end_i = frames.index(program.segments[-1].end_s)
         result.expected = {n: frames.object_pose(n, end_i) for n in frames.names}
     specs = []
     for k, name in enumerate(frames.names):
-        T = initial.get(name, frames.object_pose(name, start_i))
+        T = initial[name]
         c, s = np.cos(yaw_of(T[:3, :3]) / 2), np.sin(yaw_of(T[:3, :3]) / 2)
         p = T[:3, 3].copy()
         p[2] = max(p[2], frames.size[k, 2] / 2)  # never start inside the table
@@ -210,3 +220,42 @@ def reproduction_report(
         "program": program.to_json(),
         "results": {mode: r.to_json() for mode, r in results.items()},
     }
+
+
+def reproduce_randomised(
+    traj: Trajectory,
+    program: TaskProgram,
+    n: int,
+    *,
+    modes: Sequence[str] = ("skills", "dmp"),
+    seed: int = 0,
+    max_shift: float = MAX_SHIFT,
+    max_turn_deg: float = MAX_TURN_DEG,
+    progress: Callable[[int, int], None] | None = None,
+) -> Randomised:
+    """Reproduce ``program`` in every mode on ``n`` randomised layouts (``lfd reproduce
+    --randomise N``): every object shifted up to ``max_shift`` m and turned up to
+    ``max_turn_deg``, reachable and collision-free (:mod:`.randomise`).
+
+    Returns
+    -------
+    Randomised
+        The layouts and every run; ``success_rate(mode)``, ``skill_rates(mode)``,
+        ``reasons(mode)``, ``to_json()`` (the document of ``--randomise --json``).
+
+    Raises
+    ------
+    UsageError
+        Bad settings, or no valid layout found (before anything is simulated).
+    """
+    return run_randomised(
+        traj,
+        program,
+        n,
+        reproduce,
+        modes=modes,
+        seed=seed,
+        max_shift=max_shift,
+        max_turn_deg=max_turn_deg,
+        progress=progress,
+    )

@@ -9,13 +9,17 @@ arm's reach or off the table, or makes it overlap another object.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import UsageError
 from ..trajectory import Trajectory
-from .goals import quat_to_matrix, yaw_of
+from .goals import DemoFrames, pose, quat_to_matrix, yaw_of
 from .program import TaskProgram
+
+if TYPE_CHECKING:
+    from .modes import PlanResult
 from .robot import TCP_OFFSET
 from .scene import REACH_MAX, REACH_MIN, SHOULDER_Z, TABLE_HALF, choose_base, table_centre
 
@@ -25,10 +29,19 @@ REACH_SLACK = 0.03
 """Allowed shortfall below :data:`~lfd.reproduce.scene.REACH_MIN` (the elbow limit is at 0.395 m)."""
 OVERLAP_MARGIN = 0.002
 """Two objects closer than this (m) count as overlapping."""
+STACK_SLACK = 0.005
+"""Final poses this close (m) to resting one on the other are a stack, not an overlap."""
 
 
-def parse_displacement(spec: Sequence[str] | str | None) -> dict[str, tuple[float, float]]:
+Displacement = tuple[float, ...]
+"""``(dx, dy)`` in metres, or ``(dx, dy, turn)`` with a turn about the vertical in degrees."""
+
+
+def parse_displacement(spec: Sequence[str] | str | None) -> dict[str, Displacement]:
     """Parse ``"box_1:0.10,-0.05"`` (or several, also ``;``-separated) into ``{"box_1": (0.1, -0.05)}``.
+
+    A third value turns the object about its vertical axis, in degrees:
+    ``"box_1:0.10,-0.05,30"`` -> ``{"box_1": (0.1, -0.05, 30.0)}``.
 
     Raises
     ------
@@ -38,23 +51,56 @@ def parse_displacement(spec: Sequence[str] | str | None) -> dict[str, tuple[floa
     if spec is None:
         return {}
     items = [spec] if isinstance(spec, str) else list(spec)
-    out: dict[str, tuple[float, float]] = {}
+    out: dict[str, Displacement] = {}
     for item in items:
         for part in item.split(";"):
             if not part.strip():
                 continue
             try:
                 name, vec = part.split(":")
-                dx, dy = (float(v) for v in vec.split(","))
+                vals = tuple(float(v) for v in vec.split(","))
+                if len(vals) not in (2, 3):
+                    raise ValueError(vec)
             except ValueError as err:
                 raise UsageError(
-                    f"--displace {part!r}: expected NAME:DX,DY in metres, e.g. box_1:0.08,-0.05"
+                    f"--displace {part!r}: expected NAME:DX,DY[,DEG] (metres, degrees), "
+                    "e.g. box_1:0.08,-0.05"
                 ) from err
-            if not (np.isfinite(dx) and np.isfinite(dy)):
-                raise UsageError(f"--displace {part!r}: DX and DY must be finite numbers (metres)")
+            if not all(np.isfinite(v) for v in vals):
+                raise UsageError(
+                    f"--displace {part!r}: DX, DY (and DEG) must be finite numbers (metres)"
+                )
             if not name.strip():
                 raise UsageError(f"--displace {part!r}: missing object name before ':'")
-            out[name.strip()] = (dx, dy)
+            out[name.strip()] = vals
+    return out
+
+
+def _turn(d: Displacement) -> float:
+    """The turn of a displacement (rad)."""
+    return float(np.radians(d[2])) if len(d) > 2 else 0.0
+
+
+def initial_poses(
+    frames: DemoFrames, displace: Mapping[str, Displacement], start_i: int
+) -> dict[str, np.ndarray]:
+    """Upright 4x4 initial poses of the displaced objects (shifted, turned about their centre).
+
+    An object resting on a displaced object at the start (and not displaced itself) moves
+    rigidly with its support: a stack is shifted and turned as one.
+    """
+    out: dict[str, np.ndarray] = {}
+    for name, d in displace.items():
+        T = frames.object_pose(name, start_i)
+        out[name] = pose(T[:3, 3] + [d[0], d[1], 0.0], yaw_of(T[:3, :3]) + _turn(d))
+    for name in frames.names:
+        sup = frames.support_of(name, start_i) if name not in displace else None
+        if sup in out and sup is not None:
+            out[name] = (
+                out[sup]
+                @ np.linalg.inv(frames.object_pose(sup, start_i))
+                @ (frames.object_pose(name, start_i))
+            )
     return out
 
 
@@ -70,7 +116,7 @@ def _fmt(v: float) -> str:
 
 def check_displacement(
     traj: Trajectory,
-    displace: Mapping[str, tuple[float, float]],
+    displace: Mapping[str, Displacement],
     start_i: int,
     *,
     base: np.ndarray | None = None,
@@ -101,7 +147,7 @@ def check_displacement(
         reach, off the table or overlapping another object.
     """
     names = list(traj.object_names)
-    for name, (dx, dy) in displace.items():
+    for name, (dx, dy, *_) in displace.items():
         if name not in names:
             known = ", ".join(names) or "none"
             raise UsageError(f"--displace: unknown object {name!r}; known objects: {known}")
@@ -124,7 +170,7 @@ def check_displacement(
             raise UsageError(f"--displace {name}: {name} is not seen at the start of the task")
     obj0 = np.nan_to_num(opos)
     pos = obj0.copy()
-    for name, (dx, dy) in displace.items():
+    for name, (dx, dy, *_) in displace.items():
         pos[names.index(name), :2] += (dx, dy)
     if base is None:
         moved = pos[[names.index(n) for n in displace]].reshape(-1, 3)
@@ -135,7 +181,9 @@ def check_displacement(
     shoulder = np.array([base[0], base[1], SHOULDER_Z])
     centre = table_centre(base)
     yaw = [yaw_of(quat_to_matrix(q)) if np.all(np.isfinite(q)) else 0.0 for q in oquat]
-    for name, (dx, dy) in displace.items():
+    for name, d in displace.items():
+        yaw[names.index(name)] += _turn(d)
+    for name, (dx, dy, *_) in displace.items():
         k = names.index(name)
         what = f"--displace {name}:{_fmt(dx)},{_fmt(dy)} puts {name} at ({pos[k, 0]:.3f}, {pos[k, 1]:.3f}) m"
         top = pos[k] + [0.0, 0.0, size[k, 2] / 2 + TCP_OFFSET]  # wrist above a top grasp
@@ -176,3 +224,103 @@ def _overlap(
         abs(float(u @ d)) < half(yaw_p, size_p, u) + half(yaw_q, size_q, u) + OVERLAP_MARGIN
         for u in axes
     )
+
+
+def check_goals(
+    frames: DemoFrames,
+    initial: Mapping[str, np.ndarray],
+    scenes: Sequence[Mapping[str, np.ndarray]],
+    displace: Mapping[str, Displacement],
+) -> None:
+    """Refuse a displacement whose re-grounded task is impossible, before anything is simulated.
+
+    ``scenes``: every object's planned pose after each place, stack and push and at the end
+    (:attr:`~lfd.reproduce.modes.PlanResult.scenes`). Every object the task moves (its pose
+    differs from ``initial``) must be within the arm's reach, on the table, and clear of every
+    other object in each scene.
+
+    Raises
+    ------
+    UsageError
+        Naming the displacement, the object and where the task would put it.
+    """
+    base = frames.base
+    shoulder = np.array([base[0], base[1], SHOULDER_Z])
+    centre = table_centre(base)
+    spec = " ".join(f"{n}:{','.join(_fmt(v) for v in d)}" for n, d in displace.items())
+    names = frames.names
+    for scene in scenes:
+        for k, name in enumerate(names):
+            T, T0 = scene[name], initial[name]
+            if np.linalg.norm(T[:3, 3] - T0[:3, 3]) < 1e-6:
+                continue
+            p = T[:3, 3]
+            what = f"--displace {spec}: the task would put {name} at ({p[0]:.3f}, {p[1]:.3f}) m"
+            top = p + np.array([0.0, 0.0, frames.size[k, 2] / 2 + TCP_OFFSET])
+            reach = float(np.linalg.norm(top - shoulder))
+            if reach > REACH_MAX or reach < REACH_MIN - REACH_SLACK:
+                raise UsageError(
+                    f"{what}, out of the arm's reach ({reach:.3f} m from the shoulder)"
+                )
+            if np.any(np.abs(p[:2] - centre) + frames.size[k, :2].max() / 2 > TABLE_HALF):
+                raise UsageError(f"{what}, off the table")
+            for j, other in enumerate(names):
+                Q = scene[other]
+                h = (frames.size[k, 2] + frames.size[j, 2]) / 2
+                if j == k or abs(Q[2, 3] - p[2]) > h - STACK_SLACK:  # one rests on the other
+                    continue
+                yaw_p, yaw_q = yaw_of(T[:3, :3]), yaw_of(Q[:3, :3])
+                if _overlap(p, yaw_p, frames.size[k], Q[:3, 3], yaw_q, frames.size[j]):
+                    raise UsageError(
+                        f"{what}, overlapping {other} at ({Q[0, 3]:.3f}, {Q[1, 3]:.3f}) m; "
+                        "choose a displacement that leaves room"
+                    )
+
+
+def plan_layout(
+    traj: Trajectory,
+    program: TaskProgram,
+    mode: str,
+    displace: Mapping[str, Displacement],
+    *,
+    base: np.ndarray | None = None,
+) -> tuple[DemoFrames, dict[str, np.ndarray], PlanResult]:
+    """Check a displacement, choose the robot base and plan the re-grounded task.
+
+    With displaced objects (and no ``base`` given) the base is chosen twice: first for the
+    demonstrated path and the objects (:func:`check_displacement`), then for the planned,
+    re-grounded path and every object pose of the plan (a place that follows a displaced box
+    may leave the demonstration's workspace), and the task is planned again from there.
+
+    Returns
+    -------
+    frames : DemoFrames
+        The demonstration seen from the chosen base (``frames.base``).
+    initial : dict name -> 4x4
+        Initial pose of every object.
+    result : PlanResult
+
+    Raises
+    ------
+    UsageError
+        :func:`check_displacement` and :func:`check_goals`, before anything is simulated.
+    """
+    from .modes import plan_task
+
+    start_i = program_start(traj, program)
+    fixed = base is not None
+    base = check_displacement(traj, displace, start_i, base=base)
+    frames = DemoFrames(traj, base)
+    moved = initial_poses(frames, displace, start_i)
+    initial = {n: moved.get(n, frames.object_pose(n, start_i)) for n in frames.names}
+    result = plan_task(frames, program, mode, initial=moved)
+    if displace and not fixed:
+        objs = np.array([T[:3, 3] for sc in [initial, *result.scenes] for T in sc.values()])
+        new = choose_base(np.concatenate([result.plan.position, objs]), keep_out=objs)
+        if np.linalg.norm(new - base) > 1e-9:
+            base = check_displacement(traj, displace, start_i, base=new)
+            frames = DemoFrames(traj, base)
+            result = plan_task(frames, program, mode, initial=moved)
+    if displace:
+        check_goals(frames, initial, result.scenes, displace)
+    return frames, initial, result

@@ -1,10 +1,15 @@
 """Object-relative skill goals (paper Eq. 2) and the demo quantities they are built from.
 
 A goal is a top-down TCP pose ``(position, yaw)``. Every skill goal is attached to a reference
-frame: ``pick_up``/``locate`` to the target object, ``place`` to the world, ``stack`` to the
-supporting object, ``push`` to the pushed object's displaced pose, and ``move``/``move_with`` to
-the start of the next skill. With displaced objects the goal follows its reference,
-``T_goal' = T_ref' · T_ref^-1 · T_goal`` (Eq. 2). Skill knowledge adapts the human's poses to
+frame, the pose of an object it involves: ``pick_up``/``locate`` to the target object,
+``stack`` to the supporting object, ``place`` to the nearest other object within
+:data:`PLACE_NEIGHBOUR_RADIUS` of where the demonstration put the object down
+(:meth:`DemoFrames.neighbour_of`; the world when none is that close), ``push`` to the pushed
+object's pose when the push starts (the pushed face and the push direction turn with the box),
+and ``move``/``move_with`` to the start of the next skill (in that skill's reference). With
+displaced objects the goal follows its reference, ``T_goal' = T_ref' · T_ref^-1 · T_goal``
+(Eq. 2), recomputed from the objects' poses when the skill is planned (an object moved by an
+earlier skill is a reference at its new pose). Skill knowledge adapts the human's poses to
 the gripper: grasps are centred on the object with the closing axis along a face normal, placed
 objects stay upright, pushes keep the closed fingers against the face opposite the push.
 """
@@ -54,6 +59,9 @@ def upright(T: np.ndarray) -> np.ndarray:
     return pose(T[:3, 3], yaw_of(T[:3, :3]))
 
 
+PLACE_NEIGHBOUR_RADIUS = 0.15
+"""A place is relative to the nearest other object whose centre is within this distance (m,
+horizontal) of the placed object's demonstrated resting position; farther, to the world."""
 WRIST_RANGE = np.radians(150.0)
 """Largest wrist rotation away from the natural yaw that a demonstrated yaw is mapped to."""
 
@@ -163,9 +171,51 @@ class DemoFrames:
                     best, best_d = other, dxy
         return best
 
+    def neighbour_of(self, name: str, i: int, radius: float = PLACE_NEIGHBOUR_RADIUS) -> str | None:
+        """The object nearest to ``name`` at sample ``i`` (horizontal centre distance), if
+        closer than ``radius``; None otherwise (the reference of a place, see the module doc)."""
+        p = self.object_pose(name, i)[:3, 3]
+        best, best_d = None, float(radius)
+        for other in self.names:
+            if other == name:
+                continue
+            d = float(np.hypot(*(self.object_pose(other, i)[:2, 3] - p[:2])))
+            if d < best_d:
+                best, best_d = other, d
+        return best
 
-def grasp_goal(T_obj: np.ndarray, size: np.ndarray, demo_yaw: float) -> tuple[np.ndarray, float]:
+
+GRASP_OPENING_CLEARANCE = 0.03
+"""A pick_up approaches with the fingers opened to the grasped width plus this much (m), not
+fully: open fingers reach less far beside the box."""
+FINGER_ROOM = 0.008
+"""A grasp direction whose open fingers come closer than this (m) to another object is used only
+when no direction leaves that much room."""
+
+
+def grasp_opening(width: float) -> float:
+    """Opening (m) a pick_up approaches with for a closing width ``width``."""
+    return float(min(MAX_OPENING, width + GRASP_OPENING_CLEARANCE))
+
+
+def _box_distance(q: np.ndarray, T: np.ndarray, size: np.ndarray) -> float:
+    """Horizontal distance (m) from point ``q`` to an upright box (0 inside)."""
+    local = T[:2, :2].T @ (np.asarray(q[:2]) - T[:2, 3])
+    out = np.maximum(np.abs(local) - np.asarray(size[:2]) / 2, 0.0)
+    return float(np.hypot(*out))
+
+
+def grasp_goal(
+    T_obj: np.ndarray,
+    size: np.ndarray,
+    demo_yaw: float,
+    neighbours: list[tuple[np.ndarray, np.ndarray]] | None = None,
+) -> tuple[np.ndarray, float]:
     """Skill-knowledge grasp: centred on the object, closing across a face that fits the gripper.
+
+    Of the two face directions, the one whose open fingers (:func:`grasp_opening`) keep
+    :data:`FINGER_ROOM` from every ``neighbours`` box (``(pose, size)``, upright) is preferred
+    (then the one nearest, modulo 180 deg, to the demonstrated yaw).
 
     Returns the TCP position (3,) and the yaw nearest (modulo 180 deg) to the demonstrated one.
     """
@@ -174,7 +224,20 @@ def grasp_goal(T_obj: np.ndarray, size: np.ndarray, demo_yaw: float) -> tuple[np
     psi = yaw_of(T_obj[:3, :3])
     cands = [(psi, size[0]), (psi + np.pi / 2, size[1])]
     fits = [c for c in cands if c[1] <= MAX_OPENING - 0.015] or cands
-    best = min(fits, key=lambda c: abs(float(wrap_near(c[0], demo_yaw)) - demo_yaw))
+
+    def room(c: tuple[float, float]) -> float:
+        u = np.array([np.cos(c[0]), np.sin(c[0])])
+        reach = grasp_opening(c[1]) / 2 + FINGER_HALF_X
+        fingers = [p[:2] + reach * u, p[:2] - reach * u]
+        d = [_box_distance(f, T, sz) for T, sz in neighbours or [] for f in fingers]
+        return min(d, default=np.inf)
+
+    roomy = [c for c in fits if room(c) >= FINGER_ROOM]
+    best = (
+        min(roomy, key=lambda c: abs(float(wrap_near(c[0], demo_yaw)) - demo_yaw))
+        if roomy
+        else max(fits, key=room)
+    )
     return p, float(wrap_near(best[0], demo_yaw))
 
 

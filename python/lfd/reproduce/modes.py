@@ -16,7 +16,9 @@
   demonstrated motion and re-targeted to the new start and goal (Eq. 2 with displaced objects).
 
 Skill knowledge that adapts the human's motion to the robot (skills and dmp): grasps centred on
-the object with the closing axis across a face; resting heights from the box sizes; the gripper
+the object with the closing axis across a face (the face direction whose open fingers keep room
+from neighbouring boxes), approached with the fingers opened to the box's width plus 3 cm and,
+when the demonstrated approach would sweep the fingers into the box, from above it vertically; resting heights from the box sizes; the gripper
 yaw turned during the preceding move and held constant while grasping/releasing; a vertical final
 approach ("funnel") onto grasp and release poses, never dipping below them; a vertical lift-off
 after a release; a move rises only as much as needed when its straight line would sweep the open
@@ -35,7 +37,7 @@ import numpy as np
 from ..errors import InvalidParameterError
 from .controller import TICK, Plan
 from .dmp import dmp_rollout, min_jerk, resample, warp
-from .goals import DemoFrames, grasp_goal, pose, upright, wrap_near, yaw_of
+from .goals import DemoFrames, grasp_goal, grasp_opening, pose, upright, wrap_near, yaw_of
 from .motion import (
     HOVER,
     clear,
@@ -78,6 +80,9 @@ class PlanResult:
     """Goal TCP position (3,) of each segment."""
     program: TaskProgram | None = None
     """The executed program (after :func:`repair_program`); ``plan.segment`` indexes it."""
+    scenes: list[dict[str, np.ndarray]] = field(default_factory=list)
+    """Every object's planned pose right after each place, stack and push, then at the end
+    (:func:`~lfd.reproduce.displacement.check_goals` checks each for overlaps and reach)."""
 
 
 def _ref_pose(
@@ -86,11 +91,26 @@ def _ref_pose(
     """Reference frame of a segment: (demo pose, current pose) — Eq. 2's T_o and T_o'."""
     if seg.skill in ("pick_up", "locate", "push") and seg.object in objects:
         return frames.object_pose(seg.object, i), objects[seg.object]
-    if seg.skill == "stack" and seg.object is not None:
-        sup = seg.params.get("support") or frames.support_of(seg.object, _end_index(frames, seg))
-        if sup in objects:
-            return frames.object_pose(sup, i), objects[sup]
+    if seg.skill in ("place", "stack") and seg.object is not None:
+        ref = place_reference(frames, seg, seg.object, _end_index(frames, seg))
+        if ref in objects:
+            return frames.object_pose(ref, i), objects[ref]
     return np.eye(4), np.eye(4)
+
+
+def place_reference(frames: DemoFrames, seg: Segment, name: str, i1: int) -> str | None:
+    """The object a place/stack of ``name`` ending at sample ``i1`` is relative to (Eq. 2).
+
+    stack: its support (``params["support"]``, else what it rests on in the demonstration);
+    place: ``params["reference"]`` if given, else the nearest other object within
+    :data:`~lfd.reproduce.goals.PLACE_NEIGHBOUR_RADIUS` of the demonstrated resting position
+    (:meth:`~lfd.reproduce.goals.DemoFrames.neighbour_of`); None: the world.
+    """
+    if seg.skill == "stack":
+        return seg.params.get("support") or frames.support_of(name, i1)
+    if seg.skill == "place":
+        return seg.params.get("reference") or frames.neighbour_of(name, i1)
+    return None
 
 
 def _end_index(frames: DemoFrames, seg: Segment) -> int:
@@ -156,6 +176,14 @@ PUSH_BACK_MIN_S = 0.3
 """...over at least this long."""
 REPLAY_OPENING = 0.08
 """Replay: the opening commanded when the recording has no fingertip distance at all."""
+GRASP_CLEAR = 0.01
+"""A pick_up whose fingers would sweep into the object approaches this far (m) above the height
+where the open fingertips reach the object's top, then descends vertically onto the grasp pose."""
+GRASP_SLACK = 0.006
+"""Horizontal offset from the grasp pose (m) allowed while the open fingertips are below the
+object's top (plus :data:`GRASP_CLEAR`)."""
+GRASP_DESCENT_MIN_S = 0.4
+"""Shortest duration of that vertical descent (s)."""
 _GRASP_SKILLS = ("pick_up", "place", "stack")
 """Skills that grasp or release: they keep their goal's yaw and end in a vertical funnel."""
 
@@ -199,12 +227,15 @@ class _TaskPlanner:
         if initial:
             self.objects.update({k: upright(v) for k, v in initial.items()})
         self.expected = dict(self.objects)  # propagated through the program
+        self.scenes: list[dict[str, np.ndarray]] = []
         self.parts: list[Plan] = []
         self.goals: list[np.ndarray] = []
         self.cur = _state(frames.tcp_pose(start_i), float(frames.yaw[start_i]))
         self.opening = MAX_OPENING
         self.held: tuple[str, np.ndarray] | None = None
         self.detour = np.zeros(4)
+        self.crossed = False
+        """The current move crossed over the objects at the safe height (:meth:`_rise`)."""
 
     def plan(self) -> PlanResult:
         for k, seg in enumerate(self.segs):
@@ -213,17 +244,21 @@ class _TaskPlanner:
         plan = plan_replay(frames, program) if self.mode == "replay" else Plan.concat(self.parts)
         # the fingertips never go below the table top (human fingertips may graze it)
         plan.position[:, 2] = np.maximum(plan.position[:, 2], Z_MIN)
-        return PlanResult(plan, self.expected, self.goals, program)
+        self.scenes.append(dict(self.expected))
+        return PlanResult(plan, self.expected, self.goals, program, self.scenes)
 
     # --- one planner per skill: the goal, the grip, what changes in the scene -------------
     def _pick_up(self, k: int, seg: Segment, i1: int) -> _SkillGoal:
         name, goal = _pick_goal(self.frames, seg, self.objects, i1)
         self.held = (name, np.linalg.inv(self.objects[name]) @ pose(goal[:3], goal[3]))
-        return _SkillGoal(goal, MAX_OPENING, name=name, close_at_end=True)
+        size = self.frames.size[self.frames.object_index(name)]
+        grip = grasp_opening(_width_across(self.objects[name], size, goal[3]))
+        return _SkillGoal(goal, grip, name=name, close_at_end=True)
 
     def _place(self, k: int, seg: Segment, i1: int) -> _SkillGoal:  # place and stack
         name, goal, T_end_demo = _place_goal(self.frames, seg, self.objects, self.held, i1)
         self.objects[name] = self.expected[name] = T_end_demo
+        self.scenes.append(dict(self.objects))
         size = self.frames.size[self.frames.object_index(name)]
         release = min(MAX_OPENING, _width_across(T_end_demo, size, goal[3]) + RELEASE_CLEARANCE)
         self.held = None
@@ -239,6 +274,7 @@ class _TaskPlanner:
     def _push(self, k: int, seg: Segment, i1: int) -> _SkillGoal:
         geo = push_geometry(self.frames, seg, self.objects, self.cur[3])
         self.objects[seg.object] = self.expected[seg.object] = geo["T_new"]  # type: ignore[index]
+        self.scenes.append(dict(self.objects))
         return _SkillGoal(geo["goal"], 0.0, push=geo)
 
     def _locate(self, k: int, seg: Segment, i1: int) -> _SkillGoal:
@@ -287,7 +323,10 @@ class _TaskPlanner:
         path = np.concatenate([rise, self._path(seg, sg, i0, i1)])
         if seg.skill in _GRASP_SKILLS:
             self._funnel(path, goal, str(sg.name))
+        if seg.skill == "pick_up":
+            path = self._vertical_grasp(path, goal, str(sg.name))
         self.detour = np.zeros(4)
+        self.crossed = False
         part = _part(path, sg.grip, k)
         if seg.skill == "move" and k + 1 < len(self.segs) and self.segs[k + 1].skill == "push":
             part.opening[len(part) // 2 :] = 0.0  # close the fingers on the way to a push
@@ -322,6 +361,7 @@ class _TaskPlanner:
         if not ways:
             h = max(top, cur[2])
             ways = [np.array([*cur[:2], h, cur[3]]), np.array([*goal[:2], h, goal[3]])]
+            self.crossed = True
         rise = np.concatenate([line(a, b, min_s=RISE_MIN_S) for a, b in pairwise([cur, *ways])])
         self.detour = self.detour + (ways[-1] - cur)
         self.cur = ways[-1]
@@ -333,6 +373,8 @@ class _TaskPlanner:
         if sg.push is not None:
             return push_path(self.frames, str(seg.object), sg.push, (i0, i1), cur, self.mode)
         t, y = _demo_states(self.frames, i0, i1)
+        if self.crossed:  # crossed at the safe height to above the goal: descend straight
+            return line(cur, goal)
         if self.mode == "dmp":
             # the DMP runs between skill end points; the robot's own detours at the start
             # (lift-offs) are blended out like a warp, so the DMP's spring does not dip to undo them
@@ -354,6 +396,21 @@ class _TaskPlanner:
         funnel = max(FUNNEL, obj_h / 2 + FINGER_BELOW_TCP + FUNNEL_MARGIN)
         w = np.clip((path[:, 2] - goal[2]) / funnel, 0.0, 1.0)[:, None]
         path[:, :2] = goal[:2] + w * (path[:, :2] - goal[:2])
+
+    def _vertical_grasp(self, path: np.ndarray, goal: np.ndarray, name: str) -> np.ndarray:
+        """A pick_up whose open fingertips would pass below the object's top more than
+        :data:`GRASP_SLACK` beside the grasp pose (they would hit it) instead stays above
+        :data:`GRASP_CLEAR` over the top and descends vertically onto the grasp pose."""
+        T = self.objects[name]
+        top = T[2, 3] + self.frames.size[self.frames.object_index(name), 2] / 2
+        low = path[:, 2] - FINGER_BELOW_TCP < top + GRASP_CLEAR
+        off = np.hypot(path[:, 0] - goal[0], path[:, 1] - goal[1])
+        if not np.any(low & (off > GRASP_SLACK)):
+            return path
+        hover = np.array([*goal[:2], max(goal[2], top + FINGER_BELOW_TCP + GRASP_CLEAR), goal[3]])
+        path = path.copy()
+        path[:, 2] = np.maximum(path[:, 2], hover[2])
+        return np.concatenate([path, line(hover, goal, min_s=GRASP_DESCENT_MIN_S)[1:]])
 
     def _after(self, sg: _SkillGoal) -> None:
         """What follows the segment: close (pick_up), open and lift off (place, stack), back
@@ -441,9 +498,15 @@ def _pick_goal(
 ) -> tuple[str, np.ndarray]:
     """Grasp goal ``[x, y, z, yaw]`` of a pick_up (object-centred, wrist-friendly yaw)."""
     name = need_object(seg, objects)
-    p, yaw = grasp_goal(
-        objects[name], frames.size[frames.object_index(name)], float(frames.yaw[i1])
-    )
+    size = frames.size[frames.object_index(name)]
+    others = [(T, frames.size[frames.object_index(n)]) for n, T in objects.items() if n != name]
+    # (only the boxes on the same level: a box it rests on or under is no obstacle for fingers)
+    near = [
+        (T, sz)
+        for T, sz in others
+        if abs(T[2, 3] - objects[name][2, 3]) < 0.5 * (sz[2] + size[2]) - 0.005
+    ]
+    p, yaw = grasp_goal(objects[name], size, float(frames.yaw[i1]), near)
     # the gripper is symmetric: take the representative the wrist reaches most easily
     yaw = float(wrap_near(yaw, float(frames.natural_yaw(p))))
     return name, np.array([*p, yaw])
@@ -456,18 +519,18 @@ def _place_goal(
     held: tuple[str, np.ndarray] | None,
     i1: int,
 ) -> tuple[str, np.ndarray, np.ndarray]:
-    """TCP goal of a place/stack and the object's resting pose there (Eq. 2 for stacks)."""
+    """TCP goal of a place/stack and the object's resting pose there, relative to
+    :func:`place_reference` (Eq. 2)."""
     carried = seg.object or (held[0] if held else None)
     name = need_object(Segment(seg.skill, 0, 0, carried), objects)
     T_end = frames.object_pose(name, i1)
     h = frames.size[frames.object_index(name), 2]
+    ref = place_reference(frames, seg, name, i1)
+    if ref in objects and ref != name:  # Eq. 2: the resting pose follows its reference
+        T_end = objects[ref] @ np.linalg.inv(frames.object_pose(ref, i1)) @ T_end
     T_end[2, 3] = h / 2  # objects rest on the table (the tracked height is noisy) ...
-    if seg.skill == "stack":
-        sup = seg.params.get("support") or frames.support_of(name, i1)
-        if sup in objects:
-            T_end = objects[sup] @ np.linalg.inv(frames.object_pose(sup, i1)) @ T_end
-            # ... or on top of their support
-            T_end[2, 3] = objects[sup][2, 3] + frames.size[frames.object_index(sup), 2] / 2 + h / 2
+    if seg.skill == "stack" and ref in objects:  # ... or on top of their support
+        T_end[2, 3] = objects[ref][2, 3] + frames.size[frames.object_index(ref), 2] / 2 + h / 2
     rel = held[1] if held and held[0] == name else np.linalg.inv(T_end) @ frames.tcp_pose(i1)
     T_goal = T_end @ rel
     T_goal[2, 3] += RELEASE_LIFT

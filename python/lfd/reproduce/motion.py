@@ -11,7 +11,7 @@ import numpy as np
 from ..errors import DemonstrationError
 from .controller import TICK
 from .dmp import dmp_rollout, min_jerk, resample
-from .goals import DemoFrames, pose, push_goal, wrap_near, yaw_of
+from .goals import DemoFrames, push_goal, upright, wrap_near
 from .program import Segment
 from .robot import FINGER_BELOW_TCP, MAX_OPENING
 
@@ -93,17 +93,19 @@ def push_geometry(
 ) -> dict[str, np.ndarray]:
     """Key poses of a push: hover, start (behind), contact, goal, and the pushed pose.
 
-    The object is pushed by its demonstrated displacement ``d`` (and yaw change) from its
-    current pose; the closed fingers touch the face opposite ``d``.
+    The object is pushed by its demonstrated displacement and yaw change, expressed in its own
+    frame at the push's start (Eq. 2), from its current pose: ``d`` turns with the box; the
+    closed fingers touch the face opposite ``d``.
     """
     name = need_object(seg, objects)
     i0, i1 = segment_indices(frames, seg)
     T0_demo, T1_demo = frames.object_pose(name, i0), frames.object_pose(name, i1)
-    d = T1_demo[:3, 3] - T0_demo[:3, 3]
-    d[2] = 0.0
-    dyaw = yaw_of(T1_demo[:3, :3]) - yaw_of(T0_demo[:3, :3])
     T_now = objects[name]
-    T_new = pose(T_now[:3, 3] + d, yaw_of(T_now[:3, :3]) + dyaw)
+    # Eq. 2 with the box at the push's start as the reference: a turned box is pushed on the
+    # same face, along the same direction in its own frame
+    T_new = upright(T_now @ np.linalg.inv(T0_demo) @ T1_demo)
+    T_new[2, 3] = T_now[2, 3]
+    d = T_new[:3, 3] - T_now[:3, 3]
     size = frames.size[frames.object_index(name)]
     u = d[:2] / max(float(np.linalg.norm(d[:2])), 1e-9)
     p_c, yaw = push_goal(T_now, size, d, ref_yaw)
@@ -123,6 +125,8 @@ def push_geometry(
         "u": u,
         "d": d,
         "T0_demo": T0_demo,
+        "T_now": T_now,
+        "d_demo": np.array([*(T1_demo[:2, 3] - T0_demo[:2, 3]), 0.0]),
     }
 
 
@@ -153,13 +157,19 @@ def push_path(
     else:
         idx = np.arange(span[0], span[1] + 1)
         obj = np.array([frames.object_pose(name, int(i))[:3, 3] for i in idx])
-        prog = np.maximum.accumulate(np.clip((obj - obj[0]) @ geo["d"] / dist**2, 0.0, 1.0))
+        d_demo = geo["d_demo"]  # progress along the demonstrated push (the frame may have turned)
+        dd = max(float(d_demo @ d_demo), 1e-12)
+        prog = np.maximum.accumulate(np.clip((obj - obj[0]) @ d_demo / dd, 0.0, 1.0))
         moving = np.flatnonzero((prog > 0.01) & (prog < 0.995))
         a, b = (moving[0], moving[-1] + 1) if moving.size >= 2 else (0, len(idx) - 1)
         t = frames.t[idx[a : b + 1]]
         if mode == "dmp":
+            # the demonstrated object path carried into the box's current frame (Eq. 2), so a
+            # turned box is pushed along the turned path, not sideways
+            M = geo["T_now"] @ np.linalg.inv(geo["T0_demo"])
+            xy = obj[a : b + 1] @ M[:3, :3].T + M[:3, 3]
             y = np.column_stack(
-                [obj[a : b + 1, :2], np.full(b - a + 1, contact[2]), np.full(b - a + 1, contact[3])]
+                [xy[:, :2], np.full(b - a + 1, contact[2]), np.full(b - a + 1, contact[3])]
             )
             pieces.append(dmp_rollout(t, y, contact, goal, dt=TICK))
         else:

@@ -6,7 +6,8 @@ lift-off that follow it) and gets one or more reasons:
 
 * ``goal unreachable`` / ``IK limit``: the IK solution ended (or fell) more than
   :data:`IK_TOL` away from the planned TCP pose;
-* ``grasp failed`` (pick_up: the object was not lifted with the gripper) and ``grasp lost``
+* ``grasp failed`` (pick_up: the object was not lifted with the gripper, or ``toppled over``:
+  it tilted more than :data:`TOPPLE_DEG` while being grasped) and ``grasp lost``
   (move_with: the carried object slipped more than :data:`GRASP_TOL` in the gripper);
 * ``collision``: an object the skill does not handle moved more than the success tolerance;
 * ``placed/stacked/pushed off target by X mm``: the object a place/stack/push handled last ends
@@ -31,6 +32,8 @@ GRASP_TOL = 0.02
 LIFT_MIN = 0.01
 """A grasped object must rise at least this much during the carry (m)."""
 PLACING = ("place", "stack", "push")
+TOPPLE_DEG = 30.0
+"""A handled object tilting more than this (deg) during a skill toppled over."""
 
 
 @dataclass
@@ -72,6 +75,15 @@ class SkillResult:
 def _quat_angle_deg(a: np.ndarray, b: np.ndarray) -> float:
     d = abs(float(np.dot(a / np.linalg.norm(a), b / np.linalg.norm(b))))
     return float(np.degrees(2 * np.arccos(min(d, 1.0))))
+
+
+def _tilt_deg(quats: np.ndarray) -> np.ndarray:
+    """Angle (deg) between an object's z axis and the vertical, per quaternion (n, 4), folded
+    into [0, 90] (a box upside down stands as well as upright)."""
+    q = np.asarray(quats, dtype=np.float64).reshape(-1, 4)
+    q = q / np.linalg.norm(q, axis=1, keepdims=True)
+    zz = 1 - 2 * (q[:, 0] ** 2 + q[:, 1] ** 2)  # R[2, 2]
+    return np.asarray(np.degrees(np.arccos(np.clip(np.abs(zz), 0.0, 1.0))))
 
 
 def _spans(plan: Plan, n_segments: int) -> list[tuple[int, int]]:
@@ -144,6 +156,13 @@ def skill_results(
                 res.reasons.append(
                     f"collision: {name} was knocked {moved * 1000:.0f} mm / {turned:.0f} deg"
                 )
+        for name in sorted(n for n in handled if n in names):  # a handled box stays upright
+            j = names.index(name)
+            tilts = _tilt_deg(ex.object_quaternion[j, a : end + 1])
+            tilt = float(tilts.max() - tilts[0]) if tilts.size else 0.0
+            if tilt > TOPPLE_DEG:
+                what = "grasp failed: " if seg.skill == "pick_up" else ""
+                res.reasons.append(f"{what}{name} toppled over ({tilt:.0f} deg)")
         if seg.skill == "move_with" and held in names:
             j = names.index(held)
             rel = ex.object_position[j, a:b] - ex.tcp[a:b]

@@ -1,0 +1,338 @@
+"""Reproduction over randomised layouts: does the learned task generalise where the objects are?
+
+:func:`random_layouts` draws layouts of the demonstration's objects: every object on the table is
+shifted by up to ``max_shift`` (uniform over the disc) and turned by up to ``max_turn_deg``
+about its vertical axis; an object that starts resting on another one is not drawn by itself, it
+moves with its support (a stack is shifted and turned as one,
+:func:`~lfd.reproduce.displacement.initial_poses`). A draw is rejected and drawn again when
+
+* an object ends out of the arm's reach, off the table or overlapping another
+  (:func:`~lfd.reproduce.displacement.check_displacement`, the robot base chosen for the layout);
+* the re-grounded task would put an object out of reach or into another object after any place,
+  stack or push (:func:`~lfd.reproduce.displacement.check_goals` on the planned scenes);
+* two objects on the table, at the start or after any skill, are closer than :data:`LAYOUT_GAP`
+  (between their circumscribed circles): the gripper's fingers need room beside a box.
+
+:func:`run_randomised` (``lfd.reproduce.reproduce_randomised``) runs the requested modes on every layout and gathers success per
+mode and per skill and the failure reasons (:class:`Randomised`, ``lfd reproduce --randomise``).
+"""
+
+from __future__ import annotations
+
+import re
+from collections import Counter
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import InvalidParameterError, LfdError, UsageError
+from ..trajectory import Trajectory
+from .displacement import Displacement, plan_layout, program_start
+from .goals import DemoFrames
+from .modes import MODES
+from .program import TaskProgram
+
+LAYOUT_GAP = 0.03
+"""Smallest gap (m) between the circumscribed circles of two objects on the table in a
+randomised layout, at the start and after every skill (the demonstrator keeps 4-6 cm)."""
+MAX_TRIES = 400
+"""Draws per layout before giving up (:class:`~lfd.errors.UsageError`)."""
+MAX_SHIFT = 0.10
+"""Default largest shift of an object (m)."""
+MAX_TURN_DEG = 45.0
+"""Default largest turn of an object (deg)."""
+
+
+@dataclass
+class Layout:
+    """One randomised layout."""
+
+    index: int
+    displace: dict[str, Displacement]
+    """``name -> (dx, dy, turn_deg)`` of every object drawn (objects on a stack move with it)."""
+    rejected: dict[str, int] = field(default_factory=dict)
+    """Draws rejected before this one, by reason."""
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "index": self.index,
+            "displace": {k: list(v) for k, v in self.displace.items()},
+            "rejected": dict(self.rejected),
+        }
+
+
+def _rejection_kind(message: str) -> str:
+    for kind in ("out of the arm's reach", "off the table", "overlapping", "too close"):
+        if kind in message:
+            return kind
+    return "other"
+
+
+def _crowded(frames: DemoFrames, scene: dict[str, np.ndarray], gap: float) -> str | None:
+    """The first pair of objects on the same level closer than ``gap``, as a message."""
+    names = frames.names
+    for a in range(len(names)):
+        for b in range(a + 1, len(names)):
+            Ta, Tb = scene[names[a]], scene[names[b]]
+            sa, sb = frames.size[a], frames.size[b]
+            if abs(Ta[2, 3] - Tb[2, 3]) > 0.5 * (sa[2] + sb[2]) - 0.005:
+                continue  # one rests on the other
+            ra, rb = 0.5 * np.hypot(sa[0], sa[1]), 0.5 * np.hypot(sb[0], sb[1])
+            d = float(np.hypot(*(Ta[:2, 3] - Tb[:2, 3])))
+            if d < ra + rb + gap:
+                return f"{names[a]} and {names[b]} too close ({d - ra - rb:.3f} m apart)"
+    return None
+
+
+def check_layout(
+    traj: Trajectory,
+    program: TaskProgram,
+    displace: dict[str, Displacement],
+    *,
+    modes: Sequence[str] = ("skills", "dmp"),
+    gap: float = LAYOUT_GAP,
+) -> str | None:
+    """Why a layout cannot be used (one line), or None when it is reachable and collision-free
+    as planned in each of ``modes`` (replay is not re-grounded: it is planned as skills)."""
+    for mode in dict.fromkeys(m if m != "replay" else "skills" for m in modes):
+        try:
+            frames, start, plan = plan_layout(traj, program, mode, displace)
+        except UsageError as err:
+            return str(err)
+        for scene in [start, *plan.scenes]:
+            crowded = _crowded(frames, scene, gap)
+            if crowded:
+                return crowded
+    return None
+
+
+def random_layouts(
+    traj: Trajectory,
+    program: TaskProgram,
+    n: int,
+    *,
+    seed: int = 0,
+    max_shift: float = MAX_SHIFT,
+    max_turn_deg: float = MAX_TURN_DEG,
+    gap: float = LAYOUT_GAP,
+    modes: Sequence[str] = ("skills", "dmp"),
+) -> list[Layout]:
+    """``n`` reachable, collision-free layouts (see the module docstring), reproducibly from
+    ``seed``.
+
+    Raises
+    ------
+    UsageError
+        A bad ``n``, ``max_shift`` or ``max_turn_deg``, or no valid layout found in
+        :data:`MAX_TRIES` draws.
+    """
+    if n < 1:
+        raise UsageError(f"--randomise {n}: the number of layouts must be at least 1")
+    if not (np.isfinite(max_shift) and 0.0 <= max_shift <= 0.5):
+        raise UsageError(f"--max-shift {max_shift}: must be 0-0.5 m")
+    if not (np.isfinite(max_turn_deg) and 0.0 <= max_turn_deg <= 180.0):
+        raise UsageError(f"--max-turn {max_turn_deg}: must be 0-180 deg")
+    start_i = program_start(traj, program)
+    frames = DemoFrames(traj, np.zeros(3))
+    seen = np.all(np.isfinite(np.asarray(traj.object_position)[:, start_i, :]), axis=1)
+    free = [
+        name
+        for k, name in enumerate(frames.names)
+        if seen[k] and frames.support_of(name, start_i) is None
+    ]
+    rng = np.random.default_rng(seed)
+    layouts = []
+    for index in range(n):
+        rejected: Counter[str] = Counter()
+        for _ in range(MAX_TRIES):
+            displace: dict[str, Displacement] = {}
+            for name in free:
+                r = max_shift * float(np.sqrt(rng.uniform()))
+                a = float(rng.uniform(-np.pi, np.pi))
+                turn = float(rng.uniform(-max_turn_deg, max_turn_deg))
+                displace[name] = (r * np.cos(a), r * np.sin(a), turn)
+            problem = check_layout(traj, program, displace, modes=modes, gap=gap)
+            if problem is None:
+                layouts.append(Layout(index, displace, dict(rejected)))
+                break
+            rejected[_rejection_kind(problem)] += 1
+        else:
+            kinds = ", ".join(f"{k} {v}" for k, v in rejected.most_common())
+            raise UsageError(
+                f"--randomise: no reachable, collision-free layout in {MAX_TRIES} draws "
+                f"(rejected: {kinds}); try a smaller --max-shift"
+            )
+    return layouts
+
+
+_KINDS = (
+    "toppled over",
+    "goal unreachable",
+    "IK limit",
+    "grasp failed",
+    "grasp lost",
+    "collision",
+    "never got there",
+)
+
+
+def reason_kind(reason: str) -> str:
+    """The kind of a failure reason (:mod:`.outcome`): ``"collision"``, ``"grasp lost"``,
+    ``"placed off target"``, ..."""
+    for kind in _KINDS:
+        if kind in reason:
+            return kind
+    m = re.match(r"(placed|stacked|pushed) \S+ off target", reason)
+    if m:
+        return f"{m.group(1)} off target"
+    return "off target"
+
+
+@dataclass
+class LayoutRun:
+    """The outcome of one mode on one layout (the summary of a
+    :class:`~lfd.reproduce.Reproduction`, without its arrays)."""
+
+    layout: int
+    mode: str
+    success: bool
+    skills: list[dict[str, Any]]
+    """:meth:`~lfd.reproduce.outcome.SkillResult.to_json` of every skill."""
+    failures: list[str]
+    path_length_m: float
+    error: str | None = None
+    """The run could not be planned or executed (an :class:`~lfd.errors.LfdError`)."""
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "layout": self.layout,
+            "mode": self.mode,
+            "success": self.success,
+            "path_length_m": self.path_length_m,
+            "failures": self.failures,
+            "skills": self.skills,
+            "error": self.error,
+        }
+
+
+@dataclass
+class Randomised:
+    """Success over randomised layouts (``lfd reproduce --randomise``)."""
+
+    layouts: list[Layout]
+    runs: list[LayoutRun]
+    modes: tuple[str, ...]
+    settings: dict[str, Any] = field(default_factory=dict)
+
+    def success_rate(self, mode: str) -> float:
+        runs = [r for r in self.runs if r.mode == mode]
+        return sum(r.success for r in runs) / max(len(runs), 1)
+
+    def skill_rates(self, mode: str) -> dict[str, tuple[int, int]]:
+        """Per skill name: (ok, total) over every layout's instances of that skill."""
+        out: dict[str, list[int]] = {}
+        for r in self.runs:
+            if r.mode != mode:
+                continue
+            for s in r.skills:
+                c = out.setdefault(s["skill"], [0, 0])
+                c[0] += bool(s["ok"])
+                c[1] += 1
+        return {k: (v[0], v[1]) for k, v in out.items()}
+
+    def reasons(self, mode: str) -> Counter[str]:
+        """How often each kind of failure (:func:`reason_kind`) occurred, per failed skill."""
+        c: Counter[str] = Counter()
+        for r in self.runs:
+            if r.mode != mode:
+                continue
+            if r.error:
+                c["error: " + r.error.split(":")[0]] += 1
+            for s in r.skills:
+                for reason in (s["reason"] or "").split("; "):
+                    if reason:
+                        c[reason_kind(reason)] += 1
+        return c
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "settings": self.settings,
+            "summary": {
+                mode: {
+                    "success_rate": self.success_rate(mode),
+                    "layouts": sum(1 for r in self.runs if r.mode == mode),
+                    "skills": {k: list(v) for k, v in self.skill_rates(mode).items()},
+                    "reasons": dict(self.reasons(mode)),
+                }
+                for mode in self.modes
+            },
+            "layouts": [
+                lay.to_json()
+                | {"results": {r.mode: r.to_json() for r in self.runs if r.layout == lay.index}}
+                for lay in self.layouts
+            ],
+        }
+
+
+def run_randomised(
+    traj: Trajectory,
+    program: TaskProgram,
+    n: int,
+    run: Callable[..., Any],
+    *,
+    modes: Sequence[str] = ("skills", "dmp"),
+    seed: int = 0,
+    max_shift: float = MAX_SHIFT,
+    max_turn_deg: float = MAX_TURN_DEG,
+    progress: Callable[[int, int], None] | None = None,
+) -> Randomised:
+    """Reproduce ``program`` on ``n`` random layouts (:func:`random_layouts`) in every mode
+    (``lfd.reproduce.reproduce_randomised`` with ``run`` = ``lfd.reproduce.reproduce``).
+
+    Parameters
+    ----------
+    run : callable
+        ``run(traj, program, mode, displace=...)`` -> a :class:`~lfd.reproduce.Reproduction`.
+    progress : callable (done, total), optional
+        Called after every run.
+
+    Raises
+    ------
+    UsageError
+        Bad settings or no valid layout (before anything is simulated).
+    """
+    for mode in modes:
+        if mode not in MODES:
+            raise InvalidParameterError(f"unknown mode {mode!r}; choose from {', '.join(MODES)}")
+    layouts = random_layouts(
+        traj, program, n, seed=seed, max_shift=max_shift, max_turn_deg=max_turn_deg, modes=modes
+    )
+    runs: list[LayoutRun] = []
+    total = len(layouts) * len(modes)
+    for lay in layouts:
+        for mode in modes:
+            try:
+                r = run(traj, program, mode, displace=lay.displace)
+                one = LayoutRun(
+                    lay.index,
+                    mode,
+                    r.success,
+                    [s.to_json() for s in r.skills],
+                    r.failures,
+                    r.path_length,
+                )
+            except LfdError as err:
+                one = LayoutRun(lay.index, mode, False, [], [str(err)], 0.0, error=str(err))
+            runs.append(one)
+            if progress is not None:
+                progress(len(runs), total)
+    settings = {
+        "n": n,
+        "seed": seed,
+        "max_shift_m": max_shift,
+        "max_turn_deg": max_turn_deg,
+        "gap_m": LAYOUT_GAP,
+    }
+    return Randomised(layouts, runs, tuple(modes), settings)
