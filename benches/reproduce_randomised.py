@@ -22,11 +22,38 @@ from collections import Counter
 from typing import Any
 
 
-def main() -> None:
+def run_demo(job: tuple[str, int], args: Any) -> tuple[dict[str, Any], float]:
+    """One held-out demonstration's layouts (a worker of :func:`lfd.batch.run_batch`)."""
     from lfd.preprocessing import preprocess
     from lfd.reproduce import from_labels, from_segmentation, reproduce_randomised
     from lfd.segmentation import segment
     from lfd.sim import simulate
+
+    exp, seed = job
+    demo = simulate(exp, seed=seed).demo
+    traj = preprocess(demo)
+    t0 = int(traj.t_ns[0])
+    program = from_segmentation(segment(demo), t0) if args.segment else from_labels(demo.labels, t0)
+    t = time.perf_counter()
+    res = reproduce_randomised(
+        traj,
+        program,
+        args.layouts,
+        modes=args.modes,
+        seed=args.layout_seed + seed,
+        max_shift=args.max_shift,
+        max_turn_deg=args.max_turn,
+    )
+    doc = res.to_json()
+    return {"experiment": exp, "seed": seed, "program": program.skills, **doc}, (
+        time.perf_counter() - t
+    )
+
+
+def main() -> None:
+    from functools import partial
+
+    from lfd.batch import run_batch
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--experiments", nargs="+", default=["exp1", "exp2", "exp3", "exp4"])
@@ -38,39 +65,28 @@ def main() -> None:
     ap.add_argument("--layout-seed", type=int, default=0)
     ap.add_argument("--segment", action="store_true", help="segment instead of ground truth")
     ap.add_argument("--json", default=None)
+    ap.add_argument("--jobs", type=int, default=1, help="demonstrations run in parallel")
     args = ap.parse_args()
     rows: list[dict[str, Any]] = []
     t_all = time.perf_counter()
-    for exp in args.experiments:
-        for seed in args.seeds:
-            demo = simulate(exp, seed=seed).demo
-            traj = preprocess(demo)
-            t0 = int(traj.t_ns[0])
-            program = (
-                from_segmentation(segment(demo), t0)
-                if args.segment
-                else from_labels(demo.labels, t0)
-            )
-            t = time.perf_counter()
-            res = reproduce_randomised(
-                traj,
-                program,
-                args.layouts,
-                modes=args.modes,
-                seed=args.layout_seed + seed,
-                max_shift=args.max_shift,
-                max_turn_deg=args.max_turn,
-            )
-            doc = res.to_json()
-            rows.append({"experiment": exp, "seed": seed, "program": program.skills, **doc})
-            line = " ".join(
-                f"{m} {sum(r.success for r in res.runs if r.mode == m)}/{args.layouts}"
-                for m in args.modes
-            )
-            print(f"{exp} seed {seed}: {line} ({time.perf_counter() - t:.0f} s)", flush=True)
-            for r in res.runs:
-                for f in r.failures:
-                    print(f"    layout {r.layout} {r.mode}: {f}", flush=True)
+    jobs = [(exp, seed) for exp in args.experiments for seed in args.seeds]
+    results = run_batch(partial(run_demo, args=args), jobs, jobs=args.jobs)
+    for res in results:
+        if not res.ok:
+            raise SystemExit(f"{res.item}: {res.error}")
+        row, took = res.value  # type: ignore[misc]
+        rows.append(row)
+        exp, seed = res.item
+        line = " ".join(
+            f"{m} {sum(lay['results'][m]['success'] for lay in row['layouts'] if m in lay['results'])}"
+            f"/{args.layouts}"
+            for m in args.modes
+        )
+        print(f"{exp} seed {seed}: {line} ({took:.0f} s)", flush=True)
+        for lay in row["layouts"]:
+            for m, r in lay["results"].items():
+                for f in r.get("failures", []):
+                    print(f"    layout {lay.get('index')} {m}: {f}", flush=True)
     print(f"\n{time.perf_counter() - t_all:.0f} s in all")
     print("experiment  mode    success      per skill (ok/total)                      reasons")
     for exp in args.experiments:
