@@ -798,6 +798,33 @@ def test_log_reproduction_reads_a_result(session: viz.Session) -> None:
     np.testing.assert_allclose(half, [[0.02, 0.02, 0.025]], atol=1e-7)
     text = data.entity("/robot/skills/objects", "robot_time")[0]["TextLog:text"][0]
     assert text == "box_1: ok, 4.0 mm, 1.5 deg"
+    assert "/robot/skills/failures" not in data.rows  # nothing failed
+
+
+def test_log_reproduction_marks_failed_skills_on_the_timeline(session: viz.Session) -> None:
+    from types import SimpleNamespace
+
+    from lfd.reproduce import SkillResult
+
+    n = 50
+    planned = np.linspace([0.3, 0.0, 0.2], [0.5, 0.1, 0.1], n)
+    result = SimpleNamespace(
+        mode="dmp",
+        planned_tcp=planned,
+        executed_tcp=planned,
+        segment=np.r_[np.full(10, -1), np.zeros(20, int), np.ones(20, int)],
+        skills=[
+            SkillResult(0, "pick_up", "box_1"),
+            SkillResult(1, "place", "box_1", ["place box_1 off target by 12 mm"]),
+        ],
+    )
+    viz.log_reproduction(result, skills=["pick_up", "place"], recording=session.recording)
+    data = finish(session)
+    rows = data.entity("/robot/dmp/failures", "robot_time")
+    assert [r["TextLog:text"][0] for r in rows] == [
+        "FAILED 1 place box_1: place box_1 off target by 12 mm"
+    ]
+    assert list(data.times("/robot/dmp/failures", "robot_time")) == [490_000_000]  # its last tick
 
 
 @pytest.mark.viewer

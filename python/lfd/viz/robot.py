@@ -159,7 +159,9 @@ def log_reproduction(
     Reads ``mode``, ``planned_tcp`` (n, 3), ``executed_tcp`` (n, 3) at ``tick_ns`` ticks,
     ``segment`` (n,) task-program segment index per tick (-1 while dwelling), ``base`` (3,), and
     ``objects`` (final errors, shown as text). ``skills[k]`` names segment ``k`` in the state
-    lane ``/robot/<mode>/segment``. When ``result.execution`` holds the simulated object poses
+    lane ``/robot/<mode>/segment``. A skill that failed (``result.skills``:
+    :class:`~lfd.reproduce.SkillResult` with its reasons) is marked on the robot's timeline in
+    ``/robot/<mode>/failures`` (an ERROR text log at the last tick of its segment). When ``result.execution`` holds the simulated object poses
     (``object_names``, ``object_position`` (k, n, 3), ``object_quaternion`` (k, n, 4)), the
     objects move under ``/world/robot_objects/<mode>/<name>``, drawn as boxes of
     ``object_sizes[name]`` (metres) when given.
@@ -201,6 +203,7 @@ def log_reproduction(
             indexes=time_columns(t[change], 0, timeline=ROBOT_TIME),
             columns=rr.StateChange.columns(state=[name(int(seg[i])) for i in change]),
         )
+    _log_failures(rec, rr, mode, getattr(result, "skills", None) or [], segment, t)
     execution = getattr(result, "execution", None)
     if execution is not None and n:
         _log_objects(rec, mode, execution, t, object_sizes or {})
@@ -215,6 +218,27 @@ def log_reproduction(
             indexes=time_columns(np.full(len(lines), t[-1]), 0, timeline=ROBOT_TIME),
             columns=rr.TextLog.columns(text=lines, level=["INFO"] * len(lines)),
         )
+
+
+def _log_failures(
+    rec: Any, rr: Any, mode: str, results: Sequence[Any], segment: Any, t: np.ndarray
+) -> None:
+    """Each failed skill's reasons, at the end of its segment on the robot's timeline."""
+    failed = [s for s in results if not getattr(s, "ok", True)]
+    if not failed or not t.size:
+        return
+    seg = None if segment is None else np.asarray(segment, dtype=np.int64)
+    times, lines = [], []
+    for s in failed:
+        ticks = np.flatnonzero(seg == s.index) if seg is not None else np.zeros(0, np.int64)
+        times.append(int(t[ticks[-1]] if ticks.size else t[-1]))
+        lines.append(f"FAILED {s.label()}: {s.reason}")
+    order = np.argsort(times, kind="stable")
+    rec.send_columns(
+        f"/robot/{mode}/failures",
+        indexes=time_columns(np.asarray(times)[order], 0, timeline=ROBOT_TIME),
+        columns=rr.TextLog.columns(text=[lines[i] for i in order], level=["ERROR"] * len(lines)),
+    )
 
 
 def _log_objects(
