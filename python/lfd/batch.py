@@ -306,19 +306,25 @@ def _run_alone(func: Callable[[Any], T], item: Any, ctx: Any) -> ItemResult[T]:
             return ItemResult(item, error=one_line(err))
 
 
-def recording_paths(inputs: Iterable[str | os.PathLike[str]]) -> list[str]:
-    """The recordings ``inputs`` name: each file as given, each directory's ``*.mcap`` sorted.
-
-    Raises :class:`UsageError` when there is none (e.g. only empty directories)."""
+def mcap_files(inputs: Iterable[str | os.PathLike[str]]) -> list[str]:
+    """Each file as given, each directory as its ``*.mcap`` files (sorted); may be empty."""
     from pathlib import Path
 
-    given = [os.fspath(it) for it in inputs]
     out: list[str] = []
-    for it in given:
+    for it in (os.fspath(i) for i in inputs):
         if Path(it).is_dir():
             out.extend(str(f) for f in sorted(Path(it).glob("*.mcap")))
         else:
             out.append(it)
+    return out
+
+
+def recording_paths(inputs: Iterable[str | os.PathLike[str]]) -> list[str]:
+    """The recordings ``inputs`` name (:func:`mcap_files`).
+
+    Raises :class:`UsageError` when there is none (e.g. only empty directories)."""
+    given = [os.fspath(it) for it in inputs]
+    out = mcap_files(given)
     if not out:
         raise UsageError(f"no .mcap recordings in {' '.join(given)}")
     return out

@@ -555,14 +555,29 @@ def export_recording(
     where = str(recording)
     try:
         ep = prepare_episode(recording, labels=labels, templates=templates, video=video)
+    except (LfdError, OSError) as err:
+        return RecordingResult(
+            where, error=_one_line(err, where), seconds=time.perf_counter() - start
+        )
+    return _write_episode(writer, where, ep, time.perf_counter() - start)
+
+
+def _one_line(err: BaseException, where: str) -> str:
+    if isinstance(err, OSError):
+        return f"{err.filename or where}: {err.strerror or err}"
+    return " ".join(str(err).split())
+
+
+def _write_episode(writer: LeRobotWriter, where: str, ep: Episode, spent: float) -> RecordingResult:
+    """Add a prepared episode to ``writer`` (``spent``: seconds it took to prepare)."""
+    start = time.perf_counter()
+    try:
         index = writer.add(ep)
     except (LfdError, OSError) as err:
-        if isinstance(err, OSError):
-            text = f"{err.filename or where}: {err.strerror or err}"
-        else:
-            text = " ".join(str(err).split())
-        return RecordingResult(where, error=text, seconds=time.perf_counter() - start)
-    return RecordingResult(where, index, len(ep), ep.label_source, time.perf_counter() - start)
+        return RecordingResult(where, error=_one_line(err, where), seconds=spent)
+    return RecordingResult(
+        where, index, len(ep), ep.label_source, spent + time.perf_counter() - start
+    )
 
 
 @dataclass
@@ -585,16 +600,14 @@ class ExportReport:
 
 def recording_paths(inputs: Iterable[str | os.PathLike[str]]) -> list[Path]:
     """Files as given, directories as their ``*.mcap`` files (sorted); refuses an empty list."""
+    from ..batch import mcap_files
+
     out: list[Path] = []
     for item in inputs:
-        p = Path(item)
-        if p.is_dir():
-            found = sorted(p.glob("*.mcap"))
-            if not found:
-                raise UsageError(f"{p}: no .mcap recordings in this directory")
-            out.extend(found)
-        else:
-            out.append(p)
+        found = [Path(f) for f in mcap_files([item])]
+        if not found:  # an empty directory
+            raise UsageError(f"{item}: no .mcap recordings in this directory")
+        out.extend(found)
     if not out:
         raise UsageError("no recordings given")
     return out
@@ -720,16 +733,9 @@ def _prepare_all(
 def _add_prepared(writer: LeRobotWriter, where: str, res: Any) -> RecordingResult:
     """Write one prepared episode (a :class:`lfd.batch.ItemResult`) as :func:`export_recording`
     does."""
-    start = time.perf_counter()
     if not res.ok:
         return RecordingResult(where, error=" ".join(str(res.error).split()), seconds=res.seconds)
-    ep = res.value
-    try:
-        index = writer.add(ep)
-    except (LfdError, OSError) as err:
-        return RecordingResult(where, error=" ".join(str(err).split()), seconds=res.seconds)
-    took = res.seconds + time.perf_counter() - start
-    return RecordingResult(where, index, len(ep), ep.label_source, took)
+    return _write_episode(writer, where, res.value, res.seconds)
 
 
 class _quiet:

@@ -13,7 +13,7 @@ import numpy.typing as npt
 
 from ..errors import DemonstrationError
 
-__all__ = ["butter_ba", "finite_runs", "lowpass", "matlab_padlen", "unwrap_runs"]
+__all__ = ["butter_ba", "filtfilt_runs", "finite_runs", "lowpass", "matlab_padlen", "unwrap_runs"]
 
 
 def butter_ba(cutoff_hz: float, fs: float, order: int = 4) -> tuple[np.ndarray, np.ndarray]:
@@ -94,19 +94,37 @@ def lowpass(
     finite = np.isfinite(flat)
     if finite.all():
         return np.asarray(filtfilt(b, a, arr, axis=0, padlen=pad))
-    out = flat.copy()
-    # Columns sharing the same gap pattern are filtered together.
+    return filtfilt_runs(flat, finite, b, a, report=report).reshape(arr.shape)
+
+
+def filtfilt_runs(
+    x: np.ndarray,
+    ok: np.ndarray,
+    b: np.ndarray,
+    a: np.ndarray,
+    *,
+    report: list[tuple[int, int]] | None = None,
+) -> np.ndarray:
+    """MATLAB ``filtfilt`` of ``x`` (n, columns) along axis 0, each column's runs of ``ok``
+    filtered on their own (columns with the same runs together); a run of at most the pad
+    length is left unfiltered (and its ``(start, stop)`` appended to ``report``); NaN where not
+    ``ok``. What :func:`lowpass` does to a signal with gaps, and the online fixed-lag smoother
+    to each window."""
+    from scipy.signal import filtfilt
+
+    pad = matlab_padlen(b, a)
+    out = np.where(ok, x, np.nan)
     patterns: dict[bytes, list[int]] = {}
-    for j in range(flat.shape[1]):
-        patterns.setdefault(finite[:, j].tobytes(), []).append(j)
+    for j in range(x.shape[1]):
+        patterns.setdefault(ok[:, j].tobytes(), []).append(j)
     for cols in patterns.values():
-        for start, stop in finite_runs(finite[:, cols[0]]):
+        for start, stop in finite_runs(ok[:, cols[0]]):
             if stop - start <= pad:
                 if report is not None and (start, stop) not in report:
                     report.append((start, stop))
                 continue
-            out[start:stop, cols] = filtfilt(b, a, flat[start:stop, cols], axis=0, padlen=pad)
-    return out.reshape(arr.shape)
+            out[start:stop, cols] = filtfilt(b, a, x[start:stop, cols], axis=0, padlen=pad)
+    return out
 
 
 def unwrap_runs(angles: npt.ArrayLike) -> np.ndarray:

@@ -178,12 +178,10 @@ def evaluate_demo(
 
 
 def expand_paths(items: Iterable[str | Path]) -> list[Path]:
-    """Files and directories -> sorted list of ``.mcap`` files."""
-    out: list[Path] = []
-    for it in items:
-        p = Path(it)
-        out.extend(sorted(p.glob("*.mcap")) if p.is_dir() else [p])
-    return out
+    """Files and directories -> sorted list of ``.mcap`` files (:func:`lfd.batch.mcap_files`)."""
+    from ..batch import mcap_files
+
+    return [Path(p) for p in mcap_files(items)]
 
 
 def evaluate_file(
