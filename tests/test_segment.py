@@ -28,7 +28,7 @@ from lfd.segmentation import (
     train_templates,
 )
 from lfd.segmentation.evaluate import evaluate
-from lfd.segmentation.grammar import grammar_json, impossible_transitions
+from lfd.segmentation.grammar import grammar_json, impossible_transitions, needs_move_between
 from lfd.segmentation.metrics import all_metrics
 from lfd.segmentation.templates import FRAME_SYMMETRY, turn_object_frame
 from lfd.skills import SKILLS
@@ -69,6 +69,46 @@ def test_exp1_sequence_equals_ground_truth(search: str, grammar: str) -> None:
     assert [s.object for s in picks] == truth
     assert "grasp_position" in picks[0].params
     assert not impossible_transitions(result.skill_sequence)
+
+
+@pytest.mark.parametrize("k", [1, 2, 3, 4])
+def test_objects_follow_the_ground_truth_convention(k: int) -> None:
+    """Every segment names the ground truth's object, Moves included: a Move goes towards the
+    object of the skill after it (the one nearest the hand MOVE_OBJECT_S after the Move), and
+    the Move that ends the demonstration has none."""
+    d = demo(ROOT / "recordings" / f"exp{k}.mcap")
+    result = segment(d)
+    assert [(s.skill, s.object) for s in result.segments] == [
+        (lab.skill, lab.object) for lab in d.labels
+    ]
+    moves = [i for i, s in enumerate(result.segments) if s.skill == "move"]
+    assert result.segments[-1].skill == "move" and result.segments[-1].object is None
+    for i in moves[:-1]:
+        assert result.segments[i].object == result.segments[i + 1].object
+
+
+def test_a_locate_followed_by_a_skill_on_another_object_gets_a_move() -> None:
+    """On exp3 (Locate box_a, Move, Pick up box_b): with the Move folded into the Pick up, the
+    Move is put back between them, towards the Pick up's object; if the Pick up were of the
+    located object, the Locate would lead straight into it."""
+    from lfd.segmentation.pipeline import as_trajectory, insert_implicit_moves
+
+    d = demo(EXP3)
+    traj = as_trajectory(d)
+    segs = segment(traj).segments
+    k = next(i for i, s in enumerate(segs) if s.skill == "locate")
+    loc, mv, nxt = segs[k : k + 3]
+    assert (mv.skill, nxt.skill) == ("move", "pick_up") and loc.object != nxt.object
+    folded = [*segs[:k], loc, dataclasses.replace(nxt, start=mv.start, start_s=mv.start_s)]
+    back = insert_implicit_moves(traj, folded, 6)
+    assert [s.skill for s in back[k : k + 3]] == ["locate", "move", "pick_up"]
+    assert back[k + 1].object == nxt.object
+    assert back[k].start == loc.start and back[k + 2].end == nxt.end
+    same = [*folded[:-1], dataclasses.replace(folded[-1], object=loc.object)]
+    assert [s.skill for s in insert_implicit_moves(traj, same, 6)[k:]] == ["locate", "pick_up"]
+    assert needs_move_between("locate", "box_1", "push", "box_2")
+    assert not needs_move_between("locate", "box_1", "move", "box_2")
+    assert needs_move_between("place", "box_1", "pick_up", "box_1")  # a re-grasp
 
 
 def test_papers_method_finds_the_exp1_sequence() -> None:

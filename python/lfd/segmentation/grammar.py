@@ -18,6 +18,7 @@ __all__ = [
     "implicit_move_grammar_json",
     "impossible_transitions",
     "needs_implicit_move",
+    "needs_move_between",
 ]
 
 RELEASES: tuple[str, ...] = ("place", "stack")
@@ -40,3 +41,22 @@ def implicit_move_grammar_json() -> str:
 def needs_implicit_move(prev: str, nxt: str) -> bool:
     """Does the transition ``prev -> nxt`` stand for ``prev -> move -> nxt``?"""
     return prev in RELEASES and not allowed(prev, nxt) and allowed("move", nxt)
+
+
+def needs_move_between(
+    prev: str, prev_object: str | None, nxt: str, nxt_object: str | None
+) -> bool:
+    """Does ``prev`` on ``prev_object`` followed by ``nxt`` on ``nxt_object`` stand for a Move
+    between them? After a release (:func:`needs_implicit_move`), and after a Locate of one object
+    followed by a skill on another: the grammar lets a Locate lead straight into a Pick up or
+    Push of the object it located, but the hand has to travel to another object."""
+    if needs_implicit_move(prev, nxt):
+        return True
+    return (
+        prev == "locate"
+        and nxt != "move"
+        and allowed("move", nxt)
+        and prev_object is not None
+        and nxt_object is not None
+        and prev_object != nxt_object
+    )

@@ -28,7 +28,13 @@ from ..preprocessing.online import (
     OnlinePreprocessor,
     demo_messages,
 )
-from .online import DEFAULT_BEAM, DEFAULT_LAG_S, DEFAULT_STABLE_S, OnlineSegmenter, Provisional
+from .online import (
+    DEFAULT_BEAM,
+    DEFAULT_LAG_S,
+    DEFAULT_STABLE_S,
+    OnlineSegmenter,
+    Provisional,
+)
 from .pipeline import SegmentParams
 from .result import Segment, Segmentation
 from .templates import TemplateChoice, Templates, resolve_templates

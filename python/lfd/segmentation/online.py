@@ -15,15 +15,20 @@ the score table and the search, with the same functions:
 - the implicit Moves (:func:`~lfd.segmentation.pipeline.insert_implicit_moves`): a settled Place
   or Stack is held back while the best current path continues with a skill that needs the Move
   (the Move between them takes samples from both), at most ``lag_s``; once emitted, a Move the
-  next segment needs is taken from the next segment alone.
+  next segment needs is taken from the next segment alone. A settled Locate is held back the
+  same way, at most ``3/4 lag_s``, for the skill after it: on another object, a Move goes
+  between them; past the wait, without that skill settled, the Move is added when the hand is
+  nearest another object ``MOVE_OBJECT_S`` after the Locate (taken from the Locate's end);
+- the objects of the Moves (:func:`~lfd.segmentation.pipeline.label_moves`): a settled Move
+  waits for the sample ``MOVE_OBJECT_S`` after its end.
 
 **Settling.** A segment is emitted once every DP hypothesis a future segment can still extend
 traces back through it (then the batch optimum contains it too); when every hypothesis within
 ``beam`` nats of the best agrees on it (a hypothesis: a DP state and a segment still going on,
 scored over the same samples); when it has led for ``stable_s`` and no close hypothesis has a
-segment going on across its end; or, at the latest, once it is the best hypothesis's oldest
-unsettled segment and ended more than ``lag_s`` ago (the best complete path's: ``7/6 lag_s``),
-*forced*. Each of the last three drops the hypotheses disagreeing with it (docs/segmentation.md,
+segment going on across its end; or, at the latest, once it is the best complete path's oldest
+unsettled segment (the batch DP's choice on the samples so far) and ended more than ``lag_s``
+ago (the best hypothesis's: ``7/6 lag_s``), *forced*. Each of the last three drops the hypotheses disagreeing with it (docs/segmentation.md,
 "Online"). Emitted segments never change. After
 :meth:`OnlineSegmenter.finish`, without forced segments, the sequence equals
 :func:`lfd.segment`'s on the same features (``tests/test_segment_online.py``).
@@ -49,8 +54,15 @@ from ..errors import InvalidParameterError, LfdWarning
 from ..trajectory import Trajectory
 from .band import Band
 from .gaps import fill_gaps
-from .grammar import RELEASES, grammar_json, implicit_move_grammar_json, needs_implicit_move
+from .grammar import (
+    RELEASES,
+    grammar_json,
+    implicit_move_grammar_json,
+    needs_implicit_move,
+    needs_move_between,
+)
 from .pipeline import (
+    MOVE_OBJECT_S,
     GrammarUse,
     Search,
     SegmentParams,
@@ -60,6 +72,7 @@ from .pipeline import (
     insert_implicit_moves,
     max_over_objects,
     motion_window,
+    nearest_object,
 )
 from .result import Segment, Segmentation
 from .stage1 import OBJECT_COLUMNS, criteria, min_section
@@ -70,19 +83,25 @@ TARGET_INDEPENDENT: frozenset[str] = frozenset(
 )
 """Features that do not depend on the target object (scored once per sample)."""
 
-DEFAULT_BEAM = 80.0
+DEFAULT_BEAM = 160.0
 """Default beam (nats): a segment settles when every hypothesis within this of the best
-agrees on it (``inf``: every hypothesis, exact; ``nan``: off, only the lag settles)."""
+agrees on it (``inf``: every hypothesis, exact; ``nan``: off, only the lag settles). Chosen with
+the other settling defaults on the evaluation demos (seeds 100-105, ``benches/segment_live.py
+--seeds 100-105``): 160 and 240 settled 75/78 sequences as the batch DP, 80 74/78, 40 71/78."""
 
-DEFAULT_STABLE_S: float | None = 0.5
-"""Default time (s) the best hypothesis's oldest unsettled segment must lead to settle.
-Chosen with ``DEFAULT_LAG_S`` on the evaluation demos (seeds 100-105, ``benches/segment_live.py
---seeds 100-105``): 1.0, 0.7, 0.5 and 0.3 s settled the same sequences there, 0.5 s within
-the latency targets (median 1.43 s, at most 3.0 s after the skill's end)."""
+DEFAULT_STABLE_S: float | None = 0.3
+"""Default time (s) the best hypothesis's oldest unsettled segment must lead to settle
+(chosen on the evaluation demos, seeds 100-105: 0.3 s settled 75/78 sequences as the batch
+DP with a median latency of 1.33 s, 0.5 s 74/78 with 1.50 s)."""
 
 DEFAULT_LAG_S = 2.0
-"""Default bound (seconds after its end) by which the best path's oldest segment is forced
-(2.5 s settled the same sequences on the evaluation demos, up to 3.6 s late)."""
+"""Default bound (seconds after its end) by which the best complete path's oldest segment is
+forced (2.5 s settled the same sequences on the evaluation demos, up to 3.6 s late)."""
+
+
+HELD: frozenset[str] = frozenset({*RELEASES, "locate"})
+"""Settled skills held back until the next skill settles (at most ``lag_s``; a Locate ``3/4
+lag_s``): it may need a Move between them (:func:`~lfd.segmentation.grammar.needs_move_between`)."""
 
 
 @dataclass(frozen=True)
@@ -208,6 +227,7 @@ class OnlineSegmenter:
         n_obj = len(self.object_names)
         self.max_len = max(1, round(p.max_segment_s / dt))
         self._lag = round(lag_s / dt)
+        self._move_k = round(MOVE_OBJECT_S / dt)
         self._max_gap = max(0, round(max_gap_s / dt))
         self._w = motion_window(dt, p.co_motion_window_s)
         cols, hyst = criteria(p.stage1, n_obj, len(_hmmseg.FEATURE_NAMES))
@@ -249,6 +269,7 @@ class OnlineSegmenter:
         self._targets: dict[int, tuple[int, np.ndarray]] = {}  # boundary -> (first start, target)
         self._bounds: list[int] = [0]
         self._held: Segment | None = None
+        self._waiting: list[Segment] = []  # settled, waiting for a Move's object (label_moves)
         self._emitted: list[Segment] = []
         self.settle_samples: list[int] = []
         """Samples seen when each emitted segment was settled (same order as the segments)."""
@@ -421,6 +442,7 @@ class OnlineSegmenter:
             out += self._converge()
         out += self._settled(self._engine.tick(n))
         out += self._flush_held(final=False)
+        out += self._flush_waiting()
         return out
 
     # -- sections -> DP -------------------------------------------------------------------------
@@ -561,32 +583,87 @@ class OnlineSegmenter:
         if held is not None:
             self._held = None
             out = insert_implicit_moves(hist, [held, seg], length)
-        elif self._emitted and needs_implicit_move(self._emitted[-1].skill, seg.skill):
-            # the release was emitted already (held past the lag): the Move starts seg
+        elif (last := self._last_passed()) is not None and (
+            needs_implicit_move(last.skill, seg.skill)
+            or (
+                needs_move_between(last.skill, last.object, seg.skill, seg.object)
+                and self._t_ns.n - (seg.start + length) <= self._lag
+            )
+        ):
+            # the release or Locate was emitted already: the Move starts seg (after a Locate,
+            # unless it would settle later than the lag)
             b = min(seg.start + length, seg.end - 1)
             obj = self.object_names.index(seg.object) if seg.object in self.object_names else None
             mv = _make_segment(hist, "move", seg.start, b, obj)
             out = [mv, _resize(hist, seg, b)] if b > seg.start else [seg]
         else:
             out = [seg]
-        if out and out[-1].skill in RELEASES:
+        if out and out[-1].skill in HELD:
             self._held = out.pop()
         return self._emit(out)
+
+    def _last_passed(self) -> Segment | None:
+        """The last segment settled and passed on (emitted or waiting)."""
+        if self._waiting:
+            return self._waiting[-1]
+        return self._emitted[-1] if self._emitted else None
+
+    def _flush_waiting(self) -> list[Segment]:
+        """Emit the waiting segments whose Moves' object samples have arrived."""
+        segs, self._waiting = self._waiting, []
+        return self._emit(segs) if segs else []
 
     def _flush_held(self, *, final: bool) -> list[Segment]:
         held = self._held
         if held is None:
             return []
-        if not final and self._t_ns.n - held.end <= self._lag:
-            # emit it unless the best current path continues with a skill that needs the Move
-            nxt = self._engine.best_path()
-            if not nxt or needs_implicit_move(held.skill, self.skills[nxt[0][0]]):
+        nxt = self._engine.best_path()
+        after = self.skills[nxt[0][0]] if nxt and nxt[0][1] >= held.end else None
+        wait = self._lag if held.skill in RELEASES else self._lag * 3 // 4
+        if not final and self._t_ns.n - held.end <= wait:
+            # emit it unless the best current path continues with a skill that may need the Move
+            if after is None or (
+                after != "move"
+                and (held.skill == "locate" or needs_implicit_move(held.skill, after))
+            ):
                 return []
         self._held = None
-        return self._emit([held])
+        out = [held]
+        if held.skill == "locate" and not final and after not in (None, "move"):
+            # past the lag, the next skill unsettled: a Move if the hand has gone to another
+            # object (label_moves' rule), taken from the Locate's end
+            n = self._t_ns.n
+            e = min(held.end + self._move_k, n - 1)
+            obj = nearest_object(self._tcp.view()[e], self._pos.view()[e])
+            length = max(1, round(self.params.implicit_move_s / self.dt))
+            a = max(held.start + 1, held.end - length)
+            if obj is not None and self.object_names[obj] != held.object and a < held.end:
+                hist = self._history()
+                out = [_resize_end(hist, held, a), _make_segment(hist, "move", a, held.end, obj)]
+        return self._emit(out)
 
     def _emit(self, segs: list[Segment]) -> list[Segment]:
-        segs = [s for s in segs if s.end > s.start]
+        """Emit settled segments in order. A Move gets its object
+        (:func:`~lfd.segmentation.pipeline.label_moves`) once the sample ``MOVE_OBJECT_S``
+        after its end has arrived; until then it and what follows it wait."""
+        segs = self._waiting + [s for s in segs if s.end > s.start]
+        self._waiting = []
+        n = self._t_ns.n
+        for k, seg in enumerate(segs):
+            if seg.skill != "move":
+                continue
+            e = seg.end + self._move_k
+            if e > n - 1 and seg.end < n and not self._finished:
+                segs, self._waiting = segs[:k], segs[k:]
+                break
+            obj = None
+            if seg.end < n:  # not the demonstration's last segment
+                e = min(e, n - 1)
+                obj = nearest_object(self._tcp.view()[e], self._pos.view()[e])
+            name = self.object_names[obj] if obj is not None else None
+            segs[k] = dataclasses.replace(seg, object=name)
+        if not segs:
+            return []
         self._emitted += segs
         self.settle_samples += [self._t_ns.n] * len(segs)
         return segs
@@ -630,6 +707,7 @@ class OnlineSegmenter:
         out = self._drain(final=True)
         out += self._settled(self._engine.finish())
         out += self._flush_held(final=True)
+        out += self._flush_waiting()
         for w in self._engine.warnings:
             if w not in self.warnings:
                 self.warnings.append(w)
@@ -644,6 +722,13 @@ class OnlineSegmenter:
             sections=list(self._bounds),
             object_names=list(self.object_names),
         )
+
+
+def _resize_end(traj: Trajectory, seg: Segment, end: int) -> Segment:
+    obj = traj.object_names.index(seg.object) if seg.object in traj.object_names else None
+    return _make_segment(
+        traj, seg.skill, seg.start, end, obj, seg.score, seg.confidence, seg.margin
+    )
 
 
 def _resize(traj: Trajectory, seg: Segment, start: int) -> Segment:

@@ -31,7 +31,9 @@ class Segment:
     start_ns, end_ns : int
         Absolute times (int64 ns, the recording's clock); ``end_ns`` is the next segment's start.
     object : str or None
-        Target object name (majority of the per-sample target labels in the segment).
+        Target object name: the object that best explains the segment's samples; for a Move,
+        the object it goes towards (:func:`lfd.segmentation.pipeline.label_moves`; None for a
+        Move that ends the demonstration).
     score : float
         Summed feature log-likelihood per sample of the chosen skill (NaN for baselines and for
         an implicit re-grasp Move, which the grammar implies and no template scored; ``null``

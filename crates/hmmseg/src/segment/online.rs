@@ -904,8 +904,10 @@ impl OnlineDp {
     fn force(&mut self) -> Vec<Settled> {
         let mut out = Vec::new();
         loop {
-            // the best hypothesis with a segment going on past the lag; past a sixth more, the
-            // best complete path (the hypothesis may keep a segment going on)
+            // the best complete path (the batch DP's choice on the samples so far) past the lag;
+            // past a sixth more, the best hypothesis with a segment going on (a hypothesis in
+            // the middle of a skill scores the skill's first states only, so it may lead with a
+            // skill the rest of the samples will not confirm)
             let leader = match self.leader {
                 Leader::Start | Leader::Unknown => None,
                 Leader::State((i, p)) => self.active_tier().and_then(|tier| self.path(tier, i, p)),
@@ -919,8 +921,8 @@ impl OnlineDp {
                     .and_then(|p| p.first().copied())
                     .filter(|&(j, _)| self.now.saturating_sub(self.bounds[j]) > lag)
             };
-            let node = old_enough(&leader, self.lag)
-                .or_else(|| old_enough(&complete(), self.lag.saturating_add(self.lag / 6)));
+            let node = old_enough(&complete(), self.lag)
+                .or_else(|| old_enough(&leader, self.lag.saturating_add(self.lag / 6)));
             let Some(node) = node else {
                 return out;
             };
