@@ -141,6 +141,12 @@ def test_record_sim_writes_loadable_mcap(tmp_path) -> None:  # type: ignore[no-u
     assert main(argv) == 0
     assert rrd.stat().st_size > 10_000  # the live view was logged
     demo = load(out)
+    # the live view (lfd.viz.live.LiveTimeline): every camera frame and box pose as recorded
+    from test_live import _row_times
+
+    assert len(_row_times(rrd, "/camera/color")) >= 60  # 3 s at 30 frames/s
+    box = next(iter(demo.objects))
+    assert len(_row_times(rrd, f"/world/objects/{box}")) >= int(demo.objects[box].visible.sum())
     assert demo.metadata["source"] == "sim:exp1"
     assert demo.camera is not None
     assert sum(int(o.visible.sum()) for o in demo.objects.values()) > 60

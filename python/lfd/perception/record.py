@@ -43,37 +43,11 @@ def _boxes(tracker: MarkerTracker, poses: dict[str, tuple[np.ndarray, np.ndarray
     return [(p, Rotation.from_quat(q).as_matrix(), sizes[n]) for n, (p, q) in poses.items()]
 
 
-class _Live:
-    """Minimal live Rerun logging of what is being recorded (same entity paths as lfd.viz)."""
+def _skeleton(kp_2d: np.ndarray) -> list[np.ndarray]:
+    """The colour model's hand skeleton as 2-D line strips."""
+    from .hand.mediapipe import SKELETON
 
-    def __init__(self, origin_ns: int) -> None:
-        from ..viz.demo import log_static_scene
-        from ..viz.recording import import_rerun
-
-        self.rr = import_rerun()
-        self.origin = origin_ns
-        log_static_scene()
-
-    def frame(self, t_ns: int, color: np.ndarray, poses: dict[str, Any]) -> None:
-        rr = self.rr
-        rr.set_time("demo_time", duration=np.timedelta64(int(t_ns) - self.origin, "ns"))
-        rr.log("/camera/color", rr.Image(color))
-        for name, (p, q) in poses.items():
-            rr.log(f"/world/objects/{name}", rr.Transform3D(translation=p, quaternion=q))
-
-    def hand(self, kp: np.ndarray, kp_2d: np.ndarray | None = None) -> None:
-        rr = self.rr
-        rr.log(
-            "/world/hand/keypoints",
-            rr.Points3D(kp, keypoint_ids=np.arange(21), class_ids=np.zeros(21, int)),
-        )
-        if kp_2d is not None:  # the colour model's skeleton over the camera image
-            from .hand.mediapipe import SKELETON
-
-            rr.log(
-                "/camera/color/hand",
-                rr.LineStrips2D([kp_2d[[a, b]] for a, b in SKELETON], colors=(230, 80, 60)),
-            )
+    return [kp_2d[[a, b]] for a, b in SKELETON]
 
 
 class _LiveSegments:
@@ -81,13 +55,8 @@ class _LiveSegments:
     object pose written is also fed to a :class:`~lfd.segmentation.live.LiveSegmentation`;
     each skill it settles goes to ``/lfd/live/segments`` at once (and to Rerun)."""
 
-    def __init__(self, segmenter: Any, rec: Any, show: bool) -> None:
-        self.seg, self.rec = segmenter, rec
-        self.timeline: Any = None
-        if show:
-            from ..viz.live import LiveTimeline
-
-            self.timeline = LiveTimeline(object_names=segmenter.object_names)
+    def __init__(self, segmenter: Any, rec: Any, timeline: Any) -> None:
+        self.seg, self.rec, self.timeline = segmenter, rec, timeline
         self.count = 0
 
     def hand(self, t_ns: int, kp: np.ndarray, confidence: np.ndarray | None) -> None:
@@ -167,10 +136,17 @@ def record(
     period = 0 if hand_rate_hz is None else round(1e9 / hand_rate_hz)  # 0: every frame
     next_hand: int | None = None
     camera_written = False
-    viz: _Live | None = None
+    viz: Any = None  # the Rerun timeline (lfd.viz.live.LiveTimeline) with ``live``
+    if live:
+        from ..viz.live import LiveTimeline
+
+        viz = LiveTimeline(
+            objects=objects,
+            object_names=None if live_segment is None else live_segment.object_names,
+        )
     last_poses: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     rec = McapRecorder(output, objects=objects, metadata=meta, color_format="png", side=side)
-    segs = None if live_segment is None else _LiveSegments(live_segment, rec, live)
+    segs = None if live_segment is None else _LiveSegments(live_segment, rec, viz)
     last_t: int | None = None
     tracks_every_frame = getattr(estimator, "needs_colour", False)
     try:
@@ -193,10 +169,10 @@ def record(
                     CameraInfo(cam.width, cam.height, cam.K, tracker.world_T_camera), frame.t_ns
                 )
                 camera_written = True
-            if live and viz is None:
-                viz = _Live(frame.t_ns)
             if viz is not None:
-                viz.frame(frame.t_ns, frame.color, poses)
+                viz.log_camera(frame.t_ns, frame.color)
+                for name, (p, q) in poses.items():
+                    viz.log_object(name, frame.t_ns, p, q)
             due = next_hand is None or frame.t_ns >= next_hand
             found = None
             if estimator is not None and (due or tracks_every_frame):
@@ -224,7 +200,9 @@ def record(
                     if segs is not None:
                         segs.hand(frame.t_ns, kp, confidence)
                     if viz is not None:
-                        viz.hand(kp, kp_2d)
+                        viz.log_hand(frame.t_ns, kp)
+                        if kp_2d is not None:
+                            viz.log_hand_2d(frame.t_ns, _skeleton(kp_2d))
             stats.frames += 1
             rec.flush_if_due()  # a follower (lfd segment --follow) sees each frame within ~1 s
             if progress is not None:

@@ -29,7 +29,16 @@ from ..errors import DemonstrationError
 from ..features import FEATURE_NAMES
 from .demo import HAND_CLASS_ID, OBJECT_PALETTE, log_static_scene
 from .features import log_feature_arrays
-from .paths import GREEDY, HAND_KEYPOINTS, PROVISIONAL, SECTIONS, WARNINGS, object_path, skill_lane
+from .paths import (
+    CAMERA_COLOR,
+    GREEDY,
+    HAND_KEYPOINTS,
+    PROVISIONAL,
+    SECTIONS,
+    WARNINGS,
+    object_path,
+    skill_lane,
+)
 from .recording import get_recording, import_rerun
 from .segmentation import (
     SECTION_COLORS,
@@ -39,7 +48,7 @@ from .segmentation import (
     _rgba,
     skill_state,
 )
-from .timeline import current_origin, time_columns, time_origin
+from .timeline import current_origin, set_time, time_columns, time_origin
 
 __all__ = ["LiveTimeline"]
 
@@ -150,6 +159,21 @@ class LiveTimeline:
                 quaternion=np.asarray(quaternion, dtype=np.float64).reshape(1, 4),
             ),
         )
+
+    def log_camera(self, t_ns: int, color: npt.ArrayLike) -> None:
+        """One colour frame (``/camera/color``); it clears the hand skeleton drawn over it."""
+        rr = self.rr
+        set_time(self.rec, int(t_ns), self.origin(int(t_ns)))
+        self.rec.log(CAMERA_COLOR, rr.Image(np.asarray(color)))
+        self.rec.log(f"{CAMERA_COLOR}/hand", rr.Clear(recursive=False))
+
+    def log_hand_2d(self, t_ns: int, strips: Sequence[npt.ArrayLike]) -> None:
+        """The hand skeleton found in the colour frame: line strips in pixels
+        (``/camera/color/hand``)."""
+        rr = self.rr
+        set_time(self.rec, int(t_ns), self.origin(int(t_ns)))
+        lines = [np.asarray(x, dtype=np.float64) for x in strips]
+        self.rec.log(f"{CAMERA_COLOR}/hand", rr.LineStrips2D(lines, colors=(230, 80, 60)))
 
     def log_message(self, msg: Any) -> None:
         """Log a :class:`lfd.io.LiveMessage`: hand keypoints, object poses, ground-truth labels

@@ -4,6 +4,7 @@ definition, so a live session looks like the offline one (layout: :mod:`lfd.viz.
 from __future__ import annotations
 
 HAND_KEYPOINTS = "/world/hand/keypoints"
+CAMERA_COLOR = "/camera/color"
 """The 21 hand keypoints per sample (skeleton from the ``/world/hand`` annotation context)."""
 OBJECTS = "/world/objects"
 """Object frames: ``/world/objects/<name>``, the box below it (``/box``)."""
