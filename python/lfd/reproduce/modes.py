@@ -329,6 +329,9 @@ class _TaskPlanner:
         if seg.skill not in ("push", *_GRASP_SKILLS) and not nxt_grasps:
             # (those keep the yaw of their goal, already wrist-friendly)
             goal[3] = float(wrap_near(goal[3], float(frames.natural_yaw(goal[:3]))))
+        # the same rotation nearest the current yaw: a yaw 2 pi away is no turn at all, and the
+        # wrist must not spin a full turn (natural yaws jump by 2 pi behind the base)
+        goal[3] = float(wrap_near(goal[3], self.cur[3], 2 * np.pi))
         self.goals.append(goal[:3].copy())
         path = self._path(seg, sg, i0, i1)
         if seg.skill in _GRASP_SKILLS:
@@ -579,7 +582,7 @@ def _place_goal(
     goal = _state(T_goal, natural)
     if yaw_now is not None:
         kept = float(wrap_near(goal[3], yaw_now))
-        if abs(kept - natural) <= CARRY_WRIST:
+        if abs(float(wrap_near(kept - natural, 0.0, 2 * np.pi))) <= CARRY_WRIST:
             goal[3] = kept
     return name, goal, T_end
 
