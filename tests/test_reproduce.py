@@ -712,3 +712,19 @@ def test_path_lengths_against_replay(sim_demos: dict) -> None:
         }
         assert L["skills"] <= 0.95 * L["replay"], L
         assert L["dmp"] <= 1.10 * L["replay"], L
+
+
+def test_yaw_never_spins_the_wrist_round(sim_exp2: tuple) -> None:
+    """Yaw goals are the same rotation nearest the current yaw: with the base beside the
+    workspace the natural yaw jumps by 2 pi between objects, which once turned the wrist a full
+    turn during a carry (the box was lost)."""
+    from lfd.reproduce.displacement import plan_layout
+
+    traj, program = sim_exp2
+    for mode in ("skills", "dmp"):
+        frames, _, res = plan_layout(traj, program, mode, {"box_2": (0.07, -0.05)})
+        plan = res.plan
+        for k in range(len(res.program.segments)):
+            yaw = plan.yaw[plan.segment == k]
+            assert np.ptp(yaw) <= np.pi, (mode, k, np.ptp(yaw))
+        assert np.abs(np.diff(plan.yaw)).max() / 0.01 < 3.0, mode
