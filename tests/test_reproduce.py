@@ -722,7 +722,7 @@ def test_yaw_never_spins_the_wrist_round(sim_exp2: tuple) -> None:
 
     traj, program = sim_exp2
     for mode in ("skills", "dmp"):
-        frames, _, res = plan_layout(traj, program, mode, {"box_2": (0.07, -0.05)})
+        res = plan_layout(traj, program, mode, {"box_2": (0.07, -0.05)})[2]
         plan = res.plan
         for k in range(len(res.program.segments)):
             yaw = plan.yaw[plan.segment == k]
