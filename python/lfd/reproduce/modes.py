@@ -325,7 +325,8 @@ class _TaskPlanner:
         }.get(seg.skill, self._move)
         sg = planner(k, seg, i1)
         goal = sg.goal
-        nxt_grasps = k + 1 < len(self.segs) and self.segs[k + 1].skill in _GRASP_SKILLS
+        # (a move before a grasp, a release or a push arrives with that skill's yaw)
+        nxt_grasps = k + 1 < len(self.segs) and self.segs[k + 1].skill in (*_GRASP_SKILLS, "push")
         if seg.skill not in ("push", *_GRASP_SKILLS) and not nxt_grasps:
             # (those keep the yaw of their goal, already wrist-friendly)
             goal[3] = float(wrap_near(goal[3], float(frames.natural_yaw(goal[:3]))))
