@@ -330,9 +330,6 @@ class _TaskPlanner:
         if seg.skill not in ("push", *_GRASP_SKILLS) and not nxt_grasps:
             # (those keep the yaw of their goal, already wrist-friendly)
             goal[3] = float(wrap_near(goal[3], float(frames.natural_yaw(goal[:3]))))
-        # the same rotation nearest the current yaw: a yaw 2 pi away is no turn at all, and the
-        # wrist must not spin a full turn (natural yaws jump by 2 pi behind the base)
-        goal[3] = float(wrap_near(goal[3], self.cur[3], 2 * np.pi))
         self.goals.append(goal[:3].copy())
         path = self._path(seg, sg, i0, i1)
         if seg.skill in _GRASP_SKILLS:
@@ -423,8 +420,13 @@ class _TaskPlanner:
             return self._move_path(seg, goal, i0, i1)
         t, y = _demo_states(self.frames, i0, i1)
         if self.mode == "dmp":
-            return dmp_rollout(t, y, cur, goal, dt=TICK, start_velocity=self._velocity())
-        return warp(resample(t, y, TICK), cur, goal)
+            path = dmp_rollout(t, y, cur, goal, dt=TICK, start_velocity=self._velocity())
+        else:
+            path = warp(resample(t, y, TICK), cur, goal)
+        # the yaw is the robot's (turned from the current yaw to the goal's), not the hand's: a
+        # goal yaw differing from the hand's by a half or full turn would be blended in as one
+        path[:, 3] = cur[3] + min_jerk(len(path)) * (goal[3] - cur[3])
+        return path
 
     def _funnel(self, path: np.ndarray, goal: np.ndarray, name: str) -> None:
         """Grasp and release: turn early, then keep the yaw; never below the goal height (the

@@ -242,10 +242,6 @@ def push_path(
     (skills: on a straight line; dmp: a DMP of the object's demonstrated path re-targeted to the
     new contact and goal).
     """
-    # the push's yaws as the same rotations nearest the current yaw (no full turn of the wrist)
-    geo = dict(geo)
-    for k in ("hover", "start", "contact", "goal"):
-        geo[k] = np.array([*geo[k][:3], float(wrap_near(geo[k][3], cur[3], 2 * np.pi))])
     pieces = []
     if np.linalg.norm(cur[:3] - geo["start"][:3]) > 0.002:  # not arrived straight behind it
         if np.linalg.norm(cur[:3] - geo["hover"][:3]) > 0.002:
