@@ -5,7 +5,8 @@ Usage::
     MUJOCO_GL=egl python benches/reproduce_randomised.py --seeds 20 21 22 23 24 --layouts 1 \
         --json randomised.json
 
-For every experiment and held-out seed: simulate a demonstration (``lfd.sim``), preprocess it,
+Experiments: exp1-4 and exp5 (repeated pick-carry-place cycles of one box). For every
+experiment and held-out seed: simulate a demonstration (``lfd.sim``), preprocess it,
 take its ground-truth task program (or ``--segment``: the segmentation's), draw ``--layouts``
 layouts with every object shifted up to ``--max-shift`` m and turned up to ``--max-turn`` deg
 (reachable, collision-free: :func:`lfd.reproduce.random_layouts`) and execute each with the
@@ -56,7 +57,7 @@ def main() -> None:
     from lfd.batch import run_batch
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--experiments", nargs="+", default=["exp1", "exp2", "exp3", "exp4"])
+    ap.add_argument("--experiments", nargs="+", default=["exp1", "exp2", "exp3", "exp4", "exp5"])
     ap.add_argument("--seeds", nargs="+", type=int, default=[20, 21, 22, 23, 24])
     ap.add_argument("--layouts", type=int, default=1, help="layouts per demonstration")
     ap.add_argument("--modes", nargs="+", default=["skills", "dmp"])

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import re
 import sys
+from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
@@ -612,3 +613,118 @@ def test_toppled_box_is_named_at_its_pick_up() -> None:
     )
     assert not any("toppled" in r for r in out[1].reasons)  # already lying: not toppled again
     assert reason_kind(out[0].reasons[0]) == "toppled over"
+
+
+def test_over_rises_only_where_and_as_much_as_needed() -> None:
+    from lfd.reproduce.goals import DemoFrames, pose
+    from lfd.reproduce.motion import clear, over, path_clear, required_height, safe_height
+
+    traj, _ = synthetic_demo("pick_place")
+    frames = DemoFrames(traj, np.array([-0.4, 0.0, 0.0]))
+    box = pose(np.array([0.15, 0.0, 0.025]), 0.0)
+    objects = {"box_1": box}
+    need = float(
+        required_height(np.array([[0.15, 0.0]]), frames, objects, skip=(), below=0.018, extra=0.05)[
+            0
+        ]
+    )
+    a, b = np.array([-0.05, 0.0, 0.05, 0.0]), np.array([0.35, 0.0, 0.05, 1.0])
+    ways = over(a, b, frames, objects, skip=())
+    assert len(ways) > 2 and not clear(a, b, frames, objects, skip=())
+    assert np.allclose(ways[0], a) and np.allclose(ways[-1], b)
+    pts = np.concatenate([np.linspace(p, q, 50) for p, q in pairwise(ways)])
+    assert path_clear(pts, frames, objects, skip=())  # both ends are outside the box's reach
+    top = max(p[2] for p in ways)
+    assert need <= top <= need + 0.002  # just over the box, not up to a safe height
+    assert top < safe_height(frames, objects)
+    assert np.all(np.diff([p[3] for p in ways]) >= 0)  # the yaw turns along the way
+    # the straight line when nothing is in the way
+    assert len(over(a, b, frames, {}, skip=())) == 2
+    # a start beside the box (a release) first rises vertically, then goes
+    beside = np.array([0.15, 0.03, 0.03, 0.0])
+    w2 = over(beside, b, frames, objects, skip=())
+    assert np.allclose(w2[1][:2], beside[:2]) and w2[1][2] >= need
+
+
+def test_dmp_from_another_start_adds_no_hook(sim_demos: dict) -> None:
+    """A DMP rolled out from a start the hand was not at blends the offset in along the
+    movement (smooth scaling): no detour back towards the demonstrated path."""
+    from lfd.reproduce.dmp import resample, warp
+    from lfd.reproduce.goals import DemoFrames
+    from lfd.reproduce.motion import segment_indices
+
+    traj, program = sim_demos["exp2"]
+    frames = DemoFrames(traj, np.array([-0.45, 0.0, 0.0]))
+    moves = [s for s in program.segments if s.skill in ("move", "move_with")]
+    assert moves
+    for seg in moves:
+        i0, i1 = segment_indices(frames, seg)
+        t = frames.t[i0 : i1 + 1]
+        y = frames.tcp[i0 : i1 + 1]
+        start, goal = y[0] + [0.04, 0.0, -0.03], y[-1] + [0.0, 0.02, 0.0]
+        out = dmp_rollout(t, y, start, goal, dt=0.01)
+        ref = warp(resample(t, y, 0.01), start, goal)
+        # (the spring's step response, without smooth scaling: 7-14 % longer here)
+        assert path_length(out) <= 1.07 * path_length(ref), seg
+
+
+def test_skills_arm_still_while_gripper_dwells(sim_demos: dict) -> None:
+    """Skills mode on a simulated demo: the arm holds still while the gripper closes or opens,
+    and the lift-off after a release ends just clear of the released box."""
+    from lfd.reproduce.modes import DWELL_S, LIFT_ABOVE_RELEASED
+    from lfd.reproduce.robot import FINGER_BELOW_TCP
+
+    traj, program = sim_demos["exp1"]
+    r = reproduce(traj, program, "skills")
+    assert r.success, r.to_json()
+    seg = r.segment
+    n_dwell = round(DWELL_S / 0.01)
+    size = dict(zip(r.execution.object_names, np.asarray(traj.object_size), strict=True))
+    dwells = 0
+    for k, s in enumerate(r.program.segments):
+        if s.skill not in ("pick_up", "place", "stack"):
+            continue
+        end = int(np.flatnonzero(seg == k)[-1])
+        dwell = slice(end + 1, end + 1 + n_dwell)
+        assert np.all(seg[dwell] == -1)
+        assert np.ptp(r.planned_tcp[dwell], axis=0).max() < 1e-9  # planned: not a tick of motion
+        assert path_length(r.executed_tcp[dwell]) < 0.004  # executed: the servos hold
+        dwells += 1
+        if s.skill in ("place", "stack"):
+            lift = np.flatnonzero(seg[end + 1 :] != -1)[0] + end + 1
+            box = r.execution.object_names.index(str(s.object))
+            top = r.execution.object_position[box, lift - 1, 2] + size[str(s.object)][2] / 2
+            assert r.planned_tcp[lift - 1, 2] == pytest.approx(
+                top + FINGER_BELOW_TCP + LIFT_ABOVE_RELEASED, abs=0.006
+            )
+    assert dwells == 4
+
+
+def test_path_lengths_against_replay(sim_demos: dict) -> None:
+    """Table II's targets on simulated demos (planned TCP paths, no physics): skills at most
+    95 % and dmp at most 110 % of the replay's path."""
+    from lfd.reproduce.displacement import plan_layout
+
+    for traj, program in sim_demos.values():
+        L = {
+            m: path_length(plan_layout(traj, program, m, {})[2].plan.position)
+            for m in ("replay", "skills", "dmp")
+        }
+        assert L["skills"] <= 0.95 * L["replay"], L
+        assert L["dmp"] <= 1.10 * L["replay"], L
+
+
+def test_yaw_never_spins_the_wrist_round(sim_exp2: tuple) -> None:
+    """Yaw goals are the same rotation nearest the current yaw: with the base beside the
+    workspace the natural yaw jumps by 2 pi between objects, which once turned the wrist a full
+    turn during a carry (the box was lost)."""
+    from lfd.reproduce.displacement import plan_layout
+
+    traj, program = sim_exp2
+    for mode in ("skills", "dmp"):
+        res = plan_layout(traj, program, mode, {"box_2": (0.07, -0.05)})[2]
+        plan = res.plan
+        for k in range(len(res.program.segments)):
+            yaw = plan.yaw[plan.segment == k]
+            assert np.ptp(yaw) <= np.pi, (mode, k, np.ptp(yaw))
+        assert np.abs(np.diff(plan.yaw)).max() / 0.01 < 3.0, mode

@@ -4,10 +4,15 @@ Each skill segment's demonstrated motion ``[x, y, z, yaw]`` is imitated by a dis
 (``movement_primitives.dmp.DMP``, 15 RBF weights per dimension) and rolled out with a new start
 (the robot's pose at the end of the previous segment) and a new goal (the object-relative goal
 of Eq. 2, see :mod:`lfd.reproduce.goals`). movement_primitives does not scale the forcing term by
-``g - y0``, so a displaced goal shifts the attractor without distorting the learned shape. Two
-small fixes keep chained segments exact: the roll-out is integrated with ``step`` from the demo's
-start velocity (``open_loop`` starts from rest, a transient of several cm), and the residual between the roll-out's last sample and the
-goal (the DMP is still converging when the demo's time is up) is removed by a min-jerk blend.
+``g - y0``, so a displaced goal shifts the attractor without distorting the learned shape; with
+``smooth_scaling`` (Pastor et al. 2009) the new start and goal offsets are blended in along the
+phase instead of by the spring's step response, which would first pull the path back towards the
+demonstrated one (a hook of several cm when the robot starts where the hand did not). Two
+small fixes keep chained segments exact: the roll-out starts with the robot's velocity at the end
+of the previous part (the demo's start velocity between two demonstrated segments; zero after a
+dwell or a stop: a jump in velocity would jerk a carried box out of the fingers), and the residual
+between the roll-out's last sample and the goal (the DMP is still converging when the demo's time
+is up) is removed by a min-jerk blend.
 """
 
 from __future__ import annotations
@@ -51,6 +56,7 @@ def dmp_rollout(
     *,
     dt: float = 0.01,
     n_weights: int = 15,
+    start_velocity: np.ndarray | None = None,
 ) -> np.ndarray:
     """Learn a DMP from one demonstrated segment and roll it out to a new start and goal.
 
@@ -64,6 +70,9 @@ def dmp_rollout(
         New start and goal.
     dt : float
         Output sample period (s).
+    start_velocity : array, shape (d,), optional
+        Velocity the roll-out starts with: the robot's at the end of what it did before (zero
+        after a dwell or a stop); default the demonstrated segment's start velocity.
 
     Returns
     -------
@@ -82,10 +91,19 @@ def dmp_rollout(
         return warp(lin, start, goal)
     tt = t - t[0]
     yd = np.gradient(y, tt, axis=0)
-    dmp = DMP(n_dims=y.shape[1], execution_time=duration, dt=dt, n_weights_per_dim=n_weights)
+    dmp = DMP(
+        n_dims=y.shape[1],
+        execution_time=duration,
+        dt=dt,
+        n_weights_per_dim=n_weights,
+        smooth_scaling=True,
+    )
     dmp.imitate(tt, y, allow_final_velocity=True)
     dmp.configure(
-        start_y=np.asarray(start), goal_y=np.asarray(goal), start_yd=yd[0], goal_yd=yd[-1]
+        start_y=np.asarray(start),
+        goal_y=np.asarray(goal),
+        start_yd=yd[0] if start_velocity is None else np.asarray(start_velocity, dtype=np.float64),
+        goal_yd=yd[-1],
     )
     _, out = dmp.open_loop()
     out = np.asarray(out, dtype=np.float64)

@@ -92,6 +92,10 @@ class DemoFrames:
         self.tcp = np.stack(
             [np.interp(self.t, self.t[good], tcp[good, j]) for j in range(3)], axis=1
         )
+        c = self.tcp.mean(axis=0)
+        self.facing = float(np.arctan2(c[1] - self.base[1], c[0] - self.base[0]))
+        """Heading from the base to the demonstration's workspace (rad): natural yaws are
+        measured from it, so they do not jump by 2 pi anywhere in the workspace."""
         self.yaw = self._robot_yaw(np.asarray(traj.rotation), good, base)
         self.names = list(traj.object_names)
         self.size = np.asarray(traj.object_size, dtype=np.float64)
@@ -125,7 +129,9 @@ class DemoFrames:
     def natural_yaw(self, p: np.ndarray) -> np.ndarray:
         """Yaw that needs no wrist rotation at TCP position(s) ``p`` (closing axis tangential)."""
         p = np.asarray(p)
-        return np.pi / 2 + np.arctan2(p[..., 1] - self.base[1], p[..., 0] - self.base[0])
+        heading = np.arctan2(p[..., 1] - self.base[1], p[..., 0] - self.base[0])
+        # continuous over the workspace (the base is outside it): no cut behind the base
+        return np.pi / 2 + wrap_near(heading, self.facing, 2 * np.pi)
 
     def index(self, t_s: float) -> int:
         """Nearest sample index to a time (s since the first sample)."""

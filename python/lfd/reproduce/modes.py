@@ -21,8 +21,11 @@ from neighbouring boxes), approached with the fingers opened to the box's width 
 when the demonstrated approach would sweep the fingers into the box, from above it vertically; resting heights from the box sizes; the gripper
 yaw turned during the preceding move and held constant while grasping/releasing; a vertical final
 approach ("funnel") onto grasp and release poses, never dipping below them; a vertical lift-off
-after a release; a move rises only as much as needed when its straight line would sweep the open
-fingers (or a carried box) over an object; the fingertips never go below the table.
+after a release, just until the fingertips clear the released box; a move whose straight line
+would sweep the open fingers (or a carried box) over an object takes the shortest way over it in
+the same vertical plane (:func:`~lfd.reproduce.motion.over`: it rises only where and as much as
+needed), a DMP move is lifted only as much as its own path needs; the fingertips never go below
+the table. While the gripper closes or opens (the dwell) the arm holds still.
 """
 
 from __future__ import annotations
@@ -39,13 +42,16 @@ from .controller import TICK, Plan
 from .dmp import dmp_rollout, min_jerk, resample, warp
 from .goals import DemoFrames, grasp_goal, grasp_opening, pose, upright, wrap_near, yaw_of
 from .motion import (
-    HOVER,
+    CLEARANCE,
     clear,
     line,
     min_jerk_clip,
     need_object,
+    over,
+    path_clear,
     push_geometry,
     push_path,
+    required_height,
     safe_height,
     segment_indices,
 )
@@ -154,20 +160,24 @@ def plan_replay(frames: DemoFrames, program: TaskProgram) -> Plan:
 
 
 # skill knowledge in plan_task's steps (metres and seconds unless said otherwise)
+CARRY_WRIST = np.radians(120.0)
+"""A place keeps the yaw a box is carried with (modulo 180 deg) while the wrist stays within
+this of its natural yaw at the goal."""
 CARRY_CLEARANCE = 0.016
 """Clearance around a carried box's half diagonal that a move_with keeps from other objects."""
 RISE_STEP = 0.01
-"""A blocked move rises in steps of this much until its straight line to the goal is free."""
+"""A blocked DMP move is lifted in steps of this much until its path is free."""
 RISE_MIN_S = 0.4
-"""Shortest duration of each leg of such a rise (and of the crossing at the safe height)."""
+"""Shortest duration of each leg of a move that goes over objects."""
 YAW_TURN = 0.3
 """Fraction of a pick_up/place/stack over which the gripper turns to the goal yaw (then holds)."""
 FUNNEL_MARGIN = 0.015
 """Added to half the object's height plus the finger length for a tall object's funnel."""
 LIFT_MIN_S = 0.5
 """Shortest duration of the vertical lift-off after a release."""
-LIFT_ABOVE_RELEASED = 0.02
-"""The lift-off ends at least this far above the released object's top (fingertips)."""
+LIFT_ABOVE_RELEASED = CLEARANCE + 0.001
+"""The lift-off ends this far above the released object's top (fingertips): the clearance
+every move keeps from the objects (:func:`~lfd.reproduce.motion.clear`)."""
 PUSH_BACK_OFF = 0.015
 """After a push the fingers back away from the pushed face by this much..."""
 PUSH_BACK_UP = 0.005
@@ -233,9 +243,6 @@ class _TaskPlanner:
         self.cur = _state(frames.tcp_pose(start_i), float(frames.yaw[start_i]))
         self.opening = MAX_OPENING
         self.held: tuple[str, np.ndarray] | None = None
-        self.detour = np.zeros(4)
-        self.crossed = False
-        """The current move crossed over the objects at the safe height (:meth:`_rise`)."""
 
     def plan(self) -> PlanResult:
         for k, seg in enumerate(self.segs):
@@ -256,7 +263,9 @@ class _TaskPlanner:
         return _SkillGoal(goal, grip, name=name, close_at_end=True)
 
     def _place(self, k: int, seg: Segment, i1: int) -> _SkillGoal:  # place and stack
-        name, goal, T_end_demo = _place_goal(self.frames, seg, self.objects, self.held, i1)
+        name, goal, T_end_demo = _place_goal(
+            self.frames, seg, self.objects, self.held, i1, self.cur[3]
+        )
         self.objects[name] = self.expected[name] = T_end_demo
         self.scenes.append(dict(self.objects))
         size = self.frames.size[self.frames.object_index(name)]
@@ -297,7 +306,9 @@ class _TaskPlanner:
         elif nxt.skill == "pick_up":  # arrive with the grasp yaw already set
             goal[3] = _pick_goal(frames, nxt, objects, _end_index(frames, nxt))[1][3]
         elif nxt.skill in ("place", "stack"):
-            nxt_goal = _place_goal(frames, nxt, objects, self.held, _end_index(frames, nxt))[1]
+            nxt_goal = _place_goal(
+                frames, nxt, objects, self.held, _end_index(frames, nxt), self.cur[3]
+            )[1]
             goal[3] = nxt_goal[3]
         return _SkillGoal(goal, grip)
 
@@ -314,19 +325,17 @@ class _TaskPlanner:
         }.get(seg.skill, self._move)
         sg = planner(k, seg, i1)
         goal = sg.goal
-        nxt_grasps = k + 1 < len(self.segs) and self.segs[k + 1].skill in _GRASP_SKILLS
+        # (a move before a grasp, a release or a push arrives with that skill's yaw)
+        nxt_grasps = k + 1 < len(self.segs) and self.segs[k + 1].skill in (*_GRASP_SKILLS, "push")
         if seg.skill not in ("push", *_GRASP_SKILLS) and not nxt_grasps:
             # (those keep the yaw of their goal, already wrist-friendly)
             goal[3] = float(wrap_near(goal[3], float(frames.natural_yaw(goal[:3]))))
         self.goals.append(goal[:3].copy())
-        rise = self._rise(seg, goal)
-        path = np.concatenate([rise, self._path(seg, sg, i0, i1)])
+        path = self._path(seg, sg, i0, i1)
         if seg.skill in _GRASP_SKILLS:
             self._funnel(path, goal, str(sg.name))
         if seg.skill == "pick_up":
             path = self._vertical_grasp(path, goal, str(sg.name))
-        self.detour = np.zeros(4)
-        self.crossed = False
         part = _part(path, sg.grip, k)
         if seg.skill == "move" and k + 1 < len(self.segs) and self.segs[k + 1].skill == "push":
             part.opening[len(part) // 2 :] = 0.0  # close the fingers on the way to a push
@@ -334,56 +343,90 @@ class _TaskPlanner:
         self.cur = path[-1].copy()
         self._after(sg)
 
-    def _rise(self, seg: Segment, goal: np.ndarray) -> np.ndarray:
-        """A move whose straight line is blocked first rises (as little as needed) above what is
-        near the line; if no height clears the line to the goal, it crosses at the safe height
-        and descends onto the goal vertically. Returns the rise path (empty when free)."""
-        frames, cur = self.frames, self.cur
-        skip: tuple[str, ...] = ()
-        below, extra = FINGER_BELOW_TCP, MAX_OPENING / 2
-        if seg.skill == "move_with" and self.held is not None:  # the carried box hangs lower
+    def _velocity(self) -> np.ndarray:
+        """The planned ``[x, y, z, yaw]`` velocity at the end of the plan so far (per s)."""
+        last = self.parts[-1] if self.parts else None
+        if last is None or len(last) < 2:
+            return np.zeros(4)
+        p = np.column_stack([last.position[-2:], last.yaw[-2:]])
+        return (p[1] - p[0]) / TICK
+
+    def _clearance(self, seg: Segment) -> dict[str, Any]:
+        """How a move keeps clear of the objects (:func:`~lfd.reproduce.motion.clear`): the
+        open fingers, or a carried box (it hangs lower and reaches farther)."""
+        frames = self.frames
+        if seg.skill == "move_with" and self.held is not None:
             hsize = frames.size[frames.object_index(self.held[0])]
-            skip = (self.held[0],)
-            below = max(below, float(self.held[1][2, 3]) + hsize[2] / 2)
-            extra = 0.5 * float(np.hypot(hsize[0], hsize[1])) + CARRY_CLEARANCE
-        free = partial(
-            clear, frames=frames, objects=self.objects, skip=skip, below=below, extra=extra
-        )
-        if seg.skill not in ("move", "move_with") or free(cur, goal):
-            return np.zeros((0, 4))
-        top = safe_height(frames, {n: T for n, T in self.objects.items() if n not in skip}, below)
-        ways: list[np.ndarray] = []
-        stop = max(top, cur[2]) + (RISE_STEP + 0.001)  # (the last step may reach the top)
-        for h in np.arange(cur[2] + RISE_STEP, stop, RISE_STEP):
-            if free(np.array([*cur[:2], h, cur[3]]), goal):
-                ways = [np.array([*cur[:2], h, cur[3]])]
-                break
-        if not ways:
-            h = max(top, cur[2])
-            ways = [np.array([*cur[:2], h, cur[3]]), np.array([*goal[:2], h, goal[3]])]
-            self.crossed = True
-        rise = np.concatenate([line(a, b, min_s=RISE_MIN_S) for a, b in pairwise([cur, *ways])])
-        self.detour = self.detour + (ways[-1] - cur)
-        self.cur = ways[-1]
-        return rise
+            return {
+                "skip": (self.held[0],),
+                "below": max(FINGER_BELOW_TCP, float(self.held[1][2, 3]) + hsize[2] / 2),
+                "extra": 0.5 * float(np.hypot(hsize[0], hsize[1])) + CARRY_CLEARANCE,
+            }
+        return {"skip": (), "below": FINGER_BELOW_TCP, "extra": MAX_OPENING / 2}
+
+    def _move_path(self, seg: Segment, goal: np.ndarray, i0: int, i1: int) -> np.ndarray:
+        """A move/move_with from the current TCP state to ``goal`` that keeps clear of the
+        objects (the model of :func:`~lfd.reproduce.motion.clear`).
+
+        skills: the straight line, or where it is blocked the shortest way over the objects
+        (:func:`~lfd.reproduce.motion.over`: a vertical lift-off while the fingers are beside an
+        object, straight legs over the objects on the way, a vertical descent onto a goal beside
+        one). dmp: the DMP from the current state, first lifted vertically (in
+        :data:`RISE_STEP` steps, as little as needed) when its path would pass too low over an
+        object on the way (the goal's own neighbours excepted: the demonstrated approach); the
+        shortest way over the objects when no lift clears it.
+        """
+        frames, objects, cur = self.frames, self.objects, self.cur
+        kw = self._clearance(seg)
+        ways = over(cur, goal, frames, objects, **kw)
+        if self.mode == "dmp":
+            t, y = _demo_states(frames, i0, i1)
+            # the objects the goal is beside: the demonstrated approach to them is kept
+            beside = tuple(
+                n
+                for n, T in objects.items()
+                if np.isfinite(required_height(goal[None, :2], frames, {n: T}, **kw)[0])
+            )
+            free = partial(
+                path_clear,
+                frames=frames,
+                objects=objects,
+                skip=(*kw["skip"], *beside),
+                below=kw["below"],
+                extra=kw["extra"],
+            )
+            top = safe_height(frames, objects, kw["below"])
+            for h in np.arange(0.0, max(top - cur[2], 0.0) + RISE_STEP, RISE_STEP):
+                start = cur + np.array([0.0, 0.0, h, 0.0])
+                v0 = self._velocity() if h == 0.0 else np.zeros(4)  # (a lift ends at rest)
+                path = dmp_rollout(t, y, start, goal, dt=TICK, start_velocity=v0)
+                # the yaw is the robot's (a wrist-friendly or grasp yaw, not the hand's): a DMP's
+                # spring would turn a goal offset of up to 90 deg in the first fraction of the move
+                path[:, 3] = start[3] + min_jerk(len(path)) * (goal[3] - start[3])
+                if free(path):
+                    if h == 0.0:
+                        return path
+                    return np.concatenate([line(cur, start, min_s=RISE_MIN_S), path])
+        if len(ways) == 2:
+            return line(cur, goal)
+        return np.concatenate([line(p, q, min_s=RISE_MIN_S) for p, q in pairwise(ways)])
 
     def _path(self, seg: Segment, sg: _SkillGoal, i0: int, i1: int) -> np.ndarray:
         """The segment's path from the current TCP state to its goal."""
         cur, goal = self.cur, sg.goal
         if sg.push is not None:
             return push_path(self.frames, str(seg.object), sg.push, (i0, i1), cur, self.mode)
-        t, y = _demo_states(self.frames, i0, i1)
-        if self.crossed:  # crossed at the safe height to above the goal: descend straight
-            return line(cur, goal)
-        if self.mode == "dmp":
-            # the DMP runs between skill end points; the robot's own detours at the start
-            # (lift-offs) are blended out like a warp, so the DMP's spring does not dip to undo them
-            path = dmp_rollout(t, y, cur - self.detour, goal, dt=TICK)
-            path += (1 - min_jerk(len(path)))[:, None] * self.detour
-            return path
         if seg.skill in ("move", "move_with"):
-            return line(cur, goal)
-        return warp(resample(t, y, TICK), cur, goal)
+            return self._move_path(seg, goal, i0, i1)
+        t, y = _demo_states(self.frames, i0, i1)
+        if self.mode == "dmp":
+            path = dmp_rollout(t, y, cur, goal, dt=TICK, start_velocity=self._velocity())
+        else:
+            path = warp(resample(t, y, TICK), cur, goal)
+        # the yaw is the robot's (turned from the current yaw to the goal's), not the hand's: a
+        # goal yaw differing from the hand's by a half or full turn would be blended in as one
+        path[:, 3] = cur[3] + min_jerk(len(path)) * (goal[3] - cur[3])
+        return path
 
     def _funnel(self, path: np.ndarray, goal: np.ndarray, name: str) -> None:
         """Grasp and release: turn early, then keep the yaw; never below the goal height (the
@@ -423,17 +466,15 @@ class _TaskPlanner:
         if sg.open_at_end:
             self.opening = MAX_OPENING
             self.parts.append(_part(np.repeat(cur[None], dwell, 0), sg.release, -1))
-            up = cur + np.array([0.0, 0.0, HOVER, 0.0])  # leave the released object vertically
+            up = cur.copy()  # leave the released object vertically, just clear of its top
             up[2] = max(up[2], sg.release_top + FINGER_BELOW_TCP + LIFT_ABOVE_RELEASED)
             self.parts.append(_part(line(cur, up, min_s=LIFT_MIN_S), sg.release, -1))
-            self.detour = up - cur
             self.cur = up
         if sg.push is not None:  # back off the pushed face before anything else moves
             self.opening = 0.0
             u = sg.push["u"]
             back = cur + np.array([-PUSH_BACK_OFF * u[0], -PUSH_BACK_OFF * u[1], PUSH_BACK_UP, 0.0])
             self.parts.append(_part(line(cur, back, min_s=PUSH_BACK_MIN_S), 0.0, -1))
-            self.detour = back - cur
             self.cur = back
 
 
@@ -518,9 +559,15 @@ def _place_goal(
     objects: dict[str, np.ndarray],
     held: tuple[str, np.ndarray] | None,
     i1: int,
+    yaw_now: float | None = None,
 ) -> tuple[str, np.ndarray, np.ndarray]:
     """TCP goal of a place/stack and the object's resting pose there, relative to
-    :func:`place_reference` (Eq. 2)."""
+    :func:`place_reference` (Eq. 2).
+
+    The gripper is symmetric: of the goal yaw's two representatives, the one nearest ``yaw_now``
+    (the yaw the box is carried with) when the wrist stays within :data:`CARRY_WRIST` of its
+    natural yaw there (a carried box is not spun half a turn), else the most natural one.
+    """
     carried = seg.object or (held[0] if held else None)
     name = need_object(Segment(seg.skill, 0, 0, carried), objects)
     T_end = frames.object_pose(name, i1)
@@ -534,7 +581,12 @@ def _place_goal(
     rel = held[1] if held and held[0] == name else np.linalg.inv(T_end) @ frames.tcp_pose(i1)
     T_goal = T_end @ rel
     T_goal[2, 3] += RELEASE_LIFT
-    goal = _state(T_goal, float(frames.natural_yaw(T_goal[:3, 3])))
+    natural = float(frames.natural_yaw(T_goal[:3, 3]))
+    goal = _state(T_goal, natural)
+    if yaw_now is not None:
+        kept = float(wrap_near(goal[3], yaw_now))
+        if abs(float(wrap_near(kept - natural, 0.0, 2 * np.pi))) <= CARRY_WRIST:
+            goal[3] = kept
     return name, goal, T_end
 
 

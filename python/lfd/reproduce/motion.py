@@ -6,6 +6,8 @@ Shared by the skills and DMP modes (:mod:`lfd.reproduce.modes`). Paths are array
 
 from __future__ import annotations
 
+from itertools import pairwise
+
 import numpy as np
 
 from ..errors import DemonstrationError
@@ -17,8 +19,9 @@ from .robot import FINGER_BELOW_TCP, MAX_OPENING
 
 LINEAR_SPEED = 0.15
 """Mean TCP speed of the straight moves of the skills mode (m/s)."""
-HOVER = 0.05
-"""Vertical clearance used to leave a released object and to start a push from above (m)."""
+CLEARANCE = 0.01
+"""Vertical clearance (m) of the lowest point (fingertips, a carried box) over every object
+within reach of a move (:func:`clear`)."""
 
 
 def segment_indices(frames: DemoFrames, seg: Segment) -> tuple[int, int]:
@@ -43,6 +46,32 @@ def line(start: np.ndarray, goal: np.ndarray, *, min_s: float = 0.6) -> np.ndarr
     return np.asarray(start + s * (goal - start))
 
 
+def required_height(
+    xy: np.ndarray,
+    frames: DemoFrames,
+    objects: dict[str, np.ndarray],
+    *,
+    skip: tuple[str, ...],
+    below: float,
+    extra: float,
+) -> np.ndarray:
+    """Lowest TCP height (m) at each horizontal position ``xy`` (n, 2) that keeps the lowest
+    point ``below`` under the TCP 1 cm above every object within reach (-inf: no object near).
+
+    An object is within reach of a position closer (horizontally) than its half diagonal plus
+    1 cm plus ``extra`` (the open fingers, or a carried object's half diagonal).
+    """
+    req = np.full(xy.shape[0], -np.inf)
+    for name, T in objects.items():
+        if name in skip:
+            continue
+        size = frames.size[frames.object_index(name)]
+        reach = 0.5 * float(np.hypot(size[0], size[1])) + 0.01 + extra
+        near = np.hypot(xy[:, 0] - T[0, 3], xy[:, 1] - T[1, 3]) < reach
+        req[near] = np.maximum(req[near], T[2, 3] + size[2] / 2 + CLEARANCE + below)
+    return req
+
+
 def clear(
     a: np.ndarray,
     b: np.ndarray,
@@ -60,16 +89,85 @@ def clear(
     diagonal plus the fingers).
     """
     pts = a[None, :3] + np.linspace(0.0, 1.0, 40)[:, None] * (b[:3] - a[:3])[None]
-    for name, T in objects.items():
-        if name in skip:
-            continue
-        size = frames.size[frames.object_index(name)]
-        reach = 0.5 * float(np.hypot(size[0], size[1])) + 0.01 + extra
-        near = np.hypot(pts[:, 0] - T[0, 3], pts[:, 1] - T[1, 3]) < reach
-        low = pts[:, 2] - below < T[2, 3] + size[2] / 2 + 0.01
-        if np.any(near & low):
-            return False
-    return True
+    return path_clear(pts, frames, objects, skip=skip, below=below, extra=extra)
+
+
+def path_clear(
+    pts: np.ndarray,
+    frames: DemoFrames,
+    objects: dict[str, np.ndarray],
+    *,
+    skip: tuple[str, ...],
+    below: float = FINGER_BELOW_TCP,
+    extra: float = MAX_OPENING / 2,
+) -> bool:
+    """True if every point of ``pts`` (n, >=3) keeps clear of every object (as :func:`clear`)."""
+    req = required_height(pts[:, :2], frames, objects, skip=skip, below=below, extra=extra)
+    return bool(np.all(pts[:, 2] >= req))
+
+
+def _upper_hull(pts: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    """Upper convex hull of points sorted by x (first and last kept)."""
+    hull: list[tuple[float, float]] = []
+    for p in pts:
+        while len(hull) >= 2:
+            (x0, z0), (x1, z1) = hull[-2], hull[-1]
+            if (x1 - x0) * (p[1] - z0) - (z1 - z0) * (p[0] - x0) >= 0.0:  # not a right turn
+                hull.pop()
+            else:
+                break
+        hull.append(p)
+    return hull
+
+
+def over(
+    a: np.ndarray,
+    b: np.ndarray,
+    frames: DemoFrames,
+    objects: dict[str, np.ndarray],
+    *,
+    skip: tuple[str, ...],
+    below: float = FINGER_BELOW_TCP,
+    extra: float = MAX_OPENING / 2,
+    n: int = 120,
+) -> list[np.ndarray]:
+    """Corners of the shortest path from ``a`` to ``b`` (``[x, y, z, yaw]``) over the objects.
+
+    The path stays in the vertical plane through ``a`` and ``b`` and keeps the clearance of
+    :func:`clear`: it rises vertically first when ``a`` is within reach of an object (a
+    lift-off), descends vertically last when ``b`` is, and in between is the taut string over
+    the heights the objects along the way require (the upper convex hull of those heights and
+    the two ends), so it rises only where and as much as needed. ``[a, b]`` when the straight
+    line is clear. The yaw turns in proportion to the distance travelled.
+    """
+    d = b[:2] - a[:2]
+    D = float(np.linalg.norm(d))
+    if D < 1e-6:
+        return [a, b]
+    s = np.linspace(0.0, 1.0, n)
+    req = required_height(
+        a[None, :2] + s[:, None] * d, frames, objects, skip=skip, below=below, extra=extra
+    )
+    # each sample also covers the gap to its neighbours (an edge of a reach falls between them)
+    req = np.maximum(req, np.maximum(np.r_[req[1:], -np.inf], np.r_[-np.inf, req[:-1]]))
+    req = req + 0.001
+    za, zb = max(float(a[2]), req[0]), max(float(b[2]), req[-1])
+    inner = [(float(s[i]) * D, float(req[i])) for i in range(1, n - 1) if np.isfinite(req[i])]
+    hull = _upper_hull([(0.0, za), *inner, (D, zb)])
+    pts = [np.array([*a[:3], 0.0])]
+    pts += [np.array([*(a[:2] + (x / D) * d), z, 0.0]) for x, z in hull]
+    pts.append(np.array([*b[:3], 0.0]))
+    keep = [pts[0]]
+    for p in pts[1:]:
+        if np.linalg.norm(p[:3] - keep[-1][:3]) > 1e-6:
+            keep.append(p)
+    if len(keep) < 2:
+        return [a, b]
+    legs = [np.linalg.norm(q[:3] - p[:3]) for p, q in pairwise(keep)]
+    run = np.r_[0.0, np.cumsum(legs)]
+    for p, r in zip(keep, run / max(run[-1], 1e-12), strict=True):
+        p[3] = a[3] + r * (b[3] - a[3])
+    return keep
 
 
 def safe_height(
@@ -115,7 +213,7 @@ def push_geometry(
     start = contact - [0.025 * u[0], 0.025 * u[1], 0.0, 0.0]
     hover = start.copy()
     top = T_now[2, 3] + size[2] / 2
-    hover[2] = max(start[2] + HOVER, top + FINGER_BELOW_TCP + 0.02)
+    hover[2] = max(start[2], top + FINGER_BELOW_TCP + CLEARANCE + 0.001)
     return {
         "goal": np.array([*p_end, yaw]),
         "contact": contact,
@@ -171,7 +269,7 @@ def push_path(
             y = np.column_stack(
                 [xy[:, :2], np.full(b - a + 1, contact[2]), np.full(b - a + 1, contact[3])]
             )
-            pieces.append(dmp_rollout(t, y, contact, goal, dt=TICK))
+            pieces.append(dmp_rollout(t, y, contact, goal, dt=TICK, start_velocity=np.zeros(4)))
         else:
             pr = resample(t, prog[a : b + 1, None], TICK)[:, 0]
             pr = (pr - pr[0]) / max(pr[-1] - pr[0], 1e-9)
