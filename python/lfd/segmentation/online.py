@@ -67,6 +67,7 @@ from .pipeline import (
     Search,
     SegmentParams,
     _make_segment,
+    _resized,
     co_motion_per_object,
     displaced,
     insert_implicit_moves,
@@ -595,7 +596,7 @@ class OnlineSegmenter:
             b = min(seg.start + length, seg.end - 1)
             obj = self.object_names.index(seg.object) if seg.object in self.object_names else None
             mv = _make_segment(hist, "move", seg.start, b, obj)
-            out = [mv, _resize(hist, seg, b)] if b > seg.start else [seg]
+            out = [mv, _resized(hist, seg, b, seg.end)] if b > seg.start else [seg]
         else:
             out = [seg]
         if out and out[-1].skill in HELD:
@@ -639,7 +640,10 @@ class OnlineSegmenter:
             a = max(held.start + 1, held.end - length)
             if obj is not None and self.object_names[obj] != held.object and a < held.end:
                 hist = self._history()
-                out = [_resize_end(hist, held, a), _make_segment(hist, "move", a, held.end, obj)]
+                out = [
+                    _resized(hist, held, held.start, a),
+                    _make_segment(hist, "move", a, held.end, obj),
+                ]
         return self._emit(out)
 
     def _emit(self, segs: list[Segment]) -> list[Segment]:
@@ -722,20 +726,6 @@ class OnlineSegmenter:
             sections=list(self._bounds),
             object_names=list(self.object_names),
         )
-
-
-def _resize_end(traj: Trajectory, seg: Segment, end: int) -> Segment:
-    obj = traj.object_names.index(seg.object) if seg.object in traj.object_names else None
-    return _make_segment(
-        traj, seg.skill, seg.start, end, obj, seg.score, seg.confidence, seg.margin
-    )
-
-
-def _resize(traj: Trajectory, seg: Segment, start: int) -> Segment:
-    obj = traj.object_names.index(seg.object) if seg.object in traj.object_names else None
-    return _make_segment(
-        traj, seg.skill, start, seg.end, obj, seg.score, seg.confidence, seg.margin
-    )
 
 
 def batch_samples(filled: Trajectory) -> Iterator[dict[str, Any]]:
