@@ -535,7 +535,12 @@ def test_rerun_serve_for_keeps_serving_then_exits(tmp_path: Path) -> None:
     time.sleep(1.0)
     with urllib.request.urlopen(f"http://127.0.0.1:{web}/", timeout=10) as resp:
         assert resp.status == 200  # still serving after the work is done
-    out, err = proc.communicate(timeout=30)
+    # read the rest through the same file object: readline() may already have buffered the
+    # next line, which communicate() (reading the raw pipe) would never see
+    out = proc.stdout.read()
+    assert proc.stderr is not None
+    err = proc.stderr.read()
+    proc.wait(timeout=30)
     took = time.monotonic() - t0
     assert proc.returncode == 0, err
     assert "serving until 2 s" in out and 2.0 <= took < 15.0
