@@ -128,6 +128,27 @@ def test_co_motion_penalty_charges_only_what_a_skill_cannot_explain() -> None:
     assert co_motion_penalty(moving, bounds, skills, 0.0) is None
 
 
+def test_co_motion_charges_a_carry_that_slides_its_box() -> None:
+    """A Move with may move its box while it rests only as it lifts it off: beyond ``slide``
+    samples the box slides on the table, which is a Push."""
+    skills = ["move_with", "push", "place"]
+    moving = np.zeros((1, 20), dtype=bool)
+    lifted = np.zeros((1, 20), dtype=bool)
+    bounds = np.array([0, 20])
+    moving[0, 2:14] = True  # the box moves 12 samples without ever being lifted
+    pen = co_motion_penalty(moving, bounds, skills, 1.0, lifted=lifted, slide=5)
+    assert pen is not None
+    assert pen[0, 0, 1, 0] == -7 and pen[0, 0, 1, 1] == 0 and pen[0, 0, 1, 2] == 0
+    # a real carry: 3 samples of lift-off, then lifted while it moves
+    lifted[0, 5:] = True  # (and still carried at the end)
+    pen = co_motion_penalty(moving, bounds, skills, 1.0, lifted=lifted, slide=5)
+    assert pen is not None and pen[0, 0, 1, 0] == 0
+    # negative: the rule is off
+    lifted[:] = False
+    pen = co_motion_penalty(moving, bounds, skills, 1.0, lifted=lifted, slide=-1)
+    assert pen is not None and pen[0, 0, 1, 0] == 0
+
+
 def test_moving_objects_ignores_tag_noise() -> None:
     r = natural("exp1", 703)
     traj = preprocess(r.demo, **Templates.default().preprocessing)

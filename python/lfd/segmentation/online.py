@@ -477,6 +477,7 @@ class OnlineSegmenter:
                 p.co_motion,
                 lifted=np.ascontiguousarray(lifted),
                 grace=round(p.co_motion_grace_s / self.dt),
+                slide=p.co_motion_slide_s / self.dt,
                 band=sub,
             )
 
@@ -519,6 +520,7 @@ class OnlineSegmenter:
                 p.co_motion,
                 lifted=np.ascontiguousarray(self._lifted.view()[lo:e].T),
                 grace=round(p.co_motion_grace_s / self.dt),
+                slide=p.co_motion_slide_s / self.dt,
                 band=band,
             )
             if of is not None:

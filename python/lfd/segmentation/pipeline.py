@@ -83,6 +83,12 @@ class SegmentParams:
     co_motion_grace_s : float
         Object motion this close to a segment's ends is not charged (boundaries are uncertain
         by about this much).
+    co_motion_slide_s : float
+        A carried target (Move with) moves while it still rests on the table only as it is
+        lifted off (0.07-0.23 s in the ground truth of the tuning demos; a Push slides its box
+        0.37-1 s): beyond this much sliding, every sliding sample costs ``co_motion`` nats
+        (:data:`CARRIED`; negative: off). Without it a Push is read live as Pick up -> Move with
+        until the missing Place shows it.
     implicit_moves : bool
         A Move between a release (Place, Stack) and the next skill may be shorter than a stage-1
         section: when the hand re-grasps the object it has just put down, it opens a little,
@@ -107,6 +113,7 @@ class SegmentParams:
     min_duration_s: float = 0.5
     co_motion: float = 20.0
     co_motion_grace_s: float = 0.0
+    co_motion_slide_s: float = 0.25
     co_motion_window_s: float = 1.0 / 6.0
     implicit_moves: bool = True
     implicit_move_s: float = 0.2
@@ -241,6 +248,7 @@ def stage2_scores(
             p.co_motion,
             lifted=np.stack([f.values[:, height] > f.thresholds[:, height] for f in per_object]),
             grace=round(p.co_motion_grace_s / traj.dt),
+            slide=p.co_motion_slide_s / traj.dt,
             band=band,
         ),
     )
@@ -340,6 +348,8 @@ the lift; the other skills move their target or may)."""
 NO_SET_DOWN: frozenset[str] = frozenset({"move_with", "pick_up"})
 """Skills in which a lifted target is not put down again (that is a Place or a Stack)."""
 NO_LIFT: frozenset[str] = frozenset({"place", "stack", "push"})
+CARRIED: frozenset[str] = frozenset({"move_with"})
+"""Skills that carry their target lifted: it slides on the table only while it is lifted off."""
 """Skills in which a resting target is not lifted (after a Place or Stack that is a new Pick up;
 a Push slides its object on the table)."""
 
@@ -374,6 +384,7 @@ def co_motion_penalty(
     *,
     lifted: np.ndarray | None = None,
     grace: int = 0,
+    slide: float = -1.0,
     band: Band | None = None,
 ) -> np.ndarray | None:
     """Penalty ``(O, N, S)`` over the runs of ``band``, or ``(O, K, K + 1, S)`` over every run
@@ -387,11 +398,15 @@ def co_motion_penalty(
     - in which ``o`` moves, if ``s`` keeps its target still (:data:`TARGET_STILL`);
     - in which ``o`` rests after it was lifted in the segment, if ``s`` does not put it down
       (:data:`NO_SET_DOWN`), or is lifted after it rested, if ``s`` does not lift it
-      (:data:`NO_LIFT`): repeated cycles on one object come out as separate segments.
+      (:data:`NO_LIFT`): repeated cycles on one object come out as separate segments;
+    - beyond the first ``slide`` (samples, negative: none charged) in which ``o`` moves while it
+      rests, if ``s`` carries it lifted (:data:`CARRIED`): that is a Push.
 
     ``grace`` samples at each end of a segment are free. ``None`` if ``weight`` is 0.
     """
-    of = co_motion_per_object(moving, bounds, skills, weight, lifted=lifted, grace=grace, band=band)
+    of = co_motion_per_object(
+        moving, bounds, skills, weight, lifted=lifted, grace=grace, slide=slide, band=band
+    )
     return None if of is None else np.stack([of(o) for o in range(moving.shape[0])])
 
 
@@ -403,6 +418,7 @@ def co_motion_per_object(
     *,
     lifted: np.ndarray | None = None,
     grace: int = 0,
+    slide: float = -1.0,
     band: Band | None = None,
 ) -> Callable[[int], np.ndarray] | None:
     """:func:`co_motion_penalty` one target object at a time: ``of(o)`` is its ``[o]`` (the
@@ -422,18 +438,23 @@ def co_motion_per_object(
     own = _count_after(moving, everywhere, lo, hi)  # (O, *runs)
     others = own.sum(axis=0, keepdims=True) - own
     still = _skill_mask(skills, TARGET_STILL)
-    set_down = relift = None
+    set_down = relift = sliding = None
     if lifted is not None:
         resting = ~lifted
         set_down = _count_after(resting, _next_true(lifted), lo, hi)
         relift = _count_after(lifted, _next_true(resting), lo, hi)
+        if slide >= 0:
+            sliding = np.maximum(_count_after(moving & resting, everywhere, lo, hi) - slide, 0.0)
     no_set_down, no_lift = _skill_mask(skills, NO_SET_DOWN), _skill_mask(skills, NO_LIFT)
+    carried = _skill_mask(skills, CARRIED)
 
     def of(o: int) -> np.ndarray:
         out = others[o][..., None] + own[o][..., None] * still
         if set_down is not None and relift is not None:
             out += set_down[o][..., None] * no_set_down
             out += relift[o][..., None] * no_lift
+        if sliding is not None:
+            out += sliding[o][..., None] * carried
         out *= -weight
         return np.asarray(out, dtype=np.float64)
 
