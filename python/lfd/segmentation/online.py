@@ -229,6 +229,7 @@ class OnlineSegmenter:
         self.max_len = max(1, round(p.max_segment_s / dt))
         self._lag = round(lag_s / dt)
         self._move_k = round(MOVE_OBJECT_S / dt)
+        self._implicit_k = max(1, round(p.implicit_move_s / dt))  # an inserted Move's samples
         self._max_gap = max(0, round(max_gap_s / dt))
         self._w = motion_window(dt, p.co_motion_window_s)
         cols, hyst = criteria(p.stage1, n_obj, len(_hmmseg.FEATURE_NAMES))
@@ -580,7 +581,7 @@ class OnlineSegmenter:
         """Pass a settled segment through the implicit-Move rule, holding back a release."""
         if not self.params.implicit_moves:
             return self._emit([seg])
-        length = max(1, round(self.params.implicit_move_s / self.dt))
+        length = self._implicit_k
         out: list[Segment] = []
         held = self._held
         if held is not None:
@@ -638,8 +639,7 @@ class OnlineSegmenter:
             n = self._t_ns.n
             e = min(held.end + self._move_k, n - 1)
             obj = nearest_object(self._tcp.view()[e], self._pos.view()[e])
-            length = max(1, round(self.params.implicit_move_s / self.dt))
-            a = max(held.start + 1, held.end - length)
+            a = max(held.start + 1, held.end - self._implicit_k)
             if obj is not None and self.object_names[obj] != held.object and a < held.end:
                 hist = self._history()
                 out = [
