@@ -348,10 +348,10 @@ the lift; the other skills move their target or may)."""
 NO_SET_DOWN: frozenset[str] = frozenset({"move_with", "pick_up"})
 """Skills in which a lifted target is not put down again (that is a Place or a Stack)."""
 NO_LIFT: frozenset[str] = frozenset({"place", "stack", "push"})
-CARRIED: frozenset[str] = frozenset({"move_with"})
-"""Skills that carry their target lifted: it slides on the table only while it is lifted off."""
 """Skills in which a resting target is not lifted (after a Place or Stack that is a new Pick up;
 a Push slides its object on the table)."""
+CARRIED: frozenset[str] = frozenset({"move_with"})
+"""Skills that carry their target lifted: it slides on the table only while it is lifted off."""
 
 
 def _next_true(mask: np.ndarray) -> np.ndarray:
