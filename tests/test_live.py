@@ -134,3 +134,27 @@ def test_segment_follow_streams_a_growing_recording_to_rerun(tmp_path: Path) -> 
     spans = _row_times(rrd, "/segmentation/skills/result")
     assert len(spans) >= 2 * 6 and (logged.max() - spans.min()) * 1e-9 > 1.0
     assert data.blueprints
+
+
+def test_segment_follow_of_a_file_that_never_gets_data_is_an_error(tmp_path: Path) -> None:
+    """A followed file that stops growing before any hand or object sample arrived: exit 2 with
+    one error line (after the follower's warning that the file stopped growing) and no
+    --rerun-save file, as ``lfd segment`` of an empty file."""
+    import subprocess
+    import sys
+
+    rec = tmp_path / "empty.mcap"
+    rec.write_bytes(b"")
+    rrd = tmp_path / "x.rrd"
+    cmd = ["segment", "--follow", str(rec), "--idle-timeout", "0.5", "--rerun-save", str(rrd)]
+    proc = subprocess.run(
+        [sys.executable, "-m", "lfd.cli", *cmd], capture_output=True, text=True, timeout=120
+    )
+    lines = [line for line in proc.stderr.splitlines() if line.strip()]
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr
+    errors = [line for line in lines if ": error: " in line]
+    assert errors == lines[-1:] and lines[-1].startswith("lfd segment: error: "), proc.stderr
+    assert "nothing to segment" in lines[-1] and "stopped growing" in lines[0]
+    assert "0 messages over 0.0 s" in " ".join(proc.stdout.split())
+    assert not rrd.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["empty.mcap"]

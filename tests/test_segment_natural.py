@@ -8,6 +8,7 @@ from functools import cache
 
 import numpy as np
 import pytest
+from lfd.errors import InvalidParameterError
 from lfd.preprocessing import preprocess
 from lfd.preprocessing.grasp import box_distance, grasp_aperture
 from lfd.preprocessing.pipeline import auto_cutoff
@@ -147,6 +148,8 @@ def test_co_motion_charges_a_carry_that_slides_its_box() -> None:
     lifted[:] = False
     pen = co_motion_penalty(moving, bounds, skills, 1.0, lifted=lifted, slide=-1)
     assert pen is not None and pen[0, 0, 1, 0] == 0
+    with pytest.raises(InvalidParameterError, match="co_motion_slide_s"):
+        co_motion_penalty(moving, bounds, skills, 1.0, lifted=lifted, slide=float("nan"))
 
 
 def test_moving_objects_ignores_tag_noise() -> None:

@@ -243,9 +243,9 @@ def _run_follow(args: argparse.Namespace) -> int:
             f"{len(result.segments)} skills: "
             + " -> ".join(f"{s.skill}({s.object or '-'})" for s in result.segments)
         )
-    if args.json:
-        if result is None:
-            raise UsageError(f"{args.recording}: nothing to segment (no hand or object samples)")
+    if result is None and (args.json or follower.stop_reason != "interrupted"):
+        raise UsageError(f"{args.recording}: nothing to segment (no hand or object samples)")
+    if args.json and result is not None:
         doc = result.report(labels, recording=str(args.recording))
         first = state["first"] or 0
         doc["live"] = {

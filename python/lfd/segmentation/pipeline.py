@@ -423,6 +423,8 @@ def co_motion_per_object(
 ) -> Callable[[int], np.ndarray] | None:
     """:func:`co_motion_penalty` one target object at a time: ``of(o)`` is its ``[o]`` (the
     sample counts behind it are computed once, per object and run, without the skill axis)."""
+    if np.isnan(slide):
+        raise InvalidParameterError("co_motion_slide_s must be a number (negative: off), got nan")
     if weight == 0 or moving.size == 0:
         return None
     n_obj, n = moving.shape
