@@ -28,9 +28,9 @@ traces back through it (then the batch optimum contains it too); when every hypo
 scored over the same samples); when it has led for ``stable_s`` and no close hypothesis has a
 segment going on across its end; or, at the latest, once it is the best complete path's oldest
 unsettled segment (the batch DP's choice on the samples so far) and ended more than ``lag_s``
-ago (the best hypothesis's: ``7/6 lag_s``), *forced*. Each of the last three drops the hypotheses disagreeing with it (docs/segmentation.md,
-"Online"). Emitted segments never change. After
-:meth:`OnlineSegmenter.finish`, without forced segments, the sequence equals
+ago (the best hypothesis's: ``7/6 lag_s``), *forced*. Each of the last three drops the
+hypotheses disagreeing with it (docs/segmentation.md, "Online"). Emitted segments never change.
+After :meth:`OnlineSegmenter.finish`, without forced segments, the sequence equals
 :func:`lfd.segment`'s on the same features (``tests/test_segment_online.py``).
 
 **Bad input** (each a :class:`~lfd.errors.LfdWarning`, the segmenter keeps going): a sample not
@@ -73,7 +73,7 @@ from .pipeline import (
     insert_implicit_moves,
     max_over_objects,
     motion_window,
-    nearest_object,
+    object_after,
 )
 from .result import Segment, Segmentation
 from .stage1 import OBJECT_COLUMNS, criteria, min_section
@@ -636,9 +636,7 @@ class OnlineSegmenter:
         if held.skill == "locate" and not final and after not in (None, "move"):
             # past the lag, the next skill unsettled: a Move if the hand has gone to another
             # object (label_moves' rule), taken from the Locate's end
-            n = self._t_ns.n
-            e = min(held.end + self._move_k, n - 1)
-            obj = nearest_object(self._tcp.view()[e], self._pos.view()[e])
+            obj = object_after(self._tcp.view(), self._pos.view(), held.end, self._move_k)
             a = max(held.start + 1, held.end - self._implicit_k)
             if obj is not None and self.object_names[obj] != held.object and a < held.end:
                 hist = self._history()
@@ -664,8 +662,7 @@ class OnlineSegmenter:
                 break
             obj = None
             if seg.end < n:  # not the demonstration's last segment
-                e = min(e, n - 1)
-                obj = nearest_object(self._tcp.view()[e], self._pos.view()[e])
+                obj = object_after(self._tcp.view(), self._pos.view(), seg.end, self._move_k)
             name = self.object_names[obj] if obj is not None else None
             segs[k] = dataclasses.replace(seg, object=name)
         if not segs:

@@ -257,9 +257,9 @@ def stage2_scores(
 def insert_implicit_moves(traj: Trajectory, segments: list[Segment], length: int) -> list[Segment]:
     """Insert the Move that a release -> skill transition, or a Locate followed by a skill on
     another object, stands for (see :func:`~lfd.segmentation.grammar.needs_move_between`):
-    ``length`` samples centred on the
-    TCP's highest point in the last ``length`` samples of the first skill and the first
-    ``length`` of the next, taken from both (each keeps at least one sample)."""
+    ``length`` samples centred on the TCP's highest point in the last ``length`` samples of the
+    first skill and the first ``length`` of the next, taken from both (each keeps at least one
+    sample)."""
     out: list[Segment] = []
     z = traj.tcp[:, 2]
     for seg in segments:
@@ -291,6 +291,14 @@ def nearest_object(tcp: np.ndarray, positions: np.ndarray) -> int | None:
     return int(np.nanargmin(d)) if np.isfinite(d).any() else None
 
 
+def object_after(tcp: np.ndarray, positions: np.ndarray, end: int, k: int) -> int | None:
+    """The object a Move ending at sample ``end`` goes towards (:func:`label_moves`' rule): the
+    one nearest the hand ``k`` samples later, or at the last sample if that is sooner. ``tcp``
+    ``(n, 3)``, ``positions`` ``(n, O, 3)``: the samples so far (live) or all of them."""
+    e = min(end + k, len(tcp) - 1)
+    return nearest_object(tcp[e], positions[e])
+
+
 def label_moves(
     traj: Trajectory, segments: list[Segment], after_s: float = MOVE_OBJECT_S
 ) -> list[Segment]:
@@ -301,14 +309,14 @@ def label_moves(
     ambiguous (the hand is near no box, or near several); decided this way the label depends
     on positions only, so the live segmentation, which knows them by then, gives the same."""
     out = list(segments)
-    n, k = len(traj), max(0, round(after_s / traj.dt)) if traj.dt > 0 else 0
+    k = max(0, round(after_s / traj.dt)) if traj.dt > 0 else 0
+    positions = traj.object_position.transpose(1, 0, 2)
     for i, seg in enumerate(out):
         if seg.skill != "move":
             continue
         obj: int | None = None
         if i + 1 < len(out):
-            e = min(seg.end + k, n - 1)
-            obj = nearest_object(traj.tcp[e], traj.object_position[:, e])
+            obj = object_after(traj.tcp, positions, seg.end, k)
         name = traj.object_names[obj] if obj is not None else None
         if name != seg.object:
             out[i] = dataclasses.replace(seg, object=name)
