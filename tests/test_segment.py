@@ -544,3 +544,40 @@ def test_cli_segment_writes_json(tmp_path: Path) -> None:
     assert [s["skill"] for s in doc["segments"]] == [g["skill"] for g in doc["ground_truth"]]
     assert doc["metrics"]["sequence_match"] == 1.0
     assert "pick_up" in proc.stdout and "Pick up" not in proc.stdout  # one spelling everywhere
+
+
+def test_augment_scales_object_distance_of_layout_free_skills() -> None:
+    from lfd.segmentation.templates import LAYOUT_SCALES, OBJECT_DISTANCE, augment
+
+    x = np.random.default_rng(0).uniform(0.1, 0.3, (12, 10))
+    skills = ["push", "stack"]
+    data = augment([("push", x), ("stack", x), ("locate", x)], skills, 2, (1.5, 2.0))
+    # push: itself and 2 scaled copies, stack: itself; each turned twice; locate left out
+    assert [k for k, _ in data] == [0, 0, 1, 1, 0, 0, 0, 0]
+    dist = [float(y[0, OBJECT_DISTANCE] / x[0, OBJECT_DISTANCE]) for k, y in data if k == 0]
+    assert np.allclose(sorted(set(np.round(dist, 6))), [1.0, 1.5, 2.0])
+    # nothing but object_distance (and the turned TCP columns) changes
+    others = [c for c in range(10) if c not in (OBJECT_DISTANCE, 5, 6)]
+    assert all(np.array_equal(y[:, others], x[:, others]) for _, y in data)
+    assert len(augment([("push", x)], skills, 1, ())) == 1
+    assert LAYOUT_SCALES and min(LAYOUT_SCALES) > 1
+    with pytest.raises(InvalidParameterError, match="layout scales"):
+        augment([("push", x)], skills, 1, (0.0,))
+
+
+def test_shipped_templates_read_a_push_far_from_the_other_boxes() -> None:
+    """object_distance says how the scene is laid out, not what a Push does: each template
+    demo's Push with its box twice as far from the others still scores as a Push, above a Move
+    with (templates trained without the layout copies scored 6 of the 9 below)."""
+    from lfd.segmentation.templates import OBJECT_DISTANCE, recording_examples
+
+    t = Templates.default()
+    push, carry = t.skills.index("push"), t.skills.index("move_with")
+    paths = sorted((ROOT / "recordings" / "templates").glob("push_*.mcap"))
+    assert len(paths) == 9
+    for path in paths:
+        _, examples = recording_examples(path, preprocessing=t.preprocessing)
+        x = next(x for skill, x in examples if skill == "push").copy()
+        x[:, OBJECT_DISTANCE] *= 2.0
+        row = t.engine.score_table(np.ascontiguousarray(x), np.array([0, len(x)]))[0, 1]
+        assert row[push] > row[carry] + 2.0 * len(x), path.name

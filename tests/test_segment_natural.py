@@ -14,7 +14,7 @@ from lfd.preprocessing.grasp import box_distance, grasp_aperture
 from lfd.preprocessing.pipeline import auto_cutoff
 from lfd.segmentation import SegmentParams, Templates, segment
 from lfd.segmentation.metrics import all_metrics
-from lfd.segmentation.pipeline import co_motion_penalty, moving_objects
+from lfd.segmentation.pipeline import co_motion_penalty, moving_hand, moving_objects
 from lfd.sim import SimResult, Variability, simulate, truth_demonstration
 
 NATURAL = Variability(style="natural")
@@ -150,6 +150,40 @@ def test_co_motion_charges_a_carry_that_slides_its_box() -> None:
     assert pen is not None and pen[0, 0, 1, 0] == 0
     with pytest.raises(InvalidParameterError, match="co_motion_slide_s"):
         co_motion_penalty(moving, bounds, skills, 1.0, lifted=lifted, slide=float("nan"))
+
+
+def test_co_motion_charges_a_carry_the_hand_leaves_behind() -> None:
+    """A carried box moves with the hand: beyond ``left`` samples in which the hand moves and
+    the box stays, a Move with is charged (the hand is pushing, or moving away from the box)."""
+    skills = ["move_with", "push", "move"]
+    moving = np.zeros((2, 30), dtype=bool)
+    hand = np.zeros(30, dtype=bool)
+    bounds = np.array([0, 30])
+    moving[0, 0:10] = True  # box 0 moves with the hand for 10 samples...
+    hand[0:25] = True  # ... then the hand goes on alone for 15
+    pen = co_motion_penalty(moving, bounds, skills, 1.0, hand=hand, left=4)
+    assert pen is not None
+    assert pen[0, 0, 1, 0] == -11  # 15 left behind, 4 free
+    assert pen[0, 0, 1, 1] == 0  # a Push may leave its box (it is not carried)
+    assert pen[1, 0, 1, 0] == -10 - 21  # box 1 never moved: 25 left behind, and box 0 moved
+    # the carry alone (samples 0-9) is free; off with a negative allowance
+    pen = co_motion_penalty(moving, np.array([0, 10, 30]), skills, 1.0, hand=hand, left=4)
+    assert pen is not None and pen[0, 0, 1, 0] == 0
+    pen = co_motion_penalty(moving, bounds, skills, 1.0, hand=hand, left=-1)
+    assert pen is not None and pen[0, 0, 1, 0] == 0
+    with pytest.raises(InvalidParameterError, match="co_motion_left_s"):
+        co_motion_penalty(moving, bounds, skills, 1.0, hand=hand, left=float("nan"))
+
+
+def test_moving_hand_follows_the_tcp() -> None:
+    r = natural("exp1", 703)
+    traj = preprocess(r.demo, **Templates.default().preprocessing)
+    hand = moving_hand(traj, 1 / 6, 0.015)
+    speed = np.linalg.norm(np.gradient(traj.tcp, traj.dt, axis=0), axis=1)
+    assert hand.shape == (len(traj),)
+    # fast samples move, the hand at rest does not
+    assert hand[speed > 0.2].mean() > 0.95
+    assert not hand[speed < 0.005].any() or hand[speed < 0.005].mean() < 0.1
 
 
 def test_moving_objects_ignores_tag_noise() -> None:

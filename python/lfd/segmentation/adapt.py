@@ -127,7 +127,9 @@ def adapt_templates(
     fit, band = params["fit"], params["dtw_band"]
     symmetry = int(base.meta.get("frame_symmetry", FRAME_SYMMETRY))
     skills = base.skills
-    data = augment(examples, skills, symmetry)
+    # no layout copies: the refit starts from the base templates (which have them), and copies
+    # would outweigh its prior samples
+    data = augment(examples, skills, symmetry, layout_scales=())
     doc = widen_ranges(doc, [x for _, x in data])
     engine = _hmmseg.TemplateSet.from_json(json.dumps(doc))
     counts = {s: sum(1 for k, _ in examples if k == s) for s in skills}

@@ -267,6 +267,7 @@ class OnlineSegmenter:
         self._quat = _Grow((n_obj, 4))
         self._lifted = _Grow((n_obj,), bool)
         self._moving = _Grow((n_obj,), bool)
+        self._hand = _Grow((), bool)  # the TCP moves (known as far as _moving)
         self._queue: list[_Section] = []
         self._targets: dict[int, tuple[int, np.ndarray]] = {}  # boundary -> (first start, target)
         self._bounds: list[int] = [0]
@@ -420,10 +421,9 @@ class OnlineSegmenter:
         # moving at sample n - 1 - w is known now (moving_objects, clipped at the start)
         t = n - 1 - self._w
         if t >= 0:
-            p = self._pos.view()
-            self._moving.append(
-                displaced(p[max(t - self._w, 0)], p[n - 1], self.params.co_motion_displacement)
-            )
+            p, c, d = self._pos.view(), self._tcp.view(), self.params.co_motion_displacement
+            self._moving.append(displaced(p[max(t - self._w, 0)], p[n - 1], d))
+            self._hand.append(displaced(c[max(t - self._w, 0)], c[n - 1], d))
         if self._object_criteria:
             cols = list(OBJECT_COLUMNS.values())
             s1v = np.concatenate([values, ov[:, cols].reshape(-1)])
@@ -479,6 +479,8 @@ class OnlineSegmenter:
                 lifted=np.ascontiguousarray(lifted),
                 grace=round(p.co_motion_grace_s / self.dt),
                 slide=p.co_motion_slide_s / self.dt,
+                hand=self._hand.view()[lo : sec.bound],
+                left=p.co_motion_left_s / self.dt,
                 band=sub,
             )
 
@@ -522,6 +524,8 @@ class OnlineSegmenter:
                 lifted=np.ascontiguousarray(self._lifted.view()[lo:e].T),
                 grace=round(p.co_motion_grace_s / self.dt),
                 slide=p.co_motion_slide_s / self.dt,
+                hand=self._hand.view()[lo:e],
+                left=p.co_motion_left_s / self.dt,
                 band=band,
             )
             if of is not None:
@@ -696,15 +700,11 @@ class OnlineSegmenter:
         self._finished = True
         n = self._t_ns.n
         # the tail of the object motion, clipped at the end as moving_objects does
-        p = self._pos.view()
+        p, c, d = self._pos.view(), self._tcp.view(), self.params.co_motion_displacement
         for t in range(self._moving.n, n):
-            self._moving.append(
-                displaced(
-                    p[max(t - self._w, 0)],
-                    p[min(t + self._w, n - 1)],
-                    self.params.co_motion_displacement,
-                )
-            )
+            a, b = max(t - self._w, 0), min(t + self._w, n - 1)
+            self._moving.append(displaced(p[a], p[b], d))
+            self._hand.append(displaced(c[a], c[b], d))
         _, bound, first, scores, rising = self._engine.finish_samples()
         self._queue.append(_Section(bound, first, scores, rising))
         out = self._drain(final=True)

@@ -89,6 +89,12 @@ class SegmentParams:
         0.37-1 s): beyond this much sliding, every sliding sample costs ``co_motion`` nats
         (:data:`CARRIED`; negative: off). Without it a Push is read live as Pick up -> Move with
         until the missing Place shows it.
+    co_motion_left_s : float
+        A carried target moves with the hand: beyond this many seconds in which the hand moves
+        (:func:`moving_hand`) while the target stays (at most 0.4 s in the ground truth of
+        the tuning demos, median 0), every such sample of a Move with costs ``co_motion`` nats
+        (negative: off). Without it a Push, or a Move away from a box, is read live as a Move with
+        that is never put down.
     implicit_moves : bool
         A Move between a release (Place, Stack) and the next skill may be shorter than a stage-1
         section: when the hand re-grasps the object it has just put down, it opens a little,
@@ -114,6 +120,7 @@ class SegmentParams:
     co_motion: float = 20.0
     co_motion_grace_s: float = 0.0
     co_motion_slide_s: float = 0.25
+    co_motion_left_s: float = 0.4
     co_motion_window_s: float = 1.0 / 6.0
     implicit_moves: bool = True
     implicit_move_s: float = 0.2
@@ -235,6 +242,7 @@ def stage2_scores(
         per_object = [compute_features(traj, target=o) for o in range(len(traj.object_names))]
     band = Band.of(bounds, max(1, round(p.max_segment_s / traj.dt)))
     moving = moving_objects(traj, p.co_motion_window_s, p.co_motion_displacement)
+    hand = moving_hand(traj, p.co_motion_window_s, p.co_motion_displacement)
     height = OBJECT_COLUMNS["object_height"]  # above the object's rest height + gamma: lifted
     return scores_over_objects(
         [np.ascontiguousarray(f.values, dtype=np.float64) for f in per_object],
@@ -249,6 +257,8 @@ def stage2_scores(
             lifted=np.stack([f.values[:, height] > f.thresholds[:, height] for f in per_object]),
             grace=round(p.co_motion_grace_s / traj.dt),
             slide=p.co_motion_slide_s / traj.dt,
+            hand=hand,
+            left=p.co_motion_left_s / traj.dt,
             band=band,
         ),
     )
@@ -339,6 +349,16 @@ def moving_objects(traj: Trajectory, window_s: float, displacement: float) -> np
     return displaced(pos[:, a], pos[:, b], displacement)
 
 
+def moving_hand(traj: Trajectory, window_s: float, displacement: float) -> np.ndarray:
+    """``(n,)``: the TCP moves at sample ``t``, by the rule of :func:`moving_objects`."""
+    n = len(traj)
+    w = motion_window(traj.dt, window_s)
+    idx = np.arange(n)
+    a, b = np.clip(idx - w, 0, n - 1), np.clip(idx + w, 0, n - 1)
+    tcp = np.asarray(traj.tcp, dtype=np.float64)
+    return displaced(tcp[a], tcp[b], displacement)
+
+
 def motion_window(dt: float, window_s: float) -> int:
     """Half-width in samples of the window of :func:`moving_objects`."""
     return max(1, round(window_s / dt)) if dt > 0 else 1
@@ -393,6 +413,8 @@ def co_motion_penalty(
     lifted: np.ndarray | None = None,
     grace: int = 0,
     slide: float = -1.0,
+    hand: np.ndarray | None = None,
+    left: float = -1.0,
     band: Band | None = None,
 ) -> np.ndarray | None:
     """Penalty ``(O, N, S)`` over the runs of ``band``, or ``(O, K, K + 1, S)`` over every run
@@ -408,12 +430,24 @@ def co_motion_penalty(
       (:data:`NO_SET_DOWN`), or is lifted after it rested, if ``s`` does not lift it
       (:data:`NO_LIFT`): repeated cycles on one object come out as separate segments;
     - beyond the first ``slide`` (samples, negative: none charged) in which ``o`` moves while it
-      rests, if ``s`` carries it lifted (:data:`CARRIED`): that is a Push.
+      rests, if ``s`` carries it lifted (:data:`CARRIED`): that is a Push;
+    - beyond the first ``left`` (samples, negative: none charged) in which the hand moves
+      (``hand`` (n,), :func:`moving_hand`) while ``o`` stays, if ``s`` carries ``o``: the hand
+      has left it behind.
 
     ``grace`` samples at each end of a segment are free. ``None`` if ``weight`` is 0.
     """
     of = co_motion_per_object(
-        moving, bounds, skills, weight, lifted=lifted, grace=grace, slide=slide, band=band
+        moving,
+        bounds,
+        skills,
+        weight,
+        lifted=lifted,
+        grace=grace,
+        slide=slide,
+        hand=hand,
+        left=left,
+        band=band,
     )
     return None if of is None else np.stack([of(o) for o in range(moving.shape[0])])
 
@@ -427,12 +461,16 @@ def co_motion_per_object(
     lifted: np.ndarray | None = None,
     grace: int = 0,
     slide: float = -1.0,
+    hand: np.ndarray | None = None,
+    left: float = -1.0,
     band: Band | None = None,
 ) -> Callable[[int], np.ndarray] | None:
     """:func:`co_motion_penalty` one target object at a time: ``of(o)`` is its ``[o]`` (the
     sample counts behind it are computed once, per object and run, without the skill axis)."""
     if np.isnan(slide):
         raise InvalidParameterError("co_motion_slide_s must be a number (negative: off), got nan")
+    if np.isnan(left):
+        raise InvalidParameterError("co_motion_left_s must be a number (negative: off), got nan")
     if weight == 0 or moving.size == 0:
         return None
     n_obj, n = moving.shape
@@ -455,6 +493,10 @@ def co_motion_per_object(
         relift = _count_after(lifted, _next_true(resting), lo, hi)
         if slide >= 0:
             sliding = np.maximum(_count_after(moving & resting, everywhere, lo, hi) - slide, 0.0)
+    behind = None
+    if hand is not None and left >= 0:
+        h = np.asarray(hand, dtype=bool)[:n]
+        behind = np.maximum(_count_after(h[None, :] & ~moving, everywhere, lo, hi) - left, 0.0)
     no_set_down, no_lift = _skill_mask(skills, NO_SET_DOWN), _skill_mask(skills, NO_LIFT)
     carried = _skill_mask(skills, CARRIED)
 
@@ -465,6 +507,8 @@ def co_motion_per_object(
             out += relift[o][..., None] * no_lift
         if sliding is not None:
             out += sliding[o][..., None] * carried
+        if behind is not None:
+            out += behind[o][..., None] * carried
         out *= -weight
         return np.asarray(out, dtype=np.float64)
 
