@@ -588,10 +588,14 @@ class OnlineSegmenter:
         length = self._implicit_k
         out: list[Segment] = []
         held = self._held
+        last = self._last_passed()
         if held is not None:
             self._held = None
             out = insert_implicit_moves(hist, [held, seg], length)
-        elif (last := self._last_passed()) is not None and (
+        elif last is not None and last.skill == "move" and last.end > seg.start:
+            # the Move that starts seg was emitted with the release (_flush_held)
+            out = [_resized(hist, seg, last.end, seg.end)] if seg.end > last.end else []
+        elif last is not None and (
             needs_implicit_move(last.skill, seg.skill)
             or (
                 needs_move_between(last.skill, last.object, seg.skill, seg.object)
@@ -637,7 +641,17 @@ class OnlineSegmenter:
                 return []
         self._held = None
         out = [held]
-        if held.skill == "locate" and not final and after not in (None, "move"):
+        if (
+            not final
+            and after is not None
+            and needs_implicit_move(held.skill, after)
+            and held.end + self._implicit_k < self._t_ns.n
+        ):
+            # past the wait, the next skill unsettled: the Move it will start with (as _release
+            # inserts it after an emitted release) is known already
+            hist = self._history()
+            out.append(_make_segment(hist, "move", held.end, held.end + self._implicit_k, None))
+        elif held.skill == "locate" and not final and after not in (None, "move"):
             # past the lag, the next skill unsettled: a Move if the hand has gone to another
             # object (label_moves' rule), taken from the Locate's end
             obj = object_after(self._tcp.view(), self._pos.view(), held.end, self._move_k)

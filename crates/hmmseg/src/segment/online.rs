@@ -526,6 +526,10 @@ pub struct OnlineDp {
     /// The state of the best hypothesis with a segment going on, from the last agreement
     /// check; the lag forces its path.
     leader: Leader,
+    /// Per skill, the earliest end of a first unsettled segment of that skill among the
+    /// hypotheses close to the best, from the last agreement check: forcing counts the lag from
+    /// there (see [`OnlineDp::converge_running`]).
+    earliest: Vec<Option<usize>>,
 }
 
 impl OnlineDp {
@@ -564,6 +568,7 @@ impl OnlineDp {
             count: 0,
             lead: None,
             leader: Leader::Unknown,
+            earliest: vec![None; ns],
         })
     }
 
@@ -839,6 +844,21 @@ impl OnlineDp {
         if !top.is_finite() {
             return Vec::new();
         }
+        // where the close hypotheses end their first unsettled segment, per skill: alternatives
+        // that differ only in where a boundary lies take turns leading, and the lag then counts
+        // from the earliest of them
+        let near = beam.min(ACROSS_BEAM);
+        self.earliest = vec![None; ns];
+        for (state, h) in &hyps {
+            let Some((i, p)) = *state else { continue };
+            if *h < top - near {
+                continue;
+            }
+            if let Some(&(j, s)) = self.path(tier, i, p).as_ref().and_then(|p| p.first()) {
+                let end = self.bounds[j];
+                self.earliest[s] = Some(self.earliest[s].map_or(end, |e| e.min(end)));
+            }
+        }
         self.leader = match hyps.iter().max_by(|a, b| a.1.total_cmp(&b.1)) {
             Some((Some(state), _)) => Leader::State(*state),
             Some((None, _)) => Leader::Start,
@@ -859,7 +879,6 @@ impl OnlineDp {
             }
             // only boundary placement is decided so: no hypothesis within the beam may have a
             // segment still going on across the node's end
-            let near = beam.min(ACROSS_BEAM);
             let across = |node: (usize, usize)| {
                 hyps.iter()
                     .any(|(state, h)| *h >= top - near && state.is_none_or(|(i, _)| i < node.0))
@@ -900,7 +919,8 @@ impl OnlineDp {
         out
     }
 
-    /// Force the best path's segments whose end is older than the lag.
+    /// Force the best path's segments whose end is older than the lag (counted from the
+    /// earliest end of the same skill among the close hypotheses of the last agreement check).
     fn force(&mut self) -> Vec<Settled> {
         let mut out = Vec::new();
         loop {
@@ -919,7 +939,11 @@ impl OnlineDp {
             let old_enough = |path: &Option<Vec<(usize, usize)>>, lag: usize| {
                 path.as_ref()
                     .and_then(|p| p.first().copied())
-                    .filter(|&(j, _)| self.now.saturating_sub(self.bounds[j]) > lag)
+                    .filter(|&(j, s)| {
+                        let end =
+                            self.earliest[s].map_or(self.bounds[j], |e| e.min(self.bounds[j]));
+                        self.now.saturating_sub(end) > lag
+                    })
             };
             let node = old_enough(&complete(), self.lag)
                 .or_else(|| old_enough(&leader, self.lag.saturating_add(self.lag / 6)));
@@ -966,6 +990,7 @@ impl OnlineDp {
             ));
         }
         self.prev_skill = Some(s);
+        self.earliest = vec![None; self.grammar.n_skills()];
         self.settled = (j, Some(s));
         self.count += 1;
         for r in &mut self.rows[i..=j] {
