@@ -341,22 +341,21 @@ def _resized(traj: Trajectory, seg: Segment, start: int, end: int) -> Segment:
 def moving_objects(traj: Trajectory, window_s: float, displacement: float) -> np.ndarray:
     """``(O, n)``: object ``o`` moves at sample ``t`` if it is displaced by more than
     ``displacement`` (m) between ``t - window_s`` and ``t + window_s`` (NaN-free input)."""
-    n = len(traj)
-    w = motion_window(traj.dt, window_s)
-    idx = np.arange(n)
-    a, b = np.clip(idx - w, 0, n - 1), np.clip(idx + w, 0, n - 1)
-    pos = np.asarray(traj.object_position, dtype=np.float64)
-    return displaced(pos[:, a], pos[:, b], displacement)
+    return _moving(traj, np.asarray(traj.object_position, dtype=np.float64), window_s, displacement)
 
 
 def moving_hand(traj: Trajectory, window_s: float, displacement: float) -> np.ndarray:
     """``(n,)``: the TCP moves at sample ``t``, by the rule of :func:`moving_objects`."""
+    return _moving(traj, np.asarray(traj.tcp, dtype=np.float64), window_s, displacement)
+
+
+def _moving(traj: Trajectory, pos: np.ndarray, window_s: float, displacement: float) -> np.ndarray:
+    """The rule of :func:`moving_objects` on positions ``(..., n, 3)`` of ``traj``'s samples."""
     n = len(traj)
     w = motion_window(traj.dt, window_s)
     idx = np.arange(n)
     a, b = np.clip(idx - w, 0, n - 1), np.clip(idx + w, 0, n - 1)
-    tcp = np.asarray(traj.tcp, dtype=np.float64)
-    return displaced(tcp[a], tcp[b], displacement)
+    return displaced(pos[..., a, :], pos[..., b, :], displacement)
 
 
 def motion_window(dt: float, window_s: float) -> int:
