@@ -187,13 +187,22 @@ def evaluate_demo(
     """Run every method on one labelled demonstration and compute the metrics.
 
     Time the recording's metadata excludes (another hand handling the object:
-    :func:`~lfd.segmentation.metrics.excluded_spans`) is left out of every metric.
+    :func:`~lfd.segmentation.metrics.excluded_spans`) is left out of every metric. A recording
+    none of whose objects moves, where a method still finds a skill that moves one, is scored
+    with a :class:`~lfd.errors.LfdWarning` (:func:`lfd.io.checks.unmoved_objects_message`).
 
     Raises
     ------
     DemonstrationError
-        Malformed excluded spans in the metadata.
+        Malformed excluded spans in the metadata, or a hand that reaches no object
+        (:func:`lfd.io.checks.check_hand_reaches`: there is nothing to score).
     """
+    import warnings
+
+    from ..errors import LfdWarning
+    from ..io.checks import check_hand_reaches, unmoved_objects_message
+
+    check_hand_reaches(demo)
     task = str(demo.metadata.get("task") or demo.metadata.get("experiment") or "unknown")
     exclude = excluded_spans(demo.metadata, demo.start_ns)
     t0 = demo.start_ns
@@ -212,6 +221,10 @@ def evaluate_demo(
             continue
         res.sequences[m] = [s.skill for s in restrict(seg.segments, exclude)]
         res.metrics[m] = all_metrics(seg.segments, demo.labels, exclude=exclude)
+    found = [s for m in res.sequences for s in res.sequences[m]]
+    unmoved = unmoved_objects_message(demo, found)
+    if unmoved is not None:
+        warnings.warn(f"{name}: {unmoved}", LfdWarning, stacklevel=2)
     return res
 
 
