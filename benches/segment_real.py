@@ -125,8 +125,7 @@ def _cell(m: dict[str, float], n: int | None = None) -> str:
     exact = f"{m['sequence_match']:.0f}" if n is None else f"{m['exact']:.0f}/{n}"
     be = m["boundary_error_s"]
     return (
-        f"{exact}, {100 * m['frame_accuracy']:.1f} %, "
-        f"{be:.2f} s, x{m['segment_ratio']:.2f}"
+        f"{exact}, {100 * m['frame_accuracy']:.1f} %, {be:.2f} s, x{m['segment_ratio']:.2f}"
         if math.isfinite(be)
         else f"{exact}, {100 * m['frame_accuracy']:.1f} %, -, x{m['segment_ratio']:.2f}"
     )

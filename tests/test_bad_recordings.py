@@ -34,7 +34,6 @@ from lfd.io.checks import (
     object_travel,
     unmoved_objects_message,
 )
-
 from test_object_sizes import strip_sizes
 
 ROOT = Path(__file__).resolve().parents[1]
