@@ -68,10 +68,33 @@ def summarise(
             demo = None
     summary["warnings"] = [str(w.message) for w in caught]
     if demo is not None:
+        from .checks import closest_approach, object_travel, reach_message, unmoved_objects_message
+
+        travel = object_travel(demo)
         summary["objects"] = [
-            {"name": o.name, "tag_id": o.tag_id, "size": o.size.tolist(), "samples": len(o)}
+            {
+                "name": o.name,
+                "tag_id": o.tag_id,
+                "size": o.size.tolist(),
+                "samples": len(o),
+                "travel_m": travel[o.name],
+            }
             for o in demo.objects.values()
         ]
+        approach = closest_approach(demo)
+        summary["hand_approach"] = {
+            "distance_m": approach.distance_m if approach.object is not None else None,
+            "object": approach.object,
+            "t_s": approach.t_s,
+        }
+        for problem in (
+            reach_message(demo),
+            unmoved_objects_message(
+                demo, [lab.skill for lab in demo.labels], source="the ground truth"
+            ),
+        ):
+            if problem is not None:
+                summary["warnings"].append(problem)
         for key, labels in (("labels", demo.labels), ("live_segments", demo.live_segments)):
             summary[key] = [
                 {
