@@ -57,6 +57,7 @@ from .motion import (
 )
 from .program import Segment, TaskProgram
 from .robot import FINGER_BELOW_TCP, MAX_OPENING
+from .timescale import retime
 
 MODES = ("replay", "skills", "dmp")
 PAD_OFFSET = 0.015
@@ -251,6 +252,8 @@ class _TaskPlanner:
         plan = plan_replay(frames, program) if self.mode == "replay" else Plan.concat(self.parts)
         # the fingertips never go below the table top (human fingertips may graze it)
         plan.position[:, 2] = np.maximum(plan.position[:, 2], Z_MIN)
+        # the demonstration's timing is a wish: slowed down to what the arm can follow
+        plan = retime(plan)
         self.scenes.append(dict(self.expected))
         return PlanResult(plan, self.expected, self.goals, program, self.scenes)
 
