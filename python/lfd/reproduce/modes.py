@@ -442,6 +442,9 @@ class _TaskPlanner:
         funnel = max(FUNNEL, obj_h / 2 + FINGER_BELOW_TCP + FUNNEL_MARGIN)
         w = np.clip((path[:, 2] - goal[2]) / funnel, 0.0, 1.0)[:, None]
         path[:, :2] = goal[:2] + w * (path[:, :2] - goal[:2])
+        # a start inside the funnel is where the robot is: the pull is blended in, not jumped
+        ramp = min_jerk_clip(len(path), YAW_TURN)[:, None]
+        path[:, :2] += (1.0 - ramp) * (cur[:2] - path[0, :2])
 
     def _vertical_grasp(self, path: np.ndarray, goal: np.ndarray, name: str) -> np.ndarray:
         """A pick_up whose open fingertips would pass below the object's top more than
@@ -456,7 +459,12 @@ class _TaskPlanner:
         hover = np.array([*goal[:2], max(goal[2], top + FINGER_BELOW_TCP + GRASP_CLEAR), goal[3]])
         path = path.copy()
         path[:, 2] = np.maximum(path[:, 2], hover[2])
-        return np.concatenate([path, line(hover, goal, min_s=GRASP_DESCENT_MIN_S)[1:]])
+        pieces = [path, line(hover, goal, min_s=GRASP_DESCENT_MIN_S)[1:]]
+        start = self.cur
+        if start[2] < hover[2] - 1e-6:  # starting low beside the object: rise vertically first
+            up = np.array([*start[:2], hover[2], start[3]])
+            pieces[:0] = [line(start, up, min_s=GRASP_DESCENT_MIN_S), line(up, path[0])[1:-1]]
+        return np.concatenate(pieces)
 
     def _after(self, sg: _SkillGoal) -> None:
         """What follows the segment: close (pick_up), open and lift off (place, stack), back
