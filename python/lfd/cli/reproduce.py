@@ -105,6 +105,7 @@ def run(args: argparse.Namespace) -> int:
     from ..reproduce import (
         TaskProgram,
         check_displacement,
+        check_program,
         from_labels,
         from_segmentation,
         parse_displacement,
@@ -150,6 +151,8 @@ def run(args: argparse.Namespace) -> int:
         return _run_randomised(args, traj, program, modes, err)
     # refused here, before the progress bar starts, so the error stays one line on stderr
     check_displacement(traj, displace, program_start(traj, program))
+    if any(m != "replay" for m in modes):
+        check_program(traj, program)
     results = {}
     # a bar only on a terminal: piped, it would leave an empty line before an error's one line
     with Progress(console=err, transient=True, disable=not err.is_terminal) as bar:

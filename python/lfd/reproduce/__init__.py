@@ -28,6 +28,7 @@ from .controller import Execution, Plan, execute
 from .displacement import (
     Displacement,
     check_displacement,
+    check_program,
     parse_displacement,
     plan_layout,
     program_start,
@@ -48,6 +49,7 @@ __all__ = [
     "SkillResult",
     "TaskProgram",
     "check_displacement",
+    "check_program",
     "from_labels",
     "from_segmentation",
     "parse_displacement",

@@ -40,7 +40,7 @@ import numpy as np
 from ..errors import InvalidParameterError
 from .controller import TICK, Plan
 from .dmp import dmp_rollout, min_jerk, resample, warp
-from .goals import DemoFrames, grasp_goal, grasp_opening, pose, upright, wrap_near, yaw_of
+from .goals import DemoFrames, check_grasp_fits, grasp_goal, grasp_opening, pose, upright, wrap_near, yaw_of
 from .motion import (
     CLEARANCE,
     clear,
@@ -510,7 +510,19 @@ def plan_task(
     """
     if mode not in MODES:
         raise InvalidParameterError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
-    return _TaskPlanner(frames, repair_program(frames, program), mode, initial).plan()
+    program = repair_program(frames, program)
+    if mode != "replay":
+        check_grasps(frames, program)
+    return _TaskPlanner(frames, program, mode, initial).plan()
+
+
+def check_grasps(frames: DemoFrames, program: TaskProgram) -> None:
+    """Refuse a program that picks up an object wider than the gripper can close across
+    (:func:`~lfd.reproduce.goals.check_grasp_fits`), before anything is planned or run."""
+    for seg in repair_program(frames, program).segments:
+        if seg.skill == "pick_up" and seg.object in frames.names:
+            size = frames.size[frames.object_index(seg.object)]
+            check_grasp_fits(str(seg.object), size, when=f" (pick_up at {seg.start_s:.1f} s)")
 
 
 def repair_program(frames: DemoFrames, program: TaskProgram) -> TaskProgram:
@@ -558,7 +570,9 @@ def _pick_goal(
         for T, sz in others
         if abs(T[2, 3] - objects[name][2, 3]) < 0.5 * (sz[2] + size[2]) - 0.005
     ]
-    p, yaw = grasp_goal(objects[name], size, float(frames.yaw[i1]), near)
+    # where the person held it, relative to the object (Eq. 2: it moves with the object)
+    held = np.linalg.inv(frames.object_pose(name, i1)) @ frames.tcp_pose(i1)
+    p, yaw = grasp_goal(objects[name], size, float(frames.yaw[i1]), near, held[:2, 3])
     # the gripper is symmetric: take the representative the wrist reaches most easily
     yaw = float(wrap_near(yaw, float(frames.natural_yaw(p))))
     return name, np.array([*p, yaw])
@@ -598,6 +612,13 @@ def _place_goal(
         kept = float(wrap_near(goal[3], yaw_now))
         if abs(float(wrap_near(kept - natural, 0.0, 2 * np.pi))) <= CARRY_WRIST:
             goal[3] = kept
+    if held and held[0] == name:
+        # the box hangs where it was grasped (off its centre when the person held it so): the
+        # TCP goes where that puts the box's centre on its resting position, at the goal's yaw
+        # (which may be the held yaw's other, symmetric representative)
+        in_grip = np.linalg.inv(held[1])[:3, 3]
+        goal[:3] = T_end[:3, 3] - pose(np.zeros(3), float(goal[3]))[:3, :3] @ in_grip
+        goal[2] += RELEASE_LIFT
     return name, goal, T_end
 
 
