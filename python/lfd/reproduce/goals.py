@@ -270,7 +270,11 @@ def grasp_goal(
     p[2] = max(p[2], p[2] - size[2] / 2 + FINGER_BELOW_TCP + 0.006)
     psi = yaw_of(T_obj[:3, :3])
     cands = [(psi, size[0]), (psi + np.pi / 2, size[1])]
-    fits = [c for c in cands if c[1] <= MAX_OPENING - 0.015] or cands
+    fits = (
+        [c for c in cands if c[1] <= MAX_OPENING - 0.015]
+        or [c for c in cands if c[1] <= GRASP_MAX_WIDTH]  # (a mug: only across its body)
+        or cands
+    )
 
     def room(c: tuple[float, float]) -> float:
         u = np.array([np.cos(c[0]), np.sin(c[0])])

@@ -298,7 +298,12 @@ class _TaskPlanner:
         frames, objects = self.frames, self.objects
         grip = 0.0 if seg.skill == "move_with" else MAX_OPENING
         if k + 1 >= len(self.segs):
-            return _SkillGoal(_state(frames.tcp_pose(i1), float(frames.yaw[i1])), grip)
+            # the last move ends where the hand did, but never on or in an object (a person's
+            # hand may rest on the box it has just put down)
+            goal = _state(frames.tcp_pose(i1), float(frames.yaw[i1]))
+            need = required_height(goal[None, :2], frames, objects, **self._clearance(seg))[0]
+            goal[2] = max(goal[2], float(need) + 0.001)
+            return _SkillGoal(goal, grip)
         nxt = self.segs[k + 1]
         j0, _ = segment_indices(frames, nxt)
         goal = _state(_map(frames, nxt, j0, objects), float(frames.yaw[j0]))
