@@ -11,7 +11,8 @@ How: a local slowdown ``r(t) >= 1`` is the largest of ``|v| / v_max``, ``sqrt(|a
 and the same for the yaw (a path played ``r`` times slower has ``1/r`` of the speed and ``1/r²``
 of the acceleration). ``r`` is widened by a running maximum over :data:`SMOOTH_S` and then
 averaged over a shorter window (so it stays at least the required value everywhere and changes
-gently: a changing ``r`` adds acceleration of its own), the plan's phase advances at ``1/r`` of
+gently: a changing ``r`` adds acceleration of its own; where the path holds still, a dwell, time
+runs as planned), the plan's phase advances at ``1/r`` of
 real time and the path is sampled there (cubic interpolation). The result is checked again and
 the step repeated on it while any limit is still exceeded (:data:`MAX_PASSES`). A time-varying
 speed override like this keeps the path exactly; it is not time-optimal like TOPP-RA, but its
@@ -118,6 +119,11 @@ def _resample_plan(plan: Plan, phase: np.ndarray) -> Plan:
 
 def _pass(plan: Plan, limits: Limits) -> Plan:
     r = _smooth(slowdown(plan.position, plan.yaw, limits))
+    # where the path holds still (a dwell) nothing is gained by slowing: time runs as planned
+    y = np.column_stack([plan.position, plan.yaw])
+    step = np.r_[np.abs(np.diff(y, axis=0)).max(axis=1), 0.0]
+    still = (step < 1e-9) & (np.r_[0.0, step[:-1]] < 1e-9)
+    r[still] = 1.0
     if r.max() <= 1.0:
         return plan
     n = len(plan)
