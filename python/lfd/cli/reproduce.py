@@ -175,7 +175,17 @@ def run(args: argparse.Namespace) -> int:
             log_reproduction(r, skills=program.skills, object_sizes=sizes)
     close_from_args(args)
     table = Table(title=f"{args.recording}: {' '.join(program.skills)}")
-    for col in ("mode", "path length (m)", "ratio", "time (s)", "success", "objects", "failed"):
+    cols = (
+        "mode",
+        "path length (m)",
+        "ratio",
+        "time (s)",
+        "slower",
+        "success",
+        "objects",
+        "failed",
+    )
+    for col in cols:
         table.add_column(col)
     ref = results["replay"].path_length if "replay" in results else None
     for mode, r in results.items():
@@ -190,6 +200,8 @@ def run(args: argparse.Namespace) -> int:
             f"{r.path_length:.4f}",
             ratio,
             f"{r.execution_time_s:.1f}",
+            # robot time / demonstrated time (the plan is slowed to the arm's limits)
+            f"{r.slowdown:.1f}x" if r.slowdown else "-",
             "yes" if r.success else "no",
             objs,
             # which skill failed and its first reason (all of them below and in --json)

@@ -293,8 +293,8 @@ def grasp_goal(
         across = np.array([-np.sin(best[0]), np.cos(best[0])])  # the gripper's x axis
         o = T_obj[:2, :2] @ np.asarray(demo_offset, dtype=np.float64)[:2]
         extent = size[1] if best is cands[0] else size[0]  # the box along ``across``
-        room = max(0.0, extent / 2 - FINGER_HALF_X - GRASP_EDGE)
-        p[:2] += float(np.clip(o @ across, -room, room)) * across
+        free = max(0.0, float(extent) / 2 - FINGER_HALF_X - GRASP_EDGE)
+        p[:2] += float(np.clip(float(o @ across), -free, free)) * across
     return p, float(wrap_near(best[0], demo_yaw))
 
 

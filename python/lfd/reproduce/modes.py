@@ -40,7 +40,16 @@ import numpy as np
 from ..errors import InvalidParameterError
 from .controller import TICK, Plan
 from .dmp import dmp_rollout, min_jerk, resample, warp
-from .goals import DemoFrames, check_grasp_fits, grasp_goal, grasp_opening, pose, upright, wrap_near, yaw_of
+from .goals import (
+    DemoFrames,
+    check_grasp_fits,
+    grasp_goal,
+    grasp_opening,
+    pose,
+    upright,
+    wrap_near,
+    yaw_of,
+)
 from .motion import (
     CLEARANCE,
     clear,
