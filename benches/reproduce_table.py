@@ -45,8 +45,7 @@ def _displacement(rng: np.random.Generator, traj, program) -> dict[str, tuple[fl
 
 
 def main() -> None:
-    from lfd.preprocessing import preprocess
-    from lfd.reproduce import from_labels, reproduce
+    from lfd.reproduce import from_labels, preprocess_for_reproduction, reproduce
     from lfd.sim import simulate
 
     ap = argparse.ArgumentParser()
@@ -58,7 +57,7 @@ def main() -> None:
     for exp in args.experiments:
         for seed in args.seeds:
             demo = simulate(exp, seed=seed).demo
-            traj = preprocess(demo)
+            traj = preprocess_for_reproduction(demo)
             program = from_labels(demo.labels, int(traj.t_ns[0]))
             row: dict = {"experiment": exp, "seed": seed}
             for mode in ("replay", "skills", "dmp"):

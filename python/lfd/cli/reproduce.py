@@ -102,13 +102,14 @@ def run(args: argparse.Namespace) -> int:
 
     from ..io import load
     from ..outputs import check_output
-    from ..preprocessing import preprocess
     from ..reproduce import (
         TaskProgram,
         check_displacement,
+        check_program,
         from_labels,
         from_segmentation,
         parse_displacement,
+        preprocess_for_reproduction,
         program_start,
         reproduce,
         reproduction_report,
@@ -136,7 +137,7 @@ def run(args: argparse.Namespace) -> int:
         check_output(args.video, inputs=[args.recording], what="--video", suffixes=VIDEO_SUFFIXES)
     show = open_from_args(args, "lfd_reproduce")
     demo = load(args.recording, images=False, **loading)
-    traj = preprocess(demo)
+    traj = preprocess_for_reproduction(demo)
     t0 = int(traj.t_ns[0])
     if args.task:
         program = TaskProgram.load(args.task)
@@ -149,6 +150,8 @@ def run(args: argparse.Namespace) -> int:
         return _run_randomised(args, traj, program, modes, err)
     # refused here, before the progress bar starts, so the error stays one line on stderr
     check_displacement(traj, displace, program_start(traj, program))
+    if any(m != "replay" for m in modes):
+        check_program(traj, program)
     results = {}
     # a bar only on a terminal: piped, it would leave an empty line before an error's one line
     with Progress(console=err, transient=True, disable=not err.is_terminal) as bar:
@@ -171,7 +174,17 @@ def run(args: argparse.Namespace) -> int:
             log_reproduction(r, skills=program.skills, object_sizes=sizes)
     close_from_args(args)
     table = Table(title=f"{args.recording}: {' '.join(program.skills)}")
-    for col in ("mode", "path length (m)", "ratio", "time (s)", "success", "objects", "failed"):
+    cols = (
+        "mode",
+        "path length (m)",
+        "ratio",
+        "time (s)",
+        "slower",
+        "success",
+        "objects",
+        "failed",
+    )
+    for col in cols:
         table.add_column(col)
     ref = results["replay"].path_length if "replay" in results else None
     for mode, r in results.items():
@@ -186,6 +199,8 @@ def run(args: argparse.Namespace) -> int:
             f"{r.path_length:.4f}",
             ratio,
             f"{r.execution_time_s:.1f}",
+            # robot time / demonstrated time (the plan is slowed to the arm's limits)
+            f"{r.slowdown:.1f}x" if r.slowdown else "-",
             "yes" if r.success else "no",
             objs,
             # which skill failed and its first reason (all of them below and in --json)

@@ -277,6 +277,21 @@ def check_goals(
                     )
 
 
+def check_program(traj: Trajectory, program: TaskProgram) -> None:
+    """Refuse a task the robot cannot do whatever the layout, before anything is simulated:
+    a pick_up of an object wider than the gripper closes across
+    (:func:`~lfd.reproduce.goals.check_grasp_fits`).
+
+    Raises
+    ------
+    UsageError
+        One line naming the object and the widths.
+    """
+    from .modes import check_grasps
+
+    check_grasps(DemoFrames(traj, np.zeros(3)), program)
+
+
 def plan_layout(
     traj: Trajectory,
     program: TaskProgram,

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import DemonstrationError
+from ..errors import DemonstrationError, UsageError
 from ..trajectory import Trajectory
 from .robot import FINGER_BELOW_TCP, FINGER_HALF_X, MAX_OPENING
 
@@ -199,6 +199,38 @@ FINGER_ROOM = 0.008
 when no direction leaves that much room."""
 
 
+GRASP_FIT_CLEARANCE = 0.008
+"""The open fingers must pass beside a grasped object with this much room in all (m): the
+widest object the gripper can grasp is :data:`~lfd.reproduce.robot.MAX_OPENING` minus this."""
+GRASP_MAX_WIDTH = MAX_OPENING - GRASP_FIT_CLEARANCE
+"""Widest object side (m) a pick_up can close across (:func:`check_grasp_fits`)."""
+
+
+def check_grasp_fits(name: str, size: np.ndarray, *, when: str = "") -> None:
+    """Refuse a pick_up of an object whose every side is wider than :data:`GRASP_MAX_WIDTH`.
+
+    The object is its upright bounding box: the gripper closes across one of its two horizontal
+    sides (a handle or knob a person may hold by is not modelled).
+
+    Raises
+    ------
+    UsageError
+        One line: which object, how wide, how wide the gripper opens.
+    """
+    narrow = float(min(size[0], size[1]))
+    if narrow > GRASP_MAX_WIDTH:
+        raise UsageError(
+            f"cannot grasp {name}{when}: its narrowest side is {narrow * 1000:.0f} mm, the "
+            f"gripper opens {MAX_OPENING * 1000:.0f} mm (objects up to "
+            f"{GRASP_MAX_WIDTH * 1000:.0f} mm wide, with room for the fingers)"
+        )
+
+
+GRASP_EDGE = 0.005
+"""A grasp off the box centre (where the person held it) keeps the fingers this far (m) inside
+the box's edge."""
+
+
 def grasp_opening(width: float) -> float:
     """Opening (m) a pick_up approaches with for a closing width ``width``."""
     return float(min(MAX_OPENING, width + GRASP_OPENING_CLEARANCE))
@@ -216,12 +248,21 @@ def grasp_goal(
     size: np.ndarray,
     demo_yaw: float,
     neighbours: list[tuple[np.ndarray, np.ndarray]] | None = None,
+    demo_offset: np.ndarray | None = None,
 ) -> tuple[np.ndarray, float]:
-    """Skill-knowledge grasp: centred on the object, closing across a face that fits the gripper.
+    """Skill-knowledge grasp: closing across a face that fits the gripper, centred on the
+    object along the closing axis, where the person held it along the other.
 
     Of the two face directions, the one whose open fingers (:func:`grasp_opening`) keep
     :data:`FINGER_ROOM` from every ``neighbours`` box (``(pose, size)``, upright) is preferred
     (then the one nearest, modulo 180 deg, to the demonstrated yaw).
+
+    ``demo_offset`` (x, y in the object's frame, m): where the person's grasp (the TCP between
+    thumb and index) was relative to the object's centre. The object is only its bounding box: a
+    mug's box includes its handle, so its body is not at the box centre, and the person's grasp
+    shows where the body is. Across the closing axis the grasp keeps that offset (clipped so
+    the fingers stay :data:`GRASP_EDGE` inside the box); along it the grasp is centred (the
+    closing fingers centre the body themselves, an offset there would push it).
 
     Returns the TCP position (3,) and the yaw nearest (modulo 180 deg) to the demonstrated one.
     """
@@ -229,7 +270,11 @@ def grasp_goal(
     p[2] = max(p[2], p[2] - size[2] / 2 + FINGER_BELOW_TCP + 0.006)
     psi = yaw_of(T_obj[:3, :3])
     cands = [(psi, size[0]), (psi + np.pi / 2, size[1])]
-    fits = [c for c in cands if c[1] <= MAX_OPENING - 0.015] or cands
+    fits = (
+        [c for c in cands if c[1] <= MAX_OPENING - 0.015]
+        or [c for c in cands if c[1] <= GRASP_MAX_WIDTH]  # (a mug: only across its body)
+        or cands
+    )
 
     def room(c: tuple[float, float]) -> float:
         u = np.array([np.cos(c[0]), np.sin(c[0])])
@@ -244,6 +289,12 @@ def grasp_goal(
         if roomy
         else max(fits, key=room)
     )
+    if demo_offset is not None:
+        across = np.array([-np.sin(best[0]), np.cos(best[0])])  # the gripper's x axis
+        o = T_obj[:2, :2] @ np.asarray(demo_offset, dtype=np.float64)[:2]
+        extent = size[1] if best is cands[0] else size[0]  # the box along ``across``
+        free = max(0.0, float(extent) / 2 - FINGER_HALF_X - GRASP_EDGE)
+        p[:2] += float(np.clip(float(o @ across), -free, free)) * across
     return p, float(wrap_near(best[0], demo_yaw))
 
 

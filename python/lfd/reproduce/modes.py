@@ -40,7 +40,16 @@ import numpy as np
 from ..errors import InvalidParameterError
 from .controller import TICK, Plan
 from .dmp import dmp_rollout, min_jerk, resample, warp
-from .goals import DemoFrames, grasp_goal, grasp_opening, pose, upright, wrap_near, yaw_of
+from .goals import (
+    DemoFrames,
+    check_grasp_fits,
+    grasp_goal,
+    grasp_opening,
+    pose,
+    upright,
+    wrap_near,
+    yaw_of,
+)
 from .motion import (
     CLEARANCE,
     clear,
@@ -57,6 +66,7 @@ from .motion import (
 )
 from .program import Segment, TaskProgram
 from .robot import FINGER_BELOW_TCP, MAX_OPENING
+from .timescale import retime
 
 MODES = ("replay", "skills", "dmp")
 PAD_OFFSET = 0.015
@@ -251,6 +261,8 @@ class _TaskPlanner:
         plan = plan_replay(frames, program) if self.mode == "replay" else Plan.concat(self.parts)
         # the fingertips never go below the table top (human fingertips may graze it)
         plan.position[:, 2] = np.maximum(plan.position[:, 2], Z_MIN)
+        # the demonstration's timing is a wish: slowed down to what the arm can follow
+        plan = retime(plan)
         self.scenes.append(dict(self.expected))
         return PlanResult(plan, self.expected, self.goals, program, self.scenes)
 
@@ -295,7 +307,12 @@ class _TaskPlanner:
         frames, objects = self.frames, self.objects
         grip = 0.0 if seg.skill == "move_with" else MAX_OPENING
         if k + 1 >= len(self.segs):
-            return _SkillGoal(_state(frames.tcp_pose(i1), float(frames.yaw[i1])), grip)
+            # the last move ends where the hand did, but never on or in an object (a person's
+            # hand may rest on the box it has just put down)
+            goal = _state(frames.tcp_pose(i1), float(frames.yaw[i1]))
+            need = required_height(goal[None, :2], frames, objects, **self._clearance(seg))[0]
+            goal[2] = max(goal[2], float(need) + 0.001)
+            return _SkillGoal(goal, grip)
         nxt = self.segs[k + 1]
         j0, _ = segment_indices(frames, nxt)
         goal = _state(_map(frames, nxt, j0, objects), float(frames.yaw[j0]))
@@ -439,6 +456,9 @@ class _TaskPlanner:
         funnel = max(FUNNEL, obj_h / 2 + FINGER_BELOW_TCP + FUNNEL_MARGIN)
         w = np.clip((path[:, 2] - goal[2]) / funnel, 0.0, 1.0)[:, None]
         path[:, :2] = goal[:2] + w * (path[:, :2] - goal[:2])
+        # a start inside the funnel is where the robot is: the pull is blended in, not jumped
+        ramp = min_jerk_clip(len(path), YAW_TURN)[:, None]
+        path[:, :2] += (1.0 - ramp) * (cur[:2] - path[0, :2])
 
     def _vertical_grasp(self, path: np.ndarray, goal: np.ndarray, name: str) -> np.ndarray:
         """A pick_up whose open fingertips would pass below the object's top more than
@@ -453,7 +473,12 @@ class _TaskPlanner:
         hover = np.array([*goal[:2], max(goal[2], top + FINGER_BELOW_TCP + GRASP_CLEAR), goal[3]])
         path = path.copy()
         path[:, 2] = np.maximum(path[:, 2], hover[2])
-        return np.concatenate([path, line(hover, goal, min_s=GRASP_DESCENT_MIN_S)[1:]])
+        pieces = [path, line(hover, goal, min_s=GRASP_DESCENT_MIN_S)[1:]]
+        start = self.cur
+        if start[2] < hover[2] - 1e-6:  # starting low beside the object: rise vertically first
+            up = np.array([*start[:2], hover[2], start[3]])
+            pieces[:0] = [line(start, up, min_s=GRASP_DESCENT_MIN_S), line(up, path[0])[1:-1]]
+        return np.concatenate(pieces)
 
     def _after(self, sg: _SkillGoal) -> None:
         """What follows the segment: close (pick_up), open and lift off (place, stack), back
@@ -499,7 +524,19 @@ def plan_task(
     """
     if mode not in MODES:
         raise InvalidParameterError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
-    return _TaskPlanner(frames, repair_program(frames, program), mode, initial).plan()
+    program = repair_program(frames, program)
+    if mode != "replay":
+        check_grasps(frames, program)
+    return _TaskPlanner(frames, program, mode, initial).plan()
+
+
+def check_grasps(frames: DemoFrames, program: TaskProgram) -> None:
+    """Refuse a program that picks up an object wider than the gripper can close across
+    (:func:`~lfd.reproduce.goals.check_grasp_fits`), before anything is planned or run."""
+    for seg in repair_program(frames, program).segments:
+        if seg.skill == "pick_up" and seg.object in frames.names:
+            size = frames.size[frames.object_index(seg.object)]
+            check_grasp_fits(str(seg.object), size, when=f" (pick_up at {seg.start_s:.1f} s)")
 
 
 def repair_program(frames: DemoFrames, program: TaskProgram) -> TaskProgram:
@@ -547,7 +584,9 @@ def _pick_goal(
         for T, sz in others
         if abs(T[2, 3] - objects[name][2, 3]) < 0.5 * (sz[2] + size[2]) - 0.005
     ]
-    p, yaw = grasp_goal(objects[name], size, float(frames.yaw[i1]), near)
+    # where the person held it, relative to the object (Eq. 2: it moves with the object)
+    held = np.linalg.inv(frames.object_pose(name, i1)) @ frames.tcp_pose(i1)
+    p, yaw = grasp_goal(objects[name], size, float(frames.yaw[i1]), near, held[:2, 3])
     # the gripper is symmetric: take the representative the wrist reaches most easily
     yaw = float(wrap_near(yaw, float(frames.natural_yaw(p))))
     return name, np.array([*p, yaw])
@@ -587,6 +626,13 @@ def _place_goal(
         kept = float(wrap_near(goal[3], yaw_now))
         if abs(float(wrap_near(kept - natural, 0.0, 2 * np.pi))) <= CARRY_WRIST:
             goal[3] = kept
+    if held and held[0] == name:
+        # the box hangs where it was grasped (off its centre when the person held it so): the
+        # TCP goes where that puts the box's centre on its resting position, at the goal's yaw
+        # (which may be the held yaw's other, symmetric representative)
+        in_grip = np.linalg.inv(held[1])[:3, 3]
+        goal[:3] = T_end[:3, 3] - pose(np.zeros(3), float(goal[3]))[:3, :3] @ in_grip
+        goal[2] += RELEASE_LIFT
     return name, goal, T_end
 
 

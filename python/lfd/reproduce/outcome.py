@@ -47,6 +47,15 @@ class SkillResult:
     position_error_mm: float | None = None
     """Final position error of the object this skill placed last (place/stack/push)."""
     rotation_error_deg: float | None = None
+    demo_s: float = 0.0
+    """Duration of the segment in the demonstration (s)."""
+    robot_s: float = 0.0
+    """Duration of the segment on the robot (s), with the dwell and lift-off after it."""
+
+    @property
+    def slowdown(self) -> float | None:
+        """How many times longer the robot took than the demonstration (None: no demo time)."""
+        return self.robot_s / self.demo_s if self.demo_s > 0 else None
 
     @property
     def ok(self) -> bool:
@@ -69,6 +78,9 @@ class SkillResult:
             "reason": self.reason,
             "position_error_mm": self.position_error_mm,
             "rotation_error_deg": self.rotation_error_deg,
+            "demo_s": self.demo_s,
+            "robot_s": self.robot_s,
+            "slowdown": self.slowdown,
         }
 
 
@@ -119,8 +131,11 @@ def skill_results(
         Final errors per object, in ``ex.object_names`` order.
     """
     segs = program.segments
-    out = [SkillResult(k, s.skill, s.object) for k, s in enumerate(segs)]
     spans = _spans(plan, len(segs))
+    out = [
+        SkillResult(k, s.skill, s.object, demo_s=s.end_s - s.start_s, robot_s=(b - a) * TICK)
+        for k, (s, (a, b)) in enumerate(zip(segs, spans, strict=True))
+    ]
     n = len(plan)
     names = ex.object_names
     ahead = np.minimum(np.arange(n) + LOOKAHEAD, n - 1)

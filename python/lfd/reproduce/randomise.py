@@ -29,7 +29,7 @@ import numpy as np
 
 from ..errors import InvalidParameterError, LfdError, UsageError
 from ..trajectory import Trajectory
-from .displacement import Displacement, plan_layout, program_start
+from .displacement import Displacement, check_program, plan_layout, program_start
 from .goals import DemoFrames
 from .modes import MODES
 from .program import TaskProgram
@@ -134,6 +134,8 @@ def random_layouts(
         raise UsageError(f"--max-shift {max_shift}: must be 0-0.5 m")
     if not (np.isfinite(max_turn_deg) and 0.0 <= max_turn_deg <= 180.0):
         raise UsageError(f"--max-turn {max_turn_deg}: must be 0-180 deg")
+    if any(m != "replay" for m in modes):
+        check_program(traj, program)
     start_i = program_start(traj, program)
     frames = DemoFrames(traj, np.zeros(3))
     seen = np.all(np.isfinite(np.asarray(traj.object_position)[:, start_i, :]), axis=1)
