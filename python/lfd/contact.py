@@ -11,7 +11,8 @@ and the simulator's ground truth, so both speak of the same skill boundaries:
 - **lift**: a Pick up ends, and the Move with begins, when the object first moves (``lift_m``
   from where it rested when the grasp began);
 - **release**: a Place or Stack ends when the hand lets go of the set-down object: the thumb tip
-  more than ``release_thumb_m`` (1 cm) or the TCP more than ``release_tcp_m`` (3 cm) from its box;
+  ``release_thumb_m`` (1 cm) or the TCP ``release_tcp_m`` (3 cm) farther from its box than while
+  it held it, or the grasp aperture ``release_open_m`` (1.5 cm) wider;
   what follows is a Move.
 
 A segment is written ``(skill, start, end, object)``: samples ``start..end`` (end exclusive),
@@ -49,8 +50,10 @@ class ContactParams:
     place_h_m : float
         A Place or Stack begins where the carried object was last this far above the height at
         which it comes to rest.
-    release_thumb_m, release_tcp_m : float
-        The hand has let go once the thumb tip or the TCP is this far from the object's box.
+    release_thumb_m, release_tcp_m, release_open_m : float
+        The hand has let go once the thumb tip or the TCP is this much farther from the object's
+        box than when the object came to rest, or the grasp aperture this much wider (a thumb
+        on a mug's handle stays inside its bounding box).
     min_move : int
         A Move inserted before the first Pick up or after the last release has at least this
         many samples (shorter: the boundary is noise).
@@ -59,10 +62,11 @@ class ContactParams:
     approach_m: float = 0.08
     lift_m: float = 0.005
     lift_h_m: float = 0.01
-    rest_m: float = 0.003
+    rest_m: float = 0.002
     rest_samples: int = 3
     place_h_m: float = 0.05
     release_thumb_m: float = 0.01
+    release_open_m: float = 0.015
     release_tcp_m: float = 0.03
     min_move: int = 3
 
@@ -97,11 +101,15 @@ def refine(
     object_quaternion: np.ndarray,
     object_size: np.ndarray,
     params: ContactParams | None = None,
+    opening: np.ndarray | None = None,
 ) -> list[Span]:
     """The contiguous ``spans`` with their contact boundaries put where the rules above say
     (``tcp``, ``thumb`` ``(n, 3)``; ``object_position`` ``(O, n, 3)``, ``object_quaternion``
-    ``(O, n, 4)``, ``object_size`` ``(O, 3)``):
+    ``(O, n, 4)``, ``object_size`` ``(O, 3)``; ``opening`` ``(n,)`` the grasp aperture, if known):
 
+    - a Pick up, a Move with that never lifts the object, its Place and the next Pick up of the
+      same object, the hand staying within ``approach_m``, are one Pick up (a turn or slide on
+      the table before the grasp that lifts);
     - a Pick up followed by its Move with ends where the object first moves (lift);
     - a Pick up that begins the demonstration, or follows a Move that did not come from a
       release, begins where the TCP was last ``approach_m`` from the object; a Move is inserted
@@ -133,6 +141,29 @@ def refine(
         if end.obj is not None and _lift(object_position[end.obj], end.start, n, p) is None:
             out[-2].end = end.end
             del out[-1]
+
+    # a turn or slide on the table: a "carry" that never lifts its object, and the grasp after
+    # it, are one Pick up
+    k = 0
+    while k + 3 < len(out):
+        run = out[k : k + 5]
+        o = run[0].obj
+        skills = [s.skill for s in run]
+        j = 4 if skills[3:5] == ["move", "pick_up"] else 3
+        if (
+            o is not None
+            and skills[:2] == ["pick_up", "move_with"]
+            and skills[2] in RELEASES
+            and j < len(run)
+            and run[j].skill == "pick_up"
+            and all(s.obj in (o, None) for s in run[: j + 1])
+            and _lift(object_position[o], run[0].start, run[2].end, p) is None
+            and not (d_tcp[o][run[2].end : run[j].start] >= p.approach_m).any()
+        ):
+            run[0].end = run[j].end
+            del out[k + 1 : k + j + 1]
+            continue
+        k += 1
 
     for k in range(len(out) - 1):
         cur, nxt = out[k], out[k + 1]
@@ -179,7 +210,7 @@ def refine(
     last = out[-1] if out else None
     if last is not None and last.skill in RELEASES and last.obj is not None:
         o = last.obj
-        t = _release(d_tcp[o], d_thumb[o], object_position[o], last.start, n, p)
+        t = _release(d_tcp[o], d_thumb[o], opening, object_position[o], last.start, n, p)
         if t is not None and last.start < t <= n - p.min_move:
             last.end = t
             out.append(_Seg("move", t, n, None))
@@ -232,6 +263,7 @@ def _move_boundary(out: list[_Seg], k: int, t: int) -> None:
 def _release(
     d_tcp: np.ndarray,
     d_thumb: np.ndarray,
+    opening: np.ndarray | None,
     pos: np.ndarray,
     a: int,
     hi: int,
@@ -248,6 +280,8 @@ def _release(
     gone = (d_tcp[rest:hi] > tcp0 + p.release_tcp_m) | (
         d_thumb[rest:hi] > thumb0 + p.release_thumb_m
     )
+    if opening is not None and np.isfinite(opening[rest]):
+        gone |= opening[rest:hi] > opening[rest] + p.release_open_m
     if not gone.any():
         return None
     return rest + int(np.argmax(gone))

@@ -317,16 +317,19 @@ def refine_contacts(
         traj.object_quaternion,
         traj.object_size,
         params,
+        opening=traj.opening,
     )
     if refined == spans:
         return segments
-    old = {(s.skill, s.start): s for s in segments}
-    by_skill_end = {(s.skill, s.end): s for s in segments}
     out: list[Segment] = []
     for skill, a, b, o in refined:
-        seg = old.get((skill, a)) or by_skill_end.get((skill, b))
-        if seg is not None and seg.object == (names[o] if o is not None else None):
-            out.append(seg if (seg.start, seg.end) == (a, b) else _resized(traj, seg, a, b))
+        # the segment of the search it came from: the same skill, overlapping it most (its
+        # score, confidence and margin are the search's; an inserted Move has none)
+        overlap = [(min(b, s.end) - max(a, s.start), s) for s in segments if s.skill == skill]
+        best = max(overlap, key=lambda x: x[0], default=(0, None))
+        src = best[1]
+        if best[0] > 0 and src is not None:
+            out.append(src if (src.start, src.end) == (a, b) else _resized(traj, src, a, b))
         else:
             out.append(_make_segment(traj, skill, a, b, o))
     return out
