@@ -163,6 +163,7 @@ def test_info_warns_about_a_hand_reaching_no_object(bad: dict[str, Path]) -> Non
     lines = _lines(proc, tables=True)
     assert len(lines) == 1 and lines[0].startswith("lfd info: warning: the hand never comes")
     doc = json.loads(proc.stdout)
+    assert doc["warnings"] == [] and lines[0].endswith(doc["problems"][0])
     assert doc["hand_approach"]["distance_m"] > 1.0
     assert {o["name"]: o["travel_m"] > 0.1 for o in doc["objects"]}["box_2"]
 

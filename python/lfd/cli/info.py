@@ -87,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
         con.print(f"camera: {s['camera']['width']} x {s['camera']['height']}")
     if args.json and not json_to_stdout(args):
         con.print(f"wrote {args.json}")
-    for w in s["warnings"]:
+    for w in [*s["warnings"], *s["problems"]]:  # loading, then what segmenting will meet
         print(f"lfd info: warning: {' '.join(str(w).split())}", file=sys.stderr)
     if s["error"]:
         print(f"lfd info: error: {' '.join(str(s['error']).split())}", file=sys.stderr)

@@ -25,7 +25,10 @@ def summarise(
     labels, metadata and camera from :func:`lfd.io.load` (with ``object_sizes`` and the ROS
     ``mapping``) when that succeeds. A failed load is reported in ``error`` (its warnings in
     ``warnings``), not raised, so a damaged file can still be summarised. Times are seconds
-    from ``start_ns``, the first message.
+    from ``start_ns``, the first message. ``objects[].travel_m`` (how far each object moves),
+    ``hand_approach`` (the hand's closest approach to an object) and ``problems`` (what
+    segmenting it will meet: a hand that reaches no object, no object moving under ground-truth
+    skills that move one) come from :mod:`lfd.io.checks`.
     """
     if is_ros_path(path):
         from .ros import bag_summary
@@ -58,7 +61,7 @@ def summarise(
             ],
             "metadata_records": raw.metadata,
         }
-    summary.update(warnings=[], error=None)
+    summary.update(warnings=[], problems=[], error=None)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -94,7 +97,7 @@ def summarise(
             ),
         ):
             if problem is not None:
-                summary["warnings"].append(problem)
+                summary["problems"].append(problem)
         for key, labels in (("labels", demo.labels), ("live_segments", demo.live_segments)):
             summary[key] = [
                 {
