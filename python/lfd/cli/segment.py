@@ -75,42 +75,17 @@ def segment_recording(
     ``on_loaded(demo)`` is called as soon as the recording is loaded (e.g. to show it).
     """
     from ..io import load
-    from ..io.checks import check_hand_reaches, unmoved_objects_message
-    from ..segmentation import segment
+    from ..segmentation.files import segment_recording as segment_demo
 
     demo = load(
         args.recording,
         images=bool(getattr(args, "rerun_session", None)),
         **load_options(args),
     )
-    check_hand_reaches(demo)  # a hand that reaches no object: one error line, exit 2
     if on_loaded is not None:
         on_loaded(demo)
-    result = segment(demo, **segmentation_options(args))
-    doc = result.report(demo.labels, recording=str(args.recording))
-    unmoved = unmoved_objects_message(demo, result.skill_sequence)
-    if unmoved is not None:  # objects that never move: the result, and one warning line
-        doc["warnings"].append(unmoved)
+    result, doc = segment_demo(demo, recording=str(args.recording), **segmentation_options(args))
     return demo, result, doc
-
-
-def segment_checked_file(
-    path: str, *, load_options: dict[str, Any] | None = None, **options: Any
-) -> dict[str, Any]:
-    """The batch task: :func:`lfd.segmentation.files.segment_file` with the single-file run's
-    checks (:mod:`lfd.io.checks`): refused when the hand reaches no object, warned in the
-    document when no object moves but the skills found move one."""
-    from ..io import load
-    from ..io.checks import check_hand_reaches, unmoved_objects_message
-    from ..segmentation.files import segment_file
-
-    demo = load(path, images=False, **(load_options or {}))
-    check_hand_reaches(demo)
-    doc = segment_file(path, load_options=load_options, **options)
-    unmoved = unmoved_objects_message(demo, [s["skill"] for s in doc["segments"]])
-    if unmoved is not None:
-        doc["warnings"].append(unmoved)
-    return doc
 
 
 def _show_demo(shown: list[Any]) -> Callable[[Any], None]:
@@ -368,7 +343,7 @@ def _run_batch(args: argparse.Namespace) -> int:
 
     from ..batch import recording_paths, run_batch
     from ..errors import UsageError
-    from ..segmentation.files import portable_templates
+    from ..segmentation.files import portable_templates, segment_file
     from ._options import batch_options, batch_progress, report_batch_errors
 
     if args.follow:
@@ -383,7 +358,7 @@ def _run_batch(args: argparse.Namespace) -> int:
     opts = segmentation_options(args)
     how = batch_options(args)
     task = partial(
-        segment_checked_file,
+        segment_file,
         templates=portable_templates(opts["templates"]),
         search=opts["search"],
         grammar=opts["grammar"],
