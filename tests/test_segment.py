@@ -147,10 +147,10 @@ def test_the_pushes_of_exp2_are_found(search: str) -> None:
 
 
 def test_greedy_lookahead_keeps_a_short_skill_from_being_swallowed() -> None:
-    # exp1 on the paper-recipe templates: by its own per-sample score alone, a long Move
+    # exp4 on the paper-recipe templates: by its own per-sample score alone, a long Move
     # swallows a short skill (the default templates, with layout copies, no longer need the
-    # lookahead on the shipped recordings)
-    d = demo(EXP1)
+    # lookahead on the shipped recordings; exp1 needed it before simulator 1.2)
+    d = demo(ROOT / "recordings" / "exp4.mcap")
     t = Templates.paper()
     plain = segment(d, t, search="greedy", params=SegmentParams(lookahead=False))
     look = segment(d, t, search="greedy", params=SegmentParams(lookahead=True))
