@@ -9,7 +9,8 @@ Typical use::
 
 Modules: :mod:`.robot` (the arm MJCF), :mod:`.scene`, :mod:`.ik` (mink), :mod:`.controller`,
 :mod:`.program` (the task program), :mod:`.goals` (Eq. 2), :mod:`.modes`, :mod:`.dmp`,
-:mod:`.measures`, :mod:`.outcome` (why a run failed), :mod:`.displacement` (``--displace``),
+:mod:`.measures`, :mod:`.outcome` (why a run failed), :mod:`.timescale` (plans slowed to the
+arm's limits), :mod:`.displacement` (``--displace``),
 :mod:`.randomise` (randomised layouts: :func:`reproduce_randomised`), :mod:`.video`.
 """
 
