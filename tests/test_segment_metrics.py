@@ -146,3 +146,63 @@ def test_linear_metrics_equal_their_quadratic_definitions(seed: int) -> None:
         truth = [*truth[1:], truth[0]]
     got, want = all_metrics(pred, truth), _naive(pred, truth)
     assert got == want
+
+
+# --- excluded spans (another hand handles the object) ----------------------------------------
+def test_excluded_spans_from_metadata() -> None:
+    from lfd.errors import DemonstrationError
+    from lfd.segmentation.metrics import excluded_spans
+
+    t0 = 5 * S  # seconds count from the recording's first sample
+    meta = {"other_hand_spans": [[2.0, 3.0], [2.5, 4.0]], "shared_spans": [[0.0, 1.0], [7, 7]]}
+    assert excluded_spans(meta, t0) == [(t0, t0 + S), (t0 + 2 * S, t0 + 4 * S)]
+    assert excluded_spans({"other_hand_spans": [], "task": "x"}, t0) == []
+    for bad in ([[1.0]], [[2.0, 1.0]], [["a", 1.0]], "1-2", [[0.0, float("nan")]]):
+        with pytest.raises(DemonstrationError, match="other_hand_spans"):
+            excluded_spans({"other_hand_spans": bad}, t0)
+
+
+def test_restrict_cuts_drops_and_merges() -> None:
+    from lfd.segmentation.metrics import restrict
+
+    ex = [(3 * S, 4 * S), (7 * S, 8 * S)]
+    spans = labels(
+        ("move", 0, 3.5),  # ends inside: cut to 3
+        ("pick_up", 3.5, 3.9),  # wholly inside: dropped
+        ("move", 3.9, 6),  # starts inside: from 4, merged with the first move
+        ("move", 6, 7.5),  # touches the previous one outside the spans: stays apart
+        ("place", 7.5, 10),  # from 8
+    )
+    got = [(s.skill, s.start_ns / S, s.end_ns / S) for s in restrict(spans, ex)]
+    assert got == [("move", 0, 6), ("move", 6, 7), ("place", 8, 10)]
+    assert restrict(spans, []) == [
+        SkillLabel(s.skill, s.start_ns, s.end_ns, s.object) for s in spans
+    ]
+
+
+def test_metrics_leave_the_excluded_spans_out() -> None:
+    from lfd.segmentation.metrics import segment_ratio
+
+    ex = [(6 * S, 8 * S)]
+    truth = labels(("pick_up", 0, 2), ("move_with", 2, 5), ("place", 5, 6), ("move", 6, 10))
+    # the other hand's time (6-8 s) holds a wrong Push; outside it the prediction is the truth
+    pred = labels(
+        ("pick_up", 0, 2), ("move_with", 2, 5), ("place", 5, 6.5), ("push", 6.5, 7.5), ("move", 7.5, 10)
+    )  # fmt: skip
+    plain = all_metrics(pred, truth)
+    assert plain["sequence_match"] == 0.0 and plain["frame_accuracy"] < 0.9
+    m = all_metrics(pred, truth, exclude=ex)
+    assert m == {
+        "sequence_match": 1.0,
+        "edit_distance": 0.0,
+        "frame_accuracy": 1.0,
+        "boundary_error_s": 0.0,  # 6.5 and 7.5 lie inside the span; 2 and 5 are exact
+        "f1@10": 1.0,
+        "f1@25": 1.0,
+        "f1@50": 1.0,
+    }
+    assert frame_accuracy(pred, truth, exclude=[(0, 11 * S)]) == 0.0  # nothing left
+    # without the 2 s boundaries: true 5 and 6 against predicted 5, 6.5 and 7.5
+    assert boundary_error(pred, truth, exclude=[(1 * S, 3 * S)]) == pytest.approx(0.25)
+    assert segment_ratio(pred, truth) == 5 / 4 and segment_ratio([], []) == 1.0
+    assert math.isinf(segment_ratio(pred, []))

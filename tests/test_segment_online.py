@@ -15,8 +15,12 @@ import pytest
 from lfd.errors import InvalidParameterError, LfdWarning
 from lfd.segmentation import Segmentation, Templates, segment
 from lfd.segmentation.online import DEFAULT_LAG_S, OnlineSegmenter, segment_online
-from lfd.segmentation.pipeline import as_trajectory
+from lfd.segmentation.pipeline import SegmentParams, as_trajectory
 from lfd.trajectory import Trajectory
+
+STREAMED = SegmentParams(contacts=None)
+"""The batch pipeline without the contact boundaries (lfd.contact), which need the thumb and the
+object sizes that the stream does not carry: what the online segmenter computes."""
 
 ROOT = Path(__file__).resolve().parents[1]
 RECORDINGS = [ROOT / "recordings" / f"exp{k}.mcap" for k in (1, 2, 3, 4)]
@@ -77,7 +81,7 @@ EXACT: dict[str, Any] = {"lag_s": 1e9, "beam": float("inf"), "stable_s": None}
 @pytest.mark.parametrize("path", RECORDINGS, ids=lambda p: p.stem)
 def test_exact_online_sequence_equals_offline_on_the_recordings(path: Path) -> None:
     traj = _traj(path)
-    offline = segment(traj, _templates())
+    offline = segment(traj, _templates(), params=STREAMED)
     online, settled_s = segment_online(traj, _templates(), **EXACT)
     assert _key(online) == _key(offline)
     for a, b in zip(online.segments, offline.segments, strict=True):
@@ -91,7 +95,7 @@ def test_exact_online_sequence_equals_offline_on_the_recordings(path: Path) -> N
 @pytest.mark.parametrize("path", RECORDINGS, ids=lambda p: p.stem)
 def test_default_online_segmentation_settles_fast_and_agrees(path: Path) -> None:
     traj = _traj(path)
-    offline = segment(traj, _templates())
+    offline = segment(traj, _templates(), params=STREAMED)
     online, settled_s = segment_online(traj, _templates())
     assert online.skill_sequence == offline.skill_sequence
     n = len(traj)
@@ -115,7 +119,7 @@ def _frames(result: Segmentation, n: int) -> np.ndarray:
 
 def test_online_sequence_equals_offline_on_a_simulated_demo() -> None:
     traj = _sim_traj()
-    offline = segment(traj, _templates())
+    offline = segment(traj, _templates(), params=STREAMED)
     online, _ = segment_online(traj, _templates(), **EXACT)
     assert _key(online) == _key(offline)
     online, _ = segment_online(traj, _templates())
@@ -195,7 +199,9 @@ def test_bad_input_is_reported_and_survived() -> None:
     # still the offline sequence of skills
     assert final[-1].end == n
     assert [(s.skill, s.start, s.end) for s in final][: len(got)] == got
-    assert [s.skill for s in final] == [s.skill for s in segment(traj, _templates()).segments]
+    assert [s.skill for s in final] == [
+        s.skill for s in segment(traj, _templates(), params=STREAMED).segments
+    ]
     with pytest.raises(InvalidParameterError):
         seg.finish()
 

@@ -448,19 +448,32 @@ def test_natural_sensing_is_mocap_like() -> None:
     assert np.array_equal(demo.hand.t_ns, tr.t_ns)  # every frame at 30 Hz
     err = np.linalg.norm(demo.hand.keypoints - tr.keypoints, axis=-1)
     assert 0.001 < np.median(err) < 0.004
-    vis = np.concatenate([o.visible for o in demo.objects.values()])
+    # tag dropouts U(0, 0.5) % in bursts of ~0.2 s: one short demo may hold a whole burst, so the
+    # rate is taken over a few demonstrations
+    vis = np.concatenate(
+        [o.visible for o in demo.objects.values()]
+        + [
+            o.visible
+            for s in (511, 512, 513)
+            for o in simulate(
+                "exp1", seed=s, variability=Variability(style="natural")
+            ).demo.objects.values()
+        ]
+    )
     assert 1 - vis.mean() < 0.01
     assert demo.metadata["hand_rate_hz"] == 30.0
     assert {g["type"] for g in demo.metadata["grasps"]} <= {"pinch", "thumb_middle", "whole_hand"}
 
 
 def test_careful_style_is_unchanged() -> None:
-    # label times of a default (careful) demonstration, from the simulator before styles existed
+    # label times of a default (careful) demonstration, from the simulator 1.2 (a Pick up's
+    # entry 4-6 cm above the object and a carry's end 4-6 cm above the spot, docs/skills.md
+    # "Boundaries"; the draws are the same as before the styles existed, only two ranges changed)
     res = simulate("exp2", seed=5)
     ends = [lab.end_ns - res.demo.start_ns for lab in res.demo.labels]
     assert ends == [
-        2342939499, 3701442130, 5285019891, 6475824650,
-        8363633736, 9900361738, 11887081365, 13733333333,
+        2342939499, 3703778926, 5261048678, 6444376081,
+        8332185167, 9868913169, 11855632796, 13700000000,
     ]  # fmt: skip
     assert res.demo.metadata["style"] == "careful"
     assert [g["type"] for g in res.demo.metadata["grasps"]] == ["pinch"]

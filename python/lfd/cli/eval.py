@@ -164,6 +164,10 @@ def run(args: argparse.Namespace) -> int:
         how = f"adapted from {base_name}" if base is not None else "trained from scratch"
         con.print(f"leave-one-out: each recording segmented by templates {how} on the others")
         _per_recording(report, con)
+    for r in report.recordings:
+        note = r.excluded_note()
+        if note is not None:
+            con.print(note, highlight=False, soft_wrap=True)
     for title, task_name in [*((t, t) for t in report.tasks()), ("overall", None)]:
         summary = report.summary(task_name)
         n = int(next(iter(summary.values()))["n"])

@@ -52,12 +52,19 @@ def run(args: argparse.Namespace) -> int:
     con.print(table)
     if s.get("objects"):
         ot = Table(title="objects")
-        for col in ("name", "tag", "size (m)", "samples"):
+        for col in ("name", "tag", "size (m)", "samples", "moves (m)"):
             ot.add_column(col)
         for o in s["objects"]:
             size = " x ".join(f"{v:.3f}" for v in o["size"])
-            ot.add_row(o["name"], str(o["tag_id"]), size, str(o["samples"]))
+            travel = f"{o['travel_m']:.3f}"
+            ot.add_row(o["name"], str(o["tag_id"]), size, str(o["samples"]), travel)
         con.print(ot)
+        near = s.get("hand_approach") or {}
+        if near.get("object") is not None:
+            con.print(
+                f"hand: closest {near['distance_m']:.3f} m to an object ({near['object']} at "
+                f"{near['t_s']:.2f} s)"
+            )
     for key, title in (("labels", "ground-truth skills"), ("live_segments", "live segments")):
         if not s.get(key):
             continue
@@ -80,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
         con.print(f"camera: {s['camera']['width']} x {s['camera']['height']}")
     if args.json and not json_to_stdout(args):
         con.print(f"wrote {args.json}")
-    for w in s["warnings"]:
+    for w in [*s["warnings"], *s["problems"]]:  # loading, then what segmenting will meet
         print(f"lfd info: warning: {' '.join(str(w).split())}", file=sys.stderr)
     if s["error"]:
         print(f"lfd info: error: {' '.join(str(s['error']).split())}", file=sys.stderr)

@@ -116,7 +116,6 @@ def run(args: argparse.Namespace) -> int:
         reproduction_report,
     )
     from ..reproduce.video import VIDEO_SUFFIXES, write_video
-    from ..segmentation import segment
     from ._rerun import check_rerun_args, close_from_args, open_from_args
 
     inputs = [p for p in (args.recording, args.task, args.map) if p]
@@ -144,7 +143,7 @@ def run(args: argparse.Namespace) -> int:
     if args.task:
         program = TaskProgram.load(args.task)
     elif args.segment:
-        program = from_segmentation(segment(demo, **segmentation_options(args)), t0)
+        program = from_segmentation(_segment_checked(demo, args), t0)
     else:
         program = from_labels(demo.labels, t0)
     modes = ("replay", "skills", "dmp") if args.mode == "all" else (args.mode,)
@@ -294,3 +293,22 @@ def _run_randomised(
         write_json(args.json, doc)
     judged = [m for m in modes if not (args.mode == "all" and m == "replay")]
     return 0 if all(r.success for r in res.runs if r.mode in judged) else 1
+
+
+def _segment_checked(demo: Any, args: argparse.Namespace) -> Any:
+    """``lfd.segment`` of the recording, refused (one error line, exit 2) when the hand reaches
+    no object or when no object moves but the skills found move one (:mod:`lfd.io.checks`):
+    the robot would act on objects the demonstrator did not."""
+    from ..errors import DemonstrationError
+    from ..io.checks import check_hand_reaches, unmoved_objects_message
+    from ..segmentation import segment
+
+    check_hand_reaches(demo)
+    result = segment(demo, **segmentation_options(args))
+    unmoved = unmoved_objects_message(demo, result.skill_sequence)
+    if unmoved is not None:
+        raise DemonstrationError(
+            f"not reproduced: {unmoved} (the robot would move objects the demonstrator did "
+            "not; --task PROGRAM runs a program anyway)"
+        )
+    return result

@@ -75,7 +75,7 @@ def segment_recording(
     ``on_loaded(demo)`` is called as soon as the recording is loaded (e.g. to show it).
     """
     from ..io import load
-    from ..segmentation import segment
+    from ..segmentation.files import segment_recording as segment_demo
 
     demo = load(
         args.recording,
@@ -84,8 +84,8 @@ def segment_recording(
     )
     if on_loaded is not None:
         on_loaded(demo)
-    result = segment(demo, **segmentation_options(args))
-    return demo, result, result.report(demo.labels, recording=str(args.recording))
+    result, doc = segment_demo(demo, recording=str(args.recording), **segmentation_options(args))
+    return demo, result, doc
 
 
 def _show_demo(shown: list[Any]) -> Callable[[Any], None]:
@@ -324,7 +324,7 @@ def run(args: argparse.Namespace) -> int:
         for k, v in doc["metrics"].items():
             mt.add_row(k, "-" if v is None else f"{v:.3f}")
         con.print(mt)
-    for w in result.warnings:
+    for w in doc["warnings"]:
         print(f"lfd segment: warning: {' '.join(str(w).split())}", file=sys.stderr)
     close_from_args(args)
     emit_json(args, doc, con)

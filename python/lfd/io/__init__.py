@@ -6,6 +6,8 @@
 - :func:`follow` reads a recording while another process still writes it;
 - :func:`scan` lists a file's channels, metadata and damage without decoding;
 - :func:`summarise` tells what a recording holds (``lfd info``);
+- :mod:`lfd.io.checks` whether it can be segmented: the hand reaches an object
+  (:func:`check_hand_reaches`), an object moves;
 - :mod:`lfd.io.sizes` sizes the objects a file does not (``--object-size``, ``REC.sizes.toml``);
 - :mod:`lfd.io.ros` reads ROS 1/2 bags through a topic mapping (the ``ros`` extra).
 """
@@ -18,6 +20,7 @@ from ..errors import (
     RecoveredFileWarning,
     TimestampWarning,
 )
+from .checks import check_hand_reaches, closest_approach, object_travel
 from .follow import Follower, LiveMessage, follow
 from .mcapfile import ChannelSummary, RawRecording, scan
 from .reader import load
@@ -34,8 +37,11 @@ __all__ = [
     "RecordingFormatError",
     "RecoveredFileWarning",
     "TimestampWarning",
+    "check_hand_reaches",
+    "closest_approach",
     "follow",
     "load",
+    "object_travel",
     "save",
     "scan",
     "summarise",

@@ -25,7 +25,10 @@ def summarise(
     labels, metadata and camera from :func:`lfd.io.load` (with ``object_sizes`` and the ROS
     ``mapping``) when that succeeds. A failed load is reported in ``error`` (its warnings in
     ``warnings``), not raised, so a damaged file can still be summarised. Times are seconds
-    from ``start_ns``, the first message.
+    from ``start_ns``, the first message. ``objects[].travel_m`` (how far each object moves),
+    ``hand_approach`` (the hand's closest approach to an object) and ``problems`` (what
+    segmenting it will meet: a hand that reaches no object, no object moving under ground-truth
+    skills that move one) come from :mod:`lfd.io.checks`.
     """
     if is_ros_path(path):
         from .ros import bag_summary
@@ -58,7 +61,7 @@ def summarise(
             ],
             "metadata_records": raw.metadata,
         }
-    summary.update(warnings=[], error=None)
+    summary.update(warnings=[], problems=[], error=None)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -68,10 +71,33 @@ def summarise(
             demo = None
     summary["warnings"] = [str(w.message) for w in caught]
     if demo is not None:
+        from .checks import closest_approach, object_travel, reach_message, unmoved_objects_message
+
+        travel = object_travel(demo)
         summary["objects"] = [
-            {"name": o.name, "tag_id": o.tag_id, "size": o.size.tolist(), "samples": len(o)}
+            {
+                "name": o.name,
+                "tag_id": o.tag_id,
+                "size": o.size.tolist(),
+                "samples": len(o),
+                "travel_m": travel[o.name],
+            }
             for o in demo.objects.values()
         ]
+        approach = closest_approach(demo)
+        summary["hand_approach"] = {
+            "distance_m": approach.distance_m if approach.object is not None else None,
+            "object": approach.object,
+            "t_s": approach.t_s,
+        }
+        for problem in (
+            reach_message(demo),
+            unmoved_objects_message(
+                demo, [lab.skill for lab in demo.labels], source="the ground truth"
+            ),
+        ):
+            if problem is not None:
+                summary["problems"].append(problem)
         for key, labels in (("labels", demo.labels), ("live_segments", demo.live_segments)):
             summary[key] = [
                 {

@@ -13,7 +13,7 @@ import numpy as np
 from ..demo import Demonstration
 from ..errors import LfdError, UsageError
 from ..skills import SKILLS
-from .metrics import METRIC_NAMES, all_metrics
+from .metrics import EXCLUDE_KEYS, METRIC_NAMES, all_metrics, excluded_spans, restrict
 from .pipeline import DEFAULT_GRAMMAR, GrammarUse
 from .result import Segmentation
 from .templates import Templates
@@ -80,7 +80,13 @@ def run_method(
 
 @dataclass
 class RecordingResult:
-    """Metrics of every method on one recording."""
+    """Metrics of every method on one recording.
+
+    ``excluded_s`` are the spans left out of every score (seconds from the first sample; the
+    recording's metadata :data:`~lfd.segmentation.metrics.EXCLUDE_KEYS`), ``duration_s`` the
+    recording's length; ``truth`` and ``sequences`` are the skill sequences as scored, i.e.
+    seen from outside those spans (:func:`~lfd.segmentation.metrics.restrict`).
+    """
 
     name: str
     task: str
@@ -88,6 +94,20 @@ class RecordingResult:
     sequences: dict[str, list[str]] = field(default_factory=dict)
     metrics: dict[str, dict[str, float]] = field(default_factory=dict)
     errors: dict[str, str] = field(default_factory=dict)
+    excluded_s: list[tuple[float, float]] = field(default_factory=list)
+    duration_s: float = 0.0
+
+    def excluded_note(self) -> str | None:
+        """One line saying what was left out of the scores (None when nothing was)."""
+        if not self.excluded_s:
+            return None
+        total = sum(b - a for a, b in self.excluded_s)
+        n = len(self.excluded_s)
+        return (
+            f"{self.name}: scored outside {n} span{'s' if n > 1 else ''} ({total:.1f} s of "
+            f"{self.duration_s:.1f} s) where another hand handles the object "
+            f"(metadata {', '.join(EXCLUDE_KEYS)})"
+        )
 
 
 @dataclass
@@ -138,6 +158,7 @@ class EvalReport:
                     "sequences": r.sequences,
                     "metrics": {m: _clean(v) for m, v in r.metrics.items()},
                     "errors": r.errors,
+                    **({"excluded_s": [list(x) for x in r.excluded_s]} if r.excluded_s else {}),
                 }
                 for r in self.recordings
             ],
@@ -163,17 +184,47 @@ def evaluate_demo(
     methods: Sequence[str] = DEFAULT_METHODS,
     grammar: GrammarUse = DEFAULT_GRAMMAR,
 ) -> RecordingResult:
-    """Run every method on one labelled demonstration and compute the metrics."""
+    """Run every method on one labelled demonstration and compute the metrics.
+
+    Time the recording's metadata excludes (another hand handling the object:
+    :func:`~lfd.segmentation.metrics.excluded_spans`) is left out of every metric. A recording
+    none of whose objects moves, where a method still finds a skill that moves one, is scored
+    with a :class:`~lfd.errors.LfdWarning` (:func:`lfd.io.checks.unmoved_objects_message`).
+
+    Raises
+    ------
+    DemonstrationError
+        Malformed excluded spans in the metadata, or a hand that reaches no object
+        (:func:`lfd.io.checks.check_hand_reaches`: there is nothing to score).
+    """
+    import warnings
+
+    from ..errors import LfdWarning
+    from ..io.checks import check_hand_reaches, unmoved_objects_message
+
+    check_hand_reaches(demo)
     task = str(demo.metadata.get("task") or demo.metadata.get("experiment") or "unknown")
-    res = RecordingResult(name=name, task=task, truth=demo.skill_sequence)
+    exclude = excluded_spans(demo.metadata, demo.start_ns)
+    t0 = demo.start_ns
+    res = RecordingResult(
+        name=name,
+        task=task,
+        truth=[s.skill for s in restrict(demo.labels, exclude)],
+        excluded_s=[((a - t0) * 1e-9, (b - t0) * 1e-9) for a, b in exclude],
+        duration_s=demo.duration_s,
+    )
     for m in methods:
         try:
             seg = run_method(m, demo, templates, grammar=grammar)
         except LfdError as err:
             res.errors[m] = str(err)
             continue
-        res.sequences[m] = seg.skill_sequence
-        res.metrics[m] = all_metrics(seg.segments, demo.labels)
+        res.sequences[m] = [s.skill for s in restrict(seg.segments, exclude)]
+        res.metrics[m] = all_metrics(seg.segments, demo.labels, exclude=exclude)
+    found = [s for m in res.sequences for s in res.sequences[m]]
+    unmoved = unmoved_objects_message(demo, found)
+    if unmoved is not None:
+        warnings.warn(f"{name}: {unmoved}", LfdWarning, stacklevel=2)
     return res
 
 

@@ -8,10 +8,14 @@ from __future__ import annotations
 
 from functools import lru_cache
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .pipeline import DEFAULT_GRAMMAR, DEFAULT_SEARCH, GrammarUse, Search, SegmentParams
 from .templates import TemplateChoice, Templates
+
+if TYPE_CHECKING:
+    from ..demo import Demonstration
+    from .result import Segmentation
 
 
 @lru_cache(maxsize=4)
@@ -49,10 +53,41 @@ def segment_file(
     (``object_sizes``, a ROS ``mapping``).
     """
     from ..io import load
-    from . import segment
 
     demo = load(path, images=False, **(load_options or {}))
-    result = segment(
-        demo, worker_templates(templates), search=search, grammar=grammar, params=params
+    _, doc = segment_recording(
+        demo,
+        worker_templates(templates),
+        recording=str(path),
+        search=search,
+        grammar=grammar,
+        params=params,
     )
-    return result.report(demo.labels, recording=str(path))
+    return doc
+
+
+def segment_recording(
+    demo: Demonstration,
+    templates: Templates | TemplateChoice | None = None,
+    *,
+    recording: str | None = None,
+    **options: Any,
+) -> tuple[Segmentation, dict[str, Any]]:
+    """Segment a loaded recording as ``lfd segment`` does: refused when the hand reaches no
+    object (:func:`lfd.io.checks.check_hand_reaches`, ``DemonstrationError``), scored against
+    its ground truth outside the spans its metadata gives to another hand
+    (:func:`~lfd.segmentation.metrics.excluded_spans`), with one warning in the document when
+    no object moves but the skills found move one. ``options``: those of :func:`lfd.segment`.
+    Returns the segmentation and the ``--json`` document."""
+    from ..io.checks import check_hand_reaches, unmoved_objects_message
+    from . import segment
+    from .metrics import excluded_spans
+
+    check_hand_reaches(demo)
+    result = segment(demo, templates, **options)
+    exclude = excluded_spans(demo.metadata, demo.start_ns) if demo.labels else []
+    doc = result.report(demo.labels, recording=recording, exclude=exclude)
+    unmoved = unmoved_objects_message(demo, result.skill_sequence)
+    if unmoved is not None:
+        doc["warnings"].append(unmoved)
+    return result, doc

@@ -17,6 +17,7 @@ import numpy as np
 
 from .. import _hmmseg
 from .._hmmseg import EndState, GrammarMode
+from ..contact import ContactParams, refine
 from ..demo import Demonstration
 from ..errors import DemonstrationError, InvalidParameterError
 from ..trajectory import Trajectory
@@ -103,6 +104,11 @@ class SegmentParams:
         TCP's highest point between them (:func:`insert_implicit_moves`).
     implicit_move_s : float
         Length of an inserted Move (seconds).
+    contacts : ContactParams or None
+        Put the boundaries of the skills that touch an object where contact says
+        (:func:`lfd.contact.refine`: a Pick up from the last sample the hand was 8 cm from the
+        object to its first motion, a Place or Stack to the release, the Moves around them);
+        None: the search's boundaries as they are (the paper).
     co_motion_window_s, co_motion_displacement : float
         An object moves at a sample when it is displaced by more than ``co_motion_displacement``
         metres between ``co_motion_window_s`` before and after it (:func:`moving_objects`;
@@ -125,6 +131,7 @@ class SegmentParams:
     implicit_moves: bool = True
     implicit_move_s: float = 0.2
     co_motion_displacement: float = 0.015
+    contacts: ContactParams | None = field(default_factory=ContactParams)
 
 
 PAPER_PARAMS = SegmentParams(
@@ -132,6 +139,7 @@ PAPER_PARAMS = SegmentParams(
     min_rise=0.02,
     co_motion=0.0,
     implicit_moves=False,
+    contacts=None,
 )
 """The paper's pipeline around the search (with :data:`PAPER_SEARCH`, :data:`PAPER_GRAMMAR` and the
 paper-recipe templates, ``lfd segment --paper``): stage 1 on the hand signals only (sections
@@ -199,6 +207,8 @@ def segment_trajectory(
         segments = insert_implicit_moves(
             filled, segments, max(1, round(p.implicit_move_s / traj.dt))
         )
+    if p.contacts is not None:
+        segments = refine_contacts(filled, segments, p.contacts)
     segments = label_moves(filled, segments)
     return Segmentation(
         segments=segments,
@@ -287,6 +297,42 @@ def insert_implicit_moves(traj: Trajectory, segments: list[Segment], length: int
         out.append(_make_segment(traj, "move", a, b, obj))
         out.append(_resized(traj, seg, b, seg.end))
     return [s for s in out if s.end > s.start]
+
+
+def refine_contacts(
+    traj: Trajectory, segments: list[Segment], params: ContactParams
+) -> list[Segment]:
+    """The segments with the boundaries of the skills that touch an object put where contact
+    says (:func:`lfd.contact.refine`); unchanged segments are kept as they are."""
+    names = list(traj.object_names)
+    spans = [
+        (s.skill, s.start, s.end, names.index(s.object) if s.object in names else None)
+        for s in segments
+    ]
+    refined = refine(
+        spans,
+        traj.tcp,
+        traj.keypoints[:, 4],
+        traj.object_position,
+        traj.object_quaternion,
+        traj.object_size,
+        params,
+        opening=traj.opening,
+    )
+    if refined == spans:
+        return segments
+    out: list[Segment] = []
+    for skill, a, b, o in refined:
+        # the segment of the search it came from: the same skill, overlapping it most (its
+        # score, confidence and margin are the search's; an inserted Move has none)
+        overlap = [(min(b, s.end) - max(a, s.start), s) for s in segments if s.skill == skill]
+        best = max(overlap, key=lambda x: x[0], default=(0, None))
+        src = best[1]
+        if best[0] > 0 and src is not None:
+            out.append(src if (src.start, src.end) == (a, b) else _resized(traj, src, a, b))
+        else:
+            out.append(_make_segment(traj, skill, a, b, o))
+    return out
 
 
 MOVE_OBJECT_S = 1.0

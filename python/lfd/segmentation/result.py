@@ -153,10 +153,17 @@ class Segmentation:
         return first.start_ns - round(first.start_s * 1e9)
 
     def report(
-        self, ground_truth: Sequence[SkillLabel] = (), *, recording: str | None = None
+        self,
+        ground_truth: Sequence[SkillLabel] = (),
+        *,
+        recording: str | None = None,
+        exclude: Sequence[tuple[int, int]] = (),
     ) -> dict[str, Any]:
         """The document of ``lfd segment --json``: the segments, the ground truth on the same
-        clock, and the metrics against it (``{}`` without ground truth; non-finite -> ``None``).
+        clock, and the metrics against it (``{}`` without ground truth; non-finite -> ``None``),
+        left out inside the ``exclude`` spans (``[start_ns, end_ns)``, e.g. where another hand
+        handles the object: :func:`~lfd.segmentation.metrics.excluded_spans`; listed in
+        ``excluded_s``).
 
         ``origin_ns`` is the absolute time ``start_s`` / ``end_s`` count from; ``lfd label``
         reads it back (:func:`lfd.io.labels.read_labels`).
@@ -179,7 +186,9 @@ class Segmentation:
             ],
             "metrics": {},
         }
+        if exclude:
+            doc["excluded_s"] = [[(a - t0) * 1e-9, (b - t0) * 1e-9] for a, b in exclude]
         if ground_truth:
-            metrics = all_metrics(self.segments, ground_truth)
+            metrics = all_metrics(self.segments, ground_truth, exclude=exclude)
             doc["metrics"] = {k: _finite(v) for k, v in metrics.items()}
         return doc

@@ -43,7 +43,7 @@ from .skills import (
 from .tasks import TEMPLATE_TASKS, Step, check_task, place_objects, task_steps
 from .variability import Variability
 
-SIM_VERSION = "1.1"
+SIM_VERSION = "1.2"
 """Version of the simulated demonstrator (bump when motions change; 1.1 added the natural
 style, the careful motions are those of 1.0)."""
 

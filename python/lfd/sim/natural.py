@@ -9,7 +9,7 @@ between repeated cycles (docs/skills.md, "Two demonstrator styles"):
   (pinch, thumb-middle or whole hand) in 0.15-0.22 s. The object leaves the table 0.34-0.56 s
   after the fingers started closing (Move with waits for it).
 - **move_with**: lift the object 5-45 cm, carry it to a free spot (within 12 cm when the task
-  repeats the lift, like ``exp5``) and end 1-4 cm above it, at about twice the careful speed.
+  repeats the lift, like ``exp5``) and end 4-6 cm above it, at about twice the careful speed.
 - **place** / **stack**: lower in 0.15-0.3 s plus a final 3-8 mm, release, and open the grasp
   1.5-3.5 cm wider than the object — only 0.5-1.5 cm when the next skill grasps it again (the
   hand lingers on it).
@@ -102,7 +102,7 @@ def move_with(P: Planner, name: str, onto: str | None = None, *, repeat: bool = 
     t0, rng, s = P.t, P.rng, P.state
     spot = (0.0, REPEAT_SPOT_M) if repeat else (0.10, None)
     hand_yaw, tcp_final = carry_target(P, name, onto, spot=spot, turn_deg=20.0)
-    above = tcp_final + np.array([0.0, 0.0, rng.uniform(0.01, 0.04)])
+    above = tcp_final + np.array([0.0, 0.0, rng.uniform(0.04, 0.06)])
     below_tcp = 0.5 * P.specs[name].size[2] - P.grasp_rel[0][2]  # object bottom below the TCP
     z_peak = s.tcp[2] + 0.05 + 0.4 * rng.uniform() ** 1.5  # 5-45 cm, mostly the lower half
     z_peak = max(z_peak, above[2] + 0.01)

@@ -8,14 +8,14 @@ Each skill function appends its segments to a :class:`~lfd.sim.planner.Planner` 
 current hand state and closes its label (pauses after a skill belong to that skill). An
 ``*_entry`` function gives the hand state a preceding Move must reach for the skill to start.
 
-- **pick_up** (not holding -> holding): from above/near the object (entry: TCP 6-12 cm above the
-  top face, up to 5 cm back along the approach direction), reach down to 0.5-1.5 cm above the grasp
+- **pick_up** (not holding -> holding): from above/near the object (entry: TCP 4-6 cm above the
+  top face, up to 4 cm back along the approach direction), reach down to 0.5-1.5 cm above the grasp
   point with the index and thumb pre-shaped wider than the object (2-4 cm margin), then a slow final
   descent to the grasp point (TCP 1.2-2 cm below the top face at the object's centre, +-2 mm), an
   optional hesitation, and close index and thumb until the tip distance is the object width plus
   the two fingertip pads. Ends grasped, still at the grasp point; the object has not moved.
 - **move_with** (holding): lift first, then carry: the TCP rises 3-8 cm above the higher end point
-  (and high enough to clear every object) and ends with the held object 3-7 cm above its
+  (and high enough to clear every object) and ends with the held object 4-6 cm above its
   destination (a free table spot, or the top of another object); the object may turn by +-30 deg
   around the vertical. The object is rigidly attached to the hand frame (TCP + wrist yaw).
 - **place** (holding -> not holding): lower the object onto the table (fast, then a slow final
@@ -140,10 +140,10 @@ def pick_up_entry(P: Planner, name: str) -> HandState:
     """Hand state above/near ``name`` from which a Pick up starts."""
     G, rng = _grasp(P, name), P.rng
     yaw = float(G["yaw"])
-    back = np.array([np.cos(yaw), np.sin(yaw)]) * -rng.uniform(0.0, 0.05)
+    back = np.array([np.cos(yaw), np.sin(yaw)]) * -rng.uniform(0.0, 0.04)
     side = np.array([-np.sin(yaw), np.cos(yaw)]) * rng.uniform(-0.02, 0.02)
     tcp = np.array(G["tcp"], float)
-    p = np.array([*(tcp[:2] + back + side), P.top(name) + rng.uniform(0.06, 0.12)])
+    p = np.array([*(tcp[:2] + back + side), P.top(name) + rng.uniform(0.04, 0.06)])
     q = 0.5 * POSTURES["relaxed"] + 0.5 * grasp_posture(str(G["kind"]), float(G["g_pre"]))
     return HandState(
         p,
@@ -280,7 +280,7 @@ def move_with(P: Planner, name: str, onto: str | None = None) -> None:
     t0, rng, s = P.t, P.rng, P.state
     spec = P.specs[name]
     hand_yaw, tcp_final = carry_target(P, name, onto)
-    above = tcp_final + np.array([0.0, 0.0, rng.uniform(0.03, 0.07)])
+    above = tcp_final + np.array([0.0, 0.0, rng.uniform(0.04, 0.06)])
     below_tcp = 0.5 * spec.size[2] - P.grasp_rel[0][2]  # object bottom below the TCP
     z_peak = max(s.tcp[2], above[2]) + rng.uniform(0.03, 0.08)
     z_peak = max(z_peak, _max_top(P, name) + below_tcp + 0.03)

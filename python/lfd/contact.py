@@ -1,0 +1,287 @@
+"""Contact rules: where a skill that touches an object begins and ends, from geometry alone.
+
+The templates say *which* skill a stretch of motion is; where exactly a reach becomes a grasp, a
+grasp a carry and a release a withdrawal is a matter of contact, which positions show better than
+any template (docs/skills.md, "Boundaries"). These rules are shared by the segmentation
+(:func:`lfd.segmentation.pipeline.segment_trajectory` refines the search's boundaries with them)
+and the simulator's ground truth, so both speak of the same skill boundaries:
+
+- **approach**: a Pick up begins at the last sample before its grasp at which the TCP is at least
+  ``approach_m`` (8 cm) from the object's bounding box; what comes before it is a Move;
+- **lift**: a Pick up ends, and the Move with begins, when the object first moves (``lift_m``
+  from where it rested when the grasp began);
+- **release**: a Place or Stack ends when the hand lets go of the set-down object: the thumb tip
+  ``release_thumb_m`` (1 cm) or the TCP ``release_tcp_m`` (3 cm) farther from its box than while
+  it held it, or the grasp aperture ``release_open_m`` (1.5 cm) wider;
+  what follows is a Move.
+
+A segment is written ``(skill, start, end, object)``: samples ``start..end`` (end exclusive),
+``object`` an index into the object arrays or None. Everything here is numpy on arrays of the
+preprocessed samples; nothing depends on a later stage.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+Span = tuple[str, int, int, int | None]
+"""``(skill, start, end, object)``: a skill on samples ``start..end`` (end exclusive)."""
+
+RELEASES: frozenset[str] = frozenset({"place", "stack"})
+"""Skills that end by letting go of the object."""
+
+
+@dataclass(frozen=True)
+class ContactParams:
+    """Distances of the contact rules (metres; docs/skills.md "Boundaries").
+
+    Attributes
+    ----------
+    approach_m : float
+        A Pick up begins where the TCP was last this far from the object's box.
+    lift_m : float
+        The object has moved once it is this far from where it rested.
+    lift_h_m, rest_m, rest_samples : float, float, int
+        The object is lifted once it is ``lift_h_m`` above its height when the grasp began; the
+        motion that lifts it starts after the last ``rest_samples`` samples in which it moved
+        less than ``rest_m``.
+    place_h_m : float
+        A Place or Stack begins where the carried object was last this far above the height at
+        which it comes to rest.
+    release_thumb_m, release_tcp_m, release_open_m : float
+        The hand has let go once the thumb tip or the TCP is this much farther from the object's
+        box than when the object came to rest, or the grasp aperture this much wider (a thumb
+        on a mug's handle stays inside its bounding box).
+    min_move : int
+        A Move inserted before the first Pick up or after the last release has at least this
+        many samples (shorter: the boundary is noise).
+    """
+
+    approach_m: float = 0.08
+    lift_m: float = 0.005
+    lift_h_m: float = 0.01
+    rest_m: float = 0.002
+    rest_samples: int = 3
+    place_h_m: float = 0.05
+    release_thumb_m: float = 0.01
+    release_open_m: float = 0.015
+    release_tcp_m: float = 0.03
+    min_move: int = 3
+
+
+def box_distance(
+    points: np.ndarray, position: np.ndarray, quaternion: np.ndarray, size: np.ndarray
+) -> np.ndarray:
+    """Distance (m) of ``points`` ``(n, 3)`` from a box of ``size`` ``(3,)`` centred at
+    ``position`` ``(n, 3)`` with orientation ``quaternion`` ``(n, 4)`` (x, y, z, w): 0 inside.
+    A non-finite pose gives NaN."""
+    p = np.asarray(points, dtype=np.float64)
+    c = np.asarray(position, dtype=np.float64)
+    q = np.asarray(quaternion, dtype=np.float64)
+    ok = np.isfinite(q).all(axis=-1) & (np.linalg.norm(np.nan_to_num(q), axis=-1) > 0)
+    rel = p - c
+    # rotate the offsets into the box frame: R(q)^T rel, q normalised (x, y, z, w)
+    qn = np.where(ok[:, None], q, [0.0, 0.0, 0.0, 1.0])
+    qn = qn / np.linalg.norm(qn, axis=-1, keepdims=True)
+    u, w = -qn[:, :3], qn[:, 3:]  # the inverse rotation
+    t = 2.0 * np.cross(u, rel)
+    local = rel + w * t + np.cross(u, t)
+    outside = np.maximum(np.abs(local) - np.asarray(size, dtype=np.float64) / 2.0, 0.0)
+    d = np.linalg.norm(outside, axis=-1)
+    return np.where(ok & np.isfinite(d), d, np.nan)
+
+
+def refine(
+    spans: list[Span],
+    tcp: np.ndarray,
+    thumb: np.ndarray,
+    object_position: np.ndarray,
+    object_quaternion: np.ndarray,
+    object_size: np.ndarray,
+    params: ContactParams | None = None,
+    opening: np.ndarray | None = None,
+) -> list[Span]:
+    """The contiguous ``spans`` with their contact boundaries put where the rules above say
+    (``tcp``, ``thumb`` ``(n, 3)``; ``object_position`` ``(O, n, 3)``, ``object_quaternion``
+    ``(O, n, 4)``, ``object_size`` ``(O, 3)``; ``opening`` ``(n,)`` the grasp aperture, if known):
+
+    - a Pick up, a Move with that never lifts the object, its Place and the next Pick up of the
+      same object, the hand staying within ``approach_m``, are one Pick up (a turn or slide on
+      the table before the grasp that lifts);
+    - a Pick up followed by its Move with ends where the object first moves (lift);
+    - a Pick up that begins the demonstration, or follows a Move that did not come from a
+      release, begins where the TCP was last ``approach_m`` from the object; a Move is inserted
+      before a first Pick up that began farther, and a first Move whose hand never was that far
+      becomes part of the Pick up;
+    - a Move is inserted after a Place or Stack that ends the demonstration when the hand lets
+      go before the end (earlier releases keep their boundary: docs/segmentation.md);
+    - a Pick up that ends the demonstration whose object never moves afterwards was no grasp:
+      it becomes part of the Move before it.
+
+    Boundaries only move between the two segments they separate, and every segment keeps at
+    least one sample.
+    """
+    p = params or ContactParams()
+    out = [_Seg(*s) for s in spans]
+    n = len(tcp)
+    used = {s.obj for s in out if s.obj is not None}
+    d_tcp = {
+        o: box_distance(tcp, object_position[o], object_quaternion[o], object_size[o]) for o in used
+    }
+    d_thumb = {
+        o: box_distance(thumb, object_position[o], object_quaternion[o], object_size[o])
+        for o in used
+    }
+
+    # a Pick up that ends the demonstration and never lifts its object was no grasp
+    end = out[-1] if out else None
+    if end is not None and len(out) > 1 and end.skill == "pick_up" and out[-2].skill == "move":
+        if end.obj is not None and _lift(object_position[end.obj], end.start, n, p) is None:
+            out[-2].end = end.end
+            del out[-1]
+
+    # a turn or slide on the table: a "carry" that never lifts its object, and the grasp after
+    # it, are one Pick up
+    k = 0
+    while k + 3 < len(out):
+        run = out[k : k + 5]
+        o = run[0].obj
+        skills = [s.skill for s in run]
+        j = 4 if skills[3:5] == ["move", "pick_up"] else 3
+        if (
+            o is not None
+            and skills[:2] == ["pick_up", "move_with"]
+            and skills[2] in RELEASES
+            and j < len(run)
+            and run[j].skill == "pick_up"
+            and all(s.obj in (o, None) for s in run[: j + 1])
+            and _lift(object_position[o], run[0].start, run[2].end, p) is None
+            and not (d_tcp[o][run[2].end : run[j].start] >= p.approach_m).any()
+        ):
+            run[0].end = run[j].end
+            del out[k + 1 : k + j + 1]
+            continue
+        k += 1
+
+    for k in range(len(out) - 1):
+        cur, nxt = out[k], out[k + 1]
+        o = cur.obj
+        if o is None or nxt.obj != o:
+            continue
+        t: int | None
+        if cur.skill == "pick_up" and nxt.skill == "move_with":  # lift
+            t = _lift(object_position[o], cur.start, nxt.end, p)
+        elif cur.skill == "move_with" and nxt.skill in RELEASES:  # set down
+            t = _descent(object_position[o], cur.start, nxt.end, p)
+        else:
+            continue
+        if t is not None:
+            _move_boundary(out, k, t)
+
+    # approach: where the reach of a Pick up begins
+    k = -1
+    while k + 1 < len(out):
+        k += 1
+        cur = out[k]
+        o = cur.obj
+        if cur.skill != "pick_up" or o is None:
+            continue
+        prev = out[k - 1] if k > 0 else None
+        if prev is not None and (prev.skill != "move" or (k > 1 and out[k - 2].skill in RELEASES)):
+            continue  # after a Locate, or a re-grasp: the hand stayed at the object
+        lo = prev.start if prev is not None else 0
+        far = d_tcp[o][lo : cur.end] >= p.approach_m
+        if far.any():
+            t = lo + int(np.flatnonzero(far)[-1]) + 1
+            if prev is None:
+                if t - cur.start >= p.min_move and t < cur.end:
+                    out.insert(k, _Seg("move", cur.start, t, None))
+                    cur.start = t
+            else:
+                _move_boundary(out, k - 1, t)
+        elif prev is not None and k == 1:  # a first Move that never left the object
+            cur.start = prev.start
+            del out[0]
+            k -= 1
+
+    # the last release: a Move after it when the hand lets go before the demonstration ends
+    last = out[-1] if out else None
+    if last is not None and last.skill in RELEASES and last.obj is not None:
+        o = last.obj
+        t = _release(d_tcp[o], d_thumb[o], opening, object_position[o], last.start, n, p)
+        if t is not None and last.start < t <= n - p.min_move:
+            last.end = t
+            out.append(_Seg("move", t, n, None))
+    return [(s.skill, s.start, s.end, s.obj) for s in out]
+
+
+@dataclass
+class _Seg:
+    skill: str
+    start: int
+    end: int
+    obj: int | None
+
+
+def _lift(pos: np.ndarray, a: int, b: int, p: ContactParams) -> int | None:
+    """Where the grasp that lifts the object starts to move it, in ``a..b``: back from the
+    first sample ``lift_h_m`` above its height at ``a``, the start of the motion leading to it
+    (the object displaced by at least ``rest_m`` over ``rest_samples``); None if it is never
+    lifted there. A turn or slide on the table before that grasp stays in the Pick up."""
+    z = pos[a:b, 2]
+    up = z > z[0] + p.lift_h_m
+    if not up.any():
+        return None
+    t = a + int(np.argmax(up))
+    w = p.rest_samples
+    while t - w >= a and np.linalg.norm(pos[t] - pos[t - w]) > p.rest_m:
+        t -= 1
+    return t
+
+
+def _descent(pos: np.ndarray, a: int, b: int, p: ContactParams) -> int | None:
+    """Where a carried object starts its final descent in ``a..b``: the last sample before it
+    comes to rest at which it was ``place_h_m`` above where it rests (the set-down height at
+    ``b``); None if it never was."""
+    z = pos[a:b, 2]
+    above = z >= z[-1] + p.place_h_m
+    if not above.any():
+        return None
+    return a + int(np.flatnonzero(above)[-1]) + 1
+
+
+def _move_boundary(out: list[_Seg], k: int, t: int) -> None:
+    """Put the boundary between ``out[k]`` and ``out[k + 1]`` at ``t``, keeping both non-empty."""
+    t = min(max(t, out[k].start + 1), out[k + 1].end - 1)
+    if t > out[k].start:
+        out[k].end = t
+        out[k + 1].start = t
+
+
+def _release(
+    d_tcp: np.ndarray,
+    d_thumb: np.ndarray,
+    opening: np.ndarray | None,
+    pos: np.ndarray,
+    a: int,
+    hi: int,
+    p: ContactParams,
+) -> int | None:
+    """The first sample in ``a..hi``, once the object is set down (within ``lift_m`` of its
+    lowest point there), at which the hand has let go of it; None if it never does."""
+    if hi - a < 2:
+        return None
+    z = pos[a:hi, 2]
+    rest = a + int(np.argmax(z <= np.nanmin(z) + p.lift_m))  # set down: near its lowest point
+    # farther than while it held the object: a fingertip keypoint may sit off the surface
+    tcp0, thumb0 = np.nan_to_num(d_tcp[rest]), np.nan_to_num(d_thumb[rest])
+    gone = (d_tcp[rest:hi] > tcp0 + p.release_tcp_m) | (
+        d_thumb[rest:hi] > thumb0 + p.release_thumb_m
+    )
+    if opening is not None and np.isfinite(opening[rest]):
+        gone |= opening[rest:hi] > opening[rest] + p.release_open_m
+    if not gone.any():
+        return None
+    return rest + int(np.argmax(gone))

@@ -1,0 +1,160 @@
+"""What a recording shows before anyone segments it: does the hand reach an object, does any
+object move.
+
+Two recordings that load fine cannot be segmented honestly:
+
+* the hand never comes near any object (:func:`closest_approach`): every skill but Move acts on
+  an object, so there is nothing to segment; such a file almost always has its hand and its
+  objects in different frames or units. :func:`check_hand_reaches` refuses it
+  (:class:`~lfd.errors.DemonstrationError`: ``lfd segment``, ``eval``, ``reproduce --segment``
+  stop with one error line; ``lfd info`` only warns);
+* no object ever moves (:func:`object_travel`): a Locate or a recording of moves is fine, but a
+  Move with, Place, Stack or Push found there came from the hand's motion alone.
+  :func:`unmoved_objects_message` says so for the skills a segmentation found (``lfd segment``
+  and ``eval`` warn; ``lfd reproduce --segment`` refuses to move objects the demonstrator did
+  not move).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..demo import Demonstration
+from ..errors import DemonstrationError
+
+NEAR_M = 0.15
+"""A hand that never comes this close (metres, any keypoint to an object's box) reaches no
+object: a Locate points 4-8 cm above a box's top (docs/skills.md); every other skill touches it."""
+
+MOVED_M = 0.02
+"""An object whose centre never gets this far (metres) from where it starts has not moved:
+tracked tags jitter by millimetres, a push moves a box several centimetres."""
+
+MOVING_SKILLS: tuple[str, ...] = ("move_with", "place", "stack", "push")
+"""The skills during which the object moves (docs/skills.md)."""
+
+
+@dataclass(frozen=True)
+class Approach:
+    """The closest the hand comes to an object: distance (m) from the nearest hand keypoint to
+    the object's box (0 inside it), which object and when (s from the first sample);
+    ``object`` is None (and the distance infinite) when no object is ever seen with the hand."""
+
+    distance_m: float
+    object: str | None
+    t_s: float | None
+
+
+def _quat_matrices(q: np.ndarray) -> np.ndarray:
+    """Rotation matrices of quaternions ``(x, y, z, w)``, shape (n, 4) -> (n, 3, 3)."""
+    q = q / np.linalg.norm(q, axis=1, keepdims=True)
+    x, y, z, w = q.T
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        -2,
+    )
+
+
+def closest_approach(demo: Demonstration) -> Approach:
+    """How close the hand comes to any object (each hand sample against the object's pose
+    sampled nearest in time; unseen keypoints and poses are left out)."""
+    best = Approach(float("inf"), None, None)
+    th = demo.hand.t_ns
+    if len(demo.hand) == 0:
+        return best
+    kp = demo.hand.keypoints  # (n, 21, 3)
+    for name, obj in demo.objects.items():
+        seen = obj.visible & np.all(np.isfinite(obj.position), 1)
+        seen &= np.all(np.isfinite(obj.quaternion), 1)
+        if not seen.any():
+            continue
+        t, pos, quat = obj.t_ns[seen], obj.position[seen], obj.quaternion[seen]
+        j = np.clip(np.searchsorted(t, th), 1, max(t.size - 1, 1))
+        j = np.where(np.abs(t[j - 1] - th) <= np.abs(t[j] - th), j - 1, j) if t.size > 1 else 0 * j
+        rot = _quat_matrices(quat[j])  # (n, 3, 3), box -> world
+        local = np.einsum("nji,nkj->nki", rot, kp - pos[j][:, None, :])  # R^T (p - c)
+        outside = np.maximum(np.abs(local) - 0.5 * obj.size, 0.0)
+        dist = np.linalg.norm(outside, axis=2)  # (n, 21), NaN for unseen keypoints
+        if not np.isfinite(dist).any():
+            continue
+        flat = int(np.nanargmin(dist))
+        d = float(dist.flat[flat])
+        if d < best.distance_m:
+            i = flat // dist.shape[1]
+            best = Approach(d, name, (int(th[i]) - demo.start_ns) * 1e-9)
+    return best
+
+
+def object_travel(demo: Demonstration) -> dict[str, float]:
+    """How far (m) each object's centre gets from where it starts (a running median of 5
+    samples first, so a single misdetected tag does not count as motion); 0 for an object
+    seen fewer than twice."""
+    from scipy.ndimage import median_filter
+
+    out: dict[str, float] = {}
+    for name, obj in demo.objects.items():
+        seen = obj.visible & np.all(np.isfinite(obj.position), 1)
+        pos = obj.position[seen]
+        if len(pos) < 2:
+            out[name] = 0.0
+            continue
+        smooth = median_filter(pos, size=(min(5, len(pos)), 1), mode="nearest")
+        out[name] = float(np.max(np.linalg.norm(smooth - smooth[0], axis=1)))
+    return out
+
+
+def reach_message(demo: Demonstration, *, near_m: float = NEAR_M) -> str | None:
+    """Why the hand reaches no object (None when it does, or when there is no object)."""
+    if not demo.objects:
+        return None
+    a = closest_approach(demo)
+    if a.distance_m <= near_m:
+        return None
+    if a.object is None:
+        return "no object is ever seen while the hand is: nothing to segment"
+    return (
+        f"the hand never comes within {near_m:.2f} m of an object (closest {a.distance_m:.2f} m, "
+        f"{a.object} at {a.t_s:.2f} s), so it acts on none: are the hand and the objects in one "
+        "frame and unit?"
+    )
+
+
+def check_hand_reaches(demo: Demonstration, *, near_m: float = NEAR_M) -> None:
+    """Refuse a recording whose hand reaches no object (see the module documentation).
+
+    Raises
+    ------
+    DemonstrationError
+        The hand never comes within ``near_m`` of any object's box.
+    """
+    message = reach_message(demo, near_m=near_m)
+    if message is not None:
+        raise DemonstrationError(message)
+
+
+def unmoved_objects_message(
+    demo: Demonstration,
+    skills: Iterable[str],
+    *,
+    source: str = "the segmentation",
+    moved_m: float = MOVED_M,
+) -> str | None:
+    """A warning when ``skills`` (``source``'s: a segmentation's, the labels') include a skill
+    that moves an object (:data:`MOVING_SKILLS`) but no object of ``demo`` moves; else None."""
+    found = [s for s in dict.fromkeys(skills) if s in MOVING_SKILLS]
+    if not found or not demo.objects:
+        return None
+    travel = object_travel(demo)
+    if max(travel.values()) >= moved_m:
+        return None
+    return (
+        f"no object moves (at most {1000 * max(travel.values()):.1f} mm), yet {source} has "
+        f"{', '.join(found)}, which move one: are the object tracks right?"
+    )
