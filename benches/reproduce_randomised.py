@@ -25,18 +25,14 @@ from typing import Any
 
 def run_demo(job: tuple[str, int], args: Any) -> tuple[dict[str, Any], float]:
     """One held-out demonstration's layouts (a worker of :func:`lfd.batch.run_batch`)."""
-    from lfd.reproduce import (
-        from_labels,
-        from_segmentation,
-        preprocess_for_reproduction,
-        reproduce_randomised,
-    )
+    from lfd.preprocessing import preprocess
+    from lfd.reproduce import PREPROCESSING, from_labels, from_segmentation, reproduce_randomised
     from lfd.segmentation import segment
     from lfd.sim import simulate
 
     exp, seed = job
     demo = simulate(exp, seed=seed).demo
-    traj = preprocess_for_reproduction(demo)
+    traj = preprocess(demo, **PREPROCESSING)
     t0 = int(traj.t_ns[0])
     program = from_segmentation(segment(demo), t0) if args.segment else from_labels(demo.labels, t0)
     t = time.perf_counter()

@@ -33,17 +33,18 @@ def run_crop(path: str) -> list[dict[str, Any]]:
     """Every task and mode of one crop (a worker process)."""
     from lfd.errors import LfdError
     from lfd.io import load
+    from lfd.preprocessing import preprocess
     from lfd.reproduce import (
+        PREPROCESSING,
         check_program,
         from_labels,
         from_segmentation,
-        preprocess_for_reproduction,
         reproduce,
     )
     from lfd.segmentation import segment
 
     demo = load(path, images=False)
-    traj = preprocess_for_reproduction(demo)
+    traj = preprocess(demo, **PREPROCESSING)
     t0 = int(traj.t_ns[0])
     programs = {
         "labels": from_labels(demo.labels, t0),

@@ -45,7 +45,8 @@ def _displacement(rng: np.random.Generator, traj, program) -> dict[str, tuple[fl
 
 
 def main() -> None:
-    from lfd.reproduce import from_labels, preprocess_for_reproduction, reproduce
+    from lfd.preprocessing import preprocess
+    from lfd.reproduce import PREPROCESSING, from_labels, reproduce
     from lfd.sim import simulate
 
     ap = argparse.ArgumentParser()
@@ -57,7 +58,7 @@ def main() -> None:
     for exp in args.experiments:
         for seed in args.seeds:
             demo = simulate(exp, seed=seed).demo
-            traj = preprocess_for_reproduction(demo)
+            traj = preprocess(demo, **PREPROCESSING)
             program = from_labels(demo.labels, int(traj.t_ns[0]))
             row: dict = {"experiment": exp, "seed": seed}
             for mode in ("replay", "skills", "dmp"):

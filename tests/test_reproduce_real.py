@@ -150,11 +150,12 @@ def test_cli_refuses_too_wide_object_exit_2(capsys: pytest.CaptureFixture[str]) 
 def test_real_crop_reproduced_at_the_arms_pace(capsys: pytest.CaptureFixture[str]) -> None:
     from lfd.cli import main
     from lfd.io import load
-    from lfd.reproduce import from_labels, preprocess_for_reproduction
+    from lfd.preprocessing import preprocess
+    from lfd.reproduce import PREPROCESSING, from_labels
 
     crop = REAL / "manip_cube_med2_12.5-19.2s.mcap"
     demo = load(crop, images=False)
-    traj = preprocess_for_reproduction(demo)
+    traj = preprocess(demo, **PREPROCESSING)
     program = from_labels(demo.labels, int(traj.t_ns[0]))
     for mode in ("skills", "dmp"):
         r = reproduce(traj, program, mode)

@@ -102,14 +102,15 @@ def run(args: argparse.Namespace) -> int:
 
     from ..io import load
     from ..outputs import check_output
+    from ..preprocessing import preprocess
     from ..reproduce import (
+        PREPROCESSING,
         TaskProgram,
         check_displacement,
         check_program,
         from_labels,
         from_segmentation,
         parse_displacement,
-        preprocess_for_reproduction,
         program_start,
         reproduce,
         reproduction_report,
@@ -137,7 +138,7 @@ def run(args: argparse.Namespace) -> int:
         check_output(args.video, inputs=[args.recording], what="--video", suffixes=VIDEO_SUFFIXES)
     show = open_from_args(args, "lfd_reproduce")
     demo = load(args.recording, images=False, **loading)
-    traj = preprocess_for_reproduction(demo)
+    traj = preprocess(demo, **PREPROCESSING)
     t0 = int(traj.t_ns[0])
     if args.task:
         program = TaskProgram.load(args.task)

@@ -9,7 +9,8 @@ Typical use::
 
 Modules: :mod:`.robot` (the arm MJCF), :mod:`.scene`, :mod:`.ik` (mink), :mod:`.controller`,
 :mod:`.program` (the task program), :mod:`.goals` (Eq. 2), :mod:`.modes`, :mod:`.dmp`,
-:mod:`.measures`, :mod:`.outcome` (why a run failed), :mod:`.displacement` (``--displace``),
+:mod:`.measures`, :mod:`.outcome` (why a run failed), :mod:`.timescale` (plans slowed to the
+arm's limits), :mod:`.displacement` (``--displace``),
 :mod:`.randomise` (randomised layouts: :func:`reproduce_randomised`), :mod:`.video`.
 """
 
@@ -22,7 +23,6 @@ from typing import Any
 import numpy as np
 
 from .. import _gl  # noqa: F401  (selects the headless GL backend before mujoco loads)
-from ..demo import Demonstration
 from ..trajectory import Trajectory
 from .controller import Execution, Plan, execute
 from .displacement import (
@@ -43,6 +43,7 @@ from .scene import ObjectSpec
 
 __all__ = [
     "MODES",
+    "PREPROCESSING",
     "Randomised",
     "Reproduction",
     "Segment",
@@ -53,7 +54,6 @@ __all__ = [
     "from_labels",
     "from_segmentation",
     "parse_displacement",
-    "preprocess_for_reproduction",
     "program_start",
     "random_layouts",
     "reproduce",
@@ -63,20 +63,13 @@ __all__ = [
 
 
 PREPROCESSING: dict[str, Any] = {"feature_cutoff_hz": "auto", "object_cutoff_hz": 10.0}
-"""How a demonstration is preprocessed for the robot (:func:`preprocess_for_reproduction`): the
-hand filtered at :func:`~lfd.preprocessing.pipeline.auto_cutoff` of its rate, the objects
-hardly (tag and motion-capture poses are smooth already). The paper's 0.625 Hz is meant for the
-segmentation features: on a fast real placement it leaves the placed box's resting pose 2-3 cm
-off (lower and short of where it came to rest), which a robot placing where the person placed
-would then miss."""
-
-
-def preprocess_for_reproduction(demo: Demonstration) -> Trajectory:
-    """The :class:`~lfd.trajectory.Trajectory` a reproduction is planned from
-    (:data:`PREPROCESSING`)."""
-    from ..preprocessing import preprocess
-
-    return preprocess(demo, **PREPROCESSING)
+"""How a demonstration is preprocessed for the robot: ``lfd.preprocess(demo, **PREPROCESSING)``
+(what ``lfd reproduce`` does). The hand filtered at
+:func:`~lfd.preprocessing.pipeline.auto_cutoff` of its rate, the objects hardly (tag and
+motion-capture poses are smooth already): the same choice as the shipped templates'. The paper's
+0.625 Hz is meant for the segmentation features: on a fast real placement it leaves the placed
+box's filtered resting pose 2-3 cm off (lower, and short of where it came to rest), which a robot
+placing where the person placed would then miss (docs/reproduce.md)."""
 
 
 @dataclass

@@ -321,7 +321,18 @@ class _TaskPlanner:
             direct = clear(self.cur, ng["start"], frames, objects, skip=())
             goal = ng["start"] if direct else ng["hover"]
         elif nxt.skill == "pick_up":  # arrive with the grasp yaw already set
-            goal[3] = _pick_goal(frames, nxt, objects, _end_index(frames, nxt))[1][3]
+            name, grasp = _pick_goal(frames, nxt, objects, _end_index(frames, nxt))
+            goal[3] = grasp[3]
+            # a hand that reached low beside (or into the box of) the object, e.g. by a mug's
+            # handle, is where open fingers would hit it: arrive above it instead (the pick_up
+            # descends from there, :meth:`_vertical_grasp`)
+            T, size = objects[name], frames.size[frames.object_index(name)]
+            top = T[2, 3] + size[2] / 2
+            reach = 0.5 * float(np.hypot(size[0], size[1])) + MAX_OPENING / 2
+            off = float(np.hypot(*(goal[:2] - grasp[:2])))
+            low = goal[2] - FINGER_BELOW_TCP < top + GRASP_CLEAR
+            if low and GRASP_SLACK < off and float(np.hypot(*(goal[:2] - T[:2, 3]))) < reach:
+                goal[2] = top + FINGER_BELOW_TCP + GRASP_CLEAR
         elif nxt.skill in ("place", "stack"):
             nxt_goal = _place_goal(
                 frames, nxt, objects, self.held, _end_index(frames, nxt), self.cur[3]
@@ -399,10 +410,11 @@ class _TaskPlanner:
         if self.mode == "dmp":
             t, y = _demo_states(frames, i0, i1)
             # the objects the goal is beside: the demonstrated approach to them is kept
+            # (those the goal is above are no exception: the path keeps clear of them)
             beside = tuple(
                 n
                 for n, T in objects.items()
-                if np.isfinite(required_height(goal[None, :2], frames, {n: T}, **kw)[0])
+                if goal[2] < required_height(goal[None, :2], frames, {n: T}, **kw)[0] < np.inf
             )
             free = partial(
                 path_clear,
