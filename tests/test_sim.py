@@ -391,7 +391,10 @@ def test_natural_exp5_repeats_fast_cycles_with_grammatical_labels(lifts) -> None
         for lab, sel in _intervals(res, {"pick_up", "place"}):
             assert np.diff(z[sel]).max() < 1e-9, lab
         for lab, sel in _intervals(res, {"move", "move_with"}):
-            assert z[sel].max() > z[sel][0] + 0.003, lab
+            # from the last frame at or before the label's start: a re-grasp Move lasts ~0.1 s
+            # and can peak before its first 30 Hz frame (seen with simulator 1.3's draws)
+            k = int(np.searchsorted(tr.t_ns, lab.start_ns, side="right")) - 1
+            assert z[sel].max() > z[k] + 0.003, lab
         # grasps are fast: 0.3-0.6 s from closing the fingers to lift-off, cycles 1.5-4 s
         for g in demo.metadata["grasps"]:
             t_close, t_lift = _lift_off(res, g)
