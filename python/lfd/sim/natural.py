@@ -20,7 +20,8 @@ between repeated cycles (docs/skills.md, "Two demonstrator styles"):
 - **move**: a re-grasp (the hand is at the object it grasps next) is short and low: the TCP rises
   4-12 mm and the hand stays at the object; other moves travel like the careful ones, faster.
   A Move to a Pick up ends, with probability :data:`HOVER_P`, with an idle hover of 1-4 s
-  9-12 cm from the object's box (the Pick up starts there: where the TCP was last 8 cm away).
+  beside the object, 8.7-12 cm from its box (the Pick up starts there: where the TCP was last 8
+  cm away).
 
 Push and Locate are the careful skills (with no pauses: the natural style has none).
 """
@@ -48,7 +49,7 @@ HOVER_P = 0.35
 HOVER_S = (1.0, 4.0)
 """Duration of a hover (s)."""
 
-HOVER_M = (0.09, 0.12)
+HOVER_M = (0.087, 0.12)
 """Distance of a hover from the object's box (m): beyond the Pick up's 8 cm."""
 
 TURN_P = 0.3
@@ -284,23 +285,29 @@ def put_down(P: Planner, name: str, skill: str, *, linger: bool = False) -> None
     P.label(skill, t0, name)
 
 
-def hover_state(P: Planner, name: str, target: HandState) -> HandState:
-    """An idle hand 9-12 cm from ``name``'s box (:data:`HOVER_M`), above and behind it along the
-    approach of ``target`` (the Pick up's entry), pre-shaping loosely."""
+def hover_state(
+    P: Planner, name: str, target: HandState, heading: float | None = None
+) -> HandState:
+    """An idle hand beside ``name``, 8.7-12 cm from its box (:data:`HOVER_M`), back along the
+    approach of ``target`` (the Pick up's entry; or towards ``heading`` from the object), at 0-2
+    cm above the grasp's height (real hands rest low beside the object; the TCP must not rise in
+    the Pick up that follows), loosely pre-shaped, the wrist turned up to 15 deg."""
     rng, pose, size = P.rng, P.poses[name], np.asarray(P.specs[name].size, float)
+    G = _grasp(P, name)
     dist = rng.uniform(*HOVER_M)
-    heading = target.yaw + np.pi + _deg(-30, 30, rng)
-    elev = _deg(25, 60, rng)
-    u = np.array([np.cos(elev) * np.cos(heading), np.cos(elev) * np.sin(heading), np.sin(elev)])
-    top = pose.pos + np.array([0.0, 0.0, 0.5 * size[2]])
-    lo, hi = 0.0, 0.5
+    if heading is None:
+        heading = target.yaw + np.pi + _deg(-30, 30, rng)
+    base = np.array([pose.pos[0], pose.pos[1], float(G["tcp"][2]) + rng.uniform(0.0, 0.02)])
+    u = np.array([np.cos(heading), np.sin(heading), 0.0])
+    lo, hi = 0.0, 0.6
     for _ in range(30):  # the point along u at the drawn distance from the box
         mid = 0.5 * (lo + hi)
-        p = top + mid * u
+        p = base + mid * u
         d = float(box_distance(p[None], pose.pos[None], _yaw_quat(pose.yaw)[None], size)[0])
         lo, hi = (mid, hi) if d < dist else (lo, mid)
-    q = 0.6 * POSTURES["relaxed"] + 0.4 * target.q
-    return target.moved(tcp=top + hi * u, q=q, pitch=target.pitch + _deg(5, 15, rng))
+    w = rng.uniform(0.5, 0.8)
+    q = w * POSTURES["relaxed"] + (1.0 - w) * target.q
+    return target.moved(tcp=base + hi * u, q=q, yaw=target.yaw + _deg(-15, 15, rng))
 
 
 def move(P: Planner, target: HandState, obj: str | None, *, reach: bool = False) -> None:
@@ -349,11 +356,14 @@ def move(P: Planner, target: HandState, obj: str | None, *, reach: bool = False)
             posture_window=(0.1, 1.0),
             orient_window=(0.1, 1.0),
         )
-    if hover is not None:  # idle: a slow drift of a few mm (never within 8.5 cm of the box)
-        t_h, p0 = P.t, target.tcp
-        duration = rng.uniform(*HOVER_S)
-        for _ in range(3):
-            drift = np.array([*rng.uniform(-0.004, 0.004, 2), rng.uniform(-0.002, 0.004)])
-            P.go(duration / 3, P.state.moved(tcp=p0 + drift))
+    if hover is not None and obj is not None:  # idle, never still: the hand drifts about
+        # beside the object (each pose 8.7-12 cm from its box, within +-12 deg around it)
+        t_h, entry = P.t, hover
+        d = target.tcp[:2] - P.poses[obj].pos[:2]
+        heading = float(np.arctan2(d[1], d[0]))
+        n = int(rng.integers(2, 5))
+        for _ in range(n):
+            pose = hover_state(P, obj, entry, heading + _deg(-12, 12, rng))
+            P.go(rng.uniform(*HOVER_S) / n, pose, posture_window=(0.0, 1.0))
         P.log.append({"hover": obj, "t0_s": round(t_h, 6), "t1_s": round(P.t, 6)})
     P.label("move", t0, obj)
