@@ -118,9 +118,9 @@ def _execute(P: Planner, steps: tuple[Step, ...], roles: dict[str, str]) -> None
         elif step.skill == "pick_up":
             if natural:  # a re-grasp (place, move, pick up of one object) does not turn it
                 before = [(s.skill, s.role) for s in steps[max(0, i - 2) : i]]
-                regrasp = len(before) == 2 and before[0][0] in ("place", "stack")
-                regrasp = regrasp and before == [(before[0][0], step.role), ("move", step.role)]
-                nat.pick_up(P, str(name), turn=not regrasp)
+                again = len(before) == 2 and before[0][0] in ("place", "stack")
+                again = again and before == [(before[0][0], step.role), ("move", step.role)]
+                nat.pick_up(P, str(name), turn=not again)
             else:
                 pick_up(P, str(name))
         elif step.skill == "move_with":

@@ -28,6 +28,8 @@ Push and Locate are the careful skills (with no pauses: the natural style has no
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from ..contact import box_distance
@@ -141,7 +143,7 @@ def _clear(P: Planner, name: str, centre: np.ndarray) -> bool:
     )
 
 
-def _turn_on_table(P: Planner, name: str, G: dict[str, object], t_lift: float) -> float:
+def _turn_on_table(P: Planner, name: str, G: dict[str, Any], t_lift: float) -> float:
     """Turn and/or slide the grasped ``name`` on the table in one or two strokes (the TCP never
     rises), re-grasping it after a stroke the way the hand first held it (cubes: the same face
     grasp, rotated back by a multiple of 90 deg), or keeping the grasp for the lift. Returns the
