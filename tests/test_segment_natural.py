@@ -221,7 +221,12 @@ def test_implicit_moves_sit_between_release_and_regrasp() -> None:
     demo = natural("exp5", 706).demo
     result = segment(demo)
     seq = result.skill_sequence
+    # simulator 1.3: a Move may end with an idle hover of 1-4 s beside the object (by design, a
+    # Move, docs/skills.md); only the re-grasps without one are short
+    hovers = [(h["t0_s"], h["t1_s"]) for h in demo.metadata["hovers"]]
     for k, s in enumerate(result.segments[1:-1], start=1):
+        if any(s.start_s - 0.5 <= a and b <= s.end_s + 0.5 for a, b in hovers):
+            continue
         if s.skill == "move" and seq[k - 1] == "place" and seq[k + 1] == "pick_up":
             assert 0 < s.end_s - s.start_s <= 0.5
             assert result.segments[k - 1].object == result.segments[k + 1].object

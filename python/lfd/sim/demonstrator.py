@@ -43,9 +43,10 @@ from .skills import (
 from .tasks import TEMPLATE_TASKS, Step, check_task, place_objects, task_steps
 from .variability import Variability
 
-SIM_VERSION = "1.2"
+SIM_VERSION = "1.3"
 """Version of the simulated demonstrator (bump when motions change; 1.1 added the natural
-style, the careful motions are those of 1.0)."""
+style, 1.2 the contact boundaries, 1.3 the natural style's idle hovers and table turns; the
+careful motions are those of 1.2)."""
 
 _MAX_ATTEMPTS = 10
 
@@ -110,9 +111,18 @@ def _execute(P: Planner, steps: tuple[Step, ...], roles: dict[str, str]) -> None
         if step.skill == "move":
             nxt = steps[i + 1] if i + 1 < len(steps) else None
             target = _entry(P, nxt, roles) if nxt else rest_pose(P)
-            (nat.move if natural else move)(P, target, name)
+            if natural:
+                nat.move(P, target, name, reach=nxt is not None and nxt.skill == "pick_up")
+            else:
+                move(P, target, name)
         elif step.skill == "pick_up":
-            (nat.pick_up if natural else pick_up)(P, str(name))
+            if natural:  # a re-grasp (place, move, pick up of one object) does not turn it
+                before = [(s.skill, s.role) for s in steps[max(0, i - 2) : i]]
+                again = len(before) == 2 and before[0][0] in ("place", "stack")
+                again = again and before == [(before[0][0], step.role), ("move", step.role)]
+                nat.pick_up(P, str(name), turn=not again)
+            else:
+                pick_up(P, str(name))
         elif step.skill == "move_with":
             onto = roles[step.onto] if step.onto else None
             if natural:
@@ -356,10 +366,13 @@ def simulate(
         },
         "skill_sequence": [lab.skill for lab in P.labels],
         "style": var.style,
-        "grasps": P.grasps,
+        "grasps": [g for g in P.grasps if not g.get("table_turn")],
         "pushes": [e for e in P.log if "push" in e],
         "stacks": [e for e in P.log if "stack" in e],
     }
+    if var.style == "natural":
+        metadata["table_turns"] = [e for e in P.log if "table_turn" in e]
+        metadata["hovers"] = [e for e in P.log if "hover" in e]
     if task in TEMPLATE_TASKS:
         metadata["target_skill"] = task
     demo = Demonstration(hand=hand, objects=tracks, labels=labels, camera=camera, metadata=metadata)

@@ -7,7 +7,11 @@ between repeated cycles (docs/skills.md, "Two demonstrator styles"):
 
 - **pick_up**: reach to 3-8 mm above the grasp point, descend in 0.04-0.08 s, close the grasp
   (pinch, thumb-middle or whole hand) in 0.15-0.22 s. The object leaves the table 0.34-0.56 s
-  after the fingers started closing (Move with waits for it).
+  after the fingers started closing (Move with waits for it). A Pick up that is not a re-grasp
+  at the object turns (30-90 deg about z) and/or slides (2-8 cm) the object on the table with
+  probability :data:`TURN_P`, in one or two strokes, re-grasping it after a stroke or lifting
+  it in the grasp that turned it (the turn is part of the Pick up: docs/skills.md,
+  "Boundaries").
 - **move_with**: lift the object 5-45 cm, carry it to a free spot (within 12 cm when the task
   repeats the lift, like ``exp5``) and end 4-6 cm above it, at about twice the careful speed.
 - **place** / **stack**: lower in 0.15-0.3 s plus a final 3-8 mm, release, and open the grasp
@@ -15,24 +19,49 @@ between repeated cycles (docs/skills.md, "Two demonstrator styles"):
   hand lingers on it).
 - **move**: a re-grasp (the hand is at the object it grasps next) is short and low: the TCP rises
   4-12 mm and the hand stays at the object; other moves travel like the careful ones, faster.
+  A Move to a Pick up ends, with probability :data:`HOVER_P`, with an idle hover of 1-4 s
+  beside the object, 8.7-12 cm from its box (the Pick up starts there: where the TCP was last 8
+  cm away).
 
 Push and Locate are the careful skills (with no pauses: the natural style has none).
 """
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
+from ..contact import box_distance
 from .hand import FINGERTIP_RADIUS, POSTURES, grasp_posture
 from .motion import HandState, minjerk
 from .planner import Detach, ObjectPose, Planner
 from .skills import _deg, _grasp, _max_top, attach, carry_target
+from .tasks import WORKSPACE_X, WORKSPACE_Y
 
 LIFT_OFF_M = 0.01
 """Height the object must rise to count as lifted off (m)."""
 
 REPEAT_SPOT_M = 0.12
 """A repeated lift puts the object down at most this far (m) from where it was picked up."""
+
+HOVER_P = 0.35
+"""Probability that a Move to a Pick up (not a re-grasp) ends with an idle hover."""
+
+HOVER_S = (1.0, 4.0)
+"""Duration of a hover (s)."""
+
+HOVER_M = (0.087, 0.12)
+"""Distance of a hover from the object's box (m): beyond the Pick up's 8 cm."""
+
+TURN_P = 0.3
+"""Probability that a Pick up (not a re-grasp) turns or slides the object on the table first."""
+
+TURN_DEG = (30.0, 90.0)
+"""Turn of one stroke about z (deg, either sign); two strokes turn up to 180 deg."""
+
+SLIDE_M = (0.02, 0.08)
+"""Slide of one stroke on the table (m)."""
 
 
 def _at(P: Planner, name: str) -> bool:
@@ -59,8 +88,9 @@ def pick_up_entry(P: Planner, name: str) -> HandState:
     return HandState(p, yaw + _deg(-8, 8, rng), pitch - _deg(0, 8, rng), roll, q)
 
 
-def pick_up(P: Planner, name: str) -> None:
-    """Reach to the object with the grasp pre-shaped and close it, without hesitation."""
+def pick_up(P: Planner, name: str, *, turn: bool = False) -> None:
+    """Reach to the object with the grasp pre-shaped and close it, without hesitation; with
+    ``turn`` (not a re-grasp) the object may be turned or slid on the table first."""
     P.begin_skill()
     t0, G, rng = P.t, _grasp(P, name), P.rng
     P.pending.pop(("pick_up", name), None)
@@ -83,8 +113,106 @@ def pick_up(P: Planner, name: str) -> None:
     P.go(rng.uniform(0.15, 0.22), P.state.moved(q=grasp_posture(kind, float(G["g"]))))
     attach(P, name, G, t_close)
     P.hold(rng.uniform(0.02, 0.06))
-    P.pending[("lift", name)] = {"t": t_close + rng.uniform(0.34, 0.56)}
+    t_lift = t_close + rng.uniform(0.34, 0.56)
+    if turn and rng.random() < TURN_P:
+        t_lift = _turn_on_table(P, name, G, t_lift)
+    P.pending[("lift", name)] = {"t": t_lift}
     P.label("pick_up", t0, name)
+
+
+def _yaw_quat(yaw: float) -> np.ndarray:
+    return np.array([0.0, 0.0, np.sin(0.5 * yaw), np.cos(0.5 * yaw)])
+
+
+def _clear(P: Planner, name: str, centre: np.ndarray) -> bool:
+    """``name`` may stand (at any yaw) with its centre at ``centre``: on the table, inside the
+    workspace and clear of every other object."""
+    if abs(float(P.poses[name].pos[2]) - 0.5 * P.specs[name].size[2]) > 1e-3:
+        return False  # stacked: not on the table
+    if not (
+        WORKSPACE_X[0] - 0.03 <= centre[0] <= WORKSPACE_X[1] + 0.03
+        and WORKSPACE_Y[0] - 0.03 <= centre[1] <= WORKSPACE_Y[1] + 0.03
+    ):
+        return False
+    r = 0.5 * float(np.hypot(*P.specs[name].size[:2]))
+    return all(
+        float(np.linalg.norm(centre[:2] - pose.pos[:2]))
+        > r + 0.5 * float(np.hypot(*P.specs[other].size[:2])) + 0.01
+        for other, pose in P.poses.items()
+        if other != name
+    )
+
+
+def _turn_on_table(P: Planner, name: str, G: dict[str, Any], t_lift: float) -> float:
+    """Turn and/or slide the grasped ``name`` on the table in one or two strokes (the TCP never
+    rises), re-grasping it after a stroke the way the hand first held it (cubes: the same face
+    grasp, rotated back by a multiple of 90 deg), or keeping the grasp for the lift. Returns the
+    lift-off time (s). Nothing happens when the object has no room to turn."""
+    rng = P.rng
+    strokes = 1 if rng.random() < 0.7 else 2
+    regrasp_last = rng.random() < 0.5
+    pose0 = P.poses[name].copy()
+    rel0 = P.state.tcp - pose0.pos  # the grasp relative to the object, hand yaw G["yaw"]
+    yaw0 = P.state.yaw
+    log: dict[str, object] = {"table_turn": name, "t0_s": round(P.t, 6)}
+    total, moved = 0.0, np.zeros(2)
+    for k in range(strokes):
+        pose = P.poses[name]
+        theta = float(np.deg2rad(rng.uniform(*TURN_DEG))) * (1.0 if rng.random() < 0.5 else -1.0)
+        a = rng.uniform(-np.pi, np.pi)
+        slide = rng.uniform(*SLIDE_M) * np.array([np.cos(a), np.sin(a)])
+        mode = rng.choice(3, p=[0.45, 0.25, 0.3])  # turn, slide, both
+        if mode == 1:
+            theta = 0.0
+        elif mode == 0:
+            slide = np.zeros(2)
+        centre = pose.pos[:2] + slide
+        if not _clear(P, name, centre):
+            slide, centre = np.zeros(2), pose.pos[:2].copy()
+            if theta == 0.0 or not _clear(P, name, centre):
+                break
+        c, s_ = np.cos(theta), np.sin(theta)
+        d = P.state.tcp[:2] - pose.pos[:2]
+        tcp = P.state.tcp.copy()
+        tcp[:2] = centre + np.array([c * d[0] - s_ * d[1], s_ * d[0] + c * d[1]])
+        P.go(P.dur(0.35, 0.7) + 0.25 * abs(theta), P.state.moved(tcp=tcp, yaw=P.state.yaw + theta))
+        new = ObjectPose(np.array([centre[0], centre[1], pose.pos[2]]), pose.yaw + theta)
+        total, moved = total + theta, moved + slide
+        P.hold(rng.uniform(0.05, 0.15))
+        if k == strokes - 1 and not regrasp_last:
+            P.poses[name] = new
+            P.hold(rng.uniform(0.1, 0.25))  # at rest before the lift
+            t_lift = P.t + rng.uniform(0.25, 0.45)
+            break
+        # let go, open a little wider and take it again as first held (cube faces: turned back
+        # by the multiple of 90 deg nearest to the turn so far)
+        P.events.append(Detach(P.t, name, new.copy()))
+        P.poses[name] = new
+        P.held, P.grasp_rel = None, None
+        P.grasps[-1]["table_turn"] = True
+        kind = str(G["kind"])
+        g_open = P.kin.grasp_for_aperture(
+            kind, float(G["width"]) + 2 * FINGERTIP_RADIUS * P.scale + rng.uniform(0.02, 0.04)
+        )
+        P.go(rng.uniform(0.1, 0.18), P.state.moved(q=grasp_posture(kind, g_open)))
+        back = total - 0.5 * np.pi * round(total / (0.5 * np.pi))
+        c, s_ = np.cos(back), np.sin(back)
+        tcp = P.state.tcp.copy()
+        tcp[:2] = new.pos[:2] + np.array([c * rel0[0] - s_ * rel0[1], s_ * rel0[0] + c * rel0[1]])
+        P.go(P.dur(0.25, 0.45), P.state.moved(tcp=tcp, yaw=yaw0 + back))
+        t_close = P.t
+        P.go(rng.uniform(0.15, 0.22), P.state.moved(q=grasp_posture(kind, float(G["g"]))))
+        attach(P, name, {**G, "yaw": yaw0 + back}, t_close)
+        P.hold(rng.uniform(0.02, 0.06))
+        t_lift = t_close + rng.uniform(0.34, 0.56)
+    if total or moved.any():
+        log.update(
+            t1_s=round(P.t, 6),
+            turn_deg=round(float(np.rad2deg(total)), 2),
+            slide_m=round(float(np.linalg.norm(moved)), 4),
+        )
+        P.log.append(log)
+    return t_lift
 
 
 def _rise_time(fraction: float) -> float:
@@ -159,11 +287,41 @@ def put_down(P: Planner, name: str, skill: str, *, linger: bool = False) -> None
     P.label(skill, t0, name)
 
 
-def move(P: Planner, target: HandState, obj: str | None) -> None:
+def hover_state(
+    P: Planner, name: str, target: HandState, heading: float | None = None
+) -> HandState:
+    """An idle hand beside ``name``, 8.7-12 cm from its box (:data:`HOVER_M`), back along the
+    approach of ``target`` (the Pick up's entry; or towards ``heading`` from the object), at 0-2
+    cm above the grasp's height (real hands rest low beside the object; the TCP must not rise in
+    the Pick up that follows), loosely pre-shaped, the wrist turned up to 15 deg."""
+    rng, pose, size = P.rng, P.poses[name], np.asarray(P.specs[name].size, float)
+    G = _grasp(P, name)
+    dist = rng.uniform(*HOVER_M)
+    if heading is None:
+        heading = target.yaw + np.pi + _deg(-30, 30, rng)
+    base = np.array([pose.pos[0], pose.pos[1], float(G["tcp"][2]) + rng.uniform(0.0, 0.02)])
+    u = np.array([np.cos(heading), np.sin(heading), 0.0])
+    lo, hi = 0.0, 0.6
+    for _ in range(30):  # the point along u at the drawn distance from the box
+        mid = 0.5 * (lo + hi)
+        p = base + mid * u
+        d = float(box_distance(p[None], pose.pos[None], _yaw_quat(pose.yaw)[None], size)[0])
+        lo, hi = (mid, hi) if d < dist else (lo, mid)
+    w = rng.uniform(0.5, 0.8)
+    q = w * POSTURES["relaxed"] + (1.0 - w) * target.q
+    return target.moved(tcp=base + hi * u, q=q, yaw=target.yaw + _deg(-15, 15, rng))
+
+
+def move(P: Planner, target: HandState, obj: str | None, *, reach: bool = False) -> None:
     """Travel (not holding) to ``target``: a short, low re-grasp when the hand is at ``obj``
-    already, else rise above every object and travel."""
+    already, else rise above every object and travel; before a reach (``reach``: a Pick up of
+    ``obj`` follows) the hand may hover idle near the object instead (the Pick up then starts
+    from the hover)."""
     P.begin_skill()
     t0, rng, s = P.t, P.rng, P.state
+    hover = None
+    if reach and obj is not None and not _at(P, obj) and rng.random() < HOVER_P:
+        hover, target = target, hover_state(P, obj, target)
     if obj is not None and _at(P, obj):
         z_peak = max(s.tcp[2], target.tcp[2]) + rng.uniform(0.004, 0.012)
         kind = str(P.pending[("pick_up", obj)]["kind"])
@@ -200,4 +358,14 @@ def move(P: Planner, target: HandState, obj: str | None) -> None:
             posture_window=(0.1, 1.0),
             orient_window=(0.1, 1.0),
         )
+    if hover is not None and obj is not None:  # idle, never still: the hand drifts about
+        # beside the object (each pose 8.7-12 cm from its box, within +-12 deg around it)
+        t_h, entry = P.t, hover
+        d = target.tcp[:2] - P.poses[obj].pos[:2]
+        heading = float(np.arctan2(d[1], d[0]))
+        n = int(rng.integers(2, 5))
+        for _ in range(n):
+            pose = hover_state(P, obj, entry, heading + _deg(-12, 12, rng))
+            P.go(rng.uniform(*HOVER_S) / n, pose, posture_window=(0.0, 1.0))
+        P.log.append({"hover": obj, "t0_s": round(t_h, 6), "t1_s": round(P.t, 6)})
     P.label("move", t0, obj)
