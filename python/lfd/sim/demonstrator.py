@@ -91,10 +91,12 @@ class SimResult:
     variability: Variability
 
 
-def _entry(P: Planner, step: Step, roles: dict[str, str]) -> Any:
+def _entry(P: Planner, step: Step, roles: dict[str, str], *, first: bool = False) -> Any:
     name = roles[step.role] if step.role else None
     if step.skill == "pick_up" and name:
-        return (nat.pick_up_entry if P.var.style == "natural" else pick_up_entry)(P, name)
+        if P.var.style == "natural":
+            return nat.pick_up_entry(P, name)
+        return pick_up_entry(P, name, first=first)
     if step.skill == "push" and name:
         return push_entry(P, name)
     if step.skill == "locate" and name:
@@ -103,7 +105,7 @@ def _entry(P: Planner, step: Step, roles: dict[str, str]) -> Any:
 
 
 def _execute(P: Planner, steps: tuple[Step, ...], roles: dict[str, str]) -> None:
-    P.hand = _entry(P, steps[0], roles)
+    P.hand = _entry(P, steps[0], roles, first=True)
     P.hold(float(P.rng.uniform(0.3, 0.8)))
     natural = P.var.style == "natural"
     for i, step in enumerate(steps):

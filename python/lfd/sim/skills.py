@@ -8,8 +8,9 @@ Each skill function appends its segments to a :class:`~lfd.sim.planner.Planner` 
 current hand state and closes its label (pauses after a skill belong to that skill). An
 ``*_entry`` function gives the hand state a preceding Move must reach for the skill to start.
 
-- **pick_up** (not holding -> holding): from above/near the object (entry: TCP 4-6 cm above the
-  top face, up to 4 cm back along the approach direction), reach down to 0.5-1.5 cm above the grasp
+- **pick_up** (not holding -> holding): from above/near the object (entry: TCP 6-12 cm above the
+  top face, up to 5 cm back along the approach direction; 4-6 cm and 4 cm where the demonstration
+  starts), reach down to 0.5-1.5 cm above the grasp
   point with the index and thumb pre-shaped wider than the object (2-4 cm margin), then a slow final
   descent to the grasp point (TCP 1.2-2 cm below the top face at the object's centre, +-2 mm), an
   optional hesitation, and close index and thumb until the tip distance is the object width plus
@@ -136,14 +137,18 @@ def _grasp(P: Planner, name: str) -> dict[str, Any]:
     return G
 
 
-def pick_up_entry(P: Planner, name: str) -> HandState:
-    """Hand state above/near ``name`` from which a Pick up starts."""
+def pick_up_entry(P: Planner, name: str, *, first: bool = False) -> HandState:
+    """Hand state above/near ``name`` from which a Pick up starts: 6-12 cm above its top, up to
+    5 cm back; where the demonstration starts (``first``) 4-6 cm and up to 4 cm, so that it starts
+    with the Pick up itself, not with a Move (docs/skills.md "Boundaries": a Pick up starts where
+    the TCP was last 8 cm from the object)."""
     G, rng = _grasp(P, name), P.rng
     yaw = float(G["yaw"])
-    back = np.array([np.cos(yaw), np.sin(yaw)]) * -rng.uniform(0.0, 0.04)
+    back_max, (lo, hi) = (0.04, (0.04, 0.06)) if first else (0.05, (0.06, 0.12))
+    back = np.array([np.cos(yaw), np.sin(yaw)]) * -rng.uniform(0.0, back_max)
     side = np.array([-np.sin(yaw), np.cos(yaw)]) * rng.uniform(-0.02, 0.02)
     tcp = np.array(G["tcp"], float)
-    p = np.array([*(tcp[:2] + back + side), P.top(name) + rng.uniform(0.04, 0.06)])
+    p = np.array([*(tcp[:2] + back + side), P.top(name) + rng.uniform(lo, hi)])
     q = 0.5 * POSTURES["relaxed"] + 0.5 * grasp_posture(str(G["kind"]), float(G["g_pre"]))
     return HandState(
         p,
