@@ -97,3 +97,13 @@ def test_real_crops_segment_at_their_contact_events() -> None:
         frames.append(all_metrics(result.segments, demo.labels)["frame_accuracy"])
     assert exact >= 6
     assert np.mean(frames) >= 0.9
+
+
+@pytest.mark.parametrize(
+    "bad", [{"approach_m": float("nan")}, {"lift_m": -0.01}, {"min_move": 0}, {"rest_samples": 1.5}]
+)
+def test_bad_contact_parameters_are_refused(bad: dict[str, float]) -> None:
+    from lfd.errors import InvalidParameterError
+
+    with pytest.raises(InvalidParameterError, match="contacts"):
+        ContactParams(**bad)  # type: ignore[arg-type]

@@ -26,6 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .errors import InvalidParameterError
+
 Span = tuple[str, int, int, int | None]
 """``(skill, start, end, object)``: a skill on samples ``start..end`` (end exclusive)."""
 
@@ -69,6 +71,16 @@ class ContactParams:
     release_open_m: float = 0.015
     release_tcp_m: float = 0.03
     min_move: int = 3
+
+    def __post_init__(self) -> None:
+        for name, value in vars(self).items():
+            if not (np.isfinite(value) and value >= 0):
+                raise InvalidParameterError(
+                    f"contacts.{name} must be a finite number >= 0, got {value}"
+                )
+        for name in ("rest_samples", "min_move"):
+            if int(getattr(self, name)) != getattr(self, name) or getattr(self, name) < 1:
+                raise InvalidParameterError(f"contacts.{name} must be a whole number >= 1")
 
 
 def box_distance(
