@@ -687,7 +687,8 @@ def test_skills_arm_still_while_gripper_dwells(sim_demos: dict) -> None:
         end = int(np.flatnonzero(seg == k)[-1])
         dwell = slice(end + 1, end + 1 + n_dwell)
         assert np.all(seg[dwell] == -1)
-        assert np.ptp(r.planned_tcp[dwell], axis=0).max() < 1e-9  # planned: not a tick of motion
+        # planned: not a tick of motion (the time scaling resamples the held pose: < 1 micrometre)
+        assert np.ptp(r.planned_tcp[dwell], axis=0).max() < 1e-6
         assert path_length(r.executed_tcp[dwell]) < 0.004  # executed: the servos hold
         dwells += 1
         if s.skill in ("place", "stack"):

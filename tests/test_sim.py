@@ -469,14 +469,14 @@ def test_natural_sensing_is_mocap_like() -> None:
 
 
 def test_careful_style_is_unchanged() -> None:
-    # label times of a default (careful) demonstration, from the simulator 1.2 (a Pick up's
-    # entry 4-6 cm above the object and a carry's end 4-6 cm above the spot, docs/skills.md
-    # "Boundaries"; the draws are the same as before the styles existed, only two ranges changed)
+    # label times of a default (careful) demonstration, from the simulator 1.3 (a carry ends 4-6 cm
+    # above its spot, docs/skills.md "Boundaries"; the draws are the same as before the styles
+    # existed, only that range changed: the first three labels are as they were)
     res = simulate("exp2", seed=5)
     ends = [lab.end_ns - res.demo.start_ns for lab in res.demo.labels]
     assert ends == [
-        2342939499, 3703778926, 5261048678, 6444376081,
-        8332185167, 9868913169, 11855632796, 13700000000,
+        2342939499, 3701442130, 5285019891, 6468347294,
+        8356156381, 9892884382, 11879604010, 13733333333,
     ]  # fmt: skip
     assert res.demo.metadata["style"] == "careful"
     assert [g["type"] for g in res.demo.metadata["grasps"]] == ["pinch"]
