@@ -8,8 +8,8 @@ and the simulator's ground truth, so both speak of the same skill boundaries:
 
 - **approach**: a Pick up begins at the last sample before its grasp at which the TCP is at least
   ``approach_m`` (8 cm) from the object's bounding box; what comes before it is a Move;
-- **lift**: a Pick up ends, and the Move with begins, when the object first moves (``lift_m``
-  from where it rested when the grasp began);
+- **lift**: a Pick up ends, and the Move with begins, where the grasp that lifts the object
+  starts to move it (back from ``lift_h_m`` of lift to where it last rested);
 - **release**: a Place or Stack ends when the hand lets go of the set-down object: the thumb tip
   ``release_thumb_m`` (1 cm) or the TCP ``release_tcp_m`` (3 cm) farther from its box than while
   it held it, or the grasp aperture ``release_open_m`` (1.5 cm) wider;
@@ -44,7 +44,8 @@ class ContactParams:
     approach_m : float
         A Pick up begins where the TCP was last this far from the object's box.
     lift_m : float
-        The object has moved once it is this far from where it rested.
+        A set-down object is within this much of its lowest height (the release is looked for
+        from there).
     lift_h_m, rest_m, rest_samples : float, float, int
         The object is lifted once it is ``lift_h_m`` above its height when the grasp began; the
         motion that lifts it starts after the last ``rest_samples`` samples in which it moved
