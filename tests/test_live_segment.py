@@ -1,5 +1,6 @@
-"""Live segmentation: raw messages -> causal preprocessing -> online segmenter
-(:mod:`lfd.segmentation.live`), ``lfd record --live-segment`` and ``lfd segment --follow``."""
+"""Live segmentation: raw messages -> the batch pipeline on the recording so far, skills
+settled once they stop changing (:mod:`lfd.segmentation.live`), ``lfd record --live-segment``
+and ``lfd segment --follow``."""
 
 from __future__ import annotations
 
@@ -11,37 +12,59 @@ import lfd
 import numpy as np
 import pytest
 from lfd.io import load
-from lfd.preprocessing.online import demo_messages
-from lfd.segmentation.live import LiveSegmentation, segment_live
-from lfd.segmentation.pipeline import SegmentParams
+from lfd.segmentation.live import LiveSegmentation, demo_messages, segment_live
 
 ROOT = Path(__file__).resolve().parent.parent
 RECORDINGS = [ROOT / "recordings" / f"exp{k}.mcap" for k in range(1, 5)]
+PERCEIVED = ROOT / "recordings" / "perceived" / "exp1.mcap"
 
 
-@pytest.mark.parametrize("path", RECORDINGS, ids=lambda p: p.stem)
-def test_live_chain_finds_the_offline_skills_soon_after_they_end(path: Path) -> None:
-    """From the recording's raw messages in time order (causal filters, online features, online
-    segmenter): the offline sequence, with the same objects, each skill settled within 3.5 s
-    of its offline end (the last one at the end of the recording)."""
+@pytest.mark.parametrize("path", [*RECORDINGS, PERCEIVED], ids=lambda p: p.parent.name + p.stem)
+def test_live_finds_the_batch_skills_soon_after_they_end(path: Path) -> None:
+    """From the recording's raw messages in time order: the batch result (``lfd segment``,
+    contact boundaries and all), each skill settled soon after its batch end (the last one at
+    the end of the recording), the boundaries within a few samples of the batch ones."""
     demo = load(path)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        # the live stream emits the search's boundaries: compared without the contact rule
-        # (lfd.contact, batch only: docs/live.md)
-        offline = lfd.segment(demo, params=SegmentParams(contacts=None))
+        batch = lfd.segment(demo)
         live, settled = segment_live(demo)
     assert [(s.skill, s.object) for s in live.segments] == [
-        (s.skill, s.object) for s in offline.segments
+        (s.skill, s.object) for s in batch.segments
     ]
-    late = (settled - np.array([s.end_ns for s in offline.segments])) * 1e-9
-    assert np.all(late[:-1] <= 3.5), late
-    assert np.median(late[:-1]) <= 2.5, late
-    # the boundaries agree with the offline ones to a few samples
+    late = (settled - np.array([s.end_ns for s in batch.segments])) * 1e-9
+    assert np.all(late[:-1] > 0), late  # nothing settles before it has ended
+    assert np.all(late[:-1] <= 6.0), late
+    if path != PERCEIVED:  # a hidden tag holds the skills it hides (docs/live.md)
+        assert np.median(late[:-1]) <= 2.0, late
     starts = np.array([s.start for s in live.segments]) - np.array(
-        [s.start for s in offline.segments]
+        [s.start for s in batch.segments]
     )
-    assert np.median(np.abs(starts)) <= 4, starts
+    assert np.median(np.abs(starts)) <= 2, starts
+    assert live.segments[-1].end_ns == batch.segments[-1].end_ns
+
+
+def test_live_on_a_window_keeps_the_whole_recording_clock() -> None:
+    """With a short window the runs start at the last settled skill: the segments still count
+    samples and seconds from the recording's start, and the sequence is the batch one."""
+    demo = load(RECORDINGS[0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        batch = lfd.segment(demo)
+        live, _ = segment_live(demo, window_s=4.0)
+    assert [(s.skill, s.object) for s in live.segments] == [
+        (s.skill, s.object) for s in batch.segments
+    ]
+    for a, b in zip(live.segments, batch.segments, strict=True):
+        assert abs(a.start - b.start) <= 6 and abs(a.start_s - b.start_s) <= 0.2
+        assert a.start_s == pytest.approx((a.start_ns - live.segments[0].start_ns) * 1e-9)
+
+
+def test_live_settings_are_checked() -> None:
+    with pytest.raises(lfd.errors.InvalidParameterError, match="every_s"):
+        LiveSegmentation(["a"], [[0.05, 0.05, 0.05]], every_s=0.0)
+    with pytest.raises(lfd.errors.InvalidParameterError, match="lag_s"):
+        LiveSegmentation(["a"], [[0.05, 0.05, 0.05]], lag_s=float("nan"))
 
 
 def test_recorded_message_pairs_and_emitted_segments_are_final() -> None:
@@ -102,7 +125,13 @@ def test_record_live_segment_writes_and_shows_skills_while_recording(tmp_path: P
         ]
     )
     assert code == 0
-    demo = load(out)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # read back without a warning (unique log times)
+        demo = load(out)
+    batch = lfd.segment(demo)  # what `lfd segment` finds in the file afterwards
+    assert [(s.skill, s.object) for s in demo.live_segments] == [
+        (s.skill, s.object) for s in batch.segments
+    ]
     assert [s.skill for s in demo.live_segments] == [
         "pick_up", "move_with", "place", "move", "pick_up", "move_with", "stack", "move",
     ]  # fmt: skip
@@ -112,6 +141,7 @@ def test_record_live_segment_writes_and_shows_skills_while_recording(tmp_path: P
             m.log_time for _, _, m in make_reader(f).iter_messages(topics=["/lfd/live/segments"])
         ]
     end = int(demo.hand.t_ns[-1])
+    assert len(set(times)) == len(times)
     assert sum(t < end - 2_000_000_000 for t in times) >= len(times) // 2  # settled during it
     meta = json.dumps(demo.metadata)
     assert "hand_model" in meta

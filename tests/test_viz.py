@@ -20,6 +20,7 @@ import lfd.viz as viz  # noqa: E402
 from lfd.viz.screenshot import free_port  # noqa: E402
 
 T0 = 1_700_000_000_123_456_789  # absolute capture time of the first sample (ns)
+EXP1 = Path(__file__).resolve().parents[1] / "recordings" / "exp1.mcap"
 
 
 # --- reading an .rrd back ---------------------------------------------------------------------
@@ -638,9 +639,12 @@ def test_greedy_trace_matches_the_score_table() -> None:
 
 
 def test_log_segment_run_on_a_preprocessed_demo(session: viz.Session) -> None:
+    from types import SimpleNamespace
+
     from _synthetic import make_demo as synthetic_demo
+    from lfd.features import compute_features
     from lfd.preprocessing import preprocess
-    from lfd.segmentation import Segment, Segmentation
+    from lfd.segmentation import Run, Segment, Segmentation
     from lfd.viz.pipeline import log_recorded_demo, log_segment_run
 
     demo = synthetic_demo(duration_s=6.0)
@@ -656,16 +660,7 @@ def test_log_segment_run_on_a_preprocessed_demo(session: viz.Session) -> None:
         -9.0 * n,
     ]  # pick_up best at 1 section
 
-    class FakeTemplates:
-        skills = ("pick_up", "place")
-
-        class engine:
-            @staticmethod
-            def score_table(
-                values: np.ndarray, b: np.ndarray, max_len: int, end: str = "final"
-            ) -> np.ndarray:
-                assert values.shape == (n, 10) and list(b) == bounds and max_len > 0
-                return table
+    method = SimpleNamespace(templates=SimpleNamespace(skills=["pick_up", "place"]))
 
     def seg(skill: str, a: int, b: int) -> Segment:
         t_end = int(traj.t_ns[min(b, n - 1)])
@@ -676,10 +671,12 @@ def test_log_segment_run_on_a_preprocessed_demo(session: viz.Session) -> None:
         warnings=["impossible skill transition place -> place"],
         sections=bounds,
         object_names=list(traj.object_names),
+        method="greedy",
+        run=Run(traj, compute_features(traj), [], table, method),  # type: ignore[arg-type]
     )
     rec = session.recording
-    assert log_recorded_demo(demo, features=False, recording=rec) is not None
-    log_segment_run(demo, result, trajectory=traj, templates=FakeTemplates(), ground_truth=False, recording=rec)  # type: ignore[arg-type]  # fmt: skip
+    assert log_recorded_demo(demo, trajectory=False, recording=rec) is None
+    log_segment_run(demo, result, ground_truth=False, recording=rec)
     data = finish(session)
 
     assert data.column("/segmentation/skills/ground_truth", "StateChange:state")[0] == [
@@ -712,6 +709,35 @@ def test_log_segment_run_on_a_preprocessed_demo(session: viz.Session) -> None:
     warn = [r["TextLog:text"][0] for r in data.entity("/segmentation/warnings")]
     assert "impossible skill transition place -> place" in warn
     assert len(data.entity("/world/gripper")) > 0
+
+
+def test_the_viewer_shows_the_trajectory_that_was_segmented(tmp_path: Path) -> None:
+    """`lfd segment --rerun-save` logs the gripper of the run it segmented: on exp1 the default
+    preprocessing differs from the templates' by centimetres (issue 28), the logged one by 0."""
+    import lfd
+    from lfd.cli import main
+    from lfd.preprocessing import preprocess
+
+    rrd = tmp_path / "seg.rrd"
+    assert main(["segment", str(EXP1), "--rerun-save", str(rrd)]) == 0
+    data = Rrd(rrd)
+    logged = np.array(data.column("/world/gripper", "Transform3D:translation"), dtype=np.float64)
+    frames = [r["frame"] for r in data.entity("/world/gripper") if r.get("Transform3D:translation")]
+    demo = lfd.load(EXP1)
+    run = lfd.segment(demo).run
+    assert run is not None
+    segmented = run.trajectory.tcp[frames]
+    assert len(logged) == len(run.trajectory)
+    np.testing.assert_allclose(logged.reshape(-1, 3), segmented, atol=1e-6)
+    plain = preprocess(demo).tcp  # what the viewer used to show
+    m = min(len(plain), len(run.trajectory))
+    assert np.nanmax(np.linalg.norm(plain[:m] - run.trajectory.tcp[:m], axis=1)) > 0.01
+    features = data.entity("/features/hand_velocity/value")
+    np.testing.assert_allclose(
+        [r["Scalars:scalars"][0] for r in features],
+        run.features.column("hand_velocity")[[r["frame"] for r in features]],
+        atol=1e-6,
+    )
 
 
 def test_lfd_simulate_rerun_save(tmp_path: Path) -> None:

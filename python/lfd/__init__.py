@@ -18,7 +18,7 @@ from .errors import EngineError, LfdError
 from .features import FEATURE_NAMES, FeatureParams, Features, compute_features, label_targets
 from .io import McapRecorder, load, save
 from .preprocessing import preprocess
-from .segmentation import Segment, Segmentation, Templates, segment
+from .segmentation import Method, Segment, Segmentation, Templates, segment
 from .skills import SKILLS
 from .trajectory import Trajectory
 
@@ -35,6 +35,7 @@ __all__ = [
     "ImageStream",
     "LfdError",
     "McapRecorder",
+    "Method",
     "ObjectTrack",
     "Segment",
     "Segmentation",

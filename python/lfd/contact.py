@@ -115,6 +115,8 @@ def refine(
     object_size: np.ndarray,
     params: ContactParams | None = None,
     opening: np.ndarray | None = None,
+    *,
+    complete: bool = True,
 ) -> list[Span]:
     """The contiguous ``spans`` with their contact boundaries put where the rules above say
     (``tcp``, ``thumb`` ``(n, 3)``; ``object_position`` ``(O, n, 3)``, ``object_quaternion``
@@ -133,6 +135,9 @@ def refine(
     - a Pick up that ends the demonstration whose object never moves afterwards was no grasp:
       it becomes part of the Move before it.
 
+    The last two rules say how a demonstration ends: with ``complete`` False (a recording still
+    being made, the live segmentation's runs) they are not applied.
+
     Boundaries only move between the two segments they separate, and every segment keeps at
     least one sample.
     """
@@ -149,7 +154,7 @@ def refine(
     }
 
     # a Pick up that ends the demonstration and never lifts its object was no grasp
-    end = out[-1] if out else None
+    end = out[-1] if out and complete else None
     if end is not None and len(out) > 1 and end.skill == "pick_up" and out[-2].skill == "move":
         if end.obj is not None and _lift(object_position[end.obj], end.start, n, p) is None:
             out[-2].end = end.end
@@ -220,7 +225,7 @@ def refine(
             k -= 1
 
     # the last release: a Move after it when the hand lets go before the demonstration ends
-    last = out[-1] if out else None
+    last = out[-1] if out and complete else None
     if last is not None and last.skill in RELEASES and last.obj is not None:
         o = last.obj
         t = _release(d_tcp[o], d_thumb[o], opening, object_position[o], last.start, n, p)

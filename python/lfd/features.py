@@ -327,8 +327,7 @@ def feature_rows(
     params_json: str | None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The engine's Table I computation on raw, checked float64 arrays — the core of
-    :func:`compute_features`, for callers that compute features of short windows many times
-    (:class:`lfd.preprocessing.online.OnlineFeatures`: three samples around each new one).
+    :func:`compute_features`, for callers that compute features many times.
 
     ``tcp`` (n, 3), ``opening`` (n,), ``object_position`` (k, n, 3), ``object_quaternion``
     (k, n, 4), ``object_size`` (k, 3), ``target`` int64 (n,) or None, ``params_json`` from

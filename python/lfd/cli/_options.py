@@ -3,12 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 from collections.abc import Iterable
-from typing import TYPE_CHECKING, Any, get_args
-
-if TYPE_CHECKING:
-    pass
+from typing import Any, get_args
 
 
 def add_segmentation_arguments(parser: argparse.ArgumentParser, *, used_with: str = "") -> None:
@@ -16,7 +14,7 @@ def add_segmentation_arguments(parser: argparse.ArgumentParser, *, used_with: st
 
     The defaults are the most accurate method (segmental DP under the grammar); ``--paper``
     selects the paper's algorithm (greedy cut loop, grammar warnings). Read the chosen values with
-    :func:`segmentation_options`.
+    :func:`segmentation_method`.
     """
     from ..segmentation.pipeline import DEFAULT_GRAMMAR, DEFAULT_SEARCH, GrammarUse, Search
 
@@ -42,28 +40,29 @@ def add_segmentation_arguments(parser: argparse.ArgumentParser, *, used_with: st
     )
 
 
-def segmentation_options(args: argparse.Namespace) -> dict[str, Any]:
-    """Keyword arguments of :func:`lfd.segment` chosen by :func:`add_segmentation_arguments`'s
-    options and ``--templates`` (a file wins over the shipped set ``--paper`` selects)."""
+def segmentation_method(args: argparse.Namespace) -> Any:
+    """The :class:`lfd.Method` chosen by :func:`add_segmentation_arguments`'s options and
+    ``--templates`` (a file, with the method saved in it, wins over the set ``--paper``
+    selects; ``--search`` / ``--grammar`` override the method's)."""
     from ..errors import UsageError
-    from ..segmentation import PAPER
-    from ..segmentation.pipeline import DEFAULT_GRAMMAR, DEFAULT_SEARCH, PAPER_GRAMMAR, PAPER_SEARCH
-    from ..segmentation.templates import Templates
+    from ..segmentation import Method
+    from ..segmentation.pipeline import PAPER_GRAMMAR, PAPER_SEARCH
 
     given = getattr(args, "templates", None)
-    templates = Templates.load(given) if given else None
     if args.paper:
         if args.search not in (None, PAPER_SEARCH) or args.grammar not in (None, PAPER_GRAMMAR):
             raise UsageError(
                 f"--paper means --search {PAPER_SEARCH} --grammar {PAPER_GRAMMAR}; "
                 "drop --paper to choose other values"
             )
-        return {**PAPER, "templates": templates or PAPER["templates"]}
-    return {
-        "search": args.search or DEFAULT_SEARCH,
-        "grammar": args.grammar or DEFAULT_GRAMMAR,
-        "templates": templates,
-    }
+        paper = Method.paper()
+        if given:
+            from ..segmentation import Templates
+
+            return dataclasses.replace(paper, name=str(given), templates=Templates.load(given))
+        return paper
+    method = Method.load(given)
+    return method.with_options(search=args.search, grammar=args.grammar)
 
 
 # --- outputs: one vocabulary (-o/--output FILE, --json OUT|-) -------------------------------

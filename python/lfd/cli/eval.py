@@ -214,8 +214,8 @@ def _show(
     from ..viz.pipeline import log_methods, log_recorded_demo
 
     demo = load(paths[0], object_sizes=object_sizes)
-    traj = log_recorded_demo(demo, features=False)  # log_methods logs them
-    log_methods(demo, methods, templates=templates, trajectory=traj, grammar=grammar)
+    log_recorded_demo(demo, trajectory=False)  # log_methods logs the segmented one
+    log_methods(demo, methods, templates=templates, grammar=grammar)
 
 
 def _base(args: argparse.Namespace, templates: Any) -> tuple[Any, str]:

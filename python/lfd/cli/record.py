@@ -164,7 +164,7 @@ def run(args: argparse.Namespace) -> int:
             [o["name"] for o in source.objects],
             [o["size"] for o in source.objects],
             side=args.hand,
-            hand_rate_hz=hand_rate,
+            tag_ids=[o["tag_id"] for o in source.objects],
         )
     live = open_from_args(args, "lfd_record")
     max_frames = None

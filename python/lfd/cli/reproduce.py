@@ -21,7 +21,7 @@ from ._options import (
     check_json,
     console,
     load_options,
-    segmentation_options,
+    segmentation_method,
     write_json,
 )
 from ._types import float_range, positive_int, seed
@@ -138,14 +138,18 @@ def run(args: argparse.Namespace) -> int:
         check_output(args.video, inputs=[args.recording], what="--video", suffixes=VIDEO_SUFFIXES)
     show = open_from_args(args, "lfd_reproduce")
     demo = load(args.recording, images=False, **loading)
-    traj = preprocess(demo, **PREPROCESSING)
-    t0 = int(traj.t_ns[0])
-    if args.task:
-        program = TaskProgram.load(args.task)
-    elif args.segment:
-        program = from_segmentation(_segment_checked(demo, args), t0)
+    if args.segment and args.task:
+        from ..errors import UsageError
+
+        raise UsageError("--task PROGRAM and --segment both say what to run; give one")
+    if args.segment:  # the robot follows the trajectory that was segmented
+        result = _segment_checked(demo, args)
+        traj = result.run.trajectory
+        program = from_segmentation(result, int(traj.t_ns[0]))
     else:
-        program = from_labels(demo.labels, t0)
+        traj = preprocess(demo, **PREPROCESSING)
+        t0 = int(traj.t_ns[0])
+        program = TaskProgram.load(args.task) if args.task else from_labels(demo.labels, t0)
     modes = ("replay", "skills", "dmp") if args.mode == "all" else (args.mode,)
     if args.randomise:
         return _run_randomised(args, traj, program, modes, err)
@@ -304,7 +308,7 @@ def _segment_checked(demo: Any, args: argparse.Namespace) -> Any:
     from ..segmentation import segment
 
     check_hand_reaches(demo)
-    result = segment(demo, **segmentation_options(args))
+    result = segment(demo, method=segmentation_method(args))
     unmoved = unmoved_objects_message(demo, result.skill_sequence)
     if unmoved is not None:
         raise DemonstrationError(

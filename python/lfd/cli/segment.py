@@ -28,7 +28,7 @@ from ._options import (
     console,
     emit_json,
     load_options,
-    segmentation_options,
+    segmentation_method,
 )
 from ._types import positive_float
 
@@ -84,17 +84,15 @@ def segment_recording(
     )
     if on_loaded is not None:
         on_loaded(demo)
-    result, doc = segment_demo(demo, recording=str(args.recording), **segmentation_options(args))
+    result, doc = segment_demo(demo, segmentation_method(args), recording=str(args.recording))
     return demo, result, doc
 
 
-def _show_demo(shown: list[Any]) -> Callable[[Any], None]:
-    def show(demo: Any) -> None:
-        from ..viz.pipeline import log_recorded_demo
+def _show_demo(demo: Any) -> None:
+    """Show the recording as soon as it is loaded (the segmented trajectory follows)."""
+    from ..viz.pipeline import log_recorded_demo
 
-        shown.append(log_recorded_demo(demo, features=False))
-
-    return show
+    log_recorded_demo(demo, trajectory=False)
 
 
 def segment_stream(
@@ -108,7 +106,7 @@ def segment_stream(
     from ..errors import RecordingFormatError
     from ..segmentation.live import LiveSegmentation
 
-    opts = segmentation_options(args)
+    method = segmentation_method(args)
     con = console(args)
     seg: LiveSegmentation | None = None
     labels: list[Any] = []
@@ -124,9 +122,9 @@ def segment_stream(
             seg = LiveSegmentation(
                 [o[0] for o in objects],
                 [o[2] for o in objects],
-                opts["templates"],
+                method=method,
                 side=follower.hand_side,
-                params=opts.get("params"),
+                tag_ids=[o[1] for o in objects],
             )
         if seg is None:
             continue
@@ -134,7 +132,7 @@ def segment_stream(
     if seg is None:
         return None, labels, []
     _show_update(seg, seg.finish(), timeline(), con)
-    for w in seg.pre.warnings:  # the segmenter's own warnings were printed as they came
+    for w in seg.warnings:  # those of the final run (the whole recording)
         print(f"lfd segment: warning: {' '.join(str(w).split())}", file=sys.stderr)
     return seg.result(), labels, list(seg.settled_ns)
 
@@ -278,21 +276,11 @@ def run(args: argparse.Namespace) -> int:
     check_rerun_args(args, inputs)
     load_options(args)  # a bad --map fails before a viewer opens
     show = open_from_args(args, "lfd_segment")
-    shown: list[Any] = []  # the trajectory made while showing the demonstration
-    demo, result, doc = segment_recording(args, on_loaded=_show_demo(shown) if show else None)
+    demo, result, doc = segment_recording(args, on_loaded=_show_demo if show else None)
     if show:
-        from ..segmentation.templates import resolve_templates
         from ..viz.pipeline import log_segment_run
 
-        opts = segmentation_options(args)
-        log_segment_run(
-            demo,
-            result,
-            trajectory=shown[0] if shown else None,
-            templates=resolve_templates(opts["templates"]),
-            params=opts.get("params"),
-            ground_truth=False,  # logged with the demonstration
-        )
+        log_segment_run(demo, result, ground_truth=False)  # labels logged with the recording
     con = console(args)
     table = Table(title=f"{Path(args.recording).name}: {result.method} segmentation")
     for col in ("#", "skill", "start s", "end s", "object", "score", "confidence"):
@@ -343,7 +331,7 @@ def _run_batch(args: argparse.Namespace) -> int:
 
     from ..batch import recording_paths, run_batch
     from ..errors import UsageError
-    from ..segmentation.files import portable_templates, segment_file
+    from ..segmentation.files import segment_file
     from ._options import batch_options, batch_progress, report_batch_errors
 
     if args.follow:
@@ -355,16 +343,9 @@ def _run_batch(args: argparse.Namespace) -> int:
         )
     paths = recording_paths(args.recordings)
     check_json(args, [*paths, *([args.templates] if args.templates else [])])
-    opts = segmentation_options(args)
+    method = segmentation_method(args)
     how = batch_options(args)
-    task = partial(
-        segment_file,
-        templates=portable_templates(opts["templates"]),
-        search=opts["search"],
-        grammar=opts["grammar"],
-        params=opts.get("params"),
-        load_options=load_options(args),
-    )
+    task = partial(segment_file, method=method.portable(), load_options=load_options(args))
     with batch_progress(len(paths), "segmenting") as step:
         results = run_batch(task, paths, progress=step, **how)
     con = console(args)

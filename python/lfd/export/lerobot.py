@@ -300,7 +300,10 @@ def prepare_episode(
         demo, where = recording, name or "<demonstration>"
     else:
         demo, where = load(recording), name or str(recording)
-    traj = preprocess(demo)
+    from ..segmentation import resolve_method
+
+    method = resolve_method(templates)
+    traj = preprocess(demo, **method.preprocessing)  # once: the segmentation takes it as it is
     n = len(traj)
     if n < 2:
         raise DemonstrationError(f"{where}: too short to export ({n} preprocessed samples)")
@@ -320,7 +323,7 @@ def prepare_episode(
     else:
         from ..segmentation import segment
 
-        seg = segment(demo, templates)
+        seg = segment(traj, method=method)
         source, skill_labels = "segment", [s.to_label() for s in seg.segments]
         program = from_segmentation(seg, t0)
 

@@ -146,6 +146,7 @@ class McapRecorder:
         self._chunk_t: tuple[int, int] | None = None
         self._written = self._file.tell()
         self._closed = False
+        self._live_last = -1  # log time of the last /lfd/live/segments message
         self.message_count = 0
         self._writer.add_metadata(T.DEMO_METADATA, self._demo_record())
         self._sync()
@@ -431,12 +432,15 @@ class McapRecorder:
     ) -> None:
         """Write a skill the live segmenter settled at ``settled_ns`` (the ``log_time``) on
         ``/lfd/live/segments``, with the ground truth's metadata keys plus ``extra`` (kept apart
-        from ``/lfd/ground_truth``)."""
+        from ``/lfd/ground_truth``). Skills settled at the same time are written 1 ns apart, in
+        order (a topic's log times are unique: :func:`lfd.load` drops repeated ones)."""
         _check_time(label.start_ns)
         _check_time(settled_ns)
+        t = max(int(settled_ns), self._live_last + 1)
+        self._live_last = t
         msg = M.event(label, extra)
         channel = self._channel(T.LIVE_SEGMENTS_TOPIC, Event)
-        self._write(channel, settled_ns, msg.SerializeToString())
+        self._write(channel, t, msg.SerializeToString())
 
     # --- lifetime ---------------------------------------------------------------------------
     @property

@@ -108,8 +108,7 @@ def filtfilt_runs(
     """MATLAB ``filtfilt`` of ``x`` (n, columns) along axis 0, each column's runs of ``ok``
     filtered on their own (columns with the same runs together); a run of at most the pad
     length is left unfiltered (and its ``(start, stop)`` appended to ``report``); NaN where not
-    ``ok``. What :func:`lowpass` does to a signal with gaps, and the online fixed-lag smoother
-    to each window."""
+    ``ok``. What :func:`lowpass` does to a signal with gaps."""
     from scipy.signal import filtfilt
 
     pad = matlab_padlen(b, a)

@@ -15,12 +15,15 @@ grammar="warn"``; with the paper-recipe templates and pipeline, :data:`PAPER`).
 
 from __future__ import annotations
 
+import dataclasses
 from typing import TypedDict
 
 from ..demo import Demonstration
+from ..errors import InvalidParameterError
 from ..trajectory import Trajectory
 from .baselines import gripper_segmentation, proximity_segmentation
 from .changepoint import changepoint_segmentation
+from .method import Method
 from .metrics import all_metrics
 from .pipeline import (
     DEFAULT_GRAMMAR,
@@ -33,7 +36,7 @@ from .pipeline import (
     SegmentParams,
     segment_trajectory,
 )
-from .result import Segment, Segmentation
+from .result import Run, Segment, Segmentation
 from .stage1 import Stage1Params
 from .templates import TemplateChoice, Templates, resolve_templates, train_templates
 
@@ -42,34 +45,44 @@ def segment(
     demo_or_traj: Demonstration | Trajectory,
     templates: Templates | TemplateChoice | None = None,
     *,
-    search: Search = "dp",
-    grammar: GrammarUse = "enforce",
+    method: Method | str | None = None,
+    search: Search | None = None,
+    grammar: GrammarUse | None = None,
     params: SegmentParams | None = None,
+    complete: bool = True,
 ) -> Segmentation:
     """Segment a demonstration into skills.
 
     Parameters
     ----------
     demo_or_traj : Demonstration or Trajectory
-        A recording (preprocessed here) or an already preprocessed trajectory.
+        A recording (preprocessed here, once, with the method's preprocessing) or an already
+        preprocessed trajectory.
     templates : Templates or {"default", "paper"}, optional
-        Skill templates; the ones shipped with the package if omitted (``"default"``);
-        ``"paper"``: the shipped templates of the paper's recipe (:data:`PAPER`).
-    search : {"dp", "greedy"}
-        ``dp`` (default): the globally optimal segmental DP; ``greedy``: the paper's greedy cut
-        loop (Eq. 3-5).
-    grammar : {"enforce", "warn", "off"}
-        ``enforce`` (default): consider only allowed skill transitions; ``warn``: keep the best
-        result and warn about impossible transitions (the paper, Fig. 6); ``off``: ignore the
-        grammar. The paper's algorithm is ``search="greedy", grammar="warn"``, with the paper-recipe
-        templates and pipeline (:data:`PAPER`).
+        Skill templates, with the method saved in them or else the default one (``"paper"``:
+        the paper-recipe templates with the default search). Give ``templates`` or ``method``.
+    method : Method or str, optional
+        The whole method (templates, their preprocessing, parameters, search, grammar), or its
+        name / template file (:meth:`Method.load`). Default: :meth:`Method.default`.
+    search : {"dp", "greedy"}, optional
+        Overrides the method's: ``dp`` (default) the globally optimal segmental DP; ``greedy``
+        the paper's greedy cut loop (Eq. 3-5).
+    grammar : {"enforce", "warn", "off"}, optional
+        Overrides the method's: ``enforce`` (default) consider only allowed skill transitions;
+        ``warn`` keep the best result and warn about impossible transitions (the paper, Fig. 6);
+        ``off`` ignore the grammar.
     params : SegmentParams, optional
-        Stage-1 and stage-2 parameters.
+        Overrides the method's stage-1 and stage-2 parameters.
+    complete : bool
+        The recording is complete (default). False for a recording still being made (the live
+        segmentation): the contact rules about how a demonstration ends are not applied
+        (:func:`lfd.contact.refine`).
 
     Returns
     -------
     Segmentation
-        Ordered segments covering the demonstration, and warnings.
+        Ordered segments covering the demonstration, warnings, and the :class:`Run`
+        (``result.run``: the segmented trajectory, its features, the scores, the method).
 
     Raises
     ------
@@ -80,11 +93,16 @@ def segment(
     """
     from .pipeline import as_trajectory
 
-    templates = resolve_templates(templates)
-    p = params or SegmentParams()
-    wanted = templates.preprocessing
+    m = resolve_method(templates, method).with_options(
+        search=search, grammar=grammar, params=params
+    )
+    wanted = m.preprocessing
     traj = as_trajectory(demo_or_traj, wanted)
-    result = segment_trajectory(traj, templates, search=search, grammar=grammar, params=p)
+    result = segment_trajectory(
+        traj, m.templates, search=m.search, grammar=m.grammar, params=m.params, complete=complete
+    )
+    if result.run is not None:
+        result.run = dataclasses.replace(result.run, method=m)
     differ = [
         f"{key}={traj.meta.get(key)!r} (templates: {value!r})"
         for key, value in wanted.items()
@@ -95,9 +113,23 @@ def segment(
             0,
             "the trajectory was preprocessed differently from the templates' examples: "
             + ", ".join(differ)
-            + "; preprocess with lfd.preprocess(demo, **templates.preprocessing) for best results",
+            + "; preprocess with lfd.preprocess(demo, **method.preprocessing) for best results",
         )
     return result
+
+
+def resolve_method(
+    templates: Templates | TemplateChoice | None = None, method: Method | str | None = None
+) -> Method:
+    """The method of :func:`segment`'s ``templates`` or ``method`` argument (not both)."""
+    if method is not None:
+        if templates is not None:
+            raise InvalidParameterError("give templates or method, not both")
+        return Method.load(method)
+    if templates is None or templates == "default":
+        return Method.default()
+    name = templates if isinstance(templates, str) else "templates"
+    return Method.of_templates(resolve_templates(templates), name=name)
 
 
 class SearchOptions(TypedDict):
@@ -124,6 +156,8 @@ __all__ = [
     "DEFAULT_SEARCH",
     "PAPER",
     "GrammarUse",
+    "Method",
+    "Run",
     "Search",
     "SearchOptions",
     "Segment",

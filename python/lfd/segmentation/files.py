@@ -10,7 +10,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from .pipeline import DEFAULT_GRAMMAR, DEFAULT_SEARCH, GrammarUse, Search, SegmentParams
+from .method import Method
 from .templates import TemplateChoice, Templates
 
 if TYPE_CHECKING:
@@ -39,52 +39,40 @@ def worker_templates(templates: str | None) -> Templates | TemplateChoice | None
 def segment_file(
     path: str | Path,
     *,
-    templates: str | None = None,
-    search: Search = DEFAULT_SEARCH,
-    grammar: GrammarUse = DEFAULT_GRAMMAR,
-    params: SegmentParams | None = None,
+    method: str | None = None,
     load_options: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Load ``path``, segment it and return the ``lfd segment --json`` document
     (:meth:`~lfd.segmentation.Segmentation.report` with its ground truth).
 
-    ``templates``: a shipped set's name, ``None`` (the default set) or a template set's JSON
-    text (:func:`portable_templates`); ``load_options``: keyword arguments of :func:`lfd.load`
-    (``object_sizes``, a ROS ``mapping``).
+    ``method``: :meth:`Method.portable` text (``None``: the default method); ``load_options``:
+    keyword arguments of :func:`lfd.load` (``object_sizes``, a ROS ``mapping``).
     """
     from ..io import load
 
     demo = load(path, images=False, **(load_options or {}))
-    _, doc = segment_recording(
-        demo,
-        worker_templates(templates),
-        recording=str(path),
-        search=search,
-        grammar=grammar,
-        params=params,
-    )
+    _, doc = segment_recording(demo, Method.from_portable(method), recording=str(path))
     return doc
 
 
 def segment_recording(
     demo: Demonstration,
-    templates: Templates | TemplateChoice | None = None,
+    method: Method | None = None,
     *,
     recording: str | None = None,
-    **options: Any,
 ) -> tuple[Segmentation, dict[str, Any]]:
     """Segment a loaded recording as ``lfd segment`` does: refused when the hand reaches no
     object (:func:`lfd.io.checks.check_hand_reaches`, ``DemonstrationError``), scored against
     its ground truth outside the spans its metadata gives to another hand
     (:func:`~lfd.segmentation.metrics.excluded_spans`), with one warning in the document when
-    no object moves but the skills found move one. ``options``: those of :func:`lfd.segment`.
-    Returns the segmentation and the ``--json`` document."""
+    no object moves but the skills found move one. Returns the segmentation (with its run) and
+    the ``--json`` document."""
     from ..io.checks import check_hand_reaches, unmoved_objects_message
     from . import segment
     from .metrics import excluded_spans
 
     check_hand_reaches(demo)
-    result = segment(demo, templates, **options)
+    result = segment(demo, method=method or Method.default())
     exclude = excluded_spans(demo.metadata, demo.start_ns) if demo.labels else []
     doc = result.report(demo.labels, recording=recording, exclude=exclude)
     unmoved = unmoved_objects_message(demo, result.skill_sequence)

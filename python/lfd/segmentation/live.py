@@ -1,47 +1,76 @@
-"""Live segmentation: raw recording messages in, settled skills out.
+"""Live segmentation: raw recording messages in, settled skills out, by the batch pipeline.
 
-:class:`LiveSegmentation` chains the causal preprocessing and features
-(:class:`~lfd.preprocessing.online.OnlinePreprocessor`,
-:class:`~lfd.preprocessing.online.OnlineFeatures`, docs/live.md) and the online segmenter
-(:class:`~lfd.segmentation.online.OnlineSegmenter`). It is what ``lfd record --live-segment``
-and ``lfd segment --follow`` run, and what ``benches/segment_live.py`` measures: hand keypoint
-frames and object poses go in as they arrive, in any interleaving; skill segments come out
-once they settle, with their object, score and confidence, and never change afterwards.
+:class:`LiveSegmentation` is what ``lfd record --live-segment`` and ``lfd segment --follow``
+run, and what ``benches/segment_live.py`` measures. Hand keypoint frames and object poses go in
+as they arrive, in any interleaving; they are kept as the recording will hold them. Every
+``every_s`` seconds of recording the batch segmentation (:func:`lfd.segment`, with the same
+:class:`~lfd.segmentation.method.Method`: the same preprocessing, features, stage 1, search,
+grammar and contact rules) runs on the recording so far. A skill settles, and is never revised
+afterwards, once it ends ``lag_s`` before the newest hand frame and has come out the same
+(skill, object, end within ``tolerance_s``) in every run for ``stable_s``. When the recording
+ends the batch segmentation of the whole recording gives the skills still open, so the live
+result is the batch one wherever the settled skills were right (docs/live.md).
+
+There is one implementation of every rule: live is the batch pipeline run on a growing
+recording, not a second pipeline. A recording longer than ``window_s`` is segmented from the
+start of its last settled skill (the batch pipeline on a window), so a run's cost stays bounded.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-from ..demo import Demonstration, SkillLabel
-from ..preprocessing.online import (
-    FeatureSample,
-    HandMessage,
-    ObjectMessage,
-    OnlineFeatures,
-    OnlinePreprocessor,
-    demo_messages,
-)
-from .online import (
-    DEFAULT_BEAM,
-    DEFAULT_LAG_S,
-    DEFAULT_STABLE_S,
-    OnlineSegmenter,
-    Provisional,
-)
-from .pipeline import SegmentParams
+from ..demo import Demonstration, HandTrack, ObjectTrack, SkillLabel
+from ..errors import InvalidParameterError, LfdError
+from .method import Method
 from .result import Segment, Segmentation
-from .templates import TemplateChoice, Templates, resolve_templates
+from .templates import TemplateChoice, Templates
 
-PREPROCESSOR_OPTIONS = ("max_wait_s", "smoother", "lookahead_s", "window_s")
-"""Options of :meth:`LiveSegmentation.for_demonstration` that go to its
-:class:`~lfd.preprocessing.online.OnlinePreprocessor`."""
+DEFAULT_EVERY_S = 0.5
+"""Recording seconds between two runs of the batch segmentation."""
+DEFAULT_LAG_S = 0.5
+"""A skill settles no sooner than this long after its end (the newest hand frame's time)..."""
+DEFAULT_STABLE_S = 0.5
+"""...and once it has come out the same in every run for this long."""
+DEFAULT_TOLERANCE_S = 0.2
+"""Two runs give "the same" skill when its end moved by at most this much."""
+DEFAULT_MIN_CONFIDENCE = 0.5
+"""A skill the grammar chose against a rival that explains its samples better (confidence below
+this) is a guess about what comes next..."""
+DEFAULT_UNCERTAIN_S = 3.0
+"""...so it settles only once it has come out the same for this long."""
+DEFAULT_MAX_WAIT_S = 10.0
+"""A skill settles once every object has been seen after its end (a tag hidden by the hand may
+hide the very motion that tells the skills apart), or has been out of sight this long."""
+DEFAULT_WINDOW_S = 60.0
+"""Beyond this much recording, a run starts at the last settled skill's start."""
+
+
+@dataclass(frozen=True)
+class HandMessage:
+    """A hand keypoint frame: (21, 3) metres (NaN = unobserved), confidence (21,) in [0, 1]
+    (default: 1 where observed), visible (21,) (default: observed with confidence > 0)."""
+
+    t_ns: int
+    keypoints: np.ndarray
+    confidence: np.ndarray | None = None
+    visible: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class ObjectMessage:
+    """An object pose: centre (3,) metres, quaternion (4,) xyzw."""
+
+    t_ns: int
+    name: str
+    position: np.ndarray
+    quaternion: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -54,19 +83,123 @@ class Span:
     object: str | None = None
 
 
+@dataclass(frozen=True)
+class FeatureRow:
+    """One sample's Table I feature row, as the segmentation computed it."""
+
+    t_ns: int
+    values: np.ndarray
+    thresholds: np.ndarray
+    target: int
+
+
 @dataclass
 class LiveUpdate:
     """What one message produced."""
 
     segments: list[Segment] = field(default_factory=list)
     """Newly settled segments, in time order (never revised)."""
-    rows: list[FeatureSample] = field(default_factory=list)
-    """Feature rows determined by the message (for live views)."""
-    provisional: Provisional | None = None
-    """The skill the best current hypothesis ends with."""
+    rows: list[FeatureRow] = field(default_factory=list)
+    """Feature rows of the samples the newly settled segments cover (for live views)."""
     sections: list[int] = field(default_factory=list)
-    """Stage-1 section boundaries found (ns on the recording's clock, moved back by the
-    filters' delay like the segments)."""
+    """Stage-1 section starts (ns) inside the newly settled segments."""
+    provisional: Span | None = None
+    """The skill the newest run ends with, from its start to the newest message."""
+
+
+def demo_messages(demo: Demonstration) -> Iterator[HandMessage | ObjectMessage]:
+    """A demonstration's hand frames and object poses as messages in timestamp order (ties:
+    the hand first, then the objects in ``demo.objects`` order)."""
+    keys: list[tuple[int, int, int]] = [(int(t), 0, i) for i, t in enumerate(demo.hand.t_ns)]
+    names = list(demo.objects)
+    for j, name in enumerate(names):
+        keys += [(int(t), j + 1, i) for i, t in enumerate(demo.objects[name].t_ns)]
+    keys.sort()
+    hand = demo.hand
+    for t, src, i in keys:
+        if src == 0:
+            yield HandMessage(t, hand.keypoints[i], hand.confidence[i], hand.visible[i])
+        else:
+            ob = demo.objects[names[src - 1]]
+            yield ObjectMessage(t, names[src - 1], ob.position[i], ob.quaternion[i])
+
+
+class _Tracks:
+    """The messages so far, kept as :func:`lfd.load` reads them back from the recording: in
+    time order, the first of equal timestamps."""
+
+    def __init__(self, objects: Sequence[tuple[str, int, np.ndarray]], side: str) -> None:
+        self.objects = list(objects)
+        self.side = side
+        self.hand: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = []
+        self.poses: dict[str, list[tuple[int, np.ndarray, np.ndarray]]] = {
+            name: [] for name, _, _ in objects
+        }
+
+    def add(self, msg: HandMessage | ObjectMessage) -> None:
+        if isinstance(msg, HandMessage):
+            kp = np.asarray(msg.keypoints, dtype=np.float64).reshape(21, 3)
+            finite = np.asarray(np.isfinite(kp).all(axis=1))
+            conf = np.asarray(
+                finite.astype(np.float64) if msg.confidence is None else msg.confidence,
+                dtype=np.float64,
+            ).reshape(21)
+            vis = np.asarray(
+                finite & (conf > 0) if msg.visible is None else msg.visible, dtype=bool
+            ).reshape(21)
+            self.hand.append((int(msg.t_ns), kp, conf, vis))
+        elif msg.name in self.poses:
+            p = np.asarray(msg.position, dtype=np.float64).reshape(3)
+            q = np.asarray(msg.quaternion, dtype=np.float64).reshape(4)
+            self.poses[msg.name].append((int(msg.t_ns), p, q))
+
+    def ready(self) -> bool:
+        return bool(self.hand) and all(self.poses.values())
+
+    def demonstration(self, start_ns: int | None, metadata: dict[str, Any]) -> Demonstration:
+        """The recording so far (from ``start_ns``, when given) as a demonstration."""
+        lo = -(2**63) if start_ns is None else start_ns
+        t, keep = _ordered([h[0] for h in self.hand], lo)
+        hand = HandTrack(
+            t_ns=t,
+            keypoints=np.array([self.hand[i][1] for i in keep]).reshape(-1, 21, 3),
+            confidence=np.array([self.hand[i][2] for i in keep]).reshape(-1, 21),
+            side=self.side,
+            visible=np.array([self.hand[i][3] for i in keep], dtype=bool).reshape(-1, 21),
+        )
+        objects = {}
+        for name, tag_id, size in self.objects:
+            poses = self.poses[name]
+            to, ko = _ordered([p[0] for p in poses], lo)
+            objects[name] = ObjectTrack(
+                name=name,
+                tag_id=tag_id,
+                size=size,
+                t_ns=to,
+                position=np.array([poses[i][1] for i in ko]).reshape(-1, 3),
+                quaternion=np.array([poses[i][2] for i in ko]).reshape(-1, 4),
+                visible=np.ones(len(to), dtype=bool),
+            )
+        return Demonstration(hand=hand, objects=objects, metadata=dict(metadata))
+
+
+def _ordered(times: list[int], lo: int) -> tuple[np.ndarray, np.ndarray]:
+    """Times from ``lo`` on, sorted (stable), the first of equal ones; and their indices."""
+    t = np.asarray(times, dtype=np.int64)
+    idx = np.argsort(t, kind="stable")
+    keep = np.ones(idx.size, dtype=bool)
+    keep[1:] = np.diff(t[idx]) != 0
+    idx = idx[keep]
+    idx = idx[t[idx] >= lo]
+    return t[idx], idx
+
+
+@dataclass
+class _Candidate:
+    """An unsettled segment of the newest run and the recording time it first came out so."""
+
+    segment: Segment
+    since_ns: int
 
 
 class LiveSegmentation:
@@ -77,22 +210,19 @@ class LiveSegmentation:
     object_names, object_sizes :
         The objects and their box sizes (k, 3), metres.
     templates : Templates or {"default", "paper"}, optional
-        As :func:`lfd.segment`; their preprocessing options are used (causally).
+        As :func:`lfd.segment` (or give ``method``).
+    method : Method or str, optional
+        The segmentation method (default: :meth:`Method.default`).
     side : {"right", "left"}
         The demonstrating hand.
-    hand_rate_hz : float, optional
-        The hand-pose estimator's frame rate (for the ``auto`` filter cut-off).
     params : SegmentParams, optional
-        As offline.
-    lag_s, beam, stable_s :
-        Settling of the online segmenter (see :class:`~lfd.segmentation.online.OnlineSegmenter`).
-    preprocessor : OnlinePreprocessor, optional
-        A causal preprocessor made by the caller; it replaces the one built from
-        ``object_names``, ``object_sizes``, ``side``, ``hand_rate_hz``, ``max_wait_s`` and the
-        templates' options.
-    max_wait_s : float, optional
-        Longest wait for a silent stream (see
-        :class:`~lfd.preprocessing.online.OnlinePreprocessor`).
+        Overrides the method's parameters.
+    tag_ids : sequence of int, optional
+        The objects' tag ids (as the recording declares them).
+    metadata : dict, optional
+        The recording's metadata (what :func:`lfd.load` would give the demonstration).
+    every_s, lag_s, stable_s, tolerance_s, window_s, min_confidence, uncertain_s : float
+        How often the segmentation runs and when a skill settles (the module constants).
     """
 
     def __init__(
@@ -101,48 +231,61 @@ class LiveSegmentation:
         object_sizes: npt.ArrayLike,
         templates: Templates | TemplateChoice | None = None,
         *,
+        method: Method | str | None = None,
         side: str = "right",
-        hand_rate_hz: float | None = None,
-        params: SegmentParams | None = None,
+        params: Any = None,
+        tag_ids: Sequence[int] | None = None,
+        metadata: dict[str, Any] | None = None,
+        every_s: float = DEFAULT_EVERY_S,
         lag_s: float = DEFAULT_LAG_S,
-        beam: float = DEFAULT_BEAM,
-        stable_s: float | None = DEFAULT_STABLE_S,
-        max_wait_s: float | None = None,
-        preprocessor: OnlinePreprocessor | None = None,
+        stable_s: float = DEFAULT_STABLE_S,
+        tolerance_s: float = DEFAULT_TOLERANCE_S,
+        window_s: float = DEFAULT_WINDOW_S,
+        min_confidence: float = DEFAULT_MIN_CONFIDENCE,
+        uncertain_s: float = DEFAULT_UNCERTAIN_S,
+        followers: int = 1,
+        max_wait_s: float = DEFAULT_MAX_WAIT_S,
     ) -> None:
-        self.templates = resolve_templates(templates)
-        self.pre = preprocessor or OnlinePreprocessor(
-            object_names,
-            object_sizes,
-            side=side,
-            hand_rate_hz=hand_rate_hz,
-            max_wait_s=max_wait_s,
-            **(self.templates.preprocessing or {}),
-        )
-        self.features = OnlineFeatures(
-            self.pre.object_names, self.pre.object_sizes, self.pre.rate_hz
-        )
-        self.segmenter = OnlineSegmenter(
-            self.templates,
-            self.pre.object_names,
-            1.0 / self.pre.rate_hz,
-            params=params,
-            lag_s=lag_s,
-            beam=beam,
-            stable_s=stable_s,
-        )
+        from . import resolve_method
+
+        for name, value in (
+            ("every_s", every_s),
+            ("lag_s", lag_s),
+            ("stable_s", stable_s),
+            ("tolerance_s", tolerance_s),
+            ("window_s", window_s),
+            ("uncertain_s", uncertain_s),
+            ("max_wait_s", max_wait_s),
+        ):
+            if not (np.isfinite(value) and value >= 0) or (name == "every_s" and value <= 0):
+                raise InvalidParameterError(f"{name} must be a finite number > 0, got {value}")
+        self.method = resolve_method(templates, method).with_options(params=params)
+        names = list(object_names)
+        sizes = np.asarray(object_sizes, dtype=np.float64).reshape(len(names), 3)
+        ids = list(tag_ids) if tag_ids is not None else list(range(len(names)))
+        self._tracks = _Tracks(list(zip(names, ids, sizes, strict=True)), side)
+        self.metadata = dict(metadata or {})
+        self.every_ns = round(every_s * 1e9)
+        self.lag_ns = round(lag_s * 1e9)
+        self.stable_ns = round(stable_s * 1e9)
+        self.tolerance_ns = round(tolerance_s * 1e9)
+        self.window_ns = round(window_s * 1e9)
+        self.min_confidence = float(min_confidence)
+        self.uncertain_ns = round(uncertain_s * 1e9)
+        self.followers = int(followers)
+        self.max_wait_ns = round(max_wait_s * 1e9)
         self.settled_ns: list[int] = []
         """Message time at which each emitted segment settled (same order as the segments)."""
-        self.lag_samples = self.pre.shift_samples
-        """The causal filters' delay, in samples: emitted segments are moved back by it, so
-        their boundaries are where the skills happened rather than where the filtered signals
-        showed them."""
         self._emitted: list[Segment] = []
-        self._n_bounds = 0
+        self._candidates: list[_Candidate] = []
         self._now: int | None = None
-        self._first: int | None = None
-        self._pending: HandMessage | None = None
-        self._started = False
+        self._newest_hand: int | None = None
+        self._next_run: int | None = None
+        self._last: Segmentation | None = None
+        self._final: Segmentation | None = None
+        self._warnings: list[str] = []
+        self._origin_ns: int | None = None
+        self._finished = False
 
     @classmethod
     def for_demonstration(
@@ -151,31 +294,47 @@ class LiveSegmentation:
         templates: Templates | TemplateChoice | None = None,
         **options: Any,
     ) -> LiveSegmentation:
-        """For the objects, sizes, hand side and hand rate of a recording
-        (:meth:`OnlinePreprocessor.for_demonstration`)."""
-        resolved = resolve_templates(templates)
-        causal = {k: options.pop(k) for k in PREPROCESSOR_OPTIONS if k in options}
-        pre = OnlinePreprocessor.for_demonstration(
-            demo, **{"max_wait_s": None, **causal}, **(resolved.preprocessing or {})
+        """For the objects, sizes, tag ids, hand side and metadata of a recording."""
+        objects = list(demo.objects.values())
+        return cls(
+            [o.name for o in objects],
+            [o.size for o in objects],
+            templates,
+            side=demo.hand.side,
+            tag_ids=[o.tag_id for o in objects],
+            metadata={k: v for k, v in demo.metadata.items() if k != "load_report"},
+            **options,
         )
-        return cls(pre.object_names, pre.object_sizes, resolved, preprocessor=pre, **options)
 
     @property
     def object_names(self) -> list[str]:
-        return self.pre.object_names
+        return [o[0] for o in self._tracks.objects]
 
     @property
     def warnings(self) -> list[str]:
-        """Dropped or repaired input, from every stage, in order of the stages."""
-        return list(self.pre.warnings) + list(self.segmenter.warnings)
+        """The warnings of the newest run (the final one once the recording ended)."""
+        run = self._final or self._last
+        return list(run.warnings) if run is not None else list(self._warnings)
 
+    # --- messages in ------------------------------------------------------------------------
     def push(self, message: HandMessage | ObjectMessage) -> LiveUpdate:
         """One hand frame or object pose, as it arrives."""
-        self._now = max(self._now or message.t_ns, message.t_ns)
-        rows: list[FeatureSample] = []
-        for s in self.pre.push(message):
-            rows += self.features.push(s)
-        return self._feed(rows)
+        if self._finished:
+            raise InvalidParameterError("the live segmentation has finished; start a new one")
+        t = int(message.t_ns)
+        self._now = t if self._now is None else max(self._now, t)
+        self._tracks.add(message)
+        if isinstance(message, HandMessage):
+            self._newest_hand = t if self._newest_hand is None else max(self._newest_hand, t)
+        if not self._tracks.ready() or self._newest_hand is None:
+            return LiveUpdate()
+        if self._next_run is None:
+            self._next_run = self._newest_hand + self.every_ns
+            return LiveUpdate()
+        if self._newest_hand < self._next_run:
+            return LiveUpdate(provisional=self.provisional_span())
+        self._next_run = self._newest_hand + self.every_ns
+        return self._step()
 
     def push_hand(
         self, t_ns: int, keypoints: npt.ArrayLike, confidence: npt.ArrayLike | None = None
@@ -200,126 +359,210 @@ class LiveSegmentation:
 
     def push_recorded(self, kind: str, t_ns: int, value: Any) -> LiveUpdate:
         """A decoded message of a recording as :func:`lfd.io.follow` yields it (``kind``
-        ``hand``: keypoints (21, 3); ``confidence``: ``(confidence, visible)``; ``object``: an
-        object pose; any other kind is ignored). A hand frame is held until its confidence
-        (written right after it, same time) or any later message arrives."""
-        out = LiveUpdate()
-        if kind == "confidence" and self._pending is not None and self._pending.t_ns == t_ns:
-            conf = np.asarray(value[0], dtype=np.float64)
-            held, self._pending = self._pending, None
-            return self.push(HandMessage(held.t_ns, held.keypoints, conf))
-        if kind in ("hand", "object") and self._pending is not None:
-            held, self._pending = self._pending, None
-            out = self.push(held)
+        ``hand``: keypoints (21, 3); ``confidence``: ``(confidence, visible)`` of the hand frame
+        just before it; ``object``: an object pose; any other kind is ignored)."""
         if kind == "hand":
-            kp = np.asarray(value, dtype=np.float64).reshape(21, 3)
-            self._pending = HandMessage(int(t_ns), kp, None)
-        elif kind == "object":
-            more = self.push_object(value.name, t_ns, value.position, value.quaternion)
-            out.segments += more.segments
-            out.rows += more.rows
-            out.sections += more.sections
-            out.provisional = more.provisional
-        return out
+            return self.push_hand(t_ns, value)
+        if kind == "confidence":
+            self._confidence(int(t_ns), value)
+            return LiveUpdate()
+        if kind == "object":
+            return self.push_object(value.name, t_ns, value.position, value.quaternion)
+        return LiveUpdate()
 
-    def _feed(self, rows: list[FeatureSample]) -> LiveUpdate:
-        out = LiveUpdate(rows=rows, provisional=self.segmenter.provisional)
-        for r in rows:
-            # rows before the hand and every object were seen once are NaN: nothing to segment
-            if not self._started and not (
-                np.isfinite(r.values).all() and np.isfinite(r.object_values).all()
-            ):
-                continue
-            self._started = True
-            if self._first is None:
-                self._first = r.t_ns
-            s = r.sample
-            up = self.segmenter.push(
-                r.t_ns,
-                r.values,
-                r.thresholds,
-                r.object_values,
-                r.object_thresholds,
-                s.tcp,
-                r.object_position,
-                rotation=s.rotation,
-                object_quaternion=s.object_quaternion,
+    def _confidence(self, t_ns: int, value: Any) -> None:
+        """Set the confidence (and visibility) of the newest hand frame at ``t_ns`` (the first
+        message per frame counts, as :func:`lfd.load` reads it)."""
+        hand = self._tracks.hand
+        for i in range(len(hand) - 1, max(len(hand) - 4, -1), -1):
+            t, kp, _, _ = hand[i]
+            if t == t_ns:
+                conf = np.asarray(value[0], dtype=np.float64).reshape(21)
+                seen = value[1] if len(value) > 1 else None
+                finite = np.isfinite(kp).all(axis=1)
+                vis = finite & (conf > 0) if seen is None else np.asarray(seen, dtype=bool)
+                hand[i] = (t, kp, conf, vis.reshape(21))
+                return
+
+    # --- runs and settling ------------------------------------------------------------------
+    def _run(self, *, complete: bool = False) -> Segmentation | None:
+        """The batch segmentation of the recording so far (on a window once it is long);
+        ``complete`` once the recording has ended."""
+        from . import segment
+
+        start = None
+        if self._emitted and self._newest_hand is not None:
+            first = int(self._emitted[0].start_ns)
+            if self._newest_hand - first > self.window_ns:
+                start = int(self._emitted[-1].start_ns)
+        demo = self._tracks.demonstration(start, self.metadata)
+        try:
+            return segment(demo, method=self.method, complete=complete)
+        except LfdError as err:
+            self._warnings = [str(err)]
+            return None
+
+    def _aligned(self, run: Segmentation) -> list[Segment]:
+        """The run's segments after the settled ones: after the run's counterpart of the last
+        settled segment (the same skill and object, ending within ``tolerance_s`` of it), else
+        those ending after the settled end, less one that straddles it as the same skill and
+        object (the settled skill, whose end the run moved)."""
+        if not self._emitted:
+            return list(run.segments)
+        last = self._emitted[-1]
+        front = int(last.end_ns)
+        same = [
+            (abs(int(s.end_ns) - front), i)
+            for i, s in enumerate(run.segments)
+            if (s.skill, s.object) == (last.skill, last.object)
+            and abs(int(s.end_ns) - front) <= self.tolerance_ns
+        ]
+        if same:
+            return list(run.segments[min(same)[1] + 1 :])
+        rest = [s for s in run.segments if int(s.end_ns) > front]
+        if (
+            rest
+            and int(rest[0].start_ns) < front
+            and (rest[0].skill, rest[0].object)
+            == (
+                last.skill,
+                last.object,
             )
-            out.segments += [self._back(s) for s in up.segments]
-            out.provisional = up.provisional
-        self.settled_ns += [self._now or 0] * len(out.segments)
-        self._emitted += out.segments
-        out.sections = self._new_sections()
-        return out
+        ):
+            rest = rest[1:]
+        return rest
 
-    def _ns(self, index: int) -> int:
-        """The recording time of sample ``index`` of the online trajectory."""
-        return (self._first or 0) + round(index * (1.0 / self.pre.rate_hz) * 1e9)
+    def _step(self) -> LiveUpdate:
+        run = self._run()
+        if run is None:
+            return LiveUpdate()
+        self._last = run
+        rest = self._aligned(run)
+        now = int(self._now or 0)
+        cands: list[_Candidate] = []
+        for i, seg in enumerate(rest):
+            since = now
+            # a run's last segment ends where the recording so far ends: its end counts from
+            # the first run in which another segment followed it
+            if i < len(self._candidates) - 1:
+                old = self._candidates[i].segment
+                if (old.skill, old.object) == (seg.skill, seg.object) and abs(
+                    int(old.end_ns) - int(seg.end_ns)
+                ) <= self.tolerance_ns:
+                    since = self._candidates[i].since_ns
+            cands.append(_Candidate(seg, since))
+        newest = int(self._newest_hand or now)
+        settled: list[Segment] = []
+        # the last segment of a run is open: it settles only when the recording ends
+        while len(cands) > self.followers:
+            c = cands[0]
+            # NaN confidence (an implied Move) counts as certain
+            uncertain = c.segment.confidence < self.min_confidence
+            wait = self.uncertain_ns if uncertain else self.stable_ns
+            if (
+                int(c.segment.end_ns) > min(newest - self.lag_ns, self._seen_until())
+                or now - c.since_ns < wait
+            ):
+                break
+            settled.append(self._joined(c.segment, _dt(run)))
+            self._emitted.append(settled[-1])
+            self.settled_ns.append(now)
+            cands.pop(0)
+        self._candidates = cands
+        return self._update(run, settled)
 
-    def _new_sections(self) -> list[int]:
-        if self._first is None:
-            return []
-        new = self.segmenter.boundaries(self._n_bounds)
-        self._n_bounds += len(new)
-        return [self._ns(max(b - self.lag_samples, 0)) for b in new]
+    def _seen_until(self) -> int:
+        """The time up to which every object has been seen, less those out of sight for
+        longer than ``max_wait_s``."""
+        newest = int(self._newest_hand or self._now or 0)
+        last = [p[-1][0] for p in self._tracks.poses.values() if p]
+        waiting = [t for t in last if newest - t <= self.max_wait_ns]
+        return min(waiting, default=newest)
 
-    def _back(self, seg: Segment, *, last: bool = False) -> Segment:
-        """``seg`` moved back by the filters' delay (the recording's last segment keeps its
-        end; the first sample stays the first)."""
-        k = self.lag_samples
-        if k == 0 or self._first is None:
-            return seg
-        start = max(seg.start - k, 0)
-        end = seg.end if last else max(seg.end - k, start + 1)
-        dt = 1.0 / self.pre.rate_hz
+    def _joined(self, seg: Segment, dt: float) -> Segment:
+        """``seg`` starting where the last settled segment ends (runs move boundaries a little),
+        its sample indices and seconds on the whole recording's clock (a run on a window counts
+        from the window's start)."""
+        if self._origin_ns is None:
+            self._origin_ns = int(seg.start_ns)
+        start_ns = int(self._emitted[-1].end_ns) if self._emitted else int(seg.start_ns)
+        o = self._origin_ns
+
+        def index(t: int) -> int:
+            return round((t - o) * 1e-9 / dt) if dt > 0 else 0
+
+        start, end = index(start_ns), max(index(int(seg.end_ns)), index(start_ns) + 1)
         return dataclasses.replace(
             seg,
             start=start,
             end=end,
-            start_s=start * dt,
-            end_s=end * dt,
-            start_ns=self._ns(start),
-            end_ns=seg.end_ns if last else self._ns(end),
+            start_s=(start_ns - o) * 1e-9,
+            end_s=(int(seg.end_ns) - o) * 1e-9,
+            start_ns=start_ns,
         )
 
+    def _update(self, run: Segmentation, settled: list[Segment]) -> LiveUpdate:
+        out = LiveUpdate(segments=settled, provisional=self.provisional_span())
+        if not settled or run.run is None:
+            return out
+        feats = run.run.features
+        t = np.asarray(feats.t_ns, dtype=np.int64)
+        lo, hi = int(settled[0].start_ns), int(settled[-1].end_ns)
+        sel = np.flatnonzero((t >= lo) & (t < hi))
+        out.rows = [
+            FeatureRow(int(t[i]), feats.values[i], feats.thresholds[i], int(feats.target[i]))
+            for i in sel
+        ]
+        bounds = [int(t[min(b, len(t) - 1)]) for b in run.sections[:-1]]
+        out.sections = [b for b in bounds if lo <= b < hi]
+        return out
+
     def finish(self) -> LiveUpdate:
-        """End of the recording: the samples still buffered, and every remaining segment."""
-        first = LiveUpdate()
-        if self._pending is not None:
-            held, self._pending = self._pending, None
-            first = self.push(held)
-        rows: list[FeatureSample] = []
-        for s in self.pre.flush():
-            rows += self.features.push(s)
-        rows += self.features.flush()
-        out = self._feed(rows)
-        if self._started:
-            n = self.segmenter.n_samples
-            last = [self._back(s, last=s.end >= n) for s in self.segmenter.finish()]
-            out.segments += last
-            self.settled_ns += [self._now or 0] * len(last)
-            self._emitted += last
-            out.sections += self._new_sections()
+        """End of the recording: the batch segmentation of the whole recording gives every
+        skill still open (after the settled ones)."""
+        if self._finished:
+            return LiveUpdate()
+        self._finished = True
+        if not self._tracks.ready():
+            return LiveUpdate()
+        run = self._run(complete=True)
+        if run is None:
+            return LiveUpdate()
+        self._final = run
+        rest = self._aligned(run)
+        dt = _dt(run)
+        tail = []
+        for seg in rest:
+            tail.append(self._joined(seg, dt))
+            self._emitted.append(tail[-1])
+        self.settled_ns += [int(self._now or 0)] * len(tail)
+        self._candidates = []
+        out = self._update(run, tail)
         out.provisional = None
-        out.segments[:0] = first.segments
-        out.rows[:0] = first.rows
-        out.sections[:0] = first.sections
         return out
 
     def provisional_span(self) -> Span | None:
-        """The provisional skill from its start to the newest sample (None before any)."""
-        p = self.segmenter.provisional
-        if p is None or self._first is None:
+        """The skill the newest run ends with, from its start to the newest message."""
+        if self._finished or not self._candidates or self._now is None:
             return None
-        start = self._ns(max(p.start - self.lag_samples, 0))
-        return Span(p.skill, start, max(start, self._now or start))
+        seg = self._candidates[-1].segment
+        return Span(seg.skill, int(seg.start_ns), max(int(seg.start_ns), self._now), seg.object)
 
     def result(self) -> Segmentation:
-        """Everything emitted so far, as a :class:`Segmentation`."""
-        result = self.segmenter.result()
-        return dataclasses.replace(
-            result, segments=list(self._emitted), warnings=[*self.pre.warnings, *result.warnings]
+        """Everything emitted so far, as a :class:`Segmentation` (with the newest run's)."""
+        run = self._final or self._last
+        return Segmentation(
+            segments=list(self._emitted),
+            warnings=self.warnings,
+            method=self.method.search,
+            sections=list(run.sections) if run is not None else [],
+            object_names=self.object_names,
+            run=run.run if run is not None else None,
         )
+
+
+def _dt(run: Segmentation) -> float:
+    return float(run.run.trajectory.dt) if run.run is not None else 0.0
 
 
 def label_of(seg: Segment) -> SkillLabel:

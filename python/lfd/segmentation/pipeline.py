@@ -28,7 +28,7 @@ from .band import Band, StageTwoScores
 from .gaps import fill_gaps
 from .grammar import grammar_json, implicit_move_grammar_json, needs_move_between
 from .params import skill_params
-from .result import Segment, Segmentation
+from .result import Run, Segment, Segmentation
 from .stage1 import OBJECT_COLUMNS, Stage1Params, section_boundaries
 from .templates import Templates
 
@@ -153,6 +153,7 @@ def segment_trajectory(
     search: Search = "dp",
     grammar: GrammarUse = "enforce",
     params: SegmentParams | None = None,
+    complete: bool = True,
 ) -> Segmentation:
     """Segment a preprocessed trajectory (see :func:`lfd.segment`)."""
     from ..features import compute_features
@@ -184,7 +185,7 @@ def segment_trajectory(
         p.stage1,
         objects=[(f.values, f.thresholds) for f in per_object],
     )
-    st = stage2_scores(filled, templates, bounds, p, per_object)
+    st = stage2_scores(filled, templates, bounds, p, per_object, complete=complete)
     max_len = st.band.max_len
     rising = _hmmseg.rising_band(
         np.ascontiguousarray(filled.tcp[:, 2]), bounds, max_len, p.min_rise, p.dominance
@@ -208,7 +209,7 @@ def segment_trajectory(
             filled, segments, max(1, round(p.implicit_move_s / traj.dt))
         )
     if p.contacts is not None:
-        segments = refine_contacts(filled, segments, p.contacts)
+        segments = refine_contacts(filled, segments, p.contacts, complete=complete)
     segments = label_moves(filled, segments)
     return Segmentation(
         segments=segments,
@@ -216,6 +217,7 @@ def segment_trajectory(
         method=search,
         sections=[int(b) for b in bounds],
         object_names=list(filled.object_names),
+        run=Run(filled, feats, per_object, st),
     )
 
 
@@ -233,6 +235,8 @@ def stage2_scores(
     bounds: np.ndarray,
     params: SegmentParams,
     per_object: list[Features] | None = None,
+    *,
+    complete: bool = True,
 ) -> StageTwoScores:
     """The score table of a gap-free trajectory's runs of sections as the search sees it, and
     the target object of each entry, over the runs of at most ``max_segment_s`` (a
@@ -244,6 +248,8 @@ def stage2_scores(
     P(O_f^{r,o} | lambda_f^s) + co-motion``). This replaces a fixed per-sample target labelling,
     which cannot know the target of skills that never move their object (Locate).
     ``per_object``: ``compute_features(traj, target=o)`` for every object (computed if None).
+    ``complete`` False (a recording still being made): the runs that end with the recording so
+    far are scored with ``end="any"``, as the skill under way need not have finished.
     """
     from ..features import compute_features
 
@@ -254,24 +260,38 @@ def stage2_scores(
     moving = moving_objects(traj, p.co_motion_window_s, p.co_motion_displacement)
     hand = moving_hand(traj, p.co_motion_window_s, p.co_motion_displacement)
     height = OBJECT_COLUMNS["object_height"]  # above the object's rest height + gamma: lifted
-    return scores_over_objects(
-        [np.ascontiguousarray(f.values, dtype=np.float64) for f in per_object],
-        templates,
-        band,
-        p.end,
-        extra=co_motion_per_object(
-            moving,
-            bounds,
-            templates.skills,
-            p.co_motion,
-            lifted=np.stack([f.values[:, height] > f.thresholds[:, height] for f in per_object]),
-            grace=round(p.co_motion_grace_s / traj.dt),
-            slide=p.co_motion_slide_s / traj.dt,
-            hand=hand,
-            left=p.co_motion_left_s / traj.dt,
-            band=band,
-        ),
+
+    def scores(end: EndState) -> StageTwoScores:
+        return scores_over_objects(
+            [np.ascontiguousarray(f.values, dtype=np.float64) for f in per_object],
+            templates,
+            band,
+            end,
+            extra=extra,
+        )
+
+    extra = co_motion_per_object(
+        moving,
+        bounds,
+        templates.skills,
+        p.co_motion,
+        lifted=np.stack([f.values[:, height] > f.thresholds[:, height] for f in per_object]),
+        grace=round(p.co_motion_grace_s / traj.dt),
+        slide=p.co_motion_slide_s / traj.dt,
+        hand=hand,
+        left=p.co_motion_left_s / traj.dt,
+        band=band,
     )
+    st = scores(p.end)
+    if complete or p.end == "any":
+        return st
+    k = band.n_sections
+    last = [r for i in range(k) if (r := band.index(i, k)) is not None]
+    if last:
+        st_any = scores("any")
+        st.scores[last] = st_any.scores[last]
+        st.target[last] = st_any.target[last]
+    return st
 
 
 def insert_implicit_moves(traj: Trajectory, segments: list[Segment], length: int) -> list[Segment]:
@@ -300,10 +320,11 @@ def insert_implicit_moves(traj: Trajectory, segments: list[Segment], length: int
 
 
 def refine_contacts(
-    traj: Trajectory, segments: list[Segment], params: ContactParams
+    traj: Trajectory, segments: list[Segment], params: ContactParams, *, complete: bool = True
 ) -> list[Segment]:
     """The segments with the boundaries of the skills that touch an object put where contact
-    says (:func:`lfd.contact.refine`); unchanged segments are kept as they are."""
+    says (:func:`lfd.contact.refine`, ``complete`` as there); unchanged segments are kept as
+    they are."""
     names = list(traj.object_names)
     spans = [
         (s.skill, s.start, s.end, names.index(s.object) if s.object in names else None)
@@ -318,6 +339,7 @@ def refine_contacts(
         traj.object_size,
         params,
         opening=traj.opening,
+        complete=complete,
     )
     if refined == spans:
         return segments
@@ -411,7 +433,7 @@ def motion_window(dt: float, window_s: float) -> int:
 
 def displaced(before: np.ndarray, after: np.ndarray, displacement: float) -> np.ndarray:
     """Is an object displaced by more than ``displacement`` (m) between two positions (``(...,
-    3)`` each)? The co-motion rule of :func:`moving_objects` (and of the online segmenter)."""
+    3)`` each)? The co-motion rule of :func:`moving_objects`."""
     return np.asarray(np.linalg.norm(after - before, axis=-1) > displacement)
 
 
@@ -616,7 +638,7 @@ def max_over_objects(
 ) -> tuple[np.ndarray, np.ndarray]:
     """The maximum over the target objects of ``scores_of(o)`` and the first object reaching it
     (np.max / np.argmax over the objects; the scores are never NaN), one object's table at a
-    time. Shared by the batch pipeline and the online segmenter."""
+    time."""
     best = np.ascontiguousarray(scores_of(0))
     target = np.zeros(best.shape, dtype=np.min_scalar_type(n_obj - 1))
     for o in range(1, n_obj):

@@ -6,10 +6,16 @@ import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..demo import SkillLabel
 from .metrics import all_metrics
+
+if TYPE_CHECKING:
+    from ..features import Features
+    from ..trajectory import Trajectory
+    from .band import StageTwoScores
+    from .method import Method
 
 RESULT_FORMAT_VERSION = 2
 """Version of the JSON written by :meth:`Segmentation.to_json` (2: ``confidence`` is a posterior
@@ -95,6 +101,34 @@ def _finite(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
 
 
+@dataclass(frozen=True)
+class Run:
+    """What one segmentation ran on and computed: everything a viewer, ``reproduce --segment``,
+    the LeRobot export or ``--json`` needs, so that nothing is preprocessed or scored twice.
+
+    Attributes
+    ----------
+    trajectory : Trajectory
+        The samples that were segmented (preprocessed with the method's preprocessing, gaps
+        filled); the segments' ``start``/``end`` index it.
+    features : Features
+        The Table I features of ``trajectory`` (target: the nearest object).
+    object_features : list[Features]
+        The features with each object as the target, in object order.
+    scores : StageTwoScores
+        The stage-2 score band (summed log-likelihoods of runs of sections under each skill).
+    method : Method or None
+        The method (None when :func:`~lfd.segmentation.pipeline.segment_trajectory` was called
+        directly).
+    """
+
+    trajectory: Trajectory
+    features: Features
+    object_features: list[Features]
+    scores: StageTwoScores
+    method: Method | None = None
+
+
 @dataclass
 class Segmentation:
     """A demonstration cut into skills.
@@ -111,6 +145,9 @@ class Segmentation:
         Stage-1 section boundaries (sample indices ``[0, ..., n]``); empty for baselines.
     object_names : list[str]
         Names of the trajectory's objects.
+    run : Run or None
+        The run that made it (trajectory, features, scores, method); None for baselines and
+        for results read back from JSON.
     """
 
     segments: list[Segment]
@@ -118,6 +155,7 @@ class Segmentation:
     method: str = "greedy"
     sections: list[int] = field(default_factory=list)
     object_names: list[str] = field(default_factory=list)
+    run: Run | None = field(default=None, repr=False, compare=False)
 
     def __len__(self) -> int:
         return len(self.segments)
@@ -186,6 +224,8 @@ class Segmentation:
             ],
             "metrics": {},
         }
+        if self.run is not None and self.run.method is not None:
+            doc["method_detail"] = self.run.method.describe()
         if exclude:
             doc["excluded_s"] = [[(a - t0) * 1e-9, (b - t0) * 1e-9] for a, b in exclude]
         if ground_truth:

@@ -105,7 +105,7 @@ def min_section(params: Stage1Params, dt: float) -> int:
 def criteria(params: Stage1Params, n_objects: int, n_columns: int) -> tuple[list[int], list[float]]:
     """The watched columns and their hysteresis in a stage-1 row: the hand feature row
     (``n_columns`` wide) followed, with ``object_criteria``, by the :data:`OBJECT_COLUMNS` of
-    every object (what :func:`section_boundaries` stacks, and the online segmenter per sample)."""
+    every object (what :func:`section_boundaries` stacks)."""
     p = params
     cols = [FEATURE_COLUMNS[k] for k in ("fingertip_distance", "hand_velocity", "tcp_rise_fall")]
     hyst = [p.opening_hysteresis, p.velocity_hysteresis, p.rise_hysteresis]

@@ -1,8 +1,8 @@
 """Log a whole segmentation run: trajectory, features, sections, greedy scores, skills.
 
-The segmentation returns its segments, warnings and stage-1 sections; the per-iteration HMM
-scores of the greedy loop are recomputed here from the same inputs (features of the gap-filled
-trajectory, the template score table) so the viewer can show why each cut was made.
+Everything is read from the segmentation's run (``result.run``: the trajectory it segmented,
+its features, the stage-2 score band, the method); the per-iteration candidate scores of the
+greedy loop are read off that band so the viewer can show why each cut was made.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from .segmentation import log_segmentation, log_text
 
 if TYPE_CHECKING:
     from ..demo import Demonstration
-    from ..segmentation import GrammarUse, Segmentation, SegmentParams, Templates
+    from ..segmentation import GrammarUse, Segmentation, Templates
     from ..segmentation.band import StageTwoScores
     from ..trajectory import Trajectory
 
@@ -85,30 +85,42 @@ def greedy_trace(
 
 
 def log_recorded_demo(
-    demo: Demonstration, *, features: bool = True, recording: Any = None, **kwargs: Any
+    demo: Demonstration,
+    *,
+    trajectory: bool = True,
+    features: bool = True,
+    recording: Any = None,
+    **kwargs: Any,
 ) -> Trajectory | None:
-    """Log a demonstration, its preprocessed trajectory (when it can be made) and its labels.
+    """Log a demonstration, with ``trajectory`` its preprocessed form (the shipped templates'
+    preprocessing, :meth:`lfd.Method.preprocessing`; with ``features`` also its Table I
+    features) and its labels. Extra keyword arguments go to :func:`lfd.viz.log_demonstration`.
+    Returns the trajectory logged.
 
-    With ``features`` also the Table I features of the (gap-filled) trajectory. Extra keyword
-    arguments go to :func:`lfd.viz.log_demonstration`. Returns the trajectory.
+    To show a segmentation, log the demonstration with ``trajectory=False`` and then
+    :func:`log_segment_run`: it logs the trajectory that was segmented.
     """
     from ..errors import LfdError
-    from ..preprocessing import preprocess
     from .demo import log_demonstration
 
     traj: Trajectory | None = None
+    filled: Trajectory | None = None
     problem = None
-    try:
-        traj = preprocess(demo)
-    except LfdError as err:
-        problem = f"preprocessing failed: {err}"
-    log_demonstration(demo, trajectory=traj, recording=recording, **kwargs)
-    if traj is not None and features:
-        from ..features import compute_features
+    if trajectory:
+        from ..preprocessing import preprocess
         from ..segmentation.gaps import fill_gaps
+        from ..segmentation.method import Method
 
         try:
+            traj = preprocess(demo, **Method.default().preprocessing)
             filled, _ = fill_gaps(traj)
+        except LfdError as err:
+            problem = f"preprocessing failed: {err}"
+    log_demonstration(demo, trajectory=traj, recording=recording, **kwargs)
+    if filled is not None and features:
+        from ..features import compute_features
+
+        try:
             feats = compute_features(filled)
             log_features(feats, object_names=list(filled.object_names), recording=recording)
         except LfdError as err:
@@ -124,43 +136,45 @@ def log_segment_run(
     demo: Demonstration | None,
     result: Segmentation,
     *,
-    trajectory: Trajectory | None = None,
-    templates: Templates | None = None,
-    params: SegmentParams | None = None,
     baselines: Mapping[str, Segmentation] | None = None,
     ground_truth: bool = True,
+    trajectory: bool = True,
     recording: Any = None,
 ) -> None:
-    """Log the stages of one segmentation (the demonstration itself is logged separately).
+    """Log one segmentation from its run (``result.run``): the trajectory that was segmented
+    (with ``trajectory``), its features, the stage-1 sections, the scores and the skills. Nothing
+    is preprocessed or scored again; the demonstration itself is logged separately.
 
     Parameters
     ----------
     demo : Demonstration or None
-        For the ground-truth lane (its labels) and, without ``trajectory``, preprocessing.
+        For the ground-truth lane (its labels).
     result : Segmentation
-        The segmentation (lane ``result``, sections, warnings).
-    trajectory : Trajectory, optional
-        The preprocessed demonstration; computed from ``demo`` if omitted.
-    templates, params : optional
-        What the segmentation used (defaults: the shipped templates, default parameters); with
-        ``result.method == "greedy"`` the greedy scores per iteration are recomputed with them.
+        A segmentation made by :func:`lfd.segment` (it carries its :class:`~lfd.segmentation.Run`).
     baselines : mapping name -> Segmentation, optional
         Other methods' results, one lane each.
     ground_truth : bool
         Log the demonstration's labels too (off when :func:`log_recorded_demo` did already).
+    trajectory : bool
+        Log the segmented trajectory (gripper, TCP path, opening) too.
     """
-    from ..features import compute_features
-    from ..segmentation import SegmentParams, Templates
-    from ..segmentation.gaps import fill_gaps
-    from ..segmentation.pipeline import as_trajectory, stage2_scores
+    from ..errors import InvalidParameterError
+    from .demo import log_trajectory
+    from .recording import get_recording
+    from .timeline import time_origin
 
-    tpl = templates or Templates.default()
-    traj = (
-        trajectory if trajectory is not None else as_trajectory(demo, tpl.preprocessing)  # type: ignore[arg-type]
-    )
-    filled, _ = fill_gaps(traj)
-    feats = compute_features(filled)
-    log_features(feats, object_names=list(filled.object_names), recording=recording)
+    run = result.run
+    if run is None:
+        raise InvalidParameterError(
+            "the segmentation carries no run (a baseline, or read back from JSON): "
+            "log its segments with lfd.viz.log_skill_spans"
+        )
+    filled = run.trajectory
+    if trajectory:
+        rec = get_recording(recording)
+        origin = time_origin(rec, first_ns=int(filled.t_ns[0]) if len(filled) else 0)
+        log_trajectory(filled, origin, rec)
+    log_features(run.features, object_names=list(filled.object_names), recording=recording)
 
     t = np.asarray(filled.t_ns, dtype=np.int64)
     n = len(t)
@@ -170,12 +184,14 @@ def log_segment_run(
     candidate_ns: list[np.ndarray] | None = None
     spans: list[tuple[int, int]] | None = None
     if result.method == "greedy" and result.sections and result.segments:
-        p = params or SegmentParams()
         bounds = np.asarray(result.sections, dtype=np.int64)
-        table = stage2_scores(filled, tpl, bounds, p)  # as the segmentation
-        trace, ends = greedy_trace(table, bounds, [s.start for s in result.segments], tpl.skills)
-        scores = list(trace)
-        candidate_ns = [t_end[e] for e in ends]
+        skills = run.method.templates.skills if run.method is not None else None
+        if skills is not None:
+            trace, ends = greedy_trace(
+                run.scores, bounds, [s.start for s in result.segments], skills
+            )
+            scores = list(trace)
+            candidate_ns = [t_end[e] for e in ends]
     if scores is None:
         # one score per cut segment: the chosen skill's own
         scores = [{s.skill: s.score} for s in result.segments if np.isfinite(s.score)]
@@ -242,7 +258,6 @@ def log_methods(
     methods: Sequence[str],
     *,
     templates: Templates | None = None,
-    trajectory: Trajectory | None = None,
     grammar: GrammarUse = "enforce",
     recording: Any = None,
 ) -> dict[str, Segmentation]:
@@ -268,14 +283,7 @@ def log_methods(
         results[method] = seg
         if main is None and method in TEMPLATE_METHODS:
             main = method
-            log_segment_run(
-                demo,
-                seg,
-                trajectory=trajectory,
-                templates=templates,
-                ground_truth=False,
-                recording=recording,
-            )
+            log_segment_run(demo, seg, ground_truth=False, recording=recording)
         else:
             lane = method if method in TEMPLATE_METHODS else f"baseline_{method}"
             log_skill_spans(seg.segments, source=lane, recording=recording)

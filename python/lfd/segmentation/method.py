@@ -1,0 +1,209 @@
+"""A segmentation method as one value: templates, their preprocessing, parameters, search, grammar.
+
+>>> import lfd
+>>> method = lfd.Method.load("paper")                     # doctest: +SKIP
+>>> lfd.segment(lfd.load("recordings/exp1.mcap"), method=method)   # doctest: +SKIP
+
+The CLI turns its options (``--paper``, ``--templates``, ``--search``, ``--grammar``) into one
+:class:`Method` (:meth:`Method.load` and :meth:`Method.with_options`); library calls take one.
+A method is saved with its templates (the ``method`` entry of the template file's ``lfd``
+block) and shown by ``lfd info FILE.json`` and ``lfd segment --json`` (:meth:`Method.describe`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+from typing import Any, get_args
+
+from ..contact import ContactParams
+from ..errors import InvalidParameterError, ModelFormatError
+from .pipeline import (
+    DEFAULT_GRAMMAR,
+    DEFAULT_SEARCH,
+    PAPER_GRAMMAR,
+    PAPER_PARAMS,
+    PAPER_SEARCH,
+    GrammarUse,
+    Search,
+    SegmentParams,
+)
+from .stage1 import Stage1Params
+from .templates import Templates
+
+NAMES: tuple[str, ...] = ("default", "paper")
+"""The named methods :meth:`Method.load` knows (any other argument is a template file)."""
+
+
+@dataclass(frozen=True)
+class Method:
+    """How a demonstration is segmented, as one value.
+
+    Attributes
+    ----------
+    name : str
+        ``default``, ``paper`` or the template file it was loaded from.
+    templates : Templates
+        The skill templates; their preprocessing (:attr:`preprocessing`) is the method's.
+    params : SegmentParams
+        Stage-1 and stage-2 parameters (stage-1 thresholds, rise rule, co-motion, contacts).
+    search : {"dp", "greedy"}
+    grammar : {"enforce", "warn", "off"}
+    """
+
+    name: str = "default"
+    templates: Templates = field(default_factory=Templates.default, compare=False)
+    params: SegmentParams = field(default_factory=SegmentParams)
+    search: Search = DEFAULT_SEARCH
+    grammar: GrammarUse = DEFAULT_GRAMMAR
+
+    def __post_init__(self) -> None:
+        for option, value, allowed in (
+            ("search", self.search, get_args(Search)),
+            ("grammar", self.grammar, get_args(GrammarUse)),
+        ):
+            if value not in allowed:
+                raise InvalidParameterError(
+                    f"{option} must be one of {', '.join(map(repr, allowed))}, got {value!r}"
+                )
+
+    @property
+    def preprocessing(self) -> dict[str, Any]:
+        """Keyword arguments of :func:`lfd.preprocess` the templates were trained with (every
+        recording this method segments is preprocessed with them, once)."""
+        return dict(self.templates.preprocessing)
+
+    @classmethod
+    def default(cls) -> Method:
+        """lfd's default: the shipped templates, segmental DP under the grammar, contact
+        boundaries."""
+        return cls()
+
+    @classmethod
+    def paper(cls) -> Method:
+        """The paper's algorithm: the greedy cut loop that warns about impossible transitions,
+        on templates of the paper's recipe, stage 1 on the hand signals only, no contacts."""
+        return cls("paper", Templates.paper(), PAPER_PARAMS, PAPER_SEARCH, PAPER_GRAMMAR)
+
+    @classmethod
+    def load(cls, spec: str | os.PathLike[str] | Method | Templates | None = None) -> Method:
+        """A method from a name (``default``, ``paper``), a template file (with the method saved
+        in it, else the default parameters), a :class:`Templates` or a method (returned)."""
+        if isinstance(spec, Method):
+            return spec
+        if spec is None or spec == "default":
+            return cls.default()
+        if spec == "paper":
+            return cls.paper()
+        if isinstance(spec, Templates):
+            return cls.of_templates(spec)
+        if isinstance(spec, (str, os.PathLike)):
+            path = Path(spec)
+            if not path.exists():
+                raise InvalidParameterError(
+                    f"method {str(spec)!r} is neither {' nor '.join(NAMES)} nor a template file"
+                )
+            return cls.of_templates(Templates.load(path), name=str(path))
+        raise InvalidParameterError(
+            f"a method is a name ({', '.join(NAMES)}), a template file, Templates or a Method, "
+            f"got {type(spec).__name__}"
+        )
+
+    @classmethod
+    def of_templates(cls, templates: Templates, *, name: str = "templates") -> Method:
+        """The method saved with ``templates`` (:meth:`save`), else the default one on them."""
+        saved = templates.meta.get("method")
+        if not saved:
+            return cls(name, templates)
+        if not isinstance(saved, dict):
+            raise ModelFormatError("the template file's lfd.method entry must be a JSON object")
+        try:
+            params = params_from_dict(saved.get("params", {}))
+            return cls(
+                str(saved.get("name", name)),
+                templates,
+                params,
+                saved.get("search", DEFAULT_SEARCH),
+                saved.get("grammar", DEFAULT_GRAMMAR),
+            )
+        except (TypeError, InvalidParameterError) as err:
+            raise ModelFormatError(
+                f"the template file's lfd.method entry is unusable: {err}"
+            ) from None
+
+    def with_options(
+        self,
+        *,
+        search: Search | None = None,
+        grammar: GrammarUse | None = None,
+        params: SegmentParams | None = None,
+    ) -> Method:
+        """This method with the options given (``None``: keep this method's)."""
+        changes: dict[str, Any] = {}
+        if search is not None:
+            changes["search"] = search
+        if grammar is not None:
+            changes["grammar"] = grammar
+        if params is not None:
+            changes["params"] = params
+        return dataclasses.replace(self, **changes) if changes else self
+
+    def describe(self) -> dict[str, Any]:
+        """The method as a JSON-ready dict (``lfd segment --json``, ``lfd info``)."""
+        return {
+            "name": self.name,
+            "search": self.search,
+            "grammar": self.grammar,
+            "templates": {
+                "skills": self.templates.skills,
+                "features": [f[0] for f in self.templates.features],
+            },
+            "preprocessing": self.preprocessing,
+            "params": dataclasses.asdict(self.params),
+        }
+
+    def to_templates(self) -> Templates:
+        """The templates with this method saved in them (what :meth:`save` writes)."""
+        meta = dict(self.templates.meta)
+        meta["method"] = {
+            "name": self.name,
+            "search": self.search,
+            "grammar": self.grammar,
+            "params": dataclasses.asdict(self.params),
+        }
+        return Templates(self.templates.engine, meta=meta)
+
+    def portable(self) -> str:
+        """The method as text a worker process or Ray node takes (:meth:`from_portable`)."""
+        return self.to_templates().to_json()
+
+    @classmethod
+    def from_portable(cls, text: str | None) -> Method:
+        """The inverse of :meth:`portable` (``None``: the default method); parsed once per
+        process for a given text."""
+        return cls.default() if text is None else _from_portable(text)
+
+    def save(self, path: str | os.PathLike[str]) -> None:
+        """Write the templates with this method in them; :meth:`load` reads it back."""
+        self.to_templates().save(Path(path))
+
+
+@lru_cache(maxsize=4)
+def _from_portable(text: str) -> Method:
+    return Method.of_templates(Templates.from_json(text))
+
+
+def params_from_dict(doc: dict[str, Any]) -> SegmentParams:
+    """:class:`SegmentParams` from :func:`dataclasses.asdict` output (missing keys: defaults)."""
+    doc = dict(doc)
+    stage1 = doc.pop("stage1", None)
+    contacts = doc.pop("contacts", "default")
+    kwargs: dict[str, Any] = dict(doc)
+    if stage1 is not None:
+        kwargs["stage1"] = Stage1Params(**stage1)
+    if contacts != "default":
+        kwargs["contacts"] = None if contacts is None else ContactParams(**contacts)
+    return SegmentParams(**kwargs)
