@@ -1,4 +1,5 @@
-"""No import cycle between the modules of ``lfd``: the layers stay layers.
+"""The modules of ``lfd`` stay in layers: no import cycle, and no import the layer table of
+ARCHITECTURE.md ("Layers") does not allow.
 
 The imports are read statically (``ast``) from every module of ``python/lfd``: ``import x``
 and ``from x import y`` anywhere in the file, at the top, inside functions (the lazy imports
@@ -6,12 +7,15 @@ that defer heavy libraries) and under ``if TYPE_CHECKING:``, with relative impor
 ``from pkg import name`` is an edge to the submodule ``pkg.name`` when that is a module, else
 to ``pkg``. Importing ``pkg.mod`` also runs ``pkg/__init__.py``; that implicit edge is not
 counted (a package's ``__init__`` re-exporting its submodules is the normal layout).
+
+The layer table is read from ARCHITECTURE.md, its only copy.
 """
 
 from __future__ import annotations
 
 import ast
 import itertools
+from dataclasses import dataclass
 from pathlib import Path
 
 import lfd
@@ -20,7 +24,7 @@ import pytest
 ROOT = Path(lfd.__file__).resolve().parent
 
 Graph = dict[str, dict[str, int]]
-"""module -> {imported module: line of the first import}."""
+"""module -> {imported module: line of its first import in the file}."""
 
 
 def _module_name(path: Path, root: Path) -> tuple[str, bool]:
@@ -29,8 +33,9 @@ def _module_name(path: Path, root: Path) -> tuple[str, bool]:
     return ".".join(parts[:-1] if is_package else parts), is_package
 
 
-def import_graph(root: Path) -> Graph:
-    """The import edges between the modules of the package at ``root``."""
+def read_imports(root: Path) -> tuple[Graph, Graph]:
+    """The import edges between the modules of the package at ``root``, and each module's
+    imports of other top-level modules (third-party and standard: ``rerun``, ``argparse``)."""
     sources = {}
     for path in sorted(root.rglob("*.py")):
         name, is_package = _module_name(path, root)
@@ -42,13 +47,23 @@ def import_graph(root: Path) -> Graph:
         known.add(".".join((*rel.parts[:-1], path.name.split(".")[0])))
 
     graph: Graph = {}
+    external: Graph = {}
     for name, (path, is_package) in sources.items():
         edges = graph.setdefault(name, {})
+        outside = external.setdefault(name, {})
         package = name if is_package else name.rpartition(".")[0]
 
-        def add(target: str, line: int, edges: dict[str, int] = edges, name: str = name) -> None:
+        def add(
+            target: str,
+            line: int,
+            edges: dict[str, int] = edges,
+            outside: dict[str, int] = outside,
+            name: str = name,
+        ) -> None:
             if target in sources and target != name:
-                edges.setdefault(target, line)
+                edges[target] = min(line, edges.get(target, line))
+            elif (top := target.split(".")[0]) != root.name:
+                outside[top] = min(line, outside.get(top, line))
 
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
             if isinstance(node, ast.Import):
@@ -64,7 +79,12 @@ def import_graph(root: Path) -> Graph:
                 for alias in node.names:
                     sub = f"{target}.{alias.name}"
                     add(sub if sub in known else target, node.lineno)
-    return graph
+    return graph, external
+
+
+def import_graph(root: Path) -> Graph:
+    """The import edges between the modules of the package at ``root``."""
+    return read_imports(root)[0]
 
 
 def find_cycle(graph: Graph) -> list[str] | None:
@@ -159,6 +179,195 @@ def _write(root: Path, files: dict[str, str]) -> Path:
 def test_cycles_are_found(tmp_path: Path, files: dict[str, str], cycle: list[str] | None) -> None:
     graph = import_graph(_write(tmp_path, files))
     assert find_cycle(graph) == cycle
+
+
+ARCHITECTURE = ROOT.parents[1] / "ARCHITECTURE.md"
+
+
+@dataclass(frozen=True)
+class Layers:
+    """ARCHITECTURE.md's layer tables."""
+
+    modules: dict[str, list[str]]
+    """layer -> its modules as paths under the package (``io/``: the package and everything
+    under it; ``errors.py``: that module; ``__init__.py``: the package's own ``__init__``), in
+    the table's order (lowest first)."""
+    allowed: dict[str, list[str]]
+    """layer -> the layers it may import (besides itself)."""
+    only_in: dict[str, list[str]]
+    """third-party module -> the only layers that may import it."""
+
+
+def _table(text: str, header: str) -> list[list[str]]:
+    """The rows (cells, stripped) of the Markdown table whose header row starts ``header``."""
+    lines = text.splitlines()
+    start = next((i for i, line in enumerate(lines) if line.startswith(header)), None)
+    assert start is not None, f"ARCHITECTURE.md has no table {header!r}"
+    rows = []
+    for line in lines[start + 2 :]:  # past the header and the |---| line
+        if not line.startswith("|"):
+            break
+        rows.append([cell.strip() for cell in line.strip().strip("|").split("|")])
+    return rows
+
+
+def _names(cell: str) -> list[str]:
+    return [n.strip().strip("`") for n in cell.split(",") if n.strip()]
+
+
+def read_layers(text: str) -> Layers:
+    """The tables of ARCHITECTURE.md's "Layers" section."""
+    layers = Layers({}, {}, {})
+    for layer, modules, allowed in _table(text, "| layer | modules | may import |"):
+        layers.modules[layer] = _names(modules)
+        layers.allowed[layer] = [n for n in _names(allowed) if n != layer]
+    for module, layer_names in _table(text, "| module | only in |"):
+        layers.only_in[module.strip("`")] = _names(layer_names)
+    return layers
+
+
+LAYERS = read_layers(ARCHITECTURE.read_text(encoding="utf-8"))
+
+KNOWN_VIOLATIONS: dict[tuple[str, str], str] = {
+    # removed by the live rewrite (issue 28): preprocessing/online.py is deleted there
+    ("lfd.preprocessing.online", "lfd.features"): "removed by the live rewrite (issue 28)",
+}
+"""Imports against the layer table, tolerated until the change that removes them lands:
+(module, imported module) -> why. One that no longer occurs fails the test (delete it here)."""
+
+
+def layer_of(module: str, layers: Layers) -> str | None:
+    """The layer of ``module`` (a dotted name in the checked package), None if no row has it."""
+    parts = module.split(".")[1:]  # below the package
+    best, best_len = None, -1
+    for layer, paths in layers.modules.items():
+        for path in paths:
+            if path.endswith("/"):
+                prefix = path.rstrip("/").split("/")
+                hit = parts[: len(prefix)] == prefix
+            else:
+                prefix = [] if path == "__init__.py" else path.removesuffix(".py").split("/")
+                hit = parts == prefix
+            if hit and len(prefix) > best_len:
+                best, best_len = layer, len(prefix)
+    return best
+
+
+def layer_violations(root: Path, layers: Layers) -> dict[tuple[str, str], str]:
+    """Every import of the package at ``root`` the layer tables do not allow, and every module
+    in no layer: (module, imported module) -> one line saying so."""
+    graph, external = read_imports(root)
+    found: dict[tuple[str, str], str] = {}
+    for module in sorted(graph):
+        layer = layer_of(module, layers)
+        if layer is None:
+            found[(module, "")] = f"{module} is in no layer (ARCHITECTURE.md, Layers)"
+            continue
+        edges = [(line, target, layer_of(target, layers)) for target, line in graph[module].items()]
+        for line, target, other in sorted(edges):
+            if other is not None and other != layer and other not in layers.allowed[layer]:
+                found[(module, target)] = (
+                    f"{module} (line {line}) imports {target}: "
+                    f"layer {layer} may not use layer {other}"
+                )
+        for top, line in sorted(external[module].items(), key=lambda kv: kv[1]):
+            if top in layers.only_in and layer not in layers.only_in[top]:
+                found[(module, top)] = (
+                    f"{module} (line {line}) imports {top}: layer {layer} may not use {top} "
+                    f"(only {', '.join(layers.only_in[top])})"
+                )
+    return found
+
+
+def test_layers_are_kept() -> None:
+    found = layer_violations(ROOT, LAYERS)
+    new = [msg for key, msg in found.items() if key not in KNOWN_VIOLATIONS]
+    assert not new, "imports against the layers of ARCHITECTURE.md:\n" + "\n".join(new)
+    gone = [f"{a} -> {b}" for a, b in KNOWN_VIOLATIONS if (a, b) not in found]
+    assert not gone, f"no longer violated, delete from KNOWN_VIOLATIONS: {gone}"
+
+
+def test_layer_table_is_an_order() -> None:
+    """Every row names known layers, all above it: the table is the order of the layers."""
+    order = list(LAYERS.modules)
+    assert len(order) > 10 and "cli" in order  # the table was read
+    for k, layer in enumerate(order):
+        assert LAYERS.modules[layer], f"layer {layer} has no modules"
+        for other in LAYERS.allowed[layer]:
+            assert other in order[:k], f"layer {layer} may import {other}, not a layer above it"
+    for module, layer_names in LAYERS.only_in.items():
+        assert layer_names and set(layer_names) <= set(order), module
+
+
+@pytest.mark.parametrize(
+    ("module", "forbidden"),
+    [
+        ("lfd.perception.record", ["lfd.segmentation", "lfd.viz"]),
+        (
+            "lfd.segmentation.pipeline",
+            ["lfd.perception", "lfd.viz", "lfd.sim", "lfd.reproduce", "lfd.export", "lfd.cli"],
+        ),
+        (
+            "lfd.preprocessing.pipeline",
+            ["lfd.features", "lfd.segmentation", "lfd.viz", "lfd.perception", "lfd.cli"],
+        ),
+        ("lfd.io.reader", ["lfd.preprocessing", "lfd.segmentation", "lfd.viz", "lfd.cli"]),
+        ("lfd.viz.live", ["lfd.cli", "lfd.perception"]),
+        ("lfd.live", ["lfd.cli"]),
+    ],
+)
+def test_layer_table_keeps_the_pipeline_order(module: str, forbidden: list[str]) -> None:
+    """The rules of issue 28 the table must keep (a change to the table that breaks one fails
+    here): record -> io -> preprocessing -> segmentation -> reproduce, viz beside."""
+    layer = layer_of(module, LAYERS)
+    assert layer is not None
+    for target in forbidden:
+        other = layer_of(target, LAYERS)
+        assert other != layer and other not in LAYERS.allowed[layer], (module, target)
+    assert LAYERS.only_in["rerun"] == ["viz", "cli"] and LAYERS.only_in["argparse"] == ["cli"]
+
+
+def test_layer_check_finds_violations(tmp_path: Path) -> None:
+    """The check on a small package: lazy, type-only and third-party imports across layers are
+    reported, allowed ones are not, and a module in no layer is."""
+    root = _write(
+        tmp_path,
+        {
+            "pkg/__init__.py": "",
+            "pkg/errors.py": "",
+            "pkg/io/__init__.py": "from ..errors import LfdError\n",
+            "pkg/segmentation/__init__.py": "",
+            "pkg/segmentation/live.py": "from .. import io\n",
+            "pkg/segmentation/files.py": "import argparse\nfrom ..cli import main\n",
+            "pkg/viz/__init__.py": "",
+            "pkg/viz/live.py": "import rerun\nfrom ..segmentation import live\n",
+            "pkg/perception/__init__.py": "",
+            "pkg/perception/record.py": (
+                "from typing import TYPE_CHECKING\n"
+                "from .. import io\n"
+                "if TYPE_CHECKING:\n"
+                "    from ..viz.live import LiveTimeline\n"
+                "\n"
+                "def record():\n"
+                "    import rerun.blueprint\n"
+                "    from ..segmentation.live import label_of\n"
+            ),
+            "pkg/cli/__init__.py": "import argparse\nfrom ..perception import record\n",
+            "pkg/stray.py": "",
+        },
+    )
+    assert list(layer_violations(root, LAYERS).values()) == [
+        "pkg.perception.record (line 4) imports pkg.viz.live: layer perception may not use "
+        "layer viz",
+        "pkg.perception.record (line 8) imports pkg.segmentation.live: layer perception may "
+        "not use layer segmentation",
+        "pkg.perception.record (line 7) imports rerun: layer perception may not use rerun "
+        "(only viz, cli)",
+        "pkg.segmentation.files (line 2) imports pkg.cli: layer segmentation may not use layer cli",
+        "pkg.segmentation.files (line 1) imports argparse: layer segmentation may not use "
+        "argparse (only cli)",
+        "pkg.stray is in no layer (ARCHITECTURE.md, Layers)",
+    ]
 
 
 HEAVY = (

@@ -446,3 +446,57 @@ def test_a_source_failing_mid_recording_keeps_what_was_recorded(tmp_path) -> Non
     demo = load(out)  # closed and complete, no recovery warning
     assert sum(len(o.t_ns) for o in demo.objects.values()) >= 6
     assert [p.name for p in tmp_path.iterdir()] == ["rec.mcap"]  # no temporary file left
+
+
+def test_record_tells_its_observer_and_writes_the_skills_it_returns(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """``record(observer=...)``: every frame with its poses and every hand sample (found or not)
+    in order, then ``finish``; the skills the observer returns go to /lfd/live/segments."""
+    from lfd.demo import SkillLabel
+    from lfd.io import load
+    from lfd.perception.record import record
+    from lfd.perception.sources import open_source
+
+    class EveryOtherHand:
+        calls = 0
+
+        def estimate(self, depth, K, world_T_camera, boxes):  # type: ignore[no-untyped-def]
+            self.calls += 1
+            return np.full((21, 3), 0.1) if self.calls % 2 else None
+
+    class Observer:
+        def __init__(self) -> None:
+            self.seen: list[tuple[object, ...]] = []
+
+        def on_frame(self, t_ns, color, poses):  # type: ignore[no-untyped-def]
+            self.seen.append(("frame", t_ns, color.shape[2], sorted(poses)))
+            return []
+
+        def on_hand(self, t_ns, keypoints, confidence, keypoints_2d):  # type: ignore[no-untyped-def]
+            self.seen.append(("hand", t_ns, keypoints is not None, keypoints_2d))
+            return []
+
+        def finish(self, t_ns):  # type: ignore[no-untyped-def]
+            self.seen.append(("finish", t_ns))
+            return [(SkillLabel("move", self.seen[0][1], t_ns), t_ns, {"score": "-1"})]
+
+    source = open_source("sim:exp1", seed=0)
+    names = sorted(o["name"] for o in source.objects)
+    observer = Observer()
+    out = tmp_path / "rec.mcap"
+    stats = record(
+        source, out, estimator=EveryOtherHand(), hand_rate_hz=None, max_frames=4, observer=observer
+    )
+    assert stats.frames == 4 and stats.live_segments == 1
+    kinds = [s[0] for s in observer.seen]
+    assert kinds == ["frame", "hand"] * 4 + ["finish"]
+    frames = [s for s in observer.seen if s[0] == "frame"]
+    assert all(f[2] == 3 for f in frames) and frames[0][3] == names  # RGB, every box at first
+    hands = [s for s in observer.seen if s[0] == "hand"]
+    assert [h[2] for h in hands] == [True, False, True, False]
+    assert [h[1] for h in hands] == [f[1] for f in frames]
+    assert observer.seen[-1] == ("finish", frames[-1][1])
+    demo = load(out)
+    assert [(s.skill, s.start_ns, s.end_ns) for s in demo.live_segments] == [
+        ("move", frames[0][1], frames[-1][1])
+    ]
+    assert demo.labels == []

@@ -76,7 +76,8 @@ def _hands(args: argparse.Namespace) -> int:
     from rich.progress import Progress
 
     from ..perception.hand.mediapipe import MediaPipeHands
-    from ..perception.hand.stills import hands_in_images, log_hands_rerun, read_inputs
+    from ..perception.hand.stills import hands_in_images, read_inputs
+    from ..viz.hands import log_still_hands
     from ._options import check_json, console, emit_json
     from ._rerun import check_rerun_args, close_from_args, open_from_args
 
@@ -106,7 +107,7 @@ def _hands(args: argparse.Namespace) -> int:
         )
     if open_from_args(args, "lfd_perception_hands"):
         try:
-            log_hands_rerun(doc, loaded.rgb)
+            log_still_hands(doc, loaded.rgb)
         finally:
             close_from_args(args)
     emit_json(args, doc, con)

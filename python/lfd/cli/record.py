@@ -166,7 +166,7 @@ def run(args: argparse.Namespace) -> int:
             side=args.hand,
             tag_ids=[o["tag_id"] for o in source.objects],
         )
-    live = open_from_args(args, "lfd_record")
+    view = open_from_args(args, "lfd_record")
     max_frames = None
     if args.duration is not None and not args.source.startswith("sim:"):
         max_frames = max(1, round(args.duration * float(args.fps or 30.0)))
@@ -176,6 +176,16 @@ def run(args: argparse.Namespace) -> int:
     old_int = signal.signal(signal.SIGINT, signal.default_int_handler)
     console = Console(stderr=True)
     try:
+        observer = None  # beside the file: the live segmenter and the Rerun view
+        if view or segmenter is not None:
+            import numpy as np
+
+            from ..live import LiveObserver
+
+            objects = [
+                (o["name"], o["tag_id"], np.asarray(o["size"], float)) for o in source.objects
+            ]
+            observer = LiveObserver.open(objects, segmenter=segmenter, view=view)
         with Progress(
             SpinnerColumn(),
             TextColumn("{task.description}"),
@@ -199,11 +209,10 @@ def run(args: argparse.Namespace) -> int:
                 side=args.hand,
                 estimator=estimator,
                 save_images=args.images,
-                live=live,
                 max_frames=max_frames,
                 progress=update,
                 markers={"dictionary": args.aruco_dict, "reference_size": args.reference_size},
-                live_segment=segmenter,
+                observer=observer,
             )
     finally:
         signal.signal(signal.SIGTERM, old)

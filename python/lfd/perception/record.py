@@ -8,17 +8,23 @@ default) or the depth network (:class:`~lfd.perception.hand.infer.HandEstimator`
 simulator's hand, 5 Hz like the paper). Samples go to a
 :class:`~lfd.io.McapRecorder` as they are produced, so an interrupted recording (Ctrl+C,
 SIGTERM) is a complete, loadable file up to the last frame.
+
+What is done beside the file (``lfd record --rerun``, ``--live-segment``) is an ``observer``
+(a :class:`RecordObserver`, e.g. :class:`lfd.live.LiveObserver`): it sees every frame, object
+pose and hand sample as it is written, and the skills it returns are written to
+``/lfd/live/segments``. This stage imports neither the segmentation nor the viewer.
 """
 
 from __future__ import annotations
 
 import os
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
-from ..demo import CameraInfo
+from ..demo import CameraInfo, SkillLabel
 from ..errors import LfdError
 from .markers import MarkerConfig, MarkerTracker
 from .sources import Frame, Source
@@ -43,40 +49,39 @@ def _boxes(tracker: MarkerTracker, poses: dict[str, tuple[np.ndarray, np.ndarray
     return [(p, Rotation.from_quat(q).as_matrix(), sizes[n]) for n, (p, q) in poses.items()]
 
 
-def _skeleton(kp_2d: np.ndarray) -> list[np.ndarray]:
-    """The colour model's hand skeleton as 2-D line strips."""
-    from .hand.mediapipe import SKELETON
+Poses = Mapping[str, tuple[np.ndarray, np.ndarray]]
+"""Object poses of one frame: name -> (position (3,) m, quaternion (4,) x, y, z, w)."""
 
-    return [kp_2d[[a, b]] for a, b in SKELETON]
+SettledSkill = tuple[SkillLabel, int, dict[str, str]]
+"""A skill an observer settled: the label, the time it settled (the message's log time, ns) and
+extra metadata; :func:`record` writes it to ``/lfd/live/segments``
+(:meth:`lfd.io.McapRecorder.add_live_segment`)."""
 
 
-class _LiveSegments:
-    """Skills segmented while recording (``lfd record --live-segment``): every hand frame and
-    object pose written is also fed to a :class:`~lfd.segmentation.live.LiveSegmentation`;
-    each skill it settles goes to ``/lfd/live/segments`` at once (and to Rerun)."""
+class RecordObserver(Protocol):
+    """What :func:`record` tells as it writes, in the order it writes it. Each method returns the
+    skills settled by what it was told (written to ``/lfd/live/segments`` at once)."""
 
-    def __init__(self, segmenter: Any, rec: Any, timeline: Any) -> None:
-        self.seg, self.rec, self.timeline = segmenter, rec, timeline
-        self.count = 0
+    def on_frame(self, t_ns: int, color: np.ndarray, poses: Poses) -> Iterable[SettledSkill]:
+        """A camera frame and the object poses written for it (tags seen, or at the first
+        frame the calibration's)."""
+        ...
 
-    def hand(self, t_ns: int, kp: np.ndarray, confidence: np.ndarray | None) -> None:
-        self._emit(self.seg.push_hand(t_ns, kp, confidence), t_ns)
+    def on_hand(
+        self,
+        t_ns: int,
+        keypoints: np.ndarray | None,
+        confidence: np.ndarray | None,
+        keypoints_2d: np.ndarray | None,
+    ) -> Iterable[SettledSkill]:
+        """A hand sample: world keypoints (21, 3) m, confidence (21,) and, from a colour model,
+        the 2-D keypoints (21, 2) px; ``keypoints`` None: no hand found (written unobserved,
+        NaN with confidence 0)."""
+        ...
 
-    def object(self, name: str, t_ns: int, p: np.ndarray, q: np.ndarray) -> None:
-        self._emit(self.seg.push_object(name, t_ns, p, q), t_ns)
-
-    def finish(self, t_ns: int) -> None:
-        self._emit(self.seg.finish(), t_ns)
-
-    def _emit(self, update: Any, t_ns: int) -> None:
-        from ..segmentation.live import label_of
-
-        for s in update.segments:
-            extra = {"score": f"{s.score:.6g}", "confidence": f"{s.confidence:.6g}"}
-            self.rec.add_live_segment(label_of(s), max(int(t_ns), int(s.end_ns)), extra)
-            self.count += 1
-        if self.timeline is not None:
-            self.timeline.log_update(update, self.seg.provisional_span())
+    def finish(self, t_ns: int) -> Iterable[SettledSkill]:
+        """The recording ends at ``t_ns`` (its last frame): what is still open settles."""
+        ...
 
 
 def record(
@@ -86,21 +91,21 @@ def record(
     hand_rate_hz: float | None = 5.0,
     estimator: Any = None,
     save_images: bool = False,
-    live: bool = False,
     max_frames: int | None = None,
     progress: Any = None,
     markers: dict[str, Any] | None = None,
     side: str = "right",
-    live_segment: Any = None,
+    observer: RecordObserver | None = None,
 ) -> RecordStats:
     """Record ``source`` into ``output`` (MCAP). ``estimator`` is a ``MediaPipeEstimator``, a
     ``HandEstimator`` or None; ``side`` names the hand topics (``/hand/<side>/...``).
 
     ``hand_rate_hz`` None estimates the hand on every frame.
 
-    ``live_segment``: a :class:`~lfd.segmentation.live.LiveSegmentation` for the source's
-    objects: the skills it settles are written to ``/lfd/live/segments`` during the recording
-    (and shown with ``live``); the rest when the recording ends.
+    ``observer`` (a :class:`RecordObserver`, e.g. :class:`lfd.live.LiveObserver`: Rerun, live
+    segmentation) sees every frame, pose and hand sample as it is written; the skills it settles
+    are written to ``/lfd/live/segments`` during the recording, the rest when it ends
+    (``stats.live_segments`` counts them).
 
     ``markers`` are extra :class:`~lfd.perception.markers.MarkerConfig` fields, e.g.
     ``{"dictionary": "DICT_5X5_100", "reference_size": 0.15}``.
@@ -136,17 +141,14 @@ def record(
     period = 0 if hand_rate_hz is None else round(1e9 / hand_rate_hz)  # 0: every frame
     next_hand: int | None = None
     camera_written = False
-    viz: Any = None  # the Rerun timeline (lfd.viz.live.LiveTimeline) with ``live``
-    if live:
-        from ..viz.live import LiveTimeline
-
-        viz = LiveTimeline(
-            objects=objects,
-            object_names=None if live_segment is None else live_segment.object_names,
-        )
     last_poses: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     rec = McapRecorder(output, objects=objects, metadata=meta, color_format="png", side=side)
-    segs = None if live_segment is None else _LiveSegments(live_segment, rec, viz)
+
+    def settled(skills: Iterable[SettledSkill]) -> None:
+        for label, settled_ns, extra in skills:
+            rec.add_live_segment(label, settled_ns, extra)
+            stats.live_segments += 1
+
     last_t: int | None = None
     tracks_every_frame = getattr(estimator, "needs_colour", False)
     try:
@@ -160,19 +162,14 @@ def record(
                         poses[name] = (p, q)
             last_poses.update(poses)  # boxes hidden by the hand are where they were last seen
             last_t = frame.t_ns
-            if segs is not None:
-                for name, (p, q) in poses.items():
-                    segs.object(name, frame.t_ns, p, q)
+            if observer is not None:
+                settled(observer.on_frame(frame.t_ns, frame.color, poses))
             if not camera_written and tracker.world_T_camera is not None:
                 cam = source.camera
                 rec.add_camera_info(
                     CameraInfo(cam.width, cam.height, cam.K, tracker.world_T_camera), frame.t_ns
                 )
                 camera_written = True
-            if viz is not None:
-                viz.log_camera(frame.t_ns, frame.color)
-                for name, (p, q) in poses.items():
-                    viz.log_object(name, frame.t_ns, p, q)
             due = next_hand is None or frame.t_ns >= next_hand
             found = None
             if estimator is not None and (due or tracks_every_frame):
@@ -191,18 +188,14 @@ def record(
                 if found is None:  # marked unobserved (NaN, confidence 0), not invented
                     rec.add_hand(frame.t_ns, np.full((21, 3), np.nan), np.zeros(21))
                     stats.hand_missing += 1
-                    if segs is not None:
-                        segs.hand(frame.t_ns, np.full((21, 3), np.nan), np.zeros(21))
+                    if observer is not None:
+                        settled(observer.on_hand(frame.t_ns, None, None, None))
                 else:
                     kp, confidence, visible, kp_2d = found
                     rec.add_hand(frame.t_ns, kp, confidence, visible=visible)
                     stats.hand_estimates += 1
-                    if segs is not None:
-                        segs.hand(frame.t_ns, kp, confidence)
-                    if viz is not None:
-                        viz.log_hand(frame.t_ns, kp)
-                        if kp_2d is not None:
-                            viz.log_hand_2d(frame.t_ns, _skeleton(kp_2d))
+                    if observer is not None:
+                        settled(observer.on_hand(frame.t_ns, kp, confidence, kp_2d))
             stats.frames += 1
             rec.flush_if_due()  # a follower (lfd segment --follow) sees each frame within ~1 s
             if progress is not None:
@@ -225,9 +218,8 @@ def record(
         raise
     finally:
         try:
-            if segs is not None and last_t is not None and not rec.closed:
-                segs.finish(last_t)  # the skills still open when the recording ends
-                stats.live_segments = segs.count
+            if observer is not None and last_t is not None and not rec.closed:
+                settled(observer.finish(last_t))  # the skills still open when it ends
         finally:
             rec.close()  # no-op after discard
         source.close()

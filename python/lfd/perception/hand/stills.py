@@ -173,34 +173,3 @@ def hands_in_images(
         "model": model.info["model"],
         "mirrored": model.mirrored,
     }
-
-
-def log_hands_rerun(doc: dict[str, Any], images: Sequence[np.ndarray] | None = None) -> None:
-    """Each image with its hands' skeletons (and 3-D keypoints when lifted) to the open Rerun
-    recording, one step of the ``image`` timeline per image."""
-    from ...viz.recording import import_rerun
-    from .mediapipe import SKELETON
-
-    rr = import_rerun()
-    for i, entry in enumerate(doc["images"]):
-        rr.set_time("image", sequence=i)
-        rgb = images[i] if images is not None else read_image(entry["image"])
-        rr.log("/image", rr.Image(rgb))
-        rr.log("/image/hands", rr.Clear(recursive=True))
-        rr.log("/hands3d", rr.Clear(recursive=True))
-        for j, hand in enumerate(entry["hands"]):
-            kp = np.asarray(hand["keypoints_2d"], float)
-            colour = (230, 80, 60) if hand["handedness"] == "right" else (60, 120, 230)
-            rr.log(
-                f"/image/hands/{j}",
-                rr.LineStrips2D([kp[[a, b]] for a, b in SKELETON], colors=colour),
-                rr.Points2D(kp, colors=colour, radii=3.0),
-            )
-            if hand.get("keypoints_3d") is not None:
-                rr.log(
-                    f"/hands3d/{j}",
-                    rr.LineStrips3D(
-                        [np.asarray(hand["keypoints_3d"])[[a, b]] for a, b in SKELETON],
-                        colors=colour,
-                    ),
-                )
