@@ -228,10 +228,7 @@ def read_layers(text: str) -> Layers:
 
 LAYERS = read_layers(ARCHITECTURE.read_text(encoding="utf-8"))
 
-KNOWN_VIOLATIONS: dict[tuple[str, str], str] = {
-    # removed by the live rewrite (issue 28): preprocessing/online.py is deleted there
-    ("lfd.preprocessing.online", "lfd.features"): "removed by the live rewrite (issue 28)",
-}
+KNOWN_VIOLATIONS: dict[tuple[str, str], str] = {}
 """Imports against the layer table, tolerated until the change that removes them lands:
 (module, imported module) -> why. One that no longer occurs fails the test (delete it here)."""
 

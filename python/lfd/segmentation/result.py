@@ -15,7 +15,6 @@ if TYPE_CHECKING:
     from ..features import Features
     from ..trajectory import Trajectory
     from .band import StageTwoScores
-    from .method import Method
 
 RESULT_FORMAT_VERSION = 2
 """Version of the JSON written by :meth:`Segmentation.to_json` (2: ``confidence`` is a posterior
@@ -126,7 +125,7 @@ class Run:
     features: Features
     object_features: list[Features]
     scores: StageTwoScores
-    method: Method | None = None
+    method: Any = None  # a Method (lfd.segmentation.method imports this module)
 
 
 @dataclass
