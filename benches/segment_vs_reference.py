@@ -66,17 +66,17 @@ def build_demo() -> dict:
 def engine_stage2(templates, demo: dict) -> list[tuple[int, int, int]]:
     from lfd import _hmmseg
     from lfd.segmentation.band import Band
-    from lfd.segmentation.grammar import grammar_json
+    from lfd.segmentation.grammar import compiled_grammar
     from lfd.segmentation.pipeline import scores_over_objects
 
     band = Band.of(demo["bounds"], round(10.0 / demo["dt"]))
     st = scores_over_objects(demo["objects"], templates, band, "final")
     rising = _hmmseg.rising_band(demo["z"], demo["bounds"], band.max_len, 0.02, 0.0)
-    segs, _ = _hmmseg.segment_greedy(
-        st.scores, demo["bounds"], templates.skills, grammar_json(), rising, "warn", True,
-        band.max_len,
-    )  # fmt: skip
-    return [(s[0], s[1], s[2]) for s in segs]
+    rules = compiled_grammar(tuple(templates.skills), False)
+    cuts, _ = _hmmseg.segment_greedy(
+        st.scores, demo["bounds"], rules, rising, "warn", True, band.max_len
+    )
+    return [(c.skill, c.start_section, c.end_section) for c in cuts]
 
 
 # --- the reference ---------------------------------------------------------------------------

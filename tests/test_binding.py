@@ -4,6 +4,7 @@ absurd sizes and concurrent calls."""
 from __future__ import annotations
 
 import ast
+import itertools
 import json
 import subprocess
 import sys
@@ -59,6 +60,7 @@ def _scene() -> dict[str, Any]:
 
 SCENE = _scene()
 SKILL_LIST = list(SKILLS)
+GRAMMAR = _hmmseg.Grammar(grammar_json(), SKILL_LIST)
 BOUNDS = np.array([0, 10, 25, 40, 60], dtype=np.int64)
 SCORES = -RNG.uniform(1, 50, (4, 5, len(SKILL_LIST)))
 RISING = RNG.uniform(size=(4, 5)) < 0.3
@@ -146,11 +148,12 @@ ENTRY_POINTS: dict[str, Callable[[Layout], Any]] = {
     ),
     "rising_table": lambda L: _hmmseg.rising_table(L(SCENE["tcp"][:, 2]), L(BOUNDS), 0.02),
     "segment_greedy": lambda L: _hmmseg.segment_greedy(
-        L(SCORES), L(BOUNDS), SKILL_LIST, grammar_json(), L(RISING), "off", True
+        L(SCORES), L(BOUNDS), GRAMMAR, L(RISING), "off", True
     ),
     "segment_dp": lambda L: _hmmseg.segment_dp(
-        L(SCORES), L(BOUNDS), SKILL_LIST, grammar_json(), L(RISING), "warn", 1.0
+        L(SCORES), L(BOUNDS), GRAMMAR, L(RISING), "warn", 1.0
     ),
+    "Band": lambda L: _hmmseg.Band(L(BOUNDS), 30).runs(),
     "TemplateSet.train": lambda L: _hmmseg.TemplateSet.train(
         ["pick_up", "place"], FEATURES, [(s, L(x)) for s, x in EXAMPLES], TPL_PARAMS
     ).to_json(),
@@ -212,7 +215,7 @@ def test_fortran_input_is_read_by_logical_index() -> None:
             "boundaries must have dtype int64",
         ),
         (
-            lambda: _hmmseg.segment_dp(SCORES, BOUNDS, SKILL_LIST, grammar_json(), RISING[:, :4]),
+            lambda: _hmmseg.segment_dp(SCORES, BOUNDS, GRAMMAR, RISING[:, :4]),
             errors.ShapeMismatchError,
             r"rising must have shape \(4, 5\)",
         ),
@@ -266,7 +269,7 @@ def test_option_aliases_are_the_engines_names_and_match_the_stub() -> None:
         (lambda v: _hmmseg.Hmm.fit(SEQS, n_states=2, covariance=v), "covariance must be one of"),
         (lambda v: _hmmseg.Hmm.fit(SEQS, n_states=2, topology=v), "topology must be one of"),
         (
-            lambda v: _hmmseg.segment_dp(SCORES, BOUNDS, SKILL_LIST, grammar_json(), None, v),
+            lambda v: _hmmseg.segment_dp(SCORES, BOUNDS, GRAMMAR, None, v),
             "grammar mode must be one of",
         ),
         (lambda v: TEMPLATES.score_table(RAW, BOUNDS, 0, v), "end must be one of"),
@@ -287,7 +290,7 @@ def test_every_option_value_is_accepted() -> None:
         for top in get_args(_hmmseg.Topology):
             assert _hmmseg.Hmm.fit(SEQS, n_states=2, covariance=cov, topology=top, max_iter=1)
     for mode in get_args(_hmmseg.GrammarMode):
-        _hmmseg.segment_dp(SCORES, BOUNDS, SKILL_LIST, grammar_json(), None, mode)
+        _hmmseg.segment_dp(SCORES, BOUNDS, GRAMMAR, None, mode)
     for end in get_args(_hmmseg.EndState):
         TEMPLATES.score_table(RAW, BOUNDS, 0, end)
     for size in get_args(_hmmseg.SizeMeasure):
@@ -433,6 +436,61 @@ def test_silent_fallbacks_are_gone() -> None:
         TEMPLATES.score_table(RAW, np.array([], dtype=np.int64))
 
 
+# --- the stage-2 search: a compiled grammar in, named cuts out ------------------------------------
+def test_the_grammar_is_checked_once_when_compiled() -> None:
+    from lfd.segmentation.grammar import compiled_grammar, implicit_move_grammar_json
+
+    assert GRAMMAR.skills == SKILL_LIST
+    assert GRAMMAR == _hmmseg.Grammar(grammar_json(), SKILL_LIST)
+    assert GRAMMAR != _hmmseg.Grammar(implicit_move_grammar_json(), SKILL_LIST)
+    rules = json.loads(grammar_json())
+    bad = [
+        ("{", "grammar JSON"),
+        (json.dumps({**rules, "format_version": 9}), "format_version 9"),
+        (json.dumps({**rules, "start": [*rules["start"], "fly"]}), 'unknown skill "fly"'),
+        (json.dumps({k: v for k, v in rules.items() if k != "transitions"}), "transitions"),
+    ]
+    for text, match in bad:
+        with pytest.raises(errors.ModelFormatError, match=match) as info:
+            _hmmseg.Grammar(text, SKILL_LIST)
+        assert isinstance(info.value, ValueError)
+    with pytest.raises(errors.EmptySequenceError, match="at least one skill"):
+        _hmmseg.Grammar(grammar_json(), [])
+    # the search takes the compiled grammar only, and it must name the table's skills
+    with pytest.raises(TypeError):
+        _hmmseg.segment_dp(SCORES, BOUNDS, grammar_json())  # type: ignore[arg-type]
+    two = _hmmseg.Grammar(grammar_json(), ["pick_up", "place"])
+    with pytest.raises(errors.ShapeMismatchError, match="grammar has 2 skills, score table 7"):
+        _hmmseg.segment_greedy(SCORES, BOUNDS, two)
+    # the pipeline compiles each grammar once per skill order
+    key = tuple(SKILL_LIST)
+    assert compiled_grammar(key, True) is compiled_grammar(key, True)
+    assert compiled_grammar(key, False) == GRAMMAR != compiled_grammar(key, True)
+
+
+def test_cuts_are_named_read_only_segments() -> None:
+    for cuts, _ in (
+        _hmmseg.segment_dp(SCORES, BOUNDS, GRAMMAR, RISING, "warn", 1.0),
+        _hmmseg.segment_greedy(SCORES, BOUNDS, GRAMMAR, RISING, "off", True),
+    ):
+        assert cuts and all(type(c) is _hmmseg.Cut for c in cuts)
+        assert cuts[0].start_section == 0 and cuts[-1].end_section == len(BOUNDS) - 1
+        for a, b in itertools.pairwise(cuts):
+            assert a.end_section == b.start_section and a.end == b.start
+        for c in cuts:
+            assert (c.start, c.end) == (BOUNDS[c.start_section], BOUNDS[c.end_section])
+            assert 0 <= c.skill < len(SKILL_LIST) and 0.0 <= c.confidence <= 1.0
+            assert isinstance(c.score, float) and isinstance(c.margin, float)
+            assert repr(c).startswith(f"Cut(skill={c.skill}, start_section={c.start_section}")
+    c = cuts[0]
+    with pytest.raises(AttributeError):
+        c.skill = 1  # type: ignore[misc]
+    with pytest.raises(TypeError):
+        _hmmseg.Cut()  # type: ignore[call-arg]
+    with pytest.raises(TypeError):
+        _skill, _i, *_rest = c  # type: ignore[misc]
+
+
 # --- absurd sizes: refused before allocating ------------------------------------------------------
 ABSURD = {
     "GaussianHMM(3).fit(X).sample(10**12)": "GaussianHMM(3).fit(X).sample(10**12)",
@@ -490,12 +548,8 @@ def test_absurd_sizes_are_invalid_parameters_not_crashes() -> None:
 def test_concurrent_calls_give_identical_results() -> None:
     jobs: list[Callable[[], Any]] = [
         lambda: TEMPLATES.score_table(RAW, BOUNDS, 30, "final"),
-        lambda: _hmmseg.segment_dp(
-            SCORES, BOUNDS, SKILL_LIST, grammar_json(), RISING, "enforce", 2.0
-        ),
-        lambda: _hmmseg.segment_greedy(
-            SCORES, BOUNDS, SKILL_LIST, grammar_json(), RISING, "warn", True
-        ),
+        lambda: _hmmseg.segment_dp(SCORES, BOUNDS, GRAMMAR, RISING, "enforce", 2.0),
+        lambda: _hmmseg.segment_greedy(SCORES, BOUNDS, GRAMMAR, RISING, "warn", True),
         lambda: MIX.log_likelihood_many(SEQS),
         lambda: MODEL.posteriors(X),
         lambda: _hmmseg.Hmm.fit(SEQS, n_states=2, n_mix=2, seed=5)[0].to_json(),

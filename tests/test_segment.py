@@ -28,7 +28,7 @@ from lfd.segmentation import (
     train_templates,
 )
 from lfd.segmentation.evaluate import evaluate
-from lfd.segmentation.grammar import grammar_json, impossible_transitions, needs_move_between
+from lfd.segmentation.grammar import compiled_grammar, impossible_transitions, needs_move_between
 from lfd.segmentation.metrics import all_metrics
 from lfd.segmentation.templates import FRAME_SYMMETRY, turn_object_frame
 from lfd.skills import SKILLS
@@ -210,12 +210,17 @@ def test_greedy_and_dp_on_a_constructed_table() -> None:
             scores[i, j] *= max(j - i, 0) * 10
     scores[0, 2, skills.index("pick_up")] = 0.0
     scores[2, 4, skills.index("move_with")] = 0.0
+    rules = compiled_grammar(tuple(skills), False)
     for fn in (_hmmseg.segment_greedy, _hmmseg.segment_dp):
-        segs, warnings = fn(scores, b, skills, grammar_json(), None, "enforce")
-        assert [(skills[s[0]], s[3], s[4]) for s in segs] == [
-            ("pick_up", 0, 20),
-            ("move_with", 20, 40),
+        cuts, warnings = fn(scores, b, rules, None, "enforce")
+        assert [
+            (skills[c.skill], c.start_section, c.end_section, c.start, c.end) for c in cuts
+        ] == [
+            ("pick_up", 0, 2, 0, 20),
+            ("move_with", 2, 4, 20, 40),
         ]
+        assert [c.score for c in cuts] == [0.0, 0.0]
+        assert all(c.margin > 0 and 0.5 < c.confidence <= 1 for c in cuts)
         assert warnings == []
 
 
@@ -244,6 +249,20 @@ def test_band_holds_the_runs_of_at_most_max_len_samples() -> None:
     np.testing.assert_array_equal(band.take(dense), values)
     assert Band.of([0, 3, 7, 12, 14], 0).n_runs == 10  # no bound: every run
     assert Band.of([0, 10, 11], 5).n_runs == 2
+    # the view holds the engine's band: its arrays, its row numbers
+    engine = _hmmseg.Band(np.array([0, 3, 7, 12, 14]), 7)
+    assert (engine.n_sections, engine.n_runs, engine.max_len) == (4, 6, 7)
+    np.testing.assert_array_equal(engine.boundaries, band.bounds)
+    np.testing.assert_array_equal(engine.last_ends, band.last)
+    np.testing.assert_array_equal(engine.offsets, band.offsets)
+    assert [engine.index(i, j) for i, j in runs] == list(range(6))
+    assert engine.index(0, 3) is None and engine.index(-1, 1) is None
+    assert engine == _hmmseg.Band(np.array([0, 3, 7, 12, 14]), 7)
+    assert engine != _hmmseg.Band(np.array([0, 3, 7, 12, 14]), 0)
+    with pytest.raises(InvalidParameterError, match="strictly increasing"):
+        Band.of([0, 3, 3, 5], 7)
+    with pytest.raises(ShapeMismatchError, match="at least 2 values"):
+        Band.of([0], 7)
 
 
 def test_banded_engine_functions_agree_with_the_dense_ones() -> None:
@@ -255,6 +274,7 @@ def test_banded_engine_functions_agree_with_the_dense_ones() -> None:
     n, k = int(b[-1]), len(b) - 1
     max_len = 30
     band = Band.of(b, max_len)
+    rules = compiled_grammar(tuple(skills), False)
     assert band.n_runs < k * (k + 1) // 2
     # a dense table holding -inf outside the band, like the score tables
     dense = np.full((k, k + 1, len(skills)), -np.inf)
@@ -268,19 +288,19 @@ def test_banded_engine_functions_agree_with_the_dense_ones() -> None:
     for mode in ("off", "warn", "enforce"):
         for lookahead in (False, True):
             assert _hmmseg.segment_greedy(
-                band.take(dense), b, skills, grammar_json(), rising_band, mode, lookahead, max_len
-            ) == _hmmseg.segment_greedy(dense, b, skills, grammar_json(), rising, mode, lookahead)
+                band.take(dense), b, rules, rising_band, mode, lookahead, max_len
+            ) == _hmmseg.segment_greedy(dense, b, rules, rising, mode, lookahead)
         assert _hmmseg.segment_dp(
-            band.take(dense), b, skills, grammar_json(), rising_band, mode, 5.0, max_len
-        ) == _hmmseg.segment_dp(dense, b, skills, grammar_json(), rising, mode, 5.0)
+            band.take(dense), b, rules, rising_band, mode, 5.0, max_len
+        ) == _hmmseg.segment_dp(dense, b, rules, rising, mode, 5.0)
     # the layouts must match: a band of another length, a dense rise table, max_len with a
     # dense table
     with pytest.raises(ShapeMismatchError):
-        _hmmseg.segment_dp(band.take(dense), b, skills, grammar_json(), None, "warn", 0.0, 20)
+        _hmmseg.segment_dp(band.take(dense), b, rules, None, "warn", 0.0, 20)
     with pytest.raises(ShapeMismatchError):
-        _hmmseg.segment_dp(band.take(dense), b, skills, grammar_json(), rising, "warn", 0.0, 30)
+        _hmmseg.segment_dp(band.take(dense), b, rules, rising, "warn", 0.0, 30)
     with pytest.raises(InvalidParameterError):
-        _hmmseg.segment_dp(dense, b, skills, grammar_json(), rising, "warn", 0.0, 30)
+        _hmmseg.segment_dp(dense, b, rules, rising, "warn", 0.0, 30)
     # the template scores: the band is the dense table's entries
     t = Templates.default()
     x = np.ascontiguousarray(rng.uniform(0, 1, (n, 10)) * (t.ranges[:, 1] - t.ranges[:, 0]))

@@ -6,6 +6,7 @@
 //! `lfd.errors.InternalError`) and heavy work runs with the interpreter released
 //! (`py.detach`), so the engine may be called from several Python threads at once.
 
+mod band;
 mod dtw;
 mod errors;
 mod features;
@@ -13,6 +14,7 @@ mod hmm;
 mod limits;
 mod ndconv;
 mod online;
+mod search;
 mod segment;
 
 use hmmseg::features::SizeMeasure;
@@ -46,6 +48,8 @@ fn _hmmseg(m: &Bound<'_, PyModule>) -> PyResult<()> {
     features::register(m)?;
     hmm::register(m)?;
     segment::register(m)?;
+    band::register(m)?;
+    search::register(m)?;
     online::register(m)?;
     m.add_function(wrap_pyfunction!(errors::hooks::raise_engine_error, m)?)?;
     m.add_function(wrap_pyfunction!(errors::hooks::panic, m)?)?;

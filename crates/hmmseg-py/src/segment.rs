@@ -1,12 +1,10 @@
-//! Bindings of stage 1 (`hmmseg::stage1`) and stage 2 (`hmmseg::segment`): section boundaries,
-//! the TCP rise decision, score tables, the greedy loop, the segmental DP and skill templates.
+//! Bindings of stage 1 (`hmmseg::stage1`) and of the stage-2 scores (`hmmseg::segment`): section
+//! boundaries, the TCP rise decision, skill templates and their score tables (the search over
+//! them is in [`crate::search`], the band of runs in [`crate::band`]).
 
-use hmmseg::segment::greedy::greedy;
 use hmmseg::segment::scorer::EndState;
 use hmmseg::segment::templates::{FeatureGroup, TemplateParams, TemplateSet};
-use hmmseg::segment::{
-    dp::dp, Band, Grammar, GrammarMode, GrammarSpec, RiseParams, ScoreTable, Segmentation,
-};
+use hmmseg::segment::{Band, RiseParams, ScoreTable};
 use hmmseg::stage1::{section_boundaries, Criterion, Stage1Params};
 use hmmseg::EngineError;
 use nalgebra::DMatrix;
@@ -16,19 +14,14 @@ use pyo3::prelude::*;
 use crate::errors::{guard, IntoPyResult};
 use crate::limits::{check_hmm, check_table};
 use crate::ndconv::{
-    self, bool_matrix, count, counts, indices, int_arg, int_list_arg, matrix, opt_int_list_arg,
-    shaped, to_numpy, vector,
+    self, count, counts, indices, int_arg, int_list_arg, matrix, opt_int_list_arg, shaped,
+    to_numpy, vector,
 };
 
 const OBS: &str = "(n_samples, n_columns)";
 
-fn grammar(py: Python<'_>, grammar_json: &str, skills: &[String]) -> PyResult<Grammar> {
-    let spec = GrammarSpec::from_json(grammar_json).py_err(py)?;
-    Grammar::for_skills(&spec, skills).py_err(py)
-}
-
 /// Number of sections `K` of `K + 1` boundaries (at least one section).
-fn n_sections(py: Python<'_>, boundaries: &[usize]) -> PyResult<usize> {
+pub(crate) fn n_sections(py: Python<'_>, boundaries: &[usize]) -> PyResult<usize> {
     match boundaries.len() {
         0 | 1 => Err(EngineError::ShapeMismatch(format!(
             "boundaries must hold at least 2 values (one section), got {}",
@@ -37,84 +30,6 @@ fn n_sections(py: Python<'_>, boundaries: &[usize]) -> PyResult<usize> {
         .py_err(py),
         n => Ok(n - 1),
     }
-}
-
-/// Scores and rise decisions from numpy -> a [`ScoreTable`] and its rise decisions in band order.
-///
-/// Either banded, `scores` `(N, S)` over the runs of `Band(boundaries, max_len)` with `rising`
-/// `(N,)`, or dense, `scores` `(K, K + 1, S)` over every run with `rising` `(K, K + 1)` (no
-/// `max_len` then: a dense table holds every run).
-fn inputs(
-    py: Python<'_>,
-    scores: &Bound<'_, PyAny>,
-    boundaries: Vec<usize>,
-    rising: Option<&Bound<'_, PyAny>>,
-    max_len: usize,
-) -> PyResult<(ScoreTable, Option<Vec<bool>>)> {
-    let k = n_sections(py, &boundaries)?;
-    let a = ndconv::array_any::<f64>(
-        scores,
-        "scores",
-        "(n_runs, n_skills) or (n_sections, n_sections + 1, n_skills)",
-    )?;
-    let shape = a.shape().to_vec();
-    let (table, dense) = match shape[..] {
-        [d0, d1, ns] => {
-            if d0 != k || d1 != k + 1 {
-                return Err(EngineError::ShapeMismatch(format!(
-                    "scores must have shape ({k}, {}, n_skills) for {} boundaries, got \
-                     ({d0}, {d1}, {ns})",
-                    k + 1,
-                    k + 1
-                )))
-                .py_err(py);
-            }
-            if max_len != 0 {
-                return Err(EngineError::InvalidParameter(
-                    "max_len applies to banded (N, n_skills) scores; a (K, K + 1, n_skills) \
-                     table holds every run"
-                        .into(),
-                ))
-                .py_err(py);
-            }
-            let band = Band::new(boundaries, 0).py_err(py)?;
-            let t = ScoreTable::from_band_fn(band, ns, |i, j, s| a[[i, j, s]]).py_err(py)?;
-            (t, true)
-        }
-        [_, ns] => {
-            let band = Band::new(boundaries, max_len).py_err(py)?;
-            let t = ScoreTable::from_values(band, ns, a.iter().copied().collect()).py_err(py)?;
-            (t, false)
-        }
-        _ => {
-            return Err(EngineError::ShapeMismatch(format!(
-                "scores must be banded (N, n_skills) or dense (K, K + 1, n_skills), got shape \
-                 {}",
-                ndconv::py_shape(&shape)
-            )))
-            .py_err(py)
-        }
-    };
-    if a.iter().any(|v| v.is_nan()) {
-        return Err(EngineError::NonFinite(
-            "scores contain NaN (use -inf to exclude)".into(),
-        ))
-        .py_err(py);
-    }
-    let rising = match rising {
-        None => None,
-        Some(r) => {
-            let band = table.band();
-            let flat = if dense {
-                let flat = bool_matrix(r, "rising", k, k + 1)?;
-                band.runs().map(|(i, j)| flat[i * (k + 1) + j]).collect()
-            } else {
-                ndconv::bool_vector(r, "rising", band.n_runs())?
-            };
-            Some(flat)
-        }
-    };
-    Ok((table, rising))
 }
 
 fn dense_to_numpy<'py>(py: Python<'py>, t: &ScoreTable) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
@@ -130,26 +45,31 @@ fn band_to_numpy<'py>(py: Python<'py>, t: &ScoreTable) -> PyResult<Bound<'py, Py
     )
 }
 
-type SegmentTuple = (usize, usize, usize, usize, usize, f64, f64, f64);
-
-fn result(r: Segmentation) -> (Vec<SegmentTuple>, Vec<String>) {
-    let segs = r
-        .segments
-        .iter()
-        .map(|s| {
-            (
-                s.skill,
-                s.start_section,
-                s.end_section,
-                s.start,
-                s.end,
-                s.score,
-                s.margin,
-                s.confidence,
-            )
-        })
-        .collect();
-    (segs, r.warnings)
+/// Stage-1 parameters from the Python arguments: a hysteresis per criterion column, the
+/// shortest section in samples.
+pub(crate) fn stage1_params(
+    py: Python<'_>,
+    columns: &[i128],
+    hysteresis: &[f64],
+    min_section: i128,
+) -> PyResult<Stage1Params> {
+    let columns = counts(py, columns, "columns", 0)?;
+    if columns.len() != hysteresis.len() {
+        return Err(EngineError::ShapeMismatch(format!(
+            "{} columns but {} hysteresis values",
+            columns.len(),
+            hysteresis.len()
+        )))
+        .py_err(py);
+    }
+    Ok(Stage1Params {
+        criteria: columns
+            .iter()
+            .zip(hysteresis)
+            .map(|(&column, &hysteresis)| Criterion { column, hysteresis })
+            .collect(),
+        min_section: count(py, min_section, "min_section", 0)?,
+    })
 }
 
 /// Stage-1 section boundaries `[0, ..., n]` from threshold crossings.
@@ -164,23 +84,7 @@ fn stage1_boundaries<'py>(
     #[pyo3(from_py_with = int_arg)] min_section: i128,
 ) -> PyResult<Bound<'py, numpy::PyArray1<i64>>> {
     guard(py, || {
-        let columns = counts(py, &columns, "columns", 0)?;
-        if columns.len() != hysteresis.len() {
-            return Err(EngineError::ShapeMismatch(format!(
-                "{} columns but {} hysteresis values",
-                columns.len(),
-                hysteresis.len()
-            )))
-            .py_err(py);
-        }
-        let params = Stage1Params {
-            criteria: columns
-                .iter()
-                .zip(&hysteresis)
-                .map(|(&column, &hysteresis)| Criterion { column, hysteresis })
-                .collect(),
-            min_section: count(py, min_section, "min_section", 0)?,
-        };
+        let params = stage1_params(py, &columns, &hysteresis, min_section)?;
         let v = matrix(&values, "values", "(n_samples, n_features)")?;
         let t = matrix(&thresholds, "thresholds", "(n_samples, n_features)")?;
         let b = py
@@ -223,7 +127,7 @@ fn rising_table<'py>(
 }
 
 /// Is the TCP rising over each run of the band of `max_len` samples? `(N,)` bool, in the band's
-/// run order (see `band_ends`).
+/// run order (see `Band`).
 #[pyfunction]
 #[pyo3(signature = (z, boundaries, max_len, min_rise=0.02, dominance=0.0))]
 fn rising_band<'py>(
@@ -250,95 +154,6 @@ fn rising_band<'py>(
             })
             .py_err(py)?;
         Ok(PyArray1::from_vec(py, r))
-    })
-}
-
-/// The band of runs of at most `max_len` samples (0: no bound) over `boundaries`: the last
-/// admissible end section of the runs starting at each section, `(K,)` int64. The runs of start
-/// section `i` are `i..i + 1`, ..., `i..last[i]`, stored start by start.
-#[pyfunction]
-fn band_ends<'py>(
-    py: Python<'py>,
-    boundaries: Bound<'py, PyAny>,
-    #[pyo3(from_py_with = int_arg)] max_len: i128,
-) -> PyResult<Bound<'py, PyArray1<i64>>> {
-    guard(py, || {
-        let b = indices(&boundaries, "boundaries")?;
-        n_sections(py, &b)?;
-        let max_len = count(py, max_len, "max_len", 0)?;
-        let band = Band::new(b, max_len).py_err(py)?;
-        let ends: Vec<usize> = (0..band.n_sections()).map(|i| band.last_end(i)).collect();
-        Ok(ndconv::indices_to_numpy(py, &ends))
-    })
-}
-
-/// The paper's greedy loop on a score table; returns `(segments, warnings)`, a segment being
-/// `(skill, start_section, end_section, start, end, score, margin, confidence)`. `lookahead` values each
-/// cut together with its best successor segment (see `hmmseg::segment::greedy`). `scores` is
-/// banded, `(N, S)` over the runs of the band of `max_len` samples (with `rising` `(N,)`), or
-/// dense, `(K, K + 1, S)` (with `rising` `(K, K + 1)`, no `max_len`).
-#[pyfunction]
-#[pyo3(signature = (scores, boundaries, skills, grammar_json, rising=None, mode="warn", lookahead=false, max_len=0))]
-#[allow(clippy::too_many_arguments)]
-fn segment_greedy<'py>(
-    py: Python<'py>,
-    scores: Bound<'py, PyAny>,
-    boundaries: Bound<'py, PyAny>,
-    skills: Vec<String>,
-    grammar_json: &str,
-    rising: Option<Bound<'py, PyAny>>,
-    mode: &str,
-    lookahead: bool,
-    #[pyo3(from_py_with = int_arg)] max_len: i128,
-) -> PyResult<(Vec<SegmentTuple>, Vec<String>)> {
-    guard(py, || {
-        let mode: GrammarMode = mode.parse().py_err(py)?;
-        let max_len = count(py, max_len, "max_len", 0)?;
-        let (t, r) = inputs(
-            py,
-            &scores,
-            indices(&boundaries, "boundaries")?,
-            rising.as_ref(),
-            max_len,
-        )?;
-        let g = grammar(py, grammar_json, &skills)?;
-        let out = py
-            .detach(|| greedy(&t, &g, r.as_deref(), mode, lookahead))
-            .py_err(py)?;
-        Ok(result(out))
-    })
-}
-
-/// The segmental DP on a score table (see `segment_greedy` for the inputs and the result).
-#[pyfunction]
-#[pyo3(signature = (scores, boundaries, skills, grammar_json, rising=None, mode="warn", penalty=0.0, max_len=0))]
-#[allow(clippy::too_many_arguments)]
-fn segment_dp<'py>(
-    py: Python<'py>,
-    scores: Bound<'py, PyAny>,
-    boundaries: Bound<'py, PyAny>,
-    skills: Vec<String>,
-    grammar_json: &str,
-    rising: Option<Bound<'py, PyAny>>,
-    mode: &str,
-    penalty: f64,
-    #[pyo3(from_py_with = int_arg)] max_len: i128,
-) -> PyResult<(Vec<SegmentTuple>, Vec<String>)> {
-    guard(py, || {
-        let mode: GrammarMode = mode.parse().py_err(py)?;
-        let max_len = count(py, max_len, "max_len", 0)?;
-        let (t, r) = inputs(
-            py,
-            &scores,
-            indices(&boundaries, "boundaries")?,
-            rising.as_ref(),
-            max_len,
-        )?;
-        let g = grammar(py, grammar_json, &skills)?;
-        let out = py
-            .detach(|| dp(&t, &g, r.as_deref(), mode, penalty))
-            .py_err(py)?;
-        Ok(result(out))
     })
 }
 
@@ -510,7 +325,7 @@ impl PyTemplateSet {
     }
 
     /// Summed log-likelihoods `(N, S)` of the runs of sections of at most `max_len` samples
-    /// (the band of `band_ends(boundaries, max_len)`, in its run order); see `score_table`.
+    /// (the runs of `Band(boundaries, max_len)`, in its row order); see `score_table`.
     #[pyo3(signature = (raw, boundaries, max_len=0, end="final", features=None))]
     fn score_band<'py>(
         &self,
@@ -604,8 +419,5 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(stage1_boundaries, m)?)?;
     m.add_function(wrap_pyfunction!(rising_table, m)?)?;
     m.add_function(wrap_pyfunction!(rising_band, m)?)?;
-    m.add_function(wrap_pyfunction!(band_ends, m)?)?;
-    m.add_function(wrap_pyfunction!(segment_greedy, m)?)?;
-    m.add_function(wrap_pyfunction!(segment_dp, m)?)?;
     Ok(())
 }

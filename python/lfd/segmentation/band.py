@@ -5,7 +5,11 @@ of sections ``i..j`` only those of at most ``max_len`` samples are candidates (a
 section, however long). The boundaries increase, so the admissible ends of start section ``i``
 are the contiguous range ``i + 1 ..= last[i]``: tables store those runs start by start, ``(N,
 ...)`` with ``N ~ K x (sections per max_len)``, linear in the demonstration's length where a
-dense ``(K, K + 1, ...)`` table grows with its square (``hmmseg::segment::Band``).
+dense ``(K, K + 1, ...)`` table grows with its square.
+
+The band is defined once, by the engine (``hmmseg::segment::Band``, bound as
+:class:`lfd._hmmseg.Band`): which runs are admissible and their row order. :class:`Band` here is
+a numpy view of it, its arrays for indexing the tables.
 """
 
 from __future__ import annotations
@@ -20,7 +24,7 @@ from .. import _hmmseg
 @dataclass(frozen=True, eq=False)
 class Band:
     """The admissible runs of sections over ``bounds`` (``[0, ..., n]``), ``max_len`` samples
-    at most (0: no bound).
+    at most (0: no bound): the arrays of the engine's :class:`lfd._hmmseg.Band` (:meth:`of`).
 
     Attributes
     ----------
@@ -45,16 +49,10 @@ class Band:
 
     @classmethod
     def of(cls, bounds: np.ndarray | list[int], max_len: int) -> Band:
-        """The band of ``max_len`` samples over ``bounds`` (the engine's definition)."""
-        b = np.ascontiguousarray(bounds, dtype=np.int64)
-        last = np.asarray(_hmmseg.band_ends(b, int(max_len)), dtype=np.int64)
-        k = len(last)
-        width = last - np.arange(k)
-        offsets = np.zeros(k + 1, dtype=np.int64)
-        np.cumsum(width, out=offsets[1:])
-        start = np.repeat(np.arange(k, dtype=np.int64), width)
-        end = start + 1 + np.arange(offsets[-1], dtype=np.int64) - offsets[start]
-        return cls(b, int(max_len), last, offsets, start, end)
+        """The band of ``max_len`` samples over ``bounds``, as the engine defines it."""
+        band = _hmmseg.Band(np.ascontiguousarray(bounds, dtype=np.int64), int(max_len))
+        start, end = band.runs()
+        return cls(band.boundaries, band.max_len, band.last_ends, band.offsets, start, end)
 
     @property
     def n_sections(self) -> int:

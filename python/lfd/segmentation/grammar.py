@@ -8,11 +8,13 @@ from __future__ import annotations
 import json
 from functools import cache
 
+from .. import _hmmseg
 from ..skills import SKILLS, allowed, grammar, grammar_json, impossible_transitions
 
 __all__ = [
     "SKILLS",
     "allowed",
+    "compiled_grammar",
     "grammar",
     "grammar_json",
     "implicit_move_grammar_json",
@@ -36,6 +38,16 @@ def implicit_move_grammar_json() -> str:
         g["transitions"][skill] = list(dict.fromkeys([*g["transitions"][skill], *after_move]))
     g["description"] = g.get("description", "") + " (Move after Place/Stack may be implicit)"
     return json.dumps(g)
+
+
+@cache
+def compiled_grammar(skills: tuple[str, ...], implicit_moves: bool) -> _hmmseg.Grammar:
+    """The grammar as the engine's search takes it, bound to the skill order ``skills`` (the
+    templates'): the shipped grammar, or with ``implicit_moves`` the one whose Move after a
+    release may be implicit (:func:`implicit_move_grammar_json`). Parsed and checked once per
+    skill order (a bad grammar is an :class:`~lfd.errors.ModelFormatError`, a ``ValueError``)."""
+    rules = implicit_move_grammar_json() if implicit_moves else grammar_json()
+    return _hmmseg.Grammar(rules, list(skills))
 
 
 def needs_implicit_move(prev: str, nxt: str) -> bool:

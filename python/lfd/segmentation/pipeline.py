@@ -26,7 +26,7 @@ if TYPE_CHECKING:
     from ..features import Features
 from .band import Band, StageTwoScores
 from .gaps import fill_gaps
-from .grammar import grammar_json, implicit_move_grammar_json, needs_move_between
+from .grammar import compiled_grammar, needs_move_between
 from .params import skill_params
 from .result import Run, Segment, Segmentation
 from .stage1 import OBJECT_COLUMNS, Stage1Params, section_boundaries
@@ -191,18 +191,27 @@ def segment_trajectory(
         np.ascontiguousarray(filled.tcp[:, 2]), bounds, max_len, p.min_rise, p.dominance
     )
     skills = templates.skills
-    rules = implicit_move_grammar_json() if p.implicit_moves else grammar_json()
+    rules = compiled_grammar(tuple(skills), p.implicit_moves)
     if search == "greedy":
-        raw, warn = _hmmseg.segment_greedy(
-            st.scores, bounds, skills, rules, rising, grammar, p.lookahead, max_len
+        cuts, warn = _hmmseg.segment_greedy(
+            st.scores, bounds, rules, rising, grammar, p.lookahead, max_len
         )
     else:
-        raw, warn = _hmmseg.segment_dp(
-            st.scores, bounds, skills, rules, rising, grammar, p.penalty, max_len
+        cuts, warn = _hmmseg.segment_dp(
+            st.scores, bounds, rules, rising, grammar, p.penalty, max_len
         )
     segments = [
-        _make_segment(filled, skills[s], a, b, _target(st, i, j, s), score, conf, margin)
-        for (s, i, j, a, b, score, margin, conf) in raw
+        _make_segment(
+            filled,
+            skills[c.skill],
+            c.start,
+            c.end,
+            _target(st, c),
+            score=c.score,
+            confidence=c.confidence,
+            margin=c.margin,
+        )
+        for c in cuts
     ]
     if p.implicit_moves:
         segments = insert_implicit_moves(
@@ -221,12 +230,13 @@ def segment_trajectory(
     )
 
 
-def _target(st: StageTwoScores, i: int, j: int, s: int) -> int:
+def _target(st: StageTwoScores, cut: _hmmseg.Cut) -> int:
     """The target object of a chosen segment (a run of the band: the search picks no other)."""
+    i, j = cut.start_section, cut.end_section
     r = st.band.index(i, j)
     if r is None:
         raise AssertionError(f"the search chose sections {i}..{j}, outside the score band")
-    return int(st.target[r, s])
+    return int(st.target[r, cut.skill])
 
 
 def stage2_scores(
