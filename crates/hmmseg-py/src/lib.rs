@@ -13,7 +13,6 @@ mod features;
 mod hmm;
 mod limits;
 mod ndconv;
-mod online;
 mod search;
 mod segment;
 
@@ -50,7 +49,6 @@ fn _hmmseg(m: &Bound<'_, PyModule>) -> PyResult<()> {
     segment::register(m)?;
     band::register(m)?;
     search::register(m)?;
-    online::register(m)?;
     m.add_function(wrap_pyfunction!(errors::hooks::raise_engine_error, m)?)?;
     m.add_function(wrap_pyfunction!(errors::hooks::panic, m)?)?;
     Ok(())

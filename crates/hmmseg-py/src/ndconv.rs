@@ -301,11 +301,6 @@ pub fn indices_to_numpy<'py>(py: Python<'py>, v: &[usize]) -> Bound<'py, PyArray
     Array1::from_iter(v.iter().map(|&i| i as i64)).into_pyarray(py)
 }
 
-/// Booleans as a new 1-D array.
-pub fn bools_to_numpy(py: Python<'_>, v: Vec<bool>) -> Bound<'_, PyArray1<bool>> {
-    Array1::from_vec(v).into_pyarray(py)
-}
-
 /// Row-major values as a new array of `shape` (an `InternalError` if the sizes disagree).
 pub fn shaped<'py, T: Element>(
     py: Python<'py>,

@@ -78,7 +78,7 @@ pub(crate) fn relaxed_warning(use_rise: bool, use_grammar: bool) -> String {
 /// One cell of the DP: the best score of the sections up to some `j` ending with skill `s`, and
 /// its back pointer `(start section, previous skill)` (`(0, usize::MAX)` for a first segment,
 /// `usize::MAX` twice if none), over the runs from `starts` with summed scores `total(i)` that
-/// pass `rise_ok(i)`, after the states `best(i, p)`. Shared by the batch and the online DP.
+/// pass `rise_ok(i)`, after the states `best(i, p)`.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn dp_cell(
     grammar: &Grammar,

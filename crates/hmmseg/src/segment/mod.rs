@@ -11,7 +11,6 @@
 pub mod dp;
 pub mod grammar;
 pub mod greedy;
-pub mod online;
 pub mod scorer;
 pub mod scores;
 pub mod templates;

@@ -226,8 +226,7 @@ impl Scaled {
 
 /// The scaled forward recursion of one [`CompiledHmm`] from a start sample, advanced one sample
 /// at a time: `alpha` is the normalised forward vector, `ln P(x_0..=t, q_t = j) = log_acc +
-/// ln prod + ln alpha[j]`. The state of every scorer (the batch sweeps and the online
-/// segmenter, `super::online`), so the numerics exist once. `N` is the capacity in states;
+/// ln prod + ln alpha[j]`. The state of every scorer sweep, so the numerics exist once. `N` is the capacity in states;
 /// with `EXACT` the model has exactly `N` states (the loops are unrolled), otherwise at most
 /// `N`.
 #[derive(Debug, Clone, Copy)]
@@ -356,22 +355,6 @@ impl<const N: usize, const EXACT: bool> Forward<N, EXACT> {
 const MAX_STATES: usize = 16;
 
 impl CompiledHmm {
-    /// Number of states.
-    pub(crate) fn n_states(&self) -> usize {
-        self.n
-    }
-
-    /// Scaled emissions (`b`, `n` values) and their scale (`shift`) of one sample, `x` its
-    /// observation columns (the per-sample entries of [`Scaled::direct`]).
-    /// `comp` is scratch.
-    pub(crate) fn scaled_emission(&self, x: &[f64], b: &mut [f64], comp: &mut Vec<f64>) -> f64 {
-        let mut shift = [0.0];
-        comp.resize(self.emission.n_components(), 0.0);
-        self.emission
-            .scaled_block(x, 1, 0, 1, comp, &mut b[..self.n], &mut shift);
-        shift[0]
-    }
-
     /// Prefix scores at the requested ends only: `ends` are sample offsets (ascending) from
     /// `start`; adds the score at each end to `sums`. `ln` is taken only at the ends. (One run
     /// at a time: the reference of [`sweep`], which advances all runs of a block together.)

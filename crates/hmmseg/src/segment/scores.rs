@@ -469,8 +469,7 @@ pub fn rising_band(z: &[f64], band: &Band, params: RiseParams) -> Result<Vec<boo
     Ok(out)
 }
 
-/// The TCP rise decision of a run growing one sample at a time (the state of [`rising_band`],
-/// shared with the online segmenter).
+/// The TCP rise decision of a run growing one sample at a time (the state of [`rising_band`]).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct RiseState {
     low: f64,
