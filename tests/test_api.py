@@ -4,6 +4,7 @@ fresh interpreter, and type checkers see what it returns."""
 from __future__ import annotations
 
 import inspect
+import json
 import subprocess
 import sys
 import textwrap
@@ -81,11 +82,11 @@ def test_segment_signature_and_help_show_the_real_function() -> None:
     import lfd
 
     sig = inspect.signature(lfd.segment)
-    assert sig.parameters["search"].default == "dp"
-    assert sig.parameters["grammar"].default == "enforce"
+    assert sig.parameters["method"].default is None  # lfd.Method.default()
+    assert lfd.Method.default().search == "dp" and lfd.Method.default().grammar == "enforce"
     assert sig.parameters["search"].kind is inspect.Parameter.KEYWORD_ONLY
     text = pydoc.render_doc(lfd.segment, renderer=pydoc.plaintext)
-    assert "search" in text and "grammar" in text
+    assert "method" in text and "search" in text and "grammar" in text
     assert len(text.splitlines()) < 80  # the function's documentation, not a whole package
     assert inspect.signature(lfd.preprocess).parameters
 
@@ -98,6 +99,8 @@ def test_paper_options_select_the_papers_algorithm() -> None:
     paper = lfd.segment(demo, **PAPER)
     assert paper.method == "greedy"
     assert lfd.segment(demo).method == "dp"
+    by_name = lfd.segment(demo, method="paper")  # the same method as a value
+    assert by_name.method == "greedy" and by_name.skill_sequence == paper.skill_sequence
 
 
 def test_confidence_is_a_probability_and_margin_the_raw_score_gap() -> None:
@@ -139,3 +142,33 @@ def test_type_checker_sees_real_return_types(tmp_path: Path) -> None:
     assert "lfd.segmentation.result.Segmentation" in out, out + err
     assert 'Revealed type is "float"' in out or 'Revealed type is "builtins.float"' in out, out
     assert status == 0 and "Success" in out, out + err
+
+
+def test_a_method_is_a_value_saved_with_its_templates(tmp_path: Path) -> None:
+    """lfd.Method: loadable by name or file, saved with the templates, shown in --json."""
+    import dataclasses
+
+    import lfd
+    from lfd.errors import InvalidParameterError, ModelFormatError
+
+    paper = lfd.Method.load("paper")
+    assert (paper.search, paper.grammar, paper.params.contacts) == ("greedy", "warn", None)
+    custom = dataclasses.replace(lfd.Method.default(), name="mine", grammar="warn")
+    path = tmp_path / "mine.json"
+    custom.save(path)
+    back = lfd.Method.load(path)
+    assert (back.name, back.grammar, back.params) == ("mine", "warn", custom.params)
+    assert back.preprocessing == lfd.Method.default().preprocessing
+    result = lfd.segment(lfd.load(EXP3), method=back)
+    doc = result.report()
+    assert doc["method_detail"]["name"] == "mine" and doc["method_detail"]["grammar"] == "warn"
+    assert result.run is not None and result.run.method is back
+    with pytest.raises(InvalidParameterError, match="neither"):
+        lfd.Method.load(tmp_path / "missing.json")
+    with pytest.raises(InvalidParameterError, match="not both"):
+        lfd.segment(lfd.load(EXP3), "paper", method="paper")
+    bad = json.loads(path.read_text())
+    bad["lfd"]["method"]["params"]["no_such_option"] = 1
+    path.write_text(json.dumps(bad))
+    with pytest.raises(ModelFormatError, match=r"lfd\.method"):
+        lfd.Method.load(path)

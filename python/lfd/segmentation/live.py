@@ -13,7 +13,8 @@ result is the batch one wherever the settled skills were right (docs/live.md).
 
 There is one implementation of every rule: live is the batch pipeline run on a growing
 recording, not a second pipeline. A recording longer than ``window_s`` is segmented from the
-start of its last settled skill (the batch pipeline on a window), so a run's cost stays bounded.
+start of its last settled skill that may begin a demonstration (the grammar's start: a Move,
+Pick up, Push or Locate), so a run's cost stays bounded.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ import numpy.typing as npt
 
 from ..demo import Demonstration, HandTrack, ObjectTrack, SkillLabel
 from ..errors import InvalidParameterError, LfdError
+from ..skills import grammar
 from .method import Method
 from .result import Segment, Segmentation
 from .templates import TemplateChoice, Templates
@@ -285,6 +287,7 @@ class LiveSegmentation:
         self._final: Segmentation | None = None
         self._warnings: list[str] = []
         self._origin_ns: int | None = None
+        self._start_skills = frozenset(grammar()["start"])
         self._finished = False
 
     @classmethod
@@ -394,7 +397,9 @@ class LiveSegmentation:
         if self._emitted and self._newest_hand is not None:
             first = int(self._emitted[0].start_ns)
             if self._newest_hand - first > self.window_ns:
-                start = int(self._emitted[-1].start_ns)
+                # the last settled skill a demonstration may start with (the grammar's start)
+                begins = [s for s in self._emitted if s.skill in self._start_skills]
+                start = int(begins[-1].start_ns) if begins else None
         demo = self._tracks.demonstration(start, self.metadata)
         try:
             return segment(demo, method=self.method, complete=complete)
