@@ -172,3 +172,15 @@ def test_a_method_is_a_value_saved_with_its_templates(tmp_path: Path) -> None:
     path.write_text(json.dumps(bad))
     with pytest.raises(ModelFormatError, match=r"lfd\.method"):
         lfd.Method.load(path)
+
+
+def test_lfd_info_shows_a_method(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`lfd info paper|default|FILE.json --json -` prints the method as `lfd.Method.describe`."""
+    import lfd
+    from lfd.cli import main
+
+    assert main(["info", "paper", "--json", "-"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc == json.loads(json.dumps(lfd.Method.paper().describe()))
+    assert main(["info", str(tmp_path / "none.json")]) == 2
+    assert "neither" in capsys.readouterr().err

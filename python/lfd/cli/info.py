@@ -1,4 +1,5 @@
-"""``lfd info rec.mcap``: what a recording holds (channels, objects, labels, metadata, damage)."""
+"""``lfd info rec.mcap``: what a recording holds (channels, objects, labels, metadata, damage);
+``lfd info default|paper|TEMPLATES.json``: a segmentation method (:class:`lfd.Method`)."""
 
 from __future__ import annotations
 
@@ -17,12 +18,17 @@ from ._options import (
 )
 
 NAME = "info"
-HELP = "Summarise a recording: channels, duration, objects, skill labels, metadata, damage."
+HELP = (
+    "Summarise a recording (channels, duration, objects, skill labels, metadata, damage) or a "
+    "segmentation method (default, paper or a template file)."
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
-        "recording", help="an lfd MCAP recording, or a ROS bag with --map (docs/ros.md)"
+        "recording",
+        help="an lfd MCAP recording, a ROS bag with --map (docs/ros.md), or a method: default, "
+        "paper or a template file (.json)",
     )
     add_json_argument(parser, "the summary")
     add_recording_arguments(parser)
@@ -30,6 +36,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     check_json(args, inputs=[p for p in (args.recording, args.map) if p])
+    if args.recording in ("default", "paper") or str(args.recording).endswith(".json"):
+        return _method(args)
     from ..io import summarise
 
     s = summarise(args.recording, **load_options(args))
@@ -92,4 +100,31 @@ def run(args: argparse.Namespace) -> int:
     if s["error"]:
         print(f"lfd info: error: {' '.join(str(s['error']).split())}", file=sys.stderr)
         return 2
+    return 0
+
+
+def _method(args: argparse.Namespace) -> int:
+    """Print (and with --json write) a segmentation method: :meth:`lfd.Method.describe`."""
+    from rich.table import Table
+
+    from ..segmentation import Method
+
+    doc = Method.load(args.recording).describe()
+    if args.json:
+        write_json(args.json, doc)
+    con = console(args)
+    table = Table(title=f"method {doc['name']}")
+    table.add_column("setting")
+    table.add_column("value")
+    table.add_row("search", doc["search"])
+    table.add_row("grammar", doc["grammar"])
+    table.add_row("skills", ", ".join(doc["templates"]["skills"]))
+    table.add_row("features", ", ".join(doc["templates"]["features"]))
+    for key, value in doc["preprocessing"].items():
+        table.add_row(f"preprocessing.{key}", str(value))
+    for key, value in doc["params"].items():
+        table.add_row(f"params.{key}", json.dumps(value))
+    con.print(table)
+    if args.json and not json_to_stdout(args):
+        con.print(f"wrote {args.json}")
     return 0

@@ -116,6 +116,42 @@ def fill_carried_gaps(
     return filled
 
 
+def carry_open_end(
+    position: np.ndarray,
+    quaternion: np.ndarray,
+    valid: np.ndarray,
+    tcp: np.ndarray,
+    hand_valid: np.ndarray,
+    grasp_radius: float,
+) -> tuple[int, int] | None:
+    """Fill, in place, an object's gap that runs to the end of a recording still being made,
+    when the hand reached the object in it: the grasp of :func:`fill_carried_gaps` (where the
+    TCP comes closest to the last seen pose, in its first visit), the object at rest before it
+    and following the TCP at the grasp offset after it (the release is not known yet). Returns
+    the filled half-open range, or None (no trailing gap, or the hand never reached the object:
+    :func:`hold_ends` holds it at rest)."""
+    seen = np.flatnonzero(valid)
+    if not seen.size or seen[-1] == len(valid) - 1:
+        return None
+    last = int(seen[-1])
+    p0, q0 = position[last].copy(), quaternion[last].copy()
+    span = tcp[last:]
+    ok = hand_valid[last:] & np.isfinite(span).all(axis=1)
+    d0 = np.where(ok, np.linalg.norm(np.where(ok[:, None], span, 0.0) - p0, axis=1), np.inf)
+    near = np.flatnonzero(d0 <= grasp_radius)
+    if not near.size:
+        return None
+    g = last + _closest_in_run(d0, near, first=True)
+    off = p0 - tcp[g]
+    held = p0
+    for i in range(last + 1, len(valid)):
+        if i >= g and hand_valid[i] and np.isfinite(tcp[i]).all():
+            held = tcp[i] + off
+        position[i], quaternion[i] = held, q0
+    valid[last + 1 :] = True
+    return last + 1, len(valid)
+
+
 def hold_ends(
     position: np.ndarray, quaternion: np.ndarray, valid: np.ndarray
 ) -> list[tuple[int, int]]:

@@ -30,7 +30,7 @@ import numpy as np
 from ..demo import INDEX_MCP, INDEX_TIP, THUMB_TIP, Demonstration, HandTrack, ObjectTrack
 from ..errors import DemonstrationError
 from ..trajectory import Trajectory
-from .carry import fill_carried_gaps, hold_ends
+from .carry import carry_open_end, fill_carried_gaps, hold_ends
 from .filters import butter_ba, lowpass, matlab_padlen, unwrap_runs
 from .grasp import APERTURES, Aperture, grasp_aperture
 from .mapping import EULER_SEQ, euler_from_rotation, gripper_frame, rotation_from_euler
@@ -80,6 +80,7 @@ def preprocess(
     fill_hidden: bool = True,
     filter: bool = True,
     min_keypoint_confidence: float = MIN_KEYPOINT_CONFIDENCE,
+    complete: bool = True,
 ) -> Trajectory:
     """Resample, filter and map a demonstration to a gripper trajectory on one clock.
 
@@ -118,6 +119,11 @@ def preprocess(
         unobserved; the kept ones are weighted by their confidence when resampled (confidence
         1: interpolated exactly, as without weights). Keypoints the estimator marked not
         visible but estimated above the threshold are kept. ``0``: confidence is ignored.
+    complete : bool
+        The recording is complete (default). False for a recording still being made (the live
+        segmentation's runs): with ``fill_hidden``, an object hidden since the hand reached it
+        follows the TCP (:func:`~lfd.preprocessing.carry.carry_open_end`) instead of being held
+        where it was last seen.
 
     Returns
     -------
@@ -149,7 +155,7 @@ def preprocess(
     g = _gripper_track(
         hand, demo.hand.side, start, t_s, max_gap_s, hand_fc, euler_cutoff_hz, smooth
     )
-    o = _object_tracks(objs, hand, g, start, t_ns, max_gap_s, obj_fc, fill_hidden, smooth)
+    o = _object_tracks(objs, hand, g, start, t_ns, max_gap_s, obj_fc, fill_hidden, smooth, complete)
     opening = g.opening
     if aperture == "grasp":
         opening = grasp_aperture(g.keypoints, o.position, o.quaternion, o.size)
@@ -395,6 +401,7 @@ def _object_tracks(
     obj_fc: float,
     fill_hidden: bool,
     smooth: _Smoother,
+    complete: bool = True,
 ) -> _ObjectTracks:
     k, n = len(objs), t_ns.size
     t_s = (t_ns - start) * 1e-9
@@ -419,13 +426,20 @@ def _object_tracks(
         if fill_hidden and valid.any():
             p = np.where(valid[:, None], p, np.nan)
             q = np.where(valid[:, None], q, np.nan)
+            radius = float(np.max(obj.size)) / 2 + CARRY_RADIUS_MARGIN
+            if not complete:
+                open_end = carry_open_end(p, q, valid, gripper.tcp, gripper.valid, radius)
+                if open_end is not None:
+                    a, b = open_end
+                    gaps["carried"][name] = [(int(t_ns[a]), int(t_ns[b - 1]))]
             held = hold_ends(p, q, valid)
             if held:
                 gaps["held"][name] = [(int(t_ns[a]), int(t_ns[b - 1])) for a, b in held]
-            radius = float(np.max(obj.size)) / 2 + CARRY_RADIUS_MARGIN
             carried = fill_carried_gaps(p, q, valid, gripper.tcp, gripper.valid, radius)
             if carried:
-                gaps["carried"][name] = [(int(t_ns[a]), int(t_ns[b - 1])) for a, b in carried]
+                gaps["carried"].setdefault(name, [])[:0] = [
+                    (int(t_ns[a]), int(t_ns[b - 1])) for a, b in carried
+                ]
         positions[j] = smooth(np.where(valid[:, None], p, np.nan), obj_fc, name)
         quats[j] = np.where(valid[:, None], q, np.nan)
         obj_valid[j] = valid

@@ -76,7 +76,8 @@ def segment(
     complete : bool
         The recording is complete (default). False for a recording still being made (the live
         segmentation): the contact rules about how a demonstration ends are not applied
-        (:func:`lfd.contact.refine`).
+        (:func:`lfd.contact.refine`), the skill under way need not have finished, and an
+        object hidden since the hand reached it follows the hand (:func:`lfd.preprocess`).
 
     Returns
     -------
@@ -97,7 +98,7 @@ def segment(
         search=search, grammar=grammar, params=params
     )
     wanted = m.preprocessing
-    traj = as_trajectory(demo_or_traj, wanted)
+    traj = as_trajectory(demo_or_traj, wanted if complete else {**wanted, "complete": False})
     result = segment_trajectory(
         traj, m.templates, search=m.search, grammar=m.grammar, params=m.params, complete=complete
     )

@@ -50,6 +50,8 @@ DEFAULT_UNCERTAIN_S = 3.0
 DEFAULT_MAX_WAIT_S = 10.0
 """A skill settles once every object has been seen after its end (a tag hidden by the hand may
 hide the very motion that tells the skills apart), or has been out of sight this long."""
+DEFAULT_REACH_M = 0.15
+"""An object the TCP came this close to (m) may have been moved while hidden."""
 DEFAULT_WINDOW_S = 60.0
 """Beyond this much recording, a run starts at the last settled skill's start."""
 
@@ -247,6 +249,7 @@ class LiveSegmentation:
         uncertain_s: float = DEFAULT_UNCERTAIN_S,
         followers: int = 1,
         max_wait_s: float = DEFAULT_MAX_WAIT_S,
+        reach_m: float = DEFAULT_REACH_M,
     ) -> None:
         from . import resolve_method
 
@@ -276,6 +279,7 @@ class LiveSegmentation:
         self.uncertain_ns = round(uncertain_s * 1e9)
         self.followers = int(followers)
         self.max_wait_ns = round(max_wait_s * 1e9)
+        self.reach_m = float(reach_m)
         self.settled_ns: list[int] = []
         """Message time at which each emitted segment settled (same order as the segments)."""
         self._emitted: list[Segment] = []
@@ -477,12 +481,26 @@ class LiveSegmentation:
         return self._update(run, settled)
 
     def _seen_until(self) -> int:
-        """The time up to which every object has been seen, less those out of sight for
-        longer than ``max_wait_s``."""
+        """The time up to which every object the hand may have moved unseen has been seen: an
+        object out of sight since the hand came within ``reach_m`` of it (from 0.5 s before it
+        was last seen), for at most ``max_wait_s``."""
         newest = int(self._newest_hand or self._now or 0)
-        last = [p[-1][0] for p in self._tracks.poses.values() if p]
-        waiting = [t for t in last if newest - t <= self.max_wait_ns]
-        return min(waiting, default=newest)
+        run = self._last.run if self._last is not None else None
+        until = newest
+        for poses in self._tracks.poses.values():
+            if not poses:
+                continue
+            t_last, p_last, _ = poses[-1]
+            if newest - t_last > self.max_wait_ns or t_last >= newest:
+                continue
+            if run is not None:
+                t = np.asarray(run.trajectory.t_ns, dtype=np.int64)
+                near = (t >= t_last - 500_000_000) & np.isfinite(run.trajectory.tcp).all(axis=1)
+                d = np.linalg.norm(run.trajectory.tcp[near] - p_last, axis=1)
+                if not (d <= self.reach_m).any():
+                    continue  # hidden where the hand never came: it rests
+            until = min(until, t_last)
+        return until
 
     def _joined(self, seg: Segment, dt: float) -> Segment:
         """``seg`` starting where the last settled segment ends (runs move boundaries a little),
