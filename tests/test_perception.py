@@ -256,6 +256,31 @@ def test_record_bad_sources_give_clear_errors(tmp_path, capsys) -> None:  # type
     assert "cannot open" in capsys.readouterr().err
 
 
+def test_sim_source_records_either_demonstrator_style(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    """``sim:TASK:STYLE`` selects the simulated demonstrator, as ``lfd simulate --style``."""
+    from lfd.cli import main
+    from lfd.perception.sources import open_source
+    from lfd.sim import Variability, simulate
+
+    natural = open_source("sim:exp1:natural", seed=2)
+    ref = simulate("exp1", seed=2, variability=Variability(style="natural"))
+    assert natural.labels == list(ref.demo.labels)
+    assert [o["size"] for o in natural.objects] == [list(o.size) for o in ref.scene.objects]
+    assert natural.metadata["source"] == "sim:exp1:natural"
+    assert natural.metadata["style"] == "natural"
+    careful = open_source("sim:exp1", seed=2)
+    assert careful.labels == list(simulate("exp1", seed=2).demo.labels)
+    assert careful.metadata["style"] == "careful"
+    assert open_source("sim:exp1:careful", seed=2).labels == careful.labels
+    assert natural.labels != careful.labels
+    with pytest.raises(LfdError, match="style must be one of careful, natural, got 'fast'"):
+        open_source("sim:exp1:fast")
+    argv = ["record", "--source", "sim:exp1:fast", "-o", str(tmp_path / "x.mcap")]
+    assert main(argv) == 2
+    assert "style must be one of" in capsys.readouterr().err
+    assert not (tmp_path / "x.mcap").exists()
+
+
 def test_record_camera_source_with_a_plugged_depth_reader(  # type: ignore[no-untyped-def]
     tmp_path, monkeypatch, capsys, rendered
 ) -> None:

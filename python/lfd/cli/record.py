@@ -1,6 +1,7 @@
 """``lfd record``: perceive an RGB-D source (tags + hand model) into a demonstration MCAP.
 
     lfd record --source sim:exp1 -o demo.mcap --duration 10     # simulator, real perception
+    lfd record --source sim:exp3:natural --seed 4 -o demo.mcap  # the natural demonstrator
     lfd record --source frames:DIR -o demo.mcap                  # image folder (see docs)
     lfd record --source camera:0 --intrinsics camera.json -o demo.mcap \
         --depth-reader docs/examples/realsense_reader.py:make_reader --hand right
@@ -27,7 +28,10 @@ HELP = "Record a demonstration from RGB-D frames: object tags + hand keypoints -
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
-        "--source", required=True, help="sim:TASK, frames:DIR or camera:N (device index)"
+        "--source",
+        required=True,
+        help="sim:TASK[:STYLE] (STYLE careful, the default, or natural), frames:DIR or "
+        "camera:N (device index)",
     )
     parser.add_argument(
         "-o",

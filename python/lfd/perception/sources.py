@@ -1,5 +1,9 @@
 """Frame sources for ``lfd record``: the simulator, a folder of images, a camera.
 
+Simulator (``--source sim:TASK[:STYLE]``): the simulated demonstrator performing ``TASK``
+(``lfd simulate``'s tasks) in the careful style (default) or the natural one
+(``sim:exp1:natural``), rendered and perceived like a camera's frames.
+
 A source has ``camera`` (:class:`~lfd.demo.CameraInfo`; ``world_T_camera`` may be None-like
 identity until the reference marker is seen), ``objects`` (name, tag_id, size), ``metadata``,
 and ``frames()`` yielding :class:`Frame`. Every source goes through the same perception path.
@@ -33,7 +37,7 @@ import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any, Protocol, cast
 
 import numpy as np
 
@@ -109,16 +113,31 @@ def read_camera_json(path: Path) -> tuple[CameraInfo, list[dict[str, Any]], dict
 
 
 class SimSource(Source):
-    """The simulated demonstrator rendered frame by frame (colour + depth, 640x480)."""
+    """The simulated demonstrator rendered frame by frame (colour + depth, 640x480); ``style``
+    selects the demonstrator (``careful`` or ``natural``, :class:`~lfd.sim.Variability`)."""
 
     def __init__(
-        self, task: str, *, seed: int = 0, fps: float = 30.0, duration: float | None = None
+        self,
+        task: str,
+        *,
+        seed: int = 0,
+        fps: float = 30.0,
+        duration: float | None = None,
+        style: str = "careful",
     ):
-        from ..sim import simulate
+        from ..sim import Variability, simulate
         from ..sim.demonstrator import crop
+        from ..sim.variability import STYLES, Style
 
+        if style not in STYLES:
+            raise LfdError(f"sim source: style must be one of {', '.join(STYLES)}, got {style!r}")
         try:
-            self.result = simulate(task, seed=seed, object_rate_hz=fps)
+            self.result = simulate(
+                task,
+                seed=seed,
+                variability=Variability(style=cast(Style, style)),
+                object_rate_hz=fps,
+            )
         except (KeyError, ValueError) as err:
             raise LfdError(f"sim source: {err}") from err
         if duration is not None:
@@ -129,7 +148,13 @@ class SimSource(Source):
             {"name": o.name, "tag_id": o.tag_id, "size": list(o.size)}
             for o in self.result.scene.objects
         ]
-        meta = {"source": f"sim:{task}", "task": task, "seed": seed, "simulator": "lfd.sim"}
+        meta = {
+            "source": f"sim:{task}" + (f":{style}" if style != "careful" else ""),
+            "task": task,
+            "seed": seed,
+            "style": style,
+            "simulator": "lfd.sim",
+        }
         super().__init__(demo.camera, objects, meta, camera_pose_known=False)
         self.labels = list(demo.labels)
 
@@ -305,16 +330,19 @@ def load_depth_reader(spec: str) -> DepthReader:
 
 
 def open_source(spec: str, **kwargs: Any) -> Source:
-    """``sim:TASK``, ``frames:DIR`` or ``camera:N`` -> a source."""
+    """``sim:TASK[:STYLE]``, ``frames:DIR`` or ``camera:N`` -> a source (STYLE: the simulated
+    demonstrator's, ``careful`` by default or ``natural``)."""
     kind, _, arg = spec.partition(":")
     if not arg:
-        raise LfdError(f"source {spec!r}: expected sim:TASK, frames:DIR or camera:N")
+        raise LfdError(f"source {spec!r}: expected sim:TASK[:STYLE], frames:DIR or camera:N")
     if kind == "sim":
+        task, _, style = arg.partition(":")
         return SimSource(
-            arg,
+            task,
             seed=int(kwargs.get("seed", 0)),
             fps=30.0 if kwargs.get("fps") is None else float(kwargs["fps"]),
             duration=kwargs.get("duration"),
+            style=style or "careful",
         )
     if kind == "frames":
         return FolderSource(arg)
@@ -329,4 +357,4 @@ def open_source(spec: str, **kwargs: Any) -> Source:
             intrinsics=kwargs.get("intrinsics"),
             depth_reader=load_depth_reader(reader) if isinstance(reader, str) else reader,
         )
-    raise LfdError(f"unknown source kind {kind!r}: use sim:TASK, frames:DIR or camera:N")
+    raise LfdError(f"unknown source kind {kind!r}: use sim:TASK[:STYLE], frames:DIR or camera:N")
