@@ -98,18 +98,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.progress import Progress
-    from rich.table import Table
 
     from ..io import load
     from ..outputs import check_output
-    from ..preprocessing import preprocess
     from ..reproduce import (
-        PREPROCESSING,
-        TaskProgram,
         check_displacement,
         check_program,
-        from_labels,
-        from_segmentation,
         parse_displacement,
         program_start,
         reproduce,
@@ -138,18 +132,7 @@ def run(args: argparse.Namespace) -> int:
         check_output(args.video, inputs=[args.recording], what="--video", suffixes=VIDEO_SUFFIXES)
     show = open_from_args(args, "lfd_reproduce")
     demo = load(args.recording, images=False, **loading)
-    if args.segment and args.task:
-        from ..errors import UsageError
-
-        raise UsageError("--task PROGRAM and --segment both say what to run; give one")
-    if args.segment:  # the robot follows the trajectory that was segmented
-        result = _segment_checked(demo, args)
-        traj = result.run.trajectory
-        program = from_segmentation(result, int(traj.t_ns[0]))
-    else:
-        traj = preprocess(demo, **PREPROCESSING)
-        t0 = int(traj.t_ns[0])
-        program = TaskProgram.load(args.task) if args.task else from_labels(demo.labels, t0)
+    traj, program = _trajectory_and_program(demo, args)
     modes = ("replay", "skills", "dmp") if args.mode == "all" else (args.mode,)
     if args.randomise:
         return _run_randomised(args, traj, program, modes, err)
@@ -178,7 +161,50 @@ def run(args: argparse.Namespace) -> int:
         for r in results.values():
             log_reproduction(r, skills=program.skills, object_sizes=sizes)
     close_from_args(args)
-    table = Table(title=f"{args.recording}: {' '.join(program.skills)}")
+    console(args).print(_table(args.recording, program, results))  # stderr under --json -
+    for mode, r in results.items():
+        if not r.success:
+            err.print(f"{mode}: the task was not achieved:", highlight=False)
+            for line in r.failures or ["no skill reported a failure"]:
+                err.print(f"  {line}", highlight=False, markup=False)
+    if args.json:
+        write_json(args.json, reproduction_report(program, results, recording=args.recording))
+    if args.video:
+        ex = results[modes[-1]].execution
+        frames = ex.frames if ex is not None else []
+        write_video(args.video, frames, fps=30.0, what="--video")
+        err.print(f"video: {args.video} ({len(frames)} frames, mode {modes[-1]})")
+    # with --mode all, replay is the reference of the path-length ratio, reported but not
+    # judged: the exit status says whether the learned task (skills, dmp) was achieved
+    judged = [m for m in results if not (args.mode == "all" and m == "replay")]
+    return 0 if all(results[m].success for m in judged) else 1
+
+
+def _trajectory_and_program(demo: Any, args: argparse.Namespace) -> tuple[Any, Any]:
+    """What the robot follows: with ``--segment`` the trajectory that was segmented and the
+    program of its skills; otherwise the recording preprocessed as the default method does and
+    the program of ``--task`` or of the ground-truth labels."""
+    from ..preprocessing import preprocess
+    from ..reproduce import PREPROCESSING, TaskProgram, from_labels, from_segmentation
+
+    if args.segment and args.task:
+        from ..errors import UsageError
+
+        raise UsageError("--task PROGRAM and --segment both say what to run; give one")
+    if args.segment:
+        result = _segment_checked(demo, args)
+        traj = result.run.trajectory
+        return traj, from_segmentation(result, int(traj.t_ns[0]))
+    traj = preprocess(demo, **PREPROCESSING)
+    t0 = int(traj.t_ns[0])
+    return traj, TaskProgram.load(args.task) if args.task else from_labels(demo.labels, t0)
+
+
+def _table(recording: str, program: Any, results: dict[str, Any]) -> Any:
+    """The per-mode result table: path, time, slowdown, success, object errors, failures."""
+    from rich.table import Table
+
+    table = Table(title=f"{recording}: {' '.join(program.skills)}")
     cols = (
         "mode",
         "path length (m)",
@@ -211,23 +237,7 @@ def run(args: argparse.Namespace) -> int:
             # which skill failed and its first reason (all of them below and in --json)
             "; ".join(f"{sk.label()}: {sk.reasons[0]}" for sk in r.skills if not sk.ok) or "-",
         )
-    console(args).print(table)  # stderr under --json -: stdout is the JSON then
-    for mode, r in results.items():
-        if not r.success:
-            err.print(f"{mode}: the task was not achieved:", highlight=False)
-            for line in r.failures or ["no skill reported a failure"]:
-                err.print(f"  {line}", highlight=False, markup=False)
-    if args.json:
-        write_json(args.json, reproduction_report(program, results, recording=args.recording))
-    if args.video:
-        ex = results[modes[-1]].execution
-        frames = ex.frames if ex is not None else []
-        write_video(args.video, frames, fps=30.0, what="--video")
-        err.print(f"video: {args.video} ({len(frames)} frames, mode {modes[-1]})")
-    # with --mode all, replay is the reference of the path-length ratio, reported but not
-    # judged: the exit status says whether the learned task (skills, dmp) was achieved
-    judged = [m for m in results if not (args.mode == "all" and m == "replay")]
-    return 0 if all(results[m].success for m in judged) else 1
+    return table
 
 
 def _run_randomised(
