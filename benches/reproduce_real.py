@@ -6,7 +6,8 @@ Usage::
 
 For every crop ``manip_*_<t0>-<t1>s.mcap`` in DIR (default ``../shared/realmotion`` beside the
 repository; the data are CC-BY-NC and never part of lfd) and both tasks, the ground-truth
-labels in the file and ``lfd segment``'s (``--segment``), the recording is reproduced in the
+labels in the file and ``lfd segment``'s (``--segment``, which follows the trajectory that was
+segmented, ``result.run.trajectory``), the recording is reproduced in the
 skills and dmp modes (:func:`lfd.reproduce.reproduce`, the same steps as ``lfd reproduce``):
 achieved or not, why not (the first failed skill and its reason, or the one-line refusal of a
 task the robot cannot do), the final object error and how much slower than the person the
@@ -44,14 +45,16 @@ def run_crop(path: str) -> list[dict[str, Any]]:
     from lfd.segmentation import segment
 
     demo = load(path, images=False)
-    traj = preprocess(demo, **PREPROCESSING)
-    t0 = int(traj.t_ns[0])
+    labelled = preprocess(demo, **PREPROCESSING)
+    seg = segment(demo)
+    assert seg.run is not None
+    segmented = seg.run.trajectory  # --segment: the robot follows what was segmented
     programs = {
-        "labels": from_labels(demo.labels, t0),
-        "segment": from_segmentation(segment(demo), t0),
+        "labels": (labelled, from_labels(demo.labels, int(labelled.t_ns[0]))),
+        "segment": (segmented, from_segmentation(seg, int(segmented.t_ns[0]))),
     }
     rows = []
-    for task, program in programs.items():
+    for task, (traj, program) in programs.items():
         for mode in MODES:
             row: dict[str, Any] = {
                 "crop": Path(path).stem.removeprefix("manip_"),
