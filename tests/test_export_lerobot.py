@@ -54,7 +54,7 @@ def test_loads_back_with_labels_and_values(exported: Path) -> None:
     start = 0
     for ep, path in enumerate(RECORDINGS):
         demo = lfd.load(path)
-        traj = lfd.preprocess(demo)
+        traj = lfd.preprocess(demo, **lfd.Method.default().preprocessing)
         n = len(traj)
         rows = slice(start, start + n)
         assert (table["episode_index"][rows] == ep).all()
@@ -113,7 +113,7 @@ def test_segmentation_labels_without_ground_truth(tmp_path: Path) -> None:
     demo = lfd.load(RECORDINGS[0])
     seg = lfd.segment(demo)
     ds = LeRobotDataset("lfd/seg", root=out, video_backend="pyav")
-    t = lfd.preprocess(demo).t_ns
+    t = lfd.preprocess(demo, **lfd.Method.default().preprocessing).t_ns
     labels = [s.to_label() for s in seg.segments]
     for i in range(0, len(t), 11):
         gt = _gt_at(labels, int(t[i]))
@@ -132,7 +132,11 @@ def test_video_from_rendered_recording(tmp_path: Path, capfd: pytest.CaptureFixt
     assert len(files) == 1
     with av.open(str(files[0])) as c:
         frames = [f.to_ndarray(format="rgb24") for f in c.decode(video=0)]
-    assert len(frames) == ds.num_frames == len(lfd.preprocess(lfd.load(RENDERED)))
+    assert (
+        len(frames)
+        == ds.num_frames
+        == len(lfd.preprocess(lfd.load(RENDERED), **lfd.Method.default().preprocessing))
+    )
     demo = lfd.load(RENDERED)
     assert demo.color is not None
     assert frames[0].shape == demo.color.frames[0].shape
@@ -245,7 +249,7 @@ def test_tracking_gap_marked_invalid_and_values_finite(tmp_path: Path) -> None:
     demo.hand.confidence[gap] = 0.0
     demo.hand.visible[gap] = False
     ep = prepare_episode(demo, name="gap")
-    traj = lfd.preprocess(demo)
+    traj = lfd.preprocess(demo, **lfd.Method.default().preprocessing)
     assert (ep.valid[:, 0] == traj.hand_valid).all() and not ep.valid[:, 0].all()
     writer = LeRobotWriter(tmp_path / "ds", "lfd/gap")
     writer.add(ep)
