@@ -413,9 +413,10 @@ class LiveSegmentation:
 
     def _aligned(self, run: Segmentation) -> list[Segment]:
         """The run's segments after the settled ones: after the run's counterpart of the last
-        settled segment (the same skill and object, ending within ``tolerance_s`` of it), else
-        those ending after the settled end, less one that straddles it as the same skill and
-        object (the settled skill, whose end the run moved)."""
+        settled segment (the same skill, ending within ``tolerance_s`` of it), else those
+        ending after the settled end, less one of the same skill that straddles it (the settled
+        skill, whose end the run moved). The grammar lets no skill follow itself, and a Move's
+        object is named from where it ends, so the skill alone identifies the counterpart."""
         if not self._emitted:
             return list(run.segments)
         last = self._emitted[-1]
@@ -423,21 +424,12 @@ class LiveSegmentation:
         same = [
             (abs(int(s.end_ns) - front), i)
             for i, s in enumerate(run.segments)
-            if (s.skill, s.object) == (last.skill, last.object)
-            and abs(int(s.end_ns) - front) <= self.tolerance_ns
+            if s.skill == last.skill and abs(int(s.end_ns) - front) <= self.tolerance_ns
         ]
         if same:
             return list(run.segments[min(same)[1] + 1 :])
         rest = [s for s in run.segments if int(s.end_ns) > front]
-        if (
-            rest
-            and int(rest[0].start_ns) < front
-            and (rest[0].skill, rest[0].object)
-            == (
-                last.skill,
-                last.object,
-            )
-        ):
+        if rest and int(rest[0].start_ns) < front and rest[0].skill == last.skill:
             rest = rest[1:]
         return rest
 
@@ -465,6 +457,10 @@ class LiveSegmentation:
         # the last segment of a run is open: it settles only when the recording ends
         while len(cands) > self.followers:
             c = cands[0]
+            # a Move ends where the reach of the skill after it begins, which depends on what
+            # that skill is (a Pick up's approach, lfd.contact): that skill must be followed too
+            if c.segment.skill == "move" and len(cands) < self.followers + 2:
+                break
             # NaN confidence (an implied Move) counts as certain
             uncertain = c.segment.confidence < self.min_confidence
             wait = self.uncertain_ns if uncertain else self.stable_ns
