@@ -23,7 +23,6 @@ from typing import Any
 import numpy as np
 
 from .. import _gl  # noqa: F401  (selects the headless GL backend before mujoco loads)
-from ..segmentation.templates import preprocessing_options
 from ..trajectory import Trajectory
 from .controller import Execution, Plan, execute
 from .displacement import (
@@ -63,15 +62,16 @@ __all__ = [
 ]
 
 
-PREPROCESSING: dict[str, Any] = preprocessing_options()
-"""How a demonstration is preprocessed for the robot: ``lfd.preprocess(demo, **PREPROCESSING)``,
-the default method's preprocessing (:attr:`lfd.Method.preprocessing`), so that the robot follows
-the trajectory that was segmented (``lfd reproduce --segment`` takes the segmentation's own,
-``result.run.trajectory``). The hand filtered at :func:`~lfd.preprocessing.pipeline.auto_cutoff`
-of its rate, the objects hardly (tag and motion-capture poses are smooth already). The paper's
-0.625 Hz is meant for the segmentation features: on a fast real placement it leaves the placed
-box's filtered resting pose 2-3 cm off (lower, and short of where it came to rest), which a robot
-placing where the person placed would then miss (docs/reproduce.md)."""
+PREPROCESSING: dict[str, Any] = {"feature_cutoff_hz": "auto", "object_cutoff_hz": 10.0}
+"""How a demonstration is preprocessed for the robot when the task comes from its labels or a
+task program: ``lfd.preprocess(demo, **PREPROCESSING)``. (``lfd reproduce --segment`` follows
+the trajectory that was segmented, ``result.run.trajectory``, preprocessed as the method's.)
+The hand filtered at :func:`~lfd.preprocessing.pipeline.auto_cutoff` of its rate, the objects
+hardly (tag and motion-capture poses are smooth already): the same filters as the shipped
+templates', with the keypoints weighted by their confidence. The paper's 0.625 Hz is meant for
+the segmentation features: on a fast real placement it leaves the placed box's filtered resting
+pose 2-3 cm off (lower, and short of where it came to rest), which a robot placing where the
+person placed would then miss (docs/reproduce.md)."""
 
 
 @dataclass
