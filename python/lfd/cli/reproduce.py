@@ -182,7 +182,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _trajectory_and_program(demo: Any, args: argparse.Namespace) -> tuple[Any, Any]:
     """What the robot follows: with ``--segment`` the trajectory that was segmented and the
-    program of its skills; otherwise the recording preprocessed as the default method does and
+    program of its skills; otherwise the recording preprocessed with ``PREPROCESSING`` and
     the program of ``--task`` or of the ground-truth labels."""
     from ..preprocessing import preprocess
     from ..reproduce import PREPROCESSING, TaskProgram, from_labels, from_segmentation
