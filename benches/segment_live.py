@@ -194,11 +194,16 @@ def make(data: Path, seeds: list[int], styles: list[str], hand_rate: float | Non
                 wall = time.perf_counter() - t0
                 if run.returncode != 0:
                     sys.exit(f"lfd {' '.join(argv)} failed:\n{run.stderr}")
+                from lfd.errors import LfdError
                 from lfd.io import load
 
-                with warnings.catch_warnings():
-                    warnings.simplefilter("ignore")
-                    demo = load(path, images=False)
+                try:
+                    with warnings.catch_warnings():
+                        warnings.simplefilter("ignore")
+                        demo = load(path, images=False)
+                except LfdError as err:  # perception found no usable data: reported, skipped
+                    print(f"recorded {style}/{path.name}: unusable: {err}", flush=True)
+                    continue
                 span = (demo.end_ns - demo.start_ns) * 1e-9
                 times[f"{style}/{path.name}"] = {"wall_s": wall, "demo_s": span}
                 times_file.write_text(json.dumps(times, indent=1))
@@ -389,6 +394,16 @@ def perceived(args: argparse.Namespace) -> None:
             sys.exit(f"missing {len(missing)} recordings (first {missing[0]}): run with --make")
         results = []
         for p in paths:
+            from lfd.errors import LfdError
+            from lfd.io import load
+
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    load(p, images=False)
+            except LfdError as err:
+                print(f"  skipped {style}/{p.name}: not segmentable: {err}")
+                continue
             t0 = time.perf_counter()
             results.append(measure_file(p, templates, cli=not args.no_cli))
             print(f"  measured {style}/{p.name} ({time.perf_counter() - t0:.0f} s)", flush=True)
