@@ -225,8 +225,12 @@ class LiveSegmentation:
         The objects' tag ids (as the recording declares them).
     metadata : dict, optional
         The recording's metadata (what :func:`lfd.load` would give the demonstration).
-    every_s, lag_s, stable_s, tolerance_s, window_s, min_confidence, uncertain_s : float
-        How often the segmentation runs and when a skill settles (the module constants).
+    every_s, lag_s, stable_s, tolerance_s, window_s, min_confidence, uncertain_s, max_wait_s,
+    reach_m : float
+        How often the segmentation runs and when a skill settles (the module constants,
+        docs/live.md).
+    followers : int
+        Segments that must follow one in a run before it settles (a Move: one more).
     """
 
     def __init__(
