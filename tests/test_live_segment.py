@@ -65,6 +65,8 @@ def test_live_settings_are_checked() -> None:
         LiveSegmentation(["a"], [[0.05, 0.05, 0.05]], every_s=0.0)
     with pytest.raises(lfd.errors.InvalidParameterError, match="lag_s"):
         LiveSegmentation(["a"], [[0.05, 0.05, 0.05]], lag_s=float("nan"))
+    with pytest.raises(lfd.errors.InvalidParameterError, match="followers"):
+        LiveSegmentation(["a"], [[0.05, 0.05, 0.05]], followers=0)
 
 
 def test_recorded_message_pairs_and_emitted_segments_are_final() -> None:

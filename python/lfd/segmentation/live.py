@@ -281,6 +281,8 @@ class LiveSegmentation:
         self.window_ns = round(window_s * 1e9)
         self.min_confidence = float(min_confidence)
         self.uncertain_ns = round(uncertain_s * 1e9)
+        if int(followers) < 1:
+            raise InvalidParameterError(f"followers must be at least 1, got {followers}")
         self.followers = int(followers)
         self.max_wait_ns = round(max_wait_s * 1e9)
         self.reach_m = float(reach_m)
