@@ -67,6 +67,11 @@ def test_live_settings_are_checked() -> None:
         LiveSegmentation(["a"], [[0.05, 0.05, 0.05]], lag_s=float("nan"))
     with pytest.raises(lfd.errors.InvalidParameterError, match="followers"):
         LiveSegmentation(["a"], [[0.05, 0.05, 0.05]], followers=0)
+    live = LiveSegmentation(["a"], [[0.05, 0.05, 0.05]])
+    with pytest.raises(lfd.errors.InvalidParameterError, match=r"shape \(21, 3\)"):
+        live.push_hand(0, np.zeros((20, 3)))
+    with pytest.raises(lfd.errors.InvalidParameterError, match="a position"):
+        live.push_object("a", 0, [0.0, 0.0], [0.0, 0.0, 0.0, 1.0])
 
 
 def test_recorded_message_pairs_and_emitted_segments_are_final() -> None:

@@ -102,8 +102,9 @@ def _confidence(data: bytes, where: str) -> tuple[list[float], list[bool] | None
     return [float(v) for v in values], visible
 
 
-def _order(times: np.ndarray) -> tuple[np.ndarray, int, int]:
-    """Indices that sort ``times`` (stable) without duplicates; counts of unsorted and dups."""
+def order_times(times: np.ndarray) -> tuple[np.ndarray, int, int]:
+    """Indices that sort ``times`` (stable) without duplicates, the first of equal times kept
+    (how a recording's messages are read); counts of unsorted and dups."""
     unsorted = int(np.count_nonzero(np.diff(times) < 0)) if times.size > 1 else 0
     idx = np.argsort(times, kind="stable")
     keep = np.ones(idx.size, dtype=bool)
@@ -128,7 +129,7 @@ class _Loader:
         decoded at once)."""
         items = self.raw.messages.get(topic, [])
         times = np.array([t for t, _ in items], dtype=np.int64)
-        idx, unsorted, dups = _order(times)
+        idx, unsorted, dups = order_times(times)
         if unsorted:
             self.unsorted[topic] = unsorted
         if dups:

@@ -29,6 +29,7 @@ import numpy.typing as npt
 
 from ..demo import Demonstration, HandTrack, ObjectTrack, SkillLabel
 from ..errors import InvalidParameterError, LfdError
+from ..io.reader import order_times
 from ..skills import grammar
 from .method import Method
 from .result import Segment, Segmentation
@@ -142,19 +143,20 @@ class _Tracks:
 
     def add(self, msg: HandMessage | ObjectMessage) -> None:
         if isinstance(msg, HandMessage):
-            kp = np.asarray(msg.keypoints, dtype=np.float64).reshape(21, 3)
+            kp = _shaped(msg.keypoints, (21, 3), "hand keypoints")
             finite = np.asarray(np.isfinite(kp).all(axis=1))
-            conf = np.asarray(
+            conf = _shaped(
                 finite.astype(np.float64) if msg.confidence is None else msg.confidence,
-                dtype=np.float64,
-            ).reshape(21)
+                (21,),
+                "hand confidence",
+            )
             vis = np.asarray(
                 finite & (conf > 0) if msg.visible is None else msg.visible, dtype=bool
             ).reshape(21)
             self.hand.append((int(msg.t_ns), kp, conf, vis))
         elif msg.name in self.poses:
-            p = np.asarray(msg.position, dtype=np.float64).reshape(3)
-            q = np.asarray(msg.quaternion, dtype=np.float64).reshape(4)
+            p = _shaped(msg.position, (3,), f"{msg.name} position")
+            q = _shaped(msg.quaternion, (4,), f"{msg.name} quaternion")
             self.poses[msg.name].append((int(msg.t_ns), p, q))
 
     def ready(self) -> bool:
@@ -187,13 +189,22 @@ class _Tracks:
         return Demonstration(hand=hand, objects=objects, metadata=dict(metadata))
 
 
+def _shaped(value: Any, shape: tuple[int, ...], what: str) -> np.ndarray:
+    """``value`` as a float array of ``shape``, or one clear error."""
+    try:
+        out = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InvalidParameterError(f"{what} must be numbers, got {value!r:.60}") from None
+    if out.size != int(np.prod(shape)):
+        raise InvalidParameterError(f"{what} must have shape {shape}, got {out.shape}")
+    return out.reshape(shape)
+
+
 def _ordered(times: list[int], lo: int) -> tuple[np.ndarray, np.ndarray]:
-    """Times from ``lo`` on, sorted (stable), the first of equal ones; and their indices."""
+    """Times from ``lo`` on as :func:`lfd.load` reads them (sorted, the first of equal ones),
+    and their indices."""
     t = np.asarray(times, dtype=np.int64)
-    idx = np.argsort(t, kind="stable")
-    keep = np.ones(idx.size, dtype=bool)
-    keep[1:] = np.diff(t[idx]) != 0
-    idx = idx[keep]
+    idx, _, _ = order_times(t)
     idx = idx[t[idx] >= lo]
     return t[idx], idx
 
@@ -353,21 +364,15 @@ class LiveSegmentation:
         self, t_ns: int, keypoints: npt.ArrayLike, confidence: npt.ArrayLike | None = None
     ) -> LiveUpdate:
         """A hand keypoint frame (21, 3), metres, with per-keypoint confidence."""
-        kp = np.asarray(keypoints, dtype=np.float64).reshape(21, 3)
-        conf = None if confidence is None else np.asarray(confidence, dtype=np.float64)
-        return self.push(HandMessage(int(t_ns), kp, conf))
+        conf = None if confidence is None else np.asarray(confidence)
+        return self.push(HandMessage(int(t_ns), np.asarray(keypoints), conf))
 
     def push_object(
         self, name: str, t_ns: int, position: npt.ArrayLike, quaternion: npt.ArrayLike
     ) -> LiveUpdate:
         """An object pose (centre, metres; quaternion xyzw)."""
         return self.push(
-            ObjectMessage(
-                int(t_ns),
-                name,
-                np.asarray(position, dtype=np.float64).reshape(3),
-                np.asarray(quaternion, dtype=np.float64).reshape(4),
-            )
+            ObjectMessage(int(t_ns), name, np.asarray(position), np.asarray(quaternion))
         )
 
     def push_recorded(self, kind: str, t_ns: int, value: Any) -> LiveUpdate:
