@@ -158,7 +158,7 @@ def test_hand_reaching_no_object_in_a_batch(bad: dict[str, Path], tmp_path: Path
 
 
 def test_info_warns_about_a_hand_reaching_no_object(bad: dict[str, Path]) -> None:
-    proc = _cli("info", bad["far"], "--json", "-")
+    proc = _cli("info", bad["far"], "--check", "--json", "-")
     assert proc.returncode == 0
     lines = _lines(proc, tables=True)
     assert len(lines) == 1 and lines[0].startswith("lfd info: warning: the hand never comes")
@@ -190,7 +190,7 @@ def test_objects_that_never_move_are_not_reproduced(bad: dict[str, Path]) -> Non
     assert proc.returncode == 2
     lines = _lines(proc)
     assert len(lines) == 1 and lines[0].startswith("lfd reproduce: error: not reproduced: no ")
-    proc = _cli("info", bad["static"])
+    proc = _cli("info", bad["static"], "--check")
     assert proc.returncode == 0
     lines = _lines(proc)
     assert len(lines) == 1 and "yet the ground truth has move_with, place, stack" in lines[0]

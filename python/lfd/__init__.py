@@ -7,6 +7,8 @@ reproduce the task on a simulated arm in MuJoCo.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 # The functions are named by verbs (``lfd.preprocess``, ``lfd.segment``), the packages that hold
 # them by nouns (``lfd.preprocessing``, ``lfd.segmentation``), so importing a package never
 # replaces a function. The heavy stages (sim, reproduce, perception, viz) are imported on use.
@@ -16,11 +18,23 @@ from .demo import CameraInfo, Demonstration, HandTrack, ImageStream, ObjectTrack
 from .engine import GaussianHMM
 from .errors import EngineError, LfdError
 from .features import FEATURE_NAMES, FeatureParams, Features, compute_features, label_targets
-from .io import McapRecorder, load, save
+from .io import load
 from .preprocessing import preprocess
 from .segmentation import Method, Segment, Segmentation, Templates, segment
 from .skills import SKILLS
 from .trajectory import Trajectory
+
+if TYPE_CHECKING:
+    from .io import McapRecorder, save
+
+
+def __getattr__(name: str) -> Any:
+    """The MCAP writer (``lfd.save``, ``lfd.McapRecorder``), imported when first used."""
+    if name in ("McapRecorder", "save"):
+        from . import io
+
+        return getattr(io, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 __all__ = [
     "FEATURE_NAMES",

@@ -10,6 +10,7 @@ Hand keypoints follow the MediaPipe / OpenPose order of 21 joints (:data:`KEYPOI
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -222,23 +223,55 @@ class CameraInfo:
         self.world_T_camera = np.asarray(self.world_T_camera, dtype=np.float64).reshape(4, 4)
 
 
-@dataclass
 class ImageStream:
-    """A sequence of images: colour (n, H, W, 3) uint8 RGB or depth (n, H, W) uint16 millimetres."""
+    """A sequence of images: colour (n, H, W, 3) uint8 RGB or depth (n, H, W) uint16 millimetres.
 
-    t_ns: np.ndarray
-    frames: np.ndarray
+    ``frames`` is an array, or a function returning it, called the first time :attr:`frames` is
+    read (how :func:`lfd.load` keeps a recording's images encoded until they are used).
+    """
 
-    def __post_init__(self) -> None:
-        self.t_ns = _timestamps(self.t_ns, "images")
-        self.frames = np.asarray(self.frames)
-        if self.frames.shape[0] != self.t_ns.shape[0]:
+    def __init__(
+        self, t_ns: npt.ArrayLike, frames: npt.ArrayLike | Callable[[], np.ndarray]
+    ) -> None:
+        self.t_ns = _timestamps(t_ns, "images")
+        self._decode: Callable[[], np.ndarray] | None = None
+        self._frames: np.ndarray | None = None
+        if callable(frames):
+            self._decode = frames
+        else:
+            self._frames = self._checked(np.asarray(frames))
+
+    def _checked(self, frames: np.ndarray) -> np.ndarray:
+        if frames.shape[0] != self.t_ns.shape[0]:
             raise DemonstrationError(
-                f"{self.frames.shape[0]} images but {self.t_ns.shape[0]} timestamps"
+                f"{frames.shape[0]} images but {self.t_ns.shape[0]} timestamps"
             )
+        return frames
+
+    @property
+    def frames(self) -> np.ndarray:
+        """The images, decoded on first use."""
+        if self._frames is None:
+            assert self._decode is not None
+            self._frames = self._checked(np.asarray(self._decode()))
+            self._decode = None
+        return self._frames
+
+    @frames.setter
+    def frames(self, value: npt.ArrayLike) -> None:
+        self._frames, self._decode = self._checked(np.asarray(value)), None
+
+    @property
+    def decoded(self) -> bool:
+        """Whether the frames have been decoded (or were given as an array)."""
+        return self._frames is not None
 
     def __len__(self) -> int:
         return int(self.t_ns.shape[0])
+
+    def __repr__(self) -> str:
+        state = "decoded" if self.decoded else "encoded"
+        return f"ImageStream({len(self)} frames, {state})"
 
 
 @dataclass

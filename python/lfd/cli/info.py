@@ -30,6 +30,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="an lfd MCAP recording, a ROS bag with --map (docs/ros.md), or a method: default, "
         "paper or a template file (.json)",
     )
+    parser.add_argument(
+        "--check",
+        action="store_true",
+        help="also read the tracks: how far each object moves, the hand's closest approach to "
+        "an object, and what segmenting will meet (without it only the file's summary section "
+        "and its label channels are read)",
+    )
     add_json_argument(parser, "the summary")
     add_recording_arguments(parser)
 
@@ -40,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
         return _method(args)
     from ..io import summarise
 
-    s = summarise(args.recording, **load_options(args))
+    s = summarise(args.recording, **load_options(args), check=args.check)
     if args.json:
         write_json(args.json, s)
     from rich.table import Table
@@ -58,14 +65,17 @@ def run(args: argparse.Namespace) -> int:
         span = [f"{v:.2f}" if v is not None else "-" for v in (c["first_s"], c["last_s"])]
         table.add_row(c["topic"], c["schema"], str(c["count"]), f"{c['rate_hz']:.2f}", *span)
     con.print(table)
+    if s.get("source") == "scan":
+        con.print("no summary section (the writer was not closed): every message was read")
     if s.get("objects"):
         ot = Table(title="objects")
-        for col in ("name", "tag", "size (m)", "samples", "moves (m)"):
+        checked = all("travel_m" in o for o in s["objects"])
+        for col in ("name", "tag", "size (m)", "samples", *(["moves (m)"] if checked else [])):
             ot.add_column(col)
         for o in s["objects"]:
             size = " x ".join(f"{v:.3f}" for v in o["size"])
-            travel = f"{o['travel_m']:.3f}"
-            ot.add_row(o["name"], str(o["tag_id"]), size, str(o["samples"]), travel)
+            travel = [f"{o['travel_m']:.3f}"] if checked else []
+            ot.add_row(o["name"], str(o["tag_id"]), size, str(o["samples"]), *travel)
         con.print(ot)
         near = s.get("hand_approach") or {}
         if near.get("object") is not None:

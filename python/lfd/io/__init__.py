@@ -14,18 +14,37 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 from ..errors import (
     DefaultSizeWarning,
     RecordingFormatError,
     RecoveredFileWarning,
     TimestampWarning,
 )
-from .checks import check_hand_reaches, closest_approach, object_travel
 from .follow import Follower, LiveMessage, follow
 from .mcapfile import ChannelSummary, RawRecording, scan
 from .reader import load
 from .summary import summarise
-from .writer import McapRecorder, save
+
+if TYPE_CHECKING:
+    from .checks import check_hand_reaches, closest_approach, object_travel
+    from .writer import McapRecorder, save
+
+
+def __getattr__(name: str) -> Any:
+    """The writer and the checks, imported when first used (a command that
+    only reads a recording does not pay for the MCAP writer)."""
+    if name in ("McapRecorder", "save"):
+        from . import writer
+
+        return getattr(writer, name)
+    if name in ("check_hand_reaches", "closest_approach", "object_travel"):
+        from . import checks
+
+        return getattr(checks, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = [
     "ChannelSummary",

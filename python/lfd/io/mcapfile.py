@@ -1,4 +1,11 @@
-"""Low-level, damage-tolerant MCAP scanning: every complete chunk of a possibly truncated file.
+"""Low-level, damage-tolerant MCAP reading: every complete chunk of a possibly truncated file.
+
+:func:`read` is how recordings are read: the engine's reader (``crates/lfd-mcap``, Rust, the
+``mcap`` crate) decodes the hand keypoints, their confidence and the object poses straight into
+arrays (:attr:`RawRecording.tracks`) and keeps the other messages encoded; :func:`read_summary`
+reads only a file's summary section (what ``lfd info`` shows). Both apply the limits below and
+the same damage rules as :func:`scan`, the pure-Python reader (the ``mcap`` package), which
+ROS bags in MCAP, ``lfd.io.follow`` and the tests comparing the two readers use.
 
 :func:`scan` reads a recording sequentially with :class:`mcap.stream_reader.StreamReader`
 (CRC-checked), which needs no summary section, so a file whose writer was killed or that was cut
@@ -19,12 +26,13 @@ import io
 import json
 import os
 from dataclasses import dataclass, field
-from typing import Any
-
-from mcap.records import Channel, Chunk, DataEnd, Footer, Message, Metadata, Schema
-from mcap.stream_reader import StreamReader, breakup_chunk
+from typing import TYPE_CHECKING, Any
 
 from ..errors import RecordingFormatError
+
+if TYPE_CHECKING:  # the mcap package is imported by the pure-Python reader only, on use
+    from mcap.records import Chunk
+    from mcap.stream_reader import StreamReader
 
 MAGIC = b"\x89MCAP0\r\n"
 
@@ -75,22 +83,19 @@ class ChannelSummary:
         return (self.count - 1) / d if self.count > 1 and d > 0 else 0.0
 
 
-@dataclass
-class RawRecording:
-    """The messages of a recording, grouped by topic, in file order, still encoded."""
+class Records:
+    """What :class:`RawRecording` and :class:`Summary` share: channels and metadata records."""
 
     path: str
     file_size: int
-    channels: dict[str, ChannelSummary] = field(default_factory=dict)
-    messages: dict[str, list[tuple[int, bytes]]] = field(default_factory=dict)
-    metadata: dict[str, dict[str, str]] = field(default_factory=dict)
-    complete: bool = False
-    error: str | None = None
-    library: str = ""
+    library: str
+    channels: dict[str, ChannelSummary]
+    messages: dict[str, list[tuple[int, bytes]]]
+    metadata: dict[str, dict[str, str]]
 
     @property
     def message_count(self) -> int:
-        return sum(len(m) for m in self.messages.values())
+        return sum(c.count for c in self.channels.values())
 
     @property
     def span_s(self) -> float:
@@ -118,6 +123,25 @@ class RawRecording:
         return ", ".join(
             f"{c.topic} ({c.schema or 'no schema'}, {c.count} msgs)" for c in self.channels.values()
         )
+
+
+@dataclass
+class RawRecording(Records):
+    """The messages of a recording, grouped by topic, in file order, still encoded.
+
+    From :func:`read`, the hand keypoints, their confidence and the object poses are in
+    :attr:`tracks` instead (decoded arrays, file order, by topic) and not in :attr:`messages`;
+    :func:`scan` leaves :attr:`tracks` empty."""
+
+    path: str
+    file_size: int
+    channels: dict[str, ChannelSummary] = field(default_factory=dict)
+    messages: dict[str, list[tuple[int, bytes]]] = field(default_factory=dict)
+    metadata: dict[str, dict[str, str]] = field(default_factory=dict)
+    complete: bool = False
+    error: str | None = None
+    library: str = ""
+    tracks: dict[str, dict[str, Any]] = field(default_factory=dict)
 
 
 def _inflate(chunk: Chunk, path: str, budget: int) -> Chunk:
@@ -169,6 +193,9 @@ def scan(path: str | os.PathLike[str]) -> RawRecording:
         would inflate beyond :func:`inflate_limit` (a decompression bomb), or if a message's
         ``log_time`` does not fit in a signed 64-bit integer.
     """
+    from mcap.records import Channel, DataEnd, Footer, Message, Metadata, Schema
+    from mcap.stream_reader import StreamReader
+
     p = os.fspath(path)
     try:
         size = os.path.getsize(p)
@@ -251,6 +278,9 @@ def scan(path: str | os.PathLike[str]) -> RawRecording:
 
 def _records(reader: StreamReader, path: str, budget: int) -> Any:
     """The reader's records with every chunk broken up, within an inflation ``budget``."""
+    from mcap.records import Chunk
+    from mcap.stream_reader import breakup_chunk
+
     left = budget
     for record in reader.records:
         if isinstance(record, Chunk):
@@ -259,3 +289,94 @@ def _records(reader: StreamReader, path: str, budget: int) -> Any:
             yield from breakup_chunk(chunk, validate_crc=True)
         else:
             yield record
+
+
+def _channels(docs: list[dict[str, Any]]) -> dict[str, ChannelSummary]:
+    return {
+        d["topic"]: ChannelSummary(
+            topic=d["topic"],
+            schema=d["schema"],
+            encoding=d["encoding"],
+            metadata=dict(d["metadata"]),
+            count=int(d["count"]),
+            first_ns=d["first_ns"],
+            last_ns=d["last_ns"],
+            schema_encoding=d["schema_encoding"],
+            schema_data=bytes(d["schema_data"]),
+        )
+        for d in docs
+    }
+
+
+def read(path: str | os.PathLike[str], *, images: bool = True) -> RawRecording:
+    """Read every complete record of an MCAP file with the engine's reader: :func:`scan`'s
+    result, but the hand keypoints (``/hand/<side>/keypoints``), their confidence and the object
+    poses (``/objects/<name>/pose``) decoded into :attr:`RawRecording.tracks` (file order). With
+    ``images=False`` the image messages are counted but not kept.
+
+    Raises
+    ------
+    RecordingFormatError
+        As :func:`scan`.
+    """
+    from .._hmmseg import read_recording
+
+    doc = read_recording(os.fspath(path), images)
+    raw = RawRecording(
+        path=os.fspath(path),
+        file_size=int(doc["file_size"]),
+        channels=_channels(doc["channels"]),
+        metadata={k: dict(v) for k, v in doc["metadata"].items()},
+        complete=bool(doc["complete"]),
+        error=doc["error"],
+        library=doc["library"],
+    )
+    raw.messages = {topic: [] for topic in raw.channels}
+    raw.messages.update(doc["raw"])
+    for kind in ("hands", "confidence", "poses"):
+        for topic, arrays in doc[kind].items():
+            raw.tracks[topic] = arrays
+    return raw
+
+
+@dataclass
+class Summary(Records):
+    """What a file's summary section holds (:func:`read_summary`): its channels with their
+    counts and times, metadata records and attachments, without reading the messages; and the
+    messages of the few topics asked for."""
+
+    path: str
+    file_size: int
+    library: str
+    channels: dict[str, ChannelSummary]
+    metadata: dict[str, dict[str, str]]
+    attachments: list[dict[str, Any]]
+    messages: dict[str, list[tuple[int, bytes]]]
+
+
+def read_summary(
+    path: str | os.PathLike[str], topics: list[str] | tuple[str, ...] = ()
+) -> Summary | None:
+    """The summary section of an MCAP file and the messages of ``topics`` (read from the chunks
+    that hold them, found by the chunk indexes); None when the file has none (a recording whose
+    writer was killed: :func:`read` recovers it).
+
+    Raises
+    ------
+    RecordingFormatError
+        Not an MCAP file, or as :func:`scan` for the chunks it reads.
+    """
+    from .._hmmseg import read_summary as engine_summary
+
+    doc = engine_summary(os.fspath(path), list(topics))
+    if doc is None:
+        return None
+    return Summary(
+        path=os.fspath(path),
+        file_size=int(doc["file_size"]),
+        library=doc["library"],
+        channels=_channels(doc["channels"]),
+        metadata={k: dict(v) for k, v in doc["metadata"].items()},
+        attachments=list(doc["attachments"]),
+        messages={t: list(doc["raw"].get(t, [])) for t in topics},
+    )

@@ -14,18 +14,11 @@ import math
 import os
 import re
 import warnings
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from functools import partial
 from typing import Any
 
 import numpy as np
-from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
-from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
-from foxglove_schemas_protobuf.Event_pb2 import Event
-from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
-from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
-from foxglove_schemas_protobuf.PosesInFrame_pb2 import PosesInFrame
-from foxglove_schemas_protobuf.RawImage_pb2 import RawImage
-from google.protobuf.message import DecodeError
 
 from ..demo import CameraInfo, Demonstration, HandTrack, ImageStream, ObjectTrack, SkillLabel
 from ..errors import (
@@ -36,8 +29,7 @@ from ..errors import (
     UsageError,
 )
 from . import topics as T
-from .images import decode_compressed, decode_raw
-from .mcapfile import RawRecording, scan
+from .mcapfile import RawRecording, Records, read
 from .sizes import resolve_sizes
 
 __all__ = ["load"]
@@ -112,6 +104,26 @@ def order_times(times: np.ndarray) -> tuple[np.ndarray, int, int]:
     return idx[keep], unsorted, int(idx.size - np.count_nonzero(keep))
 
 
+def labels_of_events(events: Iterable[Any]) -> tuple[list[SkillLabel], list[str]]:
+    """Skill labels of foxglove ``Event`` messages (metadata ``skill``, ``object``), sorted by
+    time, and what was skipped (an unknown skill, a bad span) and why."""
+    labels, skipped = [], []
+    for m in events:
+        meta = {kv.key: kv.value for kv in m.metadata}
+        try:
+            labels.append(
+                SkillLabel(
+                    skill=meta.get("skill", ""),
+                    start_ns=_ns(m.start_time),
+                    end_ns=_ns(m.end_time),
+                    object=meta.get("object") or None,
+                )
+            )
+        except LfdError as err:
+            skipped.append(f"label {meta}: {err}")
+    return sorted(labels, key=lambda lab: (lab.start_ns, lab.end_ns)), skipped
+
+
 class _Loader:
     def __init__(self, raw: RawRecording) -> None:
         self.raw = raw
@@ -136,6 +148,8 @@ class _Loader:
             self.duplicates[topic] = dups
 
         def parse() -> Iterator[Any]:
+            from google.protobuf.message import DecodeError
+
             for i in idx:
                 msg = cls()
                 try:
@@ -149,7 +163,54 @@ class _Loader:
 
         return times[idx], parse()
 
+    def _ordered(self, topic: str, times: np.ndarray) -> np.ndarray:
+        """:func:`order_times` of a topic's messages, counted in the report."""
+        idx, unsorted, dups = order_times(times)
+        if unsorted:
+            self.unsorted[topic] = unsorted
+        if dups:
+            self.duplicates[topic] = dups
+        return idx
+
+    def _bad(self, arrays: dict[str, Any]) -> None:
+        if arrays.get("bad"):
+            raise RecordingFormatError(f"{self.raw.path}: {arrays['bad']}")
+
     def hand(self, side: str) -> HandTrack:
+        topic = T.hand_topic(side)
+        decoded = self.raw.tracks.get(topic)
+        if decoded is None:
+            return self._hand_of_messages(side)
+        self._bad(decoded)
+        idx = self._ordered(topic, decoded["t_ns"])
+        t = decoded["t_ns"][idx]
+        kp = decoded["keypoints"][idx]
+        finite = np.isfinite(kp).all(axis=2)
+        conf = finite.astype(np.float64)
+        vis = np.zeros_like(finite)
+        has_vis = np.zeros(len(t), dtype=bool)
+        given = self.raw.tracks.get(T.confidence_topic(side))
+        if given is not None:
+            self._bad(given)
+            # the first message of a hand frame counts; messages at no hand frame are ignored
+            tc = given["t_ns"]
+            _, first = np.unique(tc, return_index=True)
+            at = np.searchsorted(t, tc[first])
+            hit = at < len(t)
+            hit[hit] = t[at[hit]] == tc[first][hit]
+            rows, src = at[hit], first[hit]
+            conf[rows] = given["confidence"][src]
+            seen = given["has_visible"][src]
+            vis[rows[seen]] = given["visible"][src[seen]]
+            has_vis[rows[seen]] = True
+        # files written before "visible" existed: observed with confidence > 0
+        vis[~has_vis] = finite[~has_vis] & (conf[~has_vis] > 0)
+        return HandTrack(t_ns=t, keypoints=kp, confidence=conf, side=side, visible=vis)
+
+    def _hand_of_messages(self, side: str) -> HandTrack:
+        """:meth:`hand` from encoded messages (:func:`lfd.io.mcapfile.scan`)."""
+        from foxglove_schemas_protobuf.PosesInFrame_pb2 import PosesInFrame
+
         t, msgs = self.each(T.hand_topic(side), PosesInFrame)
         kp = np.full((len(t), 21, 3), np.nan)
         bad: str | None = None  # reported once every message decoded, as before streaming
@@ -184,13 +245,24 @@ class _Loader:
         return HandTrack(t_ns=t, keypoints=kp, confidence=conf, side=side, visible=vis)
 
     def object(self, name: str, tag_id: int, size: Any) -> ObjectTrack:
-        t, msgs = self.each(T.object_topic(name), PoseInFrame)
-        pos = np.empty((len(t), 3))
-        quat = np.empty((len(t), 4))
-        for i, m in enumerate(msgs):
-            p, q = m.pose.position, m.pose.orientation
-            pos[i] = (p.x, p.y, p.z)
-            quat[i] = (q.x, q.y, q.z, q.w)
+        topic = T.object_topic(name)
+        decoded = self.raw.tracks.get(topic)
+        if decoded is not None:
+            self._bad(decoded)
+            idx = self._ordered(topic, decoded["t_ns"])
+            t = decoded["t_ns"][idx]
+            pos = decoded["position"][idx]
+            quat = decoded["quaternion"][idx]
+        else:
+            from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
+
+            t, msgs = self.each(topic, PoseInFrame)
+            pos = np.empty((len(t), 3))
+            quat = np.empty((len(t), 4))
+            for i, m in enumerate(msgs):
+                p, q = m.pose.position, m.pose.orientation
+                pos[i] = (p.x, p.y, p.z)
+                quat[i] = (q.x, q.y, q.z, q.w)
         return ObjectTrack(
             name=name,
             tag_id=tag_id,
@@ -202,22 +274,14 @@ class _Loader:
         )
 
     def labels(self, topic: str = T.GROUND_TRUTH_TOPIC) -> list[SkillLabel]:
+        if not self.raw.messages.get(topic):
+            return []
+        from foxglove_schemas_protobuf.Event_pb2 import Event
+
         _, msgs = self.decode(topic, Event)
-        labels = []
-        for m in msgs:
-            meta = {kv.key: kv.value for kv in m.metadata}
-            try:
-                labels.append(
-                    SkillLabel(
-                        skill=meta.get("skill", ""),
-                        start_ns=_ns(m.start_time),
-                        end_ns=_ns(m.end_time),
-                        object=meta.get("object") or None,
-                    )
-                )
-            except LfdError as err:
-                self.skipped.append(f"label {meta}: {err}")
-        return sorted(labels, key=lambda lab: (lab.start_ns, lab.end_ns))
+        labels, skipped = labels_of_events(msgs)
+        self.skipped += skipped
+        return labels
 
     def camera(self) -> CameraInfo | None:
         rec = self.raw.json_metadata(T.CALIBRATION_METADATA, "camera")
@@ -232,9 +296,12 @@ class _Loader:
                 )
             except (KeyError, ValueError, TypeError) as err:
                 self.skipped.append(f"calibration metadata: {err}")
-        _, infos = self.decode(T.CAMERA_INFO_TOPIC, CameraCalibration)
-        if not infos:
+        if not self.raw.messages.get(T.CAMERA_INFO_TOPIC):
             return None
+        from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
+        from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
+
+        _, infos = self.decode(T.CAMERA_INFO_TOPIC, CameraCalibration)
         info = infos[-1]
         pose = np.eye(4)
         _, tfs = self.decode(T.TF_TOPIC, FrameTransforms)
@@ -255,30 +322,54 @@ class _Loader:
         )
 
     def images(self, topic: str) -> ImageStream | None:
+        """The frames of ``topic`` (raw, else its ``/compressed`` variant), decoded when first
+        used (:attr:`lfd.demo.ImageStream.frames`)."""
         compressed = T.compressed_topic(topic)
         if self.raw.messages.get(topic):
-            t, msgs = self.decode(topic, RawImage)
+            kind = "raw"
         elif self.raw.messages.get(compressed):
-            topic = compressed
-            t, msgs = self.decode(topic, CompressedImage)
+            topic, kind = compressed, "compressed"
         else:
             return None
-        frames = []
-        for ti, m in zip(t, msgs, strict=True):
-            try:
-                if isinstance(m, RawImage):
-                    frames.append(decode_raw(m))
-                else:
-                    frames.append(decode_compressed(m.data, m.format))
-            except ValueError as err:
-                raise RecordingFormatError(f"{self.raw.path}: {topic} at {ti} ns: {err}") from err
-        shapes = {f.shape for f in frames}
-        if len(shapes) > 1:
-            raise RecordingFormatError(f"{self.raw.path}: {topic} mixes image sizes {shapes}")
-        return ImageStream(t_ns=t, frames=np.stack(frames))
+        items = self.raw.messages[topic]
+        times = np.array([t for t, _ in items], dtype=np.int64)
+        idx = self._ordered(topic, times)
+        payloads = [items[i] for i in idx]
+        return ImageStream(
+            t_ns=times[idx], frames=partial(_decode_images, self.raw.path, topic, kind, payloads)
+        )
 
 
-def _objects(raw: RawRecording) -> list[tuple[str, int, Any]]:
+def _decode_images(
+    path: str, topic: str, kind: str, payloads: list[tuple[int, bytes]]
+) -> np.ndarray:
+    """The frames of encoded RawImage or CompressedImage messages, stacked."""
+    from google.protobuf.message import DecodeError
+
+    from .images import decode_compressed, decode_raw
+
+    if kind == "raw":
+        from foxglove_schemas_protobuf.RawImage_pb2 import RawImage as cls
+    else:
+        from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage as cls
+    frames = []
+    for t, data in payloads:
+        msg = cls()
+        try:
+            msg.ParseFromString(data)
+            if kind == "raw":
+                frames.append(decode_raw(msg))
+            else:
+                frames.append(decode_compressed(msg.data, msg.format))
+        except (DecodeError, ValueError) as err:
+            raise RecordingFormatError(f"{path}: {topic} at {t} ns: {err}") from err
+    shapes = {f.shape for f in frames}
+    if len(shapes) > 1:
+        raise RecordingFormatError(f"{path}: {topic} mixes image sizes {shapes}")
+    return np.stack(frames)
+
+
+def objects_of(raw: Records) -> list[tuple[str, int, Any]]:
     """``(name, tag_id, size)`` of every object: from the ``demo`` metadata record, else from
     the pose channel's metadata. Values of the wrong type raise RecordingFormatError."""
     where = f"{raw.path}: metadata {T.DEMO_METADATA}/objects"
@@ -355,23 +446,24 @@ def load(
     """
     if is_ros_path(path):
         return _load_ros(path, None, object_sizes, mapping)
-    raw = scan(path)
+    raw = read(path, images=images)
     if is_ros_recording(raw):
         return _load_ros(path, raw, object_sizes, mapping)
     if mapping is not None:
         raise UsageError(
             f"{raw.path} is an lfd recording, not a ROS bag: drop the topic mapping (--map)"
         )
-    report: dict[str, Any] = {"complete": raw.complete, "messages": raw.message_count}
-    report["recovered"] = None
-    if not raw.complete:
-        msg = (
-            f"{raw.path} is truncated or was not closed ({raw.error}); recovered "
-            f"{raw.message_count} messages covering {raw.span_s:.2f} s from its complete chunks "
-            f"(file size {raw.file_size} bytes); anything after the last complete chunk is lost"
-        )
-        report["recovered"] = msg
-        warnings.warn(msg, RecoveredFileWarning, stacklevel=2)
+    return demonstration_of(raw, images=images, object_sizes=object_sizes, stacklevel=3)
+
+
+def hand_side(raw: Records, complete: bool = True, error: str | None = None) -> str:
+    """The side of the hand a recording holds (right before left).
+
+    Raises
+    ------
+    RecordingFormatError
+        It has no hand keypoints or no object pose (``error``: the damage, if not ``complete``).
+    """
     sides = [s for s in T.HAND_SIDES if raw.channels.get(T.hand_topic(s), None)]
     sides = [s for s in sides if raw.channels[T.hand_topic(s)].count > 0]
     obj_topics = [t for t, c in raw.channels.items() if T.object_name_from_topic(t) and c.count > 0]
@@ -383,13 +475,36 @@ def load(
     if missing:
         raise RecordingFormatError(
             f"{raw.path} is not a usable lfd recording: missing {' and '.join(missing)}; "
-            f"it has {raw.describe_topics()}"
-            + ("" if raw.complete else f" (file damaged: {raw.error})")
+            f"it has {raw.describe_topics()}" + ("" if complete else f" (file damaged: {error})")
         )
+    return sides[0]
+
+
+def demonstration_of(
+    raw: RawRecording,
+    *,
+    images: bool = True,
+    object_sizes: Mapping[str, Sequence[float]] | None = None,
+    stacklevel: int = 2,
+) -> Demonstration:
+    """The :class:`Demonstration` of an lfd recording read by :func:`lfd.io.mcapfile.read`
+    (decoded tracks) or :func:`lfd.io.mcapfile.scan` (encoded messages): the same arrays from
+    either (:func:`load`'s rules; its warnings at ``stacklevel``)."""
+    report: dict[str, Any] = {"complete": raw.complete, "messages": raw.message_count}
+    report["recovered"] = None
+    if not raw.complete:
+        msg = (
+            f"{raw.path} is truncated or was not closed ({raw.error}); recovered "
+            f"{raw.message_count} messages covering {raw.span_s:.2f} s from its complete chunks "
+            f"(file size {raw.file_size} bytes); anything after the last complete chunk is lost"
+        )
+        report["recovered"] = msg
+        warnings.warn(msg, RecoveredFileWarning, stacklevel=stacklevel)
+    side = hand_side(raw, raw.complete, raw.error)
     loader = _Loader(raw)
-    hand = loader.hand(sides[0])
+    hand = loader.hand(side)
     objects = {}
-    specs = _objects(raw)
+    specs = objects_of(raw)
     sizes = resolve_sizes(raw.path, {name: size for name, _, size in specs}, object_sizes)
     for name, tag_id, _ in specs:
         objects[name] = loader.object(name, tag_id, sizes[name])
@@ -407,10 +522,12 @@ def load(
             f"{raw.path}: sorted out-of-order samples {loader.unsorted or {}} and dropped "
             f"duplicate timestamps {loader.duplicates or {}} (per topic)",
             TimestampWarning,
-            stacklevel=2,
+            stacklevel=stacklevel,
         )
     if loader.skipped:
-        warnings.warn(f"{raw.path}: skipped {loader.skipped}", RecoveredFileWarning, stacklevel=2)
+        warnings.warn(
+            f"{raw.path}: skipped {loader.skipped}", RecoveredFileWarning, stacklevel=stacklevel
+        )
     metadata["load_report"] = report
     return Demonstration(
         hand=hand,

@@ -7,9 +7,13 @@ import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from ..errors import LfdError
-from .mcapfile import scan
-from .reader import is_ros_path, load
+from ..errors import LfdError, RecordingFormatError, RecoveredFileWarning
+from . import topics as T
+from .mcapfile import Records, read, read_summary
+from .reader import hand_side, is_ros_path, labels_of_events, load, objects_of
+
+SMALL_TOPICS = (T.GROUND_TRUTH_TOPIC, T.LIVE_SEGMENTS_TOPIC)
+"""The channels ``lfd info`` reads the messages of (the skill labels it prints)."""
 
 
 def summarise(
@@ -17,101 +21,200 @@ def summarise(
     *,
     object_sizes: Mapping[str, Sequence[float]] | None = None,
     mapping: Any = None,
+    check: bool = False,
 ) -> dict[str, Any]:
     """A JSON-ready summary of a recording: the document of ``lfd info --json``.
 
-    The file's channels, metadata and damage come from :func:`lfd.io.scan` (never fails on a
-    damaged file; for a ROS bag, from its index: topics, types and counts); its objects, skill
-    labels, metadata and camera from :func:`lfd.io.load` (with ``object_sizes`` and the ROS
-    ``mapping``) when that succeeds. A failed load is reported in ``error`` (its warnings in
-    ``warnings``), not raised, so a damaged file can still be summarised. Times are seconds
-    from ``start_ns``, the first message. ``objects[].travel_m`` (how far each object moves),
-    ``hand_approach`` (the hand's closest approach to an object) and ``problems`` (what
-    segmenting it will meet: a hand that reaches no object, no object moving under ground-truth
-    skills that move one) come from :mod:`lfd.io.checks`.
+    An lfd MCAP file's channels (counts, times), metadata, attachments, objects (from the
+    metadata and ``object_sizes``) and skill labels come from its summary section and the two
+    label channels alone (:func:`lfd.io.mcapfile.read_summary`), whatever its length. A file
+    without a summary (its writer was killed) is read whole with the damage rules of
+    :func:`lfd.io.load`: ``source`` says which (``"summary"`` or ``"scan"``), ``damage`` what
+    was lost. ``check`` also loads the tracks (:func:`lfd.io.load`) for what segmenting will
+    meet: ``objects[].travel_m`` (how far each object moves), ``hand_approach`` (the hand's
+    closest approach to an object) and ``problems`` (a hand that reaches no object, no object
+    moving under ground-truth skills that move one; :mod:`lfd.io.checks`). A ROS bag (with its
+    ``mapping``) is always loaded. A recording that cannot be used is reported in ``error``
+    (its warnings in ``warnings``), not raised, so a damaged file can still be summarised.
+    Times are seconds from ``start_ns``, the first message.
     """
-    if is_ros_path(path):
-        from .ros import bag_summary
-
-        summary = bag_summary(path)
-        t0 = summary["start_ns"]
-    else:
-        raw = scan(path)
-        firsts = [c.first_ns for c in raw.channels.values() if c.first_ns is not None]
-        t0 = min(firsts) if firsts else 0
-        summary = {
-            "path": raw.path,
-            "file_size": raw.file_size,
-            "library": raw.library,
-            "complete": raw.complete,
-            "damage": raw.error,
-            "messages": raw.message_count,
-            "duration_s": raw.span_s,
-            "start_ns": t0,
-            "channels": [
-                {
-                    "topic": c.topic,
-                    "schema": c.schema,
-                    "count": c.count,
-                    "rate_hz": round(c.rate_hz, 3),
-                    "first_s": None if c.first_ns is None else (c.first_ns - t0) * 1e-9,
-                    "last_s": None if c.last_ns is None else (c.last_ns - t0) * 1e-9,
-                }
-                for c in sorted(raw.channels.values(), key=lambda c: c.topic)
-            ],
-            "metadata_records": raw.metadata,
-        }
-    summary.update(warnings=[], problems=[], error=None)
+    summary: dict[str, Any]
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        try:
-            demo = load(path, images=False, object_sizes=object_sizes, mapping=mapping)
-        except LfdError as err:
-            summary["error"] = str(err)
-            demo = None
-    summary["warnings"] = [str(w.message) for w in caught]
-    if demo is not None:
-        from .checks import closest_approach, object_travel, reach_message, unmoved_objects_message
+        if is_ros_path(path):
+            from .ros import bag_summary
 
-        travel = object_travel(demo)
+            summary = bag_summary(path)
+            summary.update(problems=[], error=None)
+            _loaded(summary, path, object_sizes, mapping)
+        else:
+            summary = _mcap(path, object_sizes, check)
+            if check and summary["error"] is None:
+                _loaded(summary, path, object_sizes, mapping)
+    summary["warnings"] = list(dict.fromkeys(str(w.message) for w in caught))
+    return summary
+
+
+def _mcap(
+    path: str | os.PathLike[str], object_sizes: Mapping[str, Sequence[float]] | None, check: bool
+) -> dict[str, Any]:
+    """The summary of an lfd MCAP file from its summary section (else a full read)."""
+    rec: Records | None = read_summary(path, SMALL_TOPICS)
+    complete, damage, source = True, None, "summary"
+    if rec is None:
+        raw = read(path, images=False)
+        rec, complete, damage, source = raw, raw.complete, raw.error, "scan"
+        if damage is None:
+            damage = "the file has no summary section (its writer was not closed)"
+    firsts = [c.first_ns for c in rec.channels.values() if c.first_ns is not None]
+    t0 = min(firsts) if firsts else 0
+    summary: dict[str, Any] = {
+        "path": rec.path,
+        "file_size": rec.file_size,
+        "library": rec.library,
+        "complete": complete,
+        "damage": damage,
+        "source": source,
+        "messages": rec.message_count,
+        "duration_s": rec.span_s,
+        "start_ns": t0,
+        "channels": [
+            {
+                "topic": c.topic,
+                "schema": c.schema,
+                "count": c.count,
+                "rate_hz": round(c.rate_hz, 3),
+                "first_s": None if c.first_ns is None else (c.first_ns - t0) * 1e-9,
+                "last_s": None if c.last_ns is None else (c.last_ns - t0) * 1e-9,
+            }
+            for c in sorted(rec.channels.values(), key=lambda c: c.topic)
+        ],
+        "metadata_records": rec.metadata,
+        "attachments": getattr(rec, "attachments", []),
+        "problems": [],
+        "error": None,
+    }
+    if not complete and not check:  # else load says it
+        warnings.warn(
+            f"{rec.path} is truncated or was not closed ({damage}); recovered "
+            f"{rec.message_count} messages covering {rec.span_s:.2f} s from its complete chunks",
+            RecoveredFileWarning,
+            stacklevel=3,
+        )
+    try:
+        hand_side(rec, complete, damage)
+        specs = objects_of(rec)
+        if check:
+            return summary  # objects, labels and metadata from the loaded demonstration
+        from .sizes import resolve_sizes
+
+        sizes = resolve_sizes(rec.path, {n: size for n, _, size in specs}, object_sizes)
         summary["objects"] = [
             {
-                "name": o.name,
-                "tag_id": o.tag_id,
-                "size": o.size.tolist(),
-                "samples": len(o),
-                "travel_m": travel[o.name],
+                "name": name,
+                "tag_id": tag_id,
+                "size": [float(v) for v in sizes[name]],
+                "samples": rec.channels[T.object_topic(name)].count
+                if T.object_topic(name) in rec.channels
+                else 0,
             }
-            for o in demo.objects.values()
+            for name, tag_id, _ in specs
         ]
-        approach = closest_approach(demo)
-        summary["hand_approach"] = {
-            "distance_m": approach.distance_m if approach.object is not None else None,
-            "object": approach.object,
-            "t_s": approach.t_s,
-        }
-        for problem in (
-            reach_message(demo),
-            unmoved_objects_message(
-                demo, [lab.skill for lab in demo.labels], source="the ground truth"
-            ),
+        for key, topic in (
+            ("labels", T.GROUND_TRUTH_TOPIC),
+            ("live_segments", T.LIVE_SEGMENTS_TOPIC),
         ):
-            if problem is not None:
-                summary["problems"].append(problem)
-        for key, labels in (("labels", demo.labels), ("live_segments", demo.live_segments)):
-            summary[key] = [
-                {
-                    "skill": lab.skill,
-                    "object": lab.object,
-                    "start_s": (lab.start_ns - t0) * 1e-9,
-                    "end_s": (lab.end_ns - t0) * 1e-9,
-                }
-                for lab in labels
-            ]
-        summary["metadata"] = {k: v for k, v in demo.metadata.items() if k != "load_report"}
+            summary[key] = _labels(rec, topic, t0)
+        metadata = rec.json_metadata(T.DEMO_METADATA, "metadata", default={})
+        summary["metadata"] = metadata if isinstance(metadata, dict) else {"metadata": metadata}
+        camera = rec.json_metadata(T.CALIBRATION_METADATA, "camera")
         summary["camera"] = (
-            None
-            if demo.camera is None
-            else {"width": demo.camera.width, "height": demo.camera.height}
+            {"width": int(camera["width"]), "height": int(camera["height"])}
+            if isinstance(camera, dict) and "width" in camera and "height" in camera
+            else None
         )
+    except LfdError as err:
+        summary["error"] = str(err)
     return summary
+
+
+def _labels(rec: Records, topic: str, t0: int) -> list[dict[str, Any]]:
+    """The skill labels of ``topic`` (Event messages) as ``lfd info`` lists them."""
+    items = rec.messages.get(topic, [])
+    if not items:
+        return []
+    from foxglove_schemas_protobuf.Event_pb2 import Event
+    from google.protobuf.message import DecodeError
+
+    events = []
+    for t, data in items:
+        msg = Event()
+        try:
+            msg.ParseFromString(data)
+        except DecodeError as err:
+            raise RecordingFormatError(
+                f"{rec.path}: cannot decode a foxglove.Event on {topic} at {t} ns: {err}"
+            ) from None
+        events.append(msg)
+    labels, skipped = labels_of_events(events)
+    if skipped:
+        warnings.warn(f"{rec.path}: skipped {skipped}", RecoveredFileWarning, stacklevel=4)
+    return [_label(lab, t0) for lab in labels]
+
+
+def _label(lab: Any, t0: int) -> dict[str, Any]:
+    return {
+        "skill": lab.skill,
+        "object": lab.object,
+        "start_s": (lab.start_ns - t0) * 1e-9,
+        "end_s": (lab.end_ns - t0) * 1e-9,
+    }
+
+
+def _loaded(
+    summary: dict[str, Any],
+    path: str | os.PathLike[str],
+    object_sizes: Mapping[str, Sequence[float]] | None,
+    mapping: Any,
+) -> None:
+    """Objects, labels, metadata, camera and the checks of the loaded recording, into
+    ``summary`` (a load that fails is its ``error``)."""
+    try:
+        demo = load(path, images=False, object_sizes=object_sizes, mapping=mapping)
+    except LfdError as err:
+        summary["error"] = str(err)
+        return
+    from .checks import closest_approach, object_travel, reach_message, unmoved_objects_message
+
+    t0 = summary["start_ns"]
+    travel = object_travel(demo)
+    summary["objects"] = [
+        {
+            "name": o.name,
+            "tag_id": o.tag_id,
+            "size": o.size.tolist(),
+            "samples": len(o),
+            "travel_m": travel[o.name],
+        }
+        for o in demo.objects.values()
+    ]
+    approach = closest_approach(demo)
+    summary["hand_approach"] = {
+        "distance_m": approach.distance_m if approach.object is not None else None,
+        "object": approach.object,
+        "t_s": approach.t_s,
+    }
+    for problem in (
+        reach_message(demo),
+        unmoved_objects_message(
+            demo, [lab.skill for lab in demo.labels], source="the ground truth"
+        ),
+    ):
+        if problem is not None:
+            summary["problems"].append(problem)
+    summary["labels"] = [_label(lab, t0) for lab in demo.labels]
+    summary["live_segments"] = [_label(lab, t0) for lab in demo.live_segments]
+    summary["metadata"] = {k: v for k, v in demo.metadata.items() if k != "load_report"}
+    summary["camera"] = (
+        None if demo.camera is None else {"width": demo.camera.width, "height": demo.camera.height}
+    )
