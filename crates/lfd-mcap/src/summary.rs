@@ -191,24 +191,51 @@ fn summary(file: &File, size: u64, path: &str, topics: &[String]) -> Result<Summ
             if opcode != op::MESSAGE_INDEX {
                 continue;
             }
-            let Record::MessageIndex(mi) = mcap::parse_record(opcode, body)? else {
+            // parsed by hand (no vector of entries): channel id, byte length, (time, offset)*
+            if body.len() < 6 {
+                return Err(Fail::Unusable);
+            }
+            let channel = u16::from_le_bytes([body[0], body[1]]);
+            let n = u32::from_le_bytes([body[2], body[3], body[4], body[5]]) as usize;
+            let entries = body.get(6..6 + n).ok_or(Fail::Unusable)?;
+            if n % 16 != 0 {
+                return Err(Fail::Unusable);
+            }
+            *counts.entry(channel).or_default() += (n / 16) as u64;
+            let Some(&i) = topic_of.get(&channel) else {
                 continue;
             };
-            *counts.entry(mi.channel_id).or_default() += mi.records.len() as u64;
-            let Some(&i) = topic_of.get(&mi.channel_id) else {
-                continue;
-            };
-            for e in &mi.records {
-                let s = span.entry(i).or_insert((e.log_time, e.log_time));
-                s.0 = s.0.min(e.log_time);
-                s.1 = s.1.max(e.log_time);
+            let times = entries.chunks_exact(16).map(|e| {
+                let mut t = [0u8; 8];
+                t.copy_from_slice(&e[..8]);
+                u64::from_le_bytes(t)
+            });
+            if let (Some(lo), Some(hi)) = (times.clone().min(), times.max()) {
+                // message indexes are outside the (CRC-checked) summary: a time outside its
+                // chunk's span is damage
+                if lo < ci.message_start_time || hi > ci.message_end_time {
+                    return Err(Fail::Unusable);
+                }
+                let s = span.entry(i).or_insert((lo, hi));
+                s.0 = s.0.min(lo);
+                s.1 = s.1.max(hi);
             }
         }
     }
-    let counts = match &statistics {
-        Some(s) if !s.channel_message_counts.is_empty() => s.channel_message_counts.clone(),
-        _ => counts,
-    };
+    if let Some(s) = &statistics {
+        // the statistics (CRC-checked) must agree with the message indexes
+        let nonzero = |m: &BTreeMap<u16, u64>| -> BTreeMap<u16, u64> {
+            m.iter()
+                .filter(|(_, &n)| n > 0)
+                .map(|(&k, &n)| (k, n))
+                .collect()
+        };
+        if !s.channel_message_counts.is_empty()
+            && nonzero(&s.channel_message_counts) != nonzero(&counts)
+        {
+            return Err(Fail::Unusable);
+        }
+    }
     for (id, n) in &counts {
         if let Some(&i) = topic_of.get(id) {
             out.channels[i].count += n;
