@@ -6,7 +6,8 @@ naming the argument. Sizes are refused before anything is allocated when a table
 (``InvalidParameterError``); a Rust panic is ``lfd.errors.InternalError``.
 """
 
-from typing import Literal, final
+import os
+from typing import Literal, TypedDict, final
 
 import numpy as np
 from numpy.typing import NDArray
@@ -268,3 +269,70 @@ class TemplateSet:
         end: EndState = "final",
         features: list[int] | None = None,
     ) -> NDArray[np.float64]: ...
+
+# --- MCAP recordings (crates/hmmseg-py/src/mcap.rs, crates/lfd-mcap) --------------------------
+class _Channel(TypedDict):
+    topic: str
+    schema: str
+    schema_encoding: str
+    schema_data: bytes
+    encoding: str
+    metadata: dict[str, str]
+    count: int
+    first_ns: int | None
+    last_ns: int | None
+
+class _Hand(TypedDict):
+    t_ns: NDArray[np.int64]  # (n,) file order
+    keypoints: NDArray[np.float64]  # (n, 21, 3); NaN for a message without 21 poses
+    bad: str | None
+
+class _Confidence(TypedDict):
+    t_ns: NDArray[np.int64]  # (m,) file order
+    confidence: NDArray[np.float64]  # (m, 21)
+    visible: NDArray[np.bool_]  # (m, 21)
+    has_visible: NDArray[np.bool_]  # (m,)
+    bad: str | None
+
+class _Poses(TypedDict):
+    t_ns: NDArray[np.int64]  # (n,) file order
+    position: NDArray[np.float64]  # (n, 3)
+    quaternion: NDArray[np.float64]  # (n, 4) x, y, z, w
+    bad: str | None
+
+class _Recording(TypedDict):
+    library: str
+    file_size: int
+    complete: bool
+    error: str | None
+    channels: list[_Channel]
+    metadata: dict[str, dict[str, str]]
+    hands: dict[str, _Hand]
+    confidence: dict[str, _Confidence]
+    poses: dict[str, _Poses]
+    raw: dict[str, list[tuple[int, bytes]]]
+
+class _Attachment(TypedDict):
+    name: str
+    media_type: str
+    log_time: int
+    size: int
+
+class _Summary(TypedDict):
+    library: str
+    file_size: int
+    channels: list[_Channel]
+    metadata: dict[str, dict[str, str]]
+    attachments: list[_Attachment]
+    messages: int
+    raw: dict[str, list[tuple[int, bytes]]]
+
+def read_recording(path: str | os.PathLike[str], images: bool = True) -> _Recording:
+    """Every complete chunk of a (possibly truncated) MCAP recording, one sequential pass; the
+    hand keypoints, confidences and object poses decoded, every other topic raw (the image
+    topics' payloads dropped with ``images=False``). ``RecordingFormatError`` if it cannot be
+    read (as ``lfd.io.mcapfile.scan``)."""
+
+def read_summary(path: str | os.PathLike[str], topics: list[str] = ...) -> _Summary | None:
+    """A finished recording's summary section (channels, metadata, attachments, message count)
+    and the raw messages of ``topics``; None without a usable summary."""

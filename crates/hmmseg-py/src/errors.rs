@@ -26,6 +26,8 @@ struct Classes {
     not_converged: Py<PyType>,
     model_format: Py<PyType>,
     internal: Py<PyType>,
+    /// `RecordingFormatError` (an `LfdError, ValueError`, not an engine error).
+    recording_format: Py<PyType>,
 }
 
 static CLASSES: PyOnceLock<Classes> = PyOnceLock::new();
@@ -65,6 +67,18 @@ fn load(py: Python<'_>) -> PyResult<Classes> {
         not_converged: class("NotConvergedError")?,
         model_format: class("ModelFormatError")?,
         internal: class("InternalError")?,
+        recording_format: {
+            let lfd_error = module.getattr("LfdError")?.cast_into::<PyType>()?;
+            let cls = module
+                .getattr("RecordingFormatError")?
+                .cast_into::<PyType>()?;
+            if !cls.is_subclass(lfd_error.as_any())? {
+                return Err(PyImportError::new_err(
+                    "lfd.errors.RecordingFormatError is not a subclass of lfd.errors.LfdError",
+                ));
+            }
+            cls.unbind()
+        },
     })
 }
 
@@ -112,6 +126,14 @@ pub fn internal(py: Python<'_>, msg: &str) -> PyErr {
             &c.internal,
             format!("internal error in the lfd engine (please report it): {msg}"),
         ),
+        Err(e) => e,
+    }
+}
+
+/// `lfd.errors.RecordingFormatError`: a recording that cannot be read.
+pub fn recording_format(py: Python<'_>, msg: String) -> PyErr {
+    match classes(py) {
+        Ok(c) => raise(py, &c.recording_format, msg),
         Err(e) => e,
     }
 }

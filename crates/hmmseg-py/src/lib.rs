@@ -1,4 +1,5 @@
-//! `lfd._hmmseg`: the thin PyO3 binding of the `hmmseg` engine.
+//! `lfd._hmmseg`: the thin PyO3 binding of the `hmmseg` engine (and of the `lfd-mcap`
+//! recording reader, [`mcap`]).
 //!
 //! Nothing but conversion ([`ndconv`]: numpy <-> nalgebra, Python ints -> sizes), size checks
 //! before allocating ([`limits`]) and error mapping ([`errors`]) lives here; every algorithm
@@ -12,6 +13,7 @@ mod errors;
 mod features;
 mod hmm;
 mod limits;
+mod mcap;
 mod ndconv;
 mod search;
 mod segment;
@@ -49,6 +51,7 @@ fn _hmmseg(m: &Bound<'_, PyModule>) -> PyResult<()> {
     segment::register(m)?;
     band::register(m)?;
     search::register(m)?;
+    mcap::register(m)?;
     m.add_function(wrap_pyfunction!(errors::hooks::raise_engine_error, m)?)?;
     m.add_function(wrap_pyfunction!(errors::hooks::panic, m)?)?;
     Ok(())

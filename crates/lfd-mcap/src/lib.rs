@@ -1,0 +1,317 @@
+//! Fast, damage-tolerant reader of lfd MCAP recordings.
+//!
+//! [`read_recording`] is the Rust twin of `lfd.io.mcapfile.scan` plus the typed decoding of
+//! `lfd.io.reader._Loader`: one sequential pass over a possibly truncated file (the `mcap`
+//! crate's sans-io [`LinearReader`](mcap::sans_io::LinearReader), chunks emitted whole and
+//! inflated here so that every chunk's declared size is checked against the inflation budget
+//! *before* decompressing), CRC-checked, keeping every message of every complete chunk. Hand
+//! keypoints, keypoint confidences and object poses are decoded into flat arrays; every other
+//! topic is returned as raw `(log_time, payload)` pairs, in file order.
+//!
+//! [`read_summary`] reads only the summary section of a finished recording (and the message
+//! indexes and chunks it points to), for a quick look without a full pass.
+
+mod inflate;
+pub mod proto;
+mod scan;
+mod summary;
+
+pub use scan::read_recording;
+pub use summary::read_summary;
+
+use std::fmt::Write as _;
+use std::fs::File;
+use std::io::{Read, Seek, SeekFrom};
+use std::path::Path;
+
+/// The MCAP magic bytes that open (and close) every file.
+pub const MAGIC: &[u8; 8] = b"\x89MCAP0\r\n";
+
+/// How many times its file size a recording may inflate to, all chunks together (as
+/// `lfd.io.mcapfile.MAX_INFLATION`).
+pub const MAX_INFLATION: u64 = 200;
+
+/// A small file may always inflate to this much (8 MiB), whatever its size.
+pub const MIN_INFLATE_BYTES: u64 = 8 * (1 << 20);
+
+/// No single chunk may inflate to more than 1 GiB.
+pub const MAX_CHUNK_BYTES: u64 = 1 << 30;
+
+/// The image topics whose payloads [`Options::images`]` = false` drops.
+pub const IMAGE_TOPICS: [&str; 4] = [
+    "/camera/color/image_raw",
+    "/camera/depth/image_raw",
+    "/camera/color/image_raw/compressed",
+    "/camera/depth/image_raw/compressed",
+];
+
+/// Bytes that all chunks of a file of `file_size` bytes may inflate to, together.
+pub fn inflate_limit(file_size: u64) -> u64 {
+    MIN_INFLATE_BYTES.max(MAX_INFLATION.saturating_mul(file_size))
+}
+
+/// A recording that cannot be read at all (the text is the one `scan()` raises as
+/// `RecordingFormatError`). Damage after the magic is not an error: it ends the pass with
+/// [`Recording::complete`]` = false`.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct ReadError(pub String);
+
+/// What to read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Options {
+    /// Keep the payloads of the image topics ([`IMAGE_TOPICS`]); they are counted either way.
+    pub images: bool,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Self { images: true }
+    }
+}
+
+/// One topic: its first channel's schema and encoding, and its messages' count and time span.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct ChannelSummary {
+    pub topic: String,
+    /// Schema name ("" without a schema).
+    pub schema: String,
+    pub schema_encoding: String,
+    pub schema_data: Vec<u8>,
+    /// Message encoding (`protobuf`, `json`, `cdr`, ...).
+    pub encoding: String,
+    pub metadata: Vec<(String, String)>,
+    pub count: u64,
+    /// Smallest and largest log time (ns), `None` without messages.
+    pub first_ns: Option<i64>,
+    pub last_ns: Option<i64>,
+}
+
+impl ChannelSummary {
+    fn add(&mut self, t: i64) {
+        self.count += 1;
+        self.first_ns = Some(self.first_ns.map_or(t, |f| f.min(t)));
+        self.last_ns = Some(self.last_ns.map_or(t, |l| l.max(t)));
+    }
+}
+
+/// Metadata records merged by name (a later record's keys update an earlier one's), in order
+/// of first appearance.
+pub type MetadataMap = Vec<(String, Vec<(String, String)>)>;
+
+/// Raw messages in file order: message `i` has log time `t_ns[i]` and payload
+/// `data[offsets[i]..offsets[i + 1]]` (one buffer, not one allocation per message).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RawMessages {
+    pub t_ns: Vec<i64>,
+    pub offsets: Vec<usize>,
+    pub data: Vec<u8>,
+}
+
+impl Default for RawMessages {
+    fn default() -> Self {
+        Self {
+            t_ns: Vec::new(),
+            offsets: vec![0],
+            data: Vec::new(),
+        }
+    }
+}
+
+impl RawMessages {
+    /// Append a message.
+    pub fn push(&mut self, t_ns: i64, payload: &[u8]) {
+        self.t_ns.push(t_ns);
+        self.data.extend_from_slice(payload);
+        self.offsets.push(self.data.len());
+    }
+
+    pub fn len(&self) -> usize {
+        self.t_ns.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.t_ns.is_empty()
+    }
+
+    /// Message `i`: `(log time, payload)`.
+    pub fn get(&self, i: usize) -> (i64, &[u8]) {
+        (
+            self.t_ns[i],
+            &self.data[self.offsets[i]..self.offsets[i + 1]],
+        )
+    }
+
+    /// The messages in order.
+    pub fn iter(&self) -> impl Iterator<Item = (i64, &[u8])> + '_ {
+        (0..self.len()).map(|i| self.get(i))
+    }
+}
+
+/// The hand keypoints of one `/hand/<side>/keypoints` topic, in file order.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct HandTrack {
+    pub t_ns: Vec<i64>,
+    /// `n * 21 * 3` positions; a message without 21 poses (or not decodable) leaves NaN.
+    pub keypoints: Vec<f64>,
+    /// The error `lfd.io.reader` raises for this topic (the first, in its sorted and
+    /// de-duplicated order, undecodable message, else the first without 21 poses).
+    pub bad: Option<String>,
+}
+
+/// The per-keypoint confidences of one `/hand/<side>/confidence` topic, in file order.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ConfidenceTrack {
+    pub t_ns: Vec<i64>,
+    /// `m * 21` values in [0, 1] (NaN for an invalid message).
+    pub confidence: Vec<f64>,
+    /// `m * 21` visibilities (false when absent).
+    pub visible: Vec<bool>,
+    /// Whether message `i` had a `visible` list.
+    pub has_visible: Vec<bool>,
+    /// The first (file order) invalid message, as `lfd.io.reader._confidence` words it.
+    pub bad: Option<String>,
+}
+
+/// The poses of one `/objects/<name>/pose` topic, in file order.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct PoseTrack {
+    pub t_ns: Vec<i64>,
+    /// `n * 3` positions.
+    pub position: Vec<f64>,
+    /// `n * 4` quaternions `x, y, z, w`.
+    pub quaternion: Vec<f64>,
+    /// The first (sorted, de-duplicated order) undecodable message.
+    pub bad: Option<String>,
+}
+
+/// Everything [`read_recording`] recovers from a file.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Recording {
+    pub library: String,
+    pub file_size: u64,
+    /// Whether the data section ended with its data-end record.
+    pub complete: bool,
+    /// Why the pass ended early (`None` when complete).
+    pub error: Option<String>,
+    /// By topic, in order of first appearance.
+    pub channels: Vec<ChannelSummary>,
+    pub metadata: MetadataMap,
+    pub hands: Vec<(String, HandTrack)>,
+    pub confidence: Vec<(String, ConfidenceTrack)>,
+    pub poses: Vec<(String, PoseTrack)>,
+    /// Every other topic (the image topics left out with `images = false`).
+    pub raw: Vec<(String, RawMessages)>,
+}
+
+impl Recording {
+    /// Messages recovered, all topics.
+    pub fn message_count(&self) -> u64 {
+        self.channels.iter().map(|c| c.count).sum()
+    }
+}
+
+/// One attachment listed in the summary.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct AttachmentInfo {
+    pub name: String,
+    pub media_type: String,
+    pub log_time: u64,
+    pub size: u64,
+}
+
+/// What [`read_summary`] reads from a finished recording's summary section.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Summary {
+    pub library: String,
+    pub file_size: u64,
+    pub channels: Vec<ChannelSummary>,
+    pub metadata: MetadataMap,
+    pub attachments: Vec<AttachmentInfo>,
+    /// Messages in the file, all channels.
+    pub messages: u64,
+    /// The raw messages of the requested topics, in file order.
+    pub raw: Vec<(String, RawMessages)>,
+}
+
+/// Open `path`, check its magic (errors worded as `scan()`), and return the file (at offset 0)
+/// and its size.
+fn open_checked(path: &Path) -> Result<(File, u64), ReadError> {
+    let p = path.display();
+    let cannot = |err: std::io::Error| ReadError(format!("cannot open recording {p}: {err}"));
+    let size = std::fs::metadata(path).map_err(cannot)?.len();
+    let mut file = File::open(path).map_err(cannot)?;
+    let mut head = Vec::with_capacity(MAGIC.len());
+    (&mut file)
+        .take(MAGIC.len() as u64)
+        .read_to_end(&mut head)
+        .map_err(cannot)?;
+    if head.is_empty() {
+        return Err(ReadError(format!("{p} is empty, not an MCAP recording")));
+    }
+    if head[..] != MAGIC[..head.len()] {
+        return Err(ReadError(format!(
+            "{p} is not an MCAP file (bad magic bytes {})",
+            py_bytes_repr(&head)
+        )));
+    }
+    if head.len() < MAGIC.len() {
+        return Err(ReadError(format!(
+            "{p} is cut inside the MCAP magic ({size} bytes)"
+        )));
+    }
+    file.seek(SeekFrom::Start(0)).map_err(cannot)?;
+    Ok((file, size))
+}
+
+/// `repr(bytes)` as Python writes it (`b'...'`).
+pub(crate) fn py_bytes_repr(bytes: &[u8]) -> String {
+    let quote = if bytes.contains(&b'\'') && !bytes.contains(&b'"') {
+        '"'
+    } else {
+        '\''
+    };
+    let mut s = String::from("b");
+    s.push(quote);
+    for &b in bytes {
+        match b {
+            b'\\' => s.push_str("\\\\"),
+            b'\t' => s.push_str("\\t"),
+            b'\n' => s.push_str("\\n"),
+            b'\r' => s.push_str("\\r"),
+            b'\'' if quote == '\'' => s.push_str("\\'"),
+            0x20..=0x7e => s.push(b as char),
+            _ => {
+                let _ = write!(s, "\\x{b:02x}");
+            }
+        }
+    }
+    s.push(quote);
+    s
+}
+
+/// `repr(str)` as Python writes it, for the usual (printable) strings.
+pub(crate) fn py_str_repr(text: &str) -> String {
+    let quote = if text.contains('\'') && !text.contains('"') {
+        '"'
+    } else {
+        '\''
+    };
+    let mut s = String::new();
+    s.push(quote);
+    for c in text.chars() {
+        match c {
+            '\\' => s.push_str("\\\\"),
+            '\t' => s.push_str("\\t"),
+            '\n' => s.push_str("\\n"),
+            '\r' => s.push_str("\\r"),
+            '\'' if quote == '\'' => s.push_str("\\'"),
+            c if (c as u32) < 0x20 || c as u32 == 0x7f => {
+                let _ = write!(s, "\\x{:02x}", c as u32);
+            }
+            c => s.push(c),
+        }
+    }
+    s.push(quote);
+    s
+}

@@ -1,0 +1,678 @@
+//! [`read_recording`]: one sequential, damage-tolerant pass with typed decoding.
+
+use std::collections::HashMap;
+use std::fs::File;
+use std::io::Read;
+use std::path::Path;
+
+use mcap::records::{op, Record};
+use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
+use mcap::McapError;
+use prost::Message as _;
+use serde_json::Value;
+
+use crate::inflate::{Budget, InflateError};
+use crate::proto::{PoseInFrame, PosesInFrame};
+use crate::{
+    open_checked, ChannelSummary, ConfidenceTrack, HandTrack, MetadataMap, Options, PoseTrack,
+    RawMessages, ReadError, Recording, IMAGE_TOPICS,
+};
+
+/// Bytes read from the file per read request (at least).
+const READ_BLOCK: usize = 1 << 20;
+
+/// Keypoints per hand.
+const KP: usize = 21;
+
+/// Why the pass stopped early.
+pub(crate) enum Stop {
+    Fatal(ReadError),
+    Damaged(String),
+}
+
+impl From<InflateError> for Stop {
+    fn from(e: InflateError) -> Self {
+        match e {
+            InflateError::Fatal(e) => Stop::Fatal(e),
+            InflateError::Damaged(s) => Stop::Damaged(s),
+        }
+    }
+}
+
+/// An mcap crate error worded like the Python `mcap` reader's, where it has a twin.
+pub(crate) fn describe(err: &McapError, limit: u64) -> String {
+    match err {
+        McapError::UnexpectedEof => "EndOfFile: end of file".to_string(),
+        McapError::RecordTooLarge { opcode, len } => format!(
+            "RecordLengthLimitExceeded: {} record has length {len} that exceeds limit {limit}",
+            opcode_name(*opcode)
+        ),
+        McapError::BadDataCrc { saved, calculated } => format!(
+            "CRCValidationError: crc validation failed in DataEnd, expected: {saved}, \
+             calculated: {calculated}"
+        ),
+        McapError::Parse(e) => format!("{err}: {e}"),
+        McapError::Io(e) => format!("{err}: {e}"),
+        other => other.to_string(),
+    }
+}
+
+fn opcode_name(opcode: u8) -> String {
+    match opcode {
+        op::HEADER => "HEADER".into(),
+        op::FOOTER => "FOOTER".into(),
+        op::SCHEMA => "SCHEMA".into(),
+        op::CHANNEL => "CHANNEL".into(),
+        op::MESSAGE => "MESSAGE".into(),
+        op::CHUNK => "CHUNK".into(),
+        op::MESSAGE_INDEX => "MESSAGE_INDEX".into(),
+        op::CHUNK_INDEX => "CHUNK_INDEX".into(),
+        op::ATTACHMENT => "ATTACHMENT".into(),
+        op::ATTACHMENT_INDEX => "ATTACHMENT_INDEX".into(),
+        op::STATISTICS => "STATISTICS".into(),
+        op::METADATA => "METADATA".into(),
+        op::METADATA_INDEX => "METADATA_INDEX".into(),
+        op::SUMMARY_OFFSET => "SUMMARY_OFFSET".into(),
+        op::DATA_END => "DATA_END".into(),
+        other => format!("opcode {other:#04x}"),
+    }
+}
+
+/// A message record's channel id, log time and payload (the record is parsed by hand: it is
+/// the hot path).
+pub(crate) fn parse_message(body: &[u8]) -> Result<(u16, u64, &[u8]), String> {
+    if body.len() < 22 {
+        return Err(format!(
+            "error: a message record of {} bytes is shorter than its 22-byte header",
+            body.len()
+        ));
+    }
+    let channel = u16::from_le_bytes([body[0], body[1]]);
+    let mut t = [0u8; 8];
+    t.copy_from_slice(&body[6..14]);
+    Ok((channel, u64::from_le_bytes(t), &body[22..]))
+}
+
+/// The records of an inflated chunk: `(opcode, body)`, all of them or an error.
+pub(crate) fn split_records(mut data: &[u8]) -> Result<Vec<(u8, &[u8])>, String> {
+    let mut out = Vec::new();
+    while !data.is_empty() {
+        if data.len() < 9 {
+            return Err("EndOfFile: a chunk ends inside a record header".into());
+        }
+        let opcode = data[0];
+        let mut l = [0u8; 8];
+        l.copy_from_slice(&data[1..9]);
+        let len = u64::from_le_bytes(l);
+        let rest = &data[9..];
+        if len > rest.len() as u64 {
+            return Err(format!(
+                "EndOfFile: a chunk record of {len} bytes runs past its chunk ({} bytes left)",
+                rest.len()
+            ));
+        }
+        let (body, tail) = rest.split_at(len as usize);
+        out.push((opcode, body));
+        data = tail;
+    }
+    Ok(out)
+}
+
+/// A log time as lfd reads it (an error beyond `i64::MAX`, the text of `scan()`).
+pub(crate) fn log_time(path: &str, topic: &str, t: u64) -> Result<i64, ReadError> {
+    i64::try_from(t).map_err(|_| {
+        ReadError(format!(
+            "{path}: a message on {topic} has log_time {t} ns, beyond the largest time lfd \
+             reads (2**63 - 1 ns)"
+        ))
+    })
+}
+
+/// Merge a metadata record into `map` (by name; later keys update).
+pub(crate) fn merge_metadata(
+    map: &mut MetadataMap,
+    name: String,
+    values: impl IntoIterator<Item = (String, String)>,
+) {
+    let at = if let Some(i) = map.iter().position(|(n, _)| *n == name) {
+        i
+    } else {
+        map.push((name, Vec::new()));
+        map.len() - 1
+    };
+    let entry = &mut map[at].1;
+    for (k, v) in values {
+        if let Some(slot) = entry.iter_mut().find(|(ek, _)| *ek == k) {
+            slot.1 = v;
+        } else {
+            entry.push((k, v));
+        }
+    }
+}
+
+/// A message held back because it is undecodable (`decode`) or has not 21 poses.
+struct Bad {
+    index: usize,
+    t: i64,
+    decode: bool,
+    text: String,
+}
+
+/// The `bad` text `lfd.io.reader` raises: it walks the messages sorted by time, the first of
+/// equal times kept, raising at the first undecodable one, else (once all are decoded) at
+/// the first without 21 poses.
+fn pick_bad(times: &[i64], bad: Vec<Bad>) -> Option<String> {
+    if bad.is_empty() {
+        return None;
+    }
+    let mut first: HashMap<i64, usize> = HashMap::with_capacity(times.len());
+    for (i, &t) in times.iter().enumerate() {
+        first.entry(t).or_insert(i);
+    }
+    let kept = bad
+        .into_iter()
+        .filter(|b| first.get(&b.t) == Some(&b.index));
+    let (decode, count): (Vec<Bad>, Vec<Bad>) = kept.partition(|b| b.decode);
+    let earliest = |v: Vec<Bad>| v.into_iter().min_by_key(|b| b.t).map(|b| b.text);
+    earliest(decode).or_else(|| earliest(count))
+}
+
+enum Kind {
+    Hand(HandTrack, Vec<Bad>),
+    Confidence(ConfidenceTrack),
+    Pose(PoseTrack, Vec<Bad>),
+    Raw(RawMessages),
+    /// An image topic with `images = false`: counted, payloads dropped.
+    Dropped,
+}
+
+struct Topic {
+    summary: ChannelSummary,
+    kind: Kind,
+}
+
+fn is_object_topic(topic: &str) -> bool {
+    let (prefix, suffix) = ("/objects/", "/pose");
+    topic.len() > prefix.len() + suffix.len()
+        && topic.starts_with(prefix)
+        && topic.ends_with(suffix)
+}
+
+struct Schema {
+    name: String,
+    encoding: String,
+    data: Vec<u8>,
+}
+
+struct State {
+    path: String,
+    options: Options,
+    budget: Budget,
+    library: String,
+    schemas: HashMap<u16, Schema>,
+    /// Channel id -> index into `topics` (`usize::MAX`: unknown).
+    channels: Vec<usize>,
+    /// Decoding scratch (its vectors keep their capacity from message to message).
+    hand_scratch: PosesInFrame,
+    pose_scratch: PoseInFrame,
+    topics: Vec<Topic>,
+    by_topic: HashMap<String, usize>,
+    metadata: MetadataMap,
+    data_done: bool,
+    /// Reused chunk inflation buffer.
+    inflated: Vec<u8>,
+}
+
+/// A parsed record of a chunk.
+enum Item<'a> {
+    Message(u16, u64, &'a [u8]),
+    Other(Record<'a>),
+}
+
+#[derive(PartialEq, Eq)]
+enum Flow {
+    Continue,
+    Footer,
+}
+
+impl State {
+    fn kind_for(&self, topic: &str, encoding: &str) -> Kind {
+        let hand = topic == "/hand/right/keypoints" || topic == "/hand/left/keypoints";
+        let conf = topic == "/hand/right/confidence" || topic == "/hand/left/confidence";
+        if hand && encoding == "protobuf" {
+            Kind::Hand(HandTrack::default(), Vec::new())
+        } else if conf && encoding == "json" {
+            Kind::Confidence(ConfidenceTrack::default())
+        } else if is_object_topic(topic) && encoding == "protobuf" {
+            Kind::Pose(PoseTrack::default(), Vec::new())
+        } else if !self.options.images && IMAGE_TOPICS.contains(&topic) {
+            Kind::Dropped
+        } else {
+            Kind::Raw(RawMessages::default())
+        }
+    }
+
+    fn channel(&mut self, ch: mcap::records::Channel) {
+        if self.channels[usize::from(ch.id)] != usize::MAX {
+            return;
+        }
+        if let Some(&i) = self.by_topic.get(&ch.topic) {
+            self.channels[usize::from(ch.id)] = i;
+            return;
+        }
+        let schema = self.schemas.get(&ch.schema_id);
+        let summary = ChannelSummary {
+            topic: ch.topic.clone(),
+            schema: schema.map(|s| s.name.clone()).unwrap_or_default(),
+            schema_encoding: schema.map(|s| s.encoding.clone()).unwrap_or_default(),
+            schema_data: schema.map(|s| s.data.clone()).unwrap_or_default(),
+            encoding: ch.message_encoding.clone(),
+            metadata: ch.metadata.into_iter().collect(),
+            count: 0,
+            first_ns: None,
+            last_ns: None,
+        };
+        let kind = self.kind_for(&ch.topic, &ch.message_encoding);
+        self.topics.push(Topic { summary, kind });
+        self.by_topic.insert(ch.topic, self.topics.len() - 1);
+        self.channels[usize::from(ch.id)] = self.topics.len() - 1;
+    }
+
+    fn message(&mut self, channel: u16, t: u64, data: &[u8]) -> Result<(), ReadError> {
+        let i = self.channels[usize::from(channel)];
+        if i == usize::MAX {
+            return Ok(()); // a message before its channel: not something lfd wrote
+        }
+        let topic = &mut self.topics[i];
+        let t = crate::scan::log_time(&self.path, &topic.summary.topic, t)?;
+        topic.summary.add(t);
+        let name = &topic.summary.topic;
+        match &mut topic.kind {
+            Kind::Hand(track, bad) => {
+                let index = track.t_ns.len();
+                track.t_ns.push(t);
+                let m = &mut self.hand_scratch;
+                m.clear();
+                match m.merge(data) {
+                    Ok(()) if m.poses.len() == KP => {
+                        for p in &m.poses {
+                            let v = p.position.unwrap_or_default();
+                            track.keypoints.extend_from_slice(&[v.x, v.y, v.z]);
+                        }
+                    }
+                    Ok(()) => {
+                        track.keypoints.extend_from_slice(&[f64::NAN; KP * 3]);
+                        bad.push(Bad {
+                            index,
+                            t,
+                            decode: false,
+                            text: format!(
+                                "{}: hand message at {t} ns has {} poses, not 21",
+                                self.path,
+                                m.poses.len()
+                            ),
+                        });
+                    }
+                    Err(err) => {
+                        track.keypoints.extend_from_slice(&[f64::NAN; KP * 3]);
+                        bad.push(Bad {
+                            index,
+                            t,
+                            decode: true,
+                            text: format!(
+                                "{}: cannot decode a foxglove.PosesInFrame on {name} at {t} ns: \
+                                 {err}",
+                                self.path
+                            ),
+                        });
+                    }
+                }
+            }
+            Kind::Pose(track, bad) => {
+                let index = track.t_ns.len();
+                track.t_ns.push(t);
+                let m = &mut self.pose_scratch;
+                m.clear();
+                match m.merge(data) {
+                    Ok(()) => {
+                        let pose = m.pose.unwrap_or_default();
+                        let p = pose.position.unwrap_or_default();
+                        let q = pose.orientation.unwrap_or_default();
+                        track.position.extend_from_slice(&[p.x, p.y, p.z]);
+                        track.quaternion.extend_from_slice(&[q.x, q.y, q.z, q.w]);
+                    }
+                    Err(err) => {
+                        track.position.extend_from_slice(&[f64::NAN; 3]);
+                        track.quaternion.extend_from_slice(&[f64::NAN; 4]);
+                        bad.push(Bad {
+                            index,
+                            t,
+                            decode: true,
+                            text: format!(
+                                "{}: cannot decode a foxglove.PoseInFrame on {name} at {t} ns: \
+                                 {err}",
+                                self.path
+                            ),
+                        });
+                    }
+                }
+            }
+            Kind::Confidence(track) => {
+                track.t_ns.push(t);
+                match confidence(data) {
+                    Ok((values, visible)) => {
+                        track.confidence.extend_from_slice(&values);
+                        if let Some(v) = visible {
+                            track.visible.extend_from_slice(&v);
+                            track.has_visible.push(true);
+                        } else {
+                            track.visible.extend_from_slice(&[false; KP]);
+                            track.has_visible.push(false);
+                        }
+                    }
+                    Err(why) => {
+                        track.confidence.extend_from_slice(&[f64::NAN; KP]);
+                        track.visible.extend_from_slice(&[false; KP]);
+                        track.has_visible.push(false);
+                        if track.bad.is_none() {
+                            track.bad = Some(format!("{}: {name} at {t} ns: {why}", self.path));
+                        }
+                    }
+                }
+            }
+            Kind::Raw(raw) => raw.push(t, data),
+            Kind::Dropped => {}
+        }
+        Ok(())
+    }
+
+    /// Handle a (non-message, non-chunk) record.
+    fn record(&mut self, rec: Record<'_>) -> Flow {
+        match rec {
+            Record::Header(h) => self.library = h.library,
+            Record::Schema { header, data } => {
+                self.schemas.insert(
+                    header.id,
+                    Schema {
+                        name: header.name,
+                        encoding: header.encoding,
+                        data: data.into_owned(),
+                    },
+                );
+            }
+            Record::Channel(ch) => self.channel(ch),
+            Record::Metadata(m) => merge_metadata(&mut self.metadata, m.name, m.metadata),
+            Record::DataEnd(_) => self.data_done = true,
+            Record::Footer(_) => return Flow::Footer,
+            _ => {}
+        }
+        Flow::Continue
+    }
+
+    /// Handle any record of the file (`opcode`, `body`).
+    fn top(&mut self, opcode: u8, body: &[u8]) -> Result<Flow, Stop> {
+        match opcode {
+            op::MESSAGE => {
+                let (ch, t, data) = parse_message(body).map_err(Stop::Damaged)?;
+                self.message(ch, t, data).map_err(Stop::Fatal)?;
+                Ok(Flow::Continue)
+            }
+            op::CHUNK => {
+                self.chunk(body)?;
+                Ok(Flow::Continue)
+            }
+            _ => {
+                let rec = mcap::parse_record(opcode, body)
+                    .map_err(|e| Stop::Damaged(describe(&e, self.budget.file_size)))?;
+                Ok(self.record(rec))
+            }
+        }
+    }
+
+    fn chunk(&mut self, body: &[u8]) -> Result<(), Stop> {
+        let rec = mcap::parse_record(op::CHUNK, body)
+            .map_err(|e| Stop::Damaged(describe(&e, self.budget.file_size)))?;
+        let Record::Chunk { header, data } = rec else {
+            return Err(Stop::Damaged("a chunk record that is no chunk".into()));
+        };
+        let mut out = std::mem::take(&mut self.inflated);
+        let result = self.chunk_records(&header, &data, &mut out);
+        self.inflated = out;
+        result
+    }
+
+    fn chunk_records(
+        &mut self,
+        header: &mcap::records::ChunkHeader,
+        data: &[u8],
+        out: &mut Vec<u8>,
+    ) -> Result<(), Stop> {
+        let records = self.budget.inflate(&self.path, header, data, out)?;
+        // A chunk is all or nothing: every record is split and parsed before any is used.
+        let split = split_records(records).map_err(Stop::Damaged)?;
+        let mut items = Vec::with_capacity(split.len());
+        for (opcode, body) in split {
+            if opcode == op::MESSAGE {
+                let (ch, t, d) = parse_message(body).map_err(Stop::Damaged)?;
+                items.push(Item::Message(ch, t, d));
+            } else {
+                let rec = mcap::parse_record(opcode, body)
+                    .map_err(|e| Stop::Damaged(describe(&e, self.budget.file_size)))?;
+                items.push(Item::Other(rec));
+            }
+        }
+        for item in items {
+            match item {
+                Item::Message(ch, t, d) => self.message(ch, t, d).map_err(Stop::Fatal)?,
+                Item::Other(rec) => {
+                    // a data-end or footer inside a chunk is not one; ignore it
+                    if !matches!(rec, Record::DataEnd(_) | Record::Footer(_)) {
+                        self.record(rec);
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn finish(self, stop: Option<Stop>, file_size: u64) -> Result<Recording, ReadError> {
+        let mut rec = Recording {
+            library: self.library,
+            file_size,
+            complete: self.data_done,
+            metadata: self.metadata,
+            ..Recording::default()
+        };
+        match stop {
+            Some(Stop::Fatal(e)) => return Err(e),
+            Some(Stop::Damaged(why)) if !self.data_done => {
+                rec.error = Some(format!("incomplete or damaged record: {why}"));
+            }
+            _ if !self.data_done => {
+                rec.error = Some("file ends without a data-end record (writer not closed)".into());
+            }
+            _ => {}
+        }
+        for t in self.topics {
+            let name = t.summary.topic.clone();
+            rec.channels.push(t.summary);
+            match t.kind {
+                Kind::Hand(mut track, bad) => {
+                    track.bad = pick_bad(&track.t_ns, bad);
+                    rec.hands.push((name, track));
+                }
+                Kind::Pose(mut track, bad) => {
+                    track.bad = pick_bad(&track.t_ns, bad);
+                    rec.poses.push((name, track));
+                }
+                Kind::Confidence(track) => rec.confidence.push((name, track)),
+                Kind::Raw(items) => rec.raw.push((name, items)),
+                Kind::Dropped => {}
+            }
+        }
+        Ok(rec)
+    }
+}
+
+/// Text of a JSON value for an error message (at most 80 characters, as Python's
+/// `str(values)[:80]`).
+fn short(v: &Value) -> String {
+    let s = match v {
+        Value::Null => "None".to_string(),
+        other => other.to_string(),
+    };
+    s.chars().take(80).collect()
+}
+
+fn is_unit_number(v: &Value) -> Option<f64> {
+    let x = v.as_f64()?;
+    (x.is_finite() && (0.0..=1.0).contains(&x)).then_some(x)
+}
+
+type ConfidenceRow = ([f64; KP], Option<[bool; KP]>);
+
+/// The shape of a valid confidence message, parsed without building a JSON tree.
+#[derive(serde::Deserialize)]
+struct FastConfidence {
+    confidence: Vec<f64>,
+    #[serde(default)]
+    visible: Option<Vec<bool>>,
+}
+
+/// The 21 confidences and, if given, visibilities of one `{"confidence": [...], "visible":
+/// [...]}` message, validated as `lfd.io.reader._confidence`.
+fn confidence(data: &[u8]) -> Result<ConfidenceRow, String> {
+    // The fast path accepts only valid messages; anything else is looked at again as a JSON
+    // tree, for the exact verdict and its words.
+    if let Ok(fast) = serde_json::from_slice::<FastConfidence>(data) {
+        if let (Ok(values), Ok(visible)) = (
+            <[f64; KP]>::try_from(fast.confidence),
+            fast.visible.map(<[bool; KP]>::try_from).transpose(),
+        ) {
+            if values
+                .iter()
+                .all(|x| x.is_finite() && (0.0..=1.0).contains(x))
+            {
+                return Ok((values, visible));
+            }
+        }
+    }
+    confidence_slow(data)
+}
+
+fn confidence_slow(data: &[u8]) -> Result<ConfidenceRow, String> {
+    let not_object =
+        |why: String| format!("not a JSON object {{\"confidence\": [21 numbers]}} ({why})");
+    let record: Value = serde_json::from_slice(data).map_err(|e| not_object(e.to_string()))?;
+    let values = match &record {
+        Value::Object(map) => match map.get("confidence") {
+            Some(v) => v,
+            None => return Err(not_object("KeyError('confidence')".into())),
+        },
+        Value::Array(_) | Value::String(_) => {
+            return Err(not_object(
+                "TypeError('indices must be integers or slices, not str')".into(),
+            ))
+        }
+        _ => {
+            return Err(not_object(
+                "TypeError('object is not subscriptable')".into(),
+            ))
+        }
+    };
+    let mut out = [0.0; KP];
+    let ok = match values {
+        Value::Array(items) if items.len() == KP => items
+            .iter()
+            .zip(out.iter_mut())
+            .all(|(v, slot)| is_unit_number(v).map(|x| *slot = x).is_some()),
+        _ => false,
+    };
+    if !ok {
+        return Err(format!(
+            "confidence must be 21 numbers in [0, 1], got {}",
+            short(values)
+        ));
+    }
+    let visible = match record.get("visible") {
+        None | Some(Value::Null) => None,
+        Some(v) => {
+            let mut vis = [false; KP];
+            let ok = match v {
+                Value::Array(items) if items.len() == KP => items
+                    .iter()
+                    .zip(vis.iter_mut())
+                    .all(|(v, slot)| v.as_bool().map(|b| *slot = b).is_some()),
+                _ => false,
+            };
+            if !ok {
+                return Err(format!("visible must be 21 booleans, got {}", short(v)));
+            }
+            Some(vis)
+        }
+    };
+    Ok((out, visible))
+}
+
+/// Read every complete chunk of the MCAP file at `path` (see the crate documentation).
+///
+/// # Errors
+/// A [`ReadError`] worded as `lfd.io.mcapfile.scan` when the file cannot be opened, is empty,
+/// does not start with the MCAP magic, would inflate beyond [`crate::inflate_limit`], uses an
+/// unknown chunk compression, or has a message with a log time beyond `i64::MAX`. Damage
+/// after the magic is not an error ([`Recording::complete`], [`Recording::error`]).
+pub fn read_recording(path: &Path, options: &Options) -> Result<Recording, ReadError> {
+    let (mut file, size) = open_checked(path)?;
+    let mut state = State {
+        path: path.display().to_string(),
+        options: *options,
+        budget: Budget::new(size),
+        library: String::new(),
+        schemas: HashMap::new(),
+        channels: vec![usize::MAX; 1 << 16],
+        hand_scratch: PosesInFrame::default(),
+        pose_scratch: PoseInFrame::default(),
+        topics: Vec::new(),
+        by_topic: HashMap::new(),
+        metadata: Vec::new(),
+        data_done: false,
+        inflated: Vec::new(),
+    };
+    let limit = size.min(4 << 30);
+    let mut reader = LinearReader::new_with_options(
+        LinearReaderOptions::default()
+            .with_emit_chunks(true)
+            .with_validate_data_section_crc(true)
+            .with_record_length_limit(usize::try_from(limit).unwrap_or(usize::MAX)),
+    );
+    let stop = run(&mut state, &mut reader, &mut file, limit);
+    state.finish(stop, size)
+}
+
+fn run(state: &mut State, reader: &mut LinearReader, file: &mut File, limit: u64) -> Option<Stop> {
+    loop {
+        let event = match reader.next_event() {
+            None => return None,
+            Some(Err(e)) => return Some(Stop::Damaged(describe(&e, limit))),
+            Some(Ok(event)) => event,
+        };
+        match event {
+            LinearReadEvent::ReadRequest(n) => {
+                let buf = reader.insert(n.max(READ_BLOCK));
+                let got = loop {
+                    match file.read(buf) {
+                        Ok(got) => break got,
+                        Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                        Err(e) => return Some(Stop::Damaged(format!("OSError: {e}"))),
+                    }
+                };
+                reader.notify_read(got);
+            }
+            LinearReadEvent::Record { data, opcode } => match state.top(opcode, data) {
+                Ok(Flow::Continue) => {}
+                Ok(Flow::Footer) => return None,
+                Err(stop) => return Some(stop),
+            },
+        }
+    }
+}
