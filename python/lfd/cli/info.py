@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections import Counter
 
 from ._options import (
     add_json_argument,
@@ -18,6 +19,8 @@ from ._options import (
 )
 
 NAME = "info"
+MAX_ROWS = 40
+"""Skill labels listed in the terminal (``--json`` has every one)."""
 HELP = (
     "Summarise a recording (channels, duration, objects, skill labels, metadata, damage) or a "
     "segmentation method (default, paper or a template file)."
@@ -86,10 +89,11 @@ def run(args: argparse.Namespace) -> int:
     for key, title in (("labels", "ground-truth skills"), ("live_segments", "live segments")):
         if not s.get(key):
             continue
+        labels = s[key]
         lt = Table(title=title)
         for col in ("#", "skill", "object", "start s", "end s"):
             lt.add_column(col)
-        for i, lab in enumerate(s[key]):
+        for i, lab in enumerate(labels[:MAX_ROWS]):
             lt.add_row(
                 str(i + 1),
                 lab["skill"],
@@ -98,9 +102,17 @@ def run(args: argparse.Namespace) -> int:
                 f"{lab['end_s']:.2f}",
             )
         con.print(lt)
-        con.print("sequence: " + " -> ".join(lab["skill"] for lab in s[key]))
+        if len(labels) > MAX_ROWS:
+            counts = Counter(lab["skill"] for lab in labels)
+            con.print(
+                f"... and {len(labels) - MAX_ROWS} more ({len(labels)} in all: "
+                + ", ".join(f"{n} {skill}" for skill, n in counts.most_common())
+                + "; --json lists every one)"
+            )
+        else:
+            con.print("sequence: " + " -> ".join(lab["skill"] for lab in labels))
     if s.get("metadata"):
-        con.print("metadata: " + json.dumps(s["metadata"], default=str))
+        con.print("metadata: " + ", ".join(_short(k, v) for k, v in s["metadata"].items()))
     if s.get("camera"):
         con.print(f"camera: {s['camera']['width']} x {s['camera']['height']}")
     if args.json and not json_to_stdout(args):
@@ -111,6 +123,16 @@ def run(args: argparse.Namespace) -> int:
         print(f"lfd info: error: {' '.join(str(s['error']).split())}", file=sys.stderr)
         return 2
     return 0
+
+
+def _short(key: str, value: object) -> str:
+    """``key=value`` in JSON, or the size of a long value (``--json`` has it whole)."""
+    text = json.dumps(value, default=str)
+    if len(text) <= 80:
+        return f"{key}={text}"
+    n = len(value) if isinstance(value, (list, dict)) else len(text)
+    what = {list: "items", dict: "keys"}.get(type(value), "characters")
+    return f"{key}=({n} {what})"
 
 
 def _method(args: argparse.Namespace) -> int:
