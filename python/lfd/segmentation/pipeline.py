@@ -8,9 +8,11 @@ table from the templates, TCP rise decision, greedy loop or segmental DP under t
 from __future__ import annotations
 
 import dataclasses
+from bisect import bisect_left, bisect_right
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from itertools import pairwise
 from typing import TYPE_CHECKING, Any, Literal, get_args
 
 import numpy as np
@@ -27,7 +29,7 @@ if TYPE_CHECKING:
 from .band import Band, StageTwoScores
 from .gaps import fill_gaps
 from .grammar import compiled_grammar, needs_move_between
-from .params import skill_params
+from .params import skill_params_batch
 from .result import Run, Segment, Segmentation
 from .stage1 import OBJECT_COLUMNS, Stage1Params, section_boundaries
 from .templates import Templates
@@ -200,19 +202,13 @@ def segment_trajectory(
         cuts, warn = _hmmseg.segment_dp(
             st.scores, bounds, rules, rising, grammar, p.penalty, max_len
         )
-    segments = [
-        _make_segment(
-            filled,
-            skills[c.skill],
-            c.start,
-            c.end,
-            _target(st, c),
-            score=c.score,
-            confidence=c.confidence,
-            margin=c.margin,
-        )
-        for c in cuts
-    ]
+    segments = _make_segments(
+        filled,
+        [
+            _Draft(skills[c.skill], c.start, c.end, _target(st, c), c.score, c.confidence, c.margin)
+            for c in cuts
+        ],
+    )
     if p.implicit_moves:
         segments = insert_implicit_moves(
             filled, segments, max(1, round(p.implicit_move_s / traj.dt))
@@ -310,23 +306,26 @@ def insert_implicit_moves(traj: Trajectory, segments: list[Segment], length: int
     ``length`` samples centred on the TCP's highest point in the last ``length`` samples of the
     first skill and the first ``length`` of the next, taken from both (each keeps at least one
     sample)."""
-    out: list[Segment] = []
+    names = list(traj.object_names)
+    out: list[_Draft] = []
     z = traj.tcp[:, 2]
     for seg in segments:
         prev = out[-1] if out else None
-        if prev is None or not needs_move_between(prev.skill, prev.object, seg.skill, seg.object):
-            out.append(seg)
+        if prev is None or not needs_move_between(
+            prev.skill, prev.object_name(names), seg.skill, seg.object
+        ):
+            out.append(_Draft.of(seg, names))
             continue
         lo, hi = max(prev.start + 1, seg.start - length), min(seg.end - 1, seg.start + length)
         peak = lo + int(np.argmax(z[lo:hi])) if hi > lo else seg.start
         a = min(max(lo, peak - length // 2), seg.start)
         b = max(min(hi, a + length), seg.start)
         a = min(a, b - 1)
-        obj = traj.object_names.index(seg.object) if seg.object in traj.object_names else None
-        out[-1] = _resized(traj, prev, prev.start, a)
-        out.append(_make_segment(traj, "move", a, b, obj))
-        out.append(_resized(traj, seg, b, seg.end))
-    return [s for s in out if s.end > s.start]
+        nxt = _Draft.of(seg, names)
+        out[-1] = prev.resized(prev.start, a)
+        out.append(_Draft("move", a, b, nxt.obj))
+        out.append(nxt.resized(b, seg.end))
+    return _make_segments(traj, [d for d in out if d.end > d.start])
 
 
 def refine_contacts(
@@ -353,18 +352,37 @@ def refine_contacts(
     )
     if refined == spans:
         return segments
-    out: list[Segment] = []
+    source = _overlapping(segments)
+    out: list[_Draft] = []
     for skill, a, b, o in refined:
         # the segment of the search it came from: the same skill, overlapping it most (its
         # score, confidence and margin are the search's; an inserted Move has none)
-        overlap = [(min(b, s.end) - max(a, s.start), s) for s in segments if s.skill == skill]
-        best = max(overlap, key=lambda x: x[0], default=(0, None))
-        src = best[1]
-        if best[0] > 0 and src is not None:
-            out.append(src if (src.start, src.end) == (a, b) else _resized(traj, src, a, b))
+        best, src = 0, None
+        for s in source(a, b):
+            if s.skill == skill and (ov := min(b, s.end) - max(a, s.start)) > best:
+                best, src = ov, s
+        if src is not None:
+            d = _Draft.of(src, names)
+            out.append(d if (src.start, src.end) == (a, b) else d.resized(a, b))
         else:
-            out.append(_make_segment(traj, skill, a, b, o))
-    return out
+            out.append(_Draft(skill, a, b, o))
+    return _make_segments(traj, out)
+
+
+def _overlapping(segments: list[Segment]) -> Callable[[int, int], list[Segment]]:
+    """``of(a, b)``: the ``segments`` that share a sample with ``a..b``, in their order (a
+    bisection when they are in time order without overlaps, as the search gives them; else
+    all of them)."""
+    starts = [s.start for s in segments]
+    ends = [s.end for s in segments]
+    ordered = all(s.start <= s.end <= nxt.start for s, nxt in pairwise(segments))
+    if not ordered:
+        return lambda a, b: segments
+
+    def of(a: int, b: int) -> list[Segment]:
+        return segments[bisect_right(ends, a) : bisect_left(starts, b)]
+
+    return of
 
 
 MOVE_OBJECT_S = 1.0
@@ -409,11 +427,6 @@ def label_moves(
         if name != seg.object:
             out[i] = dataclasses.replace(seg, object=name)
     return out
-
-
-def _resized(traj: Trajectory, seg: Segment, start: int, end: int) -> Segment:
-    obj = traj.object_names.index(seg.object) if seg.object in traj.object_names else None
-    return _make_segment(traj, seg.skill, start, end, obj, seg.score, seg.confidence, seg.margin)
 
 
 def moving_objects(traj: Trajectory, window_s: float, displacement: float) -> np.ndarray:
@@ -659,6 +672,80 @@ def max_over_objects(
     return best, target
 
 
+@dataclass
+class _Draft:
+    """A segment being built: ``skill`` on ``start..end`` with target object index ``obj``
+    (its parameters are computed once, for all drafts together, by :func:`_make_segments`);
+    ``source``: the finished segment it is, unchanged."""
+
+    skill: str
+    start: int
+    end: int
+    obj: int | None
+    score: float = float("nan")
+    confidence: float = float("nan")
+    margin: float = float("nan")
+    source: Segment | None = None
+
+    @classmethod
+    def of(cls, seg: Segment, names: list[str]) -> _Draft:
+        """``seg`` as it is (its target object looked up by name in ``names``)."""
+        obj = names.index(seg.object) if seg.object in names else None
+        return cls(seg.skill, seg.start, seg.end, obj, seg.score, seg.confidence, seg.margin, seg)
+
+    def resized(self, start: int, end: int) -> _Draft:
+        """The same skill, target and scores on ``start..end`` (a new segment)."""
+        return dataclasses.replace(self, start=start, end=end, source=None)
+
+    def object_name(self, names: list[str]) -> str | None:
+        """The target object's name."""
+        if self.source is not None:
+            return self.source.object
+        return names[self.obj] if self.obj is not None else None
+
+
+def _make_segments(traj: Trajectory, drafts: list[_Draft]) -> list[Segment]:
+    """The segments of ``drafts`` (a draft of a finished segment is that segment), their times
+    and skill parameters computed in one vectorised pass."""
+    new = [d for d in drafts if d.source is None]
+    made: list[Segment] = []
+    if new:
+        n = len(traj)
+        t_ns = np.asarray(traj.t_ns)
+        start = np.array([d.start for d in new], dtype=np.intp)
+        end = np.minimum(np.array([d.end for d in new], dtype=np.intp), n - 1)
+        # as Trajectory.t_s at these samples (an end past the last sample: the last sample)
+        start_s = ((t_ns[start] - t_ns[0]).astype(np.float64) * 1e-9).tolist()
+        end_s = ((t_ns[end] - t_ns[0]).astype(np.float64) * 1e-9).tolist()
+        start_ns, end_ns = t_ns[start].tolist(), t_ns[end].tolist()
+        params = skill_params_batch(
+            traj,
+            [d.skill for d in new],
+            [d.start for d in new],
+            [d.end for d in new],
+            [d.obj for d in new],
+        )
+        made = [
+            Segment(
+                skill=d.skill,
+                start=int(d.start),
+                end=int(d.end),
+                start_s=float(start_s[i]),
+                end_s=float(end_s[i]),
+                start_ns=int(start_ns[i]),
+                end_ns=int(end_ns[i]),
+                object=traj.object_names[d.obj] if d.obj is not None else None,
+                score=float(d.score),
+                confidence=float(d.confidence),
+                margin=float(d.margin),
+                params=params[i],
+            )
+            for i, d in enumerate(new)
+        ]
+    it = iter(made)
+    return [d.source if d.source is not None else next(it) for d in drafts]
+
+
 def _make_segment(
     traj: Trajectory,
     skill: str,
@@ -669,29 +756,14 @@ def _make_segment(
     confidence: float = float("nan"),
     margin: float = float("nan"),
 ) -> Segment:
-    n = len(traj)
-    t_s = traj.t_s
+    """One segment (:func:`_make_segments`); ``target``: the object index, or per-sample
+    object indices whose most common one on ``start..end`` is the target."""
     obj: int | None = None
     if isinstance(target, int):
         obj = target
     elif target is not None and end > start:
         obj = Counter(target[start:end].tolist()).most_common(1)[0][0]
-    end_ns = int(traj.t_ns[end]) if end < n else int(traj.t_ns[-1])
-    end_s = float(t_s[end]) if end < n else float(t_s[-1])
-    return Segment(
-        skill=skill,
-        start=int(start),
-        end=int(end),
-        start_s=float(t_s[start]),
-        end_s=end_s,
-        start_ns=int(traj.t_ns[start]),
-        end_ns=end_ns,
-        object=traj.object_names[obj] if obj is not None else None,
-        score=float(score),
-        confidence=float(confidence),
-        margin=float(margin),
-        params=skill_params(traj, skill, start, end, obj),
-    )
+    return _make_segments(traj, [_Draft(skill, start, end, obj, score, confidence, margin)])[0]
 
 
 def as_trajectory(
