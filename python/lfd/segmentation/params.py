@@ -103,25 +103,31 @@ def skill_params_batch(
                 out[i]["grasp_quaternion"] = quat
             else:
                 out[i]["tcp_in_object_position"] = pos
-    for i in range(m):
-        obj, skill = objects[i], skills[i]
-        if not valid[i] or obj is None:
-            continue
-        t = int(last[i])
-        if skill in ("place", "stack"):
-            out[i]["place_position"] = _vec(traj.object_position[obj, t])
-            out[i]["place_quaternion"] = _vec(traj.object_quaternion[obj, t])
-            if skill == "stack" and n_obj > 1:
-                here = traj.object_position[obj, t]
-                others = [k for k in range(n_obj) if k != obj]
-                d = [
-                    float(np.linalg.norm(traj.object_position[k, t, :2] - here[:2])) for k in others
-                ]
-                below = others[int(np.nanargmin(d))] if np.any(np.isfinite(d)) else others[0]
-                out[i]["on"] = traj.object_names[below]
-                out[i]["offset"] = _vec(here - traj.object_position[below, t])
-        elif skill == "push":
-            out[i]["displacement"] = _vec(
-                traj.object_position[obj, t] - traj.object_position[obj, int(start[i])]
-            )
+    placed = [i for i in range(m) if valid[i] and skills[i] in ("place", "stack")]
+    if placed:
+        k, t = np.array([objects[i] for i in placed], dtype=np.intp), last[placed]
+        where = _vecs(traj.object_position[k, t])
+        turned = _vecs(traj.object_quaternion[k, t])
+        for i, a, b in zip(placed, where, turned, strict=True):
+            out[i]["place_position"] = a
+            out[i]["place_quaternion"] = b
+            if skills[i] == "stack" and n_obj > 1:
+                out[i].update(_stacked_on(traj, objects[i], int(last[i])))
+    pushed = [i for i in range(m) if valid[i] and skills[i] == "push"]
+    if pushed:
+        k = np.array([objects[i] for i in pushed], dtype=np.intp)
+        moved = traj.object_position[k, last[pushed]] - traj.object_position[k, start[pushed]]
+        for i, d in zip(pushed, _vecs(moved), strict=True):
+            out[i]["displacement"] = d
     return out
+
+
+def _stacked_on(traj: Trajectory, obj: int | None, t: int) -> dict[str, Any]:
+    """The object under ``obj`` at sample ``t`` (nearest in the horizontal) and the offset to
+    it."""
+    assert obj is not None
+    here = traj.object_position[obj, t]
+    others = [k for k in range(len(traj.object_names)) if k != obj]
+    d = [float(np.linalg.norm(traj.object_position[k, t, :2] - here[:2])) for k in others]
+    below = others[int(np.nanargmin(d))] if np.any(np.isfinite(d)) else others[0]
+    return {"on": traj.object_names[below], "offset": _vec(here - traj.object_position[below, t])}

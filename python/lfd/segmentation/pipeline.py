@@ -267,14 +267,8 @@ def stage2_scores(
     hand = moving_hand(traj, p.co_motion_window_s, p.co_motion_displacement)
     height = OBJECT_COLUMNS["object_height"]  # above the object's rest height + gamma: lifted
 
-    def scores(end: EndState) -> StageTwoScores:
-        return scores_over_objects(
-            [np.ascontiguousarray(f.values, dtype=np.float64) for f in per_object],
-            templates,
-            band,
-            end,
-            extra=extra,
-        )
+    values = [np.ascontiguousarray(f.values, dtype=np.float64) for f in per_object]
+    shared = shared_features(values, templates)
 
     extra = co_motion_per_object(
         moving,
@@ -288,16 +282,43 @@ def stage2_scores(
         left=p.co_motion_left_s / traj.dt,
         band=band,
     )
-    st = scores(p.end)
+    st = scores_over_objects(values, templates, band, p.end, extra=extra, shared=shared)
     if complete or p.end == "any":
         return st
     k = band.n_sections
     last = [r for i in range(k) if (r := band.index(i, k)) is not None]
     if last:
-        st_any = scores("any")
-        st.scores[last] = st_any.scores[last]
-        st.target[last] = st_any.target[last]
+        # only these runs are scored again: over the band of the sections from the first of
+        # them on, whose rows are the band's from that section's on (a run's score depends on
+        # its own samples only)
+        i0 = int(band.start[last[0]])
+        r0 = int(band.offsets[i0])
+        tail = Band.of(band.bounds[i0:] - band.bounds[i0], band.max_len)
+        same = (
+            tail.n_runs == band.n_runs - r0
+            and np.array_equal(tail.start + i0, band.start[r0:])
+            and np.array_equal(tail.end + i0, band.end[r0:])
+        )
+        a = int(band.bounds[i0]) if same else 0
+        st_any = scores_over_objects(
+            [v[a:] for v in values] if same else values,
+            templates,
+            tail if same else band,
+            "any",
+            extra=_rows(extra, r0) if same else extra,
+            shared=shared,
+        )
+        rows = np.asarray(last) - (r0 if same else 0)
+        st.scores[last] = st_any.scores[rows]
+        st.target[last] = st_any.target[rows]
     return st
+
+
+def _rows(extra: Callable[[int], np.ndarray] | None, r0: int) -> Callable[[int], np.ndarray] | None:
+    """``extra`` (:func:`co_motion_per_object`) from row ``r0`` on."""
+    if extra is None:
+        return None
+    return lambda o: extra(o)[r0:]
 
 
 def insert_implicit_moves(traj: Trajectory, segments: list[Segment], length: int) -> list[Segment]:
@@ -416,13 +437,18 @@ def label_moves(
     on positions only, so the live segmentation, which knows them by then, gives the same."""
     out = list(segments)
     k = max(0, round(after_s / traj.dt)) if traj.dt > 0 else 0
-    positions = traj.object_position.transpose(1, 0, 2)
-    for i, seg in enumerate(out):
-        if seg.skill != "move":
-            continue
-        obj: int | None = None
-        if i + 1 < len(out):
-            obj = object_after(traj.tcp, positions, seg.end, k)
+    moves = [i for i, seg in enumerate(out) if seg.skill == "move"]
+    # object_after of every Move but a last one, at once
+    inner = [i for i in moves if i + 1 < len(out)]
+    e = np.minimum(np.array([out[i].end for i in inner], dtype=np.intp) + k, len(traj.tcp) - 1)
+    positions = np.asarray(traj.object_position)[:, e].transpose(1, 0, 2)  # (m, O, 3)
+    d = np.linalg.norm(positions - np.asarray(traj.tcp)[e][:, None, :], axis=-1)
+    some = np.isfinite(d).any(axis=-1)
+    nearest = np.nanargmin(np.where(some[:, None], d, 0.0), axis=-1) if some.any() else some
+    after = {i: int(j) for i, j, ok in zip(inner, nearest, some, strict=True) if ok}
+    for i in moves:
+        seg = out[i]
+        obj = after.get(i)
         name = traj.object_names[obj] if obj is not None else None
         if name != seg.object:
             out[i] = dataclasses.replace(seg, object=name)
@@ -590,17 +616,34 @@ def co_motion_per_object(
     no_set_down, no_lift = _skill_mask(skills, NO_SET_DOWN), _skill_mask(skills, NO_LIFT)
     carried = _skill_mask(skills, CARRIED)
 
+    # per skill, the counts it is charged for, in the order they are summed (a count times 0 adds
+    # nothing: every count is finite and >= 0)
+    terms: list[tuple[np.ndarray | None, np.ndarray]] = [
+        (own, still),
+        (set_down if relift is not None else None, no_set_down),
+        (relift if set_down is not None else None, no_lift),
+        (sliding, carried),
+        (behind, carried),
+    ]
+    charged = [
+        tuple(k for k, (count, mask) in enumerate(terms) if count is not None and mask[s])
+        for s in range(len(skills))
+    ]
+
     def of(o: int) -> np.ndarray:
-        out = others[o][..., None] + own[o][..., None] * still
-        if set_down is not None and relift is not None:
-            out += set_down[o][..., None] * no_set_down
-            out += relift[o][..., None] * no_lift
-        if sliding is not None:
-            out += sliding[o][..., None] * carried
-        if behind is not None:
-            out += behind[o][..., None] * carried
-        out *= -weight
-        return np.asarray(out, dtype=np.float64)
+        out = np.empty((*others.shape[1:], len(skills)))
+        done: dict[tuple[int, ...], np.ndarray] = {}
+        for s, which in enumerate(charged):
+            if which not in done:  # skills charged for the same counts share a column
+                col = others[o].copy()
+                for k in which:
+                    count = terms[k][0]
+                    assert count is not None
+                    col += count[o]
+                col *= -weight
+                done[which] = col
+            out[..., s] = done[which]
+        return out
 
     return of
 
@@ -616,27 +659,24 @@ def scores_over_objects(
     end: EndState,
     *,
     extra: np.ndarray | Callable[[int], np.ndarray] | None = None,
+    shared: list[int] | None = None,
 ) -> StageTwoScores:
     """The score table over the runs of ``band`` maximised over the target object, from the
     feature matrices, one (n, 10) array per target object; ``extra`` (O, N, S), or a function
     of the object giving its (N, S) (:func:`co_motion_per_object`), is added per target before
-    the maximum (e.g. :func:`co_motion_penalty`). One object's table at a time is held."""
+    the maximum (e.g. :func:`co_motion_penalty`). One object's table at a time is held.
+    ``shared``: the features scored once for all objects (default: :func:`shared_features`)."""
     engine = templates.engine
     groups = getattr(templates, "features", None)
     bounds, max_len = band.bounds, band.max_len
     extra_of = extra if callable(extra) or extra is None else extra.__getitem__
+    if shared is None:
+        shared = shared_features(values, templates)
     if groups is None:  # a stand-in without feature metadata: a dense table per object
-        shared: list[int] = []
+        shared = []
         rest: list[int] | None = None
         n_obj = len(values)
     else:
-        # features that do not depend on the target (fingertip distance, TCP rise, hand speed)
-        # are scored once
-        shared = [
-            g
-            for g, (_name, a, b) in enumerate(groups)
-            if all(np.array_equal(values[0][:, a:b], v[:, a:b]) for v in values[1:])
-        ]
         rest = [g for g in range(len(groups)) if g not in shared]
         n_obj = len(values) if rest or extra is not None else 1
     base = engine.score_band(values[0], bounds, max_len, end, shared) if shared else 0.0
@@ -654,6 +694,20 @@ def scores_over_objects(
 
     best, target = max_over_objects(scores_of, n_obj)
     return StageTwoScores(band, best, target)
+
+
+def shared_features(values: list[np.ndarray], templates: Templates) -> list[int]:
+    """The templates' features (indices into ``templates.features``) that do not depend on the
+    target (fingertip distance, TCP rise, hand speed): equal in the feature matrices of all
+    targets ``values``; these are scored once. ``[]`` without feature metadata."""
+    groups = getattr(templates, "features", None)
+    if groups is None:
+        return []
+    return [
+        g
+        for g, (_name, a, b) in enumerate(groups)
+        if all(np.array_equal(values[0][:, a:b], v[:, a:b]) for v in values[1:])
+    ]
 
 
 def max_over_objects(
