@@ -59,7 +59,7 @@ def dump(path: str, extra: list[str]) -> None:
             try:
                 s = lfd.segment(demo, **kwargs)
                 res[f"{name}:{label}"] = ([_key(x) for x in s.segments], list(s.warnings))
-            except Exception as e:  # noqa: BLE001 - an error is a result too
+            except Exception as e:  # an error is a result too
                 res[f"{name}:{label}"] = repr(e)
         if k % 8 == 0 or "exp5" in f:  # a sample for the other methods
             try:
@@ -69,7 +69,7 @@ def dump(path: str, extra: list[str]) -> None:
                 for fn in (gripper_segmentation, proximity_segmentation):
                     s = fn(tr)
                     res[f"{name}:{fn.__name__}"] = [_key(x) for x in s.segments]
-            except Exception as e:  # noqa: BLE001
+            except Exception as e:
                 res[f"{name}:other"] = repr(e)
         print(f"{name} {time.perf_counter() - t0:.1f} s", flush=True)
     Path(path).write_bytes(pickle.dumps(res))
