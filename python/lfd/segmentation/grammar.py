@@ -50,6 +50,7 @@ def compiled_grammar(skills: tuple[str, ...], implicit_moves: bool) -> _hmmseg.G
     return _hmmseg.Grammar(rules, list(skills))
 
 
+@cache
 def needs_implicit_move(prev: str, nxt: str) -> bool:
     """Does the transition ``prev -> nxt`` stand for ``prev -> move -> nxt``?"""
     return prev in RELEASES and not allowed(prev, nxt) and allowed("move", nxt)

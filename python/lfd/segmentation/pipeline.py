@@ -8,9 +8,11 @@ table from the templates, TCP rise decision, greedy loop or segmental DP under t
 from __future__ import annotations
 
 import dataclasses
+from bisect import bisect_left, bisect_right
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from itertools import pairwise
 from typing import TYPE_CHECKING, Any, Literal, get_args
 
 import numpy as np
@@ -27,7 +29,7 @@ if TYPE_CHECKING:
 from .band import Band, StageTwoScores
 from .gaps import fill_gaps
 from .grammar import compiled_grammar, needs_move_between
-from .params import skill_params
+from .params import skill_params_batch
 from .result import Run, Segment, Segmentation
 from .stage1 import OBJECT_COLUMNS, Stage1Params, section_boundaries
 from .templates import Templates
@@ -200,19 +202,13 @@ def segment_trajectory(
         cuts, warn = _hmmseg.segment_dp(
             st.scores, bounds, rules, rising, grammar, p.penalty, max_len
         )
-    segments = [
-        _make_segment(
-            filled,
-            skills[c.skill],
-            c.start,
-            c.end,
-            _target(st, c),
-            score=c.score,
-            confidence=c.confidence,
-            margin=c.margin,
-        )
-        for c in cuts
-    ]
+    segments = _make_segments(
+        filled,
+        [
+            _Draft(skills[c.skill], c.start, c.end, _target(st, c), c.score, c.confidence, c.margin)
+            for c in cuts
+        ],
+    )
     if p.implicit_moves:
         segments = insert_implicit_moves(
             filled, segments, max(1, round(p.implicit_move_s / traj.dt))
@@ -271,14 +267,8 @@ def stage2_scores(
     hand = moving_hand(traj, p.co_motion_window_s, p.co_motion_displacement)
     height = OBJECT_COLUMNS["object_height"]  # above the object's rest height + gamma: lifted
 
-    def scores(end: EndState) -> StageTwoScores:
-        return scores_over_objects(
-            [np.ascontiguousarray(f.values, dtype=np.float64) for f in per_object],
-            templates,
-            band,
-            end,
-            extra=extra,
-        )
+    values = [np.ascontiguousarray(f.values, dtype=np.float64) for f in per_object]
+    shared = shared_features(values, templates)
 
     extra = co_motion_per_object(
         moving,
@@ -292,16 +282,43 @@ def stage2_scores(
         left=p.co_motion_left_s / traj.dt,
         band=band,
     )
-    st = scores(p.end)
+    st = scores_over_objects(values, templates, band, p.end, extra=extra, shared=shared)
     if complete or p.end == "any":
         return st
     k = band.n_sections
     last = [r for i in range(k) if (r := band.index(i, k)) is not None]
     if last:
-        st_any = scores("any")
-        st.scores[last] = st_any.scores[last]
-        st.target[last] = st_any.target[last]
+        # only these runs are scored again: over the band of the sections from the first of
+        # them on, whose rows are the band's from that section's on (a run's score depends on
+        # its own samples only)
+        i0 = int(band.start[last[0]])
+        r0 = int(band.offsets[i0])
+        tail = Band.of(band.bounds[i0:] - band.bounds[i0], band.max_len)
+        same = (
+            tail.n_runs == band.n_runs - r0
+            and np.array_equal(tail.start + i0, band.start[r0:])
+            and np.array_equal(tail.end + i0, band.end[r0:])
+        )
+        a = int(band.bounds[i0]) if same else 0
+        st_any = scores_over_objects(
+            [v[a:] for v in values] if same else values,
+            templates,
+            tail if same else band,
+            "any",
+            extra=_rows(extra, r0) if same else extra,
+            shared=shared,
+        )
+        rows = np.asarray(last) - (r0 if same else 0)
+        st.scores[last] = st_any.scores[rows]
+        st.target[last] = st_any.target[rows]
     return st
+
+
+def _rows(extra: Callable[[int], np.ndarray] | None, r0: int) -> Callable[[int], np.ndarray] | None:
+    """``extra`` (:func:`co_motion_per_object`) from row ``r0`` on."""
+    if extra is None:
+        return None
+    return lambda o: extra(o)[r0:]
 
 
 def insert_implicit_moves(traj: Trajectory, segments: list[Segment], length: int) -> list[Segment]:
@@ -310,23 +327,26 @@ def insert_implicit_moves(traj: Trajectory, segments: list[Segment], length: int
     ``length`` samples centred on the TCP's highest point in the last ``length`` samples of the
     first skill and the first ``length`` of the next, taken from both (each keeps at least one
     sample)."""
-    out: list[Segment] = []
+    names = list(traj.object_names)
+    out: list[_Draft] = []
     z = traj.tcp[:, 2]
     for seg in segments:
         prev = out[-1] if out else None
-        if prev is None or not needs_move_between(prev.skill, prev.object, seg.skill, seg.object):
-            out.append(seg)
+        if prev is None or not needs_move_between(
+            prev.skill, prev.object_name(names), seg.skill, seg.object
+        ):
+            out.append(_Draft.of(seg, names))
             continue
         lo, hi = max(prev.start + 1, seg.start - length), min(seg.end - 1, seg.start + length)
         peak = lo + int(np.argmax(z[lo:hi])) if hi > lo else seg.start
         a = min(max(lo, peak - length // 2), seg.start)
         b = max(min(hi, a + length), seg.start)
         a = min(a, b - 1)
-        obj = traj.object_names.index(seg.object) if seg.object in traj.object_names else None
-        out[-1] = _resized(traj, prev, prev.start, a)
-        out.append(_make_segment(traj, "move", a, b, obj))
-        out.append(_resized(traj, seg, b, seg.end))
-    return [s for s in out if s.end > s.start]
+        nxt = _Draft.of(seg, names)
+        out[-1] = prev.resized(prev.start, a)
+        out.append(_Draft("move", a, b, nxt.obj))
+        out.append(nxt.resized(b, seg.end))
+    return _make_segments(traj, [d for d in out if d.end > d.start])
 
 
 def refine_contacts(
@@ -353,18 +373,37 @@ def refine_contacts(
     )
     if refined == spans:
         return segments
-    out: list[Segment] = []
+    source = _overlapping(segments)
+    out: list[_Draft] = []
     for skill, a, b, o in refined:
         # the segment of the search it came from: the same skill, overlapping it most (its
         # score, confidence and margin are the search's; an inserted Move has none)
-        overlap = [(min(b, s.end) - max(a, s.start), s) for s in segments if s.skill == skill]
-        best = max(overlap, key=lambda x: x[0], default=(0, None))
-        src = best[1]
-        if best[0] > 0 and src is not None:
-            out.append(src if (src.start, src.end) == (a, b) else _resized(traj, src, a, b))
+        best, src = 0, None
+        for s in source(a, b):
+            if s.skill == skill and (ov := min(b, s.end) - max(a, s.start)) > best:
+                best, src = ov, s
+        if src is not None:
+            d = _Draft.of(src, names)
+            out.append(d if (src.start, src.end) == (a, b) else d.resized(a, b))
         else:
-            out.append(_make_segment(traj, skill, a, b, o))
-    return out
+            out.append(_Draft(skill, a, b, o))
+    return _make_segments(traj, out)
+
+
+def _overlapping(segments: list[Segment]) -> Callable[[int, int], list[Segment]]:
+    """``of(a, b)``: the ``segments`` that share a sample with ``a..b``, in their order (a
+    bisection when they are in time order without overlaps, as the search gives them; else
+    all of them)."""
+    starts = [s.start for s in segments]
+    ends = [s.end for s in segments]
+    ordered = all(s.start <= s.end <= nxt.start for s, nxt in pairwise(segments))
+    if not ordered:
+        return lambda a, b: segments
+
+    def of(a: int, b: int) -> list[Segment]:
+        return segments[bisect_right(ends, a) : bisect_left(starts, b)]
+
+    return of
 
 
 MOVE_OBJECT_S = 1.0
@@ -398,22 +437,22 @@ def label_moves(
     on positions only, so the live segmentation, which knows them by then, gives the same."""
     out = list(segments)
     k = max(0, round(after_s / traj.dt)) if traj.dt > 0 else 0
-    positions = traj.object_position.transpose(1, 0, 2)
-    for i, seg in enumerate(out):
-        if seg.skill != "move":
-            continue
-        obj: int | None = None
-        if i + 1 < len(out):
-            obj = object_after(traj.tcp, positions, seg.end, k)
+    moves = [i for i, seg in enumerate(out) if seg.skill == "move"]
+    # object_after of every Move but a last one, at once
+    inner = [i for i in moves if i + 1 < len(out)]
+    e = np.minimum(np.array([out[i].end for i in inner], dtype=np.intp) + k, len(traj.tcp) - 1)
+    positions = np.asarray(traj.object_position)[:, e].transpose(1, 0, 2)  # (m, O, 3)
+    d = np.linalg.norm(positions - np.asarray(traj.tcp)[e][:, None, :], axis=-1)
+    some = np.isfinite(d).any(axis=-1)
+    nearest = np.nanargmin(np.where(some[:, None], d, 0.0), axis=-1) if some.any() else some
+    after = {i: int(j) for i, j, ok in zip(inner, nearest, some, strict=True) if ok}
+    for i in moves:
+        seg = out[i]
+        obj = after.get(i)
         name = traj.object_names[obj] if obj is not None else None
         if name != seg.object:
             out[i] = dataclasses.replace(seg, object=name)
     return out
-
-
-def _resized(traj: Trajectory, seg: Segment, start: int, end: int) -> Segment:
-    obj = traj.object_names.index(seg.object) if seg.object in traj.object_names else None
-    return _make_segment(traj, seg.skill, start, end, obj, seg.score, seg.confidence, seg.margin)
 
 
 def moving_objects(traj: Trajectory, window_s: float, displacement: float) -> np.ndarray:
@@ -577,17 +616,34 @@ def co_motion_per_object(
     no_set_down, no_lift = _skill_mask(skills, NO_SET_DOWN), _skill_mask(skills, NO_LIFT)
     carried = _skill_mask(skills, CARRIED)
 
+    # per skill, the counts it is charged for, in the order they are summed (a count times 0 adds
+    # nothing: every count is finite and >= 0)
+    terms: list[tuple[np.ndarray | None, np.ndarray]] = [
+        (own, still),
+        (set_down if relift is not None else None, no_set_down),
+        (relift if set_down is not None else None, no_lift),
+        (sliding, carried),
+        (behind, carried),
+    ]
+    charged = [
+        tuple(k for k, (count, mask) in enumerate(terms) if count is not None and mask[s])
+        for s in range(len(skills))
+    ]
+
     def of(o: int) -> np.ndarray:
-        out = others[o][..., None] + own[o][..., None] * still
-        if set_down is not None and relift is not None:
-            out += set_down[o][..., None] * no_set_down
-            out += relift[o][..., None] * no_lift
-        if sliding is not None:
-            out += sliding[o][..., None] * carried
-        if behind is not None:
-            out += behind[o][..., None] * carried
-        out *= -weight
-        return np.asarray(out, dtype=np.float64)
+        out = np.empty((*others.shape[1:], len(skills)))
+        done: dict[tuple[int, ...], np.ndarray] = {}
+        for s, which in enumerate(charged):
+            if which not in done:  # skills charged for the same counts share a column
+                col = others[o].copy()
+                for k in which:
+                    count = terms[k][0]
+                    assert count is not None
+                    col += count[o]
+                col *= -weight
+                done[which] = col
+            out[..., s] = done[which]
+        return out
 
     return of
 
@@ -603,27 +659,24 @@ def scores_over_objects(
     end: EndState,
     *,
     extra: np.ndarray | Callable[[int], np.ndarray] | None = None,
+    shared: list[int] | None = None,
 ) -> StageTwoScores:
     """The score table over the runs of ``band`` maximised over the target object, from the
     feature matrices, one (n, 10) array per target object; ``extra`` (O, N, S), or a function
     of the object giving its (N, S) (:func:`co_motion_per_object`), is added per target before
-    the maximum (e.g. :func:`co_motion_penalty`). One object's table at a time is held."""
+    the maximum (e.g. :func:`co_motion_penalty`). One object's table at a time is held.
+    ``shared``: the features scored once for all objects (default: :func:`shared_features`)."""
     engine = templates.engine
     groups = getattr(templates, "features", None)
     bounds, max_len = band.bounds, band.max_len
     extra_of = extra if callable(extra) or extra is None else extra.__getitem__
+    if shared is None:
+        shared = shared_features(values, templates)
     if groups is None:  # a stand-in without feature metadata: a dense table per object
-        shared: list[int] = []
+        shared = []
         rest: list[int] | None = None
         n_obj = len(values)
     else:
-        # features that do not depend on the target (fingertip distance, TCP rise, hand speed)
-        # are scored once
-        shared = [
-            g
-            for g, (_name, a, b) in enumerate(groups)
-            if all(np.array_equal(values[0][:, a:b], v[:, a:b]) for v in values[1:])
-        ]
         rest = [g for g in range(len(groups)) if g not in shared]
         n_obj = len(values) if rest or extra is not None else 1
     base = engine.score_band(values[0], bounds, max_len, end, shared) if shared else 0.0
@@ -643,6 +696,20 @@ def scores_over_objects(
     return StageTwoScores(band, best, target)
 
 
+def shared_features(values: list[np.ndarray], templates: Templates) -> list[int]:
+    """The templates' features (indices into ``templates.features``) that do not depend on the
+    target (fingertip distance, TCP rise, hand speed): equal in the feature matrices of all
+    targets ``values``; these are scored once. ``[]`` without feature metadata."""
+    groups = getattr(templates, "features", None)
+    if groups is None:
+        return []
+    return [
+        g
+        for g, (_name, a, b) in enumerate(groups)
+        if all(np.array_equal(values[0][:, a:b], v[:, a:b]) for v in values[1:])
+    ]
+
+
 def max_over_objects(
     scores_of: Callable[[int], np.ndarray], n_obj: int
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -659,6 +726,80 @@ def max_over_objects(
     return best, target
 
 
+@dataclass
+class _Draft:
+    """A segment being built: ``skill`` on ``start..end`` with target object index ``obj``
+    (its parameters are computed once, for all drafts together, by :func:`_make_segments`);
+    ``source``: the finished segment it is, unchanged."""
+
+    skill: str
+    start: int
+    end: int
+    obj: int | None
+    score: float = float("nan")
+    confidence: float = float("nan")
+    margin: float = float("nan")
+    source: Segment | None = None
+
+    @classmethod
+    def of(cls, seg: Segment, names: list[str]) -> _Draft:
+        """``seg`` as it is (its target object looked up by name in ``names``)."""
+        obj = names.index(seg.object) if seg.object in names else None
+        return cls(seg.skill, seg.start, seg.end, obj, seg.score, seg.confidence, seg.margin, seg)
+
+    def resized(self, start: int, end: int) -> _Draft:
+        """The same skill, target and scores on ``start..end`` (a new segment)."""
+        return dataclasses.replace(self, start=start, end=end, source=None)
+
+    def object_name(self, names: list[str]) -> str | None:
+        """The target object's name."""
+        if self.source is not None:
+            return self.source.object
+        return names[self.obj] if self.obj is not None else None
+
+
+def _make_segments(traj: Trajectory, drafts: list[_Draft]) -> list[Segment]:
+    """The segments of ``drafts`` (a draft of a finished segment is that segment), their times
+    and skill parameters computed in one vectorised pass."""
+    new = [d for d in drafts if d.source is None]
+    made: list[Segment] = []
+    if new:
+        n = len(traj)
+        t_ns = np.asarray(traj.t_ns)
+        start = np.array([d.start for d in new], dtype=np.intp)
+        end = np.minimum(np.array([d.end for d in new], dtype=np.intp), n - 1)
+        # as Trajectory.t_s at these samples (an end past the last sample: the last sample)
+        start_s = ((t_ns[start] - t_ns[0]).astype(np.float64) * 1e-9).tolist()
+        end_s = ((t_ns[end] - t_ns[0]).astype(np.float64) * 1e-9).tolist()
+        start_ns, end_ns = t_ns[start].tolist(), t_ns[end].tolist()
+        params = skill_params_batch(
+            traj,
+            [d.skill for d in new],
+            [d.start for d in new],
+            [d.end for d in new],
+            [d.obj for d in new],
+        )
+        made = [
+            Segment(
+                skill=d.skill,
+                start=int(d.start),
+                end=int(d.end),
+                start_s=float(start_s[i]),
+                end_s=float(end_s[i]),
+                start_ns=int(start_ns[i]),
+                end_ns=int(end_ns[i]),
+                object=traj.object_names[d.obj] if d.obj is not None else None,
+                score=float(d.score),
+                confidence=float(d.confidence),
+                margin=float(d.margin),
+                params=params[i],
+            )
+            for i, d in enumerate(new)
+        ]
+    it = iter(made)
+    return [d.source if d.source is not None else next(it) for d in drafts]
+
+
 def _make_segment(
     traj: Trajectory,
     skill: str,
@@ -669,29 +810,14 @@ def _make_segment(
     confidence: float = float("nan"),
     margin: float = float("nan"),
 ) -> Segment:
-    n = len(traj)
-    t_s = traj.t_s
+    """One segment (:func:`_make_segments`); ``target``: the object index, or per-sample
+    object indices whose most common one on ``start..end`` is the target."""
     obj: int | None = None
     if isinstance(target, int):
         obj = target
     elif target is not None and end > start:
         obj = Counter(target[start:end].tolist()).most_common(1)[0][0]
-    end_ns = int(traj.t_ns[end]) if end < n else int(traj.t_ns[-1])
-    end_s = float(t_s[end]) if end < n else float(t_s[-1])
-    return Segment(
-        skill=skill,
-        start=int(start),
-        end=int(end),
-        start_s=float(t_s[start]),
-        end_s=end_s,
-        start_ns=int(traj.t_ns[start]),
-        end_ns=end_ns,
-        object=traj.object_names[obj] if obj is not None else None,
-        score=float(score),
-        confidence=float(confidence),
-        margin=float(margin),
-        params=skill_params(traj, skill, start, end, obj),
-    )
+    return _make_segments(traj, [_Draft(skill, start, end, obj, score, confidence, margin)])[0]
 
 
 def as_trajectory(
