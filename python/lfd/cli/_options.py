@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import os
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from typing import Any, get_args
 
 
@@ -87,6 +87,26 @@ def console(args: argparse.Namespace) -> Any:
     from rich.console import Console
 
     return Console(stderr=json_to_stdout(args))
+
+
+MAX_TABLE_ROWS = 40
+"""Rows of a long table (skills of an hour-long recording) printed in the terminal; ``--json``
+has every one."""
+
+
+def capped(rows: Sequence[Any], skills: Iterable[str]) -> tuple[Sequence[Any], str | None]:
+    """The first :data:`MAX_TABLE_ROWS` of ``rows`` and, when some are left out, a line that
+    says how many and counts every row's skill (``skills``, one per row)."""
+    if len(rows) <= MAX_TABLE_ROWS:
+        return rows, None
+    from collections import Counter
+
+    counts = Counter(skills).most_common()
+    return rows[:MAX_TABLE_ROWS], (
+        f"... and {len(rows) - MAX_TABLE_ROWS} more ({len(rows)} in all: "
+        + ", ".join(f"{n} {skill}" for skill, n in counts)
+        + "; --json lists every one)"
+    )
 
 
 def check_json(args: argparse.Namespace, inputs: Iterable[str | os.PathLike[str]]) -> None:

@@ -6,11 +6,11 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from collections import Counter
 
 from ._options import (
     add_json_argument,
     add_recording_arguments,
+    capped,
     check_json,
     console,
     json_to_stdout,
@@ -19,8 +19,6 @@ from ._options import (
 )
 
 NAME = "info"
-MAX_ROWS = 40
-"""Skill labels listed in the terminal (``--json`` has every one)."""
 HELP = (
     "Summarise a recording (channels, duration, objects, skill labels, metadata, damage) or a "
     "segmentation method (default, paper or a template file)."
@@ -89,11 +87,11 @@ def run(args: argparse.Namespace) -> int:
     for key, title in (("labels", "ground-truth skills"), ("live_segments", "live segments")):
         if not s.get(key):
             continue
-        labels = s[key]
+        shown, more = capped(s[key], (lab["skill"] for lab in s[key]))
         lt = Table(title=title)
         for col in ("#", "skill", "object", "start s", "end s"):
             lt.add_column(col)
-        for i, lab in enumerate(labels[:MAX_ROWS]):
+        for i, lab in enumerate(shown):
             lt.add_row(
                 str(i + 1),
                 lab["skill"],
@@ -102,15 +100,7 @@ def run(args: argparse.Namespace) -> int:
                 f"{lab['end_s']:.2f}",
             )
         con.print(lt)
-        if len(labels) > MAX_ROWS:
-            counts = Counter(lab["skill"] for lab in labels)
-            con.print(
-                f"... and {len(labels) - MAX_ROWS} more ({len(labels)} in all: "
-                + ", ".join(f"{n} {skill}" for skill, n in counts.most_common())
-                + "; --json lists every one)"
-            )
-        else:
-            con.print("sequence: " + " -> ".join(lab["skill"] for lab in labels))
+        con.print(more or "sequence: " + " -> ".join(lab["skill"] for lab in s[key]))
     if s.get("metadata"):
         con.print("metadata: " + ", ".join(_short(k, v) for k, v in s["metadata"].items()))
     if s.get("camera"):

@@ -24,6 +24,7 @@ from ._options import (
     add_json_argument,
     add_recording_arguments,
     add_segmentation_arguments,
+    capped,
     check_json,
     console,
     emit_json,
@@ -285,7 +286,8 @@ def run(args: argparse.Namespace) -> int:
     table = Table(title=f"{Path(args.recording).name}: {result.method} segmentation")
     for col in ("#", "skill", "start s", "end s", "object", "score", "confidence"):
         table.add_column(col, justify="right" if col not in ("skill", "object") else "left")
-    for n, s in enumerate(result.segments):
+    shown, more = capped(result.segments, (s.skill for s in result.segments))
+    for n, s in enumerate(shown):
         table.add_row(
             str(n),
             s.skill,
@@ -296,16 +298,21 @@ def run(args: argparse.Namespace) -> int:
             f"{s.confidence:.2f}",
         )
     con.print(table)
+    if more:
+        con.print(more)
     if doc["ground_truth"]:
         gt = Table(title="ground truth")
         for col in ("#", "skill", "start s", "end s", "object"):
             gt.add_column(col)
-        for n, g in enumerate(doc["ground_truth"]):
+        truth, more = capped(doc["ground_truth"], (g["skill"] for g in doc["ground_truth"]))
+        for n, g in enumerate(truth):
             gt.add_row(
                 str(n), g["skill"], f"{g['start_s']:.2f}",
                 f"{g['end_s']:.2f}", g["object"] or "-",
             )  # fmt: skip
         con.print(gt)
+        if more:
+            con.print(more)
         mt = Table(title="metrics")
         mt.add_column("metric")
         mt.add_column("value", justify="right")
