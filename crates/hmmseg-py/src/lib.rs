@@ -13,8 +13,10 @@ mod features;
 mod hmm;
 mod limits;
 mod ndconv;
+mod rotation;
 mod search;
 mod segment;
+mod signal;
 
 use hmmseg::features::SizeMeasure;
 use hmmseg::hmm::{CovarianceType, Topology};
@@ -49,6 +51,8 @@ fn _hmmseg(m: &Bound<'_, PyModule>) -> PyResult<()> {
     segment::register(m)?;
     band::register(m)?;
     search::register(m)?;
+    signal::register(m)?;
+    rotation::register(m)?;
     m.add_function(wrap_pyfunction!(errors::hooks::raise_engine_error, m)?)?;
     m.add_function(wrap_pyfunction!(errors::hooks::panic, m)?)?;
     Ok(())
