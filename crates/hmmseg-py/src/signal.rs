@@ -2,10 +2,12 @@
 //! and cubic splines of the preprocessing (scipy-equivalent; `lfd.preprocessing` wraps them).
 
 use hmmseg::signal as core;
-use numpy::{PyArray1, PyArrayDyn};
+use numpy::{
+    PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods,
+};
 use pyo3::prelude::*;
 
-use crate::errors::{guard, shape, IntoPyResult};
+use crate::errors::{guard, invalid, shape, IntoPyResult};
 use crate::ndconv::{array_any, bool_matrix, count, int_arg, py_shape, shaped, vector};
 
 /// A float64 array `(n, ...)` as row-major values, `n` and the trailing shape.
@@ -191,6 +193,78 @@ fn cubic_spline<'py>(
     })
 }
 
+type Resampled<'py> = (Bound<'py, PyArrayDyn<f64>>, Bound<'py, PyArrayDyn<bool>>);
+
+/// Cubic-spline resampling of the columns of `x` `(m, c)` (NaN where not observed) from `ts`
+/// to `td`, through confidence-weighted nodes when `weights` `(m, c)` are given: values and
+/// valid flags `(len(td), c)` (`lfd.preprocessing.resample.resample_positions`). `x` and
+/// `weights` `(m, cw)`, `cw` dividing `c`, are C-contiguous float64 arrays read in place.
+#[pyfunction]
+#[pyo3(signature = (ts, x, weights, td, max_gap))]
+fn resample_columns<'py>(
+    py: Python<'py>,
+    ts: Bound<'py, PyAny>,
+    x: Bound<'py, PyAny>,
+    weights: Option<Bound<'py, PyAny>>,
+    td: Bound<'py, PyAny>,
+    max_gap: f64,
+) -> PyResult<Resampled<'py>> {
+    guard(py, || {
+        let ts = vector(&ts, "ts", "(m,)")?;
+        let td = vector(&td, "td", "(n,)")?;
+        let (xa, m, c) = contiguous(&x, "x")?;
+        if m != ts.len() {
+            return Err(shape(py, format!("x has {m} rows for {} times", ts.len())));
+        }
+        let wa = weights.map(|w| contiguous(&w, "weights")).transpose()?;
+        if let Some((_, mw, cw)) = &wa {
+            if *mw != m || *cw == 0 || c % cw != 0 {
+                return Err(shape(
+                    py,
+                    format!("weights of shape ({mw}, {cw}) do not fit values of shape ({m}, {c})"),
+                ));
+            }
+        }
+        let xs = xa.as_slice().map_err(|e| shape(py, format!("x: {e}")))?;
+        let ws = match &wa {
+            Some((w, _, _)) => Some(
+                w.as_slice()
+                    .map_err(|e| shape(py, format!("weights: {e}")))?,
+            ),
+            None => None,
+        };
+        let (values, valid) = py
+            .detach(|| core::resample_columns(&ts, xs, c, ws, &td, max_gap))
+            .py_err(py)?;
+        Ok((
+            shaped(py, &[td.len(), c], values)?,
+            shaped(py, &[td.len(), c], valid)?,
+        ))
+    })
+}
+
+/// A C-contiguous 2-D float64 array, read in place: `(view, rows, columns)`.
+fn contiguous<'py>(
+    obj: &Bound<'py, PyAny>,
+    name: &str,
+) -> PyResult<(PyReadonlyArray2<'py, f64>, usize, usize)> {
+    let py = obj.py();
+    let arr = obj.cast::<PyArray2<f64>>().map_err(|_| {
+        invalid(
+            py,
+            format!("{name} must be a 2-D C-contiguous numpy array of float64"),
+        )
+    })?;
+    if !arr.is_c_contiguous() {
+        return Err(invalid(py, format!("{name} must be C-contiguous")));
+    }
+    let (r, c) = (arr.shape()[0], arr.shape()[1]);
+    let view = arr
+        .try_readonly()
+        .map_err(|e| invalid(py, format!("{name} cannot be read: {e}")))?;
+    Ok((view, r, c))
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(butter_lowpass, m)?)?;
     m.add_function(wrap_pyfunction!(lfilter_zi, m)?)?;
@@ -198,5 +272,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(filtfilt_runs, m)?)?;
     m.add_function(wrap_pyfunction!(solve_tridiagonal, m)?)?;
     m.add_function(wrap_pyfunction!(cubic_spline, m)?)?;
+    m.add_function(wrap_pyfunction!(resample_columns, m)?)?;
     Ok(())
 }

@@ -250,25 +250,43 @@ fn lu_solve(
     Ok(y)
 }
 
-/// Direct form II transposed filter of the rows of `x` (`n x c`, row-major) in place, from
-/// the state `z` (`(len - 1) x c`, row-major; updated): scipy's `lfilter` loop.
-fn lfilter_inplace(b: &[f64], a: &[f64], x: &mut [f64], c: usize, z: &mut [f64]) {
+/// Direct form II transposed filter of one column `x` in place from the state `z`
+/// (`len - 1` values; updated): scipy's `lfilter` loop (`y = z[0] + b[0] x`,
+/// `z[k] = z[k + 1] + x b[k + 1] - y a[k + 1]`, `z[last] = x b[last] - y a[last]`).
+fn lfilter_inplace(b: &[f64], a: &[f64], x: &mut [f64], z: &mut [f64]) {
     let len = b.len();
     if len == 1 {
         x.iter_mut().for_each(|v| *v *= b[0]);
         return;
     }
-    for row in x.chunks_exact_mut(c) {
-        for (j, v) in row.iter_mut().enumerate() {
-            let xn = *v;
-            let yn = z[j] + b[0] * xn;
-            for k in 0..len - 2 {
-                z[k * c + j] = z[(k + 1) * c + j] + xn * b[k + 1] - yn * a[k + 1];
-            }
-            z[(len - 2) * c + j] = xn * b[len - 1] - yn * a[len - 1];
-            *v = yn;
+    for v in x.iter_mut() {
+        let xn = *v;
+        let yn = z[0] + b[0] * xn;
+        for k in 0..len - 2 {
+            z[k] = z[k + 1] + xn * b[k + 1] - yn * a[k + 1];
         }
+        z[len - 2] = xn * b[len - 1] - yn * a[len - 1];
+        *v = yn;
     }
+}
+
+/// [`filtfilt`] of one column into `ext` (`x.len() > padlen`, coefficients normalised, `zi`
+/// of them).
+fn filtfilt_column(b: &[f64], a: &[f64], zi: &[f64], x: &[f64], padlen: usize, ext: &mut Vec<f64>) {
+    let n = x.len();
+    // odd extension: 2 x[0] - x[padlen..0], x, 2 x[n-1] - x[n-2..n-2-padlen]
+    ext.clear();
+    ext.extend((0..padlen).map(|i| 2.0 * x[0] - x[padlen - i]));
+    ext.extend_from_slice(x);
+    ext.extend((0..padlen).map(|i| 2.0 * x[n - 1] - x[n - 2 - i]));
+    let mut z: Vec<f64> = zi.iter().map(|&v| v * ext[0]).collect();
+    lfilter_inplace(b, a, ext, &mut z);
+    ext.reverse();
+    let mut z: Vec<f64> = zi.iter().map(|&v| v * ext[0]).collect();
+    lfilter_inplace(b, a, ext, &mut z);
+    ext.reverse();
+    ext.truncate(padlen + n);
+    ext.drain(..padlen);
 }
 
 /// Zero-phase filtering of the rows of `x` (`n x c`, row-major), each column on its own:
@@ -300,43 +318,18 @@ pub fn filtfilt(
     }
     let zi = lfilter_zi(b, a)?;
     let (b, a) = normalized(b, a)?;
-    if c == 0 {
-        return Ok(Vec::new());
-    }
-    let len = n + 2 * padlen;
-    // odd extension: 2 x[0] - x[padlen..0], x, 2 x[n-1] - x[n-2..n-2-padlen]
-    let mut ext = vec![0.0; len * c];
-    for j in 0..c {
-        let (first, last) = (x[j], x[(n - 1) * c + j]);
-        for i in 0..padlen {
-            ext[i * c + j] = 2.0 * first - x[(padlen - i) * c + j];
-            ext[(padlen + n + i) * c + j] = 2.0 * last - x[(n - 2 - i) * c + j];
+    let mut out = vec![0.0; n * c];
+    let (mut cols, mut outs): (Vec<Vec<f64>>, Vec<Vec<f64>>) = (Vec::new(), Vec::new());
+    for j0 in (0..c).step_by(BLOCK) {
+        let width = BLOCK.min(c - j0);
+        gather(x, c, |k| j0 + k, width, &mut cols);
+        outs.resize_with(width, Vec::new);
+        for (col, ext) in cols.iter().zip(outs.iter_mut()) {
+            filtfilt_column(&b, &a, &zi, col, padlen, ext);
         }
+        scatter(&mut out, c, j0, &outs[..width]);
     }
-    ext[padlen * c..(padlen + n) * c].copy_from_slice(x);
-    let m = zi.len();
-    let mut z = vec![0.0; m * c];
-    let scale = |z: &mut [f64], first: &[f64]| {
-        for k in 0..m {
-            for j in 0..c {
-                z[k * c + j] = zi[k] * first[j];
-            }
-        }
-    };
-    scale(&mut z, &ext[..c].to_vec());
-    lfilter_inplace(&b, &a, &mut ext, c, &mut z);
-    // backward pass on the reversed rows
-    let mut rev: Vec<f64> = ext.chunks_exact(c).rev().flatten().copied().collect();
-    scale(&mut z, &rev[..c].to_vec());
-    lfilter_inplace(&b, &a, &mut rev, c, &mut z);
-    Ok(rev
-        .chunks_exact(c)
-        .rev()
-        .skip(padlen)
-        .take(n)
-        .flatten()
-        .copied()
-        .collect())
+    Ok(out)
 }
 
 /// Half-open `(start, stop)` ranges of the runs of true in `mask`.
@@ -384,13 +377,15 @@ pub fn filtfilt_runs(
             ok.len()
         )));
     }
-    lfilter_zi(b, a)?;
+    let zi = lfilter_zi(b, a)?;
+    let (bn, an) = normalized(b, a)?;
     let mut out: Vec<f64> = x
         .iter()
         .zip(ok)
         .map(|(&v, &k)| if k { v } else { f64::NAN })
         .collect();
     let mut short: Vec<(usize, usize)> = Vec::new();
+    let mut ext = Vec::new();
     for j in 0..c {
         for (s, e) in runs((0..n).map(|i| ok[i * c + j])) {
             if e - s <= padlen {
@@ -400,8 +395,8 @@ pub fn filtfilt_runs(
                 continue;
             }
             let col: Vec<f64> = (s..e).map(|i| x[i * c + j]).collect();
-            let y = filtfilt(b, a, &col, e - s, 1, padlen)?;
-            for (i, v) in (s..e).zip(y) {
+            filtfilt_column(&bn, &an, &zi, &col, padlen, &mut ext);
+            for (i, &v) in (s..e).zip(ext.iter()) {
                 out[i * c + j] = v;
             }
         }
@@ -448,11 +443,30 @@ pub fn solve_tridiagonal(
             "tridiagonal system value {v}"
         )));
     }
+    let mut b = rhs.to_vec();
+    gtsv_inplace(
+        &mut dl.to_vec(),
+        &mut d.to_vec(),
+        &mut du.to_vec(),
+        &mut b,
+        c,
+    )?;
+    Ok(b)
+}
+
+/// LAPACK `dgtsv` in place: on return `b` (`m x c`, row-major) holds the solution; the
+/// diagonals are overwritten by the factorisation.
+fn gtsv_inplace(
+    dl: &mut [f64],
+    d: &mut [f64],
+    du: &mut [f64],
+    b: &mut [f64],
+    c: usize,
+) -> Result<()> {
+    let m = d.len();
     let singular = |i: usize| {
         EngineError::InvalidParameter(format!("singular tridiagonal system (pivot {i})"))
     };
-    let (mut dl, mut d, mut du) = (dl.to_vec(), d.to_vec(), du.to_vec());
-    let mut b = rhs.to_vec();
     for i in 0..m.saturating_sub(1) {
         if d[i].abs() >= dl[i].abs() {
             if d[i] == 0.0 {
@@ -494,7 +508,7 @@ pub fn solve_tridiagonal(
                 (b[i * c + j] - du[i] * b[(i + 1) * c + j] - dl[i] * b[(i + 2) * c + j]) / d[i];
         }
     }
-    Ok(b)
+    Ok(())
 }
 
 /// A cubic spline through `(t, y)`, `y` of `c` columns, with scipy's not-a-knot end
@@ -674,6 +688,300 @@ impl CubicSpline {
     }
 }
 
+/// A reusable one-column not-a-knot cubic spline: [`CubicSpline`] with `c = 1` (the same
+/// operations, so the same numbers), its buffers kept from one column to the next.
+#[derive(Default)]
+struct ColumnSpline {
+    dx: Vec<f64>,
+    slope: Vec<f64>,
+    dl: Vec<f64>,
+    d: Vec<f64>,
+    du: Vec<f64>,
+    s: Vec<f64>,
+    /// `[c0, c1, c2, c3]` of each interval, highest power first.
+    coef: Vec<[f64; 4]>,
+}
+
+impl ColumnSpline {
+    /// Fit `(t, y)`: `t` strictly increasing (at least 2 knots), all finite.
+    fn fit(&mut self, t: &[f64], y: &[f64]) -> Result<()> {
+        let m = t.len();
+        self.dx.clear();
+        self.dx.extend(t.windows(2).map(|w| w[1] - w[0]));
+        let dx = &self.dx;
+        self.slope.clear();
+        self.slope
+            .extend((0..m - 1).map(|i| (y[i + 1] - y[i]) / dx[i]));
+        let slope = &self.slope;
+        self.s.clear();
+        if m == 2 {
+            self.s.extend_from_slice(&[slope[0], slope[0]]);
+        } else if m == 3 {
+            self.s.extend(CubicSpline::three_knots(dx, slope, 1)?);
+        } else {
+            self.dl.clear();
+            self.dl.resize(m - 1, 0.0);
+            self.d.clear();
+            self.d.resize(m, 0.0);
+            self.du.clear();
+            self.du.resize(m - 1, 0.0);
+            self.s.resize(m, 0.0);
+            let (dl, d, du, b) = (&mut self.dl, &mut self.d, &mut self.du, &mut self.s);
+            for i in 1..m - 1 {
+                d[i] = 2.0 * (dx[i - 1] + dx[i]);
+                du[i] = dx[i - 1];
+                dl[i - 1] = dx[i];
+                b[i] = 3.0 * (dx[i] * slope[i - 1] + dx[i - 1] * slope[i]);
+            }
+            d[0] = dx[1];
+            let g = t[2] - t[0];
+            du[0] = g;
+            b[0] = ((dx[0] + 2.0 * g) * dx[1] * slope[0] + dx[0].powi(2) * slope[1]) / g;
+            d[m - 1] = dx[m - 3];
+            let g = t[m - 1] - t[m - 3];
+            dl[m - 2] = g;
+            b[m - 1] = (dx[m - 2].powi(2) * slope[m - 3]
+                + (2.0 * g + dx[m - 2]) * dx[m - 3] * slope[m - 2])
+                / g;
+            gtsv_inplace(dl, d, du, b, 1)?;
+        }
+        let s = &self.s;
+        self.coef.clear();
+        self.coef.extend((0..m - 1).map(|i| {
+            let tt = (s[i] + s[i + 1] - 2.0 * slope[i]) / dx[i];
+            [tt / dx[i], (slope[i] - s[i]) / dx[i] - tt, s[i], y[i]]
+        }));
+        Ok(())
+    }
+
+    /// The value at `x` (`t` the knots of the last fit), the interval searched from `hint`
+    /// (updated).
+    fn eval(&self, t: &[f64], x: f64, hint: &mut usize) -> f64 {
+        let i = upper_index(t, x, *hint) - 1;
+        *hint = i + 1;
+        let s = x - t[i];
+        let c = &self.coef[i];
+        let mut res = 0.0;
+        let mut z = 1.0;
+        for p in 0..4 {
+            res += c[3 - p] * z;
+            if p < 3 {
+                z *= s;
+            }
+        }
+        res
+    }
+}
+
+/// Where a target time is interpolated from the sorted source times `tk`: inside their span
+/// and not inside an interval longer than `max_gap` (a target on a sample always is).
+/// `lfd.preprocessing.resample.gap_mask`.
+pub fn gap_mask(tk: &[f64], td: &[f64], max_gap: f64) -> Vec<bool> {
+    let mut out = Vec::with_capacity(td.len());
+    gap_mask_into(tk, td, max_gap, &mut out);
+    out
+}
+
+/// The index `i` in `1..m` with `tk[i - 1] <= t < tk[i]` (clamped to the ends), found from
+/// the previous answer `hint` first (targets in increasing order take a step or two).
+fn upper_index(tk: &[f64], t: f64, hint: usize) -> usize {
+    let m = tk.len();
+    if hint >= 1 && hint < m && tk[hint - 1] <= t && (t < tk[hint] || hint == m - 1) {
+        return hint;
+    }
+    if hint + 1 < m && tk[hint] <= t && (t < tk[hint + 1] || hint + 1 == m - 1) {
+        return hint + 1;
+    }
+    tk.partition_point(|&v| v <= t).clamp(1, m - 1)
+}
+
+/// [`gap_mask`] into `out` (cleared first).
+fn gap_mask_into(tk: &[f64], td: &[f64], max_gap: f64, out: &mut Vec<bool>) {
+    out.clear();
+    let m = tk.len();
+    if m == 0 {
+        out.resize(td.len(), false);
+        return;
+    }
+    let mut hint = 1;
+    out.extend(td.iter().map(|&t| {
+        let inside = t >= tk[0] && t <= tk[m - 1];
+        if m == 1 || !inside {
+            return inside;
+        }
+        let i = upper_index(tk, t, hint);
+        hint = i;
+        let gap = tk[i] - tk[i - 1];
+        gap <= max_gap || t == tk[i - 1] || t == tk[i]
+    }));
+}
+
+/// One column's weighted nodes: `y_i = w_i x_i + (1 - w_i) yhat_i`, `yhat_i` the linear
+/// interpolation at `t_i` of the neighbours within `max_gap`
+/// (`lfd.preprocessing.resample.weighted_nodes`, the same operations).
+///
+/// # Errors
+/// Those of [`solve_tridiagonal`].
+pub fn weighted_nodes(t: &[f64], x: &[f64], w: &[f64], max_gap: f64) -> Result<Vec<f64>> {
+    let m = t.len();
+    if m < 2 || w.iter().all(|&v| v == 1.0) {
+        return Ok(x.to_vec());
+    }
+    let step: Vec<f64> = t.windows(2).map(|p| p[1] - p[0]).collect();
+    let near: Vec<bool> = step.iter().map(|&s| s <= max_gap).collect();
+    let (mut alpha, mut beta) = (vec![0.0; m], vec![0.0; m]);
+    for i in 0..m {
+        let has_left = i > 0 && near[i - 1];
+        let has_right = i + 1 < m && near[i];
+        if has_left && has_right {
+            let (left, right) = (step[i - 1], step[i]);
+            alpha[i] = right / (left + right);
+            beta[i] = 1.0 - alpha[i];
+        } else {
+            alpha[i] = f64::from(u8::from(has_left));
+            beta[i] = f64::from(u8::from(has_right));
+        }
+    }
+    let upper: Vec<f64> = (0..m - 1).map(|i| -(1.0 - w[i]) * beta[i]).collect();
+    let lower: Vec<f64> = (0..m - 1)
+        .map(|i| -(1.0 - w[i + 1]) * alpha[i + 1])
+        .collect();
+    let rhs: Vec<f64> = w.iter().zip(x).map(|(&wi, &xi)| wi * xi).collect();
+    solve_tridiagonal(&lower, &vec![1.0; m], &upper, &rhs, 1)
+}
+
+/// Cubic-spline resampling of the columns of `x` (`m x c`, row-major, NaN where not observed)
+/// from the strictly increasing times `ts` to the times `td`, each column on its own finite
+/// samples, through their [`weighted_nodes`] when `weights` (`m x cw`, `cw` dividing `c`:
+/// weight column `k` applies to the `c / cw` data columns from `k c / cw` on) are given: what
+/// `lfd.preprocessing.resample.resample_positions` computes. Returns the values and the
+/// valid flags (`td.len() x c`, row-major); a target outside a column's samples or inside a
+/// gap longer than `max_gap` is NaN and invalid.
+///
+/// # Errors
+/// [`EngineError::ShapeMismatch`] for inconsistent lengths, and those of [`CubicSpline::new`].
+pub fn resample_columns(
+    ts: &[f64],
+    x: &[f64],
+    c: usize,
+    weights: Option<&[f64]>,
+    td: &[f64],
+    max_gap: f64,
+) -> Result<(Vec<f64>, Vec<bool>)> {
+    let m = ts.len();
+    let cw = weights.map_or(1, |w| if m == 0 { 1 } else { w.len() / m });
+    if x.len() != m * c || weights.is_some_and(|w| cw == 0 || w.len() != m * cw || c % cw != 0) {
+        return Err(EngineError::ShapeMismatch(format!(
+            "{} values and {} weights for {m} times x {c} columns",
+            x.len(),
+            weights.map_or(0, <[f64]>::len)
+        )));
+    }
+    let per = if cw == 0 { 1 } else { (c / cw).max(1) };
+    let n = td.len();
+    let mut values = vec![f64::NAN; n * c];
+    let mut valid = vec![false; n * c];
+    let (mut tk, mut xk, mut wk) = (Vec::new(), Vec::new(), Vec::new());
+    let mut spline = ColumnSpline::default();
+    let (mut xcols, mut wcols) = (Vec::new(), Vec::new());
+    let (mut vcols, mut okcols): (Vec<Vec<f64>>, Vec<Vec<bool>>) = (Vec::new(), Vec::new());
+    for j0 in (0..c).step_by(BLOCK) {
+        let width = BLOCK.min(c - j0);
+        gather(x, c, |k| j0 + k, width, &mut xcols);
+        if let Some(w) = weights {
+            gather(w, cw, |k| (j0 + k) / per, width, &mut wcols);
+        }
+        vcols.resize_with(width, Vec::new);
+        okcols.resize_with(width, Vec::new);
+        for k in 0..width {
+            tk.clear();
+            xk.clear();
+            wk.clear();
+            for (i, &v) in xcols[k].iter().enumerate() {
+                if v.is_finite() {
+                    tk.push(ts[i]);
+                    xk.push(v);
+                    if weights.is_some() {
+                        wk.push(wcols[k][i]);
+                    }
+                }
+            }
+            let (vals, ok) = (&mut vcols[k], &mut okcols[k]);
+            gap_mask_into(&tk, td, max_gap, ok);
+            vals.clear();
+            vals.resize(n, f64::NAN);
+            if tk.is_empty() || !ok.iter().any(|&v| v) {
+                continue;
+            }
+            let weighted;
+            let nodes: &[f64] = if weights.is_some() {
+                weighted = weighted_nodes(&tk, &xk, &wk, max_gap)?;
+                &weighted
+            } else {
+                &xk
+            };
+            if tk.len() > 1 {
+                if let Some(v) = tk.iter().chain(nodes).find(|v| !v.is_finite()) {
+                    return Err(EngineError::NonFinite(format!("spline input value {v}")));
+                }
+                if tk.windows(2).any(|w| w[1] <= w[0]) {
+                    return Err(EngineError::InvalidParameter(
+                        "source times must be strictly increasing".into(),
+                    ));
+                }
+                spline.fit(&tk, nodes)?;
+            }
+            let mut hint = 1;
+            for ((o, &t), &k) in vals.iter_mut().zip(td).zip(ok.iter()) {
+                if k {
+                    *o = if tk.len() == 1 {
+                        nodes[0]
+                    } else {
+                        spline.eval(&tk, t, &mut hint)
+                    };
+                }
+            }
+        }
+        scatter(&mut values, c, j0, &vcols[..width]);
+        scatter(&mut valid, c, j0, &okcols[..width]);
+    }
+    Ok((values, valid))
+}
+
+/// Columns are processed this many at a time: one pass over the rows of a row-major array
+/// reads (or writes) them all, a cache line of each row.
+const BLOCK: usize = 8;
+
+/// Columns `col(0), ..., col(width - 1)` of the row-major array `x` of `c` columns into
+/// `bufs` (one vector per column), in one pass over the rows.
+fn gather(
+    x: &[f64],
+    c: usize,
+    col: impl Fn(usize) -> usize,
+    width: usize,
+    bufs: &mut Vec<Vec<f64>>,
+) {
+    bufs.resize_with(width, Vec::new);
+    let idx: Vec<usize> = (0..width).map(col).collect();
+    for b in bufs.iter_mut() {
+        b.clear();
+    }
+    for row in x.chunks_exact(c) {
+        for (b, &j) in bufs.iter_mut().zip(&idx) {
+            b.push(row[j]);
+        }
+    }
+}
+
+/// Write the column vectors `bufs` into columns `j0..` of the row-major `out` of `c` columns.
+fn scatter<T: Copy>(out: &mut [T], c: usize, j0: usize, bufs: &[Vec<T>]) {
+    for (i, row) in out.chunks_exact_mut(c).enumerate() {
+        for (k, b) in bufs.iter().enumerate() {
+            row[j0 + k] = b[i];
+        }
+    }
+}
+
 #[cfg(test)]
 #[allow(clippy::float_cmp)]
 mod tests {
@@ -743,6 +1051,21 @@ mod tests {
         }
         assert!(solve_tridiagonal(&[0.0], &[0.0, 1.0], &[0.0], &[1.0, 1.0], 1).is_err());
         assert!(solve_tridiagonal(&[1.0], &[1.0], &[], &[1.0], 1).is_err());
+    }
+
+    #[test]
+    fn resample_keeps_gaps() {
+        let ts = [0.0, 1.0, 2.0, 3.0, 10.0, 11.0];
+        let x = [0.0, 1.0, 2.0, f64::NAN, 10.0, 11.0];
+        let td = [0.5, 2.5, 5.0, 10.5, 12.0];
+        let (v, ok) = resample_columns(&ts, &x, 1, None, &td, 1.5).unwrap();
+        assert_eq!(ok, vec![true, false, false, true, false]);
+        assert!((v[0] - 0.5).abs() < 1e-12 && (v[3] - 10.5).abs() < 1e-12);
+        assert!(v[1].is_nan() && v[4].is_nan());
+        // weight 1 keeps a sample; a low weight pulls it towards its neighbours
+        let y = weighted_nodes(&[0.0, 1.0, 2.0], &[0.0, 5.0, 0.0], &[1.0, 0.5, 1.0], 1.5).unwrap();
+        assert_eq!(y, vec![0.0, 2.5, 0.0]);
+        assert!(resample_columns(&ts, &x[..5], 1, None, &td, 1.5).is_err());
     }
 
     #[test]

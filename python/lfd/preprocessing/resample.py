@@ -156,45 +156,31 @@ def resample_positions(
         raise DemonstrationError(f"{arr.shape[0]} samples but {ts.shape[0]} timestamps")
     if ts.size > 1 and not np.all(np.diff(ts) > 0):
         raise DemonstrationError("source timestamps must be strictly increasing")
-    flat = arr.reshape(arr.shape[0], int(np.prod(arr.shape[1:])))
+    m = arr.shape[0]
+    flat = np.ascontiguousarray(arr.reshape(m, int(np.prod(arr.shape[1:]))))
     finite = np.isfinite(flat)
-    wflat = None
+    wcols = None
     if weights is not None:
+        w = np.asarray(weights, dtype=np.float64)
         try:
-            wflat = np.broadcast_to(np.asarray(weights, dtype=np.float64), arr.shape)
+            wfull = np.broadcast_to(w, arr.shape)
         except ValueError:
             raise DemonstrationError(
                 f"weights of shape {np.shape(weights)} do not fit values of shape {arr.shape}"
             ) from None
-        wflat = wflat.reshape(flat.shape)
-        wk = wflat[finite]
+        if arr.ndim >= 2 and w.shape == (*arr.shape[:-1], 1):
+            # one weight per row of the last axis (a keypoint's x, y, z): passed as it is
+            wcols = np.ascontiguousarray(w.reshape(m, -1))
+            seen = finite.reshape(m, wcols.shape[1], -1).any(axis=2)
+        else:
+            wcols = np.ascontiguousarray(wfull).reshape(flat.shape)
+            seen = finite
+        wk = wcols[seen]
         if not np.all((wk > 0) & (wk <= 1)):
             raise DemonstrationError("weights of observed samples must be in (0, 1]")
-    out = np.full((td.size, flat.shape[1]), np.nan)
-    valid = np.zeros((td.size, flat.shape[1]), dtype=bool)
-    groups: dict[bytes, list[int]] = {}  # columns with the same gaps (and weights)
-    for j in range(flat.shape[1]):
-        key = finite[:, j].tobytes()
-        if wflat is not None:
-            key += np.where(finite[:, j], wflat[:, j], 0.0).tobytes()
-        groups.setdefault(key, []).append(j)
-    for col_list in groups.values():
-        cols = np.array(col_list)
-        keep = finite[:, cols[0]]
-        tk = ts[keep]
-        ok = gap_mask(tk, td, max_gap_s)
-        if tk.size == 0 or not ok.any():
-            continue
-        nodes = flat[keep][:, cols]
-        if wflat is not None:
-            nodes = weighted_nodes(tk, nodes, wflat[keep, cols[0]], max_gap_s)
-        if tk.size == 1:
-            out[np.ix_(ok, cols)] = nodes
-        else:
-            # not-a-knot cubic splines of all the group's columns (scipy's CubicSpline)
-            nodes = np.ascontiguousarray(nodes, dtype=np.float64)
-            out[np.ix_(ok, cols)] = _hmmseg.cubic_spline(tk, nodes, td[ok])
-        valid[np.ix_(ok, cols)] = True
+    # each column on its own finite samples (the engine: gaps, weighted nodes, not-a-knot
+    # cubic splines as scipy's CubicSpline)
+    out, valid = _hmmseg.resample_columns(ts, flat, wcols, td, float(max_gap_s))
     return out.reshape((td.size, *arr.shape[1:])), valid.reshape((td.size, *arr.shape[1:]))
 
 
