@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from lfd import _hmmseg, rotations
 from lfd.errors import EngineError, InvalidParameterError
 from lfd.preprocessing.filters import lowpass

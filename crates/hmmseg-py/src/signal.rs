@@ -48,14 +48,16 @@ pub fn fixed_rows(
     Ok((v, n))
 }
 
+type Coefficients<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>);
+
 /// `(b, a)` of a Butterworth low-pass: `scipy.signal.butter(order, cutoff, fs=fs)`.
 #[pyfunction]
-fn butter_lowpass<'py>(
-    py: Python<'py>,
+fn butter_lowpass(
+    py: Python<'_>,
     #[pyo3(from_py_with = int_arg)] order: i128,
     cutoff: f64,
     fs: f64,
-) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
+) -> PyResult<Coefficients<'_>> {
     guard(py, || {
         let order = count(py, order, "order", 1)?;
         let (b, a) = core::butter_lowpass(order, cutoff, fs).py_err(py)?;

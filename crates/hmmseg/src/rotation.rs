@@ -10,6 +10,10 @@
 //! orthogonal to 1e-12 is first replaced by the nearest rotation (`U V^T` of its SVD), as scipy
 //! does.
 
+// Exact float comparisons and index loops are deliberate: they reproduce scipy's (and
+// LAPACK's) operations one by one, so the results agree to the bit.
+#![allow(clippy::float_cmp, clippy::needless_range_loop)]
+
 use nalgebra::Matrix3;
 
 use crate::error::{EngineError, Result};
@@ -465,7 +469,9 @@ pub fn make_continuous(q: &[f64]) -> Result<Vec<f64>> {
         if let Some(p) = prev {
             let dot = row[0] * p[0] + row[1] * p[1] + row[2] * p[2] + row[3] * p[3];
             if dot < 0.0 {
-                row.iter_mut().for_each(|v| *v = -*v);
+                for v in row.iter_mut() {
+                    *v = -*v;
+                }
             }
         }
         prev = Some([row[0], row[1], row[2], row[3]]);

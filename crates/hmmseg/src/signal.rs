@@ -10,6 +10,10 @@
 //! Multi-column signals are row-major `(n, c)` slices (`x[i * c + j]` is sample `i` of column
 //! `j`), filtered or interpolated along the rows, each column on its own.
 
+// Exact float comparisons and index loops are deliberate: they reproduce scipy's (and
+// LAPACK's) operations one by one, so the results agree to the bit.
+#![allow(clippy::float_cmp, clippy::needless_range_loop)]
+
 use crate::error::{EngineError, Result};
 
 /// A complex number with numpy's arithmetic (multiplication without fused operations, Smith's
@@ -168,8 +172,12 @@ fn normalized(b: &[f64], a: &[f64]) -> Result<(Vec<f64>, Vec<f64>)> {
     let mut b = b.to_vec();
     if a[0] != 1.0 {
         let a0 = a[0];
-        b.iter_mut().for_each(|v| *v /= a0);
-        a.iter_mut().for_each(|v| *v /= a0);
+        for v in &mut b {
+            *v /= a0;
+        }
+        for v in &mut a {
+            *v /= a0;
+        }
     }
     let n = a.len().max(b.len());
     a.resize(n, 0.0);
@@ -256,7 +264,9 @@ fn lu_solve(
 fn lfilter_inplace(b: &[f64], a: &[f64], x: &mut [f64], z: &mut [f64]) {
     let len = b.len();
     if len == 1 {
-        x.iter_mut().for_each(|v| *v *= b[0]);
+        for v in x.iter_mut() {
+            *v *= b[0];
+        }
         return;
     }
     for v in x.iter_mut() {
@@ -354,6 +364,9 @@ pub fn runs(mask: impl IntoIterator<Item = bool>) -> Vec<(usize, usize)> {
     out
 }
 
+/// A filtered signal and the `(start, stop)` of its runs left unfiltered.
+pub type FilteredRuns = (Vec<f64>, Vec<(usize, usize)>);
+
 /// [`filtfilt`] of a signal with gaps: each column's runs of `ok` samples are filtered on
 /// their own, a run of at most `padlen` samples is left unfiltered, and samples that are not
 /// `ok` become NaN. Returns the filtered signal and the `(start, stop)` of the runs left
@@ -369,7 +382,7 @@ pub fn filtfilt_runs(
     n: usize,
     c: usize,
     padlen: usize,
-) -> Result<(Vec<f64>, Vec<(usize, usize)>)> {
+) -> Result<FilteredRuns> {
     if x.len() != n * c || ok.len() != n * c {
         return Err(EngineError::ShapeMismatch(format!(
             "{} values and {} flags for a signal of {n} samples x {c} columns",
@@ -869,7 +882,7 @@ pub fn resample_columns(
     max_gap: f64,
 ) -> Result<(Vec<f64>, Vec<bool>)> {
     let m = ts.len();
-    let cw = weights.map_or(1, |w| if m == 0 { 1 } else { w.len() / m });
+    let cw = weights.map_or(1, |w| w.len().checked_div(m).unwrap_or(1));
     if x.len() != m * c || weights.is_some_and(|w| cw == 0 || w.len() != m * cw || c % cw != 0) {
         return Err(EngineError::ShapeMismatch(format!(
             "{} values and {} weights for {m} times x {c} columns",
@@ -877,7 +890,7 @@ pub fn resample_columns(
             weights.map_or(0, <[f64]>::len)
         )));
     }
-    let per = if cw == 0 { 1 } else { (c / cw).max(1) };
+    let per = c.checked_div(cw).unwrap_or(1).max(1);
     let n = td.len();
     let mut values = vec![f64::NAN; n * c];
     let mut valid = vec![false; n * c];
