@@ -273,3 +273,26 @@ def test_make_continuous() -> None:
     assert np.all((dots >= 0) | np.isnan(dots))
     np.testing.assert_array_equal(np.abs(out), np.abs(q))
     np.testing.assert_array_equal(out[[0, 101]], q[[0, 101]])  # runs start unflipped
+
+
+def test_preprocessing_imports_no_scipy() -> None:
+    """``lfd.load`` -> ``lfd.preprocess`` of a shipped recording with scipy blocked."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    rec = Path(__file__).resolve().parents[1] / "recordings" / "exp1.mcap"
+    code = (
+        "import sys\n"
+        "class Block:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name.split('.')[0] == 'scipy':\n"
+        "            raise ModuleNotFoundError(f'blocked: {name}', name=name)\n"
+        "sys.meta_path.insert(0, Block())\n"
+        "import lfd\n"
+        f"traj = lfd.preprocess(lfd.load({str(rec)!r}, images=False))\n"
+        "assert traj.hand_valid.any()\n"
+        "assert not [m for m in sys.modules if m.startswith('scipy')]\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr[-2000:]
