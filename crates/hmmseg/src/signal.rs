@@ -836,31 +836,63 @@ fn gap_mask_into(tk: &[f64], td: &[f64], max_gap: f64, out: &mut Vec<bool>) {
 /// # Errors
 /// Those of [`solve_tridiagonal`].
 pub fn weighted_nodes(t: &[f64], x: &[f64], w: &[f64], max_gap: f64) -> Result<Vec<f64>> {
+    let mut scratch = NodeScratch::default();
+    let mut out = Vec::new();
+    weighted_nodes_into(t, x, w, max_gap, &mut scratch, &mut out)?;
+    Ok(out)
+}
+
+/// The buffers of [`weighted_nodes_into`], kept from one column to the next.
+#[derive(Default)]
+struct NodeScratch {
+    alpha: Vec<f64>,
+    beta: Vec<f64>,
+    lower: Vec<f64>,
+    diag: Vec<f64>,
+    upper: Vec<f64>,
+}
+
+/// [`weighted_nodes`] into `out` (the solution overwrites the right-hand side in place).
+fn weighted_nodes_into(
+    t: &[f64],
+    x: &[f64],
+    w: &[f64],
+    max_gap: f64,
+    sc: &mut NodeScratch,
+    out: &mut Vec<f64>,
+) -> Result<()> {
     let m = t.len();
+    out.clear();
     if m < 2 || w.iter().all(|&v| v == 1.0) {
-        return Ok(x.to_vec());
+        out.extend_from_slice(x);
+        return Ok(());
     }
-    let step: Vec<f64> = t.windows(2).map(|p| p[1] - p[0]).collect();
-    let near: Vec<bool> = step.iter().map(|&s| s <= max_gap).collect();
-    let (mut alpha, mut beta) = (vec![0.0; m], vec![0.0; m]);
+    let near = |i: usize| t[i + 1] - t[i] <= max_gap;
+    sc.alpha.clear();
+    sc.beta.clear();
     for i in 0..m {
-        let has_left = i > 0 && near[i - 1];
-        let has_right = i + 1 < m && near[i];
+        let has_left = i > 0 && near(i - 1);
+        let has_right = i + 1 < m && near(i);
         if has_left && has_right {
-            let (left, right) = (step[i - 1], step[i]);
-            alpha[i] = right / (left + right);
-            beta[i] = 1.0 - alpha[i];
+            let (left, right) = (t[i] - t[i - 1], t[i + 1] - t[i]);
+            let alpha = right / (left + right);
+            sc.alpha.push(alpha);
+            sc.beta.push(1.0 - alpha);
         } else {
-            alpha[i] = f64::from(u8::from(has_left));
-            beta[i] = f64::from(u8::from(has_right));
+            sc.alpha.push(f64::from(u8::from(has_left)));
+            sc.beta.push(f64::from(u8::from(has_right)));
         }
     }
-    let upper: Vec<f64> = (0..m - 1).map(|i| -(1.0 - w[i]) * beta[i]).collect();
-    let lower: Vec<f64> = (0..m - 1)
-        .map(|i| -(1.0 - w[i + 1]) * alpha[i + 1])
-        .collect();
-    let rhs: Vec<f64> = w.iter().zip(x).map(|(&wi, &xi)| wi * xi).collect();
-    solve_tridiagonal(&lower, &vec![1.0; m], &upper, &rhs, 1)
+    sc.upper.clear();
+    sc.upper
+        .extend((0..m - 1).map(|i| -(1.0 - w[i]) * sc.beta[i]));
+    sc.lower.clear();
+    sc.lower
+        .extend((0..m - 1).map(|i| -(1.0 - w[i + 1]) * sc.alpha[i + 1]));
+    sc.diag.clear();
+    sc.diag.resize(m, 1.0);
+    out.extend(w.iter().zip(x).map(|(&wi, &xi)| wi * xi));
+    gtsv_inplace(&mut sc.lower, &mut sc.diag, &mut sc.upper, out, 1)
 }
 
 /// Cubic-spline resampling of the columns of `x` (`m x c`, row-major, NaN where not observed)
@@ -896,6 +928,7 @@ pub fn resample_columns(
     let mut valid = vec![false; n * c];
     let (mut tk, mut xk, mut wk) = (Vec::new(), Vec::new(), Vec::new());
     let mut spline = ColumnSpline::default();
+    let (mut scratch, mut weighted) = (NodeScratch::default(), Vec::new());
     let (mut xcols, mut wcols) = (Vec::new(), Vec::new());
     let (mut vcols, mut okcols): (Vec<Vec<f64>>, Vec<Vec<bool>>) = (Vec::new(), Vec::new());
     for j0 in (0..c).step_by(BLOCK) {
@@ -926,9 +959,8 @@ pub fn resample_columns(
             if tk.is_empty() || !ok.iter().any(|&v| v) {
                 continue;
             }
-            let weighted;
             let nodes: &[f64] = if weights.is_some() {
-                weighted = weighted_nodes(&tk, &xk, &wk, max_gap)?;
+                weighted_nodes_into(&tk, &xk, &wk, max_gap, &mut scratch, &mut weighted)?;
                 &weighted
             } else {
                 &xk
