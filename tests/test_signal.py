@@ -296,3 +296,15 @@ def test_preprocessing_imports_no_scipy() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr[-2000:]
+
+
+@pytest.mark.parametrize("n", [2, 3, 4, 5, 6, 40])
+def test_running_median_is_scipy_median_filter(n: int) -> None:
+    from lfd.io.checks import running_median
+
+    ndimage = pytest.importorskip("scipy.ndimage")
+    x = RNG.normal(size=(n, 3))
+    x[n // 2] = 9.0  # a misdetection
+    size = min(5, n)
+    want = ndimage.median_filter(x, size=(size, 1), mode="nearest")
+    np.testing.assert_array_equal(running_median(x, size), want)
