@@ -15,8 +15,10 @@ mod hmm;
 mod limits;
 mod mcap;
 mod ndconv;
+mod rotation;
 mod search;
 mod segment;
+mod signal;
 
 use hmmseg::features::SizeMeasure;
 use hmmseg::hmm::{CovarianceType, Topology};
@@ -52,6 +54,8 @@ fn _hmmseg(m: &Bound<'_, PyModule>) -> PyResult<()> {
     band::register(m)?;
     search::register(m)?;
     mcap::register(m)?;
+    signal::register(m)?;
+    rotation::register(m)?;
     m.add_function(wrap_pyfunction!(errors::hooks::raise_engine_error, m)?)?;
     m.add_function(wrap_pyfunction!(errors::hooks::panic, m)?)?;
     Ok(())

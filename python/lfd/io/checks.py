@@ -92,12 +92,20 @@ def closest_approach(demo: Demonstration) -> Approach:
     return best
 
 
+def running_median(x: np.ndarray, size: int) -> np.ndarray:
+    """``scipy.ndimage.median_filter(x, size=(size, 1), mode="nearest")`` along axis 0: the
+    element of rank ``size // 2`` of the window ``i - size // 2 .. i + (size - 1) // 2``,
+    the ends repeated."""
+    half = size // 2
+    padded = np.concatenate([np.repeat(x[:1], half, 0), x, np.repeat(x[-1:], size - 1 - half, 0)])
+    windows = np.lib.stride_tricks.sliding_window_view(padded, size, axis=0)
+    return np.asarray(np.partition(windows, half, axis=-1)[..., half])
+
+
 def object_travel(demo: Demonstration) -> dict[str, float]:
     """How far (m) each object's centre gets from where it starts (a running median of 5
     samples first, so a single misdetected tag does not count as motion); 0 for an object
     seen fewer than twice."""
-    from scipy.ndimage import median_filter
-
     out: dict[str, float] = {}
     for name, obj in demo.objects.items():
         seen = obj.visible & np.all(np.isfinite(obj.position), 1)
@@ -105,7 +113,7 @@ def object_travel(demo: Demonstration) -> dict[str, float]:
         if len(pos) < 2:
             out[name] = 0.0
             continue
-        smooth = median_filter(pos, size=(min(5, len(pos)), 1), mode="nearest")
+        smooth = running_median(pos, min(5, len(pos)))
         out[name] = float(np.max(np.linalg.norm(smooth - smooth[0], axis=1)))
     return out
 

@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import rotations
+
 REST_TOLERANCE = 0.01
 """An object that moved less than this (m) across a gap was resting: the gap is interpolated."""
 
@@ -99,18 +101,14 @@ def fill_carried_gaps(
             off0, off1 = p0 - tcp[g], p1 - tcp[r]
             w = ((np.arange(g, r + 1) - g) / (r - g))[:, None]
             carried = tcp[g : r + 1] + (1.0 - w) * off0 + w * off1
-            from scipy.spatial.transform import Rotation, Slerp
-
-            ends = Rotation.from_quat(np.stack([quaternion[a - 1], quaternion[b]]))
-            turned = Slerp([0.0, 1.0], ends)(w[:, 0]).as_quat()
+            ends = np.stack([quaternion[a - 1], quaternion[b]])
+            turned = rotations.slerp([0.0, 1.0], ends, w[:, 0])
             q0, q1 = quaternion[a - 1].copy(), quaternion[b].copy()
-            for i in idx:
-                if i < g:
-                    position[i], quaternion[i] = p0, q0
-                elif i > r:
-                    position[i], quaternion[i] = p1, q1
-                else:
-                    position[i], quaternion[i] = carried[i - g], turned[i - g]
+            before, after = idx[idx < g], idx[idx > r]
+            held = idx[(idx >= g) & (idx <= r)]
+            position[before], quaternion[before] = p0, q0
+            position[after], quaternion[after] = p1, q1
+            position[held], quaternion[held] = carried[held - g], turned[held - g]
         valid[a:b] = True
         filled.append((int(a), int(b)))
     return filled
@@ -143,11 +141,13 @@ def carry_open_end(
         return None
     g = last + _closest_in_run(d0, near, first=True)
     off = p0 - tcp[g]
-    held = p0
-    for i in range(last + 1, len(valid)):
-        if i >= g and hand_valid[i] and np.isfinite(tcp[i]).all():
-            held = tcp[i] + off
-        position[i], quaternion[i] = held, q0
+    # from the grasp on, the object follows the TCP where the hand is known and stays where it
+    # was last carried to where it is not
+    idx = np.arange(last + 1, len(valid))
+    follows = (idx >= g) & hand_valid[idx] & np.isfinite(tcp[idx]).all(axis=1)
+    src = np.maximum.accumulate(np.where(follows, np.arange(idx.size), -1))
+    position[idx] = np.where((src >= 0)[:, None], tcp[idx[np.maximum(src, 0)]] + off, p0)
+    quaternion[idx] = q0
     valid[last + 1 :] = True
     return last + 1, len(valid)
 

@@ -4,6 +4,10 @@ MATLAB pads with an odd extension of ``3 * (max(len(a), len(b)) - 1)`` samples (
 order filter); scipy's default is 15, which changes the ends by up to a few per cent, so the pad
 length is always passed explicitly. Signals containing NaN (tracking gaps) are filtered per run
 of finite samples; runs too short to filter are returned unchanged and reported.
+
+The design and the filter are the engine's (``lfd._hmmseg.butter_lowpass`` and ``filtfilt``),
+bit for bit scipy's ``butter(order, fc, fs=fs)`` and ``filtfilt(b, a, x, axis=0,
+padlen=...)``: no scipy import.
 """
 
 from __future__ import annotations
@@ -11,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from .. import _hmmseg
 from ..errors import DemonstrationError
 
 __all__ = ["butter_ba", "filtfilt_runs", "finite_runs", "lowpass", "matlab_padlen", "unwrap_runs"]
@@ -18,16 +23,13 @@ __all__ = ["butter_ba", "filtfilt_runs", "finite_runs", "lowpass", "matlab_padle
 
 def butter_ba(cutoff_hz: float, fs: float, order: int = 4) -> tuple[np.ndarray, np.ndarray]:
     """Coefficients ``(b, a)`` of a Butterworth low-pass, as MATLAB's ``butter(order, fc/(fs/2))``."""
-    from scipy.signal import butter
-
     if not (fs > 0 and np.isfinite(fs)):
         raise DemonstrationError(f"sampling rate must be positive, got {fs}")
     if not (0 < cutoff_hz < fs / 2):
         raise DemonstrationError(
             f"cut-off {cutoff_hz} Hz must be between 0 and the Nyquist frequency {fs / 2} Hz"
         )
-    b, a = butter(order, cutoff_hz, btype="low", fs=fs)
-    return np.asarray(b, dtype=np.float64), np.asarray(a, dtype=np.float64)
+    return _hmmseg.butter_lowpass(order, float(cutoff_hz), float(fs))
 
 
 def matlab_padlen(b: np.ndarray, a: np.ndarray) -> int:
@@ -77,8 +79,6 @@ def lowpass(
     DemonstrationError
         If the signal has no more samples than the pad length (12 for order 4).
     """
-    from scipy.signal import filtfilt
-
     b, a = butter_ba(cutoff_hz, fs, order)
     pad = matlab_padlen(b, a)
     arr = np.asarray(x, dtype=np.float64)
@@ -90,10 +90,10 @@ def lowpass(
             f"signal of {n} samples is too short to filter (needs more than {pad} samples, "
             f"{pad / fs:.2f} s at {fs} Hz)"
         )
-    flat = arr.reshape(n, -1)
+    flat = np.ascontiguousarray(arr.reshape(n, -1))
     finite = np.isfinite(flat)
     if finite.all():
-        return np.asarray(filtfilt(b, a, arr, axis=0, padlen=pad))
+        return _hmmseg.filtfilt(b, a, flat, pad).reshape(arr.shape)
     return filtfilt_runs(flat, finite, b, a, report=report).reshape(arr.shape)
 
 
@@ -109,20 +109,16 @@ def filtfilt_runs(
     filtered on their own (columns with the same runs together); a run of at most the pad
     length is left unfiltered (and its ``(start, stop)`` appended to ``report``); NaN where not
     ``ok``. What :func:`lowpass` does to a signal with gaps."""
-    from scipy.signal import filtfilt
-
     pad = matlab_padlen(b, a)
-    out = np.where(ok, x, np.nan)
-    patterns: dict[bytes, list[int]] = {}
-    for j in range(x.shape[1]):
-        patterns.setdefault(ok[:, j].tobytes(), []).append(j)
-    for cols in patterns.values():
-        for start, stop in finite_runs(ok[:, cols[0]]):
-            if stop - start <= pad:
-                if report is not None and (start, stop) not in report:
-                    report.append((start, stop))
-                continue
-            out[start:stop, cols] = filtfilt(b, a, x[start:stop, cols], axis=0, padlen=pad)
+    out, short = _hmmseg.filtfilt_runs(
+        np.asarray(b, dtype=np.float64),
+        np.asarray(a, dtype=np.float64),
+        np.ascontiguousarray(x, dtype=np.float64),
+        np.ascontiguousarray(ok, dtype=bool),
+        pad,
+    )
+    if report is not None:
+        report.extend(run for run in short if run not in report)
     return out
 
 

@@ -13,13 +13,15 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from .. import rotations
 from ..demo import INDEX_MCP, INDEX_TIP, THUMB_TIP
 from ..errors import DemonstrationError
 
 __all__ = ["euler_from_rotation", "gripper_frame", "rotation_from_euler"]
 
 EULER_SEQ = "xyz"
-"""Euler convention of :attr:`lfd.trajectory.Trajectory.euler` (scipy, extrinsic x-y-z)."""
+"""Euler convention of :attr:`lfd.trajectory.Trajectory.euler` (scipy's name: extrinsic x-y-z;
+computed by :mod:`lfd.rotations`)."""
 
 DEGENERATE_TOL = 1e-6
 """Samples whose ``|(I - B) x (T - B)|`` is below this fraction of ``|I - B| |T - B|`` (the
@@ -91,23 +93,15 @@ def euler_from_rotation(rotation: npt.ArrayLike) -> np.ndarray:
 
     The angles are not unwrapped (see :func:`lfd.preprocessing.filters.unwrap_runs`).
     """
-    from scipy.spatial.transform import Rotation
-
     r = np.asarray(rotation, dtype=np.float64)
-    out = np.full((r.shape[0], 3), np.nan)
-    ok = np.isfinite(r).all(axis=(1, 2))
-    if ok.any():
-        out[ok] = Rotation.from_matrix(r[ok]).as_euler(EULER_SEQ)
-    return out
+    if r.ndim != 3 or r.shape[1:] != (3, 3):
+        raise DemonstrationError(f"rotations must have shape (n, 3, 3), got {r.shape}")
+    return rotations.euler_from_matrix(r)
 
 
 def rotation_from_euler(euler: npt.ArrayLike) -> np.ndarray:
     """Rotation matrices, shape (n, 3, 3), of XYZ Euler angles, shape (n, 3); NaN stays NaN."""
-    from scipy.spatial.transform import Rotation
-
     e = np.asarray(euler, dtype=np.float64)
-    out = np.full((e.shape[0], 3, 3), np.nan)
-    ok = np.isfinite(e).all(axis=1)
-    if ok.any():
-        out[ok] = Rotation.from_euler(EULER_SEQ, e[ok]).as_matrix()
-    return out
+    if e.ndim != 2 or e.shape[1] != 3:
+        raise DemonstrationError(f"Euler angles must have shape (n, 3), got {e.shape}")
+    return rotations.matrix_from_euler(e)

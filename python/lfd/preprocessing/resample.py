@@ -8,6 +8,9 @@ Samples can carry weights in (0, 1] (a hand-pose estimator's per-keypoint confid
 :func:`weighted_nodes` then pulls each sample towards its neighbours in proportion to
 ``1 - weight`` before the spline is fitted; weight 1 keeps a sample exactly, and all-ones weights
 give the unweighted result bit for bit.
+
+The splines, the tridiagonal solve and the slerp are the engine's (``lfd._hmmseg``), the same
+numbers as scipy's ``CubicSpline``, ``solve_banded`` and ``Slerp``: no scipy import.
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from .. import _hmmseg, rotations
 from ..errors import DemonstrationError
 
 __all__ = [
@@ -97,7 +101,6 @@ def weighted_nodes(t_s: np.ndarray, x: np.ndarray, w: np.ndarray, max_gap_s: flo
     m = t_s.size
     if m < 2 or np.all(w == 1.0):
         return x
-    from scipy.linalg import solve_banded
 
     step = np.diff(t_s)
     near = step <= max_gap_s  # near[i]: samples i and i+1 pull on each other
@@ -108,15 +111,10 @@ def weighted_nodes(t_s: np.ndarray, x: np.ndarray, w: np.ndarray, max_gap_s: flo
     both = has_left & has_right
     alpha = np.where(both, right / np.where(both, left + right, 1.0), has_left.astype(float))
     beta = np.where(both, 1.0 - alpha, has_right.astype(float))
-    ab = np.zeros((3, m))
-    ab[0, 1:] = -(1.0 - w[:-1]) * beta[:-1]  # row i, column i + 1
-    ab[1] = 1.0
-    ab[2, :-1] = -(1.0 - w[1:]) * alpha[1:]  # row i, column i - 1
-    return np.asarray(solve_banded((1, 1), ab, w[:, None] * x), dtype=np.float64)
-
-
-SPLINE_COLUMNS = 3
-"""Columns fitted per cubic spline in :func:`resample_positions` (a keypoint's x, y, z)."""
+    upper = -(1.0 - w[:-1]) * beta[:-1]  # row i, column i + 1
+    lower = -(1.0 - w[1:]) * alpha[1:]  # row i + 1, column i
+    rhs = np.ascontiguousarray(w[:, None] * x, dtype=np.float64)
+    return _hmmseg.solve_tridiagonal(lower, np.ones(m), upper, rhs)
 
 
 def resample_positions(
@@ -151,8 +149,6 @@ def resample_positions(
     valid : array, shape (n, ...)
         Where ``y`` is an interpolation of real data.
     """
-    from scipy.interpolate import CubicSpline
-
     ts = np.asarray(t_src_s, dtype=np.float64)
     td = np.asarray(t_dst_s, dtype=np.float64)
     arr = np.asarray(x, dtype=np.float64)
@@ -160,50 +156,31 @@ def resample_positions(
         raise DemonstrationError(f"{arr.shape[0]} samples but {ts.shape[0]} timestamps")
     if ts.size > 1 and not np.all(np.diff(ts) > 0):
         raise DemonstrationError("source timestamps must be strictly increasing")
-    flat = arr.reshape(arr.shape[0], int(np.prod(arr.shape[1:])))
+    m = arr.shape[0]
+    flat = np.ascontiguousarray(arr.reshape(m, int(np.prod(arr.shape[1:]))))
     finite = np.isfinite(flat)
-    wflat = None
+    wcols = None
     if weights is not None:
+        w = np.asarray(weights, dtype=np.float64)
         try:
-            wflat = np.broadcast_to(np.asarray(weights, dtype=np.float64), arr.shape)
+            wfull = np.broadcast_to(w, arr.shape)
         except ValueError:
             raise DemonstrationError(
                 f"weights of shape {np.shape(weights)} do not fit values of shape {arr.shape}"
             ) from None
-        wflat = wflat.reshape(flat.shape)
-        wk = wflat[finite]
+        if arr.ndim >= 2 and w.shape == (*arr.shape[:-1], 1):
+            # one weight per row of the last axis (a keypoint's x, y, z): passed as it is
+            wcols = np.ascontiguousarray(w.reshape(m, -1))
+            seen = finite.reshape(m, wcols.shape[1], -1).any(axis=2)
+        else:
+            wcols = np.ascontiguousarray(wfull).reshape(flat.shape)
+            seen = finite
+        wk = wcols[seen]
         if not np.all((wk > 0) & (wk <= 1)):
             raise DemonstrationError("weights of observed samples must be in (0, 1]")
-    out = np.full((td.size, flat.shape[1]), np.nan)
-    valid = np.zeros((td.size, flat.shape[1]), dtype=bool)
-    groups: dict[bytes, list[int]] = {}  # columns with the same gaps (and weights)
-    for j in range(flat.shape[1]):
-        key = finite[:, j].tobytes()
-        if wflat is not None:
-            key += np.where(finite[:, j], wflat[:, j], 0.0).tobytes()
-        groups.setdefault(key, []).append(j)
-    for col_list in groups.values():
-        cols = np.array(col_list)
-        keep = finite[:, cols[0]]
-        tk = ts[keep]
-        ok = gap_mask(tk, td, max_gap_s)
-        if tk.size == 0 or not ok.any():
-            continue
-        nodes = flat[keep][:, cols]
-        if wflat is not None:
-            nodes = weighted_nodes(tk, nodes, wflat[keep, cols[0]], max_gap_s)
-        if tk.size == 1:
-            out[np.ix_(ok, cols)] = nodes
-        else:
-            # a few columns at a time: each column's spline is its own (same numbers), and the
-            # coefficients of all 63 keypoint columns of a long demonstration would take
-            # hundreds of MB at once
-            at = td[ok]
-            for c in range(0, cols.size, SPLINE_COLUMNS):
-                part = slice(c, c + SPLINE_COLUMNS)
-                spline = CubicSpline(tk, nodes[:, part], axis=0)
-                out[np.ix_(ok, cols[part])] = spline(at)
-        valid[np.ix_(ok, cols)] = True
+    # each column on its own finite samples (the engine: gaps, weighted nodes, not-a-knot
+    # cubic splines as scipy's CubicSpline)
+    out, valid = _hmmseg.resample_columns(ts, flat, wcols, td, float(max_gap_s))
     return out.reshape((td.size, *arr.shape[1:])), valid.reshape((td.size, *arr.shape[1:]))
 
 
@@ -233,8 +210,6 @@ def resample_quaternions(
         Unit quaternions with ``q[i] . q[i-1] >= 0`` within each valid run; NaN where invalid.
     valid : array, shape (n,)
     """
-    from scipy.spatial.transform import Rotation, Slerp
-
     ts = np.asarray(t_src_s, dtype=np.float64)
     td = np.asarray(t_dst_s, dtype=np.float64)
     q = np.asarray(quat, dtype=np.float64)
@@ -246,23 +221,13 @@ def resample_quaternions(
     out = np.full((td.size, 4), np.nan)
     if tk.size == 0 or not ok.any():
         return out, ok
-    rot = Rotation.from_quat(q[keep])
     if tk.size == 1:
-        out[ok] = rot.as_quat()[0]
+        out[ok] = rotations.normalize(q[keep][0])
     else:
-        out[ok] = Slerp(tk, rot)(td[ok]).as_quat()
+        out[ok] = rotations.slerp(tk, q[keep], td[ok])
     return make_continuous(out), ok
 
 
 def make_continuous(q: np.ndarray) -> np.ndarray:
     """Flip quaternion signs so consecutive finite samples have a non-negative dot product."""
-    out = q.copy()
-    prev: np.ndarray | None = None
-    for i in range(out.shape[0]):
-        if not np.isfinite(out[i]).all():
-            prev = None
-            continue
-        if prev is not None and float(out[i] @ prev) < 0:
-            out[i] = -out[i]
-        prev = out[i]
-    return out
+    return rotations.make_continuous(q)
