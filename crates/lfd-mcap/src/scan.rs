@@ -1,6 +1,7 @@
 //! [`read_recording`]: one sequential, damage-tolerant pass with typed decoding.
 
 use std::collections::HashMap;
+use std::fmt::Write as _;
 use std::fs::File;
 use std::io::Read;
 use std::path::Path;
@@ -517,11 +518,59 @@ impl State {
 /// Text of a JSON value for an error message (at most 80 characters, as Python's
 /// `str(values)[:80]`).
 fn short(v: &Value) -> String {
-    let s = match v {
-        Value::Null => "None".to_string(),
-        other => other.to_string(),
-    };
+    let mut s = String::new();
+    py_str(v, &mut s);
     s.chars().take(80).collect()
+}
+
+/// Python's `str()` of a parsed JSON value (lists `[1, 2]`, `True`, `None`, `'text'`).
+fn py_str(v: &Value, out: &mut String) {
+    match v {
+        Value::Null => out.push_str("None"),
+        Value::Bool(true) => out.push_str("True"),
+        Value::Bool(false) => out.push_str("False"),
+        Value::Number(n) => {
+            if n.is_f64() {
+                let x = n.as_f64().unwrap_or(f64::NAN);
+                if x.fract() == 0.0 && x.abs() < 1e16 {
+                    let _ = write!(out, "{x:.1}");
+                } else {
+                    out.push_str(&x.to_string());
+                }
+            } else {
+                out.push_str(&n.to_string());
+            }
+        }
+        Value::String(text) => out.push_str(&crate::py_str_repr(text)),
+        Value::Array(items) => {
+            out.push('[');
+            for (i, item) in items.iter().enumerate() {
+                if i > 0 {
+                    out.push_str(", ");
+                }
+                py_str(item, out);
+                if out.len() > 400 {
+                    break; // only the first 80 characters are shown
+                }
+            }
+            out.push(']');
+        }
+        Value::Object(map) => {
+            out.push('{');
+            for (i, (k, item)) in map.iter().enumerate() {
+                if i > 0 {
+                    out.push_str(", ");
+                }
+                out.push_str(&crate::py_str_repr(k));
+                out.push_str(": ");
+                py_str(item, out);
+                if out.len() > 400 {
+                    break;
+                }
+            }
+            out.push('}');
+        }
+    }
 }
 
 fn is_unit_number(v: &Value) -> Option<f64> {
