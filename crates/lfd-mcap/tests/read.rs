@@ -132,10 +132,10 @@ fn the_shipped_recordings_read_and_truncations_never_panic() {
     let total = full.message_count();
     assert!(total > 1000);
     let mut last = 0;
-    let step = (bytes.len() / 300).max(1);
+    let step = (bytes.len() / 120).max(1);
     let mut cuts: Vec<usize> = (8..bytes.len()).step_by(step).collect();
-    cuts.extend(8..200);
-    cuts.extend(bytes.len() - 64..=bytes.len());
+    cuts.extend(8..120);
+    cuts.extend(bytes.len() - 40..=bytes.len());
     cuts.sort_unstable();
     cuts.dedup();
     for cut in cuts {
@@ -191,8 +191,8 @@ fn magic_errors_are_worded_as_scan() {
 
 #[test]
 fn a_zstd_bomb_is_refused_before_inflating() {
-    let zeros = vec![0u8; 64 << 20];
-    let packed = zstd::bulk::compress(&zeros, 19).unwrap();
+    let zeros = vec![0u8; 16 << 20];
+    let packed = zstd::bulk::compress(&zeros, 3).unwrap();
     let mut bytes = head();
     bytes.extend_from_slice(&chunk(zeros.len() as u64, 0, "zstd", &packed));
     let f = TempFile::new(&bytes);
