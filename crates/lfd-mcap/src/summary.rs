@@ -7,7 +7,7 @@ use std::path::Path;
 
 use mcap::records::{op, ChunkIndex, Record};
 
-use crate::inflate::{Budget, InflateError};
+use crate::inflate::{inflate, Budget};
 use crate::scan::{log_time, merge_metadata, parse_message, split_records};
 use crate::{open_checked, AttachmentInfo, ChannelSummary, ReadError, Summary, MAGIC};
 
@@ -287,7 +287,6 @@ fn read_topics(
         return Ok(());
     }
     let mut budget = Budget::new(size);
-    let mut inflated = Vec::new();
     for ci in chunks {
         if !ci
             .message_index_offsets
@@ -303,12 +302,11 @@ fn read_topics(
         let Record::Chunk { header, data } = mcap::parse_record(opcode, &body)? else {
             return Err(Fail::Unusable);
         };
-        let records = match budget.inflate(path, &header, &data, &mut inflated) {
-            Ok(r) => r,
-            Err(InflateError::Fatal(e)) => return Err(Fail::Fatal(e)),
-            Err(InflateError::Damaged(_)) => return Err(Fail::Unusable),
-        };
-        for (opcode, body) in split_records(records).map_err(|_| Fail::Unusable)? {
+        budget
+            .admit(path, &header, data.len())
+            .map_err(Fail::Fatal)?;
+        let records = inflate(&header, &data).map_err(|_| Fail::Unusable)?;
+        for (opcode, body) in split_records(&records).map_err(|_| Fail::Unusable)? {
             if opcode != op::MESSAGE {
                 continue;
             }
