@@ -6,7 +6,10 @@
 //! inflated here so that every chunk's declared size is checked against the inflation budget
 //! *before* decompressing), CRC-checked, keeping every message of every complete chunk. Hand
 //! keypoints, keypoint confidences and object poses are decoded into flat arrays; every other
-//! topic is returned as raw `(log_time, payload)` pairs, in file order.
+//! topic is returned as raw `(log_time, payload)` pairs, in file order. Chunks are queued in
+//! batches (in file order, each admitted by the bomb check as it is met); a batch is inflated
+//! and its typed messages decoded in parallel (rayon), then applied in file order, so the
+//! result is exactly that of a sequential pass.
 //!
 //! [`read_summary`] reads only the summary section of a finished recording (and the message
 //! indexes and chunks it points to), for a quick look without a full pass.

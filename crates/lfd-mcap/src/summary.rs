@@ -248,6 +248,13 @@ fn summary(file: &File, size: u64, path: &str, topics: &[String]) -> Result<Summ
         c.first_ns = Some(first);
         c.last_ns = Some(last);
     }
+    if out
+        .channels
+        .iter()
+        .any(|c| c.count > 0 && c.first_ns.is_none())
+    {
+        return Err(Fail::Unusable); // no message index: no exact time span
+    }
     out.messages = message_count.unwrap_or_else(|| counts.values().sum());
     for mi in meta_index {
         let (opcode, body) = record_at(file, mi.offset, size)?;

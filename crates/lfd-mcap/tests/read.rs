@@ -332,3 +332,47 @@ fn crafted_records_are_handled_as_scan() {
         .contains("cannot decode a foxglove.PoseInFrame on /objects/o/pose"));
     let _ = string(b"");
 }
+
+#[test]
+fn many_batches_read_as_one_sequential_pass() {
+    // small chunks: hundreds of them, several parallel batches; every cut keeps a prefix
+    let bytes = fixture(Some(mcap::Compression::Zstd), 256);
+    let full = read(&bytes).unwrap();
+    assert!(full.complete);
+    let hand = topic(&full.hands, "/hand/right/keypoints");
+    let conf = topic(&full.confidence, "/hand/right/confidence");
+    let pose = topic(&full.poses, "/objects/b/pose");
+    assert_eq!(hand.t_ns.len(), N as usize);
+    let mut last = 0;
+    for cut in (0..bytes.len()).step_by(bytes.len() / 97).skip(1) {
+        let rec = read(&bytes[..cut]).unwrap();
+        assert!(rec.message_count() >= last);
+        last = rec.message_count();
+        for (name, h) in &rec.hands {
+            let f = topic(&full.hands, name);
+            assert_eq!(h.t_ns[..], f.t_ns[..h.t_ns.len()]);
+            let k = h.keypoints.len();
+            assert!(h
+                .keypoints
+                .iter()
+                .zip(&f.keypoints[..k])
+                .all(|(a, b)| a == b || (a.is_nan() && b.is_nan())));
+            assert_eq!(h.bad.is_some(), h.t_ns.len() > 7);
+        }
+        for (name, c) in &rec.confidence {
+            let f = topic(&full.confidence, name);
+            assert_eq!(c.confidence[..], conf.confidence[..c.confidence.len()]);
+            assert_eq!(c.visible[..], f.visible[..c.visible.len()]);
+        }
+        for (name, p) in &rec.poses {
+            let f = topic(&full.poses, name);
+            assert_eq!(p.position[..], f.position[..p.position.len()]);
+            assert_eq!(p.quaternion[..], f.quaternion[..p.quaternion.len()]);
+        }
+        for (name, r) in &rec.raw {
+            let f = topic(&full.raw, name);
+            assert!(r.iter().zip(f.iter()).all(|(a, b)| a == b));
+        }
+    }
+    assert!(pose.bad.is_none());
+}
