@@ -185,8 +185,11 @@ fn magic_errors_are_worded_as_scan() {
     );
     assert!(read_summary(f.path(), &[]).is_err());
     let missing = std::path::Path::new("/nonexistent/lfd/x.mcap");
-    assert!(err(read_recording(missing, &Options::default()))
-        .starts_with("cannot open recording /nonexistent/lfd/x.mcap: "));
+    assert_eq!(
+        err(read_recording(missing, &Options::default())),
+        "cannot open recording /nonexistent/lfd/x.mcap: [Errno 2] No such file or directory: \
+         '/nonexistent/lfd/x.mcap'"
+    );
 }
 
 #[test]
