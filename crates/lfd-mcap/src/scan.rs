@@ -776,9 +776,9 @@ type ConfidenceRow = ([f64; KP], Option<[bool; KP]>);
 /// The shape of a valid confidence message, parsed without building a JSON tree.
 #[derive(serde::Deserialize)]
 struct FastConfidence {
-    confidence: Vec<f64>,
+    confidence: [f64; KP],
     #[serde(default)]
-    visible: Option<Vec<bool>>,
+    visible: Option<[bool; KP]>,
 }
 
 /// The 21 confidences and, if given, visibilities of one `{"confidence": [...], "visible":
@@ -787,16 +787,12 @@ fn confidence(data: &[u8]) -> Result<ConfidenceRow, String> {
     // The fast path accepts only valid messages; anything else is looked at again as a JSON
     // tree, for the exact verdict and its words.
     if let Ok(fast) = serde_json::from_slice::<FastConfidence>(data) {
-        if let (Ok(values), Ok(visible)) = (
-            <[f64; KP]>::try_from(fast.confidence),
-            fast.visible.map(<[bool; KP]>::try_from).transpose(),
-        ) {
-            if values
-                .iter()
-                .all(|x| x.is_finite() && (0.0..=1.0).contains(x))
-            {
-                return Ok((values, visible));
-            }
+        let values = fast.confidence;
+        if values
+            .iter()
+            .all(|x| x.is_finite() && (0.0..=1.0).contains(x))
+        {
+            return Ok((values, fast.visible));
         }
     }
     confidence_slow(data)
