@@ -786,7 +786,12 @@ struct FastConfidence {
 fn confidence(data: &[u8]) -> Result<ConfidenceRow, String> {
     // The fast path accepts only valid messages; anything else is looked at again as a JSON
     // tree, for the exact verdict and its words.
-    if let Ok(fast) = serde_json::from_slice::<FastConfidence>(data) {
+    // (a struct also deserialises from a JSON array: only objects take the fast path)
+    let object = data.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{');
+    if let Some(fast) = object
+        .then(|| serde_json::from_slice::<FastConfidence>(data).ok())
+        .flatten()
+    {
         let values = fast.confidence;
         if values
             .iter()
@@ -807,15 +812,26 @@ fn confidence_slow(data: &[u8]) -> Result<ConfidenceRow, String> {
             Some(v) => v,
             None => return Err(not_object("KeyError('confidence')".into())),
         },
-        Value::Array(_) | Value::String(_) => {
+        Value::Array(_) => {
             return Err(not_object(
-                "TypeError('indices must be integers or slices, not str')".into(),
+                "TypeError('list indices must be integers or slices, not str')".into(),
             ))
         }
-        _ => {
+        Value::String(_) => {
             return Err(not_object(
-                "TypeError('object is not subscriptable')".into(),
+                "TypeError(\"string indices must be integers, not 'str'\")".into(),
             ))
+        }
+        other => {
+            let class = match other {
+                Value::Bool(_) => "bool",
+                Value::Number(n) if n.is_f64() => "float",
+                Value::Number(_) => "int",
+                _ => "NoneType",
+            };
+            return Err(not_object(format!(
+                "TypeError(\"'{class}' object is not subscriptable\")"
+            )));
         }
     };
     let mut out = [0.0; KP];
