@@ -379,3 +379,33 @@ fn many_batches_read_as_one_sequential_pass() {
     }
     assert!(pose.bad.is_none());
 }
+
+#[test]
+fn confidence_messages_are_validated_as_python() {
+    let v = [0.5f64; 21];
+    let ok = serde_json::json!({ "confidence": v }).to_string();
+    let cases: [(&str, bool); 7] = [
+        (&ok, true),
+        (&format!("[{}]", serde_json::json!(v)), false), // an array, not an object
+        (&format!("[{ok}]"), false),
+        (r#"{"confidence": [0.5], "visible": null}"#, false),
+        (r#"{"confidence": null}"#, false),
+        ("3", false),
+        ("{", false),
+    ];
+    let mut bytes = head();
+    bytes.extend_from_slice(&channel(1, "/hand/right/confidence", "json"));
+    for (i, (text, _)) in cases.iter().enumerate() {
+        bytes.extend_from_slice(&message(1, T0 + i as u64, text.as_bytes()));
+    }
+    let rec = read(&bytes).unwrap();
+    let c = topic(&rec.confidence, "/hand/right/confidence");
+    for (i, (text, valid)) in cases.iter().enumerate() {
+        let row = &c.confidence[i * 21..(i + 1) * 21];
+        assert_eq!(row.iter().all(|x| !x.is_nan()), *valid, "{text}");
+    }
+    assert!(c.bad.as_deref().unwrap().contains(&format!(
+        "at {} ns: not a JSON object {{\"confidence\": [21 numbers]}} (TypeError('list indices",
+        T0 + 1
+    )));
+}
