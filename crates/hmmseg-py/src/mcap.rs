@@ -83,11 +83,7 @@ fn array<'py, T: numpy::Element>(
 /// Read a whole recording (see `lfd._hmmseg.read_recording` in `python/lfd/_hmmseg.pyi`).
 #[pyfunction]
 #[pyo3(signature = (path, images = true))]
-fn read_recording<'py>(
-    py: Python<'py>,
-    path: PathBuf,
-    images: bool,
-) -> PyResult<Bound<'py, PyDict>> {
+fn read_recording(py: Python<'_>, path: PathBuf, images: bool) -> PyResult<Bound<'_, PyDict>> {
     guard(py, || {
         let rec = py
             .detach(|| lfd_mcap::read_recording(&path, &Options { images }))
@@ -140,11 +136,11 @@ fn read_recording<'py>(
 /// Read a finished recording's summary section (see `python/lfd/_hmmseg.pyi`).
 #[pyfunction]
 #[pyo3(signature = (path, topics = Vec::new()))]
-fn read_summary<'py>(
-    py: Python<'py>,
+fn read_summary(
+    py: Python<'_>,
     path: PathBuf,
     topics: Vec<String>,
-) -> PyResult<Option<Bound<'py, PyDict>>> {
+) -> PyResult<Option<Bound<'_, PyDict>>> {
     guard(py, || {
         let Some(s) = py
             .detach(|| lfd_mcap::read_summary(&path, &topics))

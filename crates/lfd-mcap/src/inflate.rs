@@ -1,25 +1,21 @@
 //! Chunk inflation within a decompression-bomb budget (as `lfd.io.mcapfile._inflate`).
+//!
+//! [`Budget::admit`] checks a chunk's declared size (and its compression) in file order,
+//! before anything is decompressed; [`inflate`] then decompresses it, possibly on another
+//! thread, stopping one byte beyond the declared size.
 
+use std::borrow::Cow;
+use std::cell::RefCell;
 use std::io::Read;
 
 use mcap::records::ChunkHeader;
 
 use crate::{py_str_repr, ReadError, MAX_CHUNK_BYTES, MAX_INFLATION};
 
-/// Why a chunk could not be inflated.
-pub(crate) enum InflateError {
-    /// The file cannot be read (a bomb, an unknown compression): the whole read fails.
-    Fatal(ReadError),
-    /// The chunk is damaged: the pass ends here, keeping what came before.
-    Damaged(String),
-}
-
 /// The remaining inflation budget of one file.
 pub(crate) struct Budget {
     pub left: u64,
     pub file_size: u64,
-    /// A zstd context reused across chunks.
-    zstd: Option<zstd::bulk::Decompressor<'static>>,
 }
 
 impl Budget {
@@ -27,103 +23,107 @@ impl Budget {
         Self {
             left: crate::inflate_limit(file_size),
             file_size,
-            zstd: None,
         }
     }
 
-    /// Check `header` against the budget (before anything is decompressed), inflate `data`
-    /// into `out` (cleared first; decompression stops one byte beyond the declared size),
-    /// and validate its CRC. Returns the uncompressed records: `data` itself for an
-    /// uncompressed chunk, else `out`.
-    pub fn inflate<'a>(
+    /// Admit a chunk of `compressed` bytes with `header`: its declared uncompressed size must
+    /// fit the budget (it is then spent) and its compression must be known. Errors are worded
+    /// as `scan()`'s.
+    pub fn admit(
         &mut self,
         path: &str,
         header: &ChunkHeader,
-        data: &'a [u8],
-        out: &'a mut Vec<u8>,
-    ) -> Result<&'a [u8], InflateError> {
+        compressed: usize,
+    ) -> Result<(), ReadError> {
         let n = header.uncompressed_size;
         let limit = self.left.min(MAX_CHUNK_BYTES);
         if n > limit {
-            return Err(InflateError::Fatal(ReadError(format!(
-                "{path}: a chunk of {} bytes declares {n} uncompressed bytes, more than the \
-                 {limit} bytes this {}-byte file may still inflate to ({MAX_INFLATION}x its \
-                 size in all, at most {MAX_CHUNK_BYTES} bytes per chunk); refusing a possible \
-                 decompression bomb",
-                data.len(),
+            return Err(ReadError(format!(
+                "{path}: a chunk of {compressed} bytes declares {n} uncompressed bytes, more \
+                 than the {limit} bytes this {}-byte file may still inflate to \
+                 ({MAX_INFLATION}x its size in all, at most {MAX_CHUNK_BYTES} bytes per \
+                 chunk); refusing a possible decompression bomb",
                 self.file_size
-            ))));
-        }
-        let records: &[u8] = match header.compression.as_str() {
-            "" => data,
-            "zstd" => {
-                let zstd_error =
-                    |e: std::io::Error| InflateError::Damaged(format!("ZstdError: {e}"));
-                if self.zstd.is_none() {
-                    self.zstd = Some(zstd::bulk::Decompressor::new().map_err(zstd_error)?);
-                }
-                let dctx = self.zstd.as_mut().expect("just created");
-                out.clear();
-                // one byte more than declared tells a lying header
-                out.reserve_exact(usize::try_from(n).unwrap_or(usize::MAX).saturating_add(1));
-                match dctx.decompress_to_buffer(data, out) {
-                    Ok(_) => {}
-                    Err(e) if e.to_string().contains("Destination buffer is too small") => {
-                        return Err(too_big(n));
-                    }
-                    Err(e) => return Err(zstd_error(e)),
-                }
-                out
-            }
-            "lz4" => {
-                out.clear();
-                let decoder = lz4::Decoder::new(data)
-                    .map_err(|e| InflateError::Damaged(format!("LZ4FrameError: {e}")))?;
-                read_bounded(decoder, n, out)
-                    .map_err(|e| InflateError::Damaged(format!("LZ4FrameError: {e}")))?;
-                out
-            }
-            other => {
-                return Err(InflateError::Fatal(ReadError(format!(
-                    "{path}: unknown chunk compression {}",
-                    py_str_repr(other)
-                ))))
-            }
-        };
-        if records.len() as u64 > n {
-            return Err(too_big(n));
-        }
-        if records.len() as u64 != n {
-            return Err(InflateError::Damaged(format!(
-                "ValueError: a chunk inflates to {} bytes, its header says {n}",
-                records.len()
             )));
         }
-        if header.uncompressed_crc != 0 {
-            let calculated = crc32fast::hash(records);
-            if calculated != header.uncompressed_crc {
-                return Err(InflateError::Damaged(format!(
-                    "CRCValidationError: crc validation failed in Chunk, expected: {}, \
-                     calculated: {calculated}",
-                    header.uncompressed_crc
-                )));
-            }
+        if !matches!(header.compression.as_str(), "" | "zstd" | "lz4") {
+            return Err(ReadError(format!(
+                "{path}: unknown chunk compression {}",
+                py_str_repr(&header.compression)
+            )));
         }
         self.left -= n;
-        Ok(records)
+        Ok(())
     }
 }
 
-/// Read at most `n + 1` bytes of `reader` into `out` (one byte more than declared tells a
-/// lying header).
-fn read_bounded(reader: impl Read, n: u64, out: &mut Vec<u8>) -> std::io::Result<()> {
-    out.reserve_exact(usize::try_from(n).unwrap_or(usize::MAX).saturating_add(1));
-    reader.take(n.saturating_add(1)).read_to_end(out)?;
-    Ok(())
+thread_local! {
+    /// A zstd context per thread, reused across chunks.
+    static ZSTD: RefCell<Option<zstd::bulk::Decompressor<'static>>> = const { RefCell::new(None) };
 }
 
-fn too_big(n: u64) -> InflateError {
-    InflateError::Damaged(format!(
-        "ValueError: a chunk inflates to more than {n} bytes, its header says {n}"
-    ))
+/// The records of an admitted chunk: `data` itself when uncompressed, else decompressed (at
+/// most one byte beyond the declared size), CRC-checked. An error is the damage, worded for
+/// "incomplete or damaged record: ...".
+pub(crate) fn inflate<'a>(header: &ChunkHeader, data: &'a [u8]) -> Result<Cow<'a, [u8]>, String> {
+    let n = header.uncompressed_size;
+    // one byte more than declared tells a lying header
+    let capacity = usize::try_from(n).unwrap_or(usize::MAX).saturating_add(1);
+    let records: Cow<'a, [u8]> = match header.compression.as_str() {
+        "" => Cow::Borrowed(data),
+        "zstd" => {
+            let mut out = Vec::with_capacity(capacity);
+            let result = ZSTD.with(|cell| {
+                let mut slot = cell.borrow_mut();
+                if slot.is_none() {
+                    *slot = Some(zstd::bulk::Decompressor::new()?);
+                }
+                slot.as_mut()
+                    .expect("just created")
+                    .decompress_to_buffer(data, &mut out)
+            });
+            match result {
+                Ok(_) => {}
+                Err(e) if e.to_string().contains("Destination buffer is too small") => {
+                    return Err(too_big(n));
+                }
+                Err(e) => return Err(format!("ZstdError: zstd decompress error: {e}")),
+            }
+            Cow::Owned(out)
+        }
+        "lz4" => {
+            let mut out = Vec::with_capacity(capacity);
+            let decoder = lz4::Decoder::new(data).map_err(|e| format!("LZ4FrameError: {e}"))?;
+            decoder
+                .take(n.saturating_add(1))
+                .read_to_end(&mut out)
+                .map_err(|e| format!("LZ4FrameError: {e}"))?;
+            Cow::Owned(out)
+        }
+        other => return Err(format!("unknown chunk compression {}", py_str_repr(other))),
+    };
+    if records.len() as u64 > n {
+        return Err(too_big(n));
+    }
+    if records.len() as u64 != n {
+        return Err(format!(
+            "ValueError: a chunk inflates to {} bytes, its header says {n}",
+            records.len()
+        ));
+    }
+    if header.uncompressed_crc != 0 {
+        let calculated = crc32fast::hash(&records);
+        if calculated != header.uncompressed_crc {
+            return Err(format!(
+                "CRCValidationError: crc validation failed in Chunk, expected: {}, \
+                 calculated: {calculated}",
+                header.uncompressed_crc
+            ));
+        }
+    }
+    Ok(records)
+}
+
+fn too_big(n: u64) -> String {
+    format!("ValueError: a chunk inflates to more than {n} bytes, its header says {n}")
 }

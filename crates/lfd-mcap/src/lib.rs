@@ -6,7 +6,10 @@
 //! inflated here so that every chunk's declared size is checked against the inflation budget
 //! *before* decompressing), CRC-checked, keeping every message of every complete chunk. Hand
 //! keypoints, keypoint confidences and object poses are decoded into flat arrays; every other
-//! topic is returned as raw `(log_time, payload)` pairs, in file order.
+//! topic is returned as raw `(log_time, payload)` pairs, in file order. Chunks are queued in
+//! batches (in file order, each admitted by the bomb check as it is met); a batch is inflated
+//! and its typed messages decoded in parallel (rayon), then applied in file order, so the
+//! result is exactly that of a sequential pass.
 //!
 //! [`read_summary`] reads only the summary section of a finished recording (and the message
 //! indexes and chunks it points to), for a quick look without a full pass.
@@ -238,7 +241,12 @@ pub struct Summary {
 /// and its size.
 fn open_checked(path: &Path) -> Result<(File, u64), ReadError> {
     let p = path.display();
-    let cannot = |err: std::io::Error| ReadError(format!("cannot open recording {p}: {err}"));
+    let cannot = |err: std::io::Error| {
+        ReadError(format!(
+            "cannot open recording {p}: {}",
+            py_os_error(&err, &p.to_string())
+        ))
+    };
     let size = std::fs::metadata(path).map_err(cannot)?.len();
     let mut file = File::open(path).map_err(cannot)?;
     let mut head = Vec::with_capacity(MAGIC.len());
@@ -262,6 +270,19 @@ fn open_checked(path: &Path) -> Result<(File, u64), ReadError> {
     }
     file.seek(SeekFrom::Start(0)).map_err(cannot)?;
     Ok((file, size))
+}
+
+/// An I/O error as Python's `OSError` prints it: `[Errno 2] No such file or directory: 'x'`.
+fn py_os_error(err: &std::io::Error, path: &str) -> String {
+    match err.raw_os_error() {
+        Some(code) => {
+            let text = err.to_string();
+            let suffix = format!(" (os error {code})");
+            let text = text.strip_suffix(&suffix).unwrap_or(&text);
+            format!("[Errno {code}] {text}: {}", py_str_repr(path))
+        }
+        None => err.to_string(),
+    }
 }
 
 /// `repr(bytes)` as Python writes it (`b'...'`).

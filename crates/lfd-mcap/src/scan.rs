@@ -1,6 +1,7 @@
 //! [`read_recording`]: one sequential, damage-tolerant pass with typed decoding.
 
 use std::collections::HashMap;
+use std::fmt::Write as _;
 use std::fs::File;
 use std::io::Read;
 use std::path::Path;
@@ -11,12 +12,15 @@ use mcap::McapError;
 use prost::Message as _;
 use serde_json::Value;
 
-use crate::inflate::{Budget, InflateError};
+use crate::inflate::{inflate, Budget};
 use crate::proto::{PoseInFrame, PosesInFrame};
 use crate::{
     open_checked, ChannelSummary, ConfidenceTrack, HandTrack, MetadataMap, Options, PoseTrack,
     RawMessages, ReadError, Recording, IMAGE_TOPICS,
 };
+use mcap::records::ChunkHeader;
+use rayon::prelude::*;
+use std::borrow::Cow;
 
 /// Bytes read from the file per read request (at least).
 const READ_BLOCK: usize = 1 << 20;
@@ -28,15 +32,6 @@ const KP: usize = 21;
 pub(crate) enum Stop {
     Fatal(ReadError),
     Damaged(String),
-}
-
-impl From<InflateError> for Stop {
-    fn from(e: InflateError) -> Self {
-        match e {
-            InflateError::Fatal(e) => Stop::Fatal(e),
-            InflateError::Damaged(s) => Stop::Damaged(s),
-        }
-    }
 }
 
 /// An mcap crate error worded like the Python `mcap` reader's, where it has a twin.
@@ -186,6 +181,59 @@ enum Kind {
     Dropped,
 }
 
+impl Kind {
+    /// An empty track of the same kind.
+    fn empty(&self) -> Kind {
+        match self {
+            Kind::Hand(..) => Kind::Hand(HandTrack::default(), Vec::new()),
+            Kind::Confidence(_) => Kind::Confidence(ConfidenceTrack::default()),
+            Kind::Pose(..) => Kind::Pose(PoseTrack::default(), Vec::new()),
+            Kind::Raw(_) => Kind::Raw(RawMessages::default()),
+            Kind::Dropped => Kind::Dropped,
+        }
+    }
+
+    /// Append the messages of `more` (decoded after these, of the same kind).
+    fn append(&mut self, more: Kind) {
+        match (self, more) {
+            (Kind::Hand(track, bad), Kind::Hand(m, more_bad)) => {
+                let offset = track.t_ns.len();
+                track.t_ns.extend_from_slice(&m.t_ns);
+                track.keypoints.extend_from_slice(&m.keypoints);
+                bad.extend(more_bad.into_iter().map(|b| Bad {
+                    index: b.index + offset,
+                    ..b
+                }));
+            }
+            (Kind::Pose(track, bad), Kind::Pose(m, more_bad)) => {
+                let offset = track.t_ns.len();
+                track.t_ns.extend_from_slice(&m.t_ns);
+                track.position.extend_from_slice(&m.position);
+                track.quaternion.extend_from_slice(&m.quaternion);
+                bad.extend(more_bad.into_iter().map(|b| Bad {
+                    index: b.index + offset,
+                    ..b
+                }));
+            }
+            (Kind::Confidence(track), Kind::Confidence(m)) => {
+                track.t_ns.extend_from_slice(&m.t_ns);
+                track.confidence.extend_from_slice(&m.confidence);
+                track.visible.extend_from_slice(&m.visible);
+                track.has_visible.extend_from_slice(&m.has_visible);
+                if track.bad.is_none() {
+                    track.bad = m.bad;
+                }
+            }
+            (Kind::Raw(raw), Kind::Raw(m)) => {
+                for (t, d) in m.iter() {
+                    raw.push(t, d);
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
 struct Topic {
     summary: ChannelSummary,
     kind: Kind,
@@ -212,15 +260,141 @@ struct State {
     schemas: HashMap<u16, Schema>,
     /// Channel id -> index into `topics` (`usize::MAX`: unknown).
     channels: Vec<usize>,
-    /// Decoding scratch (its vectors keep their capacity from message to message).
-    hand_scratch: PosesInFrame,
-    pose_scratch: PoseInFrame,
+    scratch: Scratch,
     topics: Vec<Topic>,
     by_topic: HashMap<String, usize>,
     metadata: MetadataMap,
     data_done: bool,
-    /// Reused chunk inflation buffer.
-    inflated: Vec<u8>,
+    /// Chunks admitted but not yet read (decoded together, in parallel).
+    pending: Vec<Pending>,
+    /// Their declared uncompressed bytes.
+    pending_bytes: u64,
+}
+
+/// A chunk waiting in a batch: its header and compressed records (copied out of the reader).
+struct Pending {
+    header: ChunkHeader,
+    data: Vec<u8>,
+}
+
+/// A batch is decoded when it holds this many chunks...
+const BATCH_CHUNKS: usize = 64;
+/// ... or would inflate to this many bytes.
+const BATCH_BYTES: u64 = 32 << 20;
+
+/// One typed message of a chunk to decode: topic index, log time, payload.
+type Work<'a> = (usize, i64, &'a [u8]);
+
+/// Protobuf messages reused from message to message (their vectors keep their capacity).
+#[derive(Default)]
+struct Scratch {
+    hand: PosesInFrame,
+    pose: PoseInFrame,
+}
+
+/// Decode one message of topic `name` (log time `t`) into its track `kind`.
+fn decode_into(
+    kind: &mut Kind,
+    scratch: &mut Scratch,
+    path: &str,
+    name: &str,
+    t: i64,
+    data: &[u8],
+) {
+    match kind {
+        Kind::Hand(track, bad) => {
+            let index = track.t_ns.len();
+            track.t_ns.push(t);
+            let m = &mut scratch.hand;
+            m.clear();
+            match m.merge(data) {
+                Ok(()) if m.poses.len() == KP => {
+                    for p in &m.poses {
+                        let v = p.position.unwrap_or_default();
+                        track.keypoints.extend_from_slice(&[v.x, v.y, v.z]);
+                    }
+                }
+                Ok(()) => {
+                    track.keypoints.extend_from_slice(&[f64::NAN; KP * 3]);
+                    bad.push(Bad {
+                        index,
+                        t,
+                        decode: false,
+                        text: format!(
+                            "{}: hand message at {t} ns has {} poses, not 21",
+                            path,
+                            m.poses.len()
+                        ),
+                    });
+                }
+                Err(err) => {
+                    track.keypoints.extend_from_slice(&[f64::NAN; KP * 3]);
+                    bad.push(Bad {
+                        index,
+                        t,
+                        decode: true,
+                        text: format!(
+                            "{path}: cannot decode a foxglove.PosesInFrame on {name} at {t} ns: \
+                             {err}"
+                        ),
+                    });
+                }
+            }
+        }
+        Kind::Pose(track, bad) => {
+            let index = track.t_ns.len();
+            track.t_ns.push(t);
+            let m = &mut scratch.pose;
+            m.clear();
+            match m.merge(data) {
+                Ok(()) => {
+                    let pose = m.pose.unwrap_or_default();
+                    let p = pose.position.unwrap_or_default();
+                    let q = pose.orientation.unwrap_or_default();
+                    track.position.extend_from_slice(&[p.x, p.y, p.z]);
+                    track.quaternion.extend_from_slice(&[q.x, q.y, q.z, q.w]);
+                }
+                Err(err) => {
+                    track.position.extend_from_slice(&[f64::NAN; 3]);
+                    track.quaternion.extend_from_slice(&[f64::NAN; 4]);
+                    bad.push(Bad {
+                        index,
+                        t,
+                        decode: true,
+                        text: format!(
+                            "{path}: cannot decode a foxglove.PoseInFrame on {name} at {t} ns: \
+                             {err}"
+                        ),
+                    });
+                }
+            }
+        }
+        Kind::Confidence(track) => {
+            track.t_ns.push(t);
+            match confidence(data) {
+                Ok((values, visible)) => {
+                    track.confidence.extend_from_slice(&values);
+                    if let Some(v) = visible {
+                        track.visible.extend_from_slice(&v);
+                        track.has_visible.push(true);
+                    } else {
+                        track.visible.extend_from_slice(&[false; KP]);
+                        track.has_visible.push(false);
+                    }
+                }
+                Err(why) => {
+                    track.confidence.extend_from_slice(&[f64::NAN; KP]);
+                    track.visible.extend_from_slice(&[false; KP]);
+                    track.has_visible.push(false);
+                    if track.bad.is_none() {
+                        track.bad = Some(format!("{path}: {name} at {t} ns: {why}"));
+                    }
+                }
+            }
+        }
+        Kind::Raw(raw) => raw.push(t, data),
+        Kind::Dropped => {}
+    }
 }
 
 /// A parsed record of a chunk.
@@ -278,110 +452,43 @@ impl State {
         self.channels[usize::from(ch.id)] = self.topics.len() - 1;
     }
 
-    fn message(&mut self, channel: u16, t: u64, data: &[u8]) -> Result<(), ReadError> {
+    /// The topic of a message on `channel` (None: unknown channel, skipped) and its log time,
+    /// counted; raw payloads are stored here, typed ones left to the caller to decode.
+    fn resolve(
+        &mut self,
+        channel: u16,
+        t: u64,
+        data: &[u8],
+    ) -> Result<Option<(usize, i64)>, ReadError> {
         let i = self.channels[usize::from(channel)];
         if i == usize::MAX {
-            return Ok(()); // a message before its channel: not something lfd wrote
+            return Ok(None); // a message before its channel: not something lfd wrote
         }
         let topic = &mut self.topics[i];
-        let t = crate::scan::log_time(&self.path, &topic.summary.topic, t)?;
+        let t = log_time(&self.path, &topic.summary.topic, t)?;
         topic.summary.add(t);
-        let name = &topic.summary.topic;
         match &mut topic.kind {
-            Kind::Hand(track, bad) => {
-                let index = track.t_ns.len();
-                track.t_ns.push(t);
-                let m = &mut self.hand_scratch;
-                m.clear();
-                match m.merge(data) {
-                    Ok(()) if m.poses.len() == KP => {
-                        for p in &m.poses {
-                            let v = p.position.unwrap_or_default();
-                            track.keypoints.extend_from_slice(&[v.x, v.y, v.z]);
-                        }
-                    }
-                    Ok(()) => {
-                        track.keypoints.extend_from_slice(&[f64::NAN; KP * 3]);
-                        bad.push(Bad {
-                            index,
-                            t,
-                            decode: false,
-                            text: format!(
-                                "{}: hand message at {t} ns has {} poses, not 21",
-                                self.path,
-                                m.poses.len()
-                            ),
-                        });
-                    }
-                    Err(err) => {
-                        track.keypoints.extend_from_slice(&[f64::NAN; KP * 3]);
-                        bad.push(Bad {
-                            index,
-                            t,
-                            decode: true,
-                            text: format!(
-                                "{}: cannot decode a foxglove.PosesInFrame on {name} at {t} ns: \
-                                 {err}",
-                                self.path
-                            ),
-                        });
-                    }
-                }
+            Kind::Raw(raw) => {
+                raw.push(t, data);
+                Ok(None)
             }
-            Kind::Pose(track, bad) => {
-                let index = track.t_ns.len();
-                track.t_ns.push(t);
-                let m = &mut self.pose_scratch;
-                m.clear();
-                match m.merge(data) {
-                    Ok(()) => {
-                        let pose = m.pose.unwrap_or_default();
-                        let p = pose.position.unwrap_or_default();
-                        let q = pose.orientation.unwrap_or_default();
-                        track.position.extend_from_slice(&[p.x, p.y, p.z]);
-                        track.quaternion.extend_from_slice(&[q.x, q.y, q.z, q.w]);
-                    }
-                    Err(err) => {
-                        track.position.extend_from_slice(&[f64::NAN; 3]);
-                        track.quaternion.extend_from_slice(&[f64::NAN; 4]);
-                        bad.push(Bad {
-                            index,
-                            t,
-                            decode: true,
-                            text: format!(
-                                "{}: cannot decode a foxglove.PoseInFrame on {name} at {t} ns: \
-                                 {err}",
-                                self.path
-                            ),
-                        });
-                    }
-                }
-            }
-            Kind::Confidence(track) => {
-                track.t_ns.push(t);
-                match confidence(data) {
-                    Ok((values, visible)) => {
-                        track.confidence.extend_from_slice(&values);
-                        if let Some(v) = visible {
-                            track.visible.extend_from_slice(&v);
-                            track.has_visible.push(true);
-                        } else {
-                            track.visible.extend_from_slice(&[false; KP]);
-                            track.has_visible.push(false);
-                        }
-                    }
-                    Err(why) => {
-                        track.confidence.extend_from_slice(&[f64::NAN; KP]);
-                        track.visible.extend_from_slice(&[false; KP]);
-                        track.has_visible.push(false);
-                        if track.bad.is_none() {
-                            track.bad = Some(format!("{}: {name} at {t} ns: {why}", self.path));
-                        }
-                    }
-                }
-            }
-            Kind::Raw(raw) => raw.push(t, data),
-            Kind::Dropped => {}
+            Kind::Dropped => Ok(None),
+            _ => Ok(Some((i, t))),
+        }
+    }
+
+    /// A message outside any chunk: resolved and decoded at once.
+    fn message(&mut self, channel: u16, t: u64, data: &[u8]) -> Result<(), ReadError> {
+        if let Some((i, t)) = self.resolve(channel, t, data)? {
+            let topic = &mut self.topics[i];
+            decode_into(
+                &mut topic.kind,
+                &mut self.scratch,
+                &self.path,
+                &topic.summary.topic,
+                t,
+                data,
+            );
         }
         Ok(())
     }
@@ -409,73 +516,160 @@ impl State {
         Flow::Continue
     }
 
-    /// Handle any record of the file (`opcode`, `body`).
+    /// Handle any record of the file (`opcode`, `body`), in file order: chunks are admitted
+    /// (the bomb check) and queued; any record that changes the state first decodes the
+    /// queue.
     fn top(&mut self, opcode: u8, body: &[u8]) -> Result<Flow, Stop> {
+        let limit = self.budget.file_size;
         match opcode {
+            op::CHUNK => {
+                let rec = mcap::parse_record(op::CHUNK, body);
+                let Ok(Record::Chunk { header, data }) = rec else {
+                    self.flush()?;
+                    return Err(Stop::Damaged(match rec {
+                        Err(e) => describe(&e, limit),
+                        Ok(_) => "a chunk record that is no chunk".into(),
+                    }));
+                };
+                if let Err(e) = self.budget.admit(&self.path, &header, data.len()) {
+                    self.flush()?; // damage in an earlier chunk comes first
+                    return Err(Stop::Fatal(e));
+                }
+                self.pending_bytes += header.uncompressed_size;
+                self.pending.push(Pending {
+                    header,
+                    data: data.into_owned(),
+                });
+                if self.pending.len() >= BATCH_CHUNKS || self.pending_bytes >= BATCH_BYTES {
+                    self.flush()?;
+                }
+                Ok(Flow::Continue)
+            }
             op::MESSAGE => {
+                self.flush()?;
                 let (ch, t, data) = parse_message(body).map_err(Stop::Damaged)?;
                 self.message(ch, t, data).map_err(Stop::Fatal)?;
                 Ok(Flow::Continue)
             }
-            op::CHUNK => {
-                self.chunk(body)?;
-                Ok(Flow::Continue)
-            }
-            _ => {
+            op::HEADER | op::SCHEMA | op::CHANNEL | op::METADATA | op::DATA_END | op::FOOTER => {
+                self.flush()?;
                 let rec = mcap::parse_record(opcode, body)
-                    .map_err(|e| Stop::Damaged(describe(&e, self.budget.file_size)))?;
+                    .map_err(|e| Stop::Damaged(describe(&e, limit)))?;
                 Ok(self.record(rec))
             }
-        }
-    }
-
-    fn chunk(&mut self, body: &[u8]) -> Result<(), Stop> {
-        let rec = mcap::parse_record(op::CHUNK, body)
-            .map_err(|e| Stop::Damaged(describe(&e, self.budget.file_size)))?;
-        let Record::Chunk { header, data } = rec else {
-            return Err(Stop::Damaged("a chunk record that is no chunk".into()));
-        };
-        let mut out = std::mem::take(&mut self.inflated);
-        let result = self.chunk_records(&header, &data, &mut out);
-        self.inflated = out;
-        result
-    }
-
-    fn chunk_records(
-        &mut self,
-        header: &mcap::records::ChunkHeader,
-        data: &[u8],
-        out: &mut Vec<u8>,
-    ) -> Result<(), Stop> {
-        let records = self.budget.inflate(&self.path, header, data, out)?;
-        // A chunk is all or nothing: every record is split and parsed before any is used.
-        let split = split_records(records).map_err(Stop::Damaged)?;
-        let mut items = Vec::with_capacity(split.len());
-        for (opcode, body) in split {
-            if opcode == op::MESSAGE {
-                let (ch, t, d) = parse_message(body).map_err(Stop::Damaged)?;
-                items.push(Item::Message(ch, t, d));
-            } else {
-                let rec = mcap::parse_record(opcode, body)
-                    .map_err(|e| Stop::Damaged(describe(&e, self.budget.file_size)))?;
-                items.push(Item::Other(rec));
+            _ => {
+                // message indexes and the like: parsed (damage ends the pass) but unused
+                if let Err(e) = mcap::parse_record(opcode, body) {
+                    self.flush()?;
+                    return Err(Stop::Damaged(describe(&e, limit)));
+                }
+                Ok(Flow::Continue)
             }
         }
-        for item in items {
-            match item {
-                Item::Message(ch, t, d) => self.message(ch, t, d).map_err(Stop::Fatal)?,
-                Item::Other(rec) => {
-                    // a data-end or footer inside a chunk is not one; ignore it
-                    if !matches!(rec, Record::DataEnd(_) | Record::Footer(_)) {
-                        self.record(rec);
-                    }
+    }
+
+    /// Read the queued chunks: inflate them in parallel; in file order, parse their records
+    /// (a chunk is all or nothing), register their channels and count their messages; decode
+    /// the typed messages in parallel, chunk by chunk, and append them in file order.
+    fn flush(&mut self) -> Result<(), Stop> {
+        if self.pending.is_empty() {
+            return Ok(());
+        }
+        let pending = std::mem::take(&mut self.pending);
+        self.pending_bytes = 0;
+        let inflated: Vec<Result<Cow<'_, [u8]>, String>> = pending
+            .par_iter()
+            .map(|p| inflate(&p.header, &p.data))
+            .collect();
+        let mut work: Vec<Vec<Work<'_>>> = Vec::with_capacity(inflated.len());
+        let mut stop = None;
+        for records in &inflated {
+            let applied = match records {
+                Ok(records) => self.apply_chunk(records),
+                Err(why) => Err(Stop::Damaged(why.clone())),
+            };
+            match applied {
+                Ok(w) => work.push(w),
+                Err(s) => {
+                    stop = Some(s);
+                    break;
                 }
             }
         }
-        Ok(())
+        if matches!(stop, Some(Stop::Fatal(_))) {
+            return Err(stop.expect("just matched"));
+        }
+        let topics = &self.topics;
+        let path = self.path.as_str();
+        let parts: Vec<Vec<(usize, Kind)>> = work
+            .par_iter()
+            .map(|w| {
+                let mut scratch = Scratch::default();
+                let mut out: Vec<(usize, Kind)> = Vec::new();
+                for &(i, t, data) in w {
+                    let slot = if let Some(k) = out.iter().position(|(j, _)| *j == i) {
+                        k
+                    } else {
+                        out.push((i, topics[i].kind.empty()));
+                        out.len() - 1
+                    };
+                    let name = &topics[i].summary.topic;
+                    decode_into(&mut out[slot].1, &mut scratch, path, name, t, data);
+                }
+                out
+            })
+            .collect();
+        for part in parts {
+            for (i, kind) in part {
+                self.topics[i].kind.append(kind);
+            }
+        }
+        stop.map_or(Ok(()), Err)
     }
 
-    fn finish(self, stop: Option<Stop>, file_size: u64) -> Result<Recording, ReadError> {
+    /// Parse every record of an inflated chunk (Python's `breakup_chunk` reads schemas,
+    /// channels and messages, and skips the rest), then apply them: the typed messages are
+    /// returned for decoding.
+    fn apply_chunk<'a>(&mut self, records: &'a [u8]) -> Result<Vec<Work<'a>>, Stop> {
+        let limit = self.budget.file_size;
+        let split = split_records(records).map_err(Stop::Damaged)?;
+        let mut items = Vec::with_capacity(split.len());
+        for (opcode, body) in split {
+            match opcode {
+                op::MESSAGE => {
+                    let (ch, t, d) = parse_message(body).map_err(Stop::Damaged)?;
+                    items.push(Item::Message(ch, t, d));
+                }
+                op::SCHEMA | op::CHANNEL => {
+                    let rec = mcap::parse_record(opcode, body)
+                        .map_err(|e| Stop::Damaged(describe(&e, limit)))?;
+                    items.push(Item::Other(rec));
+                }
+                _ => {}
+            }
+        }
+        let mut work = Vec::with_capacity(items.len());
+        for item in items {
+            match item {
+                Item::Message(ch, t, d) => {
+                    if let Some((i, t)) = self.resolve(ch, t, d).map_err(Stop::Fatal)? {
+                        work.push((i, t, d));
+                    }
+                }
+                Item::Other(rec) => {
+                    self.record(rec);
+                }
+            }
+        }
+        Ok(work)
+    }
+
+    fn finish(mut self, stop: Option<Stop>, file_size: u64) -> Result<Recording, ReadError> {
+        // chunks still queued come before whatever ended the pass
+        let stop = match self.flush() {
+            Err(s) => Some(s),
+            Ok(()) => stop,
+        };
         let mut rec = Recording {
             library: self.library,
             file_size,
@@ -517,11 +711,59 @@ impl State {
 /// Text of a JSON value for an error message (at most 80 characters, as Python's
 /// `str(values)[:80]`).
 fn short(v: &Value) -> String {
-    let s = match v {
-        Value::Null => "None".to_string(),
-        other => other.to_string(),
-    };
+    let mut s = String::new();
+    py_str(v, &mut s);
     s.chars().take(80).collect()
+}
+
+/// Python's `str()` of a parsed JSON value (lists `[1, 2]`, `True`, `None`, `'text'`).
+fn py_str(v: &Value, out: &mut String) {
+    match v {
+        Value::Null => out.push_str("None"),
+        Value::Bool(true) => out.push_str("True"),
+        Value::Bool(false) => out.push_str("False"),
+        Value::Number(n) => {
+            if n.is_f64() {
+                let x = n.as_f64().unwrap_or(f64::NAN);
+                if x.fract() == 0.0 && x.abs() < 1e16 {
+                    let _ = write!(out, "{x:.1}");
+                } else {
+                    out.push_str(&x.to_string());
+                }
+            } else {
+                out.push_str(&n.to_string());
+            }
+        }
+        Value::String(text) => out.push_str(&crate::py_str_repr(text)),
+        Value::Array(items) => {
+            out.push('[');
+            for (i, item) in items.iter().enumerate() {
+                if i > 0 {
+                    out.push_str(", ");
+                }
+                py_str(item, out);
+                if out.len() > 400 {
+                    break; // only the first 80 characters are shown
+                }
+            }
+            out.push(']');
+        }
+        Value::Object(map) => {
+            out.push('{');
+            for (i, (k, item)) in map.iter().enumerate() {
+                if i > 0 {
+                    out.push_str(", ");
+                }
+                out.push_str(&crate::py_str_repr(k));
+                out.push_str(": ");
+                py_str(item, out);
+                if out.len() > 400 {
+                    break;
+                }
+            }
+            out.push('}');
+        }
+    }
 }
 
 fn is_unit_number(v: &Value) -> Option<f64> {
@@ -534,9 +776,9 @@ type ConfidenceRow = ([f64; KP], Option<[bool; KP]>);
 /// The shape of a valid confidence message, parsed without building a JSON tree.
 #[derive(serde::Deserialize)]
 struct FastConfidence {
-    confidence: Vec<f64>,
+    confidence: [f64; KP],
     #[serde(default)]
-    visible: Option<Vec<bool>>,
+    visible: Option<[bool; KP]>,
 }
 
 /// The 21 confidences and, if given, visibilities of one `{"confidence": [...], "visible":
@@ -544,17 +786,18 @@ struct FastConfidence {
 fn confidence(data: &[u8]) -> Result<ConfidenceRow, String> {
     // The fast path accepts only valid messages; anything else is looked at again as a JSON
     // tree, for the exact verdict and its words.
-    if let Ok(fast) = serde_json::from_slice::<FastConfidence>(data) {
-        if let (Ok(values), Ok(visible)) = (
-            <[f64; KP]>::try_from(fast.confidence),
-            fast.visible.map(<[bool; KP]>::try_from).transpose(),
-        ) {
-            if values
-                .iter()
-                .all(|x| x.is_finite() && (0.0..=1.0).contains(x))
-            {
-                return Ok((values, visible));
-            }
+    // (a struct also deserialises from a JSON array: only objects take the fast path)
+    let object = data.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{');
+    if let Some(fast) = object
+        .then(|| serde_json::from_slice::<FastConfidence>(data).ok())
+        .flatten()
+    {
+        let values = fast.confidence;
+        if values
+            .iter()
+            .all(|x| x.is_finite() && (0.0..=1.0).contains(x))
+        {
+            return Ok((values, fast.visible));
         }
     }
     confidence_slow(data)
@@ -569,15 +812,26 @@ fn confidence_slow(data: &[u8]) -> Result<ConfidenceRow, String> {
             Some(v) => v,
             None => return Err(not_object("KeyError('confidence')".into())),
         },
-        Value::Array(_) | Value::String(_) => {
+        Value::Array(_) => {
             return Err(not_object(
-                "TypeError('indices must be integers or slices, not str')".into(),
+                "TypeError('list indices must be integers or slices, not str')".into(),
             ))
         }
-        _ => {
+        Value::String(_) => {
             return Err(not_object(
-                "TypeError('object is not subscriptable')".into(),
+                "TypeError(\"string indices must be integers, not 'str'\")".into(),
             ))
+        }
+        other => {
+            let class = match other {
+                Value::Bool(_) => "bool",
+                Value::Number(n) if n.is_f64() => "float",
+                Value::Number(_) => "int",
+                _ => "NoneType",
+            };
+            return Err(not_object(format!(
+                "TypeError(\"'{class}' object is not subscriptable\")"
+            )));
         }
     };
     let mut out = [0.0; KP];
@@ -630,13 +884,13 @@ pub fn read_recording(path: &Path, options: &Options) -> Result<Recording, ReadE
         library: String::new(),
         schemas: HashMap::new(),
         channels: vec![usize::MAX; 1 << 16],
-        hand_scratch: PosesInFrame::default(),
-        pose_scratch: PoseInFrame::default(),
+        scratch: Scratch::default(),
         topics: Vec::new(),
         by_topic: HashMap::new(),
         metadata: Vec::new(),
         data_done: false,
-        inflated: Vec::new(),
+        pending: Vec::new(),
+        pending_bytes: 0,
     };
     let limit = size.min(4 << 30);
     let mut reader = LinearReader::new_with_options(

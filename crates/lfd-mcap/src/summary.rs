@@ -7,7 +7,7 @@ use std::path::Path;
 
 use mcap::records::{op, ChunkIndex, Record};
 
-use crate::inflate::{Budget, InflateError};
+use crate::inflate::{inflate, Budget};
 use crate::scan::{log_time, merge_metadata, parse_message, split_records};
 use crate::{open_checked, AttachmentInfo, ChannelSummary, ReadError, Summary, MAGIC};
 
@@ -248,6 +248,13 @@ fn summary(file: &File, size: u64, path: &str, topics: &[String]) -> Result<Summ
         c.first_ns = Some(first);
         c.last_ns = Some(last);
     }
+    if out
+        .channels
+        .iter()
+        .any(|c| c.count > 0 && c.first_ns.is_none())
+    {
+        return Err(Fail::Unusable); // no message index: no exact time span
+    }
     out.messages = message_count.unwrap_or_else(|| counts.values().sum());
     for mi in meta_index {
         let (opcode, body) = record_at(file, mi.offset, size)?;
@@ -287,7 +294,6 @@ fn read_topics(
         return Ok(());
     }
     let mut budget = Budget::new(size);
-    let mut inflated = Vec::new();
     for ci in chunks {
         if !ci
             .message_index_offsets
@@ -303,12 +309,11 @@ fn read_topics(
         let Record::Chunk { header, data } = mcap::parse_record(opcode, &body)? else {
             return Err(Fail::Unusable);
         };
-        let records = match budget.inflate(path, &header, &data, &mut inflated) {
-            Ok(r) => r,
-            Err(InflateError::Fatal(e)) => return Err(Fail::Fatal(e)),
-            Err(InflateError::Damaged(_)) => return Err(Fail::Unusable),
-        };
-        for (opcode, body) in split_records(records).map_err(|_| Fail::Unusable)? {
+        budget
+            .admit(path, &header, data.len())
+            .map_err(Fail::Fatal)?;
+        let records = inflate(&header, &data).map_err(|_| Fail::Unusable)?;
+        for (opcode, body) in split_records(&records).map_err(|_| Fail::Unusable)? {
             if opcode != op::MESSAGE {
                 continue;
             }
