@@ -13,7 +13,6 @@ from typing import TYPE_CHECKING, Any
 # them by nouns (``lfd.preprocessing``, ``lfd.segmentation``), so importing a package never
 # replaces a function. The heavy stages (sim, reproduce, perception, viz) are imported on use.
 from . import errors, io, preprocessing, segmentation
-from ._version import __version__
 from .demo import CameraInfo, Demonstration, HandTrack, ImageStream, ObjectTrack, SkillLabel
 from .engine import GaussianHMM
 from .errors import EngineError, LfdError
@@ -25,11 +24,17 @@ from .skills import SKILLS
 from .trajectory import Trajectory
 
 if TYPE_CHECKING:
+    from ._version import __version__
     from .io import McapRecorder, save
 
 
 def __getattr__(name: str) -> Any:
-    """The MCAP writer (``lfd.save``, ``lfd.McapRecorder``), imported when first used."""
+    """The MCAP writer (``lfd.save``, ``lfd.McapRecorder``) and ``__version__`` (from the
+    installed package's metadata), imported when first used."""
+    if name == "__version__":
+        from ._version import __version__
+
+        return __version__
     if name in ("McapRecorder", "save"):
         from . import io
 

@@ -51,15 +51,23 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    from .._version import __version__
+class _Version(argparse.Action):
+    """``--version``: the installed package's version, looked up only when asked for."""
 
+    def __call__(self, parser, namespace, values, option_string=None):  # type: ignore[no-untyped-def]
+        from .._version import __version__
+
+        print(f"lfd {__version__}")
+        parser.exit(0)
+
+
+def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="lfd",
         description="Learn a robot manipulation task from a human hand demonstration.",
         allow_abbrev=False,
     )
-    parser.add_argument("--version", action="version", version=f"lfd {__version__}")
+    parser.add_argument("--version", action=_Version, nargs=0, help="print the version and exit")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name in COMMANDS:
         mod = importlib.import_module(f"{__name__}.{name}")

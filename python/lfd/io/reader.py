@@ -173,8 +173,8 @@ class _Loader:
         return idx
 
     def _bad(self, arrays: dict[str, Any]) -> None:
-        if arrays.get("bad"):
-            raise RecordingFormatError(f"{self.raw.path}: {arrays['bad']}")
+        if arrays.get("bad"):  # the engine's words, the file's path first
+            raise RecordingFormatError(arrays["bad"])
 
     def hand(self, side: str) -> HandTrack:
         topic = T.hand_topic(side)

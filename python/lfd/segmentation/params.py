@@ -33,7 +33,7 @@ def poses_in_object(
     ``i`` at once: positions ``(m, 3)`` (metres) and quaternions ``(m, 4)`` (x, y, z, w; NaN
     where the hand orientation is not finite). A non-finite object orientation counts as the
     identity. The one place of the rotation math of the skill parameters."""
-    from scipy.spatial.transform import Rotation
+    from .. import rotations
 
     k = np.asarray(objects, dtype=np.intp)
     t = np.asarray(samples, dtype=np.intp)
@@ -42,14 +42,16 @@ def poses_in_object(
         return np.zeros((0, 3)), np.zeros((0, 4))
     q = np.asarray(traj.object_quaternion[k, t], dtype=np.float64)
     q_ok = np.asarray(np.isfinite(q).all(axis=1))
-    r_inv = Rotation.from_quat(np.where(q_ok[:, None], q, [0.0, 0.0, 0.0, 1.0])).inv()
+    q_inv = rotations.inverse(
+        rotations.normalize(np.where(q_ok[:, None], q, [0.0, 0.0, 0.0, 1.0]))
+    )
     rel = np.asarray(traj.tcp[t] - traj.object_position[k, t], dtype=np.float64)
-    # R^T rel per row as a stacked matmul: bit for bit what Rotation.apply gives one vector
-    p = (r_inv.as_matrix() @ rel[:, :, None])[:, :, 0]
+    # R^T rel per row as a stacked matmul (what one Rotation.apply gives, bit for bit)
+    p = (rotations.as_matrix(q_inv) @ rel[:, :, None])[:, :, 0]
     rot = np.asarray(traj.rotation[t], dtype=np.float64)
     r_ok = np.asarray(np.isfinite(rot).all(axis=(1, 2)))
-    r_tcp = Rotation.from_matrix(np.where(r_ok[:, None, None], rot, np.eye(3)))
-    quat = (r_inv * r_tcp).as_quat()
+    q_tcp = rotations.from_matrix(np.where(r_ok[:, None, None], rot, np.eye(3)))
+    quat = rotations.multiply(q_inv, q_tcp)
     quat[~r_ok] = np.nan
     return p, quat
 

@@ -10,21 +10,67 @@ capture (see :mod:`lfd.sim.natural`). MuJoCo and OpenCV (the ``sim`` extra) are 
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 from .. import _gl  # noqa: F401  (selects the headless GL backend before mujoco loads)
-from .demonstrator import SIM_VERSION, SimResult, Truth, simulate, truth_demonstration
-from .scene import DEFAULT_OBJECTS, CameraSpec, ObjectSpec, Scene, build_scene
-from .tasks import (
-    EXPERIMENTS,
-    NATURAL_EXPERIMENTS,
-    REPEAT_EXPERIMENTS,
-    TASK_GENERATORS,
-    TASK_NAMES,
-    TASKS,
-    TEMPLATE_TASKS,
-    TRANSITIONS,
-    check_grammar,
-)
-from .variability import STYLES, Variability
+
+if TYPE_CHECKING:
+    from .demonstrator import SIM_VERSION, SimResult, Truth, simulate, truth_demonstration
+    from .scene import DEFAULT_OBJECTS, CameraSpec, ObjectSpec, Scene, build_scene
+    from .tasks import (
+        EXPERIMENTS,
+        NATURAL_EXPERIMENTS,
+        REPEAT_EXPERIMENTS,
+        TASK_GENERATORS,
+        TASK_NAMES,
+        TASKS,
+        TEMPLATE_TASKS,
+        TRANSITIONS,
+        check_grammar,
+    )
+    from .variability import STYLES, Variability
+
+_HOME = {
+    **dict.fromkeys(
+        ("SIM_VERSION", "SimResult", "Truth", "simulate", "truth_demonstration"), "demonstrator"
+    ),
+    **dict.fromkeys(
+        ("DEFAULT_OBJECTS", "CameraSpec", "ObjectSpec", "Scene", "build_scene"), "scene"
+    ),
+    **dict.fromkeys(
+        (
+            "EXPERIMENTS",
+            "NATURAL_EXPERIMENTS",
+            "REPEAT_EXPERIMENTS",
+            "TASK_GENERATORS",
+            "TASK_NAMES",
+            "TASKS",
+            "TEMPLATE_TASKS",
+            "TRANSITIONS",
+            "check_grammar",
+        ),
+        "tasks",
+    ),
+    **dict.fromkeys(("STYLES", "Variability"), "variability"),
+}
+"""The module of each name this package exports: imported when the name is first used, so
+``lfd simulate --help`` (the task names) does not load the simulator."""
+
+
+def __getattr__(name: str) -> Any:
+    home = _HOME.get(name)
+    if home is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    if home == "demonstrator":
+        from . import demonstrator as module
+    elif home == "scene":
+        from . import scene as module
+    elif home == "tasks":
+        from . import tasks as module
+    else:
+        from . import variability as module
+    return getattr(module, name)
+
 
 __all__ = [
     "DEFAULT_OBJECTS",
