@@ -42,9 +42,7 @@ def poses_in_object(
         return np.zeros((0, 3)), np.zeros((0, 4))
     q = np.asarray(traj.object_quaternion[k, t], dtype=np.float64)
     q_ok = np.asarray(np.isfinite(q).all(axis=1))
-    q_inv = rotations.inverse(
-        rotations.normalize(np.where(q_ok[:, None], q, [0.0, 0.0, 0.0, 1.0]))
-    )
+    q_inv = rotations.inverse(rotations.normalize(np.where(q_ok[:, None], q, [0.0, 0.0, 0.0, 1.0])))
     rel = np.asarray(traj.tcp[t] - traj.object_position[k, t], dtype=np.float64)
     # R^T rel per row as a stacked matmul (what one Rotation.apply gives, bit for bit)
     p = (rotations.as_matrix(q_inv) @ rel[:, :, None])[:, :, 0]
