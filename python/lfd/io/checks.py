@@ -78,16 +78,23 @@ def closest_approach(demo: Demonstration) -> Approach:
         t, pos, quat = obj.t_ns[seen], obj.position[seen], obj.quaternion[seen]
         j = np.clip(np.searchsorted(t, th), 1, max(t.size - 1, 1))
         j = np.where(np.abs(t[j - 1] - th) <= np.abs(t[j] - th), j - 1, j) if t.size > 1 else 0 * j
-        rot = _quat_matrices(quat[j])  # (n, 3, 3), box -> world
-        local = np.einsum("nji,nkj->nki", rot, kp - pos[j][:, None, :])  # R^T (p - c)
-        outside = np.maximum(np.abs(local) - 0.5 * obj.size, 0.0)
-        dist = np.linalg.norm(outside, axis=2)  # (n, 21), NaN for unseen keypoints
-        if not np.isfinite(dist).any():
+        offset = kp - pos[j][:, None, :]  # (n, 21, 3)
+        centre = np.linalg.norm(offset, axis=2)  # >= the distance from the box
+        if not np.isfinite(centre).any():
             continue
+        # the box distance is at least the centre's less the half diagonal: only samples that
+        # can come closer than the nearest centre are measured exactly (the same minimum)
+        near = np.flatnonzero(
+            np.any(centre - 0.5 * float(np.linalg.norm(obj.size)) <= np.nanmin(centre), axis=1)
+        )
+        rot = _quat_matrices(quat[j[near]])  # (m, 3, 3), box -> world
+        local = np.einsum("nji,nkj->nki", rot, offset[near])  # R^T (p - c)
+        outside = np.maximum(np.abs(local) - 0.5 * obj.size, 0.0)
+        dist = np.linalg.norm(outside, axis=2)  # (m, 21), NaN for unseen keypoints
         flat = int(np.nanargmin(dist))
         d = float(dist.flat[flat])
         if d < best.distance_m:
-            i = flat // dist.shape[1]
+            i = int(near[flat // dist.shape[1]])
             best = Approach(d, name, (int(th[i]) - demo.start_ns) * 1e-9)
     return best
 
