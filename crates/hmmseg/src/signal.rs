@@ -14,6 +14,8 @@
 // LAPACK's) operations one by one, so the results agree to the bit.
 #![allow(clippy::float_cmp, clippy::needless_range_loop)]
 
+use rayon::prelude::*;
+
 use crate::error::{EngineError, Result};
 
 /// A complex number with numpy's arithmetic (multiplication without fused operations, Smith's
@@ -398,19 +400,37 @@ pub fn filtfilt_runs(
         .map(|(&v, &k)| if k { v } else { f64::NAN })
         .collect();
     let mut short: Vec<(usize, usize)> = Vec::new();
-    let mut ext = Vec::new();
-    for j in 0..c {
+    // one column's runs: (too short to filter, filtered runs with their start)
+    type Column = (Vec<(usize, usize)>, Vec<(usize, Vec<f64>)>);
+    let column = |j: usize| -> Column {
+        let (mut too_short, mut filtered) = (Vec::new(), Vec::new());
         for (s, e) in runs((0..n).map(|i| ok[i * c + j])) {
             if e - s <= padlen {
-                if !short.contains(&(s, e)) {
-                    short.push((s, e));
-                }
+                too_short.push((s, e));
                 continue;
             }
             let col: Vec<f64> = (s..e).map(|i| x[i * c + j]).collect();
+            let mut ext = Vec::new();
             filtfilt_column(&bn, &an, &zi, &col, padlen, &mut ext);
-            for (i, &v) in (s..e).zip(ext.iter()) {
-                out[i * c + j] = v;
+            ext.truncate(e - s);
+            filtered.push((s, ext));
+        }
+        (too_short, filtered)
+    };
+    // a few columns per thread at a time, written back in column order
+    let columns: Vec<usize> = (0..c).collect();
+    for round in columns.chunks(4 * rayon::current_num_threads().max(1)) {
+        let done: Vec<Column> = round.par_iter().map(|&j| column(j)).collect();
+        for (&j, (too_short, filtered)) in round.iter().zip(done) {
+            for run in too_short {
+                if !short.contains(&run) {
+                    short.push(run);
+                }
+            }
+            for (s, values) in filtered {
+                for (i, v) in (s..).zip(values) {
+                    out[i * c + j] = v;
+                }
             }
         }
     }
@@ -926,19 +946,19 @@ pub fn resample_columns(
     let n = td.len();
     let mut values = vec![f64::NAN; n * c];
     let mut valid = vec![false; n * c];
-    let (mut tk, mut xk, mut wk) = (Vec::new(), Vec::new(), Vec::new());
-    let mut spline = ColumnSpline::default();
-    let (mut scratch, mut weighted) = (NodeScratch::default(), Vec::new());
-    let (mut xcols, mut wcols) = (Vec::new(), Vec::new());
-    let (mut vcols, mut okcols): (Vec<Vec<f64>>, Vec<Vec<bool>>) = (Vec::new(), Vec::new());
-    for j0 in (0..c).step_by(BLOCK) {
+    // the columns of one block, fitted and evaluated with buffers of its own
+    let block = |j0: usize| -> Result<(Vec<Vec<f64>>, Vec<Vec<bool>>)> {
         let width = BLOCK.min(c - j0);
+        let (mut tk, mut xk, mut wk) = (Vec::new(), Vec::new(), Vec::new());
+        let mut spline = ColumnSpline::default();
+        let (mut scratch, mut weighted) = (NodeScratch::default(), Vec::new());
+        let (mut xcols, mut wcols) = (Vec::new(), Vec::new());
+        let mut vcols: Vec<Vec<f64>> = vec![Vec::new(); width];
+        let mut okcols: Vec<Vec<bool>> = vec![Vec::new(); width];
         gather(x, c, |k| j0 + k, width, &mut xcols);
         if let Some(w) = weights {
             gather(w, cw, |k| (j0 + k) / per, width, &mut wcols);
         }
-        vcols.resize_with(width, Vec::new);
-        okcols.resize_with(width, Vec::new);
         for k in 0..width {
             tk.clear();
             xk.clear();
@@ -987,8 +1007,18 @@ pub fn resample_columns(
                 }
             }
         }
-        scatter(&mut values, c, j0, &vcols[..width]);
-        scatter(&mut valid, c, j0, &okcols[..width]);
+        Ok((vcols, okcols))
+    };
+    // one block per thread at a time: the memory in flight stays a few blocks of columns
+    let starts: Vec<usize> = (0..c).step_by(BLOCK).collect();
+    for round in starts.chunks(rayon::current_num_threads().max(1)) {
+        let done: Vec<Result<(Vec<Vec<f64>>, Vec<Vec<bool>>)>> =
+            round.par_iter().map(|&j0| block(j0)).collect();
+        for (&j0, result) in round.iter().zip(done) {
+            let (vcols, okcols) = result?;
+            scatter(&mut values, c, j0, &vcols);
+            scatter(&mut valid, c, j0, &okcols);
+        }
     }
     Ok((values, valid))
 }
