@@ -409,3 +409,22 @@ def test_plain_install_segments_without_heavy_modules(tmp_path: Path) -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr[-2000:]
     assert (tmp_path / "s.json").stat().st_size > 0
+
+
+def test_segment_command_imports_no_scipy(tmp_path: Path) -> None:
+    """``lfd segment REC --json OUT`` reads, preprocesses and segments without importing scipy
+    (whose submodules took 0.3-1.1 s each to import, more than the whole command now takes):
+    the filters, splines and rotations are the engine's (ARCHITECTURE.md, "Heavy imports")."""
+    import subprocess
+    import sys
+
+    rec = ROOT.parents[1] / "recordings" / "exp1.mcap"
+    code = (
+        "import sys\n"
+        "from lfd.cli import main\n"
+        f"assert main(['segment', {str(rec)!r}, '--json', {str(tmp_path / 's.json')!r}]) == 0\n"
+        "print(sorted(m for m in sys.modules if m.split('.')[0] == 'scipy'))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip().splitlines()[-1] == "[]", out.stdout[-2000:]
