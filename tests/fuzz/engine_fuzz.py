@@ -1,4 +1,5 @@
-"""Fuzz the engine's Python API (``lfd._hmmseg`` and ``lfd.engine``) with hypothesis.
+"""Fuzz the engine's Python API (``lfd._hmmseg`` and ``lfd.engine``) with hypothesis: the
+HMMs, DTW, normalisation, model JSON and the MCAP reader (cut and overwritten recordings).
 
 Run in a subprocess (an abort or a segfault then shows as the child's exit status, not as a dead
 test runner)::
@@ -201,12 +202,35 @@ def run(examples: int, seed: int, targets: set[str]) -> None:
 
         hypothesis_seed(seed)(from_json)()
 
+    if "mcap" in targets:
+        import tempfile
+        from pathlib import Path
+
+        valid_file = (Path(__file__).parents[2] / "recordings" / "exp1.mcap").read_bytes()
+        where = Path(tempfile.mkdtemp(prefix="lfd-fuzz-")) / "f.mcap"
+
+        @common
+        @given(
+            st.integers(0, len(valid_file)),
+            st.lists(st.tuples(st.integers(0, len(valid_file) - 1), st.binary(max_size=9))),
+            st.booleans(),
+        )
+        def mcap(cut: int, edits: list[tuple[int, bytes]], images: bool) -> None:
+            data = bytearray(valid_file[:cut])
+            for pos, chunk in edits:  # overwrite bytes: headers, lengths, CRCs, payloads
+                data[pos : pos + len(chunk)] = chunk
+            where.write_bytes(bytes(data))
+            _call("read_recording", lambda: _hmmseg.read_recording(str(where), images))
+            _call("read_summary", lambda: _hmmseg.read_summary(str(where), ["/lfd/ground_truth"]))
+
+        hypothesis_seed(seed)(mcap)()
+
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--examples", type=int, default=300, help="examples per target (300)")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--targets", default="fit,score,sample,dtw,minmax,json")
+    parser.add_argument("--targets", default="fit,score,sample,dtw,minmax,json,mcap")
     args = parser.parse_args()
     t0 = time.perf_counter()
     try:
