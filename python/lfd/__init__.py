@@ -11,35 +11,64 @@ from typing import TYPE_CHECKING, Any
 
 # The functions are named by verbs (``lfd.preprocess``, ``lfd.segment``), the packages that hold
 # them by nouns (``lfd.preprocessing``, ``lfd.segmentation``), so importing a package never
-# replaces a function. The heavy stages (sim, reproduce, perception, viz) are imported on use.
-from . import errors, io, preprocessing, segmentation
-from .demo import CameraInfo, Demonstration, HandTrack, ImageStream, ObjectTrack, SkillLabel
-from .engine import GaussianHMM
+# replaces a function. Every name is imported on first use (PEP 562): ``lfd info`` does not
+# load the segmentation, ``lfd segment`` not the writer; the heavy stages (sim, reproduce,
+# perception, viz) are never imported here.
+from . import errors
 from .errors import EngineError, LfdError
-from .features import FEATURE_NAMES, FeatureParams, Features, compute_features, label_targets
-from .io import load
-from .preprocessing import preprocess
-from .segmentation import Method, Segment, Segmentation, Templates, segment
-from .skills import SKILLS
-from .trajectory import Trajectory
 
 if TYPE_CHECKING:
+    from . import io, preprocessing, segmentation
     from ._version import __version__
-    from .io import McapRecorder, save
+    from .demo import CameraInfo, Demonstration, HandTrack, ImageStream, ObjectTrack, SkillLabel
+    from .engine import GaussianHMM
+    from .features import (
+        FEATURE_NAMES,
+        FeatureParams,
+        Features,
+        compute_features,
+        label_targets,
+    )
+    from .io import McapRecorder, load, save
+    from .preprocessing import preprocess
+    from .segmentation import Method, Segment, Segmentation, Templates, segment
+    from .skills import SKILLS
+    from .trajectory import Trajectory
+
+_HOME = {
+    **dict.fromkeys(("io", "preprocessing", "segmentation"), ""),
+    "__version__": "._version",
+    **dict.fromkeys(
+        ("CameraInfo", "Demonstration", "HandTrack", "ImageStream", "ObjectTrack", "SkillLabel"),
+        ".demo",
+    ),
+    "GaussianHMM": ".engine",
+    **dict.fromkeys(
+        ("FEATURE_NAMES", "FeatureParams", "Features", "compute_features", "label_targets"),
+        ".features",
+    ),
+    **dict.fromkeys(("McapRecorder", "load", "save"), ".io"),
+    "preprocess": ".preprocessing",
+    **dict.fromkeys(("Method", "Segment", "Segmentation", "Templates", "segment"), ".segmentation"),
+    "SKILLS": ".skills",
+    "Trajectory": ".trajectory",
+}
+"""The module each public name comes from ("": the name is a subpackage)."""
 
 
 def __getattr__(name: str) -> Any:
-    """The MCAP writer (``lfd.save``, ``lfd.McapRecorder``) and ``__version__`` (from the
-    installed package's metadata), imported when first used."""
-    if name == "__version__":
-        from ._version import __version__
+    """A public name, imported from its module when first used (then kept)."""
+    import importlib
 
-        return __version__
-    if name in ("McapRecorder", "save"):
-        from . import io
-
-        return getattr(io, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    home = _HOME.get(name)
+    if home is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    if home == "":
+        value: Any = importlib.import_module(f".{name}", __name__)
+    else:
+        value = getattr(importlib.import_module(home, __name__), name)
+    globals()[name] = value
+    return value
 
 
 __all__ = [

@@ -120,9 +120,11 @@ def _short(key: str, value: object) -> str:
     text = json.dumps(value, default=str)
     if len(text) <= 80:
         return f"{key}={text}"
-    n = len(value) if isinstance(value, (list, dict)) else len(text)
-    what = {list: "items", dict: "keys"}.get(type(value), "characters")
-    return f"{key}=({n} {what})"
+    if isinstance(value, list):
+        return f"{key}=({len(value)} items)"
+    if isinstance(value, dict):
+        return f"{key}=({len(value)} keys)"
+    return f"{key}=({len(text)} characters)"
 
 
 def _method(args: argparse.Namespace) -> int:

@@ -25,6 +25,7 @@ import dataclasses
 import io
 import json
 import os
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -291,7 +292,7 @@ def _records(reader: StreamReader, path: str, budget: int) -> Any:
             yield record
 
 
-def _channels(docs: list[dict[str, Any]]) -> dict[str, ChannelSummary]:
+def _channels(docs: Sequence[Mapping[str, Any]]) -> dict[str, ChannelSummary]:
     return {
         d["topic"]: ChannelSummary(
             topic=d["topic"],
@@ -335,7 +336,7 @@ def read(path: str | os.PathLike[str], *, images: bool = True) -> RawRecording:
     raw.messages.update(doc["raw"])
     for kind in ("hands", "confidence", "poses"):
         for topic, arrays in doc[kind].items():
-            raw.tracks[topic] = arrays
+            raw.tracks[topic] = dict(arrays)
     return raw
 
 
@@ -377,6 +378,6 @@ def read_summary(
         library=doc["library"],
         channels=_channels(doc["channels"]),
         metadata={k: dict(v) for k, v in doc["metadata"].items()},
-        attachments=list(doc["attachments"]),
+        attachments=[dict(a) for a in doc["attachments"]],
         messages={t: list(doc["raw"].get(t, [])) for t in topics},
     )

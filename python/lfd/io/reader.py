@@ -348,10 +348,10 @@ def _decode_images(
 
     from .images import decode_compressed, decode_raw
 
-    if kind == "raw":
-        from foxglove_schemas_protobuf.RawImage_pb2 import RawImage as cls
-    else:
-        from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage as cls
+    from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+    from foxglove_schemas_protobuf.RawImage_pb2 import RawImage
+
+    cls: Any = RawImage if kind == "raw" else CompressedImage
     frames = []
     for t, data in payloads:
         msg = cls()

@@ -61,14 +61,9 @@ def __getattr__(name: str) -> Any:
     home = _HOME.get(name)
     if home is None:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    if home == "demonstrator":
-        from . import demonstrator as module
-    elif home == "scene":
-        from . import scene as module
-    elif home == "tasks":
-        from . import tasks as module
-    else:
-        from . import variability as module
+    import importlib
+
+    module = importlib.import_module(f".{home}", __name__)
     return getattr(module, name)
 
 
