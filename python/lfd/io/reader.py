@@ -344,12 +344,11 @@ def _decode_images(
     path: str, topic: str, kind: str, payloads: list[tuple[int, bytes]]
 ) -> np.ndarray:
     """The frames of encoded RawImage or CompressedImage messages, stacked."""
+    from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+    from foxglove_schemas_protobuf.RawImage_pb2 import RawImage
     from google.protobuf.message import DecodeError
 
     from .images import decode_compressed, decode_raw
-
-    from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
-    from foxglove_schemas_protobuf.RawImage_pb2 import RawImage
 
     cls: Any = RawImage if kind == "raw" else CompressedImage
     frames = []
