@@ -507,17 +507,18 @@ def _next_true(mask: np.ndarray) -> np.ndarray:
     return out
 
 
-def _count_after(mask: np.ndarray, first: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """``(O, *runs)``: samples of ``mask`` in ``[max(lo, first[lo]), hi)`` per run, for sample
-    indices ``lo`` and ``hi`` of broadcastable shapes (one pair per run)."""
-    n_obj, n = mask.shape
-    cum = np.zeros((n_obj, n + 1))
-    cum[:, 1:] = np.cumsum(mask, axis=1)
-    rows = np.arange(n_obj).reshape(n_obj, *([1] * np.ndim(lo)))
-    start = first[rows, lo]  # first index >= lo
-    a = cum[rows, start]
-    b = cum[rows, hi]
-    return np.asarray(np.where(hi > start, np.maximum(b - a, 0.0), 0.0))
+def _count_from(
+    mask: np.ndarray, first: np.ndarray | None, lo: np.ndarray, hi: np.ndarray
+) -> np.ndarray:
+    """Samples of ``mask`` (n,) in ``[max(lo, first[lo]), hi)`` per run, for sample indices
+    ``lo`` and ``hi`` of broadcastable shapes (one pair per run); ``first`` (n + 1,): the first
+    index ``>= t`` where ``mask`` is true (:func:`_next_true`; None: ``t`` itself)."""
+    cum = np.zeros(len(mask) + 1)
+    np.cumsum(mask, out=cum[1:])
+    start = lo if first is None else first[lo]
+    d = cum[hi] - cum[start]
+    np.maximum(d, 0.0, out=d)
+    return np.asarray(np.where(hi > start, d, 0.0))
 
 
 def co_motion_penalty(
@@ -597,49 +598,53 @@ def co_motion_per_object(
         lo, hi = lo[:, None], hi[None, :]
     else:  # the band's runs: (N,)
         lo, hi = lo[band.start], hi[band.end]
-    everywhere = np.zeros((n_obj, n + 1), dtype=np.int64)  # "first index >= t" is t itself
-    everywhere[:] = np.arange(n + 1)
-    own = _count_after(moving, everywhere, lo, hi)  # (O, *runs)
-    others = own.sum(axis=0, keepdims=True) - own
+    # the counts of one object at a time (each a few arrays over the runs, without the skill
+    # axis); only the objects' own motion is kept for all of them (the others' is its sum)
+    own = np.stack([_count_from(moving[o], None, lo, hi) for o in range(n_obj)])  # (O, *runs)
+    total = own.sum(axis=0)
     still = _skill_mask(skills, TARGET_STILL)
-    set_down = relift = sliding = None
-    if lifted is not None:
-        resting = ~lifted
-        set_down = _count_after(resting, _next_true(lifted), lo, hi)
-        relift = _count_after(lifted, _next_true(resting), lo, hi)
-        if slide >= 0:
-            sliding = np.maximum(_count_after(moving & resting, everywhere, lo, hi) - slide, 0.0)
-    behind = None
-    if hand is not None and left >= 0:
-        h = np.asarray(hand, dtype=bool)[:n]
-        behind = np.maximum(_count_after(h[None, :] & ~moving, everywhere, lo, hi) - left, 0.0)
     no_set_down, no_lift = _skill_mask(skills, NO_SET_DOWN), _skill_mask(skills, NO_LIFT)
     carried = _skill_mask(skills, CARRIED)
+    h = np.asarray(hand, dtype=bool)[:n] if hand is not None and left >= 0 else None
+    lift = None
+    if lifted is not None:  # (lifted, resting, next lifted, next resting)
+        resting = ~lifted
+        lift = (lifted, resting, _next_true(lifted), _next_true(resting))
+
+    def counts(o: int) -> list[np.ndarray | None]:
+        """Object ``o``'s counts, in the order they are summed (see ``masks``)."""
+        set_down = relift = sliding = behind = None
+        if lift is not None:
+            lifted_o, resting_o = lift[0][o], lift[1][o]
+            set_down = _count_from(resting_o, lift[2][o], lo, hi)
+            relift = _count_from(lifted_o, lift[3][o], lo, hi)
+            if slide >= 0:
+                sliding = np.maximum(_count_from(moving[o] & resting_o, None, lo, hi) - slide, 0.0)
+        if h is not None:
+            behind = np.maximum(_count_from(h & ~moving[o], None, lo, hi) - left, 0.0)
+        return [own[o], set_down, relift, sliding, behind]
 
     # per skill, the counts it is charged for, in the order they are summed (a count times 0 adds
     # nothing: every count is finite and >= 0)
-    terms: list[tuple[np.ndarray | None, np.ndarray]] = [
-        (own, still),
-        (set_down if relift is not None else None, no_set_down),
-        (relift if set_down is not None else None, no_lift),
-        (sliding, carried),
-        (behind, carried),
-    ]
+    masks = [still, no_set_down, no_lift, carried, carried]
+    present = [True, lifted is not None, lifted is not None, lifted is not None and slide >= 0]
+    present.append(h is not None)
     charged = [
-        tuple(k for k, (count, mask) in enumerate(terms) if count is not None and mask[s])
+        tuple(k for k, mask in enumerate(masks) if present[k] and mask[s])
         for s in range(len(skills))
     ]
 
     def of(o: int) -> np.ndarray:
-        out = np.empty((*others.shape[1:], len(skills)))
+        out = np.empty((*total.shape, len(skills)))
+        cs = counts(o)
         done: dict[tuple[int, ...], np.ndarray] = {}
         for s, which in enumerate(charged):
             if which not in done:  # skills charged for the same counts share a column
-                col = others[o].copy()
+                col = total - own[o]
                 for k in which:
-                    count = terms[k][0]
+                    count = cs[k]
                     assert count is not None
-                    col += count[o]
+                    col += count
                 col *= -weight
                 done[which] = col
             out[..., s] = done[which]
@@ -682,15 +687,18 @@ def scores_over_objects(
     base = engine.score_band(values[0], bounds, max_len, end, shared) if shared else 0.0
 
     def scores_of(o: int) -> np.ndarray:
+        # in place where the array is our own (a sum is the same either way round)
         if rest is None:
             cur = band.take(engine.score_table(values[o], bounds, max_len, end))
         elif rest:
-            cur = base + engine.score_band(values[o], bounds, max_len, end, rest)
+            cur = engine.score_band(values[o], bounds, max_len, end, rest)
+            cur += base
         else:
             cur = np.array(base, dtype=np.float64)
+        cur = np.asarray(cur, dtype=np.float64)
         if extra_of is not None:
-            cur = cur + extra_of(o)
-        return np.asarray(cur, dtype=np.float64)
+            cur += extra_of(o)
+        return cur
 
     best, target = max_over_objects(scores_of, n_obj)
     return StageTwoScores(band, best, target)
@@ -718,11 +726,13 @@ def max_over_objects(
     time."""
     best = np.ascontiguousarray(scores_of(0))
     target = np.zeros(best.shape, dtype=np.min_scalar_type(n_obj - 1))
+    better = np.empty(best.shape, dtype=bool) if n_obj > 1 else None
     for o in range(1, n_obj):
         cur = scores_of(o)
-        better = cur > best
+        np.greater(cur, best, out=better)
         np.copyto(best, cur, where=better)
         target[better] = o
+        del cur
     return best, target
 
 
