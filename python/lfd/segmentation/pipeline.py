@@ -8,6 +8,7 @@ table from the templates, TCP rise decision, greedy loop or segmental DP under t
 from __future__ import annotations
 
 import dataclasses
+import functools
 from bisect import bisect_left, bisect_right
 from collections import Counter
 from collections.abc import Callable
@@ -318,6 +319,8 @@ def _rows(extra: Callable[[int], np.ndarray] | None, r0: int) -> Callable[[int],
     """``extra`` (:func:`co_motion_per_object`) from row ``r0`` on."""
     if extra is None:
         return None
+    if isinstance(extra, CoMotion) and extra.banded:
+        return dataclasses.replace(extra, lo=extra.lo[r0:], hi=extra.hi[r0:])
     return lambda o: extra(o)[r0:]
 
 
@@ -581,9 +584,10 @@ def co_motion_per_object(
     hand: np.ndarray | None = None,
     left: float = -1.0,
     band: Band | None = None,
-) -> Callable[[int], np.ndarray] | None:
-    """:func:`co_motion_penalty` one target object at a time: ``of(o)`` is its ``[o]`` (the
-    sample counts behind it are computed once, per object and run, without the skill axis)."""
+) -> CoMotion | None:
+    """:func:`co_motion_penalty` one target object at a time: ``of(o)`` is its ``[o]``, and
+    with a ``band`` ``of.rows(o, r0, r1)`` its rows ``r0:r1`` (the sample counts behind it are
+    computed per object and run, without the skill axis, when asked for)."""
     if np.isnan(slide):
         raise InvalidParameterError("co_motion_slide_s must be a number (negative: off), got nan")
     if np.isnan(left):
@@ -598,10 +602,6 @@ def co_motion_per_object(
         lo, hi = lo[:, None], hi[None, :]
     else:  # the band's runs: (N,)
         lo, hi = lo[band.start], hi[band.end]
-    # the counts of one object at a time (each a few arrays over the runs, without the skill
-    # axis); only the objects' own motion is kept for all of them (the others' is its sum)
-    own = np.stack([_count_from(moving[o], None, lo, hi) for o in range(n_obj)])  # (O, *runs)
-    total = own.sum(axis=0)
     still = _skill_mask(skills, TARGET_STILL)
     no_set_down, no_lift = _skill_mask(skills, NO_SET_DOWN), _skill_mask(skills, NO_LIFT)
     carried = _skill_mask(skills, CARRIED)
@@ -610,19 +610,6 @@ def co_motion_per_object(
     if lifted is not None:  # (lifted, resting, next lifted, next resting)
         resting = ~lifted
         lift = (lifted, resting, _next_true(lifted), _next_true(resting))
-
-    def counts(o: int) -> list[np.ndarray | None]:
-        """Object ``o``'s counts, in the order they are summed (see ``masks``)."""
-        set_down = relift = sliding = behind = None
-        if lift is not None:
-            lifted_o, resting_o = lift[0][o], lift[1][o]
-            set_down = _count_from(resting_o, lift[2][o], lo, hi)
-            relift = _count_from(lifted_o, lift[3][o], lo, hi)
-            if slide >= 0:
-                sliding = np.maximum(_count_from(moving[o] & resting_o, None, lo, hi) - slide, 0.0)
-        if h is not None:
-            behind = np.maximum(_count_from(h & ~moving[o], None, lo, hi) - left, 0.0)
-        return [own[o], set_down, relift, sliding, behind]
 
     # per skill, the counts it is charged for, in the order they are summed (a count times 0 adds
     # nothing: every count is finite and >= 0)
@@ -634,15 +621,30 @@ def co_motion_per_object(
         for s in range(len(skills))
     ]
 
-    def of(o: int) -> np.ndarray:
+    def of(o: int, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        # object o's counts over the runs lo..hi, in the order of ``masks``; the other
+        # objects' motion is the objects' summed own motion less o's (exact: sample counts)
+        own = [_count_from(moving[q], None, lo, hi) for q in range(n_obj)]
+        total = own[0].copy()
+        for q in range(1, n_obj):
+            total += own[q]
+        counts: list[np.ndarray | None] = [own[o], None, None, None, None]
+        if lift is not None:
+            lifted_o, resting_o = lift[0][o], lift[1][o]
+            counts[1] = _count_from(resting_o, lift[2][o], lo, hi)
+            counts[2] = _count_from(lifted_o, lift[3][o], lo, hi)
+            if slide >= 0:
+                sliding = _count_from(moving[o] & resting_o, None, lo, hi) - slide
+                counts[3] = np.maximum(sliding, 0.0)
+        if h is not None:
+            counts[4] = np.maximum(_count_from(h & ~moving[o], None, lo, hi) - left, 0.0)
         out = np.empty((*total.shape, len(skills)))
-        cs = counts(o)
         done: dict[tuple[int, ...], np.ndarray] = {}
         for s, which in enumerate(charged):
             if which not in done:  # skills charged for the same counts share a column
                 col = total - own[o]
                 for k in which:
-                    count = cs[k]
+                    count = counts[k]
                     assert count is not None
                     col += count
                 col *= -weight
@@ -650,11 +652,37 @@ def co_motion_per_object(
             out[..., s] = done[which]
         return out
 
-    return of
+    return CoMotion(of, lo, hi, band is not None)
+
+
+@dataclass(frozen=True, eq=False)
+class CoMotion:
+    """The co-motion penalty of :func:`co_motion_per_object`: ``self(o)`` that of target
+    object ``o`` over all runs, ``self.rows(o, r0, r1)`` its rows ``r0:r1`` of a band's table
+    (each computed when asked for)."""
+
+    of: Callable[[int, np.ndarray, np.ndarray], np.ndarray]
+    lo: np.ndarray
+    hi: np.ndarray
+    banded: bool
+
+    def __call__(self, o: int) -> np.ndarray:
+        return self.of(o, self.lo, self.hi)
+
+    def rows(self, o: int, r0: int, r1: int) -> np.ndarray:
+        """Rows ``r0:r1`` of ``self(o)`` (a band's table only)."""
+        if not self.banded:
+            return self(o)[r0:r1]
+        return self.of(o, self.lo[r0:r1], self.hi[r0:r1])
 
 
 def _skill_mask(skills: list[str], which: frozenset[str]) -> np.ndarray:
     return np.array([s in which for s in skills], dtype=np.float64)
+
+
+SCORE_CHUNK = 1 << 15
+"""The score band is built in pieces of the runs starting in about this many samples
+(:func:`scores_over_objects`): only the maximum over the objects is held for all runs."""
 
 
 def scores_over_objects(
@@ -665,43 +693,126 @@ def scores_over_objects(
     *,
     extra: np.ndarray | Callable[[int], np.ndarray] | None = None,
     shared: list[int] | None = None,
+    chunk: int = SCORE_CHUNK,
 ) -> StageTwoScores:
     """The score table over the runs of ``band`` maximised over the target object, from the
     feature matrices, one (n, 10) array per target object; ``extra`` (O, N, S), or a function
     of the object giving its (N, S) (:func:`co_motion_per_object`), is added per target before
-    the maximum (e.g. :func:`co_motion_penalty`). One object's table at a time is held.
-    ``shared``: the features scored once for all objects (default: :func:`shared_features`)."""
+    the maximum (e.g. :func:`co_motion_penalty`). ``shared``: the features scored once for all
+    objects (default: :func:`shared_features`).
+
+    The runs starting in about ``chunk`` samples are scored at a time, each piece over its own
+    samples (a run's score depends on its own samples only: the entries are those of the whole
+    band), so besides the result only one piece's tables are held."""
     engine = templates.engine
     groups = getattr(templates, "features", None)
-    bounds, max_len = band.bounds, band.max_len
+    max_len = band.max_len
     extra_of = extra if callable(extra) or extra is None else extra.__getitem__
     if shared is None:
         shared = shared_features(values, templates)
     if groups is None:  # a stand-in without feature metadata: a dense table per object
-        shared = []
-        rest: list[int] | None = None
-        n_obj = len(values)
-    else:
-        rest = [g for g in range(len(groups)) if g not in shared]
-        n_obj = len(values) if rest or extra is not None else 1
-    base = engine.score_band(values[0], bounds, max_len, end, shared) if shared else 0.0
+        bounds = band.bounds
 
-    def scores_of(o: int) -> np.ndarray:
-        # in place where the array is our own (a sum is the same either way round)
-        if rest is None:
-            cur = band.take(engine.score_table(values[o], bounds, max_len, end))
-        elif rest:
-            cur = engine.score_band(values[o], bounds, max_len, end, rest)
-            cur += base
+        def dense_of(o: int) -> np.ndarray:
+            cur = np.asarray(band.take(engine.score_table(values[o], bounds, max_len, end)))
+            cur = np.asarray(cur, dtype=np.float64)
+            if extra_of is not None:
+                cur += extra_of(o)
+            return cur
+
+        best, target = max_over_objects(dense_of, len(values))
+        return StageTwoScores(band, best, target)
+    rest = [g for g in range(len(groups)) if g not in shared]
+    n_obj = len(values) if rest or extra is not None else 1
+    n_skills = len(templates.skills)
+    best = np.empty((band.n_runs, n_skills))
+    target = np.zeros(best.shape, dtype=np.min_scalar_type(n_obj - 1))
+    for i0, i1, e in _pieces(band, chunk):
+        a, b = int(band.bounds[i0]), int(band.bounds[e])
+        r0, r1 = int(band.offsets[i0]), int(band.offsets[i1])
+        if i0 == 0 and e == band.n_sections:  # the whole band
+            piece, view = band.bounds, list(values)
         else:
-            cur = np.array(base, dtype=np.float64)
-        cur = np.asarray(cur, dtype=np.float64)
-        if extra_of is not None:
-            cur += extra_of(o)
-        return cur
-
-    best, target = max_over_objects(scores_of, n_obj)
+            piece, view = band.bounds[i0 : e + 1] - a, [v[a:b] for v in values]
+        extra_rows: Callable[[int], np.ndarray] | None = None
+        if isinstance(extra_of, CoMotion):
+            extra_rows = functools.partial(extra_of.rows, r0=r0, r1=r1)
+        elif extra_of is not None:
+            extra_rows = _Slice(extra_of, r0, r1)
+        base = _band_rows(engine, view[0], piece, max_len, end, shared, r1 - r0) if shared else 0.0
+        scores_of = functools.partial(
+            _piece_scores, engine, view, piece, max_len, end, base, rest, extra_rows, r1 - r0
+        )
+        best[r0:r1], target[r0:r1] = max_over_objects(scores_of, n_obj)
     return StageTwoScores(band, best, target)
+
+
+@dataclass(frozen=True)
+class _Slice:
+    """Rows ``r0:r1`` of ``of(o)``."""
+
+    of: Callable[[int], np.ndarray]
+    r0: int
+    r1: int
+
+    def __call__(self, o: int) -> np.ndarray:
+        return self.of(o)[self.r0 : self.r1]
+
+
+def _band_rows(
+    engine: Any,
+    v: np.ndarray,
+    piece: np.ndarray,
+    max_len: int,
+    end: EndState,
+    feats: list[int],
+    n_rows: int,
+) -> np.ndarray:
+    """The first ``n_rows`` rows of ``engine.score_band``."""
+    t = np.asarray(engine.score_band(v, piece, max_len, end, feats))
+    return t if len(t) == n_rows else t[:n_rows]
+
+
+def _piece_scores(
+    engine: Any,
+    view: list[np.ndarray],
+    piece: np.ndarray,
+    max_len: int,
+    end: EndState,
+    base: np.ndarray | float,
+    rest: list[int],
+    extra_rows: Callable[[int], np.ndarray] | None,
+    n_rows: int,
+    o: int,
+) -> np.ndarray:
+    """Target object ``o``'s rows of a piece of :func:`scores_over_objects`: the first
+    ``n_rows`` rows of the band of ``max_len`` samples over the boundaries ``piece`` of the
+    samples ``view[o]``, plus ``base`` (the shared features') and ``extra_rows(o)``."""
+    # in place where the array is our own (a sum is the same either way round)
+    if rest:
+        cur = _band_rows(engine, view[o], piece, max_len, end, rest, n_rows)
+        cur += base
+    else:
+        cur = np.array(base, dtype=np.float64)
+    if extra_rows is not None:
+        cur += extra_rows(o)
+    return cur
+
+
+def _pieces(band: Band, chunk: int) -> list[tuple[int, int, int]]:
+    """The start sections ``i0:i1`` of :func:`scores_over_objects`' pieces, each spanning about
+    ``chunk`` samples (at least one section), and the last end section ``e`` of their runs:
+    the band over the boundaries ``i0..=e`` holds the runs of starts ``i0:i1`` as the whole band
+    does, at its first rows."""
+    out = []
+    k, bounds = band.n_sections, band.bounds
+    i0 = 0
+    while i0 < k:
+        i1 = max(i0 + 1, int(np.searchsorted(bounds, bounds[i0] + chunk, side="left")))
+        i1 = min(i1, k)
+        out.append((i0, i1, int(band.last[i1 - 1])))
+        i0 = i1
+    return out
 
 
 def shared_features(values: list[np.ndarray], templates: Templates) -> list[int]:
