@@ -621,7 +621,7 @@ def co_motion_per_object(
         for s in range(len(skills))
     ]
 
-    def of(o: int, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    def of(o: int, lo: np.ndarray, hi: np.ndarray, into: np.ndarray | None = None) -> np.ndarray:
         # object o's counts over the runs lo..hi, in the order of ``masks``; the other
         # objects' motion is the objects' summed own motion less o's (exact: sample counts)
         own = [_count_from(moving[q], None, lo, hi) for q in range(n_obj)]
@@ -638,7 +638,7 @@ def co_motion_per_object(
                 counts[3] = np.maximum(sliding, 0.0)
         if h is not None:
             counts[4] = np.maximum(_count_from(h & ~moving[o], None, lo, hi) - left, 0.0)
-        out = np.empty((*total.shape, len(skills)))
+        out = np.empty((*total.shape, len(skills))) if into is None else into
         done: dict[tuple[int, ...], np.ndarray] = {}
         for s, which in enumerate(charged):
             if which not in done:  # skills charged for the same counts share a column
@@ -649,7 +649,10 @@ def co_motion_per_object(
                     col += count
                 col *= -weight
                 done[which] = col
-            out[..., s] = done[which]
+            if into is None:
+                out[..., s] = done[which]
+            else:
+                out[..., s] += done[which]
         return out
 
     return CoMotion(of, lo, hi, band is not None)
@@ -661,19 +664,26 @@ class CoMotion:
     object ``o`` over all runs, ``self.rows(o, r0, r1)`` its rows ``r0:r1`` of a band's table
     (each computed when asked for)."""
 
-    of: Callable[[int, np.ndarray, np.ndarray], np.ndarray]
+    of: Callable[[int, np.ndarray, np.ndarray, np.ndarray | None], np.ndarray]
     lo: np.ndarray
     hi: np.ndarray
     banded: bool
 
     def __call__(self, o: int) -> np.ndarray:
-        return self.of(o, self.lo, self.hi)
+        return self.of(o, self.lo, self.hi, None)
 
     def rows(self, o: int, r0: int, r1: int) -> np.ndarray:
-        """Rows ``r0:r1`` of ``self(o)`` (a band's table only)."""
+        """Rows ``r0:r1`` of ``self(o)``."""
         if not self.banded:
             return self(o)[r0:r1]
-        return self.of(o, self.lo[r0:r1], self.hi[r0:r1])
+        return self.of(o, self.lo[r0:r1], self.hi[r0:r1], None)
+
+    def add_rows(self, o: int, r0: int, r1: int, table: np.ndarray) -> None:
+        """``table += self.rows(o, r0, r1)``, without the rows as an array of their own."""
+        if not self.banded:
+            table += self.rows(o, r0, r1)
+        else:
+            self.of(o, self.lo[r0:r1], self.hi[r0:r1], table)
 
 
 def _skill_mask(skills: list[str], which: frozenset[str]) -> np.ndarray:
@@ -734,29 +744,33 @@ def scores_over_objects(
             piece, view = band.bounds, list(values)
         else:
             piece, view = band.bounds[i0 : e + 1] - a, [v[a:b] for v in values]
-        extra_rows: Callable[[int], np.ndarray] | None = None
+        add_extra: Callable[[int, np.ndarray], None] | None = None
         if isinstance(extra_of, CoMotion):
-            extra_rows = functools.partial(extra_of.rows, r0=r0, r1=r1)
+            add_extra = functools.partial(_add_co_motion, extra_of, r0, r1)
         elif extra_of is not None:
-            extra_rows = _Slice(extra_of, r0, r1)
+            add_extra = _AddRows(extra_of, r0, r1)
         base = _band_rows(engine, view[0], piece, max_len, end, shared, r1 - r0) if shared else 0.0
         scores_of = functools.partial(
-            _piece_scores, engine, view, piece, max_len, end, base, rest, extra_rows, r1 - r0
+            _piece_scores, engine, view, piece, max_len, end, base, rest, add_extra, r1 - r0
         )
         best[r0:r1], target[r0:r1] = max_over_objects(scores_of, n_obj)
     return StageTwoScores(band, best, target)
 
 
 @dataclass(frozen=True)
-class _Slice:
-    """Rows ``r0:r1`` of ``of(o)``."""
+class _AddRows:
+    """Add rows ``r0:r1`` of ``of(o)`` to a table."""
 
     of: Callable[[int], np.ndarray]
     r0: int
     r1: int
 
-    def __call__(self, o: int) -> np.ndarray:
-        return self.of(o)[self.r0 : self.r1]
+    def __call__(self, o: int, table: np.ndarray) -> None:
+        table += self.of(o)[self.r0 : self.r1]
+
+
+def _add_co_motion(extra: CoMotion, r0: int, r1: int, o: int, table: np.ndarray) -> None:
+    extra.add_rows(o, r0, r1, table)
 
 
 def _band_rows(
@@ -781,21 +795,22 @@ def _piece_scores(
     end: EndState,
     base: np.ndarray | float,
     rest: list[int],
-    extra_rows: Callable[[int], np.ndarray] | None,
+    add_extra: Callable[[int, np.ndarray], None] | None,
     n_rows: int,
     o: int,
 ) -> np.ndarray:
     """Target object ``o``'s rows of a piece of :func:`scores_over_objects`: the first
     ``n_rows`` rows of the band of ``max_len`` samples over the boundaries ``piece`` of the
-    samples ``view[o]``, plus ``base`` (the shared features') and ``extra_rows(o)``."""
+    samples ``view[o]``, plus ``base`` (the shared features') and what ``add_extra(o, table)``
+    adds."""
     # in place where the array is our own (a sum is the same either way round)
     if rest:
         cur = _band_rows(engine, view[o], piece, max_len, end, rest, n_rows)
         cur += base
     else:
         cur = np.array(base, dtype=np.float64)
-    if extra_rows is not None:
-        cur += extra_rows(o)
+    if add_extra is not None:
+        add_extra(o, cur)
     return cur
 
 
