@@ -332,6 +332,50 @@ def test_banded_co_motion_penalty_is_the_dense_one_on_the_band() -> None:
         np.testing.assert_array_equal(banded, dense[:, band.start, band.end])
 
 
+def test_scores_in_pieces_are_those_of_the_whole_band() -> None:
+    """The stage-2 band built from pieces of a few sections (each over its own samples) holds
+    the entries of the whole band, bit for bit, and so do the co-motion rows."""
+    from lfd.features import compute_features
+    from lfd.preprocessing import preprocess
+    from lfd.segmentation.band import Band
+    from lfd.segmentation.gaps import fill_gaps
+    from lfd.segmentation.pipeline import (
+        co_motion_per_object,
+        moving_objects,
+        scores_over_objects,
+        shared_features,
+    )
+
+    traj, _ = fill_gaps(preprocess(demo()))
+    t = Templates.default()
+    values = [compute_features(traj, target=o).values for o in range(len(traj.object_names))]
+    b = np.r_[0 : len(traj) : 9, len(traj)].astype(np.int64)
+    band = Band.of(b, 40)
+    moving = moving_objects(traj, 1 / 6, 0.015)
+    extra = co_motion_per_object(
+        moving, b, t.skills, 20.0, lifted=moving, slide=3.0, hand=moving[0], left=2.0, band=band
+    )
+    assert extra is not None
+    whole = extra(1)
+    r1 = band.n_runs - 5
+    np.testing.assert_array_equal(extra.rows(1, 17, r1), whole[17:r1])
+    table = np.full((r1 - 17, len(t.skills)), 1.5)
+    extra.add_rows(1, 17, r1, table)
+    np.testing.assert_array_equal(table, 1.5 + whole[17:r1])
+    shared = shared_features(values, t)
+    assert shared and len(shared) < len(t.features)
+    for end in ("final", "any"):
+        ref = scores_over_objects(values, t, band, end, extra=extra, chunk=10**9)
+        for chunk in (1, 50, 333):
+            got = scores_over_objects(values, t, band, end, extra=extra, chunk=chunk)
+            assert got.scores.tobytes() == ref.scores.tobytes()
+            np.testing.assert_array_equal(got.target, ref.target)
+        # an (O, N, S) array of the extra evidence gives the same
+        stacked = np.stack([extra(o) for o in range(len(values))])
+        got = scores_over_objects(values, t, band, end, extra=stacked, chunk=50)
+        assert got.scores.tobytes() == ref.scores.tobytes()
+
+
 # --- templates -------------------------------------------------------------------------------
 def test_default_templates_ship_with_the_package() -> None:
     t = Templates.default()

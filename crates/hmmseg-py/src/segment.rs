@@ -37,12 +37,10 @@ fn dense_to_numpy<'py>(py: Python<'py>, t: &ScoreTable) -> PyResult<Bound<'py, P
     shaped(py, &[k, k + 1, t.n_skills()], t.to_dense())
 }
 
-fn band_to_numpy<'py>(py: Python<'py>, t: &ScoreTable) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-    shaped(
-        py,
-        &[t.band().n_runs(), t.n_skills()],
-        t.as_slice().to_vec(),
-    )
+/// The banded table as a numpy array `(N, S)` (its entries moved, not copied).
+fn band_to_numpy(py: Python<'_>, t: ScoreTable) -> PyResult<Bound<'_, PyArrayDyn<f64>>> {
+    let shape = [t.band().n_runs(), t.n_skills()];
+    shaped(py, &shape, t.into_values())
 }
 
 /// Stage-1 parameters from the Python arguments: a hysteresis per criterion column, the
@@ -338,7 +336,7 @@ impl PyTemplateSet {
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         guard(py, || {
             let t = self.scores(py, &raw, &boundaries, max_len, end, features, false)?;
-            band_to_numpy(py, &t)
+            band_to_numpy(py, t)
         })
     }
 }

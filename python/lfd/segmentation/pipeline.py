@@ -8,6 +8,7 @@ table from the templates, TCP rise decision, greedy loop or segmental DP under t
 from __future__ import annotations
 
 import dataclasses
+import functools
 from bisect import bisect_left, bisect_right
 from collections import Counter
 from collections.abc import Callable
@@ -318,6 +319,8 @@ def _rows(extra: Callable[[int], np.ndarray] | None, r0: int) -> Callable[[int],
     """``extra`` (:func:`co_motion_per_object`) from row ``r0`` on."""
     if extra is None:
         return None
+    if isinstance(extra, CoMotion) and extra.banded:
+        return dataclasses.replace(extra, lo=extra.lo[r0:], hi=extra.hi[r0:])
     return lambda o: extra(o)[r0:]
 
 
@@ -507,17 +510,18 @@ def _next_true(mask: np.ndarray) -> np.ndarray:
     return out
 
 
-def _count_after(mask: np.ndarray, first: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """``(O, *runs)``: samples of ``mask`` in ``[max(lo, first[lo]), hi)`` per run, for sample
-    indices ``lo`` and ``hi`` of broadcastable shapes (one pair per run)."""
-    n_obj, n = mask.shape
-    cum = np.zeros((n_obj, n + 1))
-    cum[:, 1:] = np.cumsum(mask, axis=1)
-    rows = np.arange(n_obj).reshape(n_obj, *([1] * np.ndim(lo)))
-    start = first[rows, lo]  # first index >= lo
-    a = cum[rows, start]
-    b = cum[rows, hi]
-    return np.asarray(np.where(hi > start, np.maximum(b - a, 0.0), 0.0))
+def _count_from(
+    mask: np.ndarray, first: np.ndarray | None, lo: np.ndarray, hi: np.ndarray
+) -> np.ndarray:
+    """Samples of ``mask`` (n,) in ``[max(lo, first[lo]), hi)`` per run, for sample indices
+    ``lo`` and ``hi`` of broadcastable shapes (one pair per run); ``first`` (n + 1,): the first
+    index ``>= t`` where ``mask`` is true (:func:`_next_true`; None: ``t`` itself)."""
+    cum = np.zeros(len(mask) + 1)
+    np.cumsum(mask, out=cum[1:])
+    start = lo if first is None else first[lo]
+    d = cum[hi] - cum[start]
+    np.maximum(d, 0.0, out=d)
+    return np.asarray(np.where(hi > start, d, 0.0))
 
 
 def co_motion_penalty(
@@ -580,9 +584,10 @@ def co_motion_per_object(
     hand: np.ndarray | None = None,
     left: float = -1.0,
     band: Band | None = None,
-) -> Callable[[int], np.ndarray] | None:
-    """:func:`co_motion_penalty` one target object at a time: ``of(o)`` is its ``[o]`` (the
-    sample counts behind it are computed once, per object and run, without the skill axis)."""
+) -> CoMotion | None:
+    """:func:`co_motion_penalty` one target object at a time: ``of(o)`` is its ``[o]``, and
+    with a ``band`` ``of.rows(o, r0, r1)`` its rows ``r0:r1`` (the sample counts behind it are
+    computed per object and run, without the skill axis, when asked for)."""
     if np.isnan(slide):
         raise InvalidParameterError("co_motion_slide_s must be a number (negative: off), got nan")
     if np.isnan(left):
@@ -597,59 +602,97 @@ def co_motion_per_object(
         lo, hi = lo[:, None], hi[None, :]
     else:  # the band's runs: (N,)
         lo, hi = lo[band.start], hi[band.end]
-    everywhere = np.zeros((n_obj, n + 1), dtype=np.int64)  # "first index >= t" is t itself
-    everywhere[:] = np.arange(n + 1)
-    own = _count_after(moving, everywhere, lo, hi)  # (O, *runs)
-    others = own.sum(axis=0, keepdims=True) - own
     still = _skill_mask(skills, TARGET_STILL)
-    set_down = relift = sliding = None
-    if lifted is not None:
-        resting = ~lifted
-        set_down = _count_after(resting, _next_true(lifted), lo, hi)
-        relift = _count_after(lifted, _next_true(resting), lo, hi)
-        if slide >= 0:
-            sliding = np.maximum(_count_after(moving & resting, everywhere, lo, hi) - slide, 0.0)
-    behind = None
-    if hand is not None and left >= 0:
-        h = np.asarray(hand, dtype=bool)[:n]
-        behind = np.maximum(_count_after(h[None, :] & ~moving, everywhere, lo, hi) - left, 0.0)
     no_set_down, no_lift = _skill_mask(skills, NO_SET_DOWN), _skill_mask(skills, NO_LIFT)
     carried = _skill_mask(skills, CARRIED)
+    h = np.asarray(hand, dtype=bool)[:n] if hand is not None and left >= 0 else None
+    lift = None
+    if lifted is not None:  # (lifted, resting, next lifted, next resting)
+        resting = ~lifted
+        lift = (lifted, resting, _next_true(lifted), _next_true(resting))
 
     # per skill, the counts it is charged for, in the order they are summed (a count times 0 adds
     # nothing: every count is finite and >= 0)
-    terms: list[tuple[np.ndarray | None, np.ndarray]] = [
-        (own, still),
-        (set_down if relift is not None else None, no_set_down),
-        (relift if set_down is not None else None, no_lift),
-        (sliding, carried),
-        (behind, carried),
-    ]
+    masks = [still, no_set_down, no_lift, carried, carried]
+    present = [True, lifted is not None, lifted is not None, lifted is not None and slide >= 0]
+    present.append(h is not None)
     charged = [
-        tuple(k for k, (count, mask) in enumerate(terms) if count is not None and mask[s])
+        tuple(k for k, mask in enumerate(masks) if present[k] and mask[s])
         for s in range(len(skills))
     ]
 
-    def of(o: int) -> np.ndarray:
-        out = np.empty((*others.shape[1:], len(skills)))
+    def of(o: int, lo: np.ndarray, hi: np.ndarray, into: np.ndarray | None = None) -> np.ndarray:
+        # object o's counts over the runs lo..hi, in the order of ``masks``; the other
+        # objects' motion is the objects' summed own motion less o's (exact: sample counts)
+        own = [_count_from(moving[q], None, lo, hi) for q in range(n_obj)]
+        total = own[0].copy()
+        for q in range(1, n_obj):
+            total += own[q]
+        counts: list[np.ndarray | None] = [own[o], None, None, None, None]
+        if lift is not None:
+            lifted_o, resting_o = lift[0][o], lift[1][o]
+            counts[1] = _count_from(resting_o, lift[2][o], lo, hi)
+            counts[2] = _count_from(lifted_o, lift[3][o], lo, hi)
+            if slide >= 0:
+                sliding = _count_from(moving[o] & resting_o, None, lo, hi) - slide
+                counts[3] = np.maximum(sliding, 0.0)
+        if h is not None:
+            counts[4] = np.maximum(_count_from(h & ~moving[o], None, lo, hi) - left, 0.0)
+        out = np.empty((*total.shape, len(skills))) if into is None else into
         done: dict[tuple[int, ...], np.ndarray] = {}
         for s, which in enumerate(charged):
             if which not in done:  # skills charged for the same counts share a column
-                col = others[o].copy()
+                col = total - own[o]
                 for k in which:
-                    count = terms[k][0]
+                    count = counts[k]
                     assert count is not None
-                    col += count[o]
+                    col += count
                 col *= -weight
                 done[which] = col
-            out[..., s] = done[which]
+            if into is None:
+                out[..., s] = done[which]
+            else:
+                out[..., s] += done[which]
         return out
 
-    return of
+    return CoMotion(of, lo, hi, band is not None)
+
+
+@dataclass(frozen=True, eq=False)
+class CoMotion:
+    """The co-motion penalty of :func:`co_motion_per_object`: ``self(o)`` that of target
+    object ``o`` over all runs, ``self.rows(o, r0, r1)`` its rows ``r0:r1`` of a band's table
+    (each computed when asked for)."""
+
+    of: Callable[[int, np.ndarray, np.ndarray, np.ndarray | None], np.ndarray]
+    lo: np.ndarray
+    hi: np.ndarray
+    banded: bool
+
+    def __call__(self, o: int) -> np.ndarray:
+        return self.of(o, self.lo, self.hi, None)
+
+    def rows(self, o: int, r0: int, r1: int) -> np.ndarray:
+        """Rows ``r0:r1`` of ``self(o)``."""
+        if not self.banded:
+            return self(o)[r0:r1]
+        return self.of(o, self.lo[r0:r1], self.hi[r0:r1], None)
+
+    def add_rows(self, o: int, r0: int, r1: int, table: np.ndarray) -> None:
+        """``table += self.rows(o, r0, r1)``, without the rows as an array of their own."""
+        if not self.banded:
+            table += self.rows(o, r0, r1)
+        else:
+            self.of(o, self.lo[r0:r1], self.hi[r0:r1], table)
 
 
 def _skill_mask(skills: list[str], which: frozenset[str]) -> np.ndarray:
     return np.array([s in which for s in skills], dtype=np.float64)
+
+
+SCORE_CHUNK = 1 << 15
+"""The score band is built in pieces of the runs starting in about this many samples
+(:func:`scores_over_objects`): only the maximum over the objects is held for all runs."""
 
 
 def scores_over_objects(
@@ -660,40 +703,131 @@ def scores_over_objects(
     *,
     extra: np.ndarray | Callable[[int], np.ndarray] | None = None,
     shared: list[int] | None = None,
+    chunk: int = SCORE_CHUNK,
 ) -> StageTwoScores:
     """The score table over the runs of ``band`` maximised over the target object, from the
     feature matrices, one (n, 10) array per target object; ``extra`` (O, N, S), or a function
     of the object giving its (N, S) (:func:`co_motion_per_object`), is added per target before
-    the maximum (e.g. :func:`co_motion_penalty`). One object's table at a time is held.
-    ``shared``: the features scored once for all objects (default: :func:`shared_features`)."""
+    the maximum (e.g. :func:`co_motion_penalty`). ``shared``: the features scored once for all
+    objects (default: :func:`shared_features`).
+
+    The runs starting in about ``chunk`` samples are scored at a time, each piece over its own
+    samples (a run's score depends on its own samples only: the entries are those of the whole
+    band), so besides the result only one piece's tables are held."""
     engine = templates.engine
     groups = getattr(templates, "features", None)
-    bounds, max_len = band.bounds, band.max_len
+    max_len = band.max_len
     extra_of = extra if callable(extra) or extra is None else extra.__getitem__
     if shared is None:
         shared = shared_features(values, templates)
     if groups is None:  # a stand-in without feature metadata: a dense table per object
-        shared = []
-        rest: list[int] | None = None
-        n_obj = len(values)
-    else:
-        rest = [g for g in range(len(groups)) if g not in shared]
-        n_obj = len(values) if rest or extra is not None else 1
-    base = engine.score_band(values[0], bounds, max_len, end, shared) if shared else 0.0
+        bounds = band.bounds
 
-    def scores_of(o: int) -> np.ndarray:
-        if rest is None:
-            cur = band.take(engine.score_table(values[o], bounds, max_len, end))
-        elif rest:
-            cur = base + engine.score_band(values[o], bounds, max_len, end, rest)
+        def dense_of(o: int) -> np.ndarray:
+            cur = np.asarray(band.take(engine.score_table(values[o], bounds, max_len, end)))
+            cur = np.asarray(cur, dtype=np.float64)
+            if extra_of is not None:
+                cur += extra_of(o)
+            return cur
+
+        best, target = max_over_objects(dense_of, len(values))
+        return StageTwoScores(band, best, target)
+    rest = [g for g in range(len(groups)) if g not in shared]
+    n_obj = len(values) if rest or extra is not None else 1
+    n_skills = len(templates.skills)
+    best = np.empty((band.n_runs, n_skills))
+    target = np.zeros(best.shape, dtype=np.min_scalar_type(n_obj - 1))
+    for i0, i1, e in _pieces(band, chunk):
+        a, b = int(band.bounds[i0]), int(band.bounds[e])
+        r0, r1 = int(band.offsets[i0]), int(band.offsets[i1])
+        if i0 == 0 and e == band.n_sections:  # the whole band
+            piece, view = band.bounds, list(values)
         else:
-            cur = np.array(base, dtype=np.float64)
-        if extra_of is not None:
-            cur = cur + extra_of(o)
-        return np.asarray(cur, dtype=np.float64)
-
-    best, target = max_over_objects(scores_of, n_obj)
+            piece, view = band.bounds[i0 : e + 1] - a, [v[a:b] for v in values]
+        add_extra: Callable[[int, np.ndarray], None] | None = None
+        if isinstance(extra_of, CoMotion):
+            add_extra = functools.partial(_add_co_motion, extra_of, r0, r1)
+        elif extra_of is not None:
+            add_extra = _AddRows(extra_of, r0, r1)
+        base = _band_rows(engine, view[0], piece, max_len, end, shared, r1 - r0) if shared else 0.0
+        scores_of = functools.partial(
+            _piece_scores, engine, view, piece, max_len, end, base, rest, add_extra, r1 - r0
+        )
+        best[r0:r1], target[r0:r1] = max_over_objects(scores_of, n_obj)
     return StageTwoScores(band, best, target)
+
+
+@dataclass(frozen=True)
+class _AddRows:
+    """Add rows ``r0:r1`` of ``of(o)`` to a table."""
+
+    of: Callable[[int], np.ndarray]
+    r0: int
+    r1: int
+
+    def __call__(self, o: int, table: np.ndarray) -> None:
+        table += self.of(o)[self.r0 : self.r1]
+
+
+def _add_co_motion(extra: CoMotion, r0: int, r1: int, o: int, table: np.ndarray) -> None:
+    extra.add_rows(o, r0, r1, table)
+
+
+def _band_rows(
+    engine: Any,
+    v: np.ndarray,
+    piece: np.ndarray,
+    max_len: int,
+    end: EndState,
+    feats: list[int],
+    n_rows: int,
+) -> np.ndarray:
+    """The first ``n_rows`` rows of ``engine.score_band``."""
+    t = np.asarray(engine.score_band(v, piece, max_len, end, feats))
+    return t if len(t) == n_rows else t[:n_rows]
+
+
+def _piece_scores(
+    engine: Any,
+    view: list[np.ndarray],
+    piece: np.ndarray,
+    max_len: int,
+    end: EndState,
+    base: np.ndarray | float,
+    rest: list[int],
+    add_extra: Callable[[int, np.ndarray], None] | None,
+    n_rows: int,
+    o: int,
+) -> np.ndarray:
+    """Target object ``o``'s rows of a piece of :func:`scores_over_objects`: the first
+    ``n_rows`` rows of the band of ``max_len`` samples over the boundaries ``piece`` of the
+    samples ``view[o]``, plus ``base`` (the shared features') and what ``add_extra(o, table)``
+    adds."""
+    # in place where the array is our own (a sum is the same either way round)
+    if rest:
+        cur = _band_rows(engine, view[o], piece, max_len, end, rest, n_rows)
+        cur += base
+    else:
+        cur = np.array(base, dtype=np.float64)
+    if add_extra is not None:
+        add_extra(o, cur)
+    return cur
+
+
+def _pieces(band: Band, chunk: int) -> list[tuple[int, int, int]]:
+    """The start sections ``i0:i1`` of :func:`scores_over_objects`' pieces, each spanning about
+    ``chunk`` samples (at least one section), and the last end section ``e`` of their runs:
+    the band over the boundaries ``i0..=e`` holds the runs of starts ``i0:i1`` as the whole band
+    does, at its first rows."""
+    out = []
+    k, bounds = band.n_sections, band.bounds
+    i0 = 0
+    while i0 < k:
+        i1 = max(i0 + 1, int(np.searchsorted(bounds, bounds[i0] + chunk, side="left")))
+        i1 = min(i1, k)
+        out.append((i0, i1, int(band.last[i1 - 1])))
+        i0 = i1
+    return out
 
 
 def shared_features(values: list[np.ndarray], templates: Templates) -> list[int]:
@@ -718,11 +852,13 @@ def max_over_objects(
     time."""
     best = np.ascontiguousarray(scores_of(0))
     target = np.zeros(best.shape, dtype=np.min_scalar_type(n_obj - 1))
+    better = np.empty(best.shape, dtype=bool) if n_obj > 1 else None
     for o in range(1, n_obj):
         cur = scores_of(o)
-        better = cur > best
+        np.greater(cur, best, out=better)
         np.copyto(best, cur, where=better)
         target[better] = o
+        del cur
     return best, target
 
 

@@ -768,19 +768,13 @@ fn blocked_score_table(
             .collect();
         let n_groups = groups.len();
         for s in 0..models.len() {
-            for i in i0..i1 {
-                let rows = band.offsets()[i] - r0..band.offsets()[i + 1] - r0;
-                let sums: Vec<f64> = rows
-                    .map(|r| {
-                        let mut acc = 0.0;
-                        for scores in &per_pair[s * n_groups..(s + 1) * n_groups] {
-                            acc += scores[r];
-                        }
-                        acc
-                    })
-                    .collect();
-                table.set_band_row(i, s, sums);
-            }
+            table.set_band_rows(r0..r1, s, |r| {
+                let mut acc = 0.0;
+                for scores in &per_pair[s * n_groups..(s + 1) * n_groups] {
+                    acc += scores[r - r0];
+                }
+                acc
+            });
         }
         i0 = i1;
     }

@@ -276,6 +276,11 @@ impl ScoreTable {
         &self.total
     }
 
+    /// The raw entries (see [`Self::as_slice`]), taken out of the table without a copy.
+    pub fn into_values(self) -> Vec<f64> {
+        self.total
+    }
+
     /// The entries as a dense row-major `(K, K + 1, n_skills)` table, `-inf` outside the band
     /// (quadratic in `K`: for small tables and tools).
     pub fn to_dense(&self) -> Vec<f64> {
@@ -384,6 +389,25 @@ pub fn score_table<M: PrefixScorer>(
 }
 
 impl ScoreTable {
+    /// Store `sum(r)` for the rows `rows` of skill `s` (NaN -> `-inf`).
+    pub(super) fn set_band_rows(
+        &mut self,
+        rows: Range<usize>,
+        s: usize,
+        mut sum: impl FnMut(usize) -> f64,
+    ) {
+        let ns = self.n_skills;
+        for (r, out) in self.total[rows.start * ns..rows.end * ns]
+            .iter_mut()
+            .skip(s)
+            .step_by(ns)
+            .enumerate()
+        {
+            let v = sum(rows.start + r);
+            *out = if v.is_nan() { f64::NEG_INFINITY } else { v };
+        }
+    }
+
     /// Store the sums of the runs `i..i + 1 ..= last_end(i)` of skill `s` (NaN -> `-inf`).
     pub(super) fn set_band_row(&mut self, i: usize, s: usize, sums: Vec<f64>) {
         let first = self.band.offsets[i];
@@ -555,6 +579,9 @@ mod tests {
         assert!(t.total(0, 2, 0).is_finite());
         assert!(t.total(0, 3, 0).is_infinite());
         assert!(t.total(2, 3, 0).is_finite());
+        // the raw entries, taken out of the table, are its slice
+        let raw = t.as_slice().to_vec();
+        assert_eq!(t.into_values(), raw);
     }
 
     #[test]
