@@ -1,10 +1,16 @@
-//! Time `read_recording` on a file: `cargo run --release --example readtime -- FILE [images]`.
+//! Time `read_recording` on a file, keeping the raw topics `lfd.load` keeps:
+//! `cargo run --release --example readtime -- FILE [all]` (`all`: every raw topic).
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let path = std::path::Path::new(&args[1]);
+    let raw_topics = (args.len() < 3).then(|| {
+        ["/lfd/ground_truth", "/lfd/live/segments", "/camera/color/camera_info"]
+            .map(String::from)
+            .to_vec()
+    });
     let options = lfd_mcap::Options {
-        images: args.len() > 2,
-        ..lfd_mcap::Options::default()
+        images: false,
+        raw_topics,
     };
     for _ in 0..3 {
         let t = std::time::Instant::now();
