@@ -191,7 +191,8 @@ class _Loader:
         idx = self._order(topic, decoded["t_ns"])
         t = decoded["t_ns"][idx]
         kp = decoded["keypoints"][idx]
-        finite = np.isfinite(kp).all(axis=2)
+        # (as np.isfinite(kp).all(axis=2), without numpy's slow reduction over 3 items)
+        finite = np.isfinite(kp[:, :, 0]) & np.isfinite(kp[:, :, 1]) & np.isfinite(kp[:, :, 2])
         conf = finite.astype(np.float64)
         vis = np.zeros_like(finite)
         has_vis = np.zeros(len(t), dtype=bool)
