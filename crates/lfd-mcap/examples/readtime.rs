@@ -4,9 +4,13 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let path = std::path::Path::new(&args[1]);
     let raw_topics = (args.len() < 3).then(|| {
-        ["/lfd/ground_truth", "/lfd/live/segments", "/camera/color/camera_info"]
-            .map(String::from)
-            .to_vec()
+        [
+            "/lfd/ground_truth",
+            "/lfd/live/segments",
+            "/camera/color/camera_info",
+        ]
+        .map(String::from)
+        .to_vec()
     });
     let options = lfd_mcap::Options {
         images: false,

@@ -5,6 +5,7 @@ use std::fmt::Write as _;
 use std::fs::File;
 use std::io::Read;
 use std::path::Path;
+use std::sync::Arc;
 
 use mcap::records::{op, Record};
 use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
@@ -265,7 +266,18 @@ struct State {
     pending: Vec<Pending>,
     /// Their declared uncompressed bytes.
     pending_bytes: u64,
+    /// Batches queued so far (the first ones are small: their chunks define the channels).
+    batches: u32,
+    /// The last batch, decoded, not yet applied.
+    ready: Option<Vec<Chunked>>,
+    /// The channel map and the topics (name, empty track) the workers decode with; `None`
+    /// after a change.
+    snapshot: Option<Snapshot>,
 }
+
+/// What decoding a chunk on a worker needs to know (a channel's topic never changes once
+/// known, so an older snapshot is never wrong, only less complete).
+type Snapshot = (Arc<Vec<usize>>, Arc<Vec<(String, Kind)>>);
 
 /// A chunk waiting in a batch: its header and compressed records (copied out of the reader).
 struct Pending {
@@ -418,7 +430,7 @@ struct Decoded {
 fn decode_chunk(
     records: &[u8],
     channels: &[usize],
-    topics: &[Topic],
+    topics: &[(String, Kind)],
     path: &str,
 ) -> Option<Decoded> {
     let mut data = records;
@@ -451,7 +463,7 @@ fn decode_chunk(
                 }
                 let t = i64::try_from(t).ok()?;
                 messages.push((u32::try_from(i).ok()?, t));
-                let kind = &topics[i].kind;
+                let (name, kind) = &topics[i];
                 if matches!(kind, Kind::Dropped) {
                     continue;
                 }
@@ -462,7 +474,6 @@ fn decode_chunk(
                     slots.push((i, parts.len() - 1));
                     parts.len() - 1
                 };
-                let name = &topics[i].summary.topic;
                 decode_into(&mut parts[slot].1, &mut scratch, path, name, t, payload);
             }
             op::SCHEMA | op::CHANNEL => return None,
@@ -507,6 +518,7 @@ impl State {
         }
         if let Some(&i) = self.by_topic.get(&ch.topic) {
             self.channels[usize::from(ch.id)] = i;
+            self.snapshot = None;
             return;
         }
         let schema = self.schemas.get(&ch.schema_id);
@@ -525,6 +537,7 @@ impl State {
         self.topics.push(Topic { summary, kind });
         self.by_topic.insert(ch.topic, self.topics.len() - 1);
         self.channels[usize::from(ch.id)] = self.topics.len() - 1;
+        self.snapshot = None;
     }
 
     /// The topic of a message on `channel` (None: unknown channel, skipped) and its log time,
@@ -615,8 +628,9 @@ impl State {
                     header,
                     data: data.into_owned(),
                 });
-                if self.pending.len() >= BATCH_CHUNKS || self.pending_bytes >= BATCH_BYTES {
-                    self.flush()?;
+                let chunks = BATCH_CHUNKS.min(1 << self.batches.min(16));
+                if self.pending.len() >= chunks || self.pending_bytes >= BATCH_BYTES {
+                    self.submit()?;
                 }
                 Ok(Flow::Continue)
             }
@@ -643,32 +657,64 @@ impl State {
         }
     }
 
-    /// Read the queued chunks. In parallel, each chunk is inflated and, when it defines no
-    /// schema or channel and all its messages are on channels already known (a channel's topic
-    /// never changes once known, so no earlier chunk of the batch can change the verdict),
-    /// decoded whole; then, in file order, the decoded chunks are counted and appended, and
-    /// any other chunk is parsed (a chunk is all or nothing), its channels registered and its
-    /// messages decoded here, as a sequential pass would.
-    fn flush(&mut self) -> Result<(), Stop> {
-        if self.pending.is_empty() {
-            return Ok(());
+    /// The channel map and topics for the workers.
+    fn snapshot(&mut self) -> Snapshot {
+        if self.snapshot.is_none() {
+            let topics = self
+                .topics
+                .iter()
+                .map(|t| (t.summary.topic.clone(), t.kind.empty()))
+                .collect();
+            self.snapshot = Some((Arc::new(self.channels.clone()), Arc::new(topics)));
         }
+        self.snapshot.clone().expect("just made")
+    }
+
+    /// Queue the pending chunks: they are inflated and decoded by the workers (see
+    /// [`decode_chunk`]) while the batch queued before is applied here.
+    fn submit(&mut self) -> Result<(), Stop> {
         let pending = std::mem::take(&mut self.pending);
         self.pending_bytes = 0;
-        let topics = &self.topics;
-        let channels = &self.channels;
-        let path = self.path.as_str();
-        let done: Vec<Chunked> = pending
-            .into_par_iter()
-            .map(|p| match inflate(&p.header, &p.data) {
-                Err(why) => Chunked::Damaged(why),
-                Ok(records) => match decode_chunk(&records, channels, topics, path) {
-                    Some(decoded) => Chunked::Done(decoded),
-                    None => Chunked::Slow(records.into_owned()),
-                },
-            })
-            .collect();
-        for chunk in done {
+        self.batches += 1;
+        let (channels, topics) = self.snapshot();
+        let path = self.path.clone();
+        let ready = self.ready.take();
+        let (applied, decoded) = rayon::join(
+            || ready.map_or(Ok(()), |r| self.apply(r)),
+            || {
+                pending
+                    .into_par_iter()
+                    .map(|p| match inflate(&p.header, &p.data) {
+                        Err(why) => Chunked::Damaged(why),
+                        Ok(records) => match decode_chunk(&records, &channels, &topics, &path) {
+                            Some(decoded) => Chunked::Done(decoded),
+                            None => Chunked::Slow(records.into_owned()),
+                        },
+                    })
+                    .collect::<Vec<Chunked>>()
+            },
+        );
+        applied?; // damage in the batch before: this one is never read
+        self.ready = Some(decoded);
+        Ok(())
+    }
+
+    /// Read every queued chunk (before a record that changes the state, and at the end).
+    fn flush(&mut self) -> Result<(), Stop> {
+        if !self.pending.is_empty() {
+            self.submit()?;
+        }
+        match self.ready.take() {
+            Some(r) => self.apply(r),
+            None => Ok(()),
+        }
+    }
+
+    /// Apply a batch, in file order: the decoded chunks are counted and appended; any other
+    /// chunk is parsed (a chunk is all or nothing), its channels registered and its messages
+    /// decoded here, as a sequential pass would.
+    fn apply(&mut self, batch: Vec<Chunked>) -> Result<(), Stop> {
+        for chunk in batch {
             match chunk {
                 Chunked::Damaged(why) => return Err(Stop::Damaged(why)),
                 Chunked::Done(decoded) => {
@@ -958,6 +1004,9 @@ pub fn read_recording(path: &Path, options: &Options) -> Result<Recording, ReadE
         data_done: false,
         pending: Vec::new(),
         pending_bytes: 0,
+        batches: 0,
+        ready: None,
+        snapshot: None,
     };
     let limit = size.min(4 << 30);
     let mut reader = LinearReader::new_with_options(
