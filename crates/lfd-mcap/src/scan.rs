@@ -5,6 +5,7 @@ use std::fmt::Write as _;
 use std::fs::File;
 use std::io::Read;
 use std::path::Path;
+use std::sync::mpsc::{Receiver, TryRecvError};
 use std::sync::Arc;
 
 use mcap::records::{op, Record};
@@ -268,8 +269,8 @@ struct State {
     pending_bytes: u64,
     /// Batches queued so far (the first ones are small: their chunks define the channels).
     batches: u32,
-    /// The last batch, decoded, not yet applied.
-    ready: Option<Vec<Chunked>>,
+    /// The last batch queued, being decoded by the workers (not yet applied).
+    inflight: Option<Receiver<Vec<Chunked>>>,
     /// The channel map and the topics (name, empty track) the workers decode with; `None`
     /// after a change.
     snapshot: Option<Snapshot>,
@@ -402,6 +403,25 @@ fn decode_into(
         }
         Kind::Raw(raw) => raw.push(t, data),
         Kind::Dropped => {}
+    }
+}
+
+/// The batch a worker sends back (a pool thread waiting for it keeps helping the pool, so a
+/// read from inside a rayon pool cannot deadlock).
+fn wait(rx: &Receiver<Vec<Chunked>>) -> Vec<Chunked> {
+    if rayon::current_thread_index().is_none() {
+        return rx.recv().expect("a decoding worker panicked");
+    }
+    loop {
+        match rx.try_recv() {
+            Ok(batch) => return batch,
+            Err(TryRecvError::Empty) => {
+                if rayon::yield_now() != Some(rayon::Yield::Executed) {
+                    std::thread::yield_now();
+                }
+            }
+            Err(TryRecvError::Disconnected) => panic!("a decoding worker panicked"),
+        }
     }
 }
 
@@ -670,32 +690,34 @@ impl State {
         self.snapshot.clone().expect("just made")
     }
 
-    /// Queue the pending chunks: they are inflated and decoded by the workers (see
-    /// [`decode_chunk`]) while the batch queued before is applied here.
+    /// Queue the pending chunks: the workers inflate and decode them (see [`decode_chunk`])
+    /// while the batch queued before is applied here, and the next one read.
     fn submit(&mut self) -> Result<(), Stop> {
         let pending = std::mem::take(&mut self.pending);
         self.pending_bytes = 0;
         self.batches += 1;
         let (channels, topics) = self.snapshot();
         let path = self.path.clone();
-        let ready = self.ready.take();
-        let (applied, decoded) = rayon::join(
-            || ready.map_or(Ok(()), |r| self.apply(r)),
-            || {
-                pending
-                    .into_par_iter()
-                    .map(|p| match inflate(&p.header, &p.data) {
-                        Err(why) => Chunked::Damaged(why),
-                        Ok(records) => match decode_chunk(&records, &channels, &topics, &path) {
-                            Some(decoded) => Chunked::Done(decoded),
-                            None => Chunked::Slow(records.into_owned()),
-                        },
-                    })
-                    .collect::<Vec<Chunked>>()
-            },
-        );
-        applied?; // damage in the batch before: this one is never read
-        self.ready = Some(decoded);
+        let (tx, rx) = std::sync::mpsc::channel();
+        rayon::spawn(move || {
+            let decoded = pending
+                .into_par_iter()
+                .map(|p| match inflate(&p.header, &p.data) {
+                    Err(why) => Chunked::Damaged(why),
+                    Ok(records) => match decode_chunk(&records, &channels, &topics, &path) {
+                        Some(decoded) => Chunked::Done(decoded),
+                        None => Chunked::Slow(records.into_owned()),
+                    },
+                })
+                .collect::<Vec<Chunked>>();
+            let _ = tx.send(decoded); // (no receiver: the pass stopped before this batch)
+        });
+        if let Some(before) = self.inflight.replace(rx) {
+            if let Err(stop) = self.apply(wait(&before)) {
+                self.inflight = None; // damage in the batch before: this one is never read
+                return Err(stop);
+            }
+        }
         Ok(())
     }
 
@@ -704,8 +726,8 @@ impl State {
         if !self.pending.is_empty() {
             self.submit()?;
         }
-        match self.ready.take() {
-            Some(r) => self.apply(r),
+        match self.inflight.take() {
+            Some(rx) => self.apply(wait(&rx)),
             None => Ok(()),
         }
     }
@@ -1005,7 +1027,7 @@ pub fn read_recording(path: &Path, options: &Options) -> Result<Recording, ReadE
         pending: Vec::new(),
         pending_bytes: 0,
         batches: 0,
-        ready: None,
+        inflight: None,
         snapshot: None,
     };
     let limit = size.min(4 << 30);
