@@ -6,10 +6,12 @@
 //! inflated here so that every chunk's declared size is checked against the inflation budget
 //! *before* decompressing), CRC-checked, keeping every message of every complete chunk. Hand
 //! keypoints, keypoint confidences and object poses are decoded into flat arrays; every other
-//! topic is returned as raw `(log_time, payload)` pairs, in file order. Chunks are queued in
+//! topic is returned as raw `(log_time, payload)` pairs, in file order (only those of
+//! [`Options::raw_topics`] when given; every topic is counted either way). Chunks are queued in
 //! batches (in file order, each admitted by the bomb check as it is met); a batch is inflated
-//! and its typed messages decoded in parallel (rayon), then applied in file order, so the
-//! result is exactly that of a sequential pass.
+//! and decoded by the rayon workers in the background (a chunk whose channels are all known
+//! is decoded whole there) while the batch before is applied in file order and the next one
+//! read, so the result is exactly that of a sequential pass.
 //!
 //! [`read_summary`] reads only the summary section of a finished recording (and the message
 //! indexes and chunks it points to), for a quick look without a full pass.
