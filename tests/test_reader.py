@@ -170,3 +170,60 @@ def test_a_killed_recording_has_no_summary(tmp_path: Path) -> None:
     path = tmp_path / "killed.mcap"
     path.write_bytes(data[: len(data) // 2])
     assert read_summary(path) is None
+
+
+def _without_calibration(src: Path, dst: Path) -> None:
+    """``src`` rewritten without its ``calibration`` metadata record."""
+    from mcap.reader import make_reader
+    from mcap.writer import Writer
+
+    with open(src, "rb") as f, open(dst, "wb") as out:
+        reader = make_reader(f)
+        writer = Writer(out)
+        writer.start(profile="", library="test")
+        schemas: dict[int, int] = {}
+        channels: dict[int, int] = {}
+        for schema, channel, message in reader.iter_messages(log_time_order=False):
+            if channel.id not in channels:
+                if schema is not None and schema.id not in schemas:
+                    schemas[schema.id] = writer.register_schema(
+                        schema.name, schema.encoding, schema.data
+                    )
+                channels[channel.id] = writer.register_channel(
+                    channel.topic,
+                    channel.message_encoding,
+                    schemas[schema.id] if schema is not None else 0,
+                    dict(channel.metadata),
+                )
+            writer.add_message(
+                channels[channel.id], message.log_time, message.data, message.publish_time
+            )
+        for record in reader.iter_metadata():
+            if record.name != "calibration":
+                writer.add_metadata(record.name, dict(record.metadata))
+        writer.finish()
+
+
+@pytest.mark.parametrize("calibration", [True, False])
+def test_load_reads_only_the_topics_it_needs(tmp_path: Path, calibration: bool) -> None:
+    """``load`` keeps the encoded messages of a few topics only, and reads ``/tf`` in a second
+    pass when the camera pose is not in the metadata: the same demonstration as from ``scan``."""
+    from lfd.io.reader import load
+
+    path = ROOT / "recordings" / "exp1.mcap"
+    if not calibration:
+        path, src = tmp_path / "nocal.mcap", path
+        _without_calibration(src, path)
+    raw = read(path, images=False, topics=["/lfd/ground_truth"])
+    assert raw.unread and "/tf" in raw.unread and not raw.messages["/tf"]
+    assert raw.channels["/tf"].count > 0
+    assert raw.encoded("/tf") == scan(path).messages["/tf"]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        fast = load(path)
+    a, wa = _demo(scan(path))
+    assert_same_demo(a, fast)
+    assert wa == [str(w.message) for w in caught]
+    assert a.camera is not None
+    if not calibration:
+        assert not np.array_equal(a.camera.world_T_camera, np.eye(4))

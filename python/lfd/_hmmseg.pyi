@@ -327,11 +327,14 @@ class _Summary(TypedDict):
     messages: int
     raw: dict[str, list[tuple[int, bytes]]]
 
-def read_recording(path: str | os.PathLike[str], images: bool = True) -> _Recording:
+def read_recording(
+    path: str | os.PathLike[str], images: bool = True, raw_topics: list[str] | None = None
+) -> _Recording:
     """Every complete chunk of a (possibly truncated) MCAP recording, one sequential pass; the
     hand keypoints, confidences and object poses decoded, every other topic raw (the image
-    topics' payloads dropped with ``images=False``). ``RecordingFormatError`` if it cannot be
-    read (as ``lfd.io.mcapfile.scan``)."""
+    topics' payloads dropped with ``images=False``; with ``raw_topics``, only those topics'
+    payloads kept, every topic still counted in ``channels``). ``RecordingFormatError`` if it
+    cannot be read (as ``lfd.io.mcapfile.scan``)."""
 
 def read_summary(path: str | os.PathLike[str], topics: list[str] = ...) -> _Summary | None:
     """A finished recording's summary section (channels, metadata, attachments, message count)

@@ -82,11 +82,17 @@ fn array<'py, T: numpy::Element>(
 
 /// Read a whole recording (see `lfd._hmmseg.read_recording` in `python/lfd/_hmmseg.pyi`).
 #[pyfunction]
-#[pyo3(signature = (path, images = true))]
-fn read_recording(py: Python<'_>, path: PathBuf, images: bool) -> PyResult<Bound<'_, PyDict>> {
+#[pyo3(signature = (path, images = true, raw_topics = None))]
+fn read_recording(
+    py: Python<'_>,
+    path: PathBuf,
+    images: bool,
+    raw_topics: Option<Vec<String>>,
+) -> PyResult<Bound<'_, PyDict>> {
     guard(py, || {
+        let options = Options { images, raw_topics };
         let rec = py
-            .detach(|| lfd_mcap::read_recording(&path, &Options { images }))
+            .detach(|| lfd_mcap::read_recording(&path, &options))
             .map_err(|e| recording_format(py, e.0))?;
         let out = PyDict::new(py);
         out.set_item("library", &rec.library)?;

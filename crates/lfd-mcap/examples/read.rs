@@ -8,7 +8,7 @@ fn main() {
     for arg in std::env::args().skip(1) {
         let path = Path::new(&arg);
         let t0 = Instant::now();
-        let rec = lfd_mcap::read_recording(path, &lfd_mcap::Options { images: true });
+        let rec = lfd_mcap::read_recording(path, &lfd_mcap::Options::default());
         let t1 = t0.elapsed().as_secs_f64();
         match rec {
             Ok(r) => println!(

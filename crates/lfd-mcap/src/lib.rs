@@ -6,10 +6,12 @@
 //! inflated here so that every chunk's declared size is checked against the inflation budget
 //! *before* decompressing), CRC-checked, keeping every message of every complete chunk. Hand
 //! keypoints, keypoint confidences and object poses are decoded into flat arrays; every other
-//! topic is returned as raw `(log_time, payload)` pairs, in file order. Chunks are queued in
+//! topic is returned as raw `(log_time, payload)` pairs, in file order (only those of
+//! [`Options::raw_topics`] when given; every topic is counted either way). Chunks are queued in
 //! batches (in file order, each admitted by the bomb check as it is met); a batch is inflated
-//! and its typed messages decoded in parallel (rayon), then applied in file order, so the
-//! result is exactly that of a sequential pass.
+//! and decoded by the rayon workers in the background (a chunk whose channels are all known
+//! is decoded whole there) while the batch before is applied in file order and the next one
+//! read, so the result is exactly that of a sequential pass.
 //!
 //! [`read_summary`] reads only the summary section of a finished recording (and the message
 //! indexes and chunks it points to), for a quick look without a full pass.
@@ -61,15 +63,41 @@ pub fn inflate_limit(file_size: u64) -> u64 {
 pub struct ReadError(pub String);
 
 /// What to read.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Options {
     /// Keep the payloads of the image topics ([`IMAGE_TOPICS`]); they are counted either way.
     pub images: bool,
+    /// Keep the raw payloads of these topics only (`None`: of every topic). The topics not
+    /// kept are still counted, with their times, in [`Recording::channels`]; the decoded
+    /// tracks are kept either way.
+    pub raw_topics: Option<Vec<String>>,
 }
 
 impl Default for Options {
     fn default() -> Self {
-        Self { images: true }
+        Self {
+            images: true,
+            raw_topics: None,
+        }
+    }
+}
+
+impl Options {
+    /// Every topic, the image payloads kept or not.
+    pub fn images(images: bool) -> Self {
+        Self {
+            images,
+            raw_topics: None,
+        }
+    }
+
+    /// Whether the raw payloads of `topic` are kept.
+    pub fn keeps(&self, topic: &str) -> bool {
+        (self.images || !IMAGE_TOPICS.contains(&topic))
+            && self
+                .raw_topics
+                .as_ref()
+                .is_none_or(|keep| keep.iter().any(|t| t == topic))
     }
 }
 
@@ -127,6 +155,15 @@ impl RawMessages {
         self.t_ns.push(t_ns);
         self.data.extend_from_slice(payload);
         self.offsets.push(self.data.len());
+    }
+
+    /// Append the messages of `more`.
+    pub fn append(&mut self, more: &RawMessages) {
+        let base = self.data.len();
+        self.t_ns.extend_from_slice(&more.t_ns);
+        self.data.extend_from_slice(&more.data);
+        self.offsets
+            .extend(more.offsets[1..].iter().map(|&o| o + base));
     }
 
     pub fn len(&self) -> usize {
@@ -203,7 +240,8 @@ pub struct Recording {
     pub hands: Vec<(String, HandTrack)>,
     pub confidence: Vec<(String, ConfidenceTrack)>,
     pub poses: Vec<(String, PoseTrack)>,
-    /// Every other topic (the image topics left out with `images = false`).
+    /// Every other topic (the image topics left out with `images = false`, and any topic not in
+    /// [`Options::raw_topics`]).
     pub raw: Vec<(String, RawMessages)>,
 }
 

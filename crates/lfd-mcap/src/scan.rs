@@ -5,6 +5,8 @@ use std::fmt::Write as _;
 use std::fs::File;
 use std::io::Read;
 use std::path::Path;
+use std::sync::mpsc::{Receiver, TryRecvError};
+use std::sync::Arc;
 
 use mcap::records::{op, Record};
 use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
@@ -16,11 +18,10 @@ use crate::inflate::{inflate, Budget};
 use crate::proto::{PoseInFrame, PosesInFrame};
 use crate::{
     open_checked, ChannelSummary, ConfidenceTrack, HandTrack, MetadataMap, Options, PoseTrack,
-    RawMessages, ReadError, Recording, IMAGE_TOPICS,
+    RawMessages, ReadError, Recording,
 };
 use mcap::records::ChunkHeader;
 use rayon::prelude::*;
-use std::borrow::Cow;
 
 /// Bytes read from the file per read request (at least).
 const READ_BLOCK: usize = 1 << 20;
@@ -177,7 +178,8 @@ enum Kind {
     Confidence(ConfidenceTrack),
     Pose(PoseTrack, Vec<Bad>),
     Raw(RawMessages),
-    /// An image topic with `images = false`: counted, payloads dropped.
+    /// A raw topic not kept (an image topic with `images = false`, a topic not in
+    /// `raw_topics`): counted, payloads dropped.
     Dropped,
 }
 
@@ -224,11 +226,7 @@ impl Kind {
                     track.bad = m.bad;
                 }
             }
-            (Kind::Raw(raw), Kind::Raw(m)) => {
-                for (t, d) in m.iter() {
-                    raw.push(t, d);
-                }
-            }
+            (Kind::Raw(raw), Kind::Raw(m)) => raw.append(&m),
             _ => {}
         }
     }
@@ -269,7 +267,18 @@ struct State {
     pending: Vec<Pending>,
     /// Their declared uncompressed bytes.
     pending_bytes: u64,
+    /// Batches queued so far (the first ones are small: their chunks define the channels).
+    batches: u32,
+    /// The last batch queued, being decoded by the workers (not yet applied).
+    inflight: Option<Receiver<Vec<Chunked>>>,
+    /// The channel map and the topics (name, empty track) the workers decode with; `None`
+    /// after a change.
+    snapshot: Option<Snapshot>,
 }
+
+/// What decoding a chunk on a worker needs to know (a channel's topic never changes once
+/// known, so an older snapshot is never wrong, only less complete).
+type Snapshot = (Arc<Vec<usize>>, Arc<Vec<(String, Kind)>>);
 
 /// A chunk waiting in a batch: its header and compressed records (copied out of the reader).
 struct Pending {
@@ -397,6 +406,103 @@ fn decode_into(
     }
 }
 
+/// The batch a worker sends back (a pool thread waiting for it keeps helping the pool, so a
+/// read from inside a rayon pool cannot deadlock).
+fn wait(rx: &Receiver<Vec<Chunked>>) -> Vec<Chunked> {
+    if rayon::current_thread_index().is_none() {
+        return rx.recv().expect("a decoding worker panicked");
+    }
+    loop {
+        match rx.try_recv() {
+            Ok(batch) => return batch,
+            Err(TryRecvError::Empty) => {
+                if rayon::yield_now() != Some(rayon::Yield::Executed) {
+                    std::thread::yield_now();
+                }
+            }
+            Err(TryRecvError::Disconnected) => panic!("a decoding worker panicked"),
+        }
+    }
+}
+
+/// What a worker made of a chunk.
+enum Chunked {
+    /// Inflation failed: the pass ends here.
+    Damaged(String),
+    /// Every message decoded (see [`decode_chunk`]).
+    Done(Decoded),
+    /// The inflated records, for the sequential path.
+    Slow(Vec<u8>),
+}
+
+/// A chunk decoded on a worker.
+struct Decoded {
+    /// Topic index and log time of each message, in order (for the channel summaries).
+    messages: Vec<(u32, i64)>,
+    /// The chunk's messages by topic, each topic in the order of its first message.
+    parts: Vec<(usize, Kind)>,
+}
+
+/// Decode the records of an inflated chunk, when that needs nothing a sequential pass would
+/// learn on the way: `None` when the chunk defines a schema or channel, has a message on a
+/// channel not in `channels`, a log time beyond `i64::MAX`, or damage (the sequential path
+/// then reads it and gives the verdict).
+fn decode_chunk(
+    records: &[u8],
+    channels: &[usize],
+    topics: &[(String, Kind)],
+    path: &str,
+) -> Option<Decoded> {
+    let mut data = records;
+    let mut scratch = Scratch::default();
+    let mut messages = Vec::new();
+    let mut parts: Vec<(usize, Kind)> = Vec::new();
+    // topic index -> slot in `parts` (small: a chunk holds a few topics)
+    let mut slots: Vec<(usize, usize)> = Vec::new();
+    while !data.is_empty() {
+        if data.len() < 9 {
+            return None;
+        }
+        let opcode = data[0];
+        let mut l = [0u8; 8];
+        l.copy_from_slice(&data[1..9]);
+        let len = u64::from_le_bytes(l);
+        let rest = &data[9..];
+        if len > rest.len() as u64 {
+            return None;
+        }
+        #[allow(clippy::cast_possible_truncation)] // fits: at most rest.len()
+        let (body, tail) = rest.split_at(len as usize);
+        data = tail;
+        match opcode {
+            op::MESSAGE => {
+                let (ch, t, payload) = parse_message(body).ok()?;
+                let i = channels[usize::from(ch)];
+                if i == usize::MAX {
+                    return None;
+                }
+                let t = i64::try_from(t).ok()?;
+                messages.push((u32::try_from(i).ok()?, t));
+                let (name, kind) = &topics[i];
+                if matches!(kind, Kind::Dropped) {
+                    continue;
+                }
+                let slot = if let Some(&(_, k)) = slots.iter().find(|(j, _)| *j == i) {
+                    k
+                } else {
+                    parts.push((i, kind.empty()));
+                    slots.push((i, parts.len() - 1));
+                    parts.len() - 1
+                };
+                decode_into(&mut parts[slot].1, &mut scratch, path, name, t, payload);
+            }
+            op::SCHEMA | op::CHANNEL => return None,
+            _ => {}
+        }
+    }
+    Some(Decoded { messages, parts })
+}
+
 /// A parsed record of a chunk.
 enum Item<'a> {
     Message(u16, u64, &'a [u8]),
@@ -419,7 +525,7 @@ impl State {
             Kind::Confidence(ConfidenceTrack::default())
         } else if is_object_topic(topic) && encoding == "protobuf" {
             Kind::Pose(PoseTrack::default(), Vec::new())
-        } else if !self.options.images && IMAGE_TOPICS.contains(&topic) {
+        } else if !self.options.keeps(topic) {
             Kind::Dropped
         } else {
             Kind::Raw(RawMessages::default())
@@ -432,6 +538,7 @@ impl State {
         }
         if let Some(&i) = self.by_topic.get(&ch.topic) {
             self.channels[usize::from(ch.id)] = i;
+            self.snapshot = None;
             return;
         }
         let schema = self.schemas.get(&ch.schema_id);
@@ -450,6 +557,7 @@ impl State {
         self.topics.push(Topic { summary, kind });
         self.by_topic.insert(ch.topic, self.topics.len() - 1);
         self.channels[usize::from(ch.id)] = self.topics.len() - 1;
+        self.snapshot = None;
     }
 
     /// The topic of a message on `channel` (None: unknown channel, skipped) and its log time,
@@ -540,8 +648,9 @@ impl State {
                     header,
                     data: data.into_owned(),
                 });
-                if self.pending.len() >= BATCH_CHUNKS || self.pending_bytes >= BATCH_BYTES {
-                    self.flush()?;
+                let chunks = BATCH_CHUNKS.min(1 << self.batches.min(16));
+                if self.pending.len() >= chunks || self.pending_bytes >= BATCH_BYTES {
+                    self.submit()?;
                 }
                 Ok(Flow::Continue)
             }
@@ -568,63 +677,89 @@ impl State {
         }
     }
 
-    /// Read the queued chunks: inflate them in parallel; in file order, parse their records
-    /// (a chunk is all or nothing), register their channels and count their messages; decode
-    /// the typed messages in parallel, chunk by chunk, and append them in file order.
-    fn flush(&mut self) -> Result<(), Stop> {
-        if self.pending.is_empty() {
-            return Ok(());
+    /// The channel map and topics for the workers.
+    fn snapshot(&mut self) -> Snapshot {
+        if self.snapshot.is_none() {
+            let topics = self
+                .topics
+                .iter()
+                .map(|t| (t.summary.topic.clone(), t.kind.empty()))
+                .collect();
+            self.snapshot = Some((Arc::new(self.channels.clone()), Arc::new(topics)));
         }
+        self.snapshot.clone().expect("just made")
+    }
+
+    /// Queue the pending chunks: the workers inflate and decode them (see [`decode_chunk`])
+    /// while the batch queued before is applied here, and the next one read.
+    fn submit(&mut self) -> Result<(), Stop> {
         let pending = std::mem::take(&mut self.pending);
         self.pending_bytes = 0;
-        let inflated: Vec<Result<Cow<'_, [u8]>, String>> = pending
-            .par_iter()
-            .map(|p| inflate(&p.header, &p.data))
-            .collect();
-        let mut work: Vec<Vec<Work<'_>>> = Vec::with_capacity(inflated.len());
-        let mut stop = None;
-        for records in &inflated {
-            let applied = match records {
-                Ok(records) => self.apply_chunk(records),
-                Err(why) => Err(Stop::Damaged(why.clone())),
-            };
-            match applied {
-                Ok(w) => work.push(w),
-                Err(s) => {
-                    stop = Some(s);
-                    break;
+        self.batches += 1;
+        let (channels, topics) = self.snapshot();
+        let path = self.path.clone();
+        let (tx, rx) = std::sync::mpsc::channel();
+        rayon::spawn(move || {
+            let decoded = pending
+                .into_par_iter()
+                .map(|p| match inflate(&p.header, &p.data) {
+                    Err(why) => Chunked::Damaged(why),
+                    Ok(records) => match decode_chunk(&records, &channels, &topics, &path) {
+                        Some(decoded) => Chunked::Done(decoded),
+                        None => Chunked::Slow(records.into_owned()),
+                    },
+                })
+                .collect::<Vec<Chunked>>();
+            let _ = tx.send(decoded); // (no receiver: the pass stopped before this batch)
+        });
+        if let Some(before) = self.inflight.replace(rx) {
+            if let Err(stop) = self.apply(wait(&before)) {
+                self.inflight = None; // damage in the batch before: this one is never read
+                return Err(stop);
+            }
+        }
+        Ok(())
+    }
+
+    /// Read every queued chunk (before a record that changes the state, and at the end).
+    fn flush(&mut self) -> Result<(), Stop> {
+        if !self.pending.is_empty() {
+            self.submit()?;
+        }
+        match self.inflight.take() {
+            Some(rx) => self.apply(wait(&rx)),
+            None => Ok(()),
+        }
+    }
+
+    /// Apply a batch, in file order: the decoded chunks are counted and appended; any other
+    /// chunk is parsed (a chunk is all or nothing), its channels registered and its messages
+    /// decoded here, as a sequential pass would.
+    fn apply(&mut self, batch: Vec<Chunked>) -> Result<(), Stop> {
+        for chunk in batch {
+            match chunk {
+                Chunked::Damaged(why) => return Err(Stop::Damaged(why)),
+                Chunked::Done(decoded) => {
+                    for &(i, t) in &decoded.messages {
+                        self.topics[i as usize].summary.add(t);
+                    }
+                    for (i, kind) in decoded.parts {
+                        self.topics[i].kind.append(kind);
+                    }
+                }
+                Chunked::Slow(records) => {
+                    let work = self.apply_chunk(&records)?;
+                    let mut scratch = std::mem::take(&mut self.scratch);
+                    for (i, t, data) in work {
+                        let topic = &mut self.topics[i];
+                        let name = &topic.summary.topic;
+                        decode_into(&mut topic.kind, &mut scratch, &self.path, name, t, data);
+                    }
+                    self.scratch = scratch;
                 }
             }
         }
-        if matches!(stop, Some(Stop::Fatal(_))) {
-            return Err(stop.expect("just matched"));
-        }
-        let topics = &self.topics;
-        let path = self.path.as_str();
-        let parts: Vec<Vec<(usize, Kind)>> = work
-            .par_iter()
-            .map(|w| {
-                let mut scratch = Scratch::default();
-                let mut out: Vec<(usize, Kind)> = Vec::new();
-                for &(i, t, data) in w {
-                    let slot = if let Some(k) = out.iter().position(|(j, _)| *j == i) {
-                        k
-                    } else {
-                        out.push((i, topics[i].kind.empty()));
-                        out.len() - 1
-                    };
-                    let name = &topics[i].summary.topic;
-                    decode_into(&mut out[slot].1, &mut scratch, path, name, t, data);
-                }
-                out
-            })
-            .collect();
-        for part in parts {
-            for (i, kind) in part {
-                self.topics[i].kind.append(kind);
-            }
-        }
-        stop.map_or(Ok(()), Err)
+        Ok(())
     }
 
     /// Parse every record of an inflated chunk (Python's `breakup_chunk` reads schemas,
@@ -879,7 +1014,7 @@ pub fn read_recording(path: &Path, options: &Options) -> Result<Recording, ReadE
     let (mut file, size) = open_checked(path)?;
     let mut state = State {
         path: path.display().to_string(),
-        options: *options,
+        options: options.clone(),
         budget: Budget::new(size),
         library: String::new(),
         schemas: HashMap::new(),
@@ -891,6 +1026,9 @@ pub fn read_recording(path: &Path, options: &Options) -> Result<Recording, ReadE
         data_done: false,
         pending: Vec::new(),
         pending_bytes: 0,
+        batches: 0,
+        inflight: None,
+        snapshot: None,
     };
     let limit = size.min(4 << 30);
     let mut reader = LinearReader::new_with_options(

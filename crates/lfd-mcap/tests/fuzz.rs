@@ -53,7 +53,7 @@ fn seeds() -> &'static [Vec<u8>] {
 /// messages as a summary announces for its requested topics.
 fn read_both(bytes: &[u8], images: bool) -> Result<(), TestCaseError> {
     let f = TempFile::new(bytes);
-    if let Ok(rec) = read_recording(f.path(), &Options { images }) {
+    if let Ok(rec) = read_recording(f.path(), &Options::images(images)) {
         prop_assert!(rec.complete || rec.error.is_some());
         for (_, h) in &rec.hands {
             prop_assert_eq!(h.keypoints.len(), h.t_ns.len() * 63);

@@ -119,9 +119,34 @@ fn a_written_recording_is_decoded() {
 #[test]
 fn images_false_drops_the_image_payloads_but_counts_them() {
     let f = TempFile::new(&fixture(Some(mcap::Compression::Zstd), 4096));
-    let rec = read_recording(f.path(), &Options { images: false }).unwrap();
+    let rec = read_recording(f.path(), &Options::images(false)).unwrap();
     assert!(rec.raw.iter().all(|(t, _)| t != "/camera/color/image_raw"));
     assert_eq!(rec.channels[5].count, N);
+}
+
+#[test]
+fn raw_topics_keeps_those_payloads_only_and_counts_every_topic() {
+    let f = TempFile::new(&fixture(Some(mcap::Compression::Zstd), 4096));
+    let all = read_recording(f.path(), &Options::default()).unwrap();
+    let options = Options {
+        images: true,
+        raw_topics: Some(vec!["/lfd/ground_truth".to_string()]),
+    };
+    let some = read_recording(f.path(), &options).unwrap();
+    assert_eq!(some.channels, all.channels);
+    assert_eq!(some.metadata, all.metadata);
+    // (NaN in the tracks: compared as printed)
+    assert!(format!("{:?}", some.hands) == format!("{:?}", all.hands));
+    assert!(format!("{:?}", some.confidence) == format!("{:?}", all.confidence));
+    assert!(format!("{:?}", some.poses) == format!("{:?}", all.poses));
+    let kept: Vec<_> = all
+        .raw
+        .iter()
+        .filter(|(t, _)| t == "/lfd/ground_truth")
+        .cloned()
+        .collect();
+    assert_eq!(kept.len(), 1);
+    assert_eq!(some.raw, kept);
 }
 
 #[test]

@@ -25,7 +25,7 @@ import dataclasses
 import io
 import json
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -143,6 +143,19 @@ class RawRecording(Records):
     error: str | None = None
     library: str = ""
     tracks: dict[str, dict[str, Any]] = field(default_factory=dict)
+    #: Topics whose messages :func:`read` was asked not to keep (:meth:`encoded` reads them).
+    unread: frozenset[str] = frozenset()
+
+    def encoded(self, topic: str) -> list[tuple[int, bytes]]:
+        """The messages of ``topic``, still encoded: :attr:`messages`, or for a topic in
+        :attr:`unread`, read from the file then (a second pass, kept for later calls)."""
+        if topic in self.unread:
+            from .._hmmseg import read_recording
+
+            doc = read_recording(self.path, True, [topic])
+            self.messages[topic] = list(doc["raw"].get(topic, []))
+            self.unread = self.unread - {topic}
+        return self.messages.get(topic, [])
 
 
 def _inflate(chunk: Chunk, path: str, budget: int) -> Chunk:
@@ -309,11 +322,16 @@ def _channels(docs: Sequence[Mapping[str, Any]]) -> dict[str, ChannelSummary]:
     }
 
 
-def read(path: str | os.PathLike[str], *, images: bool = True) -> RawRecording:
+def read(
+    path: str | os.PathLike[str], *, images: bool = True, topics: Iterable[str] | None = None
+) -> RawRecording:
     """Read every complete record of an MCAP file with the engine's reader: :func:`scan`'s
     result, but the hand keypoints (``/hand/<side>/keypoints``), their confidence and the object
     poses (``/objects/<name>/pose``) decoded into :attr:`RawRecording.tracks` (file order). With
-    ``images=False`` the image messages are counted but not kept.
+    ``images=False`` the image messages are counted but not kept. With ``topics``, only those
+    topics' encoded messages are kept (every topic is still counted in
+    :attr:`RawRecording.channels`); the others are :attr:`RawRecording.unread`, read on demand
+    by :meth:`RawRecording.encoded`.
 
     Raises
     ------
@@ -322,7 +340,8 @@ def read(path: str | os.PathLike[str], *, images: bool = True) -> RawRecording:
     """
     from .._hmmseg import read_recording
 
-    doc = read_recording(os.fspath(path), images)
+    keep = None if topics is None else list(topics)
+    doc = read_recording(os.fspath(path), images, keep)
     raw = RawRecording(
         path=os.fspath(path),
         file_size=int(doc["file_size"]),
@@ -337,6 +356,8 @@ def read(path: str | os.PathLike[str], *, images: bool = True) -> RawRecording:
     for kind in ("hands", "confidence", "poses"):
         for topic, arrays in doc[kind].items():
             raw.tracks[topic] = dict(arrays)
+    if keep is not None:
+        raw.unread = frozenset(raw.channels) - set(keep) - set(raw.tracks)
     return raw
 
 

@@ -139,7 +139,7 @@ class _Loader:
     def each(self, topic: str, cls: Any) -> tuple[np.ndarray, Iterator[Any]]:
         """:meth:`decode` one message at a time (a long recording's messages are not all held
         decoded at once)."""
-        items = self.raw.messages.get(topic, [])
+        items = self.raw.encoded(topic)
         times = np.array([t for t, _ in items], dtype=np.int64)
         idx, unsorted, dups = order_times(times)
         if unsorted:
@@ -172,6 +172,12 @@ class _Loader:
             self.duplicates[topic] = dups
         return idx
 
+    def _order(self, topic: str, times: np.ndarray) -> np.ndarray | slice:
+        """:meth:`_ordered`, or ``slice(None)`` when the messages are already in order (a view
+        then, not a copy, of each decoded array)."""
+        idx = self._ordered(topic, times)
+        return slice(None) if topic not in self.unsorted and idx.size == times.size else idx
+
     def _bad(self, arrays: dict[str, Any]) -> None:
         if arrays.get("bad"):  # the engine's words, the file's path first
             raise RecordingFormatError(arrays["bad"])
@@ -182,10 +188,11 @@ class _Loader:
         if decoded is None:
             return self._hand_of_messages(side)
         self._bad(decoded)
-        idx = self._ordered(topic, decoded["t_ns"])
+        idx = self._order(topic, decoded["t_ns"])
         t = decoded["t_ns"][idx]
         kp = decoded["keypoints"][idx]
-        finite = np.isfinite(kp).all(axis=2)
+        # (as np.isfinite(kp).all(axis=2), without numpy's slow reduction over 3 items)
+        finite = np.isfinite(kp[:, :, 0]) & np.isfinite(kp[:, :, 1]) & np.isfinite(kp[:, :, 2])
         conf = finite.astype(np.float64)
         vis = np.zeros_like(finite)
         has_vis = np.zeros(len(t), dtype=bool)
@@ -230,7 +237,7 @@ class _Loader:
         row = {int(ti): i for i, ti in enumerate(t)}
         done: set[int] = set()
         topic = T.confidence_topic(side)
-        for tc, data in self.raw.messages.get(topic, []):
+        for tc, data in self.raw.encoded(topic):
             given, seen = _confidence(data, f"{self.raw.path}: {topic} at {tc} ns")
             at = row.get(tc)
             if at is None or tc in done:  # the first message of a hand frame counts
@@ -249,7 +256,7 @@ class _Loader:
         decoded = self.raw.tracks.get(topic)
         if decoded is not None:
             self._bad(decoded)
-            idx = self._ordered(topic, decoded["t_ns"])
+            idx = self._order(topic, decoded["t_ns"])
             t = decoded["t_ns"][idx]
             pos = decoded["position"][idx]
             quat = decoded["quaternion"][idx]
@@ -274,7 +281,7 @@ class _Loader:
         )
 
     def labels(self, topic: str = T.GROUND_TRUTH_TOPIC) -> list[SkillLabel]:
-        if not self.raw.messages.get(topic):
+        if not self.raw.encoded(topic):
             return []
         from foxglove_schemas_protobuf.Event_pb2 import Event
 
@@ -296,7 +303,7 @@ class _Loader:
                 )
             except (KeyError, ValueError, TypeError) as err:
                 self.skipped.append(f"calibration metadata: {err}")
-        if not self.raw.messages.get(T.CAMERA_INFO_TOPIC):
+        if not self.raw.encoded(T.CAMERA_INFO_TOPIC):
             return None
         from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
         from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
@@ -325,13 +332,13 @@ class _Loader:
         """The frames of ``topic`` (raw, else its ``/compressed`` variant), decoded when first
         used (:attr:`lfd.demo.ImageStream.frames`)."""
         compressed = T.compressed_topic(topic)
-        if self.raw.messages.get(topic):
+        if self.raw.encoded(topic):
             kind = "raw"
-        elif self.raw.messages.get(compressed):
+        elif self.raw.encoded(compressed):
             topic, kind = compressed, "compressed"
         else:
             return None
-        items = self.raw.messages[topic]
+        items = self.raw.encoded(topic)
         times = np.array([t for t, _ in items], dtype=np.int64)
         idx = self._ordered(topic, times)
         payloads = [items[i] for i in idx]
@@ -445,14 +452,25 @@ def load(
     """
     if is_ros_path(path):
         return _load_ros(path, None, object_sizes, mapping)
-    raw = read(path, images=images)
-    if is_ros_recording(raw):
-        return _load_ros(path, raw, object_sizes, mapping)
+    raw = read(path, images=images, topics=_load_topics(images))
+    if is_ros_recording(raw):  # its topics are the mapping's: read them all
+        return _load_ros(path, read(path, images=images), object_sizes, mapping)
     if mapping is not None:
         raise UsageError(
             f"{raw.path} is an lfd recording, not a ROS bag: drop the topic mapping (--map)"
         )
     return demonstration_of(raw, images=images, object_sizes=object_sizes, stacklevel=3)
+
+
+def _load_topics(images: bool) -> list[str]:
+    """The topics whose encoded messages :func:`demonstration_of` reads (the hand and object
+    tracks come decoded; ``/tf`` is only needed without calibration metadata, and is then
+    read on demand, :meth:`RawRecording.encoded`)."""
+    topics = [T.GROUND_TRUTH_TOPIC, T.LIVE_SEGMENTS_TOPIC, T.CAMERA_INFO_TOPIC]
+    if images:
+        for topic in (T.COLOR_TOPIC, T.DEPTH_TOPIC):
+            topics += [topic, T.compressed_topic(topic)]
+    return topics
 
 
 def hand_side(raw: Records, complete: bool = True, error: str | None = None) -> str:
