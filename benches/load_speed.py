@@ -80,7 +80,7 @@ def python_load(path: Path) -> Any:
 COLD = """
 import time, warnings
 t0 = time.perf_counter()
-import lfd, lfd.cli
+import lfd, lfd.cli, lfd.io, lfd.preprocessing, lfd.segmentation
 t1 = time.perf_counter()
 demo = lfd.load({path!r})
 t2 = time.perf_counter()
