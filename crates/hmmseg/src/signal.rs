@@ -400,8 +400,6 @@ pub fn filtfilt_runs(
         .map(|(&v, &k)| if k { v } else { f64::NAN })
         .collect();
     let mut short: Vec<(usize, usize)> = Vec::new();
-    // one column's runs: (too short to filter, filtered runs with their start)
-    type Column = (Vec<(usize, usize)>, Vec<(usize, Vec<f64>)>);
     let column = |j: usize| -> Column {
         let (mut too_short, mut filtered) = (Vec::new(), Vec::new());
         for (s, e) in runs((0..n).map(|i| ok[i * c + j])) {
@@ -947,7 +945,7 @@ pub fn resample_columns(
     let mut values = vec![f64::NAN; n * c];
     let mut valid = vec![false; n * c];
     // the columns of one block, fitted and evaluated with buffers of its own
-    let block = |j0: usize| -> Result<(Vec<Vec<f64>>, Vec<Vec<bool>>)> {
+    let block = |j0: usize| -> Result<BlockColumns> {
         let width = BLOCK.min(c - j0);
         let (mut tk, mut xk, mut wk) = (Vec::new(), Vec::new(), Vec::new());
         let mut spline = ColumnSpline::default();
@@ -1012,8 +1010,7 @@ pub fn resample_columns(
     // one block per thread at a time: the memory in flight stays a few blocks of columns
     let starts: Vec<usize> = (0..c).step_by(BLOCK).collect();
     for round in starts.chunks(rayon::current_num_threads().max(1)) {
-        let done: Vec<Result<(Vec<Vec<f64>>, Vec<Vec<bool>>)>> =
-            round.par_iter().map(|&j0| block(j0)).collect();
+        let done: Vec<Result<BlockColumns>> = round.par_iter().map(|&j0| block(j0)).collect();
         for (&j0, result) in round.iter().zip(done) {
             let (vcols, okcols) = result?;
             scatter(&mut values, c, j0, &vcols);
@@ -1022,6 +1019,13 @@ pub fn resample_columns(
     }
     Ok((values, valid))
 }
+
+/// One column's runs in [`filtfilt_runs`]: those too short to filter, and the filtered runs
+/// with their first sample.
+type Column = (Vec<(usize, usize)>, Vec<(usize, Vec<f64>)>);
+
+/// A block's columns in [`resample_columns`]: values and where they are valid, per column.
+type BlockColumns = (Vec<Vec<f64>>, Vec<Vec<bool>>);
 
 /// Columns are processed this many at a time: one pass over the rows of a row-major array
 /// reads (or writes) them all, a cache line of each row.
