@@ -61,7 +61,10 @@ class _Version(argparse.Action):
         parser.exit(0)
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(only: str | None = None) -> argparse.ArgumentParser:
+    """The ``lfd`` parser; with ``only`` (a subcommand's name) the other subcommands are listed
+    without their options (what ``main`` builds for one command: their options import what
+    those commands need, e.g. the simulator's task names)."""
     parser = _Parser(
         prog="lfd",
         description="Learn a robot manipulation task from a human hand demonstration.",
@@ -73,7 +76,8 @@ def build_parser() -> argparse.ArgumentParser:
         mod = importlib.import_module(f"{__name__}.{name}")
         # options are never abbreviated: `--out` is not silently `--output`
         p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP, allow_abbrev=False)
-        mod.add_arguments(p)
+        if only is None or only == mod.NAME:
+            mod.add_arguments(p)
         p.set_defaults(_run=mod.run)
         _mark_leaves(p)
     return parser
@@ -104,8 +108,10 @@ def _one_line(err: BaseException) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
-    args, extra = parser.parse_known_args(argv)
+    args_in = list(sys.argv[1:] if argv is None else argv)
+    first = next((a for a in args_in if not a.startswith("-")), None)
+    parser = build_parser(first if first is not None and args_in[0] == first else None)
+    args, extra = parser.parse_known_args(args_in)
     if extra:  # reported by the subcommand's parser: `lfd segment: error: unrecognized ...`
         getattr(args, "_parser", parser).error(f"unrecognized arguments: {' '.join(extra)}")
     if not hasattr(args, "_run"):
