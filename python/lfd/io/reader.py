@@ -141,11 +141,7 @@ class _Loader:
         decoded at once)."""
         items = self.raw.encoded(topic)
         times = np.array([t for t, _ in items], dtype=np.int64)
-        idx, unsorted, dups = order_times(times)
-        if unsorted:
-            self.unsorted[topic] = unsorted
-        if dups:
-            self.duplicates[topic] = dups
+        idx = self._ordered(topic, times)
 
         def parse() -> Iterator[Any]:
             from google.protobuf.message import DecodeError

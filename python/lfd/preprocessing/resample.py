@@ -225,9 +225,4 @@ def resample_quaternions(
         out[ok] = rotations.normalize(q[keep][0])
     else:
         out[ok] = rotations.slerp(tk, q[keep], td[ok])
-    return make_continuous(out), ok
-
-
-def make_continuous(q: np.ndarray) -> np.ndarray:
-    """Flip quaternion signs so consecutive finite samples have a non-negative dot product."""
-    return rotations.make_continuous(q)
+    return rotations.make_continuous(out), ok
