@@ -33,7 +33,7 @@ pub fn py_shape(shape: &[usize]) -> String {
 
 /// Read-only view of `obj` as an `ndim`-dimensional array of `T` (`D::NDIM`; any for `IxDyn`).
 /// `what` describes the expected shape for the message, e.g. `"(n_samples, n_features)"`.
-fn readonly<'py, T: Element, D: Dimension>(
+pub fn readonly<'py, T: Element, D: Dimension>(
     obj: &Bound<'py, PyAny>,
     name: &str,
     what: &str,
@@ -154,16 +154,6 @@ pub fn array_nd(
         ));
     }
     Ok(v.to_owned())
-}
-
-/// An array of any number of dimensions as an owned array in logical (C) order.
-pub fn array_any<T: Element + Clone>(
-    obj: &Bound<'_, PyAny>,
-    name: &str,
-    what: &str,
-) -> PyResult<ArrayD<T>> {
-    let a = readonly::<T, IxDyn>(obj, name, what)?;
-    Ok(a.as_array().to_owned())
 }
 
 /// A 1-D bool array of `len` values.

@@ -20,8 +20,9 @@ fn convert<'py>(
     f: fn(&[f64]) -> hmmseg::Result<Vec<f64>>,
 ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
     guard(py, || {
-        let (v, n) = fixed_rows(x, name, inp)?;
-        let r = py.detach(|| f(&v)).py_err(py)?;
+        let x = fixed_rows(x, name, inp)?;
+        let (v, n) = (x.values(), x.n);
+        let r = py.detach(|| f(v)).py_err(py)?;
         let mut sh = vec![n];
         sh.extend_from_slice(out);
         shaped(py, &sh, r)
@@ -108,9 +109,9 @@ fn quat_multiply<'py>(
     q: Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
     guard(py, || {
-        let (pv, np) = fixed_rows(&p, "p", &[4])?;
-        let (qv, nq) = fixed_rows(&q, "q", &[4])?;
-        let r = py.detach(|| core::compose_many(&pv, &qv)).py_err(py)?;
+        let (p, q) = (fixed_rows(&p, "p", &[4])?, fixed_rows(&q, "q", &[4])?);
+        let (pv, qv, np, nq) = (p.values(), q.values(), p.n, q.n);
+        let r = py.detach(|| core::compose_many(pv, qv)).py_err(py)?;
         shaped(py, &[np.max(nq), 4], r)
     })
 }
@@ -125,11 +126,9 @@ fn quat_apply<'py>(
     inverse: bool,
 ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
     guard(py, || {
-        let (qv, nq) = fixed_rows(&q, "q", &[4])?;
-        let (vv, nv) = fixed_rows(&v, "v", &[3])?;
-        let r = py
-            .detach(|| core::apply_many(&qv, &vv, inverse))
-            .py_err(py)?;
+        let (q, v) = (fixed_rows(&q, "q", &[4])?, fixed_rows(&v, "v", &[3])?);
+        let (qv, vv, nq, nv) = (q.values(), v.values(), q.n, v.n);
+        let r = py.detach(|| core::apply_many(qv, vv, inverse)).py_err(py)?;
         shaped(py, &[nq.max(nv), 3], r)
     })
 }
@@ -145,8 +144,9 @@ fn quat_slerp<'py>(
     guard(py, || {
         let times = vector(&times, "times", "(m,)")?;
         let at = vector(&at, "at", "(n,)")?;
-        let (qv, _) = fixed_rows(&q, "q", &[4])?;
-        let r = py.detach(|| core::slerp(&times, &qv, &at)).py_err(py)?;
+        let q = fixed_rows(&q, "q", &[4])?;
+        let qv = q.values();
+        let r = py.detach(|| core::slerp(&times, qv, &at)).py_err(py)?;
         shaped(py, &[at.len(), 4], r)
     })
 }

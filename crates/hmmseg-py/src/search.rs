@@ -7,6 +7,7 @@ use hmmseg::segment::{
     dp::dp, Band, Grammar, GrammarMode, GrammarSpec, ScoreTable, Segment, Segmentation,
 };
 use hmmseg::EngineError;
+use numpy::ndarray::IxDyn;
 use pyo3::prelude::*;
 
 use crate::errors::{guard, IntoPyResult};
@@ -130,11 +131,12 @@ fn inputs(
     max_len: usize,
 ) -> PyResult<(ScoreTable, Option<Vec<bool>>)> {
     let k = n_sections(py, &boundaries)?;
-    let a = ndconv::array_any::<f64>(
+    let view = ndconv::readonly::<f64, IxDyn>(
         scores,
         "scores",
         "(n_runs, n_skills) or (n_sections, n_sections + 1, n_skills)",
     )?;
+    let a = view.as_array();
     let shape = a.shape().to_vec();
     let (table, dense) = match shape[..] {
         [d0, d1, ns] => {
@@ -161,7 +163,11 @@ fn inputs(
         }
         [_, ns] => {
             let band = Band::new(boundaries, max_len).py_err(py)?;
-            let t = ScoreTable::from_values(band, ns, a.iter().copied().collect()).py_err(py)?;
+            // one copy (the table owns its values), in place from a C-contiguous array
+            let values = a
+                .as_slice()
+                .map_or_else(|| a.iter().copied().collect(), <[f64]>::to_vec);
+            let t = ScoreTable::from_values(band, ns, values).py_err(py)?;
             (t, false)
         }
         _ => {

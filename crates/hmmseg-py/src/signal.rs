@@ -3,39 +3,71 @@
 
 use hmmseg::signal as core;
 use numpy::{
-    PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods,
+    ndarray::IxDyn, PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyReadonlyArray2,
+    PyReadonlyArrayDyn, PyUntypedArrayMethods,
 };
 use pyo3::prelude::*;
 
 use crate::errors::{guard, invalid, shape, IntoPyResult};
-use crate::ndconv::{array_any, bool_matrix, count, int_arg, py_shape, shaped, vector};
+use crate::ndconv::{bool_matrix, count, int_arg, py_shape, readonly, shaped, vector};
+
+/// A float64 array `(n, ...)` read as row-major values: in place when it is C-contiguous, else
+/// copied once.
+pub struct Rows<'py> {
+    view: PyReadonlyArrayDyn<'py, f64>,
+    copy: Option<Vec<f64>>,
+    /// Number of rows.
+    pub n: usize,
+    /// The shape after the first axis.
+    pub trailing: Vec<usize>,
+}
+
+impl Rows<'_> {
+    /// The values, row-major.
+    pub fn values(&self) -> &[f64] {
+        match (&self.copy, self.view.as_slice()) {
+            (Some(v), _) => v,
+            (None, Ok(s)) => s,
+            (None, Err(_)) => &[], // never: `rows` copies an array it cannot read in place
+        }
+    }
+}
 
 /// A float64 array `(n, ...)` as row-major values, `n` and the trailing shape.
-pub fn rows(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<(Vec<f64>, usize, Vec<usize>)> {
-    let a = array_any::<f64>(obj, name, "(n, ...)")?;
-    if a.ndim() == 0 {
+pub fn rows<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Rows<'py>> {
+    let view = readonly::<f64, IxDyn>(obj, name, "(n, ...)")?;
+    let sh = view.shape().to_vec();
+    if sh.is_empty() {
         return Err(shape(
             obj.py(),
             format!("{name} must have at least 1 dimension"),
         ));
     }
-    let sh = a.shape().to_vec();
-    let values = a.iter().copied().collect();
-    Ok((values, sh[0], sh[1..].to_vec()))
+    let copy = match view.as_slice() {
+        Ok(_) => None,
+        Err(_) => Some(view.as_array().iter().copied().collect()),
+    };
+    Ok(Rows {
+        view,
+        copy,
+        n: sh[0],
+        trailing: sh[1..].to_vec(),
+    })
 }
 
-/// A float64 array `(n, *trailing)` with a fixed trailing shape, as row-major values and `n`.
-pub fn fixed_rows(
-    obj: &Bound<'_, PyAny>,
+/// A float64 array `(n, *trailing)` with a fixed trailing shape (see [`rows`]).
+pub fn fixed_rows<'py>(
+    obj: &Bound<'py, PyAny>,
     name: &str,
     trailing: &[usize],
-) -> PyResult<(Vec<f64>, usize)> {
-    let (v, n, t) = rows(obj, name)?;
-    if t != trailing {
+) -> PyResult<Rows<'py>> {
+    let r = rows(obj, name)?;
+    if r.trailing != trailing {
+        let n = r.n;
         let mut want = vec![n];
         want.extend_from_slice(trailing);
         let mut got = vec![n];
-        got.extend_from_slice(&t);
+        got.extend_from_slice(&r.trailing);
         return Err(shape(
             obj.py(),
             format!(
@@ -45,7 +77,7 @@ pub fn fixed_rows(
             ),
         ));
     }
-    Ok((v, n))
+    Ok(r)
 }
 
 type Coefficients<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>);
@@ -94,10 +126,11 @@ fn filtfilt<'py>(
     guard(py, || {
         let (b, a) = (vector(&b, "b", "(nb,)")?, vector(&a, "a", "(na,)")?);
         let padlen = count(py, padlen, "padlen", 0)?;
-        let (v, n, t) = rows(&x, "x")?;
+        let x = rows(&x, "x")?;
+        let (v, n, t) = (x.values(), x.n, x.trailing.clone());
         let c = t.iter().product();
         let y = py
-            .detach(|| core::filtfilt(&b, &a, &v, n, c, padlen))
+            .detach(|| core::filtfilt(&b, &a, v, n, c, padlen))
             .py_err(py)?;
         let mut sh = vec![n];
         sh.extend(t);
@@ -121,7 +154,8 @@ fn filtfilt_runs<'py>(
     guard(py, || {
         let (b, a) = (vector(&b, "b", "(nb,)")?, vector(&a, "a", "(na,)")?);
         let padlen = count(py, padlen, "padlen", 0)?;
-        let (v, n, t) = rows(&x, "x")?;
+        let x = rows(&x, "x")?;
+        let (v, n, t) = (x.values(), x.n, &x.trailing);
         if t.len() != 1 {
             return Err(shape(
                 py,
@@ -134,7 +168,7 @@ fn filtfilt_runs<'py>(
         let c = t[0];
         let ok = bool_matrix(&ok, "ok", n, c)?;
         let (y, short) = py
-            .detach(|| core::filtfilt_runs(&b, &a, &v, &ok, n, c, padlen))
+            .detach(|| core::filtfilt_runs(&b, &a, v, &ok, n, c, padlen))
             .py_err(py)?;
         Ok((shaped(py, &[n, c], y)?, short))
     })
@@ -153,7 +187,8 @@ fn solve_tridiagonal<'py>(
         let dl = vector(&dl, "dl", "(m - 1,)")?;
         let d = vector(&d, "d", "(m,)")?;
         let du = vector(&du, "du", "(m - 1,)")?;
-        let (v, m, t) = rows(&rhs, "rhs")?;
+        let rhs = rows(&rhs, "rhs")?;
+        let (v, m, t) = (rhs.values(), rhs.n, rhs.trailing.clone());
         let c = t.iter().product();
         if m != d.len() {
             return Err(shape(
@@ -162,7 +197,7 @@ fn solve_tridiagonal<'py>(
             ));
         }
         let x = py
-            .detach(|| core::solve_tridiagonal(&dl, &d, &du, &v, c))
+            .detach(|| core::solve_tridiagonal(&dl, &d, &du, v, c))
             .py_err(py)?;
         let mut sh = vec![m];
         sh.extend(t);
@@ -181,13 +216,14 @@ fn cubic_spline<'py>(
     guard(py, || {
         let t = vector(&t, "t", "(m,)")?;
         let at = vector(&at, "at", "(n,)")?;
-        let (v, m, trailing) = rows(&y, "y")?;
+        let y = rows(&y, "y")?;
+        let (v, m, trailing) = (y.values(), y.n, y.trailing.clone());
         if m != t.len() {
             return Err(shape(py, format!("y has {m} rows for {} knots", t.len())));
         }
         let c = trailing.iter().product();
         let out = py
-            .detach(|| core::CubicSpline::new(&t, &v, c).map(|s| s.eval(&at)))
+            .detach(|| core::CubicSpline::new(&t, v, c).map(|s| s.eval(&at)))
             .py_err(py)?;
         let mut sh = vec![at.len()];
         sh.extend(trailing);

@@ -17,11 +17,12 @@ Two recordings that load fine cannot be segmented honestly:
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
 
+from .. import rotations
 from ..demo import Demonstration
 from ..errors import DemonstrationError
 
@@ -48,18 +49,52 @@ class Approach:
     t_s: float | None
 
 
-def _quat_matrices(q: np.ndarray) -> np.ndarray:
-    """Rotation matrices of quaternions ``(x, y, z, w)``, shape (n, 4) -> (n, 3, 3)."""
-    q = q / np.linalg.norm(q, axis=1, keepdims=True)
-    x, y, z, w = q.T
-    return np.stack(
-        [
-            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
-            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
-            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
-        ],
-        -2,
-    )
+def _object_offsets(demo: Demonstration) -> Iterator[tuple[str, np.ndarray, np.ndarray]]:
+    """For each object seen with a valid pose: its name, the offsets (n, 21, 3) of the hand
+    keypoints from its centre (its pose sampled nearest in time to each hand sample) and the
+    indices (n,) of those poses among its seen ones, with the quaternions of those."""
+    th = demo.hand.t_ns
+    kp = demo.hand.keypoints  # (n, 21, 3)
+    for name, obj in demo.objects.items():
+        seen = obj.visible & np.all(np.isfinite(obj.position), 1)
+        seen &= np.all(np.isfinite(obj.quaternion), 1)
+        if not seen.any():
+            continue
+        t, pos = obj.t_ns[seen], obj.position[seen]
+        j = _nearest(t, th)
+        yield name, kp - pos[j][:, None, :], obj.quaternion[seen][j]
+
+
+def _nearest(t: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """Index of the time in ``t`` (sorted, not empty) nearest each of ``at`` (the earlier on a
+    tie)."""
+    j = np.clip(np.searchsorted(t, at), 1, max(t.size - 1, 1))
+    return np.where(np.abs(t[j - 1] - at) <= np.abs(t[j] - at), j - 1, j) if t.size > 1 else 0 * j
+
+
+def _centre_distances(offset: np.ndarray) -> np.ndarray:
+    """Distances (n, 21) of offsets (n, 21, 3); NaN for unseen keypoints."""
+    return np.sqrt(np.einsum("nkc,nkc->nk", offset, offset))
+
+
+def comes_within(demo: Demonstration, near_m: float, *, chunk: int = 4096) -> bool:
+    """Whether any hand keypoint comes within ``near_m`` of an object's centre (then it comes
+    at least as near its box: the cheap test :func:`reach_message` makes first), ``chunk``
+    hand samples at a time (it stops at the first)."""
+    th, kp = demo.hand.t_ns, demo.hand.keypoints
+    for obj in demo.objects.values():
+        seen = obj.visible & np.all(np.isfinite(obj.position), 1)
+        seen &= np.all(np.isfinite(obj.quaternion), 1)
+        if not seen.any():
+            continue
+        t, pos = obj.t_ns[seen], obj.position[seen]
+        for a in range(0, len(th), chunk):
+            j = _nearest(t, th[a : a + chunk])
+            offset = kp[a : a + chunk] - pos[j][:, None, :]
+            with np.errstate(invalid="ignore"):
+                if np.any(_centre_distances(offset) <= near_m):
+                    return True
+    return False
 
 
 def closest_approach(demo: Demonstration) -> Approach:
@@ -69,17 +104,9 @@ def closest_approach(demo: Demonstration) -> Approach:
     th = demo.hand.t_ns
     if len(demo.hand) == 0:
         return best
-    kp = demo.hand.keypoints  # (n, 21, 3)
-    for name, obj in demo.objects.items():
-        seen = obj.visible & np.all(np.isfinite(obj.position), 1)
-        seen &= np.all(np.isfinite(obj.quaternion), 1)
-        if not seen.any():
-            continue
-        t, pos, quat = obj.t_ns[seen], obj.position[seen], obj.quaternion[seen]
-        j = np.clip(np.searchsorted(t, th), 1, max(t.size - 1, 1))
-        j = np.where(np.abs(t[j - 1] - th) <= np.abs(t[j] - th), j - 1, j) if t.size > 1 else 0 * j
-        offset = kp - pos[j][:, None, :]  # (n, 21, 3)
-        centre = np.linalg.norm(offset, axis=2)  # >= the distance from the box
+    for name, offset, quat in _object_offsets(demo):
+        obj = demo.objects[name]
+        centre = _centre_distances(offset)  # >= the distance from the box
         if not np.isfinite(centre).any():
             continue
         # the box distance is at least the centre's less the half diagonal: only samples that
@@ -87,7 +114,7 @@ def closest_approach(demo: Demonstration) -> Approach:
         near = np.flatnonzero(
             np.any(centre - 0.5 * float(np.linalg.norm(obj.size)) <= np.nanmin(centre), axis=1)
         )
-        rot = _quat_matrices(quat[j[near]])  # (m, 3, 3), box -> world
+        rot = rotations.as_matrix(quat[near])  # (m, 3, 3), box -> world
         local = np.einsum("nji,nkj->nki", rot, offset[near])  # R^T (p - c)
         outside = np.maximum(np.abs(local) - 0.5 * obj.size, 0.0)
         dist = np.linalg.norm(outside, axis=2)  # (m, 21), NaN for unseen keypoints
@@ -127,7 +154,7 @@ def object_travel(demo: Demonstration) -> dict[str, float]:
 
 def reach_message(demo: Demonstration, *, near_m: float = NEAR_M) -> str | None:
     """Why the hand reaches no object (None when it does, or when there is no object)."""
-    if not demo.objects:
+    if not demo.objects or comes_within(demo, near_m):
         return None
     a = closest_approach(demo)
     if a.distance_m <= near_m:

@@ -105,17 +105,24 @@ def grasp_aperture(
     length = np.linalg.norm(span, axis=2)
     for pos, quat, size in zip(object_position, object_quaternion, object_size, strict=True):
         ok = np.isfinite(pos).all(axis=1) & np.isfinite(quat).all(axis=1)
-        if not ok.any():
-            continue
-        c = np.where(ok[:, None], pos, 0.0)
-        q = np.where(ok[:, None], quat, np.array([0.0, 0.0, 0.0, 1.0]))
+        # the thumb touches the box only within its half diagonal and the contact radius of
+        # the centre: the other samples cannot oppose (and are not measured)
+        reach = 0.5 * float(np.linalg.norm(size)) + contact_radius + 1e-6
         with np.errstate(invalid="ignore"):
-            touch = box_distance(tips, c[:, None], q[:, None], size) <= contact_radius
-            opposed = (
-                (ok & touch[:, 0])[:, None]
-                & touch[:, 1:]
-                & (np.einsum("ij,itj->it", c - thumb, span) > 0)
-                & (np.einsum("itj,itj->it", c[:, None] - tips[:, 1:], -span) > 0)
+            near = np.flatnonzero(
+                ok & (np.linalg.norm(thumb - np.where(ok[:, None], pos, 0.0), axis=1) <= reach)
             )
-            best = np.minimum(best, np.where(opposed, length, np.inf).min(axis=1))
+        if near.size == 0:
+            continue
+        c, q = pos[near], quat[near]
+        th, tp, sp = thumb[near], tips[near], span[near]
+        with np.errstate(invalid="ignore"):
+            touch = box_distance(tp, c[:, None], q[:, None], size) <= contact_radius
+            opposed = (
+                touch[:, :1]
+                & touch[:, 1:]
+                & (np.einsum("ij,itj->it", c - th, sp) > 0)
+                & (np.einsum("itj,itj->it", c[:, None] - tp[:, 1:], -sp) > 0)
+            )
+            best[near] = np.minimum(best[near], np.where(opposed, length[near], np.inf).min(axis=1))
     return np.where(np.isfinite(best), best, aperture)
