@@ -162,6 +162,24 @@ def check_output(
 
 
 @contextlib.contextmanager
+def signals_held() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM (Ctrl+C, a kill) in this thread while the block cleans up: a
+    signal that arrives meanwhile is delivered after it (and interrupts then), so a cleanup is
+    never left half done. Where signals cannot be masked, nothing is held."""
+    import signal
+
+    try:
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    except (AttributeError, OSError, ValueError):
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+@contextlib.contextmanager
 def atomic_output(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; on success it is renamed onto ``path``.
 
@@ -347,4 +365,5 @@ def atomic_directory(
                 os.replace(old, dest)
             raise
     finally:
-        shutil.rmtree(holder, ignore_errors=True)
+        with signals_held():  # a second Ctrl+C does not leave half of it behind
+            shutil.rmtree(holder, ignore_errors=True)

@@ -698,7 +698,7 @@ def export_lerobot(
         No recording could be exported (each one's reason is in its result), or lerobot
         is missing.
     """
-    from ..outputs import atomic_directory, check_output_dir
+    from ..outputs import atomic_directory, check_output_dir, signals_held
 
     if labels not in LABEL_SOURCES:
         raise UsageError(f"--labels must be one of {', '.join(LABEL_SOURCES)}, got {labels!r}")
@@ -740,7 +740,8 @@ def export_lerobot(
                 raise LfdError(f"no recording could be exported ({len(report.failed)} failed)")
             writer.close()
         except BaseException:
-            writer.abort()  # before the temporary directory goes: nothing writes into it later
+            with signals_held():  # before the temporary directory goes: nothing writes later
+                writer.abort()
             raise
     report.seconds = time.perf_counter() - start
     return report
