@@ -7,9 +7,10 @@ goes to a temporary file beside the destination, which replaces the destination 
 rename only once it is complete. A failed or interrupted command therefore leaves either the old
 file or none, never a half-written one, and two runs writing the same file cannot interleave.
 
-An input is every file the command reads (:func:`read_paths`): the files it is given, each one's
-object-size sidecar (``REC.sizes.toml``) and, for a file of a ROS 2 bag or the bag directory,
-the whole directory: no output may land on one, nor inside a bag directory being read.
+An input is every file the command reads (:func:`lfd.io.inputs.read_paths` lists them: the
+files it is given, each one's object-size sidecar ``REC.sizes.toml`` and, for a file of a ROS 2
+bag or the bag directory, the whole directory): no output may land on one, nor inside a bag
+directory being read (a :class:`ReadPath` with ``tree``).
 """
 
 from __future__ import annotations
@@ -30,7 +31,8 @@ STDOUT = "-"
 
 @dataclass(frozen=True)
 class ReadPath:
-    """A path a command reads (see :func:`read_paths`)."""
+    """A path a command reads (:func:`lfd.io.inputs.read_paths` lists them); a plain path given
+    as an input is ``ReadPath(path)``."""
 
     path: str
     """As given (or derived: the sidecar, the bag directory)."""
@@ -38,28 +40,6 @@ class ReadPath:
     """Why it is an input when it was not given itself (``the object sizes of e1.mcap``)."""
     tree: bool = False
     """A directory read as a whole (a ROS 2 bag): nothing may be written inside it."""
-
-
-def read_paths(inputs: Iterable[str | os.PathLike[str] | None]) -> list[ReadPath]:
-    """Every path a command reads, given the files it was given (``None`` skipped): each one,
-    its object-size sidecar (:func:`lfd.io.sizes.sidecar_path`: read for a recording, and
-    refused as an output for any input), and the ROS 2 bag directory it is or lies in."""
-    given_paths = [i for i in inputs if i is not None and os.fspath(i) not in ("", STDOUT)]
-    if not given_paths:
-        return []
-    from .io.reader import is_ros_path
-    from .io.sizes import sidecar_path
-
-    out: list[ReadPath] = []
-    for inp in given_paths:
-        given = os.fspath(inp)
-        bag = os.path.isdir(given) and is_ros_path(given)
-        out.append(ReadPath(given, tree=bag))
-        out.append(ReadPath(sidecar_path(given), why=f"the object sizes of {given}"))
-        parent = os.path.dirname(os.path.abspath(given))
-        if os.path.isfile(given) and os.path.isdir(parent) and is_ros_path(parent):
-            out.append(ReadPath(parent, why=f"it holds {given}", tree=True))
-    return out
 
 
 def same_file(p: str | os.PathLike[str], q: str | os.PathLike[str]) -> bool:
@@ -76,13 +56,24 @@ def _inside(p: str | os.PathLike[str], tree: str | os.PathLike[str]) -> bool:
     return os.path.realpath(p).startswith(os.path.realpath(tree).rstrip(os.sep) + os.sep)
 
 
-def input_clash(
-    path: str | os.PathLike[str], inputs: Iterable[str | os.PathLike[str] | None]
-) -> str | None:
-    """Why writing ``path`` would damage an input (:func:`read_paths`), or None: it is one, or
-    it lies inside a bag directory being read. The message starts after the path."""
+Inputs = Iterable[str | os.PathLike[str] | ReadPath | None]
+"""What a command reads: paths (None skipped), or :class:`ReadPath` s that say more."""
+
+
+def _read(inputs: Inputs) -> list[ReadPath]:
+    return [
+        i if isinstance(i, ReadPath) else ReadPath(os.fspath(i))
+        for i in inputs
+        if i is not None
+        and not (isinstance(i, (str, os.PathLike)) and os.fspath(i) in ("", STDOUT))
+    ]
+
+
+def input_clash(path: str | os.PathLike[str], inputs: Inputs) -> str | None:
+    """Why writing ``path`` would damage an input, or None: it is one, or it lies inside a bag
+    directory being read (a ``tree``). The message starts after the path."""
     p = Path(path)
-    for r in read_paths(inputs):
+    for r in _read(inputs):
         why = f" ({r.why})" if r.why else ""
         if same_file(p, r.path):
             return f"is also an input{why}; refusing to overwrite it"
@@ -97,7 +88,7 @@ def input_clash(
 def check_output(
     path: str | os.PathLike[str],
     *,
-    inputs: Iterable[str | os.PathLike[str] | None] = (),
+    inputs: Inputs = (),
     what: str = "output",
     allow_stdout: bool = False,
     suffixes: Iterable[str] = (),
@@ -109,9 +100,10 @@ def check_output(
     ----------
     path : path-like
         The requested output file.
-    inputs : iterable of path-like
-        Files the command reads; the output may be none of them, nor their sidecars, nor lie
-        in a bag directory being read (:func:`input_clash`).
+    inputs : iterable of path-like or ReadPath
+        What the command reads (:func:`lfd.io.inputs.read_paths` adds the sidecars and bag
+        directories of its files); the output may be none of them, nor lie in a bag directory
+        being read (:func:`input_clash`).
     what : str
         How the error message names the output (e.g. ``"--json"``).
     allow_stdout : bool
@@ -263,7 +255,7 @@ class PendingOutput:
 def check_output_dir(
     path: str | os.PathLike[str],
     *,
-    inputs: Iterable[str | os.PathLike[str] | None] = (),
+    inputs: Inputs = (),
     what: str = "output",
     overwrite: bool = False,
     replaceable: Callable[[Path], str | None] | None = None,
@@ -274,7 +266,7 @@ def check_output_dir(
     ``overwrite``, and only when ``replaceable(path)`` has nothing against it (returns None,
     else why not: e.g. it holds files the command did not write). It may never be an input,
     lie inside a bag directory being read, or hold an input (replacing it would delete the
-    input; see :func:`read_paths`).
+    input; see :func:`check_output`'s ``inputs``).
 
     Raises
     ------
@@ -293,8 +285,8 @@ def check_output_dir(
     if p.is_dir() and any(p.iterdir()):
         if not overwrite:
             raise UsageError(f"{what} {p} is not empty; pass --overwrite to replace it")
-        for r in read_paths(inputs):
-            if _inside(Path(r.path), p):
+        for r in _read(inputs):
+            if _inside(r.path, p):
                 raise UsageError(f"{what} {p} holds the input {r.path}; refusing to replace it")
         reason = replaceable(p) if replaceable is not None else None
         if reason:

@@ -115,18 +115,20 @@ INPUT_OPTIONS = ("templates", "map", "labels", "base", "task", "intrinsics", "de
 """Options (``args`` attributes) that name files a command reads, where it has them."""
 
 
-def read_files(args: argparse.Namespace, *given: Any) -> list[str]:
-    """Every file a command reads, for :func:`lfd.outputs.check_output`'s ``inputs``: ``given``
+def read_files(args: argparse.Namespace, *given: Any) -> list[Any]:
+    """Every path a command reads, for :func:`lfd.outputs.check_output`'s ``inputs``: ``given``
     (its recordings, bags, images...; None skipped) and the existing paths its
-    :data:`INPUT_OPTIONS` name (``--templates``, ``--map``, ``--from`` ...). check_output adds
-    their sidecars and bag directories (:func:`lfd.outputs.read_paths`)."""
-    out = [os.fspath(p) for p in given if p is not None]
+    :data:`INPUT_OPTIONS` name (``--templates``, ``--map``, ``--from`` ...), with their
+    sidecars and bag directories (:func:`lfd.io.inputs.read_paths`)."""
+    from ..io.inputs import read_paths
+
+    out = list(given)
     for option in INPUT_OPTIONS:
         value = getattr(args, option, None)
         for v in value if isinstance(value, (list, tuple)) else [value]:
             if isinstance(v, (str, os.PathLike)) and os.path.exists(v):
                 out.append(os.fspath(v))
-    return out
+    return read_paths(out)
 
 
 def check_json(args: argparse.Namespace, inputs: Iterable[str | os.PathLike[str]]) -> None:

@@ -712,7 +712,9 @@ def export_lerobot(
         reads.append(templates)
         templates = Templates.load(os.fspath(templates))
     replace: dict[str, Any] = {"overwrite": overwrite, "replaceable": not_a_dataset}
-    dest = check_output_dir(output, inputs=reads, what="output", **replace)
+    from ..io.inputs import read_paths
+
+    dest = check_output_dir(output, inputs=read_paths(reads), what="output", **replace)
     repo = repo_id or f"lfd/{dest.resolve().name}"
     if repo.count("/") != 1 or not all(repo.split("/")):
         raise UsageError(f"--repo-id must look like OWNER/NAME, got {repo!r}")
