@@ -231,9 +231,11 @@ def test_label_recording_rewritten_in_place_cannot_be_the_label_file(
 
 
 # --- 2. simulate does not replace a recording without --overwrite -----------------------------
-def test_simulate_refuses_an_existing_recording(rec: Path, tmp_path: Path, capsys: Any) -> None:
+def test_simulate_refuses_an_existing_recording(
+    rec: Path, tmp_path: Path, capsys: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
     pytest.importorskip("mujoco")
-    os.environ.setdefault("MUJOCO_GL", "egl")
+    monkeypatch.setenv("MUJOCO_GL", os.environ.get("MUJOCO_GL", "egl"))
     _refused(["simulate", "exp1", "-o", rec], capsys, tmp_path, "pass --overwrite")
 
 
