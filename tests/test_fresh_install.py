@@ -1,9 +1,14 @@
 """The README's first command on a fresh virtual environment: the plain install (no extras)
-segments a shipped recording, and the commands that need an extra say so in one line."""
+segments a shipped recording, every command's --help works, the commands of the plain install
+run, and the commands that need an extra say which in one line (``pip install 'lfd[EXTRA]'``).
+"""
 
 from __future__ import annotations
 
+import argparse
 import os
+import re
+import shutil
 import subprocess
 import venv
 from pathlib import Path
@@ -11,6 +16,26 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+REC = ROOT / "recordings"
+EXP1 = str(REC / "exp1.mcap")
+BAG, BAG_MAP = str(REC / "ros" / "exp1.bag"), str(REC / "ros" / "exp1.toml")
+INSTALL_LINE = re.compile(r"^lfd (\w+): error: .+: pip install 'lfd\[[a-z,]+\]'")
+
+
+def _commands() -> list[tuple[str, ...]]:
+    """``lfd`` itself (``()``) and every command and subcommand (``("segment",)``,
+    ``("export", "lerobot")``)."""
+    from lfd.cli import build_parser
+
+    def walk(parser: argparse.ArgumentParser, prefix: tuple[str, ...]) -> list[tuple[str, ...]]:
+        out = [prefix]
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for name, sub in action.choices.items():
+                    out += walk(sub, (*prefix, name))
+        return out
+
+    return walk(build_parser(), ())
 
 
 @pytest.fixture(scope="module")
@@ -59,21 +84,69 @@ def test_plain_install_segments_a_shipped_recording(fresh_venv: Path, tmp_path: 
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("command", _commands(), ids=lambda c: " ".join(("lfd", *c)))
+def test_every_help_works(fresh_venv: Path, tmp_path: Path, command: tuple[str, ...]) -> None:
+    proc = _run(fresh_venv, "lfd", *command, "--help", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.startswith(f"usage: lfd {' '.join(command)}"), proc.stdout[:200]
+    assert proc.stderr == ""
+
+
+@pytest.mark.slow
+def test_plain_install_commands_run(fresh_venv: Path, tmp_path: Path) -> None:
+    """Every command of the plain install, once, as a user would chain them."""
+    skills = ("pick_up", "place", "locate", "stack", "push", "move", "move_with")
+    templates = [str(REC / "templates" / f"{s}_0.mcap") for s in skills]
+    shutil.copy(EXP1, tmp_path / "mine.mcap")
+    steps: list[tuple[str, ...]] = [
+        ("info", "mine.mcap"),
+        ("info", "mine.mcap", "--check"),
+        ("info", "default"),
+        ("segment", "mine.mcap", "--json", "seg.json"),
+        ("label", "mine.mcap", "--from", "seg.json", "-o", "labelled.mcap"),
+        ("eval", "labelled.mcap", "--methods", "dp,paper,changepoint"),
+        ("templates", "train", *templates, "-o", "mine.json"),
+        ("segment", "mine.mcap", "--templates", "mine.json"),
+    ]
+    for step in steps:
+        proc = _run(fresh_venv, "lfd", *step, cwd=tmp_path)
+        assert proc.returncode == 0, f"lfd {' '.join(step)}\n{proc.stderr}"
+        assert "Traceback" not in proc.stderr, proc.stderr
+        assert proc.stdout.strip(), f"lfd {' '.join(step)} printed nothing"
+    for name in ("seg.json", "labelled.mcap", "mine.json"):
+        assert (tmp_path / name).stat().st_size > 0, name
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize(
-    "args",
+    ("extra", "args"),
     [
-        ("simulate", "exp1", "-o", "demo.mcap"),
-        ("reproduce", str(ROOT / "recordings" / "exp1.mcap")),
-        ("record", "--source", "sim:exp1", "-o", "seen.mcap"),
-        ("segment", str(ROOT / "recordings" / "exp1.mcap"), "--rerun-save", "x.rrd"),
-        ("perception", "hands", str(ROOT / "docs" / "rerun.png")),
-        ("export", "lerobot", str(ROOT / "recordings" / "exp1.mcap"), "-o", "dataset"),
+        ("sim", ("simulate", "exp1", "-o", "demo.mcap")),
+        ("sim", ("reproduce", EXP1)),
+        ("sim", ("reproduce", EXP1, "--mode", "dmp")),
+        ("sim", ("record", "--source", "sim:exp1", "-o", "seen.mcap")),
+        ("viz", ("segment", EXP1, "--rerun-save", "x.rrd")),
+        ("perception", ("perception", "hands", str(ROOT / "docs" / "rerun.png"))),
+        ("perception", ("perception", "train", "-o", "hand.pt", "--samples", "10")),
+        ("perception", ("perception", "eval", "--hand-model", "hand.pt")),
+        ("lerobot", ("export", "lerobot", EXP1, "-o", "dataset")),
+        ("ros", ("import", "ros", BAG, "--map", BAG_MAP, "-o", "x.mcap")),
+        ("ros", ("segment", BAG, "--map", BAG_MAP)),
+        ("ray", ("segment", EXP1, str(REC / "exp2.mcap"), "--ray")),
     ],
+    ids=lambda v: v if isinstance(v, str) else "-".join(a for a in v[:2] if "/" not in a),
 )
-def test_missing_extra_is_one_line(fresh_venv: Path, tmp_path: Path, args: tuple[str, ...]) -> None:
+def test_missing_extra_is_one_line(
+    fresh_venv: Path, tmp_path: Path, extra: str, args: tuple[str, ...]
+) -> None:
+    if args[:2] == ("perception", "eval"):  # an existing weights file: the check before torch
+        (tmp_path / "hand.pt").write_bytes(b"")
+    before = set(tmp_path.iterdir())
     proc = _run(fresh_venv, "lfd", *args, cwd=tmp_path)
     assert proc.returncode == 2, proc.stderr
     lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1, proc.stderr
-    assert lines[0].startswith(f"lfd {args[0]}: error:") and "pip install" in lines[0], lines
-    assert not list(tmp_path.iterdir()), "a failed command left a file behind"
+    m = INSTALL_LINE.match(lines[0])
+    assert m and m.group(1) == args[0], lines
+    assert re.search(rf"lfd\[([a-z]+,)*{extra}(,[a-z]+)*\]", lines[0]), lines
+    assert set(tmp_path.iterdir()) == before, "a failed command left a file behind"

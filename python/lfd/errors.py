@@ -71,6 +71,17 @@ class UsageError(LfdError, ValueError):
     """An argument or option value is invalid (out of range, inconsistent, unusable path)."""
 
 
+class MissingExtraError(LfdError):
+    """An optional extra a call needs is not installed; the message says how to install it."""
+
+    def __init__(self, message: str, *, extra: str, module: str | None = None) -> None:
+        super().__init__(message)
+        self.extra = extra
+        """The extra to install (``sim``, ``viz``, ``perception``, ``ros``, ``lerobot``, ``ray``)."""
+        self.module = module
+        """The module found missing."""
+
+
 # --- warnings -------------------------------------------------------------------------------
 class BatchError(LfdError):
     """A recording of a batch failed in another process (its error, as one line)."""

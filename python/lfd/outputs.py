@@ -259,6 +259,7 @@ def check_output_dir(
     what: str = "output",
     overwrite: bool = False,
     replaceable: Callable[[Path], str | None] | None = None,
+    parents: bool = False,
 ) -> Path:
     """Refuse an output directory that cannot be written, before any work is done.
 
@@ -267,6 +268,8 @@ def check_output_dir(
     else why not: e.g. it holds files the command did not write). It may never be an input,
     lie inside a bag directory being read, or hold an input (replacing it would delete the
     input; see :func:`check_output`'s ``inputs``).
+    With ``parents``, its missing parent directories are allowed too (:func:`created_parents`
+    makes them): the nearest existing one must be a writable directory.
 
     Raises
     ------
@@ -292,6 +295,10 @@ def check_output_dir(
         if reason:
             raise UsageError(f"{what} {p}: {reason}; refusing to replace it with --overwrite")
     parent = p.resolve().parent
+    while parents and not parent.exists() and parent != parent.parent:
+        parent = parent.parent  # the one the missing parents will be created in
+    if parent.exists() and not parent.is_dir():
+        raise UsageError(f"{what} {p}: {parent} is not a directory")
     if not parent.is_dir():
         raise UsageError(f"{what} {p}: directory {parent} does not exist")
     if not os.access(parent, os.W_OK | os.X_OK):
@@ -359,3 +366,23 @@ def atomic_directory(
     finally:
         with signals_held():  # a second Ctrl+C does not leave half of it behind
             shutil.rmtree(holder, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def created_parents(path: str | os.PathLike[str]) -> Iterator[None]:
+    """Create the missing parent directories of ``path`` (``lfd export -o a/b/ds`` makes
+    ``a/b``); if the block fails, remove again those it created that are still empty."""
+    made: list[Path] = []
+    parent = Path(os.path.abspath(path)).parent
+    while not parent.exists():
+        made.append(parent)
+        parent = parent.parent
+    try:
+        for d in reversed(made):
+            d.mkdir(exist_ok=True)
+        yield
+    except BaseException:
+        for d in made:  # innermost first
+            with contextlib.suppress(OSError):
+                d.rmdir()
+        raise

@@ -18,6 +18,7 @@ import warnings
 from collections.abc import Sequence
 from typing import NoReturn
 
+from .._extras import message_for
 from ..errors import LfdError
 
 COMMANDS: tuple[str, ...] = (
@@ -35,13 +36,14 @@ COMMANDS: tuple[str, ...] = (
     "export",
 )
 
-SIM_MODULES = frozenset({"mujoco", "cv2", "mink"})
-"""Top-level modules of the ``sim`` extra; without them the simulator commands cannot run."""
-SIM_COMMANDS = frozenset({"simulate", "reproduce", "record"})
-PERCEPTION_MODULES = frozenset({"cv2", "ai_edge_litert", "torch"})
-"""Top-level modules the perception commands need: the ``perception`` extra (the hand models)
-and OpenCV, which comes with the ``sim`` extra (kept out of ``perception``: 150 MB)."""
-PERCEPTION_COMMANDS = frozenset({"perception", "record"})
+PREFERRED_EXTRAS: dict[str, tuple[str, ...]] = {
+    # a missing module several extras install is reported as the one this command is about
+    "simulate": ("sim",),
+    "reproduce": ("sim",),
+    "record": ("sim", "perception"),
+    "perception": ("perception", "sim"),
+    "export": ("lerobot",),
+}
 
 
 class _Parser(argparse.ArgumentParser):
@@ -128,21 +130,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"lfd {command}: error: {_one_line(err)}", file=sys.stderr)
         return 2
     except ModuleNotFoundError as err:
-        top = (err.name or "").split(".")[0]
-        if command in SIM_COMMANDS and top in SIM_MODULES:
-            print(
-                f"lfd {command}: error: this command needs the simulator: pip install 'lfd[sim]'",
-                file=sys.stderr,
-            )
-            return 2
-        if command in PERCEPTION_COMMANDS and top in PERCEPTION_MODULES:
-            print(
-                f"lfd {command}: error: this command needs the hand models and OpenCV: "
-                "pip install 'lfd[sim,perception]'",
-                file=sys.stderr,
-            )
-            return 2
-        raise
+        # a module of an optional extra (lfd._extras.EXTRAS): one line saying what to install
+        line = message_for(err.name or "", PREFERRED_EXTRAS.get(command, ()))
+        if line is None:
+            raise
+        print(f"lfd {command}: error: {line}", file=sys.stderr)
+        return 2
     except BrokenPipeError:
         # the reader of stdout went away (``lfd info x.mcap --json - | head -1``): stop quietly;
         # point stdout at devnull so the interpreter's final flush does not fail again

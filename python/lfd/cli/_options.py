@@ -83,11 +83,27 @@ def json_to_stdout(args: argparse.Namespace) -> bool:
     return getattr(args, "json", None) == STDOUT
 
 
-def console(args: argparse.Namespace) -> Any:
-    """A rich console for the human-readable output: stdout, or stderr under ``--json -``."""
+UNBOUNDED_WIDTH = 100_000
+"""Width of a console writing to a file or a pipe: as wide as the output (rich lays tables out
+at their natural width), so a long topic name or path is never cut to ``…`` or folded."""
+
+
+def make_console(*, stderr: bool = False) -> Any:
+    """A rich console for the human-readable output. In a terminal it fits the terminal; into
+    a file or a pipe (``lfd info REC > info.txt``) it cuts and wraps nothing (unless the
+    ``COLUMNS`` environment variable sets a width)."""
     from rich.console import Console
 
-    return Console(stderr=json_to_stdout(args))
+    con = Console(stderr=stderr)
+    if not con.is_terminal and "COLUMNS" not in os.environ:
+        con = Console(stderr=stderr, width=UNBOUNDED_WIDTH)
+    return con
+
+
+def console(args: argparse.Namespace) -> Any:
+    """The console of a command's human-readable output (:func:`make_console`): stdout, or
+    stderr under ``--json -``."""
+    return make_console(stderr=json_to_stdout(args))
 
 
 MAX_TABLE_ROWS = 40

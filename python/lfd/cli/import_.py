@@ -28,11 +28,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.console import Console
-
     from ..io import load, save
     from ..outputs import check_output
-    from ._options import load_options, read_files
+    from ._options import load_options, make_console, read_files
 
     # every file of the bag counts: nothing is written into a bag directory being read
     reads = read_files(args, args.bag)
@@ -40,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
     options = load_options(args)
     demo = load(args.bag, images=False, **options)
     save(demo, args.output)
-    Console().print(
+    make_console().print(
         f"wrote {args.output}: {len(demo.hand)} hand frames, "
         + ", ".join(
             f"{o.name} ({len(o)} poses, {' x '.join(f'{v:g}' for v in o.size)} m)"

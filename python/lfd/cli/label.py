@@ -34,12 +34,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.console import Console
 
     from ..io import load
     from ..io.labels import read_labels, write_labels
     from ..outputs import check_output, same_file
-    from ._options import check_inputs, load_options, read_files
+    from ._options import check_inputs, load_options, make_console, read_files
 
     check_inputs(**{"from": args.labels})
     if args.output is not None and same_file(args.output, args.recording):
@@ -53,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
     labels = read_labels(args.labels, demo)
     dest = write_labels(args.recording, labels, args.output)
     origin = demo.start_ns
-    Console().print(
+    make_console().print(
         f"wrote {len(labels)} labels into {dest}: "
         + ", ".join(
             f"{lab.skill}{'(' + lab.object + ')' if lab.object else ''} "

@@ -21,6 +21,7 @@ from ._options import (
     check_json,
     console,
     load_options,
+    make_console,
     read_files,
     segmentation_method,
     write_json,
@@ -97,7 +98,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.console import Console
+    from .._extras import require
+
+    # every module of the sim extra, before any work: the QP solver (daqp) and the DMPs
+    # (movement_primitives) would otherwise be found missing only when a mode runs
+    require("sim")
     from rich.progress import Progress
 
     from ..io import load
@@ -126,7 +131,7 @@ def run(args: argparse.Namespace) -> int:
             raise UsageError(f"--randomise cannot be combined with {(clash or ['--rerun'])[0]}")
     check_json(args, inputs)
     check_rerun_args(args, inputs)
-    err = Console(stderr=True)  # progress, failures: stderr
+    err = make_console(stderr=True)  # progress, failures: stderr
     displace = parse_displacement(args.displace)
     loading = load_options(args)
     if args.video:

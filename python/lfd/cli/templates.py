@@ -46,7 +46,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.console import Console
 
     from ..errors import UsageError
     from ..outputs import check_output
@@ -55,9 +54,9 @@ def run(args: argparse.Namespace) -> int:
     from ..segmentation.templates import (
         template_params,
     )
-    from ._options import batch_options, check_inputs, load_options, read_files
+    from ._options import batch_options, check_inputs, load_options, make_console, read_files
 
-    console = Console()
+    console = make_console()
     if args.action == "train":
         # check the parameters before any recording is read
         try:

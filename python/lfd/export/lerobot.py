@@ -79,8 +79,12 @@ def import_lerobot() -> Any:
     try:
         from lerobot.datasets.lerobot_dataset import LeRobotDataset
     except ModuleNotFoundError as err:
-        raise LfdError(
-            f"the LeRobot export needs lerobot ({err.name} is missing): {INSTALL_HINT}"
+        from ..errors import MissingExtraError
+
+        raise MissingExtraError(
+            f"the LeRobot export needs lerobot ({err.name} is missing): {INSTALL_HINT}",
+            extra="lerobot",
+            module=err.name,
         ) from None
     return LeRobotDataset
 
@@ -675,6 +679,7 @@ def export_lerobot(
         written in a temporary directory beside it and renamed at the end, so a failed or
         interrupted export leaves the old directory (or none); a directory that appeared there
         meanwhile (another export) is kept, and this export refused, unless ``overwrite``.
+        Missing parent directories are created (and removed again if the export fails).
     labels, templates, video
         See :func:`prepare_episode`; ``templates`` may also be the path of a template file
         (read once, here; the output may not replace it).
@@ -698,7 +703,7 @@ def export_lerobot(
         No recording could be exported (each one's reason is in its result), or lerobot
         is missing.
     """
-    from ..outputs import atomic_directory, check_output_dir, signals_held
+    from ..outputs import atomic_directory, check_output_dir, created_parents, signals_held
 
     if labels not in LABEL_SOURCES:
         raise UsageError(f"--labels must be one of {', '.join(LABEL_SOURCES)}, got {labels!r}")
@@ -714,7 +719,9 @@ def export_lerobot(
     replace: dict[str, Any] = {"overwrite": overwrite, "replaceable": not_a_dataset}
     from ..io.inputs import read_paths
 
-    dest = check_output_dir(output, inputs=read_paths(reads), what="output", **replace)
+    dest = check_output_dir(
+        output, inputs=read_paths(reads), what="output", parents=True, **replace
+    )
     repo = repo_id or f"lfd/{dest.resolve().name}"
     if repo.count("/") != 1 or not all(repo.split("/")):
         raise UsageError(f"--repo-id must look like OWNER/NAME, got {repo!r}")
@@ -725,7 +732,7 @@ def export_lerobot(
     prepared = (
         _prepare_all(paths, labels, templates, video, jobs, ray_address) if parallel else None
     )
-    with atomic_directory(dest, **replace) as root:
+    with created_parents(dest), atomic_directory(dest, **replace) as root:
         writer = LeRobotWriter(root, repo, vcodec=vcodec)
         try:
             for i, path in enumerate(paths):

@@ -41,6 +41,9 @@ from .program import Segment, TaskProgram, from_labels, from_segmentation
 from .randomise import MAX_SHIFT, MAX_TURN_DEG, Randomised, random_layouts, run_randomised
 from .scene import ObjectSpec
 
+SIM_MODULES = ("mujoco", "mink", "daqp")
+"""What every mode runs on: the simulator, the IK and the QP solver mink calls (``daqp``)."""
+
 __all__ = [
     "MODES",
     "PREPROCESSING",
@@ -197,6 +200,8 @@ def reproduce(
 
     Raises
     ------
+    MissingExtraError
+        A module of the ``sim`` extra this mode runs on is not installed.
     UsageError
         A displacement that names an unknown object, is not finite, or puts an object out of
         reach, off the table or into another object (:func:`check_displacement`), or whose
@@ -205,6 +210,10 @@ def reproduce(
     video_fps : float
         Record frames into ``result.execution.frames`` at this rate (0 = off).
     """
+    from .._extras import require
+
+    # MuJoCo, mink and its QP solver (daqp, looked up only at the first IK step), and the DMPs
+    require("sim", SIM_MODULES + (("movement_primitives",) if mode == "dmp" else ()), who=__name__)
     displace = dict(displace or {})
     # checked, base chosen and planned before anything is simulated
     frames, initial, result = plan_layout(traj, program, mode, displace, base=base)

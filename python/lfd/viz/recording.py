@@ -31,7 +31,12 @@ def import_rerun() -> ModuleType:
     try:
         import rerun
     except ImportError as err:  # pragma: no cover - rerun-sdk is in the dev and viz extras
-        raise LfdError("Rerun views need the rerun-sdk package: pip install 'lfd[viz]'") from err
+        from .._extras import install_hint
+        from ..errors import MissingExtraError
+
+        raise MissingExtraError(
+            f"Rerun views need the rerun-sdk package: {install_hint('viz')}", extra="viz"
+        ) from err
     return rerun
 
 

@@ -34,7 +34,11 @@ def _torch() -> Any:
     try:
         import torch
     except ImportError as err:
-        raise LfdError("the hand estimator needs torch: pip install 'lfd[perception]'") from err
+        from ...errors import MissingExtraError
+
+        raise MissingExtraError(
+            "the hand estimator needs torch: pip install 'lfd[perception]'", extra="perception"
+        ) from err
     return torch
 
 

@@ -79,8 +79,11 @@ def _interpreter(path: str, threads: int) -> Any:
     try:
         from ai_edge_litert.interpreter import Interpreter
     except ImportError as err:
-        raise LfdError(
-            "the MediaPipe hand model needs ai-edge-litert: pip install 'lfd[perception]'"
+        from ...errors import MissingExtraError
+
+        raise MissingExtraError(
+            "the MediaPipe hand model needs ai-edge-litert: pip install 'lfd[perception]'",
+            extra="perception",
         ) from err
     if not os.path.exists(path):
         raise LfdError(f"hand model file {path} not found (reinstall lfd)")
