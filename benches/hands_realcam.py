@@ -1,4 +1,4 @@
-"""The real-camera hand path: MediaPipe Hands + depth lifting (the README's perception figures).
+"""The real-camera hand path: MediaPipe Hands + depth lifting (docs/results.md, Perception).
 
 Run: ``MUJOCO_GL=egl python benches/hands_realcam.py [--realhands ../shared/realhands]``
 

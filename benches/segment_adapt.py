@@ -1,4 +1,4 @@
-"""Retraining on the user's own labelled recordings (docs/own-recordings.md, the README table).
+"""Retraining on the user's own labelled recordings (docs/own-recordings.md, docs/results.md).
 
 Run: ``MUJOCO_GL=egl python benches/segment_adapt.py [--out /tmp/lfd_adapt] [--seeds 310-311]``
 

@@ -1,4 +1,4 @@
-"""Segmentation methods on held-out simulated demos (the README's segmentation table).
+"""Segmentation methods on held-out simulated demos (docs/results.md's segmentation table).
 
 Run: ``MUJOCO_GL=egl python benches/segment_heldout.py [--out /tmp/lfd_heldout] [--seeds 300-305]``
 

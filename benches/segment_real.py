@@ -1,4 +1,4 @@
-"""Segmentation on real optical motion capture of people handling objects (the README's row).
+"""Segmentation on real optical motion capture of people handling objects (docs/results.md).
 
 Run: ``python benches/segment_real.py [DIR] [--json OUT]`` (DIR: ``../shared/realmotion``
 beside the repository; without it the bench says it skipped and exits 0).
