@@ -9,6 +9,7 @@ import json
 import subprocess
 import sys
 import textwrap
+import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -513,6 +514,39 @@ ABSURD = {
     ),
     "dtw(band=-1)": "_hmmseg.dtw(X[0], X[1], band=-1)",
     "score_table(max_len=-1)": "t.score_table(np.zeros((4, 1)), np.array([0, 4]), -1)",
+    # iteration counts: bounded by hmmseg::limits::MAX_ITER, a negative tolerance refused
+    "Hmm.refit(max_iter=2**40, tol=-1)": "m.refit(X, max_iter=2**40, tol=-1.0)",
+    "Hmm.refit(max_iter=2**40)": "m.refit(X, max_iter=2**40)",
+    "Hmm.refit(max_iter=10001)": "m.refit(X, max_iter=10_001)",
+    "Hmm.refit(tol=-1)": "m.refit(X, max_iter=2, tol=-1.0)",
+    "Hmm.refit(tol=nan)": "m.refit(X, max_iter=2, tol=float('nan'))",
+    "GaussianHMM.refit(n_iter=2**40)": "GaussianHMM(2).fit(X).refit(X, 2**40)",
+    "Hmm.fit(max_iter=2**40, tol=-1)": "_hmmseg.Hmm.fit(X, n_states=2, max_iter=2**40, tol=-1.0)",
+    "TemplateSet.train(max_iter=2**40)": (
+        "_hmmseg.TemplateSet.train(['move'], [('f', 0, 1)], [(0, x) for x in X],"
+        ' \'{"fit": {"max_iter": 1099511627776, "tol": -1}}\')'
+    ),
+    "template_params(max_iter=2**40)": (
+        '_hmmseg.template_params(\'{"fit": {"max_iter": 1099511627776}}\')'
+    ),
+    # filters: at most hmmseg::limits::MAX_COEFFICIENTS coefficients (lfilter_zi is cubic)
+    "lfilter_zi(5001 coefficients)": "_hmmseg.lfilter_zi(np.ones(1), np.r_[1.0, np.zeros(5000)])",
+    "filtfilt(5000 coefficients)": "_hmmseg.filtfilt(np.ones(5000), np.ones(1), np.zeros((9, 1)), 2)",
+    "filtfilt_runs(5000 coefficients)": (
+        "_hmmseg.filtfilt_runs(np.ones(5000), np.ones(1), np.zeros((9, 1)), np.ones((9, 1), bool), 2)"
+    ),
+    "filtfilt(padlen=2**40)": "_hmmseg.filtfilt(np.ones(1), np.ones(1), np.zeros((9, 1)), 2**40)",
+    # outputs sized by the product of two inputs: checked against the budget
+    "cubic_spline(len(at) x columns)": (
+        "_hmmseg.cubic_spline(np.r_[0.0, 1.0], np.zeros((2, 2_000_000)), np.zeros(1_000_000))"
+    ),
+    "resample_columns(len(td) x columns)": (
+        "_hmmseg.resample_columns(np.r_[0.0, 1.0], np.zeros((2, 2_000_000)), None,"
+        " np.zeros(1_000_000), 1.0)"
+    ),
+    # the band's runs: quadratic in the sections without max_len
+    "rising_band(2e6 sections)": "_hmmseg.rising_band(np.zeros(2_000_001), np.arange(2_000_001), 0)",
+    "Band.runs(2e6 sections)": "_hmmseg.Band(np.arange(2_000_001), 0).runs()",
 }
 
 
@@ -536,12 +570,23 @@ def test_absurd_sizes_are_invalid_parameters_not_crashes() -> None:
                 print(name, "|", type(e).__name__, "|", str(e).replace(chr(10), " "))
         """
     )
+    t0 = time.perf_counter()
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
     lines = dict(line.split(" | ", 1) for line in r.stdout.splitlines())
     assert set(lines) == set(ABSURD)
     for name, outcome in lines.items():
         assert outcome.startswith("InvalidParameterError | "), f"{name}: {outcome}"
+    # refused before any work: the whole table (fits included) well under a minute
+    assert time.perf_counter() - t0 < 60
+
+
+def test_minus_infinity_still_means_exactly_max_iter_iterations() -> None:
+    # the one negative tolerance accepted: no convergence test (hmmlearn's tol=-inf)
+    _, history, n_iter, converged = MODEL.refit(SEQS, max_iter=4)
+    assert (len(history), n_iter, converged) == (4, 4, False)
+    _, history, n_iter, _ = MODEL.refit(SEQS, max_iter=3, tol=0.0)
+    assert n_iter <= 3
 
 
 # --- threads -----------------------------------------------------------------------------------
@@ -574,3 +619,27 @@ def test_layouts_are_distinct() -> None:
     seen = list(_layouts_used())
     assert len(set(seen)) == len(seen)
     assert all(not s.split(":")[1] == "True" for s in seen)
+
+
+# --- found by the binding fuzzer (tests/fuzz/engine_fuzz.py) -------------------------------------
+def test_one_rotation_paired_with_none_gives_none() -> None:
+    one, none = np.array([[0.0, 0.0, 0.0, 1.0]]), np.zeros((0, 4))
+    assert _hmmseg.quat_multiply(one, none).shape == (0, 4)
+    assert _hmmseg.quat_multiply(none, one).shape == (0, 4)
+    assert _hmmseg.quat_apply(none, np.ones((1, 3))).shape == (0, 3)
+    assert _hmmseg.quat_apply(one, np.zeros((0, 3)), True).shape == (0, 3)
+    with pytest.raises(errors.ShapeMismatchError):
+        _hmmseg.quat_apply(none, np.ones((2, 3)))
+
+
+@pytest.mark.parametrize(
+    ("features", "examples"),
+    [
+        ([("f", 2**200, 1)], [(0, np.zeros((5, 1)))]),
+        ([("f", 0, -(2**70))], [(0, np.zeros((5, 1)))]),
+        ([("f", 0, 1)], [(2**64, np.zeros((5, 1)))]),
+    ],
+)
+def test_template_training_refuses_huge_ints_by_name(features: Any, examples: Any) -> None:
+    with pytest.raises(errors.InvalidParameterError):
+        _hmmseg.TemplateSet.train(["move"], features, examples)

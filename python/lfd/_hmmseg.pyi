@@ -3,7 +3,10 @@
 Arrays are numpy arrays of the dtype shown, in any memory layout (C, Fortran, strided); a
 wrong dtype, a non-array or a wrong number of dimensions raises an ``lfd.errors`` exception
 naming the argument. Sizes are refused before anything is allocated when a table would not fit
-(``InvalidParameterError``); a Rust panic is ``lfd.errors.InternalError``.
+(``InvalidParameterError``), and so are counts that would make a call run for hours (the
+engine's ``hmmseg::limits``: ``max_iter`` at most 10000, filters of at most 1024 coefficients;
+``tol`` is a number >= 0, or ``-inf`` for exactly ``max_iter`` iterations); a Rust panic is
+``lfd.errors.InternalError``.
 """
 
 import os

@@ -6,8 +6,12 @@ use numpy::PyArray1;
 use pyo3::prelude::*;
 
 use crate::errors::{guard, IntoPyResult};
+use crate::limits::check_table;
 use crate::ndconv::{self, count, indices, int_arg};
 use crate::segment::n_sections;
+
+/// The start and end sections of every run.
+type Runs<'py> = (Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>);
 
 /// The runs of sections of at most `max_len` samples (0: no bound; a single section always)
 /// over `boundaries`, stored start section by start section (immutable).
@@ -74,12 +78,20 @@ impl PyBand {
     }
 
     /// The start and end section `(N,)` of every run, in row order.
-    fn runs<'py>(&self, py: Python<'py>) -> (Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>) {
-        let (starts, ends): (Vec<usize>, Vec<usize>) = self.inner.runs().unzip();
-        (
-            ndconv::indices_to_numpy(py, &starts),
-            ndconv::indices_to_numpy(py, &ends),
-        )
+    fn runs<'py>(&self, py: Python<'py>) -> PyResult<Runs<'py>> {
+        guard(py, || {
+            check_table(
+                py,
+                "n_runs x 2 (run starts and ends)",
+                &[self.inner.n_runs(), 2],
+                8,
+            )?;
+            let (starts, ends): (Vec<usize>, Vec<usize>) = self.inner.runs().unzip();
+            Ok((
+                ndconv::indices_to_numpy(py, &starts),
+                ndconv::indices_to_numpy(py, &ends),
+            ))
+        })
     }
 
     /// Row of run `i..j`; None outside the band.

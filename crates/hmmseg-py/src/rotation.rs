@@ -110,9 +110,10 @@ fn quat_multiply<'py>(
 ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
     guard(py, || {
         let (p, q) = (fixed_rows(&p, "p", &[4])?, fixed_rows(&q, "q", &[4])?);
-        let (pv, qv, np, nq) = (p.values(), q.values(), p.n, q.n);
+        let (pv, qv) = (p.values(), q.values());
         let r = py.detach(|| core::compose_many(pv, qv)).py_err(py)?;
-        shaped(py, &[np.max(nq), 4], r)
+        // the engine's pairing decides the rows (one row with none is none)
+        shaped(py, &[r.len() / 4, 4], r)
     })
 }
 
@@ -127,9 +128,9 @@ fn quat_apply<'py>(
 ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
     guard(py, || {
         let (q, v) = (fixed_rows(&q, "q", &[4])?, fixed_rows(&v, "v", &[3])?);
-        let (qv, vv, nq, nv) = (q.values(), v.values(), q.n, v.n);
+        let (qv, vv) = (q.values(), v.values());
         let r = py.detach(|| core::apply_many(qv, vv, inverse)).py_err(py)?;
-        shaped(py, &[nq.max(nv), 3], r)
+        shaped(py, &[r.len() / 3, 3], r)
     })
 }
 

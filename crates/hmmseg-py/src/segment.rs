@@ -145,11 +145,10 @@ fn rising_band<'py>(
             min_rise,
             dominance,
         };
+        let band = Band::new(b, max_len).py_err(py)?;
+        check_table(py, "n_runs (rise decisions)", &[band.n_runs()], 1)?;
         let r = py
-            .detach(|| {
-                let band = Band::new(b, max_len)?;
-                hmmseg::segment::rising_band(&z, &band, params)
-            })
+            .detach(|| hmmseg::segment::rising_band(&z, &band, params))
             .py_err(py)?;
         Ok(PyArray1::from_vec(py, r))
     })
@@ -182,8 +181,8 @@ impl PyTemplateSet {
     fn train(
         py: Python<'_>,
         skills: Vec<String>,
-        features: Vec<(String, i128, i128)>,
-        examples: Vec<(i128, Bound<'_, PyAny>)>,
+        features: Vec<(String, Bound<'_, PyAny>, Bound<'_, PyAny>)>,
+        examples: Vec<(Bound<'_, PyAny>, Bound<'_, PyAny>)>,
         params_json: Option<&str>,
     ) -> PyResult<Self> {
         guard(py, || {
@@ -197,8 +196,8 @@ impl PyTemplateSet {
                 .map(|(i, (name, start, end))| {
                     Ok(FeatureGroup {
                         name,
-                        start: count(py, start, &format!("features[{i}] start"), 0)?,
-                        end: count(py, end, &format!("features[{i}] end"), 0)?,
+                        start: count(py, int_arg(&start)?, &format!("features[{i}] start"), 0)?,
+                        end: count(py, int_arg(&end)?, &format!("features[{i}] end"), 0)?,
                     })
                 })
                 .collect::<PyResult<_>>()?;
@@ -207,7 +206,7 @@ impl PyTemplateSet {
                 .enumerate()
                 .map(|(i, (s, x))| {
                     Ok((
-                        count(py, *s, &format!("examples[{i}] skill"), 0)?,
+                        count(py, int_arg(s)?, &format!("examples[{i}] skill"), 0)?,
                         matrix(x, &format!("examples[{i}] observations"), OBS)?,
                     ))
                 })

@@ -9,6 +9,7 @@ use numpy::{
 use pyo3::prelude::*;
 
 use crate::errors::{guard, invalid, shape, IntoPyResult};
+use crate::limits::check_table;
 use crate::ndconv::{bool_matrix, count, int_arg, py_shape, readonly, shaped, vector};
 
 /// A float64 array `(n, ...)` read as row-major values: in place when it is C-contiguous, else
@@ -222,6 +223,12 @@ fn cubic_spline<'py>(
             return Err(shape(py, format!("y has {m} rows for {} knots", t.len())));
         }
         let c = trailing.iter().product();
+        check_table(
+            py,
+            "len(at) x columns of y (spline values)",
+            &[at.len(), c],
+            8,
+        )?;
         let out = py
             .detach(|| core::CubicSpline::new(&t, v, c).map(|s| s.eval(&at)))
             .py_err(py)?;
@@ -263,6 +270,12 @@ fn resample_columns<'py>(
                 ));
             }
         }
+        check_table(
+            py,
+            "len(td) x columns of x (resampled values)",
+            &[td.len(), c],
+            8,
+        )?;
         let xs = xa.as_slice().map_err(|e| shape(py, format!("x: {e}")))?;
         let ws = match &wa {
             Some((w, _, _)) => Some(

@@ -10,6 +10,7 @@ pub mod dtw;
 pub mod error;
 pub mod features;
 pub mod hmm;
+pub mod limits;
 pub mod normalize;
 pub mod options;
 pub mod rotation;

@@ -326,17 +326,21 @@ fn pairs(p: &[f64], q: &[f64]) -> Result<(usize, usize, usize)> {
         check_rows(p, 4, "quaternions p")?,
         check_rows(q, 4, "quaternions q")?,
     );
-    let n = match (np, nq) {
-        (a, b) if a == b => a,
-        (1, b) => b,
-        (a, 1) => a,
-        (a, b) => {
-            return Err(EngineError::ShapeMismatch(format!(
-                "cannot pair {a} rotations with {b} rotations"
-            )))
-        }
-    };
+    let n = broadcast(np, nq).ok_or_else(|| {
+        EngineError::ShapeMismatch(format!("cannot pair {np} rotations with {nq} rotations"))
+    })?;
     Ok((n, usize::from(np != 1), usize::from(nq != 1)))
+}
+
+/// Rows of the result of pairing `a` rows with `b` rows (numpy broadcasting: equal counts, or
+/// one of them a single row, which pairs with every row of the other, none included).
+fn broadcast(a: usize, b: usize) -> Option<usize> {
+    match (a, b) {
+        (a, b) if a == b => Some(a),
+        (1, b) => Some(b),
+        (a, 1) => Some(a),
+        _ => None,
+    }
 }
 
 fn row4(v: &[f64], i: usize) -> Quat {
@@ -371,12 +375,9 @@ pub fn apply_many(q: &[f64], v: &[f64], inverse: bool) -> Result<Vec<f64>> {
         check_rows(q, 4, "quaternions")?,
         check_rows(v, 3, "vectors")?,
     );
-    if nq != nv && nq != 1 && nv != 1 {
-        return Err(EngineError::ShapeMismatch(format!(
-            "cannot apply {nq} rotations to {nv} vectors"
-        )));
-    }
-    let n = nq.max(nv);
+    let n = broadcast(nq, nv).ok_or_else(|| {
+        EngineError::ShapeMismatch(format!("cannot apply {nq} rotations to {nv} vectors"))
+    })?;
     let mut out = Vec::with_capacity(n * 3);
     for i in 0..n {
         let a = row4(q, if nq == 1 { 0 } else { i });
@@ -568,5 +569,24 @@ mod tests {
         assert_eq!(&c[4..8], &[-0.0, -0.0, -0.1, 1.0]);
         assert!(compose_many(&q, &q[..4]).is_ok());
         assert!(compose_many(&q, &flips).is_err());
+    }
+
+    #[test]
+    fn a_single_row_broadcasts_over_none() {
+        // one rotation paired with no rows gives no rows (found by the binding fuzzer: the
+        // vectors were indexed at row 0 of an empty array)
+        let one = [0.0, 0.0, 0.0, 1.0];
+        assert_eq!(
+            apply_many(&[], &[1.0, 2.0, 3.0], false).unwrap(),
+            Vec::<f64>::new()
+        );
+        assert_eq!(apply_many(&one, &[], true).unwrap(), Vec::<f64>::new());
+        assert_eq!(compose_many(&one, &[]).unwrap(), Vec::<f64>::new());
+        assert_eq!(compose_many(&[], &one).unwrap(), Vec::<f64>::new());
+        assert!(apply_many(&[], &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0], false).is_err());
+        assert_eq!(
+            apply_many(&one, &[1.0, 2.0, 3.0], false).unwrap(),
+            vec![1.0, 2.0, 3.0]
+        );
     }
 }

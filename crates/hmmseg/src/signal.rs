@@ -17,6 +17,7 @@
 use rayon::prelude::*;
 
 use crate::error::{EngineError, Result};
+use crate::limits::{at_most, MAX_COEFFICIENTS};
 
 /// A complex number with numpy's arithmetic (multiplication without fused operations, Smith's
 /// division as numpy's `divide` loop).
@@ -159,8 +160,19 @@ fn poly(roots: &[C]) -> Vec<C> {
     a
 }
 
-/// Normalised, equally long copies of `b` and `a` (`a[0] = 1`), as scipy's filters use them.
+/// Normalised, equally long copies of `b` and `a` (`a[0] = 1`), as scipy's filters use them;
+/// more than [`MAX_COEFFICIENTS`] of either is an [`EngineError::InvalidParameter`].
 fn normalized(b: &[f64], a: &[f64]) -> Result<(Vec<f64>, Vec<f64>)> {
+    at_most(
+        b.len(),
+        MAX_COEFFICIENTS,
+        "the number of filter coefficients b",
+    )?;
+    at_most(
+        a.len(),
+        MAX_COEFFICIENTS,
+        "the number of filter coefficients a",
+    )?;
     let first = a.iter().position(|&v| v != 0.0).ok_or_else(|| {
         EngineError::InvalidParameter("there must be at least one nonzero `a` coefficient".into())
     })?;
@@ -1152,6 +1164,23 @@ fn scatter<T: Copy>(out: &mut [T], c: usize, j0: usize, bufs: &[Vec<T>]) {
 #[allow(clippy::float_cmp)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn filters_with_too_many_coefficients_are_refused() {
+        let long = vec![0.5; MAX_COEFFICIENTS + 1];
+        let refused = |r: Result<Vec<f64>>| {
+            assert!(
+                matches!(&r, Err(EngineError::InvalidParameter(m)) if m.contains("at most 1024")),
+                "{r:?}"
+            );
+        };
+        refused(lfilter_zi(&long, &[1.0]));
+        refused(lfilter_zi(&[1.0], &long));
+        refused(filtfilt(&long, &[1.0], &[0.0; 4], 4, 1, 0));
+        refused(filtfilt_runs(&[1.0], &long, &[0.0; 4], &[true; 4], 4, 1, 0).map(|r| r.0));
+        let ok = vec![1.0 / MAX_COEFFICIENTS as f64; MAX_COEFFICIENTS];
+        assert_eq!(lfilter_zi(&ok, &[1.0]).unwrap().len(), MAX_COEFFICIENTS - 1);
+    }
 
     #[test]
     fn butter_matches_scipy_order_4() {

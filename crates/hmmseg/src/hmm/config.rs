@@ -3,8 +3,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::limits::checked_elements;
 use crate::error::{EngineError, Result};
+use crate::limits::{at_most, checked_elements, MAX_ITER};
 
 /// Shape of every covariance matrix of the emission Gaussians.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
@@ -48,10 +48,12 @@ pub struct FitConfig {
     pub topology: Topology,
     /// Seed of the k-means initialisation (same seed, same data -> same model, bit for bit).
     pub seed: u64,
-    /// Maximum number of EM iterations (M-steps). 0 returns the initial model.
+    /// Maximum number of EM iterations (M-steps), at most [`MAX_ITER`]. 0 returns the initial
+    /// model.
     pub max_iter: usize,
-    /// Stop when the total log-likelihood improves by less than this between two iterations.
-    /// A negative value (or `-inf`) runs exactly `max_iter` iterations.
+    /// Stop when the total log-likelihood improves by less than this between two iterations
+    /// (`>= 0`); `-inf` runs exactly `max_iter` iterations. Any other negative value, NaN and
+    /// `+inf` are refused.
     pub tol: f64,
     /// Lower bound on every eigenvalue of every covariance (diag: on every variance).
     pub covariance_floor: f64,
@@ -122,11 +124,12 @@ impl FitConfig {
         Ok(())
     }
 
-    /// Check the options EM itself uses (`tol`, `covariance_floor`).
+    /// Check the options EM itself uses (`max_iter`, `tol`, `covariance_floor`).
     pub(crate) fn validate_em(&self) -> Result<()> {
-        if self.tol.is_nan() || self.tol == f64::INFINITY {
+        at_most(self.max_iter, MAX_ITER, "max_iter")?;
+        if !((self.tol >= 0.0 && self.tol.is_finite()) || self.tol == f64::NEG_INFINITY) {
             return Err(EngineError::InvalidParameter(format!(
-                "tol must be a number below +inf, got {}",
+                "tol must be a finite number >= 0 (or -inf: exactly max_iter iterations), got {}",
                 self.tol
             )));
         }
@@ -199,6 +202,23 @@ mod tests {
                 ..FitConfig::default()
             },
             FitConfig {
+                tol: -1.0,
+                ..FitConfig::default()
+            },
+            FitConfig {
+                tol: f64::INFINITY,
+                ..FitConfig::default()
+            },
+            FitConfig {
+                max_iter: MAX_ITER + 1,
+                ..FitConfig::default()
+            },
+            FitConfig {
+                max_iter: 1 << 40,
+                tol: -1.0,
+                ..FitConfig::default()
+            },
+            FitConfig {
                 covariance_floor: 0.0,
                 ..FitConfig::default()
             },
@@ -215,8 +235,14 @@ mod tests {
         }
         let neg = FitConfig {
             tol: f64::NEG_INFINITY,
+            max_iter: MAX_ITER,
             ..FitConfig::default()
         };
         assert!(neg.validate().is_ok());
+        let zero = FitConfig {
+            tol: 0.0,
+            ..FitConfig::default()
+        };
+        assert!(zero.validate().is_ok());
     }
 }

@@ -14,9 +14,10 @@
 //! `emission` (Gaussian mixtures and their precomputed constants), `forward` (the recursions),
 //! `score` (fixed-size fast path of the forward log-likelihood for up to 8 states), `fastexp`
 //! (a vectorisable `exp`), `simd` (runtime AVX2/FMA dispatch, the engine's only `unsafe`),
-//! `limits` (the size limit [`MAX_ELEMENTS`] checked before allocating), `train` (Baum-Welch), `init` (seeded k-means / uniform
+//! `train` (Baum-Welch), `init` (seeded k-means / uniform
 //! segmentation start), `kmeans`, `moments` (means, covariances, the covariance floor),
-//! `sample` (drawing sequences), `validate` (input checks).
+//! `sample` (drawing sequences), `validate` (input checks); the size and iteration limits
+//! ([`MAX_ELEMENTS`], [`MAX_ITER`]) are [`crate::limits`].
 //!
 //! ```
 //! use hmmseg::hmm::{FitConfig, Hmm};
@@ -38,7 +39,6 @@ mod fastexp;
 mod forward;
 mod init;
 mod kmeans;
-mod limits;
 mod model;
 mod moments;
 mod sample;
@@ -47,7 +47,7 @@ pub(crate) mod simd;
 mod train;
 mod validate;
 
+pub use crate::limits::{MAX_ELEMENTS, MAX_ITER};
 pub use config::{CovarianceType, FitConfig, FitReport, Topology};
 pub(crate) use emission::Emission;
-pub use limits::MAX_ELEMENTS;
 pub use model::{Hmm, HmmParams, FORMAT_VERSION};

@@ -7,10 +7,10 @@ use serde::{Deserialize, Serialize};
 use super::config::CovarianceType;
 use super::emission::Emission;
 use super::forward::{self, Chain, Workspace};
-use super::limits::checked_elements;
 use super::score;
 use super::validate::{check_sequence, check_stochastic};
 use crate::error::{EngineError, Result};
+use crate::limits::checked_elements;
 
 /// Version written into every serialised model; [`Hmm::from_json`] rejects any other.
 pub const FORMAT_VERSION: u32 = 1;

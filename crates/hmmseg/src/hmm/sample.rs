@@ -4,9 +4,9 @@ use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::limits::checked_elements;
 use super::model::Hmm;
 use crate::error::{EngineError, Result};
+use crate::limits::checked_elements;
 
 /// Index drawn from the probability vector `p` (the last index absorbs rounding).
 fn categorical(p: impl Iterator<Item = f64>, rng: &mut ChaCha8Rng) -> usize {
