@@ -15,11 +15,27 @@ import os
 import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
+from typing import TextIO
 
 from .errors import UsageError
 
 STDOUT = "-"
 """The path that means standard output, where a command allows it."""
+
+
+def stdout(what: str = "output") -> TextIO:
+    """``sys.stdout``, refused with :class:`UsageError` when standard output is closed
+    (``lfd ... --json - >&-``: Python then has no ``sys.stdout`` at all)."""
+    import sys
+
+    out = sys.stdout
+    try:
+        if out is None:
+            raise ValueError("no sys.stdout")
+        os.fstat(out.fileno())
+    except (OSError, ValueError, AttributeError):
+        raise UsageError(f"{what} -: standard output is closed; give a file name") from None
+    return out
 
 
 def check_output(
@@ -59,6 +75,7 @@ def check_output(
     p = Path(path)
     if str(path) == STDOUT:
         if allow_stdout:
+            stdout(what)
             return p
         raise UsageError(f"{what}: '-' (standard output) is not supported here; give a file name")
     if str(path) == "":
@@ -127,10 +144,9 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
 def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:
     """Write ``text`` (UTF-8) to ``path`` atomically; ``-`` writes to standard output."""
     if str(path) == STDOUT:
-        import sys
-
-        sys.stdout.write(text if text.endswith("\n") else text + "\n")
-        sys.stdout.flush()
+        out = stdout()
+        out.write(text if text.endswith("\n") else text + "\n")
+        out.flush()
         return
     atomic_write_bytes(path, text.encode("utf-8"))
 

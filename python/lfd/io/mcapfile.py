@@ -210,7 +210,9 @@ def scan(path: str | os.PathLike[str]) -> RawRecording:
     from mcap.records import Channel, DataEnd, Footer, Message, Metadata, Schema
     from mcap.stream_reader import StreamReader
 
-    p = os.fspath(path)
+    from ..inputs import check_input_file
+
+    p = check_input_file(path, "recording", RecordingFormatError)
     try:
         size = os.path.getsize(p)
         f = open(p, "rb")
@@ -339,9 +341,10 @@ def read(
         As :func:`scan`.
     """
     from .._hmmseg import read_recording
+    from ..inputs import check_input_file
 
     keep = None if topics is None else list(topics)
-    doc = read_recording(os.fspath(path), images, keep)
+    doc = read_recording(check_input_file(path, "recording", RecordingFormatError), images, keep)
     raw = RawRecording(
         path=os.fspath(path),
         file_size=int(doc["file_size"]),
@@ -389,8 +392,9 @@ def read_summary(
         Not an MCAP file, or as :func:`scan` for the chunks it reads.
     """
     from .._hmmseg import read_summary as engine_summary
+    from ..inputs import check_input_file
 
-    doc = engine_summary(os.fspath(path), list(topics))
+    doc = engine_summary(check_input_file(path, "recording", RecordingFormatError), list(topics))
     if doc is None:
         return None
     return Summary(
