@@ -300,7 +300,11 @@ def test_export_every_input_broken(tmp_path: Path, capsys: pytest.CaptureFixture
         err = capsys.readouterr().err
         assert status == 2, err
         assert "Traceback" not in err, err
-        assert all(line.startswith("lfd export: error: ") for line in err.splitlines()), err
+        lines = err.splitlines()
+        assert all(
+            line.startswith(("lfd export: error: ", "lfd export: warning: ")) for line in lines
+        ), err
+        assert lines[-1] == "lfd export: error: no recording could be exported (3 failed)", err
         assert not (tmp_path / "ds").exists()
 
 

@@ -245,8 +245,9 @@ def _run_pool(
 
     A worker that dies (a crash in native code) takes the pool down with the items in flight:
     those (at most ``jobs``) are each retried in a process of their own, so only the one that
-    crashes fails, and the items not yet started go on in a new pool. If nothing had finished
-    and the first retry dies too, no worker can run at all: the rest fail at once."""
+    crashes fails, and the items not yet started go on in a new pool. If every one of those
+    retries dies too and no item has run to its end yet, no worker can run at all: the rest
+    fail at once."""
     import multiprocessing
     from collections import deque
 
@@ -261,14 +262,13 @@ def _run_pool(
     todo = deque(range(len(items)))
     while todo:
         lost = _pool_pass(func, items, todo, jobs, ctx, finish)
-        nothing_ran = all(r is None for r in results)
-        for n, i in enumerate(lost):
-            res = _run_alone(func, items[i], ctx)
-            if n == 0 and nothing_ran and res.error == WORKER_DIED:
-                for j in [*lost, *todo]:
-                    finish(j, ItemResult(items[j], error=f"{WORKER_DIED}; no worker could run"))
-                todo.clear()
-                break
+        alone = {i: _run_alone(func, items[i], ctx) for i in lost}
+        ran = any(r is not None and r.error != WORKER_DIED for r in results)
+        if alone and not ran and all(r.error == WORKER_DIED for r in alone.values()):
+            for j in [*lost, *todo]:  # every worker so far died, even alone: none can run
+                finish(j, ItemResult(items[j], error=f"{WORKER_DIED}; no worker could run"))
+            break
+        for i, res in alone.items():
             finish(i, res)
     return [
         r if r is not None else ItemResult(items[i], error="not run") for i, r in enumerate(results)

@@ -22,8 +22,8 @@ from .errors import LfdError, UsageError
 __all__ = ["MAX_TEXT_BYTES", "check_input_file", "parse_json", "parse_toml", "read_text"]
 
 MAX_TEXT_BYTES = 64 * 2**20
-"""Largest text input (labels, mappings, sidecars, templates) read: 64 MiB. The shipped
-templates are 0.3 MB and the labels of an hour-long recording about 1 MB."""
+"""Largest text input (labels, mappings, sidecars, templates) read: 64 MiB, far more than any
+such file lfd writes (the shipped templates are 52 KB)."""
 
 _KINDS = (
     (stat.S_ISFIFO, "a FIFO (named pipe)"),

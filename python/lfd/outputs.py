@@ -29,12 +29,17 @@ def stdout(what: str = "output") -> TextIO:
     import sys
 
     out = sys.stdout
+    closed = UsageError(f"{what} -: standard output is closed; give a file name")
+    if out is None or getattr(out, "closed", False):
+        raise closed
     try:
-        if out is None:
-            raise ValueError("no sys.stdout")
-        os.fstat(out.fileno())
+        fd = out.fileno()
     except (OSError, ValueError, AttributeError):
-        raise UsageError(f"{what} -: standard output is closed; give a file name") from None
+        return out  # not a file descriptor (a caller's stream, a test's capture): writable
+    try:
+        os.fstat(fd)
+    except OSError:
+        raise closed from None
     return out
 
 

@@ -191,8 +191,13 @@ class Follower:
 
     @property
     def hand_side(self) -> str:
-        """The hand side the ``demo`` metadata names (``right`` when not known yet)."""
-        return self.metadata.get(T.DEMO_METADATA, {}).get("hand_side", "right")
+        """The hand side the ``demo`` metadata names, else that of the hand topic seen so far
+        (right before left, as :func:`lfd.load`), else ``right``."""
+        named = self.metadata.get(T.DEMO_METADATA, {}).get("hand_side")
+        if named in T.HAND_SIDES:
+            return str(named)
+        seen = {T.hand_side_from_topic(t) for t in self.topics.values()}
+        return next((s for s in T.HAND_SIDES if s in seen), "right")
 
     def __iter__(self) -> Iterator[LiveMessage]:
         if self._started:

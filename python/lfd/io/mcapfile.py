@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import dataclasses
 import io
-import json
 import os
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -107,15 +106,14 @@ class Records:
 
     def json_metadata(self, record: str, key: str, default: Any = None) -> Any:
         """A JSON value stored under ``key`` of the metadata record ``record``."""
+        from ..inputs import parse_json
+
         text = self.metadata.get(record, {}).get(key)
         if text is None:
             return default
-        try:
-            return json.loads(text)
-        except json.JSONDecodeError as err:
-            raise RecordingFormatError(
-                f"{self.path}: metadata {record}/{key} is not valid JSON: {err}"
-            ) from err
+        return parse_json(
+            text, f"{self.path}: metadata {record}/{key} is not valid JSON", RecordingFormatError
+        )
 
     def describe_topics(self) -> str:
         """One line listing the topics with their message counts."""
