@@ -37,7 +37,9 @@ def _decode(path: PathLike, what: str, flags: int) -> np.ndarray:
     """The decoded image file (OpenCV ``flags``), or a one-line error naming it."""
     import cv2
 
-    p = Path(path)
+    from ...inputs import check_input_file
+
+    p = Path(check_input_file(path, what, LfdError))  # a FIFO or a device: refused
     if not p.is_file():
         raise LfdError(f"{p}: {what} not found")
     data = np.fromfile(p, np.uint8)
