@@ -152,8 +152,15 @@ def test_refuses_non_empty_directory_and_overwrites_on_request(tmp_path: Path) -
     with pytest.raises(UsageError, match="not empty"):
         export_lerobot([RECORDINGS[0]], out)
     assert (out / "keep.txt").read_text() == "mine"
+    # --overwrite replaces a dataset only, never a directory of the user's (issue 30)
+    with pytest.raises(UsageError, match="not a LeRobot dataset"):
+        export_lerobot([RECORDINGS[0]], out, overwrite=True)
+    assert (out / "keep.txt").read_text() == "mine"
+    (out / "keep.txt").unlink()
+    (out / "meta").mkdir()
+    (out / "meta" / "info.json").write_text("{}")
     export_lerobot([RECORDINGS[0]], out, overwrite=True)
-    assert not (out / "keep.txt").exists() and (out / "meta" / "info.json").is_file()
+    assert (out / "meta" / "info.json").read_text() != "{}"
     assert [p.name for p in tmp_path.iterdir()] == ["ds"]  # no temporary directory left
 
 

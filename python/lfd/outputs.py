@@ -6,14 +6,21 @@ directory), then writes through :func:`atomic_output` (or :func:`atomic_write_te
 goes to a temporary file beside the destination, which replaces the destination by an atomic
 rename only once it is complete. A failed or interrupted command therefore leaves either the old
 file or none, never a half-written one, and two runs writing the same file cannot interleave.
+
+An input is every file the command reads (:func:`lfd.io.inputs.read_paths` lists them: the
+files it is given, each one's object-size sidecar ``REC.sizes.toml`` and, for a file of a ROS 2
+bag or the bag directory, the whole directory): no output may land on one, nor inside a bag
+directory being read (a :class:`ReadPath` with ``tree``).
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import tempfile
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
 
@@ -43,13 +50,70 @@ def stdout(what: str = "output") -> TextIO:
     return out
 
 
+@dataclass(frozen=True)
+class ReadPath:
+    """A path a command reads (:func:`lfd.io.inputs.read_paths` lists them); a plain path given
+    as an input is ``ReadPath(path)``."""
+
+    path: str
+    """As given (or derived: the sidecar, the bag directory)."""
+    why: str = ""
+    """Why it is an input when it was not given itself (``the object sizes of e1.mcap``)."""
+    tree: bool = False
+    """A directory read as a whole (a ROS 2 bag): nothing may be written inside it."""
+
+
+def same_file(p: str | os.PathLike[str], q: str | os.PathLike[str]) -> bool:
+    """Whether ``p`` and ``q`` name the same file (however spelled, through links)."""
+    if os.path.realpath(p) == os.path.realpath(q):
+        return True
+    try:
+        return os.path.samefile(p, q)  # hard links
+    except OSError:
+        return False
+
+
+def _inside(p: str | os.PathLike[str], tree: str | os.PathLike[str]) -> bool:
+    return os.path.realpath(p).startswith(os.path.realpath(tree).rstrip(os.sep) + os.sep)
+
+
+Inputs = Iterable[str | os.PathLike[str] | ReadPath | None]
+"""What a command reads: paths (None skipped), or :class:`ReadPath` s that say more."""
+
+
+def _read(inputs: Inputs) -> list[ReadPath]:
+    return [
+        i if isinstance(i, ReadPath) else ReadPath(os.fspath(i))
+        for i in inputs
+        if i is not None
+        and not (isinstance(i, (str, os.PathLike)) and os.fspath(i) in ("", STDOUT))
+    ]
+
+
+def input_clash(path: str | os.PathLike[str], inputs: Inputs) -> str | None:
+    """Why writing ``path`` would damage an input, or None: it is one, or it lies inside a bag
+    directory being read (a ``tree``). The message starts after the path."""
+    p = Path(path)
+    for r in _read(inputs):
+        why = f" ({r.why})" if r.why else ""
+        if same_file(p, r.path):
+            return f"is also an input{why}; refusing to overwrite it"
+        if r.tree and _inside(p, r.path):
+            return (
+                f"is inside {r.path}, a ROS bag directory being read{why}; refusing to write "
+                "into it"
+            )
+    return None
+
+
 def check_output(
     path: str | os.PathLike[str],
     *,
-    inputs: Iterable[str | os.PathLike[str]] = (),
+    inputs: Inputs = (),
     what: str = "output",
     allow_stdout: bool = False,
     suffixes: Iterable[str] = (),
+    overwrite: bool = True,
 ) -> Path:
     """Refuse an output destination that cannot be written, before any work is done.
 
@@ -57,14 +121,18 @@ def check_output(
     ----------
     path : path-like
         The requested output file.
-    inputs : iterable of path-like
-        Files the command reads; the output may be none of them.
+    inputs : iterable of path-like or ReadPath
+        What the command reads (:func:`lfd.io.inputs.read_paths` adds the sidecars and bag
+        directories of its files); the output may be none of them, nor lie in a bag directory
+        being read (:func:`input_clash`).
     what : str
         How the error message names the output (e.g. ``"--json"``).
     allow_stdout : bool
         Whether ``-`` (standard output) is allowed.
     suffixes : iterable of str
         Allowed file extensions (e.g. ``(".json",)``); empty: any.
+    overwrite : bool
+        Whether an existing file may be replaced (False: ``--overwrite`` was not given).
 
     Returns
     -------
@@ -74,8 +142,8 @@ def check_output(
     Raises
     ------
     UsageError
-        The destination is an input, a directory, in a missing or read-only directory, or has an
-        extension not in ``suffixes``.
+        The destination is an input, a directory, in a missing or read-only directory, has an
+        extension not in ``suffixes``, or exists without ``overwrite``.
     """
     p = Path(path)
     if str(path) == STDOUT:
@@ -85,11 +153,9 @@ def check_output(
         raise UsageError(f"{what}: '-' (standard output) is not supported here; give a file name")
     if str(path) == "":
         raise UsageError(f"{what}: empty file name")
-    for inp in inputs:
-        q = Path(inp)
-        same = q.exists() and p.exists() and os.path.samefile(p, q)
-        if same or p.resolve() == q.resolve():
-            raise UsageError(f"{what} {p} is also an input; refusing to overwrite it")
+    clash = input_clash(p, inputs)
+    if clash:
+        raise UsageError(f"{what} {p} {clash}")
     if p.is_dir():
         raise UsageError(f"{what} {p} is a directory; give a file name")
     allowed = tuple(s.lower() for s in suffixes)
@@ -104,7 +170,27 @@ def check_output(
         raise UsageError(f"{what} {p}: directory {parent} is not writable")
     if p.exists() and not os.access(p, os.W_OK):
         raise UsageError(f"{what} {p} exists and is read-only")
+    if p.exists() and not overwrite:
+        raise UsageError(f"{what} {p} exists; pass --overwrite to replace it")
     return p
+
+
+@contextlib.contextmanager
+def signals_held() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM (Ctrl+C, a kill) in this thread while the block cleans up: a
+    signal that arrives meanwhile is delivered after it (and interrupts then), so a cleanup is
+    never left half done. Where signals cannot be masked, nothing is held."""
+    import signal
+
+    try:
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    except (AttributeError, OSError, ValueError):
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 @contextlib.contextmanager
@@ -190,34 +276,42 @@ class PendingOutput:
 def check_output_dir(
     path: str | os.PathLike[str],
     *,
-    inputs: Iterable[str | os.PathLike[str]] = (),
+    inputs: Inputs = (),
     what: str = "output",
     overwrite: bool = False,
+    replaceable: Callable[[Path], str | None] | None = None,
 ) -> Path:
     """Refuse an output directory that cannot be written, before any work is done.
 
     The directory may be missing (it is created) or empty; a non-empty one only with
-    ``overwrite``, and never one that holds an input (replacing it would delete the input).
+    ``overwrite``, and only when ``replaceable(path)`` has nothing against it (returns None,
+    else why not: e.g. it holds files the command did not write). It may never be an input,
+    lie inside a bag directory being read, or hold an input (replacing it would delete the
+    input; see :func:`check_output`'s ``inputs``).
 
     Raises
     ------
     UsageError
-        The path is a file, non-empty without ``overwrite``, holds an input, or its parent is
-        missing or read-only.
+        The path is a file, an input, inside a bag being read, non-empty without ``overwrite``
+        or not ``replaceable``, holds an input, or its parent is missing or read-only.
     """
     p = Path(path)
     if str(path) in ("", STDOUT):
         raise UsageError(f"{what}: give a directory name")
+    clash = input_clash(p, inputs)
+    if clash:
+        raise UsageError(f"{what} {p} {clash}")
     if p.exists() and not p.is_dir():
         raise UsageError(f"{what} {p} is a file; give a directory")
     if p.is_dir() and any(p.iterdir()):
         if not overwrite:
             raise UsageError(f"{what} {p} is not empty; pass --overwrite to replace it")
-        root = p.resolve()
-        for inp in inputs:
-            q = Path(inp).resolve()
-            if q == root or root in q.parents:
-                raise UsageError(f"{what} {p} holds the input {inp}; refusing to replace it")
+        for r in _read(inputs):
+            if _inside(r.path, p):
+                raise UsageError(f"{what} {p} holds the input {r.path}; refusing to replace it")
+        reason = replaceable(p) if replaceable is not None else None
+        if reason:
+            raise UsageError(f"{what} {p}: {reason}; refusing to replace it with --overwrite")
     parent = p.resolve().parent
     if not parent.is_dir():
         raise UsageError(f"{what} {p}: directory {parent} does not exist")
@@ -227,14 +321,26 @@ def check_output_dir(
 
 
 @contextlib.contextmanager
-def atomic_directory(path: str | os.PathLike[str]) -> Iterator[Path]:
+def atomic_directory(
+    path: str | os.PathLike[str],
+    *,
+    overwrite: bool = True,
+    replaceable: Callable[[Path], str | None] | None = None,
+    what: str = "output",
+) -> Iterator[Path]:
     """:func:`atomic_output` for a directory: yield a path beside ``path`` to create and fill.
 
     The yielded path does not exist yet (the caller creates it, e.g. a library that insists on
     a new directory); it lies in a temporary directory ``.<name>.*.partial`` beside ``path``. On
-    success it replaces ``path`` (an existing directory is moved aside first and removed only
-    after the rename); on an exception the temporary directory is removed and ``path`` is left
-    as it was.
+    success it replaces ``path``; on an exception the temporary directory is removed and
+    ``path`` is left as it was.
+
+    A non-empty ``path`` found at the end (it may have appeared while the directory was being
+    written: another run writing the same one) is replaced only with ``overwrite`` and when
+    ``replaceable(path)`` returns None (see :func:`check_output_dir`); it is moved aside first
+    and removed only after the rename. Without ``overwrite`` the rename itself refuses it
+    (a directory is never renamed onto a non-empty one), with a :class:`UsageError`: the
+    other run's directory is kept, this one is discarded.
     """
     import shutil
 
@@ -243,11 +349,26 @@ def atomic_directory(path: str | os.PathLike[str]) -> Iterator[Path]:
     holder = Path(tempfile.mkdtemp(prefix=f".{dest.name}.", suffix=".partial", dir=parent))
     new = holder / dest.name
     old: Path | None = None
+    appeared = UsageError(
+        f"{what} {dest} appeared while this one was written (another run writing it?); kept "
+        "it and discarded this one; pass --overwrite to replace it"
+    )
     try:
         yield new
         if not new.is_dir():
             raise FileNotFoundError(f"{new} was not created")
+        if not overwrite:
+            try:
+                os.rename(new, dest)  # onto a missing or empty directory only
+            except OSError as err:
+                if err.errno in (errno.ENOTEMPTY, errno.EEXIST, errno.ENOTDIR, errno.EISDIR):
+                    raise appeared from None
+                raise
+            return
         if dest.is_dir() and any(dest.iterdir()):
+            reason = replaceable(dest) if replaceable is not None else None
+            if reason:
+                raise UsageError(f"{what} {dest}: {reason}; refusing to replace it")
             old = holder / ".old"
             os.replace(dest, old)
         try:
@@ -257,4 +378,5 @@ def atomic_directory(path: str | os.PathLike[str]) -> Iterator[Path]:
                 os.replace(old, dest)
             raise
     finally:
-        shutil.rmtree(holder, ignore_errors=True)
+        with signals_held():  # a second Ctrl+C does not leave half of it behind
+            shutil.rmtree(holder, ignore_errors=True)

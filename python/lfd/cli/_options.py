@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from typing import Any, get_args
 
 
@@ -109,12 +110,58 @@ def capped(rows: Sequence[Any], skills: Iterable[str]) -> tuple[Sequence[Any], s
     )
 
 
+INPUT_OPTIONS = ("templates", "map", "labels", "base", "task", "intrinsics", "depth", "init",
+                 "hand_model")  # fmt: skip
+"""Options (``args`` attributes) that name files a command reads, where it has them."""
+
+
+def read_files(args: argparse.Namespace, *given: Any) -> list[Any]:
+    """Every path a command reads, for :func:`lfd.outputs.check_output`'s ``inputs``: ``given``
+    (its recordings, bags, images...; None skipped) and the existing paths its
+    :data:`INPUT_OPTIONS` name (``--templates``, ``--map``, ``--from`` ...), with their
+    sidecars and bag directories (:func:`lfd.io.inputs.read_paths`)."""
+    from ..io.inputs import read_paths
+
+    out = list(given)
+    for option in INPUT_OPTIONS:
+        value = getattr(args, option, None)
+        for v in value if isinstance(value, (list, tuple)) else [value]:
+            if isinstance(v, (str, os.PathLike)) and os.path.exists(v):
+                out.append(os.fspath(v))
+    return read_paths(out)
+
+
 def check_json(args: argparse.Namespace, inputs: Iterable[str | os.PathLike[str]]) -> None:
-    """Refuse an unusable ``--json`` destination before any work (see :func:`check_output`)."""
+    """Refuse an unusable ``--json`` destination before any work (see :func:`check_output`):
+    ``inputs`` and every file of :func:`read_files` count as inputs."""
     from ..outputs import check_output
 
     if getattr(args, "json", None) is not None:
-        check_output(args.json, inputs=inputs, what="--json", allow_stdout=True)
+        reads = read_files(args, *inputs)
+        check_output(args.json, inputs=reads, what="--json", allow_stdout=True)
+
+
+@contextlib.contextmanager
+def sigterm_interrupts() -> Iterator[None]:
+    """While in the block, SIGTERM raises KeyboardInterrupt as Ctrl+C does (in the main
+    thread; elsewhere nothing changes): the command cleans up and exits 130."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def on_term(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGTERM, on_term)
+    old_int = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
+        signal.signal(signal.SIGINT, old_int)
 
 
 def json_text(doc: Any) -> str:

@@ -90,10 +90,12 @@ def check_rerun_args(
         not an IP address.
     """
     from ..outputs import check_output
+    from ._options import read_files
 
     save = getattr(args, "rerun_save", None)
     if save is not None:
-        check_output(save, inputs=inputs, what="--rerun-save", suffixes=(".rrd",))
+        reads = read_files(args, *inputs)
+        check_output(save, inputs=reads, what="--rerun-save", suffixes=(".rrd",))
     url = getattr(args, "rerun_connect", None)
     if url is not None:
         check_viewer_url(url, what="--rerun-connect")

@@ -24,7 +24,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "-o", "--output", required=True, metavar="DATASET_DIR", help="dataset directory to write"
     )
     lr.add_argument(
-        "--overwrite", action="store_true", help="replace DATASET_DIR when it is not empty"
+        "--overwrite",
+        action="store_true",
+        help="replace DATASET_DIR when it is not empty (only a LeRobot dataset: a directory "
+        "holding anything else is never deleted)",
     )
     lr.add_argument(
         "--labels",
@@ -54,16 +57,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ._options import batch_options, check_inputs
+    from ._options import batch_options, check_inputs, sigterm_interrupts
 
     check_inputs(templates=args.templates)
     from ..export.lerobot import RecordingResult, export_lerobot
-
-    templates = None
-    if args.templates:
-        from ..segmentation import Templates
-
-        templates = Templates.load(args.templates)
 
     def show(r: RecordingResult) -> None:
         if r.error is not None:
@@ -74,18 +71,19 @@ def run(args: argparse.Namespace) -> int:
                 f"{r.labels} labels, {r.seconds:.1f} s"
             )
 
-    report = export_lerobot(
-        args.inputs,
-        args.output,
-        labels=args.labels,
-        overwrite=args.overwrite,
-        repo_id=args.repo_id,
-        video=not args.no_video,
-        vcodec=args.vcodec,
-        templates=templates,
-        on_result=show,
-        **batch_options(args),
-    )
+    with sigterm_interrupts():  # SIGTERM, as Ctrl+C: no temporary dataset left behind
+        report = export_lerobot(
+            args.inputs,
+            args.output,
+            labels=args.labels,
+            overwrite=args.overwrite,
+            repo_id=args.repo_id,
+            video=not args.no_video,
+            vcodec=args.vcodec,
+            templates=args.templates,  # read there: an input the dataset may not replace
+            on_result=show,
+            **batch_options(args),
+        )
     failed = len(report.failed)
     print(
         f"{report.root}: {len(report.exported)} episode(s), "

@@ -32,9 +32,11 @@ def run(args: argparse.Namespace) -> int:
 
     from ..io import load, save
     from ..outputs import check_output
-    from ._options import load_options
+    from ._options import load_options, read_files
 
-    check_output(args.output, inputs=[args.bag, args.map], what="-o/--output", suffixes=(".mcap",))
+    # every file of the bag counts: nothing is written into a bag directory being read
+    reads = read_files(args, args.bag)
+    check_output(args.output, inputs=reads, what="-o/--output", suffixes=(".mcap",))
     options = load_options(args)
     demo = load(args.bag, images=False, **options)
     save(demo, args.output)

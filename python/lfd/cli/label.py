@@ -38,16 +38,17 @@ def run(args: argparse.Namespace) -> int:
 
     from ..io import load
     from ..io.labels import read_labels, write_labels
-    from ..outputs import check_output
-    from ._options import check_inputs, load_options
+    from ..outputs import check_output, same_file
+    from ._options import check_inputs, load_options, read_files
 
     check_inputs(**{"from": args.labels})
+    if args.output is not None and same_file(args.output, args.recording):
+        args.output = None  # -o the recording itself: rewritten in place
     if args.output is not None:
-        check_output(args.output, inputs=[args.labels], what="-o/--output", suffixes=(".mcap",))
-        if args.output == args.recording:
-            args.output = None
-    else:
-        check_output(args.recording, inputs=[args.labels], what="the recording")
+        reads = read_files(args, args.recording)
+        check_output(args.output, inputs=reads, what="-o/--output", suffixes=(".mcap",))
+    else:  # the recording is the output: the label file (and its sidecar) may not be it
+        check_output(args.recording, inputs=read_files(args), what="the recording")
     demo = load(args.recording, images=False, **load_options(args))
     labels = read_labels(args.labels, demo)
     dest = write_labels(args.recording, labels, args.output)

@@ -117,13 +117,13 @@ def _hands(args: argparse.Namespace) -> int:
 def _check(args: argparse.Namespace) -> None:
     """Refuse unusable outputs before torch is imported and anything is rendered."""
     from ..outputs import check_output
-    from ._options import check_inputs
+    from ._options import check_inputs, read_files
 
     if args.action != "train":
         check_inputs(hand_model=args.hand_model)
         return
     check_inputs(init=args.init)
-    inputs = [p for p in (args.init, *(args.data or [])) if p]
+    inputs = read_files(args, *(args.data or []))  # and --init
     check_output(args.output, inputs=inputs, what="-o/--output", suffixes=(".pt",))
     check_output(f"{args.output}.ckpt", inputs=inputs, what="checkpoint")
     if args.data and not all(os.path.exists(p) for p in args.data):

@@ -124,7 +124,7 @@ def run(args: argparse.Namespace) -> int:
     from ..outputs import check_output
     from ..perception.record import record
     from ..perception.sources import open_source
-    from ._options import check_inputs
+    from ._options import check_inputs, read_files
     from ._rerun import check_rerun_args, close_from_args, open_from_args
 
     if args.live_segment and args.no_hand:
@@ -136,9 +136,8 @@ def run(args: argparse.Namespace) -> int:
         args.hand_model if model == "depth-net" and args.hand_model != "depth-net" else None
     )
     check_inputs(intrinsics=args.intrinsics, hand_model=model_file)
-    inputs = [p for p in (args.intrinsics, model_file) if p]
-    if args.source.startswith("frames:"):
-        inputs.append(args.source[len("frames:") :])
+    frames = args.source[len("frames:") :] if args.source.startswith("frames:") else None
+    inputs = read_files(args, model_file, frames)  # and --intrinsics
     check_output(args.output, inputs=inputs, what="-o/--output", suffixes=(".mcap",))
     check_rerun_args(args, inputs=[*inputs, args.output])
     source = open_source(

@@ -21,6 +21,7 @@ from ._options import (
     check_json,
     console,
     load_options,
+    read_files,
     segmentation_method,
     write_json,
 )
@@ -130,7 +131,8 @@ def run(args: argparse.Namespace) -> int:
     displace = parse_displacement(args.displace)
     loading = load_options(args)
     if args.video:
-        check_output(args.video, inputs=[args.recording], what="--video", suffixes=VIDEO_SUFFIXES)
+        reads = read_files(args, *inputs)
+        check_output(args.video, inputs=reads, what="--video", suffixes=VIDEO_SUFFIXES)
     show = open_from_args(args, "lfd_reproduce")
     demo = load(args.recording, images=False, **loading)
     traj, program = _trajectory_and_program(demo, args)

@@ -30,6 +30,7 @@ from ._options import (
     emit_json,
     load_options,
     segmentation_method,
+    sigterm_interrupts,
 )
 from ._types import positive_float
 
@@ -161,8 +162,6 @@ def _show_update(seg: Any, update: Any, timeline: Any, con: Any) -> None:
 
 
 def _run_follow(args: argparse.Namespace) -> int:
-    import signal
-
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
     from ..errors import UsageError
@@ -199,15 +198,10 @@ def _run_follow(args: argparse.Namespace) -> int:
             )
             yield msg
 
-    def on_term(signum: int, frame: Any) -> None:
-        raise KeyboardInterrupt
-
-    old = signal.signal(signal.SIGTERM, on_term)
-    old_int = signal.signal(signal.SIGINT, signal.default_int_handler)
     from rich.console import Console
 
     con = console(args)
-    try:
+    with sigterm_interrupts():
         with Progress(
             SpinnerColumn(),
             TextColumn("{task.description}"),
@@ -223,9 +217,6 @@ def _run_follow(args: argparse.Namespace) -> int:
             except KeyboardInterrupt:
                 follower.stop_reason = "interrupted"
                 result, labels, settled = None, [], []
-    finally:
-        signal.signal(signal.SIGTERM, old)
-        signal.signal(signal.SIGINT, old_int)
     how = {
         "end": "the recording was closed",
         "idle": f"the file stopped growing for {args.idle_timeout:g} s",

@@ -78,6 +78,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "-o", "--output", required=True, help="output .mcap (a directory with --set)"
     )
     parser.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the -o recording when it exists (without it an existing file is refused; "
+        "--set regenerates its set's files)",
+    )
+    parser.add_argument(
         "--set",
         choices=SETS,
         help="generate a whole recording set into the -o directory (no TASK then)",
@@ -193,7 +199,7 @@ def run(args: argparse.Namespace) -> int:
     if args.set:
         _check_set_directory(Path(args.output))
     else:
-        check_output(args.output, what="-o/--output", suffixes=(".mcap",))
+        check_output(args.output, what="-o/--output", suffixes=(".mcap",), overwrite=args.overwrite)
     check_rerun_args(args, inputs=[args.output])
     from rich.progress import Progress
 

@@ -55,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
     from ..segmentation.templates import (
         template_params,
     )
-    from ._options import batch_options, check_inputs, load_options
+    from ._options import batch_options, check_inputs, load_options, read_files
 
     console = Console()
     if args.action == "train":
@@ -89,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
     if not paths:
         raise UsageError(f"no .mcap recordings in {' '.join(args.inputs)}")
     base_path = [args.base] if args.base not in (None, "default") else []
-    check_output(args.output, inputs=[*paths, *base_path], what="-o/--output")
+    check_output(args.output, inputs=read_files(args, *paths, *base_path), what="-o/--output")
     how = batch_options(args)
     failed: dict[str, str] = {}
     base = None

@@ -491,6 +491,23 @@ class LeRobotWriter:
         self._annotations[index] = ep.annotation()
         return index
 
+    def abort(self) -> None:
+        """Stop writing (a failed or interrupted export): close lerobot's writers and drop its
+        buffered metadata, which it would otherwise write when the dataset object is
+        collected, recreating the dataset's directories after they were removed."""
+        import contextlib
+
+        ds, self._dataset = self._dataset, None
+        if ds is None:
+            return
+        with contextlib.suppress(Exception):
+            ds.stop_image_writer()
+        for obj in (ds, ds.meta):
+            with contextlib.suppress(Exception):
+                if hasattr(obj, "metadata_buffer"):
+                    obj.metadata_buffer.clear()
+                obj._close_writer()
+
     def close(self) -> None:
         """Finalise the dataset (parquet footers) and write the subtask and program tables."""
         if self._dataset is None:
@@ -601,6 +618,22 @@ class ExportReport:
         return [r for r in self.results if r.error is not None]
 
 
+DATASET_ENTRIES = frozenset({"meta", "data", "videos", "images"})
+"""What a LeRobot dataset directory holds at its top (``images``: lerobot's frame files)."""
+
+
+def not_a_dataset(root: Path) -> str | None:
+    """Why ``--overwrite`` may not delete the directory ``root`` (it is not a LeRobot dataset,
+    or holds something else too), or None when it is one (``meta/info.json``, and nothing but
+    :data:`DATASET_ENTRIES` at its top)."""
+    if not (root / "meta" / "info.json").is_file():
+        return "it is not a LeRobot dataset (no meta/info.json)"
+    other = sorted(e.name for e in root.iterdir() if e.name not in DATASET_ENTRIES)
+    if other:
+        return f"it holds {other[0]}, which is not part of a LeRobot dataset"
+    return None
+
+
 def recording_paths(inputs: Iterable[str | os.PathLike[str]]) -> list[Path]:
     """Files as given, directories as their ``*.mcap`` files (sorted); refuses an empty list."""
     from ..batch import mcap_files
@@ -637,11 +670,14 @@ def export_lerobot(
     inputs : paths
         ``.mcap`` files and directories (every ``*.mcap`` in them, sorted).
     output : path
-        The dataset directory: missing or empty, or replaced with ``overwrite``. It is written
-        in a temporary directory beside it and renamed at the end, so a failed export leaves
-        the old directory (or none).
+        The dataset directory: missing or empty, or, with ``overwrite``, a dataset to replace
+        (:func:`not_a_dataset`: a directory holding anything else is never deleted). It is
+        written in a temporary directory beside it and renamed at the end, so a failed or
+        interrupted export leaves the old directory (or none); a directory that appeared there
+        meanwhile (another export) is kept, and this export refused, unless ``overwrite``.
     labels, templates, video
-        See :func:`prepare_episode`.
+        See :func:`prepare_episode`; ``templates`` may also be the path of a template file
+        (read once, here; the output may not replace it).
     repo_id : str, optional
         The dataset's ``repo_id`` (default ``lfd/<output name>``).
     vcodec : str
@@ -662,14 +698,23 @@ def export_lerobot(
         No recording could be exported (each one's reason is in its result), or lerobot
         is missing.
     """
-    from ..outputs import atomic_directory, check_output_dir
+    from ..outputs import atomic_directory, check_output_dir, signals_held
 
     if labels not in LABEL_SOURCES:
         raise UsageError(f"--labels must be one of {', '.join(LABEL_SOURCES)}, got {labels!r}")
     if vcodec not in VCODECS:
         raise UsageError(f"--vcodec must be one of {', '.join(VCODECS)}, got {vcodec!r}")
     paths = recording_paths(inputs)
-    dest = check_output_dir(output, inputs=paths, what="output", overwrite=overwrite)
+    reads: list[Any] = [*paths]
+    if isinstance(templates, (str, os.PathLike)) and str(templates) not in ("default", "paper"):
+        from ..segmentation import Templates
+
+        reads.append(templates)
+        templates = Templates.load(os.fspath(templates))
+    replace: dict[str, Any] = {"overwrite": overwrite, "replaceable": not_a_dataset}
+    from ..io.inputs import read_paths
+
+    dest = check_output_dir(output, inputs=read_paths(reads), what="output", **replace)
     repo = repo_id or f"lfd/{dest.resolve().name}"
     if repo.count("/") != 1 or not all(repo.split("/")):
         raise UsageError(f"--repo-id must look like OWNER/NAME, got {repo!r}")
@@ -680,21 +725,26 @@ def export_lerobot(
     prepared = (
         _prepare_all(paths, labels, templates, video, jobs, ray_address) if parallel else None
     )
-    with atomic_directory(dest) as root:
+    with atomic_directory(dest, **replace) as root:
         writer = LeRobotWriter(root, repo, vcodec=vcodec)
-        for i, path in enumerate(paths):
-            if prepared is None:
-                result = export_recording(
-                    writer, path, labels=labels, templates=templates, video=video
-                )
-            else:
-                result = _add_prepared(writer, str(path), prepared[i])
-            report.results.append(result)
-            if on_result is not None:
-                on_result(result)
-        if not report.exported:
-            raise LfdError(f"no recording could be exported ({len(report.failed)} failed)")
-        writer.close()
+        try:
+            for i, path in enumerate(paths):
+                if prepared is None:
+                    result = export_recording(
+                        writer, path, labels=labels, templates=templates, video=video
+                    )
+                else:
+                    result = _add_prepared(writer, str(path), prepared[i])
+                report.results.append(result)
+                if on_result is not None:
+                    on_result(result)
+            if not report.exported:
+                raise LfdError(f"no recording could be exported ({len(report.failed)} failed)")
+            writer.close()
+        except BaseException:
+            with signals_held():  # before the temporary directory goes: nothing writes later
+                writer.abort()
+            raise
     report.seconds = time.perf_counter() - start
     return report
 

@@ -16,7 +16,9 @@ file (a chunk half flushed) is waited for, never an error. Following stops
 
 The recorder writes to ``.NAME.XXXXXXXX.partial`` beside ``NAME`` and renames it when closed;
 following ``NAME`` follows that partial file while it is being written (the open file survives
-the rename), or ``NAME`` itself once it exists.
+the rename), or ``NAME`` itself once it exists. Beside a complete ``NAME``, a partial file is
+followed only while a recorder is writing it (:func:`live_partial`): one left by a recorder that
+died (older than ``NAME``, or that stopped growing) is not.
 
 Example::
 
@@ -48,7 +50,7 @@ from ..inputs import check_input_file
 from . import topics as T
 from .mcapfile import INT64_MAX, MAGIC, _inflate, inflate_limit
 
-__all__ = ["Follower", "LiveMessage", "ObjectPose", "follow", "partial_files"]
+__all__ = ["Follower", "LiveMessage", "ObjectPose", "follow", "live_partial", "partial_files"]
 
 KINDS = (
     "hand",
@@ -107,13 +109,44 @@ class LiveMessage:
     data: bytes = field(repr=False)
 
 
+def _mtime(path: str) -> float | None:
+    try:
+        return os.stat(path).st_mtime
+    except OSError:  # gone since (renamed by its recorder)
+        return None
+
+
 def partial_files(path: str | os.PathLike[str]) -> list[str]:
     """The ``.NAME.*.partial`` files an unfinished recorder writes beside ``NAME``, newest first."""
     p = os.fspath(path)
     folder, name = os.path.split(p)
     pattern = os.path.join(glob.escape(folder or "."), f".{glob.escape(name)}.*.partial")
-    found = glob.glob(pattern)
-    return sorted(found, key=lambda f: os.stat(f).st_mtime, reverse=True)
+    found = [(t, f) for f in glob.glob(pattern) if (t := _mtime(f)) is not None]
+    return [f for _, f in sorted(found, reverse=True)]
+
+
+def live_partial(path: str | os.PathLike[str], idle_timeout_s: float | None = None) -> str | None:
+    """The partial file (:func:`partial_files`) to follow for the recording ``path``, or None
+    to follow ``path`` itself (or to wait for either to appear).
+
+    Without a complete ``path``, the newest partial file (even one whose recorder died: what it
+    holds is read). Beside a complete ``path``, the newest partial file only if a recorder is
+    writing it: it changed after ``path`` did (a new take being recorded over it) and, with
+    ``idle_timeout_s``, within that many seconds; else it is left from a recorder that died,
+    and ``path`` is what was recorded.
+    """
+    partials = partial_files(path)
+    if not partials:
+        return None
+    done = _mtime(os.fspath(path))
+    if done is None:
+        return partials[0]
+    newest = _mtime(partials[0])
+    if newest is None or newest < done:
+        return None
+    if idle_timeout_s is not None and time.time() - newest > idle_timeout_s:
+        return None
+    return partials[0]
 
 
 class Follower:
@@ -224,8 +257,7 @@ class Follower:
         """Open the file to follow once it (or its ``.partial``) exists."""
         t0 = time.monotonic()
         while True:
-            partials = partial_files(self.path)
-            candidate = partials[0] if partials else None
+            candidate = live_partial(self.path, self.idle_timeout_s)
             if candidate is None and os.path.exists(self.path):
                 candidate = self.path
             if candidate is not None:
@@ -459,7 +491,8 @@ def follow(
     ----------
     path : path
         The recording, ``NAME.mcap``: its ``.NAME.mcap.*.partial`` file while a recorder writes
-        it (the newest one), else the file itself. A ``.partial`` path is followed as given.
+        it (the newest one; :func:`live_partial`), else the file itself. A ``.partial`` path is
+        followed as given.
     poll_s : float
         How often to look for new bytes, seconds.
     idle_timeout_s : float or None
