@@ -46,6 +46,10 @@ WORKER_DIED = "the worker process died"
 LOCAL_RAY = "local"
 """``ray_address`` that starts a new local Ray instance with ``jobs`` CPUs."""
 
+RAY_CONNECT_TIMEOUT_S = 15.0
+"""How long (s) ``--ray HOST:PORT`` waits for something to answer at that address before it
+gives up with one line (Ray itself would retry for minutes)."""
+
 
 @dataclass
 class ItemResult(Generic[T]):
@@ -237,8 +241,15 @@ def _run_pool(
     jobs: int,
     progress: Callable[[ItemResult[T]], Any] | None,
 ) -> list[ItemResult[T]]:
+    """The items on a pool of ``jobs`` processes, at most ``jobs`` of them in flight at once.
+
+    A worker that dies (a crash in native code) takes the pool down with the items in flight:
+    those (at most ``jobs``) are each retried in a process of their own, so only the one that
+    crashes fails, and the items not yet started go on in a new pool. If every one of those
+    retries dies too and no item has run to its end yet, no worker can run at all: the rest
+    fail at once."""
     import multiprocessing
-    from concurrent.futures.process import BrokenProcessPool
+    from collections import deque
 
     results: list[ItemResult[T] | None] = [None] * len(items)
 
@@ -248,46 +259,71 @@ def _run_pool(
             progress(res)
 
     ctx = multiprocessing.get_context("spawn")
-    broken = False
+    todo = deque(range(len(items)))
+    while todo:
+        lost = _pool_pass(func, items, todo, jobs, ctx, finish)
+        alone = {i: _run_alone(func, items[i], ctx) for i in lost}
+        ran = any(r is not None and r.error != WORKER_DIED for r in results)
+        if alone and not ran and all(r.error == WORKER_DIED for r in alone.values()):
+            for j in [*lost, *todo]:  # every worker so far died, even alone: none can run
+                finish(j, ItemResult(items[j], error=f"{WORKER_DIED}; no worker could run"))
+            break
+        for i, res in alone.items():
+            finish(i, res)
+    return [
+        r if r is not None else ItemResult(items[i], error="not run") for i, r in enumerate(results)
+    ]
+
+
+def _pool_pass(
+    func: Callable[[Any], T],
+    items: list[Any],
+    todo: Any,
+    jobs: int,
+    ctx: Any,
+    finish: Callable[[int, ItemResult[T]], None],
+) -> list[int]:
+    """Run the indices of ``todo`` (a deque, consumed) on one pool until it is done or a
+    worker dies; returns the indices that were in flight when the pool broke."""
+    from concurrent.futures.process import BrokenProcessPool
+
     with (
         _worker_env(),
         ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_init_worker) as pool,
     ):
-        started = {pool.submit(call_in_worker, func, item): i for i, item in enumerate(items)}
-        waiting: set[Future[ItemResult[T]]] = set(started)
+        running: dict[Future[ItemResult[T]], int] = {}
         try:
-            while waiting:
-                finished, waiting = wait(waiting, return_when=FIRST_COMPLETED)
+            while True:
+                while todo and len(running) < jobs:  # a free worker takes the next item
+                    i = todo.popleft()
+                    running[pool.submit(call_in_worker, func, items[i])] = i
+                if not running:
+                    return []
+                finished, _ = wait(set(running), return_when=FIRST_COMPLETED)
+                broken = False
                 for fut in finished:
+                    i = running.pop(fut)
                     try:
-                        finish(started[fut], fut.result())
+                        finish(i, fut.result())
                     except BrokenProcessPool:
                         broken = True
+                        running[fut] = i  # lost with the others in flight
                     except Exception as err:  # the result could not be sent back
-                        finish(started[fut], ItemResult(items[started[fut]], error=one_line(err)))
+                        finish(i, ItemResult(items[i], error=one_line(err)))
+                if broken:
+                    lost = []
+                    for fut, i in running.items():
+                        if fut.done() and fut.exception() is None:
+                            finish(i, fut.result())  # it made it out before the crash
+                        else:
+                            lost.append(i)
+                    return sorted(lost)
         except BaseException:  # Ctrl+C: stop now, neither running nor finishing the rest
             workers = list((getattr(pool, "_processes", None) or {}).values())
             pool.shutdown(wait=False, cancel_futures=True)
             for proc in workers:
                 proc.terminate()
             raise
-    if broken:
-        # a worker died (a crash in native code) and took the pool down: the items it was
-        # running cannot be told from the queued ones, so each unfinished item is retried in a
-        # process of its own and only the one that crashes fails. If nothing had finished and
-        # the first retry dies too, no worker can run at all: fail them all at once.
-        lost = [i for i, r in enumerate(results) if r is None]
-        nothing_ran = len(lost) == len(items)
-        for n, i in enumerate(lost):
-            res = _run_alone(func, items[i], ctx)
-            if n == 0 and nothing_ran and res.error == WORKER_DIED:
-                for j in lost:
-                    finish(j, ItemResult(items[j], error=f"{WORKER_DIED}; no worker could run"))
-                break
-            finish(i, res)
-    return [
-        r if r is not None else ItemResult(items[i], error="not run") for i, r in enumerate(results)
-    ]
 
 
 def _run_alone(func: Callable[[Any], T], item: Any, ctx: Any) -> ItemResult[T]:
@@ -306,14 +342,25 @@ def _run_alone(func: Callable[[Any], T], item: Any, ctx: Any) -> ItemResult[T]:
             return ItemResult(item, error=one_line(err))
 
 
+def is_recording_folder(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is a folder of recordings (not a ROS 2 bag directory, which is one
+    recording: it holds ``metadata.yaml``)."""
+    from .io.reader import is_ros_path
+
+    return os.path.isdir(path) and not is_ros_path(path)
+
+
 def mcap_files(inputs: Iterable[str | os.PathLike[str]]) -> list[str]:
-    """Each file as given, each directory as its ``*.mcap`` files (sorted); may be empty."""
+    """Each file as given, each directory as its ``*.mcap`` files and ROS 2 bag directories
+    (sorted); a ROS 2 bag directory given is one recording. May be empty."""
     from pathlib import Path
 
     out: list[str] = []
     for it in (os.fspath(i) for i in inputs):
-        if Path(it).is_dir():
-            out.extend(str(f) for f in sorted(Path(it).glob("*.mcap")))
+        if is_recording_folder(it):
+            found = [f for f in Path(it).iterdir() if f.suffix == ".mcap" and not f.is_dir()]
+            found += [f for f in Path(it).iterdir() if f.is_dir() and not is_recording_folder(f)]
+            out.extend(str(f) for f in sorted(found))
         else:
             out.append(it)
     return out
@@ -361,6 +408,7 @@ def _run_ray(
             with _worker_env(RAY_worker_niceness="0"):
                 ray.init(num_cpus=jobs, **kwargs)
         else:  # the cluster's nodes get it per job
+            check_ray_address(address)
             ray.init(address=address, runtime_env={"env_vars": dict(WORKER_ENV)}, **kwargs)
     try:
         task = ray.remote(num_cpus=1, max_retries=0)(call_in_worker)
@@ -385,6 +433,43 @@ def _run_ray(
     return [
         r if r is not None else ItemResult(items[i], error="not run") for i, r in enumerate(results)
     ]
+
+
+def check_ray_address(address: str, timeout_s: float | None = None) -> None:
+    """Refuse a cluster address where nothing answers within ``timeout_s`` (default
+    :data:`RAY_CONNECT_TIMEOUT_S`): ``HOST:PORT`` or ``ray://HOST:PORT`` is tried until a TCP
+    connection succeeds; ``auto`` (the cluster ``ray start`` recorded) is left to Ray.
+
+    Raises
+    ------
+    UsageError
+        The address is malformed, or nothing accepted a connection in time.
+    """
+    import socket
+
+    if address == "auto":
+        return
+    wait_s = RAY_CONNECT_TIMEOUT_S if timeout_s is None else timeout_s
+    host, _, port = address.split("://", 1)[-1].rpartition(":")
+    host = host.strip("[]")
+    if not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise UsageError(
+            f"--ray {address}: expected HOST:PORT, ray://HOST:PORT or auto (a running cluster)"
+        )
+    deadline = time.monotonic() + wait_s
+    while True:
+        left = deadline - time.monotonic()
+        try:
+            socket.create_connection((host, int(port)), timeout=max(0.2, min(left, 5.0))).close()
+            return
+        except OSError as err:
+            if time.monotonic() + 0.5 >= deadline:
+                why = err.strerror or str(err) or type(err).__name__
+                raise UsageError(
+                    f"--ray {address}: no Ray cluster answered there within {wait_s:g} s "
+                    f"({why}); start one with `ray start --head` or check the address"
+                ) from None
+            time.sleep(0.5)
 
 
 def _ray_error(err: BaseException) -> str:

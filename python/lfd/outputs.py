@@ -22,11 +22,32 @@ import tempfile
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TextIO
 
 from .errors import UsageError
 
 STDOUT = "-"
 """The path that means standard output, where a command allows it."""
+
+
+def stdout(what: str = "output") -> TextIO:
+    """``sys.stdout``, refused with :class:`UsageError` when standard output is closed
+    (``lfd ... --json - >&-``: Python then has no ``sys.stdout`` at all)."""
+    import sys
+
+    out = sys.stdout
+    closed = UsageError(f"{what} -: standard output is closed; give a file name")
+    if out is None or getattr(out, "closed", False):
+        raise closed
+    try:
+        fd = out.fileno()
+    except (OSError, ValueError, AttributeError):
+        return out  # not a file descriptor (a caller's stream, a test's capture): writable
+    try:
+        os.fstat(fd)
+    except OSError:
+        raise closed from None
+    return out
 
 
 @dataclass(frozen=True)
@@ -127,6 +148,7 @@ def check_output(
     p = Path(path)
     if str(path) == STDOUT:
         if allow_stdout:
+            stdout(what)
             return p
         raise UsageError(f"{what}: '-' (standard output) is not supported here; give a file name")
     if str(path) == "":
@@ -213,10 +235,9 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
 def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:
     """Write ``text`` (UTF-8) to ``path`` atomically; ``-`` writes to standard output."""
     if str(path) == STDOUT:
-        import sys
-
-        sys.stdout.write(text if text.endswith("\n") else text + "\n")
-        sys.stdout.flush()
+        out = stdout()
+        out.write(text if text.endswith("\n") else text + "\n")
+        out.flush()
         return
     atomic_write_bytes(path, text.encode("utf-8"))
 

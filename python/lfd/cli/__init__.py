@@ -124,7 +124,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     warnings.showwarning = _warning_printer(command)
     try:
         status = int(args._run(args) or 0)
-        sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
+        if sys.stdout is not None:  # None: started with stdout closed (``>&-``)
+            sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
         return status
     except LfdError as err:
         print(f"lfd {command}: error: {_one_line(err)}", file=sys.stderr)

@@ -218,12 +218,15 @@ def emit_json(args: argparse.Namespace, doc: Any, con: Any) -> None:
 def check_inputs(**named: str | os.PathLike[str] | None) -> None:
     """Refuse input files that do not exist, before heavy imports (``--hand-model=path``...)."""
     from ..errors import UsageError
+    from ..inputs import check_input_file
 
     for option, path in named.items():
-        if path is not None and not os.path.isfile(path):
-            flag = "--" + option.replace("_", "-")
-            what = "is a directory" if os.path.isdir(path) else "does not exist"
-            raise UsageError(f"{flag} {path} {what}; give an existing file")
+        if path is None:
+            continue
+        flag = "--" + option.replace("_", "-")
+        check_input_file(path, flag)  # not a FIFO, a device, a directory
+        if not os.path.isfile(path):
+            raise UsageError(f"{flag} {path} does not exist; give an existing file")
 
 
 # --- recordings from other tools: --object-size, --map ---------------------------------------
@@ -294,7 +297,8 @@ def add_batch_options(parser: argparse.ArgumentParser) -> None:
         metavar="ADDRESS",
         help="run the recordings as Ray tasks: without ADDRESS on a new local Ray instance with "
         "--jobs CPUs, 'auto' or HOST:PORT on a running cluster (recordings are read at the "
-        "same path on every node); write --ray=ADDRESS or put --ray after the recordings",
+        "same path on every node; gives up when nothing answers at HOST:PORT within 15 s); "
+        "write --ray=ADDRESS or put --ray after the recordings",
     )
 
 

@@ -96,3 +96,15 @@ def object_size(text: str) -> tuple[str, tuple[float, float, float]]:
         return parse_object_size(text)
     except UsageError as err:
         raise argparse.ArgumentTypeError(str(err).removeprefix(f"--object-size {text}: ")) from None
+
+
+def layout_count(text: str) -> int:
+    """``--randomise N``: a number of layouts, 1 to
+    :data:`lfd.reproduce.randomise.MAX_LAYOUTS` (its rule, imported when the option is given)."""
+    from ..errors import UsageError
+    from ..reproduce.randomise import check_layout_count
+
+    try:
+        return check_layout_count(_int(text))
+    except UsageError as err:
+        raise argparse.ArgumentTypeError(f"{str(err).partition(': ')[2]}, got {text!r}") from None

@@ -26,7 +26,7 @@ from ._options import (
     segmentation_method,
     write_json,
 )
-from ._types import float_range, positive_int, seed
+from ._types import float_range, layout_count, seed
 
 NAME = "reproduce"
 HELP = "Reproduce a demonstration on a simulated 7-DoF arm (replay, skills or DMP) and measure it."
@@ -64,10 +64,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     rnd = parser.add_argument_group("randomised layouts")
     rnd.add_argument(
         "--randomise",
-        type=positive_int,
+        type=layout_count,
         metavar="N",
-        help="run the mode(s) on N layouts with every object shifted and turned (reachable, "
-        "collision-free) and print the success per mode and per skill and the failure reasons",
+        help="run the mode(s) on N layouts (1 to 100000) with every object shifted and turned "
+        "(reachable, collision-free), each drawn as it runs, and print the success per mode "
+        "and per skill and the failure reasons",
     )
     rnd.add_argument("--seed", type=seed, default=0, help="--randomise: random seed (default 0)")
     rnd.add_argument(

@@ -220,6 +220,7 @@ def _run_follow(args: argparse.Namespace) -> int:
     how = {
         "end": "the recording was closed",
         "idle": f"the file stopped growing for {args.idle_timeout:g} s",
+        "damaged": "a damaged record (the messages before it were read)",
         "interrupted": "interrupted",
     }.get(follower.stop_reason or "", str(follower.stop_reason))
     span = 0.0 if state["first"] is None else (state["last"] - state["first"]) * 1e-9
@@ -318,10 +319,11 @@ def run(args: argparse.Namespace) -> int:
 
 
 def is_batch(inputs: list[str]) -> bool:
-    """Several inputs, or a directory: a batch (a JSON list); one file: the single-file run."""
-    import os
+    """Several inputs, or a folder of recordings: a batch (a JSON list); one file or one ROS 2
+    bag directory: the single-file run."""
+    from ..batch import is_recording_folder
 
-    return len(inputs) > 1 or any(os.path.isdir(p) for p in inputs)
+    return len(inputs) > 1 or any(is_recording_folder(p) for p in inputs)
 
 
 def _run_batch(args: argparse.Namespace) -> int:

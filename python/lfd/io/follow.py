@@ -9,6 +9,9 @@ file (a chunk half flushed) is waited for, never an error. Following stops
 - when the file stops growing for ``idle_timeout_s`` without an end marker (the writer died or
   hangs), with a :class:`~lfd.errors.RecoveredFileWarning` "the file stopped growing without an
   end marker",
+- at a damaged record (bad CRC, corrupt compressed data, garbage), keeping what came before it
+  with a :class:`~lfd.errors.RecoveredFileWarning`, as the offline reader
+  (:func:`lfd.io.mcapfile.scan`) recovers such a file,
 - on Ctrl+C (KeyboardInterrupt while waiting for data) or :meth:`Follower.stop`.
 
 The recorder writes to ``.NAME.XXXXXXXX.partial`` beside ``NAME`` and renames it when closed;
@@ -43,6 +46,7 @@ from mcap.records import Channel, Chunk, DataEnd, Footer, Message, Metadata, Sch
 from mcap.stream_reader import StreamReader, breakup_chunk
 
 from ..errors import RecordingFormatError, RecoveredFileWarning
+from ..inputs import check_input_file
 from . import topics as T
 from .mcapfile import INT64_MAX, MAGIC, _inflate, inflate_limit
 
@@ -163,7 +167,8 @@ class Follower:
     complete : bool
         The end marker was reached.
     stop_reason : str or None
-        ``"end"``, ``"idle"`` (stopped growing), ``"interrupted"`` (Ctrl+C), ``"stopped"``
+        ``"end"``, ``"idle"`` (stopped growing), ``"damaged"`` (a damaged record: what came
+        before it is kept, as offline), ``"interrupted"`` (Ctrl+C), ``"stopped"``
         (:meth:`stop`), None while following.
     message_count, bytes_read : int
         Progress so far.
@@ -192,6 +197,7 @@ class Follower:
         self.bytes_read = 0
         self._stop = threading.Event()
         self._started = False
+        self._channels: dict[int, Channel] = {}
 
     # --- public ----------------------------------------------------------------------------
     def stop(self) -> None:
@@ -200,26 +206,31 @@ class Follower:
 
     @property
     def objects(self) -> list[tuple[str, int, list[float] | None]]:
-        """``(name, tag_id, size)`` of the objects the ``demo`` metadata declares (so far)."""
-        import json
+        """``(name, tag_id, size)`` of the objects declared so far, read as
+        :func:`lfd.load` reads them (:func:`lfd.io.reader.objects_of`: the ``demo`` metadata,
+        else the pose channels' metadata; malformed values raise
+        :class:`~lfd.errors.RecordingFormatError`)."""
+        from .mcapfile import ChannelSummary, Records
+        from .reader import objects_of
 
-        text = self.metadata.get(T.DEMO_METADATA, {}).get("objects")
-        if not text:
-            return []
-        try:
-            declared = json.loads(text)
-        except json.JSONDecodeError as err:
-            raise RecordingFormatError(f"{self.source}: metadata demo/objects: {err}") from err
-        out = []
-        for obj in declared if isinstance(declared, list) else []:
-            if isinstance(obj, dict) and isinstance(obj.get("name"), str):
-                out.append((obj["name"], int(obj.get("tag_id", -1)), obj.get("size")))
-        return out
+        seen = Records()
+        seen.path = self.source or self.path
+        seen.metadata = self.metadata
+        seen.channels = {
+            ch.topic: ChannelSummary(ch.topic, "", ch.message_encoding, dict(ch.metadata))
+            for ch in self._channels.values()
+        }
+        return objects_of(seen)
 
     @property
     def hand_side(self) -> str:
-        """The hand side the ``demo`` metadata names (``right`` when not known yet)."""
-        return self.metadata.get(T.DEMO_METADATA, {}).get("hand_side", "right")
+        """The hand side the ``demo`` metadata names, else that of the hand topic seen so far
+        (right before left, as :func:`lfd.load`), else ``right``."""
+        named = self.metadata.get(T.DEMO_METADATA, {}).get("hand_side")
+        if named in T.HAND_SIDES:
+            return str(named)
+        seen = {T.hand_side_from_topic(t) for t in self.topics.values()}
+        return next((s for s in T.HAND_SIDES if s in seen), "right")
 
     def __iter__(self) -> Iterator[LiveMessage]:
         if self._started:
@@ -250,6 +261,7 @@ class Follower:
             if candidate is None and os.path.exists(self.path):
                 candidate = self.path
             if candidate is not None:
+                check_input_file(candidate, "recording", RecordingFormatError)
                 try:
                     f = open(candidate, "rb")
                 except FileNotFoundError:  # renamed between the look and the open: look again
@@ -309,35 +321,35 @@ class Follower:
         if head != MAGIC:
             raise RecordingFormatError(f"{self.source} is not an MCAP file (bad magic {head!r})")
         schemas: dict[int, Schema] = {}
-        channels: dict[int, Channel] = {}
+        channels = self._channels
         inflated = 0
         while True:
             header = self._read(f, 9)
             if header is None:
                 return
+            at = f.tell() - 9
             length = int.from_bytes(header[1:], "little")
             if length > RECORD_SIZE_LIMIT:
-                raise RecordingFormatError(
-                    f"{self.source}: a record at byte {f.tell() - 9} declares {length} bytes; "
-                    "the file is damaged"
-                )
+                self._damaged(at, f"a record declares {length} bytes")
+                return
             body = self._read(f, length)
             if body is None:
-                f.seek(f.tell() - 9)
+                f.seek(at)
                 return
-            record = _parse(header + body, self.source or self.path)
-            if isinstance(record, Chunk):
-                budget = inflate_limit(f.tell()) - inflated
-                chunk = _inflate(record, self.source or self.path, budget)
-                inflated += chunk.uncompressed_size
-                try:
-                    inner = breakup_chunk(chunk, validate_crc=True)
-                except Exception as err:
-                    raise RecordingFormatError(
-                        f"{self.source}: damaged chunk at byte {f.tell() - length - 9}: {err}"
-                    ) from err
-            else:
-                inner = [record]
+            try:
+                record = _parse(header + body)
+                if isinstance(record, Chunk):
+                    budget = inflate_limit(f.tell()) - inflated
+                    chunk = _inflate(record, self.source or self.path, budget)
+                    inflated += chunk.uncompressed_size
+                    inner = list(breakup_chunk(chunk, validate_crc=True))
+                else:
+                    inner = [record]
+            except RecordingFormatError:  # a decompression bomb: refused, as offline
+                raise
+            except Exception as err:  # damage: what the offline reader (scan) recovers from
+                self._damaged(at, f"{type(err).__name__}: {err}")
+                return
             for rec in inner:
                 if isinstance(rec, Message):
                     ch = channels.get(rec.channel_id)
@@ -362,18 +374,27 @@ class Follower:
                     self.stop_reason = "end"
                     return
 
+    def _damaged(self, at: int, error: str) -> None:
+        """Stop at a damaged record, as :func:`lfd.io.mcapfile.scan` does offline: what came
+        before it is kept, with a :class:`~lfd.errors.RecoveredFileWarning`."""
+        self.stop_reason = "damaged"
+        detail = " ".join(error.split())[:200]
+        warnings.warn(
+            f"{self.source}: incomplete or damaged record at byte {at} ({detail}); read "
+            f"{self.message_count} messages before it; anything after it is lost",
+            RecoveredFileWarning,
+            stacklevel=4,
+        )
+
     def _decode(self, topic: str, t_ns: int, data: bytes) -> LiveMessage:
         kind, value = decode_message(topic, t_ns, data, self.source or self.path, self.images)
         return LiveMessage(topic=topic, t_ns=int(t_ns), kind=kind, value=value, data=data)
 
 
-def _parse(raw: bytes, path: str) -> Any:
-    """The one record ``raw`` holds (opcode, length, body)."""
+def _parse(raw: bytes) -> Any:
+    """The one record ``raw`` holds (opcode, length, body); the reader's error if damaged."""
     reader = StreamReader(io.BytesIO(raw), skip_magic=True, emit_chunks=True)
-    try:
-        return next(iter(reader.records))
-    except Exception as err:
-        raise RecordingFormatError(f"{path}: damaged record (opcode {raw[0]}): {err}") from err
+    return next(iter(reader.records))
 
 
 def decode_message(
@@ -491,8 +512,9 @@ def follow(
     Raises
     ------
     RecordingFormatError
-        (while iterating) no file appeared in time, the file is not MCAP, or a complete record
-        is damaged (bad CRC, undecodable payload, a decompression bomb).
+        (while iterating) no file appeared in time, the file is not MCAP or not a regular
+        file, a message's payload does not decode, or a chunk is a decompression bomb. (A
+        damaged record ends following with a warning instead, see above.)
     """
     return Follower(
         path,

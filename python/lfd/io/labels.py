@@ -27,7 +27,6 @@ from __future__ import annotations
 import csv
 import io
 import itertools
-import json
 import math
 import os
 from collections.abc import Sequence
@@ -49,15 +48,33 @@ END_TOLERANCE_NS = 100_000_000
 CSV_COLUMNS = ("skill", "start_s", "end_s", "object")
 
 
+MAX_SECONDS = 9e9
+"""Largest time (s) a label may give, either sign: nanoseconds beyond it do not fit in the
+signed 64-bit integers recordings count time in (2**63 ns is 9.2e9 s, 292 years)."""
+
+
+def _shown(value: Any) -> str:
+    """``repr(value)``, cut to 40 characters (a label file may hold a 5000-digit number)."""
+    text = repr(value)
+    return text if len(text) <= 40 else f"{text[:37]}..."
+
+
 def _number(value: Any, where: str, key: str) -> float:
     if isinstance(value, bool) or value is None:
-        raise UsageError(f"{where}: {key} must be a number of seconds, got {value!r}")
+        raise UsageError(f"{where}: {key} must be a number of seconds, got {_shown(value)}")
     try:
         x = float(value)
-    except (TypeError, ValueError):
-        raise UsageError(f"{where}: {key} must be a number of seconds, got {value!r}") from None
+    except (TypeError, ValueError, OverflowError):
+        raise UsageError(
+            f"{where}: {key} must be a number of seconds, got {_shown(value)}"
+        ) from None
     if not math.isfinite(x):
-        raise UsageError(f"{where}: {key} must be a finite number of seconds, got {value!r}")
+        raise UsageError(f"{where}: {key} must be a finite number of seconds, got {_shown(value)}")
+    if abs(x) > MAX_SECONDS:
+        raise UsageError(
+            f"{where}: {key} must be within +-{MAX_SECONDS:g} s of the recording, "
+            f"got {_shown(value)}"
+        )
     return x
 
 
@@ -71,8 +88,10 @@ def _entries_from_json(doc: Any, where: str) -> tuple[list[dict[str, Any]], int 
             )
         if doc.get("origin_ns") is not None:
             o = doc["origin_ns"]
-            if isinstance(o, bool) or not isinstance(o, int):
-                raise UsageError(f"{where}: origin_ns must be integer nanoseconds, got {o!r}")
+            if isinstance(o, bool) or not isinstance(o, int) or not -(2**63) <= o < 2**63:
+                raise UsageError(
+                    f"{where}: origin_ns must be integer nanoseconds (64-bit), got {_shown(o)}"
+                )
             origin = o
         doc = doc["segments"]
     if not isinstance(doc, list):
@@ -111,19 +130,16 @@ def _entries_from_csv(text: str, where: str) -> list[dict[str, Any]]:
 
 
 def _read_entries(path: Path) -> tuple[list[dict[str, Any]], int | None]:
+    from ..inputs import parse_json, read_text
+
     try:
-        text = path.read_text(encoding="utf-8")
+        text = read_text(path, "--from", not_text="is not a label file (binary, not UTF-8 text)")
     except OSError as err:
         raise UsageError(f"cannot read label file {path}: {err.strerror or err}") from None
-    except UnicodeDecodeError:
-        raise UsageError(f"{path} is not a label file (binary, not UTF-8 text)") from None
     if path.suffix.lower() == ".csv":
         return _entries_from_csv(text, str(path)), None
-    try:
-        doc = json.loads(text)
-    except json.JSONDecodeError as err:
-        what = "JSON" if path.suffix.lower() == ".json" else "JSON (or give a .csv file)"
-        raise UsageError(f"{path} is not valid {what}: {err}") from None
+    what = "JSON" if path.suffix.lower() == ".json" else "JSON (or give a .csv file)"
+    doc = parse_json(text, f"{path} is not valid {what}")
     return _entries_from_json(doc, str(path))
 
 

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import dataclasses
 import io
-import json
 import os
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -107,15 +106,14 @@ class Records:
 
     def json_metadata(self, record: str, key: str, default: Any = None) -> Any:
         """A JSON value stored under ``key`` of the metadata record ``record``."""
+        from ..inputs import parse_json
+
         text = self.metadata.get(record, {}).get(key)
         if text is None:
             return default
-        try:
-            return json.loads(text)
-        except json.JSONDecodeError as err:
-            raise RecordingFormatError(
-                f"{self.path}: metadata {record}/{key} is not valid JSON: {err}"
-            ) from err
+        return parse_json(
+            text, f"{self.path}: metadata {record}/{key} is not valid JSON", RecordingFormatError
+        )
 
     def describe_topics(self) -> str:
         """One line listing the topics with their message counts."""
@@ -210,7 +208,9 @@ def scan(path: str | os.PathLike[str]) -> RawRecording:
     from mcap.records import Channel, DataEnd, Footer, Message, Metadata, Schema
     from mcap.stream_reader import StreamReader
 
-    p = os.fspath(path)
+    from ..inputs import check_input_file
+
+    p = check_input_file(path, "recording", RecordingFormatError)
     try:
         size = os.path.getsize(p)
         f = open(p, "rb")
@@ -339,9 +339,10 @@ def read(
         As :func:`scan`.
     """
     from .._hmmseg import read_recording
+    from ..inputs import check_input_file
 
     keep = None if topics is None else list(topics)
-    doc = read_recording(os.fspath(path), images, keep)
+    doc = read_recording(check_input_file(path, "recording", RecordingFormatError), images, keep)
     raw = RawRecording(
         path=os.fspath(path),
         file_size=int(doc["file_size"]),
@@ -389,8 +390,9 @@ def read_summary(
         Not an MCAP file, or as :func:`scan` for the chunks it reads.
     """
     from .._hmmseg import read_summary as engine_summary
+    from ..inputs import check_input_file
 
-    doc = engine_summary(os.fspath(path), list(topics))
+    doc = engine_summary(check_input_file(path, "recording", RecordingFormatError), list(topics))
     if doc is None:
         return None
     return Summary(

@@ -28,6 +28,7 @@ from ..errors import (
     TimestampWarning,
     UsageError,
 )
+from ..inputs import parse_json
 from . import topics as T
 from .mcapfile import RawRecording, Records, read
 from .sizes import resolve_sizes
@@ -72,7 +73,7 @@ def _confidence(data: bytes, where: str) -> tuple[list[float], list[bool] | None
     try:
         record = json.loads(data)
         values = record["confidence"]
-    except (ValueError, KeyError, TypeError) as err:
+    except (ValueError, KeyError, TypeError, RecursionError) as err:
         raise RecordingFormatError(
             f'{where}: not a JSON object {{"confidence": [21 numbers]}} ({err!r})'
         ) from None
@@ -396,12 +397,11 @@ def objects_of(raw: Records) -> list[tuple[str, int, Any]]:
             at = f"{raw.path}: channel {topic} metadata"
             size = None
             if "size" in ch.metadata:
-                try:
-                    size = json.loads(ch.metadata["size"])
-                except json.JSONDecodeError:
-                    raise RecordingFormatError(
-                        f"{at}: size is not JSON [x, y, z] in metres: {ch.metadata['size']!r}"
-                    ) from None
+                size = parse_json(
+                    ch.metadata["size"],
+                    f"{at}: size is not JSON [x, y, z] in metres: {ch.metadata['size'][:80]!r}",
+                    RecordingFormatError,
+                )
             tag_id = _tag_id(ch.metadata.get("tag_id", "-1"), at, text=True)
             specs[name] = (name, tag_id, _size(size, at))
     return list(specs.values())

@@ -17,7 +17,6 @@ such paths. ``rosbags`` is imported only here, inside the functions (the ``ros``
 from __future__ import annotations
 
 import os
-import tomllib
 import warnings
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -252,17 +251,20 @@ def read_mapping(path: str | os.PathLike[str]) -> RosMapping:
         The file is missing, not TOML, or a key is unknown, missing or of the wrong type (the
         message names the key).
     """
+    from ..inputs import parse_toml, read_text
+
     p = os.fspath(path)
+    if os.path.isdir(p):
+        raise UsageError(f"--map {p} is a directory; give a topic mapping file")
     try:
-        with open(p, "rb") as f:
-            doc = tomllib.load(f)
+        text = read_text(
+            p, "--map", not_text="is not a valid TOML topic mapping (binary, not UTF-8 text)"
+        )
     except FileNotFoundError:
         raise UsageError(f"--map {p} does not exist; give a topic mapping file") from None
-    except IsADirectoryError:
-        raise UsageError(f"--map {p} is a directory; give a topic mapping file") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
-        raise UsageError(f"{p}: not a valid TOML topic mapping: {err}") from None
-    return _parse_mapping(doc, p)
+    except OSError as err:
+        raise UsageError(f"--map {p}: {err.strerror or err}") from None
+    return _parse_mapping(parse_toml(text, f"{p}: not a valid TOML topic mapping"), p)
 
 
 def _mapping(mapping: RosMapping | str | os.PathLike[str] | Mapping[str, Any]) -> RosMapping:
@@ -283,6 +285,9 @@ def _norm(msgtype: str) -> str:
 class _Topic:
     msgtype: str
     count: int
+    others: tuple[str, ...] = ()
+    """Other message types on the same topic (a bag may have several connections to one
+    topic); a topic lfd reads must have one type."""
 
 
 class _Bag:
@@ -302,6 +307,14 @@ class _Bag:
             return
         from rosbags.typesys import Stores, get_typestore
 
+        from ..inputs import check_input_file
+
+        check_input_file(path, "ROS bag", RecordingFormatError, directory=True)
+        if os.path.isdir(path):  # a ROS 2 bag: its metadata and storage files
+            for name in os.listdir(path):
+                check_input_file(
+                    os.path.join(path, name), "ROS bag file", RecordingFormatError, directory=True
+                )
         target = path
         if path.endswith(".db3"):
             target = os.path.dirname(os.path.abspath(path))
@@ -316,12 +329,37 @@ class _Bag:
         except FileNotFoundError as err:
             raise RecordingFormatError(f"{path}: not a readable ROS bag: {err}") from None
         except Exception as err:  # rosbags' reader errors: a damaged or foreign file
-            raise RecordingFormatError(
-                f"{path}: not a readable {self.kind}: {type(err).__name__}: {err}"
-            ) from None
+            raise self.damaged(err, "not a readable") from None
         for c in self.reader.connections:
             t = self.topics.get(c.topic)
-            self.topics[c.topic] = _Topic(c.msgtype, c.msgcount + (t.count if t else 0))
+            if t is None:
+                self.topics[c.topic] = _Topic(c.msgtype, c.msgcount)
+                continue
+            t.count += c.msgcount
+            if c.msgtype != t.msgtype and c.msgtype not in t.others:
+                t.others += (c.msgtype,)
+
+    def damaged(self, err: BaseException, what: str = "damaged") -> RecordingFormatError:
+        """The error for a failure of rosbags' reader (its own errors, or a struct, zlib, bz2,
+        lz4 or sqlite3 error from deep inside it): the file is damaged or foreign."""
+        detail = " ".join(str(err).split())[:200]
+        return RecordingFormatError(
+            f"{self.path}: {what} {self.kind}: {type(err).__name__}: {detail}"
+        )
+
+    def raw_messages(self, connections: Any = None) -> Iterator[tuple[Any, int, bytes]]:
+        """``(connection, time ns, data)`` of the bag's messages, in time order; a record that
+        cannot be read raises :class:`RecordingFormatError` (rosbags reads lazily: the
+        damage in the middle of a bag shows only here)."""
+        it = iter(self.reader.messages(connections=connections or self.reader.connections))
+        while True:
+            try:
+                item = next(it)
+            except StopIteration:
+                return
+            except Exception as err:  # rosbags' reader errors, as at open
+                raise self.damaged(err) from None
+            yield item
 
     def close(self) -> None:
         if self.reader is not None:
@@ -352,7 +390,7 @@ class _Bag:
                     yield topic, t, msg
             return
         conns = [c for c in self.reader.connections if c.topic in wanted]
-        for conn, t, data in self.reader.messages(connections=conns):
+        for conn, t, data in self.raw_messages(conns):
             try:
                 msg = self.reader.deserialize(data, conn.msgtype)
             except Exception as err:
@@ -413,6 +451,21 @@ def _matrix(p: Any, q: Any) -> np.ndarray:
         m[:3, :3] = Rotation.from_quat(qa).as_matrix()
     m[:3, 3] = p
     return m
+
+
+def _check_transform(p: np.ndarray, q: np.ndarray, where: str, child: str) -> None:
+    """Refuse a tf transform that is no rigid motion: a quaternion that is zero (no rotation
+    at all, not the identity: that is 0, 0, 0, 1), NaN or infinite, or such a translation."""
+    if not (np.all(np.isfinite(q)) and np.linalg.norm(q) > 1e-9):
+        raise RecordingFormatError(
+            f"{where}: the transform to frame {child!r} has rotation quaternion "
+            f"{', '.join(f'{v:g}' for v in q)} (x, y, z, w), which is not a rotation"
+        )
+    if not np.all(np.isfinite(p)):
+        raise RecordingFormatError(
+            f"{where}: the transform to frame {child!r} has translation "
+            f"{', '.join(f'{v:g}' for v in p)}, which is not finite"
+        )
 
 
 class _TfTree:
@@ -577,6 +630,13 @@ def _check_topics(bag: _Bag, m: RosMapping) -> None:
             f"{where} names topics {bag.path} does not have: {', '.join(missing)}; "
             f"the bag has: {bag.describe()}"
         )
+    for topic, _ in [*wanted, *((t, "tf") for t in m.tf_topics if t in bag.topics)]:
+        info = bag.topics[topic]
+        if info.others:
+            raise RecordingFormatError(
+                f"{bag.path}: topic {topic} carries {1 + len(info.others)} message types "
+                f"({', '.join((info.msgtype, *info.others))}); lfd reads one type per topic"
+            )
     if m.hand.topic:
         got = _norm(bag.topics[m.hand.topic].msgtype)
         if got not in HAND_TYPES:
@@ -625,12 +685,15 @@ def _read(
             static = topic in m.static_tf_topics
             for tr in msg.transforms:
                 x = tr.transform
+                p = np.array([x.translation.x, x.translation.y, x.translation.z]) * scale
+                q = np.array([x.rotation.x, x.rotation.y, x.rotation.z, x.rotation.w])
+                _check_transform(p, q, f"{bag.path}: {topic} at {log_ns} ns", tr.child_frame_id)
                 tf.add(
                     tr.header.frame_id,
                     tr.child_frame_id,
                     _stamp(tr.header, log_ns, m.time),
-                    np.array([x.translation.x, x.translation.y, x.translation.z]) * scale,
-                    np.array([x.rotation.x, x.rotation.y, x.rotation.z, x.rotation.w]),
+                    p,
+                    q,
                     static,
                 )
         if topic == m.hand.topic:
@@ -749,7 +812,7 @@ def bag_summary(path: str | os.PathLike[str]) -> dict[str, Any]:
     bag = _Bag(p, None)
     try:
         stats: dict[str, list[int]] = {}
-        for conn, t, _ in bag.reader.messages():
+        for conn, t, _ in bag.raw_messages():
             s = stats.setdefault(conn.topic, [0, int(t), int(t)])
             s[0] += 1
             s[1], s[2] = min(s[1], int(t)), max(s[2], int(t))

@@ -96,16 +96,13 @@ def read_sidecar(path: str | os.PathLike[str]) -> dict[str, Size] | None:
     UsageError
         The sidecar is not TOML, lacks the ``[sizes]`` table or holds a malformed size.
     """
-    import tomllib
+    from ..inputs import parse_toml, read_text
 
     side = sidecar_path(path)
-    if not os.path.isfile(side):
+    if not os.path.lexists(side):
         return None
-    try:
-        with open(side, "rb") as f:
-            doc = tomllib.load(f)
-    except tomllib.TOMLDecodeError as err:
-        raise UsageError(f"{side}: not valid TOML: {err}") from None
+    text = read_text(side, not_text="is not a size file (binary, not UTF-8 TOML text)")
+    doc = parse_toml(text, f"{side}: not valid TOML")
     unknown = sorted(set(doc) - {"sizes"})
     if unknown:
         raise UsageError(f"{side}: unknown key {unknown[0]!r}; expected a [sizes] table")
@@ -146,7 +143,7 @@ def resolve_sizes(
     for name in names:
         size = given.get(name) or side.get(name)
         if size is None and declared[name] is not None:
-            size = tuple(float(v) for v in declared[name])  # type: ignore[assignment]
+            size = check_size(declared[name], f"{path}: the size of object {name!r}")
         if size is None:
             warnings.warn(
                 f"object {name} has no size; using {DEFAULT_OBJECT_SIZE[0]:g} m cube, give it with "

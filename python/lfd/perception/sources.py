@@ -102,8 +102,9 @@ def read_camera_json(path: Path) -> tuple[CameraInfo, list[dict[str, Any]], dict
             }
             for o in meta.get("objects", [])
         ]
-    except (KeyError, TypeError, ValueError, json.JSONDecodeError) as err:
-        raise LfdError(f"{path}: invalid camera description ({err})") from err
+    except (KeyError, TypeError, ValueError, RecursionError) as err:  # JSONDecodeError too
+        detail = "nested too deeply" if isinstance(err, RecursionError) else str(err)[:200]
+        raise LfdError(f"{path}: invalid camera description ({detail})") from None
     problem = intrinsics_problem(K)
     if problem is not None:
         raise LfdError(f"{path}: {problem}")

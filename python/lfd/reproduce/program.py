@@ -98,11 +98,15 @@ class TaskProgram:
     @classmethod
     def load(cls, path: str | Path) -> TaskProgram:
         """Read a task program JSON file."""
+        from ..inputs import parse_json, read_text
+
         try:
-            data = json.loads(Path(path).read_text())
-        except (OSError, json.JSONDecodeError) as err:
+            text = read_text(path, "task program", DemonstrationError)
+        except OSError as err:
             raise DemonstrationError(f"cannot read task program {path}: {err}") from err
-        return cls.from_json(data)
+        return cls.from_json(
+            parse_json(text, f"cannot read task program {path}", DemonstrationError)
+        )
 
     def save(self, path: str | Path) -> None:
         """Write the program as JSON."""

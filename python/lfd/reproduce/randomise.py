@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import re
 from collections import Counter
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -43,6 +43,9 @@ MAX_SHIFT = 0.10
 """Default largest shift of an object (m)."""
 MAX_TURN_DEG = 45.0
 """Default largest turn of an object (deg)."""
+MAX_LAYOUTS = 100_000
+"""Most layouts one ``--randomise N`` runs (each is simulated in every mode: 100 000 layouts are
+days of simulation already)."""
 
 
 @dataclass
@@ -120,16 +123,55 @@ def random_layouts(
     modes: Sequence[str] = ("skills", "dmp"),
 ) -> list[Layout]:
     """``n`` reachable, collision-free layouts (see the module docstring), reproducibly from
-    ``seed``.
+    ``seed``: :func:`iter_layouts` drawn all at once.
 
     Raises
     ------
     UsageError
-        A bad ``n``, ``max_shift`` or ``max_turn_deg``, or no valid layout found in
-        :data:`MAX_TRIES` draws.
+        A bad ``n`` (1 to :data:`MAX_LAYOUTS`), ``max_shift`` or ``max_turn_deg``, or no valid
+        layout found in :data:`MAX_TRIES` draws.
     """
-    if n < 1:
-        raise UsageError(f"--randomise {n}: the number of layouts must be at least 1")
+    return list(
+        iter_layouts(
+            traj,
+            program,
+            n,
+            seed=seed,
+            max_shift=max_shift,
+            max_turn_deg=max_turn_deg,
+            gap=gap,
+            modes=modes,
+        )
+    )
+
+
+def check_layout_count(n: int) -> int:
+    """``n`` as a number of layouts: an integer from 1 to :data:`MAX_LAYOUTS`."""
+    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_LAYOUTS:
+        raise UsageError(f"--randomise {n}: the number of layouts must be from 1 to {MAX_LAYOUTS}")
+    return n
+
+
+def iter_layouts(
+    traj: Trajectory,
+    program: TaskProgram,
+    n: int,
+    *,
+    seed: int = 0,
+    max_shift: float = MAX_SHIFT,
+    max_turn_deg: float = MAX_TURN_DEG,
+    gap: float = LAYOUT_GAP,
+    modes: Sequence[str] = ("skills", "dmp"),
+) -> Iterator[Layout]:
+    """:func:`random_layouts` one at a time: each layout is drawn when it is asked for (the
+    same layouts, in the same order). The settings are checked at once, on the call.
+
+    Raises
+    ------
+    UsageError
+        As :func:`random_layouts` (no valid layout: when that layout is asked for).
+    """
+    check_layout_count(n)
     if not (np.isfinite(max_shift) and 0.0 <= max_shift <= 0.5):
         raise UsageError(f"--max-shift {max_shift}: must be 0-0.5 m")
     if not (np.isfinite(max_turn_deg) and 0.0 <= max_turn_deg <= 180.0):
@@ -145,28 +187,30 @@ def random_layouts(
         if seen[k] and frames.support_of(name, start_i) is None
     ]
     rng = np.random.default_rng(seed)
-    layouts = []
-    for index in range(n):
-        rejected: Counter[str] = Counter()
-        for _ in range(MAX_TRIES):
-            displace: dict[str, Displacement] = {}
-            for name in free:
-                r = max_shift * float(np.sqrt(rng.uniform()))
-                a = float(rng.uniform(-np.pi, np.pi))
-                turn = float(rng.uniform(-max_turn_deg, max_turn_deg))
-                displace[name] = (r * np.cos(a), r * np.sin(a), turn)
-            problem = check_layout(traj, program, displace, modes=modes, gap=gap)
-            if problem is None:
-                layouts.append(Layout(index, displace, dict(rejected)))
-                break
-            rejected[_rejection_kind(problem)] += 1
-        else:
-            kinds = ", ".join(f"{k} {v}" for k, v in rejected.most_common())
-            raise UsageError(
-                f"--randomise: no reachable, collision-free layout in {MAX_TRIES} draws "
-                f"(rejected: {kinds}); try a smaller --max-shift"
-            )
-    return layouts
+
+    def draw() -> Iterator[Layout]:
+        for index in range(n):
+            rejected: Counter[str] = Counter()
+            for _ in range(MAX_TRIES):
+                displace: dict[str, Displacement] = {}
+                for name in free:
+                    r = max_shift * float(np.sqrt(rng.uniform()))
+                    a = float(rng.uniform(-np.pi, np.pi))
+                    turn = float(rng.uniform(-max_turn_deg, max_turn_deg))
+                    displace[name] = (r * np.cos(a), r * np.sin(a), turn)
+                problem = check_layout(traj, program, displace, modes=modes, gap=gap)
+                if problem is None:
+                    yield Layout(index, displace, dict(rejected))
+                    break
+                rejected[_rejection_kind(problem)] += 1
+            else:
+                kinds = ", ".join(f"{k} {v}" for k, v in rejected.most_common())
+                raise UsageError(
+                    f"--randomise: no reachable, collision-free layout in {MAX_TRIES} draws "
+                    f"(rejected: {kinds}); try a smaller --max-shift"
+                )
+
+    return draw()
 
 
 _KINDS = (
@@ -303,17 +347,20 @@ def run_randomised(
     Raises
     ------
     UsageError
-        Bad settings or no valid layout (before anything is simulated).
+        Bad settings, or no valid layout (for the first layout: before anything is
+        simulated; for a later one: the runs so far are lost, as with any error).
     """
     for mode in modes:
         if mode not in MODES:
             raise InvalidParameterError(f"unknown mode {mode!r}; choose from {', '.join(MODES)}")
-    layouts = random_layouts(
-        traj, program, n, seed=seed, max_shift=max_shift, max_turn_deg=max_turn_deg, modes=modes
-    )
+    layouts: list[Layout] = []
     runs: list[LayoutRun] = []
-    total = len(layouts) * len(modes)
-    for lay in layouts:
+    total = n * len(modes)
+    # each layout is drawn just before it runs: the first runs start at once, whatever n
+    for lay in iter_layouts(
+        traj, program, n, seed=seed, max_shift=max_shift, max_turn_deg=max_turn_deg, modes=modes
+    ):
+        layouts.append(lay)
         for mode in modes:
             try:
                 r = run(traj, program, mode, displace=lay.displace)

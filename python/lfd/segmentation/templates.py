@@ -129,10 +129,9 @@ class Templates:
     @classmethod
     def from_json(cls, text: str) -> Templates:
         """Read templates from JSON text; version or skill problems raise ModelFormatError."""
-        try:
-            doc = json.loads(text)
-        except json.JSONDecodeError as err:
-            raise ModelFormatError(f"template file is not valid JSON: {err}") from None
+        from ..inputs import parse_json
+
+        doc = parse_json(text, "template file is not valid JSON", ModelFormatError)
         if not isinstance(doc, dict):
             raise ModelFormatError("template file must contain a JSON object")
         meta = doc.pop("lfd", {}) if isinstance(doc.get("lfd", {}), dict) else {}
@@ -147,16 +146,18 @@ class Templates:
     @classmethod
     def load(cls, path: str | Path) -> Templates:
         """Read a template file."""
+        from ..inputs import read_text
+
         p = Path(path)
         try:
-            text = p.read_text(encoding="utf-8")
+            text = read_text(
+                p,
+                error=ModelFormatError,
+                not_text="is not a template file (binary, not UTF-8 JSON text); "
+                "train one with `lfd templates train`",
+            )
         except OSError as err:
             raise ModelFormatError(f"cannot read template file {p}: {err}") from None
-        except UnicodeDecodeError:
-            raise ModelFormatError(
-                f"{p} is not a template file (binary, not UTF-8 JSON text); "
-                "train one with `lfd templates train`"
-            ) from None
         try:
             return cls.from_json(text)
         except ModelFormatError as err:

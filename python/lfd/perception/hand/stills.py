@@ -37,7 +37,9 @@ def _decode(path: PathLike, what: str, flags: int) -> np.ndarray:
     """The decoded image file (OpenCV ``flags``), or a one-line error naming it."""
     import cv2
 
-    p = Path(path)
+    from ...inputs import check_input_file
+
+    p = Path(check_input_file(path, what, LfdError))  # a FIFO or a device: refused
     if not p.is_file():
         raise LfdError(f"{p}: {what} not found")
     data = np.fromfile(p, np.uint8)
@@ -86,10 +88,11 @@ def read_intrinsics(path: PathLike) -> np.ndarray:
     try:
         doc = json.loads(p.read_text())
         K = np.asarray(doc["K"] if isinstance(doc, dict) else doc, float)
-    except (KeyError, TypeError, ValueError, UnicodeDecodeError) as err:
+    except (KeyError, TypeError, ValueError, RecursionError) as err:  # UnicodeDecodeError too
+        detail = "nested too deeply" if isinstance(err, RecursionError) else str(err)[:200]
         raise LfdError(
-            f'{p}: expected JSON {{"K": [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]}} ({err})'
-        ) from err
+            f'{p}: expected JSON {{"K": [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]}} ({detail})'
+        ) from None
     problem = intrinsics_problem(K)
     if problem is not None:
         raise LfdError(f"{p}: {problem}")

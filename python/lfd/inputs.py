@@ -1,0 +1,115 @@
+"""Input files that cannot hang, exhaust memory or crash a parser: checked before they are read.
+
+Every file lfd reads for the user (a recording, a ROS bag, a topic mapping, a sidecar size file,
+templates, labels, intrinsics, a task program) is checked with :func:`check_input_file` before it
+is opened: it must be a regular file. A FIFO blocks the open until some writer comes (forever),
+and a device such as ``/dev/zero`` never ends (a reader fills memory). Text inputs are read with
+:func:`read_text` (at most :data:`MAX_TEXT_BYTES`, UTF-8) and parsed with :func:`parse_json` or
+:func:`parse_toml`, which turn every way those parsers fail on hostile text (too deeply nested,
+a number with thousands of digits, invalid bytes) into the caller's error, one line.
+
+The ``output`` twin of this module is :mod:`lfd.outputs`.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+from typing import Any
+
+from .errors import LfdError, UsageError
+
+__all__ = ["MAX_TEXT_BYTES", "check_input_file", "parse_json", "parse_toml", "read_text"]
+
+MAX_TEXT_BYTES = 64 * 2**20
+"""Largest text input (labels, mappings, sidecars, templates) read: 64 MiB, far more than any
+such file lfd writes (the shipped templates are 52 KB)."""
+
+_KINDS = (
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def check_input_file(
+    path: str | os.PathLike[str],
+    what: str = "",
+    error: type[LfdError] = UsageError,
+    *,
+    directory: bool = False,
+) -> str:
+    """``path`` (as a string) once it is known not to be a FIFO, device or socket.
+
+    A path that does not exist (or cannot be looked at) is returned as it is: the open that
+    follows reports it as it always has. A directory is refused unless ``directory``.
+    ``what`` names the input in the message (``"--map"``); ``error`` is the class raised.
+    """
+    p = os.fspath(path)
+    try:
+        st = os.stat(p)  # follows symlinks: a link to /dev/zero is /dev/zero
+    except (OSError, ValueError):
+        return p
+    label = f"{what} {p}" if what else p
+    if stat.S_ISDIR(st.st_mode):
+        if directory:
+            return p
+        raise error(f"{label} is a directory, not a regular file; give a file")
+    if stat.S_ISREG(st.st_mode):
+        return p
+    kind = next((name for test, name in _KINDS if test(st.st_mode)), "not a file")
+    raise error(f"{label} is not a regular file ({kind}); give a file")
+
+
+def read_text(
+    path: str | os.PathLike[str],
+    what: str = "",
+    error: type[LfdError] = UsageError,
+    *,
+    limit: int = MAX_TEXT_BYTES,
+    not_text: str = "is not UTF-8 text",
+) -> str:
+    """The UTF-8 text of a regular file of at most ``limit`` bytes, else ``error`` (for bytes
+    that are not UTF-8: ``"<path> <not_text>"``).
+
+    :class:`OSError` (missing file, permission denied) propagates for the caller to word."""
+    p = check_input_file(path, what, error)
+    label = f"{what} {p}" if what else p
+    with open(p, "rb") as f:
+        data = f.read(limit + 1)
+    if len(data) > limit:
+        raise error(f"{label} is larger than {limit // 2**20} MiB; not a text input lfd reads")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise error(f"{label} {not_text}") from None
+
+
+def _detail(err: BaseException) -> str:
+    if isinstance(err, RecursionError):
+        return "nested too deeply"
+    text = " ".join(str(err).split())
+    if "integer string conversion" in text:  # Python's limit on the digits of an int
+        return "a number has more than 4300 digits"
+    return text[:200]
+
+
+def parse_json(text: str | bytes, prefix: str, error: type[LfdError] = UsageError) -> Any:
+    """``json.loads(text)``; any failure raises ``error(f"{prefix}: {reason}")``."""
+    import json
+
+    try:
+        return json.loads(text)
+    except (RecursionError, ValueError) as err:  # JSONDecodeError and UnicodeDecodeError too
+        raise error(f"{prefix}: {_detail(err)}") from None
+
+
+def parse_toml(text: str, prefix: str, error: type[LfdError] = UsageError) -> dict[str, Any]:
+    """``tomllib.loads(text)``; any failure raises ``error(f"{prefix}: {reason}")``."""
+    import tomllib
+
+    try:
+        return tomllib.loads(text)
+    except (RecursionError, ValueError) as err:  # TOMLDecodeError is a ValueError
+        raise error(f"{prefix}: {_detail(err)}") from None
