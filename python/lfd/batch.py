@@ -345,7 +345,7 @@ def _run_alone(func: Callable[[Any], T], item: Any, ctx: Any) -> ItemResult[T]:
 def is_recording_folder(path: str | os.PathLike[str]) -> bool:
     """Whether ``path`` is a folder of recordings (not a ROS 2 bag directory, which is one
     recording: it holds ``metadata.yaml``)."""
-    from .io.reader import is_ros_path
+    from .inputs import is_ros_path
 
     return os.path.isdir(path) and not is_ros_path(path)
 

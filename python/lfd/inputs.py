@@ -113,3 +113,13 @@ def parse_toml(text: str, prefix: str, error: type[LfdError] = UsageError) -> di
         return tomllib.loads(text)
     except (RecursionError, ValueError) as err:  # TOMLDecodeError is a ValueError
         raise error(f"{prefix}: {_detail(err)}") from None
+
+
+def is_ros_path(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is a ROS bag by its name alone: a ``.bag`` or ``.db3`` file or a
+    directory (a ROS 2 bag holds ``metadata.yaml``). An ``.mcap`` needs a look inside
+    (:func:`is_ros_recording`)."""
+    p = os.fspath(path)
+    if os.path.isdir(p):
+        return os.path.isfile(os.path.join(p, "metadata.yaml"))
+    return p.endswith((".bag", ".db3"))

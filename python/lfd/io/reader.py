@@ -28,7 +28,7 @@ from ..errors import (
     TimestampWarning,
     UsageError,
 )
-from ..inputs import parse_json
+from ..inputs import is_ros_path, parse_json
 from . import topics as T
 from .mcapfile import RawRecording, Records, read
 from .sizes import resolve_sizes
@@ -552,16 +552,6 @@ def demonstration_of(
         depth=depth,
         metadata=metadata,
     )
-
-
-def is_ros_path(path: str | os.PathLike[str]) -> bool:
-    """Whether ``path`` is a ROS bag by its name alone: a ``.bag`` or ``.db3`` file or a
-    directory (a ROS 2 bag holds ``metadata.yaml``). An ``.mcap`` needs a look inside
-    (:func:`is_ros_recording`)."""
-    p = os.fspath(path)
-    if os.path.isdir(p):
-        return os.path.isfile(os.path.join(p, "metadata.yaml"))
-    return p.endswith((".bag", ".db3"))
 
 
 def is_ros_recording(raw: RawRecording) -> bool:
