@@ -1,24 +1,34 @@
 """Every command line and Python snippet in the README and the docs works as shown.
 
 The lines are read from the documents themselves (fenced code blocks), so a changed or added
-line is tested without touching this file. A line runs exactly as written, in a scratch
-directory holding a copy of ``recordings/`` (so regenerating recordings cannot touch the shipped
-ones), after the lines before it in the same document. The few lines that cannot run as written
-in a test are listed below with the reason and what runs instead; a listed line that no longer
-appears in the documents fails the test, so the list cannot go stale.
+line is tested without touching this file: one test per command line, ``DOC:LINE`` in its id.
+A line runs exactly as written, in a scratch directory per document holding a copy of
+``recordings/`` (so regenerating recordings cannot touch the shipped ones), after the lines
+before it in the same document (run first if the selection left them out). The few lines that
+cannot run as written in a test are listed below with the reason and what runs instead; a listed
+line that no longer appears in the documents fails the test, so the list cannot go stale.
+
+Lines that take long (regenerating recordings or templates, driving the robot, rendering,
+training) are listed in :data:`SLOW` and marked ``slow``: the default run replays the quick
+lines of every document, ``-m slow`` the rest. A quick line never needs a slow line's output.
+Where a document shows what a line gives (a skill sequence, a figure, a file's content),
+:data:`CHECKS` asserts it, quoting the document; a quote the document no longer holds fails.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import re
+import shlex
 import shutil
 import signal
 import subprocess
 import sys
 import textwrap
 import time
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import _paths
@@ -170,7 +180,7 @@ def _run(args: list[str], cwd: Path, timeout: float) -> subprocess.CompletedProc
     )
 
 
-def _run_viewer_line(cmd: str, cwd: Path) -> None:
+def _run_viewer_line(cmd: str, cwd: Path) -> subprocess.CompletedProcess[str]:
     """Start a viewer line, let it do its work, then stop it with SIGINT as a user would.
 
     Its stdin is a terminal, as for a user at a shell (a command whose stdin is not a terminal
@@ -204,6 +214,7 @@ def _run_viewer_line(cmd: str, cwd: Path) -> None:
     assert proc.returncode in (0, 130), err
     assert "Traceback" not in err, err
     assert out.strip(), f"{cmd} printed nothing before it was stopped"
+    return subprocess.CompletedProcess(cmd, proc.returncode, out, err)
 
 
 def _idle(pid: int) -> bool:
@@ -221,26 +232,267 @@ def _idle(pid: int) -> bool:
         return True
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("document", DOCUMENTS)
-def test_command_lines_work_as_shown(document: str, tmp_path: Path) -> None:
-    path = ROOT / document
-    lines = command_lines(path)
-    work = _scratch(tmp_path)
-    ran = 0
-    for line in lines:
-        if any(line.command.startswith(p) for p in NOT_RUN):
-            continue
-        cmd = RUN_AS.get(line.command, (line.command, ""))[0]
-        if any(v in cmd + " " for v in VIEWER_LINES):
-            _run_viewer_line(cmd, work)
-            ran += 1
-            continue
-        proc = _run(["bash", "-c", cmd], work, timeout=900)
+SLOW: dict[str, str] = {
+    # prefix of a command line (as written in the document) -> why it is left to `-m slow`
+    "lfd reproduce": "drives the simulated robot through a whole demonstration (~50 s a line)",
+    "lfd simulate --set": "simulates a whole set of demonstrations (the eval set: 24, ~80 s)",
+    "MUJOCO_GL=egl lfd simulate --set": "regenerates the shipped recordings (minutes)",
+    "lfd simulate exp5 --style natural": "a 24 s natural demonstration with repeated lifts",
+    "lfd segment lifts.mcap": "needs lifts.mcap from the line above",
+    "lfd record --source sim": "renders every frame and runs the hand network on it",
+    "MUJOCO_GL=egl lfd record --source sim": "renders and perceives exp1 (the shipped copy)",
+    "lfd segment seen.mcap": "needs seen.mcap from lfd record above",
+    "lfd eval eval_demos": "needs the eval set from lfd simulate --set eval",
+    "lfd templates train": "trains the templates' HMMs on many recordings",
+    "lfd perception ": "torch: trains or evaluates the hand network, or runs the hand models",
+    "lfd export lerobot": "imports lerobot and torch and encodes a dataset",
+    "lfd eval mine_": "leave-one-out: trains templates once per recording",
+    "lfd segment mine_1.mcap --templates": "needs mine_templates.json from lfd templates train",
+    "lfd segment recordings --jobs": "segments every shipped recording in worker processes",
+    "lfd eval recordings --methods": "evaluates every shipped recording in worker processes",
+}
+
+
+def _slow_reason(command: str) -> str | None:
+    if any(v in command + " " for v in VIEWER_LINES):
+        return "serves a viewer until it is idle, then Ctrl+C"
+    return next((why for prefix, why in SLOW.items() if command.startswith(prefix)), None)
+
+
+def _runnable(document: str) -> list[Line]:
+    return [
+        ln
+        for ln in command_lines(ROOT / document)
+        if not any(ln.command.startswith(p) for p in NOT_RUN)
+    ]
+
+
+LINES = [ln for document in DOCUMENTS for ln in _runnable(document)]
+
+
+@dataclass
+class Replay:
+    """One document's scratch directory and the lines already run in it (this session)."""
+
+    work: Path
+    ran: dict[int, subprocess.CompletedProcess[str]] = field(default_factory=dict)
+
+
+@pytest.fixture(scope="session")
+def replays(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Replay]:
+    """document -> its replay, created on first use."""
+    return {}
+
+
+def _replay(
+    replays: dict[str, Replay], document: str, tmp_path_factory: pytest.TempPathFactory
+) -> Replay:
+    if document not in replays:
+        replays[document] = Replay(_scratch(tmp_path_factory.mktemp("doc")))
+    return replays[document]
+
+
+def _execute(
+    line: Line, replay: Replay, lfd_main: Callable[..., subprocess.CompletedProcess[str]]
+) -> subprocess.CompletedProcess[str]:
+    """Run ``line`` (or what :data:`RUN_AS` runs instead) in the document's directory; it must
+    exit 0 without a traceback. Quick plain ``lfd`` lines run in this process, the others (slow,
+    or with pipes, redirections, ``&&``, environment variables) through bash as written."""
+    cmd = RUN_AS.get(line.command, (line.command, ""))[0]
+    if any(v in cmd + " " for v in VIEWER_LINES):
+        proc = _run_viewer_line(cmd, replay.work)
+    else:
+        plain = re.fullmatch(r"lfd [^|&;<>$`*]*", cmd) and not _slow_reason(line.command)
+        if plain:
+            proc = lfd_main(shlex.split(cmd)[1:], cwd=replay.work)
+        else:
+            proc = _run(["bash", "-c", cmd], replay.work, timeout=900)
         assert proc.returncode == 0, f"{line}\nexit {proc.returncode}\n{proc.stderr[-3000:]}"
         assert "Traceback" not in proc.stderr, f"{line}\n{proc.stderr[-3000:]}"
-        ran += 1
-    assert ran or not lines
+    replay.ran[line.lineno] = proc
+    return proc
+
+
+@pytest.mark.parametrize(
+    "line",
+    [
+        pytest.param(
+            ln,
+            id=f"{ln.document}:{ln.lineno}",
+            marks=[pytest.mark.slow] if _slow_reason(ln.command) else [],
+        )
+        for ln in LINES
+    ],
+)
+def test_command_line_works_as_shown(
+    line: Line,
+    replays: dict[str, Replay],
+    tmp_path_factory: pytest.TempPathFactory,
+    lfd_main: Callable[..., subprocess.CompletedProcess[str]],
+) -> None:
+    replay = _replay(replays, line.document, tmp_path_factory)
+    slow = _slow_reason(line.command) is not None
+    for earlier in _runnable(line.document):
+        if earlier.lineno >= line.lineno:
+            break
+        # the lines before it, as a reader runs them; a quick line needs no slow line's output
+        if earlier.lineno not in replay.ran and (slow or not _slow_reason(earlier.command)):
+            _execute(earlier, replay, lfd_main)
+    proc = _execute(line, replay, lfd_main)
+    for shown, check in CHECKS.get(line.command, []):
+        assert shown in (ROOT / line.document).read_text(encoding="utf-8"), (
+            f"{line.document} no longer shows {shown!r}: update CHECKS"
+        )
+        check(proc, replay.work)
+
+
+def test_every_slow_prefix_and_check_names_a_line() -> None:
+    commands = [ln.command for ln in LINES]
+    assert not [p for p in SLOW if not any(c.startswith(p) for c in commands)]
+    assert not [c for c in CHECKS if c not in commands]
+
+
+# --- what the documents show ---------------------------------------------------------------------
+Check = Callable[[subprocess.CompletedProcess[str], Path], None]
+
+
+def _printed_skills(stdout: str) -> list[str]:
+    """The skill column of the first table ``lfd segment`` prints (its segmentation)."""
+    skills = []
+    for row in stdout.split("ground truth")[0].splitlines():
+        m = re.match(r"^│\s*\d+\s*│\s*(\w+)\s*│", row)
+        if m:
+            skills.append(m.group(1))
+    return skills
+
+
+def _truth(recording: Path) -> list[str]:
+    import lfd
+
+    return lfd.load(recording).skill_sequence
+
+
+def _segments_as_exp1(proc: subprocess.CompletedProcess[str], work: Path) -> None:
+    """ "It segments to the same skills as exp1.mcap" (ros.md): the printed sequence is what
+    lfd.segment gives on the shipped recording, which is its ground truth."""
+    assert _printed_skills(proc.stdout) == _truth(ROOT / "recordings" / "exp1.mcap"), proc.stdout
+
+
+def _segments_demo_exactly(proc: subprocess.CompletedProcess[str], work: Path) -> None:
+    """The quickstart's demonstration: skills found, as the ground truth has them, and the Rerun
+    recording written."""
+    seg = json.loads((work / "seg.json").read_text())
+    skills = [s["skill"] for s in seg["segments"]]
+    assert skills == _printed_skills(proc.stdout) == _truth(work / "demo.mcap"), proc.stdout
+    assert (work / "seg.rrd").stat().st_size > 10_000
+
+
+def _info_tables(proc: subprocess.CompletedProcess[str], work: Path) -> None:
+    """ "channels, rates, objects, ground-truth skills" (README)."""
+    for title in ("channels", "rate Hz", "objects", "ground-truth skills"):
+        assert title in proc.stdout, proc.stdout
+    assert "sequence: pick_up -> move_with -> place" in proc.stdout, proc.stdout
+
+
+def _greedy(proc: subprocess.CompletedProcess[str], work: Path) -> None:
+    assert "greedy segmentation" in proc.stdout and _printed_skills(proc.stdout), proc.stdout
+
+
+def _three_lines(proc: subprocess.CompletedProcess[str], work: Path) -> None:
+    assert len(proc.stdout.splitlines()) == 3 and proc.stdout.startswith("{"), proc.stdout
+
+
+def _json_segments_as_exp1(proc: subprocess.CompletedProcess[str], work: Path) -> None:
+    seg = json.loads((work / "seg.json").read_text())
+    assert [s["skill"] for s in seg["segments"]] == _truth(ROOT / "recordings" / "exp1.mcap")
+
+
+def _batch_of_two(proc: subprocess.CompletedProcess[str], work: Path) -> None:
+    """A batch's --json: one document per recording, in input order."""
+    docs = json.loads((work / "batch.json").read_text())
+    assert [Path(d["recording"]).name for d in docs] == ["exp1.mcap", "exp2.mcap"], docs
+    assert all(d["segments"] for d in docs)
+
+
+def _shown_json(document: str) -> dict:  # type: ignore[type-arg]
+    """The (first) ```json block of ``document``."""
+    block = next(b for lang, _, b in code_blocks(ROOT / document) if lang == "json")
+    return json.loads("\n".join(block))
+
+
+def _segments_as_shown(proc: subprocess.CompletedProcess[str], work: Path) -> None:
+    """own-recordings.md shows mine_1.json (an example of its format: the keys, the first
+    segments' skills and objects; the times are the example's own)."""
+    shown = _shown_json("docs/own-recordings.md")
+    got = json.loads((work / "mine_1.json").read_text())
+    assert set(shown) <= set(got) and got["origin_ns"] > 0
+    for want, have in zip(shown["segments"], got["segments"], strict=False):
+        assert set(want) <= set(have)
+        assert (have["skill"], have["object"]) == (want["skill"], want["object"]), have
+        assert 0 <= have["start_s"] < have["end_s"], have
+
+
+def _labelled_as_segmented(proc: subprocess.CompletedProcess[str], work: Path) -> None:
+    """lfd label writes the segments into the recording as its ground truth."""
+    got = json.loads((work / "mine_1.json").read_text())
+    assert _truth(work / "mine_1.mcap") == [s["skill"] for s in got["segments"]]
+
+
+def _eval_set(proc: subprocess.CompletedProcess[str], work: Path) -> None:
+    """ "4 experiments x 6 demos" (segmentation.md)."""
+    assert len(list((work / "eval_demos").glob("*.mcap"))) == 24
+
+
+def _samples_regenerated(proc: subprocess.CompletedProcess[str], work: Path) -> None:
+    """ "deterministic: same seed" (recordings/README.md): the regenerated sample recordings hold
+    the shipped ones' demonstrations (the file layout may differ between library versions)."""
+    import lfd
+    import numpy as np
+
+    for name in ("exp1", "exp2", "exp3", "exp4"):
+        new, old = (
+            lfd.load(d / f"{name}.mcap") for d in (work / "recordings", ROOT / "recordings")
+        )
+        assert new.labels == old.labels, name
+        np.testing.assert_array_equal(new.hand.t_ns, old.hand.t_ns)
+        np.testing.assert_allclose(new.hand.keypoints, old.hand.keypoints, atol=1e-9)
+
+
+CHECKS: dict[str, list[tuple[str, Check]]] = {
+    # command line -> [(what the document shows, quoted; the check of it)]
+    "lfd info demo.mcap": [("channels, rates, objects, ground-truth skills", _info_tables)],
+    "lfd segment demo.mcap --json seg.json --rerun-save seg.rrd": [
+        ("skills, with a Rerun recording", _segments_demo_exactly)
+    ],
+    "lfd segment demo.mcap --paper": [("the paper's greedy loop", _greedy)],
+    "lfd segment recordings/exp1.mcap --paper": [("the paper: greedy loop", _greedy)],
+    "lfd segment recordings/ros/exp1.bag --map recordings/ros/exp1.toml": [
+        ("It segments to the same skills as `exp1.mcap`", _segments_as_exp1)
+    ],
+    "lfd segment exp1_from_ros.mcap": [
+        ("It segments to the same skills as `exp1.mcap`", _segments_as_exp1)
+    ],
+    "lfd info recordings/exp1.mcap --json - | head -3": [("--json - | head -3", _three_lines)],
+    "lfd segment recordings/exp1.mcap --json - > seg.json": [
+        ("--json - > seg.json", _json_segments_as_exp1)
+    ],
+    "lfd segment recordings/exp1.mcap recordings/exp2.mcap --json batch.json": [
+        ("in input order", _batch_of_two)
+    ],
+    "lfd segment mine_1.mcap --json mine_1.json": [
+        (
+            '{"skill": "pick_up", "start_s": 0.0, "end_s": 1.67, "object": "box_2"}',
+            _segments_as_shown,
+        )
+    ],
+    "lfd label mine_1.mcap --from mine_1.json": [
+        ("writes the segments into the recording as ground truth", _labelled_as_segmented)
+    ],
+    "lfd simulate --set eval -o eval_demos": [("4 experiments x 6 demos", _eval_set)],
+    "MUJOCO_GL=egl lfd simulate --set samples -o recordings": [
+        ("deterministic: same seed", _samples_regenerated)
+    ],
+}
 
 
 SLOW_SNIPPETS = {
