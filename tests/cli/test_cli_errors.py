@@ -466,6 +466,7 @@ def test_broken_pipe_is_quiet() -> None:
     assert proc.stdout is not None and proc.stderr is not None
     proc.stdout.close()  # before anything was written: the write fails with EPIPE
     err = proc.stderr.read().decode()
+    proc.stderr.close()
     proc.wait(timeout=60)
     assert proc.returncode in (0, 141), err
     assert "Traceback" not in err and "BrokenPipeError" not in err, err

@@ -33,7 +33,10 @@ def frames(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return S.write_folder(tmp_path_factory.mktemp("realhands_rgbd"), REALHANDS, n=16)
 
 
-@pytest.mark.parametrize("side", ["right", "left"])
+@pytest.mark.parametrize(
+    "side",
+    ["right", pytest.param("left", marks=pytest.mark.slow)],  # left: the same path mirrored
+)
 def test_record_picks_the_requested_hand_and_lifts_it(
     frames: Path, tmp_path: Path, side: str
 ) -> None:
@@ -170,6 +173,7 @@ def make_reader():
     assert "box_1" in demo.objects
 
 
+@pytest.mark.slow  # records and perceives real-hand frames with Rerun, twice
 def test_record_and_hands_rerun_show_the_skeleton(frames: Path, tmp_path: Path) -> None:
     rr = pytest.importorskip("rerun")
     rrd = tmp_path / "rec.rrd"

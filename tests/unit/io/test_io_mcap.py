@@ -222,6 +222,8 @@ def test_writer_killed_mid_recording(tmp_path: Path) -> None:
     finally:
         os.kill(proc.pid, signal.SIGKILL)
         proc.wait(timeout=10)
+        if proc.stdout is not None:
+            proc.stdout.close()
     # the unfinished recording is left beside the destination as .NAME.XXXXXXXX.partial
     assert not path.exists()
     (partial,) = tmp_path.glob(".killed.mcap.*.partial")

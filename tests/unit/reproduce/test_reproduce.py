@@ -227,6 +227,7 @@ def sim_exp2() -> tuple:
     return traj, from_labels(demo.labels, int(traj.t_ns[0]))
 
 
+@pytest.mark.slow  # three whole robot runs of a simulated experiment (replay, skills, DMP)
 def test_simulated_experiment_all_modes(sim_exp2: tuple) -> None:
     traj, program = sim_exp2
     assert program.skills == [
@@ -475,6 +476,7 @@ def _expected(traj, program, displace: dict) -> dict:  # type: ignore[no-untyped
     return plan_task(frames, program, "skills", initial=init).expected
 
 
+@pytest.mark.slow  # runs the robot through a whole simulated demonstration twice
 def test_place_follows_the_object_it_was_placed_next_to(sim_demos: dict) -> None:
     """exp1 seed 3 puts box_3 down 15 cm or closer to box_1: shifting and turning box_1 moves
     box_3's place goal with it (Eq. 2), and the robot puts it there."""

@@ -505,6 +505,8 @@ def test_rerun_serve_for_keeps_serving_then_exits(tmp_path: Path) -> None:
     out = proc.stdout.read()
     assert proc.stderr is not None
     err = proc.stderr.read()
+    proc.stdout.close()  # unclosed pipes are a ResourceWarning
+    proc.stderr.close()
     proc.wait(timeout=30)
     took = time.monotonic() - t0
     assert proc.returncode == 0, err
