@@ -507,12 +507,14 @@ def test_failing_write_leaves_no_file(tmp_path: Path, monkeypatch: pytest.Monkey
     assert sorted(p.name for p in tmp_path.iterdir()) == ["old.json"]
 
 
-def test_rerun_save_written_at_close(tmp_path: Path) -> None:
+def test_rerun_save_written_at_close(
+    tmp_path: Path, lfd_main: Callable[..., subprocess.CompletedProcess[str]]
+) -> None:
     """``--rerun-save`` goes to a temporary file renamed at the end, so runs cannot interleave."""
     pytest.importorskip("rerun", reason="rerun-sdk not installed (optional viz extra)")
     rrd = tmp_path / "seg.rrd"
     rrd.write_bytes(b"previous")
-    proc = _run("segment", str(EXP1), "--rerun-save", str(rrd))
+    proc = lfd_main(["segment", EXP1, "--rerun-save", rrd])
     assert proc.returncode == 0, proc.stderr
     assert rrd.stat().st_size > 10_000 and not rrd.read_bytes().startswith(b"previous")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["seg.rrd"]

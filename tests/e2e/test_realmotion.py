@@ -92,6 +92,7 @@ def test_eval_on_the_real_recordings(realmotion: Path) -> None:
     assert f"{WHOLE}.mcap: scored outside 4 spans" in proc.stderr  # the tables go to stderr
 
 
+@pytest.mark.slow  # segments and relabels a real motion-capture recording
 def test_label_writes_corrected_labels_into_a_copy(realmotion: Path, tmp_path: Path) -> None:
     """Labels of the labels.json file (seconds from the first sample, no object) and a
     corrected ``lfd segment --json`` document, each written into a copy; the original stays."""

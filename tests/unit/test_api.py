@@ -123,6 +123,7 @@ def test_confidence_is_a_probability_and_margin_the_raw_score_gap() -> None:
     assert all("margin" in seg for seg in doc["segments"])
 
 
+@pytest.mark.slow  # runs mypy on a script (mypy python/lfd runs in CI's lint step)
 def test_type_checker_sees_real_return_types(tmp_path: Path) -> None:
     from mypy import api
 
