@@ -1,11 +1,14 @@
 # Developer shortcuts. `make check` runs what CI runs (see .ci/run).
-.PHONY: install test rust-test lint bench check
+.PHONY: install test test-slow rust-test lint bench check
 
 install:
 	python3 -m pip install -e ".[dev,sim,perception,lerobot]" && python3 -m pip install --no-deps lerobot==0.4.4
 
 test:
 	python3 -m pytest -q
+
+test-slow:
+	python3 -m pytest -q -m slow
 
 rust-test:
 	cargo test --workspace

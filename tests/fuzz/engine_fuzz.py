@@ -1,7 +1,7 @@
 """Fuzz every public entry point of the engine binding ``lfd._hmmseg``.
 
 Each target is one entry point (a function, a constructor, a method or a property of a class);
-:data:`TARGETS` lists them and ``--check-coverage`` (run by ``tests/test_fuzz.py``) fails when a
+:data:`TARGETS` lists them and ``--check-coverage`` (run by ``tests/unit/engine/test_fuzz.py``) fails when a
 public name of ``lfd._hmmseg`` has no target. A case is drawn from its own seeded generator
 (``seed``, target, case number), so any finding is replayed with ``--replay TARGET:CASE``.
 Inputs mix sane values with absurd ones: sizes from 0 to 2**200 and negative, NaN/inf, huge and

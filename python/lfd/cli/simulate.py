@@ -29,7 +29,7 @@ HELP = "Record a task performed by the simulated human demonstrator (MuJoCo)."
 
 SETS = ("templates", "eval", "samples")
 """The names of :data:`lfd.sim.sets.SETS` (not imported: ``lfd --help`` runs without the sim
-extra; tests/test_sim.py checks they agree)."""
+extra; tests/unit/sim/test_sim.py checks they agree)."""
 OBJECT_RATE_HZ = 30.0
 """Camera / tag tracking rate of the simulated recordings (``simulate``'s default), Hz: the
 upper limit of the hand and render rates."""

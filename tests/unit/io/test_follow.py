@@ -1,0 +1,160 @@
+"""Following a recording that another thread is still writing (lfd.io.follow)."""
+
+from __future__ import annotations
+
+import _thread
+import itertools
+import threading
+import time
+import warnings
+from pathlib import Path
+
+import _paths
+import numpy as np
+import pytest
+from lfd.errors import RecordingFormatError, RecoveredFileWarning
+from lfd.io import McapRecorder, follow, load, scan
+from lfd.io.follow import STOPPED_GROWING, partial_files
+
+ROOT = _paths.ROOT
+EXP1 = ROOT / "recordings" / "exp1.mcap"
+
+
+def _file_messages(path: Path) -> list[tuple[str, int, bytes]]:
+    """Every message of a finished file in file order, as (topic, log_time, payload)."""
+    from mcap.reader import make_reader
+
+    with open(path, "rb") as f:
+        return [
+            (ch.topic, m.log_time, m.data)
+            for _, ch, m in make_reader(f).iter_messages(log_time_order=False)
+        ]
+
+
+def _trickle(src: bytes, dest: Path, pieces: int, seconds: float, *, stop_at: int | None = None):
+    """Write ``src`` to ``dest`` in ``pieces`` slices of random length over ``seconds``."""
+    rng = np.random.default_rng(7)
+    cuts = np.sort(rng.choice(np.arange(1, len(src)), size=pieces - 1, replace=False))
+    bounds = [0, *cuts.tolist(), len(src) if stop_at is None else stop_at]
+    with open(dest, "wb") as f:
+        for a, b in itertools.pairwise(bounds):
+            if a >= bounds[-1]:
+                break
+            f.write(src[a : min(b, bounds[-1])])
+            f.flush()
+            time.sleep(seconds / pieces)
+
+
+def test_follow_a_file_written_byte_slice_by_byte_slice() -> None:
+    """Records cut anywhere (a chunk half written) are waited for: the follower yields exactly
+    the messages of the finished file, and the first ones long before the writer is done."""
+    src = EXP1.read_bytes()
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        dest = Path(tmp) / "live.mcap"
+        dest.touch()
+        writer = threading.Thread(target=_trickle, args=(src, dest, 400, 2.0))
+        follower = follow(dest, poll_s=0.01, idle_timeout_s=5.0)
+        writer.start()
+        got, first_at, t0 = [], None, time.monotonic()
+        for msg in follower:
+            if first_at is None:
+                first_at = time.monotonic() - t0
+            got.append((msg.topic, msg.t_ns, msg.data))
+        writer.join()
+        assert follower.stop_reason == "end" and follower.complete
+        assert got == _file_messages(dest)
+        assert len(got) == scan(EXP1).message_count
+        assert first_at is not None and first_at < 1.5  # the writer needs 2 s
+
+
+def test_follow_a_recorder_while_it_records(tmp_path: Path) -> None:
+    """McapRecorder writes exp1 at 4x real time; the follower decodes the same hand and object
+    samples as lfd.io.load reads from the finished file, each within about a second."""
+    demo = load(EXP1, images=False)
+    out = tmp_path / "rec.mcap"
+    events = [(int(t), "hand", i) for i, t in enumerate(demo.hand.t_ns)]
+    for name, obj in demo.objects.items():
+        events += [(int(t), name, i) for i, t in enumerate(obj.t_ns)]
+    events.sort(key=lambda e: e[0])
+    written: dict[int, float] = {}  # hand sample time -> wall time it was written
+
+    def record() -> None:
+        objects = [(o.name, o.tag_id, o.size) for o in demo.objects.values()]
+        with McapRecorder(out, objects=objects, max_chunk_duration_s=60.0) as rec:
+            t_prev = events[0][0]
+            for t, stream, i in events:
+                time.sleep(max(0.0, (t - t_prev) * 1e-9 / 4))
+                t_prev = t
+                if stream == "hand":
+                    h = demo.hand
+                    rec.add_hand(t, h.keypoints[i], h.confidence[i], h.visible[i])
+                    written[t] = time.monotonic()
+                else:
+                    o = demo.objects[stream]
+                    rec.add_object_pose(stream, t, o.position[i], o.quaternion[i])
+
+    thread = threading.Thread(target=record)
+    thread.start()
+    follower = follow(out, poll_s=0.02, idle_timeout_s=10.0)
+    hands, objects, delays = [], 0, []
+    for msg in follower:
+        if msg.kind == "hand":
+            hands.append((msg.t_ns, msg.value))
+            delays.append(time.monotonic() - written[msg.t_ns])
+        elif msg.kind == "object":
+            objects += 1
+    thread.join()
+    assert follower.stop_reason == "end"
+    assert follower.source is not None and follower.source.endswith(".partial")
+    assert [o[0] for o in follower.objects] == list(demo.objects)
+    final = load(out, images=False)
+    np.testing.assert_array_equal([t for t, _ in hands], final.hand.t_ns)
+    np.testing.assert_array_equal(np.stack([k for _, k in hands]), final.hand.keypoints)
+    assert objects == sum(len(o) for o in final.objects.values())
+    # chunks are flushed every wall-clock second although they span 60 s of capture time
+    assert max(delays) < 2.0, max(delays)
+    assert partial_files(out) == []
+
+
+def test_follow_stops_when_the_file_stops_growing(tmp_path: Path) -> None:
+    src = EXP1.read_bytes()
+    dest = tmp_path / "cut.mcap"
+    _trickle(src, dest, 10, 0.0, stop_at=len(src) // 2)  # a writer killed halfway
+    follower = follow(dest, poll_s=0.01, idle_timeout_s=0.3)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = [(m.topic, m.t_ns, m.data) for m in follower]
+    assert follower.stop_reason == "idle" and not follower.complete
+    assert [str(w.message) for w in caught if w.category is RecoveredFileWarning]
+    assert STOPPED_GROWING in str(caught[0].message)
+    # exactly the messages of the complete chunks, as the damage-tolerant scan recovers them
+    raw = scan(dest)
+    assert 0 < len(got) == raw.message_count < scan(EXP1).message_count
+    assert got == _file_messages(EXP1)[: len(got)]
+
+
+def test_follow_stops_on_ctrl_c_and_on_stop(tmp_path: Path) -> None:
+    dest = tmp_path / "open.mcap"
+    src = EXP1.read_bytes()
+    dest.write_bytes(src[: len(src) // 3])
+    follower = follow(dest, poll_s=0.01, idle_timeout_s=None)
+    timer = threading.Timer(0.5, _thread.interrupt_main)
+    timer.start()
+    n = sum(1 for _ in follower)
+    timer.join()
+    assert follower.stop_reason == "interrupted" and n > 0
+
+    follower = follow(dest, poll_s=0.01, idle_timeout_s=None)
+    threading.Timer(0.3, follower.stop).start()
+    assert sum(1 for _ in follower) == n and follower.stop_reason == "stopped"
+
+
+def test_follow_refuses_what_is_not_a_recording(tmp_path: Path) -> None:
+    with pytest.raises(RecordingFormatError, match="appeared within"):
+        list(follow(tmp_path / "never.mcap", poll_s=0.01, start_timeout_s=0.1))
+    bad = tmp_path / "bad.mcap"
+    bad.write_bytes(b"not an mcap file at all")
+    with pytest.raises(RecordingFormatError, match="not an MCAP file"):
+        list(follow(bad, poll_s=0.01, idle_timeout_s=0.2))
