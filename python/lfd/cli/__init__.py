@@ -19,7 +19,7 @@ from collections.abc import Sequence
 from typing import NoReturn
 
 from .._extras import message_for
-from ..errors import LfdError
+from ..errors import LfdError, LfdWarning
 
 COMMANDS: tuple[str, ...] = (
     # one module name per subcommand, in help order
@@ -120,8 +120,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 0
     command = args.command
-    old_show = warnings.showwarning
-    warnings.showwarning = _warning_printer(command)
+    with warnings.catch_warnings():
+        # lfd's own warnings are the command's output, one line each, whatever filters the
+        # caller (a test run with warnings as errors, python -W error) has set
+        warnings.simplefilter("default", LfdWarning)
+        warnings.showwarning = _warning_printer(command)
+        return _run(args, command)
+
+
+def _run(args: argparse.Namespace, command: str) -> int:
+    """Run a parsed command: its exit status, every error one line (see the module docs)."""
     try:
         status = int(args._run(args) or 0)
         if sys.stdout is not None:  # None: started with stdout closed (``>&-``)
@@ -153,7 +161,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"lfd {command}: interrupted", file=sys.stderr)
         return 130
     finally:
-        warnings.showwarning = old_show
         if "lfd.cli._rerun" in sys.modules:  # imported by every command with --rerun* options
             # a session still open here belongs to a command that failed: no --rerun-save file
             sys.modules["lfd.cli._rerun"].abort_from_args(args)
