@@ -94,6 +94,7 @@ def test_live_timeline_matches_the_offline_paths(tmp_path: Path) -> None:
     assert data.blueprints
 
 
+@pytest.mark.slow  # the default run stays under 5 minutes; covered there by faster tests
 def test_segment_follow_streams_a_growing_recording_to_rerun(tmp_path: Path) -> None:
     """``lfd segment --follow`` on a recording written at 4x real time: every hand sample of
     the final file reaches the .rrd, logged while the recorder was still writing."""

@@ -156,6 +156,7 @@ def test_record_sim_writes_loadable_mcap(tmp_path) -> None:  # type: ignore[no-u
         assert np.all(np.isfinite(demo.hand.keypoints))
 
 
+@pytest.mark.slow  # the default run stays under 5 minutes; covered there by faster tests
 def test_record_sigint_leaves_complete_file(tmp_path) -> None:  # type: ignore[no-untyped-def]
     import signal
     import subprocess

@@ -503,6 +503,7 @@ def test_place_follows_the_object_it_was_placed_next_to(sim_demos: dict) -> None
         assert r.success, (mode, r.failures)
 
 
+@pytest.mark.slow  # the default run stays under 5 minutes; covered there by faster tests
 def test_push_turns_with_the_box(sim_demos: dict) -> None:
     """A box turned by 30 deg is pushed on the same face along its turned direction."""
     traj, program = sim_demos["exp2"]
@@ -562,6 +563,7 @@ def test_random_layouts_bounded_valid_and_reproducible(sim_demos: dict) -> None:
         random_layouts(traj, program, 1, max_turn_deg=-1.0)
 
 
+@pytest.mark.slow  # the default run stays under 5 minutes; covered there by faster tests
 def test_cli_randomise(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """--randomise 1: a table of success per mode and skill, the layout in --json, exit 0/1
     matching the runs; --randomise with --displace is refused (exit 2)."""

@@ -476,6 +476,7 @@ def test_served_viewer_listens_on_localhost_unless_asked() -> None:
         assert _listening(web) == [] and _listening(grpc) == []
 
 
+@pytest.mark.slow  # the default run stays under 5 minutes; covered there by faster tests
 def test_rerun_serve_for_keeps_serving_then_exits(tmp_path: Path) -> None:
     """Without a terminal, --rerun-serve-for N keeps the viewer served N seconds after the
     work, then the command exits and the server is gone."""
