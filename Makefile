@@ -8,7 +8,8 @@ test:
 	python3 -m pytest -q
 
 test-slow:
-	python3 -m pytest -q -m slow
+	python3 -m pytest -q -m slow tests/cli tests/docs tests/e2e
+	python3 -m pytest -q -m slow tests/unit
 
 rust-test:
 	cargo test --workspace
