@@ -31,7 +31,6 @@ come from a ``camera.json`` as above (``--intrinsics``).
 
 from __future__ import annotations
 
-import json
 import os
 import time
 from collections.abc import Iterator
@@ -43,6 +42,7 @@ import numpy as np
 
 from ..demo import CameraInfo, intrinsics_problem
 from ..errors import LfdError
+from ..inputs import parse_json, read_text
 
 
 @dataclass
@@ -88,8 +88,8 @@ def read_camera_json(path: Path) -> tuple[CameraInfo, list[dict[str, Any]], dict
     """Parse ``camera.json``: camera, objects, the raw dict, whether the camera pose is given."""
     if not path.is_file():
         raise LfdError(f"{path}: missing (intrinsics and objects, see lfd.perception.sources)")
+    meta = parse_json(read_text(path, "camera description", LfdError), str(path), LfdError)
     try:
-        meta = json.loads(path.read_text())
         K = np.asarray(meta["K"], float)
         W = np.asarray(meta.get("world_T_camera", np.eye(4)), float)
         camera = CameraInfo(int(meta["width"]), int(meta["height"]), K, W)
@@ -102,9 +102,8 @@ def read_camera_json(path: Path) -> tuple[CameraInfo, list[dict[str, Any]], dict
             }
             for o in meta.get("objects", [])
         ]
-    except (KeyError, TypeError, ValueError, RecursionError) as err:  # JSONDecodeError too
-        detail = "nested too deeply" if isinstance(err, RecursionError) else str(err)[:200]
-        raise LfdError(f"{path}: invalid camera description ({detail})") from None
+    except (KeyError, TypeError, ValueError, AttributeError) as err:  # not the shape described
+        raise LfdError(f"{path}: invalid camera description ({str(err)[:200]})") from None
     problem = intrinsics_problem(K)
     if problem is not None:
         raise LfdError(f"{path}: {problem}")

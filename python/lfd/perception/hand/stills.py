@@ -17,7 +17,6 @@ A photo without a hand gives ``"hands": []``, not an error.
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -28,6 +27,7 @@ import numpy as np
 
 from ...demo import intrinsics_problem
 from ...errors import LfdError
+from ...inputs import parse_json, read_text
 from .mediapipe import KEYPOINT_NAMES, Hand, MediaPipeHands
 
 PathLike = str | os.PathLike[str]
@@ -85,11 +85,11 @@ def read_intrinsics(path: PathLike) -> np.ndarray:
     p = Path(path)
     if not p.is_file():
         raise LfdError(f"{p}: intrinsics file not found")
+    doc = parse_json(read_text(p, "intrinsics file", LfdError), str(p), LfdError)
     try:
-        doc = json.loads(p.read_text())
         K = np.asarray(doc["K"] if isinstance(doc, dict) else doc, float)
-    except (KeyError, TypeError, ValueError, RecursionError) as err:  # UnicodeDecodeError too
-        detail = "nested too deeply" if isinstance(err, RecursionError) else str(err)[:200]
+    except (KeyError, TypeError, ValueError) as err:
+        detail = str(err)[:200]
         raise LfdError(
             f'{p}: expected JSON {{"K": [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]}} ({detail})'
         ) from None
