@@ -151,7 +151,7 @@ CASES: list[tuple[str, str, str]] = [
     ("hands-depth-count", "perception hands {photo} {photo} --depth {depth} --intrinsics {k}", "2 colour images"),
     ("hands-depth-not-16bit", "perception hands {photo} --depth {photo} --intrinsics {k}", "16-bit"),
     ("hands-depth-wrong-size", "perception hands {photo} --depth {depth} --intrinsics {k}", "must be aligned"),
-    ("hands-bad-intrinsics", "perception hands {photo} --depth {depth} --intrinsics {bad}", "bad.json: expected JSON"),
+    ("hands-bad-intrinsics", "perception hands {photo} --depth {depth} --intrinsics {bad}", "bad.json is not UTF-8 text"),
     ("hands-json-is-input", "perception hands {photo} --json {photo}", "also an input"),
     # recordings from other tools: --object-size, ROS bags (--map, lfd import ros)
     ("segment-object-size-unknown", "segment {rec} --object-size box_9=0.1,0.1,0.1", "'box_9', which the recording does not have; its objects are box_1, box_2, box_3"),
