@@ -7,7 +7,10 @@ use hmmseg::segment::{
     dp::dp, Band, Grammar, GrammarMode, GrammarSpec, ScoreTable, Segment, Segmentation,
 };
 use hmmseg::EngineError;
+use std::borrow::Cow;
+
 use numpy::ndarray::IxDyn;
+use numpy::PyReadonlyArrayDyn;
 use pyo3::prelude::*;
 
 use crate::errors::{guard, IntoPyResult};
@@ -118,24 +121,23 @@ impl PyCut {
 /// The segments of a search and its warnings.
 type Found = (Vec<PyCut>, Vec<String>);
 
+/// A score table as the searches read it: borrowed from the caller's array where it can be.
+type Table<'a> = ScoreTable<Cow<'a, [f64]>>;
+
 /// Scores and rise decisions from numpy -> a [`ScoreTable`] and its rise decisions in band order.
 ///
 /// Either banded, `scores` `(N, S)` over the runs of `Band(boundaries, max_len)` with `rising`
 /// `(N,)`, or dense, `scores` `(K, K + 1, S)` over every run with `rising` `(K, K + 1)` (no
 /// `max_len` then: a dense table holds every run).
-fn inputs(
+/// A C-contiguous banded table is borrowed, not copied (`view` is the caller's).
+fn inputs<'a>(
     py: Python<'_>,
-    scores: &Bound<'_, PyAny>,
+    view: &'a PyReadonlyArrayDyn<'_, f64>,
     boundaries: Vec<usize>,
     rising: Option<&Bound<'_, PyAny>>,
     max_len: usize,
-) -> PyResult<(ScoreTable, Option<Vec<bool>>)> {
+) -> PyResult<(Table<'a>, Option<Vec<bool>>)> {
     let k = n_sections(py, &boundaries)?;
-    let view = ndconv::readonly::<f64, IxDyn>(
-        scores,
-        "scores",
-        "(n_runs, n_skills) or (n_sections, n_sections + 1, n_skills)",
-    )?;
     let a = view.as_array();
     let shape = a.shape().to_vec();
     let (table, dense) = match shape[..] {
@@ -159,15 +161,17 @@ fn inputs(
             }
             let band = Band::new(boundaries, 0).py_err(py)?;
             let t = ScoreTable::from_band_fn(band, ns, |i, j, s| a[[i, j, s]]).py_err(py)?;
-            (t, true)
+            let band = t.band().clone();
+            let t = ScoreTable::from_entries(band, ns, Cow::Owned(t.into_values()));
+            (t.py_err(py)?, true)
         }
         [_, ns] => {
             let band = Band::new(boundaries, max_len).py_err(py)?;
-            // one copy (the table owns its values), in place from a C-contiguous array
-            let values = a
+            // read in place from a C-contiguous array, else one copy
+            let values = view
                 .as_slice()
-                .map_or_else(|| a.iter().copied().collect(), <[f64]>::to_vec);
-            let t = ScoreTable::from_values(band, ns, values).py_err(py)?;
+                .map_or_else(|_| Cow::Owned(a.iter().copied().collect()), Cow::Borrowed);
+            let t = ScoreTable::from_entries(band, ns, values).py_err(py)?;
             (t, false)
         }
         _ => {
@@ -210,15 +214,19 @@ fn run_search(
     rising: Option<&Bound<'_, PyAny>>,
     mode: &str,
     max_len: i128,
-    search: impl FnOnce(&ScoreTable, Option<&[bool]>, GrammarMode) -> hmmseg::Result<Segmentation>
-        + Send,
+    search: impl FnOnce(&Table<'_>, Option<&[bool]>, GrammarMode) -> hmmseg::Result<Segmentation> + Send,
 ) -> PyResult<Found> {
     guard(py, || {
         let mode: GrammarMode = mode.parse().py_err(py)?;
         let max_len = count(py, max_len, "max_len", 0)?;
+        let view = ndconv::readonly::<f64, IxDyn>(
+            scores,
+            "scores",
+            "(n_runs, n_skills) or (n_sections, n_sections + 1, n_skills)",
+        )?;
         let (t, r) = inputs(
             py,
-            scores,
+            &view,
             indices(boundaries, "boundaries")?,
             rising,
             max_len,

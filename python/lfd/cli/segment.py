@@ -70,14 +70,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def segment_recording(
-    args: argparse.Namespace, on_loaded: Callable[[Any], Any] | None = None
+    args: argparse.Namespace,
+    on_loaded: Callable[[Any], Any] | None = None,
+    *,
+    keep: bool = False,
 ) -> tuple[Any, Any, dict[str, Any]]:
     """Load, segment and score: returns (demonstration, segmentation, JSON document).
 
-    ``on_loaded(demo)`` is called as soon as the recording is loaded (e.g. to show it).
+    ``on_loaded(demo)`` is called as soon as the recording is loaded (e.g. to show it). Unless
+    ``keep``, the demonstration is dropped once preprocessed (its samples are not needed for
+    the search and the report) and None is returned in its place.
     """
     from ..io import load
-    from ..segmentation.files import segment_recording as segment_demo
+    from ..segmentation.files import prepare_recording
 
     demo = load(
         args.recording,
@@ -86,8 +91,11 @@ def segment_recording(
     )
     if on_loaded is not None:
         on_loaded(demo)
-    result, doc = segment_demo(demo, segmentation_method(args), recording=str(args.recording))
-    return demo, result, doc
+    prepared = prepare_recording(demo, segmentation_method(args))
+    kept = demo if keep else None
+    del demo  # its samples are freed here unless kept
+    result, doc = prepared.segment(recording=str(args.recording))
+    return kept, result, doc
 
 
 def _show_demo(demo: Any) -> None:
@@ -269,7 +277,9 @@ def run(args: argparse.Namespace) -> int:
     check_rerun_args(args, inputs)
     load_options(args)  # a bad --map fails before a viewer opens
     show = open_from_args(args, "lfd_segment")
-    demo, result, doc = segment_recording(args, on_loaded=_show_demo if show else None)
+    demo, result, doc = segment_recording(
+        args, on_loaded=_show_demo if show else None, keep=bool(show)
+    )
     if show:
         from ..viz.pipeline import log_segment_run
 

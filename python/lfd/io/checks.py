@@ -17,7 +17,7 @@ Two recordings that load fine cannot be segmented honestly:
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -182,18 +182,19 @@ def check_hand_reaches(demo: Demonstration, *, near_m: float = NEAR_M) -> None:
 
 
 def unmoved_objects_message(
-    demo: Demonstration,
+    demo: Demonstration | Mapping[str, float],
     skills: Iterable[str],
     *,
     source: str = "the segmentation",
     moved_m: float = MOVED_M,
 ) -> str | None:
     """A warning when ``skills`` (``source``'s: a segmentation's, the labels') include a skill
-    that moves an object (:data:`MOVING_SKILLS`) but no object of ``demo`` moves; else None."""
+    that moves an object (:data:`MOVING_SKILLS`) but no object of ``demo`` (a demonstration,
+    or its :func:`object_travel`) moves; else None."""
     found = [s for s in dict.fromkeys(skills) if s in MOVING_SKILLS]
-    if not found or not demo.objects:
+    if not found or not (demo if isinstance(demo, Mapping) else demo.objects):
         return None
-    travel = object_travel(demo)
+    travel = demo if isinstance(demo, Mapping) else object_travel(demo)
     if max(travel.values()) >= moved_m:
         return None
     return (

@@ -6,6 +6,7 @@ node) and gives plain data back: the ``lfd segment --json`` document of the reco
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -14,7 +15,8 @@ from .method import Method
 from .templates import TemplateChoice, Templates
 
 if TYPE_CHECKING:
-    from ..demo import Demonstration
+    from ..demo import Demonstration, SkillLabel
+    from ..trajectory import Trajectory
     from .result import Segmentation
 
 
@@ -66,16 +68,50 @@ def segment_recording(
     its ground truth outside the spans its metadata gives to another hand
     (:func:`~lfd.segmentation.metrics.excluded_spans`), with one warning in the document when
     no object moves but the skills found move one. Returns the segmentation (with its run) and
-    the ``--json`` document."""
-    from ..io.checks import check_hand_reaches, unmoved_objects_message
-    from . import segment
+    the ``--json`` document. (:func:`prepare_recording`, then :meth:`Prepared.segment`.)"""
+    return prepare_recording(demo, method).segment(recording=recording)
+
+
+@dataclass(frozen=True)
+class Prepared:
+    """A recording made ready for :func:`segment_recording`: its trajectory, preprocessed with
+    the method's preprocessing, and what the report reads of the demonstration (the labels, the
+    spans left out of the scores, how far each object travels). It holds no sample of the
+    demonstration, so a caller that drops the demonstration after :func:`prepare_recording`
+    segments a long recording with about half the memory."""
+
+    method: Method
+    trajectory: Trajectory
+    labels: list[SkillLabel]
+    exclude: list[tuple[int, int]]
+    travel: dict[str, float]
+
+    def segment(self, *, recording: str | None = None) -> tuple[Segmentation, dict[str, Any]]:
+        """The segmentation and the ``--json`` document (see :func:`segment_recording`)."""
+        from ..io.checks import unmoved_objects_message
+        from . import segment
+
+        result = segment(self.trajectory, method=self.method)
+        doc = result.report(self.labels, recording=recording, exclude=self.exclude)
+        unmoved = unmoved_objects_message(self.travel, result.skill_sequence)
+        if unmoved is not None:
+            doc["warnings"].append(unmoved)
+        return result, doc
+
+
+def prepare_recording(demo: Demonstration, method: Method | None = None) -> Prepared:
+    """Check and preprocess a loaded recording for :func:`segment_recording`
+    (``DemonstrationError`` when the hand reaches no object)."""
+    from ..io.checks import check_hand_reaches, object_travel
     from .metrics import excluded_spans
+    from .pipeline import as_trajectory
 
     check_hand_reaches(demo)
-    result = segment(demo, method=method or Method.default())
-    exclude = excluded_spans(demo.metadata, demo.start_ns) if demo.labels else []
-    doc = result.report(demo.labels, recording=recording, exclude=exclude)
-    unmoved = unmoved_objects_message(demo, result.skill_sequence)
-    if unmoved is not None:
-        doc["warnings"].append(unmoved)
-    return result, doc
+    m = method or Method.default()
+    return Prepared(
+        method=m,
+        trajectory=as_trajectory(demo, m.preprocessing),
+        labels=list(demo.labels),
+        exclude=excluded_spans(demo.metadata, demo.start_ns) if demo.labels else [],
+        travel=object_travel(demo),
+    )

@@ -15,15 +15,30 @@ from ..trajectory import Trajectory
 
 
 def _interp_columns(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, int]:
-    """Linear interpolation of NaN rows of ``x`` (n, ...) over ``t``; returns (filled, n_missing)."""
-    flat = x.reshape(x.shape[0], -1).copy()
-    ok = np.all(np.isfinite(flat), axis=1)
+    """Linear interpolation of NaN rows of ``x`` (n, ...) over ``t``; returns (filled, n_missing).
+    Without a gap (or without a finite row) ``filled`` is a read-only view of ``x``, not a copy."""
+    ok = np.all(np.isfinite(x.reshape(x.shape[0], -1)), axis=1)
     missing = int((~ok).sum())
     if missing == 0 or not ok.any():
-        return x.copy(), missing
+        view = x.view()
+        view.flags.writeable = False
+        return view, missing
+    flat = x.reshape(x.shape[0], -1).copy()
     for c in range(flat.shape[1]):
         flat[~ok, c] = np.interp(t[~ok], t[ok], flat[ok, c])
     return flat.reshape(x.shape), missing
+
+
+def _stacked(whole: np.ndarray, parts: list[np.ndarray]) -> np.ndarray:
+    """``np.stack(parts)``, or a read-only view of ``whole`` when the parts are all of it,
+    unchanged (each a view of its row)."""
+    if len(parts) == len(whole) and all(
+        np.may_share_memory(p, w) for p, w in zip(parts, whole, strict=True)
+    ):
+        view = whole.view()
+        view.flags.writeable = False
+        return view
+    return np.stack(parts)
 
 
 def fill_gaps(traj: Trajectory) -> tuple[Trajectory, list[str]]:
@@ -68,8 +83,8 @@ def fill_gaps(traj: Trajectory) -> tuple[Trajectory, list[str]]:
         opening=opening[:, 0],
         rotation=rotation,
         object_names=[traj.object_names[k] for k in keep],
-        object_position=np.stack(pos),
-        object_quaternion=np.stack(quat),
+        object_position=_stacked(traj.object_position, pos),
+        object_quaternion=_stacked(traj.object_quaternion, quat),
         object_size=traj.object_size[keep],
         hand_valid=np.ones(n, dtype=bool),
         object_valid=np.ones((len(keep), n), dtype=bool),

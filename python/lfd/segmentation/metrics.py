@@ -171,18 +171,34 @@ def segment_ratio(pred: Sequence[Span], truth: Sequence[Span]) -> float:
 
 
 def _levenshtein(a: Sequence[str], b: Sequence[str]) -> int:
-    """Edit distance, one row of the table at a time in numpy (exact integers): the insertion
-    chain ``cur[j] = min(c[j], cur[j - 1] + 1)`` is ``min_{k <= j} (c[k] + j - k)``."""
-    codes = {s: n for n, s in enumerate(dict.fromkeys([*a, *b]))}
-    bb = np.array([codes[y] for y in b], dtype=np.int64)
-    ramp = np.arange(len(b) + 1, dtype=np.int64)
-    prev = ramp.copy()
-    for i, x in enumerate(a, 1):
-        c = np.empty_like(prev)
-        c[0] = i
-        c[1:] = np.minimum(prev[1:] + 1, prev[:-1] + (bb != codes[x]))
-        prev = np.minimum.accumulate(c - ramp) + ramp
-    return int(prev[-1])
+    """Edit distance by Myers' bit-parallel algorithm (Hyyrö's form for the Levenshtein
+    distance, H. Hyyrö, "A bit-vector algorithm for computing Levenshtein and Damerau edit
+    distances", 2003): one column of the table per symbol of ``a``, the whole column of
+    ``len(b)`` cells as the bits of two Python integers (exact, O(len(a) len(b) / 64))."""
+    m = len(b)
+    if m == 0:
+        return len(a)
+    peq: dict[str, int] = {}
+    for j, y in enumerate(b):
+        peq[y] = peq.get(y, 0) | (1 << j)
+    mask = (1 << m) - 1
+    top = 1 << (m - 1)
+    pv, mv, score = mask, 0, m
+    for x in a:
+        eq = peq.get(x, 0)
+        xv = eq | mv
+        xh = (((eq & pv) + pv) ^ pv) | eq
+        ph = mv | (~(xh | pv) & mask)
+        mh = pv & xh
+        if ph & top:
+            score += 1
+        elif mh & top:
+            score -= 1
+        ph = ((ph << 1) | 1) & mask
+        mh = (mh << 1) & mask
+        pv = mh | (~(xv | ph) & mask)
+        mv = ph & xv
+    return score
 
 
 def sequence_match(pred: Sequence[Span], truth: Sequence[Span]) -> bool:

@@ -67,18 +67,38 @@ def test_edge_cases() -> None:
         frame_accuracy(TRUTH, [])
 
 
+def lev(a: list[str], b: list[str]) -> int:
+    """The edit distance by its definition (the full table, one row at a time)."""
+    prev = list(range(len(b) + 1))
+    for i, x in enumerate(a, 1):
+        cur = [i]
+        for j, y in enumerate(b, 1):
+            cur.append(min(prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (x != y)))
+        prev = cur
+    return prev[-1]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_edit_distance_equals_the_full_table(seed: int) -> None:
+    # long sequences (columns of many 64-bit words), few and many symbols, one side empty
+    import random
+
+    rng = random.Random(seed)
+    skills = ["pick_up", "place", "locate", "stack", "push", "move", "move_with"]
+    for _ in range(60):
+        k = rng.randint(1, len(skills))
+        a = [rng.choice(skills[:k]) for _ in range(rng.randint(0, 300))]
+        b = [rng.choice(skills[:k]) for _ in range(rng.randint(0, 300))]
+        if not a and not b:
+            continue
+        pred = [SkillLabel(s, n, n + 1) for n, s in enumerate(a)]
+        truth = [SkillLabel(s, n, n + 1) for n, s in enumerate(b)]
+        assert edit_distance(pred, truth) == lev(a, b) / max(len(a), len(b)), (a, b)
+
+
 def _naive(pred: list[SkillLabel], truth: list[SkillLabel]) -> dict[str, float]:
     """The metrics by their definitions, quadratic (the reference for the linear versions)."""
     import numpy as np
-
-    def lev(a: list[str], b: list[str]) -> int:
-        prev = list(range(len(b) + 1))
-        for i, x in enumerate(a, 1):
-            cur = [i]
-            for j, y in enumerate(b, 1):
-                cur.append(min(prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (x != y)))
-            prev = cur
-        return prev[-1]
 
     def at(spans: list[SkillLabel], t: np.ndarray) -> np.ndarray:
         out = np.full(t.shape, "", dtype=object)

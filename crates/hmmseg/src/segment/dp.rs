@@ -15,8 +15,8 @@ use crate::error::{EngineError, Result};
 
 /// Run the segmental DP; see the module docs. Filters that leave no complete path are relaxed
 /// (rise decision first, then the grammar) with a warning.
-pub fn dp(
-    table: &ScoreTable,
+pub fn dp<V: AsRef<[f64]>>(
+    table: &ScoreTable<V>,
     grammar: &Grammar,
     rising: Option<&[bool]>,
     mode: GrammarMode,
@@ -124,8 +124,8 @@ pub(crate) fn dp_cell(
 }
 
 /// Best path as (skill, start section, end section) triples, or `None` if none is finite.
-fn solve(
-    ctx: &Context<'_>,
+fn solve<V: AsRef<[f64]>>(
+    ctx: &Context<'_, V>,
     use_rise: bool,
     use_grammar: bool,
     penalty: f64,

@@ -28,8 +28,8 @@ use crate::error::Result;
 ///
 /// If no candidate passes the filters at some point, they are relaxed (rise decision first, then
 /// the grammar) and a warning says so; the result always covers every section.
-pub fn greedy(
-    table: &ScoreTable,
+pub fn greedy<V: AsRef<[f64]>>(
+    table: &ScoreTable<V>,
     grammar: &Grammar,
     rising: Option<&[bool]>,
     mode: GrammarMode,
@@ -107,7 +107,13 @@ pub fn greedy(
 /// `max (c^{i..j, s} + c^{j..j2, s2}) / n(i..j2)` over successors of another skill that pass the
 /// rise decision (relaxed if none does) and, with `use_grammar`, may follow `s`. A cut that ends
 /// the demonstration is valued by its own per-sample score; `-inf` if no successor is finite.
-fn with_successor(ctx: &Context<'_>, i: usize, j: usize, s: usize, use_grammar: bool) -> f64 {
+fn with_successor<V: AsRef<[f64]>>(
+    ctx: &Context<'_, V>,
+    i: usize,
+    j: usize,
+    s: usize,
+    use_grammar: bool,
+) -> f64 {
     let table = ctx.table;
     let own = table.total(i, j, s);
     let k = table.n_sections();

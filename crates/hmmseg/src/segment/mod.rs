@@ -73,20 +73,20 @@ pub struct Segmentation {
 }
 
 /// What restricts the candidate skills of a run of sections.
-pub(crate) struct Context<'a> {
-    pub table: &'a ScoreTable,
+pub(crate) struct Context<'a, V = Vec<f64>> {
+    pub table: &'a ScoreTable<V>,
     pub grammar: &'a Grammar,
     /// Is the TCP rising over sections `i..j`? One entry per run of the table's band (flat run
     /// order, see [`rising_band`]); `None` = no decision tree.
     pub rising: Option<&'a [bool]>,
 }
 
-impl Context<'_> {
+impl<V: AsRef<[f64]>> Context<'_, V> {
     pub fn new<'a>(
-        table: &'a ScoreTable,
+        table: &'a ScoreTable<V>,
         grammar: &'a Grammar,
         rising: Option<&'a [bool]>,
-    ) -> crate::Result<Context<'a>> {
+    ) -> crate::Result<Context<'a, V>> {
         use crate::EngineError;
         if grammar.n_skills() != table.n_skills() {
             return Err(EngineError::ShapeMismatch(format!(

@@ -142,12 +142,15 @@ impl Band {
 /// `s`, summed over features; `-inf` where not computed or excluded, and for every run outside
 /// the table's [`Band`] (longer than the maximum segment length), which is not stored: memory
 /// is `N * n_skills`, linear in the demonstration's length for a bounded band.
+///
+/// The entries are owned (`V = Vec<f64>`, the default) or borrowed (`&[f64]`, `Cow<[f64]>`:
+/// a search reads a table its caller holds without copying it, see [`Self::from_entries`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ScoreTable {
+pub struct ScoreTable<V = Vec<f64>> {
     band: Band,
     n_skills: usize,
     /// Row-major `(N, n_skills)` over the band's runs.
-    total: Vec<f64>,
+    total: V,
 }
 
 impl ScoreTable {
@@ -173,59 +176,7 @@ impl ScoreTable {
 
     /// A table over the runs of `band` from its raw entries, row-major `(N, n_skills)`.
     pub fn from_values(band: Band, n_skills: usize, total: Vec<f64>) -> Result<Self> {
-        let t = Self::with_band(band, n_skills)?;
-        if total.len() != t.total.len() {
-            return Err(EngineError::ShapeMismatch(format!(
-                "a banded score table of {} runs x {n_skills} skills has {} entries, got {}",
-                t.band.n_runs(),
-                t.total.len(),
-                total.len()
-            )));
-        }
-        Ok(Self { total, ..t })
-    }
-
-    /// The admissible runs.
-    pub fn band(&self) -> &Band {
-        &self.band
-    }
-
-    /// Number of data sections `K`.
-    pub fn n_sections(&self) -> usize {
-        self.band.n_sections()
-    }
-
-    /// Number of skills.
-    pub fn n_skills(&self) -> usize {
-        self.n_skills
-    }
-
-    /// Section boundaries `[0, ..., n]` (sample indices).
-    pub fn boundaries(&self) -> &[usize] {
-        self.band.boundaries()
-    }
-
-    /// Number of samples in sections `i..j`.
-    pub fn len(&self, i: usize, j: usize) -> usize {
-        self.band.boundaries[j] - self.band.boundaries[i]
-    }
-
-    /// True if the table covers no samples (never, by construction).
-    pub fn is_empty(&self) -> bool {
-        self.band.boundaries.last() == self.band.boundaries.first()
-    }
-
-    /// Summed log-likelihood of sections `i..j` under skill `s`; `-inf` outside the band.
-    pub fn total(&self, i: usize, j: usize, s: usize) -> f64 {
-        assert!(s < self.n_skills, "skill {s} of {}", self.n_skills);
-        self.band
-            .index(i, j)
-            .map_or(f64::NEG_INFINITY, |r| self.total[r * self.n_skills + s])
-    }
-
-    /// Length-normalised score: summed log-likelihood per sample.
-    pub fn mean(&self, i: usize, j: usize, s: usize) -> f64 {
-        self.total(i, j, s) / self.len(i, j) as f64
+        ScoreTable::from_entries(band, n_skills, total)
     }
 
     /// Set the summed log-likelihood of sections `i..j` under skill `s`.
@@ -271,14 +222,80 @@ impl ScoreTable {
         Ok(t)
     }
 
-    /// The raw entries, row-major `(N, n_skills)` in the band's run order.
-    pub fn as_slice(&self) -> &[f64] {
-        &self.total
-    }
-
     /// The raw entries (see [`Self::as_slice`]), taken out of the table without a copy.
     pub fn into_values(self) -> Vec<f64> {
         self.total
+    }
+}
+
+impl<V: AsRef<[f64]>> ScoreTable<V> {
+    /// A table over the runs of `band` from its entries, row-major `(N, n_skills)` (owned or
+    /// borrowed).
+    pub fn from_entries(band: Band, n_skills: usize, total: V) -> Result<Self> {
+        if n_skills == 0 {
+            return Err(EngineError::EmptySequence("need at least one skill".into()));
+        }
+        let len = band.n_runs() * n_skills;
+        if total.as_ref().len() != len {
+            return Err(EngineError::ShapeMismatch(format!(
+                "a banded score table of {} runs x {n_skills} skills has {len} entries, got {}",
+                band.n_runs(),
+                total.as_ref().len()
+            )));
+        }
+        Ok(Self {
+            band,
+            n_skills,
+            total,
+        })
+    }
+
+    /// The admissible runs.
+    pub fn band(&self) -> &Band {
+        &self.band
+    }
+
+    /// Number of data sections `K`.
+    pub fn n_sections(&self) -> usize {
+        self.band.n_sections()
+    }
+
+    /// Number of skills.
+    pub fn n_skills(&self) -> usize {
+        self.n_skills
+    }
+
+    /// Section boundaries `[0, ..., n]` (sample indices).
+    pub fn boundaries(&self) -> &[usize] {
+        self.band.boundaries()
+    }
+
+    /// Number of samples in sections `i..j`.
+    pub fn len(&self, i: usize, j: usize) -> usize {
+        self.band.boundaries[j] - self.band.boundaries[i]
+    }
+
+    /// True if the table covers no samples (never, by construction).
+    pub fn is_empty(&self) -> bool {
+        self.band.boundaries.last() == self.band.boundaries.first()
+    }
+
+    /// Summed log-likelihood of sections `i..j` under skill `s`; `-inf` outside the band.
+    pub fn total(&self, i: usize, j: usize, s: usize) -> f64 {
+        assert!(s < self.n_skills, "skill {s} of {}", self.n_skills);
+        self.band.index(i, j).map_or(f64::NEG_INFINITY, |r| {
+            self.total.as_ref()[r * self.n_skills + s]
+        })
+    }
+
+    /// Length-normalised score: summed log-likelihood per sample.
+    pub fn mean(&self, i: usize, j: usize, s: usize) -> f64 {
+        self.total(i, j, s) / self.len(i, j) as f64
+    }
+
+    /// The raw entries, row-major `(N, n_skills)` in the band's run order.
+    pub fn as_slice(&self) -> &[f64] {
+        self.total.as_ref()
     }
 
     /// The entries as a dense row-major `(K, K + 1, n_skills)` table, `-inf` outside the band
@@ -288,7 +305,7 @@ impl ScoreTable {
         let mut out = vec![f64::NEG_INFINITY; k * (k + 1) * ns];
         for (r, (i, j)) in self.band.runs().enumerate() {
             let at = (i * (k + 1) + j) * ns;
-            out[at..at + ns].copy_from_slice(&self.total[r * ns..(r + 1) * ns]);
+            out[at..at + ns].copy_from_slice(&self.total.as_ref()[r * ns..(r + 1) * ns]);
         }
         out
     }
