@@ -24,7 +24,6 @@ Run: ``python benches/load_speed.py [--minutes 5 30 60] [--keep DIR]``.
 from __future__ import annotations
 
 import argparse
-import os
 import statistics
 import subprocess
 import sys
@@ -50,12 +49,12 @@ def timed(fn: Callable[[], Any], repeat: int) -> tuple[float, Any]:
 
 
 def command(args: list[str]) -> tuple[float, float, int]:
-    """``python -m lfd.cli ARGS`` in a subprocess: wall seconds, peak RSS MB, exit status."""
-    cmd = [sys.executable, "-m", "lfd.cli", *args]
-    t0 = time.perf_counter()
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    _, status, usage = os.wait4(proc.pid, 0)
-    return time.perf_counter() - t0, usage.ru_maxrss / 1024.0, os.waitstatus_to_exitcode(status)
+    """``python -m lfd.cli ARGS`` in a subprocess: wall seconds, peak RSS MB, exit status
+    (:func:`segment_memory.measure`)."""
+    from segment_memory import measure
+
+    wall, peak, status, _ = measure([sys.executable, "-m", "lfd.cli", *args])
+    return wall, peak, status
 
 
 def mcap_iterate(path: Path) -> int:

@@ -4,7 +4,8 @@ Long demonstrations are built from the shipped natural-style ``exp5`` recordings
 (``recordings/templates/natural/exp5_*.mcap``, 18-25 s of repeated lifts each, the hand at 30 Hz)
 played end to end with shifted timestamps and labels, until the wanted length; each is written
 to an MCAP file and segmented by ``lfd segment FILE --json OUT`` in a subprocess, whose wall time
-and peak resident memory (``ru_maxrss`` from ``os.wait4``) are measured.
+and peak resident memory (``ru_maxrss`` from ``os.wait4``, in a small launcher process) are
+measured.
 
 The stage-2 score tables are banded (runs of at most ``max_segment_s``, ``hmmseg::segment::Band``):
 memory and time grow linearly with the length. For comparison the table prints what the dense
@@ -35,7 +36,6 @@ import os
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
@@ -107,23 +107,39 @@ def long_demo(minutes: float):  # -> Demonstration
     return Demonstration(hand, objects, labels, first.camera, metadata=meta)
 
 
+LAUNCH = """
+import os, subprocess, sys, time
+t0 = time.perf_counter()
+p = subprocess.Popen(sys.argv[1:], stdout=subprocess.DEVNULL, stderr=sys.stderr)
+_, status, usage = os.wait4(p.pid, 0)
+print(time.perf_counter() - t0, usage.ru_maxrss, os.waitstatus_to_exitcode(status))
+"""
+"""Runs a command, printing its wall seconds, peak RSS (KiB) and exit status. The command is
+started from this small process, not from the benchmark: a child forked from a process that
+holds an hour's arrays counts the parent's resident pages in its own peak until it execs."""
+
+
+def measure(cmd: list[str], env: dict[str, str] | None = None) -> tuple[float, float, int, str]:
+    """Run ``cmd`` (stdout discarded): wall seconds, peak RSS in MB, exit status, and the last
+    line of its stderr."""
+    proc = subprocess.run(
+        [sys.executable, "-c", LAUNCH, *cmd], env=env, capture_output=True, text=True
+    )
+    wall, kib, status = proc.stdout.split()
+    tail = proc.stderr.strip().splitlines()[-1:] or ["?"]
+    return float(wall), int(kib) / 1024.0, int(status), tail[0]
+
+
 def run_segment(path: Path, out: Path, pythonpath: str | None = None) -> tuple[float, float]:
     """``lfd segment path --json out`` in a subprocess: (wall seconds, peak RSS in MB)."""
     env = dict(os.environ)
     if pythonpath is not None:
         env["PYTHONPATH"] = pythonpath
     cmd = [sys.executable, "-m", "lfd.cli", "segment", str(path), "--json", str(out)]
-    with tempfile.TemporaryFile() as err:
-        t0 = time.perf_counter()
-        proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=err)
-        _, status, usage = os.wait4(proc.pid, 0)  # this child's own resource usage
-        seconds = time.perf_counter() - t0
-        proc.returncode = os.waitstatus_to_exitcode(status)
-        if proc.returncode != 0:
-            err.seek(0)
-            tail = err.read().decode(errors="replace").strip().splitlines()[-1:] or ["?"]
-            raise RuntimeError(f"lfd segment failed ({proc.returncode}): {tail[0]}")
-    return seconds, usage.ru_maxrss / 1024.0  # kB on Linux
+    seconds, peak, status, tail = measure(cmd, env)
+    if status != 0:
+        raise RuntimeError(f"lfd segment failed ({status}): {tail}")
+    return seconds, peak
 
 
 def main() -> None:

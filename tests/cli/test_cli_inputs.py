@@ -253,6 +253,26 @@ def test_simulate_overwrite_replaces_it(
     assert out.read_bytes() != EXP1.read_bytes()
 
 
+def test_record_refuses_an_existing_recording(rec: Path, tmp_path: Path, capsys: Any) -> None:
+    # refused before the source opens: no camera or simulator is needed to see it
+    argv = ["record", "--source", "camera:0", "-o", rec]
+    _refused(argv, capsys, tmp_path, "pass --overwrite")
+
+
+def test_simulate_set_says_which_recordings_it_replaces(
+    tmp_path: Path, capsys: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    pytest.importorskip("mujoco")
+    monkeypatch.setenv("MUJOCO_GL", os.environ.get("MUJOCO_GL", "egl"))
+    out = tmp_path / "set"
+    out.mkdir()
+    (out / "exp1.mcap").write_bytes(EXP1.read_bytes())
+    status, _, err = _main(["simulate", "--set", "samples", "-o", out], capsys)
+    assert status == 0, err
+    assert "warning: replacing 1 existing recordings of the samples set" in err, err
+    assert (out / "exp1.mcap").read_bytes() != EXP1.read_bytes()
+
+
 # --- 3-5. export: only a dataset is replaced, never one that appeared, nothing left -----------
 @pytest.fixture
 def offline(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:

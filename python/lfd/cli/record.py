@@ -40,6 +40,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="output .mcap (written beside it as .NAME.*.partial until the recording stops)",
     )
     parser.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the -o recording when it exists (without it an existing file is refused)",
+    )
+    parser.add_argument(
         "--duration", type=positive_float, help="stop after this many seconds of frames (> 0)"
     )
     parser.add_argument(
@@ -138,7 +143,13 @@ def run(args: argparse.Namespace) -> int:
     check_inputs(intrinsics=args.intrinsics, hand_model=model_file)
     frames = args.source[len("frames:") :] if args.source.startswith("frames:") else None
     inputs = read_files(args, model_file, frames)  # and --intrinsics
-    check_output(args.output, inputs=inputs, what="-o/--output", suffixes=(".mcap",))
+    check_output(
+        args.output,
+        inputs=inputs,
+        what="-o/--output",
+        suffixes=(".mcap",),
+        overwrite=args.overwrite,
+    )
     check_rerun_args(args, inputs=[*inputs, args.output])
     source = open_source(
         args.source,

@@ -213,6 +213,13 @@ def run(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
         jobs = set_jobs(args.set, Path(args.output), args.style)
+        replaced = sum(Path(job["path"]).exists() for job in jobs)
+        if replaced:
+            print(
+                f"lfd simulate: warning: replacing {replaced} existing recordings of the "
+                f"{args.set} set in {args.output}",
+                file=sys.stderr,
+            )
         with Progress() as progress:
             bar = progress.add_task(f"simulating {args.set}", total=len(jobs))
             for job in jobs:
