@@ -2,7 +2,7 @@
 
     PYTHONPATH=/work/main/python python3 benches/segment_identity.py dump before.pkl
     PYTHONPATH=python python3 benches/segment_identity.py dump after.pkl
-    python3 benches/segment_identity.py compare before.pkl after.pkl
+    python3 benches/segment_identity.py compare before.pkl after.pkl [TOLERANCE]
 
 Every segment field (skill, start, end, times, object, score, confidence, margin, params) is
 compared as its ``repr`` (NaN equal to NaN), for the default method on complete recordings,
@@ -12,6 +12,7 @@ compared as its ``repr`` (NaN equal to NaN), for the default method on complete 
 from __future__ import annotations
 
 import glob
+import math
 import pickle
 import sys
 import time
@@ -75,12 +76,42 @@ def dump(path: str, extra: list[str]) -> None:
     Path(path).write_bytes(pickle.dumps(res))
 
 
-def compare(a: str, b: str) -> int:
+def _close(x: Any, y: Any, tol: float) -> bool:
+    """The same segments, their score, confidence and margin (the last three of each key)
+    within ``tol`` relative; everything else equal."""
+    if isinstance(x, str) or isinstance(y, str) or x[1] != y[1] or len(x[0]) != len(y[0]):
+        return False
+    env = {"nan": math.nan, "inf": math.inf}
+    for kx, ky in zip(x[0], y[0], strict=True):
+        # our own repr of tuples of numbers and names (nan, inf as names)
+        sx, sy = eval(kx, env), eval(ky, env)
+        if sx[:8] != sy[:8] or sx[11:] != sy[11:]:
+            return False
+        for u, v in zip(sx[8:11], sy[8:11], strict=True):
+            same = u == v or (math.isnan(u) and math.isnan(v))
+            if not same and not abs(u - v) <= tol * max(abs(u), abs(v), 1.0):
+                return False
+    return True
+
+
+def compare(a: str, b: str, tol: float = 0.0) -> int:
+    """Print the results that differ; with ``tol`` > 0, a result whose segments are the same
+    and whose scores, confidences and margins agree within ``tol`` (relative) counts as equal
+    and is counted apart."""
     ra, rb = pickle.loads(Path(a).read_bytes()), pickle.loads(Path(b).read_bytes())
-    bad = [k for k in sorted(set(ra) | set(rb)) if ra.get(k) != rb.get(k)]
+    differ = [k for k in sorted(set(ra) | set(rb)) if ra.get(k) != rb.get(k)]
+    close = [k for k in differ if tol > 0 and k in ra and k in rb and _close(ra[k], rb[k], tol)]
+    bad = [k for k in differ if k not in close]
     for k in bad:
         print("DIFFERS:", k)
-    print(f"{len(ra)} / {len(rb)} results, {len(bad)} differ")
+    print(
+        f"{len(ra)} / {len(rb)} results, {len(differ) - len(close)} differ"
+        + (
+            f", {len(close)} more equal within {tol:g} (scores, confidences, margins)"
+            if tol
+            else ""
+        )
+    )
     return 1 if bad or set(ra) != set(rb) else 0
 
 
@@ -88,4 +119,4 @@ if __name__ == "__main__":
     if sys.argv[1] == "dump":
         dump(sys.argv[2], sys.argv[3:])
     else:
-        sys.exit(compare(sys.argv[2], sys.argv[3]))
+        sys.exit(compare(sys.argv[2], sys.argv[3], float(sys.argv[4]) if sys.argv[4:] else 0.0))

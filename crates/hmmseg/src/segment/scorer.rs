@@ -225,20 +225,27 @@ impl Scaled {
 }
 
 /// The scaled forward recursion of one [`CompiledHmm`] from a start sample, advanced one sample
-/// at a time: `alpha` is the normalised forward vector, `ln P(x_0..=t, q_t = j) = log_acc +
-/// ln prod + ln alpha[j]`. The state of every scorer sweep, so the numerics exist once. `N` is the capacity in states;
-/// with `EXACT` the model has exactly `N` states (the loops are unrolled), otherwise at most
-/// `N`.
+/// at a time: `ln P(x_0..=t, q_t = j) = log_acc + ln alpha[j]`. The forward vector is
+/// renormalised only when its mass falls below [`RENORM`] (one division and one `ln` every
+/// few dozen samples instead of every sample); `mass` is its sum. The state of every scorer
+/// sweep, so the numerics exist once. `N` is the capacity in states; with `EXACT` the model has
+/// exactly `N` states (the loops are unrolled), otherwise at most `N`.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Forward<const N: usize, const EXACT: bool> {
     alpha: [f64; N],
     log_acc: f64,
-    prod: f64,
+    mass: f64,
     /// Samples consumed.
     steps: usize,
     /// Every state impossible: the prefix score is `-inf` from now on.
     dead: bool,
 }
+
+/// The forward vector is renormalised when its mass falls below this: far above the
+/// underflow of a step (a step whose mass falls below `1e-250` is redone in log space), so a
+/// step takes the log-space fallback only where the normalised recursion would too (its mass
+/// relative to the vector's below about `1e-220`).
+const RENORM: f64 = 1e-30;
 
 /// [`Forward`] for any template (at most [`MAX_STATES`] states).
 pub(crate) type ForwardState = Forward<MAX_STATES, false>;
@@ -248,7 +255,7 @@ impl<const N: usize, const EXACT: bool> Default for Forward<N, EXACT> {
         Self {
             alpha: [0.0; N],
             log_acc: 0.0,
-            prod: 1.0,
+            mass: 1.0,
             steps: 0,
             dead: false,
         }
@@ -314,14 +321,15 @@ impl<const N: usize, const EXACT: bool> Forward<N, EXACT> {
             }
         }
         self.log_acc += hi;
-        let inv = 1.0 / sum;
-        for j in 0..n {
-            alpha[j] = next[j] * inv;
-        }
-        self.prod *= sum;
-        if !(1e-200..=1e200).contains(&self.prod) {
-            self.log_acc += self.prod.ln();
-            self.prod = 1.0;
+        alpha.copy_from_slice(next);
+        self.mass = sum;
+        if sum < RENORM {
+            let inv = 1.0 / sum;
+            for a in alpha.iter_mut() {
+                *a *= inv;
+            }
+            self.log_acc += sum.ln();
+            self.mass = 1.0;
         }
     }
 
@@ -338,10 +346,9 @@ impl<const N: usize, const EXACT: bool> Forward<N, EXACT> {
         if self.dead {
             return f64::NEG_INFINITY;
         }
-        let base = self.log_acc + self.prod.ln();
         match end {
-            EndState::Any => base,
-            EndState::Final => base + self.alpha[Self::n(m) - 1].ln(),
+            EndState::Any => self.log_acc + self.mass.ln(),
+            EndState::Final => self.log_acc + self.alpha[Self::n(m) - 1].ln(),
         }
     }
 
@@ -476,17 +483,16 @@ impl<const N: usize> Kernel for SoaSweep<'_, N> {
         let mut alpha = vec![0.0f64; N * nr];
         let mut next = vec![0.0f64; N * nr];
         let mut sum = vec![0.0f64; nr];
-        let mut inv = vec![0.0f64; nr];
         let mut log_acc = vec![0.0f64; nr];
-        let mut prod = vec![1.0f64; nr];
+        let mut mass = vec![1.0f64; nr];
         let mut dead = vec![false; nr];
-        let gather = |alpha: &[f64], log_acc: &[f64], prod: &[f64], r: usize| {
+        let gather = |alpha: &[f64], log_acc: &[f64], mass: &[f64], r: usize| {
             let mut st = Forward::<N, true>::default();
             for j in 0..N {
                 st.alpha[j] = alpha[j * nr + r];
             }
             st.log_acc = log_acc[r];
-            st.prod = prod[r];
+            st.mass = mass[r];
             st.steps = 1;
             st
         };
@@ -495,7 +501,7 @@ impl<const N: usize> Kernel for SoaSweep<'_, N> {
                       r: usize,
                       alpha: &mut [f64],
                       log_acc: &mut [f64],
-                      prod: &mut [f64],
+                      mass: &mut [f64],
                       dead: &mut [bool],
                       tt: usize| {
             st.advance(m, em, tt);
@@ -507,7 +513,7 @@ impl<const N: usize> Kernel for SoaSweep<'_, N> {
                 alpha[j * nr + r] = st.alpha[j];
             }
             log_acc[r] = st.log_acc;
-            prod[r] = st.prod;
+            mass[r] = st.mass;
             false
         };
         let (mut head, mut tail) = (0usize, 0usize);
@@ -553,38 +559,29 @@ impl<const N: usize> Kernel for SoaSweep<'_, N> {
                     for a in &mut log_acc[h..z] {
                         *a += shift;
                     }
-                    for (o, &v) in inv[h..z].iter_mut().zip(s.iter()) {
-                        *o = 1.0 / v;
-                    }
-                    for j in 0..N {
-                        let (aj, nj) = (
-                            &mut alpha[j * nr + h..j * nr + z],
-                            &next[j * nr + h..j * nr + z],
-                        );
-                        for ((a, &v), &w) in aj.iter_mut().zip(nj).zip(&inv[h..z]) {
-                            *a = v * w;
-                        }
-                    }
-                    for (p, &v) in prod[h..z].iter_mut().zip(s.iter()) {
-                        *p *= v;
-                    }
-                    let in_range = prod[h..z]
-                        .iter()
-                        .fold(true, |acc, &p| acc & (p >= 1e-200) & (p <= 1e200));
-                    if !in_range {
+                    // the new vectors are `next` (lanes h..z; the others are finished or not
+                    // started, and a run's lanes are written when it starts)
+                    std::mem::swap(&mut alpha, &mut next);
+                    mass[h..z].copy_from_slice(s);
+                    let low = s.iter().fold(false, |acc, &v| acc | (v < RENORM));
+                    if low {
                         for r in h..z {
-                            if !(1e-200..=1e200).contains(&prod[r]) {
-                                log_acc[r] += prod[r].ln();
-                                prod[r] = 1.0;
+                            if sum[r] < RENORM {
+                                let w = 1.0 / sum[r];
+                                for j in 0..N {
+                                    alpha[j * nr + r] *= w;
+                                }
+                                log_acc[r] += sum[r].ln();
+                                mass[r] = 1.0;
                             }
                         }
                     }
                 } else {
                     for r in h..z {
                         if !dead[r] {
-                            let st = gather(&alpha, &log_acc, &prod, r);
+                            let st = gather(&alpha, &log_acc, &mass, r);
                             died |=
-                                scalar(st, r, &mut alpha, &mut log_acc, &mut prod, &mut dead, tt);
+                                scalar(st, r, &mut alpha, &mut log_acc, &mut mass, &mut dead, tt);
                         }
                     }
                 }
@@ -592,7 +589,7 @@ impl<const N: usize> Kernel for SoaSweep<'_, N> {
             // 2. the run starting at t
             if tail < nr && b[starts.start + tail] == t {
                 let st = Forward::<N, true>::default();
-                died |= scalar(st, tail, &mut alpha, &mut log_acc, &mut prod, &mut dead, tt);
+                died |= scalar(st, tail, &mut alpha, &mut log_acc, &mut mass, &mut dead, tt);
                 tail += 1;
             }
             // runs found impossible: every later end is -inf
@@ -614,10 +611,9 @@ impl<const N: usize> Kernel for SoaSweep<'_, N> {
             }
             for r in head..tail {
                 while next_j[r] <= last_j[r] && b[next_j[r]] == t + 1 {
-                    let base_score = log_acc[r] + prod[r].ln();
                     out[base[r] + next_j[r] - (starts.start + r) - 1] = match end {
-                        EndState::Any => base_score,
-                        EndState::Final => base_score + alpha[(N - 1) * nr + r].ln(),
+                        EndState::Any => log_acc[r] + mass[r].ln(),
+                        EndState::Final => log_acc[r] + alpha[(N - 1) * nr + r].ln(),
                     };
                     next_j[r] += 1;
                 }
@@ -897,6 +893,33 @@ mod tests {
                 }
                 let t = compiled_score_table(&models, &g, &x, &b, max_len, end).unwrap();
                 assert_eq!(bits(&t), bits(&whole));
+            }
+        }
+    }
+
+    #[test]
+    fn lazily_renormalised_forward_matches_log_space() {
+        // 3000 samples: the vector's mass falls below RENORM many times (and an outlier forces
+        // the log-space step); every prefix score equals the log-space recursion's
+        for end in [EndState::Any, EndState::Final] {
+            for (cov, d) in [(CovarianceType::Diag, 1), (CovarianceType::Full, 2)] {
+                let c = CompiledHmm::new(&model(cov, d)).unwrap();
+                let x = DMatrix::from_fn(3000, d, |t, k| {
+                    (t as f64 / 37.0).sin() + 0.1 * k as f64 + if t == 1234 { 40.0 } else { 0.0 }
+                });
+                let lb = c.log_emissions(&x, &(0..d));
+                let mut want = Vec::new();
+                c.prefix_log(&lb, end, &mut want);
+                assert!(want[2999] < 10.0 * RENORM.ln(), "{}", want[2999]);
+                let em = Scaled::direct(&c, &x, 0..x.nrows(), &(0..d));
+                let ends: Vec<usize> = (0..3000).step_by(7).collect();
+                let mut got = vec![0.0; ends.len()];
+                c.add_prefix_at(&em, 0, &ends, end, &mut got);
+                for (&t, g) in ends.iter().zip(&got) {
+                    let w = want[t];
+                    let close = g == &w || (g - w).abs() < 1e-9 * w.abs().max(1.0);
+                    assert!(close, "{end:?} t={t}: {g} {w}");
+                }
             }
         }
     }
