@@ -544,7 +544,10 @@ impl<const N: usize> Kernel for SoaSweep<'_, N> {
                     }
                 }
                 let s = &mut sum[h..z];
-                s.copy_from_slice(&next[h..z]);
+                // (a loop, not copy_from_slice: a call to memcpy for a few dozen lanes costs more)
+                for (o, &v) in s.iter_mut().zip(&next[h..z]) {
+                    *o = v;
+                }
                 for j in 1..N {
                     for (o, &v) in s.iter_mut().zip(&next[j * nr + h..j * nr + z]) {
                         *o += v;
@@ -561,17 +564,18 @@ impl<const N: usize> Kernel for SoaSweep<'_, N> {
                     }
                     // the new vectors are `next` (lanes h..z; the others are finished or not
                     // started, and a run's lanes are written when it starts)
-                    std::mem::swap(&mut alpha, &mut next);
-                    mass[h..z].copy_from_slice(s);
+                    // and the masses `sum` (likewise)
                     let low = s.iter().fold(false, |acc, &v| acc | (v < RENORM));
+                    std::mem::swap(&mut alpha, &mut next);
+                    std::mem::swap(&mut mass, &mut sum);
                     if low {
                         for r in h..z {
-                            if sum[r] < RENORM {
-                                let w = 1.0 / sum[r];
+                            if mass[r] < RENORM {
+                                let w = 1.0 / mass[r];
                                 for j in 0..N {
                                     alpha[j * nr + r] *= w;
                                 }
-                                log_acc[r] += sum[r].ln();
+                                log_acc[r] += mass[r].ln();
                                 mass[r] = 1.0;
                             }
                         }
