@@ -525,32 +525,46 @@ impl<const N: usize> Kernel for SoaSweep<'_, N> {
             if head < tail {
                 let (h, z) = (head, tail);
                 let bt = &em.b[tt * N..(tt + 1) * N];
+                let s = &mut sum[h..z];
+                // per state j, one pass over the lanes: next_j = (sum_i alpha_i q_ij) b_j (i in
+                // the band of j, in order), added to the mass (the states in order): the
+                // scalar recursion's operations, in its order
                 for j in 0..N {
                     let (blo, bhi) = m.band[j];
                     let (nj, _) = next[j * nr + h..].split_at_mut(z - h);
-                    let q0 = m.trans[j * N + blo];
-                    for (o, &a) in nj.iter_mut().zip(&alpha[blo * nr + h..blo * nr + z]) {
-                        *o = a * q0;
-                    }
-                    for i in blo + 1..bhi {
-                        let q = m.trans[j * N + i];
-                        for (o, &a) in nj.iter_mut().zip(&alpha[i * nr + h..i * nr + z]) {
-                            *o += a * q;
+                    let row = &m.trans[j * N..(j + 1) * N];
+                    let bj = bt[j];
+                    let a0 = &alpha[blo * nr + h..blo * nr + z];
+                    if bhi - blo == 2 {
+                        // a left-right chain: the state itself and the one before
+                        let a1 = &alpha[(blo + 1) * nr + h..(blo + 1) * nr + z];
+                        let (q0, q1) = (row[blo], row[blo + 1]);
+                        for ((o, &x0), &x1) in nj.iter_mut().zip(a0).zip(a1) {
+                            *o = (x0 * q0 + x1 * q1) * bj;
+                        }
+                    } else {
+                        let q0 = row[blo];
+                        for (o, &a) in nj.iter_mut().zip(a0) {
+                            *o = a * q0;
+                        }
+                        for i in blo + 1..bhi {
+                            let q = row[i];
+                            for (o, &a) in nj.iter_mut().zip(&alpha[i * nr + h..i * nr + z]) {
+                                *o += a * q;
+                            }
+                        }
+                        for o in nj.iter_mut() {
+                            *o *= bj;
                         }
                     }
-                    let bj = bt[j];
-                    for o in nj.iter_mut() {
-                        *o *= bj;
-                    }
-                }
-                let s = &mut sum[h..z];
-                // (a loop, not copy_from_slice: a call to memcpy for a few dozen lanes costs more)
-                for (o, &v) in s.iter_mut().zip(&next[h..z]) {
-                    *o = v;
-                }
-                for j in 1..N {
-                    for (o, &v) in s.iter_mut().zip(&next[j * nr + h..j * nr + z]) {
-                        *o += v;
+                    if j == 0 {
+                        for (o, &v) in s.iter_mut().zip(nj.iter()) {
+                            *o = v;
+                        }
+                    } else {
+                        for (o, &v) in s.iter_mut().zip(nj.iter()) {
+                            *o += v;
+                        }
                     }
                 }
                 // every sum in (1e-250, inf) (NaN fails both): no run needs the fallback
