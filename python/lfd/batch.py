@@ -435,15 +435,24 @@ def _run_ray(
     ]
 
 
+HTTP2_PREFACE = b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n" + b"\x00\x00\x00\x04\x00\x00\x00\x00\x00"
+"""What an HTTP/2 client sends first (RFC 9113, 3.4): the connection preface and an empty
+SETTINGS frame. Ray's cluster address (its GCS) and the Ray Client are gRPC servers, which answer
+with a SETTINGS frame of their own; anything else listening there does not."""
+
+
 def check_ray_address(address: str, timeout_s: float | None = None) -> None:
-    """Refuse a cluster address where nothing answers within ``timeout_s`` (default
+    """Refuse a cluster address where no Ray cluster answers within ``timeout_s`` (default
     :data:`RAY_CONNECT_TIMEOUT_S`): ``HOST:PORT`` or ``ray://HOST:PORT`` is tried until a TCP
-    connection succeeds; ``auto`` (the cluster ``ray start`` recorded) is left to Ray.
+    connection succeeds, and what accepted it must answer the HTTP/2 preface as a gRPC server
+    does (:data:`HTTP2_PREFACE`; Ray itself would otherwise retry for minutes); ``auto`` (the
+    cluster ``ray start`` recorded) is left to Ray.
 
     Raises
     ------
     UsageError
-        The address is malformed, or nothing accepted a connection in time.
+        The address is malformed, nothing accepted a connection in time, or what did is not a
+        gRPC server.
     """
     import socket
 
@@ -460,8 +469,7 @@ def check_ray_address(address: str, timeout_s: float | None = None) -> None:
     while True:
         left = deadline - time.monotonic()
         try:
-            socket.create_connection((host, int(port)), timeout=max(0.2, min(left, 5.0))).close()
-            return
+            conn = socket.create_connection((host, int(port)), timeout=max(0.2, min(left, 5.0)))
         except OSError as err:
             if time.monotonic() + 0.5 >= deadline:
                 why = err.strerror or str(err) or type(err).__name__
@@ -470,6 +478,31 @@ def check_ray_address(address: str, timeout_s: float | None = None) -> None:
                     f"({why}); start one with `ray start --head` or check the address"
                 ) from None
             time.sleep(0.5)
+            continue
+        with conn:
+            if not _answers_http2(conn, max(1.0, min(deadline - time.monotonic(), 5.0))):
+                raise UsageError(
+                    f"--ray {address}: something listens there but it is not a Ray cluster (no "
+                    "gRPC answer); give the address `ray start --head` printed"
+                )
+        return
+
+
+def _answers_http2(conn: Any, timeout_s: float) -> bool:
+    """Whether the server on ``conn`` answers :data:`HTTP2_PREFACE` with a SETTINGS frame
+    within ``timeout_s``."""
+    conn.settimeout(timeout_s)
+    try:
+        conn.sendall(HTTP2_PREFACE)
+        head = b""
+        while len(head) < 9:  # a frame header: 3 bytes length, type, flags, stream id
+            part = conn.recv(9 - len(head))
+            if not part:
+                return False
+            head += part
+    except OSError:  # timed out, reset
+        return False
+    return head[3] == 0x04
 
 
 def _ray_error(err: BaseException) -> str:

@@ -325,6 +325,38 @@ def test_ray_address_without_cluster(
     assert "no Ray cluster" in line, line
 
 
+def test_ray_address_where_something_else_listens(
+    rec: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a web server (HTTP/1.1) on the port: Ray itself would retry its handshake for minutes
+    pytest.importorskip("ray", reason="ray not installed (optional extra)")
+    import threading
+
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen()
+    port = srv.getsockname()[1]
+
+    def serve() -> None:
+        with srv:
+            while True:
+                try:
+                    conn, _ = srv.accept()
+                except OSError:
+                    return
+                with conn:
+                    conn.recv(1024)
+                    conn.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n")
+
+    threading.Thread(target=serve, daemon=True).start()
+    t0 = time.monotonic()
+    try:
+        line = _one_line(capsys, ["segment", rec, rec, f"--ray=127.0.0.1:{port}"], "not a Ray")
+    finally:
+        srv.close()
+    assert time.monotonic() - t0 < 20, line
+
+
 # --- 6. reproduce --randomise N: bounded -------------------------------------------------------
 @pytest.mark.parametrize("n", ["1000000000", str(2**63 - 1), "100001"])
 def test_randomise_bounded(n: str, rec: Path, capsys: pytest.CaptureFixture[str]) -> None:
