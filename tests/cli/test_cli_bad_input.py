@@ -474,6 +474,56 @@ def test_two_message_types_on_hand_topic(
     assert "PoseArray" in line and "PoseStamped" in line, line
 
 
+def _two_types_on_hand_topic(dst: Path) -> Path:
+    """exp1 with a second channel on the hand topic, of another schema and encoding."""
+    from mcap.reader import make_reader
+    from mcap.writer import Writer
+
+    with open(EXP1, "rb") as f, open(dst, "wb") as g:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        assert summary is not None
+        w = Writer(g)
+        w.start()
+        schemas = {
+            i: w.register_schema(s.name, s.encoding, s.data) for i, s in summary.schemas.items()
+        }
+        chans = {
+            i: w.register_channel(c.topic, c.message_encoding, schemas.get(c.schema_id, 0))
+            for i, c in summary.channels.items()
+        }
+        other = w.register_channel(
+            "/hand/right/keypoints",
+            "json",
+            w.register_schema("acme.Keypoints", "jsonschema", b"{}"),
+        )
+        for _, channel, message in reader.iter_messages():
+            w.add_message(chans[channel.id], message.log_time, message.data, message.publish_time)
+            if channel.topic == "/hand/right/keypoints":
+                w.add_message(other, message.log_time + 1, b'{"x": 1}', message.publish_time)
+        w.finish()
+    return dst
+
+
+@pytest.mark.parametrize("how", ["offline", "follow", "python reader"])
+def test_two_message_types_on_an_lfd_hand_topic(
+    how: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Refused naming both types, by the engine's reader, --follow and the Python reader."""
+    rec = _two_types_on_hand_topic(tmp_path / "two.mcap")
+    both = "/hand/right/keypoints carries two message types, foxglove.PosesInFrame (protobuf) "
+    both += "and acme.Keypoints (json)"
+    if how == "python reader":
+        from lfd.errors import RecordingFormatError
+        from lfd.io.mcapfile import scan
+
+        with pytest.raises(RecordingFormatError, match=r"acme\.Keypoints \(json\)"):
+            scan(rec)
+        return
+    follow = ["--follow", "--idle-timeout", "5"] if how == "follow" else []
+    _one_line(capsys, ["segment", rec, *follow], both)
+
+
 # --- 10. --follow of a corrupt zstd chunk or malformed metadata --------------------------------
 def _corrupt_chunk(dst: Path) -> Path:
     """exp1 with bytes in the middle of one chunk's compressed data changed, CRCs left."""

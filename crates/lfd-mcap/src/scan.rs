@@ -263,6 +263,9 @@ struct State {
     by_topic: HashMap<String, usize>,
     metadata: MetadataMap,
     data_done: bool,
+    /// A topic lfd decodes that carries two message types (the first found; the file is
+    /// refused with it).
+    conflict: Option<String>,
     /// Chunks admitted but not yet read (decoded together, in parallel).
     pending: Vec<Pending>,
     /// Their declared uncompressed bytes.
@@ -536,12 +539,27 @@ impl State {
         if self.channels[usize::from(ch.id)] != usize::MAX {
             return;
         }
+        let schema = self.schemas.get(&ch.schema_id);
         if let Some(&i) = self.by_topic.get(&ch.topic) {
+            let topic = &self.topics[i];
+            let name = schema.map_or("", |s| s.name.as_str());
+            let typed = !matches!(topic.kind, Kind::Raw(_) | Kind::Dropped);
+            let (a, b) = (&topic.summary, (name, ch.message_encoding.as_str()));
+            if typed && (a.schema.as_str(), a.encoding.as_str()) != b {
+                // its messages are not decoded as the topic's type; the file is refused
+                self.conflict.get_or_insert_with(|| {
+                    format!(
+                        "{}: {} carries two message types, {} ({}) and {} ({}); an lfd recording \
+                         has one per topic",
+                        self.path, ch.topic, a.schema, a.encoding, b.0, b.1
+                    )
+                });
+                return;
+            }
             self.channels[usize::from(ch.id)] = i;
             self.snapshot = None;
             return;
         }
-        let schema = self.schemas.get(&ch.schema_id);
         let summary = ChannelSummary {
             topic: ch.topic.clone(),
             schema: schema.map(|s| s.name.clone()).unwrap_or_default(),
@@ -800,6 +818,9 @@ impl State {
     }
 
     fn finish(mut self, stop: Option<Stop>, file_size: u64) -> Result<Recording, ReadError> {
+        if let Some(conflict) = self.conflict.take() {
+            return Err(ReadError(conflict));
+        }
         // chunks still queued come before whatever ended the pass
         let stop = match self.flush() {
             Err(s) => Some(s),
@@ -1024,6 +1045,7 @@ pub fn read_recording(path: &Path, options: &Options) -> Result<Recording, ReadE
         by_topic: HashMap::new(),
         metadata: Vec::new(),
         data_done: false,
+        conflict: None,
         pending: Vec::new(),
         pending_bytes: 0,
         batches: 0,

@@ -198,6 +198,7 @@ class Follower:
         self._stop = threading.Event()
         self._started = False
         self._channels: dict[int, Channel] = {}
+        self._kinds: dict[str, tuple[str, str]] = {}  # topic -> its (schema, encoding)
 
     # --- public ----------------------------------------------------------------------------
     def stop(self) -> None:
@@ -365,6 +366,15 @@ class Follower:
                 elif isinstance(rec, Schema):
                     schemas[rec.id] = rec
                 elif isinstance(rec, Channel):
+                    if rec.id not in channels:
+                        schema = schemas.get(rec.schema_id)
+                        kind = (schema.name if schema is not None else "", rec.message_encoding)
+                        first = self._kinds.setdefault(rec.topic, kind)
+                        if first != kind and T.decoded_topic(rec.topic):
+                            where = self.source or self.path
+                            raise RecordingFormatError(
+                                T.two_types_message(str(where), rec.topic, first, kind)
+                            )
                     channels.setdefault(rec.id, rec)
                     self.topics.setdefault(rec.id, rec.topic)
                 elif isinstance(rec, Metadata):

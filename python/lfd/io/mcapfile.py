@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from ..errors import RecordingFormatError
+from .topics import decoded_topic, two_types_message
 
 if TYPE_CHECKING:  # the mcap package is imported by the pure-Python reader only, on use
     from mcap.records import Chunk
@@ -258,6 +259,15 @@ def scan(path: str | os.PathLike[str]) -> RawRecording:
                         continue
                     schema = schemas.get(record.schema_id)
                     name = schema.name if schema is not None else ""
+                    known = raw.channels.get(record.topic)
+                    kind = (name, record.message_encoding)
+                    if known is not None and (known.schema, known.encoding) != kind:
+                        if decoded_topic(record.topic):
+                            raise RecordingFormatError(
+                                two_types_message(
+                                    p, record.topic, (known.schema, known.encoding), kind
+                                )
+                            )
                     channels[record.id] = (record, name)
                     if record.topic not in raw.channels:
                         raw.channels[record.topic] = ChannelSummary(

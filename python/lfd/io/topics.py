@@ -119,6 +119,24 @@ def object_name_from_topic(topic: str) -> str | None:
     return None
 
 
+def decoded_topic(topic: str) -> bool:
+    """Whether lfd decodes ``topic``'s messages into arrays (the hand keypoints and confidence,
+    the object poses): such a topic carries one message type, and a recording with two there
+    is refused."""
+    sides = [f(side) for side in HAND_SIDES for f in (hand_topic, confidence_topic)]
+    return topic in sides or object_name_from_topic(topic) is not None
+
+
+def two_types_message(
+    path: str, topic: str, first: tuple[str, str], second: tuple[str, str]
+) -> str:
+    """The error of a recording with two message types ``(schema, encoding)`` on ``topic``."""
+    return (
+        f"{path}: {topic} carries two message types, {first[0]} ({first[1]}) and {second[0]} "
+        f"({second[1]}); an lfd recording has one per topic"
+    )
+
+
 def hand_side_from_topic(topic: str) -> str | None:
     """The hand side of a ``/hand/<side>/keypoints`` topic, else None."""
     for side in HAND_SIDES:
