@@ -1,13 +1,16 @@
 """The engine's signal processing and rotations (``lfd._hmmseg`` / ``lfd.rotations``) against
 scipy, which preprocessing no longer imports.
 
-Bounds: the Butterworth design, the tridiagonal solve and the cubic splines of 2 or at least 4
-knots follow scipy's (and numpy's / BLAS's) operations in the same order and agree bit for bit;
-``lfilter_zi`` and the 3-knot spline solve small dense systems, which LAPACK's blocked LU sums in
-another order, and the rotations and slerp are scipy's formulas, which its compiled Cython
-orders a little differently: these agree to a few units in the last place (1e-14 relative
-here), and ``filtfilt`` with them (bit for bit where ``lfilter_zi`` is). Low-pass coefficients must be exact: one unit in the last
-place of ``a`` moves a 0.0625 Hz filtered signal by up to 1e-7.
+Bounds: the tridiagonal solve and the cubic splines of 2 or at least 4 knots follow scipy's (and
+numpy's) operations in the same order and agree bit for bit. The Butterworth design follows
+scipy's operations too, but ``np.poly`` convolves through numpy's BLAS dot, whose kernel depends
+on the CPU (an AVX-512 kernel sums in another order): it agrees to 16 units in the last place
+(8 seen). ``lfilter_zi`` and the 3-knot spline solve small dense systems, which LAPACK's blocked
+LU sums in another order, and the rotations and slerp are scipy's formulas, which its compiled
+Cython orders a little differently: these agree to a few units in the last place (1e-14
+relative here), and ``filtfilt`` to the conditioning of its initial-state solve
+(:func:`_zi_tolerance`: a 0.0625 Hz filter at 30 Hz solves a system of condition 2e9, and the two
+agree to 7e-9 there, 2e-14 at 2 Hz).
 """
 
 from __future__ import annotations
@@ -28,6 +31,14 @@ transform = pytest.importorskip("scipy.spatial.transform")
 RNG = np.random.default_rng(20261202)
 
 
+def _zi_tolerance(a: np.ndarray) -> float:
+    """Relative agreement expected of two ``filtfilt``s with the filter ``a``: 1e-15 times the
+    condition number of ``lfilter_zi``'s system ``I - A`` (at least 1e-14); the measured
+    disagreement is at most 0.2e-16 times it."""
+    n = len(a) - 1
+    return 1e-15 * max(float(np.linalg.cond(np.eye(n) - linalg.companion(a).T)), 10.0)
+
+
 def _close(a: np.ndarray, b: np.ndarray, rel: float) -> None:
     scale = max(1.0, float(np.max(np.abs(b), initial=0.0)))
     np.testing.assert_allclose(a, b, rtol=0, atol=rel * scale)
@@ -35,14 +46,14 @@ def _close(a: np.ndarray, b: np.ndarray, rel: float) -> None:
 
 @pytest.mark.parametrize("order", [1, 2, 3, 4, 5, 6, 8])
 @pytest.mark.parametrize("fs", [5.0, 29.97, 30.0, 100.0])
-def test_butter_is_scipy_bit_for_bit(order: int, fs: float) -> None:
+def test_butter_is_scipys_design(order: int, fs: float) -> None:
     for fc in [*(RNG.uniform(0.001, 0.499, 12) * fs), 0.0625, 0.625, 2.0]:
         if fc >= fs / 2:
             continue
         b, a = signal.butter(order, fc, fs=fs)
         b2, a2 = _hmmseg.butter_lowpass(order, fc, fs)
-        np.testing.assert_array_equal(b2, b)
-        np.testing.assert_array_equal(a2, a)
+        np.testing.assert_array_max_ulp(b2, b, maxulp=16)
+        np.testing.assert_array_max_ulp(a2, a, maxulp=16)
         # a small dense solve: LAPACK sums in another order, so agreement is to the
         # conditioning of I - A (exact for the 4th-order filters preprocessing uses)
         n = len(a) - 1
@@ -69,7 +80,7 @@ def test_filtfilt_matches_scipy(fc: float, n: int) -> None:
     x = RNG.normal(size=(n, 7)).cumsum(axis=0) + 3.0
     want = signal.filtfilt(b, a, x, axis=0, padlen=12)
     got = _hmmseg.filtfilt(b, a, x, 12)
-    _close(got, want, 1e-14)
+    _close(got, want, _zi_tolerance(a))
     np.testing.assert_array_equal(_hmmseg.filtfilt(b, a, x[:, :1], 12)[:, 0], got[:, 0])
     with pytest.raises(InvalidParameterError):
         _hmmseg.filtfilt(b, a, x[:12], 12)
@@ -83,9 +94,10 @@ def test_lowpass_with_gaps_matches_scipy_per_run() -> None:
     report: list[tuple[int, int]] = []
     y = lowpass(x, 0.625, 30.0, report=report)
     np.testing.assert_array_equal(np.isnan(y), np.isnan(x))
-    _close(y[:50, 0], signal.filtfilt(b, a, x[:50, 0], padlen=12), 1e-14)
-    _close(y[53:, 0], signal.filtfilt(b, a, x[53:, 0], padlen=12), 1e-14)
-    _close(y[:, 1], signal.filtfilt(b, a, x[:, 1], padlen=12), 1e-14)
+    tol = _zi_tolerance(a)
+    _close(y[:50, 0], signal.filtfilt(b, a, x[:50, 0], padlen=12), tol)
+    _close(y[53:, 0], signal.filtfilt(b, a, x[53:, 0], padlen=12), tol)
+    _close(y[:, 1], signal.filtfilt(b, a, x[:, 1], padlen=12), tol)
     np.testing.assert_array_equal(y[190:, 2], x[190:, 2])  # left unfiltered
     assert report == [(190, 200)]
 
