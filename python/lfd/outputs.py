@@ -7,7 +7,7 @@ goes to a temporary file beside the destination, which replaces the destination 
 rename only once it is complete. A failed or interrupted command therefore leaves either the old
 file or none, never a half-written one, and two runs writing the same file cannot interleave.
 
-An input is every file the command reads (:func:`lfd.io.inputs.read_paths` lists them: the
+An input is every file the command reads (:func:`lfd.io.reads.read_paths` lists them: the
 files it is given, each one's object-size sidecar ``REC.sizes.toml`` and, for a file of a ROS 2
 bag or the bag directory, the whole directory): no output may land on one, nor inside a bag
 directory being read (a :class:`ReadPath` with ``tree``).
@@ -52,7 +52,7 @@ def stdout(what: str = "output") -> TextIO:
 
 @dataclass(frozen=True)
 class ReadPath:
-    """A path a command reads (:func:`lfd.io.inputs.read_paths` lists them); a plain path given
+    """A path a command reads (:func:`lfd.io.reads.read_paths` lists them); a plain path given
     as an input is ``ReadPath(path)``."""
 
     path: str
@@ -122,7 +122,7 @@ def check_output(
     path : path-like
         The requested output file.
     inputs : iterable of path-like or ReadPath
-        What the command reads (:func:`lfd.io.inputs.read_paths` adds the sidecars and bag
+        What the command reads (:func:`lfd.io.reads.read_paths` adds the sidecars and bag
         directories of its files); the output may be none of them, nor lie in a bag directory
         being read (:func:`input_clash`).
     what : str

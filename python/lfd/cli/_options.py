@@ -135,8 +135,8 @@ def read_files(args: argparse.Namespace, *given: Any) -> list[Any]:
     """Every path a command reads, for :func:`lfd.outputs.check_output`'s ``inputs``: ``given``
     (its recordings, bags, images...; None skipped) and the existing paths its
     :data:`INPUT_OPTIONS` name (``--templates``, ``--map``, ``--from`` ...), with their
-    sidecars and bag directories (:func:`lfd.io.inputs.read_paths`)."""
-    from ..io.inputs import read_paths
+    sidecars and bag directories (:func:`lfd.io.reads.read_paths`)."""
+    from ..io.reads import read_paths
 
     out = list(given)
     for option in INPUT_OPTIONS:

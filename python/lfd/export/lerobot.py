@@ -717,7 +717,7 @@ def export_lerobot(
         reads.append(templates)
         templates = Templates.load(os.fspath(templates))
     replace: dict[str, Any] = {"overwrite": overwrite, "replaceable": not_a_dataset}
-    from ..io.inputs import read_paths
+    from ..io.reads import read_paths
 
     dest = check_output_dir(
         output, inputs=read_paths(reads), what="output", parents=True, **replace
