@@ -114,8 +114,8 @@ def _one_malloc_arena() -> None:
     ``MALLOC_ARENA_MAX=1`` does): otherwise each of the engine's worker threads keeps an arena of
     its own whose freed blocks stay resident, about 50 MB more peak memory on an hour's
     recording, for no speed (``benches/load_speed.py``). Takes effect only before a second
-    thread allocates, so first thing in :func:`main`; nothing where the C library is not
-    glibc."""
+    thread allocates, so first thing in :func:`main`, for ``lfd segment``; nothing where the C
+    library is not glibc."""
     if not sys.platform.startswith("linux"):
         return
     import ctypes
@@ -129,9 +129,10 @@ def _one_malloc_arena() -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    _one_malloc_arena()
     args_in = list(sys.argv[1:] if argv is None else argv)
     first = next((a for a in args_in if not a.startswith("-")), None)
+    if first == "segment":  # measured there; the perception commands allocate from many threads
+        _one_malloc_arena()
     parser = build_parser(first if first is not None and args_in[0] == first else None)
     args, extra = parser.parse_known_args(args_in)
     if extra:  # reported by the subcommand's parser: `lfd segment: error: unrecognized ...`
