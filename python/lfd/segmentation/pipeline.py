@@ -510,14 +510,20 @@ def _next_true(mask: np.ndarray) -> np.ndarray:
     return out
 
 
-def _count_from(
-    mask: np.ndarray, first: np.ndarray | None, lo: np.ndarray, hi: np.ndarray
-) -> np.ndarray:
-    """Samples of ``mask`` (n,) in ``[max(lo, first[lo]), hi)`` per run, for sample indices
-    ``lo`` and ``hi`` of broadcastable shapes (one pair per run); ``first`` (n + 1,): the first
-    index ``>= t`` where ``mask`` is true (:func:`_next_true`; None: ``t`` itself)."""
+def _cumulative(mask: np.ndarray) -> np.ndarray:
+    """``(n + 1,)``: how many samples of ``mask`` (n,) come before each index."""
     cum = np.zeros(len(mask) + 1)
     np.cumsum(mask, out=cum[1:])
+    return cum
+
+
+def _count_from(
+    cum: np.ndarray, first: np.ndarray | None, lo: np.ndarray, hi: np.ndarray
+) -> np.ndarray:
+    """Samples of a mask in ``[max(lo, first[lo]), hi)`` per run, from its
+    :func:`_cumulative` counts ``cum``, for sample indices ``lo`` and ``hi`` of broadcastable
+    shapes (one pair per run); ``first`` (n + 1,): the first index ``>= t`` where the mask is
+    true (:func:`_next_true`; None: ``t`` itself)."""
     start = lo if first is None else first[lo]
     d = cum[hi] - cum[start]
     np.maximum(d, 0.0, out=d)
@@ -621,23 +627,54 @@ def co_motion_per_object(
         for s in range(len(skills))
     ]
 
+    cums: dict[tuple[str, int], np.ndarray] = {}  # each mask's cumulative counts, once
+
+    def cum(kind: str, o: int) -> np.ndarray:
+        if (kind, o) not in cums:
+            if kind == "moving":
+                mask = moving[o]
+            elif kind == "resting" and lift is not None:
+                mask = lift[1][o]
+            elif kind == "lifted" and lift is not None:
+                mask = lift[0][o]
+            elif kind == "sliding" and lift is not None:
+                mask = moving[o] & lift[1][o]
+            elif kind == "left" and h is not None:
+                mask = h & ~moving[o]
+            else:
+                raise AssertionError(kind)
+            cums[kind, o] = _cumulative(mask)
+        return cums[kind, o]
+
+    last: list[Any] = []  # [(lo, hi) as asked, their key, (own, total)]
+
+    def own_counts(lo: np.ndarray, hi: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
+        # every object's own motion over the runs lo..hi and their sum: the same for every
+        # target, so kept for the last runs asked for (the rows of one piece, object by object;
+        # the arrays asked with are held, so equal buffers are the same indices)
+        key = [(a.__array_interface__["data"][0], a.shape, a.strides) for a in (lo, hi)]
+        if not last or last[1] != key:
+            own = [_count_from(cum("moving", q), None, lo, hi) for q in range(n_obj)]
+            total = own[0].copy()
+            for q in range(1, n_obj):
+                total += own[q]
+            last[:] = [(lo, hi), key, (own, total)]
+        result: tuple[list[np.ndarray], np.ndarray] = last[2]
+        return result
+
     def of(o: int, lo: np.ndarray, hi: np.ndarray, into: np.ndarray | None = None) -> np.ndarray:
         # object o's counts over the runs lo..hi, in the order of ``masks``; the other
         # objects' motion is the objects' summed own motion less o's (exact: sample counts)
-        own = [_count_from(moving[q], None, lo, hi) for q in range(n_obj)]
-        total = own[0].copy()
-        for q in range(1, n_obj):
-            total += own[q]
+        own, total = own_counts(lo, hi)
         counts: list[np.ndarray | None] = [own[o], None, None, None, None]
         if lift is not None:
-            lifted_o, resting_o = lift[0][o], lift[1][o]
-            counts[1] = _count_from(resting_o, lift[2][o], lo, hi)
-            counts[2] = _count_from(lifted_o, lift[3][o], lo, hi)
+            counts[1] = _count_from(cum("resting", o), lift[2][o], lo, hi)
+            counts[2] = _count_from(cum("lifted", o), lift[3][o], lo, hi)
             if slide >= 0:
-                sliding = _count_from(moving[o] & resting_o, None, lo, hi) - slide
+                sliding = _count_from(cum("sliding", o), None, lo, hi) - slide
                 counts[3] = np.maximum(sliding, 0.0)
         if h is not None:
-            counts[4] = np.maximum(_count_from(h & ~moving[o], None, lo, hi) - left, 0.0)
+            counts[4] = np.maximum(_count_from(cum("left", o), None, lo, hi) - left, 0.0)
         out = np.empty((*total.shape, len(skills))) if into is None else into
         done: dict[tuple[int, ...], np.ndarray] = {}
         for s, which in enumerate(charged):
