@@ -51,6 +51,8 @@ NOT_RUN: dict[str, str] = {
     "lfd record --source camera:0": "needs a camera: the camera source is tested with an RGB-D "
     "reader plug-in in tests/e2e/test_record_realhands.py",
     "python docs/examples/realsense_reader.py": "needs a RealSense (the module is compiled below)",
+    "lfd perception calibrate board": "needs photos or a video of a printed board: the command "
+    "runs on views rendered through a known camera in tests/unit/perception/test_calibration.py",
     "lfd segment /shared/": "needs a Ray cluster (docs/batch.md); a local Ray runs in tests/unit/segmentation/test_batch.py",
     "lfd templates train /shared/": "needs a Ray cluster (docs/batch.md)",
 }

@@ -1,11 +1,13 @@
 """``lfd perception``: check the hand model on photos; train / evaluate the depth network.
 
     lfd perception hands IMAGE... [--depth D.png... --intrinsics K.json] [--json OUT] [--rerun]
+    lfd perception calibrate IMAGE|VIDEO... --board 9x6 --square 0.025 -o camera.json
     lfd perception train -o model.pt [--samples 6000] [--epochs 40] [--resume]
     lfd perception eval --hand-model model.pt [--samples 300]
 
 ``hands`` runs MediaPipe Hands (the real-camera model) on still images: for checking a camera
-setup. ``train`` / ``eval`` concern the depth network of the simulator (needs torch).
+setup. ``calibrate`` fits a colour camera's intrinsics to views of a printed chessboard
+(OpenCV) and writes the ``camera.json`` that ``lfd record`` reads. ``train`` / ``eval`` concern the depth network of the simulator (needs torch).
 
 Training renders randomised hand crops with the simulated demonstrator (``--data`` caches them
 as .npz), shows progress, and checkpoints every epoch to ``<output>.ckpt`` (``--resume``).
@@ -64,6 +66,30 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--init", metavar="FILE.pt", help="start from the weights of this model (fine-tune)"
     )
     t.add_argument("--val-samples", type=positive_int, default=200, help="held-out crops (200)")
+    c = sub.add_parser(
+        "calibrate", help="camera intrinsics from views of a printed chessboard: a camera.json"
+    )
+    c.add_argument(
+        "views",
+        nargs="+",
+        metavar="IMAGE|VIDEO",
+        help="photos of the board from a dozen directions, or videos of it (.mp4 .mov .avi .mkv "
+        ".webm .m4v: every --every-th frame)",
+    )
+    c.add_argument(
+        "--board",
+        required=True,
+        type=board_size,
+        metavar="COLSxROWS",
+        help="inner corners of the chessboard, e.g. 9x6 (a board of 10 x 7 squares)",
+    )
+    c.add_argument(
+        "--square", required=True, type=positive_float, metavar="M", help="a square's side, m"
+    )
+    c.add_argument("--every", type=positive_int, default=10, help="videos: every Nth frame (10)")
+    c.add_argument(
+        "-o", "--output", required=True, metavar="camera.json", help="the camera.json to write"
+    )
     e = sub.add_parser("eval", help="keypoint error on held-out rendered crops")
     e.add_argument("--hand-model", metavar="FILE.pt", help="weights (default: shipped)")
     e.add_argument(
@@ -114,6 +140,40 @@ def _hands(args: argparse.Namespace) -> int:
     return 0
 
 
+def board_size(text: str) -> tuple[int, int]:
+    """``COLSxROWS`` inner corners of a chessboard, each at least 2."""
+    cols, sep, rows = text.lower().partition("x")
+    if not sep or not cols.isdigit() or not rows.isdigit() or min(int(cols), int(rows)) < 2:
+        raise argparse.ArgumentTypeError(
+            f"expected COLSxROWS inner corners, e.g. 9x6, got {text!r}"
+        )
+    return int(cols), int(rows)
+
+
+def _calibrate(args: argparse.Namespace) -> int:
+    import json
+
+    from ..outputs import atomic_write_text, check_output
+    from ..perception.calibration import calibrate, views
+    from ._options import console, read_files
+
+    inputs = read_files(args, *args.views)
+    check_output(args.output, inputs=inputs, what="-o/--output", suffixes=(".json",))
+    cols, rows = args.board
+    con = console(args)
+    with con.status(f"finding the {cols}x{rows} board in {len(args.views)} files"):
+        cal = calibrate(views(args.views, args.every), cols, rows, args.square)
+    K = cal.K
+    con.print(
+        f"{cal.views} views with the whole board ({cal.skipped} without), {cal.width}x"
+        f"{cal.height}: fx {K[0, 0]:.1f} fy {K[1, 1]:.1f} cx {K[0, 2]:.1f} cy {K[1, 2]:.1f} px, "
+        f"reprojection error {cal.rms_px:.2f} px (RMS)"
+    )
+    atomic_write_text(args.output, json.dumps(cal.camera_json(), indent=2) + "\n")
+    con.print(f'wrote {args.output} (add the tagged objects under "objects")')
+    return 0
+
+
 def _check(args: argparse.Namespace) -> None:
     """Refuse unusable outputs before torch is imported and anything is rendered."""
     from ..outputs import check_output
@@ -145,6 +205,8 @@ def run(args: argparse.Namespace) -> int:
 
     if args.action == "hands":
         return _hands(args)
+    if args.action == "calibrate":
+        return _calibrate(args)
     _check(args)
 
     from ..perception.hand.infer import _torch

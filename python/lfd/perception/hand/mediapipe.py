@@ -26,11 +26,8 @@ over time.
 
 from __future__ import annotations
 
-import contextlib
 import math
 import os
-import sys
-from collections.abc import Iterator
 from dataclasses import dataclass
 from importlib import resources
 from typing import Any
@@ -40,6 +37,7 @@ import numpy as np
 from ...demo import HAND_BONES
 from ...demo import KEYPOINT_NAMES as _KEYPOINT_NAMES
 from ...errors import LfdError
+from ..stderr import quiet_stderr
 
 PALM_MODEL = "palm_detection_full.tflite"
 LANDMARK_MODEL = "hand_landmark_full.tflite"
@@ -88,30 +86,12 @@ def _interpreter(path: str, threads: int) -> Any:
     if not os.path.exists(path):
         raise LfdError(f"hand model file {path} not found (reinstall lfd)")
     try:
-        with _quiet_stderr():  # TFLite prints "INFO: Created ... XNNPACK delegate" on fd 2
+        with quiet_stderr():  # TFLite prints "INFO: Created ... XNNPACK delegate" on fd 2
             it = Interpreter(model_path=path, num_threads=threads)
             it.allocate_tensors()
     except (ValueError, RuntimeError) as err:
         raise LfdError(f"{path}: not a TFLite model ({err})") from err
     return it
-
-
-@contextlib.contextmanager
-def _quiet_stderr() -> Iterator[None]:
-    """Silence native writes to file descriptor 2 (Python's own stderr is flushed first)."""
-    sys.stderr.flush()
-    try:
-        saved = os.dup(2)
-    except OSError:  # no usable fd 2: nothing to silence
-        yield
-        return
-    try:
-        with open(os.devnull, "wb") as null:
-            os.dup2(null.fileno(), 2)
-        yield
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
 
 
 @dataclass(frozen=True)
