@@ -207,3 +207,36 @@ def test_bad_inputs_raise_one_line(change: dict[str, object], match: str) -> Non
     with pytest.raises(LfdError, match=match) as info:
         lift_keypoints(**args)  # type: ignore[arg-type]
     assert "\n" not in str(info.value)
+
+
+def test_colour_only_places_the_metric_hand(views: list[View]) -> None:
+    """The landmark model's metric hand (here the true one, centred and turned) placed by PnP
+    onto the image keypoints: the true camera-frame keypoints come back."""
+    import cv2
+    from lfd.perception.hand.lift import COLOUR_CONFIDENCE, lift_from_colour
+
+    rng = np.random.default_rng(7)
+    for v in views:
+        R, _ = cv2.Rodrigues(rng.normal(0.0, 0.5, 3))
+        world = (v.keypoints - v.keypoints.mean(axis=0)) @ R.T  # its own frame, any rotation
+        h = lift_from_colour(v.uv, world, v.K, score=0.9)
+        assert h is not None
+        err = np.linalg.norm(h.points - v.keypoints, axis=1)
+        assert err.max() < 0.002, err  # pixel-exact keypoints: within 2 mm at 40-70 cm
+        assert h.visible.all()
+        assert np.allclose(h.confidence, h.confidence[0])
+        assert 0.9 * COLOUR_CONFIDENCE / 1.2 < h.confidence[0] <= 0.9 * COLOUR_CONFIDENCE
+
+
+def test_colour_only_scale_sets_the_distance(views: list[View]) -> None:
+    # a hand 10 % larger than the true one is placed 10 % farther: the distance comes from the
+    # landmarks' metric size
+    from lfd.perception.hand.lift import lift_from_colour
+
+    v = views[0]
+    world = (v.keypoints - v.keypoints.mean(axis=0)) * 1.1
+    h = lift_from_colour(v.uv, world, v.K)
+    assert h is not None
+    ratio = np.median(h.points[:, 2] / v.keypoints[:, 2])
+    assert 1.08 < ratio < 1.12, ratio
+    assert lift_from_colour(np.full((21, 2), np.nan), world, v.K) is None

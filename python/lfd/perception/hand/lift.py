@@ -400,3 +400,48 @@ def lift_keypoints(
     support = min(1.0, visible.sum() / FULL_SUPPORT)
     conf = np.where(visible, 0.6 + 0.4 * frac, FILLED_CONFIDENCE * support) * float(score)
     return LiftedHand(points=points, visible=visible, confidence=np.clip(conf, 0.0, 1.0))
+
+
+COLOUR_CONFIDENCE = 0.7
+"""Confidence of a keypoint placed without depth (:func:`lift_from_colour`), before the hand
+presence score and the fit's reprojection error scale it: below a measured one (0.6-1.0 times
+the score) at best, as its distance rests on the landmark model's idea of the hand's size."""
+
+COLOUR_FIT_PX = 8.0
+"""A colour-only fit whose landmarks reproject this far off (RMS, pixels) halves the
+confidence."""
+
+
+def lift_from_colour(
+    keypoints_2d: np.ndarray, world: np.ndarray, K: np.ndarray, *, score: float = 1.0
+) -> LiftedHand | None:
+    """Place the hand in metres from one colour image: MediaPipe's metric landmarks (``world``,
+    (21, 3) around the hand's centre) moved and turned so that they project onto the image
+    landmarks (``keypoints_2d``, (21, 2) pixels) through ``K``: the perspective-n-point fit
+    MediaPipe's own 3-D demos use (``cv2.solvePnP``, SQPnP). The distance comes from the
+    landmarks' metric size, so an unusually large or small hand is placed a little too near or
+    too far. None when the fit puts the hand behind the camera or fails.
+
+    Every keypoint is ``visible`` (seen in the image, no depth measured); its confidence is
+    :data:`COLOUR_CONFIDENCE` times ``score`` times ``1 / (1 + rms / COLOUR_FIT_PX)``.
+    """
+    import cv2
+
+    uv = np.ascontiguousarray(keypoints_2d, dtype=np.float64).reshape(-1, 1, 2)
+    xyz = np.ascontiguousarray(world, dtype=np.float64).reshape(-1, 1, 3)
+    if uv.shape[0] != 21 or xyz.shape[0] != 21:
+        raise LfdError(f"expected 21 landmarks, got {uv.shape[0]} and {xyz.shape[0]}")
+    if not (np.isfinite(uv).all() and np.isfinite(xyz).all()):
+        return None
+    Kf = np.asarray(K, dtype=np.float64)
+    ok, rvec, tvec = cv2.solvePnP(xyz, uv, Kf, None, flags=cv2.SOLVEPNP_SQPNP)
+    if not ok:
+        return None
+    R, _ = cv2.Rodrigues(rvec)
+    points = xyz.reshape(21, 3) @ R.T + tvec.reshape(3)
+    if not (np.isfinite(points).all() and (points[:, 2] > 0).all()):
+        return None
+    proj, _ = cv2.projectPoints(xyz, rvec, tvec, Kf, None)
+    rms = float(np.sqrt(np.mean(np.sum((proj - uv) ** 2, axis=-1))))
+    conf = COLOUR_CONFIDENCE * float(np.clip(score, 0.0, 1.0)) / (1.0 + rms / COLOUR_FIT_PX)
+    return LiftedHand(points, np.ones(21, dtype=bool), np.full(21, conf))
