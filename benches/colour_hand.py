@@ -44,40 +44,56 @@ def main() -> None:
     f = args.focal * w
     K = np.array([[f, 0.0, w / 2], [0.0, f, h / 2], [0.0, 0.0, 1.0]])
     tracker = HandTracker(MediaPipeHands(), max_hands=1)
-    frames, points, labels = 0, [], []
+    frames, found, labels = 0, [], []
     while True:
         ok, bgr = cap.read()
         if not ok:
             break
         frames += 1
         hands = tracker.update(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
-        if not hands:
-            continue
-        hand = max(hands, key=lambda x: x.score)
-        lifted = lift_from_colour(hand.keypoints_2d, hand.world, K, score=hand.score)
-        if lifted is not None:
-            points.append(lifted.points)
+        if hands:
+            hand = max(hands, key=lambda x: x.score)
+            found.append(hand)
             labels.append(hand.handedness)
     cap.release()
-    P = np.array(points)
     print(f"{args.video}: {frames} frames, {int(w)}x{int(h)}, assumed fx = fy = {f:.0f} px")
-    print(f"hand placed in {len(P)} frames ({100 * len(P) / max(frames, 1):.1f} %)")
+    print(f"hand found in {len(found)} frames ({100 * len(found) / max(frames, 1):.1f} %)")
     print(f"handedness: {dict(Counter(labels))}")
-    if len(P) < 2:
+    if len(found) < 2:
         return
-    lengths = np.array([[np.linalg.norm(p[a] - p[b]) for a, b in HAND_BONES] for p in P])
-    dev = np.abs(lengths / np.median(lengths, axis=0) - 1)
-    print(
-        f"bone length vs its median: largest {100 * dev.max():.0f} %, 95th percentile "
-        f"{100 * np.percentile(dev, 95):.0f} %; per bone, 95th percentile: "
-        + " ".join(f"{100 * v:.0f}" for v in np.percentile(dev, 95, axis=0))
-    )
-    steps = np.linalg.norm(np.diff(P[:, 0], axis=0), axis=1)
-    print(
-        f"wrist step between frames: largest {100 * steps.max():.1f} cm, 95th percentile "
-        f"{100 * np.percentile(steps, 95):.1f} cm; wrist distance median "
-        f"{np.median(P[:, 0, 2]):.2f} m"
-    )
+
+    def bones(p: np.ndarray) -> np.ndarray:
+        return np.array([np.linalg.norm(p[a] - p[b]) for a, b in HAND_BONES])
+
+    model = np.array([bones(hand.world) for hand in found])
+    # the skeletons: the landmark model's hand as it comes, and the same with fixed bones (the
+    # median over the frames so far: what a recording knows as it goes)
+    variants = {
+        "landmark model's bones": None,
+        "bones fixed (running median)": "running",
+        "bones fixed (median of the whole video, offline)": "whole",
+    }
+    for name, how in variants.items():
+        points = []
+        for k, hand in enumerate(found):
+            upto = len(model) if how == "whole" else k + 1
+            lengths = None if how is None else np.median(model[:upto], axis=0)
+            lifted = lift_from_colour(
+                hand.keypoints_2d, hand.world, K, score=hand.score, lengths=lengths
+            )
+            if lifted is not None:
+                points.append(lifted.points)
+        P = np.array(points)
+        lengths = np.array([bones(p) for p in P])
+        dev = np.abs(lengths / np.median(lengths, axis=0) - 1)
+        steps = np.linalg.norm(np.diff(P[:, 0], axis=0), axis=1)
+        print(
+            f"{name}: placed in {len(P)} frames; bone length vs its median: largest "
+            f"{100 * dev.max():.0f} %, 95th percentile {100 * np.percentile(dev, 95):.0f} %; "
+            f"wrist step between frames: largest {100 * steps.max():.1f} cm, 95th percentile "
+            f"{100 * np.percentile(steps, 95):.1f} cm; wrist distance median "
+            f"{np.median(P[:, 0, 2]):.2f} m"
+        )
 
 
 if __name__ == "__main__":

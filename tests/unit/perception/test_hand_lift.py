@@ -240,3 +240,24 @@ def test_colour_only_scale_sets_the_distance(views: list[View]) -> None:
     ratio = np.median(h.points[:, 2] / v.keypoints[:, 2])
     assert 1.08 < ratio < 1.12, ratio
     assert lift_from_colour(np.full((21, 2), np.nan), world, v.K) is None
+
+
+def test_fixed_skeleton_sets_the_bones_and_keeps_their_directions(views: list[View]) -> None:
+    from lfd.demo import HAND_BONES
+    from lfd.perception.hand.lift import fixed_skeleton, lift_from_colour
+
+    v = views[1]
+    rng = np.random.default_rng(3)
+    lengths = rng.uniform(0.02, 0.05, len(HAND_BONES))
+    out = fixed_skeleton(v.keypoints, lengths)
+    for k, (a, b) in enumerate(HAND_BONES):
+        if (a, b) == (0, 17):  # the second bone to the pinky's base follows
+            continue
+        d0, d1 = v.keypoints[b] - v.keypoints[a], out[b] - out[a]
+        assert np.linalg.norm(d1) == pytest.approx(lengths[k])
+        assert d1 / np.linalg.norm(d1) == pytest.approx(d0 / np.linalg.norm(d0))
+    # the true bones: the true hand (and through lift_from_colour, its true place)
+    true = np.array([np.linalg.norm(v.keypoints[b] - v.keypoints[a]) for a, b in HAND_BONES])
+    np.testing.assert_allclose(fixed_skeleton(v.keypoints, true), v.keypoints, atol=1e-12)
+    h = lift_from_colour(v.uv, v.keypoints - v.keypoints.mean(0), v.K, lengths=true)
+    assert h is not None and np.abs(h.points - v.keypoints).max() < 0.002

@@ -412,8 +412,33 @@ COLOUR_FIT_PX = 8.0
 confidence."""
 
 
+def fixed_skeleton(world: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """The hand ``world`` (21, 3) with its bones (:data:`lfd.demo.HAND_BONES`) set to
+    ``lengths`` (21,): each bone keeps its direction, from the wrist out along each finger (the
+    pinky's base hangs from the ring finger's, as the bones list it; the wrist-pinky bone is
+    left to follow)."""
+    from ...demo import HAND_BONES
+
+    w = np.asarray(world, dtype=np.float64)
+    out = w.copy()
+    placed = {0}
+    for k, (a, b) in enumerate(HAND_BONES):
+        if b in placed:  # a second bone to an already placed joint (wrist-pinky)
+            continue
+        d = w[b] - w[a]
+        n = float(np.linalg.norm(d))
+        out[b] = out[a] + (d / n * float(lengths[k]) if n > 0 else 0.0)
+        placed.add(b)
+    return out
+
+
 def lift_from_colour(
-    keypoints_2d: np.ndarray, world: np.ndarray, K: np.ndarray, *, score: float = 1.0
+    keypoints_2d: np.ndarray,
+    world: np.ndarray,
+    K: np.ndarray,
+    *,
+    score: float = 1.0,
+    lengths: np.ndarray | None = None,
 ) -> LiftedHand | None:
     """Place the hand in metres from one colour image: MediaPipe's metric landmarks (``world``,
     (21, 3) around the hand's centre) moved and turned so that they project onto the image
@@ -422,11 +447,17 @@ def lift_from_colour(
     landmarks' metric size, so an unusually large or small hand is placed a little too near or
     too far. None when the fit puts the hand behind the camera or fails.
 
+    ``lengths`` (21,), the user's bone lengths (:data:`lfd.demo.HAND_BONES` order), replace the
+    landmark model's, whose metric hand changes size from frame to frame
+    (:func:`fixed_skeleton`): the distance then follows the user's hand.
+
     Every keypoint is ``visible`` (seen in the image, no depth measured); its confidence is
     :data:`COLOUR_CONFIDENCE` times ``score`` times ``1 / (1 + rms / COLOUR_FIT_PX)``.
     """
     import cv2
 
+    if lengths is not None:
+        world = fixed_skeleton(world, lengths)
     uv = np.ascontiguousarray(keypoints_2d, dtype=np.float64).reshape(-1, 1, 2)
     xyz = np.ascontiguousarray(world, dtype=np.float64).reshape(-1, 1, 3)
     if uv.shape[0] != 21 or xyz.shape[0] != 21:
