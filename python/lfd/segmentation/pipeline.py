@@ -627,23 +627,21 @@ def co_motion_per_object(
         for s in range(len(skills))
     ]
 
-    cums: dict[tuple[str, int], np.ndarray] = {}  # each mask's cumulative counts, once
+    # each mask's cumulative counts, computed once, when first asked for
+    mask_of: dict[str, Callable[[int], np.ndarray]] = {"moving": lambda o: moving[o]}
+    if lift is not None:
+        lifted_, resting_ = lift[0], lift[1]
+        mask_of["resting"] = lambda o: resting_[o]
+        mask_of["lifted"] = lambda o: lifted_[o]
+        mask_of["sliding"] = lambda o: moving[o] & resting_[o]
+    if h is not None:
+        hand_ = h
+        mask_of["left"] = lambda o: hand_ & ~moving[o]
+    cums: dict[tuple[str, int], np.ndarray] = {}
 
     def cum(kind: str, o: int) -> np.ndarray:
         if (kind, o) not in cums:
-            if kind == "moving":
-                mask = moving[o]
-            elif kind == "resting" and lift is not None:
-                mask = lift[1][o]
-            elif kind == "lifted" and lift is not None:
-                mask = lift[0][o]
-            elif kind == "sliding" and lift is not None:
-                mask = moving[o] & lift[1][o]
-            elif kind == "left" and h is not None:
-                mask = h & ~moving[o]
-            else:
-                raise AssertionError(kind)
-            cums[kind, o] = _cumulative(mask)
+            cums[kind, o] = _cumulative(mask_of[kind](o))
         return cums[kind, o]
 
     last: list[Any] = []  # [(lo, hi) as asked, their key, (own, total)]

@@ -163,20 +163,8 @@ impl ScoreTable {
 
     /// An empty table (all `-inf`) over the runs of `band`.
     pub fn with_band(band: Band, n_skills: usize) -> Result<Self> {
-        if n_skills == 0 {
-            return Err(EngineError::EmptySequence("need at least one skill".into()));
-        }
         let len = band.n_runs() * n_skills;
-        Ok(Self {
-            band,
-            n_skills,
-            total: vec![f64::NEG_INFINITY; len],
-        })
-    }
-
-    /// A table over the runs of `band` from its raw entries, row-major `(N, n_skills)`.
-    pub fn from_values(band: Band, n_skills: usize, total: Vec<f64>) -> Result<Self> {
-        ScoreTable::from_entries(band, n_skills, total)
+        Self::from_entries(band, n_skills, vec![f64::NEG_INFINITY; len])
     }
 
     /// Set the summed log-likelihood of sections `i..j` under skill `s`.
@@ -710,10 +698,10 @@ mod tests {
         assert_eq!(dense.len(), 4 * 5 * 2);
         assert_eq!(dense[(2 * 5 + 4) * 2 + 1].to_bits(), 25.0f64.to_bits());
         assert_eq!(dense[(5 + 4) * 2].to_bits(), f64::NEG_INFINITY.to_bits());
-        let back = ScoreTable::from_values(band.clone(), 2, t.as_slice().to_vec()).unwrap();
+        let back = ScoreTable::from_entries(band.clone(), 2, t.as_slice().to_vec()).unwrap();
         assert_eq!(back, t);
         assert!(matches!(
-            ScoreTable::from_values(band, 2, vec![0.0; 5]),
+            ScoreTable::from_entries(band, 2, vec![0.0; 5]),
             Err(EngineError::ShapeMismatch(_))
         ));
     }
