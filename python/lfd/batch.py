@@ -320,10 +320,21 @@ def _pool_pass(
                     return sorted(lost)
         except BaseException:  # Ctrl+C: stop now, neither running nor finishing the rest
             workers = list((getattr(pool, "_processes", None) or {}).values())
+            manager = getattr(pool, "_executor_manager_thread", None)
             pool.shutdown(wait=False, cancel_futures=True)
             for proc in workers:
                 proc.terminate()
+            # the pool's manager thread sees its workers gone and closes its wake-up pipe;
+            # until it has, the interpreter's exit hook may write to that pipe as it closes
+            # ("Exception ignored ... Bad file descriptor" after "interrupted")
+            if manager is not None:
+                manager.join(timeout=MANAGER_EXIT_S)
             raise
+
+
+MANAGER_EXIT_S = 2.0
+"""How long Ctrl+C waits for a process pool's manager thread to wind down (it takes
+milliseconds once the workers are terminated)."""
 
 
 def _run_alone(func: Callable[[Any], T], item: Any, ctx: Any) -> ItemResult[T]:
