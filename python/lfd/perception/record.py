@@ -3,11 +3,20 @@
 Per frame, object poses come from the tags (:class:`~lfd.perception.markers.MarkerTracker`,
 at frame rate); every ``1 / hand_rate_hz`` seconds the hand estimator gives the 21 keypoints with
 a confidence and a visibility each: MediaPipe Hands on the colour image lifted with the depth
-image (:class:`~lfd.perception.hand.rgbd.MediaPipeEstimator`, for real cameras, every frame by
+image, or placed from colour alone when the source has no depth (a webcam, a video file)
+(:class:`~lfd.perception.hand.rgbd.MediaPipeEstimator`, for real cameras, every frame by
 default) or the depth network (:class:`~lfd.perception.hand.infer.HandEstimator`, trained on the
 simulator's hand, 5 Hz like the paper). Samples go to a
 :class:`~lfd.io.McapRecorder` as they are produced, so an interrupted recording (Ctrl+C,
 SIGTERM) is a complete, loadable file up to the last frame.
+
+Frames: the world is the reference tag's (origin at its centre, z up), from the first frame it
+is seen (or the camera pose of ``camera.json``). Until then, and for a whole recording in which
+it is never seen, the hand is written in the camera frame (OpenCV axes: x right, y down, z
+forward, metres) and the objects are unobserved (an object's pose needs the reference); the
+camera calibration (``/camera/color/camera_info``, ``/tf``) is written when the reference is
+found, so a recording without it has none. The metadata says whether depth was used
+(``depth``) and how the hand was placed in metres (``hand_lifting``).
 
 What is done beside the file (``lfd record --rerun``, ``--live-segment``) is an ``observer``
 (a :class:`RecordObserver`, e.g. :class:`lfd.live.LiveObserver`): it sees every frame, object
@@ -131,11 +140,20 @@ def record(
         **source.metadata,
         "hand_rate_hz": "every frame" if hand_rate_hz is None else hand_rate_hz,
         "perception": "lfd.perception",
+        "depth": source.has_depth,
     }
     if estimator is not None:
         info = getattr(estimator, "info", {})
         meta["hand_model"] = str(info.get("model") or info.get("training", {}))
         meta["hand_side"] = side
+        lifting = getattr(estimator, "lifting", None)
+        if callable(lifting):
+            meta["hand_lifting"] = lifting(source.has_depth)
+        elif not source.has_depth:  # the depth network sees nothing without depth
+            raise LfdError(
+                f"{meta.get('source', 'the source')} has no depth: the depth network cannot "
+                "place the hand; use the colour model (--hand-model mediapipe)"
+            )
     objects = [(o["name"], o["tag_id"], np.asarray(o["size"], float)) for o in source.objects]
     stats = RecordStats()
     period = 0 if hand_rate_hz is None else round(1e9 / hand_rate_hz)  # 0: every frame
@@ -240,12 +258,13 @@ def _estimate_hand(
     """World keypoints (21, 3), confidence (21,), visibility (21,) and, from a colour model,
     the 2-D keypoints (21, 2) of one frame, or None.
 
-    A colour estimator (``estimate_frame``) gets every frame; a depth estimator needs depth and
-    the camera pose. The depth network's confidence is 1 / (1 + spread / SPREAD_SCALE_M) over
+    A colour estimator (``estimate_frame``) gets every frame, and its keypoints are in the
+    camera frame while ``world_T_camera`` is None (the reference tag not seen yet); a depth
+    estimator needs depth and the camera pose. The depth network's confidence is 1 / (1 + spread / SPREAD_SCALE_M) over
     its point subsets; an estimator with only ``estimate`` gets confidence 1."""
     if hasattr(estimator, "estimate_frame"):
         est = estimator.estimate_frame(frame.color, frame.depth, K, world_T_camera, boxes)
-        if est is None or world_T_camera is None:
+        if est is None:
             return None
         kp_2d = None if est.hand is None else est.hand.keypoints_2d
         return est.keypoints, est.confidence, est.visible, kp_2d
