@@ -167,6 +167,10 @@ def test_record_video_source(frames: Path, tmp_path: Path) -> None:
     box = demo.objects["box_1"]
     assert box.t_ns.size == 16
     assert np.linalg.norm(box.position - S.BOX_CENTRE, axis=1).max() < 0.01
+    info = _lfd("info", str(out))
+    assert info.returncode == 0, info.stderr
+    text = " ".join(info.stdout.split())  # however the console wraps it
+    assert "depth=false" in text and 'hand_lifting="colour pnp"' in text
 
 
 def test_record_video_without_the_reference_tag_keeps_the_hand(
