@@ -173,6 +173,40 @@ def test_record_video_source(frames: Path, tmp_path: Path) -> None:
     assert "depth=false" in text and 'hand_lifting="colour pnp"' in text
 
 
+def test_camera_source_without_a_depth_reader_is_colour_only(
+    frames: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``--source camera:N --intrinsics camera.json`` and no ``--depth-reader`` (a webcam,
+    here a stand-in OpenCV device serving the real-hand frames): the hand from colour."""
+    import cv2
+    from lfd.cli import main
+    from lfd.io import load
+
+    served = [cv2.imread(str(f)) for f in sorted((frames / "color").glob("*.png"))[:6]]
+
+    class Webcam:
+        def __init__(self, index: int) -> None:
+            self.frames = list(served) if index == 0 else []
+
+        def isOpened(self) -> bool:
+            return bool(self.frames)
+
+        def read(self) -> tuple[bool, np.ndarray | None]:
+            return (True, self.frames.pop(0)) if self.frames else (False, None)
+
+        def release(self) -> None:
+            self.frames = []
+
+    monkeypatch.setattr(cv2, "VideoCapture", Webcam)
+    out = tmp_path / "webcam.mcap"
+    argv = ["record", "--source", "camera:0", "--intrinsics", str(frames / "camera.json")]
+    assert main([*argv, "-o", str(out), "--hand-size", str(HAND_SIZE)]) == 0
+    demo = load(out)
+    assert demo.metadata["source"] == "camera:0"
+    _colour_only_checks(demo.hand, demo.metadata, 6)
+    assert demo.objects["box_1"].t_ns.size == 6
+
+
 def test_record_video_without_the_reference_tag_keeps_the_hand(
     frames: Path, tmp_path: Path
 ) -> None:

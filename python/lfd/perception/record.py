@@ -150,6 +150,7 @@ def record(
         if callable(lifting):
             meta["hand_lifting"] = lifting(source.has_depth)
         elif not source.has_depth:  # the depth network sees nothing without depth
+            source.close()
             raise LfdError(
                 f"{meta.get('source', 'the source')} has no depth: the depth network cannot "
                 "place the hand; use the colour model (--hand-model mediapipe)"

@@ -57,7 +57,7 @@ from ..inputs import parse_json, read_text
 
 @dataclass
 class Frame:
-    """One RGB-D frame: capture time (ns), colour (H, W, 3) uint8 RGB, depth (H, W) uint16 mm."""
+    """One frame: capture time (ns), colour (H, W, 3) uint8 RGB, depth (H, W) uint16 mm or None."""
 
     t_ns: int
     color: np.ndarray
