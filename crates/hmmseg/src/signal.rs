@@ -818,36 +818,42 @@ impl CubicSpline {
     }
 }
 
-/// A reusable one-column not-a-knot cubic spline: [`CubicSpline`] with `c = 1` (the same
-/// operations, so the same numbers), its buffers kept from one column to the next.
+/// A reusable not-a-knot cubic spline of `g` columns on the same knots: [`CubicSpline`] with
+/// `c = g` (the same operations, so the same numbers for each column), its buffers kept from
+/// one group of columns to the next.
 #[derive(Default)]
 struct ColumnSpline {
+    g: usize,
     dx: Vec<f64>,
     slope: Vec<f64>,
     dl: Vec<f64>,
     d: Vec<f64>,
     du: Vec<f64>,
     s: Vec<f64>,
-    /// `[c0, c1, c2, c3]` of each interval, highest power first.
+    /// `[c0, c1, c2, c3]` of each interval and column (row-major, `(m - 1) x g`), highest
+    /// power first.
     coef: Vec<[f64; 4]>,
 }
 
 impl ColumnSpline {
-    /// Fit `(t, y)`: `t` strictly increasing (at least 2 knots), all finite.
-    fn fit(&mut self, t: &[f64], y: &[f64]) -> Result<()> {
+    /// Fit `(t, y)`: `t` strictly increasing (at least 2 knots), `y` row-major `m x g`, all
+    /// finite.
+    fn fit(&mut self, t: &[f64], y: &[f64], g: usize) -> Result<()> {
         let m = t.len();
+        self.g = g;
         self.dx.clear();
         self.dx.extend(t.windows(2).map(|w| w[1] - w[0]));
         let dx = &self.dx;
         self.slope.clear();
         self.slope
-            .extend((0..m - 1).map(|i| (y[i + 1] - y[i]) / dx[i]));
+            .extend((0..(m - 1) * g).map(|ik| (y[ik + g] - y[ik]) / dx[ik / g]));
         let slope = &self.slope;
         self.s.clear();
         if m == 2 {
-            self.s.extend_from_slice(&[slope[0], slope[0]]);
+            self.s.extend_from_slice(slope);
+            self.s.extend_from_slice(slope);
         } else if m == 3 {
-            self.s.extend(CubicSpline::three_knots(dx, slope, 1)?);
+            self.s.extend(CubicSpline::three_knots(dx, slope, g)?);
         } else {
             self.dl.clear();
             self.dl.resize(m - 1, 0.0);
@@ -855,51 +861,59 @@ impl ColumnSpline {
             self.d.resize(m, 0.0);
             self.du.clear();
             self.du.resize(m - 1, 0.0);
-            self.s.resize(m, 0.0);
+            self.s.resize(m * g, 0.0);
             let (dl, d, du, b) = (&mut self.dl, &mut self.d, &mut self.du, &mut self.s);
             for i in 1..m - 1 {
                 d[i] = 2.0 * (dx[i - 1] + dx[i]);
                 du[i] = dx[i - 1];
                 dl[i - 1] = dx[i];
-                b[i] = 3.0 * (dx[i] * slope[i - 1] + dx[i - 1] * slope[i]);
+                for k in 0..g {
+                    b[i * g + k] =
+                        3.0 * (dx[i] * slope[(i - 1) * g + k] + dx[i - 1] * slope[i * g + k]);
+                }
             }
             d[0] = dx[1];
-            let g = t[2] - t[0];
-            du[0] = g;
-            b[0] = ((dx[0] + 2.0 * g) * dx[1] * slope[0] + dx[0].powi(2) * slope[1]) / g;
+            let g0 = t[2] - t[0];
+            du[0] = g0;
+            for k in 0..g {
+                b[k] = ((dx[0] + 2.0 * g0) * dx[1] * slope[k] + dx[0].powi(2) * slope[g + k]) / g0;
+            }
             d[m - 1] = dx[m - 3];
-            let g = t[m - 1] - t[m - 3];
-            dl[m - 2] = g;
-            b[m - 1] = (dx[m - 2].powi(2) * slope[m - 3]
-                + (2.0 * g + dx[m - 2]) * dx[m - 3] * slope[m - 2])
-                / g;
-            gtsv_inplace(dl, d, du, b, 1)?;
+            let g1 = t[m - 1] - t[m - 3];
+            dl[m - 2] = g1;
+            for k in 0..g {
+                b[(m - 1) * g + k] = (dx[m - 2].powi(2) * slope[(m - 3) * g + k]
+                    + (2.0 * g1 + dx[m - 2]) * dx[m - 3] * slope[(m - 2) * g + k])
+                    / g1;
+            }
+            gtsv_inplace(dl, d, du, b, g)?;
         }
         let s = &self.s;
         self.coef.clear();
-        self.coef.extend((0..m - 1).map(|i| {
-            let tt = (s[i] + s[i + 1] - 2.0 * slope[i]) / dx[i];
-            [tt / dx[i], (slope[i] - s[i]) / dx[i] - tt, s[i], y[i]]
+        self.coef.extend((0..(m - 1) * g).map(|ik| {
+            let i = ik / g;
+            let tt = (s[ik] + s[ik + g] - 2.0 * slope[ik]) / dx[i];
+            [tt / dx[i], (slope[ik] - s[ik]) / dx[i] - tt, s[ik], y[ik]]
         }));
         Ok(())
     }
 
-    /// The value at `x` (`t` the knots of the last fit), the interval searched from `hint`
-    /// (updated).
-    fn eval(&self, t: &[f64], x: f64, hint: &mut usize) -> f64 {
-        let i = upper_index(t, x, *hint) - 1;
-        *hint = i + 1;
+    /// The values of the `g` columns at `x` into `out` (`t` the knots of the last fit), in
+    /// the interval before knot `upper` (its [`upper_index`]).
+    fn eval(&self, t: &[f64], x: f64, upper: usize, out: &mut [f64]) {
+        let i = upper - 1;
         let s = x - t[i];
-        let c = &self.coef[i];
-        let mut res = 0.0;
-        let mut z = 1.0;
-        for p in 0..4 {
-            res += c[3 - p] * z;
-            if p < 3 {
-                z *= s;
+        for (o, c) in out.iter_mut().zip(&self.coef[i * self.g..(i + 1) * self.g]) {
+            let mut res = 0.0;
+            let mut z = 1.0;
+            for p in 0..4 {
+                res += c[3 - p] * z;
+                if p < 3 {
+                    z *= s;
+                }
             }
+            *o = res;
         }
-        res
     }
 }
 
@@ -914,36 +928,61 @@ pub fn gap_mask(tk: &[f64], td: &[f64], max_gap: f64) -> Vec<bool> {
 
 /// The index `i` in `1..m` with `tk[i - 1] <= t < tk[i]` (clamped to the ends), found from
 /// the previous answer `hint` first (targets in increasing order take a step or two).
+#[allow(clippy::needless_bitwise_bool)] // bitwise on purpose: no branch (see below)
 fn upper_index(tk: &[f64], t: f64, hint: usize) -> usize {
     let m = tk.len();
-    if hint >= 1 && hint < m && tk[hint - 1] <= t && (t < tk[hint] || hint == m - 1) {
-        return hint;
-    }
-    if hint + 1 < m && tk[hint] <= t && (t < tk[hint + 1] || hint + 1 == m - 1) {
-        return hint + 1;
+    if hint >= 1 && hint < m && tk[hint - 1] <= t {
+        // up to two steps forward without a branch (which way a step goes is a coin toss when
+        // the targets and the samples come at the same rate)
+        let last = m - 1;
+        let mut i = hint;
+        i += usize::from((i < last) & (tk[i] <= t));
+        i += usize::from((i < last) & (tk[i] <= t));
+        if t < tk[i] || i == last {
+            return i;
+        }
     }
     tk.partition_point(|&v| v <= t).clamp(1, m - 1)
 }
 
 /// [`gap_mask`] into `out` (cleared first).
 fn gap_mask_into(tk: &[f64], td: &[f64], max_gap: f64, out: &mut Vec<bool>) {
+    let mut upper = Vec::new();
+    gap_mask_upper(tk, td, max_gap, out, &mut upper);
+}
+
+/// [`gap_mask_into`], and in `upper` the [`upper_index`] of every target (0 for a target
+/// outside the samples, or with a single sample): the interval a spline over `tk` evaluates it
+/// in.
+fn gap_mask_upper(
+    tk: &[f64],
+    td: &[f64],
+    max_gap: f64,
+    out: &mut Vec<bool>,
+    upper: &mut Vec<usize>,
+) {
     out.clear();
+    upper.clear();
     let m = tk.len();
     if m == 0 {
         out.resize(td.len(), false);
+        upper.resize(td.len(), 0);
         return;
     }
     let mut hint = 1;
-    out.extend(td.iter().map(|&t| {
+    for &t in td {
         let inside = t >= tk[0] && t <= tk[m - 1];
         if m == 1 || !inside {
-            return inside;
+            out.push(inside);
+            upper.push(0);
+            continue;
         }
         let i = upper_index(tk, t, hint);
         hint = i;
         let gap = tk[i] - tk[i - 1];
-        gap <= max_gap || t == tk[i - 1] || t == tk[i]
-    }));
+        out.push(gap <= max_gap || t == tk[i - 1] || t == tk[i]);
+        upper.push(i);
+    }
 }
 
 /// One column's weighted nodes: `y_i = w_i x_i + (1 - w_i) yhat_i`, `yhat_i` the linear
@@ -955,7 +994,7 @@ fn gap_mask_into(tk: &[f64], td: &[f64], max_gap: f64, out: &mut Vec<bool>) {
 pub fn weighted_nodes(t: &[f64], x: &[f64], w: &[f64], max_gap: f64) -> Result<Vec<f64>> {
     let mut scratch = NodeScratch::default();
     let mut out = Vec::new();
-    weighted_nodes_into(t, x, w, max_gap, &mut scratch, &mut out)?;
+    weighted_nodes_into(t, x, w, 1, max_gap, &mut scratch, &mut out)?;
     Ok(out)
 }
 
@@ -969,11 +1008,14 @@ struct NodeScratch {
     upper: Vec<f64>,
 }
 
-/// [`weighted_nodes`] into `out` (the solution overwrites the right-hand side in place).
+/// [`weighted_nodes`] of `g` columns (`x` row-major `m x g`, one weight per row) into `out`
+/// (the solution overwrites the right-hand side in place; each column's numbers are those of
+/// the column alone).
 fn weighted_nodes_into(
     t: &[f64],
     x: &[f64],
     w: &[f64],
+    g: usize,
     max_gap: f64,
     sc: &mut NodeScratch,
     out: &mut Vec<f64>,
@@ -1008,8 +1050,8 @@ fn weighted_nodes_into(
         .extend((0..m - 1).map(|i| -(1.0 - w[i + 1]) * sc.alpha[i + 1]));
     sc.diag.clear();
     sc.diag.resize(m, 1.0);
-    out.extend(w.iter().zip(x).map(|(&wi, &xi)| wi * xi));
-    gtsv_inplace(&mut sc.lower, &mut sc.diag, &mut sc.upper, out, 1)
+    out.extend(x.iter().enumerate().map(|(ik, &xi)| w[ik / g] * xi));
+    gtsv_inplace(&mut sc.lower, &mut sc.diag, &mut sc.upper, out, g)
 }
 
 /// Cubic-spline resampling of the columns of `x` (`m x c`, row-major, NaN where not observed)
@@ -1040,44 +1082,66 @@ pub fn resample_columns(
         )));
     }
     let per = c.checked_div(cw).unwrap_or(1).max(1);
+    // columns sharing a weight column are fitted together; without weights, any neighbours
+    let per_block = if weights.is_some() { per } else { 1 };
     let n = td.len();
     let mut values = vec![f64::NAN; n * c];
     let mut valid = vec![false; n * c];
-    // the columns of one block, fitted and evaluated with buffers of its own
+    // the columns of one block, fitted and evaluated with buffers of its own; neighbouring
+    // columns observed at the same samples with the same weights (a point's x, y and z) share
+    // their knots, gaps, tridiagonal systems and intervals: one fit of several columns
+    let width_of = |j0: usize| block_width(per_block).min(c - j0);
     let block = |j0: usize| -> Result<BlockColumns> {
-        let width = BLOCK.min(c - j0);
+        let width = width_of(j0);
         let (mut tk, mut xk, mut wk) = (Vec::new(), Vec::new(), Vec::new());
         let mut spline = ColumnSpline::default();
         let (mut scratch, mut weighted) = (NodeScratch::default(), Vec::new());
         let (mut xcols, mut wcols) = (Vec::new(), Vec::new());
         let mut vcols: Vec<Vec<f64>> = vec![Vec::new(); width];
         let mut okcols: Vec<Vec<bool>> = vec![Vec::new(); width];
+        let (mut ok, mut upper, mut vals) = (Vec::new(), Vec::new(), vec![0.0; width]);
         gather(x, c, |k| j0 + k, width, &mut xcols);
         if let Some(w) = weights {
             gather(w, cw, |k| (j0 + k) / per, width, &mut wcols);
         }
-        for k in 0..width {
+        let same_samples = |a: usize, b: usize| {
+            (weights.is_none() || (j0 + a) / per == (j0 + b) / per)
+                && xcols[a]
+                    .iter()
+                    .zip(&xcols[b])
+                    .all(|(u, v)| u.is_finite() == v.is_finite())
+        };
+        let mut k0 = 0;
+        while k0 < width {
+            let mut g = 1;
+            while k0 + g < width && g < GROUP && same_samples(k0, k0 + g) {
+                g += 1;
+            }
+            let group = k0..k0 + g;
+            k0 += g;
             tk.clear();
             xk.clear();
             wk.clear();
-            for (i, &v) in xcols[k].iter().enumerate() {
+            for (i, &v) in xcols[group.start].iter().enumerate() {
                 if v.is_finite() {
                     tk.push(ts[i]);
-                    xk.push(v);
+                    xk.extend(group.clone().map(|k| xcols[k][i]));
                     if weights.is_some() {
-                        wk.push(wcols[k][i]);
+                        wk.push(wcols[group.start][i]);
                     }
                 }
             }
-            let (vals, ok) = (&mut vcols[k], &mut okcols[k]);
-            gap_mask_into(&tk, td, max_gap, ok);
-            vals.clear();
-            vals.resize(n, f64::NAN);
+            gap_mask_upper(&tk, td, max_gap, &mut ok, &mut upper);
+            for k in group.clone() {
+                okcols[k].clone_from(&ok);
+                vcols[k].clear();
+                vcols[k].resize(n, f64::NAN);
+            }
             if tk.is_empty() || !ok.iter().any(|&v| v) {
                 continue;
             }
             let nodes: &[f64] = if weights.is_some() {
-                weighted_nodes_into(&tk, &xk, &wk, max_gap, &mut scratch, &mut weighted)?;
+                weighted_nodes_into(&tk, &xk, &wk, g, max_gap, &mut scratch, &mut weighted)?;
                 &weighted
             } else {
                 &xk
@@ -1091,23 +1155,27 @@ pub fn resample_columns(
                         "source times must be strictly increasing".into(),
                     ));
                 }
-                spline.fit(&tk, nodes)?;
+                spline.fit(&tk, nodes, g)?;
             }
-            let mut hint = 1;
-            for ((o, &t), &k) in vals.iter_mut().zip(td).zip(ok.iter()) {
-                if k {
-                    *o = if tk.len() == 1 {
-                        nodes[0]
-                    } else {
-                        spline.eval(&tk, t, &mut hint)
-                    };
+            let vals = &mut vals[..g];
+            for (i, ((&t, &inside), &up)) in td.iter().zip(&ok).zip(&upper).enumerate() {
+                if !inside {
+                    continue;
+                }
+                if tk.len() == 1 {
+                    vals.copy_from_slice(&nodes[..g]);
+                } else {
+                    spline.eval(&tk, t, up, vals);
+                }
+                for (k, &v) in group.clone().zip(vals.iter()) {
+                    vcols[k][i] = v;
                 }
             }
         }
         Ok((vcols, okcols))
     };
     // one block per thread at a time: the memory in flight stays a few blocks of columns
-    let starts: Vec<usize> = (0..c).step_by(BLOCK).collect();
+    let starts: Vec<usize> = (0..c).step_by(block_width(per_block)).collect();
     for round in starts.chunks(rayon::current_num_threads().max(1)) {
         let done: Vec<Result<BlockColumns>> = round.par_iter().map(|&j0| block(j0)).collect();
         for (&j0, result) in round.iter().zip(done) {
@@ -1127,8 +1195,18 @@ type Column = (Vec<(usize, usize)>, Vec<(usize, Vec<f64>)>);
 type BlockColumns = (Vec<Vec<f64>>, Vec<Vec<bool>>);
 
 /// Columns are processed this many at a time: one pass over the rows of a row-major array
-/// reads (or writes) them all, a cache line of each row.
-const BLOCK: usize = 8;
+/// reads (or writes) them all, a cache line or two of each row (a whole number of 3-D points).
+const BLOCK: usize = 12;
+
+/// At most this many columns (a 3-D point's coordinates) are fitted together: the memory of a
+/// fit grows with its columns.
+const GROUP: usize = 3;
+
+/// The columns of a block of [`resample_columns`] whose weight columns apply to `per` data
+/// columns each (1 without weights): [`BLOCK`] rounded up to whole weight columns.
+fn block_width(per: usize) -> usize {
+    BLOCK.div_ceil(per.max(1)) * per.max(1)
+}
 
 /// Columns `col(0), ..., col(width - 1)` of the row-major array `x` of `c` columns into
 /// `bufs` (one vector per column), in one pass over the rows.
@@ -1295,6 +1373,58 @@ mod tests {
         let y = weighted_nodes(&[0.0, 1.0, 2.0], &[0.0, 5.0, 0.0], &[1.0, 0.5, 1.0], 1.5).unwrap();
         assert_eq!(y, vec![0.0, 2.5, 0.0]);
         assert!(resample_columns(&ts, &x[..5], 1, None, &td, 1.5).is_err());
+    }
+
+    /// Pseudo-random numbers in [0, 1) (a test needs no better).
+    fn lcg(state: &mut u64) -> f64 {
+        *state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (*state >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    #[test]
+    fn columns_fitted_together_equal_each_column_alone() {
+        // 7 points x 3 coordinates: a point's coordinates hidden together (fitted together),
+        // some single coordinates hidden (fitted alone), with and without weights, over
+        // lengths that take every branch of the spline (1, 2, 3 and more knots)
+        let mut st = 7u64;
+        for m in [1usize, 2, 3, 4, 5, 40, 600] {
+            let ts: Vec<f64> = (0..m)
+                .map(|i| i as f64 / 30.0 + 0.01 * lcg(&mut st))
+                .collect();
+            let c = 21;
+            let mut x: Vec<f64> = (0..m * c).map(|_| lcg(&mut st) - 0.5).collect();
+            for i in 0..m {
+                for p in 0..7 {
+                    if lcg(&mut st) < 0.1 {
+                        for k in 0..3 {
+                            x[i * c + 3 * p + k] = f64::NAN;
+                        }
+                    }
+                }
+                if lcg(&mut st) < 0.05 {
+                    x[i * c + (i % c)] = f64::NAN;
+                }
+            }
+            let w: Vec<f64> = (0..m * 7).map(|_| 0.3 + 0.7 * lcg(&mut st)).collect();
+            let td: Vec<f64> = (0..3 * m).map(|i| -0.05 + i as f64 / 90.0).collect();
+            for weights in [None, Some(w.as_slice())] {
+                let (v, ok) = resample_columns(&ts, &x, c, weights, &td, 0.1).unwrap();
+                for j in 0..c {
+                    let col: Vec<f64> = (0..m).map(|i| x[i * c + j]).collect();
+                    let wj: Option<Vec<f64>> =
+                        weights.map(|w| (0..m).map(|i| w[i * 7 + j / 3]).collect());
+                    let (v1, ok1) =
+                        resample_columns(&ts, &col, 1, wj.as_deref(), &td, 0.1).unwrap();
+                    for (i, (&a, &b)) in v1.iter().zip(&ok1).enumerate() {
+                        assert_eq!(ok[i * c + j], b, "m {m} column {j} target {i}");
+                        let got = v[i * c + j];
+                        assert!(a.to_bits() == got.to_bits(), "m {m} column {j}: {a} {got}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]
