@@ -14,7 +14,8 @@ a temporary folder.
    fixed skeleton measured over the first hands, the causal distance filter), once per
    ``--hand`` side and once with ``--hand-size 0.19``; the recording is read back
    (``lfd.io.mcapfile.read``: ``lfd.load`` refuses a recording without any object pose, and
-   this video has no tags). Printed: the frames with the requested hand (handedness stable:
+   this video has no tags; the hand is on ``/hand/<side>/keypoints_camera``, the camera frame,
+   as the reference tag is never seen). Printed: the frames with the requested hand (handedness stable:
    the other side is found in none), each placed bone relative to its median (the 20 bones
    the skeleton imposes; the wrist-pinky distance follows the palm), the wrist's largest and
    95th percentile step between frames and its median distance.
@@ -31,6 +32,7 @@ import json
 import sys
 import tempfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -87,6 +89,24 @@ def landmark_model(video: str, K: np.ndarray) -> None:
         )
 
 
+def camera_frame_hand(raw: Any, side: str) -> tuple[np.ndarray, np.ndarray]:
+    """The hand of a recording without the reference tag: keypoints (n, 21, 3) and confidence
+    (n, 21) of ``/hand/<side>/keypoints_camera`` (camera frame), one sample per hand time of the
+    world topic (NaN where none was found)."""
+    from foxglove_schemas_protobuf.PosesInFrame_pb2 import PosesInFrame
+
+    t_world = raw.tracks[f"/hand/{side}/keypoints"]["t_ns"]
+    kp = np.full((len(t_world), 21, 3), np.nan)
+    conf = np.zeros((len(t_world), 21))
+    index = {int(t): i for i, t in enumerate(t_world)}
+    for t, data in raw.encoded(f"/hand/{side}/keypoints_camera"):
+        msg = PosesInFrame.FromString(data)
+        kp[index[t]] = [[p.position.x, p.position.y, p.position.z] for p in msg.poses]
+    for t, data in raw.encoded(f"/hand/{side}/confidence_camera"):
+        conf[index[t]] = json.loads(data)["confidence"]
+    return kp, conf
+
+
 def recorded(video: str, camera_json: Path, out: Path, *extra: str) -> dict[str, float]:
     """Part 2: one ``lfd record`` run; the figures of the hand read back from the file."""
     from lfd.cli import main
@@ -99,7 +119,7 @@ def recorded(video: str, camera_json: Path, out: Path, *extra: str) -> dict[str,
     raw = read(out, images=False)
     side = "left" if "left" in extra else "right"
     meta = json.loads(raw.metadata["demo"]["metadata"])
-    kp = raw.tracks[f"/hand/{side}/keypoints"]["keypoints"]
+    kp, confidence = camera_frame_hand(raw, side)
     seen = np.isfinite(kp).all(axis=(1, 2))
     res: dict[str, float] = {"frames": len(kp), "found": int(seen.sum())}
     res["depth"] = meta["depth"]
@@ -120,7 +140,7 @@ def recorded(video: str, camera_json: Path, out: Path, *extra: str) -> dict[str,
         step_max=float(steps.max()),
         step_p95=float(np.percentile(steps, 95)),
         distance_median=float(np.median(P[:, 0, 2])),
-        confidence_median=float(np.median(raw.tracks[f"/hand/{side}/confidence"]["confidence"])),
+        confidence_median=float(np.median(confidence[seen])),
     )
     return res
 

@@ -210,10 +210,13 @@ def test_camera_source_without_a_depth_reader_is_colour_only(
 def test_record_video_without_the_reference_tag_keeps_the_hand(
     frames: Path, tmp_path: Path
 ) -> None:
-    """No reference tag in view and no camera pose: the hand is recorded in the camera frame,
-    the objects are unobserved, no camera calibration is written."""
+    """No reference tag in view and no camera pose: the hand is recorded in the camera frame on
+    a topic of its own (/hand/right/keypoints_camera), the world hand topic has every sample
+    unobserved (no camera-frame point on it), the objects are unobserved, no camera calibration
+    is written."""
     import json
 
+    from foxglove_schemas_protobuf.PosesInFrame_pb2 import PosesInFrame
     from lfd.io.mcapfile import read
 
     video = _video(frames, tmp_path / "demo.avi")
@@ -227,9 +230,15 @@ def test_record_video_without_the_reference_tag_keeps_the_hand(
         "-o", str(out), "--hand-size", str(HAND_SIZE),
     )  # fmt: skip
     assert proc.returncode == 0, proc.stderr
-    assert "16 hand estimates (0 missed)" in " ".join(proc.stderr.split())
+    said = " ".join(proc.stderr.split())
+    assert "0 hand estimates (0 missed), 16 hands in the camera frame" in said, said
     raw = read(out, images=False)
-    kp = raw.tracks["/hand/right/keypoints"]["keypoints"]
+    world_kp = raw.tracks["/hand/right/keypoints"]["keypoints"]
+    assert world_kp.shape == (16, 21, 3) and np.isnan(world_kp).all()
+    assert (raw.tracks["/hand/right/confidence"]["confidence"] == 0).all()
+    msgs = [PosesInFrame.FromString(d) for _, d in raw.encoded("/hand/right/keypoints_camera")]
+    assert len(msgs) == 16 and {m.frame_id for m in msgs} == {"camera"}
+    kp = np.array([[[p.position.x, p.position.y, p.position.z] for p in m.poses] for m in msgs])
     assert kp.shape == (16, 21, 3) and np.isfinite(kp).all()
     # camera frame: in front of the camera at the hand's distance, on the hand's pixels
     assert (0.2 < kp[:, 0, 2]).all() and (kp[:, 0, 2] < 1.5).all()

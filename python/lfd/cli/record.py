@@ -141,6 +141,7 @@ def run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
+    from ..io.topics import hand_camera_topic
     from ..outputs import check_output
     from ..perception.record import record
     from ..perception.sources import open_source
@@ -254,6 +255,12 @@ def run(args: argparse.Namespace) -> int:
     console.print(
         f"{how}: {stats.frames} frames, {stats.object_poses} object poses, "
         f"{stats.hand_estimates} hand estimates ({stats.hand_missing} missed)"
+        + (
+            f", {stats.hand_in_camera} hands in the camera frame before the reference tag was "
+            f"seen ({hand_camera_topic(args.hand)})"
+            if stats.hand_in_camera
+            else ""
+        )
         + (f", {stats.live_segments} live segments" if segmenter is not None else "")
         + f" -> {args.output}"
     )

@@ -11,10 +11,12 @@ simulator's hand, 5 Hz like the paper). Samples go to a
 SIGTERM) is a complete, loadable file up to the last frame.
 
 Frames: the world is the reference tag's (origin at its centre, z up), from the first frame it
-is seen (or the camera pose of ``camera.json``). Until then, and for a whole recording in which
-it is never seen, the hand is written in the camera frame (OpenCV axes: x right, y down, z
-forward, metres) and the objects are unobserved (an object's pose needs the reference); the
-camera calibration (``/camera/color/camera_info``, ``/tf``) is written when the reference is
+is seen (or the camera pose of ``camera.json``). The hand topic (``/hand/<side>/keypoints``)
+holds world-frame samples only: until the reference is seen, and for a whole recording in which
+it is never seen, a hand found is written in the camera frame (OpenCV axes: x right, y down, z
+forward, metres) to a topic of its own, ``/hand/<side>/keypoints_camera`` (and
+``/hand/<side>/confidence_camera``), and the hand topic has the sample unobserved; the objects
+are unobserved too (an object's pose needs the reference). The camera calibration (``/camera/color/camera_info``, ``/tf``) is written when the reference is
 found, so a recording without it has none. The metadata says whether depth was used
 (``depth``) and how the hand was placed in metres (``hand_lifting``).
 
@@ -49,6 +51,10 @@ class RecordStats:
     hand_missing: int = 0
     interrupted: bool = False
     live_segments: int = 0
+    hand_in_camera: int = 0
+    """Hand samples written in the camera frame (``/hand/<side>/keypoints_camera``), before the
+    reference tag was seen; the world topic has them unobserved (not counted in
+    ``hand_estimates`` nor ``hand_missing``)."""
 
 
 def _boxes(tracker: MarkerTracker, poses: dict[str, tuple[np.ndarray, np.ndarray]]) -> list[Any]:
@@ -191,6 +197,7 @@ def record(
                 camera_written = True
             due = next_hand is None or frame.t_ns >= next_hand
             found = None
+            in_world = tracker.world_T_camera is not None  # else the hand is camera-frame
             if estimator is not None and (due or tracks_every_frame):
                 # a colour tracker sees every frame it is given: it follows the hand from the
                 # previous one, so it is fed at the hand rate and its result kept when due
@@ -204,9 +211,13 @@ def record(
             if due:
                 next_hand = frame.t_ns + period if next_hand is None else next_hand + period
                 next_hand = max(next_hand, frame.t_ns + period // 2)
-                if found is None:  # marked unobserved (NaN, confidence 0), not invented
+                if found is not None and not in_world:  # its own topic: no frames mixed
+                    kp, confidence, visible, _ = found
+                    rec.add_hand(frame.t_ns, kp, confidence, visible=visible, frame="camera")
+                    stats.hand_in_camera += 1
+                if found is None or not in_world:  # marked unobserved (NaN, confidence 0)
                     rec.add_hand(frame.t_ns, np.full((21, 3), np.nan), np.zeros(21))
-                    stats.hand_missing += 1
+                    stats.hand_missing += found is None
                     if observer is not None:
                         settled(observer.on_hand(frame.t_ns, None, None, None))
                 else:
@@ -261,8 +272,9 @@ def _estimate_hand(
 
     A colour estimator (``estimate_frame``) gets every frame, and its keypoints are in the
     camera frame while ``world_T_camera`` is None (the reference tag not seen yet); a depth
-    estimator needs depth and the camera pose. The depth network's confidence is 1 / (1 + spread / SPREAD_SCALE_M) over
-    its point subsets; an estimator with only ``estimate`` gets confidence 1."""
+    estimator needs depth and the camera pose. The depth network's confidence is
+    1 / (1 + spread / SPREAD_SCALE_M) over its point subsets; an estimator with only
+    ``estimate`` gets confidence 1."""
     if hasattr(estimator, "estimate_frame"):
         est = estimator.estimate_frame(frame.color, frame.depth, K, world_T_camera, boxes)
         if est is None:
