@@ -11,12 +11,13 @@ a temporary folder.
    MediaPipe's metric hand relative to their median over the video (its raw variation), and
    the wrist's step between frames with those bones or with fixed ones.
 2. **Through the recorder**: ``lfd record --source video:FILE --intrinsics camera.json`` (the
-   fixed skeleton measured over the first hands, the causal distance filter), once per
+   skeleton fixed from the first hand, the causal distance filter), once per
    ``--hand`` side and once with ``--hand-size 0.19``; the recording is read back
    (``lfd.io.mcapfile.read``: ``lfd.load`` refuses a recording without any object pose, and
    this video has no tags; the hand is on ``/hand/<side>/keypoints_camera``, the camera frame,
    as the reference tag is never seen). Printed: the frames with the requested hand (handedness stable:
-   the other side is found in none), each placed bone relative to its median (the 20 bones
+   the other side is found in none), each placed bone relative to its median over the video,
+   largest and 95th percentile over all frames (the 20 bones
    the skeleton imposes; the wrist-pinky distance follows the palm), the wrist's largest and
    95th percentile step between frames and its median distance.
 3. **Photographs** (``../shared/realhands``, 25 photos, 27 hands): hands found by MediaPipe and
@@ -133,6 +134,7 @@ def recorded(video: str, camera_json: Path, out: Path, *extra: str) -> dict[str,
     steps = np.linalg.norm(np.diff(P[:, 0], axis=0), axis=1)
     res.update(
         bones_max=float(imposed.max()),
+        bones_p95=float(np.percentile(imposed, 95)),
         bones_max_after_measuring=float(imposed[15:].max()),
         frames_over_10pct=int((imposed.max(axis=1) > 0.10).sum()),
         frames_over_10pct_after=int((imposed[15:].max(axis=1) > 0.10).sum()),
@@ -203,10 +205,11 @@ def main() -> None:
             )
             if "step_max" in r:
                 line += (
-                    f"; bones vs their median: largest {100 * r['bones_max']:.0f} % "
+                    f"; bones vs their median: largest {100 * r['bones_max']:.1f} %, 95th "
+                    f"percentile {100 * r['bones_p95']:.1f} % "
                     f"({r['frames_over_10pct']} frames over 10 %, "
                     f"{r['frames_over_10pct_after']} of them after the first 15 (the lengths "
-                    f"measured), largest after {100 * r['bones_max_after_measuring']:.0f} %), "
+                    f"measured), largest after {100 * r['bones_max_after_measuring']:.1f} %), "
                     f"wrist-pinky {100 * r['wrist_pinky_max']:.0f} %; wrist step largest "
                     f"{100 * r['step_max']:.1f} cm, 95th percentile {100 * r['step_p95']:.1f} "
                     f"cm; wrist distance median {r['distance_median']:.2f} m; confidence "

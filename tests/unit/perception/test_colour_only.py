@@ -138,23 +138,45 @@ def _hand(rng: np.random.Generator) -> np.ndarray:
 
 
 def test_bone_lengths_are_measured_then_fixed() -> None:
+    """The hand length is the first confident hand's (or ``hand_size``); the proportions follow
+    the running median of the confident hands', each within the bound of the first's, then are
+    fixed."""
+    from lfd.perception.hand.colour import hand_length
+
     rng = np.random.default_rng(0)
-    hands = [_hand(rng) for _ in range(5)]
-    bones = BoneLengths(frames=3)
+    hands = [_hand(rng) for _ in range(6)]
+
+    def proportions(h: np.ndarray) -> np.ndarray:
+        return bone_lengths(h) / hand_length(h)
+
+    doubtful = BoneLengths(frames=3)  # before any confident hand: its own bones
+    np.testing.assert_allclose(doubtful.update(hands[5], score=0.3), bone_lengths(hands[5]))
+    assert doubtful.length is None
+    bones = BoneLengths(frames=3, bound=0.1)
     first = bones.update(hands[0])
     np.testing.assert_allclose(first, bone_lengths(hands[0]))
+    assert bones.length == pytest.approx(hand_length(hands[0]))
     bones.update(hands[1], score=0.3)  # a doubtful hand is not measured
     bones.update(hands[2])
     fixed = bones.update(hands[3])
-    np.testing.assert_allclose(
-        fixed, np.median([bone_lengths(hands[i]) for i in (0, 2, 3)], axis=0)
-    )
+    median = np.median([proportions(hands[i]) for i in (0, 2, 3)], axis=0)
+    expected = np.clip(median, 0.9 * proportions(hands[0]), 1.1 * proportions(hands[0]))
+    np.testing.assert_allclose(fixed, expected * hand_length(hands[0]))
+    assert not np.allclose(fixed, median * hand_length(hands[0]))  # the bound held some bones
     np.testing.assert_array_equal(bones.update(hands[4]), fixed)  # held from now on
-    # the user's hand size scales the measured skeleton, nothing else
+    # every frame's bones within the bound of the first's: 2 x 5 % of one another
+    tight = BoneLengths(frames=6)
+    each = np.array([tight.update(h * rng.uniform(0.7, 1.3)) for h in hands])
+    ratio = each / each[0]
+    assert (np.abs(ratio - 1) <= 0.05 + 1e-9).all() and np.abs(ratio - 1).max() > 0.01
+    # the user's hand size is the skeleton's scale, from the first frame on
     small, large = BoneLengths(0.15, frames=3), BoneLengths(0.20, frames=3)
     for h in hands[:3]:
-        a, b = small.update(h), large.update(h)
-    np.testing.assert_allclose(b / a, 0.20 / 0.15)
+        a, b = small.update(h * 1.4), large.update(h)
+        np.testing.assert_allclose(b / a, 0.20 / 0.15)
+    assert small.length == 0.15
+    with pytest.raises(LfdError, match="bound"):
+        BoneLengths(bound=1.0)
 
 
 def test_depth_smoother_removes_outliers_and_follows_steps() -> None:

@@ -3,30 +3,38 @@
 :func:`~lfd.perception.hand.lift.lift_from_colour` places MediaPipe's metric landmarks so that
 they project onto the image landmarks (PnP). Two things make that usable frame after frame:
 
-1. **A fixed skeleton** (:class:`BoneLengths`). The landmark model's metric hand changes size
-   and proportions from frame to frame (its bones vary 34 % at the 95th percentile on a real
-   phone video, ``benches/colour_hand.py``), and the distance PnP finds follows that size. The
-   bone lengths are measured once, the median of the landmark model's bone lengths over the
-   first :data:`MEASURE_FRAMES` frames with the hand (the running median until then), and held
-   fixed. With ``hand_size`` (``lfd record --hand-size``, the user's hand length, wrist to the
-   middle fingertip) the whole skeleton is scaled so that its hand length (wrist to the middle
-   MCP plus the middle finger's three bones) is that length: the proportions stay the landmark
-   model's, the metric scale is the user's. (Proportions of a standard adult hand, e.g. the
-   simulator's, :mod:`lfd.sim.hand`, do not fit the landmark model's keypoints: on the real
-   video the fit with them jumped up to 30 cm between frames, 13 cm with these.)
+1. **A skeleton fixed from the first frame** (:class:`BoneLengths`). The landmark model's
+   metric hand changes size and proportions from frame to frame (its bones vary 35 % at the
+   95th percentile on a real phone video, ``benches/colour_hand.py``, and so do its
+   proportions, each bone over the hand's length: 29 %), and the distance PnP finds follows
+   that size. The skeleton is the hand's length times proportions. The length is fixed at the
+   first confident hand (presence >= :data:`MEASURE_MIN_SCORE`): ``hand_size`` (``lfd record
+   --hand-size``, the user's hand length, wrist to the middle fingertip), else that hand's
+   length in the landmark model (wrist to the middle MCP plus the middle finger's three
+   bones). The proportions start as that hand's and follow the median of the first
+   :data:`MEASURE_FRAMES` confident hands' proportions, each bone held within
+   :data:`PROPORTION_BOUND` of its first value, then stay fixed. So every frame's bones are
+   within about twice that bound of the final ones from the first frame on (measuring the
+   median of the bone lengths first, as before, moved them up to 37 % over the first nine
+   frames of the video). (Proportions of a standard adult hand, e.g. the simulator's,
+   :mod:`lfd.sim.hand`, do not fit the landmark model's keypoints: on the real video the fit
+   with them jumped up to 30 cm between frames, 13 cm with these.)
 2. **Causal smoothing of the distance** (:class:`DepthSmoother`). Along each viewing ray the
    hand's distance is the weak direction of a monocular fit: it is smoothed, the image
    position is not (the hand is moved along the wrist's viewing ray, so the wrist still
    projects where the landmark model saw it, the bones keep their lengths, and the other
    keypoints move in the image by the change of distance over the distance times their
-   distance from the wrist: well under a pixel for a correction of a few centimetres). The filter is the median of the last
+   distance from the wrist: well under a pixel for a correction of a few centimetres). The
+   filter is the median of the last
    :data:`MEDIAN_SAMPLES` wrist depths followed by exponential smoothing with
    :data:`DEPTH_ALPHA`: it lags a steady approach or retreat by about two hand samples (one
    from the median, ``(1 - alpha) / alpha`` = one from the exponential), 80 ms at 25 fps,
    and removes one-frame outliers. It restarts when the hand is lost.
 
-Without a known hand size the scale is the landmark model's idea of a hand, so the distance of
-an unusually large or small hand is off in proportion (a 10 % larger hand is placed 10 %
+Without a known hand size the scale is the landmark model's idea of the first confident hand
+(its hand length varies 17 % around its median at the 95th percentile on the real video), so
+the distance of an unusually large or small hand, or of a first hand the model saw too large or
+too small, is off in proportion (a 10 % larger hand is placed 10 %
 nearer); ``--hand-size`` removes that error.
 """
 
@@ -42,10 +50,13 @@ from .lift import LiftedHand, lift_from_colour
 from .mediapipe import Hand
 
 MEASURE_FRAMES = 15
-"""Frames with the hand over which the bone lengths are measured before they are fixed."""
+"""Confident hands whose proportions are measured (their running median) before they are fixed."""
 MEASURE_MIN_SCORE = 0.8
-"""Only hands with at least this presence score are measured (a doubtful detection is placed
-with the lengths measured so far, or its own when there are none yet)."""
+"""Only hands with at least this presence score are measured (a doubtful detection before the
+first confident one is placed with its own bones)."""
+PROPORTION_BOUND = 0.05
+"""The measured proportions stay within this fraction of the first confident hand's, bone by
+bone (a bounded update: the first hand's proportions, corrected by at most 5 %)."""
 MEDIAN_SAMPLES = 3
 """The hand's distance is first the median of this many latest samples."""
 DEPTH_ALPHA = 0.5
@@ -72,45 +83,68 @@ def hand_length(points: np.ndarray) -> float:
 
 
 class BoneLengths:
-    """The user's bone lengths: measured from the landmark model's metric hands, then fixed.
+    """The user's bone lengths: a hand length fixed at the first confident hand times
+    proportions measured over the first confident hands, bounded, then fixed (see the module
+    notes).
 
     Parameters
     ----------
     hand_size : float, optional
         The user's hand length (m, wrist to the middle fingertip) within
-        :data:`HAND_SIZE_RANGE`; scales the measured skeleton (see the module notes).
+        :data:`HAND_SIZE_RANGE`; else the first confident hand's in the landmark model.
     frames : int
-        Hands measured before the lengths are fixed (:data:`MEASURE_FRAMES`).
+        Confident hands measured before the proportions are fixed (:data:`MEASURE_FRAMES`).
+    bound : float
+        How far (a fraction) a bone's proportion may move from the first confident hand's
+        (:data:`PROPORTION_BOUND`).
     """
 
-    def __init__(self, hand_size: float | None = None, *, frames: int = MEASURE_FRAMES) -> None:
+    def __init__(
+        self,
+        hand_size: float | None = None,
+        *,
+        frames: int = MEASURE_FRAMES,
+        bound: float = PROPORTION_BOUND,
+    ) -> None:
         if hand_size is not None and not HAND_SIZE_RANGE[0] <= hand_size <= HAND_SIZE_RANGE[1]:
             lo, hi = HAND_SIZE_RANGE
             raise LfdError(f"hand size must be in [{lo}, {hi}] m (wrist to middle fingertip)")
         if frames < 1:
             raise LfdError(f"frames must be at least 1, got {frames}")
+        if not 0.0 <= bound < 1.0:
+            raise LfdError(f"the proportion bound must be in [0, 1), got {bound}")
         self.hand_size = hand_size
         self.frames = frames
-        self._bones: list[np.ndarray] = []
-        self._lengths: list[float] = []
+        self.bound = bound
+        self.length: float | None = None
+        """The hand length (m) the skeleton has, fixed at the first confident hand."""
+        self._first: np.ndarray | None = None
+        self._proportions: list[np.ndarray] = []
         self.fixed: np.ndarray | None = None
 
     def update(self, world: np.ndarray, score: float = 1.0) -> np.ndarray:
         """The bone lengths (21,) to place this frame's hand with, given its landmark-model
-        hand ``world`` (21, 3) and presence ``score``: the running median of the confident
-        hands' (:data:`MEASURE_MIN_SCORE`) until :attr:`frames` of them are measured, then the
-        fixed lengths."""
+        hand ``world`` (21, 3) and presence ``score``: the fixed hand length times the running
+        median of the confident hands' (:data:`MEASURE_MIN_SCORE`) proportions, each within
+        :attr:`bound` of the first's, until :attr:`frames` of them are measured; then fixed.
+        Before the first confident hand, this hand's own proportions (scaled to ``hand_size``
+        when given)."""
         if self.fixed is not None:
             return self.fixed
+        own = hand_length(world)
+        proportions = bone_lengths(world) / own
+        if score < MEASURE_MIN_SCORE and self.length is None:
+            return np.asarray(proportions * (self.hand_size or own))
         if score >= MEASURE_MIN_SCORE:
-            self._bones.append(bone_lengths(world))
-            self._lengths.append(hand_length(world))
-        bones = self._bones or [bone_lengths(world)]
-        length = self._lengths or [hand_length(world)]
-        lengths = np.median(np.array(bones), axis=0)
-        if self.hand_size is not None:
-            lengths = lengths * (self.hand_size / float(np.median(length)))
-        if len(self._bones) >= self.frames:
+            if self.length is None:
+                self.length = self.hand_size or own
+                self._first = proportions
+            self._proportions.append(proportions)
+        assert self._first is not None and self.length is not None
+        median = np.median(np.array(self._proportions), axis=0)
+        lo, hi = self._first * (1.0 - self.bound), self._first * (1.0 + self.bound)
+        lengths = np.clip(median, lo, hi) * self.length
+        if len(self._proportions) >= self.frames:
             self.fixed = lengths
         return np.asarray(lengths)
 
