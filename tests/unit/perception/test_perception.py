@@ -604,3 +604,30 @@ def test_hand_before_the_reference_tag_goes_to_its_own_topic(tmp_path) -> None: 
     assert channels["/hand/right/keypoints_camera"]["schema"] == "foxglove.PosesInFrame"
     assert channels["/hand/right/confidence_camera"]["count"] == 3
     assert channels["/hand/right/keypoints"]["count"] == 6
+
+
+def test_reference_straight_ahead_upside_down_gets_a_finite_pnp_pose() -> None:
+    """The reference tag exactly centred left-right and upside down (the simulator's camera
+    moved to 0.5 m along its viewing line): IPPE_SQUARE returns NaN there; the pose is SQPnP's,
+    finite and right, and the tracker's camera pose too (it raised an SVD error before)."""
+    from dataclasses import replace
+
+    from lfd.sim import simulate
+    from lfd.sim.render import render_frames
+    from lfd.sim.scene import CameraSpec, build_scene
+
+    r = simulate("exp1", seed=3)
+    cam = CameraSpec()
+    target = np.asarray(cam.target)
+    ray = np.asarray(cam.position) - target
+    near = CameraSpec(position=tuple(target + 0.5 * ray / np.linalg.norm(ray)), target=cam.target)
+    scene = build_scene(r.scene.objects, hand_scale=r.scene.hand_scale, camera=near)
+    away = replace(r.truth, wrist_pos=r.truth.wrist_pos.copy())
+    away.wrist_pos[0] = (0.0, -1.2, 1.5)  # the hand out of view
+    color, _ = render_frames(scene, away, np.array([0]), depth=False)
+    trk = MarkerTracker(MarkerConfig.from_objects(scene.objects), near.intrinsics())
+    ref = [t for t in trk.detect(color.frames[0], None) if t.tag_id == 0]
+    assert len(ref) == 1 and np.isfinite(ref[0].camera_T_tag).all()
+    trk.process(color.frames[0], None)
+    assert trk.world_T_camera is not None
+    assert np.linalg.norm(trk.world_T_camera[:3, 3] - near.position) < 0.01
