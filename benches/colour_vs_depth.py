@@ -15,6 +15,15 @@ target; the default camera is at 0.79 m). Per distance:
   not find it in every frame) and the 3-D keypoint error against the simulator's true
   keypoints, the mean over the 21 keypoints per frame, then its mean and 95th percentile over
   the frames (on the frames both paths found, so the columns compare the same frames).
+- **Hand, landmarks from the truth** (the detector replaced, as in ``benches/hands_realcam.py``
+  part 3, since MediaPipe rarely finds the capsule hand): on the frames whose 21 true keypoints
+  project inside the image, the true 2-D keypoints; for the depth path the true relative depth
+  with a 0.8-1.2 scale error and 5 mm noise (``--scale-error``, ``--noise-mm``) (``tests/_hand_render.relative_z_from_truth``)
+  lifted with the rendered depth (``lift_keypoints``, boxes and table excluded as the recorder
+  does); for the colour path the true hand in the camera frame, centred, as the landmark
+  model's metric hand, with the same kind of error (the whole hand scaled by 0.8-1.2 per frame,
+  5 mm noise per keypoint), placed by ``ColourHand`` frame after frame (without and with the
+  true hand size). Mean keypoint error per frame, then mean / 95th percentile over frames.
 - **Tags**: ``MarkerTracker.process(color, depth)`` against ``process(color, None)`` (PnP
   alone). The boxes' poses on the same frames with the camera pose known (so only the box
   tags' error counts): position error (mm) and angle error (deg) against the true box poses,
@@ -29,11 +38,15 @@ The camera pose and intrinsics are the renderer's (exact). Run:
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # _hand_render
 
 
 def camera_at(distance: float) -> Any:
@@ -61,6 +74,60 @@ def hand_errors(
         if found is not None and np.isfinite(found.keypoints).all():
             err[k] = np.linalg.norm(found.keypoints - truth_kp[k], axis=1).mean()
     return err
+
+
+def oracle_errors(
+    color: Any,
+    depth: Any,
+    truth_kp: np.ndarray,
+    cam: Any,
+    boxes: list[Any],
+    seed: int,
+    scale_error: float = 0.2,
+    noise_m: float = 0.005,
+) -> dict[str, np.ndarray]:
+    """Per frame, the mean keypoint error (m) of the depth lifting and of ``ColourHand``
+    (without / with the true hand size) fed the true 2-D landmarks with a landmark model's
+    errors (see the module notes); NaN where the hand is not wholly in the image."""
+    from _hand_render import relative_z_from_truth
+    from lfd.perception.hand.colour import ColourHand, hand_length
+    from lfd.perception.hand.lift import lift_keypoints
+    from lfd.perception.hand.mediapipe import Hand, Rect
+    from lfd.perception.hand.rgbd import not_hand_mask
+
+    rng = np.random.default_rng(seed)
+    K, T = cam.intrinsics(), cam.world_T_camera()
+    camera_T_world = np.linalg.inv(T)
+    n = len(color.frames)
+    size = float(np.median([hand_length(k) for k in truth_kp]))
+    placers = {"colour": ColourHand(), "colour_size": ColourHand(size)}
+    out = {k: np.full(n, np.nan) for k in ("rgbd", *placers)}
+    for k in range(n):
+        kp_c = truth_kp[k] @ camera_T_world[:3, :3].T + camera_T_world[:3, 3]
+        uv = kp_c[:, :2] / kp_c[:, 2:] * [K[0, 0], K[1, 1]] + K[:2, 2]
+        inside = (uv >= 0).all() and (uv[:, 0] < cam.width - 1).all()
+        if not (inside and (uv[:, 1] < cam.height - 1).all() and (kp_c[:, 2] > 0).all()):
+            for placer in placers.values():
+                placer.lost()
+            continue
+        lo, hi = uv.min(0) - 20, uv.max(0) + 20
+        region = (*np.floor(lo).astype(int), *np.ceil(hi).astype(int))
+        exclude = not_hand_mask(depth.frames[k], K, T, boxes[k], region)  # type: ignore[arg-type]
+        rel = relative_z_from_truth(
+            kp_c, K[0, 0], rng, noise_m=noise_m, scale_range=(1 - scale_error, 1 + scale_error)
+        )
+        lifted = lift_keypoints(uv, rel, depth.frames[k], K, exclude=exclude)
+        if lifted is not None:
+            out["rgbd"][k] = np.linalg.norm(lifted.to_world(T) - truth_kp[k], axis=1).mean()
+        scale = rng.uniform(1 - scale_error, 1 + scale_error)
+        world = (kp_c - kp_c.mean(axis=0)) * scale + rng.normal(0, noise_m, (21, 3))
+        hand = Hand(uv, rel, world, "right", 1.0, 1.0, Rect(0.0, 0.0, 1.0, 0.0))
+        for name, placer in placers.items():
+            placed = placer.place(hand, K)
+            if placed is not None:
+                err = np.linalg.norm(placed.to_world(T) - truth_kp[k], axis=1).mean()
+                out[name][k] = err
+    return out
 
 
 def tag_errors(result: Any, scene: Any, color: Any, depth: Any, frames: np.ndarray) -> Any:
@@ -104,6 +171,22 @@ def reference_error(result: Any, scene: Any, use_depth: bool) -> tuple[float, fl
     return dp, da
 
 
+def true_boxes(result: Any, scene: Any, i: int) -> list[Any]:
+    """The boxes (centre, R, size) at frame ``i`` of the simulation (what the recorder gets from
+    the tags), for excluding them from the hand's depth."""
+    from scipy.spatial.transform import Rotation
+
+    truth = result.truth
+    return [
+        (
+            np.asarray(truth.object_pos[o.name][i]),
+            Rotation.from_euler("z", truth.object_yaw[o.name][i]).as_matrix(),
+            np.asarray(o.size),
+        )
+        for o in scene.objects
+    ]
+
+
 def _stats(x: np.ndarray, scale: float) -> str:
     x = x[np.isfinite(x)]
     if x.size == 0:
@@ -118,6 +201,10 @@ def main() -> None:
     ap.add_argument("--distances", default="0.5,0.7,0.9,1.2")
     ap.add_argument("--frames", type=int, default=60, help="hand frames per distance (60)")
     ap.add_argument("--step", type=int, default=2, help="every STEP camera frames (2: 15 Hz)")
+    ap.add_argument(
+        "--scale-error", type=float, default=0.2, help="landmarks from the truth: 3-D scale error"
+    )
+    ap.add_argument("--noise-mm", type=float, default=5.0, help="... and noise per keypoint, mm")
     args = ap.parse_args()
 
     from lfd.perception.hand.colour import hand_length
@@ -154,11 +241,23 @@ def main() -> None:
         colour = hand_errors(color, None, kp, K, T)
         sized = hand_errors(color, None, kp, K, T, hand_size=size)
         both = np.isfinite(rgbd) & np.isfinite(colour) & np.isfinite(sized)
+        m = frames.size
+        boxes = [true_boxes(result, scene, i) for i in frames]
+        oracle = oracle_errors(
+            color, depth, kp, cam, boxes, args.seed, args.scale_error, args.noise_mm / 1e3
+        )
+        found = np.isfinite(oracle["rgbd"]) & np.isfinite(oracle["colour"])
+        print(
+            f"{d:.2f} m, landmarks from the truth | hand in the image {found.sum()}/{m} | "
+            f"RGB-D {_stats(oracle['rgbd'][found], 1e3)} | colour "
+            f"{_stats(oracle['colour'][found], 1e3)} | colour + true hand size "
+            f"{_stats(oracle['colour_size'][found], 1e3)}",
+            flush=True,
+        )
         pd, ad = tag_errors(result, scene, color, depth, frames)
         pc, ac = tag_errors(result, scene, color, None, frames)
         refs = [reference_error(result, scene, u) for u in (True, False)]
         ref = " | ".join("-" if r is None else f"{1e3 * r[0]:.1f}, {r[1]:.2f}" for r in refs)
-        m = frames.size
         print(
             f"{d:.2f} m | {np.isfinite(rgbd).sum()}/{m} / {np.isfinite(colour).sum()}/{m} / "
             f"{np.isfinite(sized).sum()}/{m} | {_stats(rgbd[both], 1e3)} | "
