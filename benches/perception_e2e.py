@@ -1,7 +1,7 @@
 """End to end: simulate -> render -> perceive (``lfd record``) -> segment, against the truth.
 
 Run: ``python benches/perception_e2e.py [--tasks exp1,exp2,exp3,exp4] [--seeds 3,5,7]
-[--model PATH] [--keep DIR]``.
+[--model PATH] [--keep DIR] [--colour-only mediapipe|truth-landmarks]``.
 
 Every demonstration is recorded through the real perception path (tags from the rendered
 images, the hand from the depth network at 5 Hz) and compared with the simulator's ground
@@ -9,6 +9,16 @@ truth: hand keypoint error, box position error and visibility, and the skill seq
 boundaries segmented (DP search, grammar enforced, as ``lfd reproduce --segment``) from the
 perceived recording against those segmented from the noise-free truth
 (:func:`lfd.sim.truth_demonstration`, hand sampled at the same times).
+
+``--colour-only``: the frames' depth is dropped (the empty-workspace calibration frame's too):
+the tags by PnP alone and the hand placed from colour (``ColourHand``, as ``lfd record
+--source video:`` does), at the same 5 Hz hand times. ``mediapipe``: MediaPipe Hands on every
+frame (``MediaPipeEstimator``, the path of a real webcam; it rarely finds the simulator's
+capsule hand). ``truth-landmarks``: the detector replaced by the truth, as in
+``benches/colour_vs_depth.py``: the true 2-D keypoints and, as the landmark model's metric hand,
+the true hand centred, scaled by 0.8-1.2 per frame, with 5 mm noise per keypoint. Both are
+given the simulated hand's true length as the hand size (``lfd record --hand-size``), unless
+``--no-hand-size``. The hand error is then the colour-only placement's.
 """
 
 from __future__ import annotations
@@ -16,9 +26,83 @@ from __future__ import annotations
 import argparse
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+
+
+def colour_only(src: Any, kind: str, seed: int, sized: bool) -> Any:
+    """Make ``src`` (a ``SimSource``) colour-only and return the hand estimator of ``kind``,
+    given the simulated hand's true length when ``sized``."""
+    from lfd.perception.hand.colour import hand_length
+    from lfd.perception.hand.rgbd import MediaPipeEstimator
+    from lfd.perception.sources import Frame
+
+    frames, calibration = src.frames, src.calibration_frame
+    src.has_depth = False
+    truth = src.result.truth
+    size = float(np.median([hand_length(k) for k in truth.keypoints])) if sized else None
+    if kind == "mediapipe":
+        est: Any = MediaPipeEstimator("right", threads=2, hand_size=size)
+    else:
+        est = TruthLandmarks(truth, seed, size)
+
+    def colour_frames() -> Iterator[Any]:
+        for frame in frames():
+            est.t_ns = frame.t_ns
+            yield Frame(frame.t_ns, frame.color, None)
+
+    def colour_calibration() -> Any:
+        frame = calibration()
+        return None if frame is None else Frame(frame.t_ns, frame.color, None)
+
+    src.frames, src.calibration_frame = colour_frames, colour_calibration
+    return est
+
+
+class TruthLandmarks:
+    """A stand-in for MediaPipe fed every frame: the true 2-D keypoints and the true hand,
+    centred, scaled by 0.8-1.2 and with 5 mm noise per keypoint, as the landmark model's
+    metric hand, placed by ``ColourHand`` (with ``hand_size``, m, when given)."""
+
+    needs_colour = True
+
+    def __init__(self, truth: Any, seed: int, hand_size: float | None) -> None:
+        from lfd.perception.hand.colour import ColourHand
+
+        self.truth = truth
+        self.rng = np.random.default_rng(seed)
+        self.colour = ColourHand(hand_size)
+        self.t_ns = 0
+        self.info = {"model": "truth landmarks"}
+
+    def lifting(self, depth: bool) -> str:
+        return "colour pnp (true 2-D landmarks)"
+
+    def estimate_frame(self, color, depth_mm, K, world_T_camera, boxes):  # type: ignore[no-untyped-def]
+        from lfd.perception.hand.mediapipe import Hand, Rect
+        from lfd.perception.hand.rgbd import HandEstimate
+
+        if world_T_camera is None:
+            return None
+        i = int(np.searchsorted(self.truth.t_ns, self.t_ns))
+        c_T_w = np.linalg.inv(world_T_camera)
+        kp = self.truth.keypoints[i] @ c_T_w[:3, :3].T + c_T_w[:3, 3]
+        uv = kp[:, :2] / kp[:, 2:] * [K[0, 0], K[1, 1]] + K[:2, 2]
+        h, w = np.asarray(color).shape[:2]
+        if not ((uv >= 0).all() and (uv[:, 0] < w - 1).all() and (uv[:, 1] < h - 1).all()):
+            self.colour.lost()
+            return None
+        world = (kp - kp.mean(axis=0)) * self.rng.uniform(0.8, 1.2)
+        world = world + self.rng.normal(0.0, 0.005, (21, 3))
+        hand = Hand(uv, np.zeros(21), world, "right", 1.0, 1.0, Rect(0.0, 0.0, 1.0, 0.0))
+        placed = self.colour.place(hand, K)
+        if placed is None:
+            return None
+        pts = placed.to_world(world_T_camera)
+        return HandEstimate(pts, placed.confidence, placed.visible, hand)
 
 
 def main() -> None:
@@ -27,9 +111,21 @@ def main() -> None:
     parser.add_argument("--seeds", default="3,5,7")
     parser.add_argument("--model", help="hand weights (default: shipped)")
     parser.add_argument("--keep", help="keep the recordings in this directory")
+    parser.add_argument(
+        "--colour-only",
+        choices=("mediapipe", "truth-landmarks"),
+        help="drop depth: tags by PnP, the hand placed from colour (see above)",
+    )
+    parser.add_argument(
+        "--no-hand-size",
+        action="store_true",
+        help="colour only: no hand size (default: the simulated hand's true length, as "
+        "lfd record --hand-size)",
+    )
     args = parser.parse_args()
 
     import lfd
+    from lfd.errors import LfdError
     from lfd.io import load
     from lfd.perception.hand.infer import HandEstimator
     from lfd.perception.record import record
@@ -39,7 +135,7 @@ def main() -> None:
 
     out_dir = Path(args.keep or tempfile.mkdtemp())
     out_dir.mkdir(parents=True, exist_ok=True)
-    est = HandEstimator(args.model, threads=2)
+    est = None if args.colour_only else HandEstimator(args.model, threads=2)
     kw = {"search": "dp", "grammar": "enforce"}
     rows, hand_err = [], []
     t_start = time.perf_counter()
@@ -47,18 +143,32 @@ def main() -> None:
         for task in args.tasks.split(","):
             src = SimSource(task, seed=seed)
             result, truth = src.result, src.result.truth
-            path = out_dir / f"{task}_{seed}.mcap"
+            suffix = f"_{args.colour_only}" if args.colour_only else ""
+            suffix += "_nosize" if args.colour_only and args.no_hand_size else ""
+            path = out_dir / f"{task}_{seed}{suffix}.mcap"
             if not path.exists():
-                record(src, path, estimator=est)
+                if args.colour_only:
+                    estimator = colour_only(src, args.colour_only, seed, not args.no_hand_size)
+                else:
+                    estimator = est
+                record(src, path, estimator=estimator)
             demo = load(path)
             idx = np.searchsorted(truth.t_ns, demo.hand.t_ns)
             ok = np.all(np.isfinite(demo.hand.keypoints), axis=(1, 2))
             e = np.linalg.norm(demo.hand.keypoints[ok] - truth.keypoints[idx[ok]], axis=2)
             e = e.mean(axis=1) * 1e3
             hand_err.append(e)
+            if e.size == 0:
+                e = np.full(1, np.nan)
             seen = np.mean([len(o) / truth.t_ns.size for o in demo.objects.values()])
             want = lfd.segment(truth_demonstration(result, demo.hand.t_ns), **kw)
-            got = lfd.segment(demo, **kw)
+            try:
+                got = lfd.segment(demo, **kw)
+            except LfdError as err:  # e.g. colour only with MediaPipe: (almost) no hand found
+                rows.append((False, False, want.skill_sequence == result.demo.skill_sequence))
+                print(f"{task} seed {seed}: hand {ok.sum()}/{ok.size} estimates; not segmented: "
+                      f"{err}", flush=True)  # fmt: skip
+                continue
             same = got.skill_sequence == want.skill_sequence
             labels = result.demo.skill_sequence
             rows.append((same, got.skill_sequence == labels, want.skill_sequence == labels))
@@ -74,7 +184,8 @@ def main() -> None:
             )
             if not same:
                 print(f"    truth:     {want.skill_sequence}\n    perceived: {got.skill_sequence}")
-    e = np.concatenate(hand_err)
+    e = np.concatenate([*hand_err, np.full(0, np.nan)])
+    e = e if e.size else np.full(1, np.nan)
     print(
         f"\n{sum(r[0] for r in rows)}/{len(rows)} perceived recordings segment like the true "
         f"keypoints ({sum(r[1] for r in rows)}/{len(rows)} match the labels; the true keypoints "

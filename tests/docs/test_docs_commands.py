@@ -50,6 +50,9 @@ NOT_RUN: dict[str, str] = {
     "python benches/": "benchmarks: minutes to hours; their figures are in the README",
     "lfd record --source camera:0": "needs a camera: the camera source is tested with an RGB-D "
     "reader plug-in in tests/e2e/test_record_realhands.py",
+    "lfd record --source video:demo.mp4": "needs a video of a demonstration: the video source "
+    "runs on a video of real-hand frames in tests/e2e/test_record_realhands.py",
+    "lfd segment webcam.mcap": "needs webcam.mcap from a camera or a video (the lines above)",
     "python docs/examples/realsense_reader.py": "needs a RealSense (the module is compiled below)",
     "lfd perception calibrate board": "needs photos or a video of a printed board: the command "
     "runs on views rendered through a known camera in tests/unit/perception/test_calibration.py",

@@ -67,7 +67,50 @@ def test_record_picks_the_requested_hand_and_lifts_it(
     assert (hand.confidence[hand.visible] > 0.5).all()
 
 
-def test_record_without_depth_marks_the_hand_unobserved(frames: Path, tmp_path: Path) -> None:
+def _on_the_hand(world: np.ndarray, i: int, side: str = "right") -> None:
+    """The keypoints ``world`` (21, 3) of frame ``i`` project onto the ``side`` hand's pixels:
+    on average within 4 px of them, none farther than :data:`NEAR_PX` (the landmark model's
+    metric hand fitted to its image landmarks leaves pixels of error, most at the fingertips,
+    which sit at the finger's edge), much nearer than to the other hand."""
+    import cv2
+
+    _, _, masks = S.frame(S.cutouts(REALHANDS), i)
+    uv = np.round(S.project(world)).astype(int)
+    rows, cols = np.clip(uv[:, 1], 0, S.H - 1), np.clip(uv[:, 0], 0, S.W - 1)
+    d = {}
+    for s, mask in masks.items():
+        d[s] = cv2.distanceTransform((~mask).astype(np.uint8), cv2.DIST_L2, 5)[rows, cols]
+    other = "left" if side == "right" else "right"
+    mine = d[side]
+    assert mine.mean() <= 4 and mine.max() <= NEAR_PX, f"frame {i}: {side} hand by {mine} px"
+    assert d[other].mean() > 10 * max(mine.mean(), 1), f"frame {i}: near the {other} hand"
+
+
+NEAR_PX = 30.0
+
+
+def _colour_only_checks(hand, metadata, n: int, side: str = "right") -> np.ndarray:  # type: ignore[no-untyped-def]
+    """Every sample observed on the ``side`` hand's pixels with the colour confidence; the
+    metadata says no depth was used. Returns the keypoints' camera-frame depth (n, 21)."""
+    from lfd.perception.hand.lift import COLOUR_CONFIDENCE
+
+    assert metadata["depth"] is False and metadata["hand_lifting"] == "colour pnp"
+    assert hand.t_ns.size == n and np.isfinite(hand.keypoints).all()
+    assert ((hand.confidence > 0.2) & (hand.confidence <= COLOUR_CONFIDENCE)).all()
+    for i in range(n):
+        _on_the_hand(hand.keypoints[i], i, side)
+    return np.asarray(S.CAMERA_HEIGHT - hand.keypoints[:, :, 2])
+
+
+HAND_SIZE = 0.19
+"""The demonstrator's hand length for ``--hand-size``. The scene's hands are photos pasted at a
+depth, not hands of a known size: the distance colour gives them is checked for being plausible
+and for following the hand size, not against the pasted depth."""
+
+
+def test_record_without_depth_places_the_hand_from_colour(frames: Path, tmp_path: Path) -> None:
+    """No depth images: the hand is placed from colour (``--hand-size``), on the hand, at the
+    distance its size implies; without ``--hand-size`` at the landmark model's hand size."""
     import shutil
 
     from lfd.io import load
@@ -75,12 +118,135 @@ def test_record_without_depth_marks_the_hand_unobserved(frames: Path, tmp_path: 
     colour_only = tmp_path / "frames"
     shutil.copytree(frames, colour_only)
     shutil.rmtree(colour_only / "depth")
+    argv = ["record", "--source", f"frames:{colour_only}", "--duration", "0.3"]
     out = tmp_path / "rec.mcap"
-    proc = _lfd("record", "--source", f"frames:{colour_only}", "-o", str(out), "--duration", "0.3")
+    proc = _lfd(*argv, "-o", str(out), "--hand-size", str(HAND_SIZE))
     assert proc.returncode == 0, proc.stderr
-    hand = load(out).hand
-    assert hand.t_ns.size > 0
-    assert np.isnan(hand.keypoints).all() and (hand.confidence == 0).all()
+    demo = load(out)
+    depth = _colour_only_checks(demo.hand, demo.metadata, 4)
+    wrist = depth[:, 0]
+    assert (0.2 < wrist).all() and (wrist < 1.5).all(), wrist
+    # the distance follows the hand size: twice the size, twice as far (the fit is scale-free)
+    twice = tmp_path / "twice.mcap"
+    proc = _lfd(*argv, "-o", str(twice), "--hand-size", str(2 * HAND_SIZE / 1.5))
+    assert proc.returncode == 0, proc.stderr
+    far = S.CAMERA_HEIGHT - load(twice).hand.keypoints[:, 0, 2]
+    np.testing.assert_allclose(far / wrist, 2 / 1.5, rtol=1e-3)
+
+
+def _video(frames: Path, out: Path, fps: float = 15.0) -> Path:
+    """The colour images of a ``frames:`` folder as a video file (MJPG in AVI)."""
+    import cv2
+
+    files = sorted((frames / "color").glob("*.png"))
+    writer = cv2.VideoWriter(str(out), cv2.VideoWriter_fourcc(*"MJPG"), fps, (S.W, S.H))
+    assert writer.isOpened()
+    for f in files:
+        writer.write(cv2.imread(str(f)))
+    writer.release()
+    return out
+
+
+def test_record_video_source(frames: Path, tmp_path: Path) -> None:
+    """``--source video:FILE --intrinsics camera.json``: times from the container, the hand
+    from colour in every frame, the tagged box by PnP without depth."""
+    from lfd.io import load
+
+    video = _video(frames, tmp_path / "demo.avi")
+    out = tmp_path / "rec.mcap"
+    proc = _lfd(
+        "record", "--source", f"video:{video}", "--intrinsics", str(frames / "camera.json"),
+        "-o", str(out), "--hand-size", str(HAND_SIZE),
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    demo = load(out)
+    assert demo.metadata["source"] == f"video:{video}"
+    depth = _colour_only_checks(demo.hand, demo.metadata, 16)
+    assert (0.2 < depth[:, 0]).all() and (depth[:, 0] < 1.5).all(), depth[:, 0]
+    np.testing.assert_allclose(demo.hand.t_ns, np.arange(16) * 1e9 / 15, atol=1)  # the file's
+    box = demo.objects["box_1"]
+    assert box.t_ns.size == 16
+    assert np.linalg.norm(box.position - S.BOX_CENTRE, axis=1).max() < 0.01
+    info = _lfd("info", str(out))
+    assert info.returncode == 0, info.stderr
+    text = " ".join(info.stdout.split())  # however the console wraps it
+    assert "depth=false" in text and 'hand_lifting="colour pnp"' in text
+
+
+def test_camera_source_without_a_depth_reader_is_colour_only(
+    frames: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``--source camera:N --intrinsics camera.json`` and no ``--depth-reader`` (a webcam,
+    here a stand-in OpenCV device serving the real-hand frames): the hand from colour."""
+    import cv2
+    from lfd.cli import main
+    from lfd.io import load
+
+    served = [cv2.imread(str(f)) for f in sorted((frames / "color").glob("*.png"))[:6]]
+
+    class Webcam:
+        def __init__(self, index: int) -> None:
+            self.frames = list(served) if index == 0 else []
+
+        def isOpened(self) -> bool:
+            return bool(self.frames)
+
+        def read(self) -> tuple[bool, np.ndarray | None]:
+            return (True, self.frames.pop(0)) if self.frames else (False, None)
+
+        def release(self) -> None:
+            self.frames = []
+
+    monkeypatch.setattr(cv2, "VideoCapture", Webcam)
+    out = tmp_path / "webcam.mcap"
+    argv = ["record", "--source", "camera:0", "--intrinsics", str(frames / "camera.json")]
+    assert main([*argv, "-o", str(out), "--hand-size", str(HAND_SIZE)]) == 0
+    demo = load(out)
+    assert demo.metadata["source"] == "camera:0"
+    _colour_only_checks(demo.hand, demo.metadata, 6)
+    assert demo.objects["box_1"].t_ns.size == 6
+
+
+def test_record_video_without_the_reference_tag_keeps_the_hand(
+    frames: Path, tmp_path: Path
+) -> None:
+    """No reference tag in view and no camera pose: the hand is recorded in the camera frame on
+    a topic of its own (/hand/right/keypoints_camera), the world hand topic has every sample
+    unobserved (no camera-frame point on it), the objects are unobserved, no camera calibration
+    is written."""
+    import json
+
+    from foxglove_schemas_protobuf.PosesInFrame_pb2 import PosesInFrame
+    from lfd.io.mcapfile import read
+
+    video = _video(frames, tmp_path / "demo.avi")
+    cam = json.loads((frames / "camera.json").read_text())
+    del cam["world_T_camera"]
+    intrinsics = tmp_path / "camera.json"
+    intrinsics.write_text(json.dumps(cam))
+    out = tmp_path / "rec.mcap"
+    proc = _lfd(
+        "record", "--source", f"video:{video}", "--intrinsics", str(intrinsics),
+        "-o", str(out), "--hand-size", str(HAND_SIZE),
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    said = " ".join(proc.stderr.split())
+    assert "0 hand estimates (0 missed), 16 hands in the camera frame" in said, said
+    raw = read(out, images=False)
+    world_kp = raw.tracks["/hand/right/keypoints"]["keypoints"]
+    assert world_kp.shape == (16, 21, 3) and np.isnan(world_kp).all()
+    assert (raw.tracks["/hand/right/confidence"]["confidence"] == 0).all()
+    msgs = [PosesInFrame.FromString(d) for _, d in raw.encoded("/hand/right/keypoints_camera")]
+    assert len(msgs) == 16 and {m.frame_id for m in msgs} == {"camera"}
+    kp = np.array([[[p.position.x, p.position.y, p.position.z] for p in m.poses] for m in msgs])
+    assert kp.shape == (16, 21, 3) and np.isfinite(kp).all()
+    # camera frame: in front of the camera at the hand's distance, on the hand's pixels
+    assert (0.2 < kp[:, 0, 2]).all() and (kp[:, 0, 2] < 1.5).all()
+    world = kp @ S.WORLD_T_CAMERA[:3, :3].T + S.WORLD_T_CAMERA[:3, 3]
+    for i in range(16):
+        _on_the_hand(world[i], i)
+    assert not [t for t in raw.channels if t.startswith("/objects/")]
+    assert "/camera/color/camera_info" not in raw.channels
 
 
 def test_perception_hands_json(tmp_path: Path) -> None:

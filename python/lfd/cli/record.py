@@ -1,13 +1,16 @@
-"""``lfd record``: perceive an RGB-D source (tags + hand model) into a demonstration MCAP.
+"""``lfd record``: perceive a camera (tags + hand model) into a demonstration MCAP.
 
     lfd record --source sim:exp1 -o demo.mcap --duration 10     # simulator, real perception
     lfd record --source sim:exp3:natural --seed 4 -o demo.mcap  # the natural demonstrator
     lfd record --source frames:DIR -o demo.mcap                  # image folder (see docs)
     lfd record --source camera:0 --intrinsics camera.json -o demo.mcap \
         --depth-reader docs/examples/realsense_reader.py:make_reader --hand right
+    lfd record --source camera:0 --intrinsics camera.json --hand-size 0.19 -o demo.mcap
+    lfd record --source video:demo.mp4 --intrinsics camera.json -o demo.mcap   # colour only
 
-The hand model: ``mediapipe`` (MediaPipe Hands on the colour image, lifted with depth; the
-default for real cameras and image folders) or ``depth-net`` (lfd's depth network, trained on
+The hand model: ``mediapipe`` (MediaPipe Hands on the colour image, lifted with depth, or
+placed from colour alone when there is none; the default for real cameras, image folders and
+videos) or ``depth-net`` (lfd's depth network, trained on
 the simulator's hand; the default for ``sim:`` sources), or a ``.pt`` file of the depth network.
 
 Ctrl+C (SIGINT) or SIGTERM stops the recording; the file is closed and complete.
@@ -23,15 +26,17 @@ from typing import Any
 from ._types import float_range, positive_float, seed
 
 NAME = "record"
-HELP = "Record a demonstration from RGB-D frames: object tags + hand keypoints -> MCAP."
+HELP = "Record a demonstration from a camera or video: object tags + hand keypoints -> MCAP."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from ..perception.hand.colour import HAND_SIZE_RANGE
+
     parser.add_argument(
         "--source",
         required=True,
-        help="sim:TASK[:STYLE] (STYLE careful, the default, or natural), frames:DIR or "
-        "camera:N (device index)",
+        help="sim:TASK[:STYLE] (STYLE careful, the default, or natural), frames:DIR, "
+        "camera:N (device index) or video:FILE (a video file, colour only)",
     )
     parser.add_argument(
         "-o",
@@ -58,7 +63,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="sim / camera source: camera frame rate, Hz, in [0.5, 120] (30)",
     )
     parser.add_argument("--seed", type=seed, default=0, help="sim source: random seed, >= 0 (0)")
-    parser.add_argument("--intrinsics", help="camera source: camera.json (K, size, objects)")
+    parser.add_argument(
+        "--intrinsics", help="camera and video sources: camera.json (K, size, objects)"
+    )
     parser.add_argument(
         "--depth-reader",
         metavar="MODULE:FACTORY",
@@ -69,6 +76,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="MODEL",
         help="mediapipe, depth-net or a depth-net FILE.pt (default: mediapipe for cameras and "
         "image folders, depth-net for sim: sources)",
+    )
+    parser.add_argument(
+        "--hand-size",
+        type=float_range(*HAND_SIZE_RANGE),
+        metavar="M",
+        help="without depth: the demonstrator's hand length, wrist crease to the middle "
+        "fingertip, m, in [0.1, 0.3] (e.g. 0.19); sets the distance of the hand (default: the "
+        "landmark model's hand size)",
     )
     parser.add_argument(
         "--hand",
@@ -126,6 +141,7 @@ def run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
+    from ..io.topics import hand_camera_topic
     from ..outputs import check_output
     from ..perception.record import record
     from ..perception.sources import open_source
@@ -142,7 +158,8 @@ def run(args: argparse.Namespace) -> int:
     )
     check_inputs(intrinsics=args.intrinsics, hand_model=model_file)
     frames = args.source[len("frames:") :] if args.source.startswith("frames:") else None
-    inputs = read_files(args, model_file, frames)  # and --intrinsics
+    video = args.source[len("video:") :] if args.source.startswith("video:") else None
+    inputs = read_files(args, model_file, frames, video)  # and --intrinsics
     check_output(
         args.output,
         inputs=inputs,
@@ -164,7 +181,9 @@ def run(args: argparse.Namespace) -> int:
     if not args.no_hand and model == "mediapipe":
         from ..perception.hand.rgbd import MediaPipeEstimator
 
-        estimator = MediaPipeEstimator(args.hand, threads=1, mirrored=args.mirrored)
+        estimator = MediaPipeEstimator(
+            args.hand, threads=1, mirrored=args.mirrored, hand_size=args.hand_size
+        )
     elif not args.no_hand:
         from ..perception.hand.infer import HandEstimator
 
@@ -183,7 +202,7 @@ def run(args: argparse.Namespace) -> int:
     view = open_from_args(args, "lfd_record")
     max_frames = None
     if args.duration is not None and not args.source.startswith("sim:"):
-        max_frames = max(1, round(args.duration * float(args.fps or 30.0)))
+        max_frames = max(1, round(args.duration * float(args.fps or source.fps or 30.0)))
     old = signal.signal(signal.SIGTERM, _sigterm)
     # a process started in the background inherits SIGINT ignored, and Python then never raises
     # KeyboardInterrupt: stopping with SIGINT is part of this command's contract, so catch it
@@ -236,6 +255,12 @@ def run(args: argparse.Namespace) -> int:
     console.print(
         f"{how}: {stats.frames} frames, {stats.object_poses} object poses, "
         f"{stats.hand_estimates} hand estimates ({stats.hand_missing} missed)"
+        + (
+            f", {stats.hand_in_camera} hands in the camera frame before the reference tag was "
+            f"seen ({hand_camera_topic(args.hand)})"
+            if stats.hand_in_camera
+            else ""
+        )
         + (f", {stats.live_segments} live segments" if segmenter is not None else "")
         + f" -> {args.output}"
     )

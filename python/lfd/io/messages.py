@@ -66,12 +66,13 @@ def _quat(q: np.ndarray) -> Quaternion:
     return Quaternion(x=float(q[0]), y=float(q[1]), z=float(q[2]), w=float(q[3]))
 
 
-def hand_poses(t: int, keypoints: np.ndarray) -> PosesInFrame:
-    """21 keypoints, shape (21, 3), as poses with identity orientation (NaN kept)."""
+def hand_poses(t: int, keypoints: np.ndarray, frame_id: str = T.WORLD_FRAME) -> PosesInFrame:
+    """21 keypoints, shape (21, 3), as poses with identity orientation (NaN kept) in
+    ``frame_id``."""
     identity = Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)
     return PosesInFrame(
         timestamp=stamp(t),
-        frame_id=T.WORLD_FRAME,
+        frame_id=frame_id,
         poses=[Pose(position=_vector(p), orientation=identity) for p in keypoints],
     )
 

@@ -12,6 +12,12 @@ topic                                 schema                        content
                                       "visible": [21]}``            [0, 1] and (optional) whether
                                                                     the keypoint was seen (False:
                                                                     estimated, e.g. occluded)
+``/hand/<side>/keypoints_camera``     foxglove.PosesInFrame         the hand in the ``camera``
+                                                                    frame (OpenCV axes), sampled
+                                                                    before the world frame was
+                                                                    known (``lfd record``: the
+                                                                    reference tag not seen yet)
+``/hand/<side>/confidence_camera``    JSON, as ``confidence``       its confidence and visibility
 ``/objects/<name>/pose``              foxglove.PoseInFrame          box centre + orientation in
                                                                     ``world``; a sample is written
                                                                     only when the tag was visible
@@ -99,6 +105,22 @@ def hand_topic(side: str = "right") -> str:
 def confidence_topic(side: str = "right") -> str:
     """Topic of the per-keypoint confidence, ``/hand/<side>/confidence``."""
     return f"/hand/{side}/confidence"
+
+
+CAMERA_SUFFIX = "_camera"
+"""Suffix of the hand topics in the camera frame (:func:`hand_camera_topic`)."""
+
+
+def hand_camera_topic(side: str = "right") -> str:
+    """Topic of the hand keypoints in the camera frame, ``/hand/<side>/keypoints_camera``: the
+    samples taken before the world frame was known. Readers of a demonstration
+    (:func:`lfd.io.load`, the segmentation) read only :func:`hand_topic`."""
+    return hand_topic(side) + CAMERA_SUFFIX
+
+
+def confidence_camera_topic(side: str = "right") -> str:
+    """Topic of the confidence of :func:`hand_camera_topic`, ``/hand/<side>/confidence_camera``."""
+    return confidence_topic(side) + CAMERA_SUFFIX
 
 
 def object_topic(name: str) -> str:

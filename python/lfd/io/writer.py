@@ -260,6 +260,8 @@ class McapRecorder:
         keypoints: npt.ArrayLike,
         confidence: npt.ArrayLike | None = None,
         visible: npt.ArrayLike | None = None,
+        *,
+        frame: str = T.WORLD_FRAME,
     ) -> None:
         """Write one hand observation.
 
@@ -268,14 +270,25 @@ class McapRecorder:
         t_ns : int
             Capture time, nanoseconds.
         keypoints : array, shape (21, 3)
-            Keypoint positions in metres (world frame), NaN where not observed.
+            Keypoint positions in metres (in ``frame``), NaN where not observed.
         confidence : array, shape (21,), optional
             Per-keypoint confidence in [0, 1]; default 1 where observed, 0 elsewhere.
         visible : array of bool, shape (21,), optional
             Whether each keypoint was seen (False: estimated, e.g. occluded and filled from the
             model); default: finite keypoints with confidence > 0.
+        frame : str
+            ``"world"`` (:data:`~lfd.io.topics.WORLD_FRAME`): the demonstration's hand,
+            ``/hand/<side>/keypoints`` and ``/hand/<side>/confidence``; ``"camera"``
+            (:data:`~lfd.io.topics.CAMERA_FRAME`, OpenCV axes): a sample taken before the world
+            frame was known, on ``/hand/<side>/keypoints_camera`` and
+            ``/hand/<side>/confidence_camera`` (:func:`lfd.io.load` does not read them).
         """
         t = _check_time(t_ns)
+        if frame not in (T.WORLD_FRAME, T.CAMERA_FRAME):
+            raise DemonstrationError(
+                f"hand frame must be {T.WORLD_FRAME!r} or {T.CAMERA_FRAME!r}, got {frame!r}"
+            )
+        world = frame == T.WORLD_FRAME
         kp = np.asarray(keypoints, dtype=np.float64)
         if kp.shape != (21, 3):
             raise DemonstrationError(f"hand keypoints must have shape (21, 3), got {kp.shape}")
@@ -296,9 +309,9 @@ class McapRecorder:
                     f"{self.path}: {T.confidence_topic(self.side)} at {t} ns: visible must be "
                     f"21 booleans, got {vis.dtype} {vis.shape}"
                 )
-        msg = M.hand_poses(t, kp)
+        msg = M.hand_poses(t, kp, frame)
         channel = self._channel(
-            T.hand_topic(self.side),
+            T.hand_topic(self.side) if world else T.hand_camera_topic(self.side),
             PosesInFrame,
             metadata={
                 "layout": KEYPOINT_LAYOUT,
@@ -307,11 +320,12 @@ class McapRecorder:
                 "side": self.side,
                 "units": "m",
                 "unobserved": "NaN",
+                **({} if world else {"frame_id": frame}),
             },
         )
         self._write(channel, t, msg.SerializeToString())
         channel = self._channel(
-            T.confidence_topic(self.side),
+            T.confidence_topic(self.side) if world else T.confidence_camera_topic(self.side),
             json_schema=(T.CONFIDENCE_SCHEMA, T.CONFIDENCE_JSON_SCHEMA),
             metadata={"layout": KEYPOINT_LAYOUT},
         )

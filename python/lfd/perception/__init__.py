@@ -2,7 +2,8 @@
 
 - :mod:`lfd.perception.markers`: tag detection, depth-refined poses in the reference frame;
 - :mod:`lfd.perception.hand`: the depth hand-pose network (needs the ``perception`` extra, torch);
-- :mod:`lfd.perception.record`: ``lfd record`` sources (simulator, image folder, camera).
+- :mod:`lfd.perception.record`: ``lfd record`` (sources in :mod:`lfd.perception.sources`:
+  simulator, image folder, camera, video file; colour-only ones place the hand from colour).
 """
 
 from __future__ import annotations

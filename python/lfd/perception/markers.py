@@ -306,7 +306,9 @@ class MarkerTracker:
 
     def _pnp(self, obj: np.ndarray, px: np.ndarray) -> np.ndarray | None:
         """Tag pose by IPPE_SQUARE; checked by reprojection, since OpenCV returns a zero rvec
-        for rotations of exactly 180 degrees (a tag seen upside down, e.g. the reference)."""
+        for rotations of exactly 180 degrees (a tag seen upside down, e.g. the reference), and
+        NaN for some exactly symmetric views (the reference straight ahead, upside down): a
+        non-finite solution is skipped."""
         import cv2
 
         best: tuple[float, np.ndarray] | None = None
@@ -314,8 +316,12 @@ class MarkerTracker:
             ok, rvec, tvec = cv2.solvePnP(obj, px, self.K, None, flags=flags)
             if not ok:
                 continue
+            if not (np.isfinite(rvec).all() and np.isfinite(tvec).all()):
+                continue
             proj = cv2.projectPoints(obj, rvec, tvec, self.K, None)[0].reshape(-1, 2)
             err = float(np.abs(proj - px).max())
+            if not np.isfinite(err):
+                continue
             if best is None or err < best[0]:
                 T = np.eye(4)
                 T[:3, :3] = cv2.Rodrigues(rvec)[0]

@@ -3,11 +3,22 @@
 Per frame, object poses come from the tags (:class:`~lfd.perception.markers.MarkerTracker`,
 at frame rate); every ``1 / hand_rate_hz`` seconds the hand estimator gives the 21 keypoints with
 a confidence and a visibility each: MediaPipe Hands on the colour image lifted with the depth
-image (:class:`~lfd.perception.hand.rgbd.MediaPipeEstimator`, for real cameras, every frame by
+image, or placed from colour alone when the source has no depth (a webcam, a video file)
+(:class:`~lfd.perception.hand.rgbd.MediaPipeEstimator`, for real cameras, every frame by
 default) or the depth network (:class:`~lfd.perception.hand.infer.HandEstimator`, trained on the
 simulator's hand, 5 Hz like the paper). Samples go to a
 :class:`~lfd.io.McapRecorder` as they are produced, so an interrupted recording (Ctrl+C,
 SIGTERM) is a complete, loadable file up to the last frame.
+
+Frames: the world is the reference tag's (origin at its centre, z up), from the first frame it
+is seen (or the camera pose of ``camera.json``). The hand topic (``/hand/<side>/keypoints``)
+holds world-frame samples only: until the reference is seen, and for a whole recording in which
+it is never seen, a hand found is written in the camera frame (OpenCV axes: x right, y down, z
+forward, metres) to a topic of its own, ``/hand/<side>/keypoints_camera`` (and
+``/hand/<side>/confidence_camera``), and the hand topic has the sample unobserved; the objects
+are unobserved too (an object's pose needs the reference). The camera calibration (``/camera/color/camera_info``, ``/tf``) is written when the reference is
+found, so a recording without it has none. The metadata says whether depth was used
+(``depth``) and how the hand was placed in metres (``hand_lifting``).
 
 What is done beside the file (``lfd record --rerun``, ``--live-segment``) is an ``observer``
 (a :class:`RecordObserver`, e.g. :class:`lfd.live.LiveObserver`): it sees every frame, object
@@ -40,6 +51,10 @@ class RecordStats:
     hand_missing: int = 0
     interrupted: bool = False
     live_segments: int = 0
+    hand_in_camera: int = 0
+    """Hand samples written in the camera frame (``/hand/<side>/keypoints_camera``), before the
+    reference tag was seen; the world topic has them unobserved (not counted in
+    ``hand_estimates`` nor ``hand_missing``)."""
 
 
 def _boxes(tracker: MarkerTracker, poses: dict[str, tuple[np.ndarray, np.ndarray]]) -> list[Any]:
@@ -131,11 +146,21 @@ def record(
         **source.metadata,
         "hand_rate_hz": "every frame" if hand_rate_hz is None else hand_rate_hz,
         "perception": "lfd.perception",
+        "depth": source.has_depth,
     }
     if estimator is not None:
         info = getattr(estimator, "info", {})
         meta["hand_model"] = str(info.get("model") or info.get("training", {}))
         meta["hand_side"] = side
+        lifting = getattr(estimator, "lifting", None)
+        if callable(lifting):
+            meta["hand_lifting"] = lifting(source.has_depth)
+        elif not source.has_depth:  # the depth network sees nothing without depth
+            source.close()
+            raise LfdError(
+                f"{meta.get('source', 'the source')} has no depth: the depth network cannot "
+                "place the hand; use the colour model (--hand-model mediapipe)"
+            )
     objects = [(o["name"], o["tag_id"], np.asarray(o["size"], float)) for o in source.objects]
     stats = RecordStats()
     period = 0 if hand_rate_hz is None else round(1e9 / hand_rate_hz)  # 0: every frame
@@ -172,6 +197,7 @@ def record(
                 camera_written = True
             due = next_hand is None or frame.t_ns >= next_hand
             found = None
+            in_world = tracker.world_T_camera is not None  # else the hand is camera-frame
             if estimator is not None and (due or tracks_every_frame):
                 # a colour tracker sees every frame it is given: it follows the hand from the
                 # previous one, so it is fed at the hand rate and its result kept when due
@@ -185,9 +211,13 @@ def record(
             if due:
                 next_hand = frame.t_ns + period if next_hand is None else next_hand + period
                 next_hand = max(next_hand, frame.t_ns + period // 2)
-                if found is None:  # marked unobserved (NaN, confidence 0), not invented
+                if found is not None and not in_world:  # its own topic: no frames mixed
+                    kp, confidence, visible, _ = found
+                    rec.add_hand(frame.t_ns, kp, confidence, visible=visible, frame="camera")
+                    stats.hand_in_camera += 1
+                if found is None or not in_world:  # marked unobserved (NaN, confidence 0)
                     rec.add_hand(frame.t_ns, np.full((21, 3), np.nan), np.zeros(21))
-                    stats.hand_missing += 1
+                    stats.hand_missing += found is None
                     if observer is not None:
                         settled(observer.on_hand(frame.t_ns, None, None, None))
                 else:
@@ -240,12 +270,14 @@ def _estimate_hand(
     """World keypoints (21, 3), confidence (21,), visibility (21,) and, from a colour model,
     the 2-D keypoints (21, 2) of one frame, or None.
 
-    A colour estimator (``estimate_frame``) gets every frame; a depth estimator needs depth and
-    the camera pose. The depth network's confidence is 1 / (1 + spread / SPREAD_SCALE_M) over
-    its point subsets; an estimator with only ``estimate`` gets confidence 1."""
+    A colour estimator (``estimate_frame``) gets every frame, and its keypoints are in the
+    camera frame while ``world_T_camera`` is None (the reference tag not seen yet); a depth
+    estimator needs depth and the camera pose. The depth network's confidence is
+    1 / (1 + spread / SPREAD_SCALE_M) over its point subsets; an estimator with only
+    ``estimate`` gets confidence 1."""
     if hasattr(estimator, "estimate_frame"):
         est = estimator.estimate_frame(frame.color, frame.depth, K, world_T_camera, boxes)
-        if est is None or world_T_camera is None:
+        if est is None:
             return None
         kp_2d = None if est.hand is None else est.hand.keypoints_2d
         return est.keypoints, est.confidence, est.visible, kp_2d

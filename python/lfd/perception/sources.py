@@ -1,4 +1,4 @@
-"""Frame sources for ``lfd record``: the simulator, a folder of images, a camera.
+"""Frame sources for ``lfd record``: the simulator, a folder of images, a camera, a video file.
 
 Simulator (``--source sim:TASK[:STYLE]``): the simulated demonstrator performing ``TASK``
 (``lfd simulate``'s tasks) in the careful style (default) or the natural one
@@ -26,7 +26,17 @@ RealSense / Azure Kinect wrapper aligned to the colour camera. A reader that als
 ``read_frame() -> (rgb (H, W, 3) uint8, depth (H, W) uint16 mm)`` supplies both images (an
 RGB-D camera whose colour stream is not a separate video device, e.g. a RealSense through
 pyrealsense2: ``docs/examples/realsense_reader.py``); then no video device is opened. Intrinsics
-come from a ``camera.json`` as above (``--intrinsics``).
+come from a ``camera.json`` as above (``--intrinsics``). Without a depth reader the camera is
+colour-only (a webcam): the hand is placed from colour alone
+(:class:`~lfd.perception.hand.colour.ColourHand`), the tags by PnP.
+
+Video file (``--source video:FILE``): ``cv2.VideoCapture`` on the file, colour only; each
+frame's time is the container's (``CAP_PROP_POS_MSEC``), made strictly increasing, else the
+frame index over the frame rate (the container's, else ``fps`` of ``camera.json``, else 30).
+Intrinsics and objects come from ``--intrinsics camera.json``, whose ``width`` and ``height``
+must be the video's frame size.
+
+``has_depth`` tells whether a source gives depth images (the recording's ``depth`` metadata).
 """
 
 from __future__ import annotations
@@ -47,7 +57,7 @@ from ..inputs import parse_json, read_text
 
 @dataclass
 class Frame:
-    """One RGB-D frame: capture time (ns), colour (H, W, 3) uint8 RGB, depth (H, W) uint16 mm."""
+    """One frame: capture time (ns), colour (H, W, 3) uint8 RGB, depth (H, W) uint16 mm or None."""
 
     t_ns: int
     color: np.ndarray
@@ -68,6 +78,9 @@ class Source:
     objects: list[dict[str, Any]]
     metadata: dict[str, Any] = field(default_factory=dict)
     camera_pose_known: bool = False
+    has_depth: bool = True
+    fps: float | None = None
+    """The nominal frame rate (Hz), when the source knows it (a video file)."""
 
     def frames(self) -> Iterator[Frame]:  # pragma: no cover - overridden
         raise NotImplementedError
@@ -207,7 +220,15 @@ class FolderSource(Source):
                 raise LfdError(f"{ts}: {len(self.t_ns)} timestamps, {len(self.color_files)} images")
         else:
             self.t_ns = [round(i * 1e9 / fps) for i in range(len(self.color_files))]
-        super().__init__(camera, objects, {"source": f"frames:{self.dir}"}, camera_pose_known=known)
+        depth = self.dir / "depth"
+        super().__init__(
+            camera,
+            objects,
+            {"source": f"frames:{self.dir}"},
+            camera_pose_known=known,
+            has_depth=depth.is_dir() and any(depth.iterdir()),
+            fps=fps,
+        )
 
     def frames(self) -> Iterator[Frame]:
         import cv2
@@ -250,7 +271,13 @@ class CameraSource(Source):
                 raise LfdError(
                     f"camera {index}: cannot open the video device (is a camera connected?)"
                 )
-        super().__init__(camera, objects, {"source": f"camera:{index}"}, camera_pose_known=known)
+        super().__init__(
+            camera,
+            objects,
+            {"source": f"camera:{index}"},
+            camera_pose_known=known,
+            has_depth=depth_reader is not None,
+        )
 
     def _read(self) -> tuple[np.ndarray, np.ndarray | None] | None:
         """(RGB, depth or None) of the next frame, or None at the end of the stream."""
@@ -299,6 +326,81 @@ class CameraSource(Source):
             closer()
 
 
+class VideoSource(Source):
+    """The frames of a video file (colour only), with a ``camera.json`` for its intrinsics."""
+
+    def __init__(
+        self, path: str | os.PathLike[str], *, intrinsics: str | os.PathLike[str] | None = None
+    ):
+        import cv2
+
+        from ..inputs import check_input_file
+        from .stderr import quiet_stderr
+
+        self.path = check_input_file(path, "video", LfdError)
+        if intrinsics is None:
+            raise LfdError(
+                f"video source {self.path}: needs --intrinsics camera.json (K, width, height)"
+            )
+        if not os.path.isfile(self.path):
+            raise LfdError(f"video source {self.path}: no such file")
+        camera, objects, meta, known = read_camera_json(Path(intrinsics))
+        with quiet_stderr():  # FFmpeg's own lines for a damaged file: the error below says it
+            self.cap = cv2.VideoCapture(self.path)
+            ok, bgr = self.cap.read() if self.cap.isOpened() else (False, None)
+        if not ok or bgr is None:
+            self.cap.release()
+            raise LfdError(f"{self.path}: not a readable video (OpenCV decodes no frame of it)")
+        h, w = bgr.shape[:2]
+        if (w, h) != (camera.width, camera.height):
+            self.cap.release()
+            raise LfdError(
+                f"{intrinsics}: the intrinsics are for {camera.width}x{camera.height}, the "
+                f"video {self.path} is {w}x{h}; calibrate at the video's size"
+            )
+        self._first: Any = bgr
+        fps = float(self.cap.get(cv2.CAP_PROP_FPS) or 0.0)
+        if not (np.isfinite(fps) and 0.0 < fps <= 1000.0):
+            fps = float(meta.get("fps", 30.0))
+        super().__init__(
+            camera,
+            objects,
+            {"source": f"video:{self.path}"},
+            camera_pose_known=known,
+            has_depth=False,
+            fps=fps,
+        )
+
+    def frames(self) -> Iterator[Frame]:
+        import cv2
+
+        assert self.fps is not None
+        period = round(1e9 / self.fps)
+        shape = self._first.shape
+        last: int | None = None
+        index = 0
+        bgr = self._first
+        self._first = None
+        while bgr is not None:
+            if bgr.shape != shape:
+                raise LfdError(
+                    f"{self.path}: frame {index} is {bgr.shape[1]}x{bgr.shape[0]}, the first "
+                    f"{shape[1]}x{shape[0]}"
+                )
+            msec = float(self.cap.get(cv2.CAP_PROP_POS_MSEC))
+            t = round(msec * 1e6) if np.isfinite(msec) and msec >= 0 else index * period
+            if last is not None and t <= last:  # a container without (or with repeated) times
+                t = last + period
+            last = t
+            yield Frame(t, cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), None)
+            index += 1
+            ok, got = self.cap.read()
+            bgr = got if ok else None
+
+    def close(self) -> None:
+        self.cap.release()
+
+
 def load_depth_reader(spec: str) -> DepthReader:
     """``module:factory`` -> ``factory()``, a :class:`DepthReader` (e.g. a RealSense wrapper).
 
@@ -329,12 +431,17 @@ def load_depth_reader(spec: str) -> DepthReader:
     return reader  # type: ignore[no-any-return]
 
 
+KINDS = "sim:TASK[:STYLE], frames:DIR, camera:N or video:FILE"
+"""The source specifications :func:`open_source` reads."""
+
+
 def open_source(spec: str, **kwargs: Any) -> Source:
-    """``sim:TASK[:STYLE]``, ``frames:DIR`` or ``camera:N`` -> a source (STYLE: the simulated
-    demonstrator's, ``careful`` by default or ``natural``)."""
+    """``sim:TASK[:STYLE]``, ``frames:DIR``, ``camera:N`` or ``video:FILE`` -> a source (STYLE:
+    the simulated demonstrator's, ``careful`` by default or ``natural``; ``intrinsics`` names
+    the camera.json of a camera or a video)."""
     kind, _, arg = spec.partition(":")
     if not arg:
-        raise LfdError(f"source {spec!r}: expected sim:TASK[:STYLE], frames:DIR or camera:N")
+        raise LfdError(f"source {spec!r}: expected {KINDS}")
     if kind == "sim":
         task, _, style = arg.partition(":")
         return SimSource(
@@ -357,4 +464,6 @@ def open_source(spec: str, **kwargs: Any) -> Source:
             intrinsics=kwargs.get("intrinsics"),
             depth_reader=load_depth_reader(reader) if isinstance(reader, str) else reader,
         )
-    raise LfdError(f"unknown source kind {kind!r}: use sim:TASK[:STYLE], frames:DIR or camera:N")
+    if kind == "video":
+        return VideoSource(arg, intrinsics=kwargs.get("intrinsics"))
+    raise LfdError(f"unknown source kind {kind!r}: use {KINDS}")

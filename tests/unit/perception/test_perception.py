@@ -527,3 +527,107 @@ def test_record_tells_its_observer_and_writes_the_skills_it_returns(tmp_path) ->
         ("move", frames[0][1], frames[-1][1])
     ]
     assert demo.labels == []
+
+
+def test_hand_before_the_reference_tag_goes_to_its_own_topic(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """The reference tag is out of view for the first frames: the hand found there is written
+    in the camera frame to /hand/right/keypoints_camera (frame_id camera), the world topic has
+    those samples unobserved and only world-frame samples after; ``lfd.load`` reads the world
+    topic and ``lfd info`` lists the camera one."""
+    import json
+    import subprocess
+    import sys
+
+    from foxglove_schemas_protobuf.PosesInFrame_pb2 import PosesInFrame
+    from lfd.io import load
+    from lfd.io.mcapfile import read
+    from lfd.perception.hand.rgbd import HandEstimate
+    from lfd.perception.record import record
+    from lfd.perception.sources import open_source
+
+    camera_points = np.array([0.01 * np.arange(21), np.zeros(21), np.full(21, 0.6)]).T
+
+    class ColourModel:  # the hand at a fixed place in front of the camera
+        def estimate_frame(self, color, depth, K, world_T_camera, boxes):  # type: ignore[no-untyped-def]
+            pts = camera_points
+            if world_T_camera is not None:
+                pts = pts @ world_T_camera[:3, :3].T + world_T_camera[:3, 3]
+            return HandEstimate(pts, np.full(21, 0.9), np.ones(21, bool))
+
+    source = open_source("sim:exp1", seed=0)
+    workspace = source.calibration_frame()  # the reference in view
+    assert workspace is not None
+    source.calibration_frame = lambda: None  # type: ignore[method-assign]
+    frames = source.frames
+
+    def late_reference():  # type: ignore[no-untyped-def]
+        for n, frame in enumerate(frames()):
+            if n < 3:  # nothing in view: no tag
+                frame.color = np.full_like(frame.color, 128)
+            else:
+                frame.color, frame.depth = workspace.color, workspace.depth
+            yield frame
+
+    source.frames = late_reference  # type: ignore[method-assign]
+    out = tmp_path / "rec.mcap"
+    stats = record(source, out, estimator=ColourModel(), hand_rate_hz=None, max_frames=6)
+    assert (stats.hand_in_camera, stats.hand_estimates, stats.hand_missing) == (3, 3, 0)
+    raw = read(out, images=False)
+    world = raw.tracks["/hand/right/keypoints"]["keypoints"]
+    assert world.shape == (6, 21, 3)
+    assert np.isnan(world[:3]).all() and np.isfinite(world[3:]).all()
+    demo = load(out)  # the camera topic is not read
+    assert demo.camera is not None
+    T = demo.camera.world_T_camera
+    np.testing.assert_allclose(world[3:], np.broadcast_to(
+        camera_points @ T[:3, :3].T + T[:3, 3], (3, 21, 3)), atol=1e-9)  # fmt: skip
+    assert not np.isclose(world[3:], camera_points).all(axis=(1, 2)).any()
+    cam = raw.encoded("/hand/right/keypoints_camera")
+    assert len(cam) == 3
+    for (t, data), t_world in zip(
+        cam, raw.tracks["/hand/right/keypoints"]["t_ns"][:3], strict=True
+    ):
+        msg = PosesInFrame.FromString(data)
+        assert msg.frame_id == "camera" and t == t_world
+        got = np.array([[p.position.x, p.position.y, p.position.z] for p in msg.poses])
+        np.testing.assert_allclose(got, camera_points)
+    assert demo.hand.t_ns.size == 6 and np.isnan(demo.hand.keypoints[:3]).all()
+    np.testing.assert_allclose(demo.hand.confidence[3:], 0.9)
+    info = subprocess.run(
+        [sys.executable, "-m", "lfd.cli", "info", str(out), "--json", "-"],
+        capture_output=True,
+        text=True,
+    )
+    assert info.returncode == 0, info.stderr
+    channels = {c["topic"]: c for c in json.loads(info.stdout)["channels"]}
+    assert channels["/hand/right/keypoints_camera"]["count"] == 3
+    assert channels["/hand/right/keypoints_camera"]["schema"] == "foxglove.PosesInFrame"
+    assert channels["/hand/right/confidence_camera"]["count"] == 3
+    assert channels["/hand/right/keypoints"]["count"] == 6
+
+
+def test_reference_straight_ahead_upside_down_gets_a_finite_pnp_pose() -> None:
+    """The reference tag exactly centred left-right and upside down (the simulator's camera
+    moved to 0.5 m along its viewing line): IPPE_SQUARE returns NaN there; the pose is SQPnP's,
+    finite and right, and the tracker's camera pose too (it raised an SVD error before)."""
+    from dataclasses import replace
+
+    from lfd.sim import simulate
+    from lfd.sim.render import render_frames
+    from lfd.sim.scene import CameraSpec, build_scene
+
+    r = simulate("exp1", seed=3)
+    cam = CameraSpec()
+    target = np.asarray(cam.target)
+    ray = np.asarray(cam.position) - target
+    near = CameraSpec(position=tuple(target + 0.5 * ray / np.linalg.norm(ray)), target=cam.target)
+    scene = build_scene(r.scene.objects, hand_scale=r.scene.hand_scale, camera=near)
+    away = replace(r.truth, wrist_pos=r.truth.wrist_pos.copy())
+    away.wrist_pos[0] = (0.0, -1.2, 1.5)  # the hand out of view
+    color, _ = render_frames(scene, away, np.array([0]), depth=False)
+    trk = MarkerTracker(MarkerConfig.from_objects(scene.objects), near.intrinsics())
+    ref = [t for t in trk.detect(color.frames[0], None) if t.tag_id == 0]
+    assert len(ref) == 1 and np.isfinite(ref[0].camera_T_tag).all()
+    trk.process(color.frames[0], None)
+    assert trk.world_T_camera is not None
+    assert np.linalg.norm(trk.world_T_camera[:3, 3] - near.position) < 0.01

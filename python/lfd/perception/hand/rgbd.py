@@ -1,11 +1,14 @@
-"""The real-camera hand estimator of ``lfd record``: MediaPipe on colour, lifted with depth.
+"""The real-camera hand estimator of ``lfd record``: MediaPipe on colour, lifted with depth,
+or placed from colour alone when a frame has no depth.
 
 Per frame: :class:`~lfd.perception.hand.mediapipe.HandTracker` finds and tracks the hands in the
 colour image, :func:`~lfd.perception.hand.mediapipe.select_hand` keeps the demonstrator's hand
 (``side``, locked to one track while it is seen, so a second hand in view never takes its
 place), and :func:`~lfd.perception.hand.lift.lift_keypoints` reads metric depth at the keypoints
 (pixels on the table or inside a tagged box are not the hand) before the points go to the
-reference-marker (world) frame.
+reference-marker (world) frame. A frame without depth (a webcam, a video file) places the hand
+from colour alone (:class:`~lfd.perception.hand.colour.ColourHand`: the landmark model's metric
+hand with fixed bone lengths, fitted to the image by PnP, its distance smoothed causally).
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from ...errors import LfdError
+from .colour import ColourHand
 from .lift import lift_keypoints
 from .mediapipe import HANDS, Hand, HandTracker, MediaPipeHands, select_hand
 
@@ -72,8 +76,13 @@ def not_hand_mask(
     return mask
 
 
+LIFTING = {True: "depth patch median", False: "colour pnp"}
+"""How the hand is placed in metres, with depth or without (``lfd record``'s metadata)."""
+
+
 class MediaPipeEstimator:
-    """MediaPipe Hands + depth lifting, for a real RGB-D camera.
+    """MediaPipe Hands + depth lifting, for a real RGB-D camera; colour-only placement
+    (:class:`~lfd.perception.hand.colour.ColourHand`) for frames without depth.
 
     Parameters
     ----------
@@ -86,6 +95,10 @@ class MediaPipeEstimator:
         :mod:`lfd.perception.hand.mediapipe`.
     max_hands : int
         Hands tracked at once, so that another hand in view is known and never confused.
+    hand_size : float, optional
+        The user's hand length (m, wrist to the middle fingertip), for frames without depth
+        (:class:`~lfd.perception.hand.colour.BoneLengths`); without it the bone lengths are
+        the landmark model's, measured over the first frames.
     """
 
     needs_colour = True
@@ -98,6 +111,7 @@ class MediaPipeEstimator:
         mirrored: bool = False,
         max_hands: int = 2,
         model: MediaPipeHands | None = None,
+        hand_size: float | None = None,
     ) -> None:
         if side not in HANDS:
             raise LfdError(f"hand must be one of {', '.join(HANDS)}, got {side!r}")
@@ -107,11 +121,12 @@ class MediaPipeEstimator:
         self.tracker = HandTracker(self.model, max_hands=max_hands)
         self.side = side
         self._locked: int | None = None
-        self.info: dict[str, Any] = {
-            **self.model.info,
-            "side": side,
-            "lifting": "depth patch median",
-        }
+        self.colour = ColourHand(hand_size)
+        self.info: dict[str, Any] = {**self.model.info, "side": side}
+
+    def lifting(self, depth: bool) -> str:
+        """How the hand is placed in metres with depth images or without (:data:`LIFTING`)."""
+        return LIFTING[depth]
 
     def estimate_frame(
         self,
@@ -121,13 +136,22 @@ class MediaPipeEstimator:
         world_T_camera: np.ndarray | None,
         boxes: Sequence[Box] = (),
     ) -> HandEstimate | None:
-        """The demonstrator's hand in one RGB-D frame (world frame), or None when it is not in
-        view or has no depth. ``world_T_camera`` None gives camera-frame keypoints."""
+        """The demonstrator's hand in one frame (world frame), or None when it is not in view.
+        With ``depth_mm`` None it is placed from colour alone. ``world_T_camera`` None gives
+        camera-frame keypoints."""
         hands = self.tracker.update(color)
         hand = select_hand(hands, self.side, self._locked)
+        if hand is None or hand.track_id != self._locked:
+            self.colour.lost()  # another track (or none): the distance filter restarts
         self._locked = None if hand is None else hand.track_id
-        if hand is None or depth_mm is None:
+        if hand is None:
             return None
+        if depth_mm is None:
+            placed = self.colour.place(hand, K)
+            if placed is None:
+                return None
+            pts = placed.points if world_T_camera is None else placed.to_world(world_T_camera)
+            return HandEstimate(pts, placed.confidence, placed.visible, hand)
         depth = np.asarray(depth_mm)
         if depth.shape != np.asarray(color).shape[:2]:
             raise LfdError(
