@@ -207,6 +207,68 @@ def test_camera_source_without_a_depth_reader_is_colour_only(
     assert demo.objects["box_1"].t_ns.size == 6
 
 
+def test_record_video_interrupted_with_live_segmentation_is_complete(
+    frames: Path, tmp_path: Path
+) -> None:
+    """Ctrl+C during ``lfd record --source video:FILE --live-segment``: exit 0, the recording
+    closed, complete (it loads without recovery) and holding the hand up to the interrupt."""
+    import signal
+    import time
+    import warnings
+
+    from lfd.io import load
+
+    video = _video(frames, tmp_path / "long.avi")
+    long = tmp_path / "longer.avi"
+    import cv2
+
+    cap = cv2.VideoCapture(str(video))
+    images = []
+    while True:
+        ok, bgr = cap.read()
+        if not ok:
+            break
+        images.append(bgr)
+    cap.release()
+    writer = cv2.VideoWriter(str(long), cv2.VideoWriter_fourcc(*"MJPG"), 15.0, (S.W, S.H))
+    for k in range(40 * len(images)):  # 640 frames, far more than are perceived before Ctrl+C
+        writer.write(images[k % len(images)])
+    writer.release()
+    out = tmp_path / "int.mcap"
+    argv = [
+        sys.executable, "-m", "lfd.cli", "record", "--source", f"video:{long}",
+        "--intrinsics", str(frames / "camera.json"), "--hand-size", str(HAND_SIZE),
+        "--live-segment", "-o", str(out),
+    ]  # fmt: skip
+    proc = subprocess.Popen(
+        argv,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        # as a shell starts a background job: SIGINT ignored, which Python would keep
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN),
+    )
+
+    def written() -> int:  # the recording is written to .int.mcap.*.partial until closed
+        return sum(p.stat().st_size for p in tmp_path.glob(".int.mcap.*.partial"))
+
+    deadline = time.time() + 120
+    while time.time() < deadline and written() < 40_000 and proc.poll() is None:
+        time.sleep(0.2)
+    assert proc.poll() is None, proc.communicate()[1].decode()
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err.decode()
+    said = " ".join(err.decode().split())  # however the console wraps it
+    assert "stopped:" in said and "live segments" in said, said
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a truncated file would warn while recovering
+        demo = load(out)
+    n = len(demo.hand)
+    assert 0 < n < 40 * len(images), n
+    assert np.isfinite(demo.hand.keypoints[:, 0]).all()
+    assert written() == 0  # renamed, nothing left beside it
+
+
 def test_record_video_without_the_reference_tag_keeps_the_hand(
     frames: Path, tmp_path: Path
 ) -> None:
