@@ -781,15 +781,13 @@ fn blocked_score_table(
             })
             .collect();
         let n_groups = groups.len();
-        for s in 0..models.len() {
-            table.set_band_rows(r0..r1, s, |r| {
-                let mut acc = 0.0;
-                for scores in &per_pair[s * n_groups..(s + 1) * n_groups] {
-                    acc += scores[r - r0];
-                }
-                acc
-            });
-        }
+        table.set_band_rows(r0..r1, |r, s| {
+            let mut acc = 0.0;
+            for scores in &per_pair[s * n_groups..(s + 1) * n_groups] {
+                acc += scores[r - r0];
+            }
+            acc
+        });
         i0 = i1;
     }
     Ok(table)

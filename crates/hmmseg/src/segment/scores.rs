@@ -394,23 +394,27 @@ pub fn score_table<M: PrefixScorer>(
 }
 
 impl ScoreTable {
-    /// Store `sum(r)` for the rows `rows` of skill `s` (NaN -> `-inf`).
+    /// Store `sum(r, s)` for the rows `rows` and every skill `s` (NaN -> `-inf`), the rows
+    /// shared out among the threads.
     pub(super) fn set_band_rows(
         &mut self,
         rows: Range<usize>,
-        s: usize,
-        mut sum: impl FnMut(usize) -> f64,
+        sum: impl Fn(usize, usize) -> f64 + Sync,
     ) {
+        const CHUNK: usize = 4096;
         let ns = self.n_skills;
-        for (r, out) in self.total[rows.start * ns..rows.end * ns]
-            .iter_mut()
-            .skip(s)
-            .step_by(ns)
+        self.total[rows.start * ns..rows.end * ns]
+            .par_chunks_mut(CHUNK * ns)
             .enumerate()
-        {
-            let v = sum(rows.start + r);
-            *out = if v.is_nan() { f64::NEG_INFINITY } else { v };
-        }
+            .for_each(|(c, chunk)| {
+                for (k, row) in chunk.chunks_exact_mut(ns).enumerate() {
+                    let r = rows.start + c * CHUNK + k;
+                    for (s, out) in row.iter_mut().enumerate() {
+                        let v = sum(r, s);
+                        *out = if v.is_nan() { f64::NEG_INFINITY } else { v };
+                    }
+                }
+            });
     }
 
     /// Store the sums of the runs `i..i + 1 ..= last_end(i)` of skill `s` (NaN -> `-inf`).
