@@ -16,7 +16,8 @@ the tags by PnP alone and the hand placed from colour (``ColourHand``, as ``lfd 
 frame (``MediaPipeEstimator``, the path of a real webcam; it rarely finds the simulator's
 capsule hand). ``truth-landmarks``: the detector replaced by the truth, as in
 ``benches/colour_vs_depth.py``: the true 2-D keypoints and, as the landmark model's metric hand,
-the true hand centred, scaled by 0.8-1.2 per frame, with 5 mm noise per keypoint. Both are
+the true hand centred, scaled by 0.8-1.2 per frame, with 5 mm noise per keypoint
+(``--landmark-noise``). Both are
 given the simulated hand's true length as the hand size (``lfd record --hand-size``), unless
 ``--no-hand-size``. The hand error is then the colour-only placement's.
 """
@@ -33,7 +34,7 @@ from typing import Any
 import numpy as np
 
 
-def colour_only(src: Any, kind: str, seed: int, sized: bool) -> Any:
+def colour_only(src: Any, kind: str, seed: int, sized: bool, noise_m: float = 0.005) -> Any:
     """Make ``src`` (a ``SimSource``) colour-only and return the hand estimator of ``kind``,
     given the simulated hand's true length when ``sized``."""
     from lfd.perception.hand.colour import hand_length
@@ -47,7 +48,7 @@ def colour_only(src: Any, kind: str, seed: int, sized: bool) -> Any:
     if kind == "mediapipe":
         est: Any = MediaPipeEstimator("right", threads=2, hand_size=size)
     else:
-        est = TruthLandmarks(truth, seed, size)
+        est = TruthLandmarks(truth, seed, size, noise_m)
 
     def colour_frames() -> Iterator[Any]:
         for frame in frames():
@@ -69,12 +70,15 @@ class TruthLandmarks:
 
     needs_colour = True
 
-    def __init__(self, truth: Any, seed: int, hand_size: float | None) -> None:
+    def __init__(
+        self, truth: Any, seed: int, hand_size: float | None, noise_m: float = 0.005
+    ) -> None:
         from lfd.perception.hand.colour import ColourHand
 
         self.truth = truth
         self.rng = np.random.default_rng(seed)
         self.colour = ColourHand(hand_size)
+        self.noise_m = noise_m
         self.t_ns = 0
         self.info = {"model": "truth landmarks"}
 
@@ -96,7 +100,7 @@ class TruthLandmarks:
             self.colour.lost()
             return None
         world = (kp - kp.mean(axis=0)) * self.rng.uniform(0.8, 1.2)
-        world = world + self.rng.normal(0.0, 0.005, (21, 3))
+        world = world + self.rng.normal(0.0, self.noise_m, (21, 3))
         hand = Hand(uv, np.zeros(21), world, "right", 1.0, 1.0, Rect(0.0, 0.0, 1.0, 0.0))
         placed = self.colour.place(hand, K)
         if placed is None:
@@ -122,6 +126,12 @@ def main() -> None:
         help="colour only: no hand size (default: the simulated hand's true length, as "
         "lfd record --hand-size)",
     )
+    parser.add_argument(
+        "--landmark-noise",
+        type=float,
+        default=5.0,
+        help="truth-landmarks: noise per keypoint of the metric hand, mm (default 5)",
+    )
     args = parser.parse_args()
 
     import lfd
@@ -145,10 +155,18 @@ def main() -> None:
             result, truth = src.result, src.result.truth
             suffix = f"_{args.colour_only}" if args.colour_only else ""
             suffix += "_nosize" if args.colour_only and args.no_hand_size else ""
+            if args.colour_only == "truth-landmarks" and args.landmark_noise != 5.0:
+                suffix += f"_noise{args.landmark_noise:g}"
             path = out_dir / f"{task}_{seed}{suffix}.mcap"
             if not path.exists():
                 if args.colour_only:
-                    estimator = colour_only(src, args.colour_only, seed, not args.no_hand_size)
+                    estimator = colour_only(
+                        src,
+                        args.colour_only,
+                        seed,
+                        not args.no_hand_size,
+                        args.landmark_noise * 1e-3,
+                    )
                 else:
                     estimator = est
                 record(src, path, estimator=estimator)
