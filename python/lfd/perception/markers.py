@@ -378,7 +378,7 @@ class MarkerTracker:
         nearer the world's up; ``T`` (the best fit) otherwise.
 
         A small tag's pose from colour alone is ambiguous: its corners fit two poses mirrored
-        about the viewing ray almost equally well (on the simulator's renders, at 0.8 m, a 4 cm
+        about the viewing ray almost equally well (on the simulator's renders, at 0.7 m, a 4 cm
         tag's solutions 1 and 58 degrees from upright fit within 0.1 px of each other, and the
         better fit is the wrong one when the hand covers part of the tag). The tilted one also
         moves the box centre, half the box height below the tag along its normal, by
@@ -468,7 +468,7 @@ class MarkerTracker:
 
         From colour alone a box tag's distance is its weak direction: when the hand covers part
         of the tag, the detected square is smaller than the tag and PnP puts the box farther
-        along the ray, on the simulator's renders 2-12 cm (never nearer), which sinks it into
+        along the ray, on the simulator's renders up to 15 cm (never nearer), which sinks it into
         the table or into the box it stands on. The image position of the tag is kept (the
         viewing ray is well measured), only the distance is changed, and only for a pose that
         cannot be: a lifted box, or one standing behind another, is left where PnP puts it.

@@ -37,7 +37,7 @@ def _camera_T_tag(centre: np.ndarray, height: float, yaw: float = 0.3) -> np.nda
     c, s = np.cos(yaw), np.sin(yaw)
     W = np.eye(4)
     W[:3, :3] = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
-    W[:3, 3] = centre + [0.0, 0.0, height / 2.0]
+    W[:3, 3] = centre + np.array([0.0, 0.0, height / 2.0])
     return np.linalg.inv(_world_T_camera()) @ W
 
 
@@ -75,7 +75,7 @@ def test_a_box_sunk_into_the_box_under_it_is_put_on_top() -> None:
     trk = _tracker()
     base = np.array([0.1, 0.25, 0.035])
     trk._last_box["box_2"] = (base, np.eye(3))
-    truth = _camera_T_tag(base + [0.0, 0.0, 0.035 + 0.025], 0.05)  # stacked on box_2
+    truth = _camera_T_tag(base + np.array([0.0, 0.0, 0.06]), 0.05)  # stacked on box_2
     out = trk._supported(BOX, _too_far(truth, 1.12))
     assert np.linalg.norm(out[:3, 3] - truth[:3, 3]) < 0.003
     # without box_2 known, only the table bounds it: it would stand beside box_2, inside it
