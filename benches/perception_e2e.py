@@ -16,7 +16,10 @@ the tags by PnP alone and the hand placed from colour (``ColourHand``, as ``lfd 
 frame (``MediaPipeEstimator``, the path of a real webcam; it rarely finds the simulator's
 capsule hand). ``truth-landmarks``: the detector replaced by the truth, as in
 ``benches/colour_vs_depth.py``: the true 2-D keypoints and, as the landmark model's metric hand,
-the true hand centred, scaled by 0.8-1.2 per frame, with 5 mm noise per keypoint. Both are
+the true hand centred, scaled by 0.8-1.2 per frame, with 5 mm noise per keypoint
+(``--landmark-noise``); the hand is found when the centre of its palm and at least 17 of its 21
+keypoints are in the image (MediaPipe tracks a hand partly out of the image; ``--whole-hand``:
+all 21, as in ``benches/colour_vs_depth.py``). Both are
 given the simulated hand's true length as the hand size (``lfd record --hand-size``), unless
 ``--no-hand-size``. The hand error is then the colour-only placement's.
 """
@@ -33,7 +36,9 @@ from typing import Any
 import numpy as np
 
 
-def colour_only(src: Any, kind: str, seed: int, sized: bool) -> Any:
+def colour_only(
+    src: Any, kind: str, seed: int, sized: bool, noise_m: float = 0.005, whole: bool = False
+) -> Any:
     """Make ``src`` (a ``SimSource``) colour-only and return the hand estimator of ``kind``,
     given the simulated hand's true length when ``sized``."""
     from lfd.perception.hand.colour import hand_length
@@ -47,7 +52,7 @@ def colour_only(src: Any, kind: str, seed: int, sized: bool) -> Any:
     if kind == "mediapipe":
         est: Any = MediaPipeEstimator("right", threads=2, hand_size=size)
     else:
-        est = TruthLandmarks(truth, seed, size)
+        est = TruthLandmarks(truth, seed, size, noise_m, whole)
 
     def colour_frames() -> Iterator[Any]:
         for frame in frames():
@@ -62,6 +67,13 @@ def colour_only(src: Any, kind: str, seed: int, sized: bool) -> Any:
     return est
 
 
+PALM = (0, 5, 9, 13, 17)
+"""Wrist and finger bases: the stand-in finds the hand when their centre is in the image..."""
+MIN_IN_IMAGE = 17
+"""...and at least this many of its 21 keypoints (MediaPipe tracks a hand partly out of the
+image, its landmarks outside it; ``--whole-hand``: all 21 in the image, as before)."""
+
+
 class TruthLandmarks:
     """A stand-in for MediaPipe fed every frame: the true 2-D keypoints and the true hand,
     centred, scaled by 0.8-1.2 and with 5 mm noise per keypoint, as the landmark model's
@@ -69,12 +81,21 @@ class TruthLandmarks:
 
     needs_colour = True
 
-    def __init__(self, truth: Any, seed: int, hand_size: float | None) -> None:
+    def __init__(
+        self,
+        truth: Any,
+        seed: int,
+        hand_size: float | None,
+        noise_m: float = 0.005,
+        whole: bool = False,
+    ) -> None:
         from lfd.perception.hand.colour import ColourHand
 
         self.truth = truth
         self.rng = np.random.default_rng(seed)
         self.colour = ColourHand(hand_size)
+        self.noise_m = noise_m
+        self.whole = whole
         self.t_ns = 0
         self.info = {"model": "truth landmarks"}
 
@@ -92,11 +113,14 @@ class TruthLandmarks:
         kp = self.truth.keypoints[i] @ c_T_w[:3, :3].T + c_T_w[:3, 3]
         uv = kp[:, :2] / kp[:, 2:] * [K[0, 0], K[1, 1]] + K[:2, 2]
         h, w = np.asarray(color).shape[:2]
-        if not ((uv >= 0).all() and (uv[:, 0] < w - 1).all() and (uv[:, 1] < h - 1).all()):
+        inside = (uv[:, 0] >= 0) & (uv[:, 1] >= 0) & (uv[:, 0] < w - 1) & (uv[:, 1] < h - 1)
+        palm = uv[list(PALM)].mean(axis=0)
+        palm_in = 0 <= palm[0] < w - 1 and 0 <= palm[1] < h - 1
+        if not (inside.all() if self.whole else palm_in and inside.sum() >= MIN_IN_IMAGE):
             self.colour.lost()
             return None
         world = (kp - kp.mean(axis=0)) * self.rng.uniform(0.8, 1.2)
-        world = world + self.rng.normal(0.0, 0.005, (21, 3))
+        world = world + self.rng.normal(0.0, self.noise_m, (21, 3))
         hand = Hand(uv, np.zeros(21), world, "right", 1.0, 1.0, Rect(0.0, 0.0, 1.0, 0.0))
         placed = self.colour.place(hand, K)
         if placed is None:
@@ -122,6 +146,17 @@ def main() -> None:
         help="colour only: no hand size (default: the simulated hand's true length, as "
         "lfd record --hand-size)",
     )
+    parser.add_argument(
+        "--landmark-noise",
+        type=float,
+        default=5.0,
+        help="truth-landmarks: noise per keypoint of the metric hand, mm (default 5)",
+    )
+    parser.add_argument(
+        "--whole-hand",
+        action="store_true",
+        help="truth-landmarks: the hand is found only when all 21 keypoints are in the image",
+    )
     args = parser.parse_args()
 
     import lfd
@@ -145,10 +180,21 @@ def main() -> None:
             result, truth = src.result, src.result.truth
             suffix = f"_{args.colour_only}" if args.colour_only else ""
             suffix += "_nosize" if args.colour_only and args.no_hand_size else ""
+            if args.colour_only == "truth-landmarks" and args.landmark_noise != 5.0:
+                suffix += f"_noise{args.landmark_noise:g}"
+            if args.colour_only == "truth-landmarks" and args.whole_hand:
+                suffix += "_whole"
             path = out_dir / f"{task}_{seed}{suffix}.mcap"
             if not path.exists():
                 if args.colour_only:
-                    estimator = colour_only(src, args.colour_only, seed, not args.no_hand_size)
+                    estimator = colour_only(
+                        src,
+                        args.colour_only,
+                        seed,
+                        not args.no_hand_size,
+                        args.landmark_noise * 1e-3,
+                        args.whole_hand,
+                    )
                 else:
                     estimator = est
                 record(src, path, estimator=estimator)

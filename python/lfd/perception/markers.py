@@ -10,7 +10,8 @@ defines the world frame (origin at its centre, Z up). Per frame:
    fixes the range (the weak direction of a 30-50 px tag's PnP) and the tilt; the in-plane
    rotation comes from the refined corners. Without enough valid depth, the range alone is
    corrected along the viewing ray of the tag centre (median depth inside the tag), and without
-   depth the PnP pose is kept;
+   depth the PnP pose is kept (of a box tag's two mirrored solutions that fit its corners
+   equally well, the upright one: :data:`AMBIGUITY_PX`);
 4. express it in the reference frame and move from the tag to the box centre (half the box
    height below the tag, along the tag normal).
 
@@ -39,6 +40,13 @@ _MIN_PLANE_POINTS = 25
 REFERENCE_GATE_M = 0.01
 REFERENCE_GATE_DEG = 2.0
 """Reference observations farther than this from the running estimate are rejected."""
+SUPPORT_TOLERANCE_M = 0.005
+"""Without depth, a box may sink this far into the table or overlap another box (m) before its
+distance is corrected (:meth:`MarkerTracker._supported`): PnP's own error on a fully seen tag."""
+AMBIGUITY_PX = 1.0
+"""Without depth, a box tag's two planar PnP solutions (IPPE) whose reprojection errors (RMS,
+px) differ by less than this are told apart by the table: the one whose normal is nearer the
+world's up is kept (see :meth:`MarkerTracker.detect`)."""
 
 
 @dataclass(frozen=True)
@@ -123,6 +131,33 @@ class FrameObjects:
     poses: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     tags: list[TagPose] = field(default_factory=list)
     reference_seen: bool = False
+
+
+def _footprints_overlap(
+    c1: np.ndarray,
+    R1: np.ndarray,
+    h1: np.ndarray,
+    c2: np.ndarray,
+    R2: np.ndarray,
+    h2: np.ndarray,
+    tolerance: float,
+) -> bool:
+    """Whether two boxes' footprints on the table (centres ``c``, rotations ``R``, half sizes
+    ``h``; each turned about the vertical by its x axis' heading) overlap by more than
+    ``tolerance`` (m): a separating-axis test of two rectangles."""
+    rects = []
+    for c, R, h in ((c1, R1, h1), (c2, R2, h2)):
+        a = np.arctan2(R[1, 0], R[0, 0])
+        ux, uy = np.array([np.cos(a), np.sin(a)]), np.array([-np.sin(a), np.cos(a)])
+        rects.append((np.asarray(c[:2], float), ux, uy, float(h[0]), float(h[1])))
+    d = rects[1][0] - rects[0][0]
+    for _, ax, ay, _, _ in rects:
+        for axis in (ax, ay):
+            reach = sum(abs(hx * float(ux @ axis)) + abs(hy * float(uy @ axis))
+                        for _, ux, uy, hx, hy in rects)  # fmt: skip
+            if abs(float(d @ axis)) >= reach - tolerance:
+                return False
+    return True
 
 
 def rotation_to_quat(R: np.ndarray) -> np.ndarray:
@@ -259,6 +294,8 @@ class MarkerTracker:
         self._sides = {b.tag_id: b.marker_side for b in config.boxes}
         self._sides[config.reference_id] = config.reference_size
         self._boxes = {b.tag_id: b for b in config.boxes}
+        self._sizes = {b.name: b.size for b in config.boxes}
+        self._last_box: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._ref_sum: np.ndarray | None = None
         self._ref_n = 0
         self.rejected_references = 0
@@ -301,6 +338,8 @@ class MarkerTracker:
             how = "pnp"
             if depth_m is not None:
                 T, how = refine_with_depth(self.K, c2, T, depth_m, self._sides[tag_id])
+            elif tag_id in self._boxes and self.world_T_camera is not None:
+                T = self._upright(_square(self._sides[tag_id]), c2, T)
             out.append(TagPose(tag_id, c2, T, how))
         return out
 
@@ -332,6 +371,46 @@ class MarkerTracker:
         if best is None or best[0] > 5.0:
             return None
         return best[1]
+
+    def _upright(self, obj: np.ndarray, px: np.ndarray, T: np.ndarray) -> np.ndarray:
+        """Of a box tag's two planar PnP solutions (``cv2.solvePnPGeneric``, IPPE_SQUARE) that
+        fit its corners within :data:`AMBIGUITY_PX` of each other, the one whose normal is
+        nearer the world's up; ``T`` (the best fit) otherwise.
+
+        A small tag's pose from colour alone is ambiguous: its corners fit two poses mirrored
+        about the viewing ray almost equally well (on the simulator's renders, at 0.7 m, a 4 cm
+        tag's solutions 1 and 58 degrees from upright fit within 0.1 px of each other, and the
+        better fit is the wrong one when the hand covers part of the tag). The tilted one also
+        moves the box centre, half the box height below the tag along its normal, by
+        centimetres. Boxes stand on the table or on each other, so the upright one is taken;
+        a box really held tilted is told apart by its corners whenever the fit can (its
+        mirror fits worse by more than :data:`AMBIGUITY_PX`). Depth removes the ambiguity
+        (:func:`refine_with_depth`), so this is for colour alone."""
+        import cv2
+
+        assert self.world_T_camera is not None
+        up = self.world_T_camera[2, :3]  # the world's z axis in the camera frame
+        try:
+            n, rvecs, tvecs, errs = cv2.solvePnPGeneric(
+                obj, px, self.K, None, flags=cv2.SOLVEPNP_IPPE_SQUARE
+            )
+        except cv2.error:
+            return T
+        cands = []
+        for rvec, tvec, err in zip(rvecs[:n], tvecs[:n], np.ravel(errs)[:n], strict=True):
+            if not (np.isfinite(rvec).all() and np.isfinite(tvec).all() and np.isfinite(err)):
+                continue
+            S = np.eye(4)
+            S[:3, :3] = cv2.Rodrigues(rvec)[0]
+            S[:3, 3] = np.ravel(tvec)
+            cands.append((float(err), S))
+        if len(cands) < 2:
+            return T
+        best = min(e for e, _ in cands)
+        near = [S for e, S in cands if e <= best + AMBIGUITY_PX]
+        if len(near) < 2:
+            return T
+        return max(near, key=lambda S: float(S[:3, 2] @ up))
 
     def _update_reference(self, camera_T_ref: np.ndarray) -> None:
         if self._fixed_camera:
@@ -372,8 +451,65 @@ class MarkerTracker:
             box = self._boxes.get(tag.tag_id)
             if box is None:
                 continue
-            W = self.world_T_camera @ tag.camera_T_tag
+            camera_T_tag = tag.camera_T_tag
+            if tag.refined == "pnp":  # colour alone: its range is the weak direction
+                camera_T_tag = self._supported(box, camera_T_tag)
+            W = self.world_T_camera @ camera_T_tag
             R = W[:3, :3]
             centre = W[:3, 3] - R[:, 2] * (box.size[2] / 2.0)
             result.poses[box.name] = (centre, rotation_to_quat(R))
+            self._last_box[box.name] = (centre, R)
         return result
+
+    def _supported(self, box: TaggedBox, camera_T_tag: np.ndarray) -> np.ndarray:
+        """``camera_T_tag`` moved along the tag centre's viewing ray towards the camera, the
+        least that makes the box physically possible: not below the table (world ``z = 0``)
+        and not inside another box (at its last pose); unchanged when it is possible already.
+
+        From colour alone a box tag's distance is its weak direction: when the hand covers part
+        of the tag, the detected square is smaller than the tag and PnP puts the box farther
+        along the ray, on the simulator's renders up to 15 cm (never nearer), which sinks it into
+        the table or into the box it stands on. The image position of the tag is kept (the
+        viewing ray is well measured), only the distance is changed, and only for a pose that
+        cannot be: a lifted box, or one standing behind another, is left where PnP puts it.
+        The candidates are the distances at which the box stands on the table or on another
+        box's top face; the farthest possible one is taken."""
+        assert self.world_T_camera is not None
+        ray = self.world_T_camera[:3, :3] @ camera_T_tag[:3, 3]  # camera to tag, world axes
+        origin = self.world_T_camera[:3, 3]
+        if ray[2] >= 0.0:  # looking up at the tag: moving nearer does not raise it
+            return camera_T_tag
+        R = self.world_T_camera[:3, :3] @ camera_T_tag[:3, :3]
+        half = np.asarray(box.size, float) / 2.0
+        # the lowest corner below the tag centre (world z), the tag being on the top face
+        signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+        drop = float(-((signs * half + [0.0, 0.0, -half[2]]) @ R.T)[:, 2].min())
+        others = [
+            (c, Ro, np.asarray(self._sizes[n], float) / 2.0)
+            for n, (c, Ro) in self._last_box.items()
+            if n != box.name
+        ]
+
+        def possible(s: float) -> bool:
+            tag = origin + s * ray
+            bottom = tag[2] - drop
+            if bottom < -SUPPORT_TOLERANCE_M:
+                return False
+            centre = tag - R[:, 2] * half[2]
+            for c, Ro, h in others:
+                if bottom > c[2] + h[2] - SUPPORT_TOLERANCE_M or tag[2] < c[2] - h[2]:
+                    continue  # above it, or below its bottom
+                if _footprints_overlap(centre, R, half, c, Ro, h, SUPPORT_TOLERANCE_M):
+                    return False
+            return True
+
+        if possible(1.0):
+            return camera_T_tag
+        tops = [0.0] + [float(c[2] + h[2]) for c, _, h in others]
+        scales = sorted(((t + drop - origin[2]) / ray[2] for t in tops), reverse=True)
+        for s in scales:
+            if 0.0 < s < 1.0 and possible(s):
+                out = camera_T_tag.copy()
+                out[:3, 3] = camera_T_tag[:3, 3] * s
+                return out
+        return camera_T_tag
