@@ -212,10 +212,9 @@ def test_record_video_interrupted_with_live_segmentation_is_complete(
 ) -> None:
     """Ctrl+C during ``lfd record --source video:FILE --live-segment``: exit 0, the recording
     closed, complete (it loads without recovery) and holding the hand up to the interrupt."""
-    import signal
-    import time
     import warnings
 
+    from _interrupt import interrupt_record, partial_bytes
     from lfd.io import load
 
     video = _video(frames, tmp_path / "long.avi")
@@ -236,29 +235,12 @@ def test_record_video_interrupted_with_live_segmentation_is_complete(
     writer.release()
     out = tmp_path / "int.mcap"
     argv = [
-        sys.executable, "-m", "lfd.cli", "record", "--source", f"video:{long}",
-        "--intrinsics", str(frames / "camera.json"), "--hand-size", str(HAND_SIZE),
-        "--live-segment", "-o", str(out),
+        "record", "--source", f"video:{long}", "--intrinsics", str(frames / "camera.json"),
+        "--hand-size", str(HAND_SIZE), "--live-segment", "-o", str(out),
     ]  # fmt: skip
-    proc = subprocess.Popen(
-        argv,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        # as a shell starts a background job: SIGINT ignored, which Python would keep
-        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN),
-    )
-
-    def written() -> int:  # the recording is written to .int.mcap.*.partial until closed
-        return sum(p.stat().st_size for p in tmp_path.glob(".int.mcap.*.partial"))
-
-    deadline = time.time() + 120
-    while time.time() < deadline and written() < 40_000 and proc.poll() is None:
-        time.sleep(0.2)
-    assert proc.poll() is None, proc.communicate()[1].decode()
-    proc.send_signal(signal.SIGINT)
-    _, err = proc.communicate(timeout=60)
-    assert proc.returncode == 0, err.decode()
-    said = " ".join(err.decode().split())  # however the console wraps it
+    status, err = interrupt_record(argv, out, after_bytes=40_000)
+    assert status == 0, err
+    said = " ".join(err.split())  # however the console wraps it
     assert "stopped:" in said and "live segments" in said, said
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # a truncated file would warn while recovering
@@ -266,7 +248,7 @@ def test_record_video_interrupted_with_live_segmentation_is_complete(
     n = len(demo.hand)
     assert 0 < n < 40 * len(images), n
     assert np.isfinite(demo.hand.keypoints[:, 0]).all()
-    assert written() == 0  # renamed, nothing left beside it
+    assert partial_bytes(out) == 0  # renamed, nothing left beside it
 
 
 def test_record_video_without_the_reference_tag_keeps_the_hand(

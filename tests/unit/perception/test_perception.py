@@ -158,40 +158,21 @@ def test_record_sim_writes_loadable_mcap(tmp_path) -> None:  # type: ignore[no-u
 
 @pytest.mark.slow  # the default run stays under 5 minutes; covered there by faster tests
 def test_record_sigint_leaves_complete_file(tmp_path) -> None:  # type: ignore[no-untyped-def]
-    import signal
-    import subprocess
-    import sys
-    import time
     import warnings
 
+    from _interrupt import interrupt_record, partial_bytes
     from lfd.io import load
 
     out = tmp_path / "int.mcap"
-    code = "import sys; from lfd.cli import main; sys.exit(main(sys.argv[1:]))"
-    proc = subprocess.Popen(
-        [sys.executable, "-c", code, "record", "--source", "sim:exp1", "--no-hand", "-o", str(out)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        # as a shell starts a background job: SIGINT ignored, which Python would keep
-        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN),
-    )
-
-    def written() -> int:  # the recording is written to .int.mcap.*.partial until closed
-        return sum(p.stat().st_size for p in tmp_path.glob(".int.mcap.*.partial"))
-
-    deadline = time.time() + 60
-    while time.time() < deadline and written() < 20_000:
-        time.sleep(0.2)
-    assert not out.exists()
-    proc.send_signal(signal.SIGINT)
-    _, err = proc.communicate(timeout=60)
-    assert proc.returncode == 0, err.decode()
-    assert b"stopped" in err
+    argv = ["record", "--source", "sim:exp1", "--no-hand", "-o", str(out)]
+    status, err = interrupt_record(argv, out, after_bytes=20_000)
+    assert status == 0, err
+    assert "stopped" in err
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # a truncated file would warn while recovering
         demo = load(out)
     assert sum(len(o) for o in demo.objects.values()) > 0
-    assert written() == 0  # renamed, nothing left beside it
+    assert partial_bytes(out) == 0  # renamed, nothing left beside it
 
 
 def test_record_frames_directory(tmp_path, rendered) -> None:  # type: ignore[no-untyped-def]
