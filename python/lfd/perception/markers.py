@@ -160,6 +160,19 @@ def _footprints_overlap(
     return True
 
 
+def _pose(rvec: np.ndarray, tvec: np.ndarray) -> np.ndarray | None:
+    """OpenCV's rotation vector and translation as a 4x4 pose; None when not finite (IPPE
+    returns NaN for some exactly symmetric views)."""
+    import cv2
+
+    if not (np.isfinite(rvec).all() and np.isfinite(tvec).all()):
+        return None
+    T = np.eye(4)
+    T[:3, :3] = cv2.Rodrigues(rvec)[0]
+    T[:3, 3] = np.ravel(tvec)
+    return T
+
+
 def rotation_to_quat(R: np.ndarray) -> np.ndarray:
     """Rotation matrix (3, 3) -> quaternion (x, y, z, w)."""
     from scipy.spatial.transform import Rotation
@@ -353,18 +366,14 @@ class MarkerTracker:
         best: tuple[float, np.ndarray] | None = None
         for flags in (cv2.SOLVEPNP_IPPE_SQUARE, cv2.SOLVEPNP_SQPNP):
             ok, rvec, tvec = cv2.solvePnP(obj, px, self.K, None, flags=flags)
-            if not ok:
-                continue
-            if not (np.isfinite(rvec).all() and np.isfinite(tvec).all()):
+            T = _pose(rvec, tvec) if ok else None
+            if T is None:
                 continue
             proj = cv2.projectPoints(obj, rvec, tvec, self.K, None)[0].reshape(-1, 2)
             err = float(np.abs(proj - px).max())
             if not np.isfinite(err):
                 continue
             if best is None or err < best[0]:
-                T = np.eye(4)
-                T[:3, :3] = cv2.Rodrigues(rvec)[0]
-                T[:3, 3] = tvec.ravel()
                 best = (err, T)
             if err < 1.0:
                 break
@@ -398,12 +407,9 @@ class MarkerTracker:
             return T
         cands = []
         for rvec, tvec, err in zip(rvecs[:n], tvecs[:n], np.ravel(errs)[:n], strict=True):
-            if not (np.isfinite(rvec).all() and np.isfinite(tvec).all() and np.isfinite(err)):
-                continue
-            S = np.eye(4)
-            S[:3, :3] = cv2.Rodrigues(rvec)[0]
-            S[:3, 3] = np.ravel(tvec)
-            cands.append((float(err), S))
+            S = _pose(rvec, tvec)
+            if S is not None and np.isfinite(err):
+                cands.append((float(err), S))
         if len(cands) < 2:
             return T
         best = min(e for e, _ in cands)
