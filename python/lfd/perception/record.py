@@ -16,9 +16,10 @@ holds world-frame samples only: until the reference is seen, and for a whole rec
 it is never seen, a hand found is written in the camera frame (OpenCV axes: x right, y down, z
 forward, metres) to a topic of its own, ``/hand/<side>/keypoints_camera`` (and
 ``/hand/<side>/confidence_camera``), and the hand topic has the sample unobserved; the objects
-are unobserved too (an object's pose needs the reference). The camera calibration (``/camera/color/camera_info``, ``/tf``) is written when the reference is
-found, so a recording without it has none. The metadata says whether depth was used
-(``depth``) and how the hand was placed in metres (``hand_lifting``).
+are unobserved too (an object's pose needs the reference). The camera calibration
+(``/camera/color/camera_info``, ``/tf``) is written when the reference is found, so a recording
+without it has none. The metadata says whether depth was used (``depth``) and how the hand was
+placed in metres (``hand_lifting``).
 
 What is done beside the file (``lfd record --rerun``, ``--live-segment``) is an ``observer``
 (a :class:`RecordObserver`, e.g. :class:`lfd.live.LiveObserver`): it sees every frame, object
