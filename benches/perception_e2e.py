@@ -37,7 +37,13 @@ import numpy as np
 
 
 def colour_only(
-    src: Any, kind: str, seed: int, sized: bool, noise_m: float = 0.005, whole: bool = False
+    src: Any,
+    kind: str,
+    seed: int,
+    sized: bool,
+    noise_m: float = 0.005,
+    whole: bool = False,
+    noise_px: float = 0.0,
 ) -> Any:
     """Make ``src`` (a ``SimSource``) colour-only and return the hand estimator of ``kind``,
     given the simulated hand's true length when ``sized``."""
@@ -52,7 +58,7 @@ def colour_only(
     if kind == "mediapipe":
         est: Any = MediaPipeEstimator("right", threads=2, hand_size=size)
     else:
-        est = TruthLandmarks(truth, seed, size, noise_m, whole)
+        est = TruthLandmarks(truth, seed, size, noise_m, whole, noise_px)
 
     def colour_frames() -> Iterator[Any]:
         for frame in frames():
@@ -88,6 +94,7 @@ class TruthLandmarks:
         hand_size: float | None,
         noise_m: float = 0.005,
         whole: bool = False,
+        noise_px: float = 0.0,
     ) -> None:
         from lfd.perception.hand.colour import ColourHand
 
@@ -95,16 +102,28 @@ class TruthLandmarks:
         self.rng = np.random.default_rng(seed)
         self.colour = ColourHand(hand_size)
         self.noise_m = noise_m
+        self.noise_px = noise_px
         self.whole = whole
         self.t_ns = 0
+        self.last_missing = True
         self.info = {"model": "truth landmarks"}
 
     def lifting(self, depth: bool) -> str:
         return "colour pnp (true 2-D landmarks)"
 
-    def estimate_frame(self, color, depth_mm, K, world_T_camera, boxes):  # type: ignore[no-untyped-def]
+    def feed(self, color, depth_mm, K, world_T_camera, boxes):  # type: ignore[no-untyped-def]
+        """As ``MediaPipeEstimator.feed``: frames held until the bones are fixed."""
+        hand = self._landmarks(color, K, world_T_camera)
+        restart = hand is None or self.last_missing
+        self.last_missing = hand is None
+        placed = self.colour.push((hand, world_T_camera), hand, K, restart=restart)
+        return [_estimate(h, w, lifted) for (h, w), lifted in placed]
+
+    def drain(self):  # type: ignore[no-untyped-def]
+        return [_estimate(h, w, lifted) for (h, w), lifted in self.colour.release()]
+
+    def _landmarks(self, color, K, world_T_camera):  # type: ignore[no-untyped-def]
         from lfd.perception.hand.mediapipe import Hand, Rect
-        from lfd.perception.hand.rgbd import HandEstimate
 
         if world_T_camera is None:
             return None
@@ -117,16 +136,21 @@ class TruthLandmarks:
         palm = uv[list(PALM)].mean(axis=0)
         palm_in = 0 <= palm[0] < w - 1 and 0 <= palm[1] < h - 1
         if not (inside.all() if self.whole else palm_in and inside.sum() >= MIN_IN_IMAGE):
-            self.colour.lost()
             return None
         world = (kp - kp.mean(axis=0)) * self.rng.uniform(0.8, 1.2)
         world = world + self.rng.normal(0.0, self.noise_m, (21, 3))
-        hand = Hand(uv, np.zeros(21), world, "right", 1.0, 1.0, Rect(0.0, 0.0, 1.0, 0.0))
-        placed = self.colour.place(hand, K)
-        if placed is None:
-            return None
-        pts = placed.to_world(world_T_camera)
-        return HandEstimate(pts, placed.confidence, placed.visible, hand)
+        if self.noise_px > 0:
+            uv = uv + self.rng.normal(0.0, self.noise_px, uv.shape)
+        return Hand(uv, np.zeros(21), world, "right", 1.0, 1.0, Rect(0.0, 0.0, 1.0, 0.0))
+
+
+def _estimate(hand: Any, world_T_camera: Any, lifted: Any) -> Any:
+    from lfd.perception.hand.rgbd import HandEstimate
+
+    if hand is None or lifted is None:
+        return None
+    pts = lifted.to_world(world_T_camera)
+    return HandEstimate(pts, lifted.confidence, lifted.visible, hand)
 
 
 def main() -> None:
@@ -151,6 +175,12 @@ def main() -> None:
         type=float,
         default=5.0,
         help="truth-landmarks: noise per keypoint of the metric hand, mm (default 5)",
+    )
+    parser.add_argument(
+        "--landmark-px",
+        type=float,
+        default=0.0,
+        help="truth-landmarks: noise per image landmark, pixels per axis (default 0)",
     )
     parser.add_argument(
         "--whole-hand",
@@ -178,10 +208,12 @@ def main() -> None:
         for task in args.tasks.split(","):
             src = SimSource(task, seed=seed)
             result, truth = src.result, src.result.truth
-            suffix = f"_{args.colour_only}" if args.colour_only else ""
+            suffix = f"_{args.colour_only}_every" if args.colour_only else ""
             suffix += "_nosize" if args.colour_only and args.no_hand_size else ""
             if args.colour_only == "truth-landmarks" and args.landmark_noise != 5.0:
                 suffix += f"_noise{args.landmark_noise:g}"
+            if args.colour_only == "truth-landmarks" and args.landmark_px:
+                suffix += f"_px{args.landmark_px:g}"
             if args.colour_only == "truth-landmarks" and args.whole_hand:
                 suffix += "_whole"
             path = out_dir / f"{task}_{seed}{suffix}.mcap"
@@ -194,10 +226,13 @@ def main() -> None:
                         not args.no_hand_size,
                         args.landmark_noise * 1e-3,
                         args.whole_hand,
+                        args.landmark_px,
                     )
                 else:
                     estimator = est
-                record(src, path, estimator=estimator)
+                # colour only: the hand on every frame, as `lfd record` does with MediaPipe
+                rate = None if args.colour_only else 5.0
+                record(src, path, estimator=estimator, hand_rate_hz=rate)
             demo = load(path)
             idx = np.searchsorted(truth.t_ns, demo.hand.t_ns)
             ok = np.all(np.isfinite(demo.hand.keypoints), axis=(1, 2))

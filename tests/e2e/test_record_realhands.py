@@ -90,8 +90,8 @@ NEAR_PX = 30.0
 
 
 def _colour_only_checks(hand, metadata, n: int, side: str = "right") -> np.ndarray:  # type: ignore[no-untyped-def]
-    """Every sample observed on the ``side`` hand's pixels with the colour confidence; the
-    metadata says no depth was used. Returns the keypoints' camera-frame depth (n, 21)."""
+    """Every sample observed on the ``side`` hand's pixels with the colour confidence and the
+    same bones; the metadata says no depth was used. Returns the keypoints' camera-frame depth (n, 21)."""
     from lfd.perception.hand.lift import COLOUR_CONFIDENCE
 
     assert metadata["depth"] is False and metadata["hand_lifting"] == "colour pnp"
@@ -99,6 +99,11 @@ def _colour_only_checks(hand, metadata, n: int, side: str = "right") -> np.ndarr
     assert ((hand.confidence > 0.2) & (hand.confidence <= COLOUR_CONFIDENCE)).all()
     for i in range(n):
         _on_the_hand(hand.keypoints[i], i, side)
+    # one skeleton for the whole recording: the first hands are held until it is measured
+    from lfd.perception.hand.colour import bone_lengths
+
+    bones = np.delete(np.array([bone_lengths(k) for k in hand.keypoints]), 17, axis=1)
+    np.testing.assert_allclose(bones, np.broadcast_to(bones[0], bones.shape), rtol=1e-9)
     return np.asarray(S.CAMERA_HEIGHT - hand.keypoints[:, :, 2])
 
 

@@ -198,6 +198,7 @@ def run(args: argparse.Namespace) -> int:
             [o["size"] for o in source.objects],
             side=args.hand,
             tag_ids=[o["tag_id"] for o in source.objects],
+            metadata={"depth": source.has_depth},  # as the recording's (the hand's filter)
         )
     view = open_from_args(args, "lfd_record")
     max_frames = None

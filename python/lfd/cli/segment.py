@@ -135,6 +135,7 @@ def segment_stream(
                 method=method,
                 side=follower.hand_side,
                 tag_ids=[o[1] for o in objects],
+                metadata=follower.demo_metadata,
             )
         if seg is None:
             continue

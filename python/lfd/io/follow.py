@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import glob
 import io
+import json
 import os
 import threading
 import time
@@ -232,6 +233,17 @@ class Follower:
             return str(named)
         seen = {T.hand_side_from_topic(t) for t in self.topics.values()}
         return next((s for s in T.HAND_SIDES if s in seen), "right")
+
+    @property
+    def demo_metadata(self) -> dict[str, Any]:
+        """The recording's metadata as :func:`lfd.load` gives it (``demo.metadata``), from the
+        ``demo`` metadata record read so far; empty before it or when it is not a JSON object."""
+        text = self.metadata.get(T.DEMO_METADATA, {}).get("metadata")
+        try:
+            value = json.loads(text) if text is not None else {}
+        except ValueError:
+            return {}
+        return value if isinstance(value, dict) else {}
 
     def __iter__(self) -> Iterator[LiveMessage]:
         if self._started:

@@ -6,7 +6,10 @@ a confidence and a visibility each: MediaPipe Hands on the colour image lifted w
 image, or placed from colour alone when the source has no depth (a webcam, a video file)
 (:class:`~lfd.perception.hand.rgbd.MediaPipeEstimator`, for real cameras, every frame by
 default) or the depth network (:class:`~lfd.perception.hand.infer.HandEstimator`, trained on the
-simulator's hand, 5 Hz like the paper). Samples go to a
+simulator's hand, 5 Hz like the paper). A hand placed from colour alone is held until its
+skeleton is measured (the first second of confident hands, ``MediaPipeEstimator.feed``) and
+those samples are written then, in order, so that every hand has the same bones; a recording
+stopped sooner writes what is held when it ends. Samples go to a
 :class:`~lfd.io.McapRecorder` as they are produced, so an interrupted recording (Ctrl+C,
 SIGTERM) is a complete, loadable file up to the last frame.
 
@@ -30,6 +33,7 @@ pose and hand sample as it is written, and the skills it returns are written to
 from __future__ import annotations
 
 import os
+from collections import deque
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -175,8 +179,26 @@ def record(
             rec.add_live_segment(label, settled_ns, extra)
             stats.live_segments += 1
 
+    def write_hand(t_ns: int, in_world: bool, found: _Found | None) -> None:
+        if found is not None and not in_world:  # its own topic: no frames mixed
+            kp, confidence, visible, _ = found
+            rec.add_hand(t_ns, kp, confidence, visible=visible, frame="camera")
+            stats.hand_in_camera += 1
+        if found is None or not in_world:  # marked unobserved (NaN, confidence 0)
+            rec.add_hand(t_ns, np.full((21, 3), np.nan), np.zeros(21))
+            stats.hand_missing += found is None
+            if observer is not None:
+                settled(observer.on_hand(t_ns, None, None, None))
+        else:
+            kp, confidence, visible, kp_2d = found
+            rec.add_hand(t_ns, kp, confidence, visible=visible)
+            stats.hand_estimates += 1
+            if observer is not None:
+                settled(observer.on_hand(t_ns, kp, confidence, kp_2d))
+
     last_t: int | None = None
     tracks_every_frame = getattr(estimator, "needs_colour", False)
+    fed: deque[tuple[int, bool, bool]] = deque()  # frames given to the estimator, not answered
     try:
         for frame in source.frames():
             poses = _process(frame, tracker, rec, stats, save_images)
@@ -197,36 +219,28 @@ def record(
                 )
                 camera_written = True
             due = next_hand is None or frame.t_ns >= next_hand
-            found = None
             in_world = tracker.world_T_camera is not None  # else the hand is camera-frame
             if estimator is not None and (due or tracks_every_frame):
                 # a colour tracker sees every frame it is given: it follows the hand from the
                 # previous one, so it is fed at the hand rate and its result kept when due
-                found = _estimate_hand(
+                fed.append((frame.t_ns, due, in_world))
+                found = _estimate_hands(
                     estimator,
                     frame,
                     source.camera.K,
                     tracker.world_T_camera,
                     _boxes(tracker, last_poses),
                 )
+                for (t_ns, due_then, world_then), hand in zip(
+                    [fed.popleft() for _ in found], found, strict=True
+                ):
+                    if due_then:
+                        write_hand(t_ns, world_then, hand)
+            elif due:
+                write_hand(frame.t_ns, in_world, None)
             if due:
                 next_hand = frame.t_ns + period if next_hand is None else next_hand + period
                 next_hand = max(next_hand, frame.t_ns + period // 2)
-                if found is not None and not in_world:  # its own topic: no frames mixed
-                    kp, confidence, visible, _ = found
-                    rec.add_hand(frame.t_ns, kp, confidence, visible=visible, frame="camera")
-                    stats.hand_in_camera += 1
-                if found is None or not in_world:  # marked unobserved (NaN, confidence 0)
-                    rec.add_hand(frame.t_ns, np.full((21, 3), np.nan), np.zeros(21))
-                    stats.hand_missing += found is None
-                    if observer is not None:
-                        settled(observer.on_hand(frame.t_ns, None, None, None))
-                else:
-                    kp, confidence, visible, kp_2d = found
-                    rec.add_hand(frame.t_ns, kp, confidence, visible=visible)
-                    stats.hand_estimates += 1
-                    if observer is not None:
-                        settled(observer.on_hand(frame.t_ns, kp, confidence, kp_2d))
             stats.frames += 1
             rec.flush_if_due()  # a follower (lfd segment --follow) sees each frame within ~1 s
             if progress is not None:
@@ -249,6 +263,11 @@ def record(
         raise
     finally:
         try:
+            if fed and not rec.closed and hasattr(estimator, "drain"):
+                # frames the estimator still holds (the colour hand measuring its bones)
+                for (t_ns, due_then, world_then), est in zip(fed, estimator.drain(), strict=True):
+                    if due_then:
+                        write_hand(t_ns, world_then, _unpack(est))
             if observer is not None and last_t is not None and not rec.closed:
                 settled(observer.finish(last_t))  # the skills still open when it ends
         finally:
@@ -261,38 +280,53 @@ SPREAD_SCALE_M = 0.005
 """A keypoint whose estimates over the point subsets spread by this much gets confidence 0.5."""
 
 
-def _estimate_hand(
+_Found = tuple[np.ndarray, np.ndarray, np.ndarray, "np.ndarray | None"]
+"""World keypoints (21, 3), confidence (21,), visibility (21,) and, from a colour model, the
+2-D keypoints (21, 2) of one frame."""
+
+
+def _unpack(est: Any) -> _Found | None:
+    """A colour estimator's :class:`~lfd.perception.hand.rgbd.HandEstimate` as a ``_Found``."""
+    if est is None:
+        return None
+    kp_2d = None if est.hand is None else est.hand.keypoints_2d
+    return est.keypoints, est.confidence, est.visible, kp_2d
+
+
+def _estimate_hands(
     estimator: Any,
     frame: Frame,
     K: np.ndarray,
     world_T_camera: np.ndarray | None,
     boxes: list[Any],
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None] | None:
-    """World keypoints (21, 3), confidence (21,), visibility (21,) and, from a colour model,
-    the 2-D keypoints (21, 2) of one frame, or None.
+) -> list[_Found | None]:
+    """The hands of the oldest frames given to ``estimator`` that are now known, in order
+    (None: no hand in that frame): this frame's at once, but for a colour estimator that holds
+    frames (``feed``; the colour hand measuring its bones, then all of them at once).
 
-    A colour estimator (``estimate_frame``) gets every frame, and its keypoints are in the
-    camera frame while ``world_T_camera`` is None (the reference tag not seen yet); a depth
-    estimator needs depth and the camera pose. The depth network's confidence is
+    A colour estimator (``feed`` or ``estimate_frame``) gets every frame, and its keypoints
+    are in the camera frame while ``world_T_camera`` is None (the reference tag not seen yet);
+    a depth estimator needs depth and the camera pose. The depth network's confidence is
     1 / (1 + spread / SPREAD_SCALE_M) over its point subsets; an estimator with only
     ``estimate`` gets confidence 1."""
+    if hasattr(estimator, "feed"):
+        found = estimator.feed(frame.color, frame.depth, K, world_T_camera, boxes)
+        return [_unpack(est) for est in found]
     if hasattr(estimator, "estimate_frame"):
-        est = estimator.estimate_frame(frame.color, frame.depth, K, world_T_camera, boxes)
-        if est is None:
-            return None
-        kp_2d = None if est.hand is None else est.hand.keypoints_2d
-        return est.keypoints, est.confidence, est.visible, kp_2d
+        return [
+            _unpack(estimator.estimate_frame(frame.color, frame.depth, K, world_T_camera, boxes))
+        ]
     if frame.depth is None or world_T_camera is None:
-        return None
+        return [None]
     args = (frame.depth, K, world_T_camera, boxes)
     if hasattr(estimator, "estimate_with_spread"):
-        found = estimator.estimate_with_spread(*args)
-        if found is None:
-            return None
-        kp, spread = found
-        return kp, 1.0 / (1.0 + np.asarray(spread) / SPREAD_SCALE_M), np.ones(21, bool), None
+        result = estimator.estimate_with_spread(*args)
+        if result is None:
+            return [None]
+        kp, spread = result
+        return [(kp, 1.0 / (1.0 + np.asarray(spread) / SPREAD_SCALE_M), np.ones(21, bool), None)]
     kp = estimator.estimate(*args)
-    return None if kp is None else (kp, np.ones(21), np.ones(21, bool), None)
+    return [None if kp is None else (kp, np.ones(21), np.ones(21, bool), None)]
 
 
 def _process(

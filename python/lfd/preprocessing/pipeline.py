@@ -47,14 +47,22 @@ lower confidence are dropped."""
 AUTO_CUTOFF_RATIO = 0.4
 """``feature_cutoff_hz="auto"`` filters the hand at this fraction of its sample rate..."""
 AUTO_CUTOFF_MAX_HZ = 6.0
-"""...and at most at this frequency (hand motion has no skill information above it)."""
+"""...and at most at this frequency (hand motion has no skill information above it)..."""
+COLOUR_CUTOFF_HZ = 2.0
+"""...and at most at this frequency for a hand placed from colour alone (the recording's
+metadata says ``"depth": false``: a webcam or a video, ``lfd record --source video:``). Its
+distance along the viewing ray comes from its size in the image and jitters by about a
+centimetre from frame to frame however often it is sampled, like the 5 Hz estimator's hand
+(docs/perception.md measures the choice)."""
 
 
-def auto_cutoff(hand_rate_hz: float) -> float:
+def auto_cutoff(hand_rate_hz: float, colour_only: bool = False) -> float:
     """The hand's low-pass cut-off for ``feature_cutoff_hz="auto"``: a noisy 5 Hz estimator is
     smoothed at 2 Hz, smooth 30 Hz motion capture kept up to 6 Hz, so a fast grasp or lift keeps
-    its shape (docs/segmentation.md measures the choice)."""
-    return float(min(AUTO_CUTOFF_MAX_HZ, AUTO_CUTOFF_RATIO * hand_rate_hz))
+    its shape (docs/segmentation.md measures the choice); a hand placed from colour alone
+    (``colour_only``) at most :data:`COLOUR_CUTOFF_HZ` whatever its rate."""
+    fc = min(AUTO_CUTOFF_MAX_HZ, AUTO_CUTOFF_RATIO * hand_rate_hz)
+    return float(min(fc, COLOUR_CUTOFF_HZ) if colour_only else fc)
 
 
 def _sorted_unique(t_ns: np.ndarray) -> np.ndarray:
@@ -142,7 +150,7 @@ def preprocess(
         too short to filter (not more than 12 samples on the clock).
     """
     _check_options(demo, aperture, min_keypoint_confidence)
-    hand_fc = _hand_cutoff(demo.hand, feature_cutoff_hz)
+    hand_fc = _hand_cutoff(demo, feature_cutoff_hz)
     obj_fc = hand_fc if object_cutoff_hz is None else float(object_cutoff_hz)
     hand = _hand_samples(demo.hand, min_keypoint_confidence)
     objs = _object_samples(demo)
@@ -211,12 +219,16 @@ def _check_options(demo: Demonstration, aperture: str, min_keypoint_confidence: 
         )
 
 
-def _hand_cutoff(hand: HandTrack, feature_cutoff_hz: float | Literal["auto"]) -> float:
-    """The hand's low-pass cut-off: ``feature_cutoff_hz`` or :func:`auto_cutoff` of its rate."""
+def _hand_cutoff(demo: Demonstration, feature_cutoff_hz: float | Literal["auto"]) -> float:
+    """The hand's low-pass cut-off: ``feature_cutoff_hz`` or :func:`auto_cutoff` of its rate
+    (and of whether it was placed from colour alone: metadata ``"depth": false``)."""
     if feature_cutoff_hz != "auto":
         return float(feature_cutoff_hz)
-    steps = np.diff(np.unique(hand.t_ns)) * 1e-9
-    return auto_cutoff(1.0 / float(np.median(steps))) if steps.size else AUTO_CUTOFF_MAX_HZ
+    colour_only = demo.metadata.get("depth") is False
+    steps = np.diff(np.unique(demo.hand.t_ns)) * 1e-9
+    if not steps.size:
+        return auto_cutoff(AUTO_CUTOFF_MAX_HZ / AUTO_CUTOFF_RATIO, colour_only)
+    return auto_cutoff(1.0 / float(np.median(steps)), colour_only)
 
 
 @dataclass

@@ -94,6 +94,21 @@ def test_auto_cutoff_follows_the_hand_rate() -> None:
     assert traj.meta["hand_filter_hz"] == pytest.approx(6.0)
 
 
+def test_auto_cutoff_of_a_hand_placed_from_colour_alone() -> None:
+    """A recording made without depth (metadata ``depth: false``, as ``lfd record`` writes for
+    a webcam or a video) has its hand filtered at 2 Hz at any rate; other recordings as before."""
+    import dataclasses
+
+    assert auto_cutoff(30.0, colour_only=True) == pytest.approx(2.0)
+    assert auto_cutoff(2.5, colour_only=True) == pytest.approx(1.0)  # the rate rule is lower
+    demo = natural("exp5", 701).demo
+    colour = dataclasses.replace(demo, metadata={**demo.metadata, "depth": False})
+    assert preprocess(colour, feature_cutoff_hz="auto").meta["hand_filter_hz"] == 2.0
+    rgbd = dataclasses.replace(demo, metadata={**demo.metadata, "depth": True})
+    assert preprocess(rgbd, feature_cutoff_hz="auto").meta["hand_filter_hz"] == 6.0
+    assert preprocess(colour, feature_cutoff_hz=4.0).meta["hand_filter_hz"] == 4.0
+
+
 def test_fast_lift_keeps_its_height_with_the_default_object_filter() -> None:
     demo = natural("exp5", 702).demo
     raw = preprocess(demo, filter=False)

@@ -1,35 +1,32 @@
 """The hand in metres from colour alone (a webcam or a video file, no depth).
 
-:func:`~lfd.perception.hand.lift.lift_from_colour` places MediaPipe's metric landmarks so that
-they project onto the image landmarks (PnP). Two things make that usable frame after frame:
+The image landmarks are the landmark model's good output; its metric 3-D hand is not (its
+bones vary 34 % around their medians at the 95th percentile on a real phone video,
+``benches/colour_hand.py``). :class:`ColourHand` places a hand frame after frame:
 
-1. **A skeleton fixed from the first frame** (:class:`BoneLengths`). The landmark model's
-   metric hand changes size and proportions from frame to frame (its bones vary 35 % at the
-   95th percentile on a real phone video, ``benches/colour_hand.py``, and so do its
-   proportions, each bone over the hand's length: 29 %), and the distance PnP finds follows
-   that size. The skeleton is the hand's length times proportions. The length is fixed at the
-   first confident hand (presence >= :data:`MEASURE_MIN_SCORE`): ``hand_size`` (``lfd record
-   --hand-size``, the user's hand length, wrist to the middle fingertip), else that hand's
-   length in the landmark model (wrist to the middle MCP plus the middle finger's three
-   bones). The proportions start as that hand's and follow the median of the first
-   :data:`MEASURE_FRAMES` confident hands' proportions, each bone held within
-   :data:`PROPORTION_BOUND` of its first value, then stay fixed. So every frame's bones are
-   within about twice that bound of the final ones from the first frame on (measuring the
-   median of the bone lengths first, as before, moved them up to 37 % over the first nine
-   frames of the video). (Proportions of a standard adult hand, e.g. the simulator's,
-   :mod:`lfd.sim.hand`, do not fit the landmark model's keypoints: on the real video the fit
-   with them jumped up to 30 cm between frames, 13 cm with these.)
-2. **Causal smoothing of the distance** (:class:`DepthSmoother`). Along each viewing ray the
-   hand's distance is the weak direction of a monocular fit: it is smoothed, the image
-   position is not (the hand is moved along the wrist's viewing ray, so the wrist still
-   projects where the landmark model saw it, the bones keep their lengths, and the other
-   keypoints move in the image by the change of distance over the distance times their
-   distance from the wrist: well under a pixel for a correction of a few centimetres). The
-   filter is the median of the last
-   :data:`MEDIAN_SAMPLES` wrist depths followed by exponential smoothing with
-   :data:`DEPTH_ALPHA`: it lags a steady approach or retreat by about two hand samples (one
-   from the median, ``(1 - alpha) / alpha`` = one from the exponential), 80 ms at 25 fps,
-   and removes one-frame outliers. It restarts when the hand is lost.
+1. **One skeleton** (:class:`BoneLengths`): the hand length, fixed at the first confident
+   hand (presence >= :data:`MEASURE_MIN_SCORE`): ``hand_size`` (``lfd record --hand-size``,
+   wrist to the middle fingertip), else that hand's in the landmark model; times the median
+   of the first :data:`MEASURE_FRAMES` confident hands' proportions. :meth:`ColourHand.push`
+   holds the frames until then and places them all with it, so every hand of a recording has
+   the same bones.
+2. **Orientation and relative depths** from the landmark model's hand with those bones, placed
+   by PnP (:func:`~lfd.perception.hand.lift.lift_from_colour`), each keypoint then moved at its
+   depth onto its viewing ray (:func:`on_rays`).
+3. **The distance voted by the bones** (:func:`ray_scale`): the hand scaled about the camera
+   centre by each bone's ``length / |bone|``, weighted by how little the vote depends on the
+   landmark model's depths (a bone across the view: not at all). PnP weighs every keypoint
+   alike, and slanted finger bones it got wrong move the whole hand.
+4. **Causal filters** (:class:`DepthSmoother`, the median of the last :data:`MEDIAN_SAMPLES`
+   relative depths): the wrist's distance, the weak direction of a monocular fit, lags about
+   two frames and loses one-frame jumps; the relative depths lose a frame whose fit turned the
+   hand over. They restart when the hand is lost.
+5. **The bones kept** (:func:`keep_lengths`): each joint back on its ray at its bone's length
+   from the joint before.
+
+The preprocessing filters such a hand at 2 Hz whatever its rate
+(:func:`lfd.preprocessing.pipeline.auto_cutoff`): its distance still jitters by about a
+centimetre.
 
 Without a known hand size the scale is the landmark model's idea of the first confident hand
 (its hand length varies 17 % around its median at the 95th percentile on the real video), so
@@ -41,6 +38,7 @@ nearer); ``--hand-size`` removes that error.
 from __future__ import annotations
 
 from collections import deque
+from typing import Any
 
 import numpy as np
 
@@ -49,14 +47,11 @@ from ...errors import LfdError
 from .lift import LiftedHand, lift_from_colour
 from .mediapipe import Hand
 
-MEASURE_FRAMES = 15
+MEASURE_FRAMES = 30
 """Confident hands whose proportions are measured (their running median) before they are fixed."""
 MEASURE_MIN_SCORE = 0.8
 """Only hands with at least this presence score are measured (a doubtful detection before the
 first confident one is placed with its own bones)."""
-PROPORTION_BOUND = 0.05
-"""The measured proportions stay within this fraction of the first confident hand's, bone by
-bone (a bounded update: the first hand's proportions, corrected by at most 5 %)."""
 MEDIAN_SAMPLES = 3
 """The hand's distance is first the median of this many latest samples."""
 DEPTH_ALPHA = 0.5
@@ -65,6 +60,14 @@ HAND_SIZE_RANGE = (0.10, 0.30)
 """Plausible hand lengths (m): adults' range from about 0.16 to 0.22 m; children's are shorter."""
 MIDDLE_CHAIN = ((9, 10), (10, 11), (11, 12))
 """The middle finger's bones (MCP to tip), part of the hand length."""
+SHAPE_NOISE = 0.007
+"""Error assumed of each of the landmark model's metric keypoints, per coordinate, as a fraction
+of the sum of the hand's 21 bone lengths (5 mm on an adult hand, whose bones sum to about
+0.7 m; relative, so that the fit does not depend on the hand's size): it sets how little a bone
+seen at a slant is trusted for the hand's distance (:func:`ray_scale`)."""
+LANDMARK_NOISE_PX = 2.0
+"""Error assumed of each image landmark (pixels, per coordinate), the other term of
+:func:`ray_scale`'s weights."""
 
 
 def bone_lengths(points: np.ndarray) -> np.ndarray:
@@ -82,10 +85,105 @@ def hand_length(points: np.ndarray) -> float:
     return float(np.linalg.norm(p[9] - p[0])) + chain
 
 
+def on_rays(points: np.ndarray, keypoints_2d: np.ndarray, K: np.ndarray) -> np.ndarray:
+    """Each keypoint of ``points`` (21, 3), camera frame, moved at its depth onto the viewing
+    ray through its image landmark (``keypoints_2d``, (21, 2) pixels, through ``K``): the image
+    says where a keypoint is across the view, the landmark model only how far."""
+    p = np.asarray(points, dtype=np.float64)
+    uv = np.asarray(keypoints_2d, dtype=np.float64)
+    z = p[:, 2]
+    x = (uv[:, 0] - K[0, 2]) / K[0, 0] * z
+    y = (uv[:, 1] - K[1, 2]) / K[1, 1] * z
+    return np.stack([x, y, z], axis=1)
+
+
+def ray_scale(
+    points: np.ndarray,
+    lengths: np.ndarray,
+    K: np.ndarray,
+    *,
+    shape_noise: float = SHAPE_NOISE,
+    px_noise: float = LANDMARK_NOISE_PX,
+) -> float:
+    """The factor to scale ``points`` (21, 3, on their viewing rays, :func:`on_rays`) by about
+    the camera centre (which keeps every keypoint on its ray) so that the bones
+    (:data:`lfd.demo.HAND_BONES`) have the user's ``lengths`` (21,): each bone votes for its own
+    factor, ``length / |bone|``, and the votes are averaged in log space, weighted by the inverse
+    of their expected variance (``shape_noise``: a fraction of the bones' sum, ``px_noise``:
+    pixels).
+
+    A bone across the view is measured by the image, whose landmarks are good: its vote does
+    not depend on the landmark model's depths (a depth error ``e`` changes its length by
+    ``e * sin``, the bone's slant out of the image plane). A bone seen at a slant depends on
+    them. The relative variance of a vote is ``(2 shape_noise^2 tan^2 + 2 (px_noise z / f)^2 /
+    cos^2) / length^2``, where ``shape_noise`` is in metres (the fraction times the bones' sum):
+    long bones across the view count most. A perspective-n-point fit
+    weighs every keypoint alike, and a few slanted finger bones whose depths the landmark model
+    got wrong move the whole hand (with 5 mm per keypoint, its distance varied 30 mm from frame
+    to frame on renders of the simulator's scene, ``benches/perception_e2e.py``)."""
+    from ...demo import HAND_BONES
+
+    p = np.asarray(points, dtype=np.float64)
+    a, b = np.array(HAND_BONES).T
+    bone = p[b] - p[a]
+    norm = np.linalg.norm(bone, axis=1)
+    mid = (p[a] + p[b]) / 2.0
+    view = mid / np.linalg.norm(mid, axis=1, keepdims=True)
+    ok = (norm > 1e-9) & np.isfinite(norm)
+    if not ok.any():
+        return 1.0
+    sin2 = np.clip((np.abs(np.sum(bone * view, axis=1)) / np.where(ok, norm, 1.0)) ** 2, 0.0, 0.99)
+    cos2 = 1.0 - sin2
+    lens = np.asarray(lengths, dtype=np.float64)
+    noise_m = shape_noise * float(np.sum(lens))
+    var = 2.0 * noise_m**2 * sin2 / cos2 + 2.0 * (px_noise * mid[:, 2] / K[0, 0]) ** 2 / cos2
+    weight = np.where(ok, lens**2 / np.maximum(var, 1e-12), 0.0)
+    votes = np.log(np.where(ok, lens / np.where(ok, norm, 1.0), 1.0))
+    return float(np.exp(np.sum(weight * votes) / np.sum(weight)))
+
+
+def keep_lengths(points: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """``points`` (21, 3, camera frame, on their viewing rays) with the user's bone ``lengths``
+    (21, :data:`lfd.demo.HAND_BONES`) restored from the wrist out along each finger: each
+    joint stays on its viewing ray, at the bone's length from the joint before it, at the one of
+    the two such places nearer its own distance (the landmark model's word on which way the
+    bone points); when the ray passes farther than the bone's length from the joint before, the
+    joint goes to the place at the bone's length nearest the ray. The wrist-pinky bone follows
+    (as in :func:`~lfd.perception.hand.lift.fixed_skeleton`)."""
+    from ...demo import HAND_BONES
+
+    p = np.asarray(points, dtype=np.float64)
+    out = p.copy()
+    placed = {0}
+    for k, (a, b) in enumerate(HAND_BONES):
+        if b in placed:
+            continue
+        placed.add(b)
+        dist = float(np.linalg.norm(p[b]))
+        if not dist > 0.0:
+            continue
+        ray = p[b] / dist
+        parent = out[a]
+        along = float(ray @ parent)  # the ray's point nearest the parent is at this distance
+        gap2 = float(parent @ parent) - along * along  # squared distance of the ray from it
+        length = float(lengths[k])
+        if length * length >= gap2:
+            half = float(np.sqrt(length * length - gap2))
+            near, far = along - half, along + half
+            t = near if abs(near - dist) <= abs(far - dist) else far
+            if t > 0.0:
+                out[b] = t * ray
+                continue
+        toward = along * ray - parent
+        n = float(np.linalg.norm(toward))
+        out[b] = parent + (toward / n * length if n > 0.0 else ray * length)
+    return out
+
+
 class BoneLengths:
-    """The user's bone lengths: a hand length fixed at the first confident hand times
-    proportions measured over the first confident hands, bounded, then fixed (see the module
-    notes).
+    """The user's bone lengths: a hand length fixed at the first confident hand times the
+    median of the confident hands' proportions, fixed once :attr:`frames` of them are measured
+    (see the module notes).
 
     Parameters
     ----------
@@ -93,60 +191,47 @@ class BoneLengths:
         The user's hand length (m, wrist to the middle fingertip) within
         :data:`HAND_SIZE_RANGE`; else the first confident hand's in the landmark model.
     frames : int
-        Confident hands measured before the proportions are fixed (:data:`MEASURE_FRAMES`).
-    bound : float
-        How far (a fraction) a bone's proportion may move from the first confident hand's
-        (:data:`PROPORTION_BOUND`).
+        Confident hands measured before the lengths are fixed (:data:`MEASURE_FRAMES`).
     """
 
-    def __init__(
-        self,
-        hand_size: float | None = None,
-        *,
-        frames: int = MEASURE_FRAMES,
-        bound: float = PROPORTION_BOUND,
-    ) -> None:
+    def __init__(self, hand_size: float | None = None, *, frames: int = MEASURE_FRAMES) -> None:
         if hand_size is not None and not HAND_SIZE_RANGE[0] <= hand_size <= HAND_SIZE_RANGE[1]:
             lo, hi = HAND_SIZE_RANGE
             raise LfdError(f"hand size must be in [{lo}, {hi}] m (wrist to middle fingertip)")
         if frames < 1:
             raise LfdError(f"frames must be at least 1, got {frames}")
-        if not 0.0 <= bound < 1.0:
-            raise LfdError(f"the proportion bound must be in [0, 1), got {bound}")
         self.hand_size = hand_size
         self.frames = frames
-        self.bound = bound
         self.length: float | None = None
         """The hand length (m) the skeleton has, fixed at the first confident hand."""
-        self._first: np.ndarray | None = None
         self._proportions: list[np.ndarray] = []
         self.fixed: np.ndarray | None = None
+        """The lengths (21,) once :attr:`frames` confident hands are measured, else None."""
 
-    def update(self, world: np.ndarray, score: float = 1.0) -> np.ndarray:
-        """The bone lengths (21,) to place this frame's hand with, given its landmark-model
-        hand ``world`` (21, 3) and presence ``score``: the fixed hand length times the running
-        median of the confident hands' (:data:`MEASURE_MIN_SCORE`) proportions, each within
-        :attr:`bound` of the first's, until :attr:`frames` of them are measured; then fixed.
-        Before the first confident hand, this hand's own proportions (scaled to ``hand_size``
-        when given)."""
+    def measure(self, world: np.ndarray, score: float = 1.0) -> None:
+        """Measure one landmark-model hand ``world`` (21, 3) of presence ``score``: only a
+        confident one (:data:`MEASURE_MIN_SCORE`) counts, and none once the lengths are fixed."""
+        if self.fixed is not None or score < MEASURE_MIN_SCORE:
+            return
+        own = hand_length(world)
+        if not own > 0.0:
+            return
+        if self.length is None:
+            self.length = self.hand_size or own
+        self._proportions.append(bone_lengths(world) / own)
+        if len(self._proportions) >= self.frames:
+            self.fixed = self.lengths(world)
+
+    def lengths(self, world: np.ndarray) -> np.ndarray:
+        """The bone lengths (21,) to place a hand with: the fixed ones, else the median of the
+        proportions measured so far times the hand length; before any confident hand, the
+        hand ``world``'s own (scaled to ``hand_size`` when given)."""
         if self.fixed is not None:
             return self.fixed
-        own = hand_length(world)
-        proportions = bone_lengths(world) / own
-        if score < MEASURE_MIN_SCORE and self.length is None:
-            return np.asarray(proportions * (self.hand_size or own))
-        if score >= MEASURE_MIN_SCORE:
-            if self.length is None:
-                self.length = self.hand_size or own
-                self._first = proportions
-            self._proportions.append(proportions)
-        assert self._first is not None and self.length is not None
-        median = np.median(np.array(self._proportions), axis=0)
-        lo, hi = self._first * (1.0 - self.bound), self._first * (1.0 + self.bound)
-        lengths = np.clip(median, lo, hi) * self.length
-        if len(self._proportions) >= self.frames:
-            self.fixed = lengths
-        return np.asarray(lengths)
+        if self.length is None:
+            own = hand_length(world)
+            return np.asarray(bone_lengths(world) / own * (self.hand_size or own))
+        return np.asarray(np.median(np.array(self._proportions), axis=0) * self.length)
 
 
 class DepthSmoother:
@@ -176,6 +261,11 @@ class ColourHand:
     """One hand placed in the camera frame from colour, frame after frame: fixed bones
     (:class:`BoneLengths`) and a smoothed distance (:class:`DepthSmoother`).
 
+    :meth:`push` holds the frames until the bones are fixed (the first :data:`MEASURE_FRAMES`
+    confident hands, a second at 30 frames/s) and then places them all with the fixed
+    bones, so every hand of a recording has the same skeleton; :meth:`place` places one hand
+    at once with the bones measured so far.
+
     Parameters
     ----------
     hand_size : float, optional
@@ -185,20 +275,72 @@ class ColourHand:
     def __init__(self, hand_size: float | None = None) -> None:
         self.bones = BoneLengths(hand_size)
         self.depth = DepthSmoother()
+        self._shape: deque[np.ndarray] = deque(maxlen=MEDIAN_SAMPLES)
+        self._held: list[tuple[Any, Hand | None, np.ndarray, bool]] = []
 
     def lost(self) -> None:
         """No hand in this frame: the distance filter restarts with the next one."""
         self.depth.reset()
+        self._shape.clear()
+
+    @property
+    def holding(self) -> int:
+        """Frames pushed whose hands are not placed yet."""
+        return len(self._held)
+
+    def push(
+        self, key: Any, hand: Hand | None, K: np.ndarray, *, restart: bool = False
+    ) -> list[tuple[Any, LiftedHand | None]]:
+        """Give one frame's hand (None: none found) and its ``key``: the frames placed now, in
+        the order they were pushed, each with its key and its hand in metres (None when none
+        was found or the fit failed). Nothing while the bones are being measured; then every
+        frame held so far; then each frame as it comes. ``restart``: the hand is another
+        than the last frame's (a new track): the distance filter restarts with it."""
+        if hand is not None:
+            self.bones.measure(hand.world, hand.score)
+        self._held.append((key, hand, K, restart or hand is None))
+        return self.release() if self.bones.fixed is not None else []
+
+    def release(self) -> list[tuple[Any, LiftedHand | None]]:
+        """Place every held frame now, with the bones measured so far (the end of a
+        recording shorter than the measurement): ``(key, hand in metres or None)`` in order."""
+        out: list[tuple[Any, LiftedHand | None]] = []
+        for key, hand, K, restart in self._held:
+            if restart:
+                self.lost()
+            out.append((key, None if hand is None else self._place(hand, K)))
+        self._held.clear()
+        return out
 
     def place(self, hand: Hand, K: np.ndarray) -> LiftedHand | None:
-        """The hand in metres, camera frame (OpenCV axes), or None when the fit fails."""
-        lengths = self.bones.update(hand.world, hand.score)
+        """One hand in metres at once, camera frame (OpenCV axes), or None when the fit fails
+        (the hand is measured first, as by :meth:`push`)."""
+        self.bones.measure(hand.world, hand.score)
+        return self._place(hand, K)
+
+    def _place(self, hand: Hand, K: np.ndarray) -> LiftedHand | None:
+        lengths = self.bones.lengths(hand.world)
         lifted = lift_from_colour(
             hand.keypoints_2d, hand.world, K, score=hand.score, lengths=lengths
         )
         if lifted is None:
             self.lost()
             return None
-        wrist = lifted.points[0]
-        shift = wrist * (self.depth.update(float(wrist[2])) / float(wrist[2]) - 1.0)
-        return LiftedHand(lifted.points + shift, lifted.visible, lifted.confidence)
+        rays = on_rays(lifted.points, hand.keypoints_2d, K)
+        points = rays * ray_scale(rays, lengths, K)
+        wrist = float(points[0, 2])
+        if not (np.isfinite(points).all() and wrist > 0.0):
+            self.lost()
+            return None
+        # the keypoints' depths relative to the wrist, like the wrist's distance, are the
+        # median of the last frames': a frame whose fit turned the hand over is outvoted
+        self._shape.append(points[:, 2] - wrist)
+        depth = self.depth.update(wrist) + np.median(np.array(self._shape), axis=0)
+        if not (depth > 0.0).all():
+            self.lost()
+            return None
+        points = keep_lengths(points / points[:, 2:] * depth[:, None], lengths)
+        if not (np.isfinite(points).all() and (points[:, 2] > 0).all()):
+            self.lost()
+            return None
+        return LiftedHand(points, lifted.visible, lifted.confidence)

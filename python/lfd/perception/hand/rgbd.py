@@ -21,7 +21,7 @@ import numpy as np
 
 from ...errors import LfdError
 from .colour import ColourHand
-from .lift import lift_keypoints
+from .lift import LiftedHand, lift_keypoints
 from .mediapipe import HANDS, Hand, HandTracker, MediaPipeHands, select_hand
 
 TABLE_MARGIN_M = 0.004
@@ -43,6 +43,17 @@ class HandEstimate:
     confidence: np.ndarray
     visible: np.ndarray
     hand: Hand | None = None
+
+
+def _in_frame(
+    hand: Hand | None, world_T_camera: np.ndarray | None, placed: LiftedHand | None
+) -> HandEstimate | None:
+    """A hand placed in the camera frame as a :class:`HandEstimate` in the world frame (camera
+    frame while ``world_T_camera`` is None); None without one."""
+    if hand is None or placed is None:
+        return None
+    pts = placed.points if world_T_camera is None else placed.to_world(world_T_camera)
+    return HandEstimate(pts, placed.confidence, placed.visible, hand)
 
 
 def not_hand_mask(
@@ -137,21 +148,61 @@ class MediaPipeEstimator:
         boxes: Sequence[Box] = (),
     ) -> HandEstimate | None:
         """The demonstrator's hand in one frame (world frame), or None when it is not in view.
-        With ``depth_mm`` None it is placed from colour alone. ``world_T_camera`` None gives
-        camera-frame keypoints."""
-        hands = self.tracker.update(color)
-        hand = select_hand(hands, self.side, self._locked)
-        if hand is None or hand.track_id != self._locked:
-            self.colour.lost()  # another track (or none): the distance filter restarts
-        self._locked = None if hand is None else hand.track_id
+        With ``depth_mm`` None it is placed from colour alone, at once, with the bones measured
+        so far (:meth:`feed` holds the first frames until the bones are fixed).
+        ``world_T_camera`` None gives camera-frame keypoints."""
+        hand, restart = self._track(color)
+        if restart:
+            self.colour.lost()
         if hand is None:
             return None
         if depth_mm is None:
-            placed = self.colour.place(hand, K)
-            if placed is None:
-                return None
-            pts = placed.points if world_T_camera is None else placed.to_world(world_T_camera)
-            return HandEstimate(pts, placed.confidence, placed.visible, hand)
+            return _in_frame(hand, world_T_camera, self.colour.place(hand, K))
+        return self._lift(hand, color, depth_mm, K, world_T_camera, boxes)
+
+    def feed(
+        self,
+        color: np.ndarray,
+        depth_mm: np.ndarray | None,
+        K: np.ndarray,
+        world_T_camera: np.ndarray | None,
+        boxes: Sequence[Box] = (),
+    ) -> list[HandEstimate | None]:
+        """Give one frame; get the hands of the oldest frames given that are now known, in
+        order: every frame gets exactly one result (None: no hand), now or later. With depth,
+        this frame's at once. Without, the frames are held until the colour hand's bones are
+        fixed (:meth:`ColourHand.push <lfd.perception.hand.colour.ColourHand.push>`), so that
+        every hand of the recording has the same skeleton; :meth:`drain` gives the frames
+        still held when the recording ends."""
+        if depth_mm is not None and not self.colour.holding:
+            return [self.estimate_frame(color, depth_mm, K, world_T_camera, boxes)]
+        hand, restart = self._track(color)
+        placed = self.colour.push((hand, world_T_camera), hand, K, restart=restart)
+        return [_in_frame(key[0], key[1], lifted) for key, lifted in placed]
+
+    def drain(self) -> list[HandEstimate | None]:
+        """The hands of the frames still held (:meth:`feed`), placed with the bones measured so
+        far, in order."""
+        return [_in_frame(key[0], key[1], lifted) for key, lifted in self.colour.release()]
+
+    def _track(self, color: np.ndarray) -> tuple[Hand | None, bool]:
+        """This frame's hand, and whether it starts a new track (or none was found): the
+        colour hand's distance filter restarts there."""
+        hands = self.tracker.update(color)
+        hand = select_hand(hands, self.side, self._locked)
+        restart = hand is None or hand.track_id != self._locked
+        self._locked = None if hand is None else hand.track_id
+        return hand, restart
+
+    def _lift(
+        self,
+        hand: Hand,
+        color: np.ndarray,
+        depth_mm: np.ndarray,
+        K: np.ndarray,
+        world_T_camera: np.ndarray | None,
+        boxes: Sequence[Box],
+    ) -> HandEstimate | None:
         depth = np.asarray(depth_mm)
         if depth.shape != np.asarray(color).shape[:2]:
             raise LfdError(
