@@ -158,3 +158,28 @@ def test_follow_refuses_what_is_not_a_recording(tmp_path: Path) -> None:
     bad.write_bytes(b"not an mcap file at all")
     with pytest.raises(RecordingFormatError, match="not an MCAP file"):
         list(follow(bad, poll_s=0.01, idle_timeout_s=0.2))
+
+
+def test_follower_gives_the_recordings_metadata(tmp_path: Path) -> None:
+    """``Follower.demo_metadata`` is the metadata ``lfd.load`` gives the demonstration (the
+    live segmentation of ``lfd segment --follow`` preprocesses with it: a recording without
+    depth has its hand filtered like the batch run's)."""
+    demo = load(EXP1, images=False)
+    out = tmp_path / "rec.mcap"
+    objects = [(o.name, o.tag_id, o.size) for o in demo.objects.values()]
+    meta = {"depth": False, "hand_lifting": "colour pnp", "source": "video:x.mp4"}
+    with McapRecorder(out, objects=objects, metadata=meta) as rec:
+        h = demo.hand
+        for i in range(3):
+            rec.add_hand(int(h.t_ns[i]), h.keypoints[i], h.confidence[i], h.visible[i])
+        name, o = next(iter(demo.objects.items()))
+        rec.add_object_pose(name, int(o.t_ns[0]), o.position[0], o.quaternion[0])
+    follower = follow(out, poll_s=0.02, idle_timeout_s=2.0)
+    assert follower.demo_metadata == {}  # nothing read yet
+    for _ in follower:
+        pass
+    got = follower.demo_metadata
+    assert got["depth"] is False and got["hand_lifting"] == "colour pnp"
+    assert {k: v for k, v in load(out, images=False).metadata.items() if k in meta} == {
+        k: got[k] for k in meta
+    }
