@@ -138,8 +138,8 @@ def _hand(rng: np.random.Generator) -> np.ndarray:
 
 
 def test_bone_lengths_are_measured_then_fixed() -> None:
-    """The hand length is the first confident hand's (or ``hand_size``); the proportions are
-    the median of the confident hands' so far, fixed once ``frames`` of them are measured."""
+    """The hand length is the median of the confident hands' (or ``hand_size``), the proportions
+    the median of theirs, fixed once ``frames`` of them are measured."""
     from lfd.perception.hand.colour import hand_length
 
     rng = np.random.default_rng(0)
@@ -155,12 +155,13 @@ def test_bone_lengths_are_measured_then_fixed() -> None:
     bones.measure(hands[0])
     np.testing.assert_allclose(bones.lengths(hands[5]), bone_lengths(hands[0]))
     assert bones.length == pytest.approx(hand_length(hands[0]))
-    bones.measure(hands[1] * 1.3)  # its proportions count, not its size
+    bones.measure(hands[1] * 1.3)
     assert bones.fixed is None
     bones.measure(hands[2])
     median = np.median([proportions(hands[i]) for i in (0, 1, 2)], axis=0)
-    assert bones.fixed is not None
-    np.testing.assert_allclose(bones.fixed, median * hand_length(hands[0]))
+    length = np.median([hand_length(hands[0]), 1.3 * hand_length(hands[1]), hand_length(hands[2])])
+    assert bones.fixed is not None and bones.length == pytest.approx(length)
+    np.testing.assert_allclose(bones.fixed, median * length)
     bones.measure(hands[3])  # fixed from now on
     np.testing.assert_array_equal(bones.lengths(hands[4]), bones.fixed)
     # the user's hand size is the skeleton's scale

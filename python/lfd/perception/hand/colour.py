@@ -4,10 +4,10 @@ The image landmarks are the landmark model's good output; its metric 3-D hand is
 bones vary 34 % around their medians at the 95th percentile on a real phone video,
 ``benches/colour_hand.py``). :class:`ColourHand` places a hand frame after frame:
 
-1. **One skeleton** (:class:`BoneLengths`): the hand length, fixed at the first confident
-   hand (presence >= :data:`MEASURE_MIN_SCORE`): ``hand_size`` (``lfd record --hand-size``,
-   wrist to the middle fingertip), else that hand's in the landmark model; times the median
-   of the first :data:`MEASURE_FRAMES` confident hands' proportions. :meth:`ColourHand.push`
+1. **One skeleton** (:class:`BoneLengths`): the hand length, ``hand_size`` (``lfd record
+   --hand-size``, wrist to the middle fingertip), else the median of the first
+   :data:`MEASURE_FRAMES` confident hands' (presence >= :data:`MEASURE_MIN_SCORE`) in the
+   landmark model; times the median of their proportions. :meth:`ColourHand.push`
    holds the frames until then and places them all with it, so every hand of a recording has
    the same bones.
 2. **Orientation and relative depths** from the landmark model's hand with those bones, placed
@@ -28,11 +28,10 @@ The preprocessing filters such a hand at 2 Hz whatever its rate
 (:func:`lfd.preprocessing.pipeline.auto_cutoff`): its distance still jitters by about a
 centimetre.
 
-Without a known hand size the scale is the landmark model's idea of the first confident hand
-(its hand length varies 17 % around its median at the 95th percentile on the real video), so
-the distance of an unusually large or small hand, or of a first hand the model saw too large or
-too small, is off in proportion (a 10 % larger hand is placed 10 %
-nearer); ``--hand-size`` removes that error.
+Without a known hand size the scale is the landmark model's idea of the hand (its hand length
+varies 17 % around its median at the 95th percentile on the real video; the median of the first
+confident hands is taken), so the distance of an unusually large or small hand is off in
+proportion (a 10 % larger hand is placed 10 % nearer); ``--hand-size`` removes that error.
 """
 
 from __future__ import annotations
@@ -181,15 +180,15 @@ def keep_lengths(points: np.ndarray, lengths: np.ndarray) -> np.ndarray:
 
 
 class BoneLengths:
-    """The user's bone lengths: a hand length fixed at the first confident hand times the
-    median of the confident hands' proportions, fixed once :attr:`frames` of them are measured
-    (see the module notes).
+    """The user's bone lengths: a hand length (``hand_size``, else the median of the confident
+    hands' lengths in the landmark model) times the median of their proportions, fixed once
+    :attr:`frames` of them are measured (see the module notes).
 
     Parameters
     ----------
     hand_size : float, optional
         The user's hand length (m, wrist to the middle fingertip) within
-        :data:`HAND_SIZE_RANGE`; else the first confident hand's in the landmark model.
+        :data:`HAND_SIZE_RANGE`; else the median of the confident hands' in the landmark model.
     frames : int
         Confident hands measured before the lengths are fixed (:data:`MEASURE_FRAMES`).
     """
@@ -203,8 +202,9 @@ class BoneLengths:
         self.hand_size = hand_size
         self.frames = frames
         self.length: float | None = None
-        """The hand length (m) the skeleton has, fixed at the first confident hand."""
+        """The hand length (m) the skeleton has (so far), None before any confident hand."""
         self._proportions: list[np.ndarray] = []
+        self._lengths: list[float] = []
         self.fixed: np.ndarray | None = None
         """The lengths (21,) once :attr:`frames` confident hands are measured, else None."""
 
@@ -216,16 +216,16 @@ class BoneLengths:
         own = hand_length(world)
         if not own > 0.0:
             return
-        if self.length is None:
-            self.length = self.hand_size or own
+        self._lengths.append(own)
+        self.length = self.hand_size or float(np.median(self._lengths))
         self._proportions.append(bone_lengths(world) / own)
         if len(self._proportions) >= self.frames:
             self.fixed = self.lengths(world)
 
     def lengths(self, world: np.ndarray) -> np.ndarray:
         """The bone lengths (21,) to place a hand with: the fixed ones, else the median of the
-        proportions measured so far times the hand length; before any confident hand, the
-        hand ``world``'s own (scaled to ``hand_size`` when given)."""
+        proportions measured so far times the hand length so far; before any confident hand,
+        the hand ``world``'s own (scaled to ``hand_size`` when given)."""
         if self.fixed is not None:
             return self.fixed
         if self.length is None:
