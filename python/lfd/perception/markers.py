@@ -185,8 +185,8 @@ def _square(side: float) -> np.ndarray:
     return np.array([[-h, h, 0.0], [h, h, 0.0], [h, -h, 0.0], [-h, -h, 0.0]])
 
 
-def _rays(K: np.ndarray, px: np.ndarray) -> np.ndarray:
-    """Viewing rays (n, 3) with z = 1 through pixels ``px`` (n, 2)."""
+def pixel_rays(K: np.ndarray, px: np.ndarray) -> np.ndarray:
+    """Viewing rays (n, 3) with z = 1 through pixels ``px`` (n, 2) of a camera ``K``."""
     x = (px[:, 0] - K[0, 2]) / K[0, 0]
     y = (px[:, 1] - K[1, 2]) / K[1, 1]
     return np.column_stack([x, y, np.ones(len(px))])
@@ -237,13 +237,13 @@ def refine_with_depth(
     px, z = px[near], z[near]
     out = T.copy()
     if z.size >= _MIN_PLANE_POINTS:
-        P = _rays(K, px.astype(float)) * z[:, None]
+        P = pixel_rays(K, px.astype(float)) * z[:, None]
         c = P.mean(axis=0)
         _, sv, vt = np.linalg.svd(P - c, full_matrices=False)
         n = vt[2]
         if n @ c > 0:
             n = -n  # normal towards the camera, like the tag's z axis
-        rays = _rays(K, corners)
+        rays = pixel_rays(K, corners)
         with np.errstate(divide="ignore", invalid="ignore"):
             Q = rays * ((n @ c) / (rays @ n))[:, None]  # corners on the plane
         sides = np.linalg.norm(Q - np.roll(Q, 1, axis=0), axis=1)
@@ -255,11 +255,11 @@ def refine_with_depth(
             x = (Q[1] - Q[0]) + (Q[2] - Q[3])
             x -= n * (x @ n)
             x /= np.linalg.norm(x)
-            ray_c = _rays(K, _centre_pixel(corners)[None])[0]
+            ray_c = pixel_rays(K, _centre_pixel(corners)[None])[0]
             out[:3, :3] = np.column_stack([x, np.cross(n, x), n])
             out[:3, 3] = ray_c * ((n @ c) / (ray_c @ n))
             return out, "plane"
-    ray_c = _rays(K, _centre_pixel(corners)[None])[0]
+    ray_c = pixel_rays(K, _centre_pixel(corners)[None])[0]
     out[:3, 3] = ray_c * med
     return out, "range"
 

@@ -264,8 +264,9 @@ def record(
     finally:
         try:
             if fed and not rec.closed and hasattr(estimator, "drain"):
-                # frames the estimator still holds (the colour hand measuring its bones)
-                for (t_ns, due_then, world_then), est in zip(fed, estimator.drain(), strict=True):
+                # frames the estimator still holds (the colour hand measuring its bones), oldest
+                # first; Ctrl+C in the middle of a frame leaves that newest one on one side only
+                for (t_ns, due_then, world_then), est in zip(fed, estimator.drain(), strict=False):
                     if due_then:
                         write_hand(t_ns, world_then, _unpack(est))
             if observer is not None and last_t is not None and not rec.closed:

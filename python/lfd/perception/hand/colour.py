@@ -43,6 +43,7 @@ import numpy as np
 
 from ...demo import HAND_BONES
 from ...errors import LfdError
+from ..markers import pixel_rays
 from .lift import LiftedHand, lift_from_colour
 from .mediapipe import Hand
 
@@ -89,11 +90,8 @@ def on_rays(points: np.ndarray, keypoints_2d: np.ndarray, K: np.ndarray) -> np.n
     ray through its image landmark (``keypoints_2d``, (21, 2) pixels, through ``K``): the image
     says where a keypoint is across the view, the landmark model only how far."""
     p = np.asarray(points, dtype=np.float64)
-    uv = np.asarray(keypoints_2d, dtype=np.float64)
-    z = p[:, 2]
-    x = (uv[:, 0] - K[0, 2]) / K[0, 0] * z
-    y = (uv[:, 1] - K[1, 2]) / K[1, 1] * z
-    return np.stack([x, y, z], axis=1)
+    rays = pixel_rays(np.asarray(K, dtype=np.float64), np.asarray(keypoints_2d, dtype=np.float64))
+    return np.asarray(rays * p[:, 2:3])
 
 
 def ray_scale(
