@@ -8,8 +8,9 @@ target; the default camera is at 0.79 m). Per distance:
 - **Hand**: a window of ``--frames`` consecutive frames taken every ``--step`` camera frames
   from the middle of the demonstration, through two ``MediaPipeEstimator`` instances (the
   estimator of ``lfd record``): with the depth image (MediaPipe on colour lifted with depth) and
-  without (``ColourHand``: placed from colour by PnP, skeleton fixed from the first hand, the
-  distance smoothed), the latter once with the landmark model's hand size and once with
+  without (``ColourHand``: the skeleton measured over the first confident hands, each keypoint
+  on its viewing ray, the distance voted by the bones and smoothed; ``estimate_frame``, one
+  frame at a time, no frames held), the latter once with the landmark model's hand size and once with
   ``hand_size`` = the simulated hand's true length (``lfd record --hand-size``). Printed: the
   frames in which each finds the hand (the simulator's hand is a capsule hand: MediaPipe does
   not find it in every frame) and the 3-D keypoint error against the simulator's true
