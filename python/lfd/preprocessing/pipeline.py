@@ -224,11 +224,9 @@ def _hand_cutoff(demo: Demonstration, feature_cutoff_hz: float | Literal["auto"]
     (and of whether it was placed from colour alone: metadata ``"depth": false``)."""
     if feature_cutoff_hz != "auto":
         return float(feature_cutoff_hz)
-    colour_only = demo.metadata.get("depth") is False
     steps = np.diff(np.unique(demo.hand.t_ns)) * 1e-9
-    if not steps.size:
-        return auto_cutoff(AUTO_CUTOFF_MAX_HZ / AUTO_CUTOFF_RATIO, colour_only)
-    return auto_cutoff(1.0 / float(np.median(steps)), colour_only)
+    rate = 1.0 / float(np.median(steps)) if steps.size else np.inf
+    return auto_cutoff(rate, colour_only=demo.metadata.get("depth") is False)
 
 
 @dataclass

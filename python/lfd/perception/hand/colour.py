@@ -118,8 +118,6 @@ def ray_scale(
     weighs every keypoint alike, and a few slanted finger bones whose depths the landmark model
     got wrong move the whole hand (with 5 mm per keypoint, its distance varied 30 mm from frame
     to frame on renders of the simulator's scene, ``benches/perception_e2e.py``)."""
-    from ...demo import HAND_BONES
-
     p = np.asarray(points, dtype=np.float64)
     a, b = np.array(HAND_BONES).T
     bone = p[b] - p[a]
@@ -129,13 +127,14 @@ def ray_scale(
     ok = (norm > 1e-9) & np.isfinite(norm)
     if not ok.any():
         return 1.0
-    sin2 = np.clip((np.abs(np.sum(bone * view, axis=1)) / np.where(ok, norm, 1.0)) ** 2, 0.0, 0.99)
+    safe = np.where(ok, norm, 1.0)
+    sin2 = np.clip((np.abs(np.sum(bone * view, axis=1)) / safe) ** 2, 0.0, 0.99)
     cos2 = 1.0 - sin2
     lens = np.asarray(lengths, dtype=np.float64)
     noise_m = shape_noise * float(np.sum(lens))
     var = 2.0 * noise_m**2 * sin2 / cos2 + 2.0 * (px_noise * mid[:, 2] / K[0, 0]) ** 2 / cos2
     weight = np.where(ok, lens**2 / np.maximum(var, 1e-12), 0.0)
-    votes = np.log(np.where(ok, lens / np.where(ok, norm, 1.0), 1.0))
+    votes = np.where(ok, np.log(lens / safe), 0.0)
     return float(np.exp(np.sum(weight * votes) / np.sum(weight)))
 
 
@@ -147,8 +146,6 @@ def keep_lengths(points: np.ndarray, lengths: np.ndarray) -> np.ndarray:
     bone points); when the ray passes farther than the bone's length from the joint before, the
     joint goes to the place at the bone's length nearest the ray. The wrist-pinky bone follows
     (as in :func:`~lfd.perception.hand.lift.fixed_skeleton`)."""
-    from ...demo import HAND_BONES
-
     p = np.asarray(points, dtype=np.float64)
     out = p.copy()
     placed = {0}
