@@ -303,11 +303,20 @@ class _Poses(TypedDict):
     quaternion: NDArray[np.float64]  # (n, 4) x, y, z, w
     bad: str | None
 
+class _Damage(TypedDict):
+    offset: int
+    end: int
+    chunks: list[int] | None
+    messages: int | None
+    why: str
+
 class _Recording(TypedDict):
     library: str
     file_size: int
     complete: bool
     error: str | None
+    damage: list[_Damage]
+    chunks: int
     channels: list[_Channel]
     metadata: dict[str, dict[str, str]]
     hands: dict[str, _Hand]
@@ -328,6 +337,8 @@ class _Summary(TypedDict):
     metadata: dict[str, dict[str, str]]
     attachments: list[_Attachment]
     messages: int
+    chunks: int
+    damage: list[_Damage]
     raw: dict[str, list[tuple[int, bytes]]]
 
 def read_recording(
@@ -336,12 +347,14 @@ def read_recording(
     """Every complete chunk of a (possibly truncated) MCAP recording, one sequential pass; the
     hand keypoints, confidences and object poses decoded, every other topic raw (the image
     topics' payloads dropped with ``images=False``; with ``raw_topics``, only those topics'
-    payloads kept, every topic still counted in ``channels``). ``RecordingFormatError`` if it
-    cannot be read (as ``lfd.io.mcapfile.scan``)."""
+    payloads kept, every topic still counted in ``channels``). A damaged region (a chunk that
+    fails its CRC, a bad length) is stepped over and listed in ``damage``: every chunk outside
+    it is read. ``RecordingFormatError`` if it cannot be read (as ``lfd.io.mcapfile.scan``)."""
 
 def read_summary(path: str | os.PathLike[str], topics: list[str] = ...) -> _Summary | None:
-    """A finished recording's summary section (channels, metadata, attachments, message count)
-    and the raw messages of ``topics``; None without a usable summary."""
+    """A finished recording's summary section (channels, metadata, attachments, message count),
+    checked against its chunk and message indexes, every chunk CRC-checked (``damage``: the
+    chunks that fail), and the raw messages of ``topics``; None without a usable summary."""
 
 # --- preprocessing: signal processing and rotations (scipy-equivalent; crates/hmmseg-py/src/
 # signal.rs and rotation.rs). A quaternion is (x, y, z, w); a row with a NaN gives a NaN row. ---

@@ -5,7 +5,7 @@
 
 use std::path::PathBuf;
 
-use lfd_mcap::{ChannelSummary, MetadataMap, Options, RawMessages};
+use lfd_mcap::{ChannelSummary, Damage, MetadataMap, Options, RawMessages};
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList, PyTuple};
@@ -66,6 +66,22 @@ fn raw_dict<'py>(py: Python<'py>, raw: &[(String, RawMessages)]) -> PyResult<Bou
     Ok(d)
 }
 
+/// The damaged regions: `offset`, `end`, `chunks` (ordinals or None), `messages` (or None),
+/// `why`.
+fn damage<'py>(py: Python<'py>, damage: &[Damage]) -> PyResult<Bound<'py, PyList>> {
+    let list = PyList::empty(py);
+    for d in damage {
+        let item = PyDict::new(py);
+        item.set_item("offset", d.offset)?;
+        item.set_item("end", d.end)?;
+        item.set_item("chunks", d.chunks.clone())?;
+        item.set_item("messages", d.messages)?;
+        item.set_item("why", &d.why)?;
+        list.append(item)?;
+    }
+    Ok(list)
+}
+
 /// A flat vector as a numpy array of `shape` (no copy: numpy takes the vector).
 fn array<'py, T: numpy::Element>(
     py: Python<'py>,
@@ -99,6 +115,8 @@ fn read_recording(
         out.set_item("file_size", rec.file_size)?;
         out.set_item("complete", rec.complete)?;
         out.set_item("error", &rec.error)?;
+        out.set_item("damage", damage(py, &rec.damage)?)?;
+        out.set_item("chunks", rec.chunks)?;
         out.set_item("channels", channels(py, &rec.channels)?)?;
         out.set_item("metadata", metadata_records(py, &rec.metadata)?)?;
         out.set_item("raw", raw_dict(py, &rec.raw)?)?;
@@ -170,6 +188,8 @@ fn read_summary(
         }
         out.set_item("attachments", attachments)?;
         out.set_item("messages", s.messages)?;
+        out.set_item("chunks", s.chunks)?;
+        out.set_item("damage", damage(py, &s.damage)?)?;
         out.set_item("raw", raw_dict(py, &s.raw)?)?;
         Ok(Some(out))
     })

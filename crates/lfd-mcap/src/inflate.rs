@@ -8,8 +8,7 @@ use std::borrow::Cow;
 use std::cell::RefCell;
 use std::io::Read;
 
-use mcap::records::ChunkHeader;
-
+use crate::records::ChunkHeader;
 use crate::{py_str_repr, ReadError, MAX_CHUNK_BYTES, MAX_INFLATION};
 
 /// The remaining inflation budget of one file.
@@ -57,6 +56,10 @@ impl Budget {
     }
 }
 
+/// Chunks declaring at most this many bytes are inflated into a buffer of their declared size;
+/// larger ones into a buffer that grows with what they really inflate to.
+const BULK: usize = 64 << 20;
+
 thread_local! {
     /// A zstd context per thread, reused across chunks.
     static ZSTD: RefCell<Option<zstd::bulk::Decompressor<'static>>> = const { RefCell::new(None) };
@@ -71,7 +74,7 @@ pub(crate) fn inflate<'a>(header: &ChunkHeader, data: &'a [u8]) -> Result<Cow<'a
     let capacity = usize::try_from(n).unwrap_or(usize::MAX).saturating_add(1);
     let records: Cow<'a, [u8]> = match header.compression.as_str() {
         "" => Cow::Borrowed(data),
-        "zstd" => {
+        "zstd" if capacity <= BULK => {
             let mut out = Vec::with_capacity(capacity);
             let result = ZSTD.with(|cell| {
                 let mut slot = cell.borrow_mut();
@@ -87,17 +90,29 @@ pub(crate) fn inflate<'a>(header: &ChunkHeader, data: &'a [u8]) -> Result<Cow<'a
                 Err(e) if e.to_string().contains("Destination buffer is too small") => {
                     return Err(too_big(n));
                 }
-                Err(e) => return Err(format!("ZstdError: zstd decompress error: {e}")),
+                Err(e) => return Err(format!("zstd cannot decompress it: {e}")),
             }
             Cow::Owned(out)
         }
-        "lz4" => {
-            let mut out = Vec::with_capacity(capacity);
-            let decoder = lz4::Decoder::new(data).map_err(|e| format!("LZ4FrameError: {e}"))?;
+        "zstd" => {
+            // a large declared size: the buffer grows with what really comes out
+            let mut out = Vec::with_capacity(BULK);
+            let decoder = zstd::stream::read::Decoder::new(data)
+                .map_err(|e| format!("zstd cannot decompress it: {e}"))?;
             decoder
                 .take(n.saturating_add(1))
                 .read_to_end(&mut out)
-                .map_err(|e| format!("LZ4FrameError: {e}"))?;
+                .map_err(|e| format!("zstd cannot decompress it: {e}"))?;
+            Cow::Owned(out)
+        }
+        "lz4" => {
+            let mut out = Vec::with_capacity(capacity.min(BULK));
+            let decoder =
+                lz4::Decoder::new(data).map_err(|e| format!("lz4 cannot decompress it: {e}"))?;
+            decoder
+                .take(n.saturating_add(1))
+                .read_to_end(&mut out)
+                .map_err(|e| format!("lz4 cannot decompress it: {e}"))?;
             Cow::Owned(out)
         }
         other => return Err(format!("unknown chunk compression {}", py_str_repr(other))),
@@ -107,7 +122,7 @@ pub(crate) fn inflate<'a>(header: &ChunkHeader, data: &'a [u8]) -> Result<Cow<'a
     }
     if records.len() as u64 != n {
         return Err(format!(
-            "ValueError: a chunk inflates to {} bytes, its header says {n}",
+            "it inflates to {} bytes, its header says {n}",
             records.len()
         ));
     }
@@ -115,8 +130,7 @@ pub(crate) fn inflate<'a>(header: &ChunkHeader, data: &'a [u8]) -> Result<Cow<'a
         let calculated = crc32fast::hash(&records);
         if calculated != header.uncompressed_crc {
             return Err(format!(
-                "CRCValidationError: crc validation failed in Chunk, expected: {}, \
-                 calculated: {calculated}",
+                "its records' CRC is {calculated}, its header says {}",
                 header.uncompressed_crc
             ));
         }
@@ -125,5 +139,5 @@ pub(crate) fn inflate<'a>(header: &ChunkHeader, data: &'a [u8]) -> Result<Cow<'a
 }
 
 fn too_big(n: u64) -> String {
-    format!("ValueError: a chunk inflates to more than {n} bytes, its header says {n}")
+    format!("it inflates to more than {n} bytes, its header says {n}")
 }

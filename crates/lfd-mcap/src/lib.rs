@@ -18,11 +18,13 @@
 
 mod inflate;
 pub mod proto;
+pub mod records;
 mod scan;
 mod summary;
+mod walk;
 
-pub use scan::read_recording;
-pub use summary::read_summary;
+pub use scan::{read_recording, read_recording_bytes};
+pub use summary::{read_summary, read_summary_bytes};
 
 use std::fmt::Write as _;
 use std::fs::File;
@@ -225,6 +227,22 @@ pub struct PoseTrack {
     pub bad: Option<String>,
 }
 
+/// A damaged region of a file that [`read_recording`] stepped over: everything else is read.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct Damage {
+    /// Where the damage starts (a record's offset) and where reading resumed.
+    pub offset: u64,
+    pub end: u64,
+    /// The chunks lost, by ordinal (1-based, file order), when known: from the summary's
+    /// chunk indexes, else for a chunk whose record is whole (its contents damaged) when no
+    /// region of unknown content came before it.
+    pub chunks: Option<Vec<u64>>,
+    /// Messages lost, when known (from the message indexes of the chunks lost).
+    pub messages: Option<u64>,
+    /// What is wrong, one plain line.
+    pub why: String,
+}
+
 /// Everything [`read_recording`] recovers from a file.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Recording {
@@ -234,6 +252,11 @@ pub struct Recording {
     pub complete: bool,
     /// Why the pass ended early (`None` when complete).
     pub error: Option<String>,
+    /// Damaged regions stepped over (every chunk outside them is read), in file order.
+    pub damage: Vec<Damage>,
+    /// Chunks in the file: those the summary indexes when damage was met and the file has a
+    /// usable summary, else the chunk records read (whole records, damaged contents included).
+    pub chunks: u64,
     /// By topic, in order of first appearance.
     pub channels: Vec<ChannelSummary>,
     pub metadata: MetadataMap,
@@ -271,6 +294,10 @@ pub struct Summary {
     pub attachments: Vec<AttachmentInfo>,
     /// Messages in the file, all channels.
     pub messages: u64,
+    /// Chunks in the file (distinct chunk indexes).
+    pub chunks: u64,
+    /// The chunks that fail to inflate or their CRC (each with its ordinal and messages).
+    pub damage: Vec<Damage>,
     /// The raw messages of the requested topics, in file order.
     pub raw: Vec<(String, RawMessages)>,
 }
@@ -292,13 +319,21 @@ fn open_checked(path: &Path) -> Result<(File, u64), ReadError> {
         .take(MAGIC.len() as u64)
         .read_to_end(&mut head)
         .map_err(cannot)?;
+    check_magic(&head, size, &p.to_string())?;
+    file.seek(SeekFrom::Start(0)).map_err(cannot)?;
+    Ok((file, size))
+}
+
+/// Check the first bytes of a file (`head`, at most the magic's length; `size` bytes in all).
+fn check_magic(head: &[u8], size: u64, p: &str) -> Result<(), ReadError> {
+    let head = &head[..head.len().min(MAGIC.len())];
     if head.is_empty() {
         return Err(ReadError(format!("{p} is empty, not an MCAP recording")));
     }
     if head[..] != MAGIC[..head.len()] {
         return Err(ReadError(format!(
             "{p} is not an MCAP file (bad magic bytes {})",
-            py_bytes_repr(&head)
+            py_bytes_repr(head)
         )));
     }
     if head.len() < MAGIC.len() {
@@ -306,8 +341,7 @@ fn open_checked(path: &Path) -> Result<(File, u64), ReadError> {
             "{p} is cut inside the MCAP magic ({size} bytes)"
         )));
     }
-    file.seek(SeekFrom::Start(0)).map_err(cannot)?;
-    Ok((file, size))
+    Ok(())
 }
 
 /// An I/O error as Python's `OSError` prints it: `[Errno 2] No such file or directory: 'x'`.

@@ -2,117 +2,36 @@
 
 use std::collections::HashMap;
 use std::fmt::Write as _;
-use std::fs::File;
-use std::io::Read;
 use std::path::Path;
 use std::sync::mpsc::{Receiver, TryRecvError};
 use std::sync::Arc;
 
-use mcap::records::{op, Record};
-use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
-use mcap::McapError;
 use prost::Message as _;
 use serde_json::Value;
 
 use crate::inflate::{inflate, Budget};
 use crate::proto::{PoseInFrame, PosesInFrame};
+use crate::records::{self, op, ChunkHeader};
+use crate::walk::{Next, Source, Walker};
 use crate::{
-    open_checked, ChannelSummary, ConfidenceTrack, HandTrack, MetadataMap, Options, PoseTrack,
-    RawMessages, ReadError, Recording,
+    open_checked, ChannelSummary, ConfidenceTrack, Damage, HandTrack, MetadataMap, Options,
+    PoseTrack, RawMessages, ReadError, Recording,
 };
-use mcap::records::ChunkHeader;
 use rayon::prelude::*;
-
-/// Bytes read from the file per read request (at least).
-const READ_BLOCK: usize = 1 << 20;
 
 /// Keypoints per hand.
 const KP: usize = 21;
 
-/// Why the pass stopped early.
+/// Why the pass stopped early, or a record that does not parse.
 pub(crate) enum Stop {
     Fatal(ReadError),
+    /// The pass ends here (the file is cut).
     Damaged(String),
+    /// This record is damaged: resynchronise after it.
+    Record(String),
 }
 
-/// An mcap crate error worded like the Python `mcap` reader's, where it has a twin.
-pub(crate) fn describe(err: &McapError, limit: u64) -> String {
-    match err {
-        McapError::UnexpectedEof => "EndOfFile: end of file".to_string(),
-        McapError::RecordTooLarge { opcode, len } => format!(
-            "RecordLengthLimitExceeded: {} record has length {len} that exceeds limit {limit}",
-            opcode_name(*opcode)
-        ),
-        McapError::BadDataCrc { saved, calculated } => format!(
-            "CRCValidationError: crc validation failed in DataEnd, expected: {saved}, \
-             calculated: {calculated}"
-        ),
-        McapError::Parse(e) => format!("{err}: {e}"),
-        McapError::Io(e) => format!("{err}: {e}"),
-        other => other.to_string(),
-    }
-}
-
-fn opcode_name(opcode: u8) -> String {
-    match opcode {
-        op::HEADER => "HEADER".into(),
-        op::FOOTER => "FOOTER".into(),
-        op::SCHEMA => "SCHEMA".into(),
-        op::CHANNEL => "CHANNEL".into(),
-        op::MESSAGE => "MESSAGE".into(),
-        op::CHUNK => "CHUNK".into(),
-        op::MESSAGE_INDEX => "MESSAGE_INDEX".into(),
-        op::CHUNK_INDEX => "CHUNK_INDEX".into(),
-        op::ATTACHMENT => "ATTACHMENT".into(),
-        op::ATTACHMENT_INDEX => "ATTACHMENT_INDEX".into(),
-        op::STATISTICS => "STATISTICS".into(),
-        op::METADATA => "METADATA".into(),
-        op::METADATA_INDEX => "METADATA_INDEX".into(),
-        op::SUMMARY_OFFSET => "SUMMARY_OFFSET".into(),
-        op::DATA_END => "DATA_END".into(),
-        other => format!("opcode {other:#04x}"),
-    }
-}
-
-/// A message record's channel id, log time and payload (the record is parsed by hand: it is
-/// the hot path).
-pub(crate) fn parse_message(body: &[u8]) -> Result<(u16, u64, &[u8]), String> {
-    if body.len() < 22 {
-        return Err(format!(
-            "error: a message record of {} bytes is shorter than its 22-byte header",
-            body.len()
-        ));
-    }
-    let channel = u16::from_le_bytes([body[0], body[1]]);
-    let mut t = [0u8; 8];
-    t.copy_from_slice(&body[6..14]);
-    Ok((channel, u64::from_le_bytes(t), &body[22..]))
-}
-
-/// The records of an inflated chunk: `(opcode, body)`, all of them or an error.
-pub(crate) fn split_records(mut data: &[u8]) -> Result<Vec<(u8, &[u8])>, String> {
-    let mut out = Vec::new();
-    while !data.is_empty() {
-        if data.len() < 9 {
-            return Err("EndOfFile: a chunk ends inside a record header".into());
-        }
-        let opcode = data[0];
-        let mut l = [0u8; 8];
-        l.copy_from_slice(&data[1..9]);
-        let len = u64::from_le_bytes(l);
-        let rest = &data[9..];
-        if len > rest.len() as u64 {
-            return Err(format!(
-                "EndOfFile: a chunk record of {len} bytes runs past its chunk ({} bytes left)",
-                rest.len()
-            ));
-        }
-        let (body, tail) = rest.split_at(len as usize);
-        out.push((opcode, body));
-        data = tail;
-    }
-    Ok(out)
-}
+pub(crate) use records::{message as parse_message, split as split_records};
 
 /// A log time as lfd reads it (an error beyond `i64::MAX`, the text of `scan()`).
 pub(crate) fn log_time(path: &str, topic: &str, t: u64) -> Result<i64, ReadError> {
@@ -277,6 +196,14 @@ struct State {
     /// The channel map and the topics (name, empty track) the workers decode with; `None`
     /// after a change.
     snapshot: Option<Snapshot>,
+    /// Damage met so far, in file order.
+    damage: Vec<Damage>,
+    /// Chunk records met (whole framing), and whether that count is each chunk's ordinal in
+    /// the file (no region of unknown content skipped before it).
+    chunks: u64,
+    ordinals_known: bool,
+    /// Message-index entries after each chunk met (index: its ordinal - 1).
+    indexed: Vec<Option<u64>>,
 }
 
 /// What decoding a chunk on a worker needs to know (a channel's topic never changes once
@@ -287,6 +214,16 @@ type Snapshot = (Arc<Vec<usize>>, Arc<Vec<(String, Kind)>>);
 struct Pending {
     header: ChunkHeader,
     data: Vec<u8>,
+    at: ChunkAt,
+}
+
+/// Where a chunk is: its record's offset and end, its ordinal (1-based, file order; 0 when
+/// unknown).
+#[derive(Clone, Copy)]
+struct ChunkAt {
+    offset: u64,
+    end: u64,
+    ordinal: u64,
 }
 
 /// A batch is decoded when it holds this many chunks...
@@ -430,12 +367,12 @@ fn wait(rx: &Receiver<Vec<Chunked>>) -> Vec<Chunked> {
 
 /// What a worker made of a chunk.
 enum Chunked {
-    /// Inflation failed: the pass ends here.
-    Damaged(String),
+    /// Inflation failed: the chunk is lost, the pass goes on.
+    Damaged(ChunkAt, String),
     /// Every message decoded (see [`decode_chunk`]).
     Done(Decoded),
     /// The inflated records, for the sequential path.
-    Slow(Vec<u8>),
+    Slow(ChunkAt, Vec<u8>),
 }
 
 /// A chunk decoded on a worker.
@@ -512,6 +449,34 @@ enum Item<'a> {
     Other(Record<'a>),
 }
 
+/// A record that changes the reader's state.
+enum Record<'a> {
+    Header(String),
+    Schema(records::Schema<'a>),
+    Channel(records::Channel),
+    Metadata(records::Metadata),
+    DataEnd(u32),
+    Footer,
+    /// Anything else (message indexes, attachments, summary records): nothing to do.
+    Other,
+}
+
+/// Parse a record other than a message or chunk.
+fn parse(opcode: u8, body: &[u8]) -> Result<Record<'_>, String> {
+    Ok(match opcode {
+        op::HEADER => Record::Header(records::header(body)?.library),
+        op::SCHEMA => Record::Schema(records::schema(body)?),
+        op::CHANNEL => Record::Channel(records::channel(body)?),
+        op::METADATA => Record::Metadata(records::metadata(body)?),
+        op::DATA_END => Record::DataEnd(records::data_end(body)?),
+        op::FOOTER => {
+            records::footer(body)?;
+            Record::Footer
+        }
+        _ => Record::Other,
+    })
+}
+
 #[derive(PartialEq, Eq)]
 enum Flow {
     Continue,
@@ -535,7 +500,7 @@ impl State {
         }
     }
 
-    fn channel(&mut self, ch: mcap::records::Channel) {
+    fn channel(&mut self, ch: records::Channel) {
         if self.channels[usize::from(ch.id)] != usize::MAX {
             return;
         }
@@ -622,76 +587,110 @@ impl State {
     /// Handle a (non-message, non-chunk) record.
     fn record(&mut self, rec: Record<'_>) -> Flow {
         match rec {
-            Record::Header(h) => self.library = h.library,
-            Record::Schema { header, data } => {
+            Record::Header(library) => self.library = library,
+            Record::Schema(schema) => {
                 self.schemas.insert(
-                    header.id,
+                    schema.id,
                     Schema {
-                        name: header.name,
-                        encoding: header.encoding,
-                        data: data.into_owned(),
+                        name: schema.name,
+                        encoding: schema.encoding,
+                        data: schema.data.to_vec(),
                     },
                 );
             }
             Record::Channel(ch) => self.channel(ch),
             Record::Metadata(m) => merge_metadata(&mut self.metadata, m.name, m.metadata),
             Record::DataEnd(_) => self.data_done = true,
-            Record::Footer(_) => return Flow::Footer,
-            _ => {}
+            Record::Footer => return Flow::Footer,
+            Record::Other => {}
         }
         Flow::Continue
     }
 
-    /// Handle any record of the file (`opcode`, `body`), in file order: chunks are admitted
-    /// (the bomb check) and queued; any record that changes the state first decodes the
-    /// queue.
-    fn top(&mut self, opcode: u8, body: &[u8]) -> Result<Flow, Stop> {
-        let limit = self.budget.file_size;
+    /// A chunk lost to damage (`why`).
+    fn lost(&mut self, at: ChunkAt, why: String) {
+        let known = at.ordinal > 0;
+        self.damage.push(Damage {
+            offset: at.offset,
+            end: at.end,
+            chunks: known.then(|| vec![at.ordinal]),
+            messages: if known {
+                self.indexed.get(at.ordinal as usize - 1).copied().flatten()
+            } else {
+                None
+            },
+            why: format!("chunk at offset {}: {why}", at.offset),
+        });
+    }
+
+    /// Handle a chunk record at `offset` (`end`: where the record ends): admitted (the bomb
+    /// check) and queued.
+    fn chunk(&mut self, body: &[u8], offset: u64, end: u64) -> Result<Flow, Stop> {
+        let (header, data) = records::chunk(body).map_err(Stop::Record)?;
+        if let Err(e) = self.budget.admit(&self.path, &header, data.len()) {
+            self.flush()?; // damage in an earlier chunk comes first
+            return Err(Stop::Fatal(e));
+        }
+        self.chunks += 1;
+        self.indexed.push(None);
+        let ordinal = if self.ordinals_known { self.chunks } else { 0 };
+        self.pending_bytes += header.uncompressed_size;
+        self.pending.push(Pending {
+            header,
+            data: data.to_vec(),
+            at: ChunkAt {
+                offset,
+                end,
+                ordinal,
+            },
+        });
+        let chunks = BATCH_CHUNKS.min(1 << self.batches.min(16));
+        if self.pending.len() >= chunks || self.pending_bytes >= BATCH_BYTES {
+            self.submit()?;
+        }
+        Ok(Flow::Continue)
+    }
+
+    /// Handle any record of the file (`opcode`, `body`, at `offset`, `crc`: of the bytes
+    /// before it), in file order: chunks are admitted and queued; any record that changes the
+    /// state first decodes the queue. A record that does not parse is `Stop::Record`.
+    fn top(&mut self, opcode: u8, body: &[u8], offset: u64, crc: u32) -> Result<Flow, Stop> {
+        let end = offset + 9 + body.len() as u64;
         match opcode {
-            op::CHUNK => {
-                let rec = mcap::parse_record(op::CHUNK, body);
-                let Ok(Record::Chunk { header, data }) = rec else {
-                    self.flush()?;
-                    return Err(Stop::Damaged(match rec {
-                        Err(e) => describe(&e, limit),
-                        Ok(_) => "a chunk record that is no chunk".into(),
-                    }));
-                };
-                if let Err(e) = self.budget.admit(&self.path, &header, data.len()) {
-                    self.flush()?; // damage in an earlier chunk comes first
-                    return Err(Stop::Fatal(e));
-                }
-                self.pending_bytes += header.uncompressed_size;
-                self.pending.push(Pending {
-                    header,
-                    data: data.into_owned(),
-                });
-                let chunks = BATCH_CHUNKS.min(1 << self.batches.min(16));
-                if self.pending.len() >= chunks || self.pending_bytes >= BATCH_BYTES {
-                    self.submit()?;
-                }
-                Ok(Flow::Continue)
-            }
+            op::CHUNK => self.chunk(body, offset, end),
             op::MESSAGE => {
+                let (ch, t, data) = parse_message(body).map_err(Stop::Record)?;
                 self.flush()?;
-                let (ch, t, data) = parse_message(body).map_err(Stop::Damaged)?;
                 self.message(ch, t, data).map_err(Stop::Fatal)?;
                 Ok(Flow::Continue)
             }
-            op::HEADER | op::SCHEMA | op::CHANNEL | op::METADATA | op::DATA_END | op::FOOTER => {
-                self.flush()?;
-                let rec = mcap::parse_record(opcode, body)
-                    .map_err(|e| Stop::Damaged(describe(&e, limit)))?;
-                Ok(self.record(rec))
-            }
-            _ => {
-                // message indexes and the like: parsed (damage ends the pass) but unused
-                if let Err(e) = mcap::parse_record(opcode, body) {
-                    self.flush()?;
-                    return Err(Stop::Damaged(describe(&e, limit)));
+            op::MESSAGE_INDEX => {
+                let (_, entries) = records::message_index(body).map_err(Stop::Record)?;
+                if let Some(n) = self.indexed.last_mut() {
+                    *n = Some(n.unwrap_or(0) + entries.len() as u64 / 16);
                 }
                 Ok(Flow::Continue)
             }
+            op::HEADER | op::SCHEMA | op::CHANNEL | op::METADATA | op::DATA_END | op::FOOTER => {
+                let rec = parse(opcode, body).map_err(Stop::Record)?;
+                self.flush()?;
+                if let Record::DataEnd(expected) = rec {
+                    if expected != 0 && expected != crc && self.damage.is_empty() {
+                        self.damage.push(Damage {
+                            offset: 0,
+                            end: offset,
+                            chunks: Some(Vec::new()),
+                            messages: None,
+                            why: format!(
+                                "the data section's CRC is {crc}, its data-end record says \
+                                 {expected}: a record outside the CRC-checked chunks is damaged"
+                            ),
+                        });
+                    }
+                }
+                Ok(self.record(rec))
+            }
+            _ => Ok(Flow::Continue), // attachments, summary records, user records
         }
     }
 
@@ -721,10 +720,10 @@ impl State {
             let decoded = pending
                 .into_par_iter()
                 .map(|p| match inflate(&p.header, &p.data) {
-                    Err(why) => Chunked::Damaged(why),
+                    Err(why) => Chunked::Damaged(p.at, why),
                     Ok(records) => match decode_chunk(&records, &channels, &topics, &path) {
                         Some(decoded) => Chunked::Done(decoded),
-                        None => Chunked::Slow(records.into_owned()),
+                        None => Chunked::Slow(p.at, records.into_owned()),
                     },
                 })
                 .collect::<Vec<Chunked>>();
@@ -756,7 +755,7 @@ impl State {
     fn apply(&mut self, batch: Vec<Chunked>) -> Result<(), Stop> {
         for chunk in batch {
             match chunk {
-                Chunked::Damaged(why) => return Err(Stop::Damaged(why)),
+                Chunked::Damaged(at, why) => self.lost(at, why),
                 Chunked::Done(decoded) => {
                     for &(i, t) in &decoded.messages {
                         self.topics[i as usize].summary.add(t);
@@ -765,8 +764,15 @@ impl State {
                         self.topics[i].kind.append(kind);
                     }
                 }
-                Chunked::Slow(records) => {
-                    let work = self.apply_chunk(&records)?;
+                Chunked::Slow(at, records) => {
+                    let work = match self.apply_chunk(&records) {
+                        Ok(work) => work,
+                        Err(Stop::Record(why)) => {
+                            self.lost(at, why);
+                            continue;
+                        }
+                        Err(stop) => return Err(stop),
+                    };
                     let mut scratch = std::mem::take(&mut self.scratch);
                     for (i, t, data) in work {
                         let topic = &mut self.topics[i];
@@ -784,19 +790,16 @@ impl State {
     /// channels and messages, and skips the rest), then apply them: the typed messages are
     /// returned for decoding.
     fn apply_chunk<'a>(&mut self, records: &'a [u8]) -> Result<Vec<Work<'a>>, Stop> {
-        let limit = self.budget.file_size;
-        let split = split_records(records).map_err(Stop::Damaged)?;
+        let split = split_records(records).map_err(Stop::Record)?;
         let mut items = Vec::with_capacity(split.len());
         for (opcode, body) in split {
             match opcode {
                 op::MESSAGE => {
-                    let (ch, t, d) = parse_message(body).map_err(Stop::Damaged)?;
+                    let (ch, t, d) = parse_message(body).map_err(Stop::Record)?;
                     items.push(Item::Message(ch, t, d));
                 }
                 op::SCHEMA | op::CHANNEL => {
-                    let rec = mcap::parse_record(opcode, body)
-                        .map_err(|e| Stop::Damaged(describe(&e, limit)))?;
-                    items.push(Item::Other(rec));
+                    items.push(Item::Other(parse(opcode, body).map_err(Stop::Record)?));
                 }
                 _ => {}
             }
@@ -835,7 +838,7 @@ impl State {
         };
         match stop {
             Some(Stop::Fatal(e)) => return Err(e),
-            Some(Stop::Damaged(why)) if !self.data_done => {
+            Some(Stop::Damaged(why) | Stop::Record(why)) if !self.data_done => {
                 rec.error = Some(format!("incomplete or damaged record: {why}"));
             }
             _ if !self.data_done => {
@@ -843,6 +846,8 @@ impl State {
             }
             _ => {}
         }
+        rec.damage = self.damage;
+        rec.chunks = self.chunks;
         for t in self.topics {
             let name = t.summary.topic.clone();
             rec.channels.push(t.summary);
@@ -1030,11 +1035,40 @@ fn confidence_slow(data: &[u8]) -> Result<ConfidenceRow, String> {
 /// A [`ReadError`] worded as `lfd.io.mcapfile.scan` when the file cannot be opened, is empty,
 /// does not start with the MCAP magic, would inflate beyond [`crate::inflate_limit`], uses an
 /// unknown chunk compression, or has a message with a log time beyond `i64::MAX`. Damage
-/// after the magic is not an error ([`Recording::complete`], [`Recording::error`]).
+/// after the magic is not an error ([`Recording::complete`], [`Recording::error`],
+/// [`Recording::damage`]).
 pub fn read_recording(path: &Path, options: &Options) -> Result<Recording, ReadError> {
-    let (mut file, size) = open_checked(path)?;
+    let (file, size) = open_checked(path)?;
+    read_source(
+        Source::File(&file),
+        size,
+        &path.display().to_string(),
+        options,
+    )
+}
+
+/// [`read_recording`] of a file's bytes held in memory (`path` names it in messages): what
+/// the fuzz harness calls.
+///
+/// # Errors
+/// As [`read_recording`].
+pub fn read_recording_bytes(
+    bytes: &[u8],
+    path: &str,
+    options: &Options,
+) -> Result<Recording, ReadError> {
+    crate::check_magic(bytes, bytes.len() as u64, path)?;
+    read_source(Source::Bytes(bytes), bytes.len() as u64, path, options)
+}
+
+fn read_source(
+    src: Source<'_>,
+    size: u64,
+    path: &str,
+    options: &Options,
+) -> Result<Recording, ReadError> {
     let mut state = State {
-        path: path.display().to_string(),
+        path: path.to_string(),
         options: options.clone(),
         budget: Budget::new(size),
         library: String::new(),
@@ -1051,42 +1085,80 @@ pub fn read_recording(path: &Path, options: &Options) -> Result<Recording, ReadE
         batches: 0,
         inflight: None,
         snapshot: None,
+        damage: Vec::new(),
+        chunks: 0,
+        ordinals_known: true,
+        indexed: Vec::new(),
     };
-    let limit = size.min(4 << 30);
-    let mut reader = LinearReader::new_with_options(
-        LinearReaderOptions::default()
-            .with_emit_chunks(true)
-            .with_validate_data_section_crc(true)
-            .with_record_length_limit(usize::try_from(limit).unwrap_or(usize::MAX)),
-    );
-    let stop = run(&mut state, &mut reader, &mut file, limit);
-    state.finish(stop, size)
+    let mut walker = Walker::new(src, size, 0);
+    let stop = match walker.advance(crate::MAGIC.len() as u64) {
+        Ok(()) => run(&mut state, &mut walker),
+        Err(e) => Some(Stop::Damaged(format!("cannot read the file: {e}"))),
+    };
+    let mut rec = state.finish(stop, size)?;
+    if !rec.damage.is_empty() {
+        if let Some(n) = crate::summary::attribute(src, size, &mut rec.damage) {
+            rec.chunks = n;
+        }
+    }
+    Ok(rec)
 }
 
-fn run(state: &mut State, reader: &mut LinearReader, file: &mut File, limit: u64) -> Option<Stop> {
+/// The pass over the top-level records: each handled in order; a damaged one stepped over
+/// to the next plausible record (a region of [`Damage`]), or, with none after it (a cut
+/// file), the end of the pass.
+fn run(state: &mut State, w: &mut Walker<'_>) -> Option<Stop> {
     loop {
-        let event = match reader.next_event() {
-            None => return None,
-            Some(Err(e)) => return Some(Stop::Damaged(describe(&e, limit))),
-            Some(Ok(event)) => event,
-        };
-        match event {
-            LinearReadEvent::ReadRequest(n) => {
-                let buf = reader.insert(n.max(READ_BLOCK));
-                let got = loop {
-                    match file.read(buf) {
-                        Ok(got) => break got,
-                        Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-                        Err(e) => return Some(Stop::Damaged(format!("OSError: {e}"))),
-                    }
+        let (offset, why) = match w.next() {
+            Next::End => return None,
+            Next::Cut(why) => return Some(Stop::Damaged(why)),
+            Next::Damaged { offset, why } => (offset, why),
+            Next::Record {
+                offset,
+                opcode,
+                len,
+            } => {
+                let crc = w.crc();
+                let body = match w.body(offset, len) {
+                    Ok(body) => body,
+                    Err(e) => return Some(Stop::Damaged(format!("cannot read the file: {e}"))),
                 };
-                reader.notify_read(got);
+                match state.top(opcode, body, offset, crc) {
+                    Ok(Flow::Continue) => {
+                        if let Err(e) = w.advance(offset + 9 + len) {
+                            return Some(Stop::Damaged(format!("cannot read the file: {e}")));
+                        }
+                        continue;
+                    }
+                    Ok(Flow::Footer) => return None,
+                    Err(Stop::Record(why)) => (
+                        offset,
+                        format!(
+                            "a {} record at offset {offset} is damaged: {why}",
+                            records::opcode_name(opcode)
+                        ),
+                    ),
+                    Err(stop) => return Some(stop),
+                }
             }
-            LinearReadEvent::Record { data, opcode } => match state.top(opcode, data) {
-                Ok(Flow::Continue) => {}
-                Ok(Flow::Footer) => return None,
-                Err(stop) => return Some(stop),
-            },
+        };
+        if state.data_done {
+            return Some(Stop::Damaged(why)); // in the summary section: nothing more to read
+        }
+        let max_chunk = crate::MAX_CHUNK_BYTES;
+        let Some(to) = w.resync(offset, max_chunk) else {
+            return Some(Stop::Damaged(why));
+        };
+        state.ordinals_known = false;
+        state.damage.push(Damage {
+            offset,
+            end: to,
+            chunks: None,
+            messages: None,
+            why,
+        });
+        if let Err(e) = w.advance(to) {
+            return Some(Stop::Damaged(format!("cannot read the file: {e}")));
         }
     }
 }

@@ -53,8 +53,10 @@ def run(args: argparse.Namespace) -> int:
         write_json(args.json, s)
     from rich.table import Table
 
+    from rich.markup import escape
+
     con = console(args)
-    state = "[green]complete[/]" if s["complete"] else f"[red]damaged[/] ({s['damage']})"
+    state = "[green]complete[/]" if s["complete"] else f"[red]damaged[/] ({escape(s['damage'])})"
     con.print(
         f"[bold]{s['path']}[/]  {s['file_size'] / 1024:.1f} KiB, {s['messages']} messages, "
         f"{s['duration_s']:.2f} s, {state}"

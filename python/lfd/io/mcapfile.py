@@ -94,9 +94,20 @@ class Records:
     messages: dict[str, list[tuple[int, bytes]]]
     metadata: dict[str, dict[str, str]]
 
+    #: Damaged regions stepped over (dicts: ``offset``, ``end``, ``chunks``: the ordinals of
+    #: the chunks lost or None, ``messages``: lost or None when unknown, ``why``).
+    damage: list[dict[str, Any]]
+    #: Chunks in the file: read (:class:`RawRecording`) or indexed (:class:`Summary`).
+    chunks: int
+
     @property
     def message_count(self) -> int:
         return sum(c.count for c in self.channels.values())
+
+    def damage_text(self) -> str | None:
+        """The damage as one plain line (None without damage): which chunks, how many
+        messages lost (``unknown`` when no index says)."""
+        return damage_text(self.damage, self.chunks)
 
     @property
     def span_s(self) -> float:
@@ -144,6 +155,8 @@ class RawRecording(Records):
     tracks: dict[str, dict[str, Any]] = field(default_factory=dict)
     #: Topics whose messages :func:`read` was asked not to keep (:meth:`encoded` reads them).
     unread: frozenset[str] = frozenset()
+    damage: list[dict[str, Any]] = field(default_factory=list)
+    chunks: int = 0
 
     def encoded(self, topic: str) -> list[tuple[int, bytes]]:
         """The messages of ``topic``, still encoded: :attr:`messages`, or for a topic in
@@ -155,6 +168,30 @@ class RawRecording(Records):
             self.messages[topic] = list(doc["raw"].get(topic, []))
             self.unread = self.unread - {topic}
         return self.messages.get(topic, [])
+
+
+def damage_text(damage: Sequence[Mapping[str, Any]], chunks: int = 0) -> str | None:
+    """Damaged regions as one plain line: ``chunk 10 of 19 damaged (why): 137 messages lost``;
+    None without damage."""
+    if not damage:
+        return None
+    parts = []
+    of = f" of {chunks}" if chunks else ""
+    for d in damage:
+        ids = d.get("chunks")
+        if ids is None:
+            where = f"bytes {d['offset']}-{d['end']} (chunks unknown)"
+        elif not ids:
+            where = f"bytes {d['offset']}-{d['end']} (no chunk)"
+        elif len(ids) == 1:
+            where = f"chunk {ids[0]}{of}"
+        else:
+            where = f"chunks {', '.join(str(i) for i in ids)}{of}"
+        n = d.get("messages")
+        lost = "unknown messages lost" if n is None else f"{n} messages lost"
+        why = " ".join(str(d["why"]).split())
+        parts.append(f"{where} damaged ({why}): {lost}")
+    return "; ".join(parts)
 
 
 def _inflate(chunk: Chunk, path: str, budget: int) -> Chunk:
@@ -361,6 +398,8 @@ def read(
         complete=bool(doc["complete"]),
         error=doc["error"],
         library=doc["library"],
+        damage=[dict(d) for d in doc["damage"]],
+        chunks=int(doc["chunks"]),
     )
     raw.messages = {topic: [] for topic in raw.channels}
     raw.messages.update(doc["raw"])
@@ -385,6 +424,8 @@ class Summary(Records):
     metadata: dict[str, dict[str, str]]
     attachments: list[dict[str, Any]]
     messages: dict[str, list[tuple[int, bytes]]]
+    damage: list[dict[str, Any]] = field(default_factory=list)
+    chunks: int = 0
 
 
 def read_summary(
@@ -392,7 +433,10 @@ def read_summary(
 ) -> Summary | None:
     """The summary section of an MCAP file and the messages of ``topics`` (read from the chunks
     that hold them, found by the chunk indexes); None when the file has none (a recording whose
-    writer was killed: :func:`read` recovers it).
+    writer was killed: :func:`read` recovers it) or one that cannot be believed (chunk indexes
+    that do not point at their chunks, chunks without message indexes, statistics that disagree
+    with them). Every chunk is inflated and CRC-checked, nothing kept: :attr:`Summary.damage`
+    names the damaged ones and the messages their message indexes say they held.
 
     Raises
     ------
@@ -413,4 +457,6 @@ def read_summary(
         metadata={k: dict(v) for k, v in doc["metadata"].items()},
         attachments=[dict(a) for a in doc["attachments"]],
         messages={t: list(doc["raw"].get(t, [])) for t in topics},
+        damage=[dict(d) for d in doc["damage"]],
+        chunks=int(doc["chunks"]),
     )

@@ -436,7 +436,9 @@ def load(
     -------
     Demonstration
         With ``metadata["load_report"]``: ``complete``, ``messages``, ``unsorted`` and
-        ``duplicates`` (per topic), ``recovered`` (the warning text, or None).
+        ``duplicates`` (per topic), ``recovered`` (the warning text, or None), ``damage`` (the
+        damaged chunks stepped over and the messages lost, one line, or None: every other
+        chunk is read).
 
     Raises
     ------
@@ -513,7 +515,16 @@ def demonstration_of(
         )
         report["recovered"] = msg
         warnings.warn(msg, RecoveredFileWarning, stacklevel=stacklevel)
-    side = hand_side(raw, raw.complete, raw.error)
+    damage = raw.damage_text()
+    report["damage"] = damage
+    if damage is not None:
+        msg = (
+            f"{raw.path} is damaged: {damage}; every other chunk was read "
+            f"({raw.message_count} messages covering {raw.span_s:.2f} s)"
+        )
+        report["recovered"] = msg if report["recovered"] is None else report["recovered"]
+        warnings.warn(msg, RecoveredFileWarning, stacklevel=stacklevel)
+    side = hand_side(raw, raw.complete and damage is None, raw.error or damage)
     loader = _Loader(raw)
     hand = loader.hand(side)
     objects = {}

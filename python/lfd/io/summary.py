@@ -30,12 +30,17 @@ def summarise(
     label channels alone (:func:`lfd.io.mcapfile.read_summary`), whatever its length. A file
     without a summary (its writer was killed) is read whole with the damage rules of
     :func:`lfd.io.load`: ``source`` says which (``"summary"`` or ``"scan"``), ``damage`` what
-    was lost. ``check`` also loads the tracks (:func:`lfd.io.load`) for what segmenting will
+    was lost: ``complete`` is true only when the data section ends properly and every chunk
+    passes its CRC (each is inflated and checked, nothing kept), ``damaged_chunks`` lists the
+    damaged ones (ordinals, messages lost when the message indexes say, else None) and
+    ``damage`` says it in one line. ``check`` also loads the tracks (:func:`lfd.io.load`) for what segmenting will
     meet: ``objects[].travel_m`` (how far each object moves), ``hand_approach`` (the hand's
     closest approach to an object) and ``problems`` (a hand that reaches no object, no object
     moving under ground-truth skills that move one; :mod:`lfd.io.checks`). A ROS bag (with its
-    ``mapping``) is always loaded. A recording that cannot be used is reported in ``error``
-    (its warnings in ``warnings``), not raised, so a damaged file can still be summarised.
+    ``mapping``) is always loaded. A readable MCAP file that lacks the hand keypoints or every
+    object pose is described with that in ``problems``; a recording that cannot be used
+    otherwise is reported in ``error`` (its warnings in ``warnings``), not raised, so a damaged
+    file can still be summarised.
     Times are seconds from ``start_ns``, the first message.
     """
     summary: dict[str, Any]
@@ -61,11 +66,15 @@ def _mcap(
     """The summary of an lfd MCAP file from its summary section (else a full read)."""
     rec: Records | None = read_summary(path, SMALL_TOPICS)
     complete, damage, source = True, None, "summary"
-    if rec is None:
-        raw = read(path, images=False)
+    if rec is None:  # no summary, or one that cannot be believed: read the file (labels kept)
+        raw = read(path, images=False, topics=SMALL_TOPICS)
         rec, complete, damage, source = raw, raw.complete, raw.error, "scan"
-        if damage is None:
+        if damage is None and not complete:
             damage = "the file has no summary section (its writer was not closed)"
+    chunk_damage = rec.damage_text()
+    if chunk_damage is not None:
+        complete = False
+        damage = chunk_damage if damage is None else f"{damage}; {chunk_damage}"
     firsts = [c.first_ns for c in rec.channels.values() if c.first_ns is not None]
     t0 = min(firsts) if firsts else 0
     summary: dict[str, Any] = {
@@ -76,6 +85,8 @@ def _mcap(
         "damage": damage,
         "source": source,
         "messages": rec.message_count,
+        "chunks": rec.chunks,
+        "damaged_chunks": rec.damage,
         "duration_s": rec.span_s,
         "start_ns": t0,
         "channels": [
@@ -95,14 +106,18 @@ def _mcap(
         "error": None,
     }
     if not complete and not check:  # else load says it
+        what = "is damaged" if chunk_damage is not None else "is truncated or was not closed"
         warnings.warn(
-            f"{rec.path} is truncated or was not closed ({damage}); recovered "
-            f"{rec.message_count} messages covering {rec.span_s:.2f} s from its complete chunks",
+            f"{rec.path} {what} ({damage}); recovered {rec.message_count} messages covering "
+            f"{rec.span_s:.2f} s from its intact chunks",
             RecoveredFileWarning,
             stacklevel=3,
         )
     try:
-        hand_side(rec, complete, damage)
+        try:
+            hand_side(rec, complete, damage)
+        except RecordingFormatError as err:  # described all the same: it cannot be segmented
+            summary["problems"].append(f"{err} (lfd segment and lfd.load refuse it)")
         specs = objects_of(rec)
         if check:
             return summary  # objects, labels and metadata from the loaded demonstration
