@@ -204,6 +204,9 @@ struct State {
     ordinals_known: bool,
     /// Message-index entries after each chunk met (index: its ordinal - 1).
     indexed: Vec<Option<u64>>,
+    /// The schemas and channels the summary repeats, registered at the first damage (the
+    /// chunk lost may be the one that defined them).
+    fallback: Option<(Vec<crate::summary::OwnedSchema>, Vec<records::Channel>)>,
 }
 
 /// What decoding a chunk on a worker needs to know (a channel's topic never changes once
@@ -607,8 +610,26 @@ impl State {
         Flow::Continue
     }
 
+    /// Register the summary's schemas and channels not met yet (after damage).
+    fn fall_back(&mut self) {
+        let Some((schemas, channels)) = self.fallback.take() else {
+            return;
+        };
+        for s in schemas {
+            self.schemas.entry(s.id).or_insert(Schema {
+                name: s.name,
+                encoding: s.encoding,
+                data: s.data,
+            });
+        }
+        for ch in channels {
+            self.channel(ch);
+        }
+    }
+
     /// A chunk lost to damage (`why`).
     fn lost(&mut self, at: ChunkAt, why: String) {
+        self.fall_back();
         let known = at.ordinal > 0;
         self.damage.push(Damage {
             offset: at.offset,
@@ -1089,6 +1110,7 @@ fn read_source(
         chunks: 0,
         ordinals_known: true,
         indexed: Vec::new(),
+        fallback: crate::summary::channels(src, size),
     };
     let mut walker = Walker::new(src, size, 0);
     let stop = match walker.advance(crate::MAGIC.len() as u64) {
@@ -1150,6 +1172,10 @@ fn run(state: &mut State, w: &mut Walker<'_>) -> Option<Stop> {
             return Some(Stop::Damaged(why));
         };
         state.ordinals_known = false;
+        if let Err(stop) = state.flush() {
+            return Some(stop);
+        }
+        state.fall_back();
         state.damage.push(Damage {
             offset,
             end: to,

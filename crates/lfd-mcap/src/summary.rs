@@ -441,6 +441,34 @@ fn verify(
     Ok(damaged)
 }
 
+/// The schemas and channels a usable summary section repeats (what a reader that lost the
+/// chunk defining a channel falls back on).
+pub(crate) fn channels(
+    src: Source<'_>,
+    size: u64,
+) -> Option<(Vec<OwnedSchema>, Vec<records::Channel>)> {
+    let mut sec = section(src, size).ok()?;
+    let schemas = sec
+        .schemas
+        .drain()
+        .map(|(id, (name, encoding, data))| OwnedSchema {
+            id,
+            name,
+            encoding,
+            data,
+        })
+        .collect();
+    Some((schemas, sec.channels))
+}
+
+/// A schema record, owned.
+pub(crate) struct OwnedSchema {
+    pub id: u16,
+    pub name: String,
+    pub encoding: String,
+    pub data: Vec<u8>,
+}
+
 /// Name the chunks lost in each damaged region of a full read, and their messages, from the
 /// file's summary when it has a usable one (chunk indexes and message indexes): the number of
 /// chunks it indexes.

@@ -112,6 +112,14 @@ fn fuzz_truncated_and_flipped() {
 }
 
 #[test]
+fn fuzz_mutations() {
+    // the long run's mutations (examples/fuzz.rs), briefly: LFD_MCAP_FUZZ_CASES reads
+    let n = u64::from(cases()) * 4;
+    let calls = common::mutate::run(&common::fuzz_seeds(), n, 7);
+    eprintln!("fuzz mutations: {calls} calls passed");
+}
+
+#[test]
 fn fuzz_summary_fields() {
     // flips confined to the summary section and footer of a complete file
     let src = &seeds()[0];

@@ -10,6 +10,8 @@ use lfd_mcap::proto::{Pose, PoseInFrame, PosesInFrame, Quaternion, Vector3};
 use mcap::records::MessageHeader;
 use prost::Message as _;
 
+pub mod mutate;
+
 /// A file in the temporary directory, removed when dropped.
 pub struct TempFile(PathBuf);
 
@@ -160,9 +162,39 @@ pub const T0: u64 = 1_700_000_000_000_000_000;
 /// A small lfd-like recording written by the `mcap` crate: hand keypoints (message 7 has 20
 /// poses), confidences, two object poses, events, colour images, metadata and an attachment.
 pub fn fixture(compression: Option<mcap::Compression>, chunk_size: u64) -> Vec<u8> {
-    let mut w = mcap::WriteOptions::new()
-        .compression(compression)
-        .chunk_size(Some(chunk_size))
+    fixture_with(
+        mcap::WriteOptions::new()
+            .compression(compression)
+            .chunk_size(Some(chunk_size)),
+    )
+}
+
+/// [`fixture`] without message indexes and statistics (both optional in MCAP).
+pub fn fixture_unindexed(compression: Option<mcap::Compression>, chunk_size: u64) -> Vec<u8> {
+    fixture_with(
+        mcap::WriteOptions::new()
+            .compression(compression)
+            .chunk_size(Some(chunk_size))
+            .emit_message_indexes(false)
+            .emit_statistics(false),
+    )
+}
+
+/// The seeds of the mutation fuzzer: the fixture in every compression, without indexes, and
+/// the shipped exp1.
+pub fn fuzz_seeds() -> Vec<Vec<u8>> {
+    vec![
+        fixture(None, 2048),
+        fixture(Some(mcap::Compression::Zstd), 4096),
+        fixture(Some(mcap::Compression::Lz4), 4096),
+        fixture_unindexed(Some(mcap::Compression::Zstd), 4096),
+        shipped("exp1.mcap"),
+    ]
+}
+
+/// The fixture's messages written with `options`.
+pub fn fixture_with(options: mcap::WriteOptions) -> Vec<u8> {
+    let mut w = options
         .library("fixture")
         .create(Cursor::new(Vec::new()))
         .expect("a writer");
