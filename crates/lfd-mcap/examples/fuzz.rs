@@ -5,7 +5,6 @@
 //! allocate beyond it aborts the process.
 
 #[path = "../tests/common/mod.rs"]
-#[allow(dead_code)]
 mod common;
 
 fn main() {

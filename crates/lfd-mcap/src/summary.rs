@@ -318,6 +318,11 @@ fn count(
     if !sec.chunks.is_empty() && sec.chunks.iter().all(|ci| ci.message_index_length == 0) {
         return Err(Fail::Unusable);
     }
+    // no chunk index: only statistics saying "no message" are believed (messages outside
+    // chunks, or no index at all, are counted by a full read)
+    if sec.chunks.is_empty() && sec.statistics.as_ref().map(|s| s.message_count) != Some(0) {
+        return Err(Fail::Unusable);
+    }
     for ci in &sec.chunks {
         if ci.message_index_length == 0 {
             per_chunk.push(0);

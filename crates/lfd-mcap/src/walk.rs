@@ -253,7 +253,7 @@ impl<'a> Walker<'a> {
                 }
             }
             op::SCHEMA | op::CHANNEL | op::METADATA => {
-                if len > SYNC_BODY || len < 4 {
+                if !(4..=SYNC_BODY).contains(&len) {
                     return false;
                 }
                 let Some(body) = self.src.bytes_at(at + 9, len, self.size) else {

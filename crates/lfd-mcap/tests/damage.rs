@@ -288,7 +288,12 @@ fn with_length(opcode: u8, len: u64) -> Vec<u8> {
 
 #[test]
 fn a_huge_length_in_any_record_kind_is_an_error_not_an_allocation() {
-    for len in [u64::from(u32::MAX), u64::MAX, 1 << 31, (1 << 63) | (1 << 31)] {
+    for len in [
+        u64::from(u32::MAX),
+        u64::MAX,
+        1 << 31,
+        (1 << 63) | (1 << 31),
+    ] {
         let results = [
             records::header(&with_length(0x01, len)).err(),
             records::metadata(&with_length(0x0C, len)).err(),
