@@ -3,9 +3,12 @@
 :func:`read` is how recordings are read: the engine's reader (``crates/lfd-mcap``, Rust, the
 ``mcap`` crate) decodes the hand keypoints, their confidence and the object poses straight into
 arrays (:attr:`RawRecording.tracks`) and keeps the other messages encoded; :func:`read_summary`
-reads only a file's summary section (what ``lfd info`` shows). Both apply the limits below and
-the same damage rules as :func:`scan`, the pure-Python reader (the ``mcap`` package), which
-ROS bags in MCAP, ``lfd.io.follow`` and the tests comparing the two readers use.
+reads only a file's summary section (what ``lfd info`` shows), checked against its chunk and
+message indexes, every chunk CRC-checked. Both apply the limits below. The engine's reader also
+steps over damage that :func:`scan`, the pure-Python reader (the ``mcap`` package, which ROS
+bags in MCAP, ``lfd.io.follow`` and the tests comparing the two readers use), stops at: a chunk
+that fails its CRC is lost alone, a bad length field is skipped to the next plausible record,
+and :attr:`RawRecording.damage` names what was lost (:func:`damage_text`, docs/cli.md).
 
 :func:`scan` reads a recording sequentially with :class:`mcap.stream_reader.StreamReader`
 (CRC-checked), which needs no summary section, so a file whose writer was killed or that was cut

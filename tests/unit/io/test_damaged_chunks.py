@@ -183,3 +183,22 @@ def test_info_reads_a_file_without_message_indexes_or_statistics(
     assert s["channels"] == want["channels"]
     assert s["labels"] == want["labels"]
     assert len(lfd.load(path, images=False).hand) == len(lfd.load(EXP1, images=False).hand)
+
+
+def test_info_lists_a_recording_without_tags(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A video without tags: the hand on the camera topic only, no object pose. ``lfd info``
+    lists the camera topic and says in a warning that segmenting refuses it (exit 0)."""
+    from lfd.io import McapRecorder
+
+    path = tmp_path / "notags.mcap"
+    with McapRecorder(path) as rec:
+        for i in range(20):
+            rec.add_hand(1_700_000_000_000_000_000 + i * 40_000_000, np.ones((21, 3)), frame="camera")
+    assert main(["info", str(path)]) == 0
+    out, err = capsys.readouterr()
+    assert "/hand/right/keypoints_camera" in out
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("lfd info: warning: "), err
+    assert "not a usable lfd recording" in lines[0]

@@ -452,7 +452,8 @@ struct SoaSweep<'a, const N: usize> {
 impl<const N: usize> Kernel for SoaSweep<'_, N> {
     type Output = ();
 
-    // inline: compiled inside the AVX2 function; bitwise tests: branch-free over the runs
+    // inline: compiled inside the AVX2 function; bitwise tests: branch-free over the runs;
+    // too_many_lines: the sweep's hot loop, one body so its state stays in registers
     #[allow(
         clippy::inline_always,
         clippy::too_many_lines,
