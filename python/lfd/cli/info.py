@@ -51,9 +51,8 @@ def run(args: argparse.Namespace) -> int:
     s = summarise(args.recording, **load_options(args), check=args.check)
     if args.json:
         write_json(args.json, s)
-    from rich.table import Table
-
     from rich.markup import escape
+    from rich.table import Table
 
     con = console(args)
     state = "[green]complete[/]" if s["complete"] else f"[red]damaged[/] ({escape(s['damage'])})"

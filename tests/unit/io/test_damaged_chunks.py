@@ -6,23 +6,24 @@ from __future__ import annotations
 
 import json
 import struct
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import _paths
+import lfd
 import numpy as np
 import pytest
 import zstandard
-from mcap.reader import make_reader
-
-import lfd
 from lfd.cli import main
 from lfd.errors import RecoveredFileWarning
 from lfd.io.mcapfile import read_summary
+from mcap.reader import make_reader
 
 EXP1 = _paths.RECORDINGS / "exp1.mcap"
 
 
-def _chunk_indexes(path: Path) -> list:
+def _chunk_indexes(path: Path) -> list[Any]:
     with open(path, "rb") as f:
         summary = make_reader(f).get_summary()
     assert summary is not None
@@ -36,7 +37,7 @@ def _topics(path: Path) -> dict[int, str]:
     return {i: c.topic for i, c in summary.channels.items()}
 
 
-def _chunk_messages(data: bytes, ci) -> list[tuple[int, int]]:  # noqa: ANN001
+def _chunk_messages(data: bytes, ci: Any) -> list[tuple[int, int]]:
     """``(channel id, log time)`` of every message in the chunk ``ci`` of ``data``, parsed here
     from the MCAP layout (independent of the reader under test)."""
     at = ci.chunk_start_offset + 9
@@ -58,7 +59,7 @@ def _chunk_messages(data: bytes, ci) -> list[tuple[int, int]]:  # noqa: ANN001
     return out
 
 
-def _flip_chunk(data: bytes, ci) -> bytes:  # noqa: ANN001
+def _flip_chunk(data: bytes, ci: Any) -> bytes:
     b = bytearray(data)
     mid = ci.chunk_start_offset + ci.chunk_length // 2
     for i in range(mid, mid + 32):
@@ -66,14 +67,16 @@ def _flip_chunk(data: bytes, ci) -> bytes:  # noqa: ANN001
     return bytes(b)
 
 
-def _bad_length(data: bytes, ci) -> bytes:  # noqa: ANN001
+def _bad_length(data: bytes, ci: Any) -> bytes:
     b = bytearray(data)
     b[ci.chunk_start_offset + 1 : ci.chunk_start_offset + 9] = (2**32 - 1).to_bytes(8, "little")
     return bytes(b)
 
 
 @pytest.mark.parametrize(("damage", "k"), [(_flip_chunk, 9), (_bad_length, 1)])
-def test_load_reads_every_other_chunk(damage, k: int, tmp_path: Path) -> None:  # noqa: ANN001
+def test_load_reads_every_other_chunk(
+    damage: Callable[[bytes, Any], bytes], k: int, tmp_path: Path
+) -> None:
     data = EXP1.read_bytes()
     chunks = _chunk_indexes(EXP1)
     lost = _chunk_messages(data, chunks[k])
@@ -195,7 +198,9 @@ def test_info_lists_a_recording_without_tags(
     path = tmp_path / "notags.mcap"
     with McapRecorder(path) as rec:
         for i in range(20):
-            rec.add_hand(1_700_000_000_000_000_000 + i * 40_000_000, np.ones((21, 3)), frame="camera")
+            rec.add_hand(
+                1_700_000_000_000_000_000 + i * 40_000_000, np.ones((21, 3)), frame="camera"
+            )
     assert main(["info", str(path)]) == 0
     out, err = capsys.readouterr()
     assert "/hand/right/keypoints_camera" in out
