@@ -317,6 +317,7 @@ class _Recording(TypedDict):
     error: str | None
     damage: list[_Damage]
     chunks: int
+    raw_truncated: bool
     channels: list[_Channel]
     metadata: dict[str, dict[str, str]]
     hands: dict[str, _Hand]
@@ -339,22 +340,29 @@ class _Summary(TypedDict):
     messages: int
     chunks: int
     damage: list[_Damage]
+    raw_truncated: bool
     raw: dict[str, list[tuple[int, bytes]]]
 
 def read_recording(
-    path: str | os.PathLike[str], images: bool = True, raw_topics: list[str] | None = None
+    path: str | os.PathLike[str],
+    images: bool = True,
+    raw_topics: list[str] | None = None,
+    raw_limit: int | None = None,
 ) -> _Recording:
     """Every complete chunk of a (possibly truncated) MCAP recording, one sequential pass; the
     hand keypoints, confidences and object poses decoded, every other topic raw (the image
     topics' payloads dropped with ``images=False``; with ``raw_topics``, only those topics'
     payloads kept, every topic still counted in ``channels``). A damaged region (a chunk that
     fails its CRC, a bad length) is stepped over and listed in ``damage``: every chunk outside
-    it is read. ``RecordingFormatError`` if it cannot be read (as ``lfd.io.mcapfile.scan``)."""
+    it is read. At most ``raw_limit`` bytes of raw payloads are kept (``raw_truncated``: some
+    were dropped). ``RecordingFormatError`` if it cannot be read (as
+    ``lfd.io.mcapfile.scan``)."""
 
 def read_summary(path: str | os.PathLike[str], topics: list[str] = ...) -> _Summary | None:
     """A finished recording's summary section (channels, metadata, attachments, message count),
     checked against its chunk and message indexes, every chunk CRC-checked (``damage``: the
-    chunks that fail), and the raw messages of ``topics``; None without a usable summary."""
+    chunks that fail), and the raw messages of ``topics`` (at most 64 MiB: ``raw_truncated``);
+    None without a usable summary."""
 
 # --- preprocessing: signal processing and rotations (scipy-equivalent; crates/hmmseg-py/src/
 # signal.rs and rotation.rs). A quaternion is (x, y, z, w); a row with a NaN gives a NaN row. ---

@@ -98,15 +98,20 @@ fn array<'py, T: numpy::Element>(
 
 /// Read a whole recording (see `lfd._hmmseg.read_recording` in `python/lfd/_hmmseg.pyi`).
 #[pyfunction]
-#[pyo3(signature = (path, images = true, raw_topics = None))]
+#[pyo3(signature = (path, images = true, raw_topics = None, raw_limit = None))]
 fn read_recording(
     py: Python<'_>,
     path: PathBuf,
     images: bool,
     raw_topics: Option<Vec<String>>,
+    raw_limit: Option<u64>,
 ) -> PyResult<Bound<'_, PyDict>> {
     guard(py, || {
-        let options = Options { images, raw_topics };
+        let options = Options {
+            images,
+            raw_topics,
+            raw_limit,
+        };
         let rec = py
             .detach(|| lfd_mcap::read_recording(&path, &options))
             .map_err(|e| recording_format(py, e.0))?;
@@ -117,6 +122,7 @@ fn read_recording(
         out.set_item("error", &rec.error)?;
         out.set_item("damage", damage(py, &rec.damage)?)?;
         out.set_item("chunks", rec.chunks)?;
+        out.set_item("raw_truncated", rec.raw_truncated)?;
         out.set_item("channels", channels(py, &rec.channels)?)?;
         out.set_item("metadata", metadata_records(py, &rec.metadata)?)?;
         out.set_item("raw", raw_dict(py, &rec.raw)?)?;
@@ -189,6 +195,7 @@ fn read_summary(
         out.set_item("attachments", attachments)?;
         out.set_item("messages", s.messages)?;
         out.set_item("chunks", s.chunks)?;
+        out.set_item("raw_truncated", s.raw_truncated)?;
         out.set_item("damage", damage(py, &s.damage)?)?;
         out.set_item("raw", raw_dict(py, &s.raw)?)?;
         Ok(Some(out))

@@ -15,6 +15,7 @@ fn main() {
     let options = lfd_mcap::Options {
         images: false,
         raw_topics,
+        raw_limit: None,
     };
     for _ in 0..3 {
         let t = std::time::Instant::now();

@@ -44,6 +44,10 @@ pub const MIN_INFLATE_BYTES: u64 = 8 * (1 << 20);
 /// No single chunk may inflate to more than 1 GiB.
 pub const MAX_CHUNK_BYTES: u64 = 1 << 30;
 
+/// Bytes of raw payloads [`read_summary`] keeps of the topics asked for (64 MiB: thousands of
+/// times what a recording's label channels hold).
+pub const SUMMARY_RAW_LIMIT: u64 = 64 << 20;
+
 /// The image topics whose payloads [`Options::images`]` = false` drops.
 pub const IMAGE_TOPICS: [&str; 4] = [
     "/camera/color/image_raw",
@@ -73,6 +77,10 @@ pub struct Options {
     /// kept are still counted, with their times, in [`Recording::channels`]; the decoded
     /// tracks are kept either way.
     pub raw_topics: Option<Vec<String>>,
+    /// Keep at most this many bytes of raw payloads, all topics together (`None`: no limit);
+    /// the messages beyond are counted, their payloads dropped, and
+    /// [`Recording::raw_truncated`] says so.
+    pub raw_limit: Option<u64>,
 }
 
 impl Default for Options {
@@ -80,6 +88,7 @@ impl Default for Options {
         Self {
             images: true,
             raw_topics: None,
+            raw_limit: None,
         }
     }
 }
@@ -90,6 +99,7 @@ impl Options {
         Self {
             images,
             raw_topics: None,
+            raw_limit: None,
         }
     }
 
@@ -263,6 +273,8 @@ pub struct Recording {
     pub hands: Vec<(String, HandTrack)>,
     pub confidence: Vec<(String, ConfidenceTrack)>,
     pub poses: Vec<(String, PoseTrack)>,
+    /// Whether raw payloads were dropped beyond [`Options::raw_limit`].
+    pub raw_truncated: bool,
     /// Every other topic (the image topics left out with `images = false`, and any topic not in
     /// [`Options::raw_topics`]).
     pub raw: Vec<(String, RawMessages)>,
@@ -298,6 +310,9 @@ pub struct Summary {
     pub chunks: u64,
     /// The chunks that fail to inflate or their CRC (each with its ordinal and messages).
     pub damage: Vec<Damage>,
+    /// Whether the requested topics hold more than [`SUMMARY_RAW_LIMIT`] bytes: reading them
+    /// stopped there.
+    pub raw_truncated: bool,
     /// The raw messages of the requested topics, in file order.
     pub raw: Vec<(String, RawMessages)>,
 }

@@ -207,6 +207,10 @@ struct State {
     /// The schemas and channels the summary repeats, registered at the first damage (the
     /// chunk lost may be the one that defined them).
     fallback: Option<(Vec<crate::summary::OwnedSchema>, Vec<records::Channel>)>,
+    /// Raw payload bytes that may still be kept ([`Options::raw_limit`]), and whether some
+    /// were dropped.
+    raw_left: u64,
+    raw_truncated: bool,
 }
 
 /// What decoding a chunk on a worker needs to know (a channel's topic never changes once
@@ -558,9 +562,13 @@ impl State {
         if i == usize::MAX {
             return Ok(None); // a message before its channel: not something lfd wrote
         }
+        let t = log_time(&self.path, &self.topics[i].summary.topic, t)?;
+        self.topics[i].summary.add(t);
+        let raw = matches!(self.topics[i].kind, Kind::Raw(_));
+        if raw && !self.spend(data.len()) {
+            return Ok(None);
+        }
         let topic = &mut self.topics[i];
-        let t = log_time(&self.path, &topic.summary.topic, t)?;
-        topic.summary.add(t);
         match &mut topic.kind {
             Kind::Raw(raw) => {
                 raw.push(t, data);
@@ -608,6 +616,16 @@ impl State {
             Record::Other => {}
         }
         Flow::Continue
+    }
+
+    /// Whether `n` more bytes of raw payloads may be kept (spent if so).
+    fn spend(&mut self, n: usize) -> bool {
+        if n as u64 > self.raw_left {
+            self.raw_truncated = true;
+            return false;
+        }
+        self.raw_left -= n as u64;
+        true
     }
 
     /// Register the summary's schemas and channels not met yet (after damage).
@@ -782,6 +800,11 @@ impl State {
                         self.topics[i as usize].summary.add(t);
                     }
                     for (i, kind) in decoded.parts {
+                        if let Kind::Raw(m) = &kind {
+                            if !self.spend(m.data.len()) {
+                                continue;
+                            }
+                        }
                         self.topics[i].kind.append(kind);
                     }
                 }
@@ -868,6 +891,7 @@ impl State {
             _ => {}
         }
         rec.damage = self.damage;
+        rec.raw_truncated = self.raw_truncated;
         rec.chunks = self.chunks;
         for t in self.topics {
             let name = t.summary.topic.clone();
@@ -1111,6 +1135,8 @@ fn read_source(
         ordinals_known: true,
         indexed: Vec::new(),
         fallback: crate::summary::channels(src, size),
+        raw_left: options.raw_limit.unwrap_or(u64::MAX),
+        raw_truncated: false,
     };
     let mut walker = Walker::new(src, size, 0);
     let stop = match walker.advance(crate::MAGIC.len() as u64) {

@@ -534,7 +534,11 @@ fn read_topics(
     if wanted.is_empty() {
         return Ok(());
     }
+    let mut left = crate::SUMMARY_RAW_LIMIT;
     for ci in chunks {
+        if out.raw_truncated {
+            break;
+        }
         if !ci
             .message_index_offsets
             .keys()
@@ -560,6 +564,11 @@ fn read_topics(
             };
             if let Some(&r) = wanted.get(&ch) {
                 let t = log_time(path, &out.raw[r].0, t).map_err(Fail::Fatal)?;
+                if payload.len() as u64 > left {
+                    out.raw_truncated = true;
+                    break;
+                }
+                left -= payload.len() as u64;
                 out.raw[r].1.push(t, payload);
             }
         }

@@ -131,6 +131,7 @@ fn raw_topics_keeps_those_payloads_only_and_counts_every_topic() {
     let options = Options {
         images: true,
         raw_topics: Some(vec!["/lfd/ground_truth".to_string()]),
+        raw_limit: None,
     };
     let some = read_recording(f.path(), &options).unwrap();
     assert_eq!(some.channels, all.channels);

@@ -102,6 +102,8 @@ class Records:
     damage: list[dict[str, Any]]
     #: Chunks in the file: read (:class:`RawRecording`) or indexed (:class:`Summary`).
     chunks: int
+    #: Whether encoded payloads were dropped beyond a byte limit (``raw_limit``).
+    raw_truncated: bool
 
     @property
     def message_count(self) -> int:
@@ -160,6 +162,7 @@ class RawRecording(Records):
     unread: frozenset[str] = frozenset()
     damage: list[dict[str, Any]] = field(default_factory=list)
     chunks: int = 0
+    raw_truncated: bool = False
 
     def encoded(self, topic: str) -> list[tuple[int, bytes]]:
         """The messages of ``topic``, still encoded: :attr:`messages`, or for a topic in
@@ -373,7 +376,11 @@ def _channels(docs: Sequence[Mapping[str, Any]]) -> dict[str, ChannelSummary]:
 
 
 def read(
-    path: str | os.PathLike[str], *, images: bool = True, topics: Iterable[str] | None = None
+    path: str | os.PathLike[str],
+    *,
+    images: bool = True,
+    topics: Iterable[str] | None = None,
+    raw_limit: int | None = None,
 ) -> RawRecording:
     """Read every complete record of an MCAP file with the engine's reader: :func:`scan`'s
     result, but the hand keypoints (``/hand/<side>/keypoints``), their confidence and the object
@@ -381,7 +388,8 @@ def read(
     ``images=False`` the image messages are counted but not kept. With ``topics``, only those
     topics' encoded messages are kept (every topic is still counted in
     :attr:`RawRecording.channels`); the others are :attr:`RawRecording.unread`, read on demand
-    by :meth:`RawRecording.encoded`.
+    by :meth:`RawRecording.encoded`. With ``raw_limit``, at most that many bytes of encoded
+    payloads are kept (:attr:`RawRecording.raw_truncated` says some were dropped).
 
     Raises
     ------
@@ -392,7 +400,9 @@ def read(
     from ..inputs import check_input_file
 
     keep = None if topics is None else list(topics)
-    doc = read_recording(check_input_file(path, "recording", RecordingFormatError), images, keep)
+    doc = read_recording(
+        check_input_file(path, "recording", RecordingFormatError), images, keep, raw_limit
+    )
     raw = RawRecording(
         path=os.fspath(path),
         file_size=int(doc["file_size"]),
@@ -403,6 +413,7 @@ def read(
         library=doc["library"],
         damage=[dict(d) for d in doc["damage"]],
         chunks=int(doc["chunks"]),
+        raw_truncated=bool(doc["raw_truncated"]),
     )
     raw.messages = {topic: [] for topic in raw.channels}
     raw.messages.update(doc["raw"])
@@ -429,6 +440,7 @@ class Summary(Records):
     messages: dict[str, list[tuple[int, bytes]]]
     damage: list[dict[str, Any]] = field(default_factory=list)
     chunks: int = 0
+    raw_truncated: bool = False
 
 
 def read_summary(
@@ -462,4 +474,5 @@ def read_summary(
         messages={t: list(doc["raw"].get(t, [])) for t in topics},
         damage=[dict(d) for d in doc["damage"]],
         chunks=int(doc["chunks"]),
+        raw_truncated=bool(doc["raw_truncated"]),
     )

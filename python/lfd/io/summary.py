@@ -15,6 +15,10 @@ from .reader import hand_side, is_ros_path, labels_of_events, load, objects_of
 SMALL_TOPICS = (T.GROUND_TRUTH_TOPIC, T.LIVE_SEGMENTS_TOPIC)
 """The channels ``lfd info`` reads the messages of (the skill labels it prints)."""
 
+LABEL_BYTES = 64 * 2**20
+"""At most this many bytes of those channels' messages are read (a recording's labels take a
+few KiB; the limit of the engine's ``read_summary`` too)."""
+
 
 def summarise(
     path: str | os.PathLike[str],
@@ -37,8 +41,8 @@ def summarise(
     meet: ``objects[].travel_m`` (how far each object moves), ``hand_approach`` (the hand's
     closest approach to an object) and ``problems`` (a hand that reaches no object, no object
     moving under ground-truth skills that move one; :mod:`lfd.io.checks`). A ROS bag (with its
-    ``mapping``) is always loaded. A readable MCAP file that lacks the hand keypoints or every
-    object pose is described with that in ``problems``; a recording that cannot be used
+    ``mapping``) is always loaded. A readable MCAP file with messages that lacks the hand
+    keypoints or every object pose is described with that in ``problems``; a recording that cannot be used
     otherwise is reported in ``error`` (its warnings in ``warnings``), not raised, so a damaged
     file can still be summarised.
     Times are seconds from ``start_ns``, the first message.
@@ -67,7 +71,7 @@ def _mcap(
     rec: Records | None = read_summary(path, SMALL_TOPICS)
     complete, damage, source = True, None, "summary"
     if rec is None:  # no summary, or one that cannot be believed: read the file (labels kept)
-        raw = read(path, images=False, topics=SMALL_TOPICS)
+        raw = read(path, images=False, topics=SMALL_TOPICS, raw_limit=LABEL_BYTES)
         rec, complete, damage, source = raw, raw.complete, raw.error, "scan"
         if damage is None and not complete:
             damage = "the file has no summary section (its writer was not closed)"
@@ -116,7 +120,10 @@ def _mcap(
     try:
         try:
             hand_side(rec, complete, damage)
-        except RecordingFormatError as err:  # described all the same: it cannot be segmented
+        except RecordingFormatError as err:
+            if rec.message_count == 0:
+                raise  # nothing to describe
+            # described all the same (a video without tags): it cannot be segmented
             summary["problems"].append(f"{err} (lfd segment and lfd.load refuse it)")
         specs = objects_of(rec)
         if check:
@@ -135,6 +142,11 @@ def _mcap(
             }
             for name, tag_id, _ in specs
         ]
+        if rec.raw_truncated:
+            raise RecordingFormatError(
+                f"{rec.path}: its label channels ({', '.join(SMALL_TOPICS)}) hold more than "
+                f"{LABEL_BYTES} bytes of messages, more than lfd info reads; not lfd labels"
+            )
         for key, topic in (
             ("labels", T.GROUND_TRUTH_TOPIC),
             ("live_segments", T.LIVE_SEGMENTS_TOPIC),

@@ -207,3 +207,73 @@ def test_info_lists_a_recording_without_tags(
     lines = [line for line in err.splitlines() if line.strip()]
     assert len(lines) == 1 and lines[0].startswith("lfd info: warning: "), err
     assert "not a usable lfd recording" in lines[0]
+
+
+def _inflating(path: Path, topic: str, n: int) -> Path:
+    """exp1 plus ``n`` 1 MiB messages on ``topic`` (5 KiB random, then zeros): a file of about
+    n * 5 KiB that inflates ~200x, within the decompression budget."""
+    import os
+
+    from mcap.writer import Writer
+
+    with open(EXP1, "rb") as f, open(path, "wb") as out:
+        reader = make_reader(f)
+        w = Writer(out)
+        w.start(profile="", library="inflating")
+        chans: dict[int, int] = {}
+        schemas: dict[int, int] = {}
+        for schema, channel, message in reader.iter_messages(log_time_order=False):
+            if channel.id not in chans:
+                if schema is not None and schema.id not in schemas:
+                    schemas[schema.id] = w.register_schema(
+                        schema.name, schema.encoding, schema.data
+                    )
+                chans[channel.id] = w.register_channel(
+                    channel.topic,
+                    channel.message_encoding,
+                    schemas[schema.id] if schema is not None else 0,
+                    dict(channel.metadata),
+                )
+            w.add_message(chans[channel.id], message.log_time, message.data, message.publish_time)
+        for record in reader.iter_metadata():
+            w.add_metadata(record.name, dict(record.metadata))
+        junk = w.register_channel(topic, "protobuf", 0, {})
+        for i in range(n):
+            t = 1_700_000_000_000_000_000 + i
+            w.add_message(junk, t, os.urandom(5 * 1024) + bytes(2**20 - 5 * 1024), t)
+        w.finish()
+    return path
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("topic", ["/tf", "/lfd/ground_truth"])
+@pytest.mark.parametrize("killed", [False, True])
+def test_info_memory_is_bounded(topic: str, killed: bool, tmp_path: Path) -> None:
+    """A file of ~8 MB inflating to 1.5 GiB: lfd info peaks under 300 MB, with or without its
+    summary; labels beyond 64 MiB are one error line (exit 2)."""
+    import os
+    import subprocess
+    import sys
+
+    path = _inflating(tmp_path / "big.mcap", topic, 1500)
+    if killed:
+        data = path.read_bytes()
+        path.write_bytes(data[: int(len(data) * 0.6)])
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "lfd.cli", "info", str(path)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert proc.stderr is not None
+    with proc.stderr:
+        err = proc.stderr.read()
+    _, status, usage = os.wait4(proc.pid, 0)
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    assert usage.ru_maxrss / 1024 < 300, usage.ru_maxrss
+    lines = [line for line in err.splitlines() if line.strip()]
+    if topic == "/tf":
+        assert proc.returncode == 0, err
+    else:
+        assert proc.returncode == 2, err
+        assert lines[-1].startswith("lfd info: error: ") and "label channels" in lines[-1]
