@@ -1,10 +1,13 @@
 //! Fast, damage-tolerant reader of lfd MCAP recordings.
 //!
 //! [`read_recording`] is the Rust twin of `lfd.io.mcapfile.scan` plus the typed decoding of
-//! `lfd.io.reader._Loader`: one sequential pass over a possibly truncated file (the `mcap`
-//! crate's sans-io [`LinearReader`](mcap::sans_io::LinearReader), chunks emitted whole and
-//! inflated here so that every chunk's declared size is checked against the inflation budget
-//! *before* decompressing), CRC-checked, keeping every message of every complete chunk. Hand
+//! `lfd.io.reader._Loader`: one sequential pass over a possibly damaged file (its own record
+//! parsers, [`records`], every length checked against the bytes left before anything is
+//! allocated; chunks inflated only after their declared size is checked against the
+//! inflation budget), CRC-checked, keeping every message of every intact chunk. A chunk that
+//! fails its CRC is lost alone; a damaged record frame (a bad length, an unknown opcode) is
+//! stepped over to the next record a writer plausibly made; both are listed in
+//! [`Recording::damage`], named from the summary's indexes when the file has them. Hand
 //! keypoints, keypoint confidences and object poses are decoded into flat arrays; every other
 //! topic is returned as raw `(log_time, payload)` pairs, in file order (only those of
 //! [`Options::raw_topics`] when given; every topic is counted either way). Chunks are queued in
@@ -14,7 +17,8 @@
 //! read, so the result is exactly that of a sequential pass.
 //!
 //! [`read_summary`] reads only the summary section of a finished recording (and the message
-//! indexes and chunks it points to), for a quick look without a full pass.
+//! indexes and chunks it points to), believing it only as far as it can be checked, and
+//! CRC-checks every chunk without keeping it, for a quick look without a full pass.
 
 mod inflate;
 pub mod proto;
