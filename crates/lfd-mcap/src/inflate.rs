@@ -141,3 +141,48 @@ pub(crate) fn inflate<'a>(header: &ChunkHeader, data: &'a [u8]) -> Result<Cow<'a
 fn too_big(n: u64) -> String {
     format!("it inflates to more than {n} bytes, its header says {n}")
 }
+
+/// Check an admitted chunk without keeping its records: inflated block by block (1 MiB at a
+/// time, whatever its size), its length and CRC compared with its header. The error is worded
+/// as [`inflate`]'s.
+pub(crate) fn check(header: &ChunkHeader, data: &[u8]) -> Result<(), String> {
+    let n = header.uncompressed_size;
+    let mut reader: Box<dyn Read + '_> = match header.compression.as_str() {
+        "" => Box::new(data),
+        "zstd" => Box::new(
+            zstd::stream::read::Decoder::new(data)
+                .map_err(|e| format!("zstd cannot decompress it: {e}"))?,
+        ),
+        "lz4" => {
+            Box::new(lz4::Decoder::new(data).map_err(|e| format!("lz4 cannot decompress it: {e}"))?)
+        }
+        other => return Err(format!("unknown chunk compression {}", py_str_repr(other))),
+    };
+    let mut buf = vec![0u8; 1 << 20];
+    let mut hasher = crc32fast::Hasher::new();
+    let mut got = 0u64;
+    loop {
+        let k = reader
+            .read(&mut buf)
+            .map_err(|e| format!("{} cannot decompress it: {e}", header.compression))?;
+        if k == 0 {
+            break;
+        }
+        got += k as u64;
+        if got > n {
+            return Err(too_big(n));
+        }
+        hasher.update(&buf[..k]);
+    }
+    if got != n {
+        return Err(format!("it inflates to {got} bytes, its header says {n}"));
+    }
+    let calculated = hasher.finalize();
+    if header.uncompressed_crc != 0 && calculated != header.uncompressed_crc {
+        return Err(format!(
+            "its records' CRC is {calculated}, its header says {}",
+            header.uncompressed_crc
+        ));
+    }
+    Ok(())
+}

@@ -14,7 +14,7 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
-use crate::inflate::{inflate, Budget};
+use crate::inflate::{check, inflate, Budget};
 use crate::records::{self, op, ChunkIndex};
 use crate::scan::{log_time, merge_metadata};
 use crate::walk::Source;
@@ -403,7 +403,8 @@ fn summary(src: Source<'_>, size: u64, path: &str, topics: &[String]) -> Result<
     Ok(out)
 }
 
-/// Inflate and CRC-check every chunk (in parallel, nothing kept): the damaged ones.
+/// Inflate and CRC-check every chunk (in parallel, block by block, nothing kept): the damaged
+/// ones.
 fn verify(
     src: Source<'_>,
     size: u64,
@@ -432,7 +433,7 @@ fn verify(
         .filter_map(|(i, ci)| {
             let why = match chunk_at(src, size, ci) {
                 Err(why) => why,
-                Ok((header, data)) => inflate(&header, &data).err()?,
+                Ok((header, data)) => check(&header, &data).err()?,
             };
             Some(Damage {
                 offset: ci.chunk_start_offset,
