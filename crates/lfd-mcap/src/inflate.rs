@@ -142,12 +142,9 @@ fn too_big(n: u64) -> String {
     format!("it inflates to more than {n} bytes, its header says {n}")
 }
 
-/// Check an admitted chunk without keeping its records: inflated block by block (1 MiB at a
-/// time, whatever its size), its length and CRC compared with its header. The error is worded
-/// as [`inflate`]'s.
-pub(crate) fn check(header: &ChunkHeader, data: &[u8]) -> Result<(), String> {
-    let n = header.uncompressed_size;
-    let mut reader: Box<dyn Read + '_> = match header.compression.as_str() {
+/// The records of an admitted chunk, inflated as a stream.
+fn stream<'a>(header: &ChunkHeader, data: &'a [u8]) -> Result<Box<dyn Read + 'a>, String> {
+    Ok(match header.compression.as_str() {
         "" => Box::new(data),
         "zstd" => Box::new(
             zstd::stream::read::Decoder::new(data)
@@ -157,7 +154,15 @@ pub(crate) fn check(header: &ChunkHeader, data: &[u8]) -> Result<(), String> {
             Box::new(lz4::Decoder::new(data).map_err(|e| format!("lz4 cannot decompress it: {e}"))?)
         }
         other => return Err(format!("unknown chunk compression {}", py_str_repr(other))),
-    };
+    })
+}
+
+/// Check an admitted chunk without keeping its records: inflated block by block (1 MiB at a
+/// time, whatever its size), its length and CRC compared with its header. The error is worded
+/// as [`inflate`]'s.
+pub(crate) fn check(header: &ChunkHeader, data: &[u8]) -> Result<(), String> {
+    let n = header.uncompressed_size;
+    let mut reader = stream(header, data)?;
     let mut buf = vec![0u8; 1 << 20];
     let mut hasher = crc32fast::Hasher::new();
     let mut got = 0u64;
@@ -183,6 +188,49 @@ pub(crate) fn check(header: &ChunkHeader, data: &[u8]) -> Result<(), String> {
             "its records' CRC is {calculated}, its header says {}",
             header.uncompressed_crc
         ));
+    }
+    Ok(())
+}
+
+/// The messages of an admitted (and checked) chunk on the channels `keep` accepts, inflated as
+/// a stream: `each(channel, log time, payload)`; the payloads of the others are never held
+/// (memory: the largest message kept, not the chunk). Stops at the first error, or when
+/// `each` returns false.
+pub(crate) fn messages(
+    header: &ChunkHeader,
+    data: &[u8],
+    keep: impl Fn(u16) -> bool,
+    mut each: impl FnMut(u16, u64, &[u8]) -> bool,
+) -> Result<(), String> {
+    let mut left = header.uncompressed_size;
+    let mut reader = stream(header, data)?.take(left);
+    let mut head = [0u8; 9];
+    let mut body = Vec::new();
+    let cut = |e: std::io::Error| format!("a record is cut: {e}");
+    while left >= 9 {
+        reader.read_exact(&mut head).map_err(cut)?;
+        left -= 9;
+        let len = u64::from_le_bytes(head[1..9].try_into().unwrap_or_default());
+        if len > left {
+            return Err(format!("a record of {len} bytes runs past its chunk"));
+        }
+        left -= len;
+        let mut rest = (&mut reader).take(len);
+        if head[0] == crate::records::op::MESSAGE && len >= 22 {
+            let mut mh = [0u8; 22];
+            rest.read_exact(&mut mh).map_err(cut)?;
+            let channel = u16::from_le_bytes([mh[0], mh[1]]);
+            if keep(channel) {
+                body.clear();
+                rest.read_to_end(&mut body).map_err(cut)?;
+                let t = u64::from_le_bytes(mh[6..14].try_into().unwrap_or_default());
+                if !each(channel, t, &body) {
+                    return Ok(());
+                }
+                continue;
+            }
+        }
+        std::io::copy(&mut rest, &mut std::io::sink()).map_err(cut)?;
     }
     Ok(())
 }

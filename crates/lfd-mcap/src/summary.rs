@@ -14,7 +14,7 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
-use crate::inflate::{check, inflate, Budget};
+use crate::inflate::{check, messages, Budget};
 use crate::records::{self, op, ChunkIndex};
 use crate::scan::{log_time, merge_metadata};
 use crate::walk::Source;
@@ -399,7 +399,17 @@ fn summary(src: Source<'_>, size: u64, path: &str, topics: &[String]) -> Result<
         merge_metadata(&mut out.metadata, m.name, m.metadata);
     }
     out.damage = verify(src, size, path, &sec.chunks, &per_chunk)?;
-    read_topics(src, size, path, topics, &sec.chunks, &topic_of, &mut out)?;
+    let damaged: Vec<u64> = out.damage.iter().map(|d| d.offset).collect();
+    read_topics(
+        src,
+        size,
+        path,
+        topics,
+        &sec.chunks,
+        &damaged,
+        &topic_of,
+        &mut out,
+    )?;
     Ok(out)
 }
 
@@ -515,6 +525,7 @@ fn read_topics(
     path: &str,
     topics: &[String],
     chunks: &[ChunkIndex],
+    damaged: &[u64],
     topic_of: &HashMap<u16, usize>,
     out: &mut Summary,
 ) -> Result<(), Fail> {
@@ -547,31 +558,39 @@ fn read_topics(
         {
             continue;
         }
+        if damaged.contains(&ci.chunk_start_offset) {
+            continue;
+        }
         let Ok((header, data)) = chunk_at(src, size, ci) else {
             continue;
         };
-        let Ok(records) = inflate(&header, &data) else {
-            continue;
-        };
-        let Ok(split) = records::split(&records) else {
-            continue;
-        };
-        for (opcode, body) in split {
-            if opcode != op::MESSAGE {
-                continue;
-            }
-            let Ok((ch, t, payload)) = records::message(body) else {
-                continue;
-            };
-            if let Some(&r) = wanted.get(&ch) {
-                let t = log_time(path, &out.raw[r].0, t).map_err(Fail::Fatal)?;
+        let mut fatal = None;
+        let raw = &mut out.raw;
+        let truncated = &mut out.raw_truncated;
+        let _ = messages(
+            &header,
+            &data,
+            |ch| wanted.contains_key(&ch),
+            |ch, t, payload| {
+                let r = wanted[&ch];
+                let t = match log_time(path, &raw[r].0, t) {
+                    Ok(t) => t,
+                    Err(e) => {
+                        fatal = Some(e);
+                        return false;
+                    }
+                };
                 if payload.len() as u64 > left {
-                    out.raw_truncated = true;
-                    break;
+                    *truncated = true;
+                    return false;
                 }
                 left -= payload.len() as u64;
-                out.raw[r].1.push(t, payload);
-            }
+                raw[r].1.push(t, payload);
+                true
+            },
+        );
+        if let Some(e) = fatal {
+            return Err(Fail::Fatal(e));
         }
     }
     Ok(())
