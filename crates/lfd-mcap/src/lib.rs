@@ -308,7 +308,8 @@ pub struct Summary {
     pub channels: Vec<ChannelSummary>,
     pub metadata: MetadataMap,
     pub attachments: Vec<AttachmentInfo>,
-    /// Messages in the file, all channels.
+    /// Messages in the file that can be read (a damaged chunk's are not), all channels (and
+    /// so the channels' counts).
     pub messages: u64,
     /// Chunks in the file (distinct chunk indexes).
     pub chunks: u64,

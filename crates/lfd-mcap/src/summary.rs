@@ -309,7 +309,7 @@ fn count(
     sec: &Section,
     topic_of: &HashMap<u16, usize>,
     out: &mut Summary,
-) -> Result<Vec<u64>, Fail> {
+) -> Result<Vec<BTreeMap<u16, u64>>, Fail> {
     let mut counts: BTreeMap<u16, u64> = BTreeMap::new();
     let mut span: HashMap<usize, (u64, u64)> = HashMap::new();
     let mut per_chunk = Vec::with_capacity(sec.chunks.len());
@@ -325,14 +325,14 @@ fn count(
     }
     for ci in &sec.chunks {
         if ci.message_index_length == 0 {
-            per_chunk.push(0);
+            per_chunk.push(BTreeMap::new());
             continue;
         }
         let (c, spans) = chunk_counts(src, size, ci)?;
-        per_chunk.push(c.values().sum());
-        for (ch, n) in c {
+        for (&ch, &n) in &c {
             *counts.entry(ch).or_default() += n;
         }
+        per_chunk.push(c);
         for (ch, (lo, hi)) in spans {
             if let Some(&i) = topic_of.get(&ch) {
                 let s = span.entry(i).or_insert((lo, hi));
@@ -398,7 +398,19 @@ fn summary(src: Source<'_>, size: u64, path: &str, topics: &[String]) -> Result<
         let m = records::metadata(&body)?;
         merge_metadata(&mut out.metadata, m.name, m.metadata);
     }
-    out.damage = verify(src, size, path, &sec.chunks, &per_chunk)?;
+    let totals: Vec<u64> = per_chunk.iter().map(|c| c.values().sum()).collect();
+    out.damage = verify(src, size, path, &sec.chunks, &totals)?;
+    // the counts are what can be read: a damaged chunk's messages are not
+    for d in &out.damage {
+        for &k in d.chunks.iter().flatten() {
+            for (ch, n) in &per_chunk[k as usize - 1] {
+                if let Some(&i) = topic_of.get(ch) {
+                    out.channels[i].count -= n;
+                }
+                out.messages -= n;
+            }
+        }
+    }
     let damaged: Vec<u64> = out.damage.iter().map(|d| d.offset).collect();
     read_topics(
         src,

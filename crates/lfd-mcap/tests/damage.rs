@@ -76,6 +76,13 @@ fn a_damaged_chunk_loses_only_its_messages() {
         assert_eq!(s.damage.len(), 1);
         assert_eq!(s.damage[0].chunks, Some(vec![k as u64 + 1]));
         assert_eq!(s.damage[0].messages, Some(n));
+        assert_eq!(s.messages, full.message_count() - n);
+        let by_topic: BTreeMap<String, u64> = s
+            .channels
+            .iter()
+            .map(|c| (c.topic.clone(), c.count))
+            .collect();
+        assert_eq!(by_topic, less(&counts(&full), lost));
         assert!(!s.damage[0].why.contains('\n') && !s.damage[0].why.contains('\x1b'));
     }
 }
