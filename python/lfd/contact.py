@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import InvalidParameterError
+from .rules import Number, Rule, Whole, check_fields
 
 Span = tuple[str, int, int, int | None]
 """``(skill, start, end, object)``: a skill on samples ``start..end`` (end exclusive)."""
@@ -74,14 +74,19 @@ class ContactParams:
     min_move: int = 3
 
     def __post_init__(self) -> None:
-        for name, value in vars(self).items():
-            if not (np.isfinite(value) and value >= 0):
-                raise InvalidParameterError(
-                    f"contacts.{name} must be a finite number >= 0, got {value}"
-                )
-        for name in ("rest_samples", "min_move"):
-            if int(getattr(self, name)) != getattr(self, name) or getattr(self, name) < 1:
-                raise InvalidParameterError(f"contacts.{name} must be a whole number >= 1")
+        check_fields(self, CONTACT_RULES, "contacts.")
+
+
+CONTACT_RULES: dict[str, Rule] = {
+    **dict.fromkeys(
+        ("approach_m", "lift_m", "lift_h_m", "rest_m", "place_h_m", "release_thumb_m",
+         "release_open_m", "release_tcp_m"),
+        Number(0.0, 10.0, "m"),
+    ),
+    "rest_samples": Whole(1, 10_000),
+    "min_move": Whole(1, 10_000),
+}  # fmt: skip
+"""What each :class:`ContactParams` field holds (:mod:`lfd.rules`; docs/method-files.md)."""
 
 
 def box_distance(

@@ -19,8 +19,8 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any, get_args
 
-from ..contact import ContactParams
-from ..errors import InvalidParameterError, ModelFormatError
+from ..errors import InvalidParameterError, LfdError, ModelFormatError
+from ..rules import Choice, Instance, Rule, Text, check_fields, check_keys, from_document
 from .pipeline import (
     DEFAULT_GRAMMAR,
     DEFAULT_SEARCH,
@@ -31,11 +31,23 @@ from .pipeline import (
     Search,
     SegmentParams,
 )
-from .stage1 import Stage1Params
+from .schema import SEGMENT_RULES
 from .templates import Templates
 
 NAMES: tuple[str, ...] = ("default", "paper")
 """The named methods :meth:`Method.load` knows (any other argument is a template file)."""
+
+METHOD_RULES: dict[str, Rule] = {
+    "name": Text(1000),
+    "templates": Instance(Templates),
+    "params": Instance(SegmentParams),
+    "search": Choice(get_args(Search)),
+    "grammar": Choice(get_args(GrammarUse)),
+}
+"""What a :class:`Method`'s fields hold. A file's ``lfd.method`` entry (:data:`METHOD_KEYS`)
+has the plain ones and ``params`` as a JSON object of the
+:data:`~lfd.segmentation.schema.SEGMENT_RULES` fields."""
+METHOD_KEYS: frozenset[str] = frozenset({"name", "search", "grammar", "params"})
 
 
 @dataclass(frozen=True)
@@ -61,14 +73,7 @@ class Method:
     grammar: GrammarUse = DEFAULT_GRAMMAR
 
     def __post_init__(self) -> None:
-        for option, value, allowed in (
-            ("search", self.search, get_args(Search)),
-            ("grammar", self.grammar, get_args(GrammarUse)),
-        ):
-            if value not in allowed:
-                raise InvalidParameterError(
-                    f"{option} must be one of {', '.join(map(repr, allowed))}, got {value!r}"
-                )
+        check_fields(self, METHOD_RULES, "method.")
 
     @property
     def preprocessing(self) -> dict[str, Any]:
@@ -102,11 +107,19 @@ class Method:
             return cls.of_templates(spec)
         if isinstance(spec, (str, os.PathLike)):
             path = Path(spec)
-            if not path.exists():
+            try:
+                exists = path.exists()
+            except (OSError, ValueError):  # a name too long, a NUL byte
+                exists = False
+            if not exists:
                 raise InvalidParameterError(
                     f"method {str(spec)!r} is neither {' nor '.join(NAMES)} nor a template file"
                 )
-            return cls.of_templates(Templates.load(path), name=str(path))
+            templates = Templates.load(path)  # its errors name the file
+            try:
+                return cls.of_templates(templates, name=str(path))
+            except ModelFormatError as err:
+                raise ModelFormatError(f"{path}: {err}") from None
         raise InvalidParameterError(
             f"a method is a name ({', '.join(NAMES)}), a template file, Templates or a Method, "
             f"got {type(spec).__name__}"
@@ -114,25 +127,23 @@ class Method:
 
     @classmethod
     def of_templates(cls, templates: Templates, *, name: str = "templates") -> Method:
-        """The method saved with ``templates`` (:meth:`save`), else the default one on them."""
+        """The method saved with ``templates`` (:meth:`save`), else the default one on them.
+        A saved method that breaks the schema (:mod:`lfd.segmentation.schema`) raises
+        :class:`~lfd.errors.ModelFormatError` naming the field."""
         saved = templates.meta.get("method")
         if not saved:
             return cls(name, templates)
-        if not isinstance(saved, dict):
-            raise ModelFormatError("the template file's lfd.method entry must be a JSON object")
-        try:
-            params = params_from_dict(saved.get("params", {}))
-            return cls(
-                str(saved.get("name", name)),
-                templates,
-                params,
-                saved.get("search", DEFAULT_SEARCH),
-                saved.get("grammar", DEFAULT_GRAMMAR),
-            )
-        except (TypeError, InvalidParameterError) as err:
-            raise ModelFormatError(
-                f"the template file's lfd.method entry is unusable: {err}"
-            ) from None
+        doc = dict(check_keys(saved, METHOD_KEYS, "lfd.method.", ModelFormatError))
+        params = doc.pop("params", {})
+        kwargs = {
+            key: METHOD_RULES[key].check(value, f"lfd.method.{key}", ModelFormatError)
+            for key, value in doc.items()
+        }
+        return cls(
+            templates=templates,
+            params=params_from_dict(params, "lfd.method.params.", ModelFormatError),
+            **{"name": name, **kwargs},
+        )
 
     def with_options(
         self,
@@ -196,14 +207,10 @@ def _from_portable(text: str) -> Method:
     return Method.of_templates(Templates.from_json(text))
 
 
-def params_from_dict(doc: dict[str, Any]) -> SegmentParams:
-    """:class:`SegmentParams` from :func:`dataclasses.asdict` output (missing keys: defaults)."""
-    doc = dict(doc)
-    stage1 = doc.pop("stage1", None)
-    contacts = doc.pop("contacts", "default")
-    kwargs: dict[str, Any] = dict(doc)
-    if stage1 is not None:
-        kwargs["stage1"] = Stage1Params(**stage1)
-    if contacts != "default":
-        kwargs["contacts"] = None if contacts is None else ContactParams(**contacts)
-    return SegmentParams(**kwargs)
+def params_from_dict(
+    doc: Any, where: str = "params.", error: type[LfdError] = InvalidParameterError
+) -> SegmentParams:
+    """:class:`SegmentParams` from a JSON object of its fields (:func:`dataclasses.asdict`
+    output; missing keys: the defaults), every field checked by its rule
+    (:data:`~lfd.segmentation.schema.SEGMENT_RULES`): ``error`` naming ``<where><field>``."""
+    return from_document(SegmentParams, doc, SEGMENT_RULES, where, error)

@@ -136,6 +136,12 @@ class SegmentParams:
     co_motion_displacement: float = 0.015
     contacts: ContactParams | None = field(default_factory=ContactParams)
 
+    def __post_init__(self) -> None:
+        from ..rules import check_fields
+        from .schema import SEGMENT_RULES
+
+        check_fields(self, SEGMENT_RULES, "params.")
+
 
 PAPER_PARAMS = SegmentParams(
     stage1=Stage1Params(object_criteria=False, min_section_s=0.2),
