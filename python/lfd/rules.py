@@ -67,8 +67,10 @@ def _is_number(value: Any) -> bool:
 
 
 def _is_bool(value: Any) -> bool:
-    return isinstance(value, bool) or type(value).__name__ in ("bool_", "bool") and (
-        type(value).__module__ == "numpy"
+    return (
+        isinstance(value, bool)
+        or (type(value).__name__ in ("bool_", "bool")
+        and (type(value).__module__ == "numpy"))
     )
 
 
@@ -110,7 +112,9 @@ class Number(Rule):
     also: tuple[Any, ...] = ()
 
     def want(self) -> str:
-        span = _interval(self.low, self.high, self.open_low) + (f" {self.unit}" if self.unit else "")
+        span = _interval(self.low, self.high, self.open_low) + (
+            f" {self.unit}" if self.unit else ""
+        )
         extra = " or ".join(shown(a) for a in self.also)
         return f"{extra + ' or ' if extra else ''}a number in {span}"
 
@@ -120,7 +124,12 @@ class Number(Rule):
         if not _is_number(value):
             return _BAD
         x = float(value)
-        if not math.isfinite(x) or x > self.high or x < self.low or (self.open_low and x <= self.low):
+        if (
+            not math.isfinite(x)
+            or x > self.high
+            or x < self.low
+            or (self.open_low and x <= self.low)
+        ):
             return _BAD
         return x
 
@@ -268,7 +277,9 @@ def check_keys(doc: Any, known: Any, where: str, error: Error) -> dict[str, Any]
     """``doc`` if it is a JSON object whose keys are all in ``known``, else ``error`` naming
     the first unknown key (and the known one it is closest to)."""
     if not isinstance(doc, dict):
-        raise error(f"{where.rstrip('.') or 'the document'} must be a JSON object, got {shown(doc)}")
+        raise error(
+            f"{where.rstrip('.') or 'the document'} must be a JSON object, got {shown(doc)}"
+        )
     for key in doc:
         if key not in known:
             names = [str(k) for k in known]
@@ -279,7 +290,11 @@ def check_keys(doc: Any, known: Any, where: str, error: Error) -> dict[str, Any]
 
 
 def from_document(
-    cls: type[T], doc: Any, rules: Mapping[str, Rule], prefix: str = "", error: Error = InvalidParameterError
+    cls: type[T],
+    doc: Any,
+    rules: Mapping[str, Rule],
+    prefix: str = "",
+    error: Error = InvalidParameterError,
 ) -> T:
     """``cls(**doc)`` for a JSON object ``doc`` of its fields (missing ones: the defaults),
     every value checked with its rule first, so a bad one is ``error`` naming its place
@@ -289,7 +304,11 @@ def from_document(
     for key, value in doc.items():
         rule = rules[key]
         name = f"{prefix}{key}"
-        kwargs[key] = rule.build(value, name, error) if isinstance(rule, Nested) else rule.check(value, name, error)
+        kwargs[key] = (
+            rule.build(value, name, error)
+            if isinstance(rule, Nested)
+            else rule.check(value, name, error)
+        )
     try:
         return cls(**kwargs)
     except InvalidParameterError as err:  # a rule across fields, checked by the constructor

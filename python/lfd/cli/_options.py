@@ -58,7 +58,9 @@ def segmentation_method(args: argparse.Namespace) -> Any:
             )
         paper = Method.paper()
         if given:  # the file's templates (and its whole method checked), the paper's method
-            return dataclasses.replace(paper, name=str(given), templates=Method.load(given).templates)
+            return dataclasses.replace(
+                paper, name=str(given), templates=Method.load(given).templates
+            )
         return paper
     method = Method.load(given)
     return method.with_options(search=args.search, grammar=args.grammar)

@@ -6,7 +6,7 @@ import argparse
 import math
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, get_args
+from typing import Any, get_args
 
 from ._options import (
     add_batch_options,
@@ -18,9 +18,6 @@ from ._options import (
     emit_json,
     load_options,
 )
-
-if TYPE_CHECKING:
-    from ..segmentation.pipeline import GrammarUse
 
 NAME = "eval"
 HELP = "Evaluate lfd's default (dp), the paper's method and three baselines against ground truth."
@@ -81,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
     from rich.table import Table
 
     from ..errors import UsageError
-    from ..segmentation import Templates
+    from ..segmentation import Method
     from ..segmentation.evaluate import (
         TEMPLATE_METHODS,
         check_methods,
@@ -113,14 +110,15 @@ def run(args: argparse.Namespace) -> int:
     if args.base is not None and args.base != "default":
         check_inputs(base=args.base)
     sizes = load_options(args)["object_sizes"]
-    templates = Templates.load(args.templates) if args.templates else None
-    base, base_name = _base(args, templates) if args.leave_one_out else (None, "")
+    given = Method.load(args.templates) if args.templates else None
+    method = (given or Method.default()).with_options(grammar=args.grammar)
+    base, base_name = _base(args, given) if args.leave_one_out else (None, "")
     batch = batch_options(args)
     if args.leave_one_out and batch["ray_address"] is not None:
         raise UsageError("--ray runs the recordings of a plain eval; drop it with --leave-one-out")
     failed: dict[str, str] = {}
     if open_from_args(args, "lfd_eval"):
-        _show(paths, methods, templates, args.grammar, con, sizes)
+        _show(paths, methods, method, con, sizes)
     from rich.console import Console
 
     stderr = Console(stderr=True)
@@ -137,16 +135,15 @@ def run(args: argparse.Namespace) -> int:
                 base=base,
                 base_name=base_name,
                 methods=[m for m in methods if m in TEMPLATE_METHODS],
-                grammar=args.grammar,
+                method=method,
                 progress=step,
                 object_sizes=sizes,
             )
         else:
             report = evaluate(
                 paths,
-                templates=templates,
+                method=method,
                 methods=methods,
-                grammar=args.grammar,
                 progress=step,
                 object_sizes=sizes,
                 failed=failed,
@@ -198,8 +195,7 @@ def run(args: argparse.Namespace) -> int:
 def _show(
     paths: list[Path],
     methods: tuple[str, ...],
-    templates: Any,
-    grammar: GrammarUse,
+    method: Any,
     console: Any,
     object_sizes: Any = None,
 ) -> None:
@@ -215,17 +211,18 @@ def _show(
 
     demo = load(paths[0], object_sizes=object_sizes)
     log_recorded_demo(demo, trajectory=False)  # log_methods logs the segmented one
-    log_methods(demo, methods, templates=templates, grammar=grammar)
+    log_methods(demo, methods, method=method)
 
 
-def _base(args: argparse.Namespace, templates: Any) -> tuple[Any, str]:
-    """The template set --leave-one-out adapts (None: train from scratch) and its name."""
+def _base(args: argparse.Namespace, given: Any) -> tuple[Any, str]:
+    """The template set --leave-one-out adapts (None: train from scratch) and its name
+    (``given``: the method of --templates FILE, or None)."""
     from ..errors import UsageError
-    from ..segmentation import Templates
+    from ..segmentation import Method, Templates
 
     name = args.base
-    if name is None and templates is not None:  # made the way --templates FILE was made
-        name = templates.meta.get("adapted_from")
+    if name is None and given is not None:  # made the way --templates FILE was made
+        name = given.templates.meta.get("adapted_from")
         if name is not None and name != "default" and not Path(name).is_file():
             raise UsageError(
                 f"--templates {args.templates} was adapted from {name}, which does not exist "
@@ -233,7 +230,7 @@ def _base(args: argparse.Namespace, templates: Any) -> tuple[Any, str]:
             )
     if name is None:
         return None, ""
-    return (Templates.default() if name == "default" else Templates.load(name)), str(name)
+    return (Templates.default() if name == "default" else Method.load(name).templates), str(name)
 
 
 def _per_recording(report: Any, con: Any) -> None:

@@ -13,6 +13,7 @@ block) and shown by ``lfd info FILE.json`` and ``lfd segment --json`` (:meth:`Me
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -130,10 +131,15 @@ class Method:
         """The method saved with ``templates`` (:meth:`save`), else the default one on them.
         A saved method that breaks the schema (:mod:`lfd.segmentation.schema`) raises
         :class:`~lfd.errors.ModelFormatError` naming the field."""
-        saved = templates.meta.get("method")
-        if not saved:
+        return cls.from_entry(templates, templates.meta.get("method"), name=name)
+
+    @classmethod
+    def from_entry(cls, templates: Templates, entry: Any, *, name: str = "templates") -> Method:
+        """The method a file's ``lfd.method`` entry (:data:`METHOD_KEYS`) describes on
+        ``templates`` (an empty or missing entry: the default method, named ``name``)."""
+        if not entry:
             return cls(name, templates)
-        doc = dict(check_keys(saved, METHOD_KEYS, "lfd.method.", ModelFormatError))
+        doc = dict(check_keys(entry, METHOD_KEYS, "lfd.method.", ModelFormatError))
         params = doc.pop("params", {})
         kwargs = {
             key: METHOD_RULES[key].check(value, f"lfd.method.{key}", ModelFormatError)
@@ -176,26 +182,38 @@ class Method:
             "params": dataclasses.asdict(self.params),
         }
 
-    def to_templates(self) -> Templates:
-        """The templates with this method saved in them (what :meth:`save` writes)."""
-        meta = dict(self.templates.meta)
-        meta["method"] = {
+    def entry(self) -> dict[str, Any]:
+        """The method as a file's ``lfd.method`` entry (:meth:`from_entry` reads it back)."""
+        return {
             "name": self.name,
             "search": self.search,
             "grammar": self.grammar,
             "params": dataclasses.asdict(self.params),
         }
-        return Templates(self.templates.engine, meta=meta)
+
+    def to_templates(self) -> Templates:
+        """The templates with this method saved in them (what :meth:`save` writes)."""
+        return Templates(
+            self.templates.engine, meta={**self.templates.meta, "method": self.entry()}
+        )
 
     def portable(self) -> str:
-        """The method as text a worker process or Ray node takes (:meth:`from_portable`)."""
+        """The method as text a worker process or Ray node takes (:meth:`from_portable`): the
+        name of its shipped templates and its entry, or the whole template file. A method is
+        pickled as this text (what :mod:`lfd.batch` sends a worker), and rebuilt, checked
+        like a file, once per process for a given text."""
+        for shipped, templates in (("default", Templates.default()), ("paper", Templates.paper())):
+            if self.templates is templates:
+                return json.dumps({"shipped": shipped, "method": self.entry()})
         return self.to_templates().to_json()
 
     @classmethod
     def from_portable(cls, text: str | None) -> Method:
-        """The inverse of :meth:`portable` (``None``: the default method); parsed once per
-        process for a given text."""
+        """The inverse of :meth:`portable` (``None``: the default method)."""
         return cls.default() if text is None else _from_portable(text)
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (Method.from_portable, (self.portable(),))
 
     def save(self, path: str | os.PathLike[str]) -> None:
         """Write the templates with this method in them; :meth:`load` reads it back."""
@@ -204,7 +222,14 @@ class Method:
 
 @lru_cache(maxsize=4)
 def _from_portable(text: str) -> Method:
-    return Method.of_templates(Templates.from_json(text))
+    from ..inputs import parse_json
+
+    doc = parse_json(text, "a portable method is not JSON", ModelFormatError)
+    shipped = doc.get("shipped") if isinstance(doc, dict) else None
+    if shipped is None:
+        return Method.of_templates(Templates.from_json(text))
+    templates = {"default": Templates.default, "paper": Templates.paper}[shipped]()
+    return Method.from_entry(templates, doc["method"])
 
 
 def params_from_dict(

@@ -23,7 +23,7 @@ from typing import Any, get_args
 
 from .._hmmseg import EndState
 from ..contact import CONTACT_RULES, ContactParams
-from ..errors import ModelFormatError
+from ..errors import LfdError, ModelFormatError
 from ..preprocessing.grasp import Aperture
 from ..rules import Choice, Counts, Flag, Items, Nested, Number, Rule, Text, Whole, check_keys
 from .stage1 import STAGE1_RULES, Stage1Params
@@ -85,7 +85,9 @@ BLOCK_KEYS: frozenset[str] = frozenset(
 """Every key of the ``lfd`` block."""
 
 
-def check_block(meta: Any, where: str = "lfd.", error: type[ModelFormatError] = ModelFormatError) -> dict[str, Any]:
+def check_block(
+    meta: Any, where: str = "lfd.", error: type[LfdError] = ModelFormatError
+) -> dict[str, Any]:
     """The ``lfd`` block of a template file checked (without its ``method`` entry, which
     :meth:`lfd.Method.of_templates` reads): known keys, each value by its rule (normalised:
     numbers as floats), and the format version, which is dropped."""
@@ -104,7 +106,7 @@ def check_block(meta: Any, where: str = "lfd.", error: type[ModelFormatError] = 
     return out
 
 
-def check_version(value: Any, name: str, error: type[ModelFormatError] = ModelFormatError) -> None:
+def check_version(value: Any, name: str, error: type[LfdError] = ModelFormatError) -> None:
     """Refuse a format version this lfd does not read (newer, or not a version at all)."""
     version = Whole(1, 10**6).check(value, name, error)
     if version > FORMAT_VERSION:
