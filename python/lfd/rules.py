@@ -67,10 +67,8 @@ def _is_number(value: Any) -> bool:
 
 
 def _is_bool(value: Any) -> bool:
-    return (
-        isinstance(value, bool)
-        or (type(value).__name__ in ("bool_", "bool")
-        and (type(value).__module__ == "numpy"))
+    return isinstance(value, bool) or (
+        type(value).__name__ in ("bool_", "bool") and (type(value).__module__ == "numpy")
     )
 
 
