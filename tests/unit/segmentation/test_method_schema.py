@@ -268,3 +268,18 @@ def test_method_load_refuses_anything_else_with_an_lfd_error(tmp_path: Path) -> 
     for spec in (tmp_path / "missing.json", "x\0y", tmp_path, 3):
         with pytest.raises(LfdError):
             Method.load(spec)  # type: ignore[arg-type]
+
+
+def test_the_doc_shows_every_rule() -> None:
+    """docs/method-files.md lists every field with what its rule says it holds."""
+    from lfd.segmentation.method import METHOD_KEYS, METHOD_RULES
+    from lfd.segmentation.schema import ABOUT_RULES, PREPROCESSING_RULES
+
+    doc = (ROOT / "docs" / "method-files.md").read_text()
+    tables = [SEGMENT_RULES, STAGE1_RULES, CONTACT_RULES, PREPROCESSING_RULES, ABOUT_RULES]
+    for rules in tables:
+        for key, rule in rules.items():
+            assert f"| `{key}` | {rule.want()} |" in doc, key
+    for key in METHOD_KEYS - {"params"}:
+        assert f"| `{key}` | {METHOD_RULES[key].want()} |" in doc, key
+    assert f'"format_version": {FORMAT_VERSION},' in doc
