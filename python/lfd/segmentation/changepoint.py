@@ -39,8 +39,9 @@ from ..preprocessing.filters import finite_runs
 from ..preprocessing.grasp import box_distance
 from ..skills import SKILLS
 from ..trajectory import Trajectory
+from .drafts import _make_segment
 from .gaps import fill_gaps
-from .pipeline import _make_segment, as_trajectory
+from .pipeline import as_trajectory
 from .result import Segmentation
 
 DEFAULT_PENALTY = 0.02
