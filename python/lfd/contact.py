@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import InvalidParameterError
+from .geometry import box_distance
 
 Span = tuple[str, int, int, int | None]
 """``(skill, start, end, object)``: a skill on samples ``start..end`` (end exclusive)."""
@@ -82,28 +83,6 @@ class ContactParams:
         for name in ("rest_samples", "min_move"):
             if int(getattr(self, name)) != getattr(self, name) or getattr(self, name) < 1:
                 raise InvalidParameterError(f"contacts.{name} must be a whole number >= 1")
-
-
-def box_distance(
-    points: np.ndarray, position: np.ndarray, quaternion: np.ndarray, size: np.ndarray
-) -> np.ndarray:
-    """Distance (m) of ``points`` ``(n, 3)`` from a box of ``size`` ``(3,)`` centred at
-    ``position`` ``(n, 3)`` with orientation ``quaternion`` ``(n, 4)`` (x, y, z, w): 0 inside.
-    A non-finite pose gives NaN."""
-    p = np.asarray(points, dtype=np.float64)
-    c = np.asarray(position, dtype=np.float64)
-    q = np.asarray(quaternion, dtype=np.float64)
-    ok = np.isfinite(q).all(axis=-1) & (np.linalg.norm(np.nan_to_num(q), axis=-1) > 0)
-    rel = p - c
-    # rotate the offsets into the box frame: R(q)^T rel, q normalised (x, y, z, w)
-    qn = np.where(ok[:, None], q, [0.0, 0.0, 0.0, 1.0])
-    qn = qn / np.linalg.norm(qn, axis=-1, keepdims=True)
-    u, w = -qn[:, :3], qn[:, 3:]  # the inverse rotation
-    t = 2.0 * np.cross(u, rel)
-    local = rel + w * t + np.cross(u, t)
-    outside = np.maximum(np.abs(local) - np.asarray(size, dtype=np.float64) / 2.0, 0.0)
-    d = np.linalg.norm(outside, axis=-1)
-    return np.where(ok & np.isfinite(d), d, np.nan)
 
 
 def refine(
