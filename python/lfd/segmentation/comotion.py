@@ -166,35 +166,14 @@ def co_motion_per_object(
         lo, hi = lo[:, None], hi[None, :]
     else:  # the band's runs: (N,)
         lo, hi = lo[band.start], hi[band.end]
-    still = _skill_mask(skills, TARGET_STILL)
-    no_set_down, no_lift = _skill_mask(skills, NO_SET_DOWN), _skill_mask(skills, NO_LIFT)
-    carried = _skill_mask(skills, CARRIED)
     h = np.asarray(hand, dtype=bool)[:n] if hand is not None and left >= 0 else None
     lift = None
     if lifted is not None:  # (lifted, resting, next lifted, next resting)
         resting = ~lifted
         lift = (lifted, resting, _next_true(lifted), _next_true(resting))
-
-    # per skill, the counts it is charged for, in the order they are summed (a count times 0 adds
-    # nothing: every count is finite and >= 0)
-    masks = [still, no_set_down, no_lift, carried, carried]
-    present = [True, lifted is not None, lifted is not None, lifted is not None and slide >= 0]
-    present.append(h is not None)
-    charged = [
-        tuple(k for k, mask in enumerate(masks) if present[k] and mask[s])
-        for s in range(len(skills))
-    ]
-
+    charged = _charged(skills, lifted is not None, slide, h is not None)
     # each mask's cumulative counts, computed once, when first asked for
-    mask_of: dict[str, Callable[[int], np.ndarray]] = {"moving": lambda o: moving[o]}
-    if lift is not None:
-        lifted_, resting_ = lift[0], lift[1]
-        mask_of["resting"] = lambda o: resting_[o]
-        mask_of["lifted"] = lambda o: lifted_[o]
-        mask_of["sliding"] = lambda o: moving[o] & resting_[o]
-    if h is not None:
-        hand_ = h
-        mask_of["left"] = lambda o: hand_ & ~moving[o]
+    mask_of = _masks(moving, lift, h)
     cums: dict[tuple[str, int], np.ndarray] = {}
 
     def cum(kind: str, o: int) -> np.ndarray:
@@ -249,6 +228,40 @@ def co_motion_per_object(
         return out
 
     return CoMotion(of, lo, hi, band is not None)
+
+
+def _charged(skills: list[str], lifted: bool, slide: float, hand: bool) -> list[tuple[int, ...]]:
+    """Per skill, the counts of :func:`co_motion_per_object` it is charged for (indices into
+    still, not set down, not lifted, slid, left behind), in the order they are summed (a count
+    times 0 adds nothing: every count is finite and >= 0)."""
+    still = _skill_mask(skills, TARGET_STILL)
+    no_set_down, no_lift = _skill_mask(skills, NO_SET_DOWN), _skill_mask(skills, NO_LIFT)
+    carried = _skill_mask(skills, CARRIED)
+    masks = [still, no_set_down, no_lift, carried, carried]
+    present = [True, lifted, lifted, lifted and slide >= 0, hand]
+    return [
+        tuple(k for k, mask in enumerate(masks) if present[k] and mask[s])
+        for s in range(len(skills))
+    ]
+
+
+def _masks(
+    moving: np.ndarray,
+    lift: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None,
+    hand: np.ndarray | None,
+) -> dict[str, Callable[[int], np.ndarray]]:
+    """The sample masks of :func:`co_motion_per_object` per target object ``o``: it moves,
+    rests, is lifted, slides (moves resting), the hand moves without it."""
+    mask_of: dict[str, Callable[[int], np.ndarray]] = {"moving": lambda o: moving[o]}
+    if lift is not None:
+        lifted_, resting_ = lift[0], lift[1]
+        mask_of["resting"] = lambda o: resting_[o]
+        mask_of["lifted"] = lambda o: lifted_[o]
+        mask_of["sliding"] = lambda o: moving[o] & resting_[o]
+    if hand is not None:
+        hand_ = hand
+        mask_of["left"] = lambda o: hand_ & ~moving[o]
+    return mask_of
 
 
 @dataclass(frozen=True, eq=False)
