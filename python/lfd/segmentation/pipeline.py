@@ -3,6 +3,12 @@
 trajectory -> gap filling -> Table I features -> stage 1 (section boundaries) -> stage 2 (score
 table from the templates, TCP rise decision, greedy loop or segmental DP under the grammar)
 -> :class:`~lfd.segmentation.result.Segmentation` with target objects and skill parameters.
+
+The pieces are modules of their own: the score table over the engine's band
+(:mod:`~lfd.segmentation.stage2`, with the co-motion evidence of
+:mod:`~lfd.segmentation.comotion`), the passes over the search's segments (implicit Moves,
+contact boundaries, Move objects: :mod:`~lfd.segmentation.passes`) and the segments being made
+(:mod:`~lfd.segmentation.drafts`).
 """
 
 from __future__ import annotations

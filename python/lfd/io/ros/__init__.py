@@ -11,7 +11,12 @@ topic mapping (:func:`read_mapping`, schema in docs/ros.md), says which:
 
 :func:`load_ros` reads a ROS 1 ``.bag``, a ROS 2 bag directory (``metadata.yaml`` with sqlite3
 or mcap storage, or its ``.db3``), or a lone ROS 2 ``.mcap`` file; :func:`lfd.load` calls it for
-such paths. ``rosbags`` is imported only here, inside the functions (the ``ros`` extra).
+such paths. ``rosbags`` is imported only in this package, inside the functions (the ``ros``
+extra).
+
+The modules: :mod:`~lfd.io.ros.mapping` (the topic mapping), :mod:`~lfd.io.ros.bag` (a bag
+opened through rosbags), :mod:`~lfd.io.ros.tf` (tf chains), :mod:`~lfd.io.ros.read` (a bag
+read into a demonstration, :func:`bag_summary`).
 """
 
 from __future__ import annotations
