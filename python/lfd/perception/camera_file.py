@@ -24,6 +24,7 @@ The other limits of a recording's inputs are here too: the camera device index
 from __future__ import annotations
 
 import math
+import numbers
 from pathlib import Path
 from typing import Any
 
@@ -56,7 +57,8 @@ HAND_RATE_RANGE_HZ = (0.1, 1000.0)
 
 
 def _number(value: Any) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool)
+    """A real number (Python's or numpy's), not a bool nor a string."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
 
 
 def length_problem(value: Any, what: str) -> str | None:

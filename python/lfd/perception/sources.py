@@ -225,10 +225,14 @@ class FolderSource(Source):
         fps = float(meta.get("fps", 30.0))  # checked: a number in (0, 1000]
         ts = self.dir / "timestamps.txt"
         if ts.is_file():
+            from ..inputs import read_text
+
             try:
-                self.t_ns = [int(line) for line in ts.read_text().split()]
+                self.t_ns = [int(line) for line in read_text(ts, "timestamps", LfdError).split()]
             except ValueError as err:
                 raise LfdError(f"{ts}: one integer nanosecond timestamp per line ({err})") from err
+            if any(t < 0 for t in self.t_ns) or any(np.diff(self.t_ns) <= 0):
+                raise LfdError(f"{ts}: timestamps must be >= 0 ns and strictly increasing")
             if len(self.t_ns) != len(self.color_files):
                 raise LfdError(f"{ts}: {len(self.t_ns)} timestamps, {len(self.color_files)} images")
         else:
@@ -246,15 +250,15 @@ class FolderSource(Source):
     def frames(self) -> Iterator[Frame]:
         import cv2
 
+        from .image_header import decode
+
         for t, path in zip(self.t_ns, self.color_files, strict=True):
-            bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
-            if bgr is None:
-                raise LfdError(f"{path}: cannot read image")
+            bgr = decode(path, "image", cv2.IMREAD_COLOR)
             depth = None
             dpath = self.dir / "depth" / f"{path.stem}.png"
             if dpath.is_file():
-                depth = cv2.imread(str(dpath), cv2.IMREAD_UNCHANGED)
-                if depth is None or depth.dtype != np.uint16 or depth.shape != bgr.shape[:2]:
+                depth = decode(dpath, "depth image", cv2.IMREAD_UNCHANGED)
+                if depth.dtype != np.uint16 or depth.shape != bgr.shape[:2]:
                     raise LfdError(f"{dpath}: depth must be a 16-bit PNG of the colour image size")
             yield Frame(t, cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), depth)
 

@@ -15,14 +15,12 @@ import sys
 from collections.abc import Iterator
 from types import ModuleType
 
-MAX_IMAGE_PIXELS = 50_000_000
-"""Largest image OpenCV decodes (``CV_IO_MAX_IMAGE_PIXELS``), pixels: 50 megapixels, an
-8000 x 6000 photo; a file claiming more is refused before it is decoded."""
+from .image_header import MAX_IMAGE_PIXELS
 
 OPENCV_ENVIRONMENT = {
     "OPENCV_LOG_LEVEL": "SILENT",  # OpenCV's own [ WARN ] / [ERROR] lines
     "OPENCV_FFMPEG_LOGLEVEL": "-8",  # AV_LOG_QUIET: FFmpeg's lines about a damaged video
-    "CV_IO_MAX_IMAGE_PIXELS": str(MAX_IMAGE_PIXELS),
+    "CV_IO_MAX_IMAGE_PIXELS": str(MAX_IMAGE_PIXELS),  # what OpenCV's imread allocates
 }
 """What :func:`quiet_opencv` sets, unless the environment already has it."""
 
