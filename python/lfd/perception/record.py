@@ -115,6 +115,9 @@ class RecordingFailed(LfdError):
         self.part, self.frames, self.path = part, frames, path
 
 
+_END = object()
+"""What ``next`` gives at the end of a source's frames."""
+
 TAG_TRACKER = "the tag tracker"
 HAND_MODEL = "the hand model"
 OBSERVER = "the live segmentation or view"
@@ -306,8 +309,8 @@ class _Session:
 
     def _next(self, frames: Any) -> Frame | None:
         """The source's next frame, checked (None: the source has ended)."""
-        frame = next(frames, None)
-        return None if frame is None else check_frame(frame, self.source.camera, self.name)
+        frame = next(frames, _END)
+        return None if frame is _END else check_frame(frame, self.source.camera, self.name)
 
     def _wind_up(self, failed: str | None) -> tuple[str, BaseException] | None:
         """Write the hands the estimator still holds and the skills the observer still has open,

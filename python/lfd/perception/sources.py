@@ -20,7 +20,10 @@ Image folder layout (``--source frames:DIR``)::
     DIR/depth/000000.png   depth, 16-bit PNG in millimetres (0 = no data), same names (optional)
     DIR/timestamps.txt     capture time per frame in integer ns (optional, else from fps)
 
-Camera (``--source camera:N``): ``cv2.VideoCapture(N)`` gives colour; depth comes from a
+Every ``camera.json`` is read and checked by :mod:`lfd.perception.camera_file` (the fields'
+ranges are there); a frame of any source is checked by :func:`check_frame`.
+
+Camera (``--source camera:N``, N in 0-63): ``cv2.VideoCapture(N)`` gives colour; depth comes from a
 :class:`DepthReader` (any object with ``read() -> array (H, W) uint16 mm or None``), e.g. a
 RealSense / Azure Kinect wrapper aligned to the colour camera. A reader that also has
 ``read_frame() -> (rgb (H, W, 3) uint8, depth (H, W) uint16 mm)`` supplies both images (an
