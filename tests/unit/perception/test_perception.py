@@ -449,7 +449,7 @@ def test_a_source_failing_mid_recording_keeps_what_was_recorded(tmp_path) -> Non
 
     source.frames = unplugged  # type: ignore[method-assign]
     out = tmp_path / "rec.mcap"
-    with pytest.raises(LfdError, match="failed after 6 frames: .*kept the 6 frames recorded"):
+    with pytest.raises(LfdError, match=r"failed after 6 frames: .*kept the 6 frames recorded"):
         record(source, out)
     demo = load(out)  # closed and complete, no recovery warning
     assert sum(len(o.t_ns) for o in demo.objects.values()) >= 6
