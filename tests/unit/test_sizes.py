@@ -21,9 +21,6 @@ ARCHITECTURE = REPO / "ARCHITECTURE.md"
 
 TEMPORARY: dict[str, str] = {
     # split on branch record-robust/method-schema; removed at merge
-    "perception/record.py:record": "record-robust",
-    "cli/record.py:run": "record-robust",
-    "sim/demonstrator.py:simulate": "record-robust",
     "export/lerobot.py": "method-schema",
     "export/lerobot.py:prepare_episode": "method-schema",
 }
