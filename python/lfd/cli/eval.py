@@ -75,7 +75,6 @@ def _fmt(k: str, v: float) -> str:
 
 def run(args: argparse.Namespace) -> int:
     from rich.progress import Progress
-    from rich.table import Table
 
     from ..errors import UsageError
     from ..segmentation import Method
@@ -86,7 +85,6 @@ def run(args: argparse.Namespace) -> int:
         expand_paths,
         leave_one_out,
     )
-    from ..segmentation.metrics import METRIC_NAMES
     from ._options import batch_options
     from ._rerun import check_rerun_args, close_from_args, open_from_args
 
@@ -161,6 +159,28 @@ def run(args: argparse.Namespace) -> int:
         how = f"adapted from {base_name}" if base is not None else "trained from scratch"
         con.print(f"leave-one-out: each recording segmented by templates {how} on the others")
         _per_recording(report, con)
+    _print_report(report, con)
+    close_from_args(args)
+    doc = report.to_dict()
+    if failed:  # only a batch with failures has the key: a complete run's document is as before
+        doc["failed"] = [{"recording": p, "error": m} for p, m in failed.items()]
+    emit_json(args, doc, con)
+    if failed:
+        print(
+            f"lfd eval: {len(paths) - len(failed)} of {len(paths)} recordings evaluated; "
+            f"{len(failed)} failed",
+            file=sys.stderr,
+        )
+    return 2 if failed else 0
+
+
+def _print_report(report: Any, con: Any) -> None:
+    """The recordings left out, a table of the metrics per task and overall, and each
+    method's errors (warnings on stderr)."""
+    from rich.table import Table
+
+    from ..segmentation.metrics import METRIC_NAMES
+
     for r in report.recordings:
         note = r.excluded_note()
         if note is not None:
@@ -178,18 +198,6 @@ def run(args: argparse.Namespace) -> int:
     for r in report.recordings:
         for m, err in r.errors.items():
             print(f"lfd eval: warning: {r.name} {m}: {' '.join(str(err).split())}", file=sys.stderr)
-    close_from_args(args)
-    doc = report.to_dict()
-    if failed:  # only a batch with failures has the key: a complete run's document is as before
-        doc["failed"] = [{"recording": p, "error": m} for p, m in failed.items()]
-    emit_json(args, doc, con)
-    if failed:
-        print(
-            f"lfd eval: {len(paths) - len(failed)} of {len(paths)} recordings evaluated; "
-            f"{len(failed)} failed",
-            file=sys.stderr,
-        )
-    return 2 if failed else 0
 
 
 def _show(
