@@ -24,7 +24,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def main() -> int:
-    from lfd.segmentation import Templates, train_templates
+    from lfd.segmentation import Method, train_templates
     from lfd.segmentation.evaluate import evaluate, leave_one_out
     from segment_heldout import seeds_of, simulate_group  # same folder: benches/
 
@@ -44,7 +44,7 @@ def main() -> int:
         rows.append(
             (
                 "careful-only templates, not retrained",
-                evaluate(paths, templates=careful, methods=("dp",)),
+                evaluate(paths, method=Method.of_templates(careful), methods=("dp",)),
             )
         )
         rows.append(
@@ -59,7 +59,7 @@ def main() -> int:
     rows.append(
         (
             "shipped templates, not retrained",
-            evaluate(paths, templates=Templates.default(), methods=("dp",)),
+            evaluate(paths, method=Method.default(), methods=("dp",)),
         )
     )
     print(f"{len(paths)} natural-style recordings (seeds {args.seeds} and {seeds[-1] + 1}), dp:")

@@ -34,10 +34,11 @@ GROUPS: dict[str, tuple[dict[str, Any], tuple[str, ...]]] = {
     "natural": ({"style": "natural"}, ("exp1", "exp2", "exp3", "exp4", "exp5")),
 }
 ROWS: list[tuple[str, str, dict[str, Any]]] = [
-    # (label, method of lfd.segmentation.evaluate, grammar)
-    ("lfd default: dp, grammar enforced", "dp", {"grammar": "enforce"}),
+    # (label, method of lfd.segmentation.evaluate, its keyword arguments; the grammar is
+    # enforced by lfd's default method)
+    ("lfd default: dp, grammar enforced", "dp", {}),
     ("the paper: greedy, grammar warns (`--paper`)", "paper", {}),
-    ("greedy, grammar enforced", "greedy", {"grammar": "enforce"}),
+    ("greedy, grammar enforced", "greedy", {}),
     ("change points + contact rules (OKAMI / ORION-style)", "changepoint", {}),
     ("proximity baseline (paper)", "proximity", {}),
     ("gripper-distance baseline (paper)", "gripper", {}),

@@ -38,6 +38,7 @@ def simulate_condition(
 
 
 def main() -> int:
+    from lfd.segmentation import Method
     from lfd.segmentation.evaluate import evaluate
     from rich.console import Console
     from rich.table import Table
@@ -54,7 +55,8 @@ def main() -> int:
         slug = name.replace(" ", "_").replace("%", "pct")
         paths = simulate_condition(Path(args.out) / slug, given)
         for grammar in ("enforce", "warn"):
-            rep = evaluate(paths, methods=("greedy", "dp"), grammar=grammar)
+            method = Method.default().with_options(grammar=grammar)
+            rep = evaluate(paths, methods=("greedy", "dp"), method=method)
             for method, m in rep.summary().items():
                 table.add_row(
                     name,

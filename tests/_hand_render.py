@@ -73,7 +73,7 @@ def relative_z_from_truth(
     return (scale * (z - z[0]) + noise) * fx / z_hand
 
 
-def render_views(
+def render_views(  # noqa: PLR0915  the render loop: scenes, then views rendered in each
     n_views: int,
     *,
     seed: int = 0,

@@ -12,7 +12,12 @@ process dies) becomes an :class:`ItemResult` with ``error`` set; the batch goes 
   sent as they are (paths), so every node must see the recordings at the same path.
 
 ``func`` must be a picklable top-level function taking the item (a path) and plain options (bind
-them with :func:`functools.partial`). Workers run with one thread each for the engine (rayon)
+them with :func:`functools.partial`). A segmentation method is one such option: an
+:class:`lfd.Method` pickles as its portable text (:meth:`lfd.Method.portable`) and is rebuilt,
+checked, once per worker process; that is the one way a method reaches a worker.
+
+Only an item's own failure is its result: ``KeyboardInterrupt`` (Ctrl+C, also when it arrives
+inside an engine call, which the engine raises as such) stops the whole batch. Workers run with one thread each for the engine (rayon)
 and numpy's BLAS (:data:`WORKER_ENV`): the parallelism is across items.
 """
 

@@ -26,7 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import InvalidParameterError
+from .geometry import box_distance
+from .rules import Number, Rule, Whole, check_fields
 
 Span = tuple[str, int, int, int | None]
 """``(skill, start, end, object)``: a skill on samples ``start..end`` (end exclusive)."""
@@ -74,36 +75,19 @@ class ContactParams:
     min_move: int = 3
 
     def __post_init__(self) -> None:
-        for name, value in vars(self).items():
-            if not (np.isfinite(value) and value >= 0):
-                raise InvalidParameterError(
-                    f"contacts.{name} must be a finite number >= 0, got {value}"
-                )
-        for name in ("rest_samples", "min_move"):
-            if int(getattr(self, name)) != getattr(self, name) or getattr(self, name) < 1:
-                raise InvalidParameterError(f"contacts.{name} must be a whole number >= 1")
+        check_fields(self, CONTACT_RULES, "contacts.")
 
 
-def box_distance(
-    points: np.ndarray, position: np.ndarray, quaternion: np.ndarray, size: np.ndarray
-) -> np.ndarray:
-    """Distance (m) of ``points`` ``(n, 3)`` from a box of ``size`` ``(3,)`` centred at
-    ``position`` ``(n, 3)`` with orientation ``quaternion`` ``(n, 4)`` (x, y, z, w): 0 inside.
-    A non-finite pose gives NaN."""
-    p = np.asarray(points, dtype=np.float64)
-    c = np.asarray(position, dtype=np.float64)
-    q = np.asarray(quaternion, dtype=np.float64)
-    ok = np.isfinite(q).all(axis=-1) & (np.linalg.norm(np.nan_to_num(q), axis=-1) > 0)
-    rel = p - c
-    # rotate the offsets into the box frame: R(q)^T rel, q normalised (x, y, z, w)
-    qn = np.where(ok[:, None], q, [0.0, 0.0, 0.0, 1.0])
-    qn = qn / np.linalg.norm(qn, axis=-1, keepdims=True)
-    u, w = -qn[:, :3], qn[:, 3:]  # the inverse rotation
-    t = 2.0 * np.cross(u, rel)
-    local = rel + w * t + np.cross(u, t)
-    outside = np.maximum(np.abs(local) - np.asarray(size, dtype=np.float64) / 2.0, 0.0)
-    d = np.linalg.norm(outside, axis=-1)
-    return np.where(ok & np.isfinite(d), d, np.nan)
+CONTACT_RULES: dict[str, Rule] = {
+    **dict.fromkeys(
+        ("approach_m", "lift_m", "lift_h_m", "rest_m", "place_h_m", "release_thumb_m",
+         "release_open_m", "release_tcp_m"),
+        Number(0.0, 10.0, "m"),
+    ),
+    "rest_samples": Whole(1, 10_000),
+    "min_move": Whole(1, 10_000),
+}  # fmt: skip
+"""What each :class:`ContactParams` field holds (:mod:`lfd.rules`; docs/method-files.md)."""
 
 
 def refine(
@@ -152,16 +136,33 @@ def refine(
         o: box_distance(thumb, object_position[o], object_quaternion[o], object_size[o])
         for o in used
     }
+    if complete:
+        _drop_unlifted_end(out, object_position, n, p)
+    _merge_table_turns(out, object_position, d_tcp, p)
+    _lift_and_set_down(out, object_position, p)
+    _approach(out, d_tcp, p)
+    if complete:
+        _last_release(out, d_tcp, d_thumb, opening, object_position, n, p)
+    return [(s.skill, s.start, s.end, s.obj) for s in out]
 
-    # a Pick up that ends the demonstration and never lifts its object was no grasp
-    end = out[-1] if out and complete else None
+
+def _drop_unlifted_end(
+    out: list[_Seg], object_position: np.ndarray, n: int, p: ContactParams
+) -> None:
+    """A Pick up that ends the demonstration and never lifts its object was no grasp: it
+    becomes part of the Move before it."""
+    end = out[-1] if out else None
     if end is not None and len(out) > 1 and end.skill == "pick_up" and out[-2].skill == "move":
         if end.obj is not None and _lift(object_position[end.obj], end.start, n, p) is None:
             out[-2].end = end.end
             del out[-1]
 
-    # a turn or slide on the table: a "carry" that never lifts its object, and the grasp after
-    # it, are one Pick up
+
+def _merge_table_turns(
+    out: list[_Seg], object_position: np.ndarray, d_tcp: dict[int, np.ndarray], p: ContactParams
+) -> None:
+    """A turn or slide on the table: a "carry" that never lifts its object, and the grasp
+    after it, are one Pick up."""
     k = 0
     while k + 3 < len(out):
         run = out[k : k + 5]
@@ -183,6 +184,10 @@ def refine(
             continue
         k += 1
 
+
+def _lift_and_set_down(out: list[_Seg], object_position: np.ndarray, p: ContactParams) -> None:
+    """A Pick up followed by its Move with ends where the object first moves (lift); a Move
+    with followed by its release where the object comes to rest (set down)."""
     for k in range(len(out) - 1):
         cur, nxt = out[k], out[k + 1]
         o = cur.obj
@@ -198,7 +203,10 @@ def refine(
         if t is not None:
             _move_boundary(out, k, t)
 
-    # approach: where the reach of a Pick up begins
+
+def _approach(out: list[_Seg], d_tcp: dict[int, np.ndarray], p: ContactParams) -> None:
+    """Approach: where the reach of a Pick up begins (a Move inserted before a first Pick up
+    that began farther; a first Move that never left the object joins the Pick up)."""
     k = -1
     while k + 1 < len(out):
         k += 1
@@ -224,15 +232,25 @@ def refine(
             del out[0]
             k -= 1
 
-    # the last release: a Move after it when the hand lets go before the demonstration ends
-    last = out[-1] if out and complete else None
+
+def _last_release(
+    out: list[_Seg],
+    d_tcp: dict[int, np.ndarray],
+    d_thumb: dict[int, np.ndarray],
+    opening: np.ndarray | None,
+    object_position: np.ndarray,
+    n: int,
+    p: ContactParams,
+) -> None:
+    """The last release: a Move after it when the hand lets go before the demonstration
+    ends."""
+    last = out[-1] if out else None
     if last is not None and last.skill in RELEASES and last.obj is not None:
         o = last.obj
         t = _release(d_tcp[o], d_thumb[o], opening, object_position[o], last.start, n, p)
         if t is not None and last.start < t <= n - p.min_move:
             last.end = t
             out.append(_Seg("move", t, n, None))
-    return [(s.skill, s.start, s.end, s.obj) for s in out]
 
 
 @dataclass

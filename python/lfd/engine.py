@@ -24,7 +24,7 @@ from . import _hmmseg
 from ._hmmseg import CovarianceType, Topology
 from .errors import InvalidParameterError, ShapeMismatchError
 
-__all__ = ["FitMonitor", "GaussianHMM"]
+__all__ = ["FitMonitor", "GaussianHMM", "template_set"]
 
 _Choice = TypeVar("_Choice", bound=str)
 
@@ -49,6 +49,15 @@ class FitMonitor:
     history: tuple[float, ...]
     n_iter: int
     converged: bool
+
+
+def template_set(doc: str) -> _hmmseg.TemplateSet:
+    """The engine's skill-template set (one :class:`GaussianHMM` per skill and feature group,
+    the feature ranges and parameters) of the JSON text ``doc`` (``TemplateSet.to_json``'s
+    document); raises ``ModelFormatError`` if the engine cannot read it."""
+    if not isinstance(doc, str):
+        raise InvalidParameterError(f"template_set needs a str, got {type(doc).__name__}")
+    return _hmmseg.TemplateSet.from_json(doc)
 
 
 def _as_observations(x: npt.ArrayLike, name: str = "x") -> np.ndarray:

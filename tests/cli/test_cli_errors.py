@@ -208,7 +208,7 @@ CASES: list[tuple[str, str, str]] = [
     ('record-duration-2', "record --source sim:exp1 -o {tmp}/out.mcap --duration -2", 'argument --duration: must be a number > 0'),
     ('record-fps-0', "record --source sim:exp1 -o {tmp}/out.mcap --fps 0", "argument --fps: must be a number in [0.5, 120], got '0'"),
     ('record-fps-inf', "record --source sim:exp1 -o {tmp}/out.mcap --fps inf", 'argument --fps: must be a finite number'),
-    ('record-hand-rate-0', "record --source sim:exp1 -o {tmp}/out.mcap --hand-rate 0", 'argument --hand-rate: must be a number > 0'),
+    ('record-hand-rate-0', "record --source sim:exp1 -o {tmp}/out.mcap --hand-rate 0", 'argument --hand-rate: must be a number in [0.1, 1000]'),
     ('record-seed-1', "record --source sim:exp1 -o {tmp}/out.mcap --seed -1", 'argument --seed: must be an integer in [0, 2**63 - 1]'),
     ('record-reference-size-0', "record --source sim:exp1 -o {tmp}/out.mcap --reference-size 0", 'argument --reference-size: must be a number > 0'),
     ('perception-train-epochs-0', "perception train -o {tmp}/out.pt --epochs 0", "argument --epochs: must be an integer >= 1, got '0'"),

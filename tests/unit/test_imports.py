@@ -3,7 +3,11 @@ ARCHITECTURE.md ("Layers") does not allow.
 
 The imports are read statically (``ast``) from every module of ``python/lfd``: ``import x``
 and ``from x import y`` anywhere in the file, at the top, inside functions (the lazy imports
-that defer heavy libraries) and under ``if TYPE_CHECKING:``, with relative imports resolved.
+that defer heavy libraries) and under ``if TYPE_CHECKING:``, with relative imports resolved,
+and the modules imported by name, ``importlib.import_module(...)`` (the PEP 562 tables of
+``lfd/__init__.py`` and ``lfd/sim/__init__.py``, the subcommands of ``lfd/cli``): a name built
+from variables may be any string of the module's top-level tables (assignments), and every
+such name that is a module of the package is an edge.
 ``from pkg import name`` is an edge to the submodule ``pkg.name`` when that is a module, else
 to ``pkg``. Importing ``pkg.mod`` also runs ``pkg/__init__.py``; that implicit edge is not
 counted (a package's ``__init__`` re-exporting its submodules is the normal layout).
@@ -65,8 +69,16 @@ def read_imports(root: Path) -> tuple[Graph, Graph]:
             elif (top := target.split(".")[0]) != root.name:
                 outside[top] = min(line, outside.get(top, line))
 
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
-            if isinstance(node, ast.Import):
+        tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
+        tables: set[str] | None = None
+        for node in ast.walk(tree):
+            if _is_import_module(node):
+                assert isinstance(node, ast.Call)
+                tables = _table_strings(tree) if tables is None else tables
+                for target, exact in _imported_by_name(node, name, tables):
+                    if exact or target in sources:  # a guess from the tables: lfd's own only
+                        add(target, node.lineno)
+            elif isinstance(node, ast.Import):
                 for alias in node.names:
                     add(alias.name, node.lineno)
             elif isinstance(node, ast.ImportFrom):
@@ -80,6 +92,72 @@ def read_imports(root: Path) -> tuple[Graph, Graph]:
                     sub = f"{target}.{alias.name}"
                     add(sub if sub in known else target, node.lineno)
     return graph, external
+
+
+def _is_import_module(node: ast.AST) -> bool:
+    """``importlib.import_module(...)`` or ``import_module(...)``."""
+    if not isinstance(node, ast.Call):
+        return False
+    f = node.func
+    return (isinstance(f, ast.Attribute) and f.attr == "import_module") or (
+        isinstance(f, ast.Name) and f.id == "import_module"
+    )
+
+
+def _table_strings(tree: ast.Module) -> set[str]:
+    """Every string constant of a module's top-level assignments: the names and modules of its
+    lazy tables (``_HOME = {"load": ".io", ...}``, ``COMMANDS = ("info", ...)``)."""
+    out: set[str] = set()
+    for node in tree.body:
+        if isinstance(node, ast.Assign | ast.AnnAssign) and node.value is not None:
+            for c in ast.walk(node.value):
+                if isinstance(c, ast.Constant) and isinstance(c.value, str):
+                    out.add(c.value)
+    return out
+
+
+def _imported_by_name(call: ast.Call, module: str, tables: set[str]) -> list[tuple[str, bool]]:
+    """The module names ``importlib.import_module(name, package)`` in ``module`` may import:
+    ``name`` a string, or an f-string or variable whose parts are ``__name__`` or any string of
+    ``tables``; a relative name resolved against ``package`` (``__name__``: ``module``). Each
+    with whether it is exact (no part taken from the tables)."""
+    if not call.args:
+        return []
+    arg = call.args[0]
+    package = call.args[1] if len(call.args) > 1 else None
+    package = next((k.value for k in call.keywords if k.arg == "package"), package)
+    anchor = module if isinstance(package, ast.Name) and package.id == "__name__" else None
+
+    def values(node: ast.expr) -> list[str]:
+        if isinstance(node, ast.Constant) and isinstance(node.value, str):
+            return [node.value]
+        if isinstance(node, ast.Name) and node.id == "__name__":
+            return [module]
+        if isinstance(node, ast.FormattedValue):
+            return values(node.value)
+        if isinstance(node, ast.JoinedStr):
+            return ["".join(p) for p in itertools.product(*(values(v) for v in node.values))]
+        return sorted(tables)  # a variable: any string of the tables
+
+    exact = all(
+        isinstance(n, ast.Constant) or (isinstance(n, ast.Name) and n.id == "__name__")
+        for n in ast.walk(arg)
+        if isinstance(n, ast.Constant | ast.Name)
+    )
+    out = []
+    for text in values(arg):
+        level = len(text) - len(text.lstrip("."))
+        if level:
+            if anchor is None:
+                continue
+            base = anchor.split(".")
+            if level - 1 >= len(base):
+                continue
+            base = base[: len(base) - (level - 1)]
+            rest = text[level:]
+            text = ".".join([*base, rest]) if rest else ".".join(base)
+        out.append((text, exact))
+    return out
 
 
 def import_graph(root: Path) -> Graph:
@@ -132,6 +210,43 @@ def test_graph_reads_every_kind_of_import() -> None:
     assert "lfd" not in graph["lfd.segmentation.pipeline"]
     # a submodule imported by name from its package
     assert "lfd.viz.recording" in graph["lfd.viz.blueprint"]
+    # importlib.import_module of a name from a table: the subcommands of lfd.cli
+    assert {"lfd.cli.segment", "lfd.cli.record", "lfd.cli.info"} <= set(graph["lfd.cli"])
+
+
+def test_imports_by_name_are_read(tmp_path: Path) -> None:
+    """``importlib.import_module`` with a constant, an f-string of a table's names (PEP 562
+    ``__getattr__``) or ``__name__``: the modules it may import are edges, at its line, checked
+    against the layers and for cycles like any other; a table's strings that are not modules
+    (the public names) are not."""
+    root = _write(
+        tmp_path,
+        {
+            "pkg/__init__.py": (
+                '_HOME = {"load": ".io", "view": ".viz", "Thing": ".nothing"}\n'
+                "def __getattr__(name):\n"
+                "    import importlib\n"
+                "    return getattr(importlib.import_module(_HOME[name], __name__), name)\n"
+            ),
+            "pkg/errors.py": "",
+            "pkg/io/__init__.py": "",
+            "pkg/viz/__init__.py": "",
+            "pkg/sim/__init__.py": (
+                'NAMES = ("tasks",)\n'
+                "def __getattr__(name):\n"
+                "    from importlib import import_module\n"
+                '    return import_module(f"{__name__}.{NAMES[0]}")\n'
+            ),
+            "pkg/sim/tasks.py": 'import importlib\nimportlib.import_module("pkg.sim")\n',
+        },
+    )
+    graph = import_graph(root)
+    assert graph["pkg"] == {"pkg.io": 4, "pkg.viz": 4}
+    assert graph["pkg.sim"] == {"pkg.sim.tasks": 4}
+    assert find_cycle(graph) == ["pkg.sim", "pkg.sim.tasks", "pkg.sim"]
+    assert list(layer_violations(root, LAYERS).values()) == [
+        "pkg (line 4) imports pkg.viz: layer api may not use layer viz",
+    ]
 
 
 def _write(root: Path, files: dict[str, str]) -> Path:

@@ -10,7 +10,7 @@ use std::any::Any;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use hmmseg::EngineError;
-use pyo3::exceptions::PyImportError;
+use pyo3::exceptions::{PyImportError, PyKeyboardInterrupt};
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::PyType;
@@ -163,12 +163,17 @@ fn panic_message(payload: &(dyn Any + Send)) -> String {
 /// `except Exception` does not catch). Every `#[pyfunction]` and `#[pymethods]` body runs
 /// through this. Unwinding is safe to stop here: the binding's classes are frozen (nothing
 /// is left half-updated) and the engine works on copies of the caller's arrays.
+///
+/// A panic that carries a `KeyboardInterrupt` (a Python call inside the binding, such as a lazy
+/// import, interrupted by Ctrl+C) is that interrupt: it is raised as `KeyboardInterrupt`, so
+/// the run stops instead of going on as if one input had failed.
 pub fn guard<T>(py: Python<'_>, body: impl FnOnce() -> PyResult<T>) -> PyResult<T> {
     catch_unwind(AssertUnwindSafe(body)).unwrap_or_else(|payload| {
-        Err(internal(
-            py,
-            &format!("panic: {}", panic_message(&*payload)),
-        ))
+        let msg = panic_message(&*payload);
+        if msg.contains("KeyboardInterrupt") {
+            return Err(PyKeyboardInterrupt::new_err(msg));
+        }
+        Err(internal(py, &format!("panic: {msg}")))
     })
 }
 

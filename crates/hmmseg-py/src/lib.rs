@@ -38,9 +38,22 @@ fn add_literal<T: OptionEnum>(m: &Bound<'_, PyModule>, alias: &str) -> PyResult<
     m.add(alias, literal.get_item(names)?)
 }
 
+/// Load numpy's C API now, with the module. rust-numpy loads it on first use and panics if
+/// that import fails, as it does when a Ctrl+C arrives just then (the import raises
+/// `KeyboardInterrupt`): a first engine call during an interrupt would fail with an engine
+/// error instead of stopping the run.
+fn load_numpy_api(py: Python<'_>) -> PyResult<()> {
+    py.import("numpy")?;
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        numpy::dtype::<f64>(py);
+    }))
+    .map_err(|_| pyo3::exceptions::PyImportError::new_err("lfd._hmmseg cannot load numpy's C API"))
+}
+
 #[pymodule]
 fn _hmmseg(m: &Bound<'_, PyModule>) -> PyResult<()> {
     errors::init(m.py())?;
+    load_numpy_api(m.py())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     add_literal::<CovarianceType>(m, "CovarianceType")?;
     add_literal::<Topology>(m, "Topology")?;

@@ -57,10 +57,10 @@ def segmentation_method(args: argparse.Namespace) -> Any:
                 "drop --paper to choose other values"
             )
         paper = Method.paper()
-        if given:
-            from ..segmentation import Templates
-
-            return dataclasses.replace(paper, name=str(given), templates=Templates.load(given))
+        if given:  # the file's templates (and its whole method checked), the paper's method
+            return dataclasses.replace(
+                paper, name=str(given), templates=Method.load(given).templates
+            )
         return paper
     method = Method.load(given)
     return method.with_options(search=args.search, grammar=args.grammar)

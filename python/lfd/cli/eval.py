@@ -6,7 +6,7 @@ import argparse
 import math
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, get_args
+from typing import Any, get_args
 
 from ._options import (
     add_batch_options,
@@ -18,9 +18,6 @@ from ._options import (
     emit_json,
     load_options,
 )
-
-if TYPE_CHECKING:
-    from ..segmentation.pipeline import GrammarUse
 
 NAME = "eval"
 HELP = "Evaluate lfd's default (dp), the paper's method and three baselines against ground truth."
@@ -78,10 +75,9 @@ def _fmt(k: str, v: float) -> str:
 
 def run(args: argparse.Namespace) -> int:
     from rich.progress import Progress
-    from rich.table import Table
 
     from ..errors import UsageError
-    from ..segmentation import Templates
+    from ..segmentation import Method
     from ..segmentation.evaluate import (
         TEMPLATE_METHODS,
         check_methods,
@@ -89,7 +85,6 @@ def run(args: argparse.Namespace) -> int:
         expand_paths,
         leave_one_out,
     )
-    from ..segmentation.metrics import METRIC_NAMES
     from ._options import batch_options
     from ._rerun import check_rerun_args, close_from_args, open_from_args
 
@@ -113,14 +108,15 @@ def run(args: argparse.Namespace) -> int:
     if args.base is not None and args.base != "default":
         check_inputs(base=args.base)
     sizes = load_options(args)["object_sizes"]
-    templates = Templates.load(args.templates) if args.templates else None
-    base, base_name = _base(args, templates) if args.leave_one_out else (None, "")
+    given = Method.load(args.templates) if args.templates else None
+    method = (given or Method.default()).with_options(grammar=args.grammar)
+    base, base_name = _base(args, given) if args.leave_one_out else (None, "")
     batch = batch_options(args)
     if args.leave_one_out and batch["ray_address"] is not None:
         raise UsageError("--ray runs the recordings of a plain eval; drop it with --leave-one-out")
     failed: dict[str, str] = {}
     if open_from_args(args, "lfd_eval"):
-        _show(paths, methods, templates, args.grammar, con, sizes)
+        _show(paths, methods, method, con, sizes)
     from rich.console import Console
 
     stderr = Console(stderr=True)
@@ -137,16 +133,15 @@ def run(args: argparse.Namespace) -> int:
                 base=base,
                 base_name=base_name,
                 methods=[m for m in methods if m in TEMPLATE_METHODS],
-                grammar=args.grammar,
+                method=method,
                 progress=step,
                 object_sizes=sizes,
             )
         else:
             report = evaluate(
                 paths,
-                templates=templates,
+                method=method,
                 methods=methods,
-                grammar=args.grammar,
                 progress=step,
                 object_sizes=sizes,
                 failed=failed,
@@ -164,6 +159,28 @@ def run(args: argparse.Namespace) -> int:
         how = f"adapted from {base_name}" if base is not None else "trained from scratch"
         con.print(f"leave-one-out: each recording segmented by templates {how} on the others")
         _per_recording(report, con)
+    _print_report(report, con)
+    close_from_args(args)
+    doc = report.to_dict()
+    if failed:  # only a batch with failures has the key: a complete run's document is as before
+        doc["failed"] = [{"recording": p, "error": m} for p, m in failed.items()]
+    emit_json(args, doc, con)
+    if failed:
+        print(
+            f"lfd eval: {len(paths) - len(failed)} of {len(paths)} recordings evaluated; "
+            f"{len(failed)} failed",
+            file=sys.stderr,
+        )
+    return 2 if failed else 0
+
+
+def _print_report(report: Any, con: Any) -> None:
+    """The recordings left out, a table of the metrics per task and overall, and each
+    method's errors (warnings on stderr)."""
+    from rich.table import Table
+
+    from ..segmentation.metrics import METRIC_NAMES
+
     for r in report.recordings:
         note = r.excluded_note()
         if note is not None:
@@ -181,25 +198,12 @@ def run(args: argparse.Namespace) -> int:
     for r in report.recordings:
         for m, err in r.errors.items():
             print(f"lfd eval: warning: {r.name} {m}: {' '.join(str(err).split())}", file=sys.stderr)
-    close_from_args(args)
-    doc = report.to_dict()
-    if failed:  # only a batch with failures has the key: a complete run's document is as before
-        doc["failed"] = [{"recording": p, "error": m} for p, m in failed.items()]
-    emit_json(args, doc, con)
-    if failed:
-        print(
-            f"lfd eval: {len(paths) - len(failed)} of {len(paths)} recordings evaluated; "
-            f"{len(failed)} failed",
-            file=sys.stderr,
-        )
-    return 2 if failed else 0
 
 
 def _show(
     paths: list[Path],
     methods: tuple[str, ...],
-    templates: Any,
-    grammar: GrammarUse,
+    method: Any,
     console: Any,
     object_sizes: Any = None,
 ) -> None:
@@ -215,17 +219,18 @@ def _show(
 
     demo = load(paths[0], object_sizes=object_sizes)
     log_recorded_demo(demo, trajectory=False)  # log_methods logs the segmented one
-    log_methods(demo, methods, templates=templates, grammar=grammar)
+    log_methods(demo, methods, method=method)
 
 
-def _base(args: argparse.Namespace, templates: Any) -> tuple[Any, str]:
-    """The template set --leave-one-out adapts (None: train from scratch) and its name."""
+def _base(args: argparse.Namespace, given: Any) -> tuple[Any, str]:
+    """The template set --leave-one-out adapts (None: train from scratch) and its name
+    (``given``: the method of --templates FILE, or None)."""
     from ..errors import UsageError
-    from ..segmentation import Templates
+    from ..segmentation import Method, Templates
 
     name = args.base
-    if name is None and templates is not None:  # made the way --templates FILE was made
-        name = templates.meta.get("adapted_from")
+    if name is None and given is not None:  # made the way --templates FILE was made
+        name = given.templates.meta.get("adapted_from")
         if name is not None and name != "default" and not Path(name).is_file():
             raise UsageError(
                 f"--templates {args.templates} was adapted from {name}, which does not exist "
@@ -233,7 +238,7 @@ def _base(args: argparse.Namespace, templates: Any) -> tuple[Any, str]:
             )
     if name is None:
         return None, ""
-    return (Templates.default() if name == "default" else Templates.load(name)), str(name)
+    return (Templates.default() if name == "default" else Method.load(name).templates), str(name)
 
 
 def _per_recording(report: Any, con: Any) -> None:

@@ -80,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
             repo_id=args.repo_id,
             video=not args.no_video,
             vcodec=args.vcodec,
-            templates=args.templates,  # read there: an input the dataset may not replace
+            method=args.templates,  # read there: an input the dataset may not replace
             on_result=show,
             **batch_options(args),
         )

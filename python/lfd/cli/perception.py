@@ -18,7 +18,7 @@ from __future__ import annotations
 import argparse
 import os
 
-from ._types import positive_float, positive_int, seed
+from ._types import float_range, positive_float, positive_int, seed
 
 NAME = "perception"
 HELP = "Hands in photos (MediaPipe); train / evaluate the depth hand network (perception extra)."
@@ -83,8 +83,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="COLSxROWS",
         help="inner corners of the chessboard, e.g. 9x6 (a board of 10 x 7 squares)",
     )
+    from ..perception.calibration import SQUARE_RANGE_M
+
     c.add_argument(
-        "--square", required=True, type=positive_float, metavar="M", help="a square's side, m"
+        "--square",
+        required=True,
+        type=float_range(*SQUARE_RANGE_M),
+        metavar="M",
+        help=f"a square's side, m, in [{SQUARE_RANGE_M[0]:g}, {SQUARE_RANGE_M[1]:g}]",
     )
     c.add_argument("--every", type=positive_int, default=10, help="videos: every Nth frame (10)")
     c.add_argument(
@@ -141,11 +147,19 @@ def _hands(args: argparse.Namespace) -> int:
 
 
 def board_size(text: str) -> tuple[int, int]:
-    """``COLSxROWS`` inner corners of a chessboard, each at least 2."""
+    """``COLSxROWS`` inner corners of a chessboard, each in
+    :data:`~lfd.perception.calibration.BOARD_RANGE`."""
+    from ..perception.calibration import BOARD_RANGE
+
     cols, sep, rows = text.lower().partition("x")
-    if not sep or not cols.isdigit() or not rows.isdigit() or min(int(cols), int(rows)) < 2:
+    lo, hi = BOARD_RANGE
+    if not sep or not cols.isdigit() or not rows.isdigit() or len(cols) > 4 or len(rows) > 4:
         raise argparse.ArgumentTypeError(
             f"expected COLSxROWS inner corners, e.g. 9x6, got {text!r}"
+        )
+    if not (lo <= int(cols) <= hi and lo <= int(rows) <= hi):
+        raise argparse.ArgumentTypeError(
+            f"each side must have {lo} to {hi} inner corners, e.g. 9x6, got {text!r}"
         )
     return int(cols), int(rows)
 

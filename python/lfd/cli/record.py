@@ -30,6 +30,7 @@ HELP = "Record a demonstration from a camera or video: object tags + hand keypoi
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from ..perception.camera_file import HAND_RATE_RANGE_HZ
     from ..perception.hand.colour import HAND_SIZE_RANGE
 
     parser.add_argument(
@@ -54,8 +55,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--hand-rate",
-        type=positive_float,
-        help="hand samples per second, > 0 (default: every frame with mediapipe, 5 with depth-net)",
+        type=float_range(*HAND_RATE_RANGE_HZ),
+        help=f"hand samples per second, in [{HAND_RATE_RANGE_HZ[0]:g}, "
+        f"{HAND_RATE_RANGE_HZ[1]:g}] (default: every frame with mediapipe, 5 with depth-net)",
     )
     parser.add_argument(
         "--fps",
@@ -139,14 +141,51 @@ def _sigterm(signum: int, frame: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from rich.console import Console
-    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
-    from ..io.topics import hand_camera_topic
-    from ..outputs import check_output
-    from ..perception.record import record
     from ..perception.sources import open_source
+    from ._rerun import close_from_args, open_from_args
+
+    model, model_file = _check(args)
+    source = open_source(
+        args.source,
+        seed=args.seed,
+        fps=args.fps,
+        duration=args.duration,
+        intrinsics=args.intrinsics,
+        depth_reader=args.depth_reader,
+    )
+    try:
+        estimator, hand_rate = _estimator(args, model, model_file)
+        segmenter = _segmenter(args, source)
+        view = open_from_args(args, "lfd_record")
+        observer = _observer(source, segmenter, view)
+    except BaseException:
+        source.close()
+        raise
+    max_frames = None
+    if args.duration is not None and not args.source.startswith("sim:"):
+        max_frames = max(1, round(args.duration * float(args.fps or source.fps or 30.0)))
+    old = signal.signal(signal.SIGTERM, _sigterm)
+    # a process started in the background inherits SIGINT ignored, and Python then never raises
+    # KeyboardInterrupt: stopping with SIGINT is part of this command's contract, so catch it
+    old_int = signal.signal(signal.SIGINT, signal.default_int_handler)
+    console = Console(stderr=True)
+    try:
+        stats = _record(args, source, console, estimator, hand_rate, max_frames, observer)
+    finally:
+        signal.signal(signal.SIGTERM, old)
+        signal.signal(signal.SIGINT, old_int)
+        close_from_args(args)
+    console.print(_summary(args, stats, live=segmenter is not None))
+    return 0
+
+
+def _check(args: argparse.Namespace) -> tuple[str, str | None]:
+    """Refuse what cannot be recorded before a source is opened: the hand model and its file,
+    the inputs, the output. -> the hand model and its weights file (None: the shipped one)."""
+    from ..outputs import check_output
     from ._options import check_inputs, read_files
-    from ._rerun import check_rerun_args, close_from_args, open_from_args
+    from ._rerun import check_rerun_args
 
     if args.live_segment and args.no_hand:
         from ..errors import UsageError
@@ -168,92 +207,104 @@ def run(args: argparse.Namespace) -> int:
         overwrite=args.overwrite,
     )
     check_rerun_args(args, inputs=[*inputs, args.output])
-    source = open_source(
-        args.source,
-        seed=args.seed,
-        fps=args.fps,
-        duration=args.duration,
-        intrinsics=args.intrinsics,
-        depth_reader=args.depth_reader,
-    )
-    estimator: Any = None
-    hand_rate = args.hand_rate
-    if not args.no_hand and model == "mediapipe":
+    return model, model_file
+
+
+def _estimator(
+    args: argparse.Namespace, model: str, model_file: str | None
+) -> tuple[Any, float | None]:
+    """The hand estimator (None: ``--no-hand``) and the hand rate (None: every frame)."""
+    if args.no_hand:
+        return None, args.hand_rate
+    if model == "mediapipe":
         from ..perception.hand.rgbd import MediaPipeEstimator
 
         estimator = MediaPipeEstimator(
             args.hand, threads=1, mirrored=args.mirrored, hand_size=args.hand_size
         )
-    elif not args.no_hand:
-        from ..perception.hand.infer import HandEstimator
+        return estimator, args.hand_rate
+    from ..perception.hand.infer import HandEstimator
 
-        estimator = HandEstimator(model_file, threads=1)
-        hand_rate = hand_rate or 5.0
-    segmenter = None
-    if args.live_segment:
-        from ..segmentation.live import LiveSegmentation
+    return HandEstimator(model_file, threads=1), args.hand_rate or 5.0
 
-        segmenter = LiveSegmentation(
-            [o["name"] for o in source.objects],
-            [o["size"] for o in source.objects],
-            side=args.hand,
-            tag_ids=[o["tag_id"] for o in source.objects],
-            metadata={"depth": source.has_depth},  # as the recording's (the hand's filter)
-        )
-    view = open_from_args(args, "lfd_record")
-    max_frames = None
-    if args.duration is not None and not args.source.startswith("sim:"):
-        max_frames = max(1, round(args.duration * float(args.fps or source.fps or 30.0)))
-    old = signal.signal(signal.SIGTERM, _sigterm)
-    # a process started in the background inherits SIGINT ignored, and Python then never raises
-    # KeyboardInterrupt: stopping with SIGINT is part of this command's contract, so catch it
-    old_int = signal.signal(signal.SIGINT, signal.default_int_handler)
-    console = Console(stderr=True)
-    try:
-        observer = None  # beside the file: the live segmenter and the Rerun view
-        if view or segmenter is not None:
-            import numpy as np
 
-            from ..live import LiveObserver
+def _segmenter(args: argparse.Namespace, source: Any) -> Any:
+    """The live segmentation of ``--live-segment`` (None without it)."""
+    if not args.live_segment:
+        return None
+    from ..segmentation.live import LiveSegmentation
 
-            objects = [
-                (o["name"], o["tag_id"], np.asarray(o["size"], float)) for o in source.objects
-            ]
-            observer = LiveObserver.open(objects, segmenter=segmenter, view=view)
-        with Progress(
-            SpinnerColumn(),
-            TextColumn("{task.description}"),
-            TimeElapsedColumn(),
-            console=console,
-            transient=not sys.stderr.isatty(),
-        ) as progress:
-            task = progress.add_task("recording", total=None)
+    return LiveSegmentation(
+        [o["name"] for o in source.objects],
+        [o["size"] for o in source.objects],
+        side=args.hand,
+        tag_ids=[o["tag_id"] for o in source.objects],
+        metadata={"depth": source.has_depth},  # as the recording's (the hand's filter)
+    )
 
-            def update(st: Any) -> None:
-                progress.update(
-                    task,
-                    description=f"{st.frames} frames, {st.object_poses} object poses, "
-                    f"{st.hand_estimates} hand estimates",
-                )
 
-            stats = record(
-                source,
-                args.output,
-                hand_rate_hz=hand_rate,
-                side=args.hand,
-                estimator=estimator,
-                save_images=args.images,
-                max_frames=max_frames,
-                progress=update,
-                markers={"dictionary": args.aruco_dict, "reference_size": args.reference_size},
-                observer=observer,
+def _observer(source: Any, segmenter: Any, view: bool) -> Any:
+    """What is done beside the file: the live segmenter and the Rerun view (None: neither)."""
+    if not view and segmenter is None:
+        return None
+    import numpy as np
+
+    from ..live import LiveObserver
+
+    objects = [(o["name"], o["tag_id"], np.asarray(o["size"], float)) for o in source.objects]
+    return LiveObserver.open(objects, segmenter=segmenter, view=view)
+
+
+def _record(
+    args: argparse.Namespace,
+    source: Any,
+    console: Any,
+    estimator: Any,
+    hand_rate: float | None,
+    max_frames: int | None,
+    observer: Any,
+) -> Any:
+    """:func:`lfd.perception.record.record` with a progress line on stderr."""
+    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+    from ..perception.record import record
+
+    with Progress(
+        SpinnerColumn(),
+        TextColumn("{task.description}"),
+        TimeElapsedColumn(),
+        console=console,
+        transient=not sys.stderr.isatty(),
+    ) as progress:
+        task = progress.add_task("recording", total=None)
+
+        def update(st: Any) -> None:
+            progress.update(
+                task,
+                description=f"{st.frames} frames, {st.object_poses} object poses, "
+                f"{st.hand_estimates} hand estimates",
             )
-    finally:
-        signal.signal(signal.SIGTERM, old)
-        signal.signal(signal.SIGINT, old_int)
-        close_from_args(args)
+
+        return record(
+            source,
+            args.output,
+            hand_rate_hz=hand_rate,
+            side=args.hand,
+            estimator=estimator,
+            save_images=args.images,
+            max_frames=max_frames,
+            progress=update,
+            markers={"dictionary": args.aruco_dict, "reference_size": args.reference_size},
+            observer=observer,
+        )
+
+
+def _summary(args: argparse.Namespace, stats: Any, *, live: bool) -> str:
+    """The line saying what was recorded."""
+    from ..io.topics import hand_camera_topic
+
     how = "stopped" if stats.interrupted else "done"
-    console.print(
+    return (
         f"{how}: {stats.frames} frames, {stats.object_poses} object poses, "
         f"{stats.hand_estimates} hand estimates ({stats.hand_missing} missed)"
         + (
@@ -262,7 +313,6 @@ def run(args: argparse.Namespace) -> int:
             if stats.hand_in_camera
             else ""
         )
-        + (f", {stats.live_segments} live segments" if segmenter is not None else "")
+        + (f", {stats.live_segments} live segments" if live else "")
         + f" -> {args.output}"
     )
-    return 0

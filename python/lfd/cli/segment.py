@@ -356,7 +356,7 @@ def _run_batch(args: argparse.Namespace) -> int:
     check_json(args, [*paths, *([args.templates] if args.templates else [])])
     method = segmentation_method(args)
     how = batch_options(args)
-    task = partial(segment_file, method=method.portable(), load_options=load_options(args))
+    task = partial(segment_file, method=method, load_options=load_options(args))
     with batch_progress(len(paths), "segmenting") as step:
         results = run_batch(task, paths, progress=step, **how)
     con = console(args)

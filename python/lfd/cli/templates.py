@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 NAME = "templates"
@@ -48,8 +47,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
 
     from ..errors import UsageError
+    from ..inputs import parse_json
     from ..outputs import check_output
-    from ..segmentation import Templates
+    from ..segmentation import Method, Templates
     from ..segmentation.evaluate import expand_paths
     from ..segmentation.templates import (
         template_params,
@@ -59,10 +59,7 @@ def run(args: argparse.Namespace) -> int:
     console = make_console()
     if args.action == "train":
         # check the parameters before any recording is read
-        try:
-            params = json.loads(args.params) if args.params else None
-        except json.JSONDecodeError as err:
-            raise UsageError(f"--params is not valid JSON: {err}") from None
+        params = parse_json(args.params, "--params is not valid JSON") if args.params else None
         template_params(params)
         if args.base is not None and params is not None:
             raise UsageError("--params sets how to train from scratch; --base keeps its own")
@@ -77,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
             )
         load_options(args)  # a bad --object-size fails before any recording is read
     if args.action == "show":
-        t = Templates.load(args.file) if args.file else Templates.default()
+        t = Method.load(args.file).templates if args.file else Templates.default()
         console.print(t)
         console.print(
             f"examples per skill: {dict(zip(t.skills, t.engine.n_examples, strict=True))}"
@@ -93,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
     failed: dict[str, str] = {}
     base = None
     if args.base is not None:
-        base = Templates.default() if args.base == "default" else Templates.load(args.base)
+        base = Templates.default() if args.base == "default" else Method.load(args.base).templates
     try:
         templates = _train(args, paths, base, params, how, failed, console)
     except BaseException:

@@ -22,9 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import rotations
 from ..demo import Demonstration
 from ..errors import DemonstrationError
+from ..geometry import box_distance
 
 NEAR_M = 0.15
 """A hand that never comes this close (metres, any keypoint to an object's box) reaches no
@@ -114,10 +114,8 @@ def closest_approach(demo: Demonstration) -> Approach:
         near = np.flatnonzero(
             np.any(centre - 0.5 * float(np.linalg.norm(obj.size)) <= np.nanmin(centre), axis=1)
         )
-        rot = rotations.as_matrix(quat[near])  # (m, 3, 3), box -> world
-        local = np.einsum("nji,nkj->nki", rot, offset[near])  # R^T (p - c)
-        outside = np.maximum(np.abs(local) - 0.5 * obj.size, 0.0)
-        dist = np.linalg.norm(outside, axis=2)  # (m, 21), NaN for unseen keypoints
+        # (m, 21), NaN for unseen keypoints
+        dist = box_distance(offset[near], 0.0, quat[near][:, None], obj.size)
         flat = int(np.nanargmin(dist))
         d = float(dist.flat[flat])
         if d < best.distance_m:

@@ -261,13 +261,7 @@ def scan(path: str | os.PathLike[str]) -> RawRecording:
     except OSError as err:
         raise RecordingFormatError(f"cannot open recording {p}: {err}") from err
     with f:
-        head = f.read(len(MAGIC))
-        if len(head) == 0:
-            raise RecordingFormatError(f"{p} is empty, not an MCAP recording")
-        if head != MAGIC[: len(head)]:
-            raise RecordingFormatError(f"{p} is not an MCAP file (bad magic bytes {head!r})")
-        if len(head) < len(MAGIC):
-            raise RecordingFormatError(f"{p} is cut inside the MCAP magic ({size} bytes)")
+        _check_magic(f.read(len(MAGIC)), p, size)
         f.seek(0)
         raw = RawRecording(path=p, file_size=size)
         schemas: dict[int, Schema] = {}
@@ -281,47 +275,14 @@ def scan(path: str | os.PathLike[str]) -> RawRecording:
             for record in _records(reader, p, budget):
                 if isinstance(record, Message):
                     ch = channels.get(record.channel_id)
-                    if ch is None:
-                        continue  # a message before its channel: not something we wrote
-                    topic = ch[0].topic
-                    if record.log_time > INT64_MAX:
-                        raise RecordingFormatError(
-                            f"{p}: a message on {topic} has log_time {record.log_time} ns, "
-                            "beyond the largest time lfd reads (2**63 - 1 ns)"
-                        )
-                    raw.messages[topic].append((record.log_time, record.data))
-                    s = raw.channels[topic]
-                    s.count += 1
-                    t = record.log_time
-                    s.first_ns = t if s.first_ns is None else min(s.first_ns, t)
-                    s.last_ns = t if s.last_ns is None else max(s.last_ns, t)
+                    if ch is not None:  # else a message before its channel: not ours
+                        _add_message(raw, ch[0].topic, record.log_time, record.data)
                 elif isinstance(record, Schema):
                     schemas[record.id] = record
                 elif isinstance(record, Channel):
-                    if record.id in channels:
-                        continue
-                    schema = schemas.get(record.schema_id)
-                    name = schema.name if schema is not None else ""
-                    known = raw.channels.get(record.topic)
-                    kind = (name, record.message_encoding)
-                    if known is not None and (known.schema, known.encoding) != kind:
-                        if decoded_topic(record.topic):
-                            raise RecordingFormatError(
-                                two_types_message(
-                                    p, record.topic, (known.schema, known.encoding), kind
-                                )
-                            )
-                    channels[record.id] = (record, name)
-                    if record.topic not in raw.channels:
-                        raw.channels[record.topic] = ChannelSummary(
-                            topic=record.topic,
-                            schema=name,
-                            encoding=record.message_encoding,
-                            metadata=dict(record.metadata),
-                            schema_encoding=schema.encoding if schema is not None else "",
-                            schema_data=bytes(schema.data) if schema is not None else b"",
-                        )
-                        raw.messages[record.topic] = []
+                    if record.id not in channels:
+                        schema = schemas.get(record.schema_id)
+                        channels[record.id] = (record, _add_channel(raw, record, schema))
                 elif isinstance(record, Metadata):
                     raw.metadata.setdefault(record.name, {}).update(record.metadata)
                 elif isinstance(record, DataEnd):
@@ -341,6 +302,54 @@ def scan(path: str | os.PathLike[str]) -> RawRecording:
                 detail = str(err) or "end of file"
                 raw.error = f"incomplete or damaged record: {type(err).__name__}: {detail}"
     return raw
+
+
+def _check_magic(head: bytes, p: str, size: int) -> None:
+    """Refuse a file that does not start with the MCAP magic (``head``: its first bytes)."""
+    if len(head) == 0:
+        raise RecordingFormatError(f"{p} is empty, not an MCAP recording")
+    if head != MAGIC[: len(head)]:
+        raise RecordingFormatError(f"{p} is not an MCAP file (bad magic bytes {head!r})")
+    if len(head) < len(MAGIC):
+        raise RecordingFormatError(f"{p} is cut inside the MCAP magic ({size} bytes)")
+
+
+def _add_message(raw: RawRecording, topic: str, t: int, data: bytes) -> None:
+    """A message of :func:`scan` on ``topic`` at ``t`` (ns) kept, its channel counted."""
+    if t > INT64_MAX:
+        raise RecordingFormatError(
+            f"{raw.path}: a message on {topic} has log_time {t} ns, "
+            "beyond the largest time lfd reads (2**63 - 1 ns)"
+        )
+    raw.messages[topic].append((t, data))
+    s = raw.channels[topic]
+    s.count += 1
+    s.first_ns = t if s.first_ns is None else min(s.first_ns, t)
+    s.last_ns = t if s.last_ns is None else max(s.last_ns, t)
+
+
+def _add_channel(raw: RawRecording, record: Any, schema: Any) -> str:
+    """A channel record of :func:`scan` (``schema``: its schema record, None if unknown): its
+    topic summarised on first sight, refused if a decoded topic changes type; its schema name."""
+    name = schema.name if schema is not None else ""
+    known = raw.channels.get(record.topic)
+    kind = (name, record.message_encoding)
+    if known is not None and (known.schema, known.encoding) != kind:
+        if decoded_topic(record.topic):
+            raise RecordingFormatError(
+                two_types_message(raw.path, record.topic, (known.schema, known.encoding), kind)
+            )
+    if record.topic not in raw.channels:
+        raw.channels[record.topic] = ChannelSummary(
+            topic=record.topic,
+            schema=name,
+            encoding=record.message_encoding,
+            metadata=dict(record.metadata),
+            schema_encoding=schema.encoding if schema is not None else "",
+            schema_data=bytes(schema.data) if schema is not None else b"",
+        )
+        raw.messages[record.topic] = []
+    return name
 
 
 def _records(reader: StreamReader, path: str, budget: int) -> Any:

@@ -49,10 +49,33 @@ from . import messages as M
 from . import topics as T
 from .images import COLOR_FORMATS, encode_compressed
 
-__all__ = ["McapRecorder", "ObjectSpec", "save"]
+__all__ = ["McapRecorder", "ObjectSpec", "object_name_problem", "save"]
 
 ObjectSpec = tuple[str, int, npt.ArrayLike]
 """``(name, tag_id, size)`` of one AR-tagged box; ``size`` is 3 lengths in metres."""
+
+RESERVED_OBJECT_NAMES = (T.WORLD_FRAME, T.CAMERA_FRAME)
+"""Names an object may not have: the ``/tf`` frames of the world and the camera (an object named
+``camera`` would publish the camera's pose)."""
+MAX_OBJECT_NAME = 200
+"""Longest object name (characters)."""
+
+
+def object_name_problem(name: str) -> str | None:
+    """What makes ``name`` unusable as an object's name (None: usable). It becomes the topic
+    ``/objects/<name>/pose`` and the ``/tf`` child frame, so it is refused (never escaped) when
+    it is empty, longer than :data:`MAX_OBJECT_NAME`, has a ``/``, a control character or
+    surrounding spaces, or is one of :data:`RESERVED_OBJECT_NAMES`. Any other name (``hand``
+    too) is an object's own topic and comes back from :func:`lfd.io.load` as it was written."""
+    if not isinstance(name, str) or not name:
+        return "must be a non-empty string"
+    if len(name) > MAX_OBJECT_NAME:
+        return f"must be at most {MAX_OBJECT_NAME} characters"
+    if "/" in name or name != name.strip() or any(not c.isprintable() for c in name):
+        return "must have no '/', control characters or surrounding spaces (it names a topic)"
+    if name in RESERVED_OBJECT_NAMES:
+        return f"is reserved for the /tf frame of the {name} ({', '.join(RESERVED_OBJECT_NAMES)})"
+    return None
 
 
 def _check_time(t_ns: Any) -> int:
@@ -73,8 +96,8 @@ class McapRecorder:
         Output file, replaced when the recorder is closed (written until then to
         :attr:`partial_path` beside it).
     objects : sequence of (name, tag_id, size)
-        The AR-tagged boxes; ``size`` has shape (3,), metres. Names become topics and must not
-        contain ``/``.
+        The AR-tagged boxes; ``size`` has shape (3,), metres. Names become topics
+        (:func:`object_name_problem` says which are refused).
     metadata : mapping, optional
         Free JSON-serialisable metadata (``task``, ``seed``, ``demonstrator`` ...).
     side : str
@@ -153,8 +176,9 @@ class McapRecorder:
 
     # --- setup -----------------------------------------------------------------------------
     def _declare_object(self, name: str, tag_id: int, size: npt.ArrayLike) -> None:
-        if not name or "/" in name or name != name.strip():
-            raise DemonstrationError(f"object name {name!r} must be non-empty without '/'")
+        problem = object_name_problem(name)
+        if problem is not None:
+            raise DemonstrationError(f"object name {name!r} {problem}")
         if name in self._objects:
             raise DemonstrationError(f"object {name!r} declared twice")
         s = np.asarray(size, dtype=np.float64)
@@ -495,6 +519,10 @@ class McapRecorder:
             self.discard()
 
 
+_HAND, _OBJECT, _COLOR, _DEPTH = 1, 2, 3, 4
+"""The kinds of samples :func:`save` interleaves, in their order at one time."""
+
+
 def save(demo: Demonstration, path: str | os.PathLike[str], **kwargs: Any) -> None:
     """Write a whole :class:`~lfd.demo.Demonstration` to ``path``.
 
@@ -503,14 +531,16 @@ def save(demo: Demonstration, path: str | os.PathLike[str], **kwargs: Any) -> No
     Extra keyword arguments go to :class:`McapRecorder`.
     """
     objects: Sequence[ObjectSpec] = [(o.name, o.tag_id, o.size) for o in demo.objects.values()]
-    events: list[tuple[int, int, str, int]] = []  # (t, order, stream, index)
-    events += [(int(t), 1, "hand", i) for i, t in enumerate(demo.hand.t_ns)]
+    # (t, stream kind, object name or "", index): the kind, never a name, says what a sample
+    # is, so an object named "hand" is an object
+    events: list[tuple[int, int, str, int]] = []
+    events += [(int(t), _HAND, "", i) for i, t in enumerate(demo.hand.t_ns)]
     for name, obj in demo.objects.items():
-        events += [(int(t), 2, name, i) for i, t in enumerate(obj.t_ns) if obj.visible[i]]
+        events += [(int(t), _OBJECT, name, i) for i, t in enumerate(obj.t_ns) if obj.visible[i]]
     if demo.color is not None:
-        events += [(int(t), 3, "\0color", i) for i, t in enumerate(demo.color.t_ns)]
+        events += [(int(t), _COLOR, "", i) for i, t in enumerate(demo.color.t_ns)]
     if demo.depth is not None:
-        events += [(int(t), 4, "\0depth", i) for i, t in enumerate(demo.depth.t_ns)]
+        events += [(int(t), _DEPTH, "", i) for i, t in enumerate(demo.depth.t_ns)]
     events.sort(key=lambda e: (e[0], e[1]))
     metadata = {k: v for k, v in demo.metadata.items() if k != "load_report"}
     with McapRecorder(
@@ -519,19 +549,19 @@ def save(demo: Demonstration, path: str | os.PathLike[str], **kwargs: Any) -> No
         if demo.camera is not None:
             t0 = events[0][0] if events else 0
             rec.add_camera_info(demo.camera, t0)
-        for t, _, stream, i in events:
-            if stream == "hand":
+        for t, kind, name, i in events:
+            if kind == _HAND:
                 hand = demo.hand
                 rec.add_hand(t, hand.keypoints[i], hand.confidence[i], hand.visible[i])
-            elif stream == "\0color":
+            elif kind == _COLOR:
                 assert demo.color is not None
                 rec.add_color(t, demo.color.frames[i])
-            elif stream == "\0depth":
+            elif kind == _DEPTH:
                 assert demo.depth is not None
                 rec.add_depth(t, demo.depth.frames[i])
             else:
-                obj = demo.objects[stream]
-                rec.add_object_pose(stream, t, obj.position[i], obj.quaternion[i])
+                obj = demo.objects[name]
+                rec.add_object_pose(name, t, obj.position[i], obj.quaternion[i])
         for label in demo.labels:
             rec.add_label(label)
         for label in demo.live_segments:  # settle times and scores are not kept by load

@@ -8,6 +8,10 @@
 
 from __future__ import annotations
 
-from .markers import FrameObjects, MarkerConfig, MarkerTracker, TaggedBox, TagPose
+from .stderr import quiet_opencv
+
+quiet_opencv()  # before OpenCV opens anything: its and FFmpeg's own lines stay off stderr
+
+from .markers import FrameObjects, MarkerConfig, MarkerTracker, TaggedBox, TagPose  # noqa: E402
 
 __all__ = ["FrameObjects", "MarkerConfig", "MarkerTracker", "TagPose", "TaggedBox"]

@@ -14,17 +14,40 @@ points by more than a few pixels should have its frames undistorted first.
 
 from __future__ import annotations
 
+import math
+import warnings
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import LfdError
+from ..errors import LfdError, LfdWarning
 
 MIN_VIEWS = 4
 """Views with the whole board found needed for a calibration (OpenCV needs 3; a dozen from
 different directions give a good one)."""
+BOARD_RANGE = (3, 100)
+"""Inner corners of a chessboard along each side (OpenCV's detector needs at least 3)."""
+SQUARE_RANGE_M = (0.001, 1.0)
+"""Plausible side of a chessboard square (m)."""
+MAX_VIEWS = 200
+"""Views read at most; a calibration needs a dozen."""
+MAX_TOTAL_PIXELS = 500_000_000
+"""Pixels read at most over all views (40 photos of 12 megapixels, 240 full-HD video frames):
+the corner search costs time per pixel."""
+
+
+def board_problem(cols: int, rows: int, square_m: float) -> str | None:
+    """What is wrong with a chessboard of ``cols`` x ``rows`` inner corners and squares of
+    ``square_m`` metres (None: usable)."""
+    lo, hi = BOARD_RANGE
+    if not (lo <= cols <= hi and lo <= rows <= hi):
+        return f"a chessboard has {lo} to {hi} inner corners along each side, got {cols} x {rows}"
+    s_lo, s_hi = SQUARE_RANGE_M
+    if not (math.isfinite(square_m) and s_lo <= square_m <= s_hi):
+        return f"a chessboard square is {s_lo:g} to {s_hi:g} m, got {square_m:g} m"
+    return None
 
 
 @dataclass(frozen=True)
@@ -71,22 +94,31 @@ def calibrate(images: Iterable[np.ndarray], cols: int, rows: int, square_m: floa
     Raises
     ------
     LfdError
-        A bad board, images of different sizes, or fewer than :data:`MIN_VIEWS` views with the
-        whole board.
+        A bad board (:func:`board_problem`), images of different sizes, or fewer than
+        :data:`MIN_VIEWS` views with the whole board. Views past :data:`MAX_VIEWS` or
+        :data:`MAX_TOTAL_PIXELS` are not read (an :class:`~lfd.errors.LfdWarning` says so).
     """
     import cv2
 
-    if cols < 2 or rows < 2 or not square_m > 0:
-        raise LfdError(
-            "a chessboard has at least 2 x 2 inner corners and squares > 0 m, got "
-            f"{cols} x {rows}, {square_m} m"
-        )
+    problem = board_problem(cols, rows, square_m)
+    if problem is not None:
+        raise LfdError(problem)
     obj = board_points(cols, rows, square_m)
     found_obj, found_img = [], []
     size: tuple[int, int] | None = None
     skipped = 0
     criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 50, 1e-3)
+    pixels = 0
     for n, image in enumerate(images):
+        pixels += image.shape[0] * image.shape[1]
+        if n == MAX_VIEWS or pixels > MAX_TOTAL_PIXELS:
+            warnings.warn(
+                f"calibrated from the first {n} views: the bound is {MAX_VIEWS} views and "
+                f"{MAX_TOTAL_PIXELS / 1e6:g} megapixels; the rest were not read",
+                LfdWarning,
+                stacklevel=2,
+            )
+            break
         grey = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_RGB2GRAY)
         here = (int(grey.shape[1]), int(grey.shape[0]))
         if size is None:

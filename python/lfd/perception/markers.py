@@ -28,6 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..errors import LfdError
+from .camera_file import k_problem, length_problem, pose_problem
 
 DEFAULT_DICTIONARY = "DICT_4X4_50"
 REFERENCE_TAG_ID = 0
@@ -84,10 +85,13 @@ class MarkerConfig:
         if len(set(ids)) != len(ids) or self.reference_id in ids:
             raise LfdError(f"tag ids must be distinct from each other and the reference: {ids}")
         for b in self.boxes:
-            if b.marker_side <= 0 or min(b.size) <= 0:
-                raise LfdError(f"box {b.name!r}: sizes must be positive")
-        if not self.reference_size > 0:
-            raise LfdError(f"reference marker size must be positive, got {self.reference_size}")
+            for v in (*b.size, b.marker_side):
+                problem = length_problem(v, f"box {b.name!r}: sizes and tag side")
+                if problem is not None:
+                    raise LfdError(problem)
+        problem = length_problem(self.reference_size, "reference marker size")
+        if problem is not None:
+            raise LfdError(problem)
 
     @classmethod
     def from_objects(cls, objects: Iterable[Any], **kwargs: Any) -> MarkerConfig:
@@ -292,8 +296,23 @@ class MarkerTracker:
         import cv2
 
         name = config.dictionary
-        if not hasattr(cv2.aruco, name):
+        if not name.startswith("DICT_") or not isinstance(getattr(cv2.aruco, name, None), int):
             raise LfdError(f"unknown ArUco dictionary {name!r}")
+        dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, name))
+        count = int(dictionary.bytesList.shape[0])
+        for box_name, tag_id in [("the reference", config.reference_id)] + [
+            (repr(b.name), b.tag_id) for b in config.boxes
+        ]:
+            if not 0 <= tag_id < count:
+                raise LfdError(
+                    f"tag id {tag_id} of {box_name} is not in {name} (ids 0-{count - 1})"
+                )
+        problem = k_problem(K)
+        if problem is None and world_T_camera is not None:
+            problem = pose_problem(world_T_camera)
+            problem = None if problem is None else f"world_T_camera {problem}"
+        if problem is not None:
+            raise LfdError(problem)
         self.config = config
         self.K = np.asarray(K, float).reshape(3, 3)
         params = cv2.aruco.DetectorParameters()
@@ -301,9 +320,7 @@ class MarkerTracker:
         params.cornerRefinementWinSize = 3
         params.cornerRefinementMaxIterations = 50
         params.cornerRefinementMinAccuracy = 0.01
-        self._detector = cv2.aruco.ArucoDetector(
-            cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, name)), params
-        )
+        self._detector = cv2.aruco.ArucoDetector(dictionary, params)
         self._sides = {b.tag_id: b.marker_side for b in config.boxes}
         self._sides[config.reference_id] = config.reference_size
         self._boxes = {b.tag_id: b for b in config.boxes}

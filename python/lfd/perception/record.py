@@ -42,8 +42,9 @@ import numpy as np
 
 from ..demo import CameraInfo, SkillLabel
 from ..errors import LfdError
+from .camera_file import check_hand_rate
 from .markers import MarkerConfig, MarkerTracker
-from .sources import Frame, Source
+from .sources import Frame, Source, check_frame, describe
 
 
 @dataclass
@@ -104,6 +105,27 @@ class RecordObserver(Protocol):
         ...
 
 
+class RecordingFailed(LfdError):
+    """A part of the recording (the source, the tag tracker, the hand model, the observer)
+    failed: the ``frames`` recorded before it are closed, complete, in ``path`` (with none, no
+    file is written). The failure itself is the ``__cause__``."""
+
+    def __init__(self, message: str, *, part: str, frames: int, path: str) -> None:
+        super().__init__(message)
+        self.part, self.frames, self.path = part, frames, path
+
+
+_END = object()
+"""What ``next`` gives at the end of a source's frames."""
+
+TAG_TRACKER = "the tag tracker"
+HAND_MODEL = "the hand model"
+OBSERVER = "the live segmentation or view"
+WRITER = "lfd record"
+"""The parts of a recording a failure is attributed to; the source is named by its own
+``metadata["source"]`` (``camera:0``)."""
+
+
 def record(
     source: Source,
     output: str | os.PathLike[str],
@@ -120,7 +142,8 @@ def record(
     """Record ``source`` into ``output`` (MCAP). ``estimator`` is a ``MediaPipeEstimator``, a
     ``HandEstimator`` or None; ``side`` names the hand topics (``/hand/<side>/...``).
 
-    ``hand_rate_hz`` None estimates the hand on every frame.
+    ``hand_rate_hz`` None estimates the hand on every frame; else it is a rate in
+    :data:`~lfd.perception.camera_file.HAND_RATE_RANGE_HZ`.
 
     ``observer`` (a :class:`RecordObserver`, e.g. :class:`lfd.live.LiveObserver`: Rerun, live
     segmentation) sees every frame, pose and hand sample as it is written; the skills it settles
@@ -132,54 +155,257 @@ def record(
 
     ``progress(stats)`` is called after every frame. KeyboardInterrupt stops the recording
     cleanly (the file is closed, complete and renamed to ``output``); ``stats.interrupted``
-    tells it happened. When the source fails after some frames (an :class:`LfdError`, e.g. a
-    camera unplugged), the recording so far is closed, complete, under ``output`` and the error
-    says so; any other exception, or one before the first frame, removes the unfinished file.
+    tells it happened. Nothing recorded is lost: when any part fails (the source or its depth
+    reader, a malformed frame, the tag tracker, the hand model, the observer), whatever it
+    raises, the frames recorded before it are closed, complete, in ``output`` and
+    :class:`RecordingFailed` says which part failed, why and how many frames were kept. A
+    failure before the first frame leaves no file.
     """
     from ..io import McapRecorder
 
-    if hand_rate_hz is not None and not hand_rate_hz > 0:
-        raise LfdError(f"hand rate must be positive, got {hand_rate_hz}")
+    try:
+        if hand_rate_hz is not None:
+            check_hand_rate(hand_rate_hz)
+        tracker, calib_poses = _tracker(source, markers)
+        meta = _metadata(source, estimator, hand_rate_hz, side)
+        objects = [(o["name"], o["tag_id"], np.asarray(o["size"], float)) for o in source.objects]
+        rec = McapRecorder(output, objects=objects, metadata=meta, color_format="png", side=side)
+    except BaseException:
+        _close(source)
+        raise
+    session = _Session(source, rec, tracker, estimator, observer, calib_poses)
+    session.period = 0 if hand_rate_hz is None else round(1e9 / hand_rate_hz)  # 0: every frame
+    session.save_images = save_images
+    try:
+        session.run(max_frames, progress, os.fspath(output))
+    finally:
+        _close(source)
+    return session.stats
+
+
+def _tracker(
+    source: Source, markers: dict[str, Any] | None
+) -> tuple[MarkerTracker, dict[str, tuple[np.ndarray, np.ndarray]]]:
+    """The tag tracker, and the object poses of the source's empty-workspace frame if any."""
     config = MarkerConfig.from_objects(source.objects, **(markers or {}))
     known = source.world_T_camera_if_known()
     tracker = MarkerTracker(config, source.camera.K, world_T_camera=known)
     calib = source.calibration_frame()
-    calib_poses: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-    if calib is not None:  # the empty workspace: reference marker and the boxes' initial poses
-        calib_poses = dict(tracker.process(calib.color, calib.depth).poses)
+    if calib is None:
+        return tracker, {}
+    # the empty workspace: reference marker and the boxes' initial poses
+    return tracker, dict(tracker.process(calib.color, calib.depth).poses)
+
+
+def _metadata(
+    source: Source, estimator: Any, hand_rate_hz: float | None, side: str
+) -> dict[str, Any]:
+    """The recording's metadata: the source's, the hand rate and model, whether depth is used."""
     meta = {
         **source.metadata,
         "hand_rate_hz": "every frame" if hand_rate_hz is None else hand_rate_hz,
         "perception": "lfd.perception",
         "depth": source.has_depth,
     }
-    if estimator is not None:
-        info = getattr(estimator, "info", {})
-        meta["hand_model"] = str(info.get("model") or info.get("training", {}))
-        meta["hand_side"] = side
-        lifting = getattr(estimator, "lifting", None)
-        if callable(lifting):
-            meta["hand_lifting"] = lifting(source.has_depth)
-        elif not source.has_depth:  # the depth network sees nothing without depth
-            source.close()
-            raise LfdError(
-                f"{meta.get('source', 'the source')} has no depth: the depth network cannot "
-                "place the hand; use the colour model (--hand-model mediapipe)"
+    if estimator is None:
+        return meta
+    info = getattr(estimator, "info", {})
+    meta["hand_model"] = str(info.get("model") or info.get("training", {}))
+    meta["hand_side"] = side
+    lifting = getattr(estimator, "lifting", None)
+    if callable(lifting):
+        meta["hand_lifting"] = lifting(source.has_depth)
+    elif not source.has_depth:  # the depth network sees nothing without depth
+        raise LfdError(
+            f"{meta.get('source', 'the source')} has no depth: the depth network cannot "
+            "place the hand; use the colour model (--hand-model mediapipe)"
+        )
+    return meta
+
+
+def _close(source: Source) -> None:
+    """Release the source; a failure to do so is a warning (the recording is already made)."""
+    try:
+        source.close()
+    except Exception as err:
+        import warnings
+
+        from ..errors import LfdWarning
+
+        name = source.metadata.get("source", "the source")
+        warnings.warn(f"{name}: closing it failed: {describe(err)}", LfdWarning, stacklevel=3)
+
+
+class _Session:
+    """One recording being made: the file, the tag tracker, the hand model and the observer,
+    frame by frame; :attr:`part` names the part running now (a failure's culprit)."""
+
+    def __init__(
+        self,
+        source: Source,
+        rec: Any,
+        tracker: MarkerTracker,
+        estimator: Any,
+        observer: RecordObserver | None,
+        calib_poses: dict[str, tuple[np.ndarray, np.ndarray]],
+    ) -> None:
+        self.source, self.rec, self.tracker = source, rec, tracker
+        self.estimator, self.observer, self.calib_poses = estimator, observer, calib_poses
+        self.name = str(source.metadata.get("source", "the source"))
+        self.stats = RecordStats()
+        self.part = self.name
+        self.period = 0
+        self.save_images = False
+        self.next_hand: int | None = None
+        self.camera_written = False
+        self.last_poses: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        self.last_t: int | None = None
+        self.tracks_every_frame = getattr(estimator, "needs_colour", False)
+        self.fed: deque[tuple[int, bool, bool]] = deque()  # frames given to the estimator,
+        # not answered yet: (time, hand due then, world frame known then)
+
+    def _call(self, part: str, fn: Any, *args: Any) -> Any:
+        """``fn(*args)``, run as ``part`` (a failure in it is that part's)."""
+        self.part = part
+        result = fn(*args)
+        self.part = WRITER
+        return result
+
+    # --- the loop --------------------------------------------------------------------------
+    def run(self, max_frames: int | None, progress: Any, output: str) -> None:
+        """Record every frame; close the file with what was recorded, whatever happens."""
+        failure: tuple[str, BaseException] | None = None
+        try:
+            frames = iter(self._call(self.name, self.source.frames))
+            while max_frames is None or self.stats.frames < max_frames:
+                frame = self._call(self.name, self._next, frames)
+                if frame is None:
+                    break
+                self.step(frame)
+                if progress is not None:
+                    progress(self.stats)
+        except KeyboardInterrupt:
+            self.stats.interrupted = True
+        except BaseException as err:
+            failure = (self.part, err)
+        try:
+            if failure is not None and self.stats.frames == 0:
+                self.rec.discard()  # nothing recorded: no file under the requested name
+            else:
+                late = self._wind_up(None if failure is None else failure[0])
+                failure = failure or late
+        finally:
+            self.rec.close()  # no-op after discard
+        if failure is not None:
+            part, cause = failure
+            if not isinstance(cause, Exception):  # SystemExit, GeneratorExit: not a failure
+                raise cause
+            raise RecordingFailed(
+                _failure(part, cause, self.stats.frames, output),
+                part=part,
+                frames=self.stats.frames,
+                path=output,
+            ) from cause
+
+    def _next(self, frames: Any) -> Frame | None:
+        """The source's next frame, checked (None: the source has ended)."""
+        frame = next(frames, _END)
+        return None if frame is _END else check_frame(frame, self.source.camera, self.name)
+
+    def _wind_up(self, failed: str | None) -> tuple[str, BaseException] | None:
+        """Write the hands the estimator still holds and the skills the observer still has open,
+        unless that part is the one that failed; the first failure of these, if any."""
+        if self.rec.closed:
+            return None
+        try:
+            if self.fed and failed != HAND_MODEL and hasattr(self.estimator, "drain"):
+                # frames the estimator still holds (the colour hand measuring its bones), oldest
+                # first; Ctrl+C in the middle of a frame leaves that newest one on one side only
+                held = self._call(HAND_MODEL, lambda: list(self.estimator.drain()))
+                for (t_ns, due_then, world_then), est in zip(self.fed, held, strict=False):
+                    if due_then:
+                        hand = self._call(HAND_MODEL, lambda e=est: _checked(_unpack(e)))
+                        self.write_hand(t_ns, world_then, hand)
+            if self.observer is not None and self.last_t is not None and failed != OBSERVER:
+                self._observe(self.observer.finish, self.last_t)  # the skills still open
+        except Exception as err:
+            return self.part, err
+        return None
+
+    # --- one frame -------------------------------------------------------------------------
+    def step(self, frame: Frame) -> None:
+        """Perceive and write one frame: object poses, camera calibration, hand."""
+        stats = self.stats
+        seen = self._call(TAG_TRACKER, self.tracker.process, frame.color, frame.depth)
+        poses = dict(seen.poses)
+        for name, (p, q) in poses.items():
+            self.rec.add_object_pose(name, frame.t_ns, p, q)
+            stats.object_poses += 1
+        if self.save_images:
+            self.rec.add_color(frame.t_ns, frame.color)
+            if frame.depth is not None:
+                self.rec.add_depth(frame.t_ns, frame.depth)
+        if stats.frames == 0:  # a box hidden in the first frame starts where calibration saw it
+            for name, (p, q) in self.calib_poses.items():
+                if name not in poses:
+                    self.rec.add_object_pose(name, frame.t_ns, p, q)
+                    stats.object_poses += 1
+                    poses[name] = (p, q)
+        self.last_poses.update(poses)  # boxes hidden by the hand are where they were last seen
+        self.last_t = frame.t_ns
+        if self.observer is not None:
+            self._observe(self.observer.on_frame, frame.t_ns, frame.color, poses)
+        if not self.camera_written and self.tracker.world_T_camera is not None:
+            cam = self.source.camera
+            info = CameraInfo(cam.width, cam.height, cam.K, self.tracker.world_T_camera)
+            self.rec.add_camera_info(info, frame.t_ns)
+            self.camera_written = True
+        self._hand(frame)
+        stats.frames += 1
+        self.rec.flush_if_due()  # a follower (lfd segment --follow) sees each frame within ~1 s
+
+    def _hand(self, frame: Frame) -> None:
+        """The hand of this frame when one is due (or, from a colour tracker that follows the
+        hand, of the frames it held until now)."""
+        due = self.next_hand is None or frame.t_ns >= self.next_hand
+        in_world = self.tracker.world_T_camera is not None  # else the hand is camera-frame
+        if self.estimator is not None and (due or self.tracks_every_frame):
+            # a colour tracker sees every frame it is given: it follows the hand from the
+            # previous one, so it is fed at the hand rate and its result kept when due
+            self.fed.append((frame.t_ns, due, in_world))
+            found = self._call(HAND_MODEL, self._estimate, frame)
+            for (t_ns, due_then, world_then), hand in zip(
+                [self.fed.popleft() for _ in found], found, strict=True
+            ):
+                if due_then:
+                    self.write_hand(t_ns, world_then, hand)
+        elif due:
+            self.write_hand(frame.t_ns, in_world, None)
+        if due:
+            period = self.period
+            self.next_hand = (
+                frame.t_ns + period if self.next_hand is None else self.next_hand + period
             )
-    objects = [(o["name"], o["tag_id"], np.asarray(o["size"], float)) for o in source.objects]
-    stats = RecordStats()
-    period = 0 if hand_rate_hz is None else round(1e9 / hand_rate_hz)  # 0: every frame
-    next_hand: int | None = None
-    camera_written = False
-    last_poses: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-    rec = McapRecorder(output, objects=objects, metadata=meta, color_format="png", side=side)
+            self.next_hand = max(self.next_hand, frame.t_ns + period // 2)
 
-    def settled(skills: Iterable[SettledSkill]) -> None:
-        for label, settled_ns, extra in skills:
-            rec.add_live_segment(label, settled_ns, extra)
-            stats.live_segments += 1
+    def _estimate(self, frame: Frame) -> list[_Found | None]:
+        found = _estimate_hands(
+            self.estimator,
+            frame,
+            self.source.camera.K,
+            self.tracker.world_T_camera,
+            _boxes(self.tracker, self.last_poses),
+        )
+        if len(found) > len(self.fed):
+            raise LfdError(
+                f"it returned {len(found)} hands for the {len(self.fed)} frames it was given"
+            )
+        return [_checked(hand) for hand in found]
 
-    def write_hand(t_ns: int, in_world: bool, found: _Found | None) -> None:
+    def write_hand(self, t_ns: int, in_world: bool, found: _Found | None) -> None:
+        """One hand sample: in the world frame, in the camera frame (before the reference tag
+        was seen: its own topic, the world topic marked unobserved), or none found."""
+        rec, stats = self.rec, self.stats
         if found is not None and not in_world:  # its own topic: no frames mixed
             kp, confidence, visible, _ = found
             rec.add_hand(t_ns, kp, confidence, visible=visible, frame="camera")
@@ -187,94 +413,31 @@ def record(
         if found is None or not in_world:  # marked unobserved (NaN, confidence 0)
             rec.add_hand(t_ns, np.full((21, 3), np.nan), np.zeros(21))
             stats.hand_missing += found is None
-            if observer is not None:
-                settled(observer.on_hand(t_ns, None, None, None))
+            if self.observer is not None:
+                self._observe(self.observer.on_hand, t_ns, None, None, None)
         else:
             kp, confidence, visible, kp_2d = found
             rec.add_hand(t_ns, kp, confidence, visible=visible)
             stats.hand_estimates += 1
-            if observer is not None:
-                settled(observer.on_hand(t_ns, kp, confidence, kp_2d))
+            if self.observer is not None:
+                self._observe(self.observer.on_hand, t_ns, kp, confidence, kp_2d)
 
-    last_t: int | None = None
-    tracks_every_frame = getattr(estimator, "needs_colour", False)
-    fed: deque[tuple[int, bool, bool]] = deque()  # frames given to the estimator, not answered
-    try:
-        for frame in source.frames():
-            poses = _process(frame, tracker, rec, stats, save_images)
-            if stats.frames == 0:  # a box hidden in the first frame starts where calibration saw it
-                for name, (p, q) in calib_poses.items():
-                    if name not in poses:
-                        rec.add_object_pose(name, frame.t_ns, p, q)
-                        stats.object_poses += 1
-                        poses[name] = (p, q)
-            last_poses.update(poses)  # boxes hidden by the hand are where they were last seen
-            last_t = frame.t_ns
-            if observer is not None:
-                settled(observer.on_frame(frame.t_ns, frame.color, poses))
-            if not camera_written and tracker.world_T_camera is not None:
-                cam = source.camera
-                rec.add_camera_info(
-                    CameraInfo(cam.width, cam.height, cam.K, tracker.world_T_camera), frame.t_ns
-                )
-                camera_written = True
-            due = next_hand is None or frame.t_ns >= next_hand
-            in_world = tracker.world_T_camera is not None  # else the hand is camera-frame
-            if estimator is not None and (due or tracks_every_frame):
-                # a colour tracker sees every frame it is given: it follows the hand from the
-                # previous one, so it is fed at the hand rate and its result kept when due
-                fed.append((frame.t_ns, due, in_world))
-                found = _estimate_hands(
-                    estimator,
-                    frame,
-                    source.camera.K,
-                    tracker.world_T_camera,
-                    _boxes(tracker, last_poses),
-                )
-                for (t_ns, due_then, world_then), hand in zip(
-                    [fed.popleft() for _ in found], found, strict=True
-                ):
-                    if due_then:
-                        write_hand(t_ns, world_then, hand)
-            elif due:
-                write_hand(frame.t_ns, in_world, None)
-            if due:
-                next_hand = frame.t_ns + period if next_hand is None else next_hand + period
-                next_hand = max(next_hand, frame.t_ns + period // 2)
-            stats.frames += 1
-            rec.flush_if_due()  # a follower (lfd segment --follow) sees each frame within ~1 s
-            if progress is not None:
-                progress(stats)
-            if max_frames is not None and stats.frames >= max_frames:
-                break
-    except KeyboardInterrupt:
-        stats.interrupted = True
-    except LfdError as err:
-        if stats.frames == 0:
-            rec.discard()  # nothing recorded: no file under the requested name
-            raise
-        # a source that fails mid-demonstration (camera unplugged, unreadable frame) must not
-        # lose what was recorded: the file is closed, complete, under the requested name
-        raise type(err)(
-            f"{err}; the {stats.frames} frames recorded before it are kept, complete, in {output}"
-        ) from err
-    except BaseException:
-        rec.discard()  # a failure of lfd itself leaves no file under the requested name
-        raise
-    finally:
-        try:
-            if fed and not rec.closed and hasattr(estimator, "drain"):
-                # frames the estimator still holds (the colour hand measuring its bones), oldest
-                # first; Ctrl+C in the middle of a frame leaves that newest one on one side only
-                for (t_ns, due_then, world_then), est in zip(fed, estimator.drain(), strict=False):
-                    if due_then:
-                        write_hand(t_ns, world_then, _unpack(est))
-            if observer is not None and last_t is not None and not rec.closed:
-                settled(observer.finish(last_t))  # the skills still open when it ends
-        finally:
-            rec.close()  # no-op after discard
-        source.close()
-    return stats
+    def _observe(self, method: Any, *args: Any) -> None:
+        """Tell the observer; write the skills it settles to ``/lfd/live/segments``."""
+        skills = self._call(OBSERVER, lambda: list(method(*args)))
+        for label, settled_ns, extra in skills:
+            self.rec.add_live_segment(label, settled_ns, extra)
+            self.stats.live_segments += 1
+
+
+def _failure(part: str, err: BaseException, frames: int, output: str) -> str:
+    """The one line of a failed recording."""
+    if frames == 0:
+        return f"{part} failed before the first frame: {describe(err)}; nothing was recorded"
+    return (
+        f"{part} failed after {frames} frames: {describe(err)}; kept the {frames} frames "
+        f"recorded, complete, in {output}"
+    )
 
 
 SPREAD_SCALE_M = 0.005
@@ -292,6 +455,24 @@ def _unpack(est: Any) -> _Found | None:
         return None
     kp_2d = None if est.hand is None else est.hand.keypoints_2d
     return est.keypoints, est.confidence, est.visible, kp_2d
+
+
+def _checked(hand: _Found | None) -> _Found | None:
+    """A hand model's answer for one frame as arrays of the right shapes, or an
+    :class:`LfdError` saying what it returned."""
+    if hand is None:
+        return None
+    kp, confidence, visible, kp_2d = (None if v is None else np.asarray(v) for v in hand)
+    wanted = [(kp, (21, 3), "keypoints"), (confidence, (21,), "confidence")]
+    wanted += [(visible, (21,), "visibility")]
+    if kp_2d is not None:
+        wanted.append((kp_2d, (21, 2), "2-D keypoints"))
+    for value, shape, what in wanted:
+        if value is None or value.shape != shape or value.dtype.kind not in "biuf":
+            got = "None" if value is None else f"{value.dtype} {value.shape}"
+            raise LfdError(f"it returned {what} of {got}, expected numbers of shape {shape}")
+    assert kp is not None and confidence is not None and visible is not None
+    return kp.astype(float), confidence.astype(float), visible.astype(bool), kp_2d
 
 
 def _estimate_hands(

@@ -20,7 +20,10 @@ Image folder layout (``--source frames:DIR``)::
     DIR/depth/000000.png   depth, 16-bit PNG in millimetres (0 = no data), same names (optional)
     DIR/timestamps.txt     capture time per frame in integer ns (optional, else from fps)
 
-Camera (``--source camera:N``): ``cv2.VideoCapture(N)`` gives colour; depth comes from a
+Every ``camera.json`` is read and checked by :mod:`lfd.perception.camera_file` (the fields'
+ranges are there); a frame of any source is checked by :func:`check_frame`.
+
+Camera (``--source camera:N``, N in 0-63): ``cv2.VideoCapture(N)`` gives colour; depth comes from a
 :class:`DepthReader` (any object with ``read() -> array (H, W) uint16 mm or None``), e.g. a
 RealSense / Azure Kinect wrapper aligned to the colour camera. A reader that also has
 ``read_frame() -> (rgb (H, W, 3) uint8, depth (H, W) uint16 mm)`` supplies both images (an
@@ -50,9 +53,50 @@ from typing import Any, Protocol, cast
 
 import numpy as np
 
-from ..demo import CameraInfo, intrinsics_problem
+from ..demo import CameraInfo
 from ..errors import LfdError
-from ..inputs import parse_json, read_text
+from .camera_file import camera_index, read_camera_json
+
+__all__ = ["KINDS", "DepthReader", "Frame", "Source", "open_source", "read_camera_json"]
+
+
+def describe(err: BaseException) -> str:
+    """An exception as one line: an :class:`LfdError`'s message, any other's type and message
+    (``RuntimeError: Frame didn't arrive within 5000``), at most 300 characters."""
+    text = " ".join(str(err).split())
+    if not isinstance(err, LfdError):
+        text = f"{type(err).__name__}: {text}" if text else type(err).__name__
+    return text[:300]
+
+
+def check_frame(frame: Any, camera: CameraInfo, what: str) -> Frame:
+    """``frame`` if it is a :class:`Frame` of the camera's size (colour (H, W, 3) uint8, depth
+    None or (H, W) uint16, an integer time >= 0), else an :class:`LfdError` saying what
+    ``what`` gave instead."""
+    shape = (camera.height, camera.width)
+    if not isinstance(frame, Frame):
+        raise LfdError(f"{what} gave a {type(frame).__name__}, not a Frame")
+    t = frame.t_ns
+    if isinstance(t, bool | np.bool_) or not isinstance(t, int | np.integer) or t < 0:
+        raise LfdError(f"{what} gave a frame time {t!r}, not integer nanoseconds >= 0")
+    rgb, depth = frame.color, frame.depth
+    if not isinstance(rgb, np.ndarray) or rgb.dtype != np.uint8 or rgb.shape != (*shape, 3):
+        raise LfdError(
+            f"{what} gave a colour image {_array(rgb)}; the intrinsics are for "
+            f"{shape[1]}x{shape[0]} uint8 RGB, (H, W, 3) = {(*shape, 3)}"
+        )
+    if depth is not None and (
+        not isinstance(depth, np.ndarray) or depth.dtype != np.uint16 or depth.shape != shape
+    ):
+        raise LfdError(
+            f"{what} gave depth {_array(depth)}; expected uint16 mm {shape}, aligned with the "
+            "colour camera"
+        )
+    return frame
+
+
+def _array(a: Any) -> str:
+    return f"{a.dtype} {a.shape}" if isinstance(a, np.ndarray) else f"of type {type(a).__name__}"
 
 
 @dataclass
@@ -95,34 +139,6 @@ class Source:
     def calibration_frame(self) -> Frame | None:
         """A frame of the empty workspace to find the reference marker before recording."""
         return None
-
-
-def read_camera_json(path: Path) -> tuple[CameraInfo, list[dict[str, Any]], dict[str, Any], bool]:
-    """Parse ``camera.json``: camera, objects, the raw dict, whether the camera pose is given."""
-    if not path.is_file():
-        raise LfdError(f"{path}: missing (intrinsics and objects, see lfd.perception.sources)")
-    meta = parse_json(read_text(path, "camera description", LfdError), str(path), LfdError)
-    try:
-        K = np.asarray(meta["K"], float)
-        W = np.asarray(meta.get("world_T_camera", np.eye(4)), float)
-        camera = CameraInfo(int(meta["width"]), int(meta["height"]), K, W)
-        objects = [
-            {
-                "name": str(o["name"]),
-                "tag_id": int(o["tag_id"]),
-                "size": [float(v) for v in o["size"]],
-                **({"tag_size": float(o["tag_size"])} if "tag_size" in o else {}),
-            }
-            for o in meta.get("objects", [])
-        ]
-    except (KeyError, TypeError, ValueError, AttributeError) as err:  # not the shape described
-        raise LfdError(f"{path}: invalid camera description ({str(err)[:200]})") from None
-    problem = intrinsics_problem(K)
-    if problem is not None:
-        raise LfdError(f"{path}: {problem}")
-    if W.shape != (4, 4) or not np.isfinite(W).all():
-        raise LfdError(f"{path}: world_T_camera must be a finite 4x4 matrix")
-    return camera, objects, meta, "world_T_camera" in meta
 
 
 class SimSource(Source):
@@ -209,13 +225,17 @@ class FolderSource(Source):
         self.color_files = sorted((self.dir / "color").glob("*.*"))
         if not self.color_files:
             raise LfdError(f"frames source: no images in {self.dir / 'color'}")
-        fps = float(meta.get("fps", 30.0))
+        fps = float(meta.get("fps", 30.0))  # checked: a number in (0, 1000]
         ts = self.dir / "timestamps.txt"
         if ts.is_file():
+            from ..inputs import read_text
+
             try:
-                self.t_ns = [int(line) for line in ts.read_text().split()]
+                self.t_ns = [int(line) for line in read_text(ts, "timestamps", LfdError).split()]
             except ValueError as err:
                 raise LfdError(f"{ts}: one integer nanosecond timestamp per line ({err})") from err
+            if any(t < 0 for t in self.t_ns) or any(np.diff(self.t_ns) <= 0):
+                raise LfdError(f"{ts}: timestamps must be >= 0 ns and strictly increasing")
             if len(self.t_ns) != len(self.color_files):
                 raise LfdError(f"{ts}: {len(self.t_ns)} timestamps, {len(self.color_files)} images")
         else:
@@ -233,21 +253,25 @@ class FolderSource(Source):
     def frames(self) -> Iterator[Frame]:
         import cv2
 
+        from .image_header import decode
+
         for t, path in zip(self.t_ns, self.color_files, strict=True):
-            bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
-            if bgr is None:
-                raise LfdError(f"{path}: cannot read image")
+            bgr = decode(path, "image", cv2.IMREAD_COLOR)
             depth = None
             dpath = self.dir / "depth" / f"{path.stem}.png"
             if dpath.is_file():
-                depth = cv2.imread(str(dpath), cv2.IMREAD_UNCHANGED)
-                if depth is None or depth.dtype != np.uint16 or depth.shape != bgr.shape[:2]:
+                depth = decode(dpath, "depth image", cv2.IMREAD_UNCHANGED)
+                if depth.dtype != np.uint16 or depth.shape != bgr.shape[:2]:
                     raise LfdError(f"{dpath}: depth must be a 16-bit PNG of the colour image size")
             yield Frame(t, cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), depth)
 
 
 class CameraSource(Source):
-    """A live OpenCV camera (colour) with an optional :class:`DepthReader`."""
+    """A live OpenCV camera (colour) with an optional :class:`DepthReader`.
+
+    Whatever the reader raises or returns that is not a frame (not a tuple, another size or
+    type) is an :class:`LfdError` naming it: :func:`~lfd.perception.record.record` then keeps
+    the frames recorded before it."""
 
     def __init__(
         self,
@@ -256,8 +280,7 @@ class CameraSource(Source):
         intrinsics: str | os.PathLike[str] | None = None,
         depth_reader: DepthReader | None = None,
     ):
-        import cv2
-
+        index = camera_index(index)
         if intrinsics is None:
             raise LfdError("camera source needs --intrinsics camera.json (K, width, height)")
         camera, objects, _, known = read_camera_json(Path(intrinsics))
@@ -265,6 +288,9 @@ class CameraSource(Source):
         self.rgbd = callable(getattr(depth_reader, "read_frame", None))
         self.cap = None
         if not self.rgbd:
+            from .stderr import opencv
+
+            cv2 = opencv()
             self.cap = cv2.VideoCapture(index)
             if not self.cap.isOpened():
                 self.cap.release()
@@ -279,44 +305,49 @@ class CameraSource(Source):
             has_depth=depth_reader is not None,
         )
 
-    def _read(self) -> tuple[np.ndarray, np.ndarray | None] | None:
+    def _reader(self, method: str) -> Any:
+        """The depth reader's ``method()``; what it raises, one line naming it."""
+        try:
+            return getattr(self.depth_reader, method)()
+        except LfdError:
+            raise
+        except Exception as err:
+            raise LfdError(f"the depth reader's {method}() raised {describe(err)}") from err
+
+    def _read(self) -> tuple[Any, Any] | None:
         """(RGB, depth or None) of the next frame, or None at the end of the stream."""
         import cv2
 
         if self.rgbd:
-            got = self.depth_reader.read_frame()  # type: ignore[union-attr]
+            got = self._reader("read_frame")
             if got is None:
                 return None
-            rgb, depth = got
-            return np.asarray(rgb), depth
+            if not isinstance(got, tuple | list) or len(got) != 2:
+                raise LfdError(
+                    f"the depth reader's read_frame() returned {type(got).__name__}, not "
+                    "(rgb, depth) or None"
+                )
+            return got[0], got[1]
         assert self.cap is not None
         ok, bgr = self.cap.read()
         if not ok:
             return None
-        depth = self.depth_reader.read() if self.depth_reader is not None else None
+        depth = self._reader("read") if self.depth_reader is not None else None
         return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), depth
 
     def frames(self) -> Iterator[Frame]:
-        shape = (self.camera.height, self.camera.width)
+        what = f"camera:{self.metadata['source'].partition(':')[2]}" + (
+            "'s depth reader" if self.depth_reader is not None else ""
+        )
         while True:
             got = self._read()
             if got is None:
                 return
             t = time.time_ns()
             rgb, depth = got
-            if rgb.shape[:2] != shape or rgb.dtype != np.uint8 or rgb.ndim != 3:
-                raise LfdError(
-                    f"camera frame is {rgb.dtype} {rgb.shape}, the intrinsics are for "
-                    f"{shape[1]}x{shape[0]} uint8 colour"
-                )
-            if depth is not None:
-                depth = np.asarray(depth)
-                if depth.shape != shape or depth.dtype != np.uint16:
-                    raise LfdError(
-                        f"depth reader gave {depth.dtype} {depth.shape}; expected uint16 mm "
-                        f"{shape}, aligned with the colour camera"
-                    )
-            yield Frame(t, np.ascontiguousarray(rgb[:, :, :3]), depth)
+            if isinstance(rgb, np.ndarray) and rgb.ndim == 3 and rgb.shape[2] == 4:
+                rgb = np.ascontiguousarray(rgb[:, :, :3])  # RGBA: its colour
+            yield check_frame(Frame(t, rgb, depth), self.camera, what)
 
     def close(self) -> None:
         if self.cap is not None:
@@ -361,7 +392,7 @@ class VideoSource(Source):
         self._first: Any = bgr
         fps = float(self.cap.get(cv2.CAP_PROP_FPS) or 0.0)
         if not (np.isfinite(fps) and 0.0 < fps <= 1000.0):
-            fps = float(meta.get("fps", 30.0))
+            fps = float(meta.get("fps", 30.0))  # checked: a number in (0, 1000]
         super().__init__(
             camera,
             objects,
@@ -405,7 +436,9 @@ def load_depth_reader(spec: str) -> DepthReader:
     """``module:factory`` -> ``factory()``, a :class:`DepthReader` (e.g. a RealSense wrapper).
 
     The module is imported (it may be a file path ending in ``.py``) and the factory called
-    without arguments; the result must have a ``read()`` method.
+    without arguments; the result must have a ``read()`` method. A module that does not import
+    (a syntax error, an exception at import) or a factory that raises is one :class:`LfdError`
+    line naming the plug-in.
     """
     import importlib
     import importlib.util
@@ -423,9 +456,12 @@ def load_depth_reader(spec: str) -> DepthReader:
         else:
             module = importlib.import_module(module_name)
         factory = getattr(module, attr)
-    except (ImportError, OSError, AttributeError) as err:
-        raise LfdError(f"depth reader {spec!r}: {err}") from err
-    reader = factory()
+    except Exception as err:  # the plug-in's own code ran: anything it raises is its failure
+        raise LfdError(f"depth reader {spec!r}: cannot load it: {describe(err)}") from err
+    try:
+        reader = factory()
+    except Exception as err:
+        raise LfdError(f"depth reader {spec!r}: {attr}() raised {describe(err)}") from err
     if not callable(getattr(reader, "read", None)):
         raise LfdError(f"depth reader {spec!r}: {attr}() returned an object without read()")
     return reader  # type: ignore[no-any-return]
@@ -454,10 +490,7 @@ def open_source(spec: str, **kwargs: Any) -> Source:
     if kind == "frames":
         return FolderSource(arg)
     if kind == "camera":
-        try:
-            index = int(arg)
-        except ValueError as err:
-            raise LfdError(f"camera source: {arg!r} is not a device index") from err
+        index = camera_index(arg)  # before anything is loaded or opened
         reader = kwargs.get("depth_reader")
         return CameraSource(
             index,

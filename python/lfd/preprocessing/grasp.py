@@ -25,6 +25,7 @@ from typing import Literal
 import numpy as np
 
 from ..demo import INDEX_TIP, THUMB_TIP
+from ..geometry import box_distance
 
 __all__ = [
     "APERTURES",
@@ -44,35 +45,6 @@ CONTACT_RADIUS = 0.02
 
 OPPOSING_TIPS: tuple[int, ...] = (INDEX_TIP, 12, 16, 20)
 """Fingertips that can oppose the thumb: index, middle, ring, little finger."""
-
-
-def _rotate_inverse(q_xyzw: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """``R(q)^T v`` for unit quaternions (x, y, z, w), broadcast over the leading axis."""
-    u = -q_xyzw[..., :3]
-    w = q_xyzw[..., 3:4]
-    t = 2.0 * _cross(u, v)
-    return np.asarray(v + w * t + _cross(u, t))
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``np.cross`` of 3-vectors on the last axis (the same products, without its axis moves)."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
-
-
-def box_distance(
-    points: np.ndarray, center: np.ndarray, quat_xyzw: np.ndarray, size: np.ndarray
-) -> np.ndarray:
-    """Distance (n,) from points (n, 3) to the surface of a box (0 inside it).
-
-    ``center`` (n, 3) and ``quat_xyzw`` (n, 4) are the box pose per sample, ``size`` (3,) its
-    dimensions.
-    """
-    q = quat_xyzw / np.linalg.norm(quat_xyzw, axis=-1, keepdims=True)
-    local = _rotate_inverse(q, points - center)
-    out = np.maximum(np.abs(local) - 0.5 * np.asarray(size, float), 0.0)
-    return np.asarray(np.linalg.norm(out, axis=-1))
 
 
 def grasp_aperture(

@@ -168,7 +168,7 @@ def preprocess(
     if aperture == "grasp":
         opening = grasp_aperture(g.keypoints, o.position, o.quaternion, o.size)
         opening[~g.valid] = np.nan
-    meta: dict[str, Any] = {
+    options = {  # the meta's first keys: the options, with the filters chosen
         "rate_hz": rate_hz,
         "euler_cutoff_hz": euler_cutoff_hz,
         "feature_cutoff_hz": feature_cutoff_hz,
@@ -178,8 +178,26 @@ def preprocess(
         "aperture": aperture,
         "max_gap_s": max_gap_s,
         "min_keypoint_confidence": min_keypoint_confidence,
+    }
+    meta = _meta(demo, options, hand, o, smooth, filter)
+    return _trajectory(t_ns, g, o, objs, opening, meta)
+
+
+def _meta(
+    demo: Demonstration,
+    options: dict[str, Any],
+    hand: _HandSamples,
+    o: _ObjectTracks,
+    smooth: _Smoother,
+    filtered: bool,
+) -> dict[str, Any]:
+    """The trajectory's ``meta``: the ``options`` of :func:`preprocess` and the filters it
+    chose, then what was dropped, filled and left unfiltered, and the demonstration's labels
+    and metadata."""
+    return {
+        **options,
         "low_confidence": hand.low_confidence,
-        "filtered": filter,
+        "filtered": filtered,
         "filter": "butter(4) + filtfilt, MATLAB padding; keypoints at hand_filter_hz, "
         "object positions at object_filter_hz",
         "euler_seq": EULER_SEQ,
@@ -188,6 +206,16 @@ def preprocess(
         "labels": [(lab.skill, lab.start_ns, lab.end_ns, lab.object) for lab in demo.labels],
         "demo_metadata": {k: v for k, v in demo.metadata.items() if k != "load_report"},
     }
+
+
+def _trajectory(
+    t_ns: np.ndarray,
+    g: _GripperTrack,
+    o: _ObjectTracks,
+    objs: list[_ObjectSamples],
+    opening: np.ndarray,
+    meta: dict[str, Any],
+) -> Trajectory:
     return Trajectory(
         t_ns=t_ns,
         tcp=g.tcp,

@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import DemonstrationError, UsageError
+from ..geometry import outside_distance
 from ..trajectory import Trajectory
 from .robot import FINGER_BELOW_TCP, FINGER_HALF_X, MAX_OPENING
 
@@ -238,9 +239,7 @@ def grasp_opening(width: float) -> float:
 
 def _box_distance(q: np.ndarray, T: np.ndarray, size: np.ndarray) -> float:
     """Horizontal distance (m) from point ``q`` to an upright box (0 inside)."""
-    local = T[:2, :2].T @ (np.asarray(q[:2]) - T[:2, 3])
-    out = np.maximum(np.abs(local) - np.asarray(size[:2]) / 2, 0.0)
-    return float(np.hypot(*out))
+    return float(outside_distance(T[:2, :2].T @ (np.asarray(q[:2]) - T[:2, 3]), size[:2]))
 
 
 def grasp_goal(

@@ -148,29 +148,11 @@ def skill_results(
             continue
         res = out[k]
         end = min(b, n) - 1
-        if ik_err[end] > IK_TOL:
-            res.reasons.append(
-                f"goal unreachable: the arm ends {ik_err[end] * 1000:.0f} mm from the planned "
-                f"TCP pose ({', '.join(f'{v:.3f}' for v in plan.position[ahead[end]])}) m"
-            )
-        elif ik_err[a:b].max() > IK_TOL:
-            res.reasons.append(
-                f"IK limit: the arm falls {ik_err[a:b].max() * 1000:.0f} mm behind the planned path"
-            )
+        _check_tracking(res, plan, ik_err, ahead, a, b, end)
         if seg.skill == "pick_up":
             held = seg.object
         handled = {seg.object, held} - {None}
-        for j, name in enumerate(names):
-            moved = float(np.linalg.norm(ex.object_position[j, end] - ex.object_position[j, a]))
-            turned = _quat_angle_deg(ex.object_quaternion[j, end], ex.object_quaternion[j, a])
-            if moved > 0.003 or turned > 3.0:
-                last_mover[name] = k
-            if name in handled:
-                continue
-            if moved > POS_TOL or turned > ROT_TOL_DEG:
-                res.reasons.append(
-                    f"collision: {name} was knocked {moved * 1000:.0f} mm / {turned:.0f} deg"
-                )
+        _check_collisions(res, ex, a, end, handled, k, last_mover)
         for name in sorted(n for n in handled if n in names):  # a handled box stays upright
             j = names.index(name)
             tilts = _tilt_deg(ex.object_quaternion[j, a : end + 1])
@@ -179,25 +161,97 @@ def skill_results(
                 what = "grasp failed: " if seg.skill == "pick_up" else ""
                 res.reasons.append(f"{what}{name} toppled over ({tilt:.0f} deg)")
         if seg.skill == "move_with" and held in names:
-            j = names.index(held)
-            rel = ex.object_position[j, a:b] - ex.tcp[a:b]
-            slip = np.linalg.norm(rel - rel[0], axis=1)
-            rise = float(ex.object_position[j, a:b, 2].max() - ex.object_position[j, a, 2])
-            if rise < LIFT_MIN and float(ex.tcp[a:b, 2].max() - ex.tcp[a, 2]) > LIFT_MIN:
-                pick = next((i for i in range(k - 1, -1, -1) if segs[i].skill == "pick_up"), k)
-                out[pick].reasons.append(f"grasp failed: {held} was not lifted by the gripper")
-            elif slip.max() > GRASP_TOL:
-                t = (a + int(np.argmax(slip > GRASP_TOL))) * TICK
-                res.reasons.append(
-                    f"grasp lost: {held} slipped {slip.max() * 1000:.0f} mm in the gripper "
-                    f"during the carry (from t = {t:.1f} s)"
-                )
+            _check_carry(out, segs, ex, held, k, a, b)
         if seg.skill in PLACING:
             placed = seg.object or (held if seg.skill != "push" else None)
             if placed is not None:
                 last_handler[placed] = k
         if seg.skill in ("place", "stack"):
             held = None
+    _blame_objects(out, segs, objects, last_handler, last_mover)
+    return out
+
+
+def _check_tracking(
+    res: SkillResult,
+    plan: Plan,
+    ik_err: np.ndarray,
+    ahead: np.ndarray,
+    a: int,
+    b: int,
+    end: int,
+) -> None:
+    """The arm reaches the skill's goal and follows its path (ticks ``a..b``)."""
+    if ik_err[end] > IK_TOL:
+        res.reasons.append(
+            f"goal unreachable: the arm ends {ik_err[end] * 1000:.0f} mm from the planned "
+            f"TCP pose ({', '.join(f'{v:.3f}' for v in plan.position[ahead[end]])}) m"
+        )
+    elif ik_err[a:b].max() > IK_TOL:
+        res.reasons.append(
+            f"IK limit: the arm falls {ik_err[a:b].max() * 1000:.0f} mm behind the planned path"
+        )
+
+
+def _check_collisions(
+    res: SkillResult,
+    ex: Execution,
+    a: int,
+    end: int,
+    handled: set[str | None],
+    k: int,
+    last_mover: dict[str, int],
+) -> None:
+    """The objects the skill does not handle stay where they are (``last_mover``: the last
+    skill each object moved in, updated)."""
+    for j, name in enumerate(ex.object_names):
+        moved = float(np.linalg.norm(ex.object_position[j, end] - ex.object_position[j, a]))
+        turned = _quat_angle_deg(ex.object_quaternion[j, end], ex.object_quaternion[j, a])
+        if moved > 0.003 or turned > 3.0:
+            last_mover[name] = k
+        if name in handled:
+            continue
+        if moved > POS_TOL or turned > ROT_TOL_DEG:
+            res.reasons.append(
+                f"collision: {name} was knocked {moved * 1000:.0f} mm / {turned:.0f} deg"
+            )
+
+
+def _check_carry(
+    out: list[SkillResult],
+    segs: list[Any],
+    ex: Execution,
+    held: str,
+    k: int,
+    a: int,
+    b: int,
+) -> None:
+    """A Move with (skill ``k``, ticks ``a..b``) lifts the ``held`` object with the gripper
+    (else the Pick up before it failed) and keeps it in the gripper."""
+    j = ex.object_names.index(held)
+    rel = ex.object_position[j, a:b] - ex.tcp[a:b]
+    slip = np.linalg.norm(rel - rel[0], axis=1)
+    rise = float(ex.object_position[j, a:b, 2].max() - ex.object_position[j, a, 2])
+    if rise < LIFT_MIN and float(ex.tcp[a:b, 2].max() - ex.tcp[a, 2]) > LIFT_MIN:
+        pick = next((i for i in range(k - 1, -1, -1) if segs[i].skill == "pick_up"), k)
+        out[pick].reasons.append(f"grasp failed: {held} was not lifted by the gripper")
+    elif slip.max() > GRASP_TOL:
+        t = (a + int(np.argmax(slip > GRASP_TOL))) * TICK
+        out[k].reasons.append(
+            f"grasp lost: {held} slipped {slip.max() * 1000:.0f} mm in the gripper "
+            f"during the carry (from t = {t:.1f} s)"
+        )
+
+
+def _blame_objects(
+    out: list[SkillResult],
+    segs: list[Any],
+    objects: list[ObjectResult],
+    last_handler: dict[str, int],
+    last_mover: dict[str, int],
+) -> None:
+    """Each object's final error goes to the skill that last placed it; an object off target
+    is blamed on that skill, a lost grasp, or the collision that last moved it."""
     verbs = {"place": "placed", "stack": "stacked", "push": "pushed"}
     for o in objects:
         h = last_handler.get(o.name)
@@ -219,4 +273,3 @@ def skill_results(
         else:
             target = h if h is not None else len(segs) - 1
             out[target].reasons.append(f"{o.name} ends {off} off target")
-    return out

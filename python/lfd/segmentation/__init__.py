@@ -16,6 +16,7 @@ grammar="warn"``; with the paper-recipe templates and pipeline, :data:`PAPER`).
 from __future__ import annotations
 
 import dataclasses
+import os
 from typing import TypedDict
 
 from ..demo import Demonstration
@@ -120,7 +121,8 @@ def segment(
 
 
 def resolve_method(
-    templates: Templates | TemplateChoice | None = None, method: Method | str | None = None
+    templates: Templates | TemplateChoice | None = None,
+    method: Method | str | os.PathLike[str] | None = None,
 ) -> Method:
     """The method of :func:`segment`'s ``templates`` or ``method`` argument (not both)."""
     if method is not None:

@@ -3,9 +3,9 @@
 Training from scratch needs examples of every skill and forgets what the shipped templates
 learned; adaptation starts from a base template set instead. For every skill x feature HMM of
 the base with user examples, Baum-Welch starts from the base model's parameters (same states,
-mixture components and transitions; :meth:`lfd._hmmseg.Hmm.refit`) and re-estimates them on the
-user's segments, normalised with the base's ranges and, like training, warped by DTW onto their
-medoid. ``prior`` pseudo-sequences sampled from the base model join the user's sequences (a
+mixture components and transitions; :meth:`lfd.engine.GaussianHMM.refit`) and re-estimates them
+on the user's segments, normalised with the base's ranges and, like training, warped by DTW onto
+their medoid. ``prior`` pseudo-sequences sampled from the base model join the user's sequences (a
 MAP-style prior: the base counts as that many examples, so a few user examples move the model
 part of the way). Skills without user examples keep the base model; features and parameters
 stay the base's.
@@ -26,7 +26,8 @@ from typing import Any
 
 import numpy as np
 
-from .. import _hmmseg
+from ..dtw import align_to_reference, dtw_distance
+from ..engine import GaussianHMM, template_set
 from ..errors import EngineError
 from .templates import FRAME_SYMMETRY, TCP_IN_OBJECT_XY, Templates, augment
 
@@ -52,7 +53,7 @@ def _medoid(seqs: list[np.ndarray], band: int | None) -> int:
     cost = np.zeros(n)
     for a in range(n):
         for b in range(a + 1, n):
-            d = _hmmseg.dtw_distance(seqs[distinct[a]], seqs[distinct[b]], band)
+            d = dtw_distance(seqs[distinct[a]], seqs[distinct[b]], band=band)
             cost[a] += d
             cost[b] += d
     return distinct[int(np.argmin(cost))]
@@ -131,7 +132,7 @@ def adapt_templates(
     # would outweigh its prior samples
     data = augment(examples, skills, symmetry, layout_scales=())
     doc = widen_ranges(doc, [x for _, x in data])
-    engine = _hmmseg.TemplateSet.from_json(json.dumps(doc))
+    engine = template_set(json.dumps(doc))
     counts = {s: sum(1 for k, _ in examples if k == s) for s in skills}
     unchanged: list[str] = []
     for si, skill in enumerate(skills):
@@ -139,7 +140,9 @@ def adapt_templates(
         if not mine:
             continue
         for fi, (fname, c0, c1) in enumerate(base.features):
-            model = _hmmseg.Hmm.from_json(json.dumps(doc["models"][si][fi]))
+            model = GaussianHMM.from_json(
+                json.dumps(doc["models"][si][fi]), covariance_floor=float(fit["covariance_floor"])
+            )
             seqs = [np.ascontiguousarray(x[:, c0:c1]) for x in mine]
             lengths = [len(x) for x in seqs]
             rng_seed = seed + 1000 * si + fi
@@ -149,18 +152,13 @@ def adapt_templates(
                 seqs.append(np.clip(x, 0.0, 1.0))
             if params["align"] and len(seqs) > 1:
                 ref = seqs[_medoid(seqs, band)]
-                seqs = list(_hmmseg.align_to_reference(ref, seqs, band))
+                seqs = align_to_reference(ref, seqs, band=band)
             try:
-                new, _, _, _ = model.refit(
-                    seqs,
-                    max_iter=int(fit["max_iter"]),
-                    tol=float(fit["tol"]),
-                    covariance_floor=float(fit["covariance_floor"]),
-                )
+                model.refit(seqs, int(fit["max_iter"]), tol=float(fit["tol"]))
             except EngineError:
                 unchanged.append(f"{skill}/{fname}")
                 continue
-            doc["models"][si][fi] = json.loads(new.to_json())
+            doc["models"][si][fi] = json.loads(model.to_json())
         doc["n_examples"][si] += len(mine)
     meta: dict[str, Any] = {
         "adapted_from": base_name,
@@ -173,4 +171,4 @@ def adapt_templates(
     }
     if unchanged:
         meta["adapt_kept_base"] = unchanged
-    return Templates(_hmmseg.TemplateSet.from_json(json.dumps(doc)), meta=meta)
+    return Templates(template_set(json.dumps(doc)), meta=meta)

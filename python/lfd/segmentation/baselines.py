@@ -24,8 +24,9 @@ import numpy as np
 
 from ..demo import Demonstration
 from ..trajectory import Trajectory
+from .drafts import _make_segment
 from .gaps import fill_gaps
-from .pipeline import _make_segment, as_trajectory
+from .pipeline import as_trajectory
 from .result import Segmentation
 from .stage1 import Stage1Params
 

@@ -35,12 +35,13 @@ import numpy as np
 
 from ..demo import INDEX_TIP, THUMB_TIP, Demonstration
 from ..errors import UsageError
+from ..geometry import box_distance
 from ..preprocessing.filters import finite_runs
-from ..preprocessing.grasp import box_distance
 from ..skills import SKILLS
 from ..trajectory import Trajectory
+from .drafts import _make_segment
 from .gaps import fill_gaps
-from .pipeline import _make_segment, as_trajectory
+from .pipeline import as_trajectory
 from .result import Segmentation
 
 DEFAULT_PENALTY = 0.02

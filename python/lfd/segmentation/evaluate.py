@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -13,15 +14,15 @@ import numpy as np
 from ..demo import Demonstration
 from ..errors import LfdError, UsageError
 from ..skills import SKILLS
+from .method import Method
 from .metrics import EXCLUDE_KEYS, METRIC_NAMES, all_metrics, excluded_spans, restrict
-from .pipeline import DEFAULT_GRAMMAR, GrammarUse
 from .result import Segmentation
 from .templates import Templates
 
 METHODS: tuple[str, ...] = ("dp", "paper", "greedy", "changepoint", "proximity", "gripper")
-"""Every method :func:`run_method` knows: ``dp`` (lfd's default: segmental DP, with the grammar
-use given, ``enforce`` by default), ``paper`` (the paper's greedy loop with grammar warnings),
-``greedy`` (the greedy loop with the grammar use given), ``changepoint`` (kernel change points +
+"""Every method :func:`run_method` knows: ``dp`` (lfd's default: segmental DP, with the given
+method's grammar use, ``enforce`` by default), ``paper`` (the paper's greedy loop with grammar
+warnings), ``greedy`` (the greedy loop with the given method's grammar use), ``changepoint`` (kernel change points +
 contact rules, the OKAMI / ORION-style baseline) and the paper's two baselines."""
 
 DEFAULT_METHODS: tuple[str, ...] = ("dp", "paper", "changepoint", "proximity", "gripper")
@@ -41,41 +42,36 @@ def check_methods(methods: Sequence[str]) -> tuple[str, ...]:
     return methods
 
 
-def run_method(
-    method: str,
-    demo: Demonstration,
-    templates: Templates | None = None,
-    *,
-    grammar: GrammarUse = DEFAULT_GRAMMAR,
-) -> Segmentation:
-    """Segment ``demo`` with one of :data:`METHODS` (``grammar`` applies to dp and greedy)."""
-    from . import (
-        PAPER,
-        changepoint_segmentation,
-        gripper_segmentation,
-        proximity_segmentation,
-        segment,
-    )
+def method_variant(name: str, method: Method | None = None) -> Method:
+    """The :class:`Method` of one template method of :data:`METHODS` on ``method`` (default:
+    lfd's): ``dp`` and ``greedy`` are ``method`` with that search; ``paper`` is the paper's
+    method (:meth:`Method.paper`), on ``method``'s templates unless they are the shipped
+    default ones."""
+    base = method or Method.default()
+    if name == "paper":
+        paper = Method.paper()
+        if base.templates is Templates.default():
+            return paper
+        return dataclasses.replace(paper, name=base.name, templates=base.templates)
+    if name not in ("dp", "greedy"):
+        raise UsageError(f"{name!r} is not a template method ({', '.join(TEMPLATE_METHODS)})")
+    return base.with_options(search=name)  # type: ignore[arg-type]
 
-    if method == "paper":
-        return segment(
-            demo,
-            templates or PAPER["templates"],
-            search=PAPER["search"],
-            grammar=PAPER["grammar"],
-            params=PAPER["params"],
-        )
-    if method == "dp":
-        return segment(demo, templates, search="dp", grammar=grammar)
-    if method == "greedy":
-        return segment(demo, templates, search="greedy", grammar=grammar)
-    if method == "changepoint":
+
+def run_method(name: str, demo: Demonstration, method: Method | None = None) -> Segmentation:
+    """Segment ``demo`` with one of :data:`METHODS`: a template method on ``method``
+    (:func:`method_variant`) or a baseline (which takes no method)."""
+    from . import changepoint_segmentation, gripper_segmentation, proximity_segmentation, segment
+
+    if name in TEMPLATE_METHODS:
+        return segment(demo, method=method_variant(name, method))
+    if name == "changepoint":
         return changepoint_segmentation(demo)
-    if method == "proximity":
+    if name == "proximity":
         return proximity_segmentation(demo)
-    if method == "gripper":
+    if name == "gripper":
         return gripper_segmentation(demo)
-    raise UsageError(f"unknown method {method!r}; choose from {', '.join(METHODS)}")
+    raise UsageError(f"unknown method {name!r}; choose from {', '.join(METHODS)}")
 
 
 @dataclass
@@ -180,11 +176,11 @@ def evaluate_demo(
     demo: Demonstration,
     *,
     name: str = "demo",
-    templates: Templates | None = None,
+    method: Method | None = None,
     methods: Sequence[str] = DEFAULT_METHODS,
-    grammar: GrammarUse = DEFAULT_GRAMMAR,
 ) -> RecordingResult:
-    """Run every method on one labelled demonstration and compute the metrics.
+    """Run every method of ``methods`` (on ``method``: :func:`run_method`) on one labelled
+    demonstration and compute the metrics.
 
     Time the recording's metadata excludes (another hand handling the object:
     :func:`~lfd.segmentation.metrics.excluded_spans`) is left out of every metric. A recording
@@ -215,7 +211,7 @@ def evaluate_demo(
     )
     for m in methods:
         try:
-            seg = run_method(m, demo, templates, grammar=grammar)
+            seg = run_method(m, demo, method)
         except LfdError as err:
             res.errors[m] = str(err)
             continue
@@ -238,36 +234,26 @@ def expand_paths(items: Iterable[str | Path]) -> list[Path]:
 def evaluate_file(
     path: str | Path,
     *,
-    templates: str | None = None,
+    method: Method | None = None,
     methods: Sequence[str] = DEFAULT_METHODS,
-    grammar: GrammarUse = DEFAULT_GRAMMAR,
     object_sizes: Mapping[str, Sequence[float]] | None = None,
 ) -> RecordingResult | None:
     """:func:`evaluate_demo` of one recording file (``None`` without ground-truth labels): the
-    task :func:`evaluate` runs per recording (``templates`` as
-    :func:`~lfd.segmentation.files.portable_templates` gives them; ``object_sizes`` for files
-    that do not carry them, :func:`lfd.load`)."""
+    task :func:`evaluate` runs per recording (``object_sizes`` for files that do not carry
+    them, :func:`lfd.load`)."""
     from ..io import load
-    from .files import worker_templates
 
     demo = load(path, object_sizes=object_sizes)
     if not demo.labels:
         return None
-    return evaluate_demo(
-        demo,
-        name=Path(path).name,
-        templates=worker_templates(templates),  # type: ignore[arg-type]
-        methods=methods,
-        grammar=grammar,
-    )
+    return evaluate_demo(demo, name=Path(path).name, method=method, methods=methods)
 
 
 def evaluate(
     paths: Iterable[str | Path],
     *,
-    templates: Templates | None = None,
+    method: Method | None = None,
     methods: Sequence[str] = DEFAULT_METHODS,
-    grammar: GrammarUse = DEFAULT_GRAMMAR,
     progress: Callable[[str], None] | None = None,
     object_sizes: Mapping[str, Sequence[float]] | None = None,
     jobs: int | None = 1,
@@ -276,24 +262,24 @@ def evaluate(
 ) -> EvalReport:
     """Evaluate ``methods`` on every labelled recording among ``paths`` (files or directories).
 
-    ``grammar`` is the grammar use of the ``dp`` and ``greedy`` methods (``paper`` always
-    warns). Recordings without ground-truth labels are skipped. ``jobs`` / ``ray_address``:
-    how many recordings at once, and where (:func:`lfd.batch.run_batch`). A recording that
-    cannot be evaluated raises its error, or with ``failed`` (a dict) is recorded there as
-    ``{path: message}`` and skipped. ``object_sizes`` go to
-    :func:`lfd.load` (for files that do not carry them).
+    ``method`` is what the template methods run (:func:`method_variant`; default: lfd's,
+    and the paper's for ``paper``): its templates, parameters and grammar use (``paper``
+    always warns). Recordings without ground-truth labels are skipped. ``jobs`` /
+    ``ray_address``: how many recordings at once, and where (:func:`lfd.batch.run_batch`; the
+    method goes to the workers pickled, :meth:`Method.portable`). A recording that cannot be
+    evaluated raises its error, or with ``failed`` (a dict) is recorded there as
+    ``{path: message}`` and skipped. ``object_sizes`` go to :func:`lfd.load` (for files that
+    do not carry them).
     """
     from functools import partial
 
     from ..batch import raise_failed, reemit_warnings, run_batch
-    from .files import portable_templates
 
     methods = check_methods(methods)
     task = partial(
         evaluate_file,
-        templates=portable_templates(templates),
+        method=method,
         methods=methods,
-        grammar=grammar,
         object_sizes=dict(object_sizes) if object_sizes else None,
     )
 
@@ -322,7 +308,7 @@ def leave_one_out(
     base: Templates | None = None,
     base_name: str = "default",
     methods: Sequence[str] = ("dp",),
-    grammar: GrammarUse = DEFAULT_GRAMMAR,
+    method: Method | None = None,
     progress: Callable[[str], None] | None = None,
     object_sizes: Mapping[str, Sequence[float]] | None = None,
 ) -> EvalReport:
@@ -330,8 +316,9 @@ def leave_one_out(
 
     With ``base``, each fold's templates are ``base`` adapted to the other recordings
     (:func:`~lfd.segmentation.adapt.adapt_templates`); without, they are trained from scratch
-    on them (only the skills the others show). ``progress`` is called with ``"read NAME"`` for
-    each recording read and ``"NAME"`` after each fold.
+    on them (only the skills the others show); each fold runs ``method`` (default: lfd's) with
+    its templates. ``progress`` is called with ``"read NAME"`` for each recording read and
+    ``"NAME"`` after each fold.
 
     Raises
     ------
@@ -376,9 +363,10 @@ def leave_one_out(
                     "example of; give more recordings, or --base to adapt the shipped templates"
                 )
             templates = fit_templates(examples, names=names, skills=skills)
-        rows.append(
-            evaluate_demo(demo, name=name, templates=templates, methods=methods, grammar=grammar)
+        fold = dataclasses.replace(
+            method or Method.default(), name=f"leave out {name}", templates=templates
         )
+        rows.append(evaluate_demo(demo, name=name, method=fold, methods=methods))
         if progress is not None:
             progress(name)
     return EvalReport(rows, tuple(methods))

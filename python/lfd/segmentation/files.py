@@ -1,18 +1,17 @@
 """Segment one recording file: the task :mod:`lfd.batch` runs for ``lfd segment A B ... | DIR``.
 
 A task takes a path and plain options (picklable, so it runs in a worker process or on a Ray
-node) and gives plain data back: the ``lfd segment --json`` document of the recording.
+node; a :class:`~lfd.segmentation.method.Method` pickles as its portable text) and gives plain
+data back: the ``lfd segment --json`` document of the recording.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .method import Method
-from .templates import TemplateChoice, Templates
 
 if TYPE_CHECKING:
     from ..demo import Demonstration, SkillLabel
@@ -20,40 +19,23 @@ if TYPE_CHECKING:
     from .result import Segmentation
 
 
-@lru_cache(maxsize=4)
-def templates_from_json(text: str) -> Templates:
-    """:meth:`Templates.from_json`, parsed once per worker process for a given text."""
-    return Templates.from_json(text)
-
-
-def portable_templates(templates: Templates | TemplateChoice | None) -> str | None:
-    """``templates`` as a worker can take them: a shipped set's name, ``None``, or JSON text."""
-    return templates.to_json() if isinstance(templates, Templates) else templates
-
-
-def worker_templates(templates: str | None) -> Templates | TemplateChoice | None:
-    """The inverse of :func:`portable_templates` (in the worker)."""
-    if templates is None or templates in ("default", "paper"):
-        return templates  # type: ignore[return-value]
-    return templates_from_json(templates)
-
-
 def segment_file(
     path: str | Path,
     *,
-    method: str | None = None,
+    method: Method | None = None,
     load_options: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Load ``path``, segment it and return the ``lfd segment --json`` document
     (:meth:`~lfd.segmentation.Segmentation.report` with its ground truth).
 
-    ``method``: :meth:`Method.portable` text (``None``: the default method); ``load_options``:
+    ``method``: the method (``None``: the default one; a worker gets it pickled,
+    :meth:`Method.portable`); ``load_options``:
     keyword arguments of :func:`lfd.load` (``object_sizes``, a ROS ``mapping``).
     """
     from ..io import load
 
     demo = load(path, images=False, **(load_options or {}))
-    _, doc = segment_recording(demo, Method.from_portable(method), recording=str(path))
+    _, doc = segment_recording(demo, method, recording=str(path))
     return doc
 
 

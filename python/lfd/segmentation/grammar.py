@@ -31,7 +31,7 @@ RELEASES: tuple[str, ...] = ("place", "stack")
 def implicit_move_grammar_json() -> str:
     """The grammar with a Move that may be *implicit*: a Place or Stack may be followed directly
     by whatever may follow a Move (the segmentation then inserts the Move; see
-    :func:`lfd.segmentation.pipeline.insert_implicit_moves`)."""
+    :func:`lfd.segmentation.passes.insert_implicit_moves`)."""
     g = grammar()
     after_move = list(g["transitions"]["move"])
     for skill in RELEASES:

@@ -13,14 +13,15 @@ block) and shown by ``lfd info FILE.json`` and ``lfd segment --json`` (:meth:`Me
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 from typing import Any, get_args
 
-from ..contact import ContactParams
-from ..errors import InvalidParameterError, ModelFormatError
+from ..errors import InvalidParameterError, LfdError, ModelFormatError
+from ..rules import Choice, Instance, Rule, Text, check_fields, check_keys, from_document
 from .pipeline import (
     DEFAULT_GRAMMAR,
     DEFAULT_SEARCH,
@@ -31,11 +32,23 @@ from .pipeline import (
     Search,
     SegmentParams,
 )
-from .stage1 import Stage1Params
+from .schema import SEGMENT_RULES
 from .templates import Templates
 
 NAMES: tuple[str, ...] = ("default", "paper")
 """The named methods :meth:`Method.load` knows (any other argument is a template file)."""
+
+METHOD_RULES: dict[str, Rule] = {
+    "name": Text(1000),
+    "templates": Instance(Templates),
+    "params": Instance(SegmentParams),
+    "search": Choice(get_args(Search)),
+    "grammar": Choice(get_args(GrammarUse)),
+}
+"""What a :class:`Method`'s fields hold. A file's ``lfd.method`` entry (:data:`METHOD_KEYS`)
+has the plain ones and ``params`` as a JSON object of the
+:data:`~lfd.segmentation.schema.SEGMENT_RULES` fields."""
+METHOD_KEYS: frozenset[str] = frozenset({"name", "search", "grammar", "params"})
 
 
 @dataclass(frozen=True)
@@ -61,14 +74,7 @@ class Method:
     grammar: GrammarUse = DEFAULT_GRAMMAR
 
     def __post_init__(self) -> None:
-        for option, value, allowed in (
-            ("search", self.search, get_args(Search)),
-            ("grammar", self.grammar, get_args(GrammarUse)),
-        ):
-            if value not in allowed:
-                raise InvalidParameterError(
-                    f"{option} must be one of {', '.join(map(repr, allowed))}, got {value!r}"
-                )
+        check_fields(self, METHOD_RULES, "method.")
 
     @property
     def preprocessing(self) -> dict[str, Any]:
@@ -102,11 +108,19 @@ class Method:
             return cls.of_templates(spec)
         if isinstance(spec, (str, os.PathLike)):
             path = Path(spec)
-            if not path.exists():
+            try:
+                exists = path.exists()
+            except (OSError, ValueError):  # a name too long, a NUL byte
+                exists = False
+            if not exists:
                 raise InvalidParameterError(
                     f"method {str(spec)!r} is neither {' nor '.join(NAMES)} nor a template file"
                 )
-            return cls.of_templates(Templates.load(path), name=str(path))
+            templates = Templates.load(path)  # its errors name the file
+            try:
+                return cls.of_templates(templates, name=str(path))
+            except ModelFormatError as err:
+                raise ModelFormatError(f"{path}: {err}") from None
         raise InvalidParameterError(
             f"a method is a name ({', '.join(NAMES)}), a template file, Templates or a Method, "
             f"got {type(spec).__name__}"
@@ -114,25 +128,28 @@ class Method:
 
     @classmethod
     def of_templates(cls, templates: Templates, *, name: str = "templates") -> Method:
-        """The method saved with ``templates`` (:meth:`save`), else the default one on them."""
-        saved = templates.meta.get("method")
-        if not saved:
+        """The method saved with ``templates`` (:meth:`save`), else the default one on them.
+        A saved method that breaks the schema (:mod:`lfd.segmentation.schema`) raises
+        :class:`~lfd.errors.ModelFormatError` naming the field."""
+        return cls.from_entry(templates, templates.meta.get("method"), name=name)
+
+    @classmethod
+    def from_entry(cls, templates: Templates, entry: Any, *, name: str = "templates") -> Method:
+        """The method a file's ``lfd.method`` entry (:data:`METHOD_KEYS`) describes on
+        ``templates`` (an empty or missing entry: the default method, named ``name``)."""
+        if not entry:
             return cls(name, templates)
-        if not isinstance(saved, dict):
-            raise ModelFormatError("the template file's lfd.method entry must be a JSON object")
-        try:
-            params = params_from_dict(saved.get("params", {}))
-            return cls(
-                str(saved.get("name", name)),
-                templates,
-                params,
-                saved.get("search", DEFAULT_SEARCH),
-                saved.get("grammar", DEFAULT_GRAMMAR),
-            )
-        except (TypeError, InvalidParameterError) as err:
-            raise ModelFormatError(
-                f"the template file's lfd.method entry is unusable: {err}"
-            ) from None
+        doc = dict(check_keys(entry, METHOD_KEYS, "lfd.method.", ModelFormatError))
+        params = doc.pop("params", {})
+        kwargs = {
+            key: METHOD_RULES[key].check(value, f"lfd.method.{key}", ModelFormatError)
+            for key, value in doc.items()
+        }
+        return cls(
+            templates=templates,
+            params=params_from_dict(params, "lfd.method.params.", ModelFormatError),
+            **{"name": name, **kwargs},
+        )
 
     def with_options(
         self,
@@ -165,26 +182,38 @@ class Method:
             "params": dataclasses.asdict(self.params),
         }
 
-    def to_templates(self) -> Templates:
-        """The templates with this method saved in them (what :meth:`save` writes)."""
-        meta = dict(self.templates.meta)
-        meta["method"] = {
+    def entry(self) -> dict[str, Any]:
+        """The method as a file's ``lfd.method`` entry (:meth:`from_entry` reads it back)."""
+        return {
             "name": self.name,
             "search": self.search,
             "grammar": self.grammar,
             "params": dataclasses.asdict(self.params),
         }
-        return Templates(self.templates.engine, meta=meta)
+
+    def to_templates(self) -> Templates:
+        """The templates with this method saved in them (what :meth:`save` writes)."""
+        return Templates(
+            self.templates.engine, meta={**self.templates.meta, "method": self.entry()}
+        )
 
     def portable(self) -> str:
-        """The method as text a worker process or Ray node takes (:meth:`from_portable`)."""
+        """The method as text a worker process or Ray node takes (:meth:`from_portable`): the
+        name of its shipped templates and its entry, or the whole template file. A method is
+        pickled as this text (what :mod:`lfd.batch` sends a worker), and rebuilt, checked
+        like a file, once per process for a given text."""
+        for shipped, templates in (("default", Templates.default()), ("paper", Templates.paper())):
+            if self.templates is templates:
+                return json.dumps({"shipped": shipped, "method": self.entry()})
         return self.to_templates().to_json()
 
     @classmethod
     def from_portable(cls, text: str | None) -> Method:
-        """The inverse of :meth:`portable` (``None``: the default method); parsed once per
-        process for a given text."""
+        """The inverse of :meth:`portable` (``None``: the default method)."""
         return cls.default() if text is None else _from_portable(text)
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (Method.from_portable, (self.portable(),))
 
     def save(self, path: str | os.PathLike[str]) -> None:
         """Write the templates with this method in them; :meth:`load` reads it back."""
@@ -193,17 +222,20 @@ class Method:
 
 @lru_cache(maxsize=4)
 def _from_portable(text: str) -> Method:
-    return Method.of_templates(Templates.from_json(text))
+    from ..inputs import parse_json
+
+    doc = parse_json(text, "a portable method is not JSON", ModelFormatError)
+    shipped = doc.get("shipped") if isinstance(doc, dict) else None
+    if shipped is None:
+        return Method.of_templates(Templates.from_json(text))
+    templates = {"default": Templates.default, "paper": Templates.paper}[shipped]()
+    return Method.from_entry(templates, doc["method"])
 
 
-def params_from_dict(doc: dict[str, Any]) -> SegmentParams:
-    """:class:`SegmentParams` from :func:`dataclasses.asdict` output (missing keys: defaults)."""
-    doc = dict(doc)
-    stage1 = doc.pop("stage1", None)
-    contacts = doc.pop("contacts", "default")
-    kwargs: dict[str, Any] = dict(doc)
-    if stage1 is not None:
-        kwargs["stage1"] = Stage1Params(**stage1)
-    if contacts != "default":
-        kwargs["contacts"] = None if contacts is None else ContactParams(**contacts)
-    return SegmentParams(**kwargs)
+def params_from_dict(
+    doc: Any, where: str = "params.", error: type[LfdError] = InvalidParameterError
+) -> SegmentParams:
+    """:class:`SegmentParams` from a JSON object of its fields (:func:`dataclasses.asdict`
+    output; missing keys: the defaults), every field checked by its rule
+    (:data:`~lfd.segmentation.schema.SEGMENT_RULES`): ``error`` naming ``<where><field>``."""
+    return from_document(SegmentParams, doc, SEGMENT_RULES, where, error)

@@ -37,7 +37,7 @@ class Segment:
         Absolute times (int64 ns, the recording's clock); ``end_ns`` is the next segment's start.
     object : str or None
         Target object name: the object that best explains the segment's samples; for a Move,
-        the object it goes towards (:func:`lfd.segmentation.pipeline.label_moves`; None for a
+        the object it goes towards (:func:`lfd.segmentation.passes.label_moves`; None for a
         Move that ends the demonstration).
     score : float
         Summed feature log-likelihood per sample of the chosen skill (NaN for baselines and for

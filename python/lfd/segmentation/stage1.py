@@ -19,6 +19,7 @@ import numpy as np
 import numpy.typing as npt
 
 from .. import _hmmseg
+from ..rules import Flag, Number, Rule, check_fields
 
 FEATURE_COLUMNS: dict[str, int] = {
     name: _hmmseg.FEATURE_NAMES.index(name)
@@ -53,6 +54,20 @@ class Stage1Params:
     min_section_s: float = 0.1
     object_criteria: bool = True
     height_hysteresis: float = 0.005
+
+    def __post_init__(self) -> None:
+        check_fields(self, STAGE1_RULES, "stage1.")
+
+
+STAGE1_RULES: dict[str, Rule] = {
+    "opening_hysteresis": Number(0.0, 1.0, "m"),
+    "velocity_hysteresis": Number(0.0, 10.0, "m/s"),
+    "rise_hysteresis": Number(0.0, 10.0, "m/s"),
+    "min_section_s": Number(0.0, 3600.0, "s"),
+    "object_criteria": Flag(),
+    "height_hysteresis": Number(0.0, 1.0, "m"),
+}
+"""What each :class:`Stage1Params` field holds (:mod:`lfd.rules`; docs/method-files.md)."""
 
 
 OBJECT_COLUMNS: dict[str, int] = {"object_height": 4, "object_velocity": 8}

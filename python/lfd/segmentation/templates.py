@@ -102,8 +102,14 @@ class Templates:
     """
 
     def __init__(self, engine: _hmmseg.TemplateSet, *, meta: dict[str, Any] | None = None):
+        from .schema import check_block
+
+        if not isinstance(engine, _hmmseg.TemplateSet):
+            raise InvalidParameterError(
+                f"Templates wraps the engine's TemplateSet, got {type(engine).__name__}"
+            )
         self.engine = engine
-        self.meta: dict[str, Any] = dict(meta or {})
+        self.meta: dict[str, Any] = check_block(meta or {}, "lfd.", InvalidParameterError)
 
     @property
     def skills(self) -> list[str]:
@@ -122,19 +128,24 @@ class Templates:
 
     def to_json(self) -> str:
         """The templates as JSON text (the engine's format, plus an ``lfd`` metadata block)."""
+        from .schema import FORMAT_VERSION
+
         doc = json.loads(self.engine.to_json())
-        doc["lfd"] = self.meta
+        doc["lfd"] = {"format_version": FORMAT_VERSION, **self.meta}
         return json.dumps(doc)
 
     @classmethod
     def from_json(cls, text: str) -> Templates:
-        """Read templates from JSON text; version or skill problems raise ModelFormatError."""
+        """Read templates from JSON text; any problem (JSON, version, unknown skill, a field
+        of the ``lfd`` block: :mod:`lfd.segmentation.schema`) raises ModelFormatError. The
+        saved method's own entry is read by :meth:`lfd.Method.load`."""
         from ..inputs import parse_json
+        from .schema import check_block
 
         doc = parse_json(text, "template file is not valid JSON", ModelFormatError)
         if not isinstance(doc, dict):
             raise ModelFormatError("template file must contain a JSON object")
-        meta = doc.pop("lfd", {}) if isinstance(doc.get("lfd", {}), dict) else {}
+        meta = check_block(doc.pop("lfd", {}))
         skills = doc.get("skills", [])
         unknown = [s for s in skills if s not in SKILLS] if isinstance(skills, list) else []
         if unknown:
@@ -318,8 +329,9 @@ def template_params(params: dict[str, Any] | None = None) -> str:
         )
     try:
         text = json.dumps(params, allow_nan=False)
-    except (TypeError, ValueError) as err:
-        raise InvalidParameterError(f"template parameters are not plain JSON: {err}") from None
+    except (TypeError, ValueError, RecursionError) as err:
+        why = "nested too deeply" if isinstance(err, RecursionError) else err
+        raise InvalidParameterError(f"template parameters are not plain JSON: {why}") from None
     return _hmmseg.template_params(text)
 
 

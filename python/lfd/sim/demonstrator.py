@@ -286,8 +286,33 @@ def simulate(
     if objects is None:
         objects = natural_objects(rng) if style == "natural" else DEFAULT_OBJECTS
     scene = build_scene(objects, hand_scale=float(var.hand_scale or 1.0))
-    model = scene.compile()
-    kin = HandKinematics(model)
+    kin = HandKinematics(scene.compile())
+    P, roles, initial = _perform(rng, var, kin, objects, steps)
+    plan = Plan(P.segments)
+    truth = _motion(rng, var, kin, P, plan, initial, object_rate_hz)
+    hand, tracks = sample_streams(rng, truth, scene, var, hand_rate_hz, object_rate_hz)
+    end_ns = int(truth.t_ns[-1])
+    labels = []
+    for lab in P.labels:
+        start = BASE_TIME_NS + round(lab.t0 * 1e9)
+        stop = min(BASE_TIME_NS + round(lab.t1 * 1e9), end_ns)
+        labels.append(SkillLabel(lab.skill, start, stop, lab.object))
+    cam = scene.camera
+    camera = CameraInfo(cam.width, cam.height, cam.intrinsics(), cam.world_T_camera())
+    metadata = _metadata(task, int(seed), var, P, roles, initial, hand_rate_hz, object_rate_hz)
+    demo = Demonstration(hand=hand, objects=tracks, labels=labels, camera=camera, metadata=metadata)
+    return SimResult(demo=demo, truth=truth, scene=scene, plan=plan, variability=var)
+
+
+def _perform(
+    rng: np.random.Generator,
+    var: Any,
+    kin: HandKinematics,
+    objects: tuple[ObjectSpec, ...],
+    steps: tuple[Step, ...],
+) -> tuple[Planner, dict[str, str], dict[str, ObjectPose]]:
+    """Plan the demonstration's steps on a random layout: the planner (segments, labels, log),
+    the roles (A, B, C -> object names) and the objects' initial poses."""
     names = [o.name for o in objects]
     for attempt in range(_MAX_ATTEMPTS):
         # a layout in which a step is impossible (no free spot, no room to push) is re-drawn
@@ -304,8 +329,20 @@ def simulate(
         except DemonstrationError:
             if attempt == _MAX_ATTEMPTS - 1:
                 raise
-    plan = Plan(P.segments)
+    return P, roles, initial
 
+
+def _motion(
+    rng: np.random.Generator,
+    var: Any,
+    kin: HandKinematics,
+    P: Planner,
+    plan: Plan,
+    initial: dict[str, ObjectPose],
+    object_rate_hz: float,
+) -> Truth:
+    """The hand's and objects' true motion at the camera frames: the plan on a fine grid with
+    finger drift and tremor, the keypoints, the objects moved by the hand."""
     # fine simulation grid: camera frames are every `sub`-th step
     sub = 10
     n_frames = int(np.floor(plan.duration * object_rate_hz + 1e-9)) + 1
@@ -333,7 +370,7 @@ def simulate(
 
     frames = np.arange(n_frames) * sub
     t_ns = BASE_TIME_NS + np.round(np.arange(n_frames) * (1e9 / object_rate_hz)).astype(np.int64)
-    truth = Truth(
+    return Truth(
         t_ns=t_ns,
         tcp=tcp[frames],
         keypoints=keypoints[frames],
@@ -343,18 +380,22 @@ def simulate(
         object_pos={n: p[frames] for n, p in obj_pos.items()},
         object_yaw={n: y[frames] for n, y in obj_yaw.items()},
     )
-    hand, tracks = sample_streams(rng, truth, scene, var, hand_rate_hz, object_rate_hz)
-    end_ns = int(t_ns[-1])
-    labels = []
-    for lab in P.labels:
-        start = BASE_TIME_NS + round(lab.t0 * 1e9)
-        stop = min(BASE_TIME_NS + round(lab.t1 * 1e9), end_ns)
-        labels.append(SkillLabel(lab.skill, start, stop, lab.object))
-    cam = scene.camera
-    camera = CameraInfo(cam.width, cam.height, cam.intrinsics(), cam.world_T_camera())
+
+
+def _metadata(
+    task: str,
+    seed: int,
+    var: Any,
+    P: Planner,
+    roles: dict[str, str],
+    initial: dict[str, ObjectPose],
+    hand_rate_hz: float,
+    object_rate_hz: float,
+) -> dict[str, Any]:
+    """The simulated demonstration's metadata: task, seed, variability, layout, what was done."""
     metadata: dict[str, Any] = {
         "task": task,
-        "seed": int(seed),
+        "seed": seed,
         "source": "simulation",
         "simulator": "lfd.sim",
         "simulator_version": SIM_VERSION,
@@ -377,8 +418,7 @@ def simulate(
         metadata["hovers"] = [e for e in P.log if "hover" in e]
     if task in TEMPLATE_TASKS:
         metadata["target_skill"] = task
-    demo = Demonstration(hand=hand, objects=tracks, labels=labels, camera=camera, metadata=metadata)
-    return SimResult(demo=demo, truth=truth, scene=scene, plan=plan, variability=var)
+    return metadata
 
 
 def crop(result: SimResult, seconds: float) -> SimResult:

@@ -17,7 +17,7 @@ from .segmentation import log_segmentation, log_text
 
 if TYPE_CHECKING:
     from ..demo import Demonstration
-    from ..segmentation import GrammarUse, Segmentation, Templates
+    from ..segmentation import Method, Segmentation
     from ..segmentation.band import StageTwoScores
     from ..trajectory import Trajectory
 
@@ -257,11 +257,12 @@ def log_methods(
     demo: Demonstration,
     methods: Sequence[str],
     *,
-    templates: Templates | None = None,
-    grammar: GrammarUse = "enforce",
+    method: Method | None = None,
     recording: Any = None,
 ) -> dict[str, Segmentation]:
-    """Run segmentation methods on ``demo`` and log each result as soon as it is ready.
+    """Run segmentation methods on ``demo`` (:func:`lfd.segmentation.evaluate.run_method`:
+    the template methods on ``method``, default lfd's) and log each result as soon as it is
+    ready.
 
     The first template method (``dp``, ``paper``, ``greedy``) is logged in full (lane
     ``result``, features, sections, scores); the others get a lane each (``dp``/``paper``/
@@ -274,17 +275,17 @@ def log_methods(
 
     results: dict[str, Segmentation] = {}
     main = None
-    for method in methods:
+    for name in methods:
         try:
-            seg = run_method(method, demo, templates, grammar=grammar)
+            seg = run_method(name, demo, method)
         except LfdError as err:
-            log_text([f"{method}: {err}"], recording=recording)
+            log_text([f"{name}: {err}"], recording=recording)
             continue
-        results[method] = seg
-        if main is None and method in TEMPLATE_METHODS:
-            main = method
+        results[name] = seg
+        if main is None and name in TEMPLATE_METHODS:
+            main = name
             log_segment_run(demo, seg, ground_truth=False, recording=recording)
         else:
-            lane = method if method in TEMPLATE_METHODS else f"baseline_{method}"
+            lane = name if name in TEMPLATE_METHODS else f"baseline_{name}"
             log_skill_spans(seg.segments, source=lane, recording=recording)
     return results

@@ -388,16 +388,8 @@ def open_session(
     sinks: list[Any] = []
     connect_url = connect
     if spawn:
-        rr.spawn(port=SPAWN_PORT, connect=False, recording=rec)
-        if _port_open(SPAWN_PORT):
-            connect_url = f"rerun+http://127.0.0.1:{SPAWN_PORT}/proxy"
-            messages.append(f"spawned the Rerun viewer ({connect_url})")
-        else:
-            messages.append(
-                "the native Rerun viewer did not start (see its error above): serving the web "
-                "viewer instead"
-            )
-            serve = True
+        spawned = _spawn(rr, rec, messages)
+        connect_url, serve = spawned or connect_url, serve or spawned is None
     if connect_url is not None:
         sinks.append(rr.GrpcSink(connect_url))
         if connect is not None:
@@ -417,32 +409,13 @@ def open_session(
         check_bind_address(bind)
         if connect_url is not None and grpc_port == SPAWN_PORT:
             grpc_port = SPAWN_PORT + 1  # the spawned viewer holds the default port
-        probe = "127.0.0.1" if _url_host(bind) == "localhost" else bind
-        for port in (grpc_port, web_port):
-            if _port_open(port, probe):
-                if pending is not None:
-                    pending.discard()
-                raise LfdError(
-                    f"cannot serve the Rerun web viewer: port {port} is in use (a viewer "
-                    f"already running? stream to it with --rerun-connect "
-                    f"rerun+http://127.0.0.1:{grpc_port}/proxy)"
-                )
         try:
-            server = _start_server(bind, grpc_port, web_port)
+            server, grpc_url, serve_url = _serve(bind, grpc_port, web_port, messages)
         except LfdError:
             if pending is not None:
                 pending.discard()
             raise
-        host = _url_host(bind)
-        grpc_url = f"rerun+http://{host}:{grpc_port}/proxy"
         sinks.append(rr.GrpcSink(grpc_url))
-        serve_url = web_viewer_url(grpc_url, web_port, host)
-        messages.append(f"Rerun web viewer: {serve_url}")
-        if ipaddress_unspecified(bind):
-            messages.append(
-                f"the web viewer listens on every network interface ({bind}): anyone who can "
-                "reach this machine can watch"
-            )
     if sinks:
         rec.set_sinks(
             *sinks, default_blueprint=default_blueprint() if blueprint is None else blueprint
@@ -459,6 +432,46 @@ def open_session(
         server=server,
         bind=bind if serve else None,
     )
+
+
+def _spawn(rr: Any, rec: Any, messages: list[str]) -> str | None:
+    """Spawn the native viewer for ``rec``: the URL to stream to it, or None (said in
+    ``messages``) if it did not start, when the web viewer is served instead."""
+    rr.spawn(port=SPAWN_PORT, connect=False, recording=rec)
+    if _port_open(SPAWN_PORT):
+        url = f"rerun+http://127.0.0.1:{SPAWN_PORT}/proxy"
+        messages.append(f"spawned the Rerun viewer ({url})")
+        return url
+    messages.append(
+        "the native Rerun viewer did not start (see its error above): serving the web "
+        "viewer instead"
+    )
+    return None
+
+
+def _serve(bind: str, grpc_port: int, web_port: int, messages: list[str]) -> tuple[Any, str, str]:
+    """Start the gRPC server and the web viewer on ``bind`` (an :class:`LfdError` if a port is
+    in use; ``bind`` is checked): the server, the gRPC URL to stream to and the web viewer's
+    URL."""
+    probe = "127.0.0.1" if _url_host(bind) == "localhost" else bind
+    for port in (grpc_port, web_port):
+        if _port_open(port, probe):
+            raise LfdError(
+                f"cannot serve the Rerun web viewer: port {port} is in use (a viewer "
+                f"already running? stream to it with --rerun-connect "
+                f"rerun+http://127.0.0.1:{grpc_port}/proxy)"
+            )
+    server = _start_server(bind, grpc_port, web_port)
+    host = _url_host(bind)
+    grpc_url = f"rerun+http://{host}:{grpc_port}/proxy"
+    serve_url = web_viewer_url(grpc_url, web_port, host)
+    messages.append(f"Rerun web viewer: {serve_url}")
+    if ipaddress_unspecified(bind):
+        messages.append(
+            f"the web viewer listens on every network interface ({bind}): anyone who can "
+            "reach this machine can watch"
+        )
+    return server, grpc_url, serve_url
 
 
 def init(

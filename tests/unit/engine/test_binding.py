@@ -391,6 +391,14 @@ def test_a_panic_is_an_internal_error_that_except_exception_catches() -> None:
         pytest.fail("no error raised")
 
 
+def test_a_panic_carrying_a_keyboard_interrupt_is_the_interrupt() -> None:
+    """Ctrl+C inside a Python call the binding makes (rust-numpy's lazy import of numpy's C
+    API panicked with "Failed to access NumPy array API capsule ... KeyboardInterrupt"): the
+    run must stop, not go on as if one input had failed (an InternalError is an LfdError)."""
+    with pytest.raises(KeyboardInterrupt, match="KeyboardInterrupt"):
+        _hmmseg._panic("Failed to access NumPy array API capsule: KeyboardInterrupt")
+
+
 @pytest.mark.parametrize("errors_py", [None, "class EngineError(Exception): ...\n"])
 def test_the_binding_does_not_import_without_its_error_classes(
     tmp_path: Path, errors_py: str | None

@@ -322,3 +322,53 @@ def test_parallel_preparation_writes_the_same_dataset(exported: Path, tmp_path: 
     a, b = one.hf_dataset.with_format("numpy")[:], two.hf_dataset.with_format("numpy")[:]
     for key in ("observation.state", "observation.objects", "skill_index", "subtask_index"):
         np.testing.assert_array_equal(a[key], b[key])
+
+
+def test_an_interrupt_inside_an_engine_call_is_not_a_failed_recording(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Ctrl+C inside a binding call (the engine's panic that carries the KeyboardInterrupt, as
+    rust-numpy's lazy import gave once in 31 runs) propagates out of the per-recording
+    handlers (the export's, the batch runner's) instead of skipping the recording as bad."""
+    from lfd import _hmmseg
+    from lfd.batch import run_batch
+    from lfd.export import LeRobotWriter, export_recording, prepare_episode
+
+    def interrupted(*args: Any, **kwargs: Any) -> Any:
+        _hmmseg._panic("Failed to access NumPy array API capsule: KeyboardInterrupt")
+
+    monkeypatch.setattr("lfd.preprocessing.preprocess", interrupted)
+    writer = LeRobotWriter(tmp_path / "ds", "lfd/ds")  # lerobot is imported at the first add
+    with pytest.raises(KeyboardInterrupt):
+        export_recording(writer, RECORDINGS[0], video=False)
+    with pytest.raises(KeyboardInterrupt):
+        run_batch(prepare_episode, [str(RECORDINGS[0])], jobs=1)
+    assert writer.episodes == [] and not (tmp_path / "ds").exists()
+
+
+@needs_lerobot
+@pytest.mark.slow  # lerobot's import and a first episode: about 10 s
+def test_ctrl_c_stops_a_running_export_with_130(tmp_path: Path) -> None:
+    """SIGINT to a running ``lfd export lerobot`` once it has written an episode: exit 130, one
+    line, no dataset and no temporary directory left."""
+    import signal
+    import time
+
+    out = tmp_path / "ds"
+    argv = ["export", "lerobot", *map(str, RECORDINGS * 3), "-o", str(out), "--no-video"]
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "lfd.cli", *argv, "--jobs", "1"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert proc.stdout is not None
+    first = proc.stdout.readline()  # "<recording>: episode 0, ..." once one is written
+    assert "episode 0" in first, proc.communicate()[1]
+    time.sleep(0.5)  # into the next recording's preparation
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert err.strip().splitlines()[-1] == "lfd export: interrupted"
+    assert "Traceback" not in err
+    assert not out.exists() and not list(tmp_path.glob(".ds*"))

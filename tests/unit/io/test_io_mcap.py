@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -868,3 +869,44 @@ def test_live_segments_are_kept_apart_from_ground_truth(tmp_path: Path) -> None:
     again = tmp_path / "again.mcap"
     save(back, again)
     assert load(again).live_segments == [first, second]
+
+
+def test_object_names_that_look_like_topics_are_objects_or_refused(tmp_path: Path) -> None:
+    """An object named ``hand`` is an object (its own ``/objects/hand/pose``), not hand
+    samples; a name that would collide with a topic part or a ``/tf`` frame is refused, naming
+    it. Never mixed."""
+    import dataclasses
+
+    demo = make_demo()
+    first = next(iter(demo.objects))
+    renamed = {}
+    for name, obj in demo.objects.items():
+        new = "hand" if name == first else name
+        renamed[new] = dataclasses.replace(obj, name=new)
+    demo.objects = renamed
+    path = tmp_path / "hand.mcap"
+    save(demo, path)
+    back, caught = _load_quiet(path)
+    assert caught == []
+    assert list(back.objects) == list(demo.objects)
+    np.testing.assert_array_equal(back.hand.t_ns, demo.hand.t_ns)  # no object pose among them
+    np.testing.assert_array_equal(back.hand.keypoints, demo.hand.keypoints)
+    hand_box = demo.objects["hand"]
+    np.testing.assert_array_equal(back.objects["hand"].t_ns, hand_box.t_ns[hand_box.visible])
+    np.testing.assert_array_equal(
+        back.objects["hand"].position, hand_box.position[hand_box.visible]
+    )
+    for bad, why in [
+        ("camera", "reserved for the /tf frame"),
+        ("world", "reserved for the /tf frame"),
+        ("box/1", "no '/'"),
+        ("", "non-empty"),
+        (" box", "surrounding spaces"),
+        ("box\n1", "control characters"),
+        ("x" * 201, "at most 200 characters"),
+    ]:
+        demo.objects = {bad: dataclasses.replace(hand_box, name=bad)}
+        out = tmp_path / "bad.mcap"
+        with pytest.raises(DemonstrationError, match=f"object name {re.escape(repr(bad))} .*{why}"):
+            save(demo, out)
+        assert not out.exists() and list(tmp_path.glob(".bad.mcap*")) == []

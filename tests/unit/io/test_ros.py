@@ -392,7 +392,7 @@ def test_tf_chain_interpolates_dynamic_edges() -> None:
     """world -> a moves (x 0 -> 1 m, yaw 0 -> 90 deg over 1 s), a -> b is static (0.1 m along
     a's x): at 0.5 s b is at a's midpoint plus 0.1 m along yaw 45 deg; before the first and after
     the last sample the edge holds."""
-    from lfd.io.ros import _TfTree
+    from lfd.io.ros.tf import _TfTree
     from scipy.spatial.transform import Rotation
 
     tf = _TfTree()

@@ -92,6 +92,12 @@ def test_calibrate_video(tmp_path: Path, lfd_main: Callable[..., object]) -> Non
         (["--board", "8x6"], "the whole 8x6 board was found in 0 of 5 views"),
         (["--board", "9"], "expected COLSxROWS inner corners"),
         (["--board", "9x6", "--square", "0"], "--square"),
+        (["--board", "2x2"], "each side must have 3 to 100 inner corners"),
+        (["--board", "100000x100000"], "expected COLSxROWS inner corners"),
+        (["--board", "101x6"], "each side must have 3 to 100 inner corners"),
+        (["--board", "9x6", "--square", "1e308"], "must be a number in [0.001, 1]"),
+        (["--board", "9x6", "--square", "5e-324"], "must be a number in [0.001, 1]"),
+        (["--board", "9x6", "--square", "nan"], "must be a finite number"),
     ],
 )
 def test_calibrate_refuses_in_one_line(
@@ -129,3 +135,63 @@ def test_calibrate_an_unreadable_video(tmp_path: Path, lfd_main: Callable[..., o
     assert [line for line in err.splitlines() if line.strip()] == [
         f"lfd perception: error: {bad}: not a readable video (OpenCV decodes no frame of it)"
     ], err
+
+
+def _claiming(path: Path, width: int, height: int) -> Path:
+    """An image file whose header claims ``width`` x ``height`` pixels (its data is a small
+    image's: a decoder would allocate the claimed size first)."""
+    import struct
+    import zlib
+
+    small = cv2.imencode(path.suffix, np.zeros((8, 8), np.uint8))[1].tobytes()
+    if path.suffix == ".png":
+        ihdr = struct.pack(">II", width, height) + small[24:29]
+        data = small[:16] + ihdr + struct.pack(">I", zlib.crc32(b"IHDR" + ihdr)) + small[33:]
+    else:  # JPEG: the baseline frame header (SOF0) holds height, width
+        at = small.index(b"\xff\xc0")
+        data = small[: at + 5] + struct.pack(">HH", height, width) + small[at + 9 :]
+    path.write_bytes(data)
+    return path
+
+
+@pytest.mark.parametrize(("name", "size"), [("big.png", 100_000), ("big.jpg", 20_000)])
+def test_calibrate_refuses_a_huge_image_from_its_header(
+    tmp_path: Path, lfd_main: Callable[..., object], name: str, size: int
+) -> None:
+    """A PNG claiming 100000 x 100000 pixels (a MemoryError, or 30 GB), four 20000 x 20000
+    JPEGs (minutes of corner search): refused from the header, before decoding, in one line."""
+    import time
+
+    from lfd.perception.image_header import image_size
+
+    big = _claiming(tmp_path / name, size, size)
+    assert image_size(big.read_bytes()) == (size, size)
+    views = [big] if size > 50_000 else [big, big, big, big]
+    start = time.perf_counter()
+    argv = ["perception", "calibrate", *views, "--board", "9x6", "--square", SQUARE]
+    proc = lfd_main([*argv, "-o", tmp_path / "camera.json"])
+    assert time.perf_counter() - start < 5.0
+    err = proc.stderr  # type: ignore[attr-defined]
+    assert proc.returncode == 2, err  # type: ignore[attr-defined]
+    assert [line for line in err.splitlines() if line.strip()] == [
+        f"lfd perception: error: {big}: the image claims {size} x {size} pixels, more than the "
+        "50 megapixels lfd decodes"
+    ], err
+
+
+def test_calibrate_reads_a_bounded_number_of_views(monkeypatch: pytest.MonkeyPatch) -> None:
+    from lfd.errors import LfdWarning
+    from lfd.perception import calibration
+
+    monkeypatch.setattr(calibration, "MAX_VIEWS", 6)
+    read = []
+
+    def views():  # type: ignore[no-untyped-def]
+        for view in _views(14):
+            read.append(1)
+            yield view
+
+    with pytest.warns(LfdWarning, match="calibrated from the first 6 views"):
+        cal = calibration.calibrate(views(), COLS, ROWS, SQUARE)
+    assert cal.views + cal.skipped == 6 and len(read) == 7  # the 7th is read, not searched
+    np.testing.assert_allclose(cal.K, K_TRUE, rtol=0, atol=0.02 * K_TRUE[0, 0])

@@ -92,7 +92,8 @@ def test_a_locate_followed_by_a_skill_on_another_object_gets_a_move() -> None:
     """On exp3 (Locate box_a, Move, Pick up box_b): with the Move folded into the Pick up, the
     Move is put back between them, towards the Pick up's object; if the Pick up were of the
     located object, the Locate would lead straight into it."""
-    from lfd.segmentation.pipeline import as_trajectory, insert_implicit_moves
+    from lfd.segmentation.passes import insert_implicit_moves
+    from lfd.segmentation.pipeline import as_trajectory
 
     d = demo(EXP3)
     traj = as_trajectory(d)
@@ -314,7 +315,7 @@ def test_banded_engine_functions_agree_with_the_dense_ones() -> None:
 
 def test_banded_co_motion_penalty_is_the_dense_one_on_the_band() -> None:
     from lfd.segmentation.band import Band
-    from lfd.segmentation.pipeline import co_motion_penalty
+    from lfd.segmentation.comotion import co_motion_penalty
 
     rng = np.random.default_rng(5)
     n, skills = 300, list(SKILLS)
@@ -339,13 +340,9 @@ def test_scores_in_pieces_are_those_of_the_whole_band() -> None:
     from lfd.features import compute_features
     from lfd.preprocessing import preprocess
     from lfd.segmentation.band import Band
+    from lfd.segmentation.comotion import co_motion_per_object, moving_objects
     from lfd.segmentation.gaps import fill_gaps
-    from lfd.segmentation.pipeline import (
-        co_motion_per_object,
-        moving_objects,
-        scores_over_objects,
-        shared_features,
-    )
+    from lfd.segmentation.stage2 import scores_over_objects, shared_features
 
     traj, _ = fill_gaps(preprocess(demo()))
     t = Templates.default()

@@ -13,8 +13,8 @@ from lfd.preprocessing import preprocess
 from lfd.preprocessing.grasp import box_distance, grasp_aperture
 from lfd.preprocessing.pipeline import auto_cutoff
 from lfd.segmentation import SegmentParams, Templates, segment
+from lfd.segmentation.comotion import co_motion_penalty, moving_hand, moving_objects
 from lfd.segmentation.metrics import all_metrics
-from lfd.segmentation.pipeline import co_motion_penalty, moving_hand, moving_objects
 from lfd.sim import SimResult, Variability, simulate, truth_demonstration
 
 NATURAL = Variability(style="natural")

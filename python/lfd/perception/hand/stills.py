@@ -25,34 +25,13 @@ from typing import Any
 
 import numpy as np
 
-from ...demo import intrinsics_problem
 from ...errors import LfdError
 from ...inputs import parse_json, read_text
+from ..camera_file import k_problem
+from ..image_header import decode as _decode
 from .mediapipe import KEYPOINT_NAMES, Hand, MediaPipeHands
 
 PathLike = str | os.PathLike[str]
-
-
-def _decode(path: PathLike, what: str, flags: int) -> np.ndarray:
-    """The decoded image file (OpenCV ``flags``), or a one-line error naming it."""
-    import cv2
-
-    from ...inputs import check_input_file
-
-    p = Path(check_input_file(path, what, LfdError))  # a FIFO or a device: refused
-    if not p.is_file():
-        raise LfdError(f"{p}: {what} not found")
-    data = np.fromfile(p, np.uint8)
-    # OpenCV logs its own "[ WARN ]" line for a truncated file; the error below says it once.
-    level = cv2.utils.logging.getLogLevel()
-    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
-    try:
-        img = cv2.imdecode(data, flags) if data.size else None
-    finally:
-        cv2.utils.logging.setLogLevel(level)
-    if img is None:
-        raise LfdError(f"{p}: not a readable image (OpenCV cannot decode it)")
-    return np.asarray(img)
 
 
 def read_image(path: PathLike) -> np.ndarray:
@@ -93,7 +72,7 @@ def read_intrinsics(path: PathLike) -> np.ndarray:
         raise LfdError(
             f'{p}: expected JSON {{"K": [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]}} ({detail})'
         ) from None
-    problem = intrinsics_problem(K)
+    problem = k_problem(K)
     if problem is not None:
         raise LfdError(f"{p}: {problem}")
     return K

@@ -1,0 +1,247 @@
+"""``camera.json``: the one reader and validator of a camera description (``lfd record``).
+
+A camera description is read as what it is, and every value that would break a later stage or
+silently give a wrong recording is refused in one :class:`~lfd.errors.LfdError` line naming the
+file and the field:
+
+- ``width``, ``height``: integers in [1, :data:`MAX_IMAGE_SIDE`];
+- ``K``: a finite 3x3 pinhole matrix, upper triangular, last row exactly ``0 0 1``, focal
+  lengths in :data:`FOCAL_RANGE_PX`, skew at most :data:`MAX_SKEW` of ``fx``, the principal
+  point inside the image;
+- ``world_T_camera`` (optional): a finite rigid transform, a rotation block orthonormal with
+  determinant +1 (within :data:`ROTATION_TOLERANCE`), last row ``0 0 0 1``, the translation
+  under :data:`MAX_TRANSLATION_M`;
+- ``fps`` (optional): a number in (0, :data:`MAX_FPS`] (a string is refused);
+- ``objects``: a list of ``{"name", "tag_id", "size", "tag_size"?}``: a name the recording can
+  use as a topic (:func:`lfd.io.writer.object_name_problem`), a tag id an integer in
+  [0, :data:`MAX_TAG_ID`] (the ArUco dictionary's own range is checked by the tag tracker), 3
+  sizes and the tag side in :data:`SIZE_RANGE_M`.
+
+The other limits of a recording's inputs are here too: the camera device index
+(:func:`camera_index`) and the hand rate (:func:`check_hand_rate`).
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..demo import CameraInfo
+from ..errors import LfdError
+
+MAX_IMAGE_SIDE = 16384
+"""Largest image width or height (px)."""
+FOCAL_RANGE_PX = (1.0, 1e5)
+"""Plausible focal lengths ``fx``, ``fy`` (px): a 640-px-wide image with f = 1 px sees 180
+degrees, one with f = 1e5 px a hundredth of a degree."""
+MAX_SKEW = 0.01
+"""Largest ``|K[0, 1]|`` as a fraction of ``fx`` (cameras have none; calibrations fix it to 0)."""
+ROTATION_TOLERANCE = 1e-3
+"""How far ``R^T R`` may be from the identity, and ``det R`` from 1, in ``world_T_camera``."""
+MAX_TRANSLATION_M = 100.0
+"""Largest distance of the camera from the world origin (m)."""
+SIZE_RANGE_M = (0.001, 2.0)
+"""Plausible object sizes and tag sides (m)."""
+MAX_TAG_ID = 1023
+"""Largest ArUco id of any predefined dictionary (``DICT_ARUCO_ORIGINAL`` has 1024)."""
+MAX_FPS = 1000.0
+"""Largest frame rate (Hz)."""
+MAX_CAMERA_INDEX = 63
+"""Largest OpenCV device index ``lfd record --source camera:N`` opens."""
+HAND_RATE_RANGE_HZ = (0.1, 1000.0)
+"""Plausible hand sample rates (Hz)."""
+
+
+def _number(value: Any) -> bool:
+    """A real number (Python's or numpy's), not a bool nor a string."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
+
+
+def length_problem(value: Any, what: str) -> str | None:
+    """What is wrong with a length in metres (None: within :data:`SIZE_RANGE_M`)."""
+    lo, hi = SIZE_RANGE_M
+    if not _number(value) or not math.isfinite(value) or not lo <= value <= hi:
+        return f"{what} must be a length in [{lo:g}, {hi:g}] m, got {value!r}"
+    return None
+
+
+def k_problem(K: Any, width: int | None = None, height: int | None = None) -> str | None:
+    """What is wrong with a pinhole matrix ``K`` (None: usable); with the image size, the
+    principal point must be inside the image."""
+    K = np.asarray(K, dtype=float) if _all_numbers(K) else None
+    if K is None or K.shape != (3, 3) or not np.isfinite(K).all():
+        return "K must be a finite 3x3 matrix [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]"
+    if K[1, 0] != 0 or K[2, 0] != 0 or K[2, 1] != 0 or K[2, 2] != 1:
+        return f"K must be upper triangular with last row 0 0 1, got {_rows(K)}"
+    lo, hi = FOCAL_RANGE_PX
+    for name, f in (("fx", K[0, 0]), ("fy", K[1, 1])):
+        if not lo <= f <= hi:
+            return f"K: focal length {name} must be in [{lo:g}, {hi:g}] px, got {f:g}"
+    if abs(K[0, 1]) > MAX_SKEW * K[0, 0]:
+        return f"K: skew K[0][1] = {K[0, 1]:g} px, at most {MAX_SKEW:g} fx"
+    for name, c, side in (("cx", K[0, 2], width), ("cy", K[1, 2], height)):
+        bound = MAX_IMAGE_SIDE if side is None else side
+        if not 0 <= c <= bound:
+            return f"K: principal point {name} = {c:g} px is outside the image (0..{bound})"
+    return None
+
+
+def pose_problem(T: Any) -> str | None:
+    """What is wrong with a rigid transform (None: a rotation and a plausible translation)."""
+    T = np.asarray(T, dtype=float) if _all_numbers(T) else None
+    if T is None or T.shape != (4, 4) or not np.isfinite(T).all():
+        return "must be a finite 4x4 matrix"
+    if not np.array_equal(T[3], [0.0, 0.0, 0.0, 1.0]):
+        return f"last row must be 0 0 0 1, got {_rows(T[3:])}"
+    R = T[:3, :3]
+    off = float(np.abs(R.T @ R - np.eye(3)).max())
+    if off > ROTATION_TOLERANCE or abs(np.linalg.det(R) - 1.0) > ROTATION_TOLERANCE:
+        return (
+            "rotation block must be orthonormal with determinant +1 (a rigid transform, metres), "
+            f"got det {np.linalg.det(R):.6g}"
+        )
+    distance = float(np.linalg.norm(T[:3, 3]))
+    if distance > MAX_TRANSLATION_M:
+        return f"translation is {distance:g} m from the origin, at most {MAX_TRANSLATION_M:g} m"
+    return None
+
+
+def _all_numbers(value: Any) -> bool:
+    """Whether ``value`` is a (nested) list or array of real numbers, no strings or bools."""
+    if isinstance(value, np.ndarray):
+        return value.dtype.kind in "iuf"
+    if isinstance(value, list | tuple):
+        return all(_all_numbers(v) for v in value)
+    return _number(value)
+
+
+def _rows(a: np.ndarray) -> str:
+    return "; ".join(" ".join(f"{v:g}" for v in row) for row in a)
+
+
+def check_hand_rate(hz: Any, what: str = "hand rate") -> float:
+    """The hand sample rate in Hz, within :data:`HAND_RATE_RANGE_HZ`, or an :class:`LfdError`."""
+    lo, hi = HAND_RATE_RANGE_HZ
+    if not _number(hz) or not math.isfinite(hz) or not lo <= hz <= hi:
+        raise LfdError(f"{what} must be a number in [{lo:g}, {hi:g}] Hz, got {hz!r}")
+    return float(hz)
+
+
+def camera_index(text: str | int) -> int:
+    """A camera device index ``N`` of ``camera:N``: an integer in [0, :data:`MAX_CAMERA_INDEX`]
+    (OpenCV is not asked about anything else: -1 crashes some of its backends)."""
+    value = str(text).strip()
+    if not value.isdigit() or int(value) > MAX_CAMERA_INDEX:
+        raise LfdError(
+            f"camera source: the device index must be an integer in [0, {MAX_CAMERA_INDEX}], "
+            f"got {str(text)[:40]!r}"
+        )
+    return int(value)
+
+
+def _integer(value: Any, lo: int, hi: int) -> int | None:
+    """``value`` as an int when it is a whole number in [lo, hi] (a JSON 3 or 3.0), else None."""
+    if not _number(value) or not math.isfinite(value) or value != int(value):
+        return None
+    return int(value) if lo <= value <= hi else None
+
+
+def _object(o: Any, k: int) -> dict[str, Any]:
+    """One entry of ``objects``, checked."""
+    from ..io.writer import object_name_problem
+
+    where = f"objects[{k}]"
+    if not isinstance(o, dict):
+        raise ValueError(f"{where} must be an object with name, tag_id and size")
+    for key in ("name", "tag_id", "size"):
+        if key not in o:
+            raise ValueError(f"{where}: missing {key!r}")
+    name = o["name"]
+    problem = object_name_problem(name) if isinstance(name, str) else "must be a string"
+    if problem is not None:
+        raise ValueError(f"{where}.name {name!r}: {problem}")
+    tag_id = _integer(o["tag_id"], 0, MAX_TAG_ID)
+    if tag_id is None:
+        raise ValueError(
+            f"{where}.tag_id of {name!r} must be an integer in [0, {MAX_TAG_ID}], "
+            f"got {o['tag_id']!r}"
+        )
+    size = o["size"]
+    if not isinstance(size, list) or len(size) != 3:
+        raise ValueError(f"{where}.size of {name!r} must be 3 lengths (m), got {size!r}")
+    for v in [*size, *([o["tag_size"]] if "tag_size" in o else [])]:
+        problem = length_problem(v, f"{where} ({name!r}): size and tag_size")
+        if problem is not None:
+            raise ValueError(problem)
+    out: dict[str, Any] = {"name": name, "tag_id": tag_id, "size": [float(v) for v in size]}
+    if "tag_size" in o:
+        out["tag_size"] = float(o["tag_size"])
+    return out
+
+
+def _size(meta: dict[str, Any], key: str) -> int:
+    if key not in meta:
+        raise ValueError(f"missing {key!r}")
+    side = _integer(meta[key], 1, MAX_IMAGE_SIDE)
+    if side is None:
+        raise ValueError(f"{key} must be an integer in [1, {MAX_IMAGE_SIDE}] px, got {meta[key]!r}")
+    return side
+
+
+def _fps(meta: dict[str, Any]) -> float | None:
+    if "fps" not in meta:
+        return None
+    fps = meta["fps"]
+    if not _number(fps) or not math.isfinite(fps) or not 0 < fps <= MAX_FPS:
+        raise ValueError(f"fps must be a number in (0, {MAX_FPS:g}] Hz, got {fps!r}")
+    return float(fps)
+
+
+def parse_camera(meta: Any) -> tuple[CameraInfo, list[dict[str, Any]], float | None, bool]:
+    """A parsed camera description -> camera, objects, fps (None: not given) and whether the
+    camera pose is given; a ``ValueError`` names the first field that is wrong."""
+    if not isinstance(meta, dict):
+        raise ValueError("expected a JSON object with width, height, K and objects")
+    width, height = _size(meta, "width"), _size(meta, "height")
+    if "K" not in meta:
+        raise ValueError("missing 'K'")
+    problem = k_problem(meta["K"], width, height)
+    if problem is not None:
+        raise ValueError(problem)
+    known = "world_T_camera" in meta
+    pose = meta.get("world_T_camera", np.eye(4).tolist())
+    problem = pose_problem(pose)
+    if problem is not None:
+        raise ValueError(f"world_T_camera {problem}")
+    objects = meta.get("objects", [])
+    if not isinstance(objects, list):
+        raise ValueError("objects must be a list")
+    parsed = [_object(o, k) for k, o in enumerate(objects)]
+    names = [o["name"] for o in parsed]
+    if len(set(names)) != len(names):
+        raise ValueError(f"object names must be distinct, got {names}")
+    camera = CameraInfo(width, height, np.asarray(meta["K"], float), np.asarray(pose, float))
+    return camera, parsed, _fps(meta), known
+
+
+def read_camera_json(path: Path) -> tuple[CameraInfo, list[dict[str, Any]], dict[str, Any], bool]:
+    """Read and validate ``camera.json``: camera, objects, the document (``fps`` checked, a
+    float when given) and whether the camera pose is given. Anything wrong is one
+    :class:`LfdError` line naming the file and the field."""
+    from ..inputs import parse_json, read_text
+
+    path = Path(path)
+    if not path.is_file():
+        raise LfdError(f"{path}: missing (intrinsics and objects, see lfd.perception.sources)")
+    meta = parse_json(read_text(path, "camera description", LfdError), str(path), LfdError)
+    try:
+        camera, objects, fps, known = parse_camera(meta)
+    except ValueError as err:
+        raise LfdError(f"{path}: {' '.join(str(err).split())[:300]}") from None
+    if fps is not None:
+        meta["fps"] = fps
+    return camera, objects, meta, known
