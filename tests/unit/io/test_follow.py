@@ -139,11 +139,24 @@ def test_follow_stops_on_ctrl_c_and_on_stop(tmp_path: Path) -> None:
     dest = tmp_path / "open.mcap"
     src = EXP1.read_bytes()
     dest.write_bytes(src[: len(src) // 3])
-    follower = follow(dest, poll_s=0.01, idle_timeout_s=None)
-    timer = threading.Timer(0.5, _thread.interrupt_main)
-    timer.start()
-    n = sum(1 for _ in follower)
-    timer.join()
+    # the file never grows: only Ctrl+C ends this (the idle timeout is a fail-safe, never reached)
+    follower = follow(dest, poll_s=0.01, idle_timeout_s=120.0)
+    done = threading.Event()
+
+    def press_ctrl_c() -> None:
+        # a simulated Ctrl+C that lands in a destructor or callback is dropped by Python: press
+        # again every 0.5 s until the follower has stopped
+        while not done.wait(0.5):
+            if follower.stop_reason is None:
+                _thread.interrupt_main()
+
+    presser = threading.Thread(target=press_ctrl_c, daemon=True)
+    presser.start()
+    try:
+        n = sum(1 for _ in follower)
+    finally:
+        done.set()
+        presser.join()
     assert follower.stop_reason == "interrupted" and n > 0
 
     follower = follow(dest, poll_s=0.01, idle_timeout_s=None)
