@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
-import _thread
 import itertools
+import signal
+import subprocess
+import sys
 import threading
 import time
 import warnings
@@ -135,33 +137,44 @@ def test_follow_stops_when_the_file_stops_growing(tmp_path: Path) -> None:
     assert got == _file_messages(EXP1)[: len(got)]
 
 
+_FOLLOW_UNTIL_CTRL_C = """
+import sys
+from lfd.io import follow
+follower = follow(sys.argv[1], poll_s=0.01, idle_timeout_s=60.0)
+print("following", flush=True)
+n = 0
+for _ in follower:
+    n += 1
+print(follower.stop_reason, n, flush=True)
+"""
+
+
 def test_follow_stops_on_ctrl_c_and_on_stop(tmp_path: Path) -> None:
+    """A real Ctrl+C (SIGINT) to a process following a file that never grows ends the follower
+    (the idle timeout is a fail-safe, never reached); so does ``stop`` from another thread."""
     dest = tmp_path / "open.mcap"
     src = EXP1.read_bytes()
     dest.write_bytes(src[: len(src) // 3])
-    # the file never grows: only Ctrl+C ends this (the idle timeout is a fail-safe, never reached)
-    follower = follow(dest, poll_s=0.01, idle_timeout_s=120.0)
-    done = threading.Event()
-
-    def press_ctrl_c() -> None:
-        # a simulated Ctrl+C that lands in a destructor or callback is dropped by Python: press
-        # again every 0.5 s until the follower has stopped
-        while not done.wait(0.5):
-            if follower.stop_reason is None:
-                _thread.interrupt_main()
-
-    presser = threading.Thread(target=press_ctrl_c, daemon=True)
-    presser.start()
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _FOLLOW_UNTIL_CTRL_C, str(dest)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
-        n = sum(1 for _ in follower)
+        assert proc.stdout is not None and proc.stdout.readline().strip() == "following"
+        time.sleep(1.5)  # it reads the third of exp1 in milliseconds, then waits
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=60)
     finally:
-        done.set()
-        presser.join()
-    assert follower.stop_reason == "interrupted" and n > 0
+        proc.kill()
+    reason, n = out.split()
+    assert proc.returncode == 0 and reason == "interrupted", err
+    assert int(n) == scan(dest).message_count > 0
 
     follower = follow(dest, poll_s=0.01, idle_timeout_s=None)
     threading.Timer(0.3, follower.stop).start()
-    assert sum(1 for _ in follower) == n and follower.stop_reason == "stopped"
+    assert sum(1 for _ in follower) == int(n) and follower.stop_reason == "stopped"
 
 
 def test_follow_refuses_what_is_not_a_recording(tmp_path: Path) -> None:
