@@ -15,6 +15,7 @@ import lfd
 import numpy as np
 import pytest
 import zstandard
+from _mcapcopy import copy_records
 from lfd.cli import main
 from lfd.errors import RecoveredFileWarning
 from lfd.io.mcapfile import read_summary
@@ -156,25 +157,7 @@ def test_info_reads_a_file_without_message_indexes_or_statistics(
         reader = make_reader(f)
         writer = Writer(out, index_types=IndexType.NONE, use_statistics=False)
         writer.start(profile="", library="test")
-        schemas: dict[int, int] = {}
-        channels: dict[int, int] = {}
-        for schema, channel, message in reader.iter_messages(log_time_order=False):
-            if channel.id not in channels:
-                if schema is not None and schema.id not in schemas:
-                    schemas[schema.id] = writer.register_schema(
-                        schema.name, schema.encoding, schema.data
-                    )
-                channels[channel.id] = writer.register_channel(
-                    channel.topic,
-                    channel.message_encoding,
-                    schemas[schema.id] if schema is not None else 0,
-                    dict(channel.metadata),
-                )
-            writer.add_message(
-                channels[channel.id], message.log_time, message.data, message.publish_time
-            )
-        for record in reader.iter_metadata():
-            writer.add_metadata(record.name, dict(record.metadata))
+        copy_records(reader, writer)
         writer.finish()
     assert main(["info", str(EXP1), "--json", "-"]) == 0
     want = json.loads(capsys.readouterr().out)
@@ -220,23 +203,7 @@ def _inflating(path: Path, topic: str, n: int) -> Path:
         reader = make_reader(f)
         w = Writer(out)
         w.start(profile="", library="inflating")
-        chans: dict[int, int] = {}
-        schemas: dict[int, int] = {}
-        for schema, channel, message in reader.iter_messages(log_time_order=False):
-            if channel.id not in chans:
-                if schema is not None and schema.id not in schemas:
-                    schemas[schema.id] = w.register_schema(
-                        schema.name, schema.encoding, schema.data
-                    )
-                chans[channel.id] = w.register_channel(
-                    channel.topic,
-                    channel.message_encoding,
-                    schemas[schema.id] if schema is not None else 0,
-                    dict(channel.metadata),
-                )
-            w.add_message(chans[channel.id], message.log_time, message.data, message.publish_time)
-        for record in reader.iter_metadata():
-            w.add_metadata(record.name, dict(record.metadata))
+        copy_records(reader, w)
         junk = w.register_channel(topic, "protobuf", 0, {})
         for i in range(n):
             t = 1_700_000_000_000_000_000 + i

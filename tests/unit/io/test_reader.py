@@ -10,6 +10,7 @@ from pathlib import Path
 import _paths
 import numpy as np
 import pytest
+from _mcapcopy import copy_records
 from _synthetic import T0, make_demo
 from lfd.demo import Demonstration
 from lfd.errors import RecordingFormatError
@@ -182,26 +183,7 @@ def _without_calibration(src: Path, dst: Path) -> None:
         reader = make_reader(f)
         writer = Writer(out)
         writer.start(profile="", library="test")
-        schemas: dict[int, int] = {}
-        channels: dict[int, int] = {}
-        for schema, channel, message in reader.iter_messages(log_time_order=False):
-            if channel.id not in channels:
-                if schema is not None and schema.id not in schemas:
-                    schemas[schema.id] = writer.register_schema(
-                        schema.name, schema.encoding, schema.data
-                    )
-                channels[channel.id] = writer.register_channel(
-                    channel.topic,
-                    channel.message_encoding,
-                    schemas[schema.id] if schema is not None else 0,
-                    dict(channel.metadata),
-                )
-            writer.add_message(
-                channels[channel.id], message.log_time, message.data, message.publish_time
-            )
-        for record in reader.iter_metadata():
-            if record.name != "calibration":
-                writer.add_metadata(record.name, dict(record.metadata))
+        copy_records(reader, writer, keep=lambda name: name != "calibration")
         writer.finish()
 
 
