@@ -302,7 +302,12 @@ class Session:
 
             old = signal.signal(signal.SIGTERM, on_term)
         try:
-            stop.wait(None if math.isinf(serve_for) else serve_for)
+            end = time.monotonic() + serve_for
+            # wake twice a second: a Ctrl+C the kernel hands to another thread (the viewer's)
+            # is only acted on once the main thread runs Python again
+            while not stop.wait(min(0.5, max(0.0, end - time.monotonic()))):
+                if time.monotonic() >= end:
+                    break
         except KeyboardInterrupt:
             pass
         finally:
