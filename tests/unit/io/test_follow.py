@@ -138,7 +138,12 @@ def test_follow_stops_when_the_file_stops_growing(tmp_path: Path) -> None:
 
 
 _FOLLOW_UNTIL_CTRL_C = """
+import signal
 import sys
+# Ctrl+C as a shell gives it: the test process may pass SIGINT on ignored or blocked (a library
+# imported by the other test modules can leave it so), and a child inherits both
+signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+signal.signal(signal.SIGINT, signal.default_int_handler)
 from lfd.io import follow
 follower = follow(sys.argv[1], poll_s=0.01, idle_timeout_s=60.0)
 print("following", flush=True)
