@@ -389,27 +389,34 @@ pub fn metadata_index(body: &[u8]) -> Result<MetadataIndex, String> {
     })
 }
 
+/// The first record of `data` (an inflated chunk or a summary section): `(opcode, body, the
+/// bytes after it)`, or why it cannot be one (a header cut short, a length past the end).
+pub fn next_record(data: &[u8]) -> Result<(u8, &[u8], &[u8]), String> {
+    if data.len() < 9 {
+        return Err("a chunk ends inside a record header".into());
+    }
+    let opcode = data[0];
+    let mut l = [0u8; 8];
+    l.copy_from_slice(&data[1..9]);
+    let len = u64::from_le_bytes(l);
+    let rest = &data[9..];
+    if len > rest.len() as u64 {
+        return Err(format!(
+            "a {} record of {len} bytes runs past its chunk ({} bytes left)",
+            opcode_name(opcode),
+            rest.len()
+        ));
+    }
+    let (body, tail) = rest.split_at(len as usize);
+    Ok((opcode, body, tail))
+}
+
 /// The records of an inflated chunk (or a summary section): `(opcode, body)`, all of them or
 /// an error.
 pub fn split(mut data: &[u8]) -> Result<Vec<(u8, &[u8])>, String> {
     let mut out = Vec::new();
     while !data.is_empty() {
-        if data.len() < 9 {
-            return Err("a chunk ends inside a record header".into());
-        }
-        let opcode = data[0];
-        let mut l = [0u8; 8];
-        l.copy_from_slice(&data[1..9]);
-        let len = u64::from_le_bytes(l);
-        let rest = &data[9..];
-        if len > rest.len() as u64 {
-            return Err(format!(
-                "a {} record of {len} bytes runs past its chunk ({} bytes left)",
-                opcode_name(opcode),
-                rest.len()
-            ));
-        }
-        let (body, tail) = rest.split_at(len as usize);
+        let (opcode, body, tail) = next_record(data)?;
         out.push((opcode, body));
         data = tail;
     }

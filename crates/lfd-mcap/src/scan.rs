@@ -407,19 +407,7 @@ fn decode_chunk(
     // topic index -> slot in `parts` (small: a chunk holds a few topics)
     let mut slots: Vec<(usize, usize)> = Vec::new();
     while !data.is_empty() {
-        if data.len() < 9 {
-            return None;
-        }
-        let opcode = data[0];
-        let mut l = [0u8; 8];
-        l.copy_from_slice(&data[1..9]);
-        let len = u64::from_le_bytes(l);
-        let rest = &data[9..];
-        if len > rest.len() as u64 {
-            return None;
-        }
-        #[allow(clippy::cast_possible_truncation)] // fits: at most rest.len()
-        let (body, tail) = rest.split_at(len as usize);
+        let (opcode, body, tail) = records::next_record(data).ok()?;
         data = tail;
         match opcode {
             op::MESSAGE => {
