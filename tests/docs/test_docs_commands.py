@@ -33,6 +33,7 @@ from pathlib import Path
 
 import _paths
 import pytest
+from _signals import ctrl_c_as_from_a_terminal
 
 ROOT = _paths.ROOT
 DOCUMENTS = [
@@ -202,6 +203,7 @@ def _run_viewer_line(cmd: str, cwd: Path) -> subprocess.CompletedProcess[str]:
         stderr=subprocess.PIPE,
         text=True,
         start_new_session=True,
+        preexec_fn=ctrl_c_as_from_a_terminal,
     )
     deadline = time.monotonic() + 300
     try:

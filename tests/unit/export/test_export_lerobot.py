@@ -16,6 +16,7 @@ import _paths
 import lfd
 import numpy as np
 import pytest
+from _signals import ctrl_c_as_from_a_terminal
 from lfd.errors import LfdError, UsageError
 from lfd.export import export_lerobot
 from lfd.export.lerobot import NO_SKILL
@@ -361,6 +362,7 @@ def test_ctrl_c_stops_a_running_export_with_130(tmp_path: Path) -> None:
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        preexec_fn=ctrl_c_as_from_a_terminal,
     )
     assert proc.stdout is not None
     first = proc.stdout.readline()  # "<recording>: episode 0, ..." once one is written

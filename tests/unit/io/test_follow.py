@@ -14,6 +14,7 @@ from pathlib import Path
 import _paths
 import numpy as np
 import pytest
+from _signals import ctrl_c_as_from_a_terminal
 from lfd.errors import RecordingFormatError, RecoveredFileWarning
 from lfd.io import McapRecorder, follow, load, scan
 from lfd.io.follow import STOPPED_GROWING, partial_files
@@ -138,12 +139,7 @@ def test_follow_stops_when_the_file_stops_growing(tmp_path: Path) -> None:
 
 
 _FOLLOW_UNTIL_CTRL_C = """
-import signal
 import sys
-# Ctrl+C as a shell gives it: the test process may pass SIGINT on ignored or blocked (a library
-# imported by the other test modules can leave it so), and a child inherits both
-signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
-signal.signal(signal.SIGINT, signal.default_int_handler)
 from lfd.io import follow
 follower = follow(sys.argv[1], poll_s=0.01, idle_timeout_s=60.0)
 print("following", flush=True)
@@ -165,6 +161,7 @@ def test_follow_stops_on_ctrl_c_and_on_stop(tmp_path: Path) -> None:
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        preexec_fn=ctrl_c_as_from_a_terminal,
     )
     try:
         assert proc.stdout is not None and proc.stdout.readline().strip() == "following"

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import _paths
 import pytest
+from _signals import ctrl_c_as_from_a_terminal
 from lfd.batch import WORKER_DIED, ItemResult, run_batch
 from lfd.cli import main
 from lfd.errors import RecoveredFileWarning, UsageError
@@ -185,7 +186,7 @@ def test_ctrl_c_stops_a_batch_at_once() -> None:
         stderr=subprocess.PIPE,
         text=True,
         start_new_session=True,
-        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+        preexec_fn=ctrl_c_as_from_a_terminal,
     )
     time.sleep(4)  # the pool is up and segmenting (900 recordings take far longer)
     assert proc.poll() is None
