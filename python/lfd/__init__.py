@@ -20,7 +20,15 @@ from .errors import EngineError, LfdError
 if TYPE_CHECKING:
     from . import io, preprocessing, segmentation
     from ._version import __version__
-    from .demo import CameraInfo, Demonstration, HandTrack, ImageStream, ObjectTrack, SkillLabel
+    from .demo import (
+        CameraInfo,
+        Demonstration,
+        Handover,
+        HandTrack,
+        ImageStream,
+        ObjectTrack,
+        SkillLabel,
+    )
     from .engine import GaussianHMM
     from .features import (
         FEATURE_NAMES,
@@ -39,7 +47,15 @@ _HOME = {
     **dict.fromkeys(("io", "preprocessing", "segmentation"), ""),
     "__version__": "._version",
     **dict.fromkeys(
-        ("CameraInfo", "Demonstration", "HandTrack", "ImageStream", "ObjectTrack", "SkillLabel"),
+        (
+            "CameraInfo",
+            "Demonstration",
+            "Handover",
+            "HandTrack",
+            "ImageStream",
+            "ObjectTrack",
+            "SkillLabel",
+        ),
         ".demo",
     ),
     "GaussianHMM": ".engine",
@@ -81,6 +97,7 @@ __all__ = [
     "Features",
     "GaussianHMM",
     "HandTrack",
+    "Handover",
     "ImageStream",
     "LfdError",
     "McapRecorder",

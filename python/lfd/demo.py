@@ -10,6 +10,7 @@ Hand keypoints follow the MediaPipe / OpenPose order of 21 joints (:data:`KEYPOI
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -32,6 +33,9 @@ KEYPOINT_NAMES: tuple[str, ...] = (
 
 KEYPOINT_LAYOUT = "mediapipe-21"
 """Name of the keypoint layout, written to the MCAP channel metadata."""
+
+HAND_SIDES: tuple[str, ...] = ("right", "left")
+"""The sides a hand can have, in the order a demonstration lists its hands."""
 
 THUMB_TIP = 4
 """Index of the thumb tip ``T`` (paper Fig. 2)."""
@@ -176,15 +180,51 @@ class SkillLabel:
     start_ns: int
     end_ns: int
     object: str | None = None
+    hand: str | None = None
+    """The side of the hand whose lane the label is in: ``"right"`` or ``"left"``; None for the
+    only hand of a one-hand demonstration."""
 
     def __post_init__(self) -> None:
         check_skill(self.skill)
+        check_side(self.hand, "label", none_ok=True)
         self.start_ns = int(self.start_ns)
         self.end_ns = int(self.end_ns)
         if self.end_ns < self.start_ns:
             raise DemonstrationError(
                 f"label {self.skill!r}: end {self.end_ns} before start {self.start_ns}"
             )
+
+
+def check_side(side: str | None, what: str, none_ok: bool = False) -> None:
+    """Raise DemonstrationError unless ``side`` is one of :data:`HAND_SIDES` (or None, if
+    ``none_ok``)."""
+    if side is None and none_ok:
+        return
+    if side not in HAND_SIDES:
+        raise DemonstrationError(f"{what}: hand side must be one of {HAND_SIDES}, got {side!r}")
+
+
+@dataclass
+class Handover:
+    """An object passed from one hand to the other, one event that both hands' lanes share
+    (docs/skills.md): from ``start_ns``, when the taking hand has grasped it (both hold it),
+    to ``end_ns``, when the giving hand has let go of it."""
+
+    start_ns: int
+    end_ns: int
+    giver: str
+    taker: str
+    object: str | None = None
+
+    def __post_init__(self) -> None:
+        self.start_ns = int(self.start_ns)
+        self.end_ns = int(self.end_ns)
+        check_side(self.giver, "handover giver")
+        check_side(self.taker, "handover taker")
+        if self.giver == self.taker:
+            raise DemonstrationError(f"handover: the {self.giver} hand cannot give to itself")
+        if self.end_ns < self.start_ns:
+            raise DemonstrationError(f"handover: end {self.end_ns} before start {self.start_ns}")
 
 
 def intrinsics_problem(K: np.ndarray) -> str | None:
@@ -281,7 +321,8 @@ class Demonstration:
     Attributes
     ----------
     hand : HandTrack
-        The demonstrator's hand keypoints (about 5 Hz from a hand-pose estimator).
+        The demonstrator's hand keypoints (about 5 Hz from a hand-pose estimator): the only
+        hand, or the right hand of two.
     objects : dict[str, ObjectTrack]
         Object poses by name (about 30 Hz), relative to the reference marker.
     labels : list[SkillLabel]
@@ -295,6 +336,14 @@ class Demonstration:
     live_segments : list[SkillLabel]
         Skills a live segmenter settled while the demonstration was recorded
         (``/lfd/live/segments``), kept apart from the ground truth.
+    other_hand : HandTrack or None
+        The second hand of a two-hand demonstration (the left hand; given either way round,
+        ``hand`` becomes the right one). :attr:`hands` holds both by side.
+    handovers : list[Handover]
+        Ground-truth handovers between the two hands, in time order.
+
+    In a two-hand demonstration each label names its hand (``SkillLabel.hand``); in a one-hand
+    demonstration a label's hand is None or the hand's side.
     """
 
     hand: HandTrack
@@ -305,11 +354,81 @@ class Demonstration:
     depth: ImageStream | None = None
     metadata: dict[str, Any] = field(default_factory=dict)
     live_segments: list[SkillLabel] = field(default_factory=list)
+    other_hand: HandTrack | None = None
+    handovers: list[Handover] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        check_side(self.hand.side, "hand")
+        if self.other_hand is not None:
+            check_side(self.other_hand.side, "other hand")
+            if self.other_hand.side == self.hand.side:
+                raise DemonstrationError(
+                    f"two hands must have different sides, got two {self.hand.side} hands"
+                )
+            if self.hand.side != HAND_SIDES[0]:
+                self.hand, self.other_hand = self.other_hand, self.hand
+        self.check_hands()
+
+    def check_hands(self) -> None:
+        """Raise DemonstrationError if a label, live segment or handover names a hand the
+        demonstration lacks, or a label of a two-hand demonstration names none."""
+        sides = self.sides
+        for what, labels in (("label", self.labels), ("live segment", self.live_segments)):
+            for lab in labels:
+                if lab.hand is None and len(sides) > 1:
+                    raise DemonstrationError(
+                        f"{what} {lab.skill!r} at {lab.start_ns} ns names no hand, and the "
+                        f"demonstration has two ({' and '.join(sides)})"
+                    )
+                if lab.hand is not None and lab.hand not in sides:
+                    raise DemonstrationError(
+                        f"{what} {lab.skill!r} at {lab.start_ns} ns is for the {lab.hand} hand, "
+                        f"which the demonstration lacks (it has the {' and '.join(sides)})"
+                    )
+        for h in self.handovers:
+            if len(sides) < 2:
+                raise DemonstrationError(
+                    f"a handover at {h.start_ns} ns needs two hands; the demonstration has one"
+                )
+
+    @property
+    def hands(self) -> dict[str, HandTrack]:
+        """The hands by side, the right hand first."""
+        hands = {self.hand.side: self.hand}
+        if self.other_hand is not None:
+            hands[self.other_hand.side] = self.other_hand
+        return hands
+
+    @property
+    def sides(self) -> tuple[str, ...]:
+        """The sides of the hands, the right first: ``("right",)``, ``("left",)`` or
+        ``("right", "left")``."""
+        return tuple(self.hands)
+
+    def labels_of(self, side: str, live: bool = False) -> list[SkillLabel]:
+        """The labels (or live segments) in the lane of the ``side`` hand."""
+        if side not in self.sides:
+            raise DemonstrationError(f"the demonstration has no {side} hand (it has {self.sides})")
+        labels = self.live_segments if live else self.labels
+        return [lab for lab in labels if lab.hand in (side, None)]
+
+    def one_hand(self, side: str) -> Demonstration:
+        """The demonstration as the ``side`` hand alone saw it: that hand, every object, the
+        labels of its lane; the same images and metadata (no copy of the arrays)."""
+        labels = self.labels_of(side)
+        return dataclasses.replace(
+            self,
+            hand=self.hands[side],
+            other_hand=None,
+            labels=labels,
+            live_segments=self.labels_of(side, live=True),
+            handovers=[],
+        )
 
     @property
     def start_ns(self) -> int:
         """Earliest timestamp of any stream."""
-        starts = [int(self.hand.t_ns[0])] if len(self.hand) else []
+        starts = [int(h.t_ns[0]) for h in self.hands.values() if len(h)]
         starts += [int(o.t_ns[0]) for o in self.objects.values() if len(o)]
         if not starts:
             raise DemonstrationError("demonstration has no samples")
@@ -318,7 +437,7 @@ class Demonstration:
     @property
     def end_ns(self) -> int:
         """Latest timestamp of any stream."""
-        ends = [int(self.hand.t_ns[-1])] if len(self.hand) else []
+        ends = [int(h.t_ns[-1]) for h in self.hands.values() if len(h)]
         ends += [int(o.t_ns[-1]) for o in self.objects.values() if len(o)]
         if not ends:
             raise DemonstrationError("demonstration has no samples")
