@@ -39,7 +39,15 @@ if TYPE_CHECKING:
     )
     from .io import McapRecorder, load, save
     from .preprocessing import preprocess
-    from .segmentation import Method, Segment, Segmentation, Templates, segment
+    from .segmentation import (
+        HandsSegmentation,
+        Method,
+        Segment,
+        Segmentation,
+        Templates,
+        segment,
+        segment_hands,
+    )
     from .skills import SKILLS
     from .trajectory import Trajectory
 
@@ -51,6 +59,7 @@ _HOME = {
             "CameraInfo",
             "Demonstration",
             "Handover",
+            "HandsSegmentation",
             "HandTrack",
             "ImageStream",
             "ObjectTrack",
@@ -65,7 +74,19 @@ _HOME = {
     ),
     **dict.fromkeys(("McapRecorder", "load", "save"), ".io"),
     "preprocess": ".preprocessing",
-    **dict.fromkeys(("Method", "Segment", "Segmentation", "Templates", "segment"), ".segmentation"),
+    **dict.fromkeys(
+        (
+            "HandsSegmentation",
+            "Method",
+            "Segment",
+            "Segmentation",
+            "Templates",
+            "segment",
+            "segment_hands",
+            "segment_hands",
+        ),
+        ".segmentation",
+    ),
     "SKILLS": ".skills",
     "Trajectory": ".trajectory",
 }
@@ -98,6 +119,7 @@ __all__ = [
     "GaussianHMM",
     "HandTrack",
     "Handover",
+    "HandsSegmentation",
     "ImageStream",
     "LfdError",
     "McapRecorder",
@@ -118,5 +140,6 @@ __all__ = [
     "preprocessing",
     "save",
     "segment",
+    "segment_hands",
     "segmentation",
 ]

@@ -20,10 +20,11 @@ import os
 from typing import TypedDict
 
 from ..demo import Demonstration
-from ..errors import InvalidParameterError
+from ..errors import DemonstrationError, InvalidParameterError
 from ..trajectory import Trajectory
 from .baselines import gripper_segmentation, proximity_segmentation
 from .changepoint import changepoint_segmentation
+from .hands import HandsSegmentation
 from .method import Method
 from .metrics import all_metrics
 from .pipeline import (
@@ -89,12 +90,18 @@ def segment(
     Raises
     ------
     DemonstrationError
-        No hand data, no tracked object, or too short for any skill.
+        No hand data, no tracked object, or too short for any skill; two hands
+        (:func:`segment_hands` segments both, ``demo.one_hand(side)`` one of them).
     ModelFormatError
         The template file cannot be used.
     """
     from .pipeline import as_trajectory
 
+    if isinstance(demo_or_traj, Demonstration) and demo_or_traj.other_hand is not None:
+        raise DemonstrationError(
+            "the demonstration has two hands: lfd.segment_hands segments both, "
+            "lfd.segment(demo.one_hand(side)) one of them"
+        )
     m = resolve_method(templates, method).with_options(
         search=search, grammar=grammar, params=params
     )
@@ -118,6 +125,26 @@ def segment(
             + "; preprocess with lfd.preprocess(demo, **method.preprocessing) for best results",
         )
     return result
+
+
+def segment_hands(
+    demo: Demonstration,
+    templates: Templates | TemplateChoice | None = None,
+    *,
+    method: Method | str | None = None,
+    complete: bool = True,
+) -> HandsSegmentation:
+    """Segment every hand of ``demo`` (one or two), each in its own lane
+    (:class:`~lfd.segmentation.hands.HandsSegmentation`); ``templates``, ``method`` and
+    ``complete`` as for :func:`segment`. A one-hand demonstration gives one lane, equal to
+    :func:`segment`'s result.
+
+    Today each hand is segmented alone (:meth:`Demonstration.one_hand`); the lanes are not yet
+    checked against each other and no handover is found.
+    """
+    m = resolve_method(templates, method)
+    lanes = {side: segment(demo.one_hand(side), method=m, complete=complete) for side in demo.sides}
+    return HandsSegmentation(lanes=lanes)
 
 
 def resolve_method(
@@ -159,6 +186,7 @@ __all__ = [
     "DEFAULT_SEARCH",
     "PAPER",
     "GrammarUse",
+    "HandsSegmentation",
     "Method",
     "Run",
     "Search",
@@ -173,5 +201,6 @@ __all__ = [
     "gripper_segmentation",
     "proximity_segmentation",
     "segment",
+    "segment_hands",
     "train_templates",
 ]
