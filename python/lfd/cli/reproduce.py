@@ -61,6 +61,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="segment the recording with lfd.segment instead of using its ground-truth labels",
     )
+    parser.add_argument(
+        "--hand",
+        choices=("right", "left"),
+        help="a two-hand recording: reproduce this hand's part alone (default: the hand that "
+        "does all of the task, refused when both hands handle objects)",
+    )
+    parser.add_argument(
+        "--program",
+        action="store_true",
+        help="print the task program (each hand's skills and, with two hands, where one waits "
+        "for the other) and exit without simulating; with --json, its document",
+    )
     rnd = parser.add_argument_group("randomised layouts")
     rnd.add_argument(
         "--randomise",
@@ -99,6 +111,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.program:
+        return _print_program(args)
     from .._extras import require
 
     # every module of the sim extra, before any work: the QP solver (daqp) and the DMPs
@@ -140,7 +154,10 @@ def run(args: argparse.Namespace) -> int:
         check_output(args.video, inputs=reads, what="--video", suffixes=VIDEO_SUFFIXES)
     show = open_from_args(args, "lfd_reproduce")
     demo = load(args.recording, images=False, **loading)
-    traj, program = _trajectory_and_program(demo, args)
+    traj, program, hands = _trajectory_and_program(demo, args)
+    if hands is not None:  # the two-hand program, and which hand the one arm does
+        for line in [*hands.lines(), f"reproduced: the {_side(hands, args)} hand's part"]:
+            err.print(line, highlight=False, markup=False)
     modes = ("replay", "skills", "dmp") if args.mode == "all" else (args.mode,)
     if args.randomise:
         return _run_randomised(args, traj, program, modes, err)
@@ -176,7 +193,10 @@ def run(args: argparse.Namespace) -> int:
             for line in r.failures or ["no skill reported a failure"]:
                 err.print(f"  {line}", highlight=False, markup=False)
     if args.json:
-        write_json(args.json, reproduction_report(program, results, recording=args.recording))
+        doc = reproduction_report(program, results, recording=args.recording)
+        if hands is not None:
+            doc["hands"] = hands.to_json() | {"reproduced": _side(hands, args)}
+        write_json(args.json, doc)
     if args.video:
         ex = results[modes[-1]].execution
         frames = ex.frames if ex is not None else []
@@ -188,10 +208,12 @@ def run(args: argparse.Namespace) -> int:
     return 0 if all(results[m].success for m in judged) else 1
 
 
-def _trajectory_and_program(demo: Any, args: argparse.Namespace) -> tuple[Any, Any]:
+def _trajectory_and_program(demo: Any, args: argparse.Namespace) -> tuple[Any, Any, Any]:
     """What the robot follows: with ``--segment`` the trajectory that was segmented and the
     program of its skills; otherwise the recording preprocessed with ``PREPROCESSING`` and
-    the program of ``--task`` or of the ground-truth labels."""
+    the program of ``--task`` or of the ground-truth labels. Of a two-hand recording, the
+    part of ``--hand`` or of the hand that does all of the task (else refused, one line), and
+    the two-hand program (None for one hand)."""
     from ..preprocessing import preprocess
     from ..reproduce import PREPROCESSING, TaskProgram, from_labels, from_segmentation
 
@@ -199,13 +221,86 @@ def _trajectory_and_program(demo: Any, args: argparse.Namespace) -> tuple[Any, A
         from ..errors import UsageError
 
         raise UsageError("--task PROGRAM and --segment both say what to run; give one")
+    _check_hand(demo, args)
     if args.segment:
-        result = _segment_checked(demo, args)
+        result, hands = _segment_checked(demo, args)
         traj = result.run.trajectory
-        return traj, from_segmentation(result, int(traj.t_ns[0]))
+        return traj, from_segmentation(result, int(traj.t_ns[0])), hands
+    hands = None
+    if len(demo.sides) > 1 and not args.task:
+        hands = _hands_program(demo, args)
+        demo = demo.one_hand(_side(hands, args))
+    elif args.hand:
+        demo = demo.one_hand(args.hand)
     traj = preprocess(demo, **PREPROCESSING)
     t0 = int(traj.t_ns[0])
-    return traj, TaskProgram.load(args.task) if args.task else from_labels(demo.labels, t0)
+    program = TaskProgram.load(args.task) if args.task else from_labels(demo.labels, t0)
+    return traj, program, hands
+
+
+def _check_hand(demo: Any, args: argparse.Namespace) -> None:
+    """``--hand`` must name a hand of the recording."""
+    if args.hand and args.hand not in demo.sides:
+        from ..errors import UsageError
+
+        raise UsageError(
+            f"--hand {args.hand}: {args.recording} has no {args.hand} hand "
+            f"(it has the {' and '.join(demo.sides)})"
+        )
+
+
+def _hands_program(demo: Any, args: argparse.Namespace) -> Any:
+    """The two-hand program of the recording's ground truth (times from the first sample)."""
+    from ..reproduce import from_hand_labels
+
+    if not demo.labels:
+        from ..errors import DemonstrationError
+
+        raise DemonstrationError("the recording has no skill labels; pass --task program.json")
+    return from_hand_labels(demo.labels, demo.start_ns, sides=demo.sides, handovers=demo.handovers)
+
+
+def _side(hands: Any, args: argparse.Namespace) -> str:
+    """The hand the one arm reproduces: ``--hand``, else the one that does all of the task."""
+    return str(args.hand or hands.one_arm_side())
+
+
+def _print_program(args: argparse.Namespace) -> int:
+    """``--program``: the task program (per hand with two), printed (and ``--json``), nothing
+    simulated."""
+    from ..io import load
+    from ..reproduce import TaskProgram, from_hands, from_labels
+
+    inputs = [p for p in (args.recording, args.task, args.map) if p]
+    check_json(args, inputs)
+    demo = load(args.recording, images=False, **load_options(args))
+    _check_hand(demo, args)
+    if args.hand:
+        demo = demo.one_hand(args.hand)
+    if args.task:
+        doc = TaskProgram.load(args.task).to_json()
+        lines = [f"{s['skill']} {s['object'] or '-'}" for s in doc["segments"]]
+    elif args.segment:
+        from ..segmentation import segment_hands
+
+        hands = from_hands(segment_hands(demo, method=segmentation_method(args)), demo.start_ns)
+        doc, lines = hands.to_json(), hands.lines()
+    elif len(demo.sides) > 1:
+        hands = _hands_program(demo, args)
+        doc, lines = hands.to_json(), hands.lines()
+    else:
+        program = from_labels(demo.labels, demo.start_ns)
+        doc = program.to_json()
+        lines = [
+            f"{i:>2} {s.skill:<10} {s.object or '-':<10} {s.start_s:7.2f} - {s.end_s:7.2f} s"
+            for i, s in enumerate(program.segments)
+        ]
+    con = console(args)
+    for line in lines:
+        con.print(line, highlight=False, markup=False)
+    if args.json:
+        write_json(args.json, {"recording": args.recording, "program": doc})
+    return 0
 
 
 def _table(recording: str, program: Any, results: dict[str, Any]) -> Any:
@@ -317,20 +412,31 @@ def _run_randomised(
     return 0 if all(r.success for r in res.runs if r.mode in judged) else 1
 
 
-def _segment_checked(demo: Any, args: argparse.Namespace) -> Any:
-    """``lfd.segment`` of the recording, refused (one error line, exit 2) when the hand reaches
-    no object or when no object moves but the skills found move one (:mod:`lfd.io.checks`):
-    the robot would act on objects the demonstrator did not."""
+def _segment_checked(demo: Any, args: argparse.Namespace) -> tuple[Any, Any]:
+    """``lfd.segment`` of the recording (of two hands: :func:`lfd.segment_hands`, the lane of
+    ``--hand`` or of the hand that does all of the task, and the two-hand program), refused
+    (one error line, exit 2) when the hand reaches no object or when no object moves but the
+    skills found move one (:mod:`lfd.io.checks`): the robot would act on objects the
+    demonstrator did not."""
     from ..errors import DemonstrationError
     from ..io.checks import check_hand_reaches, unmoved_objects_message
-    from ..segmentation import segment
+    from ..reproduce import from_hands
+    from ..segmentation import segment, segment_hands
 
-    check_hand_reaches(demo)
-    result = segment(demo, method=segmentation_method(args))
+    hands = None
+    if len(demo.sides) > 1:
+        both = segment_hands(demo, method=segmentation_method(args))
+        hands = from_hands(both, demo.start_ns)
+        side = _side(hands, args)
+        demo, result = demo.one_hand(side), both.lanes[side]
+        check_hand_reaches(demo)
+    else:
+        check_hand_reaches(demo)
+        result = segment(demo, method=segmentation_method(args))
     unmoved = unmoved_objects_message(demo, result.skill_sequence)
     if unmoved is not None:
         raise DemonstrationError(
             f"not reproduced: {unmoved} (the robot would move objects the demonstrator did "
             "not; --task PROGRAM runs a program anyway)"
         )
-    return result
+    return result, hands

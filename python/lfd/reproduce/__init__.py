@@ -37,7 +37,16 @@ from .goals import yaw_of
 from .measures import ObjectResult, object_errors, path_length
 from .modes import MODES
 from .outcome import SkillResult, skill_results
-from .program import Segment, TaskProgram, from_labels, from_segmentation
+from .program import (
+    HandsProgram,
+    Segment,
+    SyncPoint,
+    TaskProgram,
+    from_hand_labels,
+    from_hands,
+    from_labels,
+    from_segmentation,
+)
 from .randomise import MAX_SHIFT, MAX_TURN_DEG, Randomised, random_layouts, run_randomised
 from .scene import ObjectSpec
 
@@ -47,13 +56,17 @@ SIM_MODULES = ("mujoco", "mink", "daqp")
 __all__ = [
     "MODES",
     "PREPROCESSING",
+    "HandsProgram",
     "Randomised",
     "Reproduction",
     "Segment",
     "SkillResult",
+    "SyncPoint",
     "TaskProgram",
     "check_displacement",
     "check_program",
+    "from_hand_labels",
+    "from_hands",
     "from_labels",
     "from_segmentation",
     "parse_displacement",

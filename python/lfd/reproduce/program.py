@@ -153,3 +153,213 @@ def from_segmentation(seg: Any, t0_ns: int) -> TaskProgram:
             start, end = float(it.start_s), float(it.end_s)
         segs.append(Segment(it.skill, start, end, getattr(it, "object", None)))
     return TaskProgram(segs)
+
+
+# --- two hands: a lane of skills per hand and the points where the lanes wait for each other --
+SYNC_TOLERANCE_S = 0.3
+"""Two hands' steps that end within this long of each other end "together" (a two-handed
+carry; a taker's grasp at a handover's start), as the handovers are scored (docs/skills.md)."""
+SYNC_KINDS = ("handover", "hold_until", "carry")
+"""The synchronisation points of a two-hand program (docs/reproduce.md)."""
+
+
+@dataclass
+class SyncPoint:
+    """Where one hand's step waits for the other hand's.
+
+    ``handover``: the giver's ``place`` of ``object`` (step ``step`` of ``hand``) lets go only
+    after the taker's ``pick_up`` of it (step ``other_step`` of ``other``) has grasped it.
+    ``hold_until``: the ``hand`` holds ``object`` still (its ``move_with``, step ``step``) until
+    the other hand's step ``other_step`` ends. ``carry``: both hands carry ``object`` together
+    (their ``move_with`` steps start and end together). ``t_s``: when, in the demonstration.
+    """
+
+    kind: str
+    hand: str
+    step: int
+    other: str
+    other_step: int
+    object: str | None
+    t_s: float
+
+    def describe(self, lanes: dict[str, list[Segment]]) -> str:
+        """One line, e.g. ``handover of box_1 at 7.90 s: left 3 place lets go after right 1
+        pick_up has grasped``."""
+        mine, theirs = lanes[self.hand][self.step], lanes[self.other][self.other_step]
+        a = f"{self.hand} {self.step} {mine.skill}"
+        b = f"{self.other} {self.other_step} {theirs.skill}"
+        obj = self.object or "-"
+        if self.kind == "handover":
+            return f"handover of {obj} at {self.t_s:.2f} s: {a} lets go after {b} has grasped"
+        if self.kind == "hold_until":
+            return f"hold {obj} at {self.t_s:.2f} s: {a} holds it still until {b} ends"
+        return f"carry {obj} at {self.t_s:.2f} s: {a} and {b} carry it together"
+
+
+@dataclass
+class HandsProgram:
+    """A two-hand (or one-hand) task program: each hand's skills in time order and the points
+    where one hand waits for the other (:class:`SyncPoint`).
+
+    Build it with :func:`from_hands` (a :class:`~lfd.segmentation.HandsSegmentation`) or
+    :func:`from_hand_labels` (ground-truth labels naming their hands, and the handovers).
+    """
+
+    lanes: dict[str, list[Segment]]
+    sync: list[SyncPoint] = field(default_factory=list)
+
+    @property
+    def sides(self) -> tuple[str, ...]:
+        return tuple(self.lanes)
+
+    def program(self, side: str) -> TaskProgram:
+        """The ``side`` hand's skills as a one-arm task program."""
+        return TaskProgram(list(self.lanes[side]))
+
+    def acting(self, side: str) -> list[tuple[int, Segment]]:
+        """The ``side`` hand's steps that handle an object: every skill but ``move``."""
+        return [(i, s) for i, s in enumerate(self.lanes[side]) if s.skill != "move"]
+
+    def one_arm_side(self) -> str:
+        """The hand that does all of the task, for a robot with one arm: the only hand whose
+        steps handle objects (the other only moves); of two idle hands the first with steps.
+
+        Raises
+        ------
+        DemonstrationError
+            Both hands handle objects (one line naming the first step of each and the first
+            handover), or no hand has a step.
+        """
+        busy = [side for side in self.sides if self.acting(side)]
+        if len(busy) == 1:
+            return busy[0]
+        if not busy:
+            with_steps = [side for side in self.sides if self.lanes[side]]
+            if not with_steps:
+                raise DemonstrationError("the task program has no step for any hand")
+            return with_steps[0]
+        firsts = []
+        for side in busy:
+            _, s = self.acting(side)[0]
+            firsts.append(f"the {side} hand's {s.skill} of {s.object or '-'} at {s.start_s:.1f} s")
+        handovers = [p for p in self.sync if p.kind == "handover"]
+        what = ", ".join(firsts)
+        if handovers:
+            h = handovers[0]
+            more = f" (and {len(handovers) - 1} more)" if len(handovers) > 1 else ""
+            what += f"; a handover of {h.object or '-'} at {h.t_s:.1f} s{more}"
+        raise DemonstrationError(
+            f"both hands handle objects ({what}) and the robot has one arm: a two-hand task "
+            "is not reproduced; --hand right or --hand left reproduces one hand's part"
+        )
+
+    def to_json(self) -> dict[str, Any]:
+        """``{"hands": {side: {"segments": [...]}}, "sync": [...]}`` (docs/reproduce.md)."""
+        return {
+            "hands": {
+                side: {"segments": [asdict(s) for s in segs]} for side, segs in self.lanes.items()
+            },
+            "sync": [asdict(p) for p in self.sync],
+        }
+
+    def lines(self) -> list[str]:
+        """The program as text: each hand's steps, then the synchronisation points."""
+        out = []
+        for side, segs in self.lanes.items():
+            out.append(f"{side} hand:")
+            out += [
+                f"  {i:>2} {s.skill:<10} {s.object or '-':<10} {s.start_s:7.2f} - {s.end_s:7.2f} s"
+                for i, s in enumerate(segs)
+            ]
+        if self.sync:
+            out.append("synchronisation:")
+            out += [f"  {p.describe(self.lanes)}" for p in self.sync]
+        return out
+
+
+def from_hand_labels(
+    labels: Sequence[Any],
+    t0_ns: int,
+    *,
+    sides: Sequence[str],
+    handovers: Sequence[Any] = (),
+) -> HandsProgram:
+    """A :class:`HandsProgram` from labels naming their hand (``SkillLabel.hand``; None: the
+    only hand of ``sides``) and the handovers (:class:`lfd.Handover`)."""
+    lanes: dict[str, list[Segment]] = {side: [] for side in sides}
+    for lab in sorted(labels, key=lambda lab: int(lab.start_ns)):
+        side = lab.hand if lab.hand is not None else sides[0]
+        if side not in lanes:
+            raise DemonstrationError(
+                f"label {lab.skill!r} is for the {side} hand, which the task lacks"
+            )
+        lanes[side].append(_segment_of(lab, t0_ns))
+    return HandsProgram(lanes, sync_points(lanes, handovers, t0_ns))
+
+
+def from_hands(result: Any, t0_ns: int) -> HandsProgram:
+    """A :class:`HandsProgram` from a :class:`~lfd.segmentation.HandsSegmentation` (its
+    ``lanes`` of segments by side and its ``handovers``)."""
+    lanes = {
+        side: [_segment_of(s, t0_ns) for s in seg.segments] for side, seg in result.lanes.items()
+    }
+    return HandsProgram(lanes, sync_points(lanes, result.handovers, t0_ns))
+
+
+def _segment_of(item: Any, t0_ns: int) -> Segment:
+    start, end = (int(item.start_ns) - t0_ns) * 1e-9, (int(item.end_ns) - t0_ns) * 1e-9
+    return Segment(item.skill, start, end, getattr(item, "object", None))
+
+
+def sync_points(
+    lanes: dict[str, list[Segment]], handovers: Sequence[Any], t0_ns: int
+) -> list[SyncPoint]:
+    """The synchronisation points of two lanes, in time order: one per handover (the giver's
+    ``place`` waits for the taker's ``pick_up``), per two-handed carry (both ``move_with`` of
+    one object, overlapping) and per hold (a ``move_with`` during which the other hand's step
+    on another object ends: the holding hand waits for it; the last such step counts)."""
+    points = [p for h in handovers if (p := _handover_point(lanes, h, t0_ns)) is not None]
+    sides = list(lanes)
+    for a, b in ((x, y) for x in sides for y in sides if x != y):
+        for i, s in enumerate(lanes[a]):
+            if s.skill != "move_with":
+                continue
+            for j, o in enumerate(lanes[b]):
+                both = o.skill == "move_with" and o.object == s.object
+                if both and a < b and o.start_s < s.end_s and s.start_s < o.end_s:
+                    t = max(s.start_s, o.start_s)
+                    points.append(SyncPoint("carry", a, i, b, j, s.object, t))
+            inside = [
+                j
+                for j, o in enumerate(lanes[b])
+                if o.skill != "move"
+                and o.object != s.object
+                and s.start_s < o.end_s <= s.end_s + SYNC_TOLERANCE_S
+            ]
+            if inside:
+                j = inside[-1]
+                points.append(SyncPoint("hold_until", a, i, b, j, s.object, lanes[b][j].end_s))
+    return sorted(points, key=lambda p: (p.t_s, SYNC_KINDS.index(p.kind), p.hand))
+
+
+def _handover_point(lanes: dict[str, list[Segment]], handover: Any, t0_ns: int) -> SyncPoint | None:
+    """The giver's ``place`` of the object ending nearest the handover's end, after the taker's
+    ``pick_up`` of it ending nearest its start (None when a lane lacks either)."""
+    giver, taker = lanes.get(handover.giver), lanes.get(handover.taker)
+    if giver is None or taker is None:
+        return None
+    start, end = (int(handover.start_ns) - t0_ns) * 1e-9, (int(handover.end_ns) - t0_ns) * 1e-9
+    obj = handover.object
+
+    def nearest(segs: list[Segment], skill: str, t: float) -> int | None:
+        found = [
+            (abs(s.end_s - t), i)
+            for i, s in enumerate(segs)
+            if s.skill == skill and (obj is None or s.object == obj)
+        ]
+        return min(found)[1] if found else None
+
+    g, k = nearest(giver, "place", end), nearest(taker, "pick_up", start)
+    if g is None or k is None:
+        return None
+    return SyncPoint("handover", handover.giver, g, handover.taker, k, obj, start)

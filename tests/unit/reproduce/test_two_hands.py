@@ -1,0 +1,140 @@
+"""Two hands on one arm: the task program per hand with its synchronisation points, and
+``lfd reproduce`` of a two-hand recording (run when one hand does all of it, else refused)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import _paths
+import lfd
+import pytest
+from _two_hands import busy_left, handover_labels, hold_labels, idle_left
+from lfd.errors import DemonstrationError
+from lfd.reproduce.program import from_hand_labels, from_hands
+
+EXP1 = _paths.EXP1
+
+
+@pytest.fixture(scope="module")
+def exp1() -> lfd.Demonstration:
+    return lfd.load(EXP1, images=False)
+
+
+def test_handover_sync_point(exp1: lfd.Demonstration) -> None:
+    """The giver's place waits for the taker's pick_up: the handover's sync point names both
+    steps, in JSON and in the printed program; the refusal names the handover."""
+    labels, handovers = handover_labels(exp1.start_ns)
+    prog = from_hand_labels(labels, exp1.start_ns, sides=("right", "left"), handovers=handovers)
+    assert [s.skill for s in prog.lanes["right"]] == ["pick_up", "move_with", "place", "move"]
+    (point,) = [p for p in prog.sync if p.kind == "handover"]
+    assert (point.hand, point.step, point.other, point.other_step) == ("right", 2, "left", 1)
+    assert point.object == "box_2" and point.t_s == pytest.approx(3.0)
+    # the giver's move_with and the taker's pick_up are of the same object: no hold
+    assert [p.kind for p in prog.sync] == ["handover"]
+    doc = json.loads(json.dumps(prog.to_json()))
+    assert doc["sync"][0] | {"t_s": 3.0} == {
+        "kind": "handover", "hand": "right", "step": 2, "other": "left", "other_step": 1,
+        "object": "box_2", "t_s": 3.0,
+    }  # fmt: skip
+    assert set(doc["hands"]) == {"right", "left"}
+    text = "\n".join(prog.lines())
+    assert "handover of box_2 at 3.00 s: right 2 place lets go after left 1 pick_up" in text
+    with pytest.raises(DemonstrationError) as err:
+        prog.one_arm_side()
+    msg = str(err.value)
+    assert "\n" not in msg and "both hands handle objects" in msg
+    assert (
+        "the left hand's pick_up of box_2 at 2.0 s" in msg and "a handover of box_2 at 3.0 s" in msg
+    )
+
+
+def test_hold_until_sync_point(exp1: lfd.Demonstration) -> None:
+    """A hand holding box_2 while the other stacks box_3 on it holds until the stack ends."""
+    prog = from_hand_labels(hold_labels(exp1.start_ns), exp1.start_ns, sides=("right", "left"))
+    holds = [p for p in prog.sync if p.kind == "hold_until"]
+    assert [(p.hand, p.step, p.other, p.other_step, p.object) for p in holds] == [
+        ("right", 1, "left", 3, "box_2")
+    ]
+    assert holds[0].t_s == pytest.approx(9.0)
+    assert "right 1 move_with holds it still until left 3 stack ends" in "\n".join(prog.lines())
+
+
+def test_carry_and_idle_hand(exp1: lfd.Demonstration) -> None:
+    """Both hands carrying box_2 at once is a carry point; a hand that only moves leaves the
+    task to the other."""
+    labels, _ = handover_labels(exp1.start_ns)
+    carry = [lab for lab in labels if lab.hand == "right"]
+    carry += [
+        lfd.SkillLabel(lab.skill, lab.start_ns, lab.end_ns, lab.object, "left") for lab in carry
+    ]
+    prog = from_hand_labels(carry, exp1.start_ns, sides=("right", "left"))
+    assert [(p.kind, p.hand, p.other, p.object) for p in prog.sync] == [
+        ("carry", "left", "right", "box_2")
+    ]
+    idle = idle_left(exp1)
+    prog = from_hand_labels(idle.labels, idle.start_ns, sides=idle.sides)
+    assert prog.one_arm_side() == "right" and prog.sync == []
+    assert [s.skill for s in prog.program("right").segments] == [lab.skill for lab in exp1.labels]
+
+
+def test_from_hands_segmentation(exp1: lfd.Demonstration) -> None:
+    """The program of lfd.segment_hands has a lane per hand, the segments of each."""
+    both = lfd.segment_hands(idle_left(exp1))
+    prog = from_hands(both, exp1.start_ns)
+    assert set(prog.lanes) == {"right", "left"}
+    assert [s.skill for s in prog.lanes["right"]] == both.lanes["right"].skill_sequence
+
+
+def _patched_load(monkeypatch: pytest.MonkeyPatch, demo: lfd.Demonstration) -> None:
+    """``lfd reproduce`` reads ``demo`` (until two-hand files are written by lfd.save)."""
+    import lfd.io
+
+    monkeypatch.setattr(lfd.io, "load", lambda *a, **k: demo)
+
+
+def test_reproduce_refuses_a_two_hand_task_in_one_line(
+    exp1: lfd.Demonstration,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    tmp_path: Path,
+) -> None:
+    from lfd.cli import main
+
+    pytest.importorskip("mujoco")
+    labels, handovers = handover_labels(exp1.start_ns)
+    _patched_load(monkeypatch, busy_left(exp1, labels, handovers))
+    out = tmp_path / "r.json"
+    assert main(["reproduce", str(EXP1), "--json", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("lfd reproduce: error: both hands handle objects")
+    assert "--hand right or --hand left" in err[0]
+    assert not out.exists()
+    # the program is still printed (and written) on request, nothing simulated
+    assert main(["reproduce", str(EXP1), "--program", "--json", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "left hand:" in printed and "handover of box_2" in printed
+    assert json.loads(out.read_text())["program"]["sync"][0]["kind"] == "handover"
+    monkeypatch.undo()  # the shipped one-hand recording has no left hand
+    assert main(["reproduce", str(EXP1), "--hand", "left"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"lfd reproduce: error: --hand left: {EXP1} has no left hand (it has the right)"]
+
+
+def test_reproduce_runs_the_hand_that_does_it_all(
+    exp1: lfd.Demonstration, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """The left hand only rests: the arm does the right hand's task, with the right hand's
+    trajectory, as it does the one-hand recording."""
+    from lfd.cli import main
+
+    pytest.importorskip("mujoco")
+    one, two = tmp_path / "one.json", tmp_path / "two.json"
+    assert main(["reproduce", str(EXP1), "--json", str(one)]) == 0
+    _patched_load(monkeypatch, idle_left(exp1))
+    assert main(["reproduce", str(EXP1), "--json", str(two)]) == 0
+    a, b = json.loads(one.read_text()), json.loads(two.read_text())
+    assert b["hands"]["reproduced"] == "right"
+    assert b["program"] == a["program"]
+    ra, rb = a["results"]["skills"], b["results"]["skills"]
+    assert rb["success"] and rb["path_length_m"] == pytest.approx(ra["path_length_m"], rel=1e-9)
