@@ -60,12 +60,15 @@ DEFAULT_WINDOW_S = 60.0
 @dataclass(frozen=True)
 class HandMessage:
     """A hand keypoint frame: (21, 3) metres (NaN = unobserved), confidence (21,) in [0, 1]
-    (default: 1 where observed), visible (21,) (default: observed with confidence > 0)."""
+    (default: 1 where observed), visible (21,) (default: observed with confidence > 0), and the
+    hand's side (None: the only hand; :class:`~lfd.segmentation.live_hands.LiveHands` keeps a
+    lane per side)."""
 
     t_ns: int
     keypoints: np.ndarray
     confidence: np.ndarray | None = None
     visible: np.ndarray | None = None
+    side: str | None = None
 
 
 @dataclass(frozen=True)
@@ -113,20 +116,27 @@ class LiveUpdate:
 
 
 def demo_messages(demo: Demonstration) -> Iterator[HandMessage | ObjectMessage]:
-    """A demonstration's hand frames and object poses as messages in timestamp order (ties:
-    the hand first, then the objects in ``demo.objects`` order)."""
-    keys: list[tuple[int, int, int]] = [(int(t), 0, i) for i, t in enumerate(demo.hand.t_ns)]
+    """A demonstration's hand frames (each with its side) and object poses as messages in
+    timestamp order (ties: the hands first, the right one first, then the objects in
+    ``demo.objects`` order)."""
+    hands = list(demo.hands.values())
+    keys: list[tuple[int, int, int]] = []
+    for h, hand in enumerate(hands):
+        keys += [(int(t), h, i) for i, t in enumerate(hand.t_ns)]
     names = list(demo.objects)
     for j, name in enumerate(names):
-        keys += [(int(t), j + 1, i) for i, t in enumerate(demo.objects[name].t_ns)]
+        keys += [(int(t), len(hands) + j, i) for i, t in enumerate(demo.objects[name].t_ns)]
     keys.sort()
-    hand = demo.hand
     for t, src, i in keys:
-        if src == 0:
-            yield HandMessage(t, hand.keypoints[i], hand.confidence[i], hand.visible[i])
+        if src < len(hands):
+            hand = hands[src]
+            yield HandMessage(
+                t, hand.keypoints[i], hand.confidence[i], hand.visible[i], side=hand.side
+            )
         else:
-            ob = demo.objects[names[src - 1]]
-            yield ObjectMessage(t, names[src - 1], ob.position[i], ob.quaternion[i])
+            name = names[src - len(hands)]
+            ob = demo.objects[name]
+            yield ObjectMessage(t, name, ob.position[i], ob.quaternion[i])
 
 
 class _Tracks:
@@ -143,6 +153,11 @@ class _Tracks:
 
     def add(self, msg: HandMessage | ObjectMessage) -> None:
         if isinstance(msg, HandMessage):
+            if msg.side is not None and msg.side != self.side:
+                raise InvalidParameterError(
+                    f"a {msg.side}-hand frame for the live segmentation of the {self.side} hand "
+                    "(two hands: lfd.segmentation.live_hands.LiveHands)"
+                )
             kp = _shaped(msg.keypoints, (21, 3), "hand keypoints")
             finite = np.asarray(np.isfinite(kp).all(axis=1))
             conf = _shaped(
@@ -343,6 +358,16 @@ class LiveSegmentation:
     # --- messages in ------------------------------------------------------------------------
     def push(self, message: HandMessage | ObjectMessage) -> LiveUpdate:
         """One hand frame or object pose, as it arrives."""
+        self.take(message)
+        if not self._tracks.ready() or self._newest_hand is None:
+            return LiveUpdate()
+        if not self.due(self._newest_hand):
+            return LiveUpdate(provisional=self.provisional_span())
+        return self._step()
+
+    def take(self, message: HandMessage | ObjectMessage) -> None:
+        """Keep a message (no run): what :meth:`push` and a lane of
+        :class:`~lfd.segmentation.live_hands.LiveHands` do with each."""
         if self._finished:
             raise InvalidParameterError("the live segmentation has finished; start a new one")
         t = int(message.t_ns)
@@ -350,15 +375,22 @@ class LiveSegmentation:
         self._tracks.add(message)
         if isinstance(message, HandMessage):
             self._newest_hand = t if self._newest_hand is None else max(self._newest_hand, t)
-        if not self._tracks.ready() or self._newest_hand is None:
-            return LiveUpdate()
+
+    def due(self, newest_hand_ns: int) -> bool:
+        """Whether a run is due at the newest hand frame ``newest_hand_ns`` (every
+        ``every_s``; the first run one period after the recording is ready)."""
         if self._next_run is None:
-            self._next_run = self._newest_hand + self.every_ns
-            return LiveUpdate()
-        if self._newest_hand < self._next_run:
-            return LiveUpdate(provisional=self.provisional_span())
-        self._next_run = self._newest_hand + self.every_ns
-        return self._step()
+            self._next_run = newest_hand_ns + self.every_ns
+            return False
+        if newest_hand_ns < self._next_run:
+            return False
+        self._next_run = newest_hand_ns + self.every_ns
+        return True
+
+    @property
+    def ready(self) -> bool:
+        """Whether the hand and every object have been seen."""
+        return self._tracks.ready()
 
     def push_hand(
         self, t_ns: int, keypoints: npt.ArrayLike, confidence: npt.ArrayLike | None = None
@@ -408,19 +440,27 @@ class LiveSegmentation:
         ``complete`` once the recording has ended."""
         from . import segment
 
-        start = None
-        if self._emitted and self._newest_hand is not None:
-            first = int(self._emitted[0].start_ns)
-            if self._newest_hand - first > self.window_ns:
-                # the last settled skill a demonstration may start with (the grammar's start)
-                begins = [s for s in self._emitted if s.skill in self._start_skills]
-                start = int(begins[-1].start_ns) if begins else None
-        demo = self._tracks.demonstration(start, self.metadata)
+        demo = self.recording_so_far(self.window_start())
         try:
             return segment(demo, method=self.method, complete=complete)
         except LfdError as err:
             self._warnings = [str(err)]
             return None
+
+    def window_start(self) -> int | None:
+        """Where a run starts (None: at the recording's start): once the recording is longer
+        than ``window_s``, at the last settled skill a demonstration may start with (the
+        grammar's start)."""
+        if self._emitted and self._newest_hand is not None:
+            first = int(self._emitted[0].start_ns)
+            if self._newest_hand - first > self.window_ns:
+                begins = [s for s in self._emitted if s.skill in self._start_skills]
+                return int(begins[-1].start_ns) if begins else None
+        return None
+
+    def recording_so_far(self, start_ns: int | None = None) -> Demonstration:
+        """The messages so far (from ``start_ns``) as a one-hand demonstration."""
+        return self._tracks.demonstration(start_ns, self.metadata)
 
     def _aligned(self, run: Segmentation) -> list[Segment]:
         """The run's segments after the settled ones: after the run's counterpart of the last
@@ -448,6 +488,15 @@ class LiveSegmentation:
         run = self._run()
         if run is None:
             return LiveUpdate()
+        return self.settle(run)
+
+    def failed(self, message: str) -> None:
+        """A run of the recording so far failed (its one line becomes the warnings)."""
+        self._warnings = [message]
+
+    def settle(self, run: Segmentation) -> LiveUpdate:
+        """Settle what ``run`` (the segmentation of the recording so far: :meth:`_run`, or this
+        hand's lane of both hands') has kept the same long enough."""
         self._last = run
         rest = self._aligned(run)
         now = int(self._now or 0)
@@ -558,6 +607,12 @@ class LiveSegmentation:
         run = self._run(complete=True)
         if run is None:
             return LiveUpdate()
+        return self.settle_final(run)
+
+    def settle_final(self, run: Segmentation) -> LiveUpdate:
+        """The recording has ended: ``run`` (the batch segmentation of all of it) gives every
+        skill still open."""
+        self._finished = True
         self._final = run
         rest = self._aligned(run)
         dt = _dt(run)
@@ -570,6 +625,11 @@ class LiveSegmentation:
         out = self._update(run, tail)
         out.provisional = None
         return out
+
+    @property
+    def settled_until(self) -> int | None:
+        """The end (ns) of the last settled skill (None: none yet)."""
+        return int(self._emitted[-1].end_ns) if self._emitted else None
 
     def provisional_span(self) -> Span | None:
         """The skill the newest run ends with, from its start to the newest message."""
@@ -595,9 +655,10 @@ def _dt(run: Segmentation) -> float:
     return float(run.run.trajectory.dt) if run.run is not None else 0.0
 
 
-def label_of(seg: Segment) -> SkillLabel:
-    """A settled segment as a skill label (for ``/lfd/live/segments``)."""
-    return SkillLabel(seg.skill, int(seg.start_ns), int(seg.end_ns), seg.object)
+def label_of(seg: Segment, hand: str | None = None) -> SkillLabel:
+    """A settled segment as a skill label (for ``/lfd/live/segments``), in the lane of
+    ``hand`` (None: the only hand)."""
+    return SkillLabel(seg.skill, int(seg.start_ns), int(seg.end_ns), seg.object, hand=hand)
 
 
 def segment_live(
