@@ -281,10 +281,10 @@ def run(args: argparse.Namespace) -> int:
     demo, result, doc = segment_recording(
         args, on_loaded=_show_demo if show else None, keep=bool(show)
     )
-    if show:
-        from ..viz.pipeline import log_segment_run
+    if show:  # one hand or both (lfd.segment_hands: a lane per hand, the handovers)
+        from ..viz.pipeline import log_result
 
-        log_segment_run(demo, result, ground_truth=False)  # labels logged with the recording
+        log_result(demo, result, ground_truth=False)  # labels logged with the recording
     con = console(args)
     table = Table(title=f"{Path(args.recording).name}: {result.method} segmentation")
     for col in ("#", "skill", "start s", "end s", "object", "score", "confidence"):

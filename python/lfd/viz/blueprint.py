@@ -8,6 +8,9 @@ Entity paths (see the ``log_*`` functions for what each holds)::
     /world/hand/path                       the raw TCP path (I + T) / 2
     /world/gripper                         preprocessed TCP frame (+ trail, opening)
     /world/tcp_path                        preprocessed TCP path
+    /world/hand/<side>/...                 of two hands, each: keypoints, path, gripper,
+                                           tcp_path, gripper_trail (its own skeleton colour)
+    /world/handovers/<source>              where each handover took place (labelled points)
     /world/objects/<name>                  object frame; /box: Boxes3D labelled with the tag id
     /world/camera/image                    pinhole; /rgb colour, /depth depth (mm)
     /world/robot/<mode>                    planned/executed TCP paths, arm, current TCP
@@ -16,6 +19,8 @@ Entity paths (see the ``log_*`` functions for what each holds)::
     /features/target                       target object per sample (state)
     /segmentation/sections                 stage-1 data sections (state)
     /segmentation/skills/<source>          skill spans: result, ground_truth, baselines (state)
+    /segmentation/skills/<side>/<source>   of two hands, each hand's lanes
+    /segmentation/handovers/<source>       handovers: result, ground_truth (state)
     /segmentation/greedy/...               stage-2 HMM scores per skill and greedy iteration
     /segmentation/log, /segmentation/warnings   text logs
     /robot/<mode>/...                      reproduction time series (robot_time)
@@ -76,11 +81,12 @@ def default_blueprint(
         origin="/",
         contents=[
             "+ /segmentation/skills/**",
+            "+ /segmentation/handovers/**",
             "+ /segmentation/sections",
             "+ /features/target",
             "+ /robot/*/segment",
         ],
-        name="Skills (result, ground truth, baselines) and sections",
+        name="Skills (result, ground truth, baselines; per hand), handovers, sections",
     )
     features = rrb.Grid(
         *[

@@ -3,28 +3,32 @@
 from __future__ import annotations
 
 import io
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
-from ..demo import HAND_BONES, KEYPOINT_NAMES, Demonstration, ImageStream
+from ..demo import HAND_BONES, KEYPOINT_NAMES, Demonstration, HandTrack, ImageStream
 from ..errors import DemonstrationError
 from ..trajectory import Trajectory
-from .paths import HAND_KEYPOINTS, object_path
+from .paths import HAND, hand_path, object_path
 from .recording import get_recording, import_rerun
 from .timeline import time_columns, time_origin
 
 HAND_CLASS_ID = 0
 """Class id of the hand skeleton in the ``/world/hand`` annotation context."""
 HAND_COLOR = (240, 170, 60)
+HAND_COLORS = {"right": HAND_COLOR, "left": (120, 200, 90)}
+"""Each hand's colour in a two-hand view (one hand: :data:`HAND_COLOR`)."""
 TCP_COLOR = (60, 160, 255)
 OBJECT_PALETTE = ((230, 80, 80), (80, 200, 120), (150, 110, 230), (240, 200, 60), (60, 200, 220))
 MARKER_SIZE_M = 0.05
 """Edge length drawn for the reference marker (tag 0)."""
 
 
-def log_static_scene(recording: Any = None) -> None:
-    """Log the static parts of the scene: Z-up world, reference marker, hand skeleton classes."""
+def log_static_scene(recording: Any = None, sides: Sequence[str] = ()) -> None:
+    """Log the static parts of the scene: Z-up world, reference marker, hand skeleton classes
+    (with two ``sides``, one per hand, in its colour: ``/world/hand/<side>``)."""
     rr = import_rerun()
     rec = get_recording(recording)
     rec.log("/world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
@@ -38,27 +42,41 @@ def log_static_scene(recording: Any = None) -> None:
         ),
         static=True,
     )
-    rec.log(
-        "/world/hand",
-        rr.AnnotationContext(
-            [
-                rr.ClassDescription(
-                    info=rr.AnnotationInfo(id=HAND_CLASS_ID, label="hand", color=HAND_COLOR),
-                    keypoint_annotations=[
-                        rr.AnnotationInfo(id=i, label=name) for i, name in enumerate(KEYPOINT_NAMES)
-                    ],
-                    keypoint_connections=list(HAND_BONES),
-                )
-            ]
-        ),
-        static=True,
+    rec.log(HAND, _skeleton("hand", HAND_COLOR), static=True)
+    if len(sides) > 1:
+        for side in sides:
+            color = HAND_COLORS.get(side, HAND_COLOR)
+            rec.log(f"{HAND}/{side}", _skeleton(f"{side} hand", color), static=True)
+
+
+def _skeleton(label: str, color: tuple[int, int, int]) -> Any:
+    """The hand skeleton's annotation context: the keypoints' names and bones."""
+    rr = import_rerun()
+    return rr.AnnotationContext(
+        [
+            rr.ClassDescription(
+                info=rr.AnnotationInfo(id=HAND_CLASS_ID, label=label, color=color),
+                keypoint_annotations=[
+                    rr.AnnotationInfo(id=i, label=name) for i, name in enumerate(KEYPOINT_NAMES)
+                ],
+                keypoint_connections=list(HAND_BONES),
+            )
+        ]
     )
 
 
 def log_hand(demo: Demonstration, origin_ns: int, rec: Any) -> None:
-    """Hand keypoints per sample (finite ones only) and the raw TCP path ``(I + T) / 2``."""
+    """Hand keypoints per sample (finite ones only) and the raw TCP path ``(I + T) / 2``; of
+    two hands, each under ``/world/hand/<side>`` in its colour."""
+    two = len(demo.sides) > 1
+    for side, hand in demo.hands.items():
+        _log_hand_track(hand, origin_ns, rec, side if two else None)
+
+
+def _log_hand_track(hand: HandTrack, origin_ns: int, rec: Any, side: str | None) -> None:
     rr = import_rerun()
-    hand = demo.hand
+    keypoints = hand_path(side, "keypoints")
+    color = HAND_COLOR if side is None else HAND_COLORS.get(side, HAND_COLOR)
     n = len(hand)
     if n == 0:
         return
@@ -67,19 +85,19 @@ def log_hand(demo: Demonstration, origin_ns: int, rec: Any) -> None:
     lengths = finite.sum(axis=1)
     ids = np.broadcast_to(np.arange(21), (n, 21))[finite]
     rec.send_columns(
-        HAND_KEYPOINTS,
+        keypoints,
         indexes=time_columns(hand.t_ns, origin_ns, frame=np.arange(n)),
         columns=rr.Points3D.columns(
             positions=kp[finite], keypoint_ids=ids, class_ids=np.full(ids.shape, HAND_CLASS_ID)
         ).partition(lengths),
     )
-    rec.log(HAND_KEYPOINTS, rr.Points3D.from_fields(show_labels=False), static=True)
+    rec.log(keypoints, rr.Points3D.from_fields(show_labels=False), static=True)
     tcp = 0.5 * (kp[:, 4] + kp[:, 8])
     ok = np.all(np.isfinite(tcp), axis=1)
     if ok.sum() >= 2:
         rec.log(
-            "/world/hand/path",
-            rr.LineStrips3D([tcp[ok]], colors=[(*HAND_COLOR, 120)], radii=0.0015),
+            hand_path(side, "path"),
+            rr.LineStrips3D([tcp[ok]], colors=[(*color, 120)], radii=0.0015),
             static=True,
         )
 
@@ -192,9 +210,16 @@ def _log_color(
 
 
 def log_trajectory(
-    traj: Trajectory, origin_ns: int, rec: Any, *, trail_s: float = 2.0, trail_stride: int = 1
+    traj: Trajectory,
+    origin_ns: int,
+    rec: Any,
+    *,
+    trail_s: float = 2.0,
+    trail_stride: int = 1,
+    side: str | None = None,
 ) -> None:
-    """The preprocessed gripper: TCP frame over time, its recent trail, full path, opening."""
+    """The preprocessed gripper: TCP frame over time, its recent trail, full path, opening;
+    with ``side``, one of two hands' (under ``/world/hand/<side>``, ``/trajectory/<side>``)."""
     rr = import_rerun()
     n = len(traj)
     if n == 0:
@@ -209,15 +234,17 @@ def log_trajectory(
     idx = np.flatnonzero(ok)
     if idx.size == 0:
         return
-    rec.log("/world/gripper", rr.TransformAxes3D(0.05), static=True)
+    gripper = hand_path(side, "gripper")
+    color = TCP_COLOR if side is None else HAND_COLORS.get(side, TCP_COLOR)
+    rec.log(gripper, rr.TransformAxes3D(0.05), static=True)
     rec.send_columns(
-        "/world/gripper",
+        gripper,
         indexes=time_columns(traj.t_ns[idx], origin_ns, frame=idx),
         columns=rr.Transform3D.columns(translation=tcp[idx], mat3x3=rot[idx]),
     )
     rec.log(
-        "/world/tcp_path",
-        rr.LineStrips3D([tcp[idx]], colors=[(*TCP_COLOR, 160)], radii=0.001),
+        hand_path(side, "tcp_path"),
+        rr.LineStrips3D([tcp[idx]], colors=[(*color, 160)], radii=0.001),
         static=True,
     )
     # The trail: at each sample the TCP path over the last `trail_s` seconds.
@@ -225,22 +252,21 @@ def log_trajectory(
     span = max(2, round(trail_s / dt))
     sel = idx[:: max(1, trail_stride)]
     strips = [tcp[max(0, i - span) : i + 1][ok[max(0, i - span) : i + 1]] for i in sel]
-    rec.log("/world/gripper_trail", rr.LineStrips3D.from_fields(colors=[TCP_COLOR]), static=True)
+    trail = hand_path(side, "gripper_trail")
+    rec.log(trail, rr.LineStrips3D.from_fields(colors=[color]), static=True)
     rec.send_columns(
-        "/world/gripper_trail",
+        trail,
         indexes=time_columns(traj.t_ns[sel], origin_ns, frame=sel),
         columns=rr.LineStrips3D.columns(strips=strips, radii=np.full(len(strips), 0.003)),
     )
     opening = np.asarray(traj.opening, dtype=np.float64)
     if opening.shape == (n,):
         good = np.flatnonzero(np.isfinite(opening))
-        rec.log(
-            "/trajectory/opening",
-            rr.SeriesLines(names="gripper opening (m)", colors=[TCP_COLOR]),
-            static=True,
-        )
+        series = "/trajectory/opening" if side is None else f"/trajectory/{side}/opening"
+        name = "gripper opening (m)" if side is None else f"{side} gripper opening (m)"
+        rec.log(series, rr.SeriesLines(names=name, colors=[color]), static=True)
         rec.send_columns(
-            "/trajectory/opening",
+            series,
             indexes=time_columns(traj.t_ns[good], origin_ns, frame=good),
             columns=rr.Scalars.columns(scalars=opening[good]),
         )
@@ -249,7 +275,7 @@ def log_trajectory(
 def log_demonstration(
     demo: Demonstration,
     *,
-    trajectory: Trajectory | None = None,
+    trajectory: Trajectory | Mapping[str, Trajectory] | None = None,
     recording: Any = None,
     origin_ns: int | None = None,
     images: bool = True,
@@ -262,8 +288,9 @@ def log_demonstration(
     ----------
     demo : Demonstration
         The recording.
-    trajectory : Trajectory, optional
-        Its preprocessed form: adds the gripper frame, the TCP path and trail, the opening.
+    trajectory : Trajectory or dict side -> Trajectory, optional
+        Its preprocessed form: adds the gripper frame, the TCP path and trail, the opening; of
+        a two-hand demonstration, each hand's by side (one Trajectory: the right hand's).
     recording : rerun.RecordingStream, optional
         Where to log (default: the current recording, see :func:`lfd.viz.init`).
     origin_ns : int, optional
@@ -283,11 +310,19 @@ def log_demonstration(
     """
     rec = get_recording(recording)
     origin = time_origin(rec, first_ns=demo.start_ns, origin_ns=origin_ns)
-    log_static_scene(rec)
+    log_static_scene(rec, demo.sides)
     log_hand(demo, origin, rec)
     log_objects(demo, origin, rec)
     if images:
         log_camera(demo, origin, rec, jpeg_quality=jpeg_quality)
-    if trajectory is not None:
-        log_trajectory(trajectory, origin, rec, trail_s=trail_s)
+    two = len(demo.sides) > 1
+    trajectories = (
+        trajectory
+        if isinstance(trajectory, Mapping)
+        else {}
+        if trajectory is None
+        else {demo.sides[0]: trajectory}
+    )
+    for side, traj in trajectories.items():
+        log_trajectory(traj, origin, rec, trail_s=trail_s, side=side if two else None)
     return origin

@@ -17,7 +17,7 @@ from .segmentation import log_segmentation, log_text
 
 if TYPE_CHECKING:
     from ..demo import Demonstration
-    from ..segmentation import Method, Segmentation
+    from ..segmentation import HandsSegmentation, Method, Segmentation
     from ..segmentation.band import StageTwoScores
     from ..trajectory import Trajectory
 
@@ -99,9 +99,16 @@ def log_recorded_demo(
 
     To show a segmentation, log the demonstration with ``trajectory=False`` and then
     :func:`log_segment_run`: it logs the trajectory that was segmented.
+
+    Of a two-hand demonstration, each hand's trajectory and ground-truth lane
+    (``/segmentation/skills/<side>/ground_truth``) and the ground-truth handovers; no
+    features (their plots are one hand's). Returns the right hand's trajectory.
     """
     from ..errors import LfdError
     from .demo import log_demonstration
+
+    if len(demo.sides) > 1:
+        return _log_recorded_hands(demo, trajectory=trajectory, recording=recording, **kwargs)
 
     traj: Trajectory | None = None
     filled: Trajectory | None = None
@@ -130,6 +137,85 @@ def log_recorded_demo(
     if demo.labels:
         log_segmentation(ground_truth=demo.labels, recording=recording)
     return traj
+
+
+def _log_recorded_hands(
+    demo: Demonstration, *, trajectory: bool, recording: Any, **kwargs: Any
+) -> Trajectory | None:
+    """:func:`log_recorded_demo` of a two-hand demonstration."""
+    from ..errors import LfdError
+    from .demo import log_demonstration
+    from .handovers import log_handovers
+
+    trajs: dict[str, Trajectory] = {}
+    problems = []
+    if trajectory:
+        from ..preprocessing import preprocess
+        from ..segmentation.method import Method
+
+        for side in demo.sides:
+            try:
+                trajs[side] = preprocess(demo.one_hand(side), **Method.default().preprocessing)
+            except LfdError as err:
+                problems.append(f"{side} hand: preprocessing failed: {err}")
+    log_demonstration(demo, trajectory=trajs, recording=recording, **kwargs)
+    if problems:
+        log_text(problems, recording=recording)
+    for side in demo.sides:
+        labels = demo.labels_of(side)
+        if labels:
+            log_segmentation(ground_truth=labels, recording=recording, side=side)
+    log_handovers(demo.handovers, source="ground_truth", demo=demo, recording=recording)
+    return trajs.get(demo.sides[0])
+
+
+def log_hands_run(
+    demo: Demonstration | None,
+    result: HandsSegmentation,
+    *,
+    ground_truth: bool = True,
+    trajectory: bool = True,
+    recording: Any = None,
+) -> None:
+    """Log a segmentation of both hands (:func:`lfd.segment_hands`): per hand the trajectory
+    that was segmented (``/world/hand/<side>/gripper``, ``/tcp_path``) and the skill lane
+    ``/segmentation/skills/<side>/result`` (with ``ground_truth``, the demonstration's lane
+    beside it), the handovers (``/segmentation/handovers/result``, ``/world/handovers/result``;
+    the demonstration's as ``ground_truth``), the warnings. A one-lane result is logged as
+    :func:`log_segment_run` logs a one-hand segmentation."""
+    from .demo import log_trajectory
+    from .handovers import log_handovers
+    from .recording import get_recording
+    from .timeline import time_origin
+
+    if len(result.lanes) == 1:
+        (lane,) = result.lanes.values()
+        log_segment_run(
+            demo, lane, ground_truth=ground_truth, trajectory=trajectory, recording=recording
+        )
+        return
+    rec = get_recording(recording)
+    for side, seg in result.lanes.items():
+        run = seg.run
+        if trajectory and run is not None and len(run.trajectory):
+            origin = time_origin(rec, first_ns=int(run.trajectory.t_ns[0]))
+            log_trajectory(run.trajectory, origin, rec, side=side)
+        truth = demo.labels_of(side) if ground_truth and demo is not None else []
+        log_segmentation(
+            seg.segments, ground_truth=truth or None, recording=rec, side=side,
+            warnings=[f"{side} hand: {w}" for w in seg.warnings],
+        )  # fmt: skip
+        log_text(
+            [(s.start_ns, f"{side} hand " + _describe(k, s)) for k, s in enumerate(seg.segments)],
+            path="/segmentation/log",
+            level="INFO",
+            recording=rec,
+        )
+    log_handovers(result.handovers, source="result", demo=demo, recording=rec)
+    if ground_truth and demo is not None:
+        log_handovers(demo.handovers, source="ground_truth", demo=demo, recording=rec)
+    if result.warnings:
+        log_text(list(result.warnings), recording=rec)
 
 
 def log_segment_run(
@@ -289,3 +375,17 @@ def log_methods(
             lane = name if name in TEMPLATE_METHODS else f"baseline_{name}"
             log_skill_spans(seg.segments, source=lane, recording=recording)
     return results
+
+
+def log_result(
+    demo: Demonstration | None,
+    result: Segmentation | HandsSegmentation,
+    **options: Any,
+) -> None:
+    """Log a segmentation of one hand (:func:`log_segment_run`) or of both
+    (:func:`log_hands_run`, a result with ``lanes``); ``options`` go to either."""
+    lanes = getattr(result, "lanes", None)
+    if lanes is not None:
+        log_hands_run(demo, result, **options)  # type: ignore[arg-type]
+    else:
+        log_segment_run(demo, result, **options)  # type: ignore[arg-type]

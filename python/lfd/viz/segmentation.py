@@ -10,7 +10,7 @@ import numpy.typing as npt
 
 from ..errors import DemonstrationError
 from ..skills import SKILLS
-from .paths import LOG, SECTIONS, WARNINGS, skill_lane
+from .paths import LOG, SECTIONS, WARNINGS, hand_lane
 from .recording import get_recording, import_rerun
 from .timeline import GREEDY_ITERATION, as_ns, current_origin, time_columns, time_origin
 
@@ -55,8 +55,10 @@ def log_skill_spans(
     source: str = "result",
     recording: Any = None,
     origin_ns: int | None = None,
+    side: str | None = None,
 ) -> None:
-    """Log skill spans as coloured states in the lane ``/segmentation/skills/<source>``.
+    """Log skill spans as coloured states in the lane ``/segmentation/skills/<source>`` (with
+    ``side``, one of two hands': ``/segmentation/skills/<side>/<source>``).
 
     Parameters
     ----------
@@ -74,7 +76,7 @@ def log_skill_spans(
         if int(s.end_ns) < int(s.start_ns):
             raise DemonstrationError(f"segment {s.skill!r} ends before it starts")
     origin = time_origin(rec, first_ns=int(segs[0].start_ns), origin_ns=origin_ns)
-    path = skill_lane(source)
+    path = hand_lane(side, source)
     values: dict[str, tuple[str, int]] = {}
     times: list[int] = []
     states: list[str] = []
@@ -287,8 +289,10 @@ def log_segmentation(
     log: Sequence[Any] | None = None,
     recording: Any = None,
     origin_ns: int | None = None,
+    side: str | None = None,
 ) -> None:
-    """Log everything a segmentation produced, each part optional.
+    """Log everything a segmentation produced, each part optional (with ``side``, the skill
+    lanes are that hand's, ``/segmentation/skills/<side>/...``).
 
     Parameters
     ----------
@@ -312,12 +316,11 @@ def log_segmentation(
         if t_ns is None:
             raise DemonstrationError("section boundaries need the sample times t_ns")
         log_sections(boundaries, t_ns, recording=rec, origin_ns=origin_ns)
-    if ground_truth is not None:
-        log_skill_spans(ground_truth, source="ground_truth", recording=rec, origin_ns=origin_ns)
-    if segments is not None:
-        log_skill_spans(segments, source="result", recording=rec, origin_ns=origin_ns)
-    for name, segs in (baselines or {}).items():
-        log_skill_spans(segs, source=f"baseline_{name}", recording=rec, origin_ns=origin_ns)
+    lanes = {"ground_truth": ground_truth, "result": segments}
+    lanes |= {f"baseline_{name}": segs for name, segs in (baselines or {}).items()}
+    for source, spans_of in lanes.items():
+        if spans_of is not None:
+            log_skill_spans(spans_of, source=source, recording=rec, origin_ns=origin_ns, side=side)
     if scores is not None:
         log_greedy_scores(
             scores,
