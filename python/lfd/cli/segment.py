@@ -115,10 +115,12 @@ def segment_stream(
     the provisional one are logged to it). Each skill is printed as it settles."""
     from ..errors import RecordingFormatError
     from ..segmentation.live import LiveSegmentation
+    from ..segmentation.live_hands import LiveHands
 
     method = segmentation_method(args)
     con = console(args)
-    seg: LiveSegmentation | None = None
+    sides = follow_sides(follower)
+    seg: LiveSegmentation | LiveHands | None = None
     labels: list[Any] = []
     for msg in messages:
         if msg.kind == "label":
@@ -129,23 +131,44 @@ def segment_stream(
                 raise RecordingFormatError(
                     f"{args.recording}: the recording declares no objects; cannot segment it live"
                 )
-            seg = LiveSegmentation(
+            names, sizes, tags = (
                 [o[0] for o in objects],
                 [o[2] for o in objects],
-                method=method,
-                side=follower.hand_side,
-                tag_ids=[o[1] for o in objects],
-                metadata=follower.demo_metadata,
+                [o[1] for o in objects],
+            )
+            meta = follower.demo_metadata
+            seg = (
+                LiveHands(names, sizes, method=method, sides=sides, tag_ids=tags, metadata=meta)
+                if len(sides) > 1
+                else LiveSegmentation(
+                    names, sizes, method=method, side=sides[0], tag_ids=tags, metadata=meta
+                )
             )
         if seg is None:
             continue
-        _show_update(seg, seg.push_recorded(msg.kind, msg.t_ns, msg.value), timeline(), con)
+        if isinstance(seg, LiveHands):  # each hand's frames to its lane
+            up: Any = seg.push_recorded(
+                msg.kind, msg.t_ns, msg.value, side=getattr(msg, "side", None)
+            )
+        else:
+            up = seg.push_recorded(msg.kind, msg.t_ns, msg.value)
+        _show_update(seg, up, timeline(), con)
     if seg is None:
         return None, labels, []
     _show_update(seg, seg.finish(), timeline(), con)
     for w in seg.warnings:  # those of the final run (the whole recording)
         print(f"lfd segment: warning: {' '.join(str(w).split())}", file=sys.stderr)
-    return seg.result(), labels, list(seg.settled_ns)
+    settled = seg.settled_ns
+    if isinstance(settled, dict):  # two hands: every hand's, in time order
+        settled = sorted(t for ts in settled.values() for t in ts)
+    return seg.result(), labels, list(settled)
+
+
+def follow_sides(follower: Any) -> tuple[str, ...]:
+    """The hands of a followed recording (``hand_sides`` when the follower tells them, else
+    its one ``hand_side``)."""
+    sides = getattr(follower, "hand_sides", None)
+    return tuple(sides) if sides else (follower.hand_side,)
 
 
 def _sized(objects: list[Any], args: Any) -> list[Any]:
@@ -160,14 +183,25 @@ def _sized(objects: list[Any], args: Any) -> list[Any]:
 
 
 def _show_update(seg: Any, update: Any, timeline: Any, con: Any) -> None:
-    """Print the skills an update settled; log it to the live timeline if one is open."""
-    for s in update.segments:
+    """Print the skills an update settled (of two hands, each with its hand, and the
+    handovers); log it to the live timeline if one is open."""
+    lanes = getattr(update, "lanes", None)
+    two = lanes is not None and len(seg.sides) > 1
+    items = [(side, s) for side, u in lanes.items() for s in u.segments] if lanes is not None else [
+        (None, s) for s in update.segments
+    ]  # fmt: skip
+    for side, s in items:
         con.print(
-            f"settled: {s.skill:<10} {s.object or '-':<8} {s.start_s:7.2f} - {s.end_s:7.2f} s"
-            f"  confidence {s.confidence:.2f}"
+            f"settled: {f'{side:<6}' if two else ''}{s.skill:<10} {s.object or '-':<8} "
+            f"{s.start_s:7.2f} - {s.end_s:7.2f} s  confidence {s.confidence:.2f}"
+        )
+    for h in getattr(update, "handovers", []):
+        con.print(
+            f"settled: handover of {h.object or '-'} from the {h.giver} to the {h.taker} hand"
         )
     if timeline is not None:
-        timeline.log_update(update, seg.provisional_span())
+        spans = getattr(seg, "provisional_spans", None)
+        timeline.log_update(update, spans() if spans is not None else seg.provisional_span())
 
 
 def _run_follow(args: argparse.Namespace) -> int:
@@ -192,7 +226,9 @@ def _run_follow(args: argparse.Namespace) -> int:
             if show and state["live"] is None:
                 rec = session_from_args(args)
                 state["live"] = LiveTimeline(
-                    rec.recording if rec else None, objects=follower.objects
+                    rec.recording if rec else None,
+                    objects=follower.objects,
+                    sides=follow_sides(follower),
                 )
             if state["live"] is not None:
                 state["live"].log_message(msg)
@@ -238,15 +274,20 @@ def _run_follow(args: argparse.Namespace) -> int:
         f"{span:.1f} s ({counts['hand']} hand, {counts['object']} object samples); "
         f"stopped: {how}"
     )
-    if result is not None:
+    lanes = getattr(result, "lanes", None) or ({"": result} if result is not None else {})
+    for side, lane in lanes.items():  # of two hands, a line per hand
         con.print(
-            f"{len(result.segments)} skills: "
-            + " -> ".join(f"{s.skill}({s.object or '-'})" for s in result.segments)
+            (f"{side} hand: " if side else "")
+            + f"{len(lane.segments)} skills: "
+            + " -> ".join(f"{s.skill}({s.object or '-'})" for s in lane.segments)
         )
     if result is None and (args.json or follower.stop_reason != "interrupted"):
         raise UsageError(f"{args.recording}: nothing to segment (no hand or object samples)")
     if args.json and result is not None:
-        doc = result.report(labels, recording=str(args.recording))
+        if hasattr(result, "lanes"):  # two hands: the lanes and handovers
+            doc = {"recording": str(args.recording)} | result.to_dict()
+        else:
+            doc = result.report(labels, recording=str(args.recording))
         first = state["first"] or 0
         doc["live"] = {
             "settled_s": [(t - first) * 1e-9 for t in settled],

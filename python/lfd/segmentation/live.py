@@ -393,11 +393,17 @@ class LiveSegmentation:
         return self._tracks.ready()
 
     def push_hand(
-        self, t_ns: int, keypoints: npt.ArrayLike, confidence: npt.ArrayLike | None = None
+        self,
+        t_ns: int,
+        keypoints: npt.ArrayLike,
+        confidence: npt.ArrayLike | None = None,
+        *,
+        side: str | None = None,
     ) -> LiveUpdate:
-        """A hand keypoint frame (21, 3), metres, with per-keypoint confidence."""
+        """A hand keypoint frame (21, 3), metres, with per-keypoint confidence (of the
+        ``side`` hand: this segmenter's, or None)."""
         conf = None if confidence is None else np.asarray(confidence)
-        return self.push(HandMessage(int(t_ns), np.asarray(keypoints), conf))
+        return self.push(HandMessage(int(t_ns), np.asarray(keypoints), conf, side=side))
 
     def push_object(
         self, name: str, t_ns: int, position: npt.ArrayLike, quaternion: npt.ArrayLike

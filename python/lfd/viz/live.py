@@ -5,6 +5,10 @@
 (:mod:`lfd.viz.paths`), styles and ``demo_time`` origin, so with the default blueprint a live
 session looks like the offline view of the finished recording, growing. Skill spans go to the
 ``result`` lane when they settle; the open, still changing span to the ``provisional`` lane.
+Of two hands (``sides``), each hand's keypoints and lanes are its own
+(``/world/hand/<side>/keypoints``, ``/segmentation/skills/<side>/result``, ...) and the settled
+handovers are marked (:mod:`lfd.viz.handovers`); the feature plots and sections are one hand's
+and are not drawn.
 
 Example::
 
@@ -19,7 +23,8 @@ Example::
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections import deque
+from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -29,15 +34,16 @@ from ..errors import DemonstrationError
 from ..features import FEATURE_NAMES
 from .demo import HAND_CLASS_ID, OBJECT_PALETTE, log_static_scene
 from .features import log_feature_arrays
+from .handovers import log_handovers
 from .paths import (
     CAMERA_COLOR,
     GREEDY,
-    HAND_KEYPOINTS,
     PROVISIONAL,
     SECTIONS,
     WARNINGS,
+    hand_lane,
+    hand_path,
     object_path,
-    skill_lane,
 )
 from .recording import get_recording, import_rerun
 from .segmentation import (
@@ -68,7 +74,12 @@ class LiveTimeline:
         start. Objects first seen later get a frame without a box.
     feature_names : sequence of str
         The feature columns of :meth:`log_samples`.
+    sides : sequence of str
+        The hands recorded: with two, each hand's keypoints and lanes are its own.
     """
+
+    POSE_HISTORY = 600
+    """Object poses kept per object (20 s at 30 Hz), to place a handover settled later."""
 
     def __init__(
         self,
@@ -78,6 +89,7 @@ class LiveTimeline:
         objects: Iterable[tuple[str, int, Any]] = (),
         feature_names: Sequence[str] = FEATURE_NAMES,
         object_names: Sequence[str] | None = None,
+        sides: Sequence[str] = (),
     ) -> None:
         self.rr = import_rerun()
         self.rec = get_recording(recording)
@@ -88,8 +100,17 @@ class LiveTimeline:
         self._sections = 0
         self._lanes: dict[str, dict[str, tuple[str, int]]] = {}
         self.samples = 0
-        log_static_scene(self.rec)
-        self.rec.log(HAND_KEYPOINTS, self.rr.Points3D.from_fields(show_labels=False), static=True)
+        self.two_hands = len(sides) > 1
+        self._handovers: list[Any] = []
+        self._handover_points: list[np.ndarray | None] = []
+        self._poses: dict[str, deque[tuple[int, np.ndarray]]] = {}
+        log_static_scene(self.rec, sides)
+        for side in list(sides) if self.two_hands else [None]:
+            self.rec.log(
+                hand_path(side, "keypoints"),
+                self.rr.Points3D.from_fields(show_labels=False),
+                static=True,
+            )
         for name, tag_id, size in objects:
             self.declare_object(name, tag_id, size)
 
@@ -130,8 +151,20 @@ class LiveTimeline:
             static=True,
         )
 
-    def log_hand(self, t_ns: int, keypoints: npt.ArrayLike, frame: int | None = None) -> None:
-        """One hand sample, (21, 3) metres; NaN keypoints are not drawn."""
+    def _side(self, side: str | None) -> str | None:
+        """The side whose paths a hand's data go to: None (the one-hand paths) unless two."""
+        return side if self.two_hands else None
+
+    def log_hand(
+        self,
+        t_ns: int,
+        keypoints: npt.ArrayLike,
+        frame: int | None = None,
+        *,
+        side: str | None = None,
+    ) -> None:
+        """One hand sample, (21, 3) metres; NaN keypoints are not drawn; of two hands, the
+        ``side`` hand's."""
         rr = self.rr
         kp = np.asarray(keypoints, dtype=np.float64)
         if kp.shape != (21, 3):
@@ -139,7 +172,7 @@ class LiveTimeline:
         ok = np.all(np.isfinite(kp), axis=1)
         ids = np.flatnonzero(ok)
         self.rec.send_columns(
-            HAND_KEYPOINTS,
+            hand_path(self._side(side), "keypoints"),
             indexes=self._cols([t_ns], None if frame is None else [frame]),
             columns=rr.Points3D.columns(
                 positions=kp[ok], keypoint_ids=ids, class_ids=np.full(ids.shape, HAND_CLASS_ID)
@@ -151,6 +184,9 @@ class LiveTimeline:
     ) -> None:
         """One object pose (position (3,) metres, quaternion (4,) x, y, z, w)."""
         self.declare_object(name)
+        if self.two_hands:  # where a handover settled later took place
+            poses = self._poses.setdefault(name, deque(maxlen=self.POSE_HISTORY))
+            poses.append((int(t_ns), np.asarray(position, dtype=np.float64).reshape(3)))
         self.rec.send_columns(
             object_path(name),
             indexes=self._cols([t_ns]),
@@ -178,13 +214,15 @@ class LiveTimeline:
     def log_message(self, msg: Any) -> None:
         """Log a :class:`lfd.io.LiveMessage`: hand keypoints, object poses, ground-truth labels
         (other kinds are ignored)."""
+        side = getattr(msg, "side", None)
         if msg.kind == "hand":
-            self.log_hand(msg.t_ns, msg.value)
+            self.log_hand(msg.t_ns, msg.value, side=side)
         elif msg.kind == "object":
             pose = msg.value
             self.log_object(pose.name, msg.t_ns, pose.position, pose.quaternion)
         elif msg.kind == "label":
-            self.log_skill(msg.value, source="ground_truth")
+            hand = getattr(msg.value, "hand", None) or side
+            self.log_skill(msg.value, source="ground_truth", side=hand)
 
     # --- features --------------------------------------------------------------------------------
     def log_samples(
@@ -255,11 +293,14 @@ class LiveTimeline:
             columns=rr.StateChange.columns(state=[f"section {k}"]),
         )
 
-    def _state(self, source: str, seg: SegmentLike | None, t_ns: int) -> None:
-        """Set lane ``source`` to ``seg``'s state from ``t_ns`` (None: an empty gap)."""
+    def _state(
+        self, source: str, seg: SegmentLike | None, t_ns: int, side: str | None = None
+    ) -> None:
+        """Set lane ``source`` (of the ``side`` hand, of two) to ``seg``'s state from ``t_ns``
+        (None: an empty gap)."""
         rr = self.rr
-        path = skill_lane(source)
-        values = self._lanes.setdefault(source, {})
+        path = hand_lane(self._side(side), source)
+        values = self._lanes.setdefault(path, {})
         state = ""
         if seg is not None:
             obj = getattr(seg, "object", None)
@@ -280,27 +321,77 @@ class LiveTimeline:
             path, indexes=self._cols([t_ns]), columns=rr.StateChange.columns(state=[state])
         )
 
-    def log_skill(self, segment: SegmentLike, *, source: str = "result") -> None:
+    def log_skill(
+        self, segment: SegmentLike, *, source: str = "result", side: str | None = None
+    ) -> None:
         """A settled skill span (``skill``, ``start_ns``, ``end_ns``, optional ``object``) in
-        lane ``source``; a later span starting where it ends replaces its end."""
+        lane ``source`` (of the ``side`` hand, of two); a later span starting where it ends
+        replaces its end."""
         if int(segment.end_ns) < int(segment.start_ns):
             raise DemonstrationError(f"segment {segment.skill!r} ends before it starts")
-        self._state(source, segment, int(segment.start_ns))
-        self._state(source, None, int(segment.end_ns))
+        self._state(source, segment, int(segment.start_ns), side)
+        self._state(source, None, int(segment.end_ns), side)
 
-    def log_provisional(self, segment: SegmentLike | None, t_ns: int | None = None) -> None:
+    def log_provisional(
+        self, segment: SegmentLike | None, t_ns: int | None = None, *, side: str | None = None
+    ) -> None:
         """The open span as the live segmenter sees it now (None: none), in lane
-        ``provisional`` from its start (or from ``t_ns`` when clearing it)."""
+        ``provisional`` (of the ``side`` hand, of two) from its start (or from ``t_ns`` when
+        clearing it)."""
         if segment is None:
             if t_ns is not None:
-                self._state(PROVISIONAL, None, int(t_ns))
+                self._state(PROVISIONAL, None, int(t_ns), side)
             return
-        self._state(PROVISIONAL, segment, int(segment.start_ns))
+        self._state(PROVISIONAL, segment, int(segment.start_ns), side)
 
-    def log_update(self, update: Any, provisional: SegmentLike | None = None) -> None:
+    def log_handovers(self, handovers: Sequence[Any]) -> None:
+        """Handovers a live segmenter settled (:class:`lfd.Handover`): added to the lane
+        ``/segmentation/handovers/result`` and the points of ``/world/handovers/result`` (where
+        the object was at the giver's release, from the poses logged)."""
+        if not handovers:
+            return
+        for h in handovers:
+            self._handovers.append(h)
+            self._handover_points.append(self._object_at(h.object, int(h.end_ns)))
+        log_handovers(
+            self._handovers,
+            source="result",
+            positions=self._handover_points,
+            recording=self.rec,
+            origin_ns=self.origin(int(self._handovers[0].start_ns)),
+        )
+
+    def _object_at(self, name: str | None, t_ns: int) -> np.ndarray | None:
+        """The logged position of object ``name`` nearest ``t_ns`` (None: none kept)."""
+        poses = self._poses.get(name) if name is not None else None
+        if not poses:
+            return None
+        return min(poses, key=lambda tp: abs(tp[0] - t_ns))[1]
+
+    def log_update(
+        self, update: Any, provisional: SegmentLike | Mapping[str, SegmentLike] | None = None
+    ) -> None:
         """What one step of a live segmenter produced (a
         :class:`~lfd.segmentation.live.LiveUpdate`: feature ``rows``, new ``sections``, settled
-        ``segments``) and the provisional span, if any."""
+        ``segments``) and the provisional span, if any. Of both hands (a
+        :class:`~lfd.segmentation.live_hands.HandsUpdate`: a ``LiveUpdate`` per hand, settled
+        ``handovers``), each hand's in its lanes and ``provisional`` by side."""
+        lanes = getattr(update, "lanes", None)
+        if lanes is not None:
+            spans = provisional if isinstance(provisional, Mapping) else {}
+            for side, lane in lanes.items():
+                if not self.two_hands:  # one hand: as a one-hand update
+                    self.log_update(lane, spans.get(side, lane.provisional))
+                    continue
+                for s in lane.segments:
+                    self.log_skill(s, side=side)
+                span = spans.get(side, lane.provisional)
+                if span is not None:
+                    self.log_provisional(span, side=side)
+            self.log_handovers(update.handovers)
+            return
+        if isinstance(provisional, Mapping):
+            provisional = next(iter(provisional.values()), None)
         rows = update.rows
         if rows:
             self.log_samples(

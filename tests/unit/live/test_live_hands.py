@@ -4,6 +4,7 @@ runs over both hands together; at the end each lane is the batch one (``lfd.segm
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 
 import _paths
 import lfd
@@ -73,3 +74,50 @@ def test_hand_frames_must_name_a_known_side(two: lfd.Demonstration) -> None:
         LiveSegmentation(["box_1"], [[0.05] * 3]).push(HandMessage(0, frame, side="left"))
     with pytest.raises(lfd.errors.DemonstrationError, match="hand side"):
         LiveHands(["box_1"], [[0.05] * 3], sides=("up",))
+
+
+def test_live_view_of_two_hands(two: lfd.Demonstration, tmp_path: Path) -> None:
+    """What ``lfd record --live-segment --rerun-save`` does beside a two-hand file
+    (:class:`lfd.live.LiveObserver` with :class:`LiveHands`): every hand sample in its hand's
+    keypoints, every settled skill in its hand's lane (and returned as a label naming its
+    hand), a settled handover in the handover lane and in 3-D where the object was."""
+    pytest.importorskip("rerun")
+    from _rrd import Rrd
+    from lfd import viz
+    from lfd.live import LiveObserver
+    from lfd.segmentation.live_hands import HandsUpdate
+
+    session = viz.open_session("lfd_live_hands", save=tmp_path / "live.rrd")
+    objects = [(n, o.tag_id, o.size) for n, o in two.objects.items()]
+    observer = LiveObserver.open(objects, segmenter=LiveHands.for_demonstration(two), view=True)
+    written = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for msg in demo_messages(two):
+            if isinstance(msg, HandMessage):
+                written += observer.on_hand(msg.t_ns, msg.keypoints, msg.confidence, None, msg.side)
+            else:
+                poses = {msg.name: (msg.position, msg.quaternion)}
+                written += observer.on_frame(msg.t_ns, np.zeros((4, 4, 3), np.uint8), poses)
+        written += observer.finish(two.end_ns)
+    assert observer.timeline is not None and observer.segmenter is not None
+    box = two.objects["box_2"]
+    h = lfd.Handover(int(box.t_ns[60]), int(box.t_ns[70]), "right", "left", "box_2")
+    observer.timeline.log_update(HandsUpdate(handovers=[h]))
+    session.close()
+    data = Rrd(session.save_path)
+    result = observer.segmenter.result()
+    for side in ("right", "left"):
+        assert len(data.entity(f"/world/hand/{side}/keypoints")) == len(two.hands[side])
+        states = data.column(f"/segmentation/skills/{side}/result", "StateChange:state")
+        assert [x[0] for x in states if x[0]] == [
+            s.skill + (f"({s.object})" if s.object else "") for s in result.lanes[side].segments
+        ]
+        assert [lab.skill for lab, _, _ in written if lab.hand == side] == result.lanes[
+            side
+        ].skill_sequence
+    assert data.column("/segmentation/handovers/result", "StateChange:state") == [
+        ["box_2 right→left"], [""],
+    ]  # fmt: skip
+    point = data.static["/world/handovers/result"]["Points3D:positions"][0]
+    np.testing.assert_allclose(point, box.position[70], atol=1e-6)
