@@ -28,12 +28,10 @@ import numpy as np
 
 from .geometry import box_distance
 from .rules import Number, Rule, Whole, check_fields
+from .skills import RELEASES
 
 Span = tuple[str, int, int, int | None]
 """``(skill, start, end, object)``: a skill on samples ``start..end`` (end exclusive)."""
-
-RELEASES: frozenset[str] = frozenset({"place", "stack"})
-"""Skills that end by letting go of the object."""
 
 
 @dataclass(frozen=True)
