@@ -7,7 +7,9 @@ move, move_with``.
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import math
 from dataclasses import dataclass
 from functools import cache
 from importlib import resources
@@ -76,6 +78,42 @@ NO_SET_DOWN: frozenset[str] = skills_where("sets_down", False)
 """Skills in which a lifted target is not put down again (Move with, Pick up)."""
 CARRIED: frozenset[str] = skills_where("carries")
 """Skills that carry their target lifted (Move with)."""
+
+
+@dataclass
+class Draft:
+    """A skill on samples ``start..end`` (end exclusive) of a trajectory, its target object an
+    index ``obj`` into the trajectory's objects (None: none), with the search's ``score``,
+    ``confidence`` and ``margin`` of it (NaN where no template scored it: an inserted Move).
+
+    The one shape of a segment while it is being made: the search's output becomes drafts once,
+    every pass of the segmentation (implicit Moves, contact boundaries: :func:`lfd.contact.refine`,
+    Move objects) takes and returns them, and they become
+    :class:`~lfd.segmentation.result.Segment` once, at the end
+    (:func:`lfd.segmentation.drafts.make_segments`). A pass that changes a draft returns a new
+    one (:meth:`resized`, :func:`dataclasses.replace`) or changes its own copy.
+    """
+
+    skill: str
+    start: int
+    end: int
+    obj: int | None = None
+    score: float = math.nan
+    confidence: float = math.nan
+    margin: float = math.nan
+
+    def resized(self, start: int, end: int) -> Draft:
+        """The same skill, target and scores on ``start..end``."""
+        return dataclasses.replace(self, start=start, end=end)
+
+    def object_name(self, names: list[str]) -> str | None:
+        """The target object's name (``names``: the trajectory's objects)."""
+        return names[self.obj] if self.obj is not None else None
+
+    @property
+    def span(self) -> tuple[str, int, int, int | None]:
+        """``(skill, start, end, obj)``: what the draft says, without its scores."""
+        return (self.skill, self.start, self.end, self.obj)
 
 
 def check_skill(name: str) -> str:

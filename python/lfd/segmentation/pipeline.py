@@ -31,7 +31,7 @@ if TYPE_CHECKING:
     from ..features import Features
 from .band import Band, StageTwoScores
 from .comotion import CoMotion, co_motion_per_object, moving_hand, moving_objects
-from .drafts import _Draft, _make_segments
+from .drafts import make_segments, search_drafts
 from .gaps import fill_gaps
 from .grammar import compiled_grammar
 from .passes import insert_implicit_moves, label_moves, refine_contacts
@@ -214,20 +214,12 @@ def segment_trajectory(
         cuts, warn = _hmmseg.segment_dp(
             st.scores, bounds, rules, rising, grammar, p.penalty, max_len
         )
-    segments = _make_segments(
-        filled,
-        [
-            _Draft(skills[c.skill], c.start, c.end, _target(st, c), c.score, c.confidence, c.margin)
-            for c in cuts
-        ],
-    )
+    drafts = search_drafts(st, cuts, skills)
     if p.implicit_moves:
-        segments = insert_implicit_moves(
-            filled, segments, max(1, round(p.implicit_move_s / traj.dt))
-        )
+        drafts = insert_implicit_moves(filled, drafts, max(1, round(p.implicit_move_s / traj.dt)))
     if p.contacts is not None:
-        segments = refine_contacts(filled, segments, p.contacts, complete=complete)
-    segments = label_moves(filled, segments)
+        drafts = refine_contacts(filled, drafts, p.contacts, complete=complete)
+    segments = make_segments(filled, label_moves(filled, drafts))
     return Segmentation(
         segments=segments,
         warnings=warnings + list(warn),
@@ -236,15 +228,6 @@ def segment_trajectory(
         object_names=list(filled.object_names),
         run=Run(filled, feats, per_object, st),
     )
-
-
-def _target(st: StageTwoScores, cut: _hmmseg.Cut) -> int:
-    """The target object of a chosen segment (a run of the band: the search picks no other)."""
-    i, j = cut.start_section, cut.end_section
-    r = st.band.index(i, j)
-    if r is None:
-        raise AssertionError(f"the search chose sections {i}..{j}, outside the score band")
-    return int(st.target[r, cut.skill])
 
 
 def stage2_scores(
