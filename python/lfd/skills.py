@@ -60,7 +60,7 @@ TRAITS: dict[str, SkillTraits] = {
     "move": SkillTraits(target_still=True),
     "move_with": SkillTraits(sets_down=False, carries=True),
 }
-"""The properties of each skill (docs/skills.md)."""
+"""The properties of each skill: the one copy (every set of skill names below is read from it)."""
 
 
 def skills_where(test: str, value: bool = True) -> frozenset[str]:
