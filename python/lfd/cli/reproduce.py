@@ -181,7 +181,8 @@ def run(args: argparse.Namespace) -> int:
     if show:
         from ..viz import log_demonstration, log_reproduction
 
-        log_demonstration(demo, trajectory=traj)
+        # of two hands, both shown, the trajectory the arm followed as its hand's
+        log_demonstration(demo, trajectory=traj if hands is None else {_side(hands, args): traj})
         sizes = {n: o.size for n, o in demo.objects.items()}
         for r in results.values():
             log_reproduction(r, skills=program.skills, object_sizes=sizes)

@@ -121,3 +121,50 @@ def test_live_view_of_two_hands(two: lfd.Demonstration, tmp_path: Path) -> None:
     ]  # fmt: skip
     point = data.static["/world/handovers/result"]["Points3D:positions"][0]
     np.testing.assert_allclose(point, box.position[70], atol=1e-6)
+
+
+def test_follow_stream_of_two_hands(
+    two: lfd.Demonstration, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``lfd segment --follow`` of a two-hand recording (cli.segment.segment_stream) on the
+    messages a follower yields (each hand's frame and confidence naming its side): a lane per
+    hand, equal to the live segmentation of the demonstration, each settled skill printed with
+    its hand."""
+    from types import SimpleNamespace
+
+    from lfd.cli import build_parser
+    from lfd.cli.segment import segment_stream
+
+    args = build_parser().parse_args(["segment", str(_paths.EXP1)])
+    args.recording = args.recordings[0]
+    follower = SimpleNamespace(
+        hand_side="right",
+        hand_sides=("right", "left"),
+        objects=[(n, o.tag_id, o.size.tolist()) for n, o in two.objects.items()],
+        demo_metadata={},
+    )
+
+    def messages():
+        for msg in demo_messages(two):
+            if isinstance(msg, HandMessage):
+                yield SimpleNamespace(
+                    kind="hand", t_ns=msg.t_ns, value=msg.keypoints, side=msg.side
+                )
+                both = (msg.confidence, msg.visible)
+                yield SimpleNamespace(kind="confidence", t_ns=msg.t_ns, value=both, side=msg.side)
+            else:
+                yield SimpleNamespace(kind="object", t_ns=msg.t_ns, value=msg, side=None)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result, _, settled = segment_stream(messages(), follower, lambda: None, args)
+        want, _ = segment_hands_live(two)
+    assert set(result.lanes) == {"right", "left"}
+    for side in two.sides:
+        assert [(s.skill, s.object, s.start, s.end) for s in result.lanes[side].segments] == [
+            (s.skill, s.object, s.start, s.end) for s in want.lanes[side].segments
+        ]
+    assert len(settled) == sum(len(lane.segments) for lane in result.lanes.values())
+    out = capsys.readouterr().out
+    assert out.count("settled: left ") == len(result.lanes["left"].segments)
+    assert out.count("settled: right ") == len(result.lanes["right"].segments)

@@ -132,8 +132,15 @@ def test_reproduce_runs_the_hand_that_does_it_all(
     one, two = tmp_path / "one.json", tmp_path / "two.json"
     assert main(["reproduce", str(EXP1), "--json", str(one)]) == 0
     _patched_load(monkeypatch, idle_left(exp1))
-    assert main(["reproduce", str(EXP1), "--json", str(two)]) == 0
+    rrd = tmp_path / "two.rrd"
+    assert main(["reproduce", str(EXP1), "--json", str(two), "--rerun-save", str(rrd)]) == 0
     a, b = json.loads(one.read_text()), json.loads(two.read_text())
+    if rrd.exists():  # the viewer (optional extra): both hands, the followed one's gripper
+        from _rrd import Rrd
+
+        data = Rrd(rrd)
+        assert "/world/hand/left/keypoints" in data.rows
+        assert "/world/hand/right/gripper" in data.rows and "/world/gripper" not in data.rows
     assert b["hands"]["reproduced"] == "right"
     assert b["program"] == a["program"]
     ra, rb = a["results"]["skills"], b["results"]["skills"]
