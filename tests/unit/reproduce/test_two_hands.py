@@ -145,3 +145,22 @@ def test_reproduce_runs_the_hand_that_does_it_all(
     assert b["program"] == a["program"]
     ra, rb = a["results"]["skills"], b["results"]["skills"]
     assert rb["success"] and rb["path_length_m"] == pytest.approx(ra["path_length_m"], rel=1e-9)
+
+
+def test_program_of_the_segmentation(
+    exp1: lfd.Demonstration, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--program --segment`` of a two-hand recording: each hand's lane as lfd.segment_hands
+    finds it, nothing simulated."""
+    from lfd.cli import main
+
+    two = idle_left(exp1)
+    _patched_load(monkeypatch, two)
+    assert main(["reproduce", str(EXP1), "--program", "--segment"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    both = lfd.segment_hands(two)
+    left = out.index("left hand:")
+    assert out[0] == "right hand:" and left == 1 + len(both.lanes["right"].segments)
+    steps = out[left + 1 : left + 1 + len(both.lanes["left"].segments)]
+    assert [line.split()[1] for line in steps] == both.lanes["left"].skill_sequence
+    assert out[left + 1 + len(steps) :][:1] in ([], ["synchronisation:"])
