@@ -258,7 +258,13 @@ def _hands_program(demo: Any, args: argparse.Namespace) -> Any:
         from ..errors import DemonstrationError
 
         raise DemonstrationError("the recording has no skill labels; pass --task program.json")
-    return from_hand_labels(demo.labels, demo.start_ns, sides=demo.sides, handovers=demo.handovers)
+    return from_hand_labels(
+        demo.labels,
+        demo.start_ns,
+        sides=demo.sides,
+        handovers=demo.handovers,
+        objects=demo.objects,
+    )
 
 
 def _side(hands: Any, args: argparse.Namespace) -> str:
@@ -284,7 +290,8 @@ def _print_program(args: argparse.Namespace) -> int:
     elif args.segment:
         from ..segmentation import segment_hands
 
-        hands = from_hands(segment_hands(demo, method=segmentation_method(args)), demo.start_ns)
+        both = segment_hands(demo, method=segmentation_method(args))
+        hands = from_hands(both, demo.start_ns, demo.objects)
         doc, lines = hands.to_json(), hands.lines()
     elif len(demo.sides) > 1:
         hands = _hands_program(demo, args)
@@ -427,7 +434,7 @@ def _segment_checked(demo: Any, args: argparse.Namespace) -> tuple[Any, Any]:
     hands = None
     if len(demo.sides) > 1:
         both = segment_hands(demo, method=segmentation_method(args))
-        hands = from_hands(both, demo.start_ns)
+        hands = from_hands(both, demo.start_ns, demo.objects)
         side = _side(hands, args)
         demo, result = demo.one_hand(side), both.lanes[side]
         check_hand_reaches(demo)

@@ -15,10 +15,12 @@ when missing).
 from __future__ import annotations
 
 import json
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from ..errors import DemonstrationError, LfdError
 from ..skills import check_skill
@@ -159,6 +161,9 @@ def from_segmentation(seg: Any, t0_ns: int) -> TaskProgram:
 SYNC_TOLERANCE_S = 0.3
 """Two hands' steps that end within this long of each other end "together" (a two-handed
 carry; a taker's grasp at a handover's start), as the handovers are scored (docs/skills.md)."""
+HOLD_STILL_M = 0.03
+"""A held object is still when it stays within this of where it was as the other hand's step
+began (the object tracks, when given)."""
 SYNC_KINDS = ("handover", "hold_until", "carry")
 """The synchronisation points of a two-hand program (docs/reproduce.md)."""
 
@@ -283,9 +288,11 @@ def from_hand_labels(
     *,
     sides: Sequence[str],
     handovers: Sequence[Any] = (),
+    objects: Mapping[str, Any] | None = None,
 ) -> HandsProgram:
     """A :class:`HandsProgram` from labels naming their hand (``SkillLabel.hand``; None: the
-    only hand of ``sides``) and the handovers (:class:`lfd.Handover`)."""
+    only hand of ``sides``) and the handovers (:class:`lfd.Handover`); ``objects`` (the
+    demonstration's tracks, optional) tell a held object that stays still (:func:`sync_points`)."""
     lanes: dict[str, list[Segment]] = {side: [] for side in sides}
     for lab in sorted(labels, key=lambda lab: int(lab.start_ns)):
         side = lab.hand if lab.hand is not None else sides[0]
@@ -294,16 +301,17 @@ def from_hand_labels(
                 f"label {lab.skill!r} is for the {side} hand, which the task lacks"
             )
         lanes[side].append(_segment_of(lab, t0_ns))
-    return HandsProgram(lanes, sync_points(lanes, handovers, t0_ns))
+    return HandsProgram(lanes, sync_points(lanes, handovers, t0_ns, objects))
 
 
-def from_hands(result: Any, t0_ns: int) -> HandsProgram:
+def from_hands(result: Any, t0_ns: int, objects: Mapping[str, Any] | None = None) -> HandsProgram:
     """A :class:`HandsProgram` from a :class:`~lfd.segmentation.HandsSegmentation` (its
-    ``lanes`` of segments by side and its ``handovers``)."""
+    ``lanes`` of segments by side and its ``handovers``); ``objects`` as
+    :func:`from_hand_labels`."""
     lanes = {
         side: [_segment_of(s, t0_ns) for s in seg.segments] for side, seg in result.lanes.items()
     }
-    return HandsProgram(lanes, sync_points(lanes, result.handovers, t0_ns))
+    return HandsProgram(lanes, sync_points(lanes, result.handovers, t0_ns, objects))
 
 
 def _segment_of(item: Any, t0_ns: int) -> Segment:
@@ -312,12 +320,17 @@ def _segment_of(item: Any, t0_ns: int) -> Segment:
 
 
 def sync_points(
-    lanes: dict[str, list[Segment]], handovers: Sequence[Any], t0_ns: int
+    lanes: dict[str, list[Segment]],
+    handovers: Sequence[Any],
+    t0_ns: int,
+    objects: Mapping[str, Any] | None = None,
 ) -> list[SyncPoint]:
     """The synchronisation points of two lanes, in time order: one per handover (the giver's
     ``place`` waits for the taker's ``pick_up``), per two-handed carry (both ``move_with`` of
     one object, overlapping) and per hold (a ``move_with`` during which the other hand's step
-    on another object ends: the holding hand waits for it; the last such step counts)."""
+    on another object ends: the holding hand waits for it; the last such step counts). With
+    ``objects`` (tracks by name: ``t_ns``, ``position``), a hold needs the held object still
+    during that step (within :data:`HOLD_STILL_M`); without, the labels alone decide."""
     points = [p for h in handovers if (p := _handover_point(lanes, h, t0_ns)) is not None]
     sides = list(lanes)
     for a, b in ((x, y) for x in sides for y in sides if x != y):
@@ -336,10 +349,25 @@ def sync_points(
                 and o.object != s.object
                 and s.start_s < o.end_s <= s.end_s + SYNC_TOLERANCE_S
             ]
-            if inside:
+            if inside and _still(objects, s.object, lanes[b][inside[-1]], t0_ns):
                 j = inside[-1]
                 points.append(SyncPoint("hold_until", a, i, b, j, s.object, lanes[b][j].end_s))
     return sorted(points, key=lambda p: (p.t_s, SYNC_KINDS.index(p.kind), p.hand))
+
+
+def _still(objects: Mapping[str, Any] | None, name: str | None, step: Segment, t0_ns: int) -> bool:
+    """Whether object ``name`` stays within :data:`HOLD_STILL_M` of where it was as ``step``
+    began, while it runs (True without its track: the labels decide)."""
+    track = objects.get(name) if objects is not None and name is not None else None
+    if track is None or not len(track.t_ns):
+        return True
+    t = (np.asarray(track.t_ns, dtype=np.int64) - t0_ns) * 1e-9
+    pos = np.asarray(track.position, dtype=np.float64)
+    during = (t >= step.start_s) & (t <= step.end_s) & np.all(np.isfinite(pos), axis=1)
+    if not during.any():
+        return True
+    p = pos[during]
+    return bool(np.max(np.linalg.norm(p - p[0], axis=1)) <= HOLD_STILL_M)
 
 
 def _handover_point(lanes: dict[str, list[Segment]], handover: Any, t0_ns: int) -> SyncPoint | None:

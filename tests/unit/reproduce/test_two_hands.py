@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -58,6 +59,19 @@ def test_hold_until_sync_point(exp1: lfd.Demonstration) -> None:
     ]
     assert holds[0].t_s == pytest.approx(9.0)
     assert "right 1 move_with holds it still until left 3 stack ends" in "\n".join(prog.lines())
+    # with the object tracks: box_2 rests in exp1 from 5.1 s on, held still during the stack
+    tracked = from_hand_labels(
+        hold_labels(exp1.start_ns), exp1.start_ns, sides=("right", "left"), objects=exp1.objects
+    )
+    assert [p.kind for p in tracked.sync] == ["hold_until"]
+    # box_3, carried in exp1 from 8.8 s, is not held still while the other hand stacks
+    moving = [
+        dataclasses.replace(lab, object={"box_2": "box_3", "box_3": "box_2"}.get(lab.object))
+        for lab in hold_labels(exp1.start_ns)
+    ]
+    assert from_hand_labels(moving, exp1.start_ns, sides=("right", "left")).sync  # labels alone
+    tracked = from_hand_labels(moving, exp1.start_ns, sides=("right", "left"), objects=exp1.objects)
+    assert tracked.sync == []
 
 
 def test_carry_and_idle_hand(exp1: lfd.Demonstration) -> None:
