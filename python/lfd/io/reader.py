@@ -573,9 +573,8 @@ def hand_sides(raw: Records, complete: bool = True, error: str | None = None) ->
         times).
     """
     check_hand_topics(raw)
-    sides = [s for s in T.HAND_SIDES if raw.channels.get(T.hand_topic(s), None)]
-    sides = [s for s in sides if raw.channels[T.hand_topic(s)].count > 0]
-    obj_topics = [t for t, c in raw.channels.items() if T.object_name_from_topic(t) and c.count > 0]
+    sides = present_sides(raw)
+    obj_topics = _object_topics(raw)
     missing = []
     if not sides:
         missing.append("hand keypoints (/hand/right/keypoints or /hand/left/keypoints)")
@@ -586,14 +585,31 @@ def hand_sides(raw: Records, complete: bool = True, error: str | None = None) ->
             f"{raw.path} is not a usable lfd recording: missing {' and '.join(missing)}; "
             f"it has {raw.describe_topics()}" + ("" if complete else f" (file damaged: {error})")
         )
-    hands = {s: _channel_span(raw, [T.hand_topic(s)]) for s in sides}
+    check_hand_clock(raw)
+    return tuple(sides)
+
+
+def present_sides(raw: Records) -> list[str]:
+    """The sides of the hand keypoint channels with messages, right first."""
+    sides = [s for s in T.HAND_SIDES if raw.channels.get(T.hand_topic(s), None)]
+    return [s for s in sides if raw.channels[T.hand_topic(s)].count > 0]
+
+
+def _object_topics(raw: Records) -> list[str]:
+    return [t for t, c in raw.channels.items() if T.object_name_from_topic(t) and c.count > 0]
+
+
+def check_hand_clock(raw: Records) -> None:
+    """Raise :class:`~lfd.errors.RecordingFormatError` if the recording's two hands break the
+    clock rule (:func:`lfd.io.hands.clock_problem`) on their channels' first and last times."""
+    hands = {s: _channel_span(raw, [T.hand_topic(s)]) for s in present_sides(raw)}
+    objects = _object_topics(raw)
     problem = clock_problem(
         {s: span for s, span in hands.items() if span is not None},
-        _channel_span(raw, obj_topics),
+        _channel_span(raw, objects) if objects else None,
     )
     if problem is not None:
         raise RecordingFormatError(f"{raw.path}: {problem}")
-    return tuple(sides)
 
 
 def _channel_span(raw: Records, topics: Sequence[str]) -> tuple[int, int] | None:
