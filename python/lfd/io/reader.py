@@ -139,9 +139,7 @@ def label_of_event(m: Any, where: str = "") -> SkillLabel:
     )
 
 
-def labels_of_events(
-    events: Iterable[Any], where: str = ""
-) -> tuple[list[SkillLabel], list[str]]:
+def labels_of_events(events: Iterable[Any], where: str = "") -> tuple[list[SkillLabel], list[str]]:
     """Skill labels of foxglove ``Event`` messages (:func:`label_of_event`), sorted by time, and
     what was skipped (an unknown skill, a bad span) and why. A label for a hand of an unknown
     side raises :class:`~lfd.errors.RecordingFormatError` (``where`` starts its message)."""
@@ -314,9 +312,7 @@ class _Loader:
             return []
         from foxglove_schemas_protobuf.Event_pb2 import Event
 
-        labels, skipped = labels_of_events(
-            self._lanes(topic, Event), f"{self.raw.path}: {topic}: "
-        )
+        labels, skipped = labels_of_events(self._lanes(topic, Event), f"{self.raw.path}: {topic}: ")
         self.skipped += skipped
         return labels
 

@@ -594,9 +594,7 @@ def save(demo: Demonstration, path: str | os.PathLike[str], **kwargs: Any) -> No
         events += [(int(t), _DEPTH, "", i) for i, t in enumerate(demo.depth.t_ns)]
     events.sort(key=lambda e: (e[0], e[1]))
     metadata = {k: v for k, v in demo.metadata.items() if k != "load_report"}
-    with McapRecorder(
-        path, objects=objects, metadata=metadata, hands=demo.sides, **kwargs
-    ) as rec:
+    with McapRecorder(path, objects=objects, metadata=metadata, hands=demo.sides, **kwargs) as rec:
         if demo.camera is not None:
             t0 = events[0][0] if events else 0
             rec.add_camera_info(demo.camera, t0)

@@ -177,7 +177,7 @@ def test_read_mapping(tmp_path: Path, bags) -> None:
         (lambda t: t.replace('topic = "/hand/keypoints"', 'topic = "/tf"'),
          "hand topic /tf has message type tf2_msgs/msg/TFMessage, which lfd cannot read as hand "
          "keypoints; supported: geometry_msgs/PoseArray, visualization_msgs/MarkerArray"),
-        (lambda t: t.replace("[hand]", "[hands]"), "unknown key 'hands'"),
+        (lambda t: t.replace("[hand]", "[hands]"), r"\[hands\]: unknown key '.*'; known keys: right, left"),
         (lambda t: t.replace('side = "right"', "side = 3"), "hand.side"),
         (lambda t: t.replace("size = [0.05, 0.05, 0.05]", "size = [0.05, 0.05]"), "objects.box_1.size"),
         (lambda t: t.replace('units = "m"', 'units = "cm"'), "units must be"),
