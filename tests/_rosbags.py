@@ -121,9 +121,7 @@ def write_ros1(demo: lfd.Demonstration, path: Path, *, compression: str | None =
         for t, topic, msg in sorted(msgs, key=lambda m: m[0]):
             w.write(conns[topic], t, store.serialize_ros1(msg, types[topic]))
     if demo.other_hand is not None:
-        hands = "".join(
-            f'[hands.{side}]\ntopic = "{topic_of[side]}"\n\n' for side in demo.hands
-        )
+        hands = "".join(f'[hands.{side}]\ntopic = "{topic_of[side]}"\n\n' for side in demo.hands)
         return 'reference_frame = "world"\nunits = "m"\n\n' + hands + _objects_toml(demo, "frame")
     return (
         'reference_frame = "world"\nunits = "m"\n\n[hand]\ntopic = "/hand/keypoints"\n'
