@@ -134,6 +134,14 @@ def _lanes_from_json(doc: dict[str, Any], where: str) -> list[Entry]:
     return entries
 
 
+def _nanoseconds(value: Any, where: str, key: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or not -(2**63) <= value < 2**63:
+        raise UsageError(
+            f"{where}: {key} must be integer nanoseconds (64-bit), got {_shown(value)}"
+        )
+    return value
+
+
 def _entries_from_json(doc: Any, where: str) -> tuple[list[Entry], list[Entry] | None]:
     """The label entries and, when the file gives them, the handover entries."""
     if not isinstance(doc, dict):
@@ -212,15 +220,15 @@ class _Span:
         origin, or absolute ``start_ns``/``end_ns``), checked to lie in the recording."""
         t0 = self.origin(origin)
         if "start_s" not in e and "start_ns" in e and "end_ns" in e:
-            a, b = (_number(e[k], where, k) for k in ("start_ns", "end_ns"))
+            a, b = (_nanoseconds(e[k], where, k) for k in ("start_ns", "end_ns"))
             s, f = (a - t0) * 1e-9, (b - t0) * 1e-9
         else:
             s, f = _number(e["start_s"], where, "start_s"), _number(e["end_s"], where, "end_s")
+            a, b = t0 + round(s * 1e9), t0 + round(f * 1e9)
         what = f"{where} ({name} {s:.3f}-{f:.3f} s)"
         span = f"0-{(self.end - t0) * 1e-9:.3f} s" if origin is None else "the recording"
-        if f <= s:
+        if b <= a:
             raise UsageError(f"{what}: ends before it starts (or is empty)")
-        a, b = t0 + round(s * 1e9), t0 + round(f * 1e9)
         if a < self.start:
             raise UsageError(f"{what}: starts before the recording (it spans {span})")
         if b > self.end + END_TOLERANCE_NS:
