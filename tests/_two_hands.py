@@ -7,10 +7,9 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
+import lfd
 import numpy as np
 from _paths import EXP1
-
-import lfd
 from lfd.demo import Demonstration, Handover, HandTrack
 
 
