@@ -434,20 +434,20 @@ def write_labels(
             )
         event_schema: list[int] = []
 
-        def channel(topic: str) -> int:
+        def new_channel(topic: str) -> int:
             if not event_schema:
                 fds = build_file_descriptor_set(Event).SerializeToString()
                 event_schema.append(writer.register_schema(T.EVENT_SCHEMA, "protobuf", fds))
             return writer.register_channel(topic, "protobuf", event_schema[0], {})
 
         if labels and gt_channel is None:
-            gt_channel = channel(T.GROUND_TRUTH_TOPIC)
+            gt_channel = new_channel(T.GROUND_TRUTH_TOPIC)
         for lab in labels:
             assert gt_channel is not None
             data = M.event(lab).SerializeToString()
             writer.add_message(gt_channel, lab.start_ns, data, lab.start_ns, 0)
         if handovers and ho_channel is None:
-            ho_channel = channel(T.HANDOVERS_TOPIC)
+            ho_channel = new_channel(T.HANDOVERS_TOPIC)
         for h in handovers or ():
             assert ho_channel is not None
             data = M.handover_event(h).SerializeToString()

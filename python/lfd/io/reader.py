@@ -5,6 +5,11 @@ chunk and emits a :class:`~lfd.errors.RecoveredFileWarning`; out-of-order sample
 duplicate timestamps dropped with a :class:`~lfd.errors.TimestampWarning`; both are also
 recorded in ``demo.metadata["load_report"]``. A file that is not MCAP, or lacks the hand
 keypoints or every object pose, raises :class:`~lfd.errors.RecordingFormatError`.
+
+A file with both hands (``/hand/right/...`` and ``/hand/left/...``) loads as a two-hand
+demonstration (``demo.other_hand``, labels by ``hand``, handovers); a hand topic of an unknown
+side, hands on two clocks and labels or handovers for a hand the file lacks are refused
+(:mod:`lfd.io.hands`).
 """
 
 from __future__ import annotations
@@ -510,7 +515,8 @@ def load(
     Returns
     -------
     Demonstration
-        With ``metadata["load_report"]``: ``complete``, ``messages``, ``unsorted`` and
+        One hand, or two when the file holds both (``demo.hand`` the right, ``other_hand`` the
+        left; each label's ``hand`` set; ``handovers``). With ``metadata["load_report"]``: ``complete``, ``messages``, ``unsorted`` and
         ``duplicates`` (per topic), ``recovered`` (the warning text, or None), ``damage`` (the
         damaged chunks stepped over and the messages lost, one line, or None: every other
         chunk is read).
@@ -518,7 +524,9 @@ def load(
     Raises
     ------
     RecordingFormatError
-        Not an MCAP file, empty, or missing the hand keypoints / every object pose.
+        Not an MCAP file, empty, or missing the hand keypoints / every object pose; a hand topic
+        of an unknown side, two hands not on one clock, a label or handover for a hand the file
+        lacks (:mod:`lfd.io.hands`).
     UsageError
         A ROS bag without ``mapping``, a ``mapping`` for an lfd recording, or an object size
         for an object the recording does not have.
@@ -612,9 +620,11 @@ def _channel_span(raw: Records, topics: Sequence[str]) -> tuple[int, int] | None
     """The first and last log time of the channels ``topics`` (None: not known)."""
     firsts = [raw.channels[t].first_ns for t in topics]
     lasts = [raw.channels[t].last_ns for t in topics]
-    if any(v is None for v in firsts + lasts):
+    known_firsts = [v for v in firsts if v is not None]
+    known_lasts = [v for v in lasts if v is not None]
+    if len(known_firsts) < len(firsts) or len(known_lasts) < len(lasts):
         return None
-    return min(firsts), max(lasts)  # type: ignore[type-var]
+    return min(known_firsts), max(known_lasts)
 
 
 def hand_side(raw: Records, complete: bool = True, error: str | None = None) -> str:

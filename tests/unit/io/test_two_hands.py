@@ -115,7 +115,9 @@ def test_recorder_takes_samples_of_either_hand(tmp_path: Path) -> None:
     with lfd.io.McapRecorder(one, objects=objects) as rec:
         with pytest.raises(DemonstrationError, match="records the right hand"):
             rec.add_hand(0, demo.hand.keypoints[0], side="left")
-        with pytest.raises(DemonstrationError, match="names the left hand, which the recording lacks"):
+        with pytest.raises(
+            DemonstrationError, match="names the left hand, which the recording lacks"
+        ):
             rec.add_handover(Handover(1, 2, "right", "left"))
         with pytest.raises(DemonstrationError, match="left hand, which the recording lacks"):
             rec.add_label(SkillLabel("move", 1, 2, hand="left"))
