@@ -556,7 +556,10 @@ def _load_topics(images: bool) -> list[str]:
 
 def check_hand_topics(raw: Records) -> None:
     """Raise :class:`~lfd.errors.RecordingFormatError` if the recording has a
-    ``/hand/<side>/...`` topic of an unknown side (``/hand/middle/keypoints``)."""
+    ``/hand/<side>/...`` topic of an unknown side (``/hand/middle/keypoints``). A ROS
+    recording's topics are its own (its mapping names the hands): not checked."""
+    if is_ros_recording(raw):
+        return
     unknown = T.unknown_hand_topics(raw.channels)
     if unknown:
         raise RecordingFormatError(
@@ -605,7 +608,10 @@ def _object_topics(raw: Records) -> list[str]:
 
 def check_hand_clock(raw: Records) -> None:
     """Raise :class:`~lfd.errors.RecordingFormatError` if the recording's two hands break the
-    clock rule (:func:`lfd.io.hands.clock_problem`) on their channels' first and last times."""
+    clock rule (:func:`lfd.io.hands.clock_problem`) on their channels' first and last times
+    (a ROS recording's hands are its mapping's: checked when it is loaded)."""
+    if is_ros_recording(raw):
+        return
     hands = {s: _channel_span(raw, [T.hand_topic(s)]) for s in present_sides(raw)}
     objects = _object_topics(raw)
     problem = clock_problem(
@@ -714,7 +720,7 @@ def demonstration_of(
     return demo
 
 
-def is_ros_recording(raw: RawRecording) -> bool:
+def is_ros_recording(raw: Records) -> bool:
     """Whether an MCAP file holds ROS messages (a channel with message encoding ``cdr``, ROS 2,
     or ``ros1``)."""
     return any(c.encoding in ("cdr", "ros1") for c in raw.channels.values())
