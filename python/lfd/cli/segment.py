@@ -119,7 +119,7 @@ def segment_stream(
 
     method = segmentation_method(args)
     con = console(args)
-    sides = follow_sides(follower)
+    sides: tuple[str, ...] = ()
     seg: LiveSegmentation | LiveHands | None = None
     labels: list[Any] = []
     for msg in messages:
@@ -137,6 +137,7 @@ def segment_stream(
                 [o[1] for o in objects],
             )
             meta = follower.demo_metadata
+            sides = follow_sides(follower)  # as declared once the file's first records are read
             seg = (
                 LiveHands(names, sizes, method=method, sides=sides, tag_ids=tags, metadata=meta)
                 if len(sides) > 1
@@ -146,10 +147,11 @@ def segment_stream(
             )
         if seg is None:
             continue
+        side = getattr(msg, "side", None)
         if isinstance(seg, LiveHands):  # each hand's frames to its lane
-            up: Any = seg.push_recorded(
-                msg.kind, msg.t_ns, msg.value, side=getattr(msg, "side", None)
-            )
+            up: Any = seg.push_recorded(msg.kind, msg.t_ns, msg.value, side=side)
+        elif side not in (None, sides[0]):
+            continue  # a hand not segmented (a file whose other hand came later)
         else:
             up = seg.push_recorded(msg.kind, msg.t_ns, msg.value)
         _show_update(seg, up, timeline(), con)
@@ -165,9 +167,9 @@ def segment_stream(
 
 
 def follow_sides(follower: Any) -> tuple[str, ...]:
-    """The hands of a followed recording (``hand_sides`` when the follower tells them, else
-    its one ``hand_side``)."""
-    sides = getattr(follower, "hand_sides", None)
+    """The hands of a followed recording (:attr:`lfd.io.Follower.sides`, else its one
+    ``hand_side``)."""
+    sides = getattr(follower, "sides", None)
     return tuple(sides) if sides else (follower.hand_side,)
 
 

@@ -10,7 +10,7 @@ import _paths
 import lfd
 import numpy as np
 import pytest
-from _two_hands import idle_left
+from _two_hand_tasks import idle_left
 from lfd.errors import InvalidParameterError
 from lfd.segmentation.live import HandMessage, LiveSegmentation, demo_messages
 from lfd.segmentation.live_hands import LiveHands, segment_hands_live
@@ -139,7 +139,7 @@ def test_follow_stream_of_two_hands(
     args.recording = args.recordings[0]
     follower = SimpleNamespace(
         hand_side="right",
-        hand_sides=("right", "left"),
+        sides=("right", "left"),
         objects=[(n, o.tag_id, o.size.tolist()) for n, o in two.objects.items()],
         demo_metadata={},
     )

@@ -10,7 +10,7 @@ from pathlib import Path
 import _paths
 import lfd
 import pytest
-from _two_hands import busy_left, handover_labels, hold_labels, idle_left
+from _two_hand_tasks import busy_left, handover_labels, hold_labels, idle_left
 from lfd.errors import DemonstrationError
 from lfd.reproduce.program import from_hand_labels, from_hands
 

@@ -11,7 +11,7 @@ import _paths
 import lfd
 import numpy as np
 import pytest
-from _two_hands import busy_left, handover_labels, idle_left
+from _two_hand_tasks import busy_left, handover_labels, idle_left
 
 rr = pytest.importorskip("rerun")
 
