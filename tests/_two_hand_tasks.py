@@ -1,6 +1,6 @@
-"""Two-hand demonstrations made from a shipped one-hand recording, until lfd writes two-hand
-files of its own: the recorded hand as the right one, and a left hand that rests away from the
-objects (its lane one ``move``) or whose lane does a known part of the task (labels only)."""
+"""Two-hand tasks for one arm, made from a shipped one-hand recording: the recorded hand as the
+right one, and a left hand that rests away from the objects (its lane one ``move``) or whose
+lane does a known part of the task (labels only: a handover, a hold); saved with lfd.save."""
 
 from __future__ import annotations
 
@@ -24,6 +24,7 @@ def idle_left(demo: Demonstration) -> Demonstration:
     hand does all of the task."""
     labels = [dataclasses.replace(lab, hand="right") for lab in demo.labels]
     labels.append(SkillLabel("move", demo.start_ns, demo.end_ns, None, hand="left"))
+    labels.sort(key=lambda lab: (lab.start_ns, lab.end_ns))  # as lfd.save writes them
     return dataclasses.replace(demo, other_hand=resting_left(demo), labels=labels, live_segments=[])
 
 
@@ -46,6 +47,7 @@ def handover_labels(t0: int) -> tuple[list[SkillLabel], list[Handover]]:
     ]
     labels = [SkillLabel(k, s(a), s(b), o, hand="right") for k, a, b, o in right]
     labels += [SkillLabel(k, s(a), s(b), o, hand="left") for k, a, b, o in left]
+    labels.sort(key=lambda lab: (lab.start_ns, lab.end_ns))
     return labels, [Handover(s(3.0), s(3.4), "right", "left", "box_2")]
 
 

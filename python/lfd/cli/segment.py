@@ -236,7 +236,7 @@ def _run_follow(args: argparse.Namespace) -> int:
                 state["live"].log_message(msg)
             counts[msg.kind] = counts.get(msg.kind, 0) + 1
             state["first"] = msg.t_ns if state["first"] is None else state["first"]
-            state["last"] = msg.t_ns
+            state["last"] = msg.t_ns if state["last"] is None else max(state["last"], msg.t_ns)
             span = (state["last"] - state["first"]) * 1e-9
             progress.update(
                 task,

@@ -168,3 +168,42 @@ def test_follow_stream_of_two_hands(
     out = capsys.readouterr().out
     assert out.count("settled: left ") == len(result.lanes["left"].segments)
     assert out.count("settled: right ") == len(result.lanes["right"].segments)
+
+
+def test_lfd_segment_follow_a_two_hand_file(two: lfd.Demonstration, tmp_path: Path) -> None:
+    """``lfd segment --follow`` of a two-hand file written by lfd.save: a lane per hand, the
+    batch skills of each hand (lfd.segment_hands of the file), shown live per hand."""
+    import json
+
+    from lfd.cli import main
+
+    rec, out, rrd = tmp_path / "two.mcap", tmp_path / "live.json", tmp_path / "live.rrd"
+    lfd.save(two, rec)
+    args = ["segment", "--follow", str(rec), "--idle-timeout", "2", "--json", str(out)]
+    has_rerun = True
+    try:
+        import rerun  # noqa: F401
+    except ImportError:
+        has_rerun = False
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert main(args + (["--rerun-save", str(rrd)] if has_rerun else [])) == 0
+        batch = lfd.segment_hands(lfd.load(rec))
+    doc = json.loads(out.read_text())
+    assert set(doc["hands"]) == {"right", "left"} and doc["live"]["stopped"] == "end"
+    for side in ("right", "left"):
+        got = [(s["skill"], s["object"]) for s in doc["hands"][side]["segments"]]
+        assert got == [(s.skill, s.object) for s in batch.lanes[side].segments], side
+    if has_rerun:
+        from _rrd import Rrd
+
+        data = Rrd(rrd)
+        for side in ("right", "left"):
+            assert len(data.entity(f"/world/hand/{side}/keypoints")) == len(two.hands[side])
+            states = data.column(f"/segmentation/skills/{side}/result", "StateChange:state")
+            assert len([x for x in states if x[0]]) == len(batch.lanes[side].segments)
+            truth = data.column(f"/segmentation/skills/{side}/ground_truth", "StateChange:state")
+            assert [x[0] for x in truth if x[0]] == [
+                f"{lab.skill}({lab.object})" if lab.object else lab.skill
+                for lab in two.labels_of(side)
+            ]

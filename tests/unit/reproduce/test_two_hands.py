@@ -100,16 +100,14 @@ def test_from_hands_segmentation(exp1: lfd.Demonstration) -> None:
     assert [s.skill for s in prog.lanes["right"]] == both.lanes["right"].skill_sequence
 
 
-def _patched_load(monkeypatch: pytest.MonkeyPatch, demo: lfd.Demonstration) -> None:
-    """``lfd reproduce`` reads ``demo`` (until two-hand files are written by lfd.save)."""
-    import lfd.io
-
-    monkeypatch.setattr(lfd.io, "load", lambda *a, **k: demo)
+def _saved(demo: lfd.Demonstration, path: Path) -> Path:
+    """``demo`` written with lfd.save (both hands, labels per hand, handovers)."""
+    lfd.save(demo, path)
+    return path
 
 
 def test_reproduce_refuses_a_two_hand_task_in_one_line(
     exp1: lfd.Demonstration,
-    monkeypatch: pytest.MonkeyPatch,
     capsys: pytest.CaptureFixture[str],
     tmp_path: Path,
 ) -> None:
@@ -117,27 +115,24 @@ def test_reproduce_refuses_a_two_hand_task_in_one_line(
 
     pytest.importorskip("mujoco")
     labels, handovers = handover_labels(exp1.start_ns)
-    _patched_load(monkeypatch, busy_left(exp1, labels, handovers))
+    rec = _saved(busy_left(exp1, labels, handovers), tmp_path / "two.mcap")
     out = tmp_path / "r.json"
-    assert main(["reproduce", str(EXP1), "--json", str(out)]) == 2
+    assert main(["reproduce", str(rec), "--json", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("lfd reproduce: error: both hands handle objects")
     assert "--hand right or --hand left" in err[0]
     assert not out.exists()
     # the program is still printed (and written) on request, nothing simulated
-    assert main(["reproduce", str(EXP1), "--program", "--json", str(out)]) == 0
+    assert main(["reproduce", str(rec), "--program", "--json", str(out)]) == 0
     printed = capsys.readouterr().out
     assert "left hand:" in printed and "handover of box_2" in printed
     assert json.loads(out.read_text())["program"]["sync"][0]["kind"] == "handover"
-    monkeypatch.undo()  # the shipped one-hand recording has no left hand
     assert main(["reproduce", str(EXP1), "--hand", "left"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [f"lfd reproduce: error: --hand left: {EXP1} has no left hand (it has the right)"]
 
 
-def test_reproduce_runs_the_hand_that_does_it_all(
-    exp1: lfd.Demonstration, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
-) -> None:
+def test_reproduce_runs_the_hand_that_does_it_all(exp1: lfd.Demonstration, tmp_path: Path) -> None:
     """The left hand only rests: the arm does the right hand's task, with the right hand's
     trajectory, as it does the one-hand recording."""
     from lfd.cli import main
@@ -145,9 +140,9 @@ def test_reproduce_runs_the_hand_that_does_it_all(
     pytest.importorskip("mujoco")
     one, two = tmp_path / "one.json", tmp_path / "two.json"
     assert main(["reproduce", str(EXP1), "--json", str(one)]) == 0
-    _patched_load(monkeypatch, idle_left(exp1))
+    rec = _saved(idle_left(exp1), tmp_path / "two.mcap")
     rrd = tmp_path / "two.rrd"
-    assert main(["reproduce", str(EXP1), "--json", str(two), "--rerun-save", str(rrd)]) == 0
+    assert main(["reproduce", str(rec), "--json", str(two), "--rerun-save", str(rrd)]) == 0
     a, b = json.loads(one.read_text()), json.loads(two.read_text())
     if rrd.exists():  # the viewer (optional extra): both hands, the followed one's gripper
         from _rrd import Rrd
@@ -162,17 +157,16 @@ def test_reproduce_runs_the_hand_that_does_it_all(
 
 
 def test_program_of_the_segmentation(
-    exp1: lfd.Demonstration, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+    exp1: lfd.Demonstration, capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
     """``--program --segment`` of a two-hand recording: each hand's lane as lfd.segment_hands
     finds it, nothing simulated."""
     from lfd.cli import main
 
-    two = idle_left(exp1)
-    _patched_load(monkeypatch, two)
-    assert main(["reproduce", str(EXP1), "--program", "--segment"]) == 0
+    rec = _saved(idle_left(exp1), tmp_path / "two.mcap")
+    assert main(["reproduce", str(rec), "--program", "--segment"]) == 0
     out = capsys.readouterr().out.splitlines()
-    both = lfd.segment_hands(two)
+    both = lfd.segment_hands(lfd.load(rec))
     left = out.index("left hand:")
     assert out[0] == "right hand:" and left == 1 + len(both.lanes["right"].segments)
     steps = out[left + 1 : left + 1 + len(both.lanes["left"].segments)]
