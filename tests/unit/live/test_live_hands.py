@@ -207,3 +207,42 @@ def test_lfd_segment_follow_a_two_hand_file(two: lfd.Demonstration, tmp_path: Pa
                 f"{lab.skill}({lab.object})" if lab.object else lab.skill
                 for lab in two.labels_of(side)
             ]
+
+
+def test_a_handover_settles_once_both_lanes_have(
+    two: lfd.Demonstration, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A handover every run finds (the segmentation's, here added to each run of
+    lfd.segment_hands that reaches it) settles once, when the giver's lane has settled past its
+    end and the taker's past its start, before the recording ends; the result has it once."""
+    import dataclasses
+
+    import lfd.segmentation as segmentation
+
+    real = segmentation.segment_hands
+    h = lfd.Handover(two.start_ns + 3 * 10**9, two.start_ns + 4 * 10**9, "right", "left", "box_2")
+
+    def with_handover(demo, *args, **kwargs):
+        out = real(demo, *args, **kwargs)
+        return dataclasses.replace(out, handovers=[h] if demo.end_ns > h.end_ns else [])
+
+    monkeypatch.setattr(segmentation, "segment_hands", with_handover)
+    # both hands the recorded one: both lanes settle their skills while it is recorded
+    twin = dataclasses.replace(
+        two, other_hand=dataclasses.replace(two.hand, side="left"), labels=[], handovers=[]
+    )
+    live = LiveHands.for_demonstration(twin)
+    when = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for msg in demo_messages(twin):
+            up = live.push(msg)
+            if up.handovers:
+                when.append((msg.t_ns, up.handovers))
+                fronts = {side: lane.settled_until for side, lane in live.lanes.items()}
+        end = live.finish()
+    assert len(when) == 1 and when[0][1] == [h] and end.handovers == []
+    assert when[0][0] < two.end_ns - 10**9  # settled while recording
+    assert fronts["right"] >= h.end_ns - live.tolerance_ns
+    assert fronts["left"] >= h.start_ns - live.tolerance_ns
+    assert live.result().handovers == [h]
