@@ -231,8 +231,8 @@ def _trajectory_and_program(demo: Any, args: argparse.Namespace) -> tuple[Any, A
     if len(demo.sides) > 1 and not args.task:
         hands = _hands_program(demo, args)
         demo = demo.one_hand(_side(hands, args))
-    elif args.hand:
-        demo = demo.one_hand(args.hand)
+    elif args.hand or len(demo.sides) > 1:  # --task: the arm follows --hand, else the right
+        demo = demo.one_hand(args.hand or demo.sides[0])
     traj = preprocess(demo, **PREPROCESSING)
     t0 = int(traj.t_ns[0])
     program = TaskProgram.load(args.task) if args.task else from_labels(demo.labels, t0)
@@ -275,9 +275,21 @@ def _side(hands: Any, args: argparse.Namespace) -> str:
 def _print_program(args: argparse.Namespace) -> int:
     """``--program``: the task program (per hand with two), printed (and ``--json``), nothing
     simulated."""
+    from ..errors import UsageError
     from ..io import load
     from ..reproduce import TaskProgram, from_hands, from_labels
+    from ._rerun import wants_rerun
 
+    used = (
+        ("--randomise", args.randomise),
+        ("--video", args.video),
+        ("--rerun", wants_rerun(args)),
+    )
+    clash = [opt for opt, on in used if on]
+    if clash:
+        raise UsageError(f"--program prints the program and runs nothing; drop {clash[0]}")
+    if args.segment and args.task:
+        raise UsageError("--task PROGRAM and --segment both say what to run; give one")
     inputs = [p for p in (args.recording, args.task, args.map) if p]
     check_json(args, inputs)
     demo = load(args.recording, images=False, **load_options(args))
@@ -285,8 +297,8 @@ def _print_program(args: argparse.Namespace) -> int:
     if args.hand:
         demo = demo.one_hand(args.hand)
     if args.task:
-        doc = TaskProgram.load(args.task).to_json()
-        lines = [f"{s['skill']} {s['object'] or '-'}" for s in doc["segments"]]
+        program = TaskProgram.load(args.task)
+        doc, lines = program.to_json(), _program_lines(program)
     elif args.segment:
         from ..segmentation import segment_hands
 
@@ -298,11 +310,7 @@ def _print_program(args: argparse.Namespace) -> int:
         doc, lines = hands.to_json(), hands.lines()
     else:
         program = from_labels(demo.labels, demo.start_ns)
-        doc = program.to_json()
-        lines = [
-            f"{i:>2} {s.skill:<10} {s.object or '-':<10} {s.start_s:7.2f} - {s.end_s:7.2f} s"
-            for i, s in enumerate(program.segments)
-        ]
+        doc, lines = program.to_json(), _program_lines(program)
     con = console(args)
     for line in lines:
         con.print(line, highlight=False, markup=False)
@@ -418,6 +426,14 @@ def _run_randomised(
         write_json(args.json, doc)
     judged = [m for m in modes if not (args.mode == "all" and m == "replay")]
     return 0 if all(r.success for r in res.runs if r.mode in judged) else 1
+
+
+def _program_lines(program: Any) -> list[str]:
+    """A one-arm task program as text, a line per step (as a hand's steps are printed)."""
+    return [
+        f"{i:>2} {s.skill:<10} {s.object or '-':<10} {s.start_s:7.2f} - {s.end_s:7.2f} s"
+        for i, s in enumerate(program.segments)
+    ]
 
 
 def _segment_checked(demo: Any, args: argparse.Namespace) -> tuple[Any, Any]:

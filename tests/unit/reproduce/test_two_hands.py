@@ -127,6 +127,18 @@ def test_reproduce_refuses_a_two_hand_task_in_one_line(
     printed = capsys.readouterr().out
     assert "left hand:" in printed and "handover of box_2" in printed
     assert json.loads(out.read_text())["program"]["sync"][0]["kind"] == "handover"
+    # --program runs nothing: what only a run makes is refused, one line
+    assert main(["reproduce", str(rec), "--program", "--rerun-save", str(tmp_path / "v.rrd")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        "lfd reproduce: error: --program prints the program and runs nothing; drop --rerun"
+    ]
+    # one hand's part, as a one-arm program
+    assert main(["reproduce", str(rec), "--program", "--hand", "left"]) == 0
+    steps = capsys.readouterr().out.splitlines()
+    assert [line.split()[1] for line in steps] == [
+        lab.skill for lab in labels if lab.hand == "left"
+    ]
     assert main(["reproduce", str(EXP1), "--hand", "left"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [f"lfd reproduce: error: --hand left: {EXP1} has no left hand (it has the right)"]
