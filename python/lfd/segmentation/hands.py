@@ -39,11 +39,15 @@ class HandsSegmentation:
     warnings : list[str]
         What checking the lanes against each other found (prefixed by the hand's side), beside
         each lane's own warnings.
+    method : Method or None
+        The method every lane was segmented with, once for the run (each lane's
+        :class:`~lfd.segmentation.result.Run` keeps its own trajectory, features and scores).
     """
 
     lanes: dict[str, Segmentation]
     handovers: list[Handover] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    method: Any = field(default=None, repr=False, compare=False)
 
     @property
     def sides(self) -> tuple[str, ...]:
@@ -75,3 +79,7 @@ class HandsSegmentation:
             ],
             "warnings": list(self.warnings),
         }
+
+    def lane_runs(self) -> dict[str, Any]:
+        """Each lane's :class:`~lfd.segmentation.result.Run` by side (None for a baseline)."""
+        return {side: seg.run for side, seg in self.lanes.items()}

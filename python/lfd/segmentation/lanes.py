@@ -1,0 +1,287 @@
+"""Both hands segmented together (docs/skills.md, "Two hands"): each hand's lane on the
+demonstration as that hand sees it (:func:`lfd.segmentation.attribution.hand_view`), the lanes
+reconciled with contact (an object is held only by the hand(s) touching it), the handovers
+found where one hand's carry ends in the air while the other already holds the object, and the
+grammar checked per hand and across hands.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..demo import Demonstration, Handover
+from ..skills import impossible_transitions
+from .attribution import AttributionParams, hand_view, tip_distances
+from .hands import HandsSegmentation
+from .result import Segment, Segmentation
+
+TOUCHING: frozenset[str] = frozenset({"pick_up", "move_with", "place", "stack", "push"})
+"""Skills whose object the hand touches (a Move or Locate touches none)."""
+
+
+@dataclass(frozen=True)
+class LaneParams:
+    """How the lanes are reconciled.
+
+    Attributes
+    ----------
+    touch_m : float
+        A hand touches an object when its TCP is within this of the object's box (m).
+    release_m, approach_m : float
+        A Place has let go once the TCP is this far (m) from the object's box for good; a Pick
+        up begins where the TCP was last this far from it before the grasp.
+    reach_s : float
+        A Pick up's grasp, a Place's release may fall this long (s) after its end or before
+        its start.
+    air_m : float
+        A release is in the air (a handover, not a Place on the table) when the object is at
+        least this much (m) above the lowest it rests in the recording.
+    """
+
+    touch_m: float = 0.02
+    reach_s: float = 0.3
+    air_m: float = 0.05
+    release_m: float = 0.03
+    approach_m: float = 0.08
+
+
+def segment_lanes(
+    demo: Demonstration,
+    segment_one: Callable[[Demonstration], Segmentation],
+    *,
+    attribution: AttributionParams | None = None,
+    params: LaneParams | None = None,
+) -> HandsSegmentation:
+    """Every hand of ``demo`` segmented by ``segment_one`` on its own view, the lanes
+    reconciled and the handovers found (see the module). A one-hand demonstration gives one
+    lane, ``segment_one`` of that hand alone, untouched."""
+    if len(demo.sides) < 2:
+        side = demo.sides[0]
+        return HandsSegmentation(lanes={side: segment_one(demo.one_hand(side))})
+    p = params or LaneParams()
+    lanes: dict[str, Segmentation] = {}
+    for side in demo.sides:
+        seg = segment_one(hand_view(demo, side, attribution))
+        dist = _distances(demo, side, seg)
+        touch = {name: np.asarray(d <= p.touch_m) for name, d in dist.items()}
+        seg.segments = _trim(_reconcile(seg.segments, touch, p, seg), dist, p)
+        lanes[side] = seg
+    handovers = find_handovers(demo, lanes, p)
+    result = HandsSegmentation(lanes=lanes, handovers=handovers)
+    result.warnings.extend(check_lanes(result))
+    return result
+
+
+def _distances(demo: Demonstration, side: str, seg: Segmentation) -> dict[str, np.ndarray]:
+    """Per object name: the ``side`` hand's TCP distance (m) from its box at ``seg``'s
+    trajectory samples (inf where unknown)."""
+    out: dict[str, np.ndarray] = {}
+    t = _sample_times(seg)
+    for name, obj in demo.objects.items():
+        if not len(obj):
+            continue
+        tcp, _, _ = tip_distances(demo.hands[side], obj)
+        i = np.clip(np.searchsorted(obj.t_ns, t), 0, len(obj) - 1)
+        out[name] = np.where(np.isfinite(tcp[i]), tcp[i], np.inf)
+    return out
+
+
+def _sample_times(seg: Segmentation) -> np.ndarray:
+    """Absolute times (ns) of the segmented trajectory's samples."""
+    if seg.run is not None:
+        traj = seg.run.trajectory
+        return np.asarray(traj.t_ns, dtype=np.int64)
+    end = seg.segments[-1].end
+    t0, t1 = seg.segments[0].start_ns, seg.segments[-1].end_ns
+    return np.linspace(t0, t1, end, endpoint=False).astype(np.int64)
+
+
+def _touches(seg: Segment, touch: dict[str, np.ndarray], k: int) -> bool:
+    """Does the hand touch ``seg``'s object during it (``k`` samples of slack at the end of a
+    Pick up, at the start of a Place or Stack)?"""
+    mask = touch.get(seg.object or "")
+    if mask is None:
+        return True
+    a, b = seg.start, seg.end
+    if seg.skill == "pick_up":
+        b += k
+    elif seg.skill in ("place", "stack"):
+        a -= k
+    a, b = max(a, 0), min(b, len(mask))
+    return bool(mask[a:b].any()) if b > a else True
+
+
+def _reconcile(
+    segments: list[Segment],
+    touch: dict[str, np.ndarray],
+    p: LaneParams,
+    seg: Segmentation,
+) -> list[Segment]:
+    """A skill on an object the hand never touches becomes a Move (its motion was the other
+    hand's); neighbouring Moves merge into one."""
+    if not segments:
+        return segments
+    dt = (segments[-1].end_s - segments[0].start_s) / max(segments[-1].end - segments[0].start, 1)
+    k = max(1, round(p.reach_s / dt)) if dt > 0 else 1
+    out: list[Segment] = []
+    for s in segments:
+        cur = s
+        if s.skill in TOUCHING and not _touches(s, touch, k):
+            cur = dataclasses.replace(
+                s, skill="move", score=float("nan"), confidence=float("nan"),
+                margin=float("nan"), params={},
+            )  # fmt: skip
+            if seg.warnings is not None:
+                seg.warnings.append(
+                    f"{s.skill} of {s.object} at {s.start_s:.2f}-{s.end_s:.2f} s: the hand never "
+                    "touches it (the other hand moved it): a move"
+                )
+        if out and out[-1].skill == "move" and cur.skill == "move":
+            prev = out[-1]
+            out[-1] = dataclasses.replace(
+                prev, end=cur.end, end_s=cur.end_s, end_ns=cur.end_ns, object=cur.object,
+                score=float("nan"), confidence=float("nan"), margin=float("nan"),
+            )  # fmt: skip
+            continue
+        out.append(cur)
+    return out
+
+
+def _retimed(seg: Segment, start: int, end: int, times: np.ndarray) -> Segment:
+    """``seg`` on samples ``start..end`` (``times``: the samples' seconds, one past the end)."""
+    t0 = seg.start_ns - round(seg.start_s * 1e9)
+    return dataclasses.replace(
+        seg, start=start, end=end, start_s=float(times[start]), end_s=float(times[end]),
+        start_ns=t0 + round(times[start] * 1e9), end_ns=t0 + round(times[end] * 1e9),
+    )  # fmt: skip
+
+
+def _seconds(segments: list[Segment]) -> np.ndarray:
+    """The seconds of every sample of the segments, and of the end (linear inside each)."""
+    n = segments[-1].end
+    out = np.zeros(n + 1)
+    for s in segments:
+        out[s.start : s.end + 1] = np.linspace(s.start_s, s.end_s, s.end - s.start + 1)
+    return out
+
+
+def _trim(segments: list[Segment], dist: dict[str, np.ndarray], p: LaneParams) -> list[Segment]:
+    """Contact bounds the skills that touch an object: a Place or Stack ends when the hand
+    has let go (its TCP ``release_m`` off the object for good), a Pick up begins where the
+    TCP was last ``approach_m`` from it before the grasp; the time given up goes to the
+    neighbouring Move."""
+    if len(segments) < 2:
+        return segments
+    out = list(segments)
+    times = _seconds(out)
+    for i, s in enumerate(out):
+        d = dist.get(s.object or "")
+        if d is None or s.end - s.start < 2:
+            continue
+        if s.skill in ("place", "stack") and i + 1 < len(out) and out[i + 1].skill == "move":
+            off = np.flatnonzero(d[s.start : s.end] > p.release_m)
+            on = np.flatnonzero(d[s.start : s.end] <= p.touch_m)
+            if len(on) and len(off) and off[-1] == s.end - s.start - 1:
+                gap = np.flatnonzero(np.diff(np.concatenate((off, [s.end - s.start]))) > 1)
+                k = s.start + int(off[gap[-1] + 1] if len(gap) else off[0])
+                k = max(k, s.start + 1, s.start + int(on[0]) + 1)
+                if k < s.end:
+                    out[i] = _retimed(s, s.start, k, times)
+                    out[i + 1] = _retimed(out[i + 1], k, out[i + 1].end, times)
+        elif s.skill == "pick_up" and i > 0 and out[i - 1].skill == "move":
+            on = np.flatnonzero(d[s.start : s.end] <= p.touch_m)
+            first = s.start + (int(on[0]) if len(on) else s.end - s.start - 1)
+            far = np.flatnonzero(d[s.start : first] >= p.approach_m)
+            if len(far):
+                k = s.start + int(far[-1])
+                if s.start < k < s.end - 1:
+                    out[i] = _retimed(s, k, s.end, times)
+                    out[i - 1] = _retimed(out[i - 1], out[i - 1].start, k, times)
+    return out
+
+
+def _rest_height(demo: Demonstration, name: str) -> float:
+    """The lowest height (m) at which the object is seen, the table under it."""
+    z = demo.objects[name].position[:, 2]
+    return float(np.nanmin(z)) if np.isfinite(z).any() else float("nan")
+
+
+def _height_at(demo: Demonstration, name: str, t_ns: int) -> float:
+    obj = demo.objects[name]
+    i = int(np.clip(np.searchsorted(obj.t_ns, t_ns), 0, len(obj) - 1))
+    return float(obj.position[i, 2])
+
+
+def _holding_at(lane: Segmentation, name: str | None, t_ns: int) -> Segment | None:
+    """The lane's segment carrying ``name`` at ``t_ns`` (a Move with, or a Pick up ending
+    there), else None."""
+    for s in lane.segments:
+        if s.object == name and s.skill in ("move_with", "pick_up", "place", "stack"):
+            if s.start_ns <= t_ns < s.end_ns:
+                return s
+    return None
+
+
+def find_handovers(
+    demo: Demonstration,
+    lanes: dict[str, Segmentation],
+    p: LaneParams,
+) -> list[Handover]:
+    """The handovers of the lanes: a giver's Place whose release leaves the object in the air
+    while the taker already carries it. The giver's lane is made to follow the definition
+    (Move with until the taker has grasped, then Place until the release)."""
+    out: list[Handover] = []
+    sides = list(lanes)
+    for giver in sides:
+        taker = next(s for s in sides if s != giver)
+        g_lane, t_lane = lanes[giver], lanes[taker]
+        for i, s in enumerate(g_lane.segments):
+            if s.skill != "place" or s.object is None or s.object not in demo.objects:
+                continue
+            rest = _rest_height(demo, s.object)
+            if not _height_at(demo, s.object, s.end_ns) - rest >= p.air_m:
+                continue
+            carry = _holding_at(t_lane, s.object, s.end_ns)
+            if carry is None or carry.skill not in ("move_with",):
+                continue
+            start_ns = max(min(carry.start_ns, s.end_ns), g_lane.segments[i].start_ns)
+            _giver_follows(g_lane, i, start_ns)
+            out.append(Handover(start_ns, s.end_ns, giver, taker, s.object))
+    return sorted(out, key=lambda h: h.start_ns)
+
+
+def _giver_follows(lane: Segmentation, i: int, start_ns: int) -> None:
+    """The giver's Place ``i`` starts when the taker has grasped (``start_ns``), the Move with
+    before it ending there, when that falls inside both."""
+    if i == 0:
+        return
+    prev, place = lane.segments[i - 1], lane.segments[i]
+    if prev.skill != "move_with" or not prev.start_ns < start_ns < place.end_ns:
+        return
+    frac = (start_ns - place.start_ns) / max(place.end_ns - place.start_ns, 1)
+    k = place.start + round(frac * (place.end - place.start))
+    k = min(max(k, prev.start + 1), place.end - 1)
+    s_at = place.start_s + (k - place.start) * (place.end_s - place.start_s) / max(
+        place.end - place.start, 1
+    )
+    t_at = place.start_ns + round((s_at - place.start_s) * 1e9)
+    lane.segments[i - 1] = dataclasses.replace(prev, end=k, end_s=s_at, end_ns=t_at)
+    lane.segments[i] = dataclasses.replace(place, start=k, start_s=s_at, start_ns=t_at)
+
+
+def check_lanes(result: HandsSegmentation) -> list[str]:
+    """The grammar per hand and across hands, as warnings prefixed by the hand's side."""
+    out: list[str] = []
+    for side, lane in result.lanes.items():
+        out.extend(f"{side}: {w}" for w in impossible_transitions(lane.skill_sequence))
+    for h in result.handovers:
+        taker = result.lanes[h.taker]
+        if _holding_at(taker, h.object, h.end_ns) is None:
+            out.append(
+                f"handover of {h.object} at {h.end_ns} ns: the {h.taker} hand does not hold it"
+            )
+    return out
