@@ -16,6 +16,7 @@ import numpy as np
 from ..demo import Demonstration, Handover
 from ..skills import impossible_transitions
 from .attribution import AttributionParams, hand_view, tip_distances
+from .episodes import CarryParams, carries, overlay
 from .hands import HandsSegmentation
 from .result import Segment, Segmentation
 
@@ -55,6 +56,7 @@ def segment_lanes(
     *,
     attribution: AttributionParams | None = None,
     params: LaneParams | None = None,
+    carry: CarryParams | None = None,
 ) -> HandsSegmentation:
     """Every hand of ``demo`` segmented by ``segment_one`` on its own view, the lanes
     reconciled and the handovers found (see the module). A one-hand demonstration gives one
@@ -64,11 +66,25 @@ def segment_lanes(
         return HandsSegmentation(lanes={side: segment_one(demo.one_hand(side))})
     p = params or LaneParams()
     lanes: dict[str, Segmentation] = {}
-    for side in demo.sides:
-        seg = segment_one(hand_view(demo, side, attribution))
-        dist = _distances(demo, side, seg)
-        touch = {name: np.asarray(d <= p.touch_m) for name, d in dist.items()}
-        seg.segments = _trim(_reconcile(seg.segments, touch, p, seg), dist, p)
+    segs = {side: segment_one(hand_view(demo, side, attribution)) for side in demo.sides}
+    dists = {side: _distances(demo, side, seg) for side, seg in segs.items()}
+    holds = {
+        side: {name: np.asarray(d <= (carry or CarryParams()).hold_m) for name, d in dist.items()}
+        for side, dist in dists.items()
+    }
+    for side, seg in segs.items():
+        other = next(s for s in demo.sides if s != side)
+        t = _sample_times(seg)
+        dt = float(np.median(np.diff(t))) * 1e-9 if len(t) > 1 else 1.0
+        spans = {
+            name: carries(
+                d, _positions(demo, name, t), _rest_height(demo, name), dt, carry,
+                other_hold=_resampled(holds[other].get(name), _sample_times(segs[other]), t),
+            )  # fmt: skip
+            for name, d in dists[side].items()
+        }
+        touch = {name: np.asarray(d <= p.touch_m) for name, d in dists[side].items()}
+        seg.segments = _reconcile(overlay(seg.segments, spans, _seconds(seg.segments)), touch, p, seg)
         lanes[side] = seg
     handovers = find_handovers(demo, lanes, p)
     result = HandsSegmentation(lanes=lanes, handovers=handovers)
@@ -208,6 +224,21 @@ def _rest_height(demo: Demonstration, name: str) -> float:
     """The lowest height (m) at which the object is seen, the table under it."""
     z = demo.objects[name].position[:, 2]
     return float(np.nanmin(z)) if np.isfinite(z).any() else float("nan")
+
+
+def _resampled(mask: np.ndarray | None, t_from: np.ndarray, t_to: np.ndarray) -> np.ndarray | None:
+    """``mask`` at samples ``t_from`` taken at ``t_to`` (the nearest sample before)."""
+    if mask is None or not len(t_from):
+        return None
+    i = np.clip(np.searchsorted(t_from, t_to, side="right") - 1, 0, len(t_from) - 1)
+    return np.asarray(mask[i])
+
+
+def _positions(demo: Demonstration, name: str, t_ns: np.ndarray) -> np.ndarray:
+    """The object's true centre at times ``t_ns`` (its nearest sample)."""
+    obj = demo.objects[name]
+    i = np.clip(np.searchsorted(obj.t_ns, t_ns), 0, len(obj) - 1)
+    return np.asarray(obj.position[i])
 
 
 def _height_at(demo: Demonstration, name: str, t_ns: int) -> float:
