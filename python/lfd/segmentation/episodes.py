@@ -42,13 +42,15 @@ class CarryParams:
     moved_m : float
         The lift begins where the object has moved this far from where the grasp found it.
     lifted_m : float
-        A grasp carries the object when it lifts it this high, or finds it this high above the
-        table (taken from the other hand).
+        The object is off the table (in flight) this high above where it rests.
     place_m : float
         A Place begins where the object was last this far above where it is let go.
     regrip_s : float
         A hand that lets go of an object in the air (the other hand holding it) and grasps it
         again within this long, the object in the air all along, carries on (a regrip).
+    thumb_m : float
+        A hand resting on a set-down object has let go once its thumb tip is this much farther
+        from the box (or its TCP ``release_m`` farther).
     """
 
     hold_m: float = 0.02
@@ -60,6 +62,7 @@ class CarryParams:
     lifted_m: float = 0.03
     place_m: float = 0.05
     regrip_s: float = 1.5
+    thumb_m: float = 0.01
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
@@ -68,23 +71,62 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
 
 
-def _grasps(dist: np.ndarray, z: np.ndarray, dt: float, p: CarryParams) -> list[tuple[int, int]]:
-    """The grasps ``[a, b)``: holds with short lapses closed (and regrips of an object kept in
-    the air), short touches dropped."""
-    hold = dist <= p.hold_m
-    runs = _runs(hold)
-    gap, regrip = max(1, round(p.gap_s / dt)), max(1, round(p.regrip_s / dt))
+def _grasps(dist: np.ndarray, dt: float, p: CarryParams) -> list[tuple[int, int]]:
+    """The grasps ``[a, b)``: holds with short lapses (the TCP staying within ``release_m``)
+    closed, short touches dropped."""
+    gap = max(1, round(p.gap_s / dt))
     merged: list[tuple[int, int]] = []
-    for a, b in runs:
-        prev = merged[-1][1] if merged else -1
-        lapse = a - prev <= gap and (dist[prev:a] < p.release_m).all()
-        with np.errstate(invalid="ignore"):
-            aloft = a - prev <= regrip and bool((z[max(prev - 1, 0) : a + 1] >= p.lifted_m).all())
-        if merged and (lapse or aloft):
+    for a, b in _runs(dist <= p.hold_m):
+        if merged and a - merged[-1][1] <= gap and (dist[merged[-1][1] : a] < p.release_m).all():
             merged[-1] = (merged[-1][0], b)
         else:
             merged.append((a, b))
     return [(a, b) for a, b in merged if b - a >= max(1, round(p.min_hold_s / dt))]
+
+
+def _aloft(z: np.ndarray, dt: float, p: CarryParams) -> list[tuple[int, int]]:
+    """The runs ``[u, v)`` in which the object is off the table (short dips closed)."""
+    with np.errstate(invalid="ignore"):
+        runs = _runs(np.nan_to_num(z, nan=0.0) >= p.lifted_m)
+    gap = max(1, round(p.gap_s / dt))
+    out: list[tuple[int, int]] = []
+    for u, v in runs:
+        if out and u - out[-1][1] <= gap:
+            out[-1] = (out[-1][0], v)
+        else:
+            out.append((u, v))
+    return out
+
+
+def _holds_aloft(
+    grasps: list[tuple[int, int]], u: int, v: int, dt: float, p: CarryParams
+) -> list[tuple[int, int]]:
+    """The grasps that hold the object during its flight ``[u, v)``, regrips (a lapse of at
+    most ``regrip_s`` in the air) joined."""
+    regrip = max(1, round(p.regrip_s / dt))
+    out: list[tuple[int, int]] = []
+    for a, b in grasps:
+        if b <= u or a >= v:
+            continue
+        if out and a - out[-1][1] <= regrip and a < v:
+            out[-1] = (out[-1][0], b)
+        else:
+            out.append((a, b))
+    return out
+
+
+def _released(
+    dist: np.ndarray, thumb: np.ndarray | None, k: int, stop: int, p: CarryParams
+) -> int:
+    """Where a hand resting on a set-down object at ``k`` lets go (before ``stop``): its TCP
+    ``release_m`` farther from the box than at ``k``, or its thumb tip ``thumb_m`` farther."""
+    ref = dist[k]
+    off = dist[k:stop] > max(ref, 0.0) + p.release_m
+    if thumb is not None:
+        with np.errstate(invalid="ignore"):
+            off |= thumb[k:stop] > max(float(np.nan_to_num(thumb[k])), 0.0) + p.thumb_m
+    hit = np.flatnonzero(off)
+    return k + int(hit[0]) if len(hit) else stop
 
 
 def carries(
@@ -94,44 +136,51 @@ def carries(
     dt: float,
     params: CarryParams | None = None,
     other_hold: np.ndarray | None = None,
+    thumb: np.ndarray | None = None,
 ) -> list[tuple[str, int, int]]:
     """The carries of one hand and one object, as ``(skill, start, end)`` spans (samples,
-    ``end`` exclusive): Pick up, Move with, Place for every grasp that lifts the object or
-    takes it in the air. ``dist`` is the TCP's distance from the box (``inf`` unknown),
-    ``position`` the object's centre ``(n, 3)``, ``table_z`` the lowest the object rests;
-    ``other_hold``: where the other hand holds the object (a carry let go of in the air ends
-    with a Place from the other hand's grasp, the handover)."""
+    ``end`` exclusive): Pick up, Move with, Place for every flight of the object (off the
+    table) that this hand holds it in. ``dist`` is the TCP's distance from the box (``inf``
+    unknown), ``thumb`` the thumb tip's, ``position`` the object's centre ``(n, 3)``,
+    ``table_z`` the lowest the object rests; ``other_hold``: where the other hand holds the
+    object (a carry let go of in the air ends with a Place from the other hand's grasp: the
+    handover)."""
     p = params or CarryParams()
     n = len(dist)
-    out: list[tuple[str, int, int]] = []
     z = position[:, 2] - table_z
-    last_end = 0
-    for a, b in _grasps(dist, z, dt, p):
-        if not np.isfinite(z[a:b]).any():
-            continue
-        in_air = z[a] >= p.lifted_m
-        if not in_air and np.nanmax(z[a:b]) - z[a] < p.lifted_m:
-            continue  # turned or slid on the table: no carry
-        off = np.flatnonzero(dist[b:] > p.release_m)
-        release = min(b + int(off[0]) if len(off) else n, n)
-        if in_air:
-            lift = a
-        else:
-            moved = np.linalg.norm(position[a:b] - position[a], axis=1) > p.moved_m
-            lift = a + int(np.argmax(moved)) if moved.any() else a
-        far = np.flatnonzero(dist[last_end:a] >= p.approach_m)
-        start = last_end + int(far[-1]) if len(far) else last_end
-        start = min(start, lift - 1) if lift > last_end else lift
-        high = np.flatnonzero(z[lift:release] - z[release - 1] >= p.place_m)
-        place = lift + int(high[-1]) + 1 if len(high) else lift + 1
-        if z[release - 1] >= p.lifted_m and other_hold is not None and other_hold[release - 1]:
-            taken = np.flatnonzero(~other_hold[lift:release])
-            place = lift + int(taken[-1]) + 1 if len(taken) else lift + 1
-        place = min(max(place, lift + 1), release - 1)
-        if not start < lift < place < release:
-            continue
-        out += [("pick_up", start, lift), ("move_with", lift, place), ("place", place, release)]
-        last_end = release
+    grasps = _grasps(dist, dt, p)
+    flights = _aloft(z, dt, p)
+    out: list[tuple[str, int, int]] = []
+    last = 0
+    for f, (u, v) in enumerate(flights):
+        next_u = flights[f + 1][0] if f + 1 < len(flights) else n
+        for a, b in _holds_aloft(grasps, u, v, dt, p):
+            a = max(a, last)
+            if a <= u:  # this hand lifts it off the table: from where it first moves
+                moved = np.linalg.norm(position[a : u + 1] - position[a], axis=1) > p.moved_m
+                lift = a + int(np.argmax(moved)) if moved.any() else u
+            else:  # taken in the air
+                lift = a
+            far = np.flatnonzero(dist[last:a] >= p.approach_m)
+            start = last + int(far[-1]) if len(far) else last
+            start = min(start, lift)
+            if b >= v:  # set down: the Place from the last 5 cm above the table
+                high = np.flatnonzero(np.nan_to_num(z[lift:v]) >= p.place_m)
+                place = lift + int(high[-1]) + 1 if len(high) else v
+                release = _released(dist, thumb, min(v, n - 1), next_u, p)
+            else:  # let go in the air: from the other hand's grasp (a handover)
+                place = b - 1
+                if other_hold is not None and other_hold[b - 1]:
+                    took = np.flatnonzero(~other_hold[lift : b - 1])
+                    place = lift + int(took[-1]) + 1 if len(took) else lift + 1
+                release = b
+            place = min(max(place, lift + 1), release - 1)
+            if not lift < place < release:
+                continue
+            if start < lift:
+                out.append(("pick_up", start, lift))
+            out += [("move_with", lift, place), ("place", place, release)]
+            last = release
     return out
 
 

@@ -76,10 +76,12 @@ def segment_lanes(
         other = next(s for s in demo.sides if s != side)
         t = _sample_times(seg)
         dt = float(np.median(np.diff(t))) * 1e-9 if len(t) > 1 else 1.0
+        thumbs = _distances(demo, side, seg, tip=1)
         spans = {
             name: carries(
                 d, _positions(demo, name, t), _rest_height(demo, name), dt, carry,
                 other_hold=_resampled(holds[other].get(name), _sample_times(segs[other]), t),
+                thumb=thumbs[name],
             )  # fmt: skip
             for name, d in dists[side].items()
         }
@@ -92,17 +94,19 @@ def segment_lanes(
     return result
 
 
-def _distances(demo: Demonstration, side: str, seg: Segmentation) -> dict[str, np.ndarray]:
-    """Per object name: the ``side`` hand's TCP distance (m) from its box at ``seg``'s
-    trajectory samples (inf where unknown)."""
+def _distances(
+    demo: Demonstration, side: str, seg: Segmentation, tip: int = 0
+) -> dict[str, np.ndarray]:
+    """Per object name: the ``side`` hand's TCP (``tip`` 0; 1 the thumb tip) distance (m)
+    from its box at ``seg``'s trajectory samples (inf where unknown)."""
     out: dict[str, np.ndarray] = {}
     t = _sample_times(seg)
     for name, obj in demo.objects.items():
         if not len(obj):
             continue
-        tcp, _, _ = tip_distances(demo.hands[side], obj)
+        d = tip_distances(demo.hands[side], obj)[tip]
         i = np.clip(np.searchsorted(obj.t_ns, t), 0, len(obj) - 1)
-        out[name] = np.where(np.isfinite(tcp[i]), tcp[i], np.inf)
+        out[name] = np.where(np.isfinite(d[i]), d[i], np.inf)
     return out
 
 
