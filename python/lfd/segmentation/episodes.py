@@ -51,6 +51,10 @@ class CarryParams:
     thumb_m : float
         A hand resting on a set-down object has let go once its thumb tip is this much farther
         from the box (or its TCP ``release_m`` farther).
+    handover_s, let_go_s : float
+        A hand that lets go of an object in the air which the other hand has held for at most
+        ``handover_s`` gives it (a handover: its Place lasts from the other hand's grasp);
+        after a longer two-handed carry its Place is the last ``let_go_s`` before it lets go.
     """
 
     hold_m: float = 0.02
@@ -63,6 +67,8 @@ class CarryParams:
     place_m: float = 0.05
     regrip_s: float = 1.5
     thumb_m: float = 0.01
+    handover_s: float = 3.0
+    let_go_s: float = 0.5
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
@@ -164,15 +170,23 @@ def carries(
             far = np.flatnonzero(dist[last:a] >= p.approach_m)
             start = last + int(far[-1]) if len(far) else last
             start = min(start, lift)
+            if b >= v == n:  # still carried when the recording ends
+                if lift < n:
+                    if start < lift:
+                        out.append(("pick_up", start, lift))
+                    out.append(("move_with", lift, n))
+                break
             if b >= v:  # set down: the Place from the last 5 cm above the table
                 high = np.flatnonzero(np.nan_to_num(z[lift:v]) >= p.place_m)
                 place = lift + int(high[-1]) + 1 if len(high) else v
                 release = _released(dist, thumb, min(v, n - 1), next_u, p)
             else:  # let go in the air: from the other hand's grasp (a handover)
-                place = b - 1
+                place = b - max(1, round(p.let_go_s / dt))
                 if other_hold is not None and other_hold[b - 1]:
                     took = np.flatnonzero(~other_hold[lift : b - 1])
-                    place = lift + int(took[-1]) + 1 if len(took) else lift + 1
+                    took_at = lift + int(took[-1]) + 1 if len(took) else lift + 1
+                    if b - took_at <= round(p.handover_s / dt):
+                        place = took_at
                 release = b
             place = min(max(place, lift + 1), release - 1)
             if not lift < place < release:

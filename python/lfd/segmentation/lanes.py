@@ -41,11 +41,15 @@ class LaneParams:
     air_m : float
         A release is in the air (a handover, not a Place on the table) when the object is at
         least this much (m) above the lowest it rests in the recording.
+    gone_s : float
+        A giver lets go for good: its TCP stays ``release_m`` off the object this long (s)
+        after the handover, and the taker carries the object on at least this long.
     """
 
     touch_m: float = 0.02
     reach_s: float = 0.3
     air_m: float = 0.05
+    gone_s: float = 1.0
     release_m: float = 0.03
     approach_m: float = 0.08
 
@@ -88,7 +92,7 @@ def segment_lanes(
         touch = {name: np.asarray(d <= p.touch_m) for name, d in dists[side].items()}
         seg.segments = _reconcile(overlay(seg.segments, spans, _seconds(seg.segments)), touch, p, seg)
         lanes[side] = seg
-    handovers = find_handovers(demo, lanes, p)
+    handovers = find_handovers(demo, lanes, p, dists)
     result = HandsSegmentation(lanes=lanes, handovers=handovers)
     result.warnings.extend(check_lanes(result))
     return result
@@ -265,9 +269,12 @@ def find_handovers(
     demo: Demonstration,
     lanes: dict[str, Segmentation],
     p: LaneParams,
+    dists: dict[str, dict[str, np.ndarray]] | None = None,
 ) -> list[Handover]:
     """The handovers of the lanes: a giver's Place whose release leaves the object in the air
-    while the taker already carries it. The giver's lane is made to follow the definition
+    while the taker, who grasped it after the giver did, carries it on; the giver lets go for
+    good (its TCP ``release_m`` off the object for ``gone_s``; ``dists``: each hand's TCP
+    distances at its lane's samples). The giver's lane is made to follow the definition
     (Move with until the taker has grasped, then Place until the release)."""
     out: list[Handover] = []
     sides = list(lanes)
@@ -281,12 +288,40 @@ def find_handovers(
             if not _height_at(demo, s.object, s.end_ns) - rest >= p.air_m:
                 continue
             carry = _holding_at(t_lane, s.object, s.end_ns)
-            if carry is None or carry.skill not in ("move_with",):
+            if carry is None or carry.skill != "move_with":
+                continue
+            j = t_lane.segments.index(carry)
+            held = t_lane.segments[j + 1] if j + 1 < len(t_lane.segments) else carry
+            held_to = held.end_ns if held.skill in ("place", "stack") else carry.end_ns
+            if held_to - s.end_ns < p.gone_s * 1e9:
+                continue
+            began = next(
+                (g.start_ns for g in reversed(g_lane.segments[:i]) if g.skill == "pick_up"),
+                g_lane.segments[0].start_ns,
+            )
+            if carry.start_ns <= began or not _gone(dists, giver, s, lanes[giver], p):
                 continue
             start_ns = max(min(carry.start_ns, s.end_ns), g_lane.segments[i].start_ns)
             _giver_follows(g_lane, i, start_ns)
             out.append(Handover(start_ns, s.end_ns, giver, taker, s.object))
     return sorted(out, key=lambda h: h.start_ns)
+
+
+def _gone(
+    dists: dict[str, dict[str, np.ndarray]] | None,
+    side: str,
+    place: Segment,
+    lane: Segmentation,
+    p: LaneParams,
+) -> bool:
+    """Does the hand stay ``release_m`` off ``place``'s object for ``gone_s`` after it?"""
+    if dists is None or place.object not in dists.get(side, {}):
+        return True
+    d = dists[side][place.object]
+    dt = (lane.segments[-1].end_s - lane.segments[0].start_s) / max(lane.segments[-1].end, 1)
+    k = max(1, round(p.gone_s / dt)) if dt > 0 else 1
+    after = d[place.end : place.end + k]
+    return bool(len(after)) and bool((after > p.release_m).all())
 
 
 def _giver_follows(lane: Segmentation, i: int, start_ns: int) -> None:
