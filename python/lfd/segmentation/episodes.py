@@ -39,8 +39,9 @@ class CarryParams:
         The grasp has let go once the TCP is this far from the box.
     approach_m : float
         A Pick up begins where the TCP was last this far from the box.
-    moved_m : float
-        The lift begins where the object has moved this far from where the grasp found it.
+    moved_m, rest_samples : float, int
+        The lift begins after the last ``rest_samples`` samples in which the object moved less
+        than ``moved_m`` (it rested).
     lifted_m : float
         The object is off the table (in flight) this high above where it rests.
     place_m : float
@@ -62,7 +63,8 @@ class CarryParams:
     min_hold_s: float = 0.2
     release_m: float = 0.03
     approach_m: float = 0.08
-    moved_m: float = 0.005
+    moved_m: float = 0.002
+    rest_samples: int = 3
     lifted_m: float = 0.03
     place_m: float = 0.05
     regrip_s: float = 1.5
@@ -135,6 +137,17 @@ def _released(
     return k + int(hit[0]) if len(hit) else stop
 
 
+def _last_rest(position: np.ndarray, a: int, u: int, p: CarryParams) -> int:
+    """Where the lift that takes the object off the table at ``u`` begins: the last sample in
+    ``[a, u]`` after ``rest_samples`` in which the object moved less than ``moved_m``."""
+    k = p.rest_samples
+    for i in range(u, a + k - 1, -1):
+        step = np.linalg.norm(position[i] - position[i - k + 1 : i], axis=1)
+        if np.isfinite(step).all() and (step < p.moved_m).all():
+            return i
+    return a
+
+
 def carries(
     dist: np.ndarray,
     position: np.ndarray,
@@ -162,9 +175,8 @@ def carries(
         next_u = flights[f + 1][0] if f + 1 < len(flights) else n
         for a, b in _holds_aloft(grasps, u, v, dt, p):
             a = max(a, last)
-            if a <= u:  # this hand lifts it off the table: from where it first moves
-                moved = np.linalg.norm(position[a : u + 1] - position[a], axis=1) > p.moved_m
-                lift = a + int(np.argmax(moved)) if moved.any() else u
+            if a <= u:  # this hand lifts it off the table: from where it last rested
+                lift = _last_rest(position, a, u, p)
             else:  # taken in the air
                 lift = a
             far = np.flatnonzero(dist[last:a] >= p.approach_m)
