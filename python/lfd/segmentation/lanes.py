@@ -321,7 +321,7 @@ def _gone(
     dt = (lane.segments[-1].end_s - lane.segments[0].start_s) / max(lane.segments[-1].end, 1)
     k = max(1, round(p.gone_s / dt)) if dt > 0 else 1
     after = d[place.end : place.end + k]
-    return bool(len(after)) and bool((after > p.release_m).all())
+    return bool(len(after)) and bool((after >= p.release_m).all())
 
 
 def _giver_follows(lane: Segmentation, i: int, start_ns: int) -> None:
