@@ -59,9 +59,12 @@ def load_pair(right: Path, labels: Path | None) -> Any:
         if got is not None and got.is_file():
             lanes += [
                 SkillLabel(
-                    x["skill"], t0 + round(x["start_s"] * 1e9), t0 + round(x["end_s"] * 1e9),
-                    x.get("object"), hand=side,
-                )  # fmt: skip
+                    x["skill"],
+                    t0 + round(x["start_s"] * 1e9),
+                    t0 + round(x["end_s"] * 1e9),
+                    x.get("object"),
+                    hand=side,
+                )
                 for x in json.loads(got.read_text())
             ]
         else:

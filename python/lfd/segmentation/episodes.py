@@ -123,9 +123,7 @@ def _holds_aloft(
     return out
 
 
-def _released(
-    dist: np.ndarray, thumb: np.ndarray | None, k: int, stop: int, p: CarryParams
-) -> int:
+def _released(dist: np.ndarray, thumb: np.ndarray | None, k: int, stop: int, p: CarryParams) -> int:
     """Where a hand resting on a set-down object at ``k`` lets go (before ``stop``): its TCP
     ``release_m`` farther from the box than at ``k``, or its thumb tip ``thumb_m`` farther."""
     ref = dist[k]

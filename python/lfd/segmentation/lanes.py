@@ -83,14 +83,20 @@ def segment_lanes(
         thumbs = _distances(demo, side, seg, tip=1)
         spans = {
             name: carries(
-                d, _positions(demo, name, t), _rest_height(demo, name), dt, carry,
+                d,
+                _positions(demo, name, t),
+                _rest_height(demo, name),
+                dt,
+                carry,
                 other_hold=_resampled(holds[other].get(name), _sample_times(segs[other]), t),
                 thumb=thumbs[name],
-            )  # fmt: skip
+            )
             for name, d in dists[side].items()
         }
         touch = {name: np.asarray(d <= p.touch_m) for name, d in dists[side].items()}
-        seg.segments = _reconcile(overlay(seg.segments, spans, _seconds(seg.segments)), touch, p, seg)
+        seg.segments = _reconcile(
+            overlay(seg.segments, spans, _seconds(seg.segments)), touch, p, seg
+        )
         lanes[side] = seg
     handovers = find_handovers(demo, lanes, p, dists)
     result = HandsSegmentation(lanes=lanes, handovers=handovers)
