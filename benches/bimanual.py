@@ -21,7 +21,8 @@ labels are the truth and no handover is scored.
 
 Cost: a two-hand demonstration of ``--minutes`` minutes (the takes played end to end) is
 segmented in a child process by ``lfd.segment_hands`` and its right hand alone by
-``lfd.segment``: seconds and peak memory of each, and their ratio (target <= 2x).
+``lfd.segment``: seconds (the faster of two runs) and peak memory of each process, and their
+ratio (target <= 2x).
 """
 
 from __future__ import annotations
@@ -171,11 +172,15 @@ def cost_child(data: Path, minutes: float, hands: int) -> None:
 def cost(data: Path, minutes: float) -> dict[str, Any]:
     """Seconds and peak memory of one hand and of two, each in its own child process."""
     out: dict[str, Any] = {"minutes": minutes}
-    for hands in (1, 2):
-        cmd = [sys.executable, __file__, str(data), "--cost-child", str(hands)]
-        cmd += ["--minutes", str(minutes)]
-        got = subprocess.run(cmd, capture_output=True, text=True, check=True)
-        out[f"{hands}_hand"] = json.loads(got.stdout.strip().splitlines()[-1])
+    for _ in range(2):  # the faster of two runs each (the machine is shared)
+        for hands in (1, 2):
+            cmd = [sys.executable, __file__, str(data), "--cost-child", str(hands)]
+            cmd += ["--minutes", str(minutes)]
+            got = subprocess.run(cmd, capture_output=True, text=True, check=True)
+            run = json.loads(got.stdout.strip().splitlines()[-1])
+            best = out.get(f"{hands}_hand")
+            if best is None or run["seconds"] < best["seconds"]:
+                out[f"{hands}_hand"] = run
     one, two = out["1_hand"], out["2_hand"]
     out["time_ratio"] = two["seconds"] / one["seconds"]
     out["memory_ratio"] = two["peak_mb"] / one["peak_mb"]
