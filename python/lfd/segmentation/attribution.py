@@ -82,6 +82,17 @@ def tip_distances(hand: HandTrack, obj: ObjectTrack) -> tuple[np.ndarray, np.nda
     return dist(tcp), dist(thumb), dist(index)
 
 
+def hand_distance(hand: HandTrack, obj: ObjectTrack) -> np.ndarray:
+    """``(m,)``: the distance (m) of the hand's nearest keypoint from the object's box at the
+    object's samples (a Push touches with the back of the fingers, not the TCP; NaN unknown)."""
+    d = np.stack(
+        [box_distance(_at(hand, obj.t_ns, k), obj.position, obj.quaternion, obj.size)
+         for k in range(21)]
+    )  # fmt: skip
+    with np.errstate(invalid="ignore"):
+        return np.asarray(np.nanmin(np.where(np.isfinite(d), d, np.inf), axis=0))
+
+
 def holding(
     hand: HandTrack, obj: ObjectTrack, params: AttributionParams | None = None
 ) -> np.ndarray:

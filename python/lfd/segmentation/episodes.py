@@ -184,43 +184,106 @@ def carries(
                 if lift < n:
                     if start < lift:
                         out.append(("pick_up", start, lift))
+                    elif out and out[-1][0] == "place" and out[-1][2] >= lift:
+                        out.pop()
+                        lift = out.pop()[1]
                     out.append(("move_with", lift, n))
                 break
+            held_on = other_hold is not None and bool(other_hold[b - 1])
             if b >= v:  # set down: the Place from the last 5 cm above the table
                 high = np.flatnonzero(np.nan_to_num(z[lift:v]) >= p.place_m)
                 place = lift + int(high[-1]) + 1 if len(high) else v
                 release = _released(dist, thumb, min(v, n - 1), next_u, p)
-            else:  # let go in the air: from the other hand's grasp (a handover)
+            elif not held_on:  # set down on something (another object): from 5 cm above it
+                high = np.flatnonzero(np.nan_to_num(z[lift:b] - z[b - 1]) >= p.place_m)
+                place = lift + int(high[-1]) + 1 if len(high) else b - 1
+                release = _released(dist, thumb, b - 1, next_u, p)
+            else:  # let go in the air, the other hand holding it: a handover
                 place = b - max(1, round(p.let_go_s / dt))
-                if other_hold is not None and other_hold[b - 1]:
-                    took = np.flatnonzero(~other_hold[lift : b - 1])
-                    took_at = lift + int(took[-1]) + 1 if len(took) else lift + 1
-                    if b - took_at <= round(p.handover_s / dt):
-                        place = took_at
+                took = np.flatnonzero(~other_hold[lift : b - 1])  # type: ignore[index]
+                took_at = lift + int(took[-1]) + 1 if len(took) else lift + 1
+                if b - took_at <= round(p.handover_s / dt):
+                    place = took_at
                 release = b
             place = min(max(place, lift + 1), release - 1)
             if not lift < place < release:
                 continue
             if start < lift:
                 out.append(("pick_up", start, lift))
+            elif out and out[-1][0] == "place" and out[-1][2] >= lift:
+                # grasped again as it let go, without a reach: one carry (no Place between)
+                out.pop()
+                lift = out.pop()[1]
             out += [("move_with", lift, place), ("place", place, release)]
             last = release
     return out
+
+
+_PAIRS: dict[str, tuple[frozenset[str], frozenset[str]]] = {
+    "pick_up": (frozenset({"move", "locate"}), frozenset({"pick_up"})),
+    "move_with": (frozenset({"pick_up"}), frozenset({"move_with"})),
+    "place": (frozenset({"move_with"}), frozenset({"place", "stack"})),
+    "end": (frozenset({"place", "stack"}), frozenset({"move"})),
+}
+"""The lane's boundary each carry boundary may snap to: where a span of this skill begins
+(``end``: where a carry's Place ends), the skills before and after it."""
+
+
+def snap(
+    spans: list[tuple[str, int, int]],
+    segments: list[Segment],
+    name: str,
+    tol: int,
+    other_hold: np.ndarray | None = None,
+) -> list[tuple[str, int, int]]:
+    """The carries ``spans`` (of object ``name``) with each boundary moved to the lane's
+    boundary between the same skills on the same object within ``tol`` samples, where there
+    is one (the templates' boundaries, refined by the one-hand contact rules), keeping the
+    spans in order. A Place the hand ends while ``other_hold`` (the other hand holds the
+    object: a handover) keeps its contact boundaries."""
+    found: dict[str, list[int]] = {k: [] for k in _PAIRS}
+    for prev, nxt in zip(segments, segments[1:], strict=False):
+        for key, (before, after) in _PAIRS.items():
+            obj = prev.object if key == "end" else nxt.object
+            if prev.skill in before and nxt.skill in after and obj == name:
+                found[key].append(nxt.start)
+    out = [list(x) for x in spans]
+    for i, (skill, a, b) in enumerate(spans):
+        if skill == "place" and other_hold is not None and other_hold[b - 1]:
+            continue
+        key = skill if skill in _PAIRS else None
+        edges = [(key, a, 1)] if key else []
+        if skill == "place" and (i + 1 == len(spans) or spans[i + 1][0] == "pick_up"):
+            edges.append(("end", b, 2))
+        for k, at, slot in edges:
+            near = [x for x in found[k] if abs(x - at) <= tol]
+            if not near:
+                continue
+            to = min(near, key=lambda x: abs(x - at))
+            lo = out[i][1] + 1 if slot == 2 else (out[i - 1][1] + 1 if i else 0)
+            hi = out[i][2] - 1 if slot == 1 else (out[i + 1][1] - 1 if i + 1 < len(out) else to)
+            if lo <= to <= hi:
+                out[i][slot] = to
+                if slot == 1 and i and out[i - 1][2] == at:
+                    out[i - 1][2] = to
+    return [(str(sk), int(a), int(b)) for sk, a, b in out if b > a]
 
 
 def overlay(
     segments: list[Segment], spans: dict[str, list[tuple[str, int, int]]], times: np.ndarray
 ) -> list[Segment]:
     """``segments`` (a lane, covering samples ``0..n``) with the carries of ``spans`` (per
-    object name) put on it: outside them no Pick up, Move with or Place is left (a Move
-    instead), inside them the carry's skills on its object; a Stack the templates found where
+    object name) put on it: outside them no Pick up, Move with or Place of an object with a
+    carry is left (a Move instead), inside them the carry's skills on its object; a Stack the templates found where
     a carry's Place is stays a Stack. ``times``: each sample's seconds, and the end's."""
     n = segments[-1].end
     skill = np.empty(n, dtype=object)
     obj = np.empty(n, dtype=object)
     src = np.full(n, -1)
     for i, s in enumerate(segments):
-        keep = s.skill not in CARRY_SKILLS
+        # the carries of an object contact finds none of are the templates' (the lanes check
+        # that the hand touches it): contact may miss every grasp of a noisy hand
+        keep = s.skill not in CARRY_SKILLS or not spans.get(s.object or "")
         skill[s.start : s.end] = s.skill if keep else "move"
         obj[s.start : s.end] = s.object
         src[s.start : s.end] = i if keep else -1

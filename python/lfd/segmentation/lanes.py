@@ -15,8 +15,8 @@ import numpy as np
 
 from ..demo import Demonstration, Handover
 from ..skills import impossible_transitions
-from .attribution import AttributionParams, hand_view, tip_distances
-from .episodes import CarryParams, carries, overlay
+from .attribution import AttributionParams, hand_distance, hand_view, tip_distances
+from .episodes import CarryParams, carries, overlay, snap
 from .hands import HandsSegmentation
 from .result import Segment, Segmentation
 
@@ -41,6 +41,9 @@ class LaneParams:
     air_m : float
         A release is in the air (a handover, not a Place on the table) when the object is at
         least this much (m) above the lowest it rests in the recording.
+    snap_s : float
+        A carry's boundary moves to the lane's own boundary between the same skills when one
+        is this close (s): the templates' boundaries, refined by the one-hand contact rules.
     gone_s : float
         A giver lets go for good: its TCP stays ``release_m`` off the object this long (s)
         after the handover, and the taker carries the object on at least this long.
@@ -50,6 +53,7 @@ class LaneParams:
     reach_s: float = 0.3
     air_m: float = 0.05
     gone_s: float = 1.0
+    snap_s: float = 0.5
     release_m: float = 0.03
     approach_m: float = 0.08
 
@@ -81,21 +85,19 @@ def segment_lanes(
         t = _sample_times(seg)
         dt = float(np.median(np.diff(t))) * 1e-9 if len(t) > 1 else 1.0
         thumbs = _distances(demo, side, seg, tip=1)
-        spans = {
-            name: carries(
-                d,
-                _positions(demo, name, t),
-                _rest_height(demo, name),
-                dt,
-                carry,
-                other_hold=_resampled(holds[other].get(name), _sample_times(segs[other]), t),
-                thumb=thumbs[name],
-            )
-            for name, d in dists[side].items()
-        }
+        tol = max(1, round(p.snap_s / dt))
+        spans = {}
+        for name, d in dists[side].items():
+            other_hold = _resampled(holds[other].get(name), _sample_times(segs[other]), t)
+            got = carries(
+                d, _positions(demo, name, t), _rest_height(demo, name), dt, carry,
+                other_hold=other_hold, thumb=thumbs[name],
+            )  # fmt: skip
+            spans[name] = snap(got, seg.segments, name, tol, other_hold)
         touch = {name: np.asarray(d <= p.touch_m) for name, d in dists[side].items()}
+        pushes = {name: np.asarray(d <= p.touch_m) for name, d in _distances(demo, side, seg, tip=3).items()}
         seg.segments = _reconcile(
-            overlay(seg.segments, spans, _seconds(seg.segments)), touch, p, seg
+            overlay(seg.segments, spans, _seconds(seg.segments)), touch, p, seg, pushes
         )
         lanes[side] = seg
     handovers = find_handovers(demo, lanes, p, dists)
@@ -107,14 +109,16 @@ def segment_lanes(
 def _distances(
     demo: Demonstration, side: str, seg: Segmentation, tip: int = 0
 ) -> dict[str, np.ndarray]:
-    """Per object name: the ``side`` hand's TCP (``tip`` 0; 1 the thumb tip) distance (m)
+    """Per object name: the ``side`` hand's TCP (``tip`` 0; 1 the thumb tip; 3 its nearest
+    keypoint) distance (m)
     from its box at ``seg``'s trajectory samples (inf where unknown)."""
     out: dict[str, np.ndarray] = {}
     t = _sample_times(seg)
     for name, obj in demo.objects.items():
         if not len(obj):
             continue
-        d = tip_distances(demo.hands[side], obj)[tip]
+        hand = demo.hands[side]
+        d = hand_distance(hand, obj) if tip == 3 else tip_distances(hand, obj)[tip]
         i = np.clip(np.searchsorted(obj.t_ns, t), 0, len(obj) - 1)
         out[name] = np.where(np.isfinite(d[i]), d[i], np.inf)
     return out
@@ -150,6 +154,7 @@ def _reconcile(
     touch: dict[str, np.ndarray],
     p: LaneParams,
     seg: Segmentation,
+    pushes: dict[str, np.ndarray] | None = None,
 ) -> list[Segment]:
     """A skill on an object the hand never touches becomes a Move (its motion was the other
     hand's); neighbouring Moves merge into one."""
@@ -160,7 +165,8 @@ def _reconcile(
     out: list[Segment] = []
     for s in segments:
         cur = s
-        if s.skill in TOUCHING and not _touches(s, touch, k):
+        by = pushes if s.skill == "push" and pushes is not None else touch
+        if s.skill in TOUCHING and not _touches(s, by, k):
             cur = dataclasses.replace(
                 s, skill="move", score=float("nan"), confidence=float("nan"),
                 margin=float("nan"), params={},
@@ -296,10 +302,7 @@ def find_handovers(
             carry = _holding_at(t_lane, s.object, s.end_ns)
             if carry is None or carry.skill != "move_with":
                 continue
-            j = t_lane.segments.index(carry)
-            held = t_lane.segments[j + 1] if j + 1 < len(t_lane.segments) else carry
-            held_to = held.end_ns if held.skill in ("place", "stack") else carry.end_ns
-            if held_to - s.end_ns < p.gone_s * 1e9:
+            if not _holds_on(dists, taker, s, lanes[taker], p):
                 continue
             began = next(
                 (g.start_ns for g in reversed(g_lane.segments[:i]) if g.skill == "pick_up"),
@@ -311,6 +314,24 @@ def find_handovers(
             _giver_follows(g_lane, i, start_ns)
             out.append(Handover(start_ns, s.end_ns, giver, taker, s.object))
     return sorted(out, key=lambda h: h.start_ns)
+
+
+def _holds_on(
+    dists: dict[str, dict[str, np.ndarray]] | None,
+    side: str,
+    place: Segment,
+    lane: Segmentation,
+    p: LaneParams,
+) -> bool:
+    """Does the ``side`` hand keep its TCP within ``release_m`` of ``place``'s object for
+    ``gone_s`` after the giver's ``place`` (the taker holds on)?"""
+    if dists is None or place.object not in dists.get(side, {}):
+        return True
+    d = dists[side][place.object]
+    dt = (lane.segments[-1].end_s - lane.segments[0].start_s) / max(lane.segments[-1].end, 1)
+    k = max(1, round(p.gone_s / dt)) if dt > 0 else 1
+    after = d[place.end : place.end + k]
+    return bool(len(after)) and bool((after < p.release_m).all())
 
 
 def _gone(
