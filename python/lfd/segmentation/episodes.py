@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from itertools import pairwise
 
 import numpy as np
 
@@ -242,31 +243,37 @@ def snap(
     spans in order. A Place the hand ends while ``other_hold`` (the other hand holds the
     object: a handover) keeps its contact boundaries."""
     found: dict[str, list[int]] = {k: [] for k in _PAIRS}
-    for prev, nxt in zip(segments, segments[1:], strict=False):
+    for prev, nxt in pairwise(segments):
         for key, (before, after) in _PAIRS.items():
             obj = prev.object if key == "end" else nxt.object
             if prev.skill in before and nxt.skill in after and obj == name:
                 found[key].append(nxt.start)
-    out = [list(x) for x in spans]
+    starts = [a for _, a, _ in spans]
+    ends = [b for _, _, b in spans]
     for i, (skill, a, b) in enumerate(spans):
         if skill == "place" and other_hold is not None and other_hold[b - 1]:
             continue
-        key = skill if skill in _PAIRS else None
-        edges = [(key, a, 1)] if key else []
+        edges: list[tuple[str, int, bool]] = [(skill, a, True)] if skill in _PAIRS else []
         if skill == "place" and (i + 1 == len(spans) or spans[i + 1][0] == "pick_up"):
-            edges.append(("end", b, 2))
-        for k, at, slot in edges:
-            near = [x for x in found[k] if abs(x - at) <= tol]
+            edges.append(("end", b, False))
+        for key, at, is_start in edges:
+            near = [x for x in found[key] if abs(x - at) <= tol]
             if not near:
                 continue
             to = min(near, key=lambda x: abs(x - at))
-            lo = out[i][1] + 1 if slot == 2 else (out[i - 1][1] + 1 if i else 0)
-            hi = out[i][2] - 1 if slot == 1 else (out[i + 1][1] - 1 if i + 1 < len(out) else to)
-            if lo <= to <= hi:
-                out[i][slot] = to
-                if slot == 1 and i and out[i - 1][2] == at:
-                    out[i - 1][2] = to
-    return [(str(sk), int(a), int(b)) for sk, a, b in out if b > a]
+            if is_start:
+                lo, hi = (starts[i - 1] + 1 if i else 0), ends[i] - 1
+            else:
+                lo, hi = starts[i] + 1, (starts[i + 1] - 1 if i + 1 < len(spans) else to)
+            if not lo <= to <= hi:
+                continue
+            if is_start:
+                starts[i] = to
+                if i and ends[i - 1] == at:
+                    ends[i - 1] = to
+            else:
+                ends[i] = to
+    return [(sk, a, b) for (sk, _, _), a, b in zip(spans, starts, ends, strict=True) if b > a]
 
 
 def overlay(

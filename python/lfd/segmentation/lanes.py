@@ -95,7 +95,10 @@ def segment_lanes(
             )  # fmt: skip
             spans[name] = snap(got, seg.segments, name, tol, other_hold)
         touch = {name: np.asarray(d <= p.touch_m) for name, d in dists[side].items()}
-        pushes = {name: np.asarray(d <= p.touch_m) for name, d in _distances(demo, side, seg, tip=3).items()}
+        pushes = {
+            name: np.asarray(d <= p.touch_m)
+            for name, d in _distances(demo, side, seg, tip=3).items()
+        }
         seg.segments = _reconcile(
             overlay(seg.segments, spans, _seconds(seg.segments)), touch, p, seg, pushes
         )
