@@ -75,7 +75,8 @@ def segment_lanes(
     p = params or LaneParams()
     lanes: dict[str, Segmentation] = {}
     segs = {side: segment_one(hand_view(demo, side, attribution)) for side in demo.sides}
-    dists = {side: _distances(demo, side, seg) for side, seg in segs.items()}
+    both = {side: _distances(demo, side, seg, (0, 1)) for side, seg in segs.items()}
+    dists = {side: got[0] for side, got in both.items()}
     holds = {
         side: {name: np.asarray(d <= (carry or CarryParams()).hold_m) for name, d in dist.items()}
         for side, dist in dists.items()
@@ -84,7 +85,7 @@ def segment_lanes(
         other = next(s for s in demo.sides if s != side)
         t = _sample_times(seg)
         dt = float(np.median(np.diff(t))) * 1e-9 if len(t) > 1 else 1.0
-        thumbs = _distances(demo, side, seg, tip=1)
+        thumbs = both[side][1]
         tol = max(1, round(p.snap_s / dt))
         spans = {}
         for name, d in dists[side].items():
@@ -95,10 +96,14 @@ def segment_lanes(
             )  # fmt: skip
             spans[name] = snap(got, seg.segments, name, tol, other_hold)
         touch = {name: np.asarray(d <= p.touch_m) for name, d in dists[side].items()}
-        pushes = {
-            name: np.asarray(d <= p.touch_m)
-            for name, d in _distances(demo, side, seg, tip=3).items()
-        }
+        pushes = (
+            {
+                name: np.asarray(d <= p.touch_m)
+                for name, d in _distances(demo, side, seg, (3,))[0].items()
+            }
+            if any(x.skill == "push" for x in seg.segments)
+            else None
+        )
         seg.segments = _reconcile(
             overlay(seg.segments, spans, _seconds(seg.segments)), touch, p, seg, pushes
         )
@@ -110,20 +115,22 @@ def segment_lanes(
 
 
 def _distances(
-    demo: Demonstration, side: str, seg: Segmentation, tip: int = 0
-) -> dict[str, np.ndarray]:
-    """Per object name: the ``side`` hand's TCP (``tip`` 0; 1 the thumb tip; 3 its nearest
-    keypoint) distance (m)
-    from its box at ``seg``'s trajectory samples (inf where unknown)."""
-    out: dict[str, np.ndarray] = {}
+    demo: Demonstration, side: str, seg: Segmentation, tips: tuple[int, ...] = (0,)
+) -> list[dict[str, np.ndarray]]:
+    """For each of ``tips`` (0 the TCP, 1 the thumb tip, 3 the hand's nearest keypoint), per
+    object name: the ``side`` hand's distance (m) from its box at ``seg``'s trajectory samples
+    (inf where unknown)."""
+    out: list[dict[str, np.ndarray]] = [{} for _ in tips]
     t = _sample_times(seg)
+    hand = demo.hands[side]
     for name, obj in demo.objects.items():
         if not len(obj):
             continue
-        hand = demo.hands[side]
-        d = hand_distance(hand, obj) if tip == 3 else tip_distances(hand, obj)[tip]
         i = np.clip(np.searchsorted(obj.t_ns, t), 0, len(obj) - 1)
-        out[name] = np.where(np.isfinite(d[i]), d[i], np.inf)
+        near = tip_distances(hand, obj) if set(tips) - {3} else None
+        for k, tip in enumerate(tips):
+            d = hand_distance(hand, obj) if tip == 3 else near[tip]  # type: ignore[index]
+            out[k][name] = np.where(np.isfinite(d[i]), d[i], np.inf)
     return out
 
 
