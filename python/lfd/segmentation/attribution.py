@@ -82,15 +82,16 @@ def tip_distances(hand: HandTrack, obj: ObjectTrack) -> tuple[np.ndarray, np.nda
     return dist(tcp), dist(thumb), dist(index)
 
 
-def hand_distance(hand: HandTrack, obj: ObjectTrack) -> np.ndarray:
-    """``(m,)``: the distance (m) of the hand's nearest keypoint from the object's box at the
-    object's samples (a Push touches with the back of the fingers, not the TCP; NaN unknown)."""
-    d = np.stack(
-        [box_distance(_at(hand, obj.t_ns, k), obj.position, obj.quaternion, obj.size)
-         for k in range(21)]
-    )  # fmt: skip
+def hand_distance(hand: HandTrack, obj: ObjectTrack, t_ns: np.ndarray | None = None) -> np.ndarray:
+    """The distance (m) of the hand's nearest keypoint from the object's box at times ``t_ns``
+    (default: the object's samples; the object's nearest sample): a Push touches with the back
+    of the fingers, not the TCP. ``inf`` where unknown."""
+    t = obj.t_ns if t_ns is None else np.asarray(t_ns)
+    i = np.clip(np.searchsorted(obj.t_ns, t), 0, max(len(obj) - 1, 0))
+    pos, quat = obj.position[i], obj.quaternion[i]
+    d = np.stack([box_distance(_at(hand, t, k), pos, quat, obj.size) for k in range(21)])
     with np.errstate(invalid="ignore"):
-        return np.asarray(np.nanmin(np.where(np.isfinite(d), d, np.inf), axis=0))
+        return np.asarray(np.min(np.where(np.isfinite(d), d, np.inf), axis=0))
 
 
 def holding(

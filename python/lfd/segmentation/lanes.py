@@ -32,9 +32,8 @@ class LaneParams:
     ----------
     touch_m : float
         A hand touches an object when its TCP is within this of the object's box (m).
-    release_m, approach_m : float
-        A Place has let go once the TCP is this far (m) from the object's box for good; a Pick
-        up begins where the TCP was last this far from it before the grasp.
+    release_m : float
+        A hand is off an object when its TCP is this far (m) from the object's box.
     reach_s : float
         A Pick up's grasp, a Place's release may fall this long (s) after its end or before
         its start.
@@ -55,7 +54,6 @@ class LaneParams:
     gone_s: float = 1.0
     snap_s: float = 0.5
     release_m: float = 0.03
-    approach_m: float = 0.08
 
 
 def segment_lanes(
@@ -96,14 +94,7 @@ def segment_lanes(
             )  # fmt: skip
             spans[name] = snap(got, seg.segments, name, tol, other_hold)
         touch = {name: np.asarray(d <= p.touch_m) for name, d in dists[side].items()}
-        pushes = (
-            {
-                name: np.asarray(d <= p.touch_m)
-                for name, d in _distances(demo, side, seg, (3,))[0].items()
-            }
-            if any(x.skill == "push" for x in seg.segments)
-            else None
-        )
+        pushes = _PushTouch(demo, side, t, p.touch_m)
         seg.segments = _reconcile(
             overlay(seg.segments, spans, _seconds(seg.segments)), touch, p, seg, pushes
         )
@@ -144,6 +135,22 @@ def _sample_times(seg: Segmentation) -> np.ndarray:
     return np.linspace(t0, t1, end, endpoint=False).astype(np.int64)
 
 
+class _PushTouch:
+    """Does the hand touch a Push's object with any keypoint (within ``touch_m``)? Measured on
+    the Push's samples only, when asked."""
+
+    def __init__(self, demo: Demonstration, side: str, t_ns: np.ndarray, touch_m: float):
+        self.demo, self.side, self.t_ns, self.touch_m = demo, side, t_ns, touch_m
+
+    def touches(self, seg: Segment, k: int) -> bool:
+        obj = self.demo.objects.get(seg.object or "")
+        if obj is None or not len(obj):
+            return True
+        t = self.t_ns[max(seg.start, 0) : min(seg.end + k, len(self.t_ns))]
+        d = hand_distance(self.demo.hands[self.side], obj, t)
+        return bool((d <= self.touch_m).any()) if len(t) else True
+
+
 def _touches(seg: Segment, touch: dict[str, np.ndarray], k: int) -> bool:
     """Does the hand touch ``seg``'s object during it (``k`` samples of slack at the end of a
     Pick up, at the start of a Place or Stack)?"""
@@ -164,7 +171,7 @@ def _reconcile(
     touch: dict[str, np.ndarray],
     p: LaneParams,
     seg: Segmentation,
-    pushes: dict[str, np.ndarray] | None = None,
+    pushes: _PushTouch | None = None,
 ) -> list[Segment]:
     """A skill on an object the hand never touches becomes a Move (its motion was the other
     hand's); neighbouring Moves merge into one."""
@@ -175,8 +182,11 @@ def _reconcile(
     out: list[Segment] = []
     for s in segments:
         cur = s
-        by = pushes if s.skill == "push" and pushes is not None else touch
-        if s.skill in TOUCHING and not _touches(s, by, k):
+        if s.skill == "push" and pushes is not None:
+            touched = pushes.touches(s, k)
+        else:
+            touched = s.skill not in TOUCHING or _touches(s, touch, k)
+        if not touched:
             cur = dataclasses.replace(
                 s, skill="move", score=float("nan"), confidence=float("nan"),
                 margin=float("nan"), params={},
@@ -197,56 +207,12 @@ def _reconcile(
     return out
 
 
-def _retimed(seg: Segment, start: int, end: int, times: np.ndarray) -> Segment:
-    """``seg`` on samples ``start..end`` (``times``: the samples' seconds, one past the end)."""
-    t0 = seg.start_ns - round(seg.start_s * 1e9)
-    return dataclasses.replace(
-        seg, start=start, end=end, start_s=float(times[start]), end_s=float(times[end]),
-        start_ns=t0 + round(times[start] * 1e9), end_ns=t0 + round(times[end] * 1e9),
-    )  # fmt: skip
-
-
 def _seconds(segments: list[Segment]) -> np.ndarray:
     """The seconds of every sample of the segments, and of the end (linear inside each)."""
     n = segments[-1].end
     out = np.zeros(n + 1)
     for s in segments:
         out[s.start : s.end + 1] = np.linspace(s.start_s, s.end_s, s.end - s.start + 1)
-    return out
-
-
-def _trim(segments: list[Segment], dist: dict[str, np.ndarray], p: LaneParams) -> list[Segment]:
-    """Contact bounds the skills that touch an object: a Place or Stack ends when the hand
-    has let go (its TCP ``release_m`` off the object for good), a Pick up begins where the
-    TCP was last ``approach_m`` from it before the grasp; the time given up goes to the
-    neighbouring Move."""
-    if len(segments) < 2:
-        return segments
-    out = list(segments)
-    times = _seconds(out)
-    for i, s in enumerate(out):
-        d = dist.get(s.object or "")
-        if d is None or s.end - s.start < 2:
-            continue
-        if s.skill in ("place", "stack") and i + 1 < len(out) and out[i + 1].skill == "move":
-            off = np.flatnonzero(d[s.start : s.end] > p.release_m)
-            on = np.flatnonzero(d[s.start : s.end] <= p.touch_m)
-            if len(on) and len(off) and off[-1] == s.end - s.start - 1:
-                gap = np.flatnonzero(np.diff(np.concatenate((off, [s.end - s.start]))) > 1)
-                k = s.start + int(off[gap[-1] + 1] if len(gap) else off[0])
-                k = max(k, s.start + 1, s.start + int(on[0]) + 1)
-                if k < s.end:
-                    out[i] = _retimed(s, s.start, k, times)
-                    out[i + 1] = _retimed(out[i + 1], k, out[i + 1].end, times)
-        elif s.skill == "pick_up" and i > 0 and out[i - 1].skill == "move":
-            on = np.flatnonzero(d[s.start : s.end] <= p.touch_m)
-            first = s.start + (int(on[0]) if len(on) else s.end - s.start - 1)
-            far = np.flatnonzero(d[s.start : first] >= p.approach_m)
-            if len(far):
-                k = s.start + int(far[-1])
-                if s.start < k < s.end - 1:
-                    out[i] = _retimed(s, k, s.end, times)
-                    out[i - 1] = _retimed(out[i - 1], out[i - 1].start, k, times)
     return out
 
 
