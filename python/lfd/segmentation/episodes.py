@@ -48,8 +48,8 @@ class CarryParams:
     place_m : float
         A Place begins where the object was last this far above where it is let go.
     regrip_s : float
-        A hand that lets go of an object in the air (the other hand holding it) and grasps it
-        again within this long, the object in the air all along, carries on (a regrip).
+        A hand that lets go of an object in flight (the other hand holding it), its TCP
+        ``release_m`` off it for less than this long, and grasps it again carries on (a regrip).
     thumb_m : float
         A hand resting on a set-down object has let go once its thumb tip is this much farther
         from the box (or its TCP ``release_m`` farther).
@@ -68,7 +68,8 @@ class CarryParams:
     rest_samples: int = 3
     lifted_m: float = 0.03
     place_m: float = 0.05
-    regrip_s: float = 1.5
+    regrip_s: float = 1.0
+    take_s: float = 0.5
     thumb_m: float = 0.01
     handover_s: float = 3.0
     let_go_s: float = 0.5
@@ -108,19 +109,21 @@ def _aloft(z: np.ndarray, dt: float, p: CarryParams) -> list[tuple[int, int]]:
 
 
 def _holds_aloft(
-    grasps: list[tuple[int, int]], u: int, v: int, dt: float, p: CarryParams
+    grasps: list[tuple[int, int]], u: int, v: int, dt: float, p: CarryParams, dist: np.ndarray
 ) -> list[tuple[int, int]]:
-    """The grasps that hold the object during its flight ``[u, v)``, regrips (a lapse of at
-    most ``regrip_s`` in the air) joined."""
+    """The grasps that hold the object during its flight ``[u, v)``, regrips joined: between
+    them the hand was never ``release_m`` off the object for ``regrip_s`` or longer."""
     regrip = max(1, round(p.regrip_s / dt))
     out: list[tuple[int, int]] = []
     for a, b in grasps:
         if b <= u or a >= v:
             continue
-        if out and a - out[-1][1] <= regrip and a < v:
-            out[-1] = (out[-1][0], b)
-        else:
-            out.append((a, b))
+        if out and a < v:
+            off = _runs(dist[out[-1][1] : a] >= p.release_m)
+            if not off or max(y - x for x, y in off) < regrip:
+                out[-1] = (out[-1][0], b)
+                continue
+        out.append((a, b))
     return out
 
 
@@ -172,10 +175,12 @@ def carries(
     last = 0
     for f, (u, v) in enumerate(flights):
         next_u = flights[f + 1][0] if f + 1 < len(flights) else n
-        for a, b in _holds_aloft(grasps, u, v, dt, p):
+        for a, b in _holds_aloft(grasps, u, v, dt, p, dist):
             a = max(a, last)
             if a <= u:  # this hand lifts it off the table: from where it last rested
                 lift = _last_rest(position, a, u, p)
+            elif b - a < round(p.take_s / dt):
+                continue  # a touch of an object the other hand carries: not a grasp
             else:  # taken in the air
                 lift = a
             far = np.flatnonzero(dist[last:a] >= p.approach_m)
