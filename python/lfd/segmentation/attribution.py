@@ -59,27 +59,29 @@ ATTRIBUTION_RULES: dict[str, Rule] = dict.fromkeys(
 """What each :class:`AttributionParams` field holds (:mod:`lfd.rules`)."""
 
 
-def _at(hand: HandTrack, t_ns: np.ndarray, k: int) -> np.ndarray:
-    """Keypoint ``k`` of ``hand`` at times ``t_ns`` (the nearest hand sample; NaN if none)."""
-    if not len(hand):
-        return np.full((len(t_ns), 3), np.nan)
+def _nearest(hand: HandTrack, t_ns: np.ndarray) -> np.ndarray:
+    """The index of ``hand``'s sample nearest each of ``t_ns`` (``hand`` not empty)."""
     i = np.clip(np.searchsorted(hand.t_ns, t_ns), 1, max(len(hand) - 1, 1))
     prev = np.maximum(i - 1, 0)
-    i = np.where(np.abs(hand.t_ns[prev] - t_ns) <= np.abs(hand.t_ns[i] - t_ns), prev, i)
-    return np.asarray(hand.keypoints[i, k])
+    return np.where(np.abs(hand.t_ns[prev] - t_ns) <= np.abs(hand.t_ns[i] - t_ns), prev, i)
 
 
-def tip_distances(hand: HandTrack, obj: ObjectTrack) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Distances (m) of the hand's TCP, thumb tip and index tip from the object's box at the
-    object's samples (NaN where either is unknown)."""
-    thumb = _at(hand, obj.t_ns, THUMB_TIP)
-    index = _at(hand, obj.t_ns, INDEX_TIP)
-    tcp = 0.5 * (thumb + index)
+def _at(hand: HandTrack, t_ns: np.ndarray, k: int, i: np.ndarray | None = None) -> np.ndarray:
+    """Keypoint ``k`` of ``hand`` at times ``t_ns`` (the nearest hand sample, or the samples
+    ``i``; NaN if none)."""
+    if not len(hand):
+        return np.full((len(t_ns), 3), np.nan)
+    return np.asarray(hand.keypoints[_nearest(hand, t_ns) if i is None else i, k])
 
-    def dist(p: np.ndarray) -> np.ndarray:
-        return box_distance(p, obj.position, obj.quaternion, obj.size)
 
-    return dist(tcp), dist(thumb), dist(index)
+def tip_distances(hand: HandTrack, obj: ObjectTrack, how_many: int = 3) -> tuple[np.ndarray, ...]:
+    """Distances (m) of the hand's TCP, thumb tip and index tip (the first ``how_many`` of
+    them) from the object's box at the object's samples (NaN where either is unknown)."""
+    i = _nearest(hand, obj.t_ns) if len(hand) else None
+    thumb = _at(hand, obj.t_ns, THUMB_TIP, i)
+    index = _at(hand, obj.t_ns, INDEX_TIP, i)
+    points = (0.5 * (thumb + index), thumb, index)[:how_many]
+    return tuple(box_distance(p, obj.position, obj.quaternion, obj.size) for p in points)
 
 
 def hand_distance(hand: HandTrack, obj: ObjectTrack, t_ns: np.ndarray | None = None) -> np.ndarray:
@@ -89,7 +91,8 @@ def hand_distance(hand: HandTrack, obj: ObjectTrack, t_ns: np.ndarray | None = N
     t = obj.t_ns if t_ns is None else np.asarray(t_ns)
     i = np.clip(np.searchsorted(obj.t_ns, t), 0, max(len(obj) - 1, 0))
     pos, quat = obj.position[i], obj.quaternion[i]
-    d = np.stack([box_distance(_at(hand, t, k), pos, quat, obj.size) for k in range(21)])
+    at = _nearest(hand, t) if len(hand) else None
+    d = np.stack([box_distance(_at(hand, t, k, at), pos, quat, obj.size) for k in range(21)])
     with np.errstate(invalid="ignore"):
         return np.asarray(np.min(np.where(np.isfinite(d), d, np.inf), axis=0))
 
@@ -137,18 +140,24 @@ def _object_view(obj: ObjectTrack, tcp_d: np.ndarray, p: AttributionParams) -> O
 
 
 def hand_view(
-    demo: Demonstration, side: str, params: AttributionParams | None = None
+    demo: Demonstration,
+    side: str,
+    params: AttributionParams | None = None,
+    tcp: dict[str, np.ndarray] | None = None,
 ) -> Demonstration:
     """The ``side`` hand alone (:meth:`Demonstration.one_hand`), with every object standing
     still while this hand is away from it and the other hand moves it (see the module). A
-    one-hand demonstration is returned as that hand alone, unchanged."""
+    one-hand demonstration is returned as that hand alone, unchanged. ``tcp``: the hand's TCP
+    distances from each object at its samples, when known (:func:`tip_distances`)."""
     alone = demo.one_hand(side)
     if len(demo.sides) < 2:
         return alone
     p = params or AttributionParams()
     hand = demo.hands[side]
     objects = {
-        name: _object_view(obj, tip_distances(hand, obj)[0], p) if len(obj) else obj
+        name: _object_view(obj, tcp[name] if tcp else tip_distances(hand, obj, 1)[0], p)
+        if len(obj)
+        else obj
         for name, obj in demo.objects.items()
     }
     return dataclasses.replace(alone, objects=objects)

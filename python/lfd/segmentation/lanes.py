@@ -72,8 +72,21 @@ def segment_lanes(
         return HandsSegmentation(lanes={side: segment_one(demo.one_hand(side))})
     p = params or LaneParams()
     lanes: dict[str, Segmentation] = {}
-    segs = {side: segment_one(hand_view(demo, side, attribution)) for side in demo.sides}
-    both = {side: _distances(demo, side, seg, (0, 1)) for side, seg in segs.items()}
+    near = {
+        side: {
+            name: tip_distances(demo.hands[side], obj, 2)
+            for name, obj in demo.objects.items()
+            if len(obj)
+        }
+        for side in demo.sides
+    }
+    segs = {
+        side: segment_one(
+            hand_view(demo, side, attribution, {n: d[0] for n, d in near[side].items()})
+        )
+        for side in demo.sides
+    }
+    both = {side: _at_samples(demo, near[side], seg) for side, seg in segs.items()}
     dists = {side: got[0] for side, got in both.items()}
     holds = {
         side: {name: np.asarray(d <= (carry or CarryParams()).hold_m) for name, d in dist.items()}
@@ -105,22 +118,17 @@ def segment_lanes(
     return result
 
 
-def _distances(
-    demo: Demonstration, side: str, seg: Segmentation, tips: tuple[int, ...] = (0,)
+def _at_samples(
+    demo: Demonstration, near: dict[str, tuple[np.ndarray, ...]], seg: Segmentation
 ) -> list[dict[str, np.ndarray]]:
-    """For each of ``tips`` (0 the TCP, 1 the thumb tip, 3 the hand's nearest keypoint), per
-    object name: the ``side`` hand's distance (m) from its box at ``seg``'s trajectory samples
-    (inf where unknown)."""
-    out: list[dict[str, np.ndarray]] = [{} for _ in tips]
+    """The distances ``near`` (per object name, at the object's samples: TCP, thumb tip) at
+    ``seg``'s trajectory samples, one dict per distance (inf where unknown)."""
     t = _sample_times(seg)
-    hand = demo.hands[side]
-    for name, obj in demo.objects.items():
-        if not len(obj):
-            continue
+    out: list[dict[str, np.ndarray]] = [{}, {}]
+    for name, got in near.items():
+        obj = demo.objects[name]
         i = np.clip(np.searchsorted(obj.t_ns, t), 0, len(obj) - 1)
-        near = tip_distances(hand, obj) if set(tips) - {3} else None
-        for k, tip in enumerate(tips):
-            d = hand_distance(hand, obj) if tip == 3 else near[tip]  # type: ignore[index]
+        for k, d in enumerate(got[:2]):
             out[k][name] = np.where(np.isfinite(d[i]), d[i], np.inf)
     return out
 
