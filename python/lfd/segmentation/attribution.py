@@ -119,7 +119,7 @@ def _object_view(obj: ObjectTrack, tcp_d: np.ndarray, p: AttributionParams) -> O
     with np.errstate(invalid="ignore"):
         away = tcp_d > p.near_m
     pos, quat = obj.position.copy(), obj.quaternion.copy()
-    m = len(obj)
+    known = np.isfinite(pos).all(axis=1) & np.isfinite(quat).all(axis=1)
     for a, b in _runs(away):
         ok = np.isfinite(pos[a:b]).all(axis=1)
         if ok.sum() < 2:
@@ -130,12 +130,32 @@ def _object_view(obj: ObjectTrack, tcp_d: np.ndarray, p: AttributionParams) -> O
         # the object stands still where the hand left it and where it finds it again; the
         # step between the two falls where the hand is farthest from it
         k = a + int(np.nanargmax(np.where(ok, tcp_d[a:b], -np.inf)))
-        left = a - 1 if a > 0 else (b if b < m else a + int(np.argmax(ok)))
-        right = b if b < m else left
+        # the reference poses are seen ones: the last before the run (else its first), the
+        # first after it (else the last before)
+        before = np.flatnonzero(known[:a])
+        after = b + np.flatnonzero(known[b:])
+        first_in = a + int(np.argmax(ok))
+        left = int(before[-1]) if len(before) else (int(after[0]) if len(after) else first_in)
+        right = int(after[0]) if len(after) else left
         pos[a:k], quat[a:k] = obj.position[left], obj.quaternion[left]
         pos[k:b], quat[k:b] = obj.position[right], obj.quaternion[right]
         hidden = a + np.flatnonzero(~obj.visible[a:b])
         pos[hidden], quat[hidden] = np.nan, np.nan
+    return dataclasses.replace(obj, position=pos, quaternion=quat)
+
+
+def filled(obj: ObjectTrack) -> ObjectTrack:
+    """``obj`` with the poses it was not seen at filled in (positions interpolated, the nearest
+    seen orientation before, else after): contact is measured through short occlusions (a
+    hand hides what it holds)."""
+    ok = np.isfinite(obj.position).all(axis=1) & np.isfinite(obj.quaternion).all(axis=1)
+    if ok.all() or not ok.any():
+        return obj
+    t = obj.t_ns.astype(np.float64)
+    pos = np.stack([np.interp(t, t[ok], obj.position[ok, k]) for k in range(3)], axis=1)
+    seen = np.maximum.accumulate(np.where(ok, np.arange(len(obj)), -1))
+    first = int(np.argmax(ok))
+    quat = obj.quaternion[np.where(seen >= 0, seen, first)]
     return dataclasses.replace(obj, position=pos, quaternion=quat)
 
 

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..demo import Demonstration, Handover
 from ..skills import impossible_transitions
-from .attribution import AttributionParams, hand_distance, hand_view, tip_distances
+from .attribution import AttributionParams, filled, hand_distance, hand_view, tip_distances
 from .episodes import CarryParams, carries, overlay, snap
 from .hands import HandsSegmentation
 from .result import Segment, Segmentation
@@ -74,7 +74,7 @@ def segment_lanes(
     lanes: dict[str, Segmentation] = {}
     near = {
         side: {
-            name: tip_distances(demo.hands[side], obj, 2)
+            name: tip_distances(demo.hands[side], filled(obj), 2)
             for name, obj in demo.objects.items()
             if len(obj)
         }
@@ -239,15 +239,25 @@ def _resampled(mask: np.ndarray | None, t_from: np.ndarray, t_to: np.ndarray) ->
 
 
 def _positions(demo: Demonstration, name: str, t_ns: np.ndarray) -> np.ndarray:
-    """The object's true centre at times ``t_ns`` (its nearest sample)."""
+    """The object's true centre at times ``t_ns`` (its nearest sample; where it was not seen,
+    interpolated between where it was)."""
     obj = demo.objects[name]
     i = np.clip(np.searchsorted(obj.t_ns, t_ns), 0, len(obj) - 1)
-    return np.asarray(obj.position[i])
+    pos = np.array(obj.position[i], dtype=np.float64)
+    for axis in range(3):
+        ok = np.isfinite(pos[:, axis])
+        if ok.any() and not ok.all():
+            pos[:, axis] = np.interp(t_ns, t_ns[ok], pos[ok, axis])
+    return pos
 
 
 def _height_at(demo: Demonstration, name: str, t_ns: int) -> float:
+    """The object's height at ``t_ns`` (its nearest sample; through an occlusion, where it
+    would be between where it was seen)."""
     obj = demo.objects[name]
     i = int(np.clip(np.searchsorted(obj.t_ns, t_ns), 0, len(obj) - 1))
+    if not np.isfinite(obj.position[i, 2]):
+        obj = filled(obj)
     return float(obj.position[i, 2])
 
 

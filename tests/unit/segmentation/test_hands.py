@@ -103,3 +103,21 @@ def test_handover_scores_match_giver_taker_and_end() -> None:
     assert handover_scores([near], truth)["found"] == 1.0
     got = handover_scores([far, wrong], truth)
     assert (got["found"], got["missed"], got["false"]) == (0.0, 1.0, 2.0)
+
+
+def test_a_handover_hidden_from_the_camera_is_still_found() -> None:
+    """The box unseen for 1.3 s while it changes hands (a hand hides what it holds): both lanes
+    and the handover as when it is seen."""
+    demo = handover_demo()
+    box = demo.objects["box"]
+    t = (box.t_ns - T0) * 1e-9
+    hidden = (t >= 4.0) & (t < 5.3)
+    pos, quat = box.position.copy(), box.quaternion.copy()
+    pos[hidden], quat[hidden] = np.nan, np.nan
+    unseen = dataclasses.replace(box, position=pos, quaternion=quat, visible=~hidden)
+    result = lfd.segment_hands(dataclasses.replace(demo, objects={"box": unseen}))
+    for side in ("right", "left"):
+        assert result.lanes[side].skill_sequence == [
+            "move", "pick_up", "move_with", "place", "move",
+        ]  # fmt: skip
+    assert [(h.giver, h.taker) for h in result.handovers] == [("right", "left")]
