@@ -330,6 +330,7 @@ class LiveHands:
             lanes={side: lane.result() for side, lane in self.lanes.items()},
             handovers=sorted(self._handovers, key=lambda h: h.start_ns),
             warnings=list(run.warnings) if run is not None else list(self._warnings),
+            method=self.method,
         )
 
 

@@ -191,6 +191,7 @@ def test_lfd_segment_follow_a_two_hand_file(two: lfd.Demonstration, tmp_path: Pa
         batch = lfd.segment_hands(lfd.load(rec))
     doc = json.loads(out.read_text())
     assert set(doc["hands"]) == {"right", "left"} and doc["live"]["stopped"] == "end"
+    assert set(doc["metrics"]) == {"right", "left", "handovers"}  # as lfd segment --json
     for side in ("right", "left"):
         got = [(s["skill"], s["object"]) for s in doc["hands"][side]["segments"]]
         assert got == [(s.skill, s.object) for s in batch.lanes[side].segments], side

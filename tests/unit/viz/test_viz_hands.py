@@ -121,3 +121,36 @@ def test_idle_hand_has_its_lane(exp1: lfd.Demonstration, session: viz.Session) -
         "/world/hand/left/tcp_path" in data.static and "/world/hand/right/tcp_path" in data.static
     )
     assert not [p for p in data.rows if p.startswith("/segmentation/handovers")]
+
+
+def test_lfd_segment_rerun_save_of_a_two_hand_file(tmp_path: Path) -> None:
+    """``lfd segment two.mcap --rerun-save``: each hand's result and ground-truth lanes, each
+    hand's segmented trajectory, the handovers found and the true ones, as lfd.segment_hands
+    gives them."""
+    from _two_hands import save_two_hands
+    from lfd.cli import main
+
+    rec, rrd = tmp_path / "two.mcap", tmp_path / "two.rrd"
+    demo = save_two_hands(rec)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert main(["segment", str(rec), "--rerun-save", str(rrd)]) == 0
+        both = lfd.segment_hands(lfd.load(rec))
+    data = Rrd(rrd)
+    for side in ("right", "left"):
+        states = data.column(f"/segmentation/skills/{side}/result", "StateChange:state")
+        want = [s.skill + (f"({s.object})" if s.object else "") for s in both.lanes[side].segments]
+        assert [x[0] for x in states if x[0]] == want
+        truth = data.column(f"/segmentation/skills/{side}/ground_truth", "StateChange:state")
+        assert len([x for x in truth if x[0]]) == len(demo.labels_of(side))
+        run = both.lanes[side].run
+        assert run is not None
+        assert (
+            len(data.entity(f"/world/hand/{side}/gripper"))
+            == np.isfinite(run.trajectory.tcp).all(1).sum()
+        )
+    assert data.column("/segmentation/handovers/ground_truth", "StateChange:state")[0] == [
+        f"{demo.handovers[0].object} right→left"
+    ]
+    found = data.rows.get("/segmentation/handovers/result", [])
+    assert len([r for r in found if r["StateChange:state"][0]]) == len(both.handovers)
