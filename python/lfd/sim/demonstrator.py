@@ -40,7 +40,7 @@ from .skills import (
     rest_pose,
     stack,
 )
-from .tasks import TEMPLATE_TASKS, Step, check_task, place_objects, task_steps
+from .tasks import BIMANUAL_TASKS, TEMPLATE_TASKS, Step, check_task, place_objects, task_steps
 from .variability import Variability
 
 SIM_VERSION = "1.3"
@@ -78,6 +78,8 @@ class Truth:
     q: np.ndarray
     object_pos: dict[str, np.ndarray]
     object_yaw: dict[str, np.ndarray]
+    other: Truth | None = None
+    """The left hand of a two-hand demonstration (its own hand arrays, the same objects)."""
 
 
 @dataclass
@@ -280,6 +282,12 @@ def simulate(
         )
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise UsageError(f"seed must be an integer >= 0, got {seed!r}")
+    if task in BIMANUAL_TASKS:
+        from .bimanual import simulate_two_hands
+
+        return simulate_two_hands(
+            task, seed, variability, hand_rate_hz=hand_rate_hz, object_rate_hz=object_rate_hz
+        )
     rng = np.random.default_rng(seed)
     var = (variability or Variability()).resolve(rng)
     steps = task_steps(task, rng)
