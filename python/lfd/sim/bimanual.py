@@ -48,7 +48,7 @@ from .hand import (
     grasp_posture,
 )
 from .motion import HandState, Plan, rotation, smooth_noise
-from .planner import Attach, Detach, ObjectPose, Planner, PlannedLabel, Push, wrap_angle
+from .planner import Attach, Detach, ObjectPose, PlannedLabel, Planner, Push, wrap_angle
 from .scene import (
     DEFAULT_OBJECTS,
     DEMONSTRATOR_SHOULDER,
@@ -528,6 +528,27 @@ def _hand_motion(
     return {"tcp": tcp, "yaw": ang[:, 0], "R": R, "q": q, "keypoints": keypoints, "wrist": wrist}
 
 
+def _grab(m: dict[str, np.ndarray], i: int, cur: ObjectPose) -> tuple[np.ndarray, float]:
+    """The pose of an object at ``cur`` relative to a hand's TCP and yaw at grid index ``i``."""
+    c, s = np.cos(-m["yaw"][i]), np.sin(-m["yaw"][i])
+    d = cur.pos - m["tcp"][i]
+    return np.array([c * d[0] - s * d[1], s * d[0] + c * d[1], d[2]]), float(cur.yaw - m["yaw"][i])
+
+
+def _follow(
+    m: dict[str, np.ndarray],
+    i0: int,
+    i1: int,
+    rel: tuple[np.ndarray, float],
+    pos: np.ndarray,
+    yaw: np.ndarray,
+) -> None:
+    """The object rigidly in the hand ``m`` during grid indices ``[i0, i1)``."""
+    Rz = rotation(m["yaw"][i0:i1], np.zeros(i1 - i0), np.zeros(i1 - i0))
+    pos[i0:i1] = m["tcp"][i0:i1] + Rz @ rel[0]
+    yaw[i0:i1] = m["yaw"][i0:i1] + rel[1]
+
+
 def _objects_motion(
     H: dict[str, Planner],
     initial: dict[str, ObjectPose],
@@ -554,24 +575,12 @@ def _objects_motion(
         holders: list[str] = []
         rel: tuple[np.ndarray, float] | None = None
 
-        def grab(side: str, i: int, cur: ObjectPose) -> tuple[np.ndarray, float]:
-            m = motion[side]
-            c, s = np.cos(-m["yaw"][i]), np.sin(-m["yaw"][i])
-            d = cur.pos - m["tcp"][i]
-            return np.array([c * d[0] - s * d[1], s * d[0] + c * d[1], d[2]]), cur.yaw - m["yaw"][i]
-
-        def follow(side: str, i0: int, i1: int, rel: tuple[np.ndarray, float]) -> None:
-            m = motion[side]
-            Rz = rotation(m["yaw"][i0:i1], np.zeros(i1 - i0), np.zeros(i1 - i0))
-            pos[i0:i1] = m["tcp"][i0:i1] + Rz @ rel[0]
-            yaw[i0:i1] = m["yaw"][i0:i1] + rel[1]
-
         for te, side, ev in events:
             i = min(int(np.searchsorted(t, te)), t.size - 1)
             if isinstance(ev, Attach):
                 if not holders:
                     pos[i_cur:i], yaw[i_cur:i] = cur.pos, cur.yaw
-                    rel, i_cur = grab(side, i, cur), i
+                    rel, i_cur = _grab(motion[side], i, cur), i
                 holders.append(side)
             elif isinstance(ev, Detach):
                 if side not in holders:
@@ -581,12 +590,12 @@ def _objects_motion(
                 if side != driver:
                     continue
                 assert rel is not None
-                follow(driver, i_cur, i, rel)
+                _follow(motion[driver], i_cur, i, rel, pos, yaw)
                 last_p = pos[i - 1] if i > i_cur else cur.pos
                 last_y = float(yaw[i - 1]) if i > i_cur else cur.yaw
                 if holders:  # the other hand has it now
                     cur = ObjectPose(np.array(last_p), last_y)
-                    rel = grab(holders[0], i, cur)
+                    rel = _grab(motion[holders[0]], i, cur)
                 else:
                     cur = ObjectPose(np.array([last_p[0], last_p[1], ev.pose.pos[2]]), ev.pose.yaw)
                 i_cur = i
@@ -603,7 +612,7 @@ def _objects_motion(
                 i_cur = i1
         if holders:
             assert rel is not None
-            follow(holders[0], i_cur, t.size, rel)
+            _follow(motion[holders[0]], i_cur, t.size, rel, pos, yaw)
         else:
             pos[i_cur:], yaw[i_cur:] = cur.pos, cur.yaw
         positions[name], yaws[name] = pos, yaw
