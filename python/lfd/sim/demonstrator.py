@@ -444,11 +444,18 @@ def crop(result: SimResult, seconds: float) -> SimResult:
             f"a duration of {seconds} s keeps fewer than two hand samples; give a longer one"
         )
     keep = truth.t_ns <= end
-    hand = demo.hand
-    h = hand.t_ns <= end
-    demo.hand = type(hand)(
-        hand.t_ns[h], hand.keypoints[h], hand.confidence[h], hand.side, hand.visible[h]
-    )
+    for which in ("hand", "other_hand"):
+        hand = getattr(demo, which)
+        if hand is None:
+            continue
+        h = hand.t_ns <= end
+        setattr(
+            demo,
+            which,
+            type(hand)(
+                hand.t_ns[h], hand.keypoints[h], hand.confidence[h], hand.side, hand.visible[h]
+            ),
+        )
     for name, tr in list(demo.objects.items()):
         k = tr.t_ns <= end
         demo.objects[name] = type(tr)(
@@ -456,12 +463,20 @@ def crop(result: SimResult, seconds: float) -> SimResult:
         )
     last = int(truth.t_ns[keep][-1])
     demo.labels = [
-        SkillLabel(lab.skill, lab.start_ns, min(lab.end_ns, last), lab.object)
+        SkillLabel(lab.skill, lab.start_ns, min(lab.end_ns, last), lab.object, hand=lab.hand)
         for lab in demo.labels
         if lab.start_ns < last
     ]
+    demo.handovers = [
+        replace(h, end_ns=min(h.end_ns, last)) for h in demo.handovers if h.start_ns < last
+    ]
     demo.metadata["cropped_s"] = seconds
-    demo.metadata["skill_sequence"] = [lab.skill for lab in demo.labels]
+    if demo.other_hand is None:
+        demo.metadata["skill_sequence"] = [lab.skill for lab in demo.labels]
+    else:
+        demo.metadata["skill_sequences"] = {
+            s: [x.skill for x in demo.labels_of(s)] for s in demo.sides
+        }
     result.truth = Truth(
         t_ns=truth.t_ns[keep],
         tcp=truth.tcp[keep],
@@ -471,27 +486,53 @@ def crop(result: SimResult, seconds: float) -> SimResult:
         q=truth.q[keep],
         object_pos={n: p[keep] for n, p in truth.object_pos.items()},
         object_yaw={n: y[keep] for n, y in truth.object_yaw.items()},
+        other=None if truth.other is None else _cropped(truth.other, keep),
     )
     return result
 
 
-def truth_demonstration(result: SimResult, hand_t_ns: np.ndarray | None = None) -> Demonstration:
+def _cropped(truth: Truth, keep: np.ndarray) -> Truth:
+    """A hand's truth at the frames ``keep``."""
+    return Truth(
+        t_ns=truth.t_ns[keep],
+        tcp=truth.tcp[keep],
+        keypoints=truth.keypoints[keep],
+        wrist_pos=truth.wrist_pos[keep],
+        wrist_quat=truth.wrist_quat[keep],
+        q=truth.q[keep],
+        object_pos={n: p[keep] for n, p in truth.object_pos.items()},
+        object_yaw={n: y[keep] for n, y in truth.object_yaw.items()},
+    )
+
+
+def truth_demonstration(
+    result: SimResult, hand_t_ns: np.ndarray | None = None, other_t_ns: np.ndarray | None = None
+) -> Demonstration:
     """The demonstration a perfect observer would record: noise-free hand keypoints and object
-    poses from the simulator's ground truth, with the labels, camera and metadata of ``result``.
+    poses from the simulator's ground truth, with the labels, handovers, camera and metadata of
+    ``result``.
 
     ``hand_t_ns`` picks the hand sample times (default: those of the simulated hand stream), so
     a perceived recording can be compared with the truth at its own estimator times; objects
-    are sampled at every camera frame. This is what "segmenting the true keypoints" means.
+    are sampled at every camera frame. ``other_t_ns`` does the same for the left hand of a
+    two-hand demonstration. This is what "segmenting the true keypoints" means.
     """
     from ..demo import HandTrack, ObjectTrack
     from .sampling import yaw_quat
 
     truth, demo = result.truth, result.demo
-    t = demo.hand.t_ns if hand_t_ns is None else np.asarray(hand_t_ns, np.int64)
-    idx = np.searchsorted(truth.t_ns, t)
-    if idx.size == 0 or idx.max() >= truth.t_ns.size or np.any(truth.t_ns[idx] != t):
-        raise DemonstrationError("hand_t_ns must be camera frame times of the simulation")
-    hand = HandTrack(t, truth.keypoints[idx].copy(), np.ones((t.size, 21)), demo.hand.side)
+
+    def track(keypoints: np.ndarray, times: np.ndarray | None, sampled: HandTrack) -> HandTrack:
+        t = sampled.t_ns if times is None else np.asarray(times, np.int64)
+        idx = np.searchsorted(truth.t_ns, t)
+        if idx.size == 0 or idx.max() >= truth.t_ns.size or np.any(truth.t_ns[idx] != t):
+            raise DemonstrationError("hand_t_ns must be camera frame times of the simulation")
+        return HandTrack(t, keypoints[idx].copy(), np.ones((t.size, 21)), sampled.side)
+
+    hand = track(truth.keypoints, hand_t_ns, demo.hand)
+    other = None
+    if truth.other is not None and demo.other_hand is not None:
+        other = track(truth.other.keypoints, other_t_ns, demo.other_hand)
     objects = {}
     for spec in result.scene.objects:
         yaw = truth.object_yaw[spec.name]
@@ -507,8 +548,10 @@ def truth_demonstration(result: SimResult, hand_t_ns: np.ndarray | None = None) 
         )
     return Demonstration(
         hand=hand,
+        other_hand=other,
         objects=objects,
         labels=list(demo.labels),
         camera=demo.camera,
         metadata={**demo.metadata, "source": "simulation ground truth"},
+        handovers=list(demo.handovers),
     )
