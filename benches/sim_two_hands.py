@@ -105,9 +105,8 @@ def perceive(task: str, style: str, seed: int, out: Path) -> Path:
 
 
 def perception_table(seeds: list[int], out: Path) -> list[dict[str, Any]]:
-    import numpy as np
-
     import lfd
+    import numpy as np
     from lfd.sim import Variability, simulate
     from lfd.sim.demonstrator import truth_demonstration
 
