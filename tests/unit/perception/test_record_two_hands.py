@@ -1,0 +1,93 @@
+"""``lfd record`` keeps both hands where two can be seen, ``--hand`` keeps one: the hands a
+source gets, the depth points split into the two arms, and recordings of a two-hand scene."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+from lfd.cli.record import hand_sides
+from lfd.errors import LfdError
+
+
+def test_which_hands_are_recorded() -> None:
+    assert hand_sides(None, "depth-net", ("right", "left")) == ("right", "left")
+    assert hand_sides(None, "depth-net", ("right",)) == ("right",)  # one-hand scene: as before
+    assert hand_sides(None, "mediapipe", None) == ("right", "left")  # a camera: both
+    assert hand_sides(None, "depth-net", None) == ("right",)
+    assert hand_sides("left", "mediapipe", None) == ("left",)
+    assert hand_sides("right", "depth-net", ("right", "left")) == ("right",)
+
+
+def _arm(x0: float, rng: np.random.Generator) -> np.ndarray:
+    """Points of a forearm from the demonstrator's side (y = 0) to a hand at y = 0.3."""
+    s = rng.uniform(0.0, 1.0, 800)
+    pts = np.column_stack(
+        [x0 + 0.5 * (0.0 - x0) * s, 0.3 * s, 0.1 + 0.01 * rng.normal(size=s.size), np.zeros(800)]
+    )
+    pts[:, :2] += 0.01 * rng.normal(size=(800, 2))
+    return pts
+
+
+def test_depth_points_split_into_right_and_left_arm() -> None:
+    from lfd.perception.hand.sides import split_arms
+
+    rng = np.random.default_rng(0)
+    right, left = _arm(0.3, rng), _arm(-0.3, rng)
+    arms = split_arms(np.concatenate([left, right]))
+    assert set(arms) == {"right", "left"}
+    assert len(arms["right"]) == len(right) and np.all(arms["right"][:, 0] > 0.1)
+    assert len(arms["left"]) == len(left) and np.all(arms["left"][:, 0] < -0.1)
+    assert set(split_arms(left)) == {"left"}  # one arm: its side from where it comes from
+    assert split_arms(left[:10]) == {}  # too few points: no hand
+
+
+def test_two_hands_need_an_estimator_each() -> None:
+    pytest.importorskip("mujoco")
+    from lfd.perception.record import record
+    from lfd.perception.sources import open_source
+
+    source = open_source("sim:handover", seed=1, duration=0.5)
+    assert source.sides == ("right", "left")
+    with pytest.raises(LfdError, match="one estimator per hand"):
+        record(source, "unused.mcap", sides=("right", "left"), estimator=object())
+    source = open_source("sim:handover", seed=1, duration=0.5)
+    with pytest.raises(LfdError, match="no hand estimator for the left hand"):
+        record(source, "unused.mcap", sides=("right", "left"), estimator={"right": object()})
+    assert not os.path.exists("unused.mcap")
+
+
+def _truth(task: str, seed: int, side: str):  # type: ignore[no-untyped-def]
+    from lfd.sim import simulate
+
+    truth = simulate(task, seed).truth
+    return truth if side == "right" else truth.other
+
+
+@pytest.mark.slow  # renders and perceives 2 s of a two-hand scene twice (~30 s)
+def test_record_two_hand_scene_keeps_both_hands_or_one(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    pytest.importorskip("torch")
+    from lfd.cli import main
+    from lfd.io import load
+
+    both, left = tmp_path / "both.mcap", tmp_path / "left.mcap"
+    argv = ["record", "--source", "sim:carry", "--seed", "2", "--duration", "3"]
+    assert main([*argv, "-o", str(both)]) == 0
+    assert main([*argv, "--hand", "left", "-o", str(left)]) == 0
+    demo = load(both)
+    assert demo.sides == ("right", "left")
+    for side, hand in demo.hands.items():
+        seen = np.isfinite(hand.keypoints).all(axis=(1, 2))
+        assert seen.sum() >= 10, side
+        truth = _truth("carry", 2, side)
+        idx = np.searchsorted(truth.t_ns, hand.t_ns[seen])
+        err = np.linalg.norm(hand.keypoints[seen] - truth.keypoints[idx], axis=2).mean(axis=1)
+        assert np.median(err) < 0.03, (side, np.median(err))
+    one = load(left)
+    assert one.sides == ("left",)
+    np.testing.assert_array_equal(one.hand.t_ns, demo.hands["left"].t_ns)
+    np.testing.assert_allclose(one.hand.keypoints, demo.hands["left"].keypoints)
