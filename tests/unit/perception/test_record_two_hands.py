@@ -78,16 +78,14 @@ def test_record_two_hand_scene_keeps_both_hands_or_one(tmp_path) -> None:  # typ
     argv = ["record", "--source", "sim:carry", "--seed", "2", "--duration", "3"]
     assert main([*argv, "-o", str(both)]) == 0
     assert main([*argv, "--hand", "left", "-o", str(left)]) == 0
-    demo = load(both)
+    demo, one = load(both), load(left)
     assert demo.sides == ("right", "left")
-    for side, hand in demo.hands.items():
+    assert one.sides == ("left",)  # the left hand alone, a one-hand file
+    np.testing.assert_array_equal(one.hand.t_ns, demo.hands["left"].t_ns)
+    for side, hand in [*demo.hands.items(), ("left", one.hand)]:
         seen = np.isfinite(hand.keypoints).all(axis=(1, 2))
         assert seen.sum() >= 10, side
-        truth = _truth("carry", 2, side)
+        truth = _truth("carry", 2, side)  # each hand is where that hand truly is
         idx = np.searchsorted(truth.t_ns, hand.t_ns[seen])
         err = np.linalg.norm(hand.keypoints[seen] - truth.keypoints[idx], axis=2).mean(axis=1)
         assert np.median(err) < 0.03, (side, np.median(err))
-    one = load(left)
-    assert one.sides == ("left",)
-    np.testing.assert_array_equal(one.hand.t_ns, demo.hands["left"].t_ns)
-    np.testing.assert_allclose(one.hand.keypoints, demo.hands["left"].keypoints)
