@@ -182,7 +182,7 @@ def record(
         first = None if not estimators else estimators[hands[0]]
         meta = _metadata(source, first, hand_rate_hz, hands[0])
         objects = [(o["name"], o["tag_id"], np.asarray(o["size"], float)) for o in source.objects]
-        two = {"hands": hands} if len(hands) > 1 else {}  # a one-hand file as it always was
+        two: dict[str, Any] = {"hands": hands} if len(hands) > 1 else {}  # one hand: as always
         if len(hands) > 1:
             meta["hands"] = list(hands)
         rec = McapRecorder(

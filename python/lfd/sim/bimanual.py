@@ -103,7 +103,7 @@ def _objects(task: str, rng: np.random.Generator, natural: bool) -> tuple[Object
             )
         )
         size = lo + rng.uniform(0.0, 1.0, 3) * np.array([0.04, 0.01, 0.02])
-        special = replace(special, size=tuple(float(v) for v in size))
+        special = replace(special, size=(float(size[0]), float(size[1]), float(size[2])))
     return (special, *cubes)
 
 

@@ -132,15 +132,8 @@ def sample_streams(
     t_ns: np.ndarray = truth.t_ns  # type: ignore[attr-defined]
     n = t_ns.size
     R_cv = scene.camera.rotation_cv()
-    hand = sample_hand(
-        rng,
-        t_ns,
-        truth.keypoints,
-        R_cv,
-        var,
-        hand_rate_hz,
-        object_rate_hz,  # type: ignore[attr-defined]
-    )
+    keypoints: np.ndarray = truth.keypoints  # type: ignore[attr-defined]
+    hand = sample_hand(rng, t_ns, keypoints, R_cv, var, hand_rate_hz, object_rate_hz)
 
     tracks: dict[str, ObjectTrack] = {}
     tcps = [truth.tcp] + [h.tcp for h in others]  # type: ignore[attr-defined]

@@ -4,6 +4,7 @@ hand rendered as the mirrored right one, and both hands perceived from a depth i
 
 from __future__ import annotations
 
+import itertools
 import os
 
 import numpy as np
@@ -42,7 +43,7 @@ def test_each_lane_covers_the_take_and_follows_the_grammar(results, task, style)
         lane = demo.labels_of(side)
         assert all(lab.hand == side for lab in lane)
         assert lane[0].start_ns == truth.t_ns[0] and lane[-1].end_ns == truth.t_ns[-1]
-        for a, b in zip(lane, lane[1:], strict=False):
+        for a, b in itertools.pairwise(lane):
             assert a.end_ns == b.start_ns and a.start_ns < a.end_ns
         check_grammar([lab.skill for lab in lane])
         assert len(demo.hands[side]) > 10
@@ -124,9 +125,7 @@ def test_two_handed_carry_and_holding_still(results) -> None:  # type: ignore[no
             result = results[(task, style)]
             roles = result.demo.metadata["roles"]
             hold = next(
-                lab
-                for lab in result.demo.labels_of(roles["holder"])
-                if lab.skill == "move_with"
+                lab for lab in result.demo.labels_of(roles["holder"]) if lab.skill == "move_with"
             )
             assert hold.object == roles["held"]
             t = result.truth.t_ns
@@ -149,8 +148,13 @@ def test_two_hand_simulation_is_reproducible() -> None:
 
 def test_left_hand_renders_as_the_mirrored_right_one() -> None:
     import mujoco
-
-    from lfd.sim.hand import JOINT_NAMES, POSTURES, MirroredKinematics, hand_mjcf
+    from lfd.sim.hand import (
+        JOINT_NAMES,
+        POSTURES,
+        HandKinematics,
+        MirroredKinematics,
+        hand_mjcf,
+    )
 
     xml = f"<mujoco><worldbody>{hand_mjcf(1.0)}{hand_mjcf(1.0, 'left')}</worldbody></mujoco>"
     model = mujoco.MjModel.from_xml_string(xml)
@@ -161,15 +165,9 @@ def test_left_hand_renders_as_the_mirrored_right_one() -> None:
     mujoco.mj_kinematics(model, data)
     left = np.array([data.site(f"left_kp_{i}").xpos for i in range(21)])
     np.testing.assert_allclose(left, kin.local_keypoints(q), atol=1e-9)
-    right = HandKinematicsRight(model).local_keypoints(q)
+    right = HandKinematics(model).local_keypoints(q)
     np.testing.assert_allclose(left[:, 1], -right[:, 1], atol=1e-9)
     assert np.abs(right[:, 1]).max() > 0.02  # a real mirror, not a symmetric hand
-
-
-def HandKinematicsRight(model):  # type: ignore[no-untyped-def]  # noqa: N802
-    from lfd.sim.hand import HandKinematics
-
-    return HandKinematics(model)
 
 
 def test_both_hands_found_in_a_rendered_depth_image() -> None:
