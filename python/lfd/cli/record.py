@@ -157,6 +157,8 @@ def run(args: argparse.Namespace) -> int:
     )
     try:
         sides = hand_sides(args.hand, model, getattr(source, "sides", None))
+        if args.no_hand:  # no hand estimated: the one hand topic (unobserved), as always
+            sides = sides[:1]
         args.hand = sides[0]  # the first hand's topics, live segmentation and summary
         args.hand_sides = sides
         estimator, hand_rate = _estimator(args, model, model_file, source)

@@ -89,3 +89,30 @@ def test_record_two_hand_scene_keeps_both_hands_or_one(tmp_path) -> None:  # typ
         idx = np.searchsorted(truth.t_ns, hand.t_ns[seen])
         err = np.linalg.norm(hand.keypoints[seen] - truth.keypoints[idx], axis=2).mean(axis=1)
         assert np.median(err) < 0.03, (side, np.median(err))
+
+
+def test_mediapipe_gives_both_hands_from_one_tracker() -> None:
+    """The second hand's estimator takes the hands its leader's tracker found in the frame: both
+    hands, each its own, with one palm detection for the whole clip."""
+    pytest.importorskip("ai_edge_litert")
+    pytest.importorskip("cv2")
+    import test_hands_mediapipe as T
+
+    if not T.REALHANDS.is_dir():
+        pytest.skip(f"real hand photographs not found at {T.REALHANDS}")
+    from lfd.perception.hand.rgbd import MediaPipeEstimator
+
+    right = MediaPipeEstimator("right")
+    left = right.for_side("left")
+    assert left.tracker is right.tracker and left.side == "left"
+    K = np.array([[600.0, 0.0, 319.5], [0.0, 600.0, 239.5], [0.0, 0.0, 1.0]])
+    for frame in T._two_hand_video(6):
+        r = right.estimate_frame(frame, None, K, None)
+        l_ = left.estimate_frame(frame, None, K, None)
+        assert r is not None and l_ is not None
+        assert r.hand is not None and l_.hand is not None
+        assert (r.hand.handedness, l_.hand.handedness) == ("right", "left")
+        assert r.hand.track_id != l_.hand.track_id
+        gap = np.abs(r.hand.keypoints_2d[:, 0].mean() - l_.hand.keypoints_2d[:, 0].mean())
+        assert gap > 50  # two different hands in the image
+    assert right.tracker.palm_runs == 1
