@@ -49,6 +49,7 @@ from .hand import (
 )
 from .motion import HandState, Plan, rotation, smooth_noise
 from .planner import Attach, Detach, ObjectPose, PlannedLabel, Planner, Push, wrap_angle
+from .results import BASE_TIME_NS, SIM_VERSION, SimResult, Truth, free_fingers, quat_wxyz
 from .scene import (
     DEFAULT_OBJECTS,
     DEMONSTRATOR_SHOULDER,
@@ -504,15 +505,13 @@ def _hand_motion(
     rng: np.random.Generator, var: Any, kin: HandKinematics, P: Planner, t: np.ndarray
 ) -> dict[str, np.ndarray]:
     """One hand's true motion on the fine grid (as :func:`lfd.sim.demonstrator._motion`)."""
-    from .demonstrator import _free_fingers
-
     tcp, ang, q = Plan(P.segments).evaluate(t)
     drift_joints = np.arange(2 * JOINTS_PER_FINGER, N_JOINTS)
     drift = smooth_noise(
         rng, t, drift_joints.size, amplitude=np.deg2rad(var.finger_drift_deg), freq_range=(0.1, 0.6)
     )
     if var.style == "natural":
-        drift *= _free_fingers(P, t)[:, drift_joints]
+        drift *= free_fingers(P, t)[:, drift_joints]
     q[:, drift_joints] += drift
     tremor = smooth_noise(
         rng, t, 3, amplitude=float(var.tremor_mm or 0.0) * 1e-3, freq_range=(6, 10)
@@ -633,7 +632,6 @@ def simulate_two_hands(
     :class:`~lfd.sim.demonstrator.SimResult` whose demonstration has both hands, the labels of
     both lanes (``hand`` set) and the handovers, and whose truth has the left hand in
     ``other``."""
-    from .demonstrator import BASE_TIME_NS, SIM_VERSION, SimResult, Truth, _quat_wxyz
     from .sampling import sample_hand, sample_streams
 
     rng = np.random.default_rng(seed)
@@ -689,7 +687,7 @@ def simulate_two_hands(
             tcp=m["tcp"][frames],
             keypoints=m["keypoints"][frames],
             wrist_pos=m["wrist"][frames],
-            wrist_quat=_quat_wxyz(m["R"][frames]),
+            wrist_quat=quat_wxyz(m["R"][frames]),
             q=m["q"][frames],
             object_pos=op,
             object_yaw=oy,

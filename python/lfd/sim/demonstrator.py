@@ -15,7 +15,7 @@ capture: keypoints on every frame (30 Hz by default), small noise, almost no dro
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -23,10 +23,11 @@ import numpy as np
 from ..demo import CameraInfo, Demonstration, SkillLabel
 from ..errors import DemonstrationError, UsageError
 from . import natural as nat
-from .hand import GRASP_FINGERTIPS, JOINTS_PER_FINGER, N_JOINTS, HandKinematics
+from .hand import JOINTS_PER_FINGER, N_JOINTS, HandKinematics
 from .motion import Plan, rotation, smooth_noise
 from .planner import Attach, Detach, ObjectPose, Planner, Push
-from .scene import DEFAULT_OBJECTS, ObjectSpec, Scene, build_scene
+from .results import BASE_TIME_NS, SIM_VERSION, SimResult, Truth, free_fingers, quat_wxyz
+from .scene import DEFAULT_OBJECTS, ObjectSpec, build_scene
 from .skills import (
     locate,
     locate_entry,
@@ -43,54 +44,7 @@ from .skills import (
 from .tasks import BIMANUAL_TASKS, TEMPLATE_TASKS, Step, check_task, place_objects, task_steps
 from .variability import Variability
 
-SIM_VERSION = "1.3"
-"""Version of the simulated demonstrator (bump when motions change; 1.1 added the natural
-style, 1.2 the contact boundaries, 1.3 the natural style's idle hovers and table turns; the
-careful motions are those of 1.2)."""
-
 _MAX_ATTEMPTS = 10
-
-BASE_TIME_NS = 1_700_000_000_000_000_000
-"""Capture time of the first frame of every simulated demonstration."""
-
-
-@dataclass
-class Truth:
-    """Noise-free state at every camera frame.
-
-    Attributes
-    ----------
-    t_ns : array, shape (n,)
-    tcp : array, shape (n, 3)
-    keypoints : array, shape (n, 21, 3)
-    wrist_pos : array, shape (n, 3)
-    wrist_quat : array, shape (n, 4)   (w, x, y, z) as MuJoCo
-    q : array, shape (n, 20)           finger joint angles
-    object_pos : dict of array (n, 3)
-    object_yaw : dict of array (n,)
-    """
-
-    t_ns: np.ndarray
-    tcp: np.ndarray
-    keypoints: np.ndarray
-    wrist_pos: np.ndarray
-    wrist_quat: np.ndarray
-    q: np.ndarray
-    object_pos: dict[str, np.ndarray]
-    object_yaw: dict[str, np.ndarray]
-    other: Truth | None = None
-    """The left hand of a two-hand demonstration (its own hand arrays, the same objects)."""
-
-
-@dataclass
-class SimResult:
-    """A simulated demonstration, its ground truth and what produced it."""
-
-    demo: Demonstration
-    truth: Truth
-    scene: Scene
-    plan: Plan
-    variability: Variability
 
 
 def _entry(P: Planner, step: Step, roles: dict[str, str], *, first: bool = False) -> Any:
@@ -149,30 +103,6 @@ def _execute(P: Planner, steps: tuple[Step, ...], roles: dict[str, str]) -> None
     P.hold(float(P.rng.uniform(0.3, 0.8)))
     last = P.labels[-1]
     P.labels[-1] = type(last)(last.skill, last.t0, P.t, last.object)
-
-
-def _free_fingers(P: Planner, t: np.ndarray) -> np.ndarray:
-    """Weight (n, 20) of each finger joint's drift at times ``t``: 0 for the fingers of a grasp
-    from the start of its closing to 0.3 s after the release, ramped over 0.2 s."""
-    w = np.ones((t.size, N_JOINTS))
-    releases = iter(e.t for e in P.events if isinstance(e, Detach))
-    for grasp in P.grasps:
-        t0, t1 = float(grasp["t_close_s"]), next(releases, float(t[-1])) + 0.3
-        busy = np.interp(t, [t0 - 0.2, t0, t1, t1 + 0.2], [0.0, 1.0, 1.0, 0.0])
-        for tip in GRASP_FINGERTIPS[str(grasp["type"])]:
-            f = (tip - 1) // 4
-            cols = slice(f * JOINTS_PER_FINGER, (f + 1) * JOINTS_PER_FINGER)
-            w[:, cols] = np.minimum(w[:, cols], 1.0 - busy[:, None])
-    return w
-
-
-def _quat_wxyz(R: np.ndarray) -> np.ndarray:
-    import mujoco
-
-    out = np.empty((R.shape[0], 4))
-    for i in range(R.shape[0]):
-        mujoco.mju_mat2Quat(out[i], R[i].ravel())
-    return out
 
 
 def _objects_motion(
@@ -361,7 +291,7 @@ def _motion(
         rng, t, drift_joints.size, amplitude=np.deg2rad(var.finger_drift_deg), freq_range=(0.1, 0.6)
     )
     if var.style == "natural":  # fingers holding an object do not drift
-        drift *= _free_fingers(P, t)[:, drift_joints]
+        drift *= free_fingers(P, t)[:, drift_joints]
     q[:, drift_joints] += drift
     tremor = smooth_noise(
         rng, t, 3, amplitude=float(var.tremor_mm or 0.0) * 1e-3, freq_range=(6, 10)
@@ -383,7 +313,7 @@ def _motion(
         tcp=tcp[frames],
         keypoints=keypoints[frames],
         wrist_pos=wrist[frames],
-        wrist_quat=_quat_wxyz(R[frames]),
+        wrist_quat=quat_wxyz(R[frames]),
         q=q[frames],
         object_pos={n: p[frames] for n, p in obj_pos.items()},
         object_yaw={n: y[frames] for n, y in obj_yaw.items()},
