@@ -67,7 +67,7 @@ def engine_stage2(templates, demo: dict) -> list[tuple[int, int, int]]:
     from lfd import _hmmseg
     from lfd.segmentation.band import Band
     from lfd.segmentation.grammar import compiled_grammar
-    from lfd.segmentation.pipeline import scores_over_objects
+    from lfd.segmentation.stage2 import scores_over_objects
 
     band = Band.of(demo["bounds"], round(10.0 / demo["dt"]))
     st = scores_over_objects(demo["objects"], templates, band, "final")

@@ -98,15 +98,20 @@ def write_ros1(demo: lfd.Demonstration, path: Path, *, compression: str | None =
             m = cam_T_world @ _matrix(p, q)
             msgs.append((int(t), "/tf", T["tf2_msgs/msg/TFMessage"](
                 transforms=[_tf(store, int(t), "camera", o.name, m)])))  # fmt: skip
-    for t, kp in zip(demo.hand.t_ns, demo.hand.keypoints, strict=True):
-        pts = kp @ cam_T_world[:3, :3].T + cam_T_world[:3, 3]
-        poses = [_pose(store, p, np.array([0, 0, 0, 1.0])) for p in pts]
-        msgs.append((int(t), "/hand/keypoints", T["geometry_msgs/msg/PoseArray"](
-            header=_header(store, int(t), "camera"), poses=poses)))  # fmt: skip
+    # one hand: /hand/keypoints; two: the left hand's on /hand/keypoints_left too
+    topic_of = {"right": "/hand/keypoints", "left": "/hand/keypoints_left"}
+    if demo.other_hand is None:
+        topic_of[demo.hand.side] = "/hand/keypoints"
+    for hand in demo.hands.values():
+        for t, kp in zip(hand.t_ns, hand.keypoints, strict=True):
+            pts = kp @ cam_T_world[:3, :3].T + cam_T_world[:3, 3]
+            poses = [_pose(store, p, np.array([0, 0, 0, 1.0])) for p in pts]
+            msgs.append((int(t), topic_of[hand.side], T["geometry_msgs/msg/PoseArray"](
+                header=_header(store, int(t), "camera"), poses=poses)))  # fmt: skip
     types = {
         "/tf": "tf2_msgs/msg/TFMessage",
         "/tf_static": "tf2_msgs/msg/TFMessage",
-        "/hand/keypoints": "geometry_msgs/msg/PoseArray",
+        **{topic_of[side]: "geometry_msgs/msg/PoseArray" for side in demo.hands},
     }
     w = Writer(path)
     if compression is not None:
@@ -115,6 +120,9 @@ def write_ros1(demo: lfd.Demonstration, path: Path, *, compression: str | None =
         conns = {k: w.add_connection(k, v, typestore=store) for k, v in types.items()}
         for t, topic, msg in sorted(msgs, key=lambda m: m[0]):
             w.write(conns[topic], t, store.serialize_ros1(msg, types[topic]))
+    if demo.other_hand is not None:
+        hands = "".join(f'[hands.{side}]\ntopic = "{topic_of[side]}"\n\n' for side in demo.hands)
+        return 'reference_frame = "world"\nunits = "m"\n\n' + hands + _objects_toml(demo, "frame")
     return (
         'reference_frame = "world"\nunits = "m"\n\n[hand]\ntopic = "/hand/keypoints"\n'
         'order = "mediapipe"\nside = "right"\n\n' + _objects_toml(demo, "frame")

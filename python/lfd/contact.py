@@ -15,25 +15,22 @@ and the simulator's ground truth, so both speak of the same skill boundaries:
   it held it, or the grasp aperture ``release_open_m`` (1.5 cm) wider;
   what follows is a Move.
 
-A segment is written ``(skill, start, end, object)``: samples ``start..end`` (end exclusive),
-``object`` an index into the object arrays or None. Everything here is numpy on arrays of the
-preprocessed samples; nothing depends on a later stage.
+A segment is a :class:`lfd.skills.Draft`: a skill on samples ``start..end`` (end exclusive), its
+object ``obj`` an index into the object arrays or None; which skills release their object is
+:data:`lfd.skills.RELEASES`. Everything here is numpy on arrays of the preprocessed samples;
+nothing depends on a later stage.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
 from .geometry import box_distance
 from .rules import Number, Rule, Whole, check_fields
-
-Span = tuple[str, int, int, int | None]
-"""``(skill, start, end, object)``: a skill on samples ``start..end`` (end exclusive)."""
-
-RELEASES: frozenset[str] = frozenset({"place", "stack"})
-"""Skills that end by letting go of the object."""
+from .skills import RELEASES, Draft
 
 
 @dataclass(frozen=True)
@@ -91,7 +88,7 @@ CONTACT_RULES: dict[str, Rule] = {
 
 
 def refine(
-    spans: list[Span],
+    drafts: list[Draft],
     tcp: np.ndarray,
     thumb: np.ndarray,
     object_position: np.ndarray,
@@ -101,8 +98,8 @@ def refine(
     opening: np.ndarray | None = None,
     *,
     complete: bool = True,
-) -> list[Span]:
-    """The contiguous ``spans`` with their contact boundaries put where the rules above say
+) -> list[Draft]:
+    """The contiguous ``drafts`` with their contact boundaries put where the rules above say
     (``tcp``, ``thumb`` ``(n, 3)``; ``object_position`` ``(O, n, 3)``, ``object_quaternion``
     ``(O, n, 4)``, ``object_size`` ``(O, 3)``; ``opening`` ``(n,)`` the grasp aperture, if known):
 
@@ -123,10 +120,11 @@ def refine(
     being made, the live segmentation's runs) they are not applied.
 
     Boundaries only move between the two segments they separate, and every segment keeps at
-    least one sample.
+    least one sample. The drafts given are not changed: the result holds changed copies (with
+    their scores), the Moves inserted have none.
     """
     p = params or ContactParams()
-    out = [_Seg(*s) for s in spans]
+    out = [dataclasses.replace(d) for d in drafts]
     n = len(tcp)
     used = {s.obj for s in out if s.obj is not None}
     d_tcp = {
@@ -143,11 +141,11 @@ def refine(
     _approach(out, d_tcp, p)
     if complete:
         _last_release(out, d_tcp, d_thumb, opening, object_position, n, p)
-    return [(s.skill, s.start, s.end, s.obj) for s in out]
+    return out
 
 
 def _drop_unlifted_end(
-    out: list[_Seg], object_position: np.ndarray, n: int, p: ContactParams
+    out: list[Draft], object_position: np.ndarray, n: int, p: ContactParams
 ) -> None:
     """A Pick up that ends the demonstration and never lifts its object was no grasp: it
     becomes part of the Move before it."""
@@ -159,7 +157,7 @@ def _drop_unlifted_end(
 
 
 def _merge_table_turns(
-    out: list[_Seg], object_position: np.ndarray, d_tcp: dict[int, np.ndarray], p: ContactParams
+    out: list[Draft], object_position: np.ndarray, d_tcp: dict[int, np.ndarray], p: ContactParams
 ) -> None:
     """A turn or slide on the table: a "carry" that never lifts its object, and the grasp
     after it, are one Pick up."""
@@ -185,7 +183,7 @@ def _merge_table_turns(
         k += 1
 
 
-def _lift_and_set_down(out: list[_Seg], object_position: np.ndarray, p: ContactParams) -> None:
+def _lift_and_set_down(out: list[Draft], object_position: np.ndarray, p: ContactParams) -> None:
     """A Pick up followed by its Move with ends where the object first moves (lift); a Move
     with followed by its release where the object comes to rest (set down)."""
     for k in range(len(out) - 1):
@@ -204,7 +202,7 @@ def _lift_and_set_down(out: list[_Seg], object_position: np.ndarray, p: ContactP
             _move_boundary(out, k, t)
 
 
-def _approach(out: list[_Seg], d_tcp: dict[int, np.ndarray], p: ContactParams) -> None:
+def _approach(out: list[Draft], d_tcp: dict[int, np.ndarray], p: ContactParams) -> None:
     """Approach: where the reach of a Pick up begins (a Move inserted before a first Pick up
     that began farther; a first Move that never left the object joins the Pick up)."""
     k = -1
@@ -223,7 +221,7 @@ def _approach(out: list[_Seg], d_tcp: dict[int, np.ndarray], p: ContactParams) -
             t = lo + int(np.flatnonzero(far)[-1]) + 1
             if prev is None:
                 if t - cur.start >= p.min_move and t < cur.end:
-                    out.insert(k, _Seg("move", cur.start, t, None))
+                    out.insert(k, Draft("move", cur.start, t))
                     cur.start = t
             else:
                 _move_boundary(out, k - 1, t)
@@ -234,7 +232,7 @@ def _approach(out: list[_Seg], d_tcp: dict[int, np.ndarray], p: ContactParams) -
 
 
 def _last_release(
-    out: list[_Seg],
+    out: list[Draft],
     d_tcp: dict[int, np.ndarray],
     d_thumb: dict[int, np.ndarray],
     opening: np.ndarray | None,
@@ -250,15 +248,7 @@ def _last_release(
         t = _release(d_tcp[o], d_thumb[o], opening, object_position[o], last.start, n, p)
         if t is not None and last.start < t <= n - p.min_move:
             last.end = t
-            out.append(_Seg("move", t, n, None))
-
-
-@dataclass
-class _Seg:
-    skill: str
-    start: int
-    end: int
-    obj: int | None
+            out.append(Draft("move", t, n))
 
 
 def _lift(pos: np.ndarray, a: int, b: int, p: ContactParams) -> int | None:
@@ -288,7 +278,7 @@ def _descent(pos: np.ndarray, a: int, b: int, p: ContactParams) -> int | None:
     return a + int(np.flatnonzero(above)[-1]) + 1
 
 
-def _move_boundary(out: list[_Seg], k: int, t: int) -> None:
+def _move_boundary(out: list[Draft], k: int, t: int) -> None:
     """Put the boundary between ``out[k]`` and ``out[k + 1]`` at ``t``, keeping both non-empty."""
     t = min(max(t, out[k].start + 1), out[k + 1].end - 1)
     if t > out[k].start:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from typing import Any
 
 from ._options import (
     add_json_argument,
@@ -85,23 +86,17 @@ def run(args: argparse.Namespace) -> int:
                 f"hand: closest {near['distance_m']:.3f} m to an object ({near['object']} at "
                 f"{near['t_s']:.2f} s)"
             )
+    two = len(s.get("hands") or []) > 1
+    if two:
+        con.print(
+            "hands: "
+            + ", ".join(f"{h['side']} {h['samples']} @ {h['rate_hz']:.1f} Hz" for h in s["hands"])
+        )
     for key, title in (("labels", "ground-truth skills"), ("live_segments", "live segments")):
-        if not s.get(key):
-            continue
-        shown, more = capped(s[key], (lab["skill"] for lab in s[key]))
-        lt = Table(title=title)
-        for col in ("#", "skill", "object", "start s", "end s"):
-            lt.add_column(col)
-        for i, lab in enumerate(shown):
-            lt.add_row(
-                str(i + 1),
-                lab["skill"],
-                lab["object"] or "-",
-                f"{lab['start_s']:.2f}",
-                f"{lab['end_s']:.2f}",
-            )
-        con.print(lt)
-        con.print(more or "sequence: " + " -> ".join(lab["skill"] for lab in s[key]))
+        if s.get(key):
+            _labels(con, s[key], title, [h["side"] for h in s["hands"]] if two else [])
+    if s.get("handovers"):
+        _handovers(con, s["handovers"])
     if s.get("metadata"):
         con.print("metadata: " + ", ".join(_short(k, v) for k, v in s["metadata"].items()))
     if s.get("camera"):
@@ -114,6 +109,52 @@ def run(args: argparse.Namespace) -> int:
         print(f"lfd info: error: {' '.join(str(s['error']).split())}", file=sys.stderr)
         return 2
     return 0
+
+
+def _labels(con: Any, labels: list[dict[str, Any]], title: str, sides: list[str]) -> None:
+    """A table of skill labels (a hand column for two hands) and each hand's sequence."""
+    from rich.table import Table
+
+    shown, more = capped(labels, (lab["skill"] for lab in labels))
+    lt = Table(title=title)
+    for col in ("#", *(["hand"] if sides else []), "skill", "object", "start s", "end s"):
+        lt.add_column(col)
+    for i, lab in enumerate(shown):
+        lt.add_row(
+            str(i + 1),
+            *([lab["hand"] or "-"] if sides else []),
+            lab["skill"],
+            lab["object"] or "-",
+            f"{lab['start_s']:.2f}",
+            f"{lab['end_s']:.2f}",
+        )
+    con.print(lt)
+    if more:
+        con.print(more)
+    elif not sides:
+        con.print("sequence: " + " -> ".join(lab["skill"] for lab in labels))
+    for side in sides:
+        lane = [lab["skill"] for lab in labels if lab["hand"] == side]
+        con.print(f"{side} hand: " + (" -> ".join(lane) or "no labels"))
+
+
+def _handovers(con: Any, handovers: list[dict[str, Any]]) -> None:
+    """A table of a two-hand recording's handovers."""
+    from rich.table import Table
+
+    ht = Table(title="handovers")
+    for col in ("#", "giver", "taker", "object", "start s", "end s"):
+        ht.add_column(col)
+    for i, h in enumerate(handovers):
+        ht.add_row(
+            str(i + 1),
+            h["giver"],
+            h["taker"],
+            h["object"] or "-",
+            f"{h['start_s']:.2f}",
+            f"{h['end_s']:.2f}",
+        )
+    con.print(ht)
 
 
 def _short(key: str, value: object) -> str:

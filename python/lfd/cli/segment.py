@@ -137,8 +137,8 @@ def segment_stream(
                 tag_ids=[o[1] for o in objects],
                 metadata=follower.demo_metadata,
             )
-        if seg is None:
-            continue
+        if seg is None or msg.side not in (None, follower.hand_side):
+            continue  # the other hand of a two-hand recording (this segmenter has one lane)
         _show_update(seg, seg.push_recorded(msg.kind, msg.t_ns, msg.value), timeline(), con)
     if seg is None:
         return None, labels, []

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
@@ -35,6 +35,34 @@ COLOR_KEY = "observation.images.color"
 
 STATE_NAMES: tuple[str, ...] = ("tcp.x", "tcp.y", "tcp.z", "gripper.qx", "gripper.qy",
                                 "gripper.qz", "gripper.qw", "opening")  # fmt: skip
+
+
+SCALAR_KEYS = ("skill_index", "object_index", "subtask_index")
+"""The per-frame skill columns, one value each (a two-hand episode has them per hand too)."""
+
+
+@dataclass
+class Lane:
+    """One hand's skill columns of a two-hand episode (as :class:`Episode`'s)."""
+
+    skill_index: np.ndarray
+    object_index: np.ndarray
+    subtask: list[str]
+
+
+def _lane(labels: Sequence[SkillLabel], t_ns: np.ndarray, names: list[str]) -> Lane:
+    """The skill columns of ``labels`` at the frames ``t_ns`` (objects indexed in ``names``)."""
+    per_frame = frame_labels(labels, t_ns)
+    return Lane(
+        skill_index=np.array(
+            [SKILLS.index(lab.skill) if lab else -1 for lab in per_frame], dtype=np.int64
+        ),
+        object_index=np.array(
+            [names.index(lab.object) if lab and lab.object in names else -1 for lab in per_frame],
+            dtype=np.int64,
+        ),
+        subtask=[subtask_name(lab.skill, lab.object) if lab else NO_SKILL for lab in per_frame],
+    )
 
 
 @dataclass
@@ -68,6 +96,10 @@ class Episode:
     color : array, shape (m, H, W, 3), uint8, or None
         Colour images; ``color_index[i]`` is frame ``i``'s.
     color_index : array, shape (n,), int64, or None
+    lanes : dict[str, Lane]
+        A two-hand recording's skill columns per hand (``right``, ``left``): the columns
+        ``skill_index.<side>``, ``object_index.<side>``, ``subtask_index.<side>``; empty for one
+        hand. The unsuffixed columns and the program are the first (right) hand's.
     """
 
     recording: str
@@ -88,6 +120,7 @@ class Episode:
     program: dict[str, Any]
     color: np.ndarray | None = None
     color_index: np.ndarray | None = None
+    lanes: dict[str, Lane] = field(default_factory=dict)
 
     def __len__(self) -> int:
         return int(self.state.shape[0])
@@ -142,6 +175,9 @@ class Episode:
             "object_index": {"dtype": "int64", "shape": (1,), "names": None},
             "subtask_index": {"dtype": "int64", "shape": (1,), "names": None},
         }
+        for side in self.lanes:
+            for key in SCALAR_KEYS:
+                feats[f"{key}.{side}"] = {"dtype": "int64", "shape": (1,), "names": None}
         if self.color is not None:
             h, w = self.color.shape[1:3]
             feats[COLOR_KEY] = {
@@ -267,9 +303,11 @@ def prepare_episode(
     if fps < 1 or abs(rate - fps) > 1e-6 * rate:
         raise DemonstrationError(f"{where}: LeRobot needs a whole frame rate, got {rate:g} Hz")
     t0 = int(traj.t_ns[0])
-    source, skill_labels, program = _episode_labels(demo, traj, labels, m, where)
+    source, lanes, program = _episode_labels(demo, traj, labels, m, where)
+    skill_labels = lanes[demo.sides[0]]
     names = list(traj.object_names)
     per_frame = frame_labels(skill_labels, traj.t_ns)
+    first = _lane(skill_labels, traj.t_ns, names)
     number = {id(lab): k for k, lab in enumerate(skill_labels)}
     state, keypoints, objects, valid = _pose_columns(traj)
     color, color_index = _color_frames(demo, traj, where) if video else (None, None)
@@ -284,28 +322,27 @@ def prepare_episode(
         keypoints=keypoints,
         objects=objects,
         valid=valid,
-        skill_index=np.array(
-            [SKILLS.index(lab.skill) if lab else -1 for lab in per_frame], dtype=np.int64
-        ),
-        object_index=np.array(
-            [names.index(lab.object) if lab and lab.object in names else -1 for lab in per_frame],
-            dtype=np.int64,
-        ),
-        subtask=[subtask_name(lab.skill, lab.object) if lab else NO_SKILL for lab in per_frame],
+        skill_index=first.skill_index,
+        object_index=first.object_index,
+        subtask=first.subtask,
         segment=np.array([number[id(lab)] if lab else -1 for lab in per_frame], dtype=np.int64),
         task=", ".join(steps),
         label_source=source,
         program=program.to_json(),
         color=color,
         color_index=color_index,
+        lanes={side: _lane(lane, traj.t_ns, names) for side, lane in lanes.items()}
+        if len(lanes) > 1
+        else {},
     )
 
 
 def _episode_labels(
     demo: Demonstration, traj: Trajectory, labels: LabelSource, method: Method, where: str
-) -> tuple[str, list[SkillLabel], TaskProgram]:
-    """The episode's label source, its skill labels in time order and its task program: the
-    ground truth, or the segmentation of ``traj`` by ``method``."""
+) -> tuple[str, dict[str, list[SkillLabel]], TaskProgram]:
+    """The episode's label source, each hand's skill labels in time order and the first
+    (right) hand's task program: the ground truth, or the segmentation of ``traj`` by
+    ``method`` (of both hands, :func:`lfd.segment_hands`, for two)."""
     from ..reproduce.program import from_labels, from_segmentation
 
     t0 = int(traj.t_ns[0])
@@ -313,16 +350,25 @@ def _episode_labels(
         raise DemonstrationError(
             f"{where} has no ground-truth labels; use --labels segment (or auto)"
         )
+    first = demo.sides[0]
     if labels == "ground-truth" or (labels == "auto" and demo.labels):
-        source, skill_labels = "ground-truth", list(demo.labels)
-        program = from_labels(skill_labels, t0)
+        source = "ground-truth"
+        lanes = {side: demo.labels_of(side) for side in demo.sides}
+        program = from_labels(lanes[first], t0)
+    elif len(demo.sides) > 1:
+        from ..segmentation import segment_hands
+
+        both = segment_hands(demo, method=method)
+        source = "segment"
+        lanes = {side: [s.to_label() for s in seg.segments] for side, seg in both.lanes.items()}
+        program = from_segmentation(both.lanes[first], t0)
     else:
         from ..segmentation import segment
 
         seg = segment(traj, method=method)
-        source, skill_labels = "segment", [s.to_label() for s in seg.segments]
+        source, lanes = "segment", {first: [s.to_label() for s in seg.segments]}
         program = from_segmentation(seg, t0)
-    return source, sorted(skill_labels, key=lambda lab: lab.start_ns), program
+    return source, {s: sorted(v, key=lambda lab: lab.start_ns) for s, v in lanes.items()}, program
 
 
 def _pose_columns(traj: Trajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

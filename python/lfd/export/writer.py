@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import DemonstrationError
 from ..skills import SKILLS
-from .episode import COLOR_KEY, NO_SKILL, Episode
+from .episode import COLOR_KEY, NO_SKILL, SCALAR_KEYS, Episode
 
 LEROBOT_VERSION = "0.4.4"
 """The lerobot version the export is tested with."""
@@ -32,8 +32,6 @@ DEFAULT_VCODEC = "libsvtav1"
 VCODECS: tuple[str, ...] = ("libsvtav1", "h264")
 """The software codecs lerobot accepts that encode quietly (its ``hevc``, x265, prints its
 settings to stderr and is the slowest)."""
-
-SCALAR_KEYS = ("skill_index", "object_index", "subtask_index")
 
 
 def import_lerobot() -> Any:
@@ -73,11 +71,17 @@ class LeRobotWriter:
 
     def _check(self, ep: Episode) -> None:
         shape = None if ep.color is None else tuple(ep.color.shape[1:])
-        schema = (ep.fps, tuple(ep.object_names), shape)
+        schema = (ep.fps, tuple(ep.object_names), shape, tuple(ep.lanes))
         if self._schema is None:
             self._schema = schema
             return
-        fps, names, image = self._schema
+        fps, names, image, lanes = self._schema
+        if tuple(ep.lanes) != lanes:
+            have = f"{len(ep.lanes) or 1} hand(s)"
+            raise DemonstrationError(
+                f"{ep.recording}: {have}, the dataset's episodes have {len(lanes) or 1}; export "
+                "one-hand and two-hand recordings into different datasets"
+            )
         if ep.fps != fps:
             raise DemonstrationError(f"{ep.recording}: {ep.fps} Hz, the dataset has {fps} Hz")
         if tuple(ep.object_names) != names:
@@ -109,7 +113,7 @@ class LeRobotWriter:
                 video_backend="pyav",
             )
         ds = self._dataset
-        for name in ep.subtask:
+        for name in [*ep.subtask, *(n for lane in ep.lanes.values() for n in lane.subtask)]:
             self.subtasks.setdefault(name, len(self.subtasks))
         try:
             for i in range(len(ep)):
@@ -124,13 +128,19 @@ class LeRobotWriter:
                     "subtask_index": np.array([self.subtasks[ep.subtask[i]]], dtype=np.int64),
                     "task": ep.task,
                 }
+                for side, lane in ep.lanes.items():
+                    frame[f"skill_index.{side}"] = lane.skill_index[i : i + 1]
+                    frame[f"object_index.{side}"] = lane.object_index[i : i + 1]
+                    frame[f"subtask_index.{side}"] = np.array(
+                        [self.subtasks[lane.subtask[i]]], dtype=np.int64
+                    )
                 if ep.color is not None and ep.color_index is not None:
                     frame[COLOR_KEY] = ep.color[ep.color_index[i]]
                 ds.add_frame(frame)
             # lerobot keeps a (1,)-shaped feature as a scalar column, and its own (frame_index,
             # ...) as scalars in the buffer; ours are validated as (1,) arrays above but must be
             # scalars too, as numpy >= 2.4 no longer converts a (1,) array to int
-            for key in SCALAR_KEYS:
+            for key in [*SCALAR_KEYS, *(f"{k}.{s}" for s in ep.lanes for k in SCALAR_KEYS)]:
                 ds.episode_buffer[key] = [np.int64(v[0]) for v in ds.episode_buffer[key]]
         except BaseException:
             ds.clear_episode_buffer()

@@ -8,6 +8,8 @@
 - :func:`summarise` tells what a recording holds (``lfd info``);
 - :mod:`lfd.io.checks` whether it can be segmented: the hand reaches an object
   (:func:`check_hand_reaches`), an object moves;
+- :func:`merge_hands` joins two one-hand recordings of one take into a two-hand demonstration
+  (:mod:`lfd.io.hands`: the clock rule of two hands);
 - :mod:`lfd.io.sizes` sizes the objects a file does not (``--object-size``, ``REC.sizes.toml``);
 - :mod:`lfd.io.ros` reads ROS 1/2 bags through a topic mapping (the ``ros`` extra).
 """
@@ -23,6 +25,7 @@ from ..errors import (
     TimestampWarning,
 )
 from .follow import Follower, LiveMessage, follow
+from .hands import merge_hands
 from .mcapfile import ChannelSummary, RawRecording, scan
 from .reader import load
 from .summary import summarise
@@ -60,6 +63,7 @@ __all__ = [
     "closest_approach",
     "follow",
     "load",
+    "merge_hands",
     "object_travel",
     "save",
     "scan",

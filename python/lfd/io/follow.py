@@ -26,6 +26,7 @@ Example::
     for msg in follower:                   # LiveMessage, in file order
         if msg.kind == "hand":
             keypoints = msg.value          # (21, 3) metres, NaN = unobserved
+            side = msg.side                # "right" or "left": a file may hold both hands
     print(follower.stop_reason)            # "end", "idle", "interrupted" or "stopped"
 """
 
@@ -58,6 +59,7 @@ KINDS = (
     "confidence",
     "object",
     "label",
+    "handover",
     "tf",
     "camera_info",
     "color",
@@ -96,11 +98,14 @@ class LiveMessage:
     value : Any
         Decoded: ``hand`` an array (21, 3) (NaN = unobserved); ``confidence`` a pair of arrays
         (confidence (21,), visible (21,) bool or None); ``object`` an :class:`ObjectPose`;
-        ``label`` a :class:`~lfd.demo.SkillLabel`; ``tf`` and ``camera_info`` the protobuf
-        message; ``color`` / ``depth`` the image array when following with ``images=True``,
-        else None; ``other`` None.
+        ``label`` a :class:`~lfd.demo.SkillLabel`; ``handover`` a :class:`~lfd.demo.Handover`;
+        ``tf`` and ``camera_info`` the protobuf message; ``color`` / ``depth`` the image array
+        when following with ``images=True``, else None; ``other`` None.
     data : bytes
         The encoded payload, as in the file.
+    side : str or None
+        The hand a ``hand`` or ``confidence`` message is of (``right`` or ``left``: a two-hand
+        recording interleaves both), or the hand a ``label`` names; else None.
     """
 
     topic: str
@@ -108,6 +113,7 @@ class LiveMessage:
     kind: str
     value: Any
     data: bytes = field(repr=False)
+    side: str | None = None
 
 
 def _mtime(path: str) -> float | None:
@@ -233,6 +239,21 @@ class Follower:
             return str(named)
         seen = {T.hand_side_from_topic(t) for t in self.topics.values()}
         return next((s for s in T.HAND_SIDES if s in seen), "right")
+
+    @property
+    def sides(self) -> tuple[str, ...]:
+        """The sides of the hands the ``demo`` metadata names (``hands``, else ``hand_side``),
+        else those of the hand topics seen so far, right first (a hand not yet seen may be
+        missing)."""
+        record = self.metadata.get(T.DEMO_METADATA, {})
+        try:
+            named = json.loads(record["hands"]) if "hands" in record else [record["hand_side"]]
+        except (KeyError, ValueError, TypeError):
+            named = []
+        if isinstance(named, list) and named and all(n in T.HAND_SIDES for n in named):
+            return tuple(s for s in T.HAND_SIDES if s in named)
+        seen = {T.hand_side_from_topic(t) for t in self.topics.values()}
+        return tuple(s for s in T.HAND_SIDES if s in seen)
 
     @property
     def demo_metadata(self) -> dict[str, Any]:
@@ -410,7 +431,14 @@ class Follower:
 
     def _decode(self, topic: str, t_ns: int, data: bytes) -> LiveMessage:
         kind, value = decode_message(topic, t_ns, data, self.source or self.path, self.images)
-        return LiveMessage(topic=topic, t_ns=int(t_ns), kind=kind, value=value, data=data)
+        side = None
+        if kind in ("hand", "confidence"):
+            side = T.hand_topic_side(topic)
+        elif kind == "label":
+            side = value.hand
+        return LiveMessage(
+            topic=topic, t_ns=int(t_ns), kind=kind, value=value, data=data, side=side
+        )
 
 
 def _parse(raw: bytes) -> Any:
@@ -438,8 +466,8 @@ def decode_message(
     from foxglove_schemas_protobuf.RawImage_pb2 import RawImage
     from google.protobuf.message import DecodeError
 
-    from ..demo import SkillLabel
-    from .reader import _confidence, _ns
+    from .hands import handovers_of_events
+    from .reader import _confidence, label_of_event
 
     where = f"{path}: {topic} at {t_ns} ns"
 
@@ -470,15 +498,9 @@ def decode_message(
         p, q = m.pose.position, m.pose.orientation
         return "object", ObjectPose(name, np.array([p.x, p.y, p.z]), np.array([q.x, q.y, q.z, q.w]))
     if topic == T.GROUND_TRUTH_TOPIC:
-        m = parse(Event)
-        meta = {kv.key: kv.value for kv in m.metadata}
-        label = SkillLabel(
-            skill=meta.get("skill", ""),
-            start_ns=_ns(m.start_time),
-            end_ns=_ns(m.end_time),
-            object=meta.get("object") or None,
-        )
-        return "label", label
+        return "label", label_of_event(parse(Event), f"{where}: ")
+    if topic == T.HANDOVERS_TOPIC:
+        return "handover", handovers_of_events([parse(Event)], where)[0]
     if topic == T.TF_TOPIC:
         return "tf", parse(FrameTransforms)
     if topic == T.CAMERA_INFO_TOPIC:

@@ -6,8 +6,17 @@ A label file is one of
   object whose ``segments`` list holds ``{"skill", "start_s", "end_s", "object"}`` entries
   (other keys, e.g. ``score`` or ``start_ns``, are ignored);
 * a JSON list of such entries;
-* a CSV file with the columns ``skill,start_s,end_s,object`` (a header line naming them is
-  optional; ``object`` may be empty or missing; lines starting with ``#`` are comments).
+* a CSV file with the columns ``skill,start_s,end_s,object,hand`` (a header line naming them is
+  optional; ``object`` and ``hand`` may be empty or missing; lines starting with ``#`` are
+  comments);
+* for a two-hand recording, the JSON of a two-hand ``lfd segment --json``:
+  ``{"hands": {"right": <one-hand report>, "left": <one-hand report>}, "handovers": [...]}``
+  (each lane's segments are its hand's labels, each with its own ``origin_ns``).
+
+Each entry may name its ``hand`` (``right`` or ``left``); in a two-hand recording every label
+must, and a label for a hand the recording lacks is refused. Handovers (two-hand recordings) are
+a ``handovers`` list beside ``segments`` or ``hands``: ``{"giver", "taker", "object", "start_s",
+"end_s"}`` (or absolute ``start_ns``, ``end_ns``, as ``lfd segment --json`` writes them).
 
 Times are seconds from an origin: the ``origin_ns`` key of a segmentation JSON (the first
 resampled sample, where ``lfd segment`` counts from), else the **recording start**, the earliest
@@ -15,11 +24,13 @@ hand keypoint or object pose sample (:attr:`lfd.demo.Demonstration.start_ns`; ``
 shows the recording's streams). The labels must lie within the recording (from its start to
 its last sample, :attr:`~lfd.demo.Demonstration.end_ns`, plus :data:`END_TOLERANCE_NS`), must
 not overlap (one may start where the previous ends), must name canonical skills
-(:data:`lfd.skills.SKILLS`) and objects the recording has (or none).
+(:data:`lfd.skills.SKILLS`) and objects the recording has (or none). Overlaps are checked per
+hand: the two hands' lanes run side by side.
 
 :func:`write_labels` copies every message of a recording unchanged (same channels, schemas,
 metadata records, attachments, log and publish times, bytes) except the ground truth on
-``/lfd/ground_truth``, which it replaces; the result is written atomically.
+``/lfd/ground_truth``, which it replaces (and the handovers on ``/lfd/ground_truth/handovers``
+when new ones are given); the result is written atomically.
 """
 
 from __future__ import annotations
@@ -33,19 +44,19 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from ..demo import Demonstration, SkillLabel
+from ..demo import HAND_SIDES, Demonstration, Handover, SkillLabel
 from ..errors import LfdError, RecordingFormatError, UsageError
 from ..skills import check_skill
 from . import messages as M
 from . import topics as T
 
-__all__ = ["END_TOLERANCE_NS", "read_labels", "write_labels"]
+__all__ = ["END_TOLERANCE_NS", "read_annotations", "read_labels", "write_labels"]
 
 END_TOLERANCE_NS = 100_000_000
 """How far (ns) a label may end after the recording's last sample: 0.1 s, three samples at
 30 Hz, since a segment ends where the next sample would start."""
 
-CSV_COLUMNS = ("skill", "start_s", "end_s", "object")
+CSV_COLUMNS = ("skill", "start_s", "end_s", "object", "hand")
 
 
 MAX_SECONDS = 9e9
@@ -78,28 +89,78 @@ def _number(value: Any, where: str, key: str) -> float:
     return x
 
 
-def _entries_from_json(doc: Any, where: str) -> tuple[list[dict[str, Any]], int | None]:
-    origin = None
-    if isinstance(doc, dict):
-        if "segments" not in doc:
-            raise UsageError(
-                f"{where}: a JSON object must have a 'segments' list (as `lfd segment --json` "
-                "writes), or give a JSON list of {skill, start_s, end_s, object}"
-            )
-        if doc.get("origin_ns") is not None:
-            o = doc["origin_ns"]
-            if isinstance(o, bool) or not isinstance(o, int) or not -(2**63) <= o < 2**63:
-                raise UsageError(
-                    f"{where}: origin_ns must be integer nanoseconds (64-bit), got {_shown(o)}"
-                )
-            origin = o
-        doc = doc["segments"]
+Entry = tuple[dict[str, Any], int | None]
+"""One label or handover of a file and the origin (ns) its seconds count from (None: the
+recording's start)."""
+
+
+def _origin(doc: dict[str, Any], where: str) -> int | None:
+    o = doc.get("origin_ns")
+    if o is None:
+        return None
+    if isinstance(o, bool) or not isinstance(o, int) or not -(2**63) <= o < 2**63:
+        raise UsageError(
+            f"{where}: origin_ns must be integer nanoseconds (64-bit), got {_shown(o)}"
+        )
+    return o
+
+
+def _objects(doc: Any, where: str, what: str = "label") -> list[dict[str, Any]]:
     if not isinstance(doc, list):
-        raise UsageError(f"{where}: expected a list of labels, got {type(doc).__name__}")
+        raise UsageError(f"{where}: expected a list of {what}s, got {type(doc).__name__}")
     for i, e in enumerate(doc):
         if not isinstance(e, dict):
-            raise UsageError(f"{where}: label {i} must be a JSON object, got {e!r}"[:200])
-    return doc, origin
+            raise UsageError(f"{where}: {what} {i} must be a JSON object, got {e!r}"[:200])
+    return doc
+
+
+def _lanes_from_json(doc: dict[str, Any], where: str) -> list[Entry]:
+    """The labels of a two-hand report, ``{"hands": {side: one-hand report}}``."""
+    lanes = doc["hands"]
+    if not isinstance(lanes, dict) or not lanes:
+        raise UsageError(f"{where}: hands must be an object {{side: report}}, got {_shown(lanes)}")
+    entries: list[Entry] = []
+    for side, report in lanes.items():
+        at = f"{where}: hands.{side}"
+        if side not in HAND_SIDES:
+            raise UsageError(f"{at}: a hand is one of {', '.join(HAND_SIDES)}")
+        if not isinstance(report, dict) or "segments" not in report:
+            raise UsageError(f"{at} must be a one-hand report with a 'segments' list")
+        origin = _origin(report, at)
+        for e in _objects(report["segments"], at):
+            if e.get("hand") not in (None, "", side):
+                raise UsageError(f"{at}: a segment names the {e['hand']!r} hand")
+            entries.append(({**e, "hand": side}, origin))
+    return entries
+
+
+def _nanoseconds(value: Any, where: str, key: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or not -(2**63) <= value < 2**63:
+        raise UsageError(
+            f"{where}: {key} must be integer nanoseconds (64-bit), got {_shown(value)}"
+        )
+    return value
+
+
+def _entries_from_json(doc: Any, where: str) -> tuple[list[Entry], list[Entry] | None]:
+    """The label entries and, when the file gives them, the handover entries."""
+    if not isinstance(doc, dict):
+        return [(e, None) for e in _objects(doc, where)], None
+    if "segments" not in doc and "hands" not in doc:
+        raise UsageError(
+            f"{where}: a JSON object must have a 'segments' list (as `lfd segment --json` "
+            "writes) or 'hands' (a two-hand report), or give a JSON list of "
+            "{skill, start_s, end_s, object, hand}"
+        )
+    origin = _origin(doc, where)
+    if "hands" in doc:
+        entries = _lanes_from_json(doc, where)
+    else:
+        entries = [(e, origin) for e in _objects(doc["segments"], where)]
+    handovers = None
+    if "handovers" in doc:
+        handovers = [(e, origin) for e in _objects(doc["handovers"], where, "handover")]
+    return entries, handovers
 
 
 def _entries_from_csv(text: str, where: str) -> list[dict[str, Any]]:
@@ -129,7 +190,7 @@ def _entries_from_csv(text: str, where: str) -> list[dict[str, Any]]:
     return out
 
 
-def _read_entries(path: Path) -> tuple[list[dict[str, Any]], int | None]:
+def _read_entries(path: Path) -> tuple[list[Entry], list[Entry] | None]:
     from ..inputs import parse_json, read_text
 
     try:
@@ -137,10 +198,142 @@ def _read_entries(path: Path) -> tuple[list[dict[str, Any]], int | None]:
     except OSError as err:
         raise UsageError(f"cannot read label file {path}: {err.strerror or err}") from None
     if path.suffix.lower() == ".csv":
-        return _entries_from_csv(text, str(path)), None
+        return [(e, None) for e in _entries_from_csv(text, str(path))], None
     what = "JSON" if path.suffix.lower() == ".json" else "JSON (or give a .csv file)"
     doc = parse_json(text, f"{path} is not valid {what}")
     return _entries_from_json(doc, str(path))
+
+
+class _Span:
+    """Where a file's seconds land on the recording's clock, and the checks of a span."""
+
+    def __init__(self, path: Path, demo: Demonstration) -> None:
+        self.path, self.start, self.end = path, demo.start_ns, demo.end_ns
+
+    def origin(self, origin: int | None) -> int:
+        return self.start if origin is None else origin
+
+    def __call__(
+        self, e: dict[str, Any], origin: int | None, where: str, name: str
+    ) -> tuple[int, int]:
+        """The span of entry ``e`` in recording nanoseconds (``start_s``/``end_s`` from its
+        origin, or absolute ``start_ns``/``end_ns``), checked to lie in the recording."""
+        t0 = self.origin(origin)
+        if "start_s" not in e and "start_ns" in e and "end_ns" in e:
+            a, b = (_nanoseconds(e[k], where, k) for k in ("start_ns", "end_ns"))
+            s, f = (a - t0) * 1e-9, (b - t0) * 1e-9
+        else:
+            s, f = _number(e["start_s"], where, "start_s"), _number(e["end_s"], where, "end_s")
+            a, b = t0 + round(s * 1e9), t0 + round(f * 1e9)
+        what = f"{where} ({name} {s:.3f}-{f:.3f} s)"
+        span = f"0-{(self.end - t0) * 1e-9:.3f} s" if origin is None else "the recording"
+        if b <= a:
+            raise UsageError(f"{what}: ends before it starts (or is empty)")
+        if a < self.start:
+            raise UsageError(f"{what}: starts before the recording (it spans {span})")
+        if b > self.end + END_TOLERANCE_NS:
+            raise UsageError(f"{what}: ends after the recording (it spans {span})")
+        return a, min(b, self.end + END_TOLERANCE_NS)
+
+
+def _side(value: Any, where: str, demo: Demonstration, key: str = "hand") -> str | None:
+    """The hand an entry names, checked against the recording's hands (None: the only one)."""
+    side = None if value in (None, "", "-") else str(value).strip()
+    have = " and ".join(demo.sides)
+    if side is None:
+        if len(demo.sides) > 1:
+            raise UsageError(
+                f"{where} names no {key}, and the recording has two ({have}): give its hand"
+            )
+        return None
+    if side not in HAND_SIDES:
+        raise UsageError(f"{where}: {key} {_shown(side)} is not a hand ({', '.join(HAND_SIDES)})")
+    if side not in demo.sides:
+        raise UsageError(
+            f"{where} is for the {side} hand, which the recording lacks (it has the {have} hand)"
+        )
+    return side if len(demo.sides) > 1 else None  # a one-hand file's labels name no hand
+
+
+def _object(value: Any, where: str, demo: Demonstration) -> str | None:
+    obj = None if value in (None, "", "-") else str(value)
+    if obj is not None and obj not in demo.objects:
+        raise UsageError(
+            f"{where}: unknown object {obj!r}; the recording has "
+            f"{', '.join(demo.objects) or 'no objects'}"
+        )
+    return obj
+
+
+def _label(
+    e: dict[str, Any], origin: int | None, where: str, span: _Span, demo: Demonstration
+) -> SkillLabel:
+    if "skill" not in e or ("start_s" not in e and "start_ns" not in e):
+        raise UsageError(f"{where} needs skill, start_s and end_s, got {e!r}"[:200])
+    if "start_s" in e and "end_s" not in e:
+        raise UsageError(f"{where} needs skill, start_s and end_s, got {e!r}"[:200])
+    skill = str(e["skill"]).strip()
+    try:
+        check_skill(skill)
+    except LfdError as err:
+        raise type(err)(f"{where}: {err}") from None
+    obj = _object(e.get("object"), f"{where} ({skill})", demo)
+    hand = _side(e.get("hand"), f"{where} ({skill})", demo)
+    a, b = span(e, origin, where, skill)
+    return SkillLabel(skill, a, b, obj, hand)
+
+
+def _handover(
+    e: dict[str, Any], origin: int | None, where: str, span: _Span, demo: Demonstration
+) -> Handover:
+    if len(demo.sides) < 2:
+        raise UsageError(f"{where}: a handover needs two hands; the recording has one")
+    for key in ("giver", "taker"):
+        if key not in e:
+            raise UsageError(f"{where} needs giver, taker, start_s and end_s, got {e!r}"[:200])
+    giver = _side(e["giver"], where, demo, "giver")
+    taker = _side(e["taker"], where, demo, "taker")
+    if giver == taker:
+        raise UsageError(f"{where}: the {giver} hand cannot give to itself")
+    if "start_s" not in e and "start_ns" not in e:
+        raise UsageError(f"{where} needs giver, taker, start_s and end_s, got {e!r}"[:200])
+    a, b = span(e, origin, where, f"{giver} to {taker}")
+    assert giver is not None and taker is not None
+    return Handover(a, b, giver, taker, _object(e.get("object"), where, demo))
+
+
+def read_annotations(
+    path: str | os.PathLike[str], demo: Demonstration
+) -> tuple[list[SkillLabel], list[Handover] | None]:
+    """Read and check the labels and handovers of ``path`` for the recording ``demo``
+    (:func:`read_labels`; the handovers are None when the file gives none: a recording's own
+    are then kept)."""
+    p = Path(path)
+    entries, handover_entries = _read_entries(p)
+    if not entries:
+        raise UsageError(f"{p}: no labels")
+    span = _Span(p, demo)
+    labels = [_label(e, o, f"{p}: label {i}", span, demo) for i, (e, o) in enumerate(entries)]
+    labels.sort(key=lambda lab: (lab.start_ns, lab.end_ns))
+    for side in demo.sides:
+        lane = [lab for lab in labels if lab.hand in (side, None)]
+        for x, y in itertools.pairwise(lane):
+            if y.start_ns < x.end_ns:
+                t0 = span.origin(next((o for _, o in entries), None))
+                hand = f" of the {side} hand" if len(demo.sides) > 1 else ""
+                raise UsageError(
+                    f"{p}: labels{hand} overlap: {x.skill} {(x.start_ns - t0) * 1e-9:.3f}-"
+                    f"{(x.end_ns - t0) * 1e-9:.3f} s and {y.skill} from "
+                    f"{(y.start_ns - t0) * 1e-9:.3f} s; a label may start where the previous "
+                    "one ends"
+                )
+    if handover_entries is None:
+        return labels, None
+    handovers = [
+        _handover(e, o, f"{p}: handover {i}", span, demo)
+        for i, (e, o) in enumerate(handover_entries)
+    ]
+    return labels, sorted(handovers, key=lambda h: (h.start_ns, h.end_ns))
 
 
 def read_labels(path: str | os.PathLike[str], demo: Demonstration) -> list[SkillLabel]:
@@ -149,75 +342,37 @@ def read_labels(path: str | os.PathLike[str], demo: Demonstration) -> list[Skill
     Parameters
     ----------
     path : path-like
-        A ``.json`` (``lfd segment --json`` output, or a list of entries) or ``.csv`` label file,
-        see the module documentation.
+        A ``.json`` (``lfd segment --json`` output, one hand or two, or a list of entries) or
+        ``.csv`` label file, see the module documentation.
     demo : Demonstration
-        The recording the labels are for (its start, end and objects).
+        The recording the labels are for (its start, end, hands and objects).
 
     Returns
     -------
     list of SkillLabel
-        In time order, absolute times (ns, the recording's clock).
+        In time order, absolute times (ns, the recording's clock); each names its hand in a
+        two-hand recording (None in a one-hand one).
 
     Raises
     ------
     UsageError
-        Unreadable file, bad format, labels that overlap, start before the recording, end after
-        it or before they start, or name an object the recording does not have.
+        Unreadable file, bad format, labels of one hand that overlap, start before the
+        recording, end after it or before they start, name an object the recording does not
+        have, a hand it lacks, or (two hands) no hand.
     UnknownSkillError
         A skill name that is not canonical.
     """
-    p = Path(path)
-    entries, origin = _read_entries(p)
-    if not entries:
-        raise UsageError(f"{p}: no labels")
-    t0 = demo.start_ns if origin is None else origin
-    start, end = demo.start_ns, demo.end_ns
-    span = f"0-{(end - t0) * 1e-9:.3f} s" if origin is None else "the recording"
-    labels = []
-    for i, e in enumerate(entries):
-        where = f"{p}: label {i}"
-        if "skill" not in e or "start_s" not in e or "end_s" not in e:
-            raise UsageError(f"{where} needs skill, start_s and end_s, got {e!r}"[:200])
-        skill = str(e["skill"]).strip()
-        try:
-            check_skill(skill)
-        except LfdError as err:
-            raise type(err)(f"{where}: {err}") from None
-        obj = e.get("object")
-        obj = None if obj in (None, "", "-") else str(obj)
-        if obj is not None and obj not in demo.objects:
-            raise UsageError(
-                f"{where} ({skill}): unknown object {obj!r}; the recording has "
-                f"{', '.join(demo.objects) or 'no objects'}"
-            )
-        s, f = _number(e["start_s"], where, "start_s"), _number(e["end_s"], where, "end_s")
-        what = f"{where} ({skill} {s:.3f}-{f:.3f} s)"
-        if f <= s:
-            raise UsageError(f"{what}: ends before it starts (or is empty)")
-        a, b = t0 + round(s * 1e9), t0 + round(f * 1e9)
-        if a < start:
-            raise UsageError(f"{what}: starts before the recording (it spans {span})")
-        if b > end + END_TOLERANCE_NS:
-            raise UsageError(f"{what}: ends after the recording (it spans {span})")
-        labels.append(SkillLabel(skill, a, min(b, end + END_TOLERANCE_NS), obj))
-    labels.sort(key=lambda lab: (lab.start_ns, lab.end_ns))
-    for x, y in itertools.pairwise(labels):
-        if y.start_ns < x.end_ns:
-            raise UsageError(
-                f"{p}: labels overlap: {x.skill} {(x.start_ns - t0) * 1e-9:.3f}-"
-                f"{(x.end_ns - t0) * 1e-9:.3f} s and {y.skill} from {(y.start_ns - t0) * 1e-9:.3f} s"
-                "; a label may start where the previous one ends"
-            )
-    return labels
+    return read_annotations(path, demo)[0]
 
 
 def write_labels(
     recording: str | os.PathLike[str],
     labels: Sequence[SkillLabel],
     output: str | os.PathLike[str] | None = None,
+    handovers: Sequence[Handover] | None = None,
 ) -> Path:
-    """Copy ``recording`` to ``output`` (default: in place) with ``labels`` as its ground truth.
+    """Copy ``recording`` to ``output`` (default: in place) with ``labels`` as its ground truth
+    (and ``handovers``, when given, as its handovers; None keeps the recording's).
 
     Every message, schema, channel, metadata record and attachment is copied unchanged; the
     messages on ``/lfd/ground_truth`` are replaced by ``labels`` (``log_time`` = label start,
@@ -256,31 +411,47 @@ def write_labels(
             raise RecordingFormatError(f"{src} has no summary section; cannot copy it")
         for sid, schema in sorted(summary.schemas.items()):
             schemas[sid] = writer.register_schema(schema.name, schema.encoding, schema.data)
-        gt_channel = None
+        gt_channel = ho_channel = None
         for cid, ch in sorted(summary.channels.items()):
             channels[cid] = writer.register_channel(
                 ch.topic, ch.message_encoding, schemas.get(ch.schema_id, 0), dict(ch.metadata)
             )
             if ch.topic == T.GROUND_TRUTH_TOPIC:
                 gt_channel = channels[cid]
+            if ch.topic == T.HANDOVERS_TOPIC:
+                ho_channel = channels[cid]
         for record in reader.iter_metadata():
             writer.add_metadata(record.name, dict(record.metadata))
         for att in reader.iter_attachments():
             writer.add_attachment(att.create_time, att.log_time, att.name, att.media_type, att.data)
         for _, channel, msg in reader.iter_messages(log_time_order=False):
-            if channel.topic == T.GROUND_TRUTH_TOPIC:
+            if channel.topic == T.GROUND_TRUTH_TOPIC or (
+                channel.topic == T.HANDOVERS_TOPIC and handovers is not None
+            ):
                 continue
             writer.add_message(
                 channels[msg.channel_id], msg.log_time, msg.data, msg.publish_time, msg.sequence
             )
+        event_schema: list[int] = []
+
+        def new_channel(topic: str) -> int:
+            if not event_schema:
+                fds = build_file_descriptor_set(Event).SerializeToString()
+                event_schema.append(writer.register_schema(T.EVENT_SCHEMA, "protobuf", fds))
+            return writer.register_channel(topic, "protobuf", event_schema[0], {})
+
         if labels and gt_channel is None:
-            fds = build_file_descriptor_set(Event).SerializeToString()
-            sid = writer.register_schema(T.EVENT_SCHEMA, "protobuf", fds)
-            gt_channel = writer.register_channel(T.GROUND_TRUTH_TOPIC, "protobuf", sid, {})
+            gt_channel = new_channel(T.GROUND_TRUTH_TOPIC)
         for lab in labels:
             assert gt_channel is not None
             data = M.event(lab).SerializeToString()
             writer.add_message(gt_channel, lab.start_ns, data, lab.start_ns, 0)
+        if handovers and ho_channel is None:
+            ho_channel = new_channel(T.HANDOVERS_TOPIC)
+        for h in handovers or ():
+            assert ho_channel is not None
+            data = M.handover_event(h).SerializeToString()
+            writer.add_message(ho_channel, h.start_ns, data, h.start_ns, 0)
         writer.finish()
         out.flush()
         os.fsync(out.fileno())

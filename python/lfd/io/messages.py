@@ -24,7 +24,7 @@ from foxglove_schemas_protobuf.RawImage_pb2 import RawImage
 from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
 from google.protobuf.timestamp_pb2 import Timestamp
 
-from ..demo import CameraInfo, SkillLabel
+from ..demo import CameraInfo, Handover, SkillLabel
 from . import topics as T
 
 __all__ = [
@@ -33,6 +33,7 @@ __all__ = [
     "dumps",
     "event",
     "hand_poses",
+    "handover_event",
     "object_pose",
     "raw_image",
     "stamp",
@@ -137,10 +138,28 @@ def calibration(t: int, camera: CameraInfo) -> CameraCalibration:
 
 
 def event(label: SkillLabel, extra: dict[str, str] | None = None) -> Event:
-    """A skill label as an Event with metadata ``skill`` (and ``object`` when known), then
-    ``extra`` (e.g. ``score``, ``confidence`` of a live result)."""
+    """A skill label as an Event with metadata ``skill`` (and ``object`` when known, ``hand``
+    when the label names its hand), then ``extra`` (e.g. ``score``, ``confidence`` of a live
+    result)."""
     meta = [KeyValuePair(key="skill", value=label.skill)]
     if label.object is not None:
         meta.append(KeyValuePair(key="object", value=label.object))
+    if label.hand is not None:
+        meta.append(KeyValuePair(key="hand", value=label.hand))
     meta.extend(KeyValuePair(key=k, value=v) for k, v in (extra or {}).items())
     return Event(start_time=stamp(label.start_ns), end_time=stamp(label.end_ns), metadata=meta)
+
+
+def handover_event(handover: Handover) -> Event:
+    """A handover as an Event with metadata ``giver``, ``taker`` (and ``object`` when known)."""
+    meta = [
+        KeyValuePair(key="giver", value=handover.giver),
+        KeyValuePair(key="taker", value=handover.taker),
+    ]
+    if handover.object is not None:
+        meta.append(KeyValuePair(key="object", value=handover.object))
+    return Event(
+        start_time=stamp(handover.start_ns),
+        end_time=stamp(handover.end_ns),
+        metadata=meta,
+    )

@@ -5,6 +5,11 @@ chunk and emits a :class:`~lfd.errors.RecoveredFileWarning`; out-of-order sample
 duplicate timestamps dropped with a :class:`~lfd.errors.TimestampWarning`; both are also
 recorded in ``demo.metadata["load_report"]``. A file that is not MCAP, or lacks the hand
 keypoints or every object pose, raises :class:`~lfd.errors.RecordingFormatError`.
+
+A file with both hands (``/hand/right/...`` and ``/hand/left/...``) loads as a two-hand
+demonstration (``demo.other_hand``, labels by ``hand``, handovers); a hand topic of an unknown
+side, hands on two clocks and labels or handovers for a hand the file lacks are refused
+(:mod:`lfd.io.hands`).
 """
 
 from __future__ import annotations
@@ -20,7 +25,15 @@ from typing import Any
 
 import numpy as np
 
-from ..demo import CameraInfo, Demonstration, HandTrack, ImageStream, ObjectTrack, SkillLabel
+from ..demo import (
+    CameraInfo,
+    Demonstration,
+    Handover,
+    HandTrack,
+    ImageStream,
+    ObjectTrack,
+    SkillLabel,
+)
 from ..errors import (
     LfdError,
     RecordingFormatError,
@@ -30,6 +43,7 @@ from ..errors import (
 )
 from ..inputs import is_ros_path, parse_json
 from . import topics as T
+from .hands import clock_problem, handovers_of_events, lanes_problem, spans_of
 from .mcapfile import RawRecording, Records, read
 from .sizes import resolve_sizes
 
@@ -105,22 +119,43 @@ def order_times(times: np.ndarray) -> tuple[np.ndarray, int, int]:
     return idx[keep], unsorted, int(idx.size - np.count_nonzero(keep))
 
 
-def labels_of_events(events: Iterable[Any]) -> tuple[list[SkillLabel], list[str]]:
-    """Skill labels of foxglove ``Event`` messages (metadata ``skill``, ``object``), sorted by
-    time, and what was skipped (an unknown skill, a bad span) and why."""
+def label_of_event(m: Any, where: str = "") -> SkillLabel:
+    """The skill label of one foxglove ``Event`` (metadata ``skill``, ``object``, ``hand``).
+
+    Raises
+    ------
+    RecordingFormatError
+        Its ``hand`` is not a side (``right``, ``left``).
+    LfdError
+        An unknown skill or a bad span."""
+    meta = {kv.key: kv.value for kv in m.metadata}
+    hand = meta.get("hand") or None
+    if hand is not None and hand not in T.HAND_SIDES:
+        raise RecordingFormatError(
+            f"{where}label {meta.get('skill', '')!r} at {_ns(m.start_time)} ns is for the "
+            f"{hand!r} hand; a hand is one of {', '.join(T.HAND_SIDES)}"
+        )
+    return SkillLabel(
+        skill=meta.get("skill", ""),
+        start_ns=_ns(m.start_time),
+        end_ns=_ns(m.end_time),
+        object=meta.get("object") or None,
+        hand=hand,
+    )
+
+
+def labels_of_events(events: Iterable[Any], where: str = "") -> tuple[list[SkillLabel], list[str]]:
+    """Skill labels of foxglove ``Event`` messages (:func:`label_of_event`), sorted by time, and
+    what was skipped (an unknown skill, a bad span) and why. A label for a hand of an unknown
+    side raises :class:`~lfd.errors.RecordingFormatError` (``where`` starts its message)."""
     labels, skipped = [], []
     for m in events:
-        meta = {kv.key: kv.value for kv in m.metadata}
         try:
-            labels.append(
-                SkillLabel(
-                    skill=meta.get("skill", ""),
-                    start_ns=_ns(m.start_time),
-                    end_ns=_ns(m.end_time),
-                    object=meta.get("object") or None,
-                )
-            )
+            labels.append(label_of_event(m, where))
+        except RecordingFormatError:
+            raise
         except LfdError as err:
+            meta = {kv.key: kv.value for kv in m.metadata}
             skipped.append(f"label {meta}: {err}")
     return sorted(labels, key=lambda lab: (lab.start_ns, lab.end_ns)), skipped
 
@@ -282,10 +317,55 @@ class _Loader:
             return []
         from foxglove_schemas_protobuf.Event_pb2 import Event
 
-        _, msgs = self.decode(topic, Event)
-        labels, skipped = labels_of_events(msgs)
+        labels, skipped = labels_of_events(self._lanes(topic, Event), f"{self.raw.path}: {topic}: ")
         self.skipped += skipped
         return labels
+
+    def _lanes(self, topic: str, cls: Any) -> list[Any]:
+        """:meth:`decode` of a label topic, where two hands' labels may share a log time (both
+        lanes start together): a duplicate is a repeated time in one lane (``hand``)."""
+        t, msgs = self.decode_all(topic, cls)
+        lanes = [next((kv.value for kv in m.metadata if kv.key == "hand"), "") for m in msgs]
+        order = np.argsort(t, kind="stable")
+        seen: set[tuple[int, str]] = set()
+        keep = []
+        for i in order.tolist():
+            key = (int(t[i]), lanes[i])
+            if key not in seen:
+                seen.add(key)
+                keep.append(i)
+        unsorted = int(np.count_nonzero(np.diff(t) < 0)) if t.size > 1 else 0
+        if unsorted:
+            self.unsorted[topic] = unsorted
+        if len(keep) < len(msgs):
+            self.duplicates[topic] = len(msgs) - len(keep)
+        return [msgs[i] for i in keep]
+
+    def decode_all(self, topic: str, cls: Any) -> tuple[np.ndarray, list[Any]]:
+        """A topic's messages decoded in file order (none dropped, nothing counted)."""
+        from google.protobuf.message import DecodeError
+
+        items = self.raw.encoded(topic)
+        msgs = []
+        for t, data in items:
+            msg = cls()
+            try:
+                msg.ParseFromString(data)
+            except DecodeError as err:
+                raise RecordingFormatError(
+                    f"{self.raw.path}: cannot decode a {cls.DESCRIPTOR.full_name} on "
+                    f"{topic} at {t} ns: {err}"
+                ) from err
+            msgs.append(msg)
+        return np.array([t for t, _ in items], dtype=np.int64), msgs
+
+    def handovers(self) -> list[Handover]:
+        if not self.raw.encoded(T.HANDOVERS_TOPIC):
+            return []
+        from foxglove_schemas_protobuf.Event_pb2 import Event
+
+        _, msgs = self.decode(T.HANDOVERS_TOPIC, Event)
+        return handovers_of_events(msgs, self.raw.path)
 
     def camera(self) -> CameraInfo | None:
         rec = self.raw.json_metadata(T.CALIBRATION_METADATA, "camera")
@@ -435,7 +515,8 @@ def load(
     Returns
     -------
     Demonstration
-        With ``metadata["load_report"]``: ``complete``, ``messages``, ``unsorted`` and
+        One hand, or two when the file holds both (``demo.hand`` the right, ``other_hand`` the
+        left; each label's ``hand`` set; ``handovers``). With ``metadata["load_report"]``: ``complete``, ``messages``, ``unsorted`` and
         ``duplicates`` (per topic), ``recovered`` (the warning text, or None), ``damage`` (the
         damaged chunks stepped over and the messages lost, one line, or None: every other
         chunk is read).
@@ -443,7 +524,9 @@ def load(
     Raises
     ------
     RecordingFormatError
-        Not an MCAP file, empty, or missing the hand keypoints / every object pose.
+        Not an MCAP file, empty, or missing the hand keypoints / every object pose; a hand topic
+        of an unknown side, two hands not on one clock, a label or handover for a hand the file
+        lacks (:mod:`lfd.io.hands`).
     UsageError
         A ROS bag without ``mapping``, a ``mapping`` for an lfd recording, or an object size
         for an object the recording does not have.
@@ -464,24 +547,41 @@ def _load_topics(images: bool) -> list[str]:
     """The topics whose encoded messages :func:`demonstration_of` reads (the hand and object
     tracks come decoded; ``/tf`` is only needed without calibration metadata, and is then
     read on demand, :meth:`RawRecording.encoded`)."""
-    topics = [T.GROUND_TRUTH_TOPIC, T.LIVE_SEGMENTS_TOPIC, T.CAMERA_INFO_TOPIC]
+    topics = [T.GROUND_TRUTH_TOPIC, T.LIVE_SEGMENTS_TOPIC, T.HANDOVERS_TOPIC, T.CAMERA_INFO_TOPIC]
     if images:
         for topic in (T.COLOR_TOPIC, T.DEPTH_TOPIC):
             topics += [topic, T.compressed_topic(topic)]
     return topics
 
 
-def hand_side(raw: Records, complete: bool = True, error: str | None = None) -> str:
-    """The side of the hand a recording holds (right before left).
+def check_hand_topics(raw: Records) -> None:
+    """Raise :class:`~lfd.errors.RecordingFormatError` if the recording has a
+    ``/hand/<side>/...`` topic of an unknown side (``/hand/middle/keypoints``). A ROS
+    recording's topics are its own (its mapping names the hands): not checked."""
+    if is_ros_recording(raw):
+        return
+    unknown = T.unknown_hand_topics(raw.channels)
+    if unknown:
+        raise RecordingFormatError(
+            f"{raw.path}: hand topic {unknown[0]} names an unknown side "
+            f"{T.hand_topic_side(unknown[0])!r}; a hand is /hand/right/... or /hand/left/..."
+        )
+
+
+def hand_sides(raw: Records, complete: bool = True, error: str | None = None) -> tuple[str, ...]:
+    """The sides of the hands a recording holds, right first: one or two.
 
     Raises
     ------
     RecordingFormatError
-        It has no hand keypoints or no object pose (``error``: the damage, if not ``complete``).
+        It has a hand topic of an unknown side, no hand keypoints or no object pose
+        (``error``: the damage, if not ``complete``), or two hands not on one clock (the
+        clock rule, :func:`lfd.io.hands.clock_problem`, on the channels' first and last
+        times).
     """
-    sides = [s for s in T.HAND_SIDES if raw.channels.get(T.hand_topic(s), None)]
-    sides = [s for s in sides if raw.channels[T.hand_topic(s)].count > 0]
-    obj_topics = [t for t, c in raw.channels.items() if T.object_name_from_topic(t) and c.count > 0]
+    check_hand_topics(raw)
+    sides = present_sides(raw)
+    obj_topics = _object_topics(raw)
     missing = []
     if not sides:
         missing.append("hand keypoints (/hand/right/keypoints or /hand/left/keypoints)")
@@ -492,7 +592,51 @@ def hand_side(raw: Records, complete: bool = True, error: str | None = None) -> 
             f"{raw.path} is not a usable lfd recording: missing {' and '.join(missing)}; "
             f"it has {raw.describe_topics()}" + ("" if complete else f" (file damaged: {error})")
         )
-    return sides[0]
+    check_hand_clock(raw)
+    return tuple(sides)
+
+
+def present_sides(raw: Records) -> list[str]:
+    """The sides of the hand keypoint channels with messages, right first."""
+    sides = [s for s in T.HAND_SIDES if raw.channels.get(T.hand_topic(s), None)]
+    return [s for s in sides if raw.channels[T.hand_topic(s)].count > 0]
+
+
+def _object_topics(raw: Records) -> list[str]:
+    return [t for t, c in raw.channels.items() if T.object_name_from_topic(t) and c.count > 0]
+
+
+def check_hand_clock(raw: Records) -> None:
+    """Raise :class:`~lfd.errors.RecordingFormatError` if the recording's two hands break the
+    clock rule (:func:`lfd.io.hands.clock_problem`) on their channels' first and last times
+    (a ROS recording's hands are its mapping's: checked when it is loaded)."""
+    if is_ros_recording(raw):
+        return
+    hands = {s: _channel_span(raw, [T.hand_topic(s)]) for s in present_sides(raw)}
+    objects = _object_topics(raw)
+    problem = clock_problem(
+        {s: span for s, span in hands.items() if span is not None},
+        _channel_span(raw, objects) if objects else None,
+    )
+    if problem is not None:
+        raise RecordingFormatError(f"{raw.path}: {problem}")
+
+
+def _channel_span(raw: Records, topics: Sequence[str]) -> tuple[int, int] | None:
+    """The first and last log time of the channels ``topics`` (None: not known)."""
+    firsts = [raw.channels[t].first_ns for t in topics]
+    lasts = [raw.channels[t].last_ns for t in topics]
+    known_firsts = [v for v in firsts if v is not None]
+    known_lasts = [v for v in lasts if v is not None]
+    if len(known_firsts) < len(firsts) or len(known_lasts) < len(lasts):
+        return None
+    return min(known_firsts), max(known_lasts)
+
+
+def hand_side(raw: Records, complete: bool = True, error: str | None = None) -> str:
+    """The side of the only hand of a recording, or the right hand of two
+    (:func:`hand_sides`)."""
+    return hand_sides(raw, complete, error)[0]
 
 
 def demonstration_of(
@@ -524,9 +668,9 @@ def demonstration_of(
         )
         report["recovered"] = msg if report["recovered"] is None else report["recovered"]
         warnings.warn(msg, RecoveredFileWarning, stacklevel=stacklevel)
-    side = hand_side(raw, raw.complete and damage is None, raw.error or damage)
+    sides = hand_sides(raw, raw.complete and damage is None, raw.error or damage)
     loader = _Loader(raw)
-    hand = loader.hand(side)
+    hands = [loader.hand(side) for side in sides]
     objects = {}
     specs = objects_of(raw)
     sizes = resolve_sizes(raw.path, {name: size for name, _, size in specs}, object_sizes)
@@ -534,6 +678,11 @@ def demonstration_of(
         objects[name] = loader.object(name, tag_id, sizes[name])
     labels = loader.labels()
     live = loader.labels(T.LIVE_SEGMENTS_TOPIC)
+    handovers = loader.handovers()
+    for what, lane in (("label", labels), ("live segment", live)):
+        problem = lanes_problem(sides, lane, handovers if what == "label" else (), what)
+        if problem is not None:
+            raise RecordingFormatError(f"{raw.path}: {problem}")
     camera = loader.camera()
     color = loader.images(T.COLOR_TOPIC) if images else None
     depth = loader.images(T.DEPTH_TOPIC) if images else None
@@ -553,8 +702,10 @@ def demonstration_of(
             f"{raw.path}: skipped {loader.skipped}", RecoveredFileWarning, stacklevel=stacklevel
         )
     metadata["load_report"] = report
-    return Demonstration(
-        hand=hand,
+    demo = Demonstration(
+        hand=hands[0],
+        other_hand=hands[1] if len(hands) > 1 else None,
+        handovers=handovers,
         objects=objects,
         labels=labels,
         live_segments=live,
@@ -563,9 +714,13 @@ def demonstration_of(
         depth=depth,
         metadata=metadata,
     )
+    problem = clock_problem(*spans_of(demo))  # the samples read (the channels' agreed)
+    if problem is not None:
+        raise RecordingFormatError(f"{raw.path}: {problem}")
+    return demo
 
 
-def is_ros_recording(raw: RawRecording) -> bool:
+def is_ros_recording(raw: Records) -> bool:
     """Whether an MCAP file holds ROS messages (a channel with message encoding ``cdr``, ROS 2,
     or ``ros1``)."""
     return any(c.encoding in ("cdr", "ros1") for c in raw.channels.values())

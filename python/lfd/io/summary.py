@@ -7,12 +7,22 @@ import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from ..demo import SkillLabel
 from ..errors import LfdError, RecordingFormatError, RecoveredFileWarning
 from . import topics as T
 from .mcapfile import Records, read, read_summary
-from .reader import hand_side, is_ros_path, labels_of_events, load, objects_of
+from .reader import (
+    check_hand_clock,
+    check_hand_topics,
+    hand_side,
+    is_ros_path,
+    labels_of_events,
+    load,
+    objects_of,
+    present_sides,
+)
 
-SMALL_TOPICS = (T.GROUND_TRUTH_TOPIC, T.LIVE_SEGMENTS_TOPIC)
+SMALL_TOPICS = (T.GROUND_TRUTH_TOPIC, T.LIVE_SEGMENTS_TOPIC, T.HANDOVERS_TOPIC)
 """The channels ``lfd info`` reads the messages of (the skill labels it prints)."""
 
 LABEL_BYTES = 64 * 2**20
@@ -45,6 +55,11 @@ def summarise(
     keypoints or every object pose is described with that in ``problems``; a recording that cannot be used
     otherwise is reported in ``error`` (its warnings in ``warnings``), not raised, so a damaged
     file can still be summarised.
+    ``hands`` lists the hands (``side``, ``samples``, ``rate_hz``), each label names its
+    ``hand`` (None: the only hand of a one-hand file), ``handovers`` lists a two-hand file's
+    (``giver``, ``taker``, ``object``, ``start_s``, ``end_s``). A hand topic of an unknown side
+    and two hands not on one clock (:mod:`lfd.io.hands`) raise
+    :class:`~lfd.errors.RecordingFormatError`.
     Times are seconds from ``start_ns``, the first message.
     """
     summary: dict[str, Any]
@@ -108,7 +123,18 @@ def _mcap(
         "attachments": getattr(rec, "attachments", []),
         "problems": [],
         "error": None,
+        "hands": [
+            {
+                "side": side,
+                "samples": rec.channels[T.hand_topic(side)].count,
+                "rate_hz": round(rec.channels[T.hand_topic(side)].rate_hz, 3),
+            }
+            for side in present_sides(rec)
+        ],
+        "handovers": [],
     }
+    check_hand_topics(rec)  # bad input, not damage: raised
+    check_hand_clock(rec)
     if not complete and not check:  # else load says it
         what = "is damaged" if chunk_damage is not None else "is truncated or was not closed"
         warnings.warn(
@@ -147,11 +173,12 @@ def _mcap(
                 f"{rec.path}: its label channels ({', '.join(SMALL_TOPICS)}) hold more than "
                 f"{LABEL_BYTES} bytes of messages, more than lfd info reads; not lfd labels"
             )
-        for key, topic in (
-            ("labels", T.GROUND_TRUTH_TOPIC),
-            ("live_segments", T.LIVE_SEGMENTS_TOPIC),
-        ):
-            summary[key] = _labels(rec, topic, t0)
+        labels = _labels(rec, T.GROUND_TRUTH_TOPIC)
+        live = _labels(rec, T.LIVE_SEGMENTS_TOPIC)
+        summary["labels"] = [_label(lab, t0) for lab in labels]
+        summary["live_segments"] = [_label(lab, t0) for lab in live]
+        summary["handovers"] = _handovers(rec, t0)
+        _check_lanes(rec, labels, live)
         metadata = rec.json_metadata(T.DEMO_METADATA, "metadata", default={})
         summary["metadata"] = metadata if isinstance(metadata, dict) else {"metadata": metadata}
         camera = rec.json_metadata(T.CALIBRATION_METADATA, "camera")
@@ -160,21 +187,44 @@ def _mcap(
             if isinstance(camera, dict) and "width" in camera and "height" in camera
             else None
         )
+    except _LaneError as err:
+        raise RecordingFormatError(str(err)) from None  # bad input: raised, not described
     except LfdError as err:
         summary["error"] = str(err)
     return summary
 
 
-def _labels(rec: Records, topic: str, t0: int) -> list[dict[str, Any]]:
+class _LaneError(LfdError):
+    """A label or handover for a hand the recording lacks (raised by :func:`summarise`)."""
+
+
+def _check_lanes(rec: Records, labels: list[SkillLabel], live: list[SkillLabel]) -> None:
+    from .hands import handovers_of_events, lanes_problem
+
+    sides = present_sides(rec)
+    if not sides:
+        return  # no hand: already a problem
+    handovers = handovers_of_events(_events(rec, T.HANDOVERS_TOPIC), rec.path)
+    for what, lane, given in (("label", labels, handovers), ("live segment", live, [])):
+        problem = lanes_problem(sides, lane, given, what)
+        if problem is not None:
+            raise _LaneError(f"{rec.path}: {problem}")
+
+
+def _labels(rec: Records, topic: str) -> list[SkillLabel]:
     """The skill labels of ``topic`` (Event messages) as ``lfd info`` lists them."""
-    items = rec.messages.get(topic, [])
-    if not items:
-        return []
+    labels, skipped = labels_of_events(_events(rec, topic), f"{rec.path}: {topic}: ")
+    if skipped:
+        warnings.warn(f"{rec.path}: skipped {skipped}", RecoveredFileWarning, stacklevel=4)
+    return labels
+
+
+def _events(rec: Records, topic: str) -> list[Any]:
     from foxglove_schemas_protobuf.Event_pb2 import Event
     from google.protobuf.message import DecodeError
 
     events = []
-    for t, data in items:
+    for t, data in rec.messages.get(topic, []):
         msg = Event()
         try:
             msg.ParseFromString(data)
@@ -183,18 +233,35 @@ def _labels(rec: Records, topic: str, t0: int) -> list[dict[str, Any]]:
                 f"{rec.path}: cannot decode a foxglove.Event on {topic} at {t} ns: {err}"
             ) from None
         events.append(msg)
-    labels, skipped = labels_of_events(events)
-    if skipped:
-        warnings.warn(f"{rec.path}: skipped {skipped}", RecoveredFileWarning, stacklevel=4)
-    return [_label(lab, t0) for lab in labels]
+    return events
+
+
+def _handovers(rec: Records, t0: int) -> list[dict[str, Any]]:
+    """The handovers of a two-hand recording as ``lfd info`` lists them."""
+    from .hands import handovers_of_events
+
+    return [
+        _handover(h, t0) for h in handovers_of_events(_events(rec, T.HANDOVERS_TOPIC), rec.path)
+    ]
 
 
 def _label(lab: Any, t0: int) -> dict[str, Any]:
     return {
         "skill": lab.skill,
         "object": lab.object,
+        "hand": lab.hand,
         "start_s": (lab.start_ns - t0) * 1e-9,
         "end_s": (lab.end_ns - t0) * 1e-9,
+    }
+
+
+def _handover(h: Any, t0: int) -> dict[str, Any]:
+    return {
+        "giver": h.giver,
+        "taker": h.taker,
+        "object": h.object,
+        "start_s": (h.start_ns - t0) * 1e-9,
+        "end_s": (h.end_ns - t0) * 1e-9,
     }
 
 
@@ -214,6 +281,17 @@ def _loaded(
     from .checks import closest_approach, object_travel, reach_message, unmoved_objects_message
 
     t0 = summary["start_ns"]
+    if not summary.get("hands"):  # a ROS bag: from its loaded hands
+        summary["hands"] = [
+            {
+                "side": side,
+                "samples": len(h),
+                "rate_hz": round((len(h) - 1) / (int(h.t_ns[-1] - h.t_ns[0]) * 1e-9), 3)
+                if len(h) > 1 and h.t_ns[-1] > h.t_ns[0]
+                else 0.0,
+            }
+            for side, h in demo.hands.items()
+        ]
     travel = object_travel(demo)
     summary["objects"] = [
         {
@@ -241,6 +319,7 @@ def _loaded(
             summary["problems"].append(problem)
     summary["labels"] = [_label(lab, t0) for lab in demo.labels]
     summary["live_segments"] = [_label(lab, t0) for lab in demo.live_segments]
+    summary["handovers"] = [_handover(h, t0) for h in demo.handovers]
     summary["metadata"] = {k: v for k, v in demo.metadata.items() if k != "load_report"}
     summary["camera"] = (
         None if demo.camera is None else {"width": demo.camera.width, "height": demo.camera.height}

@@ -35,7 +35,17 @@ topic                                 schema                        content
                                                                     ``log_time`` = when settled;
                                                                     metadata ``skill``, ``object``,
                                                                     ``score``, ``confidence``
+``/lfd/ground_truth/handovers``       foxglove.Event                one handover per message (two
+                                                                    hands), ``log_time`` = start;
+                                                                    metadata ``giver``, ``taker``,
+                                                                    ``object``
 ====================================  ============================  ===============================
+
+A file holds one hand or two (``<side>`` is ``right`` or ``left``; any other side under
+``/hand/`` is refused). In a two-hand file every label and live segment names its hand (metadata
+``hand``), and both hands must be on one clock (:mod:`lfd.io.hands`: each hand's time span
+overlaps the other's and the objects'). The ``demo`` record's ``hand_side`` is the only hand,
+or ``right`` of two; a two-hand file adds ``hands`` (JSON list, right first).
 
 A metadata record named ``demo`` holds ``format``, ``version``, ``objects`` (JSON list of
 ``{name, tag_id, size}``), ``units``, ``task``, ``seed`` and ``metadata`` (free JSON). A second
@@ -44,6 +54,8 @@ camera calibration is known.
 """
 
 from __future__ import annotations
+
+from collections.abc import Iterable
 
 FORMAT_NAME = "lfd-demo"
 FORMAT_VERSION = 1
@@ -58,6 +70,7 @@ CAMERA_INFO_TOPIC = "/camera/color/camera_info"
 TF_TOPIC = "/tf"
 GROUND_TRUTH_TOPIC = "/lfd/ground_truth"
 LIVE_SEGMENTS_TOPIC = "/lfd/live/segments"
+HANDOVERS_TOPIC = "/lfd/ground_truth/handovers"
 
 DEMO_METADATA = "demo"
 CALIBRATION_METADATA = "calibration"
@@ -157,6 +170,22 @@ def two_types_message(
         f"{path}: {topic} carries two message types, {first[0]} ({first[1]}) and {second[0]} "
         f"({second[1]}); an lfd recording has one per topic"
     )
+
+
+HAND_PREFIX = "/hand/"
+
+
+def hand_topic_side(topic: str) -> str | None:
+    """The ``<side>`` of any ``/hand/<side>/...`` topic (known or not), else None."""
+    if not topic.startswith(HAND_PREFIX):
+        return None
+    side, slash, _ = topic[len(HAND_PREFIX) :].partition("/")
+    return side if slash else None
+
+
+def unknown_hand_topics(topics: Iterable[str]) -> list[str]:
+    """The ``/hand/<side>/...`` topics whose side is not one of :data:`HAND_SIDES`."""
+    return sorted(t for t in topics if hand_topic_side(t) not in (None, *HAND_SIDES))
 
 
 def hand_side_from_topic(topic: str) -> str | None:

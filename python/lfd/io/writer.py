@@ -41,12 +41,14 @@ from ..demo import (
     KEYPOINT_NAMES,
     CameraInfo,
     Demonstration,
+    Handover,
     SkillLabel,
 )
 from ..errors import DemonstrationError
 from ..outputs import PendingOutput
 from . import messages as M
 from . import topics as T
+from .hands import clock_problem, lanes_problem, spans_of
 from .images import COLOR_FORMATS, encode_compressed
 
 __all__ = ["McapRecorder", "ObjectSpec", "object_name_problem", "save"]
@@ -101,7 +103,11 @@ class McapRecorder:
     metadata : mapping, optional
         Free JSON-serialisable metadata (``task``, ``seed``, ``demonstrator`` ...).
     side : str
-        Hand side, ``"right"`` or ``"left"``.
+        Hand side, ``"right"`` or ``"left"``: the only hand's.
+    hands : sequence of str, optional
+        The sides of the hands the recording holds, to record two: ``("right", "left")``
+        (:meth:`add_hand` then takes each sample's ``side``; default: ``side`` alone). A
+        two-hand recording's labels and live segments each name their hand.
     chunk_size : int
         Target chunk size in bytes (64-256 KiB is a good range).
     max_chunk_duration_s : float
@@ -124,6 +130,9 @@ class McapRecorder:
     >>> with McapRecorder("demo.mcap", objects=[("cube", 1, (0.05, 0.05, 0.05))]) as rec:
     ...     rec.add_hand(t_ns, keypoints, confidence, visible)
     ...     rec.add_object_pose("cube", t_ns, position, quaternion)
+
+    Two hands: ``McapRecorder(path, objects=..., hands=("right", "left"))``, then
+    ``rec.add_hand(t_ns, keypoints, side="left")``.
     """
 
     def __init__(
@@ -133,16 +142,24 @@ class McapRecorder:
         objects: Iterable[ObjectSpec] = (),
         metadata: Mapping[str, Any] | None = None,
         side: str = "right",
+        hands: Sequence[str] | None = None,
         chunk_size: int = 128 * 1024,
         max_chunk_duration_s: float = 1.0,
         max_chunk_wall_s: float = 1.0,
         write_tf: bool = True,
         color_format: str = "raw",
     ) -> None:
-        if side not in T.HAND_SIDES:
-            raise DemonstrationError(f"hand side must be one of {T.HAND_SIDES}, got {side!r}")
+        given = (side,) if hands is None else tuple(hands)
+        for s in given:
+            if s not in T.HAND_SIDES:
+                raise DemonstrationError(f"hand side must be one of {T.HAND_SIDES}, got {s!r}")
+        if not given or len(set(given)) != len(given):
+            raise DemonstrationError(f"hands must be one or two different sides, got {given}")
         self.path = os.fspath(path)
-        self.side = side
+        self.sides: tuple[str, ...] = tuple(s for s in T.HAND_SIDES if s in given)
+        """The sides of the hands recorded, the right first."""
+        self.side = self.sides[0]
+        """The side of the only hand, or the right hand of two (the default of :meth:`add_hand`)."""
         self._objects: dict[str, tuple[int, np.ndarray]] = {}
         for name, tag_id, size in objects:
             self._declare_object(name, tag_id, size)
@@ -196,6 +213,7 @@ class McapRecorder:
             "version": str(T.FORMAT_VERSION),
             "objects": M.dumps(objects),
             "hand_side": self.side,
+            **({"hands": M.dumps(list(self.sides))} if len(self.sides) > 1 else {}),
             "keypoint_layout": KEYPOINT_LAYOUT,
             "units": M.dumps(T.UNITS),
             "metadata": M.dumps(self._metadata),
@@ -286,8 +304,9 @@ class McapRecorder:
         visible: npt.ArrayLike | None = None,
         *,
         frame: str = T.WORLD_FRAME,
+        side: str | None = None,
     ) -> None:
-        """Write one hand observation.
+        """Write one hand observation (of the ``side`` hand: default the only, or the right).
 
         Parameters
         ----------
@@ -306,8 +325,16 @@ class McapRecorder:
             (:data:`~lfd.io.topics.CAMERA_FRAME`, OpenCV axes): a sample taken before the world
             frame was known, on ``/hand/<side>/keypoints_camera`` and
             ``/hand/<side>/confidence_camera`` (:func:`lfd.io.load` does not read them).
+        side : str, optional
+            ``"right"`` or ``"left"``, one of the recorder's :attr:`sides`.
         """
         t = _check_time(t_ns)
+        side = self.side if side is None else side
+        if side not in self.sides:
+            raise DemonstrationError(
+                f"{self.path}: a {side!r} hand sample, but the recorder records the "
+                f"{' and '.join(self.sides)} hand (McapRecorder(hands=...))"
+            )
         if frame not in (T.WORLD_FRAME, T.CAMERA_FRAME):
             raise DemonstrationError(
                 f"hand frame must be {T.WORLD_FRAME!r} or {T.CAMERA_FRAME!r}, got {frame!r}"
@@ -330,18 +357,18 @@ class McapRecorder:
             vis = np.asarray(visible)
             if vis.shape != (21,) or vis.dtype != np.bool_:
                 raise DemonstrationError(
-                    f"{self.path}: {T.confidence_topic(self.side)} at {t} ns: visible must be "
+                    f"{self.path}: {T.confidence_topic(side)} at {t} ns: visible must be "
                     f"21 booleans, got {vis.dtype} {vis.shape}"
                 )
         msg = M.hand_poses(t, kp, frame)
         channel = self._channel(
-            T.hand_topic(self.side) if world else T.hand_camera_topic(self.side),
+            T.hand_topic(side) if world else T.hand_camera_topic(side),
             PosesInFrame,
             metadata={
                 "layout": KEYPOINT_LAYOUT,
                 "keypoints": json.dumps(KEYPOINT_NAMES),
                 "bones": json.dumps(HAND_BONES),
-                "side": self.side,
+                "side": side,
                 "units": "m",
                 "unobserved": "NaN",
                 **({} if world else {"frame_id": frame}),
@@ -349,7 +376,7 @@ class McapRecorder:
         )
         self._write(channel, t, msg.SerializeToString())
         channel = self._channel(
-            T.confidence_topic(self.side) if world else T.confidence_camera_topic(self.side),
+            T.confidence_topic(side) if world else T.confidence_camera_topic(side),
             json_schema=(T.CONFIDENCE_SCHEMA, T.CONFIDENCE_JSON_SCHEMA),
             metadata={"layout": KEYPOINT_LAYOUT},
         )
@@ -458,9 +485,16 @@ class McapRecorder:
         self._writer.add_metadata(T.CALIBRATION_METADATA, {"camera": M.dumps(record)})
         self._sync()
 
+    def _check_lane(self, labels: Sequence[SkillLabel], what: str) -> None:
+        problem = lanes_problem(self.sides, labels, (), what)
+        if problem is not None:
+            raise DemonstrationError(f"{self.path}: {problem}")
+
     def add_label(self, label: SkillLabel) -> None:
-        """Write a ground-truth skill label (``log_time`` = its start)."""
+        """Write a ground-truth skill label (``log_time`` = its start; metadata ``hand`` when
+        it names its hand, as every label of a two-hand recording does)."""
         _check_time(label.start_ns)
+        self._check_lane([label], "label")
         msg = M.event(label)
         channel = self._channel(T.GROUND_TRUTH_TOPIC, Event)
         self._write(channel, label.start_ns, msg.SerializeToString())
@@ -474,11 +508,22 @@ class McapRecorder:
         order (a topic's log times are unique: :func:`lfd.load` drops repeated ones)."""
         _check_time(label.start_ns)
         _check_time(settled_ns)
+        self._check_lane([label], "live segment")
         t = max(int(settled_ns), self._live_last + 1)
         self._live_last = t
         msg = M.event(label, extra)
         channel = self._channel(T.LIVE_SEGMENTS_TOPIC, Event)
         self._write(channel, t, msg.SerializeToString())
+
+    def add_handover(self, handover: Handover) -> None:
+        """Write a ground-truth handover on ``/lfd/ground_truth/handovers`` (``log_time`` = its
+        start; metadata ``giver``, ``taker``, ``object``): a two-hand recording's."""
+        _check_time(handover.start_ns)
+        problem = lanes_problem(self.sides, (), [handover])
+        if problem is not None:
+            raise DemonstrationError(f"{self.path}: {problem}")
+        channel = self._channel(T.HANDOVERS_TOPIC, Event)
+        self._write(channel, handover.start_ns, M.handover_event(handover).SerializeToString())
 
     # --- lifetime ---------------------------------------------------------------------------
     @property
@@ -527,14 +572,20 @@ def save(demo: Demonstration, path: str | os.PathLike[str], **kwargs: Any) -> No
     """Write a whole :class:`~lfd.demo.Demonstration` to ``path``.
 
     Streams are interleaved in time order. Object samples with ``visible == False`` are not
-    written (visibility = presence), so they do not come back from :func:`lfd.io.load`.
-    Extra keyword arguments go to :class:`McapRecorder`.
+    written (visibility = presence), so they do not come back from :func:`lfd.io.load`. Both
+    hands of a two-hand demonstration are written, with its handovers; its hands must be on one
+    clock (:func:`lfd.io.hands.clock_problem`). Extra keyword arguments go to
+    :class:`McapRecorder`.
     """
+    problem = clock_problem(*spans_of(demo))
+    if problem is not None:
+        raise DemonstrationError(f"cannot save {os.fspath(path)}: {problem}")
     objects: Sequence[ObjectSpec] = [(o.name, o.tag_id, o.size) for o in demo.objects.values()]
     # (t, stream kind, object name or "", index): the kind, never a name, says what a sample
     # is, so an object named "hand" is an object
     events: list[tuple[int, int, str, int]] = []
-    events += [(int(t), _HAND, "", i) for i, t in enumerate(demo.hand.t_ns)]
+    for side, hand in demo.hands.items():
+        events += [(int(t), _HAND, side, i) for i, t in enumerate(hand.t_ns)]
     for name, obj in demo.objects.items():
         events += [(int(t), _OBJECT, name, i) for i, t in enumerate(obj.t_ns) if obj.visible[i]]
     if demo.color is not None:
@@ -543,16 +594,16 @@ def save(demo: Demonstration, path: str | os.PathLike[str], **kwargs: Any) -> No
         events += [(int(t), _DEPTH, "", i) for i, t in enumerate(demo.depth.t_ns)]
     events.sort(key=lambda e: (e[0], e[1]))
     metadata = {k: v for k, v in demo.metadata.items() if k != "load_report"}
-    with McapRecorder(
-        path, objects=objects, metadata=metadata, side=demo.hand.side, **kwargs
-    ) as rec:
+    with McapRecorder(path, objects=objects, metadata=metadata, hands=demo.sides, **kwargs) as rec:
         if demo.camera is not None:
             t0 = events[0][0] if events else 0
             rec.add_camera_info(demo.camera, t0)
         for t, kind, name, i in events:
             if kind == _HAND:
-                hand = demo.hand
-                rec.add_hand(t, hand.keypoints[i], hand.confidence[i], hand.visible[i])
+                hand = demo.hands[name]
+                rec.add_hand(
+                    t, hand.keypoints[i], hand.confidence[i], hand.visible[i], side=hand.side
+                )
             elif kind == _COLOR:
                 assert demo.color is not None
                 rec.add_color(t, demo.color.frames[i])
@@ -566,3 +617,5 @@ def save(demo: Demonstration, path: str | os.PathLike[str], **kwargs: Any) -> No
             rec.add_label(label)
         for label in demo.live_segments:  # settle times and scores are not kept by load
             rec.add_live_segment(label, label.end_ns)
+        for handover in demo.handovers:
+            rec.add_handover(handover)

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import InvalidParameterError
+from ..skills import CARRIED, NO_LIFT, NO_SET_DOWN, TARGET_STILL
 from ..trajectory import Trajectory
 
 if TYPE_CHECKING:
@@ -45,18 +46,6 @@ def displaced(before: np.ndarray, after: np.ndarray, displacement: float) -> np.
     """Is an object displaced by more than ``displacement`` (m) between two positions (``(...,
     3)`` each)? The co-motion rule of :func:`moving_objects`."""
     return np.asarray(np.linalg.norm(after - before, axis=-1) > displacement)
-
-
-TARGET_STILL: frozenset[str] = frozenset({"move", "locate", "pick_up"})
-"""Skills whose target object does not move (a Pick up ends when the fingers have closed, before
-the lift; the other skills move their target or may)."""
-NO_SET_DOWN: frozenset[str] = frozenset({"move_with", "pick_up"})
-"""Skills in which a lifted target is not put down again (that is a Place or a Stack)."""
-NO_LIFT: frozenset[str] = frozenset({"place", "stack", "push"})
-"""Skills in which a resting target is not lifted (after a Place or Stack that is a new Pick up;
-a Push slides its object on the table)."""
-CARRIED: frozenset[str] = frozenset({"move_with"})
-"""Skills that carry their target lifted: it slides on the table only while it is lifted off."""
 
 
 def _next_true(mask: np.ndarray) -> np.ndarray:
@@ -109,12 +98,13 @@ def co_motion_penalty(
     charged ``weight`` per sample
 
     - in which another object moves (a skill acts on its own object only);
-    - in which ``o`` moves, if ``s`` keeps its target still (:data:`TARGET_STILL`);
+    - in which ``o`` moves, if ``s`` keeps its target still (:data:`lfd.skills.TARGET_STILL`;
+      the skills' properties are :data:`lfd.skills.TRAITS`);
     - in which ``o`` rests after it was lifted in the segment, if ``s`` does not put it down
-      (:data:`NO_SET_DOWN`), or is lifted after it rested, if ``s`` does not lift it
-      (:data:`NO_LIFT`): repeated cycles on one object come out as separate segments;
+      (:data:`~lfd.skills.NO_SET_DOWN`), or is lifted after it rested, if ``s`` does not lift it
+      (:data:`~lfd.skills.NO_LIFT`): repeated cycles on one object come out as separate segments;
     - beyond the first ``slide`` (samples, negative: none charged) in which ``o`` moves while it
-      rests, if ``s`` carries it lifted (:data:`CARRIED`): that is a Push;
+      rests, if ``s`` carries it lifted (:data:`~lfd.skills.CARRIED`): that is a Push;
     - beyond the first ``left`` (samples, negative: none charged) in which the hand moves
       (``hand`` (n,), :func:`moving_hand`) while ``o`` stays, if ``s`` carries ``o``: the hand
       has left it behind.

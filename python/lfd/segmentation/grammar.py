@@ -9,7 +9,7 @@ import json
 from functools import cache
 
 from .. import _hmmseg
-from ..skills import SKILLS, allowed, grammar, grammar_json, impossible_transitions
+from ..skills import RELEASES, SKILLS, allowed, grammar, grammar_json, impossible_transitions
 
 __all__ = [
     "SKILLS",
@@ -23,9 +23,6 @@ __all__ = [
     "needs_move_between",
 ]
 
-RELEASES: tuple[str, ...] = ("place", "stack")
-"""Skills after which the hand may re-grasp without a visible Move."""
-
 
 @cache
 def implicit_move_grammar_json() -> str:
@@ -34,7 +31,7 @@ def implicit_move_grammar_json() -> str:
     :func:`lfd.segmentation.passes.insert_implicit_moves`)."""
     g = grammar()
     after_move = list(g["transitions"]["move"])
-    for skill in RELEASES:
+    for skill in sorted(RELEASES):  # after a release the hand may re-grasp at once
         g["transitions"][skill] = list(dict.fromkeys([*g["transitions"][skill], *after_move]))
     g["description"] = g.get("description", "") + " (Move after Place/Stack may be implicit)"
     return json.dumps(g)

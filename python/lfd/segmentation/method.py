@@ -22,7 +22,8 @@ from typing import Any, get_args
 
 from ..errors import InvalidParameterError, LfdError, ModelFormatError
 from ..rules import Choice, Instance, Rule, Text, check_fields, check_keys, from_document
-from .pipeline import (
+from .schema import SEGMENT_RULES
+from .settings import (
     DEFAULT_GRAMMAR,
     DEFAULT_SEARCH,
     PAPER_GRAMMAR,
@@ -32,7 +33,6 @@ from .pipeline import (
     Search,
     SegmentParams,
 )
-from .schema import SEGMENT_RULES
 from .templates import Templates
 
 NAMES: tuple[str, ...] = ("default", "paper")

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from ..skills import RELEASES
 from ..trajectory import Trajectory
 
 POSE_SKILLS: frozenset[str] = frozenset({"pick_up", "locate"})
@@ -103,7 +104,7 @@ def skill_params_batch(
                 out[i]["grasp_quaternion"] = quat
             else:
                 out[i]["tcp_in_object_position"] = pos
-    placed = [i for i in range(m) if valid[i] and skills[i] in ("place", "stack")]
+    placed = [i for i in range(m) if valid[i] and skills[i] in RELEASES]
     if placed:
         k, t = np.array([objects[i] for i in placed], dtype=np.intp), last[placed]
         where = _vecs(traj.object_position[k, t])

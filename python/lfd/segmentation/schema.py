@@ -8,7 +8,7 @@ engine's templates (its own ``format_version``, checked by the engine) and an ``
 - the preprocessing the templates were trained with (:data:`PREPROCESSING_RULES`);
 - how they were made (:data:`ABOUT_RULES`: recordings, augmentation, adaptation; informative);
 - ``method``: the method saved with them (``name``, ``search``, ``grammar`` and ``params``, the
-  fields of :class:`~lfd.segmentation.pipeline.SegmentParams`, :data:`SEGMENT_RULES`, with
+  fields of :class:`~lfd.segmentation.settings.SegmentParams`, :data:`SEGMENT_RULES`, with
   ``stage1`` and ``contacts``).
 
 Every field has one rule (:mod:`lfd.rules`): the same table checks a file when it is read and a
@@ -50,7 +50,7 @@ SEGMENT_RULES: dict[str, Rule] = {
     "co_motion_displacement": Number(0.0, 10.0, "m"),
     "contacts": Nested(ContactParams, CONTACT_RULES, nullable=True),
 }
-"""What each :class:`~lfd.segmentation.pipeline.SegmentParams` field holds."""
+"""What each :class:`~lfd.segmentation.settings.SegmentParams` field holds."""
 
 MAX_CUTOFF_HZ = 1000.0
 """Largest low-pass cut-off a method file may name (a recording's own Nyquist frequency is

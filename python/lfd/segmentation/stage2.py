@@ -1,9 +1,11 @@
-"""Stage 2's score table over the runs of a :class:`~lfd.segmentation.band.Band`: every
-target object's table from the engine's templates plus the co-motion evidence, maximised over
-the objects (:func:`scores_over_objects`), built in pieces of the band."""
+"""Stage 2's score table over the runs of a :class:`~lfd.segmentation.band.Band`, as the search
+sees it (:func:`stage2_scores`): every target object's table from the engine's templates plus the
+co-motion evidence (:mod:`~lfd.segmentation.comotion`), maximised over the objects
+(:func:`scores_over_objects`), built in pieces of the band."""
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -12,16 +14,108 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .._hmmseg import EndState
+from ..trajectory import Trajectory
 from .band import Band, StageTwoScores
-from .comotion import CoMotion
+from .comotion import CoMotion, co_motion_per_object, moving_hand, moving_objects
+from .settings import SegmentParams
+from .stage1 import OBJECT_COLUMNS
 
 if TYPE_CHECKING:
+    from ..features import Features
     from .templates import Templates
 
 
 SCORE_CHUNK = 1 << 15
 """The score band is built in pieces of the runs starting in about this many samples
 (:func:`scores_over_objects`): only the maximum over the objects is held for all runs."""
+
+
+def stage2_scores(
+    traj: Trajectory,
+    templates: Templates,
+    bounds: np.ndarray,
+    params: SegmentParams,
+    per_object: list[Features] | None = None,
+    *,
+    complete: bool = True,
+) -> StageTwoScores:
+    """The score table of a gap-free trajectory's runs of sections as the search sees it, and
+    the target object of each entry, over the runs of at most ``max_segment_s`` (a
+    :class:`~lfd.segmentation.band.Band`: memory and time linear in the demonstration).
+
+    The skills are object-centred: for every run of sections and skill the features are taken
+    relative to each object in turn, the co-motion evidence (:func:`co_motion_per_object`) is
+    added, and the best-explaining object is the segment's target (``c^{r,s} = max_o sum_f log
+    P(O_f^{r,o} | lambda_f^s) + co-motion``). This replaces a fixed per-sample target labelling,
+    which cannot know the target of skills that never move their object (Locate).
+    ``per_object``: ``compute_features(traj, target=o)`` for every object (computed if None).
+    ``complete`` False (a recording still being made): the runs that end with the recording so
+    far are scored with ``end="any"``, as the skill under way need not have finished.
+    """
+    from ..features import compute_features
+
+    p = params
+    if per_object is None:
+        per_object = [compute_features(traj, target=o) for o in range(len(traj.object_names))]
+    band = Band.of(bounds, max(1, round(p.max_segment_s / traj.dt)))
+    moving = moving_objects(traj, p.co_motion_window_s, p.co_motion_displacement)
+    hand = moving_hand(traj, p.co_motion_window_s, p.co_motion_displacement)
+    height = OBJECT_COLUMNS["object_height"]  # above the object's rest height + gamma: lifted
+
+    values = [np.ascontiguousarray(f.values, dtype=np.float64) for f in per_object]
+    shared = shared_features(values, templates)
+
+    extra = co_motion_per_object(
+        moving,
+        bounds,
+        templates.skills,
+        p.co_motion,
+        lifted=np.stack([f.values[:, height] > f.thresholds[:, height] for f in per_object]),
+        grace=round(p.co_motion_grace_s / traj.dt),
+        slide=p.co_motion_slide_s / traj.dt,
+        hand=hand,
+        left=p.co_motion_left_s / traj.dt,
+        band=band,
+    )
+    st = scores_over_objects(values, templates, band, p.end, extra=extra, shared=shared)
+    if complete or p.end == "any":
+        return st
+    k = band.n_sections
+    last = [r for i in range(k) if (r := band.index(i, k)) is not None]
+    if last:
+        # only these runs are scored again: over the band of the sections from the first of
+        # them on, whose rows are the band's from that section's on (a run's score depends on
+        # its own samples only)
+        i0 = int(band.start[last[0]])
+        r0 = int(band.offsets[i0])
+        tail = Band.of(band.bounds[i0:] - band.bounds[i0], band.max_len)
+        same = (
+            tail.n_runs == band.n_runs - r0
+            and np.array_equal(tail.start + i0, band.start[r0:])
+            and np.array_equal(tail.end + i0, band.end[r0:])
+        )
+        a = int(band.bounds[i0]) if same else 0
+        st_any = scores_over_objects(
+            [v[a:] for v in values] if same else values,
+            templates,
+            tail if same else band,
+            "any",
+            extra=_rows(extra, r0) if same else extra,
+            shared=shared,
+        )
+        rows = np.asarray(last) - (r0 if same else 0)
+        st.scores[last] = st_any.scores[rows]
+        st.target[last] = st_any.target[rows]
+    return st
+
+
+def _rows(extra: Callable[[int], np.ndarray] | None, r0: int) -> Callable[[int], np.ndarray] | None:
+    """``extra`` (:func:`co_motion_per_object`) from row ``r0`` on."""
+    if extra is None:
+        return None
+    if isinstance(extra, CoMotion) and extra.banded:
+        return dataclasses.replace(extra, lo=extra.lo[r0:], hi=extra.hi[r0:])
+    return lambda o: extra(o)[r0:]
 
 
 def scores_over_objects(

@@ -374,3 +374,57 @@ def test_ctrl_c_stops_a_running_export_with_130(tmp_path: Path) -> None:
     assert err.strip().splitlines()[-1] == "lfd export: interrupted"
     assert "Traceback" not in err
     assert not out.exists() and not list(tmp_path.glob(".ds*"))
+
+
+@needs_lerobot
+def test_two_hand_recording_has_a_subtask_column_per_hand(tmp_path: Path) -> None:
+    """A two-hand recording (exp1 given a left hand with labels of its own, lfd's writer):
+    the unsuffixed columns are the right hand's, ``*.right`` and ``*.left`` each hand's lane,
+    frame by frame; a one-hand recording beside it is refused (other columns)."""
+    from _two_hands import save_two_hands
+
+    rec = tmp_path / "two.mcap"
+    demo = save_two_hands(rec)
+    out = tmp_path / "two"
+    report = export_lerobot([rec, RECORDINGS[1]], out)
+    assert report.results[0].error is None
+    assert "hand" in (report.results[1].error or "")  # one-hand beside two: another dataset
+    ds = LeRobotDataset("lfd/two", root=out, video_backend="pyav")
+    assert ds.num_episodes == 1
+    table = ds.hf_dataset.with_format("numpy")[:]
+    names = json.loads((out / "meta" / "lfd_program.json").read_text())["episodes"][0]["objects"]
+    t = lfd.preprocess(demo, **lfd.Method.default().preprocessing).t_ns
+    subtasks = ds.meta.subtasks.index
+    for side in ("right", "left"):
+        lane = demo.labels_of(side)
+        for i in range(0, len(t), 5):
+            gt = _gt_at(lane, int(t[i]))
+            want = NO_SKILL if gt is None else f"{gt.skill} {gt.object}" if gt.object else gt.skill
+            assert subtasks[int(table[f"subtask_index.{side}"][i])] == want
+            assert int(table[f"skill_index.{side}"][i]) == (SKILLS.index(gt.skill) if gt else -1)
+            obj = int(table[f"object_index.{side}"][i])
+            assert (names[obj] if obj >= 0 else None) == (gt.object if gt else None)
+    np.testing.assert_array_equal(table["subtask_index"], table["subtask_index.right"])
+    assert (table["skill_index.left"] != table["skill_index.right"]).any()
+
+
+@needs_lerobot
+def test_two_hand_segment_labels_are_segment_hands(tmp_path: Path) -> None:
+    """--labels segment of a two-hand recording: each hand's column is its lane of
+    lfd.segment_hands."""
+    from _two_hands import save_two_hands
+
+    rec = tmp_path / "two.mcap"
+    demo = save_two_hands(rec)
+    out = tmp_path / "seg2"
+    report = export_lerobot([rec], out, labels="segment")
+    assert report.results[0].error is None and report.results[0].labels == "segment"
+    both = lfd.segment_hands(lfd.load(rec))
+    ds = LeRobotDataset("lfd/seg2", root=out, video_backend="pyav")
+    table = ds.hf_dataset.with_format("numpy")[:]
+    t = lfd.preprocess(demo, **lfd.Method.default().preprocessing).t_ns
+    for side in ("right", "left"):
+        labels = [s.to_label() for s in both.lanes[side].segments]
+        got = [int(v) for v in table[f"skill_index.{side}"]]
+        want = [SKILLS.index(g.skill) if (g := _gt_at(labels, int(x))) else -1 for x in t]
+        assert got == want

@@ -177,7 +177,7 @@ def test_read_mapping(tmp_path: Path, bags) -> None:
         (lambda t: t.replace('topic = "/hand/keypoints"', 'topic = "/tf"'),
          "hand topic /tf has message type tf2_msgs/msg/TFMessage, which lfd cannot read as hand "
          "keypoints; supported: geometry_msgs/PoseArray, visualization_msgs/MarkerArray"),
-        (lambda t: t.replace("[hand]", "[hands]"), "unknown key 'hands'"),
+        (lambda t: t.replace("[hand]", "[hands]"), r"\[hands\]: unknown key '.*'; known keys: right, left"),
         (lambda t: t.replace('side = "right"', "side = 3"), "hand.side"),
         (lambda t: t.replace("size = [0.05, 0.05, 0.05]", "size = [0.05, 0.05]"), "objects.box_1.size"),
         (lambda t: t.replace('units = "m"', 'units = "cm"'), "units must be"),
@@ -406,3 +406,42 @@ def test_tf_chain_interpolates_dynamic_edges() -> None:
     np.testing.assert_allclose(got, [[0.1, 0, 0], [0.5 + c, c, 0], [1.0, 0.1, 0]], atol=1e-12)
     back = tf.ref_T("b", "world", t, "test") @ tf.ref_T("world", "b", t, "test")
     np.testing.assert_allclose(back, np.tile(np.eye(4), (3, 1, 1)), atol=1e-12)
+
+
+def test_two_hand_topics_map_to_a_two_hand_demonstration(tmp_path: Path) -> None:
+    """A ROS 1 bag with one PoseArray topic per hand ([hands.right], [hands.left]): both hands
+    come back as written; imported, the lfd recording holds both."""
+    from _two_hands import two_hand_demo
+
+    demo = two_hand_demo()
+    bag = tmp_path / "two.bag"
+    mapping = tmp_path / "two.toml"
+    mapping.write_text(write_ros1(demo, bag), encoding="utf-8")
+    assert "[hands.left]" in mapping.read_text()
+    back = lfd.load(bag, mapping=mapping)
+    assert back.sides == ("right", "left")
+    for side, hand in demo.hands.items():
+        np.testing.assert_array_equal(back.hands[side].t_ns, hand.t_ns)
+        np.testing.assert_allclose(back.hands[side].keypoints, hand.keypoints, atol=1e-9)
+    assert set(back.metadata["ros"]["mapping"]["hands"]) == {"right", "left"}
+    out = tmp_path / "two.mcap"
+    lfd.save(back, out)
+    assert lfd.load(out).sides == ("right", "left")
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ('[hand]\ntopic = "/a"\n[hands.left]\ntopic = "/b"\n', "not both"),
+        ('[hands.right]\ntopic = "/a"\n[hands.left]\ntopic = "/a"\n', "the same topic /a"),
+        ('[hands.middle]\ntopic = "/a"\n', "[hands]: unknown key 'middle'"),
+        ('[hands.left]\ntopic = "/a"\nside = "right"\n', "[hands.left]: unknown key 'side'"),
+    ],
+)
+def test_bad_two_hand_mapping_is_one_clear_error(tmp_path: Path, text: str, expected: str) -> None:
+    path = tmp_path / "map.toml"
+    path.write_text(text + '[objects.box_1]\nframe = "box_1"\n', encoding="utf-8")
+    with pytest.raises(UsageError) as err:
+        read_mapping(path)
+    assert expected in str(err.value)
+    assert "\n" not in str(err.value)

@@ -10,6 +10,7 @@ import lfd
 import numpy as np
 import pytest
 from lfd.contact import ContactParams, box_distance, refine
+from lfd.skills import Draft
 
 SIZE = np.array([[0.06, 0.06, 0.06]])
 REALMOTION = _paths.SHARED / "realmotion"
@@ -47,13 +48,30 @@ def _scene(n: int = 300) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray
     return tcp, thumb, obj, quat
 
 
+def _drafts(*spans: tuple[str, int, int, int | None]) -> list[Draft]:
+    """Drafts of ``(skill, start, end, object)``, each with a score of its own (its index)."""
+    return [Draft(*span, score=float(k)) for k, span in enumerate(spans)]
+
+
+def _refine(drafts: list[Draft], *args: object, **kwargs: object) -> list[tuple]:
+    """:func:`refine`'s drafts as ``(skill, start, end, object)``; the drafts given unchanged."""
+    before = [(d.span, d.score) for d in drafts]
+    out = refine(drafts, *args, **kwargs)  # type: ignore[arg-type]
+    assert [(d.span, d.score) for d in drafts] == before
+    return [d.span for d in out]
+
+
 def test_refine_puts_every_boundary_at_its_contact_event() -> None:
     tcp, thumb, obj, quat = _scene()
     # what a search might give: no leading Move, late lift, early set-down, no final Move
-    spans = [("pick_up", 0, 120, 0), ("move_with", 120, 180, 0), ("place", 180, 300, 0)]
-    out = refine(spans, tcp, thumb, obj, quat, SIZE)
+    drafts = _drafts(("pick_up", 0, 120, 0), ("move_with", 120, 180, 0), ("place", 180, 300, 0))
+    refined = refine(drafts, tcp, thumb, obj, quat, SIZE)
+    out = [d.span for d in refined]
     skills = [s for s, *_ in out]
     assert skills == ["move", "pick_up", "move_with", "place", "move"]
+    # the drafts keep their scores; the Moves inserted have none
+    assert [d.score for d in refined][1:4] == [0.0, 1.0, 2.0]
+    assert math.isnan(refined[0].score) and math.isnan(refined[-1].score)
     (_, _, b0, _), (_, a1, b1, _), (_, a2, b2, _), (_, a3, b3, _), (_, a4, b4, o4) = out
     assert b0 == a1 and abs(a1 - 61) <= 1  # the last sample 8 cm away is 60
     assert b1 == a2 and 97 <= a2 <= 101  # the object starts to rise at 100
@@ -61,21 +79,21 @@ def test_refine_puts_every_boundary_at_its_contact_event() -> None:
     assert b2 == a3 and abs(a3 - rest_5cm) <= 2
     assert b3 == a4 and 230 <= a4 <= 238 and b4 == 300 and o4 is None  # TCP 3 cm off by 235
     # a refined segmentation is a fixed point
-    assert refine(out, tcp, thumb, obj, quat, SIZE) == out
+    assert _refine(refined, tcp, thumb, obj, quat, SIZE) == out
 
 
 def test_a_last_pick_up_that_never_lifts_is_part_of_the_move() -> None:
     tcp, thumb, obj, quat = _scene()
     obj[0, 100:] = obj[0, 99]  # the object never leaves the table
-    spans = [("move", 0, 150, 0), ("pick_up", 150, 300, 0)]
-    assert refine(spans, tcp, thumb, obj, quat, SIZE) == [("move", 0, 300, 0)]
+    drafts = _drafts(("move", 0, 150, 0), ("pick_up", 150, 300, 0))
+    assert _refine(drafts, tcp, thumb, obj, quat, SIZE) == [("move", 0, 300, 0)]
 
 
 def test_a_first_move_that_never_left_the_object_is_part_of_the_pick_up() -> None:
     tcp, thumb, obj, quat = _scene()
     tcp[:80] = tcp[80]  # the hand is at the object from the start
-    spans = [("move", 0, 40, None), ("pick_up", 40, 120, 0), ("move_with", 120, 300, 0)]
-    out = refine(spans, tcp, thumb, obj, quat, SIZE, ContactParams())
+    drafts = _drafts(("move", 0, 40, None), ("pick_up", 40, 120, 0), ("move_with", 120, 300, 0))
+    out = _refine(drafts, tcp, thumb, obj, quat, SIZE, ContactParams())
     assert [s for s, *_ in out][:2] == ["pick_up", "move_with"]
     assert out[0][1] == 0
 

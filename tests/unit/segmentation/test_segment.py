@@ -94,19 +94,25 @@ def test_a_locate_followed_by_a_skill_on_another_object_gets_a_move() -> None:
     located object, the Locate would lead straight into it."""
     from lfd.segmentation.passes import insert_implicit_moves
     from lfd.segmentation.pipeline import as_trajectory
+    from lfd.skills import Draft
 
     d = demo(EXP3)
     traj = as_trajectory(d)
-    segs = segment(traj).segments
+    names = list(traj.object_names)
+    segs = [
+        Draft(s.skill, s.start, s.end, names.index(s.object) if s.object else None, s.score)
+        for s in segment(traj).segments
+    ]
     k = next(i for i, s in enumerate(segs) if s.skill == "locate")
     loc, mv, nxt = segs[k : k + 3]
-    assert (mv.skill, nxt.skill) == ("move", "pick_up") and loc.object != nxt.object
-    folded = [*segs[:k], loc, dataclasses.replace(nxt, start=mv.start, start_s=mv.start_s)]
+    assert (mv.skill, nxt.skill) == ("move", "pick_up") and loc.obj != nxt.obj
+    folded = [*segs[:k], loc, nxt.resized(mv.start, nxt.end)]
     back = insert_implicit_moves(traj, folded, 6)
     assert [s.skill for s in back[k : k + 3]] == ["locate", "move", "pick_up"]
-    assert back[k + 1].object == nxt.object
+    assert back[k + 1].obj == nxt.obj and np.isnan(back[k + 1].score)
     assert back[k].start == loc.start and back[k + 2].end == nxt.end
-    same = [*folded[:-1], dataclasses.replace(folded[-1], object=loc.object)]
+    assert (back[k].score, back[k + 2].score) == (loc.score, nxt.score)
+    same = [*folded[:-1], dataclasses.replace(folded[-1], obj=loc.obj)]
     assert [s.skill for s in insert_implicit_moves(traj, same, 6)[k:]] == ["locate", "pick_up"]
     assert needs_move_between("locate", "box_1", "push", "box_2")
     assert not needs_move_between("locate", "box_1", "move", "box_2")

@@ -50,7 +50,10 @@ class ObjectSource:
 
 @dataclass(frozen=True)
 class RosMapping:
-    """A bag's topic mapping (see docs/ros.md); read one with :func:`read_mapping`."""
+    """A bag's topic mapping (see docs/ros.md); read one with :func:`read_mapping`.
+
+    ``hand`` is the only hand, or the right hand of two (``[hands.right]`` and
+    ``[hands.left]``); ``other_hand`` the left hand of two."""
 
     hand: HandSource
     objects: tuple[ObjectSource, ...]
@@ -60,14 +63,23 @@ class RosMapping:
     tf_topics: tuple[str, ...] = ("/tf", "/tf_static")
     static_tf_topics: tuple[str, ...] = ("/tf_static",)
     source: str = field(default="", compare=False)
+    other_hand: HandSource | None = None
+
+    @property
+    def hands(self) -> tuple[HandSource, ...]:
+        """The mapped hands, the right first."""
+        return (self.hand,) if self.other_hand is None else (self.hand, self.other_hand)
 
     def to_dict(self) -> dict[str, Any]:
         """The mapping as plain data (kept in the demonstration's metadata)."""
-        hand: dict[str, Any] = {"side": self.hand.side, "order": list(self.hand.order)}
-        if self.hand.topic:
-            hand["topic"] = self.hand.topic
-        if self.hand.frames:
-            hand["frames"] = list(self.hand.frames)
+        hands = []
+        for source in self.hands:
+            hand: dict[str, Any] = {"side": source.side, "order": list(source.order)}
+            if source.topic:
+                hand["topic"] = source.topic
+            if source.frames:
+                hand["frames"] = list(source.frames)
+            hands.append(hand)
         objects = {}
         for o in self.objects:
             d: dict[str, Any] = {"tag_id": o.tag_id}
@@ -84,12 +96,25 @@ class RosMapping:
             "time": self.time,
             "tf_topics": list(self.tf_topics),
             "static_tf_topics": list(self.static_tf_topics),
-            "hand": hand,
+            **(
+                {"hand": hands[0]}
+                if len(hands) == 1
+                else {"hands": {h.pop("side"): h for h in hands}}
+            ),
             "objects": objects,
         }
 
 
-_TOP_KEYS = ("reference_frame", "units", "time", "tf_topics", "static_tf_topics", "hand", "objects")
+_TOP_KEYS = (
+    "reference_frame",
+    "units",
+    "time",
+    "tf_topics",
+    "static_tf_topics",
+    "hand",
+    "hands",
+    "objects",
+)
 _HAND_KEYS = ("topic", "frames", "order", "side")
 _OBJECT_KEYS = ("topic", "frame", "size", "tag_id")
 
@@ -117,24 +142,77 @@ def _strings(value: Any, where: str) -> tuple[str, ...]:
     return tuple(value)
 
 
+def _hands(doc: Mapping[str, Any], where: str) -> tuple[HandSource, HandSource | None]:
+    """The ``[hand]`` table (one hand), or ``[hands.right]`` and/or ``[hands.left]``."""
+    if "hand" in doc and "hands" in doc:
+        raise UsageError(f"{where}: give [hand] (one hand) or [hands.right]/[hands.left], not both")
+    if "hands" not in doc:
+        hand_doc = doc.get("hand")
+        if not isinstance(hand_doc, dict):
+            raise UsageError(
+                f"{where}: missing the [hand] table (hand.topic or hand.frames), or "
+                "[hands.right] and [hands.left] for two hands"
+            )
+        return _hand(hand_doc, where, "hand", None), None
+    hands_doc = doc["hands"]
+    if not isinstance(hands_doc, dict) or not hands_doc:
+        raise UsageError(f"{where}: [hands] must hold [hands.right] and/or [hands.left]")
+    _keys(hands_doc, ("right", "left"), f"{where}: [hands]")
+    sources = []
+    for side in ("right", "left"):
+        if side in hands_doc:
+            if not isinstance(hands_doc[side], dict):
+                raise UsageError(f"{where}: hands.{side} must be a table (topic or frames)")
+            sources.append(_hand(hands_doc[side], where, f"hands.{side}", side))
+    if len(sources) == 2 and sources[0].topic and sources[0].topic == sources[1].topic:
+        raise UsageError(
+            f"{where}: hands.right and hands.left name the same topic {sources[0].topic}; "
+            "each hand needs its own"
+        )
+    return sources[0], (sources[1] if len(sources) == 2 else None)
+
+
 def _parse_mapping(doc: Mapping[str, Any], where: str) -> RosMapping:
     _keys(doc, _TOP_KEYS, where)
-    hand_doc = doc.get("hand")
-    if not isinstance(hand_doc, dict):
-        raise UsageError(f"{where}: missing the [hand] table (hand.topic or hand.frames)")
-    _keys(hand_doc, _HAND_KEYS, f"{where}: [hand]")
+    hand, other_hand = _hands(doc, where)
+    objects = _objects(doc, where)
+    ref = _frame(_string(doc.get("reference_frame", "world"), f"{where}: reference_frame"))
+    units = doc.get("units", "m")
+    if units not in UNITS:
+        raise UsageError(f'{where}: units must be "m" or "mm", got {units!r}')
+    time = doc.get("time", "header")
+    if time not in ("header", "receive"):
+        raise UsageError(f'{where}: time must be "header" or "receive", got {time!r}')
+    tf_topics = _strings(doc.get("tf_topics", ["/tf", "/tf_static"]), f"{where}: tf_topics")
+    static = _strings(doc.get("static_tf_topics", ["/tf_static"]), f"{where}: static_tf_topics")
+    return RosMapping(
+        hand=hand,
+        other_hand=other_hand,
+        objects=tuple(objects),
+        reference_frame=ref,
+        units=units,
+        time=time,
+        tf_topics=tf_topics,
+        static_tf_topics=static,
+        source=where,
+    )
+
+
+def _hand(hand_doc: Mapping[str, Any], where: str, name: str, side: str | None) -> HandSource:
+    """One hand's table, ``[hand]`` or ``[hands.<side>]`` (whose side is its name)."""
+    _keys(hand_doc, _HAND_KEYS if side is None else _HAND_KEYS[:3], f"{where}: [{name}]")
     topic = hand_doc.get("topic")
     frames = hand_doc.get("frames")
     if (topic is None) == (frames is None):
-        raise UsageError(f"{where}: [hand] needs exactly one of hand.topic and hand.frames")
+        raise UsageError(f"{where}: [{name}] needs exactly one of {name}.topic and {name}.frames")
     if topic is not None:
-        topic = _string(topic, f"{where}: hand.topic")
+        topic = _string(topic, f"{where}: {name}.topic")
     frame_names: tuple[str, ...] = ()
     if frames is not None:
-        frame_names = tuple(_frame(f) for f in _strings(frames, f"{where}: hand.frames"))
+        frame_names = tuple(_frame(f) for f in _strings(frames, f"{where}: {name}.frames"))
         if len(frame_names) != N_KEYPOINTS:
             raise UsageError(
-                f"{where}: hand.frames must name the {N_KEYPOINTS} keypoint frames, "
+                f"{where}: {name}.frames must name the {N_KEYPOINTS} keypoint frames, "
                 f"got {len(frame_names)}"
             )
     order_doc = hand_doc.get("order", "mediapipe")
@@ -149,16 +227,19 @@ def _parse_mapping(doc: Mapping[str, Any], where: str) -> RosMapping:
         order = tuple(order_doc)
     else:
         raise UsageError(
-            f'{where}: hand.order must be "mediapipe" or {N_KEYPOINTS} distinct indices '
+            f'{where}: {name}.order must be "mediapipe" or {N_KEYPOINTS} distinct indices '
             f"(the message index of each MediaPipe keypoint), got {order_doc!r}"[:240]
         )
     if frame_names and max(order) >= N_KEYPOINTS:
-        raise UsageError(f"{where}: hand.order indexes hand.frames, so must be below 21")
-    side = hand_doc.get("side", "right")
-    if side not in ("right", "left"):
-        raise UsageError(f'{where}: hand.side must be "right" or "left", got {side!r}')
-    hand = HandSource(topic=topic, frames=frame_names, order=order, side=side)
+        raise UsageError(f"{where}: {name}.order indexes {name}.frames, so must be below 21")
+    if side is None:
+        side = hand_doc.get("side", "right")
+        if side not in ("right", "left"):
+            raise UsageError(f'{where}: hand.side must be "right" or "left", got {side!r}')
+    return HandSource(topic=topic, frames=frame_names, order=order, side=str(side))
 
+
+def _objects(doc: Mapping[str, Any], where: str) -> list[ObjectSource]:
     objects_doc = doc.get("objects")
     if not isinstance(objects_doc, dict) or not objects_doc:
         raise UsageError(
@@ -180,26 +261,7 @@ def _parse_mapping(doc: Mapping[str, Any], where: str) -> RosMapping:
         if not isinstance(tag, int) or isinstance(tag, bool):
             raise UsageError(f"{at}.tag_id must be an integer, got {tag!r}")
         objects.append(ObjectSource(name, otopic, oframe, size, tag))
-
-    ref = _frame(_string(doc.get("reference_frame", "world"), f"{where}: reference_frame"))
-    units = doc.get("units", "m")
-    if units not in UNITS:
-        raise UsageError(f'{where}: units must be "m" or "mm", got {units!r}')
-    time = doc.get("time", "header")
-    if time not in ("header", "receive"):
-        raise UsageError(f'{where}: time must be "header" or "receive", got {time!r}')
-    tf_topics = _strings(doc.get("tf_topics", ["/tf", "/tf_static"]), f"{where}: tf_topics")
-    static = _strings(doc.get("static_tf_topics", ["/tf_static"]), f"{where}: static_tf_topics")
-    return RosMapping(
-        hand=hand,
-        objects=tuple(objects),
-        reference_frame=ref,
-        units=units,
-        time=time,
-        tf_topics=tf_topics,
-        static_tf_topics=static,
-        source=where,
-    )
+    return objects
 
 
 def read_mapping(path: str | os.PathLike[str]) -> RosMapping:

@@ -13,6 +13,7 @@ import numpy as np
 
 from ...demo import Demonstration, HandTrack, ObjectTrack
 from ...errors import LfdWarning, RecordingFormatError, UsageError
+from ..hands import clock_problem, spans_of
 from ..mcapfile import RawRecording
 from ..sizes import resolve_sizes
 from .bag import _Bag, _norm
@@ -23,6 +24,7 @@ from .mapping import (
     POSE_ARRAY,
     TF_MESSAGE,
     UNITS,
+    HandSource,
     ObjectSource,
     RosMapping,
     _frame,
@@ -106,11 +108,10 @@ def load_ros(
 def _check_topics(bag: _Bag, m: RosMapping) -> None:
     where = m.source or "the topic mapping"
     wanted: list[tuple[str, str]] = []
-    if m.hand.topic:
-        wanted.append((m.hand.topic, "hand"))
+    wanted += [(h.topic, _hand_name(m, h)) for h in m.hands if h.topic]
     wanted += [(o.topic, f"object {o.name}") for o in m.objects if o.topic]
     missing = [f"{t} ({what})" for t, what in wanted if t not in bag.topics]
-    needs_tf = bool(m.hand.frames) or any(o.frame for o in m.objects)
+    needs_tf = any(h.frames for h in m.hands) or any(o.frame for o in m.objects)
     if needs_tf and not any(t in bag.topics for t in m.tf_topics):
         missing.append(f"{' or '.join(m.tf_topics)} (tf, for the mapped frames)")
     if missing:
@@ -125,12 +126,11 @@ def _check_topics(bag: _Bag, m: RosMapping) -> None:
                 f"{bag.path}: topic {topic} carries {1 + len(info.others)} message types "
                 f"({', '.join((info.msgtype, *info.others))}); lfd reads one type per topic"
             )
-    if m.hand.topic:
-        got = _norm(bag.topics[m.hand.topic].msgtype)
-        if got not in HAND_TYPES:
+    for h in m.hands:
+        if h.topic and _norm(bag.topics[h.topic].msgtype) not in HAND_TYPES:
             raise UsageError(
-                f"{where}: hand topic {m.hand.topic} has message type "
-                f"{bag.topics[m.hand.topic].msgtype}, which lfd cannot read as hand keypoints; "
+                f"{where}: {_hand_name(m, h)} topic {h.topic} has message type "
+                f"{bag.topics[h.topic].msgtype}, which lfd cannot read as hand keypoints; "
                 f"supported: {', '.join(HAND_TYPES)} (or tf frames: hand.frames)"
             )
     for o in m.objects:
@@ -150,6 +150,11 @@ def _check_topics(bag: _Bag, m: RosMapping) -> None:
             )
 
 
+def _hand_name(m: RosMapping, h: HandSource) -> str:
+    """``hand`` (one hand), or ``right hand`` / ``left hand`` (two)."""
+    return "hand" if m.other_hand is None else f"{h.side} hand"
+
+
 @dataclass
 class _Messages:
     """The mapped messages of a bag: every tf transform, the hand's ``(stamp, frame_id,
@@ -157,9 +162,9 @@ class _Messages:
     order; ``skipped``: hand messages without the keypoints."""
 
     tf: _TfTree = field(default_factory=_TfTree)
-    hand: list[tuple[int, str, np.ndarray]] = field(default_factory=list)
+    hands: dict[str, list[tuple[int, str, np.ndarray]]] = field(default_factory=dict)
     objects: dict[str, list[tuple[int, str, np.ndarray, np.ndarray]]] = field(default_factory=dict)
-    skipped: int = 0
+    skipped: dict[str, int] = field(default_factory=dict)
 
 
 def _read(
@@ -167,45 +172,60 @@ def _read(
 ) -> Demonstration:
     _check_topics(bag, m)
     where = m.source or "the topic mapping"
-    need = max(m.hand.order) + 1
     tf_topics = [t for t in m.tf_topics if t in bag.topics]
-    got = _messages(bag, m, tf_topics, need)
-    if got.skipped:
-        warnings.warn(
-            f"{bag.path}: skipped {got.skipped} message(s) on {m.hand.topic} without {need} "
-            "keypoints",
-            LfdWarning,
-            stacklevel=3,
-        )
+    got = _messages(bag, m, tf_topics)
+    for h in m.hands:
+        if got.skipped.get(h.side):
+            warnings.warn(
+                f"{bag.path}: skipped {got.skipped[h.side]} message(s) on {h.topic} without "
+                f"{max(h.order) + 1} keypoints",
+                LfdWarning,
+                stacklevel=3,
+            )
     tf = got.tf
-    for f in [*m.hand.frames, *(o.frame for o in m.objects if o.frame)]:
+    frames = [f for h in m.hands for f in h.frames]
+    for f in [*frames, *(o.frame for o in m.objects if o.frame)]:
         if f not in tf.parent:
             raise UsageError(
                 f"{where} names tf frame {f!r}, which no transform in {', '.join(tf_topics)} "
                 f"has as its child; tf frames in {bag.path}: {', '.join(tf.frames) or 'none'}"
             )
-    t, kp = _hand_keypoints(bag, m, got, where)
-    finite = np.isfinite(kp).all(axis=2)
-    hand = HandTrack(t_ns=t, keypoints=kp, confidence=finite.astype(np.float64), side=m.hand.side)
-    objects = _object_tracks(bag, m, got, t, where, object_sizes)
+    hands = []
+    for h in m.hands:
+        t, kp = _hand_keypoints(bag, m, h, got, where)
+        finite = np.isfinite(kp).all(axis=2)
+        hands.append(
+            HandTrack(t_ns=t, keypoints=kp, confidence=finite.astype(np.float64), side=h.side)
+        )
+    objects = _object_tracks(bag, m, got, hands[0].t_ns, where, object_sizes)
     metadata: dict[str, Any] = {
         "source": "ros",
         "ros": {"bag": bag.path, "format": bag.kind, "mapping": m.to_dict()},
         "load_report": {"complete": True, "messages": sum(v.count for v in bag.topics.values())},
     }
-    return Demonstration(hand=hand, objects=objects, metadata=metadata)
+    demo = Demonstration(
+        hand=hands[0],
+        other_hand=hands[1] if len(hands) > 1 else None,
+        objects=objects,
+        metadata=metadata,
+    )
+    problem = clock_problem(*spans_of(demo))
+    if problem is not None:
+        raise RecordingFormatError(f"{bag.path}: {problem}")
+    return demo
 
 
-def _messages(bag: _Bag, m: RosMapping, tf_topics: list[str], need: int) -> _Messages:
-    """The bag's messages on the mapped topics, decoded (hand messages without ``need``
-    keypoints are counted as skipped)."""
+def _messages(bag: _Bag, m: RosMapping, tf_topics: list[str]) -> _Messages:
+    """The bag's messages on the mapped topics, decoded (hand messages without the keypoints
+    their order needs are counted as skipped)."""
     scale = UNITS[m.units]
     out = _Messages()
     by_topic: dict[str, list[ObjectSource]] = {}
     for o in m.objects:
         if o.topic:
             by_topic.setdefault(o.topic, []).append(o)
-    topics = list(dict.fromkeys([*tf_topics, *([m.hand.topic] if m.hand.topic else []), *by_topic]))
+    hand_of = {h.topic: h for h in m.hands if h.topic}
+    topics = list(dict.fromkeys([*tf_topics, *hand_of, *by_topic]))
     for topic, log_ns, msg in bag.messages(topics):
         if topic in tf_topics:
             static = topic in m.static_tf_topics
@@ -222,17 +242,19 @@ def _messages(bag: _Bag, m: RosMapping, tf_topics: list[str], need: int) -> _Mes
                     q,
                     static,
                 )
-        if topic == m.hand.topic:
+        h = hand_of.get(topic)
+        if h is not None:
+            need = max(h.order) + 1
             got = _hand_points(msg, _norm(bag.topics[topic].msgtype), need, scale)
             if got is None:
-                out.skipped += 1
+                out.skipped[h.side] = out.skipped.get(h.side, 0) + 1
             else:
                 header, pts = got
-                out.hand.append(
+                out.hands.setdefault(h.side, []).append(
                     (
                         _stamp(header, log_ns, m.time),
                         _frame(header.frame_id),
-                        pts[list(m.hand.order)],
+                        pts[list(h.order)],
                     )
                 )
         for o in by_topic.get(topic, []):
@@ -257,13 +279,13 @@ def _in_ref(
 
 
 def _hand_keypoints(
-    bag: _Bag, m: RosMapping, got: _Messages, where: str
+    bag: _Bag, m: RosMapping, h: HandSource, got: _Messages, where: str
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The hand's sample times and keypoints ``(n, 21, 3)`` in the reference frame, from its
-    topic or its tf frames."""
+    """The hand ``h``'s sample times and keypoints ``(n, 21, 3)`` in the reference frame, from
+    its topic or its tf frames."""
     tf, ref = got.tf, m.reference_frame
-    if m.hand.topic:
-        hand_raw = got.hand
+    if h.topic:
+        hand_raw = got.hands.get(h.side, [])
         t = np.array([h[0] for h in hand_raw], dtype=np.int64)
         idx = _sorted_unique(t)
         t = t[idx]
@@ -276,14 +298,14 @@ def _hand_keypoints(
             T = tf.ref_T(ref, f, t[sel], where)
             kp[sel] = np.einsum("nij,nkj->nki", T[:, :3, :3], kp[sel]) + T[:, None, :3, 3]
     else:
-        t = tf.times(m.hand.frames[0])
+        t = tf.times(h.frames[0])
         kp = np.empty((len(t), N_KEYPOINTS, 3))
-        for i, k in enumerate(m.hand.order):
-            kp[:, i] = tf.ref_T(ref, m.hand.frames[k], t, where)[:, :3, 3]
+        for i, k in enumerate(h.order):
+            kp[:, i] = tf.ref_T(ref, h.frames[k], t, where)[:, :3, 3]
     if len(t) == 0:
         raise RecordingFormatError(
-            f"{bag.path}: no hand keypoints on "
-            f"{m.hand.topic or 'the tf frames ' + ', '.join(m.hand.frames[:2]) + ', ...'}"
+            f"{bag.path}: no {_hand_name(m, h)} keypoints on "
+            f"{h.topic or 'the tf frames ' + ', '.join(h.frames[:2]) + ', ...'}"
         )
     return t, kp
 
