@@ -143,11 +143,11 @@ def _layout(
 
 # --- hand helpers ----------------------------------------------------------------------------
 def _rest(P: Planner, side: str) -> HandState:
-    """A relaxed hand near the demonstrator on its own side of the table, low and in view (an
+    """A relaxed hand near the demonstrator on its own side of the table, in view (an
     idle hand waits in front of the person, not out of the camera's view)."""
     rng = P.rng
     p = np.array(
-        [SIGN[side] * rng.uniform(0.18, 0.26), rng.uniform(0.02, 0.08), rng.uniform(0.08, 0.13)]
+        [SIGN[side] * rng.uniform(0.18, 0.26), rng.uniform(0.0, 0.06), rng.uniform(0.12, 0.17)]
     )
     return HandState(p, P.natural_yaw(p), _deg(10, 25, rng), _deg(-8, 8, rng), POSTURES["relaxed"])
 
