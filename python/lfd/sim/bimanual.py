@@ -719,6 +719,7 @@ def simulate_two_hands(
         for side in SIDES
         for lab in H[side].labels
     ]
+    labels.sort(key=lambda lab: (lab.start_ns, lab.end_ns, str(lab.hand)))  # in time order
     handovers = [Handover(ns(a), ns(b), g, k, o) for a, b, g, k, o in done["handovers"]]
     cam = scene.camera
     camera = CameraInfo(cam.width, cam.height, cam.intrinsics(), cam.world_T_camera())

@@ -194,3 +194,31 @@ def test_both_hands_found_in_a_rendered_depth_image() -> None:
         assert found is not None, side
         err = np.linalg.norm(found[0] - true.keypoints[i], axis=1).mean()
         assert err < 0.015, (side, err)
+
+
+def test_lfd_simulate_writes_a_two_hand_recording(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    from lfd.cli import main
+    from lfd.io import load
+
+    out = tmp_path / "handover.mcap"
+    assert main(["simulate", "handover", "--seed", "3", "--style", "natural", "-o", str(out)]) == 0
+    assert "1 handovers" in capsys.readouterr().out
+    demo = load(out)
+    sim = simulate("handover", seed=3, variability=Variability(style="natural")).demo
+    assert demo.sides == ("right", "left")
+    assert demo.handovers == sim.handovers
+    for side in demo.sides:
+        assert [(x.skill, x.object) for x in demo.labels_of(side)] == [
+            (x.skill, x.object) for x in sim.labels_of(side)
+        ]
+        np.testing.assert_allclose(demo.hands[side].keypoints, sim.hands[side].keypoints)
+
+
+def test_the_hands_set() -> None:
+    from pathlib import Path
+
+    from lfd.sim.sets import EVAL_SEEDS, set_jobs
+
+    jobs = set_jobs("hands", Path("out"))
+    assert len(jobs) == len(BIMANUAL_TASKS) * len(EVAL_SEEDS)
+    assert {j["task"] for j in jobs} == set(BIMANUAL_TASKS)
