@@ -13,7 +13,7 @@ docs/skills.md "Two hands" (each hand's lane of the seven skills):
   (``place`` from ``start_ns`` to ``end_ns``: the giver has let go) and withdraws (``move``);
   the taker carries it to its side of the table (``move_with``) and puts it down. Either hand
   may give.
-- ``carry``: both hands grasp a large box (26-32 cm long) at its ends, each at its own time;
+- ``carry``: both hands grasp a large box (26-30 cm long) at its ends, each at its own time;
   they lift, carry and lower it together and let go, each at its own time. Both lanes are
   ``move`` / ``pick_up`` / ``move_with`` / ``place`` / ``move`` of the box.
 - ``hold_stack``: one hand holds a plank still at one end (``pick_up``, then ``move_with`` of
