@@ -35,7 +35,7 @@ from __future__ import annotations
 import os
 from collections import deque
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Protocol
 
 import numpy as np
@@ -487,6 +487,8 @@ class _Session:
         """Tell the observer; write the skills it settles to ``/lfd/live/segments``."""
         skills = self._call(OBSERVER, lambda: list(method(*args)))
         for label, settled_ns, extra in skills:
+            if label.hand is None and len(self.sides) > 1:  # the observer follows the first hand
+                label = replace(label, hand=self.sides[0])
             self.rec.add_live_segment(label, settled_ns, extra)
             self.stats.live_segments += 1
 
