@@ -328,6 +328,7 @@ def _handover(H: dict[str, Planner], rng: np.random.Generator) -> Result:
     yaw += 2 * np.pi * round((pose.yaw - yaw) / (2 * np.pi))
     centre = np.array([rng.uniform(-0.03, 0.03), rng.uniform(0.22, 0.3), rng.uniform(0.1, 0.16)])
     G.carry_pose = ObjectPose(centre, yaw)
+    G.lift_scale = 0.25  # presented in front of the body, not lifted high first
     _carry(G, o)
     G.pending.pop(("place", o), None)
     G.poses[o] = _in_air_pose(G, o)
@@ -354,6 +355,7 @@ def _handover(H: dict[str, Planner], rng: np.random.Generator) -> Result:
     _hold_until(T, end + rng.uniform(0.05, 0.2))
     T.pending.pop(("lift", o), None)
     T.x_range = _side_range(taker)
+    T.lift_scale = 0.15  # from the handover point down to the table: a short rise
     _carry(T, o)
     _restart(T, t0)
     _put(T, o)

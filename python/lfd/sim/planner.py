@@ -108,6 +108,9 @@ class Planner:
     carry_pose: ObjectPose | None = None
     """Where the next Move with puts the held object (in the air: a handover); None: on a free
     table spot or onto another object, drawn."""
+    lift_scale: float = 1.0
+    """Scales how high the natural demonstrator's Move with may rise beyond its 5 cm (1: up to
+    45 cm, as from the table; a handover's carries, which start or end in the air, rise less)."""
     x_range: tuple[float, float] | None = None
     """The x range of the free table spots this hand puts objects on (None: the workspace)."""
     stack_offset: dict[str, np.ndarray] = field(default_factory=dict)
