@@ -68,7 +68,7 @@ def _fmt(k: str, v: float) -> str:
         return "-"
     if k == "sequence_match":
         return f"{v:.0f}"
-    if k in ("boundary_error_s",):
+    if k in ("boundary_error_s", "segment_ratio"):
         return f"{v:.3f}"
     return f"{100 * v:.1f}" if k != "edit_distance" else f"{v:.3f}"
 
@@ -195,9 +195,35 @@ def _print_report(report: Any, con: Any) -> None:
         for m, vals in summary.items():
             table.add_row(m, *(_fmt(k, vals[k]) for k in METRIC_NAMES))
         con.print(table)
+    _print_hands(report, con)
     for r in report.recordings:
         for m, err in r.errors.items():
             print(f"lfd eval: warning: {r.name} {m}: {' '.join(str(err).split())}", file=sys.stderr)
+
+
+def _print_hands(report: Any, con: Any) -> None:
+    """With two-hand recordings: a table per hand (segment count ratio too) and the
+    handovers found, missed and false per method."""
+    from rich.table import Table
+
+    from ..segmentation.metrics import METRIC_NAMES
+
+    keys = [*METRIC_NAMES, "segment_ratio"]
+    for side, summary in report.hands_summary().items():
+        n = int(next(iter(summary.values()))["n"])
+        table = Table(title=f"{side} hand ({n} two-hand recordings)")
+        table.add_column("method")
+        for k in keys:
+            table.add_column(k.replace("_", " "), justify="right")
+        for m, vals in summary.items():
+            table.add_row(m, *(_fmt(k, vals[k]) for k in keys))
+        con.print(table)
+    for m, h in report.handover_summary().items():
+        con.print(
+            f"handovers, {m}: {int(h['found'])}/{int(h['true'])} found within 0.3 s, "
+            f"{int(h['false'])} false",
+            highlight=False,
+        )
 
 
 def _show(

@@ -91,6 +91,13 @@ def segment_recording(
     )
     if on_loaded is not None:
         on_loaded(demo)
+    if len(demo.sides) > 1:
+        from ..segmentation.files import segment_hands_recording
+
+        hands, doc = segment_hands_recording(
+            demo, segmentation_method(args), recording=str(args.recording)
+        )
+        return (demo if keep else None), hands, doc
     prepared = prepare_recording(demo, segmentation_method(args))
     kept = demo if keep else None
     del demo  # its samples are freed here unless kept
@@ -281,11 +288,18 @@ def run(args: argparse.Namespace) -> int:
     demo, result, doc = segment_recording(
         args, on_loaded=_show_demo if show else None, keep=bool(show)
     )
+    con = console(args)
+    if doc.get("hands") is not None:
+        # two hands: each lane and the handovers (the --rerun views are the viewer's:
+        # lfd.viz, hands-show; the recording itself is shown as loaded)
+        _print_hands(args, result, doc, con)
+        close_from_args(args)
+        emit_json(args, doc, con)
+        return 0
     if show:
         from ..viz.pipeline import log_segment_run
 
         log_segment_run(demo, result, ground_truth=False)  # labels logged with the recording
-    con = console(args)
     table = Table(title=f"{Path(args.recording).name}: {result.method} segmentation")
     for col in ("#", "skill", "start s", "end s", "object", "score", "confidence"):
         table.add_column(col, justify="right" if col not in ("skill", "object") else "left")
@@ -327,6 +341,57 @@ def run(args: argparse.Namespace) -> int:
     close_from_args(args)
     emit_json(args, doc, con)
     return 0
+
+
+def _print_hands(args: argparse.Namespace, result: Any, doc: dict[str, Any], con: Any) -> None:
+    """A two-hand recording: a table per hand's lane, the handovers, the metrics per hand and
+    of the handovers, the warnings (stderr)."""
+    from rich.table import Table
+
+    name = Path(args.recording).name
+    for side, seg in result.lanes.items():
+        table = Table(title=f"{name}: {side} hand, {seg.method} segmentation")
+        for col in ("#", "skill", "start s", "end s", "object", "confidence"):
+            table.add_column(col, justify="right" if col not in ("skill", "object") else "left")
+        shown, more = capped(seg.segments, (s.skill for s in seg.segments))
+        for n, s in enumerate(shown):
+            table.add_row(
+                str(n), s.skill, f"{s.start_s:.2f}", f"{s.end_s:.2f}", s.object or "-",
+                f"{s.confidence:.2f}",
+            )  # fmt: skip
+        con.print(table)
+        if more:
+            con.print(more)
+    ho = Table(title="handovers")
+    for col in ("giver", "taker", "object", "start s", "end s"):
+        ho.add_column(col)
+    for h in doc["handovers"]:
+        ho.add_row(
+            h["giver"], h["taker"], h["object"] or "-", f"{h['start_s']:.2f}", f"{h['end_s']:.2f}"
+        )
+    con.print(ho)
+    if doc["metrics"]:
+        mt = Table(title="metrics")
+        mt.add_column("metric")
+        for side in result.lanes:
+            mt.add_column(side, justify="right")
+        keys = next(iter(doc["metrics"].values())).keys()
+        for k in keys:
+            mt.add_row(k, *(_num(doc["metrics"][side].get(k)) for side in result.lanes))
+        con.print(mt)
+        h = doc["metrics"]["handovers"]
+        con.print(
+            f"handovers: {int(h['found'])}/{int(h['true'])} found within 0.3 s, "
+            f"{int(h['false'])} false",
+            highlight=False,
+        )
+    warnings = [w for seg in result.lanes.values() for w in seg.warnings] + doc["warnings"]
+    for w in warnings:
+        print(f"lfd segment: warning: {' '.join(str(w).split())}", file=sys.stderr)
+
+
+def _num(v: Any) -> str:
+    return "-" if v is None else f"{v:.3f}"
 
 
 def is_batch(inputs: list[str]) -> bool:
@@ -389,9 +454,11 @@ def batch_table(results: list[Any], *, title: str) -> Any:
     table.add_column("error", overflow="fold")
     for r in results:
         if r.ok:
-            match = r.value["metrics"].get("sequence_match")
-            exact = "-" if match is None else ("yes" if match else "no")
-            table.add_row(str(r.item), str(len(r.value["segments"])), exact, f"{r.seconds:.2f}", "")
+            docs = list(r.value["hands"].values()) if "hands" in r.value else [r.value]
+            matches = [d["metrics"].get("sequence_match") for d in docs]
+            exact = "/".join("-" if m is None else ("yes" if m else "no") for m in matches)
+            skills = "/".join(str(len(d["segments"])) for d in docs)
+            table.add_row(str(r.item), skills, exact, f"{r.seconds:.2f}", "")
         else:
             error = r.error if len(r.error) <= 30 else r.error[:29] + "…"
             table.add_row(str(r.item), "-", "-", f"{r.seconds:.2f}", error)

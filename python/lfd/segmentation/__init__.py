@@ -139,12 +139,19 @@ def segment_hands(
     ``complete`` as for :func:`segment`. A one-hand demonstration gives one lane, equal to
     :func:`segment`'s result.
 
-    Today each hand is segmented alone (:meth:`Demonstration.one_hand`); the lanes are not yet
-    checked against each other and no handover is found.
+    Each hand is segmented on the demonstration as it sees it (the other hand's carrying
+    taken out: :func:`~lfd.segmentation.attribution.hand_view`); a skill on an object the hand
+    never touches becomes a Move; a carry one hand ends in the air while the other holds the
+    object is a handover; the grammar is checked per hand and across hands
+    (:mod:`lfd.segmentation.lanes`). Each lane keeps its :class:`Run`; the method is
+    ``result.method`` (once).
     """
+    from .lanes import segment_lanes
+
     m = resolve_method(templates, method)
-    lanes = {side: segment(demo.one_hand(side), method=m, complete=complete) for side in demo.sides}
-    return HandsSegmentation(lanes=lanes)
+    result = segment_lanes(demo, lambda one: segment(one, method=m, complete=complete))
+    result.method = m
+    return result
 
 
 def resolve_method(

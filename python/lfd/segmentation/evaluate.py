@@ -14,8 +14,17 @@ import numpy as np
 from ..demo import Demonstration
 from ..errors import LfdError, UsageError
 from ..skills import SKILLS
+from .hands import HandsSegmentation
 from .method import Method
-from .metrics import EXCLUDE_KEYS, METRIC_NAMES, all_metrics, excluded_spans, restrict
+from .metrics import (
+    EXCLUDE_KEYS,
+    METRIC_NAMES,
+    all_metrics,
+    excluded_spans,
+    handover_scores,
+    restrict,
+    segment_ratio,
+)
 from .result import Segmentation
 from .templates import Templates
 
@@ -92,6 +101,8 @@ class RecordingResult:
     errors: dict[str, str] = field(default_factory=dict)
     excluded_s: list[tuple[float, float]] = field(default_factory=list)
     duration_s: float = 0.0
+    hand: str | None = None
+    handovers: dict[str, dict[str, float]] = field(default_factory=dict)
 
     def excluded_note(self) -> str | None:
         """One line saying what was left out of the scores (None when nothing was)."""
@@ -142,9 +153,49 @@ class EvalReport:
             out[m] = agg
         return out
 
+    def hands_summary(self) -> dict[str, dict[str, dict[str, float]]]:
+        """Per hand (the two-hand recordings' lanes): the mean of every metric per method,
+        ``segment_ratio`` included; empty without two-hand recordings."""
+        out: dict[str, dict[str, dict[str, float]]] = {}
+        for side in dict.fromkeys(r.hand for r in self.recordings if r.hand is not None):
+            rows = [r for r in self.recordings if r.hand == side]
+            out[side] = {}
+            for m in self.methods:
+                got = [r.metrics[m] for r in rows if m in r.metrics]
+                keys = [*METRIC_NAMES, "segment_ratio"]
+                agg = {k: _mean([g[k] for g in got if k in g]) for k in keys}
+                agg["sequence_match"] = float(sum(g["sequence_match"] for g in got))
+                agg["n"] = float(len(rows))
+                out[side][m] = agg
+        return out
+
+    def handover_summary(self) -> dict[str, dict[str, float]]:
+        """Per method, the handovers of every two-hand recording summed (``found``,
+        ``missed``, ``false``, ``true``, ``predicted``; counted once per recording)."""
+        first = [r for r in self.recordings if r.hand is not None and r.hand == "right"]
+        out: dict[str, dict[str, float]] = {}
+        for m in self.methods:
+            got = [r.handovers[m] for r in first if m in r.handovers]
+            if not got:
+                continue
+            keys = ("true", "predicted", "found", "missed", "false")
+            out[m] = {k: float(sum(g[k] for g in got)) for k in keys}
+        return out
+
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready report: per recording, per task and overall."""
+        """JSON-ready report: per recording, per task and overall (and with two-hand
+        recordings, per hand and the handovers)."""
+        hands = {}
+        if any(r.hand is not None for r in self.recordings):
+            hands = {
+                "hands": {
+                    side: {m: _clean(v) for m, v in per.items()}
+                    for side, per in self.hands_summary().items()
+                },
+                "handovers": self.handover_summary(),
+            }
         return {
+            **hands,
             "methods": list(self.methods),
             "recordings": [
                 {
@@ -155,6 +206,12 @@ class EvalReport:
                     "metrics": {m: _clean(v) for m, v in r.metrics.items()},
                     "errors": r.errors,
                     **({"excluded_s": [list(x) for x in r.excluded_s]} if r.excluded_s else {}),
+                    **({"hand": r.hand} if r.hand is not None else {}),
+                    **(
+                        {"handovers": {m: _clean(v) for m, v in r.handovers.items()}}
+                        if r.hand is not None
+                        else {}
+                    ),
                 }
                 for r in self.recordings
             ],
@@ -224,6 +281,61 @@ def evaluate_demo(
     return res
 
 
+def run_hands(name: str, demo: Demonstration, method: Method | None = None) -> HandsSegmentation:
+    """Segment both hands of ``demo`` with one of :data:`METHODS`: a template method through
+    :func:`lfd.segment_hands` (the lanes together, handovers found), a baseline on each hand
+    alone (no handovers)."""
+    from . import segment_hands
+
+    if name in TEMPLATE_METHODS:
+        return segment_hands(demo, method=method_variant(name, method))
+    return HandsSegmentation(
+        lanes={side: run_method(name, demo.one_hand(side), method) for side in demo.sides}
+    )
+
+
+def evaluate_hands_demo(
+    demo: Demonstration,
+    *,
+    name: str = "demo",
+    method: Method | None = None,
+    methods: Sequence[str] = DEFAULT_METHODS,
+) -> list[RecordingResult]:
+    """Every method of ``methods`` on a labelled two-hand demonstration: one result per hand
+    (named ``name [side]``; its metrics are that hand's lane against that hand's labels, the
+    whole recording, nothing excluded, plus ``segment_ratio``), each carrying the handover
+    scores of every method (:func:`~lfd.segmentation.metrics.handover_scores` against
+    ``demo.handovers``)."""
+    task = str(demo.metadata.get("task") or demo.metadata.get("experiment") or "unknown")
+    rows = {
+        side: RecordingResult(
+            name=f"{name} [{side}]",
+            task=task,
+            truth=[lab.skill for lab in demo.labels_of(side)],
+            duration_s=demo.duration_s,
+            hand=side,
+        )
+        for side in demo.sides
+    }
+    for m in methods:
+        try:
+            result = run_hands(m, demo, method)
+        except LfdError as err:
+            for row in rows.values():
+                row.errors[m] = str(err)
+            continue
+        scores = handover_scores(result.handovers, demo.handovers)
+        for side, row in rows.items():
+            lane, truth = result.lanes[side].segments, demo.labels_of(side)
+            row.sequences[m] = [seg.skill for seg in lane]
+            row.metrics[m] = {
+                **all_metrics(lane, truth),
+                "segment_ratio": segment_ratio(lane, truth),
+            }
+            row.handovers[m] = scores
+    return list(rows.values())
+
+
 def expand_paths(items: Iterable[str | Path]) -> list[Path]:
     """Files and directories -> sorted list of ``.mcap`` files (:func:`lfd.batch.mcap_files`)."""
     from ..batch import mcap_files
@@ -237,8 +349,9 @@ def evaluate_file(
     method: Method | None = None,
     methods: Sequence[str] = DEFAULT_METHODS,
     object_sizes: Mapping[str, Sequence[float]] | None = None,
-) -> RecordingResult | None:
-    """:func:`evaluate_demo` of one recording file (``None`` without ground-truth labels): the
+) -> RecordingResult | list[RecordingResult] | None:
+    """:func:`evaluate_demo` of one recording file (``None`` without ground-truth labels; a
+    two-hand file: :func:`evaluate_hands_demo`, a result per hand): the
     task :func:`evaluate` runs per recording (``object_sizes`` for files that do not carry
     them, :func:`lfd.load`)."""
     from ..io import load
@@ -246,6 +359,8 @@ def evaluate_file(
     demo = load(path, object_sizes=object_sizes)
     if not demo.labels:
         return None
+    if len(demo.sides) > 1:
+        return evaluate_hands_demo(demo, name=Path(path).name, method=method, methods=methods)
     return evaluate_demo(demo, name=Path(path).name, method=method, methods=methods)
 
 
@@ -297,6 +412,8 @@ def evaluate(
             failed[str(res.item)] = str(res.error)
         elif not res.ok:
             raise_failed([res])
+        elif isinstance(res.value, list):
+            rows.extend(res.value)
         elif res.value is not None:
             rows.append(res.value)
     return EvalReport(rows, tuple(methods))

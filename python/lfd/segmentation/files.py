@@ -16,6 +16,7 @@ from .method import Method
 if TYPE_CHECKING:
     from ..demo import Demonstration, SkillLabel
     from ..trajectory import Trajectory
+    from .hands import HandsSegmentation
     from .result import Segmentation
 
 
@@ -35,8 +36,26 @@ def segment_file(
     from ..io import load
 
     demo = load(path, images=False, **(load_options or {}))
+    if len(demo.sides) > 1:
+        return segment_hands_recording(demo, method, recording=str(path))[1]
     _, doc = segment_recording(demo, method, recording=str(path))
     return doc
+
+
+def segment_hands_recording(
+    demo: Demonstration,
+    method: Method | None = None,
+    *,
+    recording: str | None = None,
+) -> tuple[HandsSegmentation, dict[str, Any]]:
+    """Segment a loaded two-hand recording as ``lfd segment`` does (:func:`lfd.segment_hands`;
+    a hand that reaches no object is not refused: one hand may only watch): the result and its ``--json`` document (:meth:`HandsSegmentation.report`: each hand's
+    lane scored against its labels over the whole recording, the handovers against the
+    recording's)."""
+    from . import segment_hands
+
+    result = segment_hands(demo, method=method or Method.default())
+    return result, result.report(demo.labels, demo.handovers, recording=recording)
 
 
 def segment_recording(

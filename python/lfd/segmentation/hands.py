@@ -13,6 +13,7 @@ A one-hand demonstration gives one lane, equal to :func:`lfd.segment`'s result.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -39,11 +40,15 @@ class HandsSegmentation:
     warnings : list[str]
         What checking the lanes against each other found (prefixed by the hand's side), beside
         each lane's own warnings.
+    method : Method or None
+        The method every lane was segmented with, once for the run (each lane's
+        :class:`~lfd.segmentation.result.Run` keeps its own trajectory, features and scores).
     """
 
     lanes: dict[str, Segmentation]
     handovers: list[Handover] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    method: Any = field(default=None, repr=False, compare=False)
 
     @property
     def sides(self) -> tuple[str, ...]:
@@ -75,3 +80,53 @@ class HandsSegmentation:
             ],
             "warnings": list(self.warnings),
         }
+
+    def report(
+        self,
+        ground_truth: Sequence[SkillLabel] = (),
+        handovers: Sequence[Handover] = (),
+        *,
+        recording: str | None = None,
+    ) -> dict[str, Any]:
+        """The document of ``lfd segment --json`` on a two-hand recording: ``hands`` (each
+        lane's one-hand document, :meth:`Segmentation.report`, against that hand's labels of
+        ``ground_truth``), ``handovers`` (seconds from the first sample too), ``warnings``
+        (across the lanes) and ``metrics``: per hand, and ``handovers``
+        (:func:`~lfd.segmentation.metrics.handover_scores` against ``handovers``) when there
+        is ground truth."""
+        from .metrics import handover_scores
+
+        hands = {
+            side: seg.report(
+                [lab for lab in ground_truth if lab.hand in (side, None)], recording=recording
+            )
+            for side, seg in self.lanes.items()
+        }
+        origin = min(seg.origin_ns for seg in self.lanes.values())
+        doc: dict[str, Any] = {
+            "recording": recording,
+            "method": next(iter(self.lanes.values())).method,
+            "origin_ns": origin,
+            "hands": hands,
+            "handovers": [
+                {
+                    **h,
+                    "start_s": (h["start_ns"] - origin) * 1e-9,
+                    "end_s": (h["end_ns"] - origin) * 1e-9,
+                }
+                for h in self.to_dict()["handovers"]
+            ],
+            "warnings": list(self.warnings),
+            "metrics": {},
+        }
+        if self.method is not None:
+            doc["method_detail"] = self.method.describe()
+        if ground_truth:
+            doc["metrics"] = {side: hands[side]["metrics"] for side in self.lanes}
+            scores = handover_scores(self.handovers, handovers)
+            doc["metrics"]["handovers"] = {k: (v if v == v else None) for k, v in scores.items()}
+        return doc
+
+    def lane_runs(self) -> dict[str, Any]:
+        """Each lane's :class:`~lfd.segmentation.result.Run` by side (None for a baseline)."""
+        return {side: seg.run for side, seg in self.lanes.items()}

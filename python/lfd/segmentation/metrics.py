@@ -340,3 +340,55 @@ def all_metrics(
         "f1@25": f1_at(seq_pred, seq_truth, 0.25),
         "f1@50": f1_at(seq_pred, seq_truth, 0.50),
     }
+
+
+HANDOVER_TOLERANCE_S = 0.3
+"""A predicted handover matches a true one when giver and taker agree and their ends (the
+giver's release) are at most this far apart (docs/skills.md, "Two hands")."""
+
+
+class HandoverLike(Protocol):
+    """Anything with a handover's giver, taker and end (:class:`lfd.Handover`)."""
+
+    @property
+    def giver(self) -> str: ...
+    @property
+    def taker(self) -> str: ...
+    @property
+    def end_ns(self) -> int: ...
+
+
+def handover_scores(
+    pred: Sequence[HandoverLike],
+    truth: Sequence[HandoverLike],
+    *,
+    tolerance_s: float = HANDOVER_TOLERANCE_S,
+) -> dict[str, float]:
+    """The handovers found: ``found`` true ones matched (one to one, the nearest end first),
+    ``missed`` true ones not, ``false`` predicted ones that match none, ``true`` and
+    ``predicted`` the counts, and ``end_error_s`` the mean end error of the matches (NaN if
+    none)."""
+    pairs = sorted(
+        (abs(p.end_ns - t.end_ns), i, j)
+        for i, p in enumerate(pred)
+        for j, t in enumerate(truth)
+        if p.giver == t.giver and p.taker == t.taker
+        and abs(p.end_ns - t.end_ns) <= tolerance_s * 1e9
+    )  # fmt: skip
+    used_p: set[int] = set()
+    used_t: set[int] = set()
+    errors: list[float] = []
+    for d, i, j in pairs:
+        if i in used_p or j in used_t:
+            continue
+        used_p.add(i)
+        used_t.add(j)
+        errors.append(d * 1e-9)
+    return {
+        "true": float(len(truth)),
+        "predicted": float(len(pred)),
+        "found": float(len(used_t)),
+        "missed": float(len(truth) - len(used_t)),
+        "false": float(len(pred) - len(used_p)),
+        "end_error_s": float(np.mean(errors)) if errors else float("nan"),
+    }

@@ -1,0 +1,378 @@
+"""Both hands segmented together (docs/skills.md, "Two hands"): each hand's lane on the
+demonstration as that hand sees it (:func:`lfd.segmentation.attribution.hand_view`), the lanes
+reconciled with contact (an object is held only by the hand(s) touching it), the handovers
+found where one hand's carry ends in the air while the other already holds the object, and the
+grammar checked per hand and across hands.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..demo import Demonstration, Handover
+from ..skills import impossible_transitions
+from .attribution import AttributionParams, filled, hand_distance, hand_view, tip_distances
+from .episodes import CarryParams, carries, overlay, snap
+from .hands import HandsSegmentation
+from .result import Segment, Segmentation
+
+TOUCHING: frozenset[str] = frozenset({"pick_up", "move_with", "place", "stack", "push"})
+"""Skills whose object the hand touches (a Move or Locate touches none)."""
+
+
+@dataclass(frozen=True)
+class LaneParams:
+    """How the lanes are reconciled.
+
+    Attributes
+    ----------
+    touch_m : float
+        A hand touches an object when its TCP is within this of the object's box (m).
+    release_m : float
+        A hand is off an object when its TCP is this far (m) from the object's box.
+    reach_s : float
+        A Pick up's grasp, a Place's release may fall this long (s) after its end or before
+        its start.
+    air_m : float
+        A release is in the air (a handover, not a Place on the table) when the object is at
+        least this much (m) above the lowest it rests in the recording.
+    snap_s : float
+        A carry's boundary moves to the lane's own boundary between the same skills when one
+        is this close (s): the templates' boundaries, refined by the one-hand contact rules.
+    gone_s : float
+        A giver lets go for good: its TCP stays ``release_m`` off the object this long (s)
+        after the handover, and the taker carries the object on at least this long.
+    """
+
+    touch_m: float = 0.02
+    reach_s: float = 0.3
+    air_m: float = 0.05
+    gone_s: float = 1.0
+    snap_s: float = 0.5
+    release_m: float = 0.03
+
+
+def segment_lanes(
+    demo: Demonstration,
+    segment_one: Callable[[Demonstration], Segmentation],
+    *,
+    attribution: AttributionParams | None = None,
+    params: LaneParams | None = None,
+    carry: CarryParams | None = None,
+) -> HandsSegmentation:
+    """Every hand of ``demo`` segmented by ``segment_one`` on its own view, the lanes
+    reconciled and the handovers found (see the module). A one-hand demonstration gives one
+    lane, ``segment_one`` of that hand alone, untouched."""
+    if len(demo.sides) < 2:
+        side = demo.sides[0]
+        return HandsSegmentation(lanes={side: segment_one(demo.one_hand(side))})
+    p = params or LaneParams()
+    lanes: dict[str, Segmentation] = {}
+    near = {
+        side: {
+            name: tip_distances(demo.hands[side], filled(obj), 2)
+            for name, obj in demo.objects.items()
+            if len(obj)
+        }
+        for side in demo.sides
+    }
+    segs = {
+        side: segment_one(
+            hand_view(demo, side, attribution, {n: d[0] for n, d in near[side].items()})
+        )
+        for side in demo.sides
+    }
+    both = {side: _at_samples(demo, near[side], seg) for side, seg in segs.items()}
+    dists = {side: got[0] for side, got in both.items()}
+    holds = {
+        side: {name: np.asarray(d <= (carry or CarryParams()).hold_m) for name, d in dist.items()}
+        for side, dist in dists.items()
+    }
+    for side, seg in segs.items():
+        other = next(s for s in demo.sides if s != side)
+        t = _sample_times(seg)
+        dt = float(np.median(np.diff(t))) * 1e-9 if len(t) > 1 else 1.0
+        thumbs = both[side][1]
+        tol = max(1, round(p.snap_s / dt))
+        spans = {}
+        for name, d in dists[side].items():
+            other_hold = _resampled(holds[other].get(name), _sample_times(segs[other]), t)
+            got = carries(
+                d, _positions(demo, name, t), _rest_height(demo, name), dt, carry,
+                other_hold=other_hold, thumb=thumbs[name],
+            )  # fmt: skip
+            spans[name] = snap(got, seg.segments, name, tol, other_hold)
+        touch = {name: np.asarray(d <= p.touch_m) for name, d in dists[side].items()}
+        pushes = _PushTouch(demo, side, t, p.touch_m)
+        seg.segments = _reconcile(
+            overlay(seg.segments, spans, _seconds(seg.segments)), touch, p, seg, pushes
+        )
+        lanes[side] = seg
+    handovers = find_handovers(demo, lanes, p, dists)
+    result = HandsSegmentation(lanes=lanes, handovers=handovers)
+    result.warnings.extend(check_lanes(result))
+    return result
+
+
+def _at_samples(
+    demo: Demonstration, near: dict[str, tuple[np.ndarray, ...]], seg: Segmentation
+) -> list[dict[str, np.ndarray]]:
+    """The distances ``near`` (per object name, at the object's samples: TCP, thumb tip) at
+    ``seg``'s trajectory samples, one dict per distance (inf where unknown)."""
+    t = _sample_times(seg)
+    out: list[dict[str, np.ndarray]] = [{}, {}]
+    for name, got in near.items():
+        obj = demo.objects[name]
+        i = np.clip(np.searchsorted(obj.t_ns, t), 0, len(obj) - 1)
+        for k, d in enumerate(got[:2]):
+            out[k][name] = np.where(np.isfinite(d[i]), d[i], np.inf)
+    return out
+
+
+def _sample_times(seg: Segmentation) -> np.ndarray:
+    """Absolute times (ns) of the segmented trajectory's samples."""
+    if seg.run is not None:
+        traj = seg.run.trajectory
+        return np.asarray(traj.t_ns, dtype=np.int64)
+    end = seg.segments[-1].end
+    t0, t1 = seg.segments[0].start_ns, seg.segments[-1].end_ns
+    return np.linspace(t0, t1, end, endpoint=False).astype(np.int64)
+
+
+class _PushTouch:
+    """Does the hand touch a Push's object with any keypoint (within ``touch_m``)? Measured on
+    the Push's samples only, when asked."""
+
+    def __init__(self, demo: Demonstration, side: str, t_ns: np.ndarray, touch_m: float):
+        self.demo, self.side, self.t_ns, self.touch_m = demo, side, t_ns, touch_m
+
+    def touches(self, seg: Segment, k: int) -> bool:
+        obj = self.demo.objects.get(seg.object or "")
+        if obj is None or not len(obj):
+            return True
+        t = self.t_ns[max(seg.start, 0) : min(seg.end + k, len(self.t_ns))]
+        d = hand_distance(self.demo.hands[self.side], obj, t)
+        return bool((d <= self.touch_m).any()) if len(t) else True
+
+
+def _touches(seg: Segment, touch: dict[str, np.ndarray], k: int) -> bool:
+    """Does the hand touch ``seg``'s object during it (``k`` samples of slack at the end of a
+    Pick up, at the start of a Place or Stack)?"""
+    mask = touch.get(seg.object or "")
+    if mask is None:
+        return True
+    a, b = seg.start, seg.end
+    if seg.skill == "pick_up":
+        b += k
+    elif seg.skill in ("place", "stack"):
+        a -= k
+    a, b = max(a, 0), min(b, len(mask))
+    return bool(mask[a:b].any()) if b > a else True
+
+
+def _reconcile(
+    segments: list[Segment],
+    touch: dict[str, np.ndarray],
+    p: LaneParams,
+    seg: Segmentation,
+    pushes: _PushTouch | None = None,
+) -> list[Segment]:
+    """A skill on an object the hand never touches becomes a Move (its motion was the other
+    hand's); neighbouring Moves merge into one."""
+    if not segments:
+        return segments
+    dt = (segments[-1].end_s - segments[0].start_s) / max(segments[-1].end - segments[0].start, 1)
+    k = max(1, round(p.reach_s / dt)) if dt > 0 else 1
+    out: list[Segment] = []
+    for s in segments:
+        cur = s
+        if s.skill == "push" and pushes is not None:
+            touched = pushes.touches(s, k)
+        else:
+            touched = s.skill not in TOUCHING or _touches(s, touch, k)
+        if not touched:
+            cur = dataclasses.replace(
+                s, skill="move", score=float("nan"), confidence=float("nan"),
+                margin=float("nan"), params={},
+            )  # fmt: skip
+            if seg.warnings is not None:
+                seg.warnings.append(
+                    f"{s.skill} of {s.object} at {s.start_s:.2f}-{s.end_s:.2f} s: the hand never "
+                    "touches it (the other hand moved it): a move"
+                )
+        if out and out[-1].skill == "move" and cur.skill == "move":
+            prev = out[-1]
+            out[-1] = dataclasses.replace(
+                prev, end=cur.end, end_s=cur.end_s, end_ns=cur.end_ns, object=cur.object,
+                score=float("nan"), confidence=float("nan"), margin=float("nan"),
+            )  # fmt: skip
+            continue
+        out.append(cur)
+    return out
+
+
+def _seconds(segments: list[Segment]) -> np.ndarray:
+    """The seconds of every sample of the segments, and of the end (linear inside each)."""
+    n = segments[-1].end
+    out = np.zeros(n + 1)
+    for s in segments:
+        out[s.start : s.end + 1] = np.linspace(s.start_s, s.end_s, s.end - s.start + 1)
+    return out
+
+
+def _rest_height(demo: Demonstration, name: str) -> float:
+    """The lowest height (m) at which the object is seen, the table under it."""
+    z = demo.objects[name].position[:, 2]
+    return float(np.nanmin(z)) if np.isfinite(z).any() else float("nan")
+
+
+def _resampled(mask: np.ndarray | None, t_from: np.ndarray, t_to: np.ndarray) -> np.ndarray | None:
+    """``mask`` at samples ``t_from`` taken at ``t_to`` (the nearest sample before)."""
+    if mask is None or not len(t_from):
+        return None
+    i = np.clip(np.searchsorted(t_from, t_to, side="right") - 1, 0, len(t_from) - 1)
+    return np.asarray(mask[i])
+
+
+def _positions(demo: Demonstration, name: str, t_ns: np.ndarray) -> np.ndarray:
+    """The object's true centre at times ``t_ns`` (its nearest sample; where it was not seen,
+    interpolated between where it was)."""
+    obj = demo.objects[name]
+    i = np.clip(np.searchsorted(obj.t_ns, t_ns), 0, len(obj) - 1)
+    pos = np.array(obj.position[i], dtype=np.float64)
+    for axis in range(3):
+        ok = np.isfinite(pos[:, axis])
+        if ok.any() and not ok.all():
+            pos[:, axis] = np.interp(t_ns, t_ns[ok], pos[ok, axis])
+    return pos
+
+
+def _height_at(demo: Demonstration, name: str, t_ns: int) -> float:
+    """The object's height at ``t_ns`` (its nearest sample; through an occlusion, where it
+    would be between where it was seen)."""
+    obj = demo.objects[name]
+    i = int(np.clip(np.searchsorted(obj.t_ns, t_ns), 0, len(obj) - 1))
+    if not np.isfinite(obj.position[i, 2]):
+        obj = filled(obj)
+    return float(obj.position[i, 2])
+
+
+def _holding_at(lane: Segmentation, name: str | None, t_ns: int) -> Segment | None:
+    """The lane's segment carrying ``name`` at ``t_ns`` (a Move with, or a Pick up ending
+    there), else None."""
+    for s in lane.segments:
+        if s.object == name and s.skill in ("move_with", "pick_up", "place", "stack"):
+            if s.start_ns <= t_ns < s.end_ns:
+                return s
+    return None
+
+
+def find_handovers(
+    demo: Demonstration,
+    lanes: dict[str, Segmentation],
+    p: LaneParams,
+    dists: dict[str, dict[str, np.ndarray]] | None = None,
+) -> list[Handover]:
+    """The handovers of the lanes: a giver's Place whose release leaves the object in the air
+    while the taker, who grasped it after the giver did, carries it on; the giver lets go for
+    good (its TCP ``release_m`` off the object for ``gone_s``; ``dists``: each hand's TCP
+    distances at its lane's samples). The giver's lane is made to follow the definition
+    (Move with until the taker has grasped, then Place until the release)."""
+    out: list[Handover] = []
+    sides = list(lanes)
+    for giver in sides:
+        taker = next(s for s in sides if s != giver)
+        g_lane, t_lane = lanes[giver], lanes[taker]
+        for i, s in enumerate(g_lane.segments):
+            if s.skill != "place" or s.object is None or s.object not in demo.objects:
+                continue
+            rest = _rest_height(demo, s.object)
+            if not _height_at(demo, s.object, s.end_ns) - rest >= p.air_m:
+                continue
+            carry = _holding_at(t_lane, s.object, s.end_ns)
+            if carry is None or carry.skill != "move_with":
+                continue
+            if not _holds_on(dists, taker, s, lanes[taker], p):
+                continue
+            began = next(
+                (g.start_ns for g in reversed(g_lane.segments[:i]) if g.skill == "pick_up"),
+                g_lane.segments[0].start_ns,
+            )
+            if carry.start_ns <= began or not _gone(dists, giver, s, lanes[giver], p):
+                continue
+            start_ns = max(min(carry.start_ns, s.end_ns), g_lane.segments[i].start_ns)
+            _giver_follows(g_lane, i, start_ns)
+            out.append(Handover(start_ns, s.end_ns, giver, taker, s.object))
+    return sorted(out, key=lambda h: h.start_ns)
+
+
+def _holds_on(
+    dists: dict[str, dict[str, np.ndarray]] | None,
+    side: str,
+    place: Segment,
+    lane: Segmentation,
+    p: LaneParams,
+) -> bool:
+    """Does the ``side`` hand keep its TCP within ``release_m`` of ``place``'s object for
+    ``gone_s`` after the giver's ``place`` (the taker holds on)?"""
+    if dists is None or place.object not in dists.get(side, {}):
+        return True
+    d = dists[side][place.object]
+    dt = (lane.segments[-1].end_s - lane.segments[0].start_s) / max(lane.segments[-1].end, 1)
+    k = max(1, round(p.gone_s / dt)) if dt > 0 else 1
+    after = d[place.end : place.end + k]
+    return bool(len(after)) and bool((after < p.release_m).all())
+
+
+def _gone(
+    dists: dict[str, dict[str, np.ndarray]] | None,
+    side: str,
+    place: Segment,
+    lane: Segmentation,
+    p: LaneParams,
+) -> bool:
+    """Does the hand stay ``release_m`` off ``place``'s object for ``gone_s`` after it?"""
+    if dists is None or place.object not in dists.get(side, {}):
+        return True
+    d = dists[side][place.object]
+    dt = (lane.segments[-1].end_s - lane.segments[0].start_s) / max(lane.segments[-1].end, 1)
+    k = max(1, round(p.gone_s / dt)) if dt > 0 else 1
+    after = d[place.end : place.end + k]
+    return bool(len(after)) and bool((after >= p.release_m).all())
+
+
+def _giver_follows(lane: Segmentation, i: int, start_ns: int) -> None:
+    """The giver's Place ``i`` starts when the taker has grasped (``start_ns``), the Move with
+    before it ending there, when that falls inside both."""
+    if i == 0:
+        return
+    prev, place = lane.segments[i - 1], lane.segments[i]
+    if prev.skill != "move_with" or not prev.start_ns < start_ns < place.end_ns:
+        return
+    frac = (start_ns - place.start_ns) / max(place.end_ns - place.start_ns, 1)
+    k = place.start + round(frac * (place.end - place.start))
+    k = min(max(k, prev.start + 1), place.end - 1)
+    s_at = place.start_s + (k - place.start) * (place.end_s - place.start_s) / max(
+        place.end - place.start, 1
+    )
+    t_at = place.start_ns + round((s_at - place.start_s) * 1e9)
+    lane.segments[i - 1] = dataclasses.replace(prev, end=k, end_s=s_at, end_ns=t_at)
+    lane.segments[i] = dataclasses.replace(place, start=k, start_s=s_at, start_ns=t_at)
+
+
+def check_lanes(result: HandsSegmentation) -> list[str]:
+    """The grammar per hand and across hands, as warnings prefixed by the hand's side."""
+    out: list[str] = []
+    for side, lane in result.lanes.items():
+        out.extend(f"{side}: {w}" for w in impossible_transitions(lane.skill_sequence))
+    for h in result.handovers:
+        taker = result.lanes[h.taker]
+        if _holding_at(taker, h.object, h.end_ns) is None:
+            out.append(
+                f"handover of {h.object} at {h.end_ns} ns: the {h.taker} hand does not hold it"
+            )
+    return out
