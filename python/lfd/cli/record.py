@@ -90,8 +90,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--hand",
         choices=("right", "left"),
-        default="right",
-        help="the demonstrator's hand (right); another hand in view is tracked and ignored",
+        help="keep this hand alone (another hand in view is tracked and ignored); default: "
+        "both hands where two can be seen (mediapipe on a camera, images or a video, a "
+        "two-hand sim: task), the right hand of a one-hand sim: task or with depth-net",
     )
     parser.add_argument(
         "--mirrored",
@@ -155,7 +156,12 @@ def run(args: argparse.Namespace) -> int:
         depth_reader=args.depth_reader,
     )
     try:
-        estimator, hand_rate = _estimator(args, model, model_file)
+        sides = hand_sides(args.hand, model, getattr(source, "sides", None))
+        if args.no_hand:  # no hand estimated: the one hand topic (unobserved), as always
+            sides = sides[:1]
+        args.hand = sides[0]  # the first hand's topics, live segmentation and summary
+        args.hand_sides = sides
+        estimator, hand_rate = _estimator(args, model, model_file, source)
         segmenter = _segmenter(args, source)
         view = open_from_args(args, "lfd_record")
         observer = _observer(source, segmenter, view)
@@ -210,22 +216,46 @@ def _check(args: argparse.Namespace) -> tuple[str, str | None]:
     return model, model_file
 
 
+def hand_sides(
+    hand: str | None, model: str, scene_sides: tuple[str, ...] | None
+) -> tuple[str, ...]:
+    """The hands ``lfd record`` keeps: ``--hand`` alone when given; else both where two can be
+    seen (a two-hand simulated scene, MediaPipe on a real source), else the right hand (a
+    one-hand simulated scene, the depth network on a real source)."""
+    if hand is not None:
+        return (hand,)
+    if scene_sides is not None:  # a simulated scene knows its hands
+        return tuple(scene_sides)
+    return ("right", "left") if model == "mediapipe" else ("right",)
+
+
 def _estimator(
-    args: argparse.Namespace, model: str, model_file: str | None
+    args: argparse.Namespace, model: str, model_file: str | None, source: Any = None
 ) -> tuple[Any, float | None]:
-    """The hand estimator (None: ``--no-hand``) and the hand rate (None: every frame)."""
+    """The hand estimator (None: ``--no-hand``; a mapping side -> estimator for two hands, or
+    for a hand of a two-hand scene) and the hand rate (None: every frame)."""
+    sides = tuple(getattr(args, "hand_sides", (args.hand,)))
     if args.no_hand:
         return None, args.hand_rate
     if model == "mediapipe":
         from ..perception.hand.rgbd import MediaPipeEstimator
 
         estimator = MediaPipeEstimator(
-            args.hand, threads=1, mirrored=args.mirrored, hand_size=args.hand_size
+            sides[0], threads=1, mirrored=args.mirrored, hand_size=args.hand_size
         )
-        return estimator, args.hand_rate
+        if len(sides) == 1:
+            return estimator, args.hand_rate
+        return {sides[0]: estimator, sides[1]: estimator.for_side(sides[1])}, args.hand_rate
     from ..perception.hand.infer import HandEstimator
 
-    return HandEstimator(model_file, threads=1), args.hand_rate or 5.0
+    net = HandEstimator(model_file, threads=1)
+    scene = tuple(getattr(source, "sides", None) or ("right",))
+    if sides == ("right",) and scene == ("right",):  # one right hand: the network as it is
+        return net, args.hand_rate or 5.0
+    from ..perception.hand.sides import DepthHands
+
+    both = DepthHands(net)  # the arms told apart, a left one mirrored for the network
+    return {s: both.side(s) for s in sides}, args.hand_rate or 5.0
 
 
 def _segmenter(args: argparse.Namespace, source: Any) -> Any:
@@ -290,6 +320,7 @@ def _record(
             args.output,
             hand_rate_hz=hand_rate,
             side=args.hand,
+            sides=getattr(args, "hand_sides", None),
             estimator=estimator,
             save_images=args.images,
             max_frames=max_frames,

@@ -11,6 +11,14 @@ A whole set, deterministically (the shipped recordings are made this way)::
     lfd simulate --set samples -o recordings               # exp1-4 seed 1000 + rendered sample
     lfd simulate --set eval -o /tmp/eval                   # 4 experiments x seeds 100-105
     lfd simulate --set eval --style natural -o /tmp/nat    # exp1-exp5 x seeds 100-105
+
+Two hands (each hand's lane labelled, handovers marked)::
+
+    lfd simulate handover --seed 3 -o handover.mcap        # pick up, pass to the other, place
+    lfd simulate carry --style natural -o carry.mcap       # a large box carried with both hands
+    lfd simulate hold_stack -o hs.mcap                     # hold a plank, stack on it
+    lfd simulate hold_push -o hp.mcap                      # hold a cube, push another
+    lfd simulate --set hands -o /tmp/hands                 # the four x seeds 100-105
 """
 
 from __future__ import annotations
@@ -27,7 +35,7 @@ from ._types import finite_float, float_range, positive_float, seed
 NAME = "simulate"
 HELP = "Record a task performed by the simulated human demonstrator (MuJoCo)."
 
-SETS = ("templates", "eval", "samples")
+SETS = ("templates", "eval", "samples", "hands")
 """The names of :data:`lfd.sim.sets.SETS` (not imported: ``lfd --help`` runs without the sim
 extra; tests/unit/sim/test_sim.py checks they agree)."""
 OBJECT_RATE_HZ = 30.0
@@ -64,8 +72,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         nargs="?",
         choices=sorted(TASK_NAMES),
         metavar="TASK",
-        help="exp1-exp4, exp5/exp6 (6-10 repeated lifts of one box / two boxes) or a skill name "
-        f"for its template task ({', '.join(sorted(TASK_NAMES))})",
+        help="exp1-exp4, exp5/exp6 (6-10 repeated lifts of one box / two boxes), a two-hand "
+        "task (handover, carry, hold_stack, hold_push) or a skill name for its template task "
+        f"({', '.join(sorted(TASK_NAMES))})",
     )
     parser.add_argument(
         "--style",
@@ -195,7 +204,7 @@ def run(args: argparse.Namespace) -> int:
             f"--set {args.set} generates its own tasks; drop {args.task} (or drop --set)"
         )
     if not args.set and not args.task:
-        raise UsageError("give a TASK (e.g. exp1) or --set templates|eval|samples")
+        raise UsageError("give a TASK (e.g. exp1) or --set templates|eval|samples|hands")
     if args.set:
         _check_set_directory(Path(args.output))
     else:
@@ -251,10 +260,18 @@ def run(args: argparse.Namespace) -> int:
             color_format=args.color_format,
         )
     demo = result.demo
-    print(
-        f"{args.output}: {args.task} seed {args.seed}, {demo.duration_s:.1f} s, "
-        f"{len(demo.hand)} hand samples, skills {' '.join(demo.skill_sequence)}"
-    )
+    if demo.other_hand is None:
+        what = f"{len(demo.hand)} hand samples, skills {' '.join(demo.skill_sequence)}"
+    else:
+        what = (
+            "; ".join(
+                f"{side} hand {len(h)} samples, skills "
+                + " ".join(lab.skill for lab in demo.labels_of(side))
+                for side, h in demo.hands.items()
+            )
+            + f"; {len(demo.handovers)} handovers"
+        )
+    print(f"{args.output}: {args.task} seed {args.seed}, {demo.duration_s:.1f} s, {what}")
     if show:
         from ..viz.pipeline import log_recorded_demo
 

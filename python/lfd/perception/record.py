@@ -34,8 +34,8 @@ from __future__ import annotations
 
 import os
 from collections import deque
-from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, replace
 from typing import Any, Protocol
 
 import numpy as np
@@ -61,6 +61,8 @@ class RecordStats:
     """Hand samples written in the camera frame (``/hand/<side>/keypoints_camera``), before the
     reference tag was seen; the world topic has them unobserved (not counted in
     ``hand_estimates`` nor ``hand_missing``)."""
+    sides: tuple[str, ...] = ("right",)
+    """The hands recorded; the counts above are over all of them."""
 
 
 def _boxes(tracker: MarkerTracker, poses: dict[str, tuple[np.ndarray, np.ndarray]]) -> list[Any]:
@@ -138,9 +140,17 @@ def record(
     markers: dict[str, Any] | None = None,
     side: str = "right",
     observer: RecordObserver | None = None,
+    sides: Sequence[str] | None = None,
 ) -> RecordStats:
     """Record ``source`` into ``output`` (MCAP). ``estimator`` is a ``MediaPipeEstimator``, a
     ``HandEstimator`` or None; ``side`` names the hand topics (``/hand/<side>/...``).
+
+    Two hands: ``sides=("right", "left")`` records both, and ``estimator`` is then a mapping
+    side -> one-hand estimator (:meth:`MediaPipeEstimator.for_side
+    <lfd.perception.hand.rgbd.MediaPipeEstimator.for_side>`,
+    :meth:`DepthHands.side <lfd.perception.hand.sides.DepthHands.side>`), or None. Each hand
+    gets its own topics, sampled at the same times; the ``observer`` sees the first hand's
+    samples (the right).
 
     ``hand_rate_hz`` None estimates the hand on every frame; else it is a rate in
     :data:`~lfd.perception.camera_file.HAND_RATE_RANGE_HZ`.
@@ -164,16 +174,24 @@ def record(
     from ..io import McapRecorder
 
     try:
+        hands = _sides(side, sides)
+        estimators = _per_side(estimator, hands)
         if hand_rate_hz is not None:
             check_hand_rate(hand_rate_hz)
         tracker, calib_poses = _tracker(source, markers)
-        meta = _metadata(source, estimator, hand_rate_hz, side)
+        first = None if not estimators else estimators[hands[0]]
+        meta = _metadata(source, first, hand_rate_hz, hands[0])
         objects = [(o["name"], o["tag_id"], np.asarray(o["size"], float)) for o in source.objects]
-        rec = McapRecorder(output, objects=objects, metadata=meta, color_format="png", side=side)
+        two: dict[str, Any] = {"hands": hands} if len(hands) > 1 else {}  # one hand: as always
+        if len(hands) > 1:
+            meta["hands"] = list(hands)
+        rec = McapRecorder(
+            output, objects=objects, metadata=meta, color_format="png", side=hands[0], **two
+        )
     except BaseException:
         _close(source)
         raise
-    session = _Session(source, rec, tracker, estimator, observer, calib_poses)
+    session = _Session(source, rec, tracker, estimators, observer, calib_poses, hands)
     session.period = 0 if hand_rate_hz is None else round(1e9 / hand_rate_hz)  # 0: every frame
     session.save_images = save_images
     try:
@@ -181,6 +199,32 @@ def record(
     finally:
         _close(source)
     return session.stats
+
+
+def _sides(side: str, sides: Sequence[str] | None) -> tuple[str, ...]:
+    """The hands to record, the right first."""
+    from ..demo import HAND_SIDES, check_side
+
+    given = (side,) if sides is None else tuple(sides)
+    for s in given:
+        check_side(s, "hand")
+    if not given or len(set(given)) != len(given):
+        raise LfdError(f"record one hand or two different ones, not {given}")
+    return tuple(s for s in HAND_SIDES if s in given)
+
+
+def _per_side(estimator: Any, hands: tuple[str, ...]) -> dict[str, Any]:
+    """The one-hand estimator of each hand ({}: no hand estimated)."""
+    if estimator is None:
+        return {}
+    if isinstance(estimator, Mapping):
+        missing = [s for s in hands if s not in estimator]
+        if missing:
+            raise LfdError(f"no hand estimator for the {' and '.join(missing)} hand")
+        return {s: estimator[s] for s in hands}
+    if len(hands) > 1:
+        raise LfdError("two hands need one estimator per hand (a mapping side -> estimator)")
+    return {hands[0]: estimator}
 
 
 def _tracker(
@@ -245,14 +289,16 @@ class _Session:
         source: Source,
         rec: Any,
         tracker: MarkerTracker,
-        estimator: Any,
+        estimators: dict[str, Any],
         observer: RecordObserver | None,
         calib_poses: dict[str, tuple[np.ndarray, np.ndarray]],
+        sides: tuple[str, ...] = ("right",),
     ) -> None:
         self.source, self.rec, self.tracker = source, rec, tracker
-        self.estimator, self.observer, self.calib_poses = estimator, observer, calib_poses
+        self.estimators, self.observer, self.calib_poses = estimators, observer, calib_poses
+        self.sides = sides
         self.name = str(source.metadata.get("source", "the source"))
-        self.stats = RecordStats()
+        self.stats = RecordStats(sides=sides)
         self.part = self.name
         self.period = 0
         self.save_images = False
@@ -260,9 +306,10 @@ class _Session:
         self.camera_written = False
         self.last_poses: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self.last_t: int | None = None
-        self.tracks_every_frame = getattr(estimator, "needs_colour", False)
-        self.fed: deque[tuple[int, bool, bool]] = deque()  # frames given to the estimator,
-        # not answered yet: (time, hand due then, world frame known then)
+        self.every_frame = {s: getattr(e, "needs_colour", False) for s, e in estimators.items()}
+        # per hand, the frames given to its estimator not answered yet: (time, hand due then,
+        # world frame known then)
+        self.fed: dict[str, deque[tuple[int, bool, bool]]] = {s: deque() for s in sides}
 
     def _call(self, part: str, fn: Any, *args: Any) -> Any:
         """``fn(*args)``, run as ``part`` (a failure in it is that part's)."""
@@ -318,14 +365,17 @@ class _Session:
         if self.rec.closed:
             return None
         try:
-            if self.fed and failed != HAND_MODEL and hasattr(self.estimator, "drain"):
+            for side, estimator in self.estimators.items():
+                fed = self.fed[side]
+                if not fed or failed == HAND_MODEL or not hasattr(estimator, "drain"):
+                    continue
                 # frames the estimator still holds (the colour hand measuring its bones), oldest
                 # first; Ctrl+C in the middle of a frame leaves that newest one on one side only
-                held = self._call(HAND_MODEL, lambda: list(self.estimator.drain()))
-                for (t_ns, due_then, world_then), est in zip(self.fed, held, strict=False):
+                held = self._call(HAND_MODEL, lambda e=estimator: list(e.drain()))
+                for (t_ns, due_then, world_then), est in zip(fed, held, strict=False):
                     if due_then:
                         hand = self._call(HAND_MODEL, lambda e=est: _checked(_unpack(e)))
-                        self.write_hand(t_ns, world_then, hand)
+                        self.write_hand(t_ns, world_then, hand, side)
             if self.observer is not None and self.last_t is not None and failed != OBSERVER:
                 self._observe(self.observer.finish, self.last_t)  # the skills still open
         except Exception as err:
@@ -369,18 +419,23 @@ class _Session:
         hand, of the frames it held until now)."""
         due = self.next_hand is None or frame.t_ns >= self.next_hand
         in_world = self.tracker.world_T_camera is not None  # else the hand is camera-frame
-        if self.estimator is not None and (due or self.tracks_every_frame):
-            # a colour tracker sees every frame it is given: it follows the hand from the
-            # previous one, so it is fed at the hand rate and its result kept when due
-            self.fed.append((frame.t_ns, due, in_world))
-            found = self._call(HAND_MODEL, self._estimate, frame)
-            for (t_ns, due_then, world_then), hand in zip(
-                [self.fed.popleft() for _ in found], found, strict=True
-            ):
-                if due_then:
-                    self.write_hand(t_ns, world_then, hand)
+        if self.estimators:
+            for side in self.sides:
+                if not (due or self.every_frame[side]):
+                    continue
+                # a colour tracker sees every frame it is given: it follows the hand from the
+                # previous one, so it is fed at the hand rate and its result kept when due
+                fed = self.fed[side]
+                fed.append((frame.t_ns, due, in_world))
+                found = self._call(HAND_MODEL, self._estimate, side, frame)
+                for (t_ns, due_then, world_then), hand in zip(
+                    [fed.popleft() for _ in found], found, strict=True
+                ):
+                    if due_then:
+                        self.write_hand(t_ns, world_then, hand, side)
         elif due:
-            self.write_hand(frame.t_ns, in_world, None)
+            for side in self.sides:
+                self.write_hand(frame.t_ns, in_world, None, side)
         if due:
             period = self.period
             self.next_hand = (
@@ -388,44 +443,52 @@ class _Session:
             )
             self.next_hand = max(self.next_hand, frame.t_ns + period // 2)
 
-    def _estimate(self, frame: Frame) -> list[_Found | None]:
+    def _estimate(self, side: str, frame: Frame) -> list[_Found | None]:
         found = _estimate_hands(
-            self.estimator,
+            self.estimators[side],
             frame,
             self.source.camera.K,
             self.tracker.world_T_camera,
             _boxes(self.tracker, self.last_poses),
         )
-        if len(found) > len(self.fed):
+        if len(found) > len(self.fed[side]):
             raise LfdError(
-                f"it returned {len(found)} hands for the {len(self.fed)} frames it was given"
+                f"it returned {len(found)} hands for the {len(self.fed[side])} frames it was given"
             )
         return [_checked(hand) for hand in found]
 
-    def write_hand(self, t_ns: int, in_world: bool, found: _Found | None) -> None:
-        """One hand sample: in the world frame, in the camera frame (before the reference tag
-        was seen: its own topic, the world topic marked unobserved), or none found."""
+    def write_hand(
+        self, t_ns: int, in_world: bool, found: _Found | None, side: str | None = None
+    ) -> None:
+        """One sample of the ``side`` hand (default: the first): in the world frame, in the
+        camera frame (before the reference tag was seen: its own topic, the world topic marked
+        unobserved), or none found. The observer sees the first hand's."""
         rec, stats = self.rec, self.stats
+        side = self.sides[0] if side is None else side
+        which: dict[str, Any] = {"side": side} if len(self.sides) > 1 else {}
+        observer = self.observer if side == self.sides[0] else None
         if found is not None and not in_world:  # its own topic: no frames mixed
             kp, confidence, visible, _ = found
-            rec.add_hand(t_ns, kp, confidence, visible=visible, frame="camera")
+            rec.add_hand(t_ns, kp, confidence, visible=visible, frame="camera", **which)
             stats.hand_in_camera += 1
         if found is None or not in_world:  # marked unobserved (NaN, confidence 0)
-            rec.add_hand(t_ns, np.full((21, 3), np.nan), np.zeros(21))
+            rec.add_hand(t_ns, np.full((21, 3), np.nan), np.zeros(21), **which)
             stats.hand_missing += found is None
-            if self.observer is not None:
-                self._observe(self.observer.on_hand, t_ns, None, None, None)
+            if observer is not None:
+                self._observe(observer.on_hand, t_ns, None, None, None)
         else:
             kp, confidence, visible, kp_2d = found
-            rec.add_hand(t_ns, kp, confidence, visible=visible)
+            rec.add_hand(t_ns, kp, confidence, visible=visible, **which)
             stats.hand_estimates += 1
-            if self.observer is not None:
-                self._observe(self.observer.on_hand, t_ns, kp, confidence, kp_2d)
+            if observer is not None:
+                self._observe(observer.on_hand, t_ns, kp, confidence, kp_2d)
 
     def _observe(self, method: Any, *args: Any) -> None:
         """Tell the observer; write the skills it settles to ``/lfd/live/segments``."""
         skills = self._call(OBSERVER, lambda: list(method(*args)))
         for label, settled_ns, extra in skills:
+            if label.hand is None and len(self.sides) > 1:  # the observer follows the first hand
+                label = replace(label, hand=self.sides[0])
             self.rec.add_live_segment(label, settled_ns, extra)
             self.stats.live_segments += 1
 

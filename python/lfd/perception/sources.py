@@ -186,6 +186,9 @@ class SimSource(Source):
         }
         super().__init__(demo.camera, objects, meta, camera_pose_known=False)
         self.labels = list(demo.labels)
+        self.handovers = list(demo.handovers)
+        self.sides: tuple[str, ...] = tuple(self.result.scene.sides)
+        """The hands of the simulated scene (``("right", "left")`` for a two-hand task)."""
 
     def calibration_frame(self) -> Frame | None:
         """The first frame rendered with the hand out of view (the workspace before the demo)."""

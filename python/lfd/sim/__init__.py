@@ -1,7 +1,8 @@
 """The simulated demonstrator: a capsule human hand performing the seven skills in MuJoCo.
 
 It is the test bed for segmentation, reproduction and perception: :func:`simulate` runs a task
-(``exp1`` ... ``exp6`` or a single-skill template task) like a person would — imprecisely, at
+(``exp1`` ... ``exp6``, a single-skill template task, or a two-hand task: ``handover``,
+``carry``, ``hold_stack``, ``hold_push``, :mod:`lfd.sim.bimanual`) like a person would — imprecisely, at
 varying speed, with detours and pauses — and records it like a real demonstration (hand
 keypoints at ~5 Hz, object tag poses at 30 Hz, optional RGB-D frames), with ground-truth skill
 labels. ``Variability(style="natural")`` selects a faster demonstrator recorded like motion
@@ -18,6 +19,7 @@ if TYPE_CHECKING:
     from .demonstrator import SIM_VERSION, SimResult, Truth, simulate, truth_demonstration
     from .scene import DEFAULT_OBJECTS, CameraSpec, ObjectSpec, Scene, build_scene
     from .tasks import (
+        BIMANUAL_TASKS,
         EXPERIMENTS,
         NATURAL_EXPERIMENTS,
         REPEAT_EXPERIMENTS,
@@ -26,6 +28,7 @@ if TYPE_CHECKING:
         TASKS,
         TEMPLATE_TASKS,
         TRANSITIONS,
+        TWO_HAND_EXPERIMENTS,
         check_grammar,
     )
     from .variability import STYLES, Variability
@@ -39,6 +42,7 @@ _HOME = {
     ),
     **dict.fromkeys(
         (
+            "BIMANUAL_TASKS",
             "EXPERIMENTS",
             "NATURAL_EXPERIMENTS",
             "REPEAT_EXPERIMENTS",
@@ -47,6 +51,7 @@ _HOME = {
             "TASKS",
             "TEMPLATE_TASKS",
             "TRANSITIONS",
+            "TWO_HAND_EXPERIMENTS",
             "check_grammar",
         ),
         "tasks",
@@ -68,6 +73,7 @@ def __getattr__(name: str) -> Any:
 
 
 __all__ = [
+    "BIMANUAL_TASKS",
     "DEFAULT_OBJECTS",
     "EXPERIMENTS",
     "NATURAL_EXPERIMENTS",
@@ -79,6 +85,7 @@ __all__ = [
     "TASK_NAMES",
     "TEMPLATE_TASKS",
     "TRANSITIONS",
+    "TWO_HAND_EXPERIMENTS",
     "CameraSpec",
     "ObjectSpec",
     "Scene",

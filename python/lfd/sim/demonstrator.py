@@ -15,7 +15,7 @@ capture: keypoints on every frame (30 Hz by default), small noise, almost no dro
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -23,10 +23,11 @@ import numpy as np
 from ..demo import CameraInfo, Demonstration, SkillLabel
 from ..errors import DemonstrationError, UsageError
 from . import natural as nat
-from .hand import GRASP_FINGERTIPS, JOINTS_PER_FINGER, N_JOINTS, HandKinematics
+from .hand import JOINTS_PER_FINGER, N_JOINTS, HandKinematics
 from .motion import Plan, rotation, smooth_noise
 from .planner import Attach, Detach, ObjectPose, Planner, Push
-from .scene import DEFAULT_OBJECTS, ObjectSpec, Scene, build_scene
+from .results import BASE_TIME_NS, SIM_VERSION, SimResult, Truth, free_fingers, quat_wxyz
+from .scene import DEFAULT_OBJECTS, ObjectSpec, build_scene
 from .skills import (
     locate,
     locate_entry,
@@ -40,55 +41,10 @@ from .skills import (
     rest_pose,
     stack,
 )
-from .tasks import TEMPLATE_TASKS, Step, check_task, place_objects, task_steps
+from .tasks import BIMANUAL_TASKS, TEMPLATE_TASKS, Step, check_task, place_objects, task_steps
 from .variability import Variability
 
-SIM_VERSION = "1.3"
-"""Version of the simulated demonstrator (bump when motions change; 1.1 added the natural
-style, 1.2 the contact boundaries, 1.3 the natural style's idle hovers and table turns; the
-careful motions are those of 1.2)."""
-
 _MAX_ATTEMPTS = 10
-
-BASE_TIME_NS = 1_700_000_000_000_000_000
-"""Capture time of the first frame of every simulated demonstration."""
-
-
-@dataclass
-class Truth:
-    """Noise-free state at every camera frame.
-
-    Attributes
-    ----------
-    t_ns : array, shape (n,)
-    tcp : array, shape (n, 3)
-    keypoints : array, shape (n, 21, 3)
-    wrist_pos : array, shape (n, 3)
-    wrist_quat : array, shape (n, 4)   (w, x, y, z) as MuJoCo
-    q : array, shape (n, 20)           finger joint angles
-    object_pos : dict of array (n, 3)
-    object_yaw : dict of array (n,)
-    """
-
-    t_ns: np.ndarray
-    tcp: np.ndarray
-    keypoints: np.ndarray
-    wrist_pos: np.ndarray
-    wrist_quat: np.ndarray
-    q: np.ndarray
-    object_pos: dict[str, np.ndarray]
-    object_yaw: dict[str, np.ndarray]
-
-
-@dataclass
-class SimResult:
-    """A simulated demonstration, its ground truth and what produced it."""
-
-    demo: Demonstration
-    truth: Truth
-    scene: Scene
-    plan: Plan
-    variability: Variability
 
 
 def _entry(P: Planner, step: Step, roles: dict[str, str], *, first: bool = False) -> Any:
@@ -147,30 +103,6 @@ def _execute(P: Planner, steps: tuple[Step, ...], roles: dict[str, str]) -> None
     P.hold(float(P.rng.uniform(0.3, 0.8)))
     last = P.labels[-1]
     P.labels[-1] = type(last)(last.skill, last.t0, P.t, last.object)
-
-
-def _free_fingers(P: Planner, t: np.ndarray) -> np.ndarray:
-    """Weight (n, 20) of each finger joint's drift at times ``t``: 0 for the fingers of a grasp
-    from the start of its closing to 0.3 s after the release, ramped over 0.2 s."""
-    w = np.ones((t.size, N_JOINTS))
-    releases = iter(e.t for e in P.events if isinstance(e, Detach))
-    for grasp in P.grasps:
-        t0, t1 = float(grasp["t_close_s"]), next(releases, float(t[-1])) + 0.3
-        busy = np.interp(t, [t0 - 0.2, t0, t1, t1 + 0.2], [0.0, 1.0, 1.0, 0.0])
-        for tip in GRASP_FINGERTIPS[str(grasp["type"])]:
-            f = (tip - 1) // 4
-            cols = slice(f * JOINTS_PER_FINGER, (f + 1) * JOINTS_PER_FINGER)
-            w[:, cols] = np.minimum(w[:, cols], 1.0 - busy[:, None])
-    return w
-
-
-def _quat_wxyz(R: np.ndarray) -> np.ndarray:
-    import mujoco
-
-    out = np.empty((R.shape[0], 4))
-    for i in range(R.shape[0]):
-        mujoco.mju_mat2Quat(out[i], R[i].ravel())
-    return out
 
 
 def _objects_motion(
@@ -280,6 +212,12 @@ def simulate(
         )
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise UsageError(f"seed must be an integer >= 0, got {seed!r}")
+    if task in BIMANUAL_TASKS:
+        from .bimanual import simulate_two_hands
+
+        return simulate_two_hands(
+            task, seed, variability, hand_rate_hz=hand_rate_hz, object_rate_hz=object_rate_hz
+        )
     rng = np.random.default_rng(seed)
     var = (variability or Variability()).resolve(rng)
     steps = task_steps(task, rng)
@@ -353,7 +291,7 @@ def _motion(
         rng, t, drift_joints.size, amplitude=np.deg2rad(var.finger_drift_deg), freq_range=(0.1, 0.6)
     )
     if var.style == "natural":  # fingers holding an object do not drift
-        drift *= _free_fingers(P, t)[:, drift_joints]
+        drift *= free_fingers(P, t)[:, drift_joints]
     q[:, drift_joints] += drift
     tremor = smooth_noise(
         rng, t, 3, amplitude=float(var.tremor_mm or 0.0) * 1e-3, freq_range=(6, 10)
@@ -375,7 +313,7 @@ def _motion(
         tcp=tcp[frames],
         keypoints=keypoints[frames],
         wrist_pos=wrist[frames],
-        wrist_quat=_quat_wxyz(R[frames]),
+        wrist_quat=quat_wxyz(R[frames]),
         q=q[frames],
         object_pos={n: p[frames] for n, p in obj_pos.items()},
         object_yaw={n: y[frames] for n, y in obj_yaw.items()},
@@ -436,11 +374,18 @@ def crop(result: SimResult, seconds: float) -> SimResult:
             f"a duration of {seconds} s keeps fewer than two hand samples; give a longer one"
         )
     keep = truth.t_ns <= end
-    hand = demo.hand
-    h = hand.t_ns <= end
-    demo.hand = type(hand)(
-        hand.t_ns[h], hand.keypoints[h], hand.confidence[h], hand.side, hand.visible[h]
-    )
+    for which in ("hand", "other_hand"):
+        hand = getattr(demo, which)
+        if hand is None:
+            continue
+        h = hand.t_ns <= end
+        setattr(
+            demo,
+            which,
+            type(hand)(
+                hand.t_ns[h], hand.keypoints[h], hand.confidence[h], hand.side, hand.visible[h]
+            ),
+        )
     for name, tr in list(demo.objects.items()):
         k = tr.t_ns <= end
         demo.objects[name] = type(tr)(
@@ -448,12 +393,20 @@ def crop(result: SimResult, seconds: float) -> SimResult:
         )
     last = int(truth.t_ns[keep][-1])
     demo.labels = [
-        SkillLabel(lab.skill, lab.start_ns, min(lab.end_ns, last), lab.object)
+        SkillLabel(lab.skill, lab.start_ns, min(lab.end_ns, last), lab.object, hand=lab.hand)
         for lab in demo.labels
         if lab.start_ns < last
     ]
+    demo.handovers = [
+        replace(h, end_ns=min(h.end_ns, last)) for h in demo.handovers if h.start_ns < last
+    ]
     demo.metadata["cropped_s"] = seconds
-    demo.metadata["skill_sequence"] = [lab.skill for lab in demo.labels]
+    if demo.other_hand is None:
+        demo.metadata["skill_sequence"] = [lab.skill for lab in demo.labels]
+    else:
+        demo.metadata["skill_sequences"] = {
+            s: [x.skill for x in demo.labels_of(s)] for s in demo.sides
+        }
     result.truth = Truth(
         t_ns=truth.t_ns[keep],
         tcp=truth.tcp[keep],
@@ -463,27 +416,53 @@ def crop(result: SimResult, seconds: float) -> SimResult:
         q=truth.q[keep],
         object_pos={n: p[keep] for n, p in truth.object_pos.items()},
         object_yaw={n: y[keep] for n, y in truth.object_yaw.items()},
+        other=None if truth.other is None else _cropped(truth.other, keep),
     )
     return result
 
 
-def truth_demonstration(result: SimResult, hand_t_ns: np.ndarray | None = None) -> Demonstration:
+def _cropped(truth: Truth, keep: np.ndarray) -> Truth:
+    """A hand's truth at the frames ``keep``."""
+    return Truth(
+        t_ns=truth.t_ns[keep],
+        tcp=truth.tcp[keep],
+        keypoints=truth.keypoints[keep],
+        wrist_pos=truth.wrist_pos[keep],
+        wrist_quat=truth.wrist_quat[keep],
+        q=truth.q[keep],
+        object_pos={n: p[keep] for n, p in truth.object_pos.items()},
+        object_yaw={n: y[keep] for n, y in truth.object_yaw.items()},
+    )
+
+
+def truth_demonstration(
+    result: SimResult, hand_t_ns: np.ndarray | None = None, other_t_ns: np.ndarray | None = None
+) -> Demonstration:
     """The demonstration a perfect observer would record: noise-free hand keypoints and object
-    poses from the simulator's ground truth, with the labels, camera and metadata of ``result``.
+    poses from the simulator's ground truth, with the labels, handovers, camera and metadata of
+    ``result``.
 
     ``hand_t_ns`` picks the hand sample times (default: those of the simulated hand stream), so
     a perceived recording can be compared with the truth at its own estimator times; objects
-    are sampled at every camera frame. This is what "segmenting the true keypoints" means.
+    are sampled at every camera frame. ``other_t_ns`` does the same for the left hand of a
+    two-hand demonstration. This is what "segmenting the true keypoints" means.
     """
     from ..demo import HandTrack, ObjectTrack
     from .sampling import yaw_quat
 
     truth, demo = result.truth, result.demo
-    t = demo.hand.t_ns if hand_t_ns is None else np.asarray(hand_t_ns, np.int64)
-    idx = np.searchsorted(truth.t_ns, t)
-    if idx.size == 0 or idx.max() >= truth.t_ns.size or np.any(truth.t_ns[idx] != t):
-        raise DemonstrationError("hand_t_ns must be camera frame times of the simulation")
-    hand = HandTrack(t, truth.keypoints[idx].copy(), np.ones((t.size, 21)), demo.hand.side)
+
+    def track(keypoints: np.ndarray, times: np.ndarray | None, sampled: HandTrack) -> HandTrack:
+        t = sampled.t_ns if times is None else np.asarray(times, np.int64)
+        idx = np.searchsorted(truth.t_ns, t)
+        if idx.size == 0 or idx.max() >= truth.t_ns.size or np.any(truth.t_ns[idx] != t):
+            raise DemonstrationError("hand_t_ns must be camera frame times of the simulation")
+        return HandTrack(t, keypoints[idx].copy(), np.ones((t.size, 21)), sampled.side)
+
+    hand = track(truth.keypoints, hand_t_ns, demo.hand)
+    other = None
+    if truth.other is not None and demo.other_hand is not None:
+        other = track(truth.other.keypoints, other_t_ns, demo.other_hand)
     objects = {}
     for spec in result.scene.objects:
         yaw = truth.object_yaw[spec.name]
@@ -499,8 +478,10 @@ def truth_demonstration(result: SimResult, hand_t_ns: np.ndarray | None = None) 
         )
     return Demonstration(
         hand=hand,
+        other_hand=other,
         objects=objects,
         labels=list(demo.labels),
         camera=demo.camera,
         metadata={**demo.metadata, "source": "simulation ground truth"},
+        handovers=list(demo.handovers),
     )

@@ -220,36 +220,56 @@ def grasp_contacts(kp: np.ndarray, kind: str) -> tuple[np.ndarray, np.ndarray]:
     return thumb, other
 
 
-def hand_mjcf(scale: float = 1.0) -> str:
+LEFT_PREFIX = "left_"
+"""Prefix of the names of the left hand's bodies, joints, sites and geoms in a two-hand scene
+(``left_hand``, ``left_kp_0``, ``left_index_abd``...); the right hand's are unprefixed."""
+
+
+def hand_mjcf(scale: float = 1.0, side: str = "right") -> str:
     """MJCF ``<body>`` of the hand (a mocap body named ``hand``), to be placed in ``worldbody``.
 
     Parameters
     ----------
     scale : float
         Hand size factor; every length and radius is multiplied by it.
+    side : {"right", "left"}
+        The left hand is the right one mirrored in its wrist frame (y -> -y): its names carry
+        :data:`LEFT_PREFIX`, its keypoints for a posture ``q`` are the right hand's with y
+        negated (:class:`MirroredKinematics`), the same joint angles curling it the same way.
     """
     s = float(scale)
+    left = side == "left"
+    m = -1.0 if left else 1.0
+    pre = LEFT_PREFIX if left else ""
 
     def v(*xs: float) -> str:
         return " ".join(f"{x * s:.6g}" for x in xs)
 
     parts = [
-        '<body name="hand" mocap="true">',
-        '<site name="kp_0" pos="0 0 0" size="0.004"/>',
-        f'<geom name="palm" type="box" pos="{v(0.05, -0.002, 0.0)}" size="{v(0.045, 0.038, 0.011)}"'
-        f' rgba="{_SKIN}" contype="0" conaffinity="0"/>',
-        f'<geom name="wrist" type="capsule" fromto="{v(-0.03, 0, 0, 0.0, 0, 0)}" size="{v(0.024)}"'
-        f' rgba="{_SKIN}" contype="0" conaffinity="0"/>',
+        f'<body name="{pre}hand" mocap="true">',
+        f'<site name="{pre}kp_0" pos="0 0 0" size="0.004"/>',
+        f'<geom name="{pre}palm" type="box" pos="{v(0.05, -0.002 * m, 0.0)}"'
+        f' size="{v(0.045, 0.038, 0.011)}" rgba="{_SKIN}" contype="0" conaffinity="0"/>',
+        f'<geom name="{pre}wrist" type="capsule" fromto="{v(-0.03, 0, 0, 0.0, 0, 0)}"'
+        f' size="{v(0.024)}" rgba="{_SKIN}" contype="0" conaffinity="0"/>',
     ]
     for fi, f in enumerate(FINGERS):
         pos, x_axis, z_hint = _BASE[f]
+        if left:  # mirrored base: x and z mirrored, y = z x x (a right-handed frame)
+            pos = (pos[0], -pos[1], pos[2])
+            x_axis = (x_axis[0], -x_axis[1], x_axis[2])
+            z_hint = (z_hint[0], -z_hint[1], z_hint[2])
         lengths = _LENGTHS[f]
         r = _RADIUS[f]
         kp = 1 + 4 * fi
-        parts.append(f'<body name="{f}_1" pos="{v(*pos)}" quat="{_base_quat(x_axis, z_hint)}">')
-        parts.append(f'<joint name="{f}_abd" type="hinge" axis="0 0 1"/>')
-        parts.append(f'<joint name="{f}_flex1" type="hinge" axis="0 1 0"/>')
-        parts.append(f'<site name="kp_{kp}" pos="0 0 0" size="0.004"/>')
+        # in the mirrored frame a flexion about y keeps its sense, an abduction about z flips
+        abd_axis = "0 0 -1" if left else "0 0 1"
+        parts.append(
+            f'<body name="{pre}{f}_1" pos="{v(*pos)}" quat="{_base_quat(x_axis, z_hint)}">'
+        )
+        parts.append(f'<joint name="{pre}{f}_abd" type="hinge" axis="{abd_axis}"/>')
+        parts.append(f'<joint name="{pre}{f}_flex1" type="hinge" axis="0 1 0"/>')
+        parts.append(f'<site name="{pre}kp_{kp}" pos="0 0 0" size="0.004"/>')
         for k, length in enumerate(lengths):
             rad = r if k < 2 else FINGERTIP_RADIUS
             parts.append(
@@ -257,11 +277,11 @@ def hand_mjcf(scale: float = 1.0) -> str:
                 f' rgba="{_SKIN}" contype="0" conaffinity="0"/>'
             )
             if k < 2:
-                parts.append(f'<body name="{f}_{k + 2}" pos="{v(length)} 0 0">')
-                parts.append(f'<joint name="{f}_flex{k + 2}" type="hinge" axis="0 1 0"/>')
-                parts.append(f'<site name="kp_{kp + k + 1}" pos="0 0 0" size="0.004"/>')
+                parts.append(f'<body name="{pre}{f}_{k + 2}" pos="{v(length)} 0 0">')
+                parts.append(f'<joint name="{pre}{f}_flex{k + 2}" type="hinge" axis="0 1 0"/>')
+                parts.append(f'<site name="{pre}kp_{kp + k + 1}" pos="0 0 0" size="0.004"/>')
             else:
-                parts.append(f'<site name="kp_{kp + 3}" pos="{v(length)} 0 0" size="0.004"/>')
+                parts.append(f'<site name="{pre}kp_{kp + 3}" pos="{v(length)} 0 0" size="0.004"/>')
         parts.append("</body></body></body>")
     parts.append("</body>")
     return "\n".join(parts)
@@ -330,3 +350,13 @@ class HandKinematics:
         ap = np.array([self.aperture(pinch_posture(g)) for g in gs])
         order = np.argsort(ap)
         return float(np.clip(np.interp(width, ap[order], gs[order]), 0.0, 1.0))
+
+
+class MirroredKinematics(HandKinematics):
+    """The left hand's forward kinematics: the right hand's keypoints mirrored in the wrist
+    frame (y -> -y), exactly what :func:`hand_mjcf` with ``side="left"`` renders."""
+
+    def local_keypoints(self, q: np.ndarray) -> np.ndarray:
+        kp = super().local_keypoints(q)
+        kp[:, 1] *= -1.0
+        return kp

@@ -232,7 +232,8 @@ def move_with(P: Planner, name: str, onto: str | None = None, *, repeat: bool = 
     hand_yaw, tcp_final = carry_target(P, name, onto, spot=spot, turn_deg=20.0)
     above = tcp_final + np.array([0.0, 0.0, rng.uniform(0.04, 0.06)])
     below_tcp = 0.5 * P.specs[name].size[2] - P.grasp_rel[0][2]  # object bottom below the TCP
-    z_peak = s.tcp[2] + 0.05 + 0.4 * rng.uniform() ** 1.5  # 5-45 cm, mostly the lower half
+    # 5-45 cm, mostly the lower half (x lift_scale: a carry that starts in the air rises less)
+    z_peak = s.tcp[2] + 0.05 + 0.4 * P.lift_scale * rng.uniform() ** 1.5
     z_peak = max(z_peak, above[2] + 0.01)
     if not repeat:  # a carry across the table clears every object; a repeated lift stays apart
         z_peak = max(z_peak, _max_top(P, name) + below_tcp + 0.03)

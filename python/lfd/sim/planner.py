@@ -103,6 +103,19 @@ class Planner:
     log: list[dict[str, Any]] = field(default_factory=list)
     last_grasp: str | None = None
     grasps: list[dict[str, Any]] = field(default_factory=list)
+    shoulder: np.ndarray = field(default_factory=lambda: DEMONSTRATOR_SHOULDER.copy())
+    """The shoulder of this hand's arm (the forearm's natural direction starts there)."""
+    carry_pose: ObjectPose | None = None
+    """Where the next Move with puts the held object (in the air: a handover); None: on a free
+    table spot or onto another object, drawn."""
+    lift_scale: float = 1.0
+    """Scales how high the natural demonstrator's Move with may rise beyond its 5 cm (1: up to
+    45 cm, as from the table; a handover's carries, which start or end in the air, rise less)."""
+    x_range: tuple[float, float] | None = None
+    """The x range of the free table spots this hand puts objects on (None: the workspace)."""
+    stack_offset: dict[str, np.ndarray] = field(default_factory=dict)
+    """Per base object, the (x, y) offset (m, world) from its centre at which the next object
+    stacked on it is put (none: centred)."""
 
     @property
     def scale(self) -> float:
@@ -163,7 +176,7 @@ class Planner:
 
     def natural_yaw(self, xy: np.ndarray) -> float:
         """Forearm direction from the demonstrator's shoulder to ``xy``, plus approach jitter."""
-        d = np.asarray(xy[:2], float) - DEMONSTRATOR_SHOULDER[:2]
+        d = np.asarray(xy[:2], float) - self.shoulder[:2]
         dev = np.deg2rad(self.var.approach_deg) * float(self.rng.uniform(-1.0, 1.0))
         return float(np.arctan2(d[1], d[0]) + dev)
 

@@ -13,8 +13,8 @@ import numpy as np
 
 from ..demo import ImageStream
 from ..errors import UsageError
-from .hand import JOINT_NAMES
-from .scene import Scene, forearm_quat
+from .hand import JOINT_NAMES, LEFT_PREFIX
+from .scene import LEFT_SHOULDER, Scene, forearm_quat
 
 
 def render_frames(
@@ -39,6 +39,11 @@ def render_frames(
     obj_adr = {o.name: int(model.jnt_qposadr[model.joint(o.name).id]) for o in scene.objects}
     hand_mocap = int(model.body_mocapid[model.body("hand").id])
     arm_mocap = int(model.body_mocapid[model.body("forearm").id])
+    left = getattr(truth, "other", None)  # the left hand of a two-hand demonstration
+    if left is not None:
+        l_qadr = np.array([model.jnt_qposadr[model.joint(LEFT_PREFIX + n).id] for n in JOINT_NAMES])
+        l_hand = int(model.body_mocapid[model.body(LEFT_PREFIX + "hand").id])
+        l_arm = int(model.body_mocapid[model.body(LEFT_PREFIX + "forearm").id])
     frames = np.asarray(frames, dtype=int)
     color = np.empty((frames.size, cam.height, cam.width, 3), np.uint8)
     depth_mm = np.empty((frames.size, cam.height, cam.width), np.uint16) if depth else None
@@ -51,6 +56,11 @@ def render_frames(
             data.mocap_pos[arm_mocap] = wrist
             data.mocap_quat[arm_mocap] = forearm_quat(wrist)
             data.qpos[qadr] = truth.q[i]  # type: ignore[attr-defined]
+            if left is not None:
+                data.mocap_pos[l_hand] = data.mocap_pos[l_arm] = left.wrist_pos[i]
+                data.mocap_quat[l_hand] = left.wrist_quat[i]
+                data.mocap_quat[l_arm] = forearm_quat(left.wrist_pos[i], LEFT_SHOULDER)
+                data.qpos[l_qadr] = left.q[i]
             for name, adr in obj_adr.items():
                 yaw = truth.object_yaw[name][i]  # type: ignore[attr-defined]
                 data.qpos[adr : adr + 3] = truth.object_pos[name][i]  # type: ignore[attr-defined]

@@ -74,18 +74,19 @@ def _bursts(rng: np.random.Generator, n: int, fraction: float, mean_len: float) 
     return missing
 
 
-def sample_streams(
+def sample_hand(
     rng: np.random.Generator,
-    truth: object,
-    scene: Scene,
+    t_ns: np.ndarray,
+    keypoints: np.ndarray,
+    R_cv: np.ndarray,
     var: Variability,
     hand_rate_hz: float,
     object_rate_hz: float,
-) -> tuple[HandTrack, dict[str, ObjectTrack]]:
-    """Hand track and object tracks from the noise-free :class:`~lfd.sim.demonstrator.Truth`."""
-    t_ns: np.ndarray = truth.t_ns  # type: ignore[attr-defined]
+    side: str = "right",
+) -> HandTrack:
+    """A hand-pose estimator's samples of the true ``keypoints`` (n, 21, 3) at the camera
+    frames ``t_ns``: its rate, failures, noise and outliers (module docstring)."""
     n = t_ns.size
-    R_cv = scene.camera.rotation_cv()
 
     # hand-pose estimator: every 5th-7th frame at 30 Hz (scaled to the requested rate);
     # motion capture (natural style): on a fixed clock
@@ -97,7 +98,7 @@ def sample_streams(
         idx = np.cumsum(np.concatenate([[int(rng.integers(0, max(1, int(mean_step))))], steps]))
         idx = idx[idx < n].astype(int)
     idx = idx[rng.random(idx.size) >= float(var.hand_miss or 0.0)]  # failed estimates leave gaps
-    kp = truth.keypoints[idx].copy()  # type: ignore[attr-defined]
+    kp = np.asarray(keypoints)[idx].copy()
     noise = _camera_noise(rng, kp.shape[:2], float(var.noise_mm or 0.0) * 1e-3, 1.5, R_cv)
     kp += noise * _KEYPOINT_NOISE[None, :, None]
     conf = rng.uniform(0.8, 0.98, size=kp.shape[:2])
@@ -111,10 +112,31 @@ def sample_streams(
         direction /= np.linalg.norm(direction, axis=1, keepdims=True)
         kp[f, which] += direction * rng.uniform(0.01, 0.03, size=(m, 1))
         conf[f, which] = rng.uniform(0.2, 0.6, size=m)
-    hand = HandTrack(t_ns=t_ns[idx], keypoints=kp, confidence=conf, side="right")
+    hand = HandTrack(t_ns=t_ns[idx], keypoints=kp, confidence=conf, side=side)
+
+    return hand
+
+
+def sample_streams(
+    rng: np.random.Generator,
+    truth: object,
+    scene: Scene,
+    var: Variability,
+    hand_rate_hz: float,
+    object_rate_hz: float,
+    others: tuple[object, ...] = (),
+) -> tuple[HandTrack, dict[str, ObjectTrack]]:
+    """Hand track and object tracks from the noise-free :class:`~lfd.sim.demonstrator.Truth`;
+    ``others`` are the truths of further hands (they occlude the tags too; their keypoints are
+    sampled by :func:`sample_hand`)."""
+    t_ns: np.ndarray = truth.t_ns  # type: ignore[attr-defined]
+    n = t_ns.size
+    R_cv = scene.camera.rotation_cv()
+    keypoints: np.ndarray = truth.keypoints  # type: ignore[attr-defined]
+    hand = sample_hand(rng, t_ns, keypoints, R_cv, var, hand_rate_hz, object_rate_hz)
 
     tracks: dict[str, ObjectTrack] = {}
-    tcp = truth.tcp  # type: ignore[attr-defined]
+    tcps = [truth.tcp] + [h.tcp for h in others]  # type: ignore[attr-defined]
     for spec in scene.objects:
         pos = truth.object_pos[spec.name].copy()  # type: ignore[attr-defined]
         quat = yaw_quat(truth.object_yaw[spec.name])  # type: ignore[attr-defined]
@@ -128,7 +150,11 @@ def sample_streams(
         quat = _quat_mul(quat, dq)
         missing = _bursts(rng, n, float(var.dropout or 0.0), mean_len=0.2 * object_rate_hz)
         top = pos[:, 2] + 0.5 * spec.size[2]
-        over = (np.linalg.norm(tcp[:, :2] - pos[:, :2], axis=1) < 0.06) & (tcp[:, 2] > top - 0.03)
+        over = np.zeros(n, dtype=bool)
+        for tcp in tcps:  # a hand right above the object
+            over |= (np.linalg.norm(tcp[:, :2] - pos[:, :2], axis=1) < 0.06) & (
+                tcp[:, 2] > top - 0.03
+            )
         missing |= over & (rng.random(n) < float(var.occlusion or 0.0))
         pos[missing] = np.nan
         quat[missing] = np.nan

@@ -29,6 +29,9 @@ WORKSPACE_Y = (0.14, 0.36)
 DEMONSTRATOR_SHOULDER = np.array([0.12, -0.42, 0.30])
 """Approximate right shoulder of the demonstrator; the forearm points from here to the hand."""
 
+LEFT_SHOULDER = DEMONSTRATOR_SHOULDER * np.array([-1.0, 1.0, 1.0])
+"""The demonstrator's left shoulder (the right one mirrored about x = 0)."""
+
 FOREARM_LENGTH = 0.26
 """Visible length of the forearm (for rendering and occlusion only; it has no keypoints)."""
 
@@ -103,6 +106,8 @@ class Scene:
     camera: CameraSpec
     hand_scale: float
     extra: dict[str, float] = field(default_factory=dict)
+    sides: tuple[str, ...] = ("right",)
+    """The hands in the scene: the right one, and the left one (names prefixed ``left_``)."""
 
     def compile(self):  # type: ignore[no-untyped-def]
         """Compile into a ``mujoco.MjModel``."""
@@ -111,12 +116,14 @@ class Scene:
         return mujoco.MjModel.from_xml_string(self.xml, self.assets)
 
 
-def forearm_quat(wrist: np.ndarray) -> np.ndarray:
+def forearm_quat(wrist: np.ndarray, shoulder: np.ndarray | None = None) -> np.ndarray:
     """Orientation (w, x, y, z) of the forearm body: its +x axis from the wrist to the elbow.
 
-    The elbow is placed roughly below and in front of :data:`DEMONSTRATOR_SHOULDER`.
+    The elbow is placed roughly below and in front of the shoulder (default
+    :data:`DEMONSTRATOR_SHOULDER`, the right one).
     """
-    elbow = DEMONSTRATOR_SHOULDER + np.array([0.0, 0.15, -0.12])
+    base = DEMONSTRATOR_SHOULDER if shoulder is None else np.asarray(shoulder, float)
+    elbow = base + np.array([0.0, 0.15, -0.12])
     x = elbow - np.asarray(wrist, float)
     x /= np.linalg.norm(x)
     z = np.array([0.0, 0.0, 1.0]) - x * x[2]
@@ -154,12 +161,14 @@ def build_scene(
     *,
     hand_scale: float = 1.0,
     camera: CameraSpec | None = None,
+    sides: tuple[str, ...] = ("right",),
 ) -> Scene:
     """Write the MJCF of the workspace.
 
     Boxes are bodies with a free joint named ``<name>`` (posed kinematically by the
     demonstrator); their tag is a thin textured box on the top face. The reference marker is a
-    thin textured box at the origin with a white margin (total side 0.12 m).
+    thin textured box at the origin with a white margin (total side 0.12 m). ``sides``
+    ``("right", "left")`` adds the left hand and forearm (names prefixed ``left_``).
     """
     camera = camera or CameraSpec()
     assets = {"tag_0.png": tag_png(REFERENCE_TAG_ID, margin_fraction=1.0 / 12.0)}
@@ -223,8 +232,23 @@ def build_scene(
     <geom name="forearm" type="capsule" fromto="0.03 0 0 {FOREARM_LENGTH} 0 0"
       size="{0.027 * hand_scale:.6g}" rgba="0.85 0.66 0.55 1" contype="0" conaffinity="0"/>
   </body>
+  {_left_hand(hand_scale) if "left" in sides else ""}
 </worldbody>
 </mujoco>"""
     return Scene(
-        xml=xml, assets=assets, objects=tuple(objects), camera=camera, hand_scale=hand_scale
+        xml=xml,
+        assets=assets,
+        objects=tuple(objects),
+        camera=camera,
+        hand_scale=hand_scale,
+        sides=tuple(sides),
     )
+
+
+def _left_hand(hand_scale: float) -> str:
+    """The left hand and forearm bodies (``left_hand``, ``left_forearm``)."""
+    return f"""{hand_mjcf(hand_scale, "left")}
+  <body name="left_forearm" mocap="true">
+    <geom name="left_forearm" type="capsule" fromto="0.03 0 0 {FOREARM_LENGTH} 0 0"
+      size="{0.027 * hand_scale:.6g}" rgba="0.85 0.66 0.55 1" contype="0" conaffinity="0"/>
+  </body>"""

@@ -3,7 +3,7 @@
 The shipped recordings are made this way, deterministically: ``templates`` (the template
 tasks x :data:`TEMPLATE_SEEDS`, plus repeated lifts for the natural style), ``eval`` (the
 experiments x :data:`EVAL_SEEDS`), ``samples`` (the experiments at :data:`SAMPLE_SEED` and a
-short rendered one).
+short rendered one), ``hands`` (the two-hand experiments x :data:`EVAL_SEEDS`).
 """
 
 from __future__ import annotations
@@ -16,10 +16,10 @@ from .. import io
 from ..errors import UsageError
 from .demonstrator import SimResult, crop, simulate
 from .render import add_rendering
-from .tasks import EXPERIMENTS, NATURAL_EXPERIMENTS, TEMPLATE_TASKS
+from .tasks import EXPERIMENTS, NATURAL_EXPERIMENTS, TEMPLATE_TASKS, TWO_HAND_EXPERIMENTS
 from .variability import Variability
 
-SETS = ("templates", "eval", "samples")
+SETS = ("templates", "eval", "samples", "hands")
 """The recording sets of ``lfd simulate --set``."""
 NATURAL_EXP5_TEMPLATES = 6
 """Natural-style template sets also hold this many repeated-lift demos (exp5)."""
@@ -52,6 +52,12 @@ def set_jobs(which: str, out: Path, style: str = "careful") -> list[dict[str, An
                 for k in TEMPLATE_SEEDS[:NATURAL_EXP5_TEMPLATES]
             ]
         return jobs
+    if which == "hands":
+        return [
+            {"task": e, "seed": k, "path": out / f"{e}_{k}.mcap"}
+            for e in TWO_HAND_EXPERIMENTS
+            for k in EVAL_SEEDS
+        ]
     if which == "eval":
         return [
             {"task": e, "seed": k, "path": out / f"{e}_{k}.mcap"}

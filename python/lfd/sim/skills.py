@@ -222,7 +222,7 @@ def free_spot(
     r = 0.5 * float(np.hypot(spec.size[0], spec.size[1]))
     here = P.poses[name].pos[:2]
     for _ in range(2000):
-        xy = np.array([P.rng.uniform(*WORKSPACE_X), P.rng.uniform(*WORKSPACE_Y)])
+        xy = np.array([P.rng.uniform(*(P.x_range or WORKSPACE_X)), P.rng.uniform(*WORKSPACE_Y)])
         if np.linalg.norm(xy - here) < min_move:
             continue
         if max_move is not None and np.linalg.norm(xy - here) > max_move:
@@ -256,13 +256,17 @@ def carry_target(
     assert P.grasp_rel is not None
     rel_p, rel_yaw = P.grasp_rel
     yaw_obj = P.poses[name].yaw
-    if onto is None:
+    if P.carry_pose is not None and onto is None:  # a given pose (in the air)
+        pos, new_yaw = P.carry_pose.pos.copy(), P.carry_pose.yaw
+        P.carry_pose = None
+    elif onto is None:
         xy = free_spot(P, name, min_move=spot[0], max_move=spot[1])
         pos = np.array([xy[0], xy[1], 0.5 * spec.size[2]])
         new_yaw = yaw_obj + _deg(-turn_deg, turn_deg, rng)
     else:
         base = P.poses[onto]
         pos = np.array([*(base.pos[:2] + np.clip(rng.normal(0, 0.003, 2), -0.006, 0.006)), 0.0])
+        pos[:2] += P.stack_offset.pop(onto, np.zeros(2))
         pos[2] = P.top(onto) + 0.5 * spec.size[2]
         k = np.round((yaw_obj - base.yaw) / (np.pi / 2))
         new_yaw = base.yaw + k * np.pi / 2 + _deg(-5, 5, rng)

@@ -101,13 +101,21 @@ TASK_GENERATORS: dict[str, Callable[[np.random.Generator], tuple[Step, ...]]] = 
 }
 """Tasks whose steps are drawn per demonstration (from its random stream)."""
 
-TASK_NAMES: tuple[str, ...] = (*TASKS, *TASK_GENERATORS)
-"""Every task name (fixed and generated)."""
+BIMANUAL_TASKS: tuple[str, ...] = ("handover", "carry", "hold_stack", "hold_push")
+"""The two-hand tasks (:mod:`lfd.sim.bimanual`): a handover, a two-handed carry of a large box,
+one hand holding a plank still while the other stacks a cube on it, one hand holding a cube
+still while the other pushes another. Their steps are per hand and synchronised, not a
+:class:`Step` list."""
+
+TASK_NAMES: tuple[str, ...] = (*TASKS, *TASK_GENERATORS, *BIMANUAL_TASKS)
+"""Every task name (fixed, generated and two-hand)."""
 
 EXPERIMENTS: tuple[str, ...] = ("exp1", "exp2", "exp3", "exp4")
 """The paper's experiments (Sec. V)."""
 REPEAT_EXPERIMENTS: tuple[str, ...] = tuple(TASK_GENERATORS)
 """The repeated-lift experiments (not in :data:`EXPERIMENTS`: their number of cycles varies)."""
+TWO_HAND_EXPERIMENTS: tuple[str, ...] = BIMANUAL_TASKS
+"""The two-hand experiments (each hand's lane labelled, handovers marked)."""
 NATURAL_EXPERIMENTS: tuple[str, ...] = (*EXPERIMENTS, "exp5")
 """The experiments a natural-style evaluation set covers."""
 TEMPLATE_TASKS: tuple[str, ...] = SKILLS
@@ -124,6 +132,8 @@ def task_steps(name: str, rng: np.random.Generator | None = None) -> tuple[Step,
     """The steps of a task, checked against the grammar; a generated task draws them from
     ``rng`` (default: a generator seeded with 0)."""
     check_task(name)
+    if name in BIMANUAL_TASKS:
+        raise InvalidParameterError(f"{name} is a two-hand task: it has no one-hand steps")
     if name in TASK_GENERATORS:
         steps = TASK_GENERATORS[name](rng if rng is not None else np.random.default_rng(0))
     else:

@@ -132,8 +132,25 @@ class MediaPipeEstimator:
         self.tracker = HandTracker(self.model, max_hands=max_hands)
         self.side = side
         self._locked: int | None = None
+        self._hand_size = hand_size
         self.colour = ColourHand(hand_size)
         self.info: dict[str, Any] = {**self.model.info, "side": side}
+        self._leader: MediaPipeEstimator | None = None
+        self._last_hands: list[Hand] = []
+
+    def for_side(self, side: str) -> MediaPipeEstimator:
+        """The estimator of the demonstrator's other hand (``side``) from the same tracker: a
+        two-hand recording uses both. It must be given each frame after this one (it takes
+        the hands this one's tracker found in it); it has its own track lock and colour hand."""
+        if side not in HANDS:
+            raise LfdError(f"hand must be one of {', '.join(HANDS)}, got {side!r}")
+        other = object.__new__(MediaPipeEstimator)
+        other.model, other.tracker, other.side = self.model, self.tracker, side
+        other._locked, other._hand_size = None, self._hand_size
+        other.colour = ColourHand(self._hand_size)
+        other.info = {**self.model.info, "side": side}
+        other._leader, other._last_hands = self, []
+        return other
 
     def lifting(self, depth: bool) -> str:
         """How the hand is placed in metres with depth images or without (:data:`LIFTING`)."""
@@ -188,7 +205,10 @@ class MediaPipeEstimator:
     def _track(self, color: np.ndarray) -> tuple[Hand | None, bool]:
         """This frame's hand, and whether it starts a new track (or none was found): the
         colour hand's distance filter restarts there."""
-        hands = self.tracker.update(color)
+        if self._leader is None:
+            hands = self._last_hands = self.tracker.update(color)
+        else:  # the same frame, just tracked by the leader
+            hands = self._leader._last_hands
         hand = select_hand(hands, self.side, self._locked)
         restart = hand is None or hand.track_id != self._locked
         self._locked = None if hand is None else hand.track_id
