@@ -159,12 +159,12 @@ def run(args: argparse.Namespace) -> int:
         sides = hand_sides(args.hand, model, getattr(source, "sides", None))
         if args.no_hand:  # no hand estimated: the one hand topic (unobserved), as always
             sides = sides[:1]
-        args.hand = sides[0]  # the first hand's topics, live segmentation and summary
+        args.hand = sides[0]  # the first hand's topics and summary (live: a lane per hand)
         args.hand_sides = sides
         estimator, hand_rate = _estimator(args, model, model_file, source)
         segmenter = _segmenter(args, source)
         view = open_from_args(args, "lfd_record")
-        observer = _observer(source, segmenter, view)
+        observer = _observer(source, segmenter, view, sides)
     except BaseException:
         source.close()
         raise
@@ -259,21 +259,24 @@ def _estimator(
 
 
 def _segmenter(args: argparse.Namespace, source: Any) -> Any:
-    """The live segmentation of ``--live-segment`` (None without it)."""
+    """The live segmentation of ``--live-segment`` (None without it): of two hands a lane per
+    hand (:class:`~lfd.segmentation.live_hands.LiveHands`)."""
     if not args.live_segment:
         return None
     from ..segmentation.live import LiveSegmentation
+    from ..segmentation.live_hands import LiveHands
 
-    return LiveSegmentation(
-        [o["name"] for o in source.objects],
-        [o["size"] for o in source.objects],
-        side=args.hand,
-        tag_ids=[o["tag_id"] for o in source.objects],
-        metadata={"depth": source.has_depth},  # as the recording's (the hand's filter)
-    )
+    sides = tuple(getattr(args, "hand_sides", None) or (args.hand,))
+    names = [o["name"] for o in source.objects]
+    sizes = [o["size"] for o in source.objects]
+    tags = [o["tag_id"] for o in source.objects]
+    meta = {"depth": source.has_depth}  # as the recording's (the hand's filter)
+    if len(sides) > 1:
+        return LiveHands(names, sizes, sides=sides, tag_ids=tags, metadata=meta)
+    return LiveSegmentation(names, sizes, side=args.hand, tag_ids=tags, metadata=meta)
 
 
-def _observer(source: Any, segmenter: Any, view: bool) -> Any:
+def _observer(source: Any, segmenter: Any, view: bool, sides: tuple[str, ...] | None = None) -> Any:
     """What is done beside the file: the live segmenter and the Rerun view (None: neither)."""
     if not view and segmenter is None:
         return None
@@ -282,7 +285,7 @@ def _observer(source: Any, segmenter: Any, view: bool) -> Any:
     from ..live import LiveObserver
 
     objects = [(o["name"], o["tag_id"], np.asarray(o["size"], float)) for o in source.objects]
-    return LiveObserver.open(objects, segmenter=segmenter, view=view)
+    return LiveObserver.open(objects, segmenter=segmenter, view=view, sides=sides)
 
 
 def _record(

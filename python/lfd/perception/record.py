@@ -96,10 +96,12 @@ class RecordObserver(Protocol):
         keypoints: np.ndarray | None,
         confidence: np.ndarray | None,
         keypoints_2d: np.ndarray | None,
+        side: str | None = None,
     ) -> Iterable[SettledSkill]:
         """A hand sample: world keypoints (21, 3) m, confidence (21,) and, from a colour model,
         the 2-D keypoints (21, 2) px; ``keypoints`` None: no hand found (written unobserved,
-        NaN with confidence 0)."""
+        NaN with confidence 0). Of a two-hand recording every hand's, ``side`` naming it (of
+        one hand, not given)."""
         ...
 
     def finish(self, t_ns: int) -> Iterable[SettledSkill]:
@@ -462,11 +464,12 @@ class _Session:
     ) -> None:
         """One sample of the ``side`` hand (default: the first): in the world frame, in the
         camera frame (before the reference tag was seen: its own topic, the world topic marked
-        unobserved), or none found. The observer sees the first hand's."""
+        unobserved), or none found. The observer sees every hand's (of two, naming its side)."""
         rec, stats = self.rec, self.stats
         side = self.sides[0] if side is None else side
         which: dict[str, Any] = {"side": side} if len(self.sides) > 1 else {}
-        observer = self.observer if side == self.sides[0] else None
+        observer = self.observer
+        told = (side,) if len(self.sides) > 1 else ()
         if found is not None and not in_world:  # its own topic: no frames mixed
             kp, confidence, visible, _ = found
             rec.add_hand(t_ns, kp, confidence, visible=visible, frame="camera", **which)
@@ -475,13 +478,13 @@ class _Session:
             rec.add_hand(t_ns, np.full((21, 3), np.nan), np.zeros(21), **which)
             stats.hand_missing += found is None
             if observer is not None:
-                self._observe(observer.on_hand, t_ns, None, None, None)
+                self._observe(observer.on_hand, t_ns, None, None, None, *told)
         else:
             kp, confidence, visible, kp_2d = found
             rec.add_hand(t_ns, kp, confidence, visible=visible, **which)
             stats.hand_estimates += 1
             if observer is not None:
-                self._observe(observer.on_hand, t_ns, kp, confidence, kp_2d)
+                self._observe(observer.on_hand, t_ns, kp, confidence, kp_2d, *told)
 
     def _observe(self, method: Any, *args: Any) -> None:
         """Tell the observer; write the skills it settles to ``/lfd/live/segments``."""

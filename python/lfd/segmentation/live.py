@@ -20,7 +20,7 @@ Pick up, Push or Locate), so a run's cost stays bounded.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -500,9 +500,13 @@ class LiveSegmentation:
         """A run of the recording so far failed (its one line becomes the warnings)."""
         self._warnings = [message]
 
-    def settle(self, run: Segmentation) -> LiveUpdate:
+    def settle(
+        self, run: Segmentation, shared: Callable[[Segment], bool] | None = None
+    ) -> LiveUpdate:
         """Settle what ``run`` (the segmentation of the recording so far: :meth:`_run`, or this
-        hand's lane of both hands') has kept the same long enough."""
+        hand's lane of both hands') has kept the same long enough; a segment ``shared`` says
+        depends on the other hand (its object in the other hand's skill then) waits as an
+        uncertain one."""
         self._last = run
         rest = self._aligned(run)
         now = int(self._now or 0)
@@ -528,7 +532,9 @@ class LiveSegmentation:
             if c.segment.skill == "move" and len(cands) < self.followers + 2:
                 break
             # NaN confidence (an implied Move) counts as certain
-            uncertain = c.segment.confidence < self.min_confidence
+            uncertain = c.segment.confidence < self.min_confidence or (
+                shared is not None and shared(c.segment)
+            )
             wait = self.uncertain_ns if uncertain else self.stable_ns
             if (
                 int(c.segment.end_ns) > min(newest - self.lag_ns, self._seen_until())

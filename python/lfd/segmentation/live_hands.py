@@ -14,7 +14,7 @@ end live equals batch wherever the settled skills were right, as for one hand (d
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -35,6 +35,7 @@ from .live import (
     label_of,
 )
 from .method import Method
+from .result import Segment
 from .templates import TemplateChoice, Templates
 
 if TYPE_CHECKING:
@@ -257,7 +258,10 @@ class LiveHands:
         if run is None:
             return HandsUpdate()
         self._last = run
-        lanes = {side: lane.settle(run.lanes[side]) for side, lane in self.lanes.items()}
+        lanes = {
+            side: lane.settle(run.lanes[side], _shared(run, side))
+            for side, lane in self.lanes.items()
+        }
         return HandsUpdate(lanes, self._settled_handovers(run.handovers, final=False))
 
     def _provisional(self) -> HandsUpdate:
@@ -332,6 +336,28 @@ class LiveHands:
             warnings=list(run.warnings) if run is not None else list(self._warnings),
             method=self.method,
         )
+
+
+def _shared(run: HandsSegmentation, side: str) -> Callable[[Segment], bool]:
+    """Whether a segment of the ``side`` hand's lane of ``run`` is on an object the other
+    hand handles meanwhile (a step of the other lane on it, not a Move, overlapping it): a
+    handover, a two-handed carry, what one hand holds for the other. Such a skill depends on
+    what the other hand does next, so it settles as an uncertain one (``uncertain_s``)."""
+    others = [
+        (int(s.start_ns), int(s.end_ns), s.object)
+        for other, seg in run.lanes.items()
+        if other != side
+        for s in seg.segments
+        if s.skill != "move" and s.object is not None
+    ]
+
+    def shared(seg: Segment) -> bool:
+        a, b = int(seg.start_ns), int(seg.end_ns)
+        return seg.object is not None and any(
+            o == seg.object and s < b and a < e for s, e, o in others
+        )
+
+    return shared
 
 
 def segment_hands_live(

@@ -81,7 +81,7 @@ def test_record_two_hand_scene_keeps_both_hands_or_one(tmp_path) -> None:  # typ
     demo, one = load(both), load(left)
     assert demo.sides == ("right", "left")
     assert one.sides == ("left",)  # the left hand alone, a one-hand file
-    assert demo.live_segments and {x.hand for x in demo.live_segments} == {"right"}
+    assert demo.live_segments and {x.hand for x in demo.live_segments} == {"right", "left"}
     np.testing.assert_array_equal(one.hand.t_ns, demo.hands["left"].t_ns)
     for side, hand in [*demo.hands.items(), ("left", one.hand)]:
         seen = np.isfinite(hand.keypoints).all(axis=(1, 2))
