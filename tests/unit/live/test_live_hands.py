@@ -247,3 +247,28 @@ def test_a_handover_settles_once_both_lanes_have(
     assert fronts["right"] >= h.end_ns - live.tolerance_ns
     assert fronts["left"] >= h.start_ns - live.tolerance_ns
     assert live.result().handovers == [h]
+
+
+@pytest.mark.slow  # records a simulated two-hand handover in real time (~50 s)
+def test_record_live_segment_of_two_hands(tmp_path: Path) -> None:
+    """``lfd record --source sim:handover --live-segment --rerun-save``: both hands' skills are
+    written to /lfd/live/segments, each naming its hand, equal per hand to lfd.segment_hands of
+    the file; the live view has each hand's keypoints and lanes."""
+    pytest.importorskip("mujoco")
+    pytest.importorskip("rerun")
+    from _rrd import Rrd
+    from lfd.cli import main
+
+    out, rrd = tmp_path / "two.mcap", tmp_path / "two.rrd"
+    argv = ["record", "--source", "sim:handover", "--seed", "3", "-o", str(out)]
+    assert main([*argv, "--live-segment", "--rerun-save", str(rrd)]) == 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        demo = lfd.load(out)
+        batch = lfd.segment_hands(demo)
+    data = Rrd(rrd)
+    for side in ("right", "left"):
+        live = [(s.skill, s.object) for s in demo.live_segments if s.hand == side]
+        assert live == [(s.skill, s.object) for s in batch.lanes[side].segments], side
+        assert f"/world/hand/{side}/keypoints" in data.rows
+        assert f"/segmentation/skills/{side}/result" in data.rows
