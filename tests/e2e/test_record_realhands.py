@@ -259,10 +259,10 @@ def test_record_video_interrupted_with_live_segmentation_is_complete(
 def test_record_video_without_the_reference_tag_keeps_the_hand(
     frames: Path, tmp_path: Path
 ) -> None:
-    """No reference tag in view and no camera pose: the hand is recorded in the camera frame on
-    a topic of its own (/hand/right/keypoints_camera), the world hand topic has every sample
-    unobserved (no camera-frame point on it), the objects are unobserved, no camera calibration
-    is written."""
+    """No reference tag in view and no camera pose: each of the scene's two hands is recorded in
+    the camera frame on a topic of its own (/hand/<side>/keypoints_camera), the world hand
+    topics have every sample unobserved (no camera-frame point on them), the objects are
+    unobserved, no camera calibration is written."""
     import json
 
     from foxglove_schemas_protobuf.PosesInFrame_pb2 import PosesInFrame
@@ -280,13 +280,15 @@ def test_record_video_without_the_reference_tag_keeps_the_hand(
     )  # fmt: skip
     assert proc.returncode == 0, proc.stderr
     said = " ".join(proc.stderr.split())
-    assert "0 hand estimates (0 missed), 16 hands in the camera frame" in said, said
+    assert "0 hand estimates (0 missed), 32 hands in the camera frame" in said, said
+    assert "(/hand/right/keypoints_camera, /hand/left/keypoints_camera)" in said, said
     raw = read(out, images=False)
     world_kp = raw.tracks["/hand/right/keypoints"]["keypoints"]
     assert world_kp.shape == (16, 21, 3) and np.isnan(world_kp).all()
     assert (raw.tracks["/hand/right/confidence"]["confidence"] == 0).all()
     msgs = [PosesInFrame.FromString(d) for _, d in raw.encoded("/hand/right/keypoints_camera")]
     assert len(msgs) == 16 and {m.frame_id for m in msgs} == {"camera"}
+    assert len(list(raw.encoded("/hand/left/keypoints_camera"))) == 16
     kp = np.array([[[p.position.x, p.position.y, p.position.z] for p in m.poses] for m in msgs])
     assert kp.shape == (16, 21, 3) and np.isfinite(kp).all()
     # camera frame: in front of the camera at the hand's distance, on the hand's pixels

@@ -338,12 +338,13 @@ def _summary(args: argparse.Namespace, stats: Any, *, live: bool) -> str:
     from ..io.topics import hand_camera_topic
 
     how = "stopped" if stats.interrupted else "done"
+    sides = tuple(getattr(args, "hand_sides", (args.hand,)))
     return (
         f"{how}: {stats.frames} frames, {stats.object_poses} object poses, "
         f"{stats.hand_estimates} hand estimates ({stats.hand_missing} missed)"
         + (
             f", {stats.hand_in_camera} hands in the camera frame before the reference tag was "
-            f"seen ({hand_camera_topic(args.hand)})"
+            f"seen ({', '.join(hand_camera_topic(s) for s in sides)})"
             if stats.hand_in_camera
             else ""
         )

@@ -622,6 +622,67 @@ def _objects_motion(
 
 
 # --- the demonstration -----------------------------------------------------------------------
+def _plan(
+    task: str,
+    rng: np.random.Generator,
+    var: Variability,
+    kins: dict[str, HandKinematics],
+    objects: tuple[ObjectSpec, ...],
+) -> tuple[dict[str, Planner], dict[str, Any], dict[str, Any]]:
+    """Both hands' planners after planning ``task`` from a random layout (new layouts until one
+    can be done): the planners, the initial object poses and what the plan did."""
+    specs = {o.name: o for o in objects}
+    centred = objects[0].name if task in ("handover", "carry", "hold_stack") else None
+    for attempt in range(_MAX_ATTEMPTS):
+        initial = _layout(rng, objects, centred=centred)
+        poses = {n: p.copy() for n, p in initial.items()}
+        H = {
+            side: Planner(
+                rng,
+                var,
+                kins[side],
+                specs,
+                poses,
+                shoulder=(DEMONSTRATOR_SHOULDER if side == "right" else LEFT_SHOULDER).copy(),
+            )
+            for side in SIDES
+        }
+        try:
+            return H, initial, PLANS[task](H, rng)
+        except DemonstrationError:
+            if attempt == _MAX_ATTEMPTS - 1:
+                raise
+    raise AssertionError("unreachable")  # the last attempt returned or raised
+
+
+def _metadata(
+    H: dict[str, Planner],
+    var: Variability,
+    done: dict[str, Any],
+    initial: dict[str, Any],
+    rates: dict[str, float],
+) -> dict[str, Any]:
+    """The simulated demonstration's metadata after its task and seed."""
+    return {
+        "source": "simulation",
+        "simulator": "lfd.sim",
+        "simulator_version": SIM_VERSION,
+        "variability": var.as_dict(),
+        "roles": done["roles"],
+        "hands": list(SIDES),
+        **rates,
+        "initial_objects": {
+            n: {"position": p.pos.round(6).tolist(), "yaw": round(p.yaw, 6)}
+            for n, p in initial.items()
+        },
+        "skill_sequences": {side: [lab.skill for lab in H[side].labels] for side in SIDES},
+        "style": var.style,
+        "grasps": {side: [g for g in H[side].grasps if not g.get("table_turn")] for side in SIDES},
+        "pushes": [e for P in H.values() for e in P.log if "push" in e],
+        "stacks": [e for P in H.values() for e in P.log if "stack" in e],
+    }
+
+
 def simulate_two_hands(
     task: str,
     seed: int,
@@ -647,28 +708,7 @@ def simulate_two_hands(
         "right": HandKinematics(model),
         "left": MirroredKinematics(model),
     }
-    specs = {o.name: o for o in objects}
-    centred = objects[0].name if task in ("handover", "carry", "hold_stack") else None
-    for attempt in range(_MAX_ATTEMPTS):
-        initial = _layout(rng, objects, centred=centred)
-        poses = {n: p.copy() for n, p in initial.items()}
-        H = {
-            side: Planner(
-                rng,
-                var,
-                kins[side],
-                specs,
-                poses,
-                shoulder=(DEMONSTRATOR_SHOULDER if side == "right" else LEFT_SHOULDER).copy(),
-            )
-            for side in SIDES
-        }
-        try:
-            done = PLANS[task](H, rng)
-            break
-        except DemonstrationError:
-            if attempt == _MAX_ATTEMPTS - 1:
-                raise
+    H, initial, done = _plan(task, rng, var, kins, objects)
     t_end = max(P.t for P in H.values()) + float(rng.uniform(0.3, 0.8))
     for P in H.values():
         _hold_until(P, t_end)
@@ -725,27 +765,8 @@ def simulate_two_hands(
     handovers = [Handover(ns(a), ns(b), g, k, o) for a, b, g, k, o in done["handovers"]]
     cam = scene.camera
     camera = CameraInfo(cam.width, cam.height, cam.intrinsics(), cam.world_T_camera())
-    metadata: dict[str, Any] = {
-        "task": task,
-        "seed": int(seed),
-        "source": "simulation",
-        "simulator": "lfd.sim",
-        "simulator_version": SIM_VERSION,
-        "variability": var.as_dict(),
-        "roles": done["roles"],
-        "hands": list(SIDES),
-        "hand_rate_hz": hand_rate_hz,
-        "object_rate_hz": object_rate_hz,
-        "initial_objects": {
-            n: {"position": p.pos.round(6).tolist(), "yaw": round(p.yaw, 6)}
-            for n, p in initial.items()
-        },
-        "skill_sequences": {side: [lab.skill for lab in H[side].labels] for side in SIDES},
-        "style": var.style,
-        "grasps": {side: [g for g in H[side].grasps if not g.get("table_turn")] for side in SIDES},
-        "pushes": [e for P in H.values() for e in P.log if "push" in e],
-        "stacks": [e for P in H.values() for e in P.log if "stack" in e],
-    }
+    rates = {"hand_rate_hz": hand_rate_hz, "object_rate_hz": object_rate_hz}
+    metadata = {"task": task, "seed": int(seed), **_metadata(H, var, done, initial, rates)}
     demo = Demonstration(
         hand=hand,
         other_hand=left,
