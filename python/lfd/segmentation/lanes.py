@@ -15,8 +15,9 @@ import numpy as np
 
 from ..demo import Demonstration, Handover
 from ..skills import impossible_transitions
+from ..geometry import box_distance, in_box_frame
 from .attribution import AttributionParams, filled, hand_distance, hand_view, tip_distances
-from .episodes import CarryParams, carries, overlay, snap
+from .episodes import CarryParams, carries, overlay, snap, still_holds
 from .hands import HandsSegmentation
 from .result import Segment, Segmentation
 
@@ -34,6 +35,13 @@ class LaneParams:
         A hand touches an object when its TCP is within this of the object's box (m).
     release_m : float
         A hand is off an object when its TCP is this far (m) from the object's box.
+    pushed_m : float
+        A Push moves its object this far (m) or more while the hand touches it (an object
+        that stays where it is, or that the other hand moves, is not pushed: a Move).
+    support_m : float
+        A released object is stacked when another object's box is within this (m) under
+        its lowest point (a support); let go of on the table or in the other hand it is
+        placed.
     reach_s : float
         A Pick up's grasp, a Place's release may fall this long (s) after its end or before
         its start.
@@ -49,6 +57,8 @@ class LaneParams:
     """
 
     touch_m: float = 0.02
+    pushed_m: float = 0.01
+    support_m: float = 0.01
     reach_s: float = 0.3
     air_m: float = 0.05
     gone_s: float = 1.0
@@ -105,17 +115,42 @@ def segment_lanes(
                 d, _positions(demo, name, t), _rest_height(demo, name), dt, carry,
                 other_hold=other_hold, thumb=thumbs[name],
             )  # fmt: skip
+            still = still_holds(
+                np.fmin(d, thumbs[name]), _positions(demo, name, t), _rest_height(demo, name), dt, carry, thumbs[name]
+            )
+            got = _merged(got, still)
             spans[name] = snap(got, seg.segments, name, tol, other_hold)
         touch = {name: np.asarray(d <= p.touch_m) for name, d in dists[side].items()}
-        pushes = _PushTouch(demo, side, t, p.touch_m)
+        pushes = _PushTouch(demo, side, t, p.touch_m, p.pushed_m)
         seg.segments = _reconcile(
             overlay(seg.segments, spans, _seconds(seg.segments)), touch, p, seg, pushes
         )
+        seg.segments = _merge_same(_supports(demo, seg.segments, p))
         lanes[side] = seg
     handovers = find_handovers(demo, lanes, p, dists)
     result = HandsSegmentation(lanes=lanes, handovers=handovers)
     result.warnings.extend(check_lanes(result))
     return result
+
+
+def _merged(
+    carried: list[tuple[str, int, int]], still: list[tuple[str, int, int]]
+) -> list[tuple[str, int, int]]:
+    """The carries and the still holds of one object in time order, a still hold that
+    overlaps a carry left out (whole: a hold's three spans go together)."""
+    if not still:
+        return carried
+    holds: list[list[tuple[str, int, int]]] = []
+    for span in still:
+        if span[0] == "pick_up" or not holds or holds[-1][-1][0] == "place":
+            holds.append([])
+        holds[-1].append(span)
+    out = list(carried)
+    for hold in holds:
+        a, b = hold[0][1], hold[-1][2]
+        if all(b <= x or a >= y for _, x, y in carried):
+            out += hold
+    return sorted(out, key=lambda span: span[1])
 
 
 def _at_samples(
@@ -144,19 +179,30 @@ def _sample_times(seg: Segmentation) -> np.ndarray:
 
 
 class _PushTouch:
-    """Does the hand touch a Push's object with any keypoint (within ``touch_m``)? Measured on
-    the Push's samples only, when asked."""
+    """Does the hand push a Push's object: touch it with any keypoint (within ``touch_m``)
+    while it moves ``pushed_m`` or more? Measured on the Push's samples only, when asked."""
 
-    def __init__(self, demo: Demonstration, side: str, t_ns: np.ndarray, touch_m: float):
-        self.demo, self.side, self.t_ns, self.touch_m = demo, side, t_ns, touch_m
+    def __init__(
+        self, demo: Demonstration, side: str, t_ns: np.ndarray, touch_m: float, pushed_m: float
+    ):
+        self.demo, self.side, self.t_ns = demo, side, t_ns
+        self.touch_m, self.pushed_m = touch_m, pushed_m
 
     def touches(self, seg: Segment, k: int) -> bool:
         obj = self.demo.objects.get(seg.object or "")
         if obj is None or not len(obj):
             return True
         t = self.t_ns[max(seg.start, 0) : min(seg.end + k, len(self.t_ns))]
+        if not len(t):
+            return True
         d = hand_distance(self.demo.hands[self.side], obj, t)
-        return bool((d <= self.touch_m).any()) if len(t) else True
+        on = d <= self.touch_m
+        if not on.any():
+            return False
+        pos = _positions(self.demo, seg.object or "", t)
+        first = int(np.argmax(on))
+        moved = np.linalg.norm(pos[first:] - pos[first], axis=1)
+        return bool(np.nanmax(moved, initial=0.0) >= self.pushed_m)
 
 
 def _touches(seg: Segment, touch: dict[str, np.ndarray], k: int) -> bool:
@@ -212,6 +258,60 @@ def _reconcile(
             )  # fmt: skip
             continue
         out.append(cur)
+    return out
+
+
+def _supported(demo: Demonstration, name: str, t_ns: int, margin: float) -> bool:
+    """Is another object's box within ``margin`` under the lowest point of ``name`` at
+    ``t_ns`` (the object rests on it)?"""
+    obj = demo.objects.get(name)
+    if obj is None or not len(obj):
+        return False
+    obj = filled(obj)
+    i = int(np.clip(np.searchsorted(obj.t_ns, t_ns), 0, len(obj) - 1))
+    pos, quat = obj.position[i], obj.quaternion[i]
+    if not (np.isfinite(pos).all() and np.isfinite(quat).all()):
+        return False
+    up = in_box_frame(np.array([0.0, 0.0, 1.0]), quat)
+    low = pos - np.array([0.0, 0.0, 0.5 * float(np.abs(up) @ np.asarray(obj.size)) + 0.5 * margin])
+    for other_name, other in demo.objects.items():
+        if other_name == name or not len(other):
+            continue
+        other = filled(other)
+        j = int(np.clip(np.searchsorted(other.t_ns, t_ns), 0, len(other) - 1))
+        d = box_distance(low, other.position[j], other.quaternion[j], other.size)
+        if np.isfinite(d) and d <= 0.5 * margin:
+            return True
+    return False
+
+
+def _supports(demo: Demonstration, segments: list[Segment], p: LaneParams) -> list[Segment]:
+    """Every Place or Stack a Stack exactly when its object rests on another object as the
+    hand lets go (:func:`_supported` at its end), a Place otherwise (on the table, or in the
+    other hand)."""
+    out = []
+    for s in segments:
+        if s.skill in ("place", "stack") and s.object in demo.objects:
+            on = _supported(demo, s.object, s.end_ns, p.support_m)
+            skill = "stack" if on else "place"
+            if skill != s.skill:
+                s = dataclasses.replace(s, skill=skill)
+        out.append(s)
+    return out
+
+
+def _merge_same(segments: list[Segment]) -> list[Segment]:
+    """Neighbouring segments of one skill and object merged into one."""
+    out: list[Segment] = []
+    for s in segments:
+        if out and out[-1].skill == s.skill and out[-1].object == s.object:
+            prev = out[-1]
+            out[-1] = dataclasses.replace(
+                prev, end=s.end, end_s=s.end_s, end_ns=s.end_ns,
+                score=float("nan"), confidence=float("nan"), margin=float("nan"),
+            )  # fmt: skip
+            continue
+        out.append(s)
     return out
 
 
