@@ -58,9 +58,6 @@ class CarryParams:
         or longer while the object moves less than ``still_m`` (m) holds it still: a Pick up,
         a Move with of the still object and a Place (its last ``let_go_s`` before the hand lets
         go), as a hand holding an object still while the other acts.
-    moved_off_m : float
-        A hand holding an object in the air with the other hand has let go once its TCP is
-        this far (m) from where it held the object, in the object's frame.
     handover_s, let_go_s : float
         A hand that lets go of an object in the air which the other hand has held for at most
         ``handover_s`` gives it (a handover: its Place lasts from the other hand's grasp);
@@ -82,7 +79,6 @@ class CarryParams:
     handover_s: float = 3.0
     let_go_s: float = 0.5
     still_s: float = 1.0
-    moved_off_m: float = 0.012
     still_m: float = 0.015
 
 
@@ -163,24 +159,6 @@ def _at_rest(position: np.ndarray, v: int, stop: int, p: CarryParams) -> int:
     return min(v, n - 1)
 
 
-def _let_go_in_air(tcp_rel: np.ndarray, took: int, b: int, dt: float, p: CarryParams) -> int:
-    """Where a hand holding an object in the air with the other hand (since ``took``, its
-    hold ending at ``b``) lets go: the first sample at which its TCP is (a median of three samples)
-    ``moved_off_m`` or more from where it held the object (the median of its last
-    ``let_go_s`` before ``took`` and the first after), in the object's frame; ``b`` at the
-    latest (the TCP ``hold_m`` off the box)."""
-    k = max(1, round(p.let_go_s / dt))
-    ref_part = tcp_rel[max(took - k, 0) : min(took + 1, b)]
-    ref_part = ref_part[np.isfinite(ref_part).all(axis=1)]
-    if not len(ref_part):
-        return b
-    d = np.linalg.norm(tcp_rel[took:b] - np.median(ref_part, axis=0), axis=1)
-    if len(d) >= 3:  # a one-sample jitter is no let-go
-        d = np.median(np.stack([d, np.r_[d[1:], d[-1]], np.r_[d[0], d[:-1]]]), axis=0)
-    off = np.flatnonzero(d >= p.moved_off_m)
-    return took + int(off[0]) if len(off) else b
-
-
 def _last_rest(position: np.ndarray, a: int, u: int, p: CarryParams) -> int:
     """Where the lift that takes the object off the table at ``u`` begins: the last sample in
     ``[a, u]`` after ``rest_samples`` in which the object moved less than ``moved_m``."""
@@ -200,7 +178,6 @@ def carries(
     params: CarryParams | None = None,
     other_hold: np.ndarray | None = None,
     thumb: np.ndarray | None = None,
-    tcp_rel: np.ndarray | None = None,
 ) -> list[tuple[str, int, int]]:
     """The carries of one hand and one object, as ``(skill, start, end)`` spans (samples,
     ``end`` exclusive): Pick up, Move with, Place for every flight of the object (off the
@@ -208,9 +185,7 @@ def carries(
     unknown), ``thumb`` the thumb tip's, ``position`` the object's centre ``(n, 3)``,
     ``table_z`` the lowest the object rests; ``other_hold``: where the other hand holds the
     object (a carry let go of in the air ends with a Place from the other hand's grasp: the
-    handover); ``tcp_rel``: the TCP ``(n, 3)`` in the object's frame (a hand that lets go in
-    the air has let go where its TCP leaves where it held the object,
-    :func:`_let_go_in_air`)."""
+    handover)."""
     p = params or CarryParams()
     n = len(dist)
     z = position[:, 2] - table_z
@@ -255,7 +230,7 @@ def carries(
                 took_at = lift + int(took[-1]) + 1 if len(took) else lift + 1
                 if b - took_at <= round(p.handover_s / dt):
                     place = took_at
-                release = b if tcp_rel is None else _let_go_in_air(tcp_rel, took_at, b, dt, p)
+                release = b
             place = min(max(place, lift + 1), release - 1)
             if not lift < place < release:
                 continue

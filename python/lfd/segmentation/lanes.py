@@ -114,7 +114,6 @@ def segment_lanes(
             got = carries(
                 d, _positions(demo, name, t), _rest_height(demo, name), dt, carry,
                 other_hold=other_hold, thumb=thumbs[name],
-                tcp_rel=_tcp_in_object(demo, side, name, t),
             )  # fmt: skip
             still = still_holds(
                 np.fmin(d, thumbs[name]), _positions(demo, name, t), _rest_height(demo, name), dt, carry, thumbs[name]
@@ -260,22 +259,6 @@ def _reconcile(
             continue
         out.append(cur)
     return out
-
-
-def _tcp_in_object(demo: Demonstration, side: str, name: str, t_ns: np.ndarray) -> np.ndarray:
-    """The ``side`` hand's TCP in the frame of object ``name`` at ``t_ns`` ``(n, 3)`` (the
-    nearest samples; NaN where unknown)."""
-    from .attribution import INDEX_TIP, THUMB_TIP, _nearest
-
-    hand, obj = demo.hands[side], filled(demo.objects[name])
-    i = _nearest(hand, t_ns)
-    tcp = 0.5 * (hand.keypoints[i, THUMB_TIP] + hand.keypoints[i, INDEX_TIP])
-    j = np.clip(np.searchsorted(obj.t_ns, t_ns), 0, len(obj) - 1)
-    quat = obj.quaternion[j]
-    ok = np.isfinite(quat).all(axis=1) & np.isfinite(obj.position[j]).all(axis=1)
-    safe = np.where(ok[:, None], quat, np.array([0.0, 0.0, 0.0, 1.0]))
-    rel = in_box_frame(tcp - np.where(ok[:, None], obj.position[j], 0.0), safe)
-    return np.where(ok[:, None], rel, np.nan)
 
 
 def _supported(demo: Demonstration, name: str, t_ns: int, margin: float) -> bool:
@@ -452,20 +435,14 @@ def _gone(
     lane: Segmentation,
     p: LaneParams,
 ) -> bool:
-    """Does the hand get ``release_m`` off ``place``'s object within twice ``reach_s`` after
-    it and stay off for ``gone_s`` (as it withdraws, the taker may carry the object past the
-    hand)?"""
+    """Does the hand stay ``release_m`` off ``place``'s object for ``gone_s`` after it?"""
     if dists is None or place.object not in dists.get(side, {}):
         return True
     d = dists[side][place.object]
     dt = (lane.segments[-1].end_s - lane.segments[0].start_s) / max(lane.segments[-1].end, 1)
     k = max(1, round(p.gone_s / dt)) if dt > 0 else 1
-    r = max(1, round(2 * p.reach_s / dt)) if dt > 0 else 1
-    off = d[place.end : place.end + r + k] >= p.release_m
-    if len(off) < k:
-        return False
-    stays = np.convolve(off.astype(int), np.ones(k, dtype=int), "valid") == k
-    return bool(stays[: r + 1].any())
+    after = d[place.end : place.end + k]
+    return bool(len(after)) and bool((after >= p.release_m).all())
 
 
 def _giver_follows(lane: Segmentation, i: int, start_ns: int) -> None:
