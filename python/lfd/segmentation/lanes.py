@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..demo import Demonstration, Handover
-from ..skills import impossible_transitions
 from ..geometry import box_distance, in_box_frame
+from ..skills import impossible_transitions
 from .attribution import AttributionParams, filled, hand_distance, hand_view, tip_distances
 from .episodes import CarryParams, carries, overlay, snap, still_holds
 from .hands import HandsSegmentation
@@ -116,7 +116,12 @@ def segment_lanes(
                 other_hold=other_hold, thumb=thumbs[name],
             )  # fmt: skip
             still = still_holds(
-                np.fmin(d, thumbs[name]), _positions(demo, name, t), _rest_height(demo, name), dt, carry, thumbs[name]
+                np.fmin(d, thumbs[name]),
+                _positions(demo, name, t),
+                _rest_height(demo, name),
+                dt,
+                carry,
+                thumbs[name],
             )
             got = _merged(got, still)
             spans[name] = snap(got, seg.segments, name, tol, other_hold)

@@ -121,3 +121,20 @@ def test_a_handover_hidden_from_the_camera_is_still_found() -> None:
             "move", "pick_up", "move_with", "place", "move",
         ]  # fmt: skip
     assert [(h.giver, h.taker) for h in result.handovers] == [("right", "left")]
+
+
+def test_holding_still_stacking_on_it_and_pushing_by_the_other_hand() -> None:
+    """Simulated (tuning seed 600, careful): the hand holding the plank still is Pick up, Move
+    with, Place of it (not a Push); the other hand's cube set on the plank is a Stack (a
+    support under it); in hold_push the pusher's Push stays, the holder holds."""
+    from lfd.sim import Variability, simulate
+
+    for task in ("hold_stack", "hold_push"):
+        demo = simulate(task, 600, Variability(style="careful")).demo
+        res = lfd.segment_hands(demo)
+        holder = demo.metadata["roles"]["holder"]
+        lane = res.lanes[holder].skill_sequence
+        assert lane == ["move", "pick_up", "move_with", "place", "move"], (task, lane)
+        actor = res.lanes[demo.metadata["roles"]["actor"]].skill_sequence
+        assert ("stack" if task == "hold_stack" else "push") in actor, (task, actor)
+        assert "place" not in actor or task == "hold_push"
