@@ -58,6 +58,9 @@ class CarryParams:
         or longer while the object moves less than ``still_m`` (m) holds it still: a Pick up,
         a Move with of the still object and a Place (its last ``let_go_s`` before the hand lets
         go), as a hand holding an object still while the other acts.
+    moved_off_m : float
+        A hand holding an object in the air with the other hand has let go once its TCP's
+        signed distance from the box is this much (m) above where it held it, for good.
     handover_s, let_go_s : float
         A hand that lets go of an object in the air which the other hand has held for at most
         ``handover_s`` gives it (a handover: its Place lasts from the other hand's grasp);
@@ -79,6 +82,7 @@ class CarryParams:
     handover_s: float = 3.0
     let_go_s: float = 0.5
     still_s: float = 1.0
+    moved_off_m: float = 0.012
     still_m: float = 0.015
 
 
@@ -159,6 +163,25 @@ def _at_rest(position: np.ndarray, v: int, stop: int, p: CarryParams) -> int:
     return min(v, n - 1)
 
 
+def _let_go_in_air(depth: np.ndarray, took: int, b: int, dt: float, p: CarryParams) -> int:
+    """Where a hand holding an object in the air with the other hand (since ``took``; its
+    hold ending at ``b``, the TCP ``hold_m`` off the box) lets go: after the last sample at
+    which its TCP's signed distance from the box (``depth``: negative inside) is less than
+    ``moved_off_m`` above where it held the object (the median of its last ``let_go_s``
+    before ``took``; a median of three samples: a one-sample jitter is no let-go). A hand
+    turning with the object keeps its depth; one withdrawing from it does not. ``b`` when
+    it never leaves before."""
+    k = max(1, round(p.let_go_s / dt))
+    ref = depth[max(took - k, 0) : took + 1]
+    ref = ref[np.isfinite(ref)]
+    if not len(ref) or b - took < 3:
+        return b
+    d = depth[took:b] - float(np.median(ref))
+    d = np.median(np.stack([d, np.r_[d[1:], d[-1]], np.r_[d[0], d[:-1]]]), axis=0)
+    near = np.flatnonzero(~(d >= p.moved_off_m))
+    return took + int(near[-1]) + 1 if len(near) else b
+
+
 def _last_rest(position: np.ndarray, a: int, u: int, p: CarryParams) -> int:
     """Where the lift that takes the object off the table at ``u`` begins: the last sample in
     ``[a, u]`` after ``rest_samples`` in which the object moved less than ``moved_m``."""
@@ -178,6 +201,7 @@ def carries(
     params: CarryParams | None = None,
     other_hold: np.ndarray | None = None,
     thumb: np.ndarray | None = None,
+    depth: np.ndarray | None = None,
 ) -> list[tuple[str, int, int]]:
     """The carries of one hand and one object, as ``(skill, start, end)`` spans (samples,
     ``end`` exclusive): Pick up, Move with, Place for every flight of the object (off the
@@ -185,7 +209,9 @@ def carries(
     unknown), ``thumb`` the thumb tip's, ``position`` the object's centre ``(n, 3)``,
     ``table_z`` the lowest the object rests; ``other_hold``: where the other hand holds the
     object (a carry let go of in the air ends with a Place from the other hand's grasp: the
-    handover)."""
+    handover); ``depth``: the TCP's signed distance from the box (negative inside; a giver
+    has let go where its TCP last left the depth it held the object at,
+    :func:`_let_go_in_air`)."""
     p = params or CarryParams()
     n = len(dist)
     z = position[:, 2] - table_z
@@ -228,9 +254,11 @@ def carries(
                 place = b - max(1, round(p.let_go_s / dt))
                 took = np.flatnonzero(~other_hold[lift : b - 1])  # type: ignore[index]
                 took_at = lift + int(took[-1]) + 1 if len(took) else lift + 1
+                release = b
                 if b - took_at <= round(p.handover_s / dt):
                     place = took_at
-                release = b
+                    if depth is not None:
+                        release = _let_go_in_air(depth, took_at, b, dt, p)
             place = min(max(place, lift + 1), release - 1)
             if not lift < place < release:
                 continue

@@ -16,7 +16,16 @@ import numpy as np
 from ..demo import Demonstration, Handover
 from ..geometry import box_distance, in_box_frame
 from ..skills import impossible_transitions
-from .attribution import AttributionParams, filled, hand_distance, hand_view, tip_distances
+from .attribution import (
+    INDEX_TIP,
+    THUMB_TIP,
+    AttributionParams,
+    _nearest,
+    filled,
+    hand_distance,
+    hand_view,
+    tip_distances,
+)
 from .episodes import CarryParams, carries, overlay, snap, still_holds
 from .hands import HandsSegmentation
 from .result import Segment, Segmentation
@@ -54,6 +63,12 @@ class LaneParams:
     gone_s : float
         A giver lets go for good: its TCP stays ``release_m`` off the object this long (s)
         after the handover, and the taker carries the object on at least this long.
+    withdraw_m : float
+        A giver whose TCP is off the object ``gone_s`` after its release and this far (m)
+        from where it let go has let go for good, even if the taker carried the object past it.
+    handover_s : float
+        In a handover both hands hold the object together for at most this long (s): the
+        taker's grasp to the giver's release (longer: a two-handed carry).
     """
 
     touch_m: float = 0.02
@@ -62,6 +77,8 @@ class LaneParams:
     reach_s: float = 0.3
     air_m: float = 0.05
     gone_s: float = 1.0
+    handover_s: float = 3.0
+    withdraw_m: float = 0.10
     snap_s: float = 0.5
     release_m: float = 0.03
 
@@ -114,6 +131,7 @@ def segment_lanes(
             got = carries(
                 d, _positions(demo, name, t), _rest_height(demo, name), dt, carry,
                 other_hold=other_hold, thumb=thumbs[name],
+                depth=_tcp_depth(demo, side, name, t),
             )  # fmt: skip
             still = still_holds(
                 np.fmin(d, thumbs[name]),
@@ -266,6 +284,28 @@ def _reconcile(
     return out
 
 
+def _tcp_at(demo: Demonstration, side: str, t_ns: np.ndarray) -> np.ndarray:
+    """The ``side`` hand's TCP ``(n, 3)`` at ``t_ns`` (the nearest samples)."""
+    hand = demo.hands[side]
+    i = _nearest(hand, t_ns)
+    return np.asarray(0.5 * (hand.keypoints[i, THUMB_TIP] + hand.keypoints[i, INDEX_TIP]))
+
+
+def _tcp_depth(demo: Demonstration, side: str, name: str, t_ns: np.ndarray) -> np.ndarray:
+    """The signed distance (m) of the ``side`` hand's TCP from object ``name``'s box at
+    ``t_ns`` (the nearest samples): positive outside, negative inside; NaN where unknown."""
+    hand, obj = demo.hands[side], filled(demo.objects[name])
+    i = _nearest(hand, t_ns)
+    tcp = 0.5 * (hand.keypoints[i, THUMB_TIP] + hand.keypoints[i, INDEX_TIP])
+    j = np.clip(np.searchsorted(obj.t_ns, t_ns), 0, len(obj) - 1)
+    quat, pos = obj.quaternion[j], obj.position[j]
+    ok = np.isfinite(quat).all(axis=1) & np.isfinite(pos).all(axis=1)
+    safe = np.where(ok[:, None], quat, np.array([0.0, 0.0, 0.0, 1.0]))
+    q = np.abs(in_box_frame(tcp - np.where(ok[:, None], pos, 0.0), safe)) - 0.5 * obj.size
+    out = np.linalg.norm(np.maximum(q, 0.0), axis=1) + np.minimum(q.max(axis=1), 0.0)
+    return np.where(ok, out, np.nan)
+
+
 def _supported(demo: Demonstration, name: str, t_ns: int, margin: float) -> bool:
     """Is another object's box within ``margin`` under the lowest point of ``name`` at
     ``t_ns`` (the object rests on it)?"""
@@ -407,8 +447,11 @@ def find_handovers(
                 (g.start_ns for g in reversed(g_lane.segments[:i]) if g.skill == "pick_up"),
                 g_lane.segments[0].start_ns,
             )
-            if carry.start_ns <= began or not _gone(dists, giver, s, lanes[giver], p):
+            tcp = _tcp_at(demo, giver, _sample_times(g_lane))
+            if carry.start_ns <= began or not _gone(dists, giver, s, g_lane, p, tcp):
                 continue
+            if s.end_ns - carry.start_ns > round(p.handover_s * 1e9):
+                continue  # held together longer: a two-handed carry one hand lets go of
             start_ns = max(min(carry.start_ns, s.end_ns), g_lane.segments[i].start_ns)
             _giver_follows(g_lane, i, start_ns)
             out.append(Handover(start_ns, s.end_ns, giver, taker, s.object))
@@ -439,15 +482,26 @@ def _gone(
     place: Segment,
     lane: Segmentation,
     p: LaneParams,
+    tcp: np.ndarray | None = None,
 ) -> bool:
-    """Does the hand stay ``release_m`` off ``place``'s object for ``gone_s`` after it?"""
+    """Does the hand let go of ``place``'s object for good: its TCP ``release_m`` off the
+    object for ``gone_s`` after it, or (``tcp``: its TCP at the lane's samples) off it
+    ``gone_s`` later and ``withdraw_m`` from where it let go (the other hand may carry the
+    object past the withdrawing hand)?"""
     if dists is None or place.object not in dists.get(side, {}):
         return True
     d = dists[side][place.object]
     dt = (lane.segments[-1].end_s - lane.segments[0].start_s) / max(lane.segments[-1].end, 1)
     k = max(1, round(p.gone_s / dt)) if dt > 0 else 1
-    after = d[place.end : place.end + k]
-    return bool(len(after)) and bool((after >= p.release_m).all())
+    after = d[place.end : place.end + k] >= p.release_m
+    if len(after) < k:
+        return False
+    if after.all():
+        return True
+    if tcp is None or place.end + k >= len(tcp):
+        return False
+    away = float(np.linalg.norm(tcp[place.end + k] - tcp[place.end]))
+    return bool(after[-1]) and away >= p.withdraw_m
 
 
 def _giver_follows(lane: Segmentation, i: int, start_ns: int) -> None:
