@@ -168,18 +168,22 @@ def _let_go_in_air(depth: np.ndarray, took: int, b: int, dt: float, p: CarryPara
     hold ending at ``b``, the TCP ``hold_m`` off the box) lets go: after the last sample at
     which its TCP's signed distance from the box (``depth``: negative inside) is less than
     ``moved_off_m`` above where it held the object (the median of its last ``let_go_s``
-    before ``took``; a median of three samples: a one-sample jitter is no let-go). A hand
-    turning with the object keeps its depth; one withdrawing from it does not. ``b`` when
-    it never leaves before."""
+    before ``took``; a median of three samples: a one-sample jitter is no let-go), and
+    before it is first ``release_m`` outside the box (the other hand may then carry the
+    object past it). A hand turning with the object keeps its depth; one withdrawing from
+    it does not. ``b`` when it never leaves before."""
     k = max(1, round(p.let_go_s / dt))
     ref = depth[max(took - k, 0) : took + 1]
     ref = ref[np.isfinite(ref)]
     if not len(ref) or b - took < 3:
         return b
-    d = depth[took:b] - float(np.median(ref))
-    d = np.median(np.stack([d, np.r_[d[1:], d[-1]], np.r_[d[0], d[:-1]]]), axis=0)
+    out = np.flatnonzero(depth[took:b] >= p.release_m)  # clearly off: let go before
+    stop = took + int(out[0]) if len(out) else b
+    d = depth[took:stop] - float(np.median(ref))
+    if len(d) >= 3:
+        d = np.median(np.stack([d, np.r_[d[1:], d[-1]], np.r_[d[0], d[:-1]]]), axis=0)
     near = np.flatnonzero(~(d >= p.moved_off_m))
-    return took + int(near[-1]) + 1 if len(near) else b
+    return took + int(near[-1]) + 1 if len(near) else stop
 
 
 def _last_rest(position: np.ndarray, a: int, u: int, p: CarryParams) -> int:
