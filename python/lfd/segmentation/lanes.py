@@ -143,7 +143,10 @@ def segment_lanes(
             )
             got = _merged(got, still)
             spans[name] = snap(got, seg.segments, name, tol, other_hold)
-        touch = {name: np.asarray(d <= p.touch_m) for name, d in dists[side].items()}
+        touch = {
+            name: np.asarray(np.fmin(d, thumbs[name]) <= p.touch_m)
+            for name, d in dists[side].items()
+        }
         pushes = _PushTouch(demo, side, t, p.touch_m, p.pushed_m)
         seg.segments = _reconcile(
             overlay(seg.segments, spans, _seconds(seg.segments)), touch, p, seg, pushes
