@@ -51,6 +51,8 @@ class LaneParams:
         A released object is stacked when another object's box is within this (m) under
         its lowest point (a support); let go of on the table or in the other hand it is
         placed.
+    point_m : float
+        A Locate points: the index tip from 2 cm to this high (m) above the object's top.
     reach_s : float
         A Pick up's grasp, a Place's release may fall this long (s) after its end or before
         its start.
@@ -74,6 +76,7 @@ class LaneParams:
     touch_m: float = 0.02
     pushed_m: float = 0.01
     support_m: float = 0.01
+    point_m: float = 0.12
     reach_s: float = 0.3
     air_m: float = 0.05
     gone_s: float = 1.0
@@ -151,7 +154,7 @@ def segment_lanes(
         seg.segments = _reconcile(
             overlay(seg.segments, spans, _seconds(seg.segments)), touch, p, seg, pushes
         )
-        seg.segments = _merge_same(_supports(demo, seg.segments, p))
+        seg.segments = _merge_same(_points(demo, side, t, _supports(demo, seg.segments, p), p))
         lanes[side] = seg
     handovers = find_handovers(demo, lanes, p, dists)
     result = HandsSegmentation(lanes=lanes, handovers=handovers)
@@ -346,6 +349,53 @@ def _supports(demo: Demonstration, segments: list[Segment], p: LaneParams) -> li
                 s = dataclasses.replace(s, skill=skill)
         out.append(s)
     return out
+
+
+def _points(
+    demo: Demonstration, side: str, t_ns: np.ndarray, segments: list[Segment], p: LaneParams
+) -> list[Segment]:
+    """A Locate stays one only where the hand points at an object: its index tip above the
+    object's top (``point_m``: from 2 cm to this high, within 2 cm of its footprint) on at
+    least a third of its samples, and not as it reaches for the object it picks up next (a
+    hesitation above it before the grasp); otherwise the hand only moved (a Move)."""
+    out = []
+    hand = demo.hands[side]
+    for i, s in enumerate(segments):
+        nxt = segments[i + 1] if i + 1 < len(segments) else None
+        if s.skill == "locate" and nxt is not None and nxt.skill == "pick_up":
+            if nxt.object == s.object or s.object is None:  # the Pick up's reach, slowed
+                s = dataclasses.replace(s, skill="move")
+        if s.skill == "locate":
+            t = t_ns[max(s.start, 0) : min(s.end, len(t_ns))]
+            tip = hand.keypoints[_nearest(hand, t), INDEX_TIP] if len(t) else np.zeros((0, 3))
+            names = [s.object] if s.object in demo.objects else list(demo.objects)
+            if not any(_above(demo, n, t, tip, p.point_m) for n in names):
+                s = dataclasses.replace(s, skill="move")
+        out.append(s)
+    return out
+
+
+def _above(demo: Demonstration, name: str, t_ns: np.ndarray, tip: np.ndarray, high: float) -> bool:
+    """Is ``tip`` (at ``t_ns``) 2 cm to ``high`` above the top of object ``name`` and within
+    2 cm of its footprint on a third of the samples or more?"""
+    obj = demo.objects[name]
+    if not len(obj) or not len(t_ns):
+        return False
+    obj = filled(obj)
+    j = np.clip(np.searchsorted(obj.t_ns, t_ns), 0, len(obj) - 1)
+    pos, quat = obj.position[j], obj.quaternion[j]
+    ok = np.isfinite(pos).all(axis=1) & np.isfinite(quat).all(axis=1) & np.isfinite(tip).all(1)
+    if not ok.any():
+        return False
+    safe = np.where(ok[:, None], quat, np.array([0.0, 0.0, 0.0, 1.0]))
+    up = in_box_frame(np.array([0.0, 0.0, 1.0]), safe)
+    top = np.nan_to_num(pos[:, 2]) + 0.5 * np.abs(up) @ np.asarray(obj.size)
+    level = np.where(ok[:, None], tip, 0.0).copy()
+    level[:, 2] = np.nan_to_num(pos[:, 2])  # the tip's footprint, at the object's centre
+    flat = box_distance(level, np.where(ok[:, None], pos, 0.0), safe, obj.size)
+    height = np.nan_to_num(tip[:, 2]) - top
+    hit = ok & (flat <= 0.02) & (height >= 0.02) & (height <= high)
+    return bool(hit.mean() >= 1 / 3)
 
 
 def _merge_same(segments: list[Segment]) -> list[Segment]:
