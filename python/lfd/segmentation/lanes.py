@@ -51,6 +51,9 @@ class LaneParams:
         A released object is stacked when another object's box is within this (m) under
         its lowest point (a support); let go of on the table or in the other hand it is
         placed.
+    near_m : float
+        A Push begins with its hand nearer its object than this (m): above its start,
+        behind the object.
     point_m : float
         A Locate points: the index tip from 2 cm to this high (m) above the object's top.
     reach_s : float
@@ -77,6 +80,7 @@ class LaneParams:
     pushed_m: float = 0.01
     support_m: float = 0.01
     point_m: float = 0.12
+    near_m: float = 0.10
     reach_s: float = 0.3
     air_m: float = 0.05
     gone_s: float = 1.0
@@ -154,7 +158,8 @@ def segment_lanes(
         seg.segments = _reconcile(
             overlay(seg.segments, spans, _seconds(seg.segments)), touch, p, seg, pushes
         )
-        seg.segments = _merge_same(_points(demo, side, t, _supports(demo, seg.segments, p), p))
+        checked = _points(demo, side, t, _supports(demo, seg.segments, p), p)
+        seg.segments = _merge_same(_push_reach(demo, side, t, checked, p))
         lanes[side] = seg
     handovers = find_handovers(demo, lanes, p, dists)
     result = HandsSegmentation(lanes=lanes, handovers=handovers)
@@ -398,14 +403,47 @@ def _above(demo: Demonstration, name: str, t_ns: np.ndarray, tip: np.ndarray, hi
     return bool(hit.mean() >= 1 / 3)
 
 
-def _merge_same(segments: list[Segment]) -> list[Segment]:
-    """Neighbouring segments of one skill and object merged into one."""
+def _push_reach(
+    demo: Demonstration, side: str, t_ns: np.ndarray, segments: list[Segment], p: LaneParams
+) -> list[Segment]:
+    """A Push begins above its start, behind the object (docs/skills.md): what comes before
+    the last sample its hand (nearest keypoint) is ``near_m`` or farther from the object,
+    before it first touches it, is a Move."""
     out: list[Segment] = []
     for s in segments:
-        if out and out[-1].skill == s.skill and out[-1].object == s.object:
+        obj = demo.objects.get(s.object or "")
+        if s.skill != "push" or obj is None or not len(obj) or s.end - s.start < 3:
+            out.append(s)
+            continue
+        t = t_ns[max(s.start, 0) : min(s.end, len(t_ns))]
+        d = hand_distance(demo.hands[side], filled(obj), t)
+        touch = np.flatnonzero(d <= p.touch_m)
+        far = np.flatnonzero(d[: int(touch[0])] >= p.near_m) if len(touch) else np.array([])
+        if not len(far):
+            out.append(s)
+            continue
+        k = s.start + int(far[-1]) + 1
+        frac = (k - s.start) / (s.end - s.start)
+        at_s = s.start_s + frac * (s.end_s - s.start_s)
+        at_ns = s.start_ns + round(frac * (s.end_ns - s.start_ns))
+        nan = float("nan")
+        reach = dataclasses.replace(
+            s, skill="move", end=k, end_s=at_s, end_ns=at_ns, score=nan, confidence=nan,
+            margin=nan, params={},
+        )  # fmt: skip
+        out += [reach, dataclasses.replace(s, start=k, start_s=at_s, start_ns=at_ns)]
+    return out
+
+
+def _merge_same(segments: list[Segment]) -> list[Segment]:
+    """Neighbouring segments of one skill and object merged into one (Moves whatever their
+    object: a Move takes the object of the skill after it)."""
+    out: list[Segment] = []
+    for s in segments:
+        if out and out[-1].skill == s.skill and (out[-1].object == s.object or s.skill == "move"):
             prev = out[-1]
             out[-1] = dataclasses.replace(
-                prev, end=s.end, end_s=s.end_s, end_ns=s.end_ns,
+                prev, end=s.end, end_s=s.end_s, end_ns=s.end_ns, object=s.object,
                 score=float("nan"), confidence=float("nan"), margin=float("nan"),
             )  # fmt: skip
             continue
