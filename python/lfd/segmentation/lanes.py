@@ -106,9 +106,13 @@ def segment_lanes(
         return HandsSegmentation(lanes={side: segment_one(demo.one_hand(side))})
     p = params or LaneParams()
     lanes: dict[str, Segmentation] = {}
+    # the objects' poses filled in through occlusions, once (contact and support read them)
+    whole = dataclasses.replace(
+        demo, objects={n: filled(o) if len(o) else o for n, o in demo.objects.items()}
+    )
     near = {
         side: {
-            name: tip_distances(demo.hands[side], filled(obj), 2)
+            name: tip_distances(demo.hands[side], whole.objects[name], 2)
             for name, obj in demo.objects.items()
             if len(obj)
         }
@@ -138,7 +142,7 @@ def segment_lanes(
             got = carries(
                 d, _positions(demo, name, t), _rest_height(demo, name), dt, carry,
                 other_hold=other_hold, thumb=thumbs[name],
-                depth=_tcp_depth(demo, side, name, t),
+                depth=_tcp_depth(whole, side, name, t),
             )  # fmt: skip
             still = still_holds(
                 np.fmin(d, thumbs[name]),
@@ -158,8 +162,8 @@ def segment_lanes(
         seg.segments = _reconcile(
             overlay(seg.segments, spans, _seconds(seg.segments)), touch, p, seg, pushes
         )
-        checked = _points(demo, side, t, _supports(demo, seg.segments, p), p)
-        seg.segments = _merge_same(_push_reach(demo, side, t, checked, p))
+        checked = _points(whole, side, t, _supports(whole, seg.segments, p), p)
+        seg.segments = _merge_same(_push_reach(whole, side, t, checked, p))
         lanes[side] = seg
     handovers = find_handovers(demo, lanes, p, dists)
     result = HandsSegmentation(lanes=lanes, handovers=handovers)
@@ -305,7 +309,7 @@ def _tcp_at(demo: Demonstration, side: str, t_ns: np.ndarray) -> np.ndarray:
 def _tcp_depth(demo: Demonstration, side: str, name: str, t_ns: np.ndarray) -> np.ndarray:
     """The signed distance (m) of the ``side`` hand's TCP from object ``name``'s box at
     ``t_ns`` (the nearest samples): positive outside, negative inside; NaN where unknown."""
-    hand, obj = demo.hands[side], filled(demo.objects[name])
+    hand, obj = demo.hands[side], demo.objects[name]
     i = _nearest(hand, t_ns)
     tcp = 0.5 * (hand.keypoints[i, THUMB_TIP] + hand.keypoints[i, INDEX_TIP])
     j = np.clip(np.searchsorted(obj.t_ns, t_ns), 0, len(obj) - 1)
@@ -323,7 +327,6 @@ def _supported(demo: Demonstration, name: str, t_ns: int, margin: float) -> bool
     obj = demo.objects.get(name)
     if obj is None or not len(obj):
         return False
-    obj = filled(obj)
     i = int(np.clip(np.searchsorted(obj.t_ns, t_ns), 0, len(obj) - 1))
     pos, quat = obj.position[i], obj.quaternion[i]
     if not (np.isfinite(pos).all() and np.isfinite(quat).all()):
@@ -333,7 +336,6 @@ def _supported(demo: Demonstration, name: str, t_ns: int, margin: float) -> bool
     for other_name, other in demo.objects.items():
         if other_name == name or not len(other):
             continue
-        other = filled(other)
         j = int(np.clip(np.searchsorted(other.t_ns, t_ns), 0, len(other) - 1))
         d = box_distance(low, other.position[j], other.quaternion[j], other.size)
         if np.isfinite(d) and d <= 0.5 * margin:
@@ -386,7 +388,6 @@ def _above(demo: Demonstration, name: str, t_ns: np.ndarray, tip: np.ndarray, hi
     obj = demo.objects[name]
     if not len(obj) or not len(t_ns):
         return False
-    obj = filled(obj)
     j = np.clip(np.searchsorted(obj.t_ns, t_ns), 0, len(obj) - 1)
     pos, quat = obj.position[j], obj.quaternion[j]
     ok = np.isfinite(pos).all(axis=1) & np.isfinite(quat).all(axis=1) & np.isfinite(tip).all(1)
@@ -416,7 +417,7 @@ def _push_reach(
             out.append(s)
             continue
         t = t_ns[max(s.start, 0) : min(s.end, len(t_ns))]
-        d = hand_distance(demo.hands[side], filled(obj), t)
+        d = hand_distance(demo.hands[side], obj, t)
         touch = np.flatnonzero(d <= p.touch_m)
         far = np.flatnonzero(d[: int(touch[0])] >= p.near_m) if len(touch) else np.array([])
         if not len(far):
@@ -523,6 +524,7 @@ def find_handovers(
     for giver in sides:
         taker = next(s for s in sides if s != giver)
         g_lane, t_lane = lanes[giver], lanes[taker]
+        tcp: np.ndarray | None = None
         for i, s in enumerate(g_lane.segments):
             if s.skill != "place" or s.object is None or s.object not in demo.objects:
                 continue
@@ -538,7 +540,8 @@ def find_handovers(
                 (g.start_ns for g in reversed(g_lane.segments[:i]) if g.skill == "pick_up"),
                 g_lane.segments[0].start_ns,
             )
-            tcp = _tcp_at(demo, giver, _sample_times(g_lane))
+            if tcp is None:
+                tcp = _tcp_at(demo, giver, _sample_times(g_lane))
             if carry.start_ns <= began or not _gone(dists, giver, s, g_lane, p, tcp):
                 continue
             if s.end_ns - carry.start_ns > round(p.handover_s * 1e9):
