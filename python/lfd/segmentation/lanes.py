@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..demo import Demonstration, Handover
+from ..demo import Demonstration, Handover, ObjectTrack
 from ..geometry import box_distance, in_box_frame
 from ..skills import impossible_transitions
 from .attribution import (
@@ -106,9 +106,13 @@ def segment_lanes(
         return HandsSegmentation(lanes={side: segment_one(demo.one_hand(side))})
     p = params or LaneParams()
     lanes: dict[str, Segmentation] = {}
-    # the objects' poses filled in through occlusions, once (contact and support read them)
+    # the objects' poses filled in through occlusions, once (contact and support read them);
+    # where an object went unseen for long (the hand holding it hides it), at the hands'
+    # samples too
+    grid = np.union1d(*(h.t_ns for h in demo.hands.values()))
     whole = dataclasses.replace(
-        demo, objects={n: filled(o) if len(o) else o for n, o in demo.objects.items()}
+        demo,
+        objects={n: filled(_densified(o, grid)) if len(o) else o for n, o in demo.objects.items()},
     )
     near = {
         side: {
@@ -118,13 +122,15 @@ def segment_lanes(
         }
         for side in demo.sides
     }
+
+    def view_tcp(side: str) -> dict[str, np.ndarray] | None:
+        same = all(len(whole.objects[n]) == len(o) for n, o in demo.objects.items())
+        return {n: d[0] for n, d in near[side].items()} if same else None
+
     segs = {
-        side: segment_one(
-            hand_view(demo, side, attribution, {n: d[0] for n, d in near[side].items()})
-        )
-        for side in demo.sides
+        side: segment_one(hand_view(demo, side, attribution, view_tcp(side))) for side in demo.sides
     }
-    both = {side: _at_samples(demo, near[side], seg) for side, seg in segs.items()}
+    both = {side: _at_samples(whole, near[side], seg) for side, seg in segs.items()}
     dists = {side: got[0] for side, got in both.items()}
     holds = {
         side: {name: np.asarray(d <= (carry or CarryParams()).hold_m) for name, d in dist.items()}
@@ -189,6 +195,31 @@ def _merged(
         if all(b <= x or a >= y for _, x, y in carried):
             out += hold
     return sorted(out, key=lambda span: span[1])
+
+
+def _densified(obj: ObjectTrack, grid: np.ndarray) -> ObjectTrack:
+    """``obj`` with a NaN (unseen) sample at each time of ``grid`` that falls in a gap of its
+    samples longer than twice their usual spacing (a recorder drops the poses of a hidden
+    object); :func:`filled` then puts it where it would be."""
+    if len(obj) < 2:
+        return obj
+    step = float(np.median(np.diff(obj.t_ns)))
+    i = np.clip(np.searchsorted(obj.t_ns, grid), 1, len(obj) - 1)
+    gap = obj.t_ns[i] - obj.t_ns[i - 1]
+    add = grid[(gap > 2 * step) & (grid > obj.t_ns[0]) & (grid < obj.t_ns[-1])]
+    add = np.setdiff1d(add, obj.t_ns)
+    if not len(add):
+        return obj
+    t = np.concatenate([obj.t_ns, add])
+    order = np.argsort(t, kind="stable")
+    nan3, nan4 = np.full((len(add), 3), np.nan), np.full((len(add), 4), np.nan)
+    return dataclasses.replace(
+        obj,
+        t_ns=t[order],
+        position=np.concatenate([obj.position, nan3])[order],
+        quaternion=np.concatenate([obj.quaternion, nan4])[order],
+        visible=np.concatenate([obj.visible, np.zeros(len(add), dtype=bool)])[order],
+    )
 
 
 def _at_samples(
