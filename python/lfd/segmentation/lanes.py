@@ -199,14 +199,17 @@ def _merged(
 
 def _densified(obj: ObjectTrack, grid: np.ndarray) -> ObjectTrack:
     """``obj`` with a NaN (unseen) sample at each time of ``grid`` that falls in a gap of its
-    samples longer than twice their usual spacing (a recorder drops the poses of a hidden
-    object); :func:`filled` then puts it where it would be."""
+    samples longer than twice their usual spacing, or before its first or after its last
+    (a recorder drops the poses of a hidden object); :func:`filled` then puts it where it
+    would be (where it was last seen, outside)."""
     if len(obj) < 2:
         return obj
     step = float(np.median(np.diff(obj.t_ns)))
-    i = np.clip(np.searchsorted(obj.t_ns, grid), 1, len(obj) - 1)
-    gap = obj.t_ns[i] - obj.t_ns[i - 1]
-    add = grid[(gap > 2 * step) & (grid > obj.t_ns[0]) & (grid < obj.t_ns[-1])]
+    i = np.searchsorted(obj.t_ns, grid)
+    inside = (i > 0) & (i < len(obj))
+    j = np.clip(i, 1, len(obj) - 1)
+    gap = np.where(inside, obj.t_ns[j] - obj.t_ns[j - 1], np.iinfo(np.int64).max)
+    add = grid[(gap > 2 * step) & (np.abs(grid - obj.t_ns[np.clip(i, 0, len(obj) - 1)]) > step)]
     add = np.setdiff1d(add, obj.t_ns)
     if not len(add):
         return obj
