@@ -53,6 +53,14 @@ class CarryParams:
     thumb_m : float
         A hand resting on a set-down object has let go once its thumb tip is this much farther
         from the box (or its TCP ``release_m`` farther).
+    still_s, still_m : float
+        A grasp of an object on the table (never in flight during it) that lasts this long (s)
+        or longer while the object moves less than ``still_m`` (m) holds it still: a Pick up,
+        a Move with of the still object and a Place (its last ``let_go_s`` before the hand lets
+        go), as a hand holding an object still while the other acts.
+    moved_off_m : float
+        A hand holding an object in the air with the other hand has let go once its TCP's
+        signed distance from the box is this much (m) above where it held it, for good.
     handover_s, let_go_s : float
         A hand that lets go of an object in the air which the other hand has held for at most
         ``handover_s`` gives it (a handover: its Place lasts from the other hand's grasp);
@@ -73,6 +81,9 @@ class CarryParams:
     thumb_m: float = 0.01
     handover_s: float = 3.0
     let_go_s: float = 0.5
+    still_s: float = 1.0
+    moved_off_m: float = 0.012
+    still_m: float = 0.015
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
@@ -139,6 +150,42 @@ def _released(dist: np.ndarray, thumb: np.ndarray | None, k: int, stop: int, p: 
     return k + int(hit[0]) if len(hit) else stop
 
 
+def _at_rest(position: np.ndarray, v: int, stop: int, p: CarryParams) -> int:
+    """Where an object set down at ``v`` (back on the table) has come to rest: the first
+    sample in ``[v, stop)`` after ``rest_samples`` in which it moved less than ``moved_m``
+    (``v`` if it never does, the last sample at most)."""
+    n = len(position)
+    k = p.rest_samples
+    for i in range(max(v, k - 1), min(stop, n)):
+        step = np.linalg.norm(position[i] - position[i - k + 1 : i], axis=1)
+        if np.isfinite(step).all() and (step < p.moved_m).all():
+            return i
+    return min(v, n - 1)
+
+
+def _let_go_in_air(depth: np.ndarray, took: int, b: int, dt: float, p: CarryParams) -> int:
+    """Where a hand holding an object in the air with the other hand (since ``took``; its
+    hold ending at ``b``, the TCP ``hold_m`` off the box) lets go: after the last sample at
+    which its TCP's signed distance from the box (``depth``: negative inside) is less than
+    ``moved_off_m`` above where it held the object (the median of its last ``let_go_s``
+    before ``took``; a median of three samples: a one-sample jitter is no let-go), and
+    before it is first ``release_m`` outside the box (the other hand may then carry the
+    object past it). A hand turning with the object keeps its depth; one withdrawing from
+    it does not. ``b`` when it never leaves before."""
+    k = max(1, round(p.let_go_s / dt))
+    ref = depth[max(took - k, 0) : took + 1]
+    ref = ref[np.isfinite(ref)]
+    if not len(ref) or b - took < 3:
+        return b
+    out = np.flatnonzero(depth[took:b] >= p.release_m)  # clearly off: let go before
+    stop = took + int(out[0]) if len(out) else b
+    d = depth[took:stop] - float(np.median(ref))
+    if len(d) >= 3:
+        d = np.median(np.stack([d, np.r_[d[1:], d[-1]], np.r_[d[0], d[:-1]]]), axis=0)
+    near = np.flatnonzero(~(d >= p.moved_off_m))
+    return took + int(near[-1]) + 1 if len(near) else stop
+
+
 def _last_rest(position: np.ndarray, a: int, u: int, p: CarryParams) -> int:
     """Where the lift that takes the object off the table at ``u`` begins: the last sample in
     ``[a, u]`` after ``rest_samples`` in which the object moved less than ``moved_m``."""
@@ -158,6 +205,7 @@ def carries(
     params: CarryParams | None = None,
     other_hold: np.ndarray | None = None,
     thumb: np.ndarray | None = None,
+    depth: np.ndarray | None = None,
 ) -> list[tuple[str, int, int]]:
     """The carries of one hand and one object, as ``(skill, start, end)`` spans (samples,
     ``end`` exclusive): Pick up, Move with, Place for every flight of the object (off the
@@ -165,7 +213,9 @@ def carries(
     unknown), ``thumb`` the thumb tip's, ``position`` the object's centre ``(n, 3)``,
     ``table_z`` the lowest the object rests; ``other_hold``: where the other hand holds the
     object (a carry let go of in the air ends with a Place from the other hand's grasp: the
-    handover)."""
+    handover); ``depth``: the TCP's signed distance from the box (negative inside; a giver
+    has let go where its TCP last left the depth it held the object at,
+    :func:`_let_go_in_air`)."""
     p = params or CarryParams()
     n = len(dist)
     z = position[:, 2] - table_z
@@ -199,7 +249,7 @@ def carries(
             if b >= v:  # set down: the Place from the last 5 cm above the table
                 high = np.flatnonzero(np.nan_to_num(z[lift:v]) >= p.place_m)
                 place = lift + int(high[-1]) + 1 if len(high) else v
-                release = _released(dist, thumb, min(v, n - 1), next_u, p)
+                release = _released(dist, thumb, _at_rest(position, v, next_u, p), next_u, p)
             elif not held_on:  # set down on something (another object): from 5 cm above it
                 high = np.flatnonzero(np.nan_to_num(z[lift:b] - z[b - 1]) >= p.place_m)
                 place = lift + int(high[-1]) + 1 if len(high) else b - 1
@@ -208,9 +258,11 @@ def carries(
                 place = b - max(1, round(p.let_go_s / dt))
                 took = np.flatnonzero(~other_hold[lift : b - 1])  # type: ignore[index]
                 took_at = lift + int(took[-1]) + 1 if len(took) else lift + 1
+                release = b
                 if b - took_at <= round(p.handover_s / dt):
                     place = took_at
-                release = b
+                    if depth is not None:
+                        release = _let_go_in_air(depth, took_at, b, dt, p)
             place = min(max(place, lift + 1), release - 1)
             if not lift < place < release:
                 continue
@@ -222,6 +274,51 @@ def carries(
                 lift = out.pop()[1]
             out += [("move_with", lift, place), ("place", place, release)]
             last = release
+    return out
+
+
+def still_holds(
+    dist: np.ndarray,
+    position: np.ndarray,
+    table_z: float,
+    dt: float,
+    params: CarryParams | None = None,
+    thumb: np.ndarray | None = None,
+) -> list[tuple[str, int, int]]:
+    """The holds of one hand on one object that stays on the table, as ``(skill, start, end)``
+    spans like :func:`carries` (``dist``: the nearer of the TCP and the thumb tip, a hand
+    holding an object down with its thumb and another finger): a grasp of ``still_s`` or longer, the object never in flight
+    and moving less than ``still_m`` during it, is a Pick up (from where the TCP was last
+    ``approach_m`` off), a Move with of the still object and a Place (its last ``let_go_s``
+    before the hand lets go: its TCP ``release_m`` or thumb tip ``thumb_m`` farther off than
+    while it held). A grasp that turns or slides the object is not one (the Pick up of a later
+    lift, as for one hand)."""
+    p = params or CarryParams()
+    n = len(dist)
+    z = np.nan_to_num(position[:, 2] - table_z, nan=0.0)
+    out: list[tuple[str, int, int]] = []
+    last = 0
+    grasps = _grasps(dist, dt, p)
+    for j, (a, b) in enumerate(grasps):
+        if b - a < round(p.still_s / dt) or (z[a:b] >= p.lifted_m).any():
+            continue
+        seen = position[a:b][np.isfinite(position[a:b]).all(axis=1)]
+        if not len(seen) or np.linalg.norm(seen - seen[0], axis=1).max() >= p.still_m:
+            continue
+        stop = grasps[j + 1][0] if j + 1 < len(grasps) else n
+        release = _released(dist, thumb, a + (b - a) // 2, stop, p) if b < n else n
+        far = np.flatnonzero(dist[last:a] >= p.approach_m)
+        start = last + int(far[-1]) if len(far) else last
+        if release >= n:  # still held when the recording ends
+            out += [("pick_up", start, a)] if start < a else []
+            out.append(("move_with", a, n))
+            break
+        place = max(a + 1, release - max(1, round(p.let_go_s / dt)))
+        if not a < place < release:
+            continue
+        out += [("pick_up", start, a)] if start < a else []
+        out += [("move_with", a, place), ("place", place, release)]
+        last = release
     return out
 
 

@@ -121,3 +121,37 @@ def test_a_handover_hidden_from_the_camera_is_still_found() -> None:
             "move", "pick_up", "move_with", "place", "move",
         ]  # fmt: skip
     assert [(h.giver, h.taker) for h in result.handovers] == [("right", "left")]
+
+
+def test_holding_still_stacking_on_it_and_pushing_by_the_other_hand() -> None:
+    """Simulated (tuning seed 600, careful): the hand holding the plank still is Pick up, Move
+    with, Place of it (not a Push); the other hand's cube set on the plank is a Stack (a
+    support under it); in hold_push the pusher's Push stays, the holder holds."""
+    from lfd.sim import Variability, simulate
+
+    for task in ("hold_stack", "hold_push"):
+        demo = simulate(task, 600, Variability(style="careful")).demo
+        res = lfd.segment_hands(demo)
+        holder = demo.metadata["roles"]["holder"]
+        lane = res.lanes[holder].skill_sequence
+        assert lane == ["move", "pick_up", "move_with", "place", "move"], (task, lane)
+        actor = res.lanes[demo.metadata["roles"]["actor"]].skill_sequence
+        assert ("stack" if task == "hold_stack" else "push") in actor, (task, actor)
+        assert "place" not in actor or task == "hold_push"
+
+
+def test_a_simulated_handover_is_placed_in_the_other_hand_not_stacked() -> None:
+    """Simulated (tuning seed 601, careful): the giver lets go in the air into the other
+    hand (no object under the bar): a Place, not a Stack, and the handover is found within
+    0.3 s of its true end; the carry's hands reach for the box without a Locate (seed 602)."""
+    from lfd.sim import Variability, simulate
+
+    demo = simulate("handover", 601, Variability(style="careful")).demo
+    res = lfd.segment_hands(demo)
+    true = demo.handovers[0]
+    giver = res.lanes[true.giver].skill_sequence
+    assert "stack" not in giver and "place" in giver
+    assert handover_scores(res.handovers, demo.handovers)["found"] == 1
+    carry = simulate("carry", 602, Variability(style="careful")).demo
+    for side, lane in lfd.segment_hands(carry).lanes.items():
+        assert lane.skill_sequence == [lab.skill for lab in carry.labels_of(side)], side
