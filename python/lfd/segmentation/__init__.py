@@ -149,7 +149,9 @@ def segment_hands(
     from .lanes import segment_lanes
 
     m = resolve_method(templates, method)
-    result = segment_lanes(demo, lambda one: segment(one, method=m, complete=complete))
+    result = segment_lanes(
+        demo, lambda one: segment(one, method=m, complete=complete), complete=complete
+    )
     result.method = m
     return result
 

@@ -284,6 +284,8 @@ def still_holds(
     dt: float,
     params: CarryParams | None = None,
     thumb: np.ndarray | None = None,
+    *,
+    complete: bool = True,
 ) -> list[tuple[str, int, int]]:
     """The holds of one hand on one object that stays on the table, as ``(skill, start, end)``
     spans like :func:`carries` (``dist``: the nearer of the TCP and the thumb tip, a hand
@@ -292,7 +294,8 @@ def still_holds(
     ``approach_m`` off), a Move with of the still object and a Place (its last ``let_go_s``
     before the hand lets go: its TCP ``release_m`` or thumb tip ``thumb_m`` farther off than
     while it held). A grasp that turns or slides the object is not one (the Pick up of a later
-    lift, as for one hand)."""
+    lift, as for one hand). In a recording still being made (``complete`` False) a grasp held at
+    its end is no hold yet: it may still lift the object."""
     p = params or CarryParams()
     n = len(dist)
     z = np.nan_to_num(position[:, 2] - table_z, nan=0.0)
@@ -310,6 +313,8 @@ def still_holds(
         far = np.flatnonzero(dist[last:a] >= p.approach_m)
         start = last + int(far[-1]) if len(far) else last
         if release >= n:  # still held when the recording ends
+            if not complete:
+                break
             out += [("pick_up", start, a)] if start < a else []
             out.append(("move_with", a, n))
             break

@@ -97,10 +97,12 @@ def segment_lanes(
     attribution: AttributionParams | None = None,
     params: LaneParams | None = None,
     carry: CarryParams | None = None,
+    complete: bool = True,
 ) -> HandsSegmentation:
     """Every hand of ``demo`` segmented by ``segment_one`` on its own view, the lanes
     reconciled and the handovers found (see the module). A one-hand demonstration gives one
-    lane, ``segment_one`` of that hand alone, untouched."""
+    lane, ``segment_one`` of that hand alone, untouched. ``complete`` False: the recording is
+    still being made (a grasp held at its end may yet lift its object)."""
     if len(demo.sides) < 2:
         side = demo.sides[0]
         return HandsSegmentation(lanes={side: segment_one(demo.one_hand(side))})
@@ -157,6 +159,7 @@ def segment_lanes(
                 dt,
                 carry,
                 thumbs[name],
+                complete=complete,
             )
             got = _merged(got, still)
             spans[name] = snap(got, seg.segments, name, tol, other_hold)
