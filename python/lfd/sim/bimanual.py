@@ -39,17 +39,15 @@ from . import natural as nat
 from .hand import (
     FINGERTIP_RADIUS,
     GRASP_TYPES,
-    JOINTS_PER_FINGER,
-    N_JOINTS,
     POSTURES,
     HandKinematics,
     MirroredKinematics,
     grasp_contacts,
     grasp_posture,
 )
-from .motion import HandState, Plan, rotation, smooth_noise
+from .motion import HandState, Plan, rotation
 from .planner import Attach, Detach, ObjectPose, PlannedLabel, Planner, Push, wrap_angle
-from .results import BASE_TIME_NS, SIM_VERSION, SimResult, Truth, free_fingers, quat_wxyz
+from .results import BASE_TIME_NS, SIM_VERSION, SimResult, Truth, hand_motion, quat_wxyz
 from .scene import (
     DEFAULT_OBJECTS,
     DEMONSTRATOR_SHOULDER,
@@ -507,27 +505,8 @@ PLANS: dict[str, Callable[[dict[str, Planner], np.random.Generator], Result]] = 
 def _hand_motion(
     rng: np.random.Generator, var: Any, kin: HandKinematics, P: Planner, t: np.ndarray
 ) -> dict[str, np.ndarray]:
-    """One hand's true motion on the fine grid (as :func:`lfd.sim.demonstrator._motion`)."""
-    tcp, ang, q = Plan(P.segments).evaluate(t)
-    drift_joints = np.arange(2 * JOINTS_PER_FINGER, N_JOINTS)
-    drift = smooth_noise(
-        rng, t, drift_joints.size, amplitude=np.deg2rad(var.finger_drift_deg), freq_range=(0.1, 0.6)
-    )
-    if var.style == "natural":
-        drift *= free_fingers(P, t)[:, drift_joints]
-    q[:, drift_joints] += drift
-    tremor = smooth_noise(
-        rng, t, 3, amplitude=float(var.tremor_mm or 0.0) * 1e-3, freq_range=(6, 10)
-    )
-    tcp = tcp + tremor
-    R = rotation(ang[:, 0], ang[:, 1], ang[:, 2])
-    kp_local = np.empty((t.size, 21, 3))
-    for i in range(t.size):
-        kp_local[i] = kin.local_keypoints(q[i])
-    tcp_local = 0.5 * (kp_local[:, 4] + kp_local[:, 8])
-    keypoints = np.einsum("nij,nkj->nki", R, kp_local - tcp_local[:, None, :]) + tcp[:, None, :]
-    wrist = tcp - np.einsum("nij,nj->ni", R, tcp_local)
-    return {"tcp": tcp, "yaw": ang[:, 0], "R": R, "q": q, "keypoints": keypoints, "wrist": wrist}
+    """One hand's true motion on the fine grid (:func:`lfd.sim.results.hand_motion`)."""
+    return hand_motion(rng, var, kin, P, Plan(P.segments), t)
 
 
 def _grab(m: dict[str, np.ndarray], i: int, cur: ObjectPose) -> tuple[np.ndarray, float]:

@@ -23,10 +23,10 @@ import numpy as np
 from ..demo import CameraInfo, Demonstration, SkillLabel
 from ..errors import DemonstrationError, UsageError
 from . import natural as nat
-from .hand import JOINTS_PER_FINGER, N_JOINTS, HandKinematics
-from .motion import Plan, rotation, smooth_noise
+from .hand import HandKinematics
+from .motion import Plan, rotation
 from .planner import Attach, Detach, ObjectPose, Planner, Push
-from .results import BASE_TIME_NS, SIM_VERSION, SimResult, Truth, free_fingers, quat_wxyz
+from .results import BASE_TIME_NS, SIM_VERSION, SimResult, Truth, hand_motion, quat_wxyz
 from .scene import DEFAULT_OBJECTS, ObjectSpec, build_scene
 from .skills import (
     locate,
@@ -285,26 +285,9 @@ def _motion(
     sub = 10
     n_frames = int(np.floor(plan.duration * object_rate_hz + 1e-9)) + 1
     t = np.arange((n_frames - 1) * sub + 1) / (object_rate_hz * sub)
-    tcp, ang, q = plan.evaluate(t)
-    drift_joints = np.arange(2 * JOINTS_PER_FINGER, N_JOINTS)
-    drift = smooth_noise(
-        rng, t, drift_joints.size, amplitude=np.deg2rad(var.finger_drift_deg), freq_range=(0.1, 0.6)
-    )
-    if var.style == "natural":  # fingers holding an object do not drift
-        drift *= free_fingers(P, t)[:, drift_joints]
-    q[:, drift_joints] += drift
-    tremor = smooth_noise(
-        rng, t, 3, amplitude=float(var.tremor_mm or 0.0) * 1e-3, freq_range=(6, 10)
-    )
-    tcp = tcp + tremor
-    R = rotation(ang[:, 0], ang[:, 1], ang[:, 2])
-    kp_local = np.empty((t.size, 21, 3))
-    for i in range(t.size):
-        kp_local[i] = kin.local_keypoints(q[i])
-    tcp_local = 0.5 * (kp_local[:, 4] + kp_local[:, 8])
-    keypoints = np.einsum("nij,nkj->nki", R, kp_local - tcp_local[:, None, :]) + tcp[:, None, :]
-    wrist = tcp - np.einsum("nij,nj->ni", R, tcp_local)
-    obj_pos, obj_yaw = _objects_motion(P, initial, t, tcp, ang[:, 0])
+    m = hand_motion(rng, var, kin, P, plan, t)
+    tcp, R, q, keypoints, wrist = m["tcp"], m["R"], m["q"], m["keypoints"], m["wrist"]
+    obj_pos, obj_yaw = _objects_motion(P, initial, t, tcp, m["yaw"])
 
     frames = np.arange(n_frames) * sub
     t_ns = BASE_TIME_NS + np.round(np.arange(n_frames) * (1e9 / object_rate_hz)).astype(np.int64)

@@ -8,8 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..demo import Demonstration
-from .hand import GRASP_FINGERTIPS, JOINTS_PER_FINGER, N_JOINTS
-from .motion import Plan
+from .hand import GRASP_FINGERTIPS, JOINTS_PER_FINGER, N_JOINTS, HandKinematics
+from .motion import Plan, rotation, smooth_noise
 from .planner import Detach, Planner
 from .scene import Scene
 from .variability import Variability
@@ -75,6 +75,39 @@ def free_fingers(P: Planner, t: np.ndarray) -> np.ndarray:
             cols = slice(f * JOINTS_PER_FINGER, (f + 1) * JOINTS_PER_FINGER)
             w[:, cols] = np.minimum(w[:, cols], 1.0 - busy[:, None])
     return w
+
+
+def hand_motion(
+    rng: np.random.Generator,
+    var: Variability,
+    kin: HandKinematics,
+    P: Planner,
+    plan: Plan,
+    t: np.ndarray,
+) -> dict[str, np.ndarray]:
+    """A hand's true motion on the fine grid ``t``: ``plan`` with finger drift (not of the
+    fingers holding an object, in the natural style) and tremor; its TCP, yaw, rotation,
+    joint angles, keypoints and wrist."""
+    tcp, ang, q = plan.evaluate(t)
+    drift_joints = np.arange(2 * JOINTS_PER_FINGER, N_JOINTS)
+    drift = smooth_noise(
+        rng, t, drift_joints.size, amplitude=np.deg2rad(var.finger_drift_deg), freq_range=(0.1, 0.6)
+    )
+    if var.style == "natural":  # fingers holding an object do not drift
+        drift *= free_fingers(P, t)[:, drift_joints]
+    q[:, drift_joints] += drift
+    tremor = smooth_noise(
+        rng, t, 3, amplitude=float(var.tremor_mm or 0.0) * 1e-3, freq_range=(6, 10)
+    )
+    tcp = tcp + tremor
+    R = rotation(ang[:, 0], ang[:, 1], ang[:, 2])
+    kp_local = np.empty((t.size, 21, 3))
+    for i in range(t.size):
+        kp_local[i] = kin.local_keypoints(q[i])
+    tcp_local = 0.5 * (kp_local[:, 4] + kp_local[:, 8])
+    keypoints = np.einsum("nij,nkj->nki", R, kp_local - tcp_local[:, None, :]) + tcp[:, None, :]
+    wrist = tcp - np.einsum("nij,nj->ni", R, tcp_local)
+    return {"tcp": tcp, "yaw": ang[:, 0], "R": R, "q": q, "keypoints": keypoints, "wrist": wrist}
 
 
 def quat_wxyz(R: np.ndarray) -> np.ndarray:
