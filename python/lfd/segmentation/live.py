@@ -334,16 +334,8 @@ class LiveSegmentation:
         **options: Any,
     ) -> LiveSegmentation:
         """For the objects, sizes, tag ids, hand side and metadata of a recording."""
-        objects = list(demo.objects.values())
-        return cls(
-            [o.name for o in objects],
-            [o.size for o in objects],
-            templates,
-            side=demo.hand.side,
-            tag_ids=[o.tag_id for o in objects],
-            metadata={k: v for k, v in demo.metadata.items() if k != "load_report"},
-            **options,
-        )
+        names, sizes, recorded = recording_arguments(demo)
+        return cls(names, sizes, templates, side=demo.hand.side, **recorded, **options)
 
     @property
     def object_names(self) -> list[str]:
@@ -665,6 +657,22 @@ class LiveSegmentation:
 
 def _dt(run: Segmentation) -> float:
     return float(run.run.trajectory.dt) if run.run is not None else 0.0
+
+
+def recording_arguments(
+    demo: Demonstration,
+) -> tuple[list[str], list[np.ndarray], dict[str, Any]]:
+    """What a live segmenter takes of a recording: its objects' names and sizes, and as keyword
+    arguments their tag ids and the metadata (without the load report)."""
+    objects = list(demo.objects.values())
+    return (
+        [o.name for o in objects],
+        [o.size for o in objects],
+        {
+            "tag_ids": [o.tag_id for o in objects],
+            "metadata": {k: v for k, v in demo.metadata.items() if k != "load_report"},
+        },
+    )
 
 
 def label_of(seg: Segment, hand: str | None = None) -> SkillLabel:

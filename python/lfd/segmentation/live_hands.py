@@ -33,6 +33,7 @@ from .live import (
     Span,
     demo_messages,
     label_of,
+    recording_arguments,
 )
 from .method import Method
 from .result import Segment
@@ -124,16 +125,8 @@ class LiveHands:
         **options: Any,
     ) -> LiveHands:
         """For the objects, sizes, tag ids, hands and metadata of a recording."""
-        objects = list(demo.objects.values())
-        return cls(
-            [o.name for o in objects],
-            [o.size for o in objects],
-            templates,
-            sides=demo.sides,
-            tag_ids=[o.tag_id for o in objects],
-            metadata={k: v for k, v in demo.metadata.items() if k != "load_report"},
-            **options,
-        )
+        names, sizes, recorded = recording_arguments(demo)
+        return cls(names, sizes, templates, sides=demo.sides, **recorded, **options)
 
     @property
     def sides(self) -> tuple[str, ...]:
