@@ -326,11 +326,7 @@ def _reconcile(
                     "touches it (the other hand moved it): a move"
                 )
         if out and out[-1].skill == "move" and cur.skill == "move":
-            prev = out[-1]
-            out[-1] = dataclasses.replace(
-                prev, end=cur.end, end_s=cur.end_s, end_ns=cur.end_ns, object=cur.object,
-                score=float("nan"), confidence=float("nan"), margin=float("nan"),
-            )  # fmt: skip
+            out[-1] = _joined(out[-1], cur)
             continue
         out.append(cur)
     return out
@@ -479,11 +475,7 @@ def _merge_same(segments: list[Segment]) -> list[Segment]:
     out: list[Segment] = []
     for s in segments:
         if out and out[-1].skill == s.skill and (out[-1].object == s.object or s.skill == "move"):
-            prev = out[-1]
-            out[-1] = dataclasses.replace(
-                prev, end=s.end, end_s=s.end_s, end_ns=s.end_ns, object=s.object,
-                score=float("nan"), confidence=float("nan"), margin=float("nan"),
-            )  # fmt: skip
+            out[-1] = _joined(out[-1], s)
             continue
         out.append(s)
     return out
@@ -666,3 +658,12 @@ def check_lanes(result: HandsSegmentation) -> list[str]:
                 f"handover of {h.object} at {h.end_ns} ns: the {h.taker} hand does not hold it"
             )
     return out
+
+
+def _joined(prev: Segment, nxt: Segment) -> Segment:
+    """``prev`` and the ``nxt`` segment after it as one segment: ``prev`` up to ``nxt``'s end,
+    with ``nxt``'s object and no search scores (no run of the search is both)."""
+    return dataclasses.replace(
+        prev, end=nxt.end, end_s=nxt.end_s, end_ns=nxt.end_ns, object=nxt.object,
+        score=float("nan"), confidence=float("nan"), margin=float("nan"),
+    )  # fmt: skip
