@@ -42,6 +42,9 @@ class SkillTraits:
     carries : bool
         Carries its target lifted (Move with): it slides on the table only while it is lifted
         off.
+    touches : bool
+        The hand touches its target (not Move, Locate): with two hands, only a hand at the
+        object has such a skill of it (docs/skills.md, "Two hands").
     """
 
     releases: bool = False
@@ -49,15 +52,16 @@ class SkillTraits:
     lifts: bool = True
     sets_down: bool = True
     carries: bool = False
+    touches: bool = True
 
 
 TRAITS: dict[str, SkillTraits] = {
     "pick_up": SkillTraits(target_still=True, sets_down=False),
     "place": SkillTraits(releases=True, lifts=False),
-    "locate": SkillTraits(target_still=True),
+    "locate": SkillTraits(target_still=True, touches=False),
     "stack": SkillTraits(releases=True, lifts=False),
     "push": SkillTraits(lifts=False),
-    "move": SkillTraits(target_still=True),
+    "move": SkillTraits(target_still=True, touches=False),
     "move_with": SkillTraits(sets_down=False, carries=True),
 }
 """The properties of each skill: the one copy (every set of skill names below is read from it)."""
@@ -78,6 +82,8 @@ NO_SET_DOWN: frozenset[str] = skills_where("sets_down", False)
 """Skills in which a lifted target is not put down again (Move with, Pick up)."""
 CARRIED: frozenset[str] = skills_where("carries")
 """Skills that carry their target lifted (Move with)."""
+TOUCHING: frozenset[str] = skills_where("touches")
+"""Skills whose target the hand touches (all but Move and Locate)."""
 
 
 @dataclass

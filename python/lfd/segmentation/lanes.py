@@ -15,7 +15,7 @@ import numpy as np
 
 from ..demo import Demonstration, Handover, ObjectTrack
 from ..geometry import box_distance, in_box_frame
-from ..skills import impossible_transitions
+from ..skills import TOUCHING, impossible_transitions
 from .attribution import (
     INDEX_TIP,
     THUMB_TIP,
@@ -29,9 +29,6 @@ from .attribution import (
 from .episodes import CarryParams, carries, overlay, snap, still_holds
 from .hands import HandsSegmentation
 from .result import Segment, Segmentation
-
-TOUCHING: frozenset[str] = frozenset({"pick_up", "move_with", "place", "stack", "push"})
-"""Skills whose object the hand touches (a Move or Locate touches none)."""
 
 
 @dataclass(frozen=True)
