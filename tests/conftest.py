@@ -11,9 +11,10 @@ from __future__ import annotations
 
 import contextlib
 import os
+import stat
 import subprocess
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 # Headless OpenGL for MuJoCo and no telemetry from Rerun, before either library is imported.
@@ -23,6 +24,24 @@ import pytest
 os.environ.setdefault("RERUN_TELEMETRY", "0")
 
 LfdMain = Callable[..., "subprocess.CompletedProcess[str]"]
+
+
+def _null_is_a_device() -> bool:
+    try:
+        return stat.S_ISCHR(os.stat(os.devnull).st_mode)
+    except OSError:
+        return False
+
+
+@pytest.fixture(autouse=True)
+def _devnull_stays_a_device() -> Iterator[None]:
+    """A test that replaces /dev/null with a regular file (a rename onto it, as root) breaks
+    every later program that reads it (cargo's rustc probe read build-script errors from it):
+    such a test fails here, by name."""
+    before = _null_is_a_device()
+    yield
+    if before and not _null_is_a_device():
+        pytest.fail(f"{os.devnull} is no longer a character device after this test")
 
 
 @pytest.fixture

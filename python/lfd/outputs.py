@@ -142,8 +142,9 @@ def check_output(
     Raises
     ------
     UsageError
-        The destination is an input, a directory, in a missing or read-only directory, has an
-        extension not in ``suffixes``, or exists without ``overwrite``.
+        The destination is an input, a directory, a device, pipe or socket, in a missing or
+        read-only directory, has an extension not in ``suffixes``, or exists without
+        ``overwrite``.
     """
     p = Path(path)
     if str(path) == STDOUT:
@@ -158,6 +159,8 @@ def check_output(
         raise UsageError(f"{what} {p} {clash}")
     if p.is_dir():
         raise UsageError(f"{what} {p} is a directory; give a file name")
+    if p.exists() and not p.is_file():
+        raise UsageError(f"{what} {p} {_NOT_REGULAR}")
     allowed = tuple(s.lower() for s in suffixes)
     if allowed and p.suffix.lower() not in allowed:
         raise UsageError(f"{what} {p}: unsupported extension; use {', '.join(allowed)}")
@@ -173,6 +176,10 @@ def check_output(
     if p.exists() and not overwrite:
         raise UsageError(f"{what} {p} exists; pass --overwrite to replace it")
     return p
+
+
+# a rename onto a device (/dev/null), a pipe or a socket would replace it with a regular file
+_NOT_REGULAR = "is not a regular file (a device, pipe or socket); refusing to replace it"
 
 
 @contextlib.contextmanager
@@ -201,6 +208,8 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[Path]:
     left as it was. The temporary name starts with ``.`` and ends with ``.partial``.
     """
     dest = Path(path)
+    if dest.exists() and not dest.is_file() and not dest.is_dir():
+        raise UsageError(f"{dest} {_NOT_REGULAR}")
     fd, tmp_name = tempfile.mkstemp(
         prefix=f".{dest.name}.", suffix=".partial", dir=dest.parent if str(dest.parent) else "."
     )

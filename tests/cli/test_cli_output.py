@@ -133,3 +133,29 @@ def test_export_creates_the_parents_of_its_output(
     (tmp_path / "bad.mcap").write_bytes(b"not an mcap")
     assert main(["export", "lerobot", "bad.mcap", "-o", "c/d/ds"]) == 2
     assert not (tmp_path / "c").exists()
+
+
+def test_an_output_that_is_a_pipe_is_refused_and_kept(tmp_path: Path) -> None:
+    """``--json`` onto a FIFO (as onto /dev/null): a rename would replace the device or pipe with
+    a regular file (as root, /dev/null itself); it is refused in one line, the pipe kept."""
+    fifo = tmp_path / "seg.json"
+    os.mkfifo(fifo)
+    proc = subprocess.run(
+        [sys.executable, "-m", "lfd.cli", "segment", str(EXP1), "--json", str(fifo)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 2, proc.stderr
+    assert "not a regular file" in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+    assert fifo.is_fifo()
+
+
+def test_atomic_writes_never_replace_a_pipe(tmp_path: Path) -> None:
+    from lfd.outputs import atomic_write_bytes
+
+    fifo = tmp_path / "out.bin"
+    os.mkfifo(fifo)
+    with pytest.raises(UsageError, match="not a regular file"):
+        atomic_write_bytes(fifo, b"x")
+    assert fifo.is_fifo() and [p.name for p in tmp_path.iterdir()] == ["out.bin"]
