@@ -82,8 +82,9 @@ def run(args: argparse.Namespace) -> int:
         con.print(ot)
         near = s.get("hand_approach") or {}
         if near.get("object") is not None:
+            who = f"{near['hand']} hand" if len(s.get("hands") or []) > 1 else "hand"
             con.print(
-                f"hand: closest {near['distance_m']:.3f} m to an object ({near['object']} at "
+                f"{who}: closest {near['distance_m']:.3f} m to an object ({near['object']} at "
                 f"{near['t_s']:.2f} s)"
             )
     two = len(s.get("hands") or []) > 1

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..demo import Demonstration
+from ..demo import Demonstration, HandTrack
 from ..errors import DemonstrationError
 from ..geometry import box_distance
 
@@ -42,19 +42,23 @@ MOVING_SKILLS: tuple[str, ...] = ("move_with", "place", "stack", "push")
 class Approach:
     """The closest the hand comes to an object: distance (m) from the nearest hand keypoint to
     the object's box (0 inside it), which object and when (s from the first sample);
-    ``object`` is None (and the distance infinite) when no object is ever seen with the hand."""
+    ``object`` is None (and the distance infinite) when no object is ever seen with the hand;
+    ``hand`` the side of the hand that comes closest (None with no object)."""
 
     distance_m: float
     object: str | None
     t_s: float | None
+    hand: str | None = None
 
 
-def _object_offsets(demo: Demonstration) -> Iterator[tuple[str, np.ndarray, np.ndarray]]:
-    """For each object seen with a valid pose: its name, the offsets (n, 21, 3) of the hand
+def _object_offsets(
+    demo: Demonstration, hand: HandTrack
+) -> Iterator[tuple[str, np.ndarray, np.ndarray]]:
+    """For each object seen with a valid pose: its name, the offsets (n, 21, 3) of ``hand``'s
     keypoints from its centre (its pose sampled nearest in time to each hand sample) and the
     indices (n,) of those poses among its seen ones, with the quaternions of those."""
-    th = demo.hand.t_ns
-    kp = demo.hand.keypoints  # (n, 21, 3)
+    th = hand.t_ns
+    kp = hand.keypoints  # (n, 21, 3)
     for name, obj in demo.objects.items():
         seen = obj.visible & np.all(np.isfinite(obj.position), 1)
         seen &= np.all(np.isfinite(obj.quaternion), 1)
@@ -78,10 +82,14 @@ def _centre_distances(offset: np.ndarray) -> np.ndarray:
 
 
 def comes_within(demo: Demonstration, near_m: float, *, chunk: int = 4096) -> bool:
-    """Whether any hand keypoint comes within ``near_m`` of an object's centre (then it comes
-    at least as near its box: the cheap test :func:`reach_message` makes first), ``chunk``
-    hand samples at a time (it stops at the first)."""
-    th, kp = demo.hand.t_ns, demo.hand.keypoints
+    """Whether a keypoint of any hand comes within ``near_m`` of an object's centre (then it
+    comes at least as near its box: the cheap test :func:`reach_message` makes first),
+    ``chunk`` hand samples at a time (it stops at the first)."""
+    return any(_hand_comes_within(demo, h, near_m, chunk) for h in demo.hands.values())
+
+
+def _hand_comes_within(demo: Demonstration, hand: HandTrack, near_m: float, chunk: int) -> bool:
+    th, kp = hand.t_ns, hand.keypoints
     for obj in demo.objects.values():
         seen = obj.visible & np.all(np.isfinite(obj.position), 1)
         seen &= np.all(np.isfinite(obj.quaternion), 1)
@@ -98,13 +106,22 @@ def comes_within(demo: Demonstration, near_m: float, *, chunk: int = 4096) -> bo
 
 
 def closest_approach(demo: Demonstration) -> Approach:
-    """How close the hand comes to any object (each hand sample against the object's pose
-    sampled nearest in time; unseen keypoints and poses are left out)."""
+    """How close a hand (either of two) comes to any object (each hand sample against the
+    object's pose sampled nearest in time; unseen keypoints and poses are left out)."""
     best = Approach(float("inf"), None, None)
-    th = demo.hand.t_ns
-    if len(demo.hand) == 0:
+    for side, hand in demo.hands.items():
+        a = _hand_approach(demo, side, hand)
+        if a.distance_m < best.distance_m:
+            best = a
+    return best
+
+
+def _hand_approach(demo: Demonstration, side: str, hand: HandTrack) -> Approach:
+    best = Approach(float("inf"), None, None)
+    th = hand.t_ns
+    if len(hand) == 0:
         return best
-    for name, offset, quat in _object_offsets(demo):
+    for name, offset, quat in _object_offsets(demo, hand):
         obj = demo.objects[name]
         centre = _centre_distances(offset)  # >= the distance from the box
         if not np.isfinite(centre).any():
@@ -120,7 +137,7 @@ def closest_approach(demo: Demonstration) -> Approach:
         d = float(dist.flat[flat])
         if d < best.distance_m:
             i = int(near[flat // dist.shape[1]])
-            best = Approach(d, name, (int(th[i]) - demo.start_ns) * 1e-9)
+            best = Approach(d, name, (int(th[i]) - demo.start_ns) * 1e-9, side)
     return best
 
 

@@ -308,6 +308,7 @@ def _loaded(
         "distance_m": approach.distance_m if approach.object is not None else None,
         "object": approach.object,
         "t_s": approach.t_s,
+        "hand": approach.hand,
     }
     for problem in (
         reach_message(demo),

@@ -218,3 +218,19 @@ def test_object_without_size_is_reproduced_with_the_default_cube(bad: dict[str, 
     assert proc.returncode in (0, 1), proc.stderr
     warned = [line for line in _lines(proc) if "has no size" in line]
     assert len(warned) == 3
+
+
+def test_checks_see_either_hand() -> None:
+    """Two hands where only the left one reaches the boxes (the right one 2 m away): the hand
+    reaches an object, the left one, and ``lfd info`` would say which; not "never comes
+    within" as a check of the right hand alone said."""
+    from _two_hands import left_of
+
+    demo = lfd.load(ROOT / "recordings" / "exp1.mcap", images=False)
+    away = dataclasses.replace(demo.hand, keypoints=demo.hand.keypoints + np.array([2.0, 0, 0]))
+    two = dataclasses.replace(demo, hand=away, other_hand=left_of(demo.hand, dx=0.0), labels=[])
+    near = closest_approach(two)
+    assert near.hand == "left" and near.distance_m < 0.01
+    check_hand_reaches(two)
+    alone = dataclasses.replace(demo, hand=away, labels=[])
+    assert closest_approach(alone).hand == "right" and closest_approach(alone).distance_m > 1.0
