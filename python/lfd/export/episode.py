@@ -40,14 +40,32 @@ STATE_NAMES: tuple[str, ...] = ("tcp.x", "tcp.y", "tcp.z", "gripper.qx", "grippe
 SCALAR_KEYS = ("skill_index", "object_index", "subtask_index")
 """The per-frame skill columns, one value each (a two-hand episode has them per hand too)."""
 
+HAND_KEYS = ("observation.state", "observation.hand_keypoints", "action")
+"""The per-frame columns of the hand (a two-hand episode has them per hand too, with
+``observation.valid.<side>``)."""
+
 
 @dataclass
 class Lane:
-    """One hand's skill columns of a two-hand episode (as :class:`Episode`'s)."""
+    """One hand's columns of a two-hand episode (as :class:`Episode`'s): its skills and, when
+    set, its pose (``observation.state``, ``.hand_keypoints``, ``.valid`` (1,), ``action``:
+    the hand's own trajectory on the episode's frames)."""
 
     skill_index: np.ndarray
     object_index: np.ndarray
     subtask: list[str]
+    pose: HandPose | None = None
+
+
+@dataclass
+class HandPose:
+    """One hand's pose columns on an episode's frames: ``state``, ``action`` (n, 8),
+    ``keypoints`` (n, 63) float32 and ``valid`` (n,) bool."""
+
+    state: np.ndarray
+    action: np.ndarray
+    keypoints: np.ndarray
+    valid: np.ndarray
 
 
 def _lane(labels: Sequence[SkillLabel], t_ns: np.ndarray, names: list[str]) -> Lane:
@@ -97,9 +115,11 @@ class Episode:
         Colour images; ``color_index[i]`` is frame ``i``'s.
     color_index : array, shape (n,), int64, or None
     lanes : dict[str, Lane]
-        A two-hand recording's skill columns per hand (``right``, ``left``): the columns
-        ``skill_index.<side>``, ``object_index.<side>``, ``subtask_index.<side>``; empty for one
-        hand. The unsuffixed columns and the program are the first (right) hand's.
+        A two-hand recording's columns per hand (``right``, ``left``):
+        ``skill_index.<side>``, ``object_index.<side>``, ``subtask_index.<side>``,
+        ``observation.state.<side>``, ``observation.hand_keypoints.<side>``,
+        ``observation.valid.<side>`` and ``action.<side>``; empty for one hand. The unsuffixed
+        columns and the program are the first (right) hand's.
     """
 
     recording: str
@@ -178,6 +198,11 @@ class Episode:
         for side in self.lanes:
             for key in SCALAR_KEYS:
                 feats[f"{key}.{side}"] = {"dtype": "int64", "shape": (1,), "names": None}
+            if self.lanes[side].pose is None:
+                continue
+            for key in HAND_KEYS:
+                feats[f"{key}.{side}"] = dict(feats[key])
+            feats[f"observation.valid.{side}"] = {"dtype": "bool", "shape": (1,), "names": ["hand"]}
         if self.color is not None:
             h, w = self.color.shape[1:3]
             feats[COLOR_KEY] = {
@@ -331,9 +356,58 @@ def prepare_episode(
         program=program.to_json(),
         color=color,
         color_index=color_index,
-        lanes={side: _lane(lane, traj.t_ns, names) for side, lane in lanes.items()}
-        if len(lanes) > 1
-        else {},
+        lanes=_hand_lanes(demo, traj, lanes, m, (state, keypoints, valid[:, 0])),
+    )
+
+
+def _hand_lanes(
+    demo: Demonstration,
+    traj: Trajectory,
+    lanes: dict[str, list[SkillLabel]],
+    method: Method,
+    first: tuple[np.ndarray, np.ndarray, np.ndarray],
+) -> dict[str, Lane]:
+    """Each hand's columns of a two-hand episode on ``traj``'s frames (``first``: the first
+    hand's state, keypoints and validity, already computed); empty for one hand. Another hand
+    is preprocessed on its own (as :func:`lfd.segment_hands` does) and sampled at the frames
+    (linearly; invalid outside its span or where its nearest frame is)."""
+    from ..preprocessing import preprocess
+
+    if len(lanes) < 2:
+        return {}
+    names = list(traj.object_names)
+    out: dict[str, Lane] = {}
+    for k, (side, labels) in enumerate(lanes.items()):
+        lane = _lane(labels, traj.t_ns, names)
+        if k == 0:
+            state, keypoints, valid = first
+        else:
+            own = preprocess(demo.one_hand(side), **method.preprocessing)
+            state, keypoints, valid = _resampled(own, traj.t_ns)
+        action = np.concatenate([state[1:], state[-1:]], axis=0)
+        lane.pose = HandPose(state, action, keypoints, valid)
+        out[side] = lane
+    return out
+
+
+def _resampled(own: Trajectory, t_ns: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A hand's state, keypoints and validity (:func:`_pose_columns`) of trajectory ``own``,
+    sampled at ``t_ns`` (another hand's frames, on the same clock)."""
+    state, keypoints, _, valid = _pose_columns(own)
+    t = (own.t_ns - t_ns[0]).astype(np.float64)
+    at = (t_ns - t_ns[0]).astype(np.float64)
+
+    def interp(cols: np.ndarray) -> np.ndarray:
+        return np.stack([np.interp(at, t, cols[:, j]) for j in range(cols.shape[1])], axis=1)
+
+    s = interp(state.astype(np.float64))
+    _fill_quaternions(s, 3)
+    nearest = np.clip(np.searchsorted(t, at), 0, len(t) - 1)
+    inside = (at >= t[0]) & (at <= t[-1])
+    return (
+        s.astype(np.float32),
+        interp(keypoints.astype(np.float64)).astype(np.float32),
+        valid[nearest, 0] & inside,
     )
 
 

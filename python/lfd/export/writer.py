@@ -129,6 +129,11 @@ class LeRobotWriter:
                     "task": ep.task,
                 }
                 for side, lane in ep.lanes.items():
+                    if lane.pose is not None:
+                        frame[f"observation.state.{side}"] = lane.pose.state[i]
+                        frame[f"observation.hand_keypoints.{side}"] = lane.pose.keypoints[i]
+                        frame[f"observation.valid.{side}"] = lane.pose.valid[i : i + 1]
+                        frame[f"action.{side}"] = lane.pose.action[i]
                     frame[f"skill_index.{side}"] = lane.skill_index[i : i + 1]
                     frame[f"object_index.{side}"] = lane.object_index[i : i + 1]
                     frame[f"subtask_index.{side}"] = np.array(

@@ -406,6 +406,16 @@ def test_two_hand_recording_has_a_subtask_column_per_hand(tmp_path: Path) -> Non
             assert (names[obj] if obj >= 0 else None) == (gt.object if gt else None)
     np.testing.assert_array_equal(table["subtask_index"], table["subtask_index.right"])
     assert (table["skill_index.left"] != table["skill_index.right"]).any()
+    # each hand's pose: the right's is the unsuffixed one; the left hand (the right one moved
+    # 0.3 m along x, 7 ms later) is its own, preprocessed on its own and sampled at the frames
+    for key in ("observation.state", "observation.hand_keypoints", "action"):
+        np.testing.assert_array_equal(table[key], table[f"{key}.right"])
+    right, left = table["observation.state.right"], table["observation.state.left"]
+    ok = table["observation.valid.left"].reshape(-1) & table["observation.valid.right"].reshape(-1)
+    assert ok.mean() > 0.9
+    shift = left[ok, :3] - right[ok, :3]
+    np.testing.assert_allclose(np.median(shift, axis=0), [0.3, 0.0, 0.0], atol=0.005)
+    assert not np.allclose(table["action.left"], table["action.right"])
 
 
 @needs_lerobot
