@@ -111,12 +111,14 @@ def refine(
       release, begins where the TCP was last ``approach_m`` from the object; a Move is inserted
       before a first Pick up that began farther, and a first Move whose hand never was that far
       becomes part of the Pick up;
-    - a Move is inserted after a Place or Stack that ends the demonstration when the hand lets
-      go before the end (earlier releases keep their boundary: docs/segmentation.md);
+    - a Place or Stack followed by a Move ends where the hand lets go (release), when it does
+      before the Move ends; a Move is inserted after one that ends the demonstration when the
+      hand lets go before the end;
     - a Pick up that ends the demonstration whose object never moves afterwards was no grasp:
       it becomes part of the Move before it.
 
-    The last two rules say how a demonstration ends: with ``complete`` False (a recording still
+    The rules about the end of the demonstration (the Move after the last release, the
+    never-lifted last Pick up) say how it ends: with ``complete`` False (a recording still
     being made, the live segmentation's runs) they are not applied.
 
     Boundaries only move between the two segments they separate, and every segment keeps at
@@ -139,8 +141,7 @@ def refine(
     _merge_table_turns(out, object_position, d_tcp, p)
     _lift_and_set_down(out, object_position, p)
     _approach(out, d_tcp, p)
-    if complete:
-        _last_release(out, d_tcp, d_thumb, opening, object_position, n, p)
+    _releases(out, d_tcp, d_thumb, opening, object_position, n, p, complete)
     return out
 
 
@@ -231,7 +232,7 @@ def _approach(out: list[Draft], d_tcp: dict[int, np.ndarray], p: ContactParams) 
             k -= 1
 
 
-def _last_release(
+def _releases(
     out: list[Draft],
     d_tcp: dict[int, np.ndarray],
     d_thumb: dict[int, np.ndarray],
@@ -239,16 +240,27 @@ def _last_release(
     object_position: np.ndarray,
     n: int,
     p: ContactParams,
+    complete: bool,
 ) -> None:
-    """The last release: a Move after it when the hand lets go before the demonstration
-    ends."""
-    last = out[-1] if out else None
-    if last is not None and last.skill in RELEASES and last.obj is not None:
-        o = last.obj
-        t = _release(d_tcp[o], d_thumb[o], opening, object_position[o], last.start, n, p)
-        if t is not None and last.start < t <= n - p.min_move:
-            last.end = t
-            out.append(Draft("move", t, n))
+    """Every release ends where the hand lets go (:func:`_release`): a Place or Stack followed
+    by a Move ends there when the hand lets go before the Move ends; one that ends the
+    demonstration (``complete``) gets a Move after it when the hand lets go before the end."""
+    for k, cur in enumerate(out):
+        if cur.skill not in RELEASES or cur.obj is None:
+            continue
+        o = cur.obj
+        last = k + 1 == len(out)
+        if last and complete:
+            t = _release(d_tcp[o], d_thumb[o], opening, object_position[o], cur.start, n, p)
+            if t is not None and cur.start < t <= n - p.min_move:
+                cur.end = t
+                out.append(Draft("move", t, n))
+            return
+        if not last and out[k + 1].skill == "move":
+            hi = out[k + 1].end - 1
+            t = _release(d_tcp[o], d_thumb[o], opening, object_position[o], cur.start, hi, p)
+            if t is not None:
+                _move_boundary(out, k, t)
 
 
 def _lift(pos: np.ndarray, a: int, b: int, p: ContactParams) -> int | None:
