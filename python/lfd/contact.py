@@ -263,20 +263,28 @@ def _releases(
                 _move_boundary(out, k, t)
 
 
+def lift_off(pos: np.ndarray, a: int, u: int, rest_m: float = 0.002, rest_samples: int = 3) -> int:
+    """Where the grasp that lifts an object takes it off (docs/skills.md "Boundaries"), given
+    ``u``, a sample at which it is lifted: back from ``u`` to where it last rested, the last
+    sample in ``a..u`` at which it had moved no more than ``rest_m`` over ``rest_samples``
+    (``pos`` ``(n, 3)``; ``a`` if it never rested there). The one definition of lift-off: the
+    one-hand (:func:`refine`) and the two-hand segmentation
+    (:func:`lfd.segmentation.episodes.carries`) use it."""
+    t, w = u, rest_samples
+    while t - w >= a and not np.linalg.norm(pos[t] - pos[t - w]) <= rest_m:
+        t -= 1
+    return t if t - w >= a else a
+
+
 def _lift(pos: np.ndarray, a: int, b: int, p: ContactParams) -> int | None:
-    """Where the grasp that lifts the object starts to move it, in ``a..b``: back from the
-    first sample ``lift_h_m`` above its height at ``a``, the start of the motion leading to it
-    (the object displaced by at least ``rest_m`` over ``rest_samples``); None if it is never
-    lifted there. A turn or slide on the table before that grasp stays in the Pick up."""
+    """Where the grasp that lifts the object takes it off in ``a..b`` (:func:`lift_off`, from
+    the first sample ``lift_h_m`` above its height at ``a``); None if it is never lifted that
+    high there. A turn or slide on the table before that grasp stays in the Pick up."""
     z = pos[a:b, 2]
     up = z > z[0] + p.lift_h_m
     if not up.any():
         return None
-    t = a + int(np.argmax(up))
-    w = p.rest_samples
-    while t - w >= a and np.linalg.norm(pos[t] - pos[t - w]) > p.rest_m:
-        t -= 1
-    return t
+    return lift_off(pos, a, a + int(np.argmax(up)), p.rest_m, p.rest_samples)
 
 
 def _descent(pos: np.ndarray, a: int, b: int, p: ContactParams) -> int | None:

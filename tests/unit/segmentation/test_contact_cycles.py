@@ -1,11 +1,13 @@
-"""Contact rules on repeated pick-carry-place cycles (issue 41): every release (not only the last)
-where the hand lets go; synthetic tracks with known contact times."""
+"""Contact rules on repeated pick-carry-place cycles (issue 41): one lift-off for the one-hand and
+the two-hand segmentation, and every release (not only the last) where the hand lets go;
+synthetic tracks with known contact times."""
 
 from __future__ import annotations
 
 import numpy as np
-from lfd.contact import ContactParams, refine
+from lfd.contact import ContactParams, lift_off, refine
 from lfd.geometry import box_distance
+from lfd.segmentation.episodes import carries
 from lfd.skills import Draft
 
 SIZE = np.array([[0.06, 0.06, 0.06]])
@@ -57,3 +59,47 @@ def test_every_release_ends_where_the_hand_lets_go() -> None:
     drafts[2], drafts[3] = Draft("place", 100, 180, 0), Draft("move", 180, 230, 0)
     out = refine(drafts, tcp, thumb, obj, quat, SIZE)
     assert out[[d.skill for d in out].index("place")].end == let_go
+
+
+def _slow_lift(n: int = 200, start: int = 60) -> np.ndarray:
+    """A cube's heights: resting (0.1 mm noise), then a slow start (1.5 mm per sample for 6
+    samples: a grasp tilting and easing it off) and a quick rise to 20 cm."""
+    rng = np.random.default_rng(4)
+    z = REST + rng.normal(0.0, 0.0001, n)
+    k = np.arange(n) - start
+    z[k >= 0] += np.where(k[k >= 0] < 6, 0.0015 * k[k >= 0], 0.009 + 0.02 * (k[k >= 0] - 6))
+    return np.minimum(z, REST + 0.2)
+
+
+def _carry_scene(n: int = 200) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A hand resting on the cube from sample 30 (grasp) that lifts it slowly from 60
+    (:func:`_slow_lift`), carries it (x) and keeps holding it to the end."""
+    obj = np.zeros((1, n, 3))
+    obj[0, :, 2] = _slow_lift(n)
+    obj[0, 70:, 0] = 0.002 * np.arange(n - 70)
+    tcp = obj[0].copy()
+    tcp[:30, 0] -= np.linspace(0.2, 0.0, 30)
+    quat = np.tile([0.0, 0.0, 0.0, 1.0], (1, n, 1))
+    return tcp, obj, quat
+
+
+def test_lift_off_is_where_the_object_last_rested_before_it_is_lifted() -> None:
+    _, obj, _ = _carry_scene()
+    # it starts to rise at 60 and has moved 1.5 mm (< 2 mm) in the 0.1 s before 61
+    assert lift_off(obj[0], 20, 120) == 61
+    assert lift_off(obj[0], 62, 120) == 62  # it never rested after 62
+    obj[0, 58:60] = np.nan  # an unknown position is no rest: it rested last at 60
+    assert lift_off(obj[0], 20, 120) == 60
+
+
+def test_one_hand_and_two_hand_segmentation_share_the_lift_off() -> None:
+    tcp, obj, quat = _carry_scene()
+    drafts = [Draft("pick_up", 0, 100, 0), Draft("move_with", 100, 200, 0)]
+    out = refine(drafts, tcp, tcp, obj, quat, SIZE, complete=False)
+    expected = lift_off(obj[0], 0, 100)
+    assert out[-2].skill == "pick_up" and out[-1].skill == "move_with"
+    assert out[-1].start == expected
+    # the two-hand path (episodes.carries): the same sample
+    dist = box_distance(tcp, obj[0], quat[0], SIZE[0])
+    spans = carries(dist, obj[0], REST, 1 / 30)
+    assert ("move_with", expected) in [(s, a) for s, a, _ in spans]
