@@ -107,10 +107,10 @@ def refine(
       same object, the hand staying within ``approach_m``, are one Pick up (a turn or slide on
       the table before the grasp that lifts);
     - a Pick up followed by its Move with ends where the object first moves (lift);
-    - a Pick up that begins the demonstration, or follows a Move that did not come from a
-      release, begins where the TCP was last ``approach_m`` from the object; a Move is inserted
-      before a first Pick up that began farther, and a first Move whose hand never was that far
-      becomes part of the Pick up;
+    - a Pick up begins where the TCP was last ``approach_m`` from the object (after a release:
+      since the release, and ``min_move`` samples after it when the hand never was that far);
+      a Move is inserted before a first Pick up that began farther, and a first Move whose
+      hand never was that far becomes part of the Pick up;
     - a Place or Stack followed by a Move ends where the hand lets go (release), when it does
       before the Move ends; a Move is inserted after one that ends the demonstration when the
       hand lets go before the end;
@@ -142,6 +142,7 @@ def refine(
     _lift_and_set_down(out, object_position, p)
     _approach(out, d_tcp, p)
     _releases(out, d_tcp, d_thumb, opening, object_position, n, p, complete)
+    _reaches_after_release(out, d_tcp, p)
     return out
 
 
@@ -261,6 +262,24 @@ def _releases(
             t = _release(d_tcp[o], d_thumb[o], opening, object_position[o], cur.start, hi, p)
             if t is not None:
                 _move_boundary(out, k, t)
+
+
+def _reaches_after_release(
+    out: list[Draft], d_tcp: dict[int, np.ndarray], p: ContactParams
+) -> None:
+    """The reach of a Pick up that follows a release (release, Move, Pick up): from the last
+    sample the TCP was ``approach_m`` from the Pick up's object after the release; a hand that
+    never was that far (a re-grasp at the object) reaches from ``min_move`` samples after the
+    release, the shortest Move."""
+    for k in range(2, len(out)):
+        cur, move = out[k], out[k - 1]
+        if cur.skill != "pick_up" or cur.obj is None or move.skill != "move":
+            continue
+        if out[k - 2].skill not in RELEASES:
+            continue
+        far = np.flatnonzero(d_tcp[cur.obj][move.start : cur.end] >= p.approach_m)
+        t = move.start + (int(far[-1]) + 1 if len(far) else p.min_move)
+        _move_boundary(out, k - 1, t)
 
 
 def lift_off(pos: np.ndarray, a: int, u: int, rest_m: float = 0.002, rest_samples: int = 3) -> int:

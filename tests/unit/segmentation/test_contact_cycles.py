@@ -103,3 +103,30 @@ def test_one_hand_and_two_hand_segmentation_share_the_lift_off() -> None:
     dist = box_distance(tcp, obj[0], quat[0], SIZE[0])
     spans = carries(dist, obj[0], REST, 1 / 30)
     assert ("move_with", expected) in [(s, a) for s, a, _ in spans]
+
+
+def test_a_re_grasp_reaches_from_the_last_8_cm_or_just_after_the_release() -> None:
+    tcp, thumb, obj, quat = _two_cycles()
+    drafts = [
+        Draft("pick_up", 0, 50, 0),
+        Draft("move_with", 50, 100, 0),
+        Draft("place", 100, 160, 0),
+        Draft("move", 160, 180, 0),
+        Draft("pick_up", 180, 240, 0),
+        Draft("move_with", 240, 290, 0),
+        Draft("place", 290, 400, 0),
+    ]
+    out = refine(drafts, tcp, thumb, obj, quat, SIZE)
+    skills = [d.skill for d in out]
+    k = skills.index("move")
+    # the hand rose 3 cm over the cube, never 8 cm off: the shortest Move after the release
+    assert out[k - 1].end == out[k].start and out[k].end - out[k].start == ContactParams().min_move
+    assert skills[k + 1] == "pick_up"
+    # a hand that went 10 cm up between the cycles reaches from where it was last 8 cm off
+    t = np.arange(len(tcp))
+    away = (t >= 160) & (t < 220)
+    tcp[away, 2] = obj[0, away, 2] + 0.03 + 0.1 * np.sin(np.pi * (t[away] - 160) / 60)
+    out = refine(drafts, tcp, thumb, obj, quat, SIZE)
+    d = box_distance(tcp, obj[0], quat[0], SIZE[0])
+    last_far = 160 + int(np.flatnonzero(d[160:240] >= 0.08)[-1])
+    assert out[k + 1].skill == "pick_up" and out[k + 1].start == last_far + 1
