@@ -4,11 +4,15 @@ synthetic tracks with known contact times."""
 
 from __future__ import annotations
 
+from itertools import pairwise
+
 import numpy as np
 from lfd.contact import ContactParams, lift_off, refine
 from lfd.geometry import box_distance
+from lfd.segmentation.cycles import carries_by_contact
 from lfd.segmentation.episodes import carries
-from lfd.skills import Draft
+from lfd.skills import Draft, allowed
+from lfd.trajectory import Trajectory
 
 SIZE = np.array([[0.06, 0.06, 0.06]])
 REST = 0.03  # the cube's centre on the table
@@ -130,3 +134,72 @@ def test_a_re_grasp_reaches_from_the_last_8_cm_or_just_after_the_release() -> No
     d = box_distance(tcp, obj[0], quat[0], SIZE[0])
     last_far = 160 + int(np.flatnonzero(d[160:240] >= 0.08)[-1])
     assert out[k + 1].skill == "pick_up" and out[k + 1].start == last_far + 1
+
+
+def _low_lift_trajectory() -> Trajectory:
+    """30 Hz, 300 samples, one 6 cm cube: carried (15 cm up) over 30-80, lifted quick and low
+    (6.6 cm, 0.37 s) over 120-131, carried again over 200-250; the hand at the cube from 5
+    samples before each lift to 10 after its set-down, 10 cm off it otherwise."""
+    n = 300
+    t = np.arange(n)
+    z = np.full(n, REST)
+    for a, b, h in ((30, 80, 0.15), (120, 131, 0.066), (200, 250, 0.15)):
+        k = (t >= a) & (t < b)
+        z[k] += h * np.sin(np.pi * (t[k] - a) / (b - a))
+    obj = np.stack([np.zeros(n), np.zeros(n), z], axis=1)
+    held = np.zeros(n, dtype=bool)
+    for a, b in ((25, 90), (115, 141), (195, 260)):
+        held[a:b] = True
+    tcp = obj + np.where(held, 0.0, 0.13)[:, None] * np.array([1.0, 0.0, 0.0])
+    kp = np.repeat(tcp[:, None, :], 21, axis=1)
+    return Trajectory(
+        t_ns=(t * 1e9 / 30).astype(np.int64),
+        tcp=tcp,
+        rotation=np.tile(np.eye(3), (n, 1, 1)),
+        euler=np.zeros((n, 3)),
+        opening=np.full(n, 0.06),
+        keypoints=kp,
+        object_names=["cube"],
+        object_position=obj[None],
+        object_quaternion=np.tile([0.0, 0.0, 0.0, 1.0], (1, n, 1)),
+        object_size=SIZE,
+        hand_valid=np.ones(n, dtype=bool),
+        object_valid=np.ones((1, n), dtype=bool),
+    )
+
+
+def _carry_spans(drafts: list[Draft]) -> list[tuple[int, int]]:
+    return [(d.start, d.end) for d in drafts if d.skill == "move_with"]
+
+
+def test_a_quick_low_lift_inside_a_pick_up_is_a_carry_of_its_own() -> None:
+    traj = _low_lift_trajectory()
+    absorbed = [
+        Draft("move", 0, 20),
+        Draft("pick_up", 20, 30, 0),
+        Draft("move_with", 30, 80, 0),
+        Draft("place", 80, 95, 0),
+        Draft("move", 95, 105, 0),
+        Draft("pick_up", 105, 200, 0),  # the low lift read as part of a long Pick up
+        Draft("move_with", 200, 250, 0),
+        Draft("place", 250, 270, 0),
+        Draft("move", 270, 300),
+    ]
+    out = carries_by_contact(traj, absorbed)
+    assert [d.skill for d in out].count("move_with") == 3
+    assert any(a <= 125 < b for a, b in _carry_spans(out))
+    assert all(allowed(a.skill, b.skill) for a, b in pairwise(out))
+    assert out[0].start == 0 and out[-1].end == 300
+    assert all(a.end == b.start for a, b in pairwise(out))
+    # two carries read as one Move with are two
+    shared = [*absorbed[:5], Draft("pick_up", 105, 120, 0), Draft("move_with", 120, 250, 0)]
+    shared += absorbed[7:]
+    out = carries_by_contact(traj, shared)
+    spans = _carry_spans(out)
+    assert len(spans) == 3 and not any(a <= 125 < b and a <= 225 < b for a, b in spans)
+    assert all(allowed(a.skill, b.skill) for a, b in pairwise(out))
+    # one to one already: nothing changes (the search keeps its drafts)
+    right = [*absorbed[:5], Draft("pick_up", 105, 120, 0), Draft("move_with", 120, 131, 0)]
+    right += [Draft("place", 131, 145, 0), Draft("move", 145, 190, 0)]
+    right += [Draft("pick_up", 190, 200, 0), *absorbed[6:]]
+    assert carries_by_contact(traj, right) == right
