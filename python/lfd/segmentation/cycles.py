@@ -150,3 +150,48 @@ def _tidied(runs: list[Draft], min_move: int) -> list[Draft] | None:
         out.append(r)
     ok = allowed(None, out[0].skill) and all(allowed(a.skill, b.skill) for a, b in pairwise(out))
     return out if ok else None
+
+
+def is_reach_hesitation(skill: str, obj: object, nxt_skill: str, nxt_obj: object) -> bool:
+    """Is ``skill`` on ``obj`` followed by ``nxt_skill`` on ``nxt_obj`` a Locate that is the
+    hesitation of the reach into the Pick up after it (docs/skills.md: a Locate is not that;
+    it is part of the Move before the Pick up)? One rule for one hand
+    (:func:`hovers_and_turns`) and two (:mod:`lfd.segmentation.lanes`)."""
+    return skill == "locate" and nxt_skill == "pick_up" and (nxt_obj == obj or obj is None)
+
+
+def hovers_and_turns(traj: Trajectory, drafts: list[Draft], approach_m: float) -> list[Draft]:
+    """``drafts`` with a Locate that is the hesitation of a reach (:func:`is_reach_hesitation`)
+    made a Move, and a Push of an object followed by a Move and a Pick up of it, the TCP never
+    ``approach_m`` from its box between them, made part of that Pick up (a turn or slide on the
+    table before the grasp that lifts it, docs/skills.md); neighbouring Moves joined."""
+    out = list(drafts)
+    for k in range(len(out) - 1):
+        d, nxt = out[k], out[k + 1]
+        if is_reach_hesitation(d.skill, d.obj, nxt.skill, nxt.obj):
+            out[k] = Draft("move", d.start, d.end, d.obj)
+    k = 0
+    while k + 2 < len(out):
+        push, move, pick = out[k : k + 3]
+        o = push.obj
+        if (
+            push.skill == "push"
+            and move.skill == "move"
+            and pick.skill == "pick_up"
+            and o is not None
+            and pick.obj == o
+        ):
+            pos, quat = traj.object_position[o], traj.object_quaternion[o]
+            a, b = move.start, move.end
+            dist = box_distance(traj.tcp[a:b], pos[a:b], quat[a:b], traj.object_size[o])
+            if not (dist >= approach_m).any():
+                out[k : k + 3] = [pick.resized(push.start, pick.end)]
+                continue
+        k += 1
+    joined: list[Draft] = []
+    for d in out:
+        if joined and joined[-1].skill == d.skill == "move":
+            joined[-1] = joined[-1].resized(joined[-1].start, d.end)
+        else:
+            joined.append(d)
+    return joined

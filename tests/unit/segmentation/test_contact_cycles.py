@@ -9,7 +9,7 @@ from itertools import pairwise
 import numpy as np
 from lfd.contact import ContactParams, lift_off, refine
 from lfd.geometry import box_distance
-from lfd.segmentation.cycles import carries_by_contact
+from lfd.segmentation.cycles import carries_by_contact, hovers_and_turns
 from lfd.segmentation.episodes import carries
 from lfd.skills import Draft, allowed
 from lfd.trajectory import Trajectory
@@ -203,3 +203,23 @@ def test_a_quick_low_lift_inside_a_pick_up_is_a_carry_of_its_own() -> None:
     right += [Draft("place", 131, 145, 0), Draft("move", 145, 190, 0)]
     right += [Draft("pick_up", 190, 200, 0), *absorbed[6:]]
     assert carries_by_contact(traj, right) == right
+
+
+def test_a_hover_before_a_grasp_is_a_move_and_a_turn_before_it_part_of_the_pick_up() -> None:
+    traj = _low_lift_trajectory()  # the hand at the cube over 25-90 (held), 10 cm off before
+    hover = [Draft("move", 0, 10), Draft("locate", 10, 22, 0), Draft("pick_up", 22, 35, 0)]
+    hover += [Draft("move_with", 35, 80, 0), Draft("place", 80, 300, 0)]
+    out = hovers_and_turns(traj, hover, 0.08)
+    assert [(d.skill, d.start, d.end) for d in out][:2] == [("move", 0, 22), ("pick_up", 22, 35)]
+    # a Locate before a Pick up of another object stays
+    other = [*hover[:2], Draft("pick_up", 22, 35, 1), *hover[3:]]
+    assert [d.skill for d in hovers_and_turns(traj, other, 0.08)][1] == "locate"
+    # a Push, then a Pick up of the same cube, the hand staying at it: one Pick up
+    turn = [Draft("move", 0, 26), Draft("push", 26, 40, 0), Draft("move", 40, 45, 0)]
+    turn += [Draft("pick_up", 45, 50, 0), *hover[3:]]
+    out = hovers_and_turns(traj, turn, 0.08)
+    assert [(d.skill, d.start, d.end) for d in out][:2] == [("move", 0, 26), ("pick_up", 26, 50)]
+    # the hand 10 cm off between them: a Push, then a reach
+    away = [Draft("move", 0, 5), Draft("push", 5, 15, 0), Draft("move", 15, 26, 0)]
+    away += [Draft("pick_up", 26, 35, 0), *hover[3:]]
+    assert hovers_and_turns(traj, away, 0.08) == away
