@@ -107,16 +107,18 @@ def refine(
       same object, the hand staying within ``approach_m``, are one Pick up (a turn or slide on
       the table before the grasp that lifts);
     - a Pick up followed by its Move with ends where the object first moves (lift);
-    - a Pick up that begins the demonstration, or follows a Move that did not come from a
-      release, begins where the TCP was last ``approach_m`` from the object; a Move is inserted
-      before a first Pick up that began farther, and a first Move whose hand never was that far
-      becomes part of the Pick up;
-    - a Move is inserted after a Place or Stack that ends the demonstration when the hand lets
-      go before the end (earlier releases keep their boundary: docs/segmentation.md);
+    - a Pick up begins where the TCP was last ``approach_m`` from the object (after a release:
+      since the release, and ``min_move`` samples after it when the hand never was that far);
+      a Move is inserted before a first Pick up that began farther, and a first Move whose
+      hand never was that far becomes part of the Pick up;
+    - a Place or Stack followed by a Move ends where the hand lets go (release), when it does
+      before the Move ends; a Move is inserted after one that ends the demonstration when the
+      hand lets go before the end;
     - a Pick up that ends the demonstration whose object never moves afterwards was no grasp:
       it becomes part of the Move before it.
 
-    The last two rules say how a demonstration ends: with ``complete`` False (a recording still
+    The rules about the end of the demonstration (the Move after the last release, the
+    never-lifted last Pick up) say how it ends: with ``complete`` False (a recording still
     being made, the live segmentation's runs) they are not applied.
 
     Boundaries only move between the two segments they separate, and every segment keeps at
@@ -139,8 +141,8 @@ def refine(
     _merge_table_turns(out, object_position, d_tcp, p)
     _lift_and_set_down(out, object_position, p)
     _approach(out, d_tcp, p)
-    if complete:
-        _last_release(out, d_tcp, d_thumb, opening, object_position, n, p)
+    _releases(out, d_tcp, d_thumb, opening, object_position, n, p, complete)
+    _reaches_after_release(out, d_tcp, p)
     return out
 
 
@@ -231,7 +233,7 @@ def _approach(out: list[Draft], d_tcp: dict[int, np.ndarray], p: ContactParams) 
             k -= 1
 
 
-def _last_release(
+def _releases(
     out: list[Draft],
     d_tcp: dict[int, np.ndarray],
     d_thumb: dict[int, np.ndarray],
@@ -239,32 +241,69 @@ def _last_release(
     object_position: np.ndarray,
     n: int,
     p: ContactParams,
+    complete: bool,
 ) -> None:
-    """The last release: a Move after it when the hand lets go before the demonstration
-    ends."""
-    last = out[-1] if out else None
-    if last is not None and last.skill in RELEASES and last.obj is not None:
-        o = last.obj
-        t = _release(d_tcp[o], d_thumb[o], opening, object_position[o], last.start, n, p)
-        if t is not None and last.start < t <= n - p.min_move:
-            last.end = t
-            out.append(Draft("move", t, n))
+    """Every release ends where the hand lets go (:func:`_release`): a Place or Stack followed
+    by a Move ends there when the hand lets go before the Move ends; one that ends the
+    demonstration (``complete``) gets a Move after it when the hand lets go before the end."""
+    for k, cur in enumerate(out):
+        if cur.skill not in RELEASES or cur.obj is None:
+            continue
+        o = cur.obj
+        last = k + 1 == len(out)
+        if last and complete:
+            t = _release(d_tcp[o], d_thumb[o], opening, object_position[o], cur.start, n, p)
+            if t is not None and cur.start < t <= n - p.min_move:
+                cur.end = t
+                out.append(Draft("move", t, n))
+            return
+        if not last and out[k + 1].skill == "move":
+            hi = out[k + 1].end - 1
+            t = _release(d_tcp[o], d_thumb[o], opening, object_position[o], cur.start, hi, p)
+            if t is not None:
+                _move_boundary(out, k, t)
+
+
+def _reaches_after_release(
+    out: list[Draft], d_tcp: dict[int, np.ndarray], p: ContactParams
+) -> None:
+    """The reach of a Pick up that follows a release (release, Move, Pick up): from the last
+    sample the TCP was ``approach_m`` from the Pick up's object after the release; a hand that
+    never was that far (a re-grasp at the object) reaches from ``min_move`` samples after the
+    release, the shortest Move."""
+    for k in range(2, len(out)):
+        cur, move = out[k], out[k - 1]
+        if cur.skill != "pick_up" or cur.obj is None or move.skill != "move":
+            continue
+        if out[k - 2].skill not in RELEASES:
+            continue
+        far = np.flatnonzero(d_tcp[cur.obj][move.start : cur.end] >= p.approach_m)
+        t = move.start + (int(far[-1]) + 1 if len(far) else p.min_move)
+        _move_boundary(out, k - 1, t)
+
+
+def lift_off(pos: np.ndarray, a: int, u: int, rest_m: float = 0.002, rest_samples: int = 3) -> int:
+    """Where the grasp that lifts an object takes it off (docs/skills.md "Boundaries"), given
+    ``u``, a sample at which it is lifted: back from ``u`` to where it last rested, the last
+    sample in ``a..u`` at which it had moved no more than ``rest_m`` over ``rest_samples``
+    (``pos`` ``(n, 3)``; ``a`` if it never rested there). The one definition of lift-off: the
+    one-hand (:func:`refine`) and the two-hand segmentation
+    (:func:`lfd.segmentation.episodes.carries`) use it."""
+    t, w = u, rest_samples
+    while t - w >= a and not np.linalg.norm(pos[t] - pos[t - w]) <= rest_m:
+        t -= 1
+    return t if t - w >= a else a
 
 
 def _lift(pos: np.ndarray, a: int, b: int, p: ContactParams) -> int | None:
-    """Where the grasp that lifts the object starts to move it, in ``a..b``: back from the
-    first sample ``lift_h_m`` above its height at ``a``, the start of the motion leading to it
-    (the object displaced by at least ``rest_m`` over ``rest_samples``); None if it is never
-    lifted there. A turn or slide on the table before that grasp stays in the Pick up."""
+    """Where the grasp that lifts the object takes it off in ``a..b`` (:func:`lift_off`, from
+    the first sample ``lift_h_m`` above its height at ``a``); None if it is never lifted that
+    high there. A turn or slide on the table before that grasp stays in the Pick up."""
     z = pos[a:b, 2]
     up = z > z[0] + p.lift_h_m
     if not up.any():
         return None
-    t = a + int(np.argmax(up))
-    w = p.rest_samples
-    while t - w >= a and np.linalg.norm(pos[t] - pos[t - w]) > p.rest_m:
-        t -= 1
-    return t
+    return lift_off(pos, a, a + int(np.argmax(up)), p.rest_m, p.rest_samples)
 
 
 def _descent(pos: np.ndarray, a: int, b: int, p: ContactParams) -> int | None:

@@ -18,6 +18,7 @@ from itertools import pairwise
 
 import numpy as np
 
+from ..contact import lift_off
 from .result import Segment
 
 CARRY_SKILLS: frozenset[str] = frozenset({"pick_up", "move_with", "place"})
@@ -186,17 +187,6 @@ def _let_go_in_air(depth: np.ndarray, took: int, b: int, dt: float, p: CarryPara
     return took + int(near[-1]) + 1 if len(near) else stop
 
 
-def _last_rest(position: np.ndarray, a: int, u: int, p: CarryParams) -> int:
-    """Where the lift that takes the object off the table at ``u`` begins: the last sample in
-    ``[a, u]`` after ``rest_samples`` in which the object moved less than ``moved_m``."""
-    k = p.rest_samples
-    for i in range(u, a + k - 1, -1):
-        step = np.linalg.norm(position[i] - position[i - k + 1 : i], axis=1)
-        if np.isfinite(step).all() and (step < p.moved_m).all():
-            return i
-    return a
-
-
 def carries(
     dist: np.ndarray,
     position: np.ndarray,
@@ -228,7 +218,7 @@ def carries(
         for a, b in _holds_aloft(grasps, u, v, dt, p, dist):
             a = max(a, last)
             if a <= u:  # this hand lifts it off the table: from where it last rested
-                lift = _last_rest(position, a, u, p)
+                lift = lift_off(position, a, u, p.moved_m, p.rest_samples)
             elif b - a < round(p.take_s / dt):
                 continue  # a touch of an object the other hand carries: not a grasp
             else:  # taken in the air

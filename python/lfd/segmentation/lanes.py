@@ -26,6 +26,7 @@ from .attribution import (
     hand_view,
     tip_distances,
 )
+from .cycles import is_reach_hesitation
 from .episodes import CarryParams, carries, overlay, snap, still_holds
 from .hands import HandsSegmentation
 from .result import Segment, Segmentation
@@ -399,9 +400,8 @@ def _points(
     hand = demo.hands[side]
     for i, s in enumerate(segments):
         nxt = segments[i + 1] if i + 1 < len(segments) else None
-        if s.skill == "locate" and nxt is not None and nxt.skill == "pick_up":
-            if nxt.object == s.object or s.object is None:  # the Pick up's reach, slowed
-                s = dataclasses.replace(s, skill="move")
+        if nxt is not None and is_reach_hesitation(s.skill, s.object, nxt.skill, nxt.object):
+            s = dataclasses.replace(s, skill="move")  # the Pick up's reach, slowed
         if s.skill == "locate":
             t = t_ns[max(s.start, 0) : min(s.end, len(t_ns))]
             tip = hand.keypoints[_nearest(hand, t), INDEX_TIP] if len(t) else np.zeros((0, 3))

@@ -24,6 +24,7 @@ from ..errors import DemonstrationError, InvalidParameterError
 from ..skills import Draft
 from ..trajectory import Trajectory
 from .band import StageTwoScores
+from .cycles import carries_by_contact, hovers_and_turns
 from .drafts import make_segments, search_drafts
 from .gaps import fill_gaps
 from .grammar import compiled_grammar
@@ -146,8 +147,12 @@ def _search(
 def _passes(
     filled: Trajectory, drafts: list[Draft], p: SegmentParams, *, complete: bool
 ) -> list[Draft]:
-    """The passes over the search's drafts, in their order: implicit Moves, contact
-    boundaries, Move objects (:mod:`~lfd.segmentation.passes`)."""
+    """The passes over the search's drafts, in their order: carries by contact, reach
+    hesitations and table turns (:mod:`~lfd.segmentation.cycles`), implicit Moves, contact boundaries, Move objects
+    (:mod:`~lfd.segmentation.passes`)."""
+    if p.contacts is not None:
+        drafts = carries_by_contact(filled, drafts, min_move=p.contacts.min_move)
+        drafts = hovers_and_turns(filled, drafts, p.contacts.approach_m)
     if p.implicit_moves:
         drafts = insert_implicit_moves(filled, drafts, max(1, round(p.implicit_move_s / filled.dt)))
     if p.contacts is not None:

@@ -85,8 +85,11 @@ def test_no_sizes_default_cube_one_warning_per_object(tmp_path: Path, reference)
     np.testing.assert_array_equal(demo.hand.keypoints, orig.hand.keypoints)
     for name, o in orig.objects.items():
         np.testing.assert_array_equal(demo.objects[name].position, o.position)
-    # exp1 segments to the same skills with the default cubes as with its true sizes
-    assert _skills(lfd.segment(demo)) == reference
+    # exp1 segments to the same skills with the default cubes as with its true sizes (the
+    # contact boundaries measured on the boxes within 0.1 s)
+    got = _skills(lfd.segment(demo))
+    assert [s[:2] for s in got] == [s[:2] for s in reference]
+    assert np.allclose([s[2:] for s in got], [s[2:] for s in reference], atol=0.1)
 
 
 def test_sizes_given_sidecar_metadata_in_that_order(tmp_path: Path, reference) -> None:

@@ -60,7 +60,9 @@ def test_exp1_sequence_equals_ground_truth(search: str, grammar: str) -> None:
     result = segment(d, search=search, grammar=grammar)  # type: ignore[arg-type]
     assert result.skill_sequence == d.skill_sequence
     m = all_metrics(result.segments, d.labels)
-    assert m["frame_accuracy"] > (0.85 if search == "dp" else 0.75)
+    # 0.83: every release ends where the hand lets go (docs/skills.md), the simulator's Place
+    # keeps the pause after it (0.86 when only the last release did)
+    assert m["frame_accuracy"] > (0.83 if search == "dp" else 0.75)
     assert m["boundary_error_s"] < 0.45
     # segments tile the trajectory and name the objects the labels name
     assert result.segments[0].start == 0
