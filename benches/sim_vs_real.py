@@ -16,8 +16,9 @@ temporary folder and read back like a recording). Two real sets:
   outside the repository) where it has them, else by the file's own labels; without
   ``DIR/bimanual``, the whole right-hand files ``manip_<seq>.mcap`` of DIR.
 
-Every recording goes through ``lfd.load`` and ``lfd.preprocess`` and is measured against its
-labels, distances to objects with ``lfd.contact.box_distance``:
+Every recording goes through ``lfd.load`` and ``lfd.preprocess`` (object positions low-passed at
+the segmentation's ``OBJECT_CUTOFF_HZ``, 10 Hz, not at the hand's 0.625 Hz, which lowers a quick
+lift by half) and is measured against its labels, distances to objects with ``lfd.contact.box_distance``:
 
 - per-skill label durations (``duration move_with`` is the carry duration);
 - grasp -> lift-off: from the end of a Pick up to its object 1 cm above where it rested;
@@ -103,8 +104,9 @@ def measure(demo: Any) -> dict[str, list[float]]:
     """Every statistic's instances in one labelled recording."""
     import lfd
     from lfd.contact import box_distance
+    from lfd.segmentation.templates import OBJECT_CUTOFF_HZ
 
-    traj = lfd.preprocess(demo)
+    traj = lfd.preprocess(demo, object_cutoff_hz=OBJECT_CUTOFF_HZ)
     t = traj.t_s
     tcp = np.asarray(traj.tcp, float)
     speed = np.r_[0.0, np.linalg.norm(np.diff(tcp, axis=0), axis=1) / traj.dt]
