@@ -22,7 +22,7 @@ between repeated cycles (docs/skills.md, "Two demonstrator styles"):
 - **move**: a re-grasp (the hand is at the object it grasps next) is short and low: the TCP rises
   4-12 mm and the hand stays at the object; other moves travel like the careful ones, faster.
   Between two cycles of ``exp7`` the hand may instead back off 3-6 cm from the box (never 8 cm)
-  and come back, or go away for 0.4-2.5 s and come back.
+  and come back, or rest near the body for 0.4-2.5 s and come back.
   A Move to a Pick up ends, with probability :data:`HOVER_P`, with an idle hover of 1-4 s
   beside the object, 8.7-12 cm from its box (the Pick up starts there: where the TCP was last 8
   cm away).
@@ -40,7 +40,7 @@ from ..contact import box_distance
 from .hand import FINGERTIP_RADIUS, POSTURES, grasp_posture
 from .motion import HandState, minjerk
 from .planner import Detach, ObjectPose, Planner
-from .skills import _deg, _grasp, _max_top, attach, carry_target
+from .skills import _deg, _grasp, _max_top, attach, carry_target, rest_pose
 from .tasks import WORKSPACE_X, WORKSPACE_Y
 
 LIFT_OFF_M = 0.01
@@ -359,8 +359,8 @@ def hover_state(
 
 def _leave(P: Planner, obj: str, leave: str) -> None:
     """Take the empty hand off ``obj`` between two cycles: back off (``"near"``) 3-6 cm from its
-    box and wait there 0.1-0.6 s, or go away (``"away"``) 15-30 cm and up, idle for
-    :data:`AWAY_S`; the fingers relax a little."""
+    box and wait there 0.1-0.6 s, or go away (``"away"``) to a rest pose near the body (clear of
+    every object: not a hover above one), idle for :data:`AWAY_S`; the fingers relax."""
     rng, s, pose = P.rng, P.state, P.poses[obj]
     size = np.asarray(P.specs[obj].size, float)
     w = rng.uniform(0.2, 0.5)
@@ -381,17 +381,19 @@ def _leave(P: Planner, obj: str, leave: str) -> None:
         P.go(P.dur(0.15, 0.3), s.moved(tcp=p, q=q), posture_window=(0.0, 1.0))
         P.hold(rng.uniform(0.1, 0.6))
         return
-    a = rng.uniform(-np.pi, np.pi)
-    p = s.tcp + np.array([*(rng.uniform(0.15, 0.3) * np.array([np.cos(a), np.sin(a)])), 0.0])
-    p[:2] = np.clip(p[:2], [WORKSPACE_X[0] - 0.05, WORKSPACE_Y[0] - 0.05],
-                    [WORKSPACE_X[1] + 0.05, WORKSPACE_Y[1] + 0.05])  # fmt: skip
-    p[2] = max(s.tcp[2], _max_top(P)) + rng.uniform(0.05, 0.12)
-    dist = float(np.linalg.norm(p - s.tcp))
+    rest = rest_pose(P)  # back towards the body, clear of every object
+    rest = rest.moved(q=0.5 * POSTURES["relaxed"] + 0.5 * rest.q)
+    z_peak = max(s.tcp[2], rest.tcp[2]) + rng.uniform(0.02, 0.05)
+    z_peak = max(z_peak, _max_top(P) + 0.05)
+    dist = float(np.linalg.norm(rest.tcp[:2] - s.tcp[:2]) + 2 * z_peak - s.tcp[2] - rest.tcp[2])
     P.go(
         P.dur(0.2, 0.35) + 1.1 * dist / P.skill_speed,
-        s.moved(tcp=p, q=0.5 * POSTURES["relaxed"] + 0.5 * s.q, yaw=s.yaw + _deg(-20, 20, rng)),
-        detour=P.detour(s.tcp, p, frac=(0.02, 0.1)),
+        rest,
+        detour=P.detour(s.tcp, rest.tcp, frac=(0.02, 0.1)),
+        z_peak=z_peak,
+        rise_frac=rng.uniform(0.3, 0.45),
         posture_window=(0.0, 1.0),
+        orient_window=(0.1, 1.0),
     )
     t_idle = rng.uniform(*AWAY_S)
     for _ in range(2):  # idle, never still

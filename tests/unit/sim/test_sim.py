@@ -639,8 +639,9 @@ def test_natural_exp7_quick_low_lifts_turns_in_the_hand_and_regrasps() -> None:
                     assert 0.03 <= gap.max() < 0.08
                 else:
                     assert gap.max() >= 0.08
-                    # the reach starts within 0.3 s of where the TCP was last 8 cm away
+                    # the reach starts within 0.45 s of where the TCP was last 8 cm away (as
+                    # every natural reach from elsewhere: the Move descends to 3-8 cm above it)
                     t_far = tr.t_ns[(tr.t_ns <= grasp.end_ns) & (d >= 0.08)][-1]
-                    assert abs(t_far - grasp.start_ns) / 1e9 <= 0.3
+                    assert abs(t_far - grasp.start_ns) / 1e9 <= 0.45
     assert min(seen.values()) >= 2, seen
     assert np.mean(np.array(stays) < 0.02 + 0.0068) >= 0.6 and max(stays) < 0.08
