@@ -70,7 +70,8 @@ def _execute(P: Planner, steps: tuple[Step, ...], roles: dict[str, str]) -> None
             nxt = steps[i + 1] if i + 1 < len(steps) else None
             target = _entry(P, nxt, roles) if nxt else rest_pose(P)
             if natural:
-                nat.move(P, target, name, reach=nxt is not None and nxt.skill == "pick_up")
+                reach = nxt is not None and nxt.skill == "pick_up"
+                nat.move(P, target, name, reach=reach, leave=step.leave)
             else:
                 move(P, target, name)
         elif step.skill == "pick_up":
@@ -84,13 +85,15 @@ def _execute(P: Planner, steps: tuple[Step, ...], roles: dict[str, str]) -> None
         elif step.skill == "move_with":
             onto = roles[step.onto] if step.onto else None
             if natural:
-                nat.move_with(P, str(name), onto, repeat=step.repeat)
+                nat.move_with(
+                    P, str(name), onto, repeat=step.repeat, quick=step.quick, turn=step.turn
+                )
             else:
                 move_with(P, str(name), onto)
         elif natural and step.skill in ("place", "stack"):
             # the hand lingers when the next skills re-grasp the same object
-            regrasp = [(s.skill, s.role) for s in steps[i + 1 : i + 3]]
-            linger = regrasp == [("move", step.role), ("pick_up", step.role)]
+            regrasp = [(s.skill, s.role, s.leave) for s in steps[i + 1 : i + 3]]
+            linger = regrasp == [("move", step.role, ""), ("pick_up", step.role, "")]
             nat.put_down(P, str(name), step.skill, linger=linger)
         elif step.skill == "place":
             place(P, str(name))

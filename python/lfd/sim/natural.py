@@ -14,11 +14,15 @@ between repeated cycles (docs/skills.md, "Two demonstrator styles"):
   "Boundaries").
 - **move_with**: lift the object 5-45 cm, carry it to a free spot (within 12 cm when the task
   repeats the lift, like ``exp5``) and end 4-6 cm above it, at about twice the careful speed.
+  A quick low lift (``exp7``) rises 5.5-10 cm in 0.25-0.5 s to a spot within 8 cm; a lift that
+  turns the object in the hand turns it (and the hand) 40-120 deg about z (25-70 deg when quick).
 - **place** / **stack**: lower in 0.15-0.3 s plus a final 3-8 mm, release, and open the grasp
   1.5-3.5 cm wider than the object — only 0.5-1.5 cm when the next skill grasps it again (the
   hand lingers on it).
 - **move**: a re-grasp (the hand is at the object it grasps next) is short and low: the TCP rises
   4-12 mm and the hand stays at the object; other moves travel like the careful ones, faster.
+  Between two cycles of ``exp7`` the hand may instead back off 3-6 cm from the box (never 8 cm)
+  and come back, or rest near the body for 0.4-2.5 s and come back.
   A Move to a Pick up ends, with probability :data:`HOVER_P`, with an idle hover of 1-4 s
   beside the object, 8.7-12 cm from its box (the Pick up starts there: where the TCP was last 8
   cm away).
@@ -36,7 +40,7 @@ from ..contact import box_distance
 from .hand import FINGERTIP_RADIUS, POSTURES, grasp_posture
 from .motion import HandState, minjerk
 from .planner import Detach, ObjectPose, Planner
-from .skills import _deg, _grasp, _max_top, attach, carry_target
+from .skills import _deg, _grasp, _max_top, attach, carry_target, rest_pose
 from .tasks import WORKSPACE_X, WORKSPACE_Y
 
 LIFT_OFF_M = 0.01
@@ -62,6 +66,25 @@ TURN_DEG = (30.0, 90.0)
 
 SLIDE_M = (0.02, 0.08)
 """Slide of one stroke on the table (m)."""
+
+QUICK_S = (0.25, 0.5)
+"""Duration of a quick low lift's motion (s; its label also holds the wait for lift-off)."""
+
+QUICK_RISE_M = (0.055, 0.10)
+"""How high a quick low lift raises the object (m): above the 5 cm at which a Place starts."""
+
+QUICK_SPOT_M = 0.08
+"""A quick low lift puts the object down at most this far (m) from where it was picked up."""
+
+TURN_IN_HAND_DEG = (40.0, 120.0)
+"""Turn of the object in the hand during a lift that turns it (deg about z, either sign; 25-70
+deg when the lift is quick)."""
+
+NEAR_M = (0.03, 0.06)
+"""How far from the box (m) the hand backs off between two cycles (``leave="near"``)."""
+
+AWAY_S = (0.4, 2.5)
+"""How long the hand stays away between two cycles (``leave="away"``, s)."""
 
 
 def _at(P: Planner, name: str) -> bool:
@@ -221,24 +244,45 @@ def _rise_time(fraction: float) -> float:
     return float(np.interp(fraction, minjerk(tau), tau))
 
 
-def move_with(P: Planner, name: str, onto: str | None = None, *, repeat: bool = False) -> None:
+def move_with(
+    P: Planner,
+    name: str,
+    onto: str | None = None,
+    *,
+    repeat: bool = False,
+    quick: bool = False,
+    turn: bool = False,
+) -> None:
     """Lift the held object 5-45 cm and carry it above a free spot (near by with ``repeat``) or
-    above ``onto``; the lift-off keeps the time drawn by the Pick up."""
+    above ``onto``; with ``quick`` a quick low lift (:data:`QUICK_RISE_M` in :data:`QUICK_S`),
+    with ``turn`` turning the object in the hand (:data:`TURN_IN_HAND_DEG`); the lift-off keeps
+    the time drawn by the Pick up."""
     if P.held != name or P.grasp_rel is None:
         raise RuntimeError(f"move_with needs {name} in the hand")
     P.begin_skill()
     t0, rng, s = P.t, P.rng, P.state
-    spot = (0.0, REPEAT_SPOT_M) if repeat else (0.10, None)
-    hand_yaw, tcp_final = carry_target(P, name, onto, spot=spot, turn_deg=20.0)
-    above = tcp_final + np.array([0.0, 0.0, rng.uniform(0.04, 0.06)])
+    spot = (0.0, QUICK_SPOT_M if quick else REPEAT_SPOT_M) if repeat or quick else (0.10, None)
+    yaw_turn = None
+    if turn and onto is None:
+        lo, hi = (25.0, 70.0) if quick else TURN_IN_HAND_DEG
+        yaw_turn = _deg(lo, hi, rng) * (1.0 if rng.random() < 0.5 else -1.0)
+    hand_yaw, tcp_final = carry_target(P, name, onto, spot=spot, turn_deg=20.0, turn=yaw_turn)
     below_tcp = 0.5 * P.specs[name].size[2] - P.grasp_rel[0][2]  # object bottom below the TCP
-    # 5-45 cm, mostly the lower half (x lift_scale: a carry that starts in the air rises less)
-    z_peak = s.tcp[2] + 0.05 + 0.4 * P.lift_scale * rng.uniform() ** 1.5
-    z_peak = max(z_peak, above[2] + 0.01)
-    if not repeat:  # a carry across the table clears every object; a repeated lift stays apart
-        z_peak = max(z_peak, _max_top(P, name) + below_tcp + 0.03)
-    dist = float(np.linalg.norm(above[:2] - s.tcp[:2]) + 2 * z_peak - s.tcp[2] - above[2])
-    duration = P.dur(0.25, 0.4) + 1.5 * dist / P.skill_speed
+    if quick:
+        above = tcp_final + np.array([0.0, 0.0, rng.uniform(0.04, 0.05)])
+        z_peak = max(s.tcp[2] + rng.uniform(*QUICK_RISE_M), above[2] + 0.01)
+        duration = rng.uniform(*QUICK_S) / P.skill_speed * (1.0 + 0.3 * abs(yaw_turn or 0.0))
+    else:
+        above = tcp_final + np.array([0.0, 0.0, rng.uniform(0.04, 0.06)])
+        # 5-45 cm, mostly the lower half (x lift_scale: a carry that starts in the air rises less)
+        z_peak = s.tcp[2] + 0.05 + 0.4 * P.lift_scale * rng.uniform() ** 1.5
+        z_peak = max(z_peak, above[2] + 0.01)
+        if not repeat:  # a carry across the table clears every object; a repeated lift stays apart
+            z_peak = max(z_peak, _max_top(P, name) + below_tcp + 0.03)
+        dist = float(np.linalg.norm(above[:2] - s.tcp[:2]) + 2 * z_peak - s.tcp[2] - above[2])
+        duration = P.dur(0.25, 0.4) + 1.5 * dist / P.skill_speed
+        if yaw_turn is not None:  # turning the object about takes its time
+            duration += P.dur(0.2, 0.6) * abs(yaw_turn)
     rise = rng.uniform(0.4, 0.5)
     lift = P.pending.pop(("lift", name), None)
     if lift is not None:  # hold still until the drawn lift-off time
@@ -313,14 +357,78 @@ def hover_state(
     return target.moved(tcp=base + hi * u, q=q, yaw=target.yaw + _deg(-15, 15, rng))
 
 
-def move(P: Planner, target: HandState, obj: str | None, *, reach: bool = False) -> None:
+def _leave(P: Planner, obj: str, leave: str) -> None:
+    """Take the empty hand off ``obj`` between two cycles: back off (``"near"``) 3-6 cm from its
+    box and wait there 0.1-0.6 s, or go away (``"away"``) to a rest pose near the body (clear of
+    every object: not a hover above one), idle for :data:`AWAY_S`; the fingers relax."""
+    rng, s, pose = P.rng, P.state, P.poses[obj]
+    size = np.asarray(P.specs[obj].size, float)
+    w = rng.uniform(0.2, 0.5)
+    q = w * POSTURES["relaxed"] + (1.0 - w) * s.q
+    if leave == "near":
+        d = s.tcp[:2] - pose.pos[:2]
+        heading = float(np.arctan2(d[1], d[0])) if np.linalg.norm(d) > 1e-3 else s.yaw + np.pi
+        u = np.array([np.cos(heading), np.sin(heading), 0.0])
+        want = rng.uniform(*NEAR_M)
+        up = rng.uniform(0.01, 0.03)
+        lo, hi = 0.0, 0.3
+        for _ in range(30):  # back along u (and up) until the box is ``want`` away
+            mid = 0.5 * (lo + hi)
+            p = s.tcp + mid * u + np.array([0.0, 0.0, up])
+            dist = float(box_distance(p[None], pose.pos[None], _yaw_quat(pose.yaw)[None], size)[0])
+            lo, hi = (mid, hi) if dist < want else (lo, mid)
+        p = s.tcp + lo * u + np.array([0.0, 0.0, up])
+        P.go(P.dur(0.15, 0.3), s.moved(tcp=p, q=q), posture_window=(0.0, 1.0))
+        P.hold(rng.uniform(0.1, 0.6))
+        return
+    rest = rest_pose(P)  # back towards the body, clear of every object
+    rest = rest.moved(q=0.5 * POSTURES["relaxed"] + 0.5 * rest.q)
+    z_peak = max(s.tcp[2], rest.tcp[2]) + rng.uniform(0.02, 0.05)
+    z_peak = max(z_peak, _max_top(P) + 0.05)
+    dist = float(np.linalg.norm(rest.tcp[:2] - s.tcp[:2]) + 2 * z_peak - s.tcp[2] - rest.tcp[2])
+    P.go(
+        P.dur(0.2, 0.35) + 1.1 * dist / P.skill_speed,
+        rest,
+        detour=P.detour(s.tcp, rest.tcp, frac=(0.02, 0.1)),
+        z_peak=z_peak,
+        rise_frac=rng.uniform(0.3, 0.45),
+        posture_window=(0.0, 1.0),
+        orient_window=(0.1, 1.0),
+    )
+    t_idle = rng.uniform(*AWAY_S)
+    for _ in range(2):  # idle, never still
+        drift = P.state.tcp + np.array([*rng.uniform(-0.02, 0.02, 2), rng.uniform(-0.01, 0.01)])
+        P.go(0.5 * t_idle, P.state.moved(tcp=drift), posture_window=(0.0, 1.0))
+
+
+def move(
+    P: Planner, target: HandState, obj: str | None, *, reach: bool = False, leave: str = ""
+) -> None:
     """Travel (not holding) to ``target``: a short, low re-grasp when the hand is at ``obj``
     already, else rise above every object and travel; before a reach (``reach``: a Pick up of
     ``obj`` follows) the hand may hover idle near the object instead (the Pick up then starts
-    from the hover)."""
+    from the hover). Between two cycles of ``obj`` (``leave``: ``"near"`` or ``"away"``) the
+    hand first backs off or goes away (:func:`_leave`), then comes back to ``target``."""
     P.begin_skill()
     t0, rng, s = P.t, P.rng, P.state
     hover = None
+    if leave == "near" and obj is not None:
+        _leave(P, obj, leave)
+        s = P.state
+        z_peak = max(s.tcp[2], target.tcp[2]) + rng.uniform(0.002, 0.008)
+        P.go(
+            P.dur(0.2, 0.35),
+            target,
+            z_peak=z_peak,
+            rise_frac=0.3,
+            posture_window=(0.1, 0.9),
+            orient_window=(0.0, 0.9),
+        )
+        P.label("move", t0, obj)
+        return
+    if leave == "away" and obj is not None:  # back from afar: the reach starts above the object
+        _leave(P, obj, leave)
+        s, target = P.state, pick_up_entry(P, obj)
     if reach and obj is not None and not _at(P, obj) and rng.random() < HOVER_P:
         hover, target = target, hover_state(P, obj, target)
     if obj is not None and _at(P, obj):

@@ -14,10 +14,11 @@ from .planner import Detach, Planner
 from .scene import Scene
 from .variability import Variability
 
-SIM_VERSION = "1.4"
+SIM_VERSION = "1.5"
 """Version of the simulated demonstrator (bump when motions change; 1.1 added the natural
 style, 1.2 the contact boundaries, 1.3 the natural style's idle hovers and table turns, 1.4
-the two-hand tasks; the careful motions are those of 1.2, the one-hand ones those of 1.3)."""
+the two-hand tasks, 1.5 ``exp7``; the careful motions are those of 1.2, the other one-hand
+ones those of 1.3)."""
 
 BASE_TIME_NS = 1_700_000_000_000_000_000
 """Capture time of the first frame of every simulated demonstration."""

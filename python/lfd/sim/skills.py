@@ -247,10 +247,12 @@ def carry_target(
     *,
     spot: tuple[float, float | None] = (0.10, None),
     turn_deg: float = 30.0,
+    turn: float | None = None,
 ) -> tuple[float, np.ndarray]:
     """Where a Move with of the held ``name`` ends: the hand yaw and the TCP at which the object
     rests on a free table spot ``spot = (min_move, max_move)`` away (turned by up to
-    ``turn_deg``) or on top of ``onto``. The Place / Stack that follows is planned here."""
+    ``turn_deg``, or by ``turn`` rad when given) or on top of ``onto``. The Place / Stack that
+    follows is planned here."""
     rng = P.rng
     spec = P.specs[name]
     assert P.grasp_rel is not None
@@ -262,7 +264,7 @@ def carry_target(
     elif onto is None:
         xy = free_spot(P, name, min_move=spot[0], max_move=spot[1])
         pos = np.array([xy[0], xy[1], 0.5 * spec.size[2]])
-        new_yaw = yaw_obj + _deg(-turn_deg, turn_deg, rng)
+        new_yaw = yaw_obj + (_deg(-turn_deg, turn_deg, rng) if turn is None else turn)
     else:
         base = P.poses[onto]
         pos = np.array([*(base.pos[:2] + np.clip(rng.normal(0, 0.003, 2), -0.006, 0.006)), 0.0])

@@ -10,8 +10,10 @@ their metadata names the ``target_skill``.
 
 Repeated-lift tasks (:data:`TASK_GENERATORS`, like real motion-capture sessions): ``exp5`` picks
 up the same box, lifts it and puts it down 6-10 times in a row (place -> short move -> pick_up
-between cycles); ``exp6`` does the same alternating between two boxes. The number of cycles is
-drawn from the demonstration's random stream.
+between cycles); ``exp6`` does the same alternating between two boxes; ``exp7`` lifts, turns and
+puts one box down 4-12 times like the repeated cycles of real people (quick low lifts, turns in
+the hand, and between cycles the hand staying on the box, backing off a few cm or leaving it).
+The number of cycles (and ``exp7``'s choices) are drawn from the demonstration's random stream.
 """
 
 from __future__ import annotations
@@ -39,12 +41,20 @@ TRANSITIONS: dict[str, frozenset[str]] = {
 class Step:
     """One skill on an object role; ``onto`` is the base role of a Move with that ends a stack;
     ``repeat`` marks a Move with of a repeated lift (the object is put down near where it was
-    picked up)."""
+    picked up); ``quick`` a quick low one (:data:`lfd.sim.natural.QUICK_S`,
+    :data:`~lfd.sim.natural.QUICK_RISE_M`) and ``turn`` one that turns the object in the hand
+    (:data:`~lfd.sim.natural.TURN_IN_HAND_DEG`). ``leave`` says how the hand leaves the object
+    in a Move between two cycles of it: ``""`` it stays on it (the grasp barely opens),
+    ``"near"`` it backs off a few cm (never 8 cm from the box), ``"away"`` it goes away and
+    comes back (natural style; the careful demonstrator always goes away)."""
 
     skill: str
     role: str | None = None
     onto: str | None = None
     repeat: bool = False
+    quick: bool = False
+    turn: bool = False
+    leave: str = ""
 
 
 def _seq(*items: str) -> tuple[Step, ...]:
@@ -95,9 +105,38 @@ def lift_cycles(rng: np.random.Generator, roles: str = "A") -> tuple[Step, ...]:
     return tuple(steps)
 
 
+QUICK_P = 0.5
+"""``exp7``: probability that a cycle's lift is quick and low."""
+HAND_TURN_P = 0.7
+"""``exp7``: probability that a cycle turns the object in the hand."""
+LEAVE_P = {"": 0.4, "near": 0.3, "away": 0.3}
+"""``exp7``: how the hand leaves the object between two cycles (:class:`Step` ``leave``)."""
+
+
+def turn_cycles(rng: np.random.Generator) -> tuple[Step, ...]:
+    """4-12 cycles of one object like real people's: each lift quick and low with probability
+    :data:`QUICK_P`, turning the object in the hand with probability :data:`HAND_TURN_P`; between
+    two cycles the hand stays, backs off or leaves (:data:`LEAVE_P`)."""
+    steps: list[Step] = []
+    leaves = list(LEAVE_P)
+    for k in range(int(rng.integers(4, 13))):
+        quick, turn = bool(rng.random() < QUICK_P), bool(rng.random() < HAND_TURN_P)
+        leave = leaves[int(rng.choice(len(leaves), p=list(LEAVE_P.values())))]
+        if k:
+            steps.append(Step("move", "A", leave=leave))
+        steps += [
+            Step("pick_up", "A"),
+            Step("move_with", "A", repeat=True, quick=quick, turn=turn),
+            Step("place", "A"),
+        ]
+    steps.append(Step("move"))
+    return tuple(steps)
+
+
 TASK_GENERATORS: dict[str, Callable[[np.random.Generator], tuple[Step, ...]]] = {
     "exp5": lambda rng: lift_cycles(rng, "A"),
     "exp6": lambda rng: lift_cycles(rng, "AB"),
+    "exp7": turn_cycles,
 }
 """Tasks whose steps are drawn per demonstration (from its random stream)."""
 

@@ -569,3 +569,79 @@ def test_natural_hovers_and_table_turns_follow_the_boundaries() -> None:
             assert t[up[0]] >= span[k][1]
             turns += 1
     assert hovers >= 2 and turns >= 2
+
+
+def test_natural_exp7_quick_low_lifts_turns_in_the_hand_and_regrasps() -> None:
+    # exp7: real people's repeated cycles (issue 41): quick low lifts, the object turned in the
+    # hand, put down and lifted again with the hand staying on it, backing off (never 8 cm
+    # away) or leaving; the labels keep the rules of docs/skills.md
+    from lfd.contact import box_distance
+    from lfd.sim.natural import QUICK_RISE_M, TURN_IN_HAND_DEG
+    from lfd.sim.tasks import task_steps
+
+    seen = {"quick": 0, "turn": 0, "": 0, "near": 0, "away": 0}
+    stays: list[float] = []
+    for seed in (500, 501, 502):
+        res = simulate("exp7", seed=seed, variability=NATURAL)
+        rng = np.random.default_rng(seed)
+        Variability(style="natural").resolve(rng)
+        steps = task_steps("exp7", rng)  # the steps simulate drew (the same stream)
+        demo, tr = res.demo, res.truth
+        assert [s.skill for s in steps] == demo.skill_sequence
+        check_grammar(demo.skill_sequence)
+        assert 4 <= demo.skill_sequence.count("move_with") <= 12
+        name = demo.metadata["roles"]["A"]
+        z, yaw = tr.object_pos[name][:, 2], np.rad2deg(np.unwrap(tr.object_yaw[name]))
+        d = _box_dist(res, name)
+        rest = z.min()
+        half = 0.5 * tr.object_yaw[name]
+        quat = np.stack([0 * half, 0 * half, np.sin(half), np.cos(half)], axis=1)
+        size = demo.objects[name].size
+        for k, (step, lab) in enumerate(zip(steps, demo.labels, strict=True)):
+            sel = (tr.t_ns >= lab.start_ns) & (tr.t_ns <= lab.end_ns)
+            if lab.skill == "pick_up":  # the object has not moved when the Pick up ends
+                assert z[sel].max() < rest + 0.002
+            if lab.skill in ("pick_up", "place"):  # the TCP never rises there
+                assert np.diff(tr.tcp[sel, 2]).max() < 1e-9, lab
+            if lab.skill == "move_with":
+                rise = z[sel].max() - z[sel][0]
+                assert rise >= 0.05  # lifted 1 cm (not a turn on the table), above the 5 cm
+                assert z[sel][-1] - rest == pytest.approx(0.05, abs=0.011)  # the Place: 4-6 cm
+                turned = abs(yaw[sel][-1] - yaw[sel][0])
+                if step.quick:
+                    seen["quick"] += 1
+                    assert QUICK_RISE_M[0] - 0.002 <= rise <= QUICK_RISE_M[1] + 0.002
+                    assert (lab.end_ns - lab.start_ns) / 1e9 <= 1.1
+                if step.turn:
+                    seen["turn"] += 1
+                    assert turned >= (25.0 if step.quick else TURN_IN_HAND_DEG[0]) - 0.5
+                else:
+                    assert turned <= 20.5
+            if lab.skill == "move" and k + 1 < len(steps) and steps[k + 1].skill == "pick_up":
+                seen[step.leave] += 1
+                # from the release to the grasp: the hand stays on the object, backs off but
+                # never 8 cm, or leaves it
+                grasp = demo.labels[k + 1]
+                gap = d[(tr.t_ns >= lab.start_ns) & (tr.t_ns <= grasp.end_ns)]
+                if step.leave == "":  # a fingertip on the object (thumb-middle grasps keep the
+                    # TCP, the thumb-index midpoint, 2-4 cm off it)
+                    sel = (tr.t_ns >= lab.start_ns) & (tr.t_ns <= grasp.end_ns)
+                    tips = tr.keypoints[sel, 4::4]
+                    tip = np.min(
+                        [
+                            box_distance(tips[:, j], tr.object_pos[name][sel], quat[sel], size)
+                            for j in range(tips.shape[1])
+                        ],
+                        axis=0,
+                    )
+                    stays.append(tip.max())
+                elif step.leave == "near":
+                    assert 0.03 <= gap.max() < 0.08
+                else:
+                    assert gap.max() >= 0.08
+                    # the reach starts within 0.45 s of where the TCP was last 8 cm away (as
+                    # every natural reach from elsewhere: the Move descends to 3-8 cm above it)
+                    t_far = tr.t_ns[(tr.t_ns <= grasp.end_ns) & (d >= 0.08)][-1]
+                    assert abs(t_far - grasp.start_ns) / 1e9 <= 0.45
+    assert min(seen.values()) >= 2, seen
+    assert np.mean(np.array(stays) < 0.02 + 0.0068) >= 0.6 and max(stays) < 0.08
