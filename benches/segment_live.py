@@ -68,7 +68,11 @@ sys.path.insert(0, str(ROOT))
 
 DATA = Path("/tmp/lfd_live_perceived")
 """Where ``--make`` writes the perceived recordings (never inside the repository)."""
-TASKS = ("exp1", "exp2", "exp3", "exp4", "exp5")
+ONE_HAND = ("exp1", "exp2", "exp3", "exp4", "exp5")
+TWO_HAND = ("handover", "carry", "hold_stack", "hold_push")
+"""The simulator's two-hand tasks (lfd.sim.bimanual): recorded with both hands, segmented live
+by :class:`~lfd.segmentation.live_hands.LiveHands`, compared with ``lfd.segment_hands``."""
+TASKS = ONE_HAND + TWO_HAND
 STYLES = ("careful", "natural")
 SEEDS = "420-421"
 """Held-out seeds of the perceived recordings: no template, tuning, test or benchmark uses them
@@ -174,14 +178,16 @@ def written_live_segments(path: Path) -> list[tuple[int, Any]]:
 
 
 # --- the perceived recordings ------------------------------------------------------------------
-def make(data: Path, seeds: list[int], styles: list[str], hand_rate: float | None) -> None:
+def make(
+    data: Path, seeds: list[int], styles: list[str], hand_rate: float | None, tasks: list[str]
+) -> None:
     """Record every style x task x seed not yet in ``data`` (``lfd record ... --live-segment``)."""
     times_file = data / "record_times.json"
     times = json.loads(times_file.read_text()) if times_file.is_file() else {}
     for style in styles:
         (data / style).mkdir(parents=True, exist_ok=True)
-        for task in TASKS:
-            for seed in seeds:
+        for seed in seeds:
+            for task in tasks:
                 path = data / style / f"{task}_{seed}.mcap"
                 if path.exists():
                     continue
@@ -371,12 +377,12 @@ def perceived(args: argparse.Namespace) -> None:
     seeds = seed_list(args.seeds)
     styles = [g.strip() for g in args.groups.split(",")]
     if args.make:
-        make(args.data, seeds, styles, args.hand_rate)
+        make(args.data, seeds, styles, args.hand_rate, args.tasks)
     templates = Templates.default()
     times_file = args.data / "record_times.json"
     print(
         f"## live segmentation of perceived recordings ({args.data}, seeds "
-        f"{seeds[0]}-{seeds[-1]}, {', '.join(TASKS)})"
+        f"{seeds[0]}-{seeds[-1]}, {', '.join(args.tasks)})"
     )
     if times_file.is_file():
         times = json.loads(times_file.read_text())
@@ -388,7 +394,7 @@ def perceived(args: argparse.Namespace) -> None:
             f"{np.median(ratio):.2f} x the demonstration's duration"
         )
     for style in styles:
-        paths = [args.data / style / f"{t}_{s}.mcap" for t in TASKS for s in seeds]
+        paths = [args.data / style / f"{t}_{s}.mcap" for t in args.tasks for s in seeds]
         missing = [p for p in paths if not p.is_file()]
         if missing:
             sys.exit(f"missing {len(missing)} recordings (first {missing[0]}): run with --make")
@@ -456,6 +462,12 @@ def main() -> None:
         "--make", action="store_true", help="first record the missing perceived recordings"
     )
     ap.add_argument("--hand-rate", type=float, help="--make: lfd record --hand-rate (its default)")
+    ap.add_argument(
+        "--tasks",
+        type=lambda v: [t.strip() for t in v.split(",")],
+        default=list(TASKS),
+        help=f"comma-separated sim tasks ({','.join(TASKS)})",
+    )
     ap.add_argument("--no-cli", action="store_true", help="skip lfd info / segment / --follow")
     ap.add_argument("--seeds", help=f"default {SEEDS} ({'300-305'} with --truth)")
     ap.add_argument("--groups", help="comma-separated: careful,natural (--truth: its groups)")

@@ -22,7 +22,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -34,6 +34,8 @@ from ..skills import grammar
 from .method import Method
 from .result import Segment, Segmentation
 from .templates import TemplateChoice, Templates
+
+_T = TypeVar("_T")
 
 DEFAULT_EVERY_S = 0.5
 """Recording seconds between two runs of the batch segmentation."""
@@ -486,19 +488,24 @@ class LiveSegmentation:
         run = self._run()
         if run is None:
             return LiveUpdate()
-        return self.settle(run)
+        return self.settle(run, ended=_once(lambda: self._run(complete=True)))
 
     def failed(self, message: str) -> None:
         """A run of the recording so far failed (its one line becomes the warnings)."""
         self._warnings = [message]
 
     def settle(
-        self, run: Segmentation, shared: Callable[[Segment], bool] | None = None
+        self,
+        run: Segmentation,
+        shared: Callable[[Segment], bool] | None = None,
+        ended: Callable[[], Segmentation | None] | None = None,
     ) -> LiveUpdate:
         """Settle what ``run`` (the segmentation of the recording so far: :meth:`_run`, or this
         hand's lane of both hands') has kept the same long enough; a segment ``shared`` says
         depends on the other hand (its object in the other hand's skill then) waits as an
-        uncertain one."""
+        uncertain one. ``ended`` gives the batch segmentation of the recording so far as if it
+        ended now (``complete``; called only when a segment is otherwise ready): a segment
+        settles only if that run has it too (:meth:`_agrees`)."""
         self._last = run
         rest = self._aligned(run)
         now = int(self._now or 0)
@@ -533,12 +540,31 @@ class LiveSegmentation:
                 or now - c.since_ns < wait
             ):
                 break
+            if ended is not None and not self._agrees(c.segment, ended()):
+                break
             settled.append(self._joined(c.segment, _dt(run)))
             self._emitted.append(settled[-1])
             self.settled_ns.append(now)
             cands.pop(0)
         self._candidates = cands
         return self._update(run, settled)
+
+    def _agrees(self, seg: Segment, ended: Segmentation | None) -> bool:
+        """Whether the segmentation of the recording so far as if it ended now (``ended``) has
+        ``seg`` next after the settled segments: the same skill and object, ending within
+        ``tolerance_s``. The open run and the ended one differ only in what is not known yet:
+        an object hidden since the hand reached it follows the hand in the first and rests in
+        the second (batch, seeing where it reappears, interpolates), and the rules about how a
+        demonstration ends. Where they disagree on a segment, the evidence is not in yet."""
+        if ended is None:
+            return False
+        rest = self._aligned(ended)
+        if not rest:
+            return False
+        first = rest[0]
+        return (first.skill, first.object) == (seg.skill, seg.object) and abs(
+            int(first.end_ns) - int(seg.end_ns)
+        ) <= self.tolerance_ns
 
     def _seen_until(self) -> int:
         """The time up to which every object the hand may have moved unseen has been seen: an
@@ -653,6 +679,18 @@ class LiveSegmentation:
             object_names=self.object_names,
             run=run.run if run is not None else None,
         )
+
+
+def _once(make: Callable[[], _T]) -> Callable[[], _T]:
+    """``make``, called at most once (its result kept)."""
+    kept: list[_T] = []
+
+    def get() -> _T:
+        if not kept:
+            kept.append(make())
+        return kept[0]
+
+    return get
 
 
 def _dt(run: Segmentation) -> float:
