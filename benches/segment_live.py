@@ -172,7 +172,13 @@ def written_live_segments(path: Path) -> list[tuple[int, Any]]:
         meta = {kv.key: kv.value for kv in m.metadata}
         start = m.start_time.seconds * 1_000_000_000 + m.start_time.nanos
         end = m.end_time.seconds * 1_000_000_000 + m.end_time.nanos
-        label = SkillLabel(meta.get("skill", ""), start, end, meta.get("object") or None)
+        label = SkillLabel(
+            meta.get("skill", ""),
+            start,
+            end,
+            meta.get("object") or None,
+            hand=meta.get("hand") or None,
+        )
         out.append((int(t), label))
     return out
 
@@ -228,6 +234,8 @@ def measure_file(path: Path, templates: Any, cli: bool) -> dict[str, Any]:
         warnings.simplefilter("always")
         demo = load(path, images=False)
     load_warnings = [f"{w.category.__name__}: {w.message}" for w in caught]
+    if demo.other_hand is not None:
+        return measure_two_hands(demo, templates, load_warnings, path)
     batch = segment(demo, templates).segments
     step = round(1e9 / GRID_HZ)
     grid = np.arange(batch[0].start_ns, batch[-1].end_ns + 1, step, dtype=np.int64)
@@ -254,6 +262,64 @@ def measure_file(path: Path, templates: Any, cli: bool) -> dict[str, Any]:
     if cli:
         out.update(run_cli(path, batch, grid, demo.start_ns))
     return out
+
+
+def measure_two_hands(
+    demo: Any, templates: Any, load_warnings: list[str], path: Path
+) -> dict[str, Any]:
+    """:func:`measure_file` of a two-hand recording: ``lfd.segment_hands`` against the
+    recorder's labels of each hand and ``segment_hands_live`` (a lane per hand); a recording's
+    sequence is equal when every lane's is; frames and latencies over both lanes."""
+    from lfd.segmentation import segment_hands
+    from lfd.segmentation.live import demo_messages
+    from lfd.segmentation.live_hands import segment_hands_live
+
+    batch = segment_hands(demo, templates)
+    cost: list[float] = []
+    live, settled = segment_hands_live(
+        demo, templates, messages=timed(demo_messages(demo), cost), **OPTIONS
+    )
+    written = written_live_segments(path)
+    step = round(1e9 / GRID_HZ)
+    rows: dict[str, Any] = {}
+    seqs: dict[str, Any] = {}
+    want: list[Any] = []
+    for side in demo.sides:
+        b = batch.lanes[side].segments
+        grid = np.arange(b[0].start_ns, b[-1].end_ns + 1, step, dtype=np.int64)
+        lane_written = [(t, lab) for t, lab in written if lab.hand == side]
+        loaded = [lab for lab in demo.live_segments if lab.hand == side]
+        got = {
+            "recorder, as written": compare(
+                b, [lab for _, lab in lane_written], [t for t, _ in lane_written], grid
+            ),
+            "recorder, as loaded": compare(b, loaded, None, grid),
+            "replay (segment_live)": compare(b, live.lanes[side].segments, settled[side], grid),
+        }
+        for name, row in got.items():
+            acc = rows.setdefault(name, {"equal": True, "frames": [], "latency": [], "n": 0})
+            acc["equal"] &= row["equal"]
+            acc["frames"].append(row["frames"])
+            acc["latency"] += row["latency"]
+            acc["n"] += row["n"]
+        want += [(side, *x) for x in sequence(b)]
+        seqs.setdefault("recorder, as written", []).extend(
+            (side, *x) for x in sequence([lab for _, lab in lane_written])
+        )
+        seqs.setdefault("replay (segment_live)", []).extend(
+            (side, *x) for x in sequence(live.lanes[side].segments)
+        )
+    for row in rows.values():
+        row["frames"] = float(np.mean(row["frames"]))
+    return {
+        "rows": rows,
+        "cost": cost,
+        "load_warnings": load_warnings,
+        "written": len(written),
+        "loaded": len(demo.live_segments),
+        "batch": want,
+        "sequences": seqs,
+    }
 
 
 def run_cli(path: Path, batch: list[Any], grid: np.ndarray, start_ns: int) -> dict[str, Any]:
@@ -367,8 +433,11 @@ def stats_cost(cost: np.ndarray) -> str:
     return f"{np.median(cost):.3f} / {np.percentile(cost, 99):.2f} / {np.max(cost):.1f}"
 
 
-def fmt_seq(seq: list[tuple[str, str | None]]) -> str:
-    return " ".join(f"{s}({o or '-'})" for s, o in seq)
+def fmt_seq(seq: list[tuple[Any, ...]]) -> str:
+    """``skill(object)`` each (two hands: ``side:skill(object)``)."""
+    return " ".join(
+        f"{x[0]}:{x[1]}({x[2] or '-'})" if len(x) == 3 else f"{x[0]}({x[1] or '-'})" for x in seq
+    )
 
 
 def perceived(args: argparse.Namespace) -> None:
@@ -393,27 +462,44 @@ def perceived(args: argparse.Namespace) -> None:
             f"{np.median(wall):.0f} s each (median; {min(wall):.0f}-{max(wall):.0f} s), "
             f"{np.median(ratio):.2f} x the demonstration's duration"
         )
+    everything: list[bool] = []
+    latency: list[float] = []
     for style in styles:
-        paths = [args.data / style / f"{t}_{s}.mcap" for t in args.tasks for s in seeds]
-        missing = [p for p in paths if not p.is_file()]
-        if missing:
-            sys.exit(f"missing {len(missing)} recordings (first {missing[0]}): run with --make")
-        results = []
-        for p in paths:
-            from lfd.errors import LfdError
-            from lfd.io import load
-
-            try:
-                with warnings.catch_warnings():
-                    warnings.simplefilter("ignore")
-                    load(p, images=False)
-            except LfdError as err:
-                print(f"  skipped {style}/{p.name}: not segmentable: {err}")
+        for kind, tasks in (("one hand", ONE_HAND), ("two hands", TWO_HAND)):
+            wanted = [t for t in args.tasks if t in tasks]
+            paths = [args.data / style / f"{t}_{s}.mcap" for t in wanted for s in seeds]
+            missing = [p for p in paths if not p.is_file()]
+            if missing and not args.available:
+                sys.exit(f"missing {len(missing)} recordings (first {missing[0]}): run with --make")
+            paths = [p for p in paths if p.is_file()]
+            if not paths:
                 continue
-            t0 = time.perf_counter()
-            results.append(measure_file(p, templates, cli=not args.no_cli))
-            print(f"  measured {style}/{p.name} ({time.perf_counter() - t0:.0f} s)", flush=True)
-        report_group(style, paths, results)
+            done, results = [], []
+            for p in paths:
+                from lfd.errors import LfdError
+                from lfd.io import load
+
+                try:
+                    with warnings.catch_warnings():
+                        warnings.simplefilter("ignore")
+                        load(p, images=False)
+                except LfdError as err:
+                    print(f"  skipped {style}/{p.name}: not segmentable: {err}")
+                    continue
+                t0 = time.perf_counter()
+                two = kind == "two hands"
+                results.append(measure_file(p, templates, cli=not (args.no_cli or two)))
+                done.append(p)
+                print(f"  measured {style}/{p.name} ({time.perf_counter() - t0:.0f} s)", flush=True)
+            if results:
+                report_group(f"{style}, {kind}", done, results)
+                rows = [r["rows"]["replay (segment_live)"] for r in results]
+                everything += [r["equal"] for r in rows]
+                latency += [x for r in rows for x in r["latency"]]
+    print(
+        f"\nall groups, replay: {sum(everything)}/{len(everything)} equal to batch; settled "
+        f"after the batch end (s) med / p95 / max {stats(latency)}"
+    )
 
 
 # --- the former mode: the simulator's keypoints ------------------------------------------------
@@ -467,6 +553,9 @@ def main() -> None:
         type=lambda v: [t.strip() for t in v.split(",")],
         default=list(TASKS),
         help=f"comma-separated sim tasks ({','.join(TASKS)})",
+    )
+    ap.add_argument(
+        "--available", action="store_true", help="measure the recordings there are (no --make)"
     )
     ap.add_argument("--no-cli", action="store_true", help="skip lfd info / segment / --follow")
     ap.add_argument("--seeds", help=f"default {SEEDS} ({'300-305'} with --truth)")

@@ -447,6 +447,23 @@ class LiveSegmentation:
             self._warnings = [str(err)]
             return None
 
+    def _run_at_rest(self) -> Segmentation | None:
+        """The segmentation of the recording so far with every object at rest after it was
+        last seen, as batch holds an object never seen again (:func:`lfd.segment` of the
+        complete preprocessing; the search and contact rules those of a recording still being
+        made). The open run (:meth:`_run`) has an object hidden since the hand reached it
+        follow the hand instead."""
+        from . import segment
+        from .pipeline import as_trajectory
+
+        demo = self.recording_so_far(self.window_start())
+        try:
+            traj = as_trajectory(demo, self.method.preprocessing)
+            return segment(traj, method=self.method, complete=False)
+        except LfdError as err:
+            self._warnings = [str(err)]
+            return None
+
     def window_start(self) -> int | None:
         """Where a run starts (None: at the recording's start): once the recording is longer
         than ``window_s``, at the last settled skill a demonstration may start with (the
@@ -488,7 +505,7 @@ class LiveSegmentation:
         run = self._run()
         if run is None:
             return LiveUpdate()
-        return self.settle(run, ended=_once(lambda: self._run(complete=True)))
+        return self.settle(run, ended=_once(self._run_at_rest))
 
     def failed(self, message: str) -> None:
         """A run of the recording so far failed (its one line becomes the warnings)."""
