@@ -327,6 +327,7 @@ class LiveSegmentation:
         self._origin_ns: int | None = None
         self._start_skills = frozenset(grammar()["start"])
         self._finished = False
+        self._move_extra = 1
 
     @classmethod
     def for_demonstration(
@@ -383,8 +384,15 @@ class LiveSegmentation:
 
     @property
     def ready(self) -> bool:
-        """Whether the hand and every object have been seen."""
+        """Whether the hand and every object have been seen (the runs start then: an object
+        not seen yet leaves every skill undecided)."""
         return self._tracks.ready()
+
+    @property
+    def seen_hand(self) -> bool:
+        """Whether a frame of the hand has come (at the end the batch segmentation runs then,
+        as batch ignores an object never seen)."""
+        return bool(self._tracks.hand)
 
     def push_hand(
         self,
@@ -545,7 +553,7 @@ class LiveSegmentation:
             c = cands[0]
             # a Move ends where the reach of the skill after it begins, which depends on what
             # that skill is (a Pick up's approach, lfd.contact): that skill must be followed too
-            if c.segment.skill == "move" and len(cands) < self.followers + 2:
+            if c.segment.skill == "move" and len(cands) < self.followers + 1 + self._move_extra:
                 break
             # NaN confidence (an implied Move) counts as certain
             uncertain = c.segment.confidence < self.min_confidence or (
@@ -649,7 +657,7 @@ class LiveSegmentation:
         if self._finished:
             return LiveUpdate()
         self._finished = True
-        if not self._tracks.ready():
+        if not self.seen_hand:
             return LiveUpdate()
         run = self._run(complete=True)
         if run is None:

@@ -299,7 +299,7 @@ class LiveHands:
         if self._finished:
             return HandsUpdate()
         self._finished = True
-        seen = [side for side, lane in self.lanes.items() if lane.ready]
+        seen = [side for side, lane in self.lanes.items() if lane.seen_hand]
         lanes = {side: lane.finish() for side, lane in self.lanes.items() if side not in seen}
         if not seen:
             return HandsUpdate(lanes)

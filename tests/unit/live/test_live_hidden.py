@@ -91,3 +91,22 @@ def test_the_end_of_a_recording_is_the_batch_result() -> None:
     assert before_end, "the skills before the object was touched settle while recording"
     assert tail, "the skills after it wait for the end"
     assert all(s.end_ns <= touched[0].end_ns + 1_000_000_000 for s in before_end)
+
+
+def test_an_object_never_seen_leaves_the_end_to_batch() -> None:
+    """A declared object whose tag is never seen (batch ignores it, with a warning): nothing
+    settles while it may still appear, and the end gives the batch result of the whole
+    recording, not nothing (lfd record of exp3 natural seed 9401 wrote no live skill)."""
+    demo = simulate("exp1", 0, Variability(style="careful")).demo
+    name = next(n for n in demo.objects if not any(lab.object == n for lab in demo.labels))
+    hidden = _hidden(demo, name, demo.start_ns, demo.end_ns)
+    assert len(hidden.objects[name].t_ns) == 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        batch = lfd.segment(hidden)
+        live = LiveSegmentation.for_demonstration(hidden)
+        during = [s for msg in demo_messages(hidden) for s in live.push(msg).segments]
+        end = live.finish().segments
+    assert any(name in w for w in batch.warnings)
+    assert not during
+    assert _sequence(end) == _sequence(batch.segments) != []
