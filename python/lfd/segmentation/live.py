@@ -327,7 +327,6 @@ class LiveSegmentation:
         self._origin_ns: int | None = None
         self._start_skills = frozenset(grammar()["start"])
         self._finished = False
-        self._move_extra = 1
 
     @classmethod
     def for_demonstration(
@@ -547,49 +546,53 @@ class LiveSegmentation:
                     since = self._candidates[i].since_ns
             cands.append(_Candidate(seg, since))
         newest = int(self._newest_hand or now)
-        settled: list[Segment] = []
-        # the last segment of a run is open: it settles only when the recording ends
-        while len(cands) > self.followers:
-            c = cands[0]
-            # a Move ends where the reach of the skill after it begins, which depends on what
-            # that skill is (a Pick up's approach, lfd.contact): that skill must be followed too
-            if c.segment.skill == "move" and len(cands) < self.followers + 1 + self._move_extra:
-                break
+        limit = min(newest - self.lag_ns, self._seen_until())
+
+        def ready(c: _Candidate) -> bool:
             # NaN confidence (an implied Move) counts as certain
             uncertain = c.segment.confidence < self.min_confidence or (
                 shared is not None and shared(c.segment)
             )
             wait = self.uncertain_ns if uncertain else self.stable_ns
-            if (
-                int(c.segment.end_ns) > min(newest - self.lag_ns, self._seen_until())
-                or now - c.since_ns < wait
+            return int(c.segment.end_ns) <= limit and now - c.since_ns >= wait
+
+        settled: list[Segment] = []
+        # the last segment of a run is open: it settles only when the recording ends
+        while len(cands) > self.followers:
+            c = cands[0]
+            # a Move ends where the reach of the skill after it begins, and is named after that
+            # skill's object (lfd.contact): it settles with that skill, once that one is ready
+            # and followed too
+            step = 2 if c.segment.skill == "move" else 1
+            if len(cands) < self.followers + step or not all(map(ready, cands[:step])):
+                break
+            if ended is not None and not self._agrees(
+                [x.segment for x in cands[:step]], ended()
             ):
                 break
-            if ended is not None and not self._agrees(c.segment, ended()):
-                break
-            settled.append(self._joined(c.segment, _dt(run)))
-            self._emitted.append(settled[-1])
-            self.settled_ns.append(now)
-            cands.pop(0)
+            for x in cands[:step]:
+                settled.append(self._joined(x.segment, _dt(run)))
+                self._emitted.append(settled[-1])
+                self.settled_ns.append(now)
+            del cands[:step]
         self._candidates = cands
         return self._update(run, settled)
 
-    def _agrees(self, seg: Segment, ended: Segmentation | None) -> bool:
-        """Whether the segmentation of the recording so far as if it ended now (``ended``) has
-        ``seg`` next after the settled segments: the same skill and object, ending within
-        ``tolerance_s``. The open run and the ended one differ only in what is not known yet:
-        an object hidden since the hand reached it follows the hand in the first and rests in
-        the second (batch, seeing where it reappears, interpolates), and the rules about how a
-        demonstration ends. Where they disagree on a segment, the evidence is not in yet."""
+    def _agrees(self, segs: list[Segment], ended: Segmentation | None) -> bool:
+        """Whether the segmentation of the recording so far with every unseen object at rest
+        (``ended``, :meth:`_run_at_rest`) has ``segs`` next after the settled segments: the
+        same skills and objects, each ending within ``tolerance_s``. The open run and that one
+        differ only in what is not known yet: an object hidden since the hand reached it
+        follows the hand in the first and rests in the second (batch, seeing where it
+        reappears, interpolates). Where they disagree on a segment, the evidence is not in."""
         if ended is None:
             return False
         rest = self._aligned(ended)
-        if not rest:
-            return False
-        first = rest[0]
-        return (first.skill, first.object) == (seg.skill, seg.object) and abs(
-            int(first.end_ns) - int(seg.end_ns)
-        ) <= self.tolerance_ns
+        return len(rest) >= len(segs) and all(
+            (a.skill, a.object) == (b.skill, b.object)
+            and abs(int(a.end_ns) - int(b.end_ns)) <= self.tolerance_ns
+            for a, b in zip(rest, segs, strict=False)
+        )
 
     def _seen_until(self) -> int:
         """The time up to which every object the hand may have moved unseen has been seen: an
