@@ -35,8 +35,11 @@ def test_live_finds_the_batch_skills_soon_after_they_end(path: Path) -> None:
     ]
     late = (settled - np.array([s.end_ns for s in batch.segments])) * 1e-9
     assert np.all(late[:-1] > 0), late  # nothing settles before it has ended
-    assert np.all(late[:-1] <= 6.0), late
-    if path != PERCEIVED:  # a hidden tag holds the skills it hides (docs/live.md)
+    # a hidden tag holds the skills it hides (docs/live.md): at most 2 s past the longest
+    # time a tag was out of sight
+    hidden = max(np.diff(np.asarray(o.t_ns)).max(initial=0) for o in demo.objects.values())
+    assert np.all(late[:-1] <= max(6.0, hidden * 1e-9 + 2.0)), late
+    if path != PERCEIVED:
         assert np.median(late[:-1]) <= 2.0, late
     starts = np.array([s.start for s in live.segments]) - np.array(
         [s.start for s in batch.segments]
