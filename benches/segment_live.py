@@ -9,14 +9,21 @@ Run::
 
 **Data** (``--make``, into ``--data``, default ``/tmp/lfd_live_perceived``, outside the
 repository): ``lfd record --source sim:TASK:STYLE --seed N -o DIR/STYLE/TASK_N.mcap
---live-segment`` for TASK exp1-exp5, STYLE careful and natural, seeds 420-421 (used by no
-template, tuning, test or other benchmark; the settling rules were chosen on seeds 410-411,
-``--seeds 410-411``; ``batch_throughput.py`` only times files of seeds 400+). Each recording is the simulator's demonstration rendered frame by frame (colour + depth,
-30 Hz) and perceived like a camera's: object poses from the ArUco tags on every frame, the
-hand's 21 keypoints from the depth network at the recorder's default rate (5 Hz); the live
-segmenter of the recorder segments as the frames are perceived and writes each skill it
-settles to ``/lfd/live/segments`` (``log_time`` = the frame time it settled at). Nothing of
-the simulator's truth reaches the file.
+--live-segment`` for TASK exp1-exp5 and the two-hand tasks handover, carry, hold_stack,
+hold_push (``--tasks``), STYLE careful and natural, seeds 420-421 by default (``--seeds``; the
+figures of docs/live.md are of seeds 9401-9402, recorded once the rules were chosen on the
+reported failures, exp3 careful 9302 and exp5 natural 9305; earlier rules were chosen on
+410-411 and 420-421). Each recording is the simulator's demonstration rendered frame by frame
+(colour + depth, 30 Hz) and perceived like a camera's: object poses from the ArUco tags on
+every frame, the hand's 21 keypoints from the depth network at the recorder's default rate
+(5 Hz; of two hands, each arm's); the live segmenter of the recorder segments as the frames
+are perceived and writes each skill it settles to ``/lfd/live/segments`` (``log_time`` = the
+frame time it settled at). Nothing of the simulator's truth reaches the file. ``--available``
+measures the recordings there are (while ``--make`` still records others).
+
+A two-hand recording is compared lane by lane with ``lfd.segment_hands`` (the replay:
+``segment_hands_live``); it counts as equal when every lane is, its latencies are both lanes'
+(``lfd info`` / ``lfd segment`` / ``--follow`` are run on one-hand recordings only).
 
 **Measured**, per recording, against the batch result ``lfd.segment(lfd.load(FILE))`` (what
 ``lfd segment FILE`` prints; checked against the CLI's ``--json``):
