@@ -7,9 +7,12 @@ as they arrive, in any interleaving; they are kept as the recording will hold th
 :class:`~lfd.segmentation.method.Method`: the same preprocessing, features, stage 1, search,
 grammar and contact rules) runs on the recording so far. A skill settles, and is never revised
 afterwards, once it ends ``lag_s`` before the newest hand frame and has come out the same
-(skill, object, end within ``tolerance_s``) in every run for ``stable_s``. When the recording
-ends the batch segmentation of the whole recording gives the skills still open, so the live
-result is the batch one wherever the settled skills were right (docs/live.md).
+(skill, object, end within ``tolerance_s``) in every run for ``stable_s``, and the run of the
+recording so far with every unseen object at rest where it was last seen (as batch holds an
+object never seen again) has it too: a hidden tag leaves what it could change undecided. A
+Move settles with the skill after it. When the recording ends the batch segmentation of the
+whole recording gives the skills still open, so the live result is the batch one wherever the
+settled skills were right (docs/live.md).
 
 There is one implementation of every rule: live is the batch pipeline run on a growing
 recording, not a second pipeline. A recording longer than ``window_s`` is segmented from the
@@ -37,11 +40,11 @@ from .templates import TemplateChoice, Templates
 
 _T = TypeVar("_T")
 
-DEFAULT_EVERY_S = 0.5
+DEFAULT_EVERY_S = 0.25
 """Recording seconds between two runs of the batch segmentation."""
-DEFAULT_LAG_S = 0.5
+DEFAULT_LAG_S = 0.25
 """A skill settles no sooner than this long after its end (the newest hand frame's time)..."""
-DEFAULT_STABLE_S = 0.5
+DEFAULT_STABLE_S = 0.25
 """...and once it has come out the same in every run for this long."""
 DEFAULT_TOLERANCE_S = 0.2
 """Two runs give "the same" skill when its end moved by at most this much."""
@@ -50,9 +53,10 @@ DEFAULT_MIN_CONFIDENCE = 0.5
 this) is a guess about what comes next..."""
 DEFAULT_UNCERTAIN_S = 3.0
 """...so it settles only once it has come out the same for this long."""
-DEFAULT_MAX_WAIT_S = 10.0
-"""A skill settles once every object has been seen after its end (a tag hidden by the hand may
-hide the very motion that tells the skills apart), or has been out of sight this long."""
+DEFAULT_MAX_WAIT_S = 0.0
+"""A skill settles once every object the hand reached has been seen after its end, or has been
+out of sight this long (0: no such wait; the check run with every unseen object at rest,
+:meth:`LiveSegmentation._run_at_rest`, holds what a hidden tag could change)."""
 DEFAULT_REACH_M = 0.15
 """An object the TCP came this close to (m) may have been moved while hidden."""
 DEFAULT_WINDOW_S = 60.0
