@@ -570,9 +570,7 @@ class LiveSegmentation:
             step = 2 if c.segment.skill == "move" else 1
             if len(cands) < self.followers + step or not all(map(ready, cands[:step])):
                 break
-            if ended is not None and not self._agrees(
-                [x.segment for x in cands[:step]], ended()
-            ):
+            if ended is not None and not self._agrees([x.segment for x in cands[:step]], ended()):
                 break
             for x in cands[:step]:
                 settled.append(self._joined(x.segment, _dt(run)))
