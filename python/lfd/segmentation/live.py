@@ -554,8 +554,10 @@ class LiveSegmentation:
 
         def ready(c: _Candidate) -> bool:
             # NaN confidence (an implied Move) counts as certain
-            uncertain = c.segment.confidence < self.min_confidence or (
-                shared is not None and shared(c.segment)
+            uncertain = (
+                c.segment.confidence < self.min_confidence
+                or (shared is not None and shared(c.segment))
+                or _unlifted(run, c.segment)
             )
             wait = self.uncertain_ns if uncertain else self.stable_ns
             return int(c.segment.end_ns) <= limit and now - c.since_ns >= wait
@@ -709,6 +711,25 @@ class LiveSegmentation:
             object_names=self.object_names,
             run=run.run if run is not None else None,
         )
+
+
+def _unlifted(run: Segmentation, seg: Segment) -> bool:
+    """Whether ``seg`` is a Move with whose object never rose above its rest height (the
+    features' lift threshold) in ``run``: a turn or slide on the table that the next grasp of
+    the object may yet make part of one Pick up (:func:`lfd.contact.refine`), so it settles
+    as an uncertain one."""
+    from .stage1 import OBJECT_COLUMNS
+
+    if seg.skill != "move_with" or seg.object is None or run.run is None:
+        return False
+    try:
+        o = run.object_names.index(seg.object)
+        feats = run.run.object_features[o]
+    except (ValueError, IndexError):
+        return False
+    k = OBJECT_COLUMNS["object_height"]
+    a, b = int(seg.start), max(int(seg.end), int(seg.start) + 1)
+    return not bool((feats.values[a:b, k] > feats.thresholds[a:b, k]).any())
 
 
 def _once(make: Callable[[], _T]) -> Callable[[], _T]:
