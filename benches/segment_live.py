@@ -82,8 +82,9 @@ by :class:`~lfd.segmentation.live_hands.LiveHands`, compared with ``lfd.segment_
 TASKS = ONE_HAND + TWO_HAND
 STYLES = ("careful", "natural")
 SEEDS = "420-421"
-"""Held-out seeds of the perceived recordings: no template, tuning, test or benchmark uses them
-(the settling rules of ``lfd.segmentation.live`` were chosen on seeds 410-411)."""
+"""Default seeds of the perceived recordings (the settling rules of ``lfd.segmentation.live``
+were last chosen on the issue's 9302 and 9305 and on seeds 9401-9402; 9403 was recorded after
+them: ``--seeds 9403``, docs/live.md)."""
 GRID_HZ = 100.0
 """Rate of the time grid the frame agreement is counted on."""
 
