@@ -164,3 +164,24 @@ def test_record_live_segment_writes_and_shows_skills_while_recording(tmp_path: P
     assert len(spans) >= 2 * 7 and (hand.max() - spans.min()) * 1e-9 > 5.0
     sections = row_times(rrd, SECTIONS)  # stage-1 sections streamed as they were found
     assert len(sections) >= 8 and (hand.max() - np.median(sections)) * 1e-9 > 2.0
+
+
+def test_a_move_with_that_never_lifts_waits_as_uncertain() -> None:
+    """A Move with whose object never rose above its rest height may yet become part of one
+    Pick up (a turn on the table, lfd.contact): it settles as an uncertain one. The batch
+    Move withs of a recording lift their object; the same span before the grasp does not."""
+    import dataclasses
+
+    from lfd.segmentation.live import _unlifted
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        run = lfd.segment(load(RECORDINGS[0]))
+    carries = [s for s in run.segments if s.skill == "move_with"]
+    assert carries and not any(_unlifted(run, s) for s in carries)
+    first = next(s for s in run.segments if s.skill == "pick_up" and s.object == carries[0].object)
+    resting = dataclasses.replace(
+        carries[0], start=first.start, end=max(first.start + 2, (first.start + first.end) // 2)
+    )
+    assert _unlifted(run, resting)
+    assert not _unlifted(run, dataclasses.replace(resting, skill="place"))
