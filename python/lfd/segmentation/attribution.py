@@ -61,7 +61,7 @@ ATTRIBUTION_RULES: dict[str, Rule] = dict.fromkeys(
 
 def _nearest(hand: HandTrack, t_ns: np.ndarray) -> np.ndarray:
     """The index of ``hand``'s sample nearest each of ``t_ns`` (``hand`` not empty)."""
-    i = np.clip(np.searchsorted(hand.t_ns, t_ns), 1, max(len(hand) - 1, 1))
+    i = np.clip(np.searchsorted(hand.t_ns, t_ns), 0, len(hand) - 1)
     prev = np.maximum(i - 1, 0)
     return np.where(np.abs(hand.t_ns[prev] - t_ns) <= np.abs(hand.t_ns[i] - t_ns), prev, i)
 

@@ -7,9 +7,12 @@ as they arrive, in any interleaving; they are kept as the recording will hold th
 :class:`~lfd.segmentation.method.Method`: the same preprocessing, features, stage 1, search,
 grammar and contact rules) runs on the recording so far. A skill settles, and is never revised
 afterwards, once it ends ``lag_s`` before the newest hand frame and has come out the same
-(skill, object, end within ``tolerance_s``) in every run for ``stable_s``. When the recording
-ends the batch segmentation of the whole recording gives the skills still open, so the live
-result is the batch one wherever the settled skills were right (docs/live.md).
+(skill, object, end within ``tolerance_s``) in every run for ``stable_s``, and the run of the
+recording so far with every unseen object at rest where it was last seen (as batch holds an
+object never seen again) has it too: a hidden tag leaves what it could change undecided. A
+Move settles with the skill after it. When the recording ends the batch segmentation of the
+whole recording gives the skills still open, so the live result is the batch one wherever the
+settled skills were right (docs/live.md).
 
 There is one implementation of every rule: live is the batch pipeline run on a growing
 recording, not a second pipeline. A recording longer than ``window_s`` is segmented from the
@@ -22,7 +25,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -35,11 +38,13 @@ from .method import Method
 from .result import Segment, Segmentation
 from .templates import TemplateChoice, Templates
 
-DEFAULT_EVERY_S = 0.5
+_T = TypeVar("_T")
+
+DEFAULT_EVERY_S = 0.25
 """Recording seconds between two runs of the batch segmentation."""
-DEFAULT_LAG_S = 0.5
+DEFAULT_LAG_S = 0.25
 """A skill settles no sooner than this long after its end (the newest hand frame's time)..."""
-DEFAULT_STABLE_S = 0.5
+DEFAULT_STABLE_S = 0.25
 """...and once it has come out the same in every run for this long."""
 DEFAULT_TOLERANCE_S = 0.2
 """Two runs give "the same" skill when its end moved by at most this much."""
@@ -48,9 +53,10 @@ DEFAULT_MIN_CONFIDENCE = 0.5
 this) is a guess about what comes next..."""
 DEFAULT_UNCERTAIN_S = 3.0
 """...so it settles only once it has come out the same for this long."""
-DEFAULT_MAX_WAIT_S = 10.0
-"""A skill settles once every object has been seen after its end (a tag hidden by the hand may
-hide the very motion that tells the skills apart), or has been out of sight this long."""
+DEFAULT_MAX_WAIT_S = 0.0
+"""A skill settles once every object the hand reached has been seen after its end, or has been
+out of sight this long (0: no such wait; the check run with every unseen object at rest,
+:meth:`LiveSegmentation._run_at_rest`, holds what a hidden tag could change)."""
 DEFAULT_REACH_M = 0.15
 """An object the TCP came this close to (m) may have been moved while hidden."""
 DEFAULT_WINDOW_S = 60.0
@@ -381,8 +387,15 @@ class LiveSegmentation:
 
     @property
     def ready(self) -> bool:
-        """Whether the hand and every object have been seen."""
+        """Whether the hand and every object have been seen (the runs start then: an object
+        not seen yet leaves every skill undecided)."""
         return self._tracks.ready()
+
+    @property
+    def seen_hand(self) -> bool:
+        """Whether a frame of the hand has come (at the end the batch segmentation runs then,
+        as batch ignores an object never seen)."""
+        return bool(self._tracks.hand)
 
     def push_hand(
         self,
@@ -445,6 +458,23 @@ class LiveSegmentation:
             self._warnings = [str(err)]
             return None
 
+    def _run_at_rest(self) -> Segmentation | None:
+        """The segmentation of the recording so far with every object at rest after it was
+        last seen, as batch holds an object never seen again (:func:`lfd.segment` of the
+        complete preprocessing; the search and contact rules those of a recording still being
+        made). The open run (:meth:`_run`) has an object hidden since the hand reached it
+        follow the hand instead."""
+        from . import segment
+        from .pipeline import as_trajectory
+
+        demo = self.recording_so_far(self.window_start())
+        try:
+            traj = as_trajectory(demo, self.method.preprocessing)
+            return segment(traj, method=self.method, complete=False)
+        except LfdError as err:
+            self._warnings = [str(err)]
+            return None
+
     def window_start(self) -> int | None:
         """Where a run starts (None: at the recording's start): once the recording is longer
         than ``window_s``, at the last settled skill a demonstration may start with (the
@@ -486,19 +516,24 @@ class LiveSegmentation:
         run = self._run()
         if run is None:
             return LiveUpdate()
-        return self.settle(run)
+        return self.settle(run, ended=_once(self._run_at_rest))
 
     def failed(self, message: str) -> None:
         """A run of the recording so far failed (its one line becomes the warnings)."""
         self._warnings = [message]
 
     def settle(
-        self, run: Segmentation, shared: Callable[[Segment], bool] | None = None
+        self,
+        run: Segmentation,
+        shared: Callable[[Segment], bool] | None = None,
+        ended: Callable[[], Segmentation | None] | None = None,
     ) -> LiveUpdate:
         """Settle what ``run`` (the segmentation of the recording so far: :meth:`_run`, or this
         hand's lane of both hands') has kept the same long enough; a segment ``shared`` says
         depends on the other hand (its object in the other hand's skill then) waits as an
-        uncertain one."""
+        uncertain one. ``ended`` gives the batch segmentation of the recording so far as if it
+        ended now (``complete``; called only when a segment is otherwise ready): a segment
+        settles only if that run has it too (:meth:`_agrees`)."""
         self._last = run
         rest = self._aligned(run)
         now = int(self._now or 0)
@@ -515,30 +550,53 @@ class LiveSegmentation:
                     since = self._candidates[i].since_ns
             cands.append(_Candidate(seg, since))
         newest = int(self._newest_hand or now)
+        limit = min(newest - self.lag_ns, self._seen_until())
+
+        def ready(c: _Candidate) -> bool:
+            # NaN confidence (an implied Move) counts as certain
+            uncertain = (
+                c.segment.confidence < self.min_confidence
+                or (shared is not None and shared(c.segment))
+                or _unlifted(run, c.segment)
+            )
+            wait = self.uncertain_ns if uncertain else self.stable_ns
+            return int(c.segment.end_ns) <= limit and now - c.since_ns >= wait
+
         settled: list[Segment] = []
         # the last segment of a run is open: it settles only when the recording ends
         while len(cands) > self.followers:
             c = cands[0]
-            # a Move ends where the reach of the skill after it begins, which depends on what
-            # that skill is (a Pick up's approach, lfd.contact): that skill must be followed too
-            if c.segment.skill == "move" and len(cands) < self.followers + 2:
+            # a Move ends where the reach of the skill after it begins, and is named after that
+            # skill's object (lfd.contact): it settles with that skill, once that one is ready
+            # and followed too
+            step = 2 if c.segment.skill == "move" else 1
+            if len(cands) < self.followers + step or not all(map(ready, cands[:step])):
                 break
-            # NaN confidence (an implied Move) counts as certain
-            uncertain = c.segment.confidence < self.min_confidence or (
-                shared is not None and shared(c.segment)
-            )
-            wait = self.uncertain_ns if uncertain else self.stable_ns
-            if (
-                int(c.segment.end_ns) > min(newest - self.lag_ns, self._seen_until())
-                or now - c.since_ns < wait
-            ):
+            if ended is not None and not self._agrees([x.segment for x in cands[:step]], ended()):
                 break
-            settled.append(self._joined(c.segment, _dt(run)))
-            self._emitted.append(settled[-1])
-            self.settled_ns.append(now)
-            cands.pop(0)
+            for x in cands[:step]:
+                settled.append(self._joined(x.segment, _dt(run)))
+                self._emitted.append(settled[-1])
+                self.settled_ns.append(now)
+            del cands[:step]
         self._candidates = cands
         return self._update(run, settled)
+
+    def _agrees(self, segs: list[Segment], ended: Segmentation | None) -> bool:
+        """Whether the segmentation of the recording so far with every unseen object at rest
+        (``ended``, :meth:`_run_at_rest`) has ``segs`` next after the settled segments: the
+        same skills and objects, each ending within ``tolerance_s``. The open run and that one
+        differ only in what is not known yet: an object hidden since the hand reached it
+        follows the hand in the first and rests in the second (batch, seeing where it
+        reappears, interpolates). Where they disagree on a segment, the evidence is not in."""
+        if ended is None:
+            return False
+        rest = self._aligned(ended)
+        return len(rest) >= len(segs) and all(
+            (a.skill, a.object) == (b.skill, b.object)
+            and abs(int(a.end_ns) - int(b.end_ns)) <= self.tolerance_ns
+            for a, b in zip(rest, segs, strict=False)
+        )
 
     def _seen_until(self) -> int:
         """The time up to which every object the hand may have moved unseen has been seen: an
@@ -606,7 +664,7 @@ class LiveSegmentation:
         if self._finished:
             return LiveUpdate()
         self._finished = True
-        if not self._tracks.ready():
+        if not self.seen_hand:
             return LiveUpdate()
         run = self._run(complete=True)
         if run is None:
@@ -653,6 +711,37 @@ class LiveSegmentation:
             object_names=self.object_names,
             run=run.run if run is not None else None,
         )
+
+
+def _unlifted(run: Segmentation, seg: Segment) -> bool:
+    """Whether ``seg`` is a Move with whose object never rose above its rest height (the
+    features' lift threshold) in ``run``: a turn or slide on the table that the next grasp of
+    the object may yet make part of one Pick up (:func:`lfd.contact.refine`), so it settles
+    as an uncertain one."""
+    from .stage1 import OBJECT_COLUMNS
+
+    if seg.skill != "move_with" or seg.object is None or run.run is None:
+        return False
+    try:
+        o = run.object_names.index(seg.object)
+        feats = run.run.object_features[o]
+    except (ValueError, IndexError):
+        return False
+    k = OBJECT_COLUMNS["object_height"]
+    a, b = int(seg.start), max(int(seg.end), int(seg.start) + 1)
+    return not bool((feats.values[a:b, k] > feats.thresholds[a:b, k]).any())
+
+
+def _once(make: Callable[[], _T]) -> Callable[[], _T]:
+    """``make``, called at most once (its result kept)."""
+    kept: list[_T] = []
+
+    def get() -> _T:
+        if not kept:
+            kept.append(make())
+        return kept[0]
+
+    return get
 
 
 def _dt(run: Segmentation) -> float:

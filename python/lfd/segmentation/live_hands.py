@@ -31,12 +31,13 @@ from .live import (
     LiveUpdate,
     ObjectMessage,
     Span,
+    _once,
     demo_messages,
     label_of,
     recording_arguments,
 )
 from .method import Method
-from .result import Segment
+from .result import Segment, Segmentation
 from .templates import TemplateChoice, Templates
 
 if TYPE_CHECKING:
@@ -251,8 +252,10 @@ class LiveHands:
         if run is None:
             return HandsUpdate()
         self._last = run
+        # the run of the recording so far as if it ended now, made once a lane needs it
+        ended = _once(lambda: self._run(self.sides, complete=True))
         lanes = {
-            side: lane.settle(run.lanes[side], _shared(run, side))
+            side: lane.settle(run.lanes[side], _shared(run, side), _lane_of(ended, side))
             for side, lane in self.lanes.items()
         }
         return HandsUpdate(lanes, self._settled_handovers(run.handovers, final=False))
@@ -296,7 +299,7 @@ class LiveHands:
         if self._finished:
             return HandsUpdate()
         self._finished = True
-        seen = [side for side, lane in self.lanes.items() if lane.ready]
+        seen = [side for side, lane in self.lanes.items() if lane.seen_hand]
         lanes = {side: lane.finish() for side, lane in self.lanes.items() if side not in seen}
         if not seen:
             return HandsUpdate(lanes)
@@ -329,6 +332,18 @@ class LiveHands:
             warnings=list(run.warnings) if run is not None else list(self._warnings),
             method=self.method,
         )
+
+
+def _lane_of(
+    ended: Callable[[], HandsSegmentation | None], side: str
+) -> Callable[[], Segmentation | None]:
+    """The ``side`` hand's lane of the run ``ended`` gives (None: that run failed)."""
+
+    def lane() -> Segmentation | None:
+        run = ended()
+        return None if run is None else run.lanes.get(side)
+
+    return lane
 
 
 def _shared(run: HandsSegmentation, side: str) -> Callable[[Segment], bool]:

@@ -3,6 +3,7 @@ runs over both hands together; at the end each lane is the batch one (``lfd.segm
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from pathlib import Path
 
@@ -272,3 +273,32 @@ def test_record_live_segment_of_two_hands(tmp_path: Path) -> None:
         assert live == [(s.skill, s.object) for s in batch.lanes[side].segments], side
         assert f"/world/hand/{side}/keypoints" in data.rows
         assert f"/segmentation/skills/{side}/result" in data.rows
+
+
+def test_a_run_while_a_hand_has_one_frame(two: lfd.Demonstration) -> None:
+    """The left hand enters the view late and is estimated twice a second: the run due 0.2 s
+    after its first frame sees one frame of it and does not fail (an IndexError in the
+    attribution of objects to the nearer hand did, live and in batch of such a recording);
+    the end is the batch result."""
+    left = two.other_hand
+    assert left is not None
+    t = np.asarray(left.t_ns)
+    keep = np.flatnonzero(t >= two.start_ns + 2 * 1_000_000_000)
+    keep = keep[np.r_[True, np.diff(t[keep] // 500_000_000) > 0]]  # 2 Hz
+    sparse = dataclasses.replace(
+        left,
+        t_ns=t[keep],
+        keypoints=left.keypoints[keep],
+        confidence=left.confidence[keep],
+        visible=None if left.visible is None else left.visible[keep],
+    )
+    demo = dataclasses.replace(two, other_hand=sparse)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        live, _ = segment_hands_live(demo, every_s=0.2)
+        batch = lfd.segment_hands(demo)
+    for side in demo.sides:
+        assert [(s.skill, s.object) for s in live.lanes[side].segments] == [
+            (s.skill, s.object) for s in batch.lanes[side].segments
+        ], side
+    assert live.lanes["right"].segments

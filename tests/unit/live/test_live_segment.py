@@ -35,8 +35,11 @@ def test_live_finds_the_batch_skills_soon_after_they_end(path: Path) -> None:
     ]
     late = (settled - np.array([s.end_ns for s in batch.segments])) * 1e-9
     assert np.all(late[:-1] > 0), late  # nothing settles before it has ended
-    assert np.all(late[:-1] <= 6.0), late
-    if path != PERCEIVED:  # a hidden tag holds the skills it hides (docs/live.md)
+    # a hidden tag holds the skills it hides (docs/live.md): at most 2 s past the longest
+    # time a tag was out of sight
+    hidden = max(np.diff(np.asarray(o.t_ns)).max(initial=0) for o in demo.objects.values())
+    assert np.all(late[:-1] <= max(6.0, hidden * 1e-9 + 2.0)), late
+    if path != PERCEIVED:
         assert np.median(late[:-1]) <= 2.0, late
     starts = np.array([s.start for s in live.segments]) - np.array(
         [s.start for s in batch.segments]
@@ -161,3 +164,24 @@ def test_record_live_segment_writes_and_shows_skills_while_recording(tmp_path: P
     assert len(spans) >= 2 * 7 and (hand.max() - spans.min()) * 1e-9 > 5.0
     sections = row_times(rrd, SECTIONS)  # stage-1 sections streamed as they were found
     assert len(sections) >= 8 and (hand.max() - np.median(sections)) * 1e-9 > 2.0
+
+
+def test_a_move_with_that_never_lifts_waits_as_uncertain() -> None:
+    """A Move with whose object never rose above its rest height may yet become part of one
+    Pick up (a turn on the table, lfd.contact): it settles as an uncertain one. The batch
+    Move withs of a recording lift their object; the same span before the grasp does not."""
+    import dataclasses
+
+    from lfd.segmentation.live import _unlifted
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        run = lfd.segment(load(RECORDINGS[0]))
+    carries = [s for s in run.segments if s.skill == "move_with"]
+    assert carries and not any(_unlifted(run, s) for s in carries)
+    first = next(s for s in run.segments if s.skill == "pick_up" and s.object == carries[0].object)
+    resting = dataclasses.replace(
+        carries[0], start=first.start, end=max(first.start + 2, (first.start + first.end) // 2)
+    )
+    assert _unlifted(run, resting)
+    assert not _unlifted(run, dataclasses.replace(resting, skill="place"))
