@@ -40,7 +40,7 @@ from ..contact import box_distance
 from .hand import FINGERTIP_RADIUS, POSTURES, grasp_posture
 from .motion import HandState, minjerk
 from .planner import Detach, ObjectPose, Planner
-from .skills import _deg, _grasp, _max_top, attach, carry_target, rest_pose
+from .skills import _deg, _grasp, _max_top, attach, carry_target, over_length, rest_pose
 from .tasks import WORKSPACE_X, WORKSPACE_Y
 
 LIFT_OFF_M = 0.01
@@ -279,7 +279,7 @@ def move_with(
         z_peak = max(z_peak, above[2] + 0.01)
         if not repeat:  # a carry across the table clears every object; a repeated lift stays apart
             z_peak = max(z_peak, _max_top(P, name) + below_tcp + 0.03)
-        dist = float(np.linalg.norm(above[:2] - s.tcp[:2]) + 2 * z_peak - s.tcp[2] - above[2])
+        dist = over_length(s.tcp, above, z_peak)
         duration = P.dur(0.25, 0.4) + 1.5 * dist / P.skill_speed
         if yaw_turn is not None:  # turning the object about takes its time
             duration += P.dur(0.2, 0.6) * abs(yaw_turn)
@@ -385,7 +385,7 @@ def _leave(P: Planner, obj: str, leave: str) -> None:
     rest = rest.moved(q=0.5 * POSTURES["relaxed"] + 0.5 * rest.q)
     z_peak = max(s.tcp[2], rest.tcp[2]) + rng.uniform(0.02, 0.05)
     z_peak = max(z_peak, _max_top(P) + 0.05)
-    dist = float(np.linalg.norm(rest.tcp[:2] - s.tcp[:2]) + 2 * z_peak - s.tcp[2] - rest.tcp[2])
+    dist = over_length(s.tcp, rest.tcp, z_peak)
     P.go(
         P.dur(0.2, 0.35) + 1.1 * dist / P.skill_speed,
         rest,
@@ -454,9 +454,7 @@ def move(
     else:
         z_peak = max(s.tcp[2], target.tcp[2]) + rng.uniform(0.02, 0.06)
         z_peak = max(z_peak, _max_top(P) + 0.05)
-        dist = float(
-            np.linalg.norm(target.tcp[:2] - s.tcp[:2]) + 2 * z_peak - s.tcp[2] - target.tcp[2]
-        )
+        dist = over_length(s.tcp, target.tcp, z_peak)
         P.go(
             P.dur(0.2, 0.35) + 1.1 * dist / P.skill_speed,
             target,

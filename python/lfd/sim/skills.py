@@ -295,7 +295,7 @@ def move_with(P: Planner, name: str, onto: str | None = None) -> None:
     below_tcp = 0.5 * spec.size[2] - P.grasp_rel[0][2]  # object bottom below the TCP
     z_peak = max(s.tcp[2], above[2]) + rng.uniform(0.03, 0.08)
     z_peak = max(z_peak, _max_top(P, name) + below_tcp + 0.03)
-    dist = float(np.linalg.norm(above[:2] - s.tcp[:2]) + 2 * z_peak - s.tcp[2] - above[2])
+    dist = over_length(s.tcp, above, z_peak)
     P.go(
         P.dur(0.6, 0.9) + 2.0 * dist / P.skill_speed,
         s.moved(tcp=above, yaw=hand_yaw),
@@ -354,13 +354,19 @@ def rest_pose(P: Planner) -> HandState:
     return HandState(p, P.natural_yaw(p), _deg(10, 25, rng), _deg(-8, 8, rng), POSTURES["relaxed"])
 
 
+def over_length(a: np.ndarray, b: np.ndarray, z_peak: float) -> float:
+    """The length (m) of a path from ``a`` up to ``z_peak``, across and down to ``b`` (TCP
+    positions): the horizontal distance plus both vertical legs."""
+    return float(np.linalg.norm(b[:2] - a[:2]) + 2 * z_peak - a[2] - b[2])
+
+
 def move(P: Planner, target: HandState, obj: str | None) -> None:
     """Rise, then travel (not holding) to ``target`` (the next skill's entry or a rest pose)."""
     P.begin_skill()
     t0, rng, s = P.t, P.rng, P.state
     z_peak = max(s.tcp[2], target.tcp[2]) + rng.uniform(0.02, 0.06)
     z_peak = max(z_peak, _max_top(P) + 0.06)
-    dist = float(np.linalg.norm(target.tcp[:2] - s.tcp[:2]) + 2 * z_peak - s.tcp[2] - target.tcp[2])
+    dist = over_length(s.tcp, target.tcp, z_peak)
     P.go(
         P.dur(0.5, 0.8) + 2.2 * dist / P.skill_speed,
         target,
