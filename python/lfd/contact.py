@@ -9,7 +9,7 @@ and the simulator's ground truth, so both speak of the same skill boundaries:
 - **approach**: a Pick up begins at the last sample before its grasp at which the TCP is at least
   ``approach_m`` (8 cm) from the object's bounding box; what comes before it is a Move;
 - **lift**: a Pick up ends, and the Move with begins, where the grasp that lifts the object
-  has it ``lift_m`` (5 mm) above where it rested (:func:`lift_off`);
+  starts to move it (back from ``lift_h_m`` of lift to where it last rested);
 - **release**: a Place or Stack ends when the hand lets go of the set-down object: the thumb tip
   ``release_thumb_m`` (1 cm) or the TCP ``release_tcp_m`` (3 cm) farther from its box than while
   it held it, or the grasp aperture ``release_open_m`` (1.5 cm) wider;
@@ -42,13 +42,12 @@ class ContactParams:
     approach_m : float
         A Pick up begins where the TCP was last this far from the object's box.
     lift_m : float
-        Lift-off: the object is this much above where it rested (:func:`lift_off`); a set-down
-        object is within this much of its lowest height (the release is looked for from there).
-    lift_h_m : float
-        The object is lifted once it is ``lift_h_m`` above its height when the grasp began.
-    rest_m, rest_samples : float, int
-        No longer used (lift-off is :func:`lift_off`); kept so that method files naming them
-        still load.
+        A set-down object is within this much of its lowest height (the release is looked for
+        from there).
+    lift_h_m, rest_m, rest_samples : float, float, int
+        The object is lifted once it is ``lift_h_m`` above its height when the grasp began; the
+        motion that lifts it starts after the last ``rest_samples`` samples in which it moved
+        less than ``rest_m``.
     place_h_m : float
         A Place or Stack begins where the carried object was last this far above the height at
         which it comes to rest.
@@ -107,7 +106,7 @@ def refine(
     - a Pick up, a Move with that never lifts the object, its Place and the next Pick up of the
       same object, the hand staying within ``approach_m``, are one Pick up (a turn or slide on
       the table before the grasp that lifts);
-    - a Pick up followed by its Move with ends where the object is 5 mm up (lift-off);
+    - a Pick up followed by its Move with ends where the object first moves (lift);
     - a Pick up begins where the TCP was last ``approach_m`` from the object (after a release:
       since the release, and ``min_move`` samples after it when the hand never was that far);
       a Move is inserted before a first Pick up that began farther, and a first Move whose
@@ -187,7 +186,7 @@ def _merge_table_turns(
 
 
 def _lift_and_set_down(out: list[Draft], object_position: np.ndarray, p: ContactParams) -> None:
-    """A Pick up followed by its Move with ends at lift-off (:func:`lift_off`); a Move
+    """A Pick up followed by its Move with ends where the object first moves (lift); a Move
     with followed by its release where the object comes to rest (set down)."""
     for k in range(len(out) - 1):
         cur, nxt = out[k], out[k + 1]
@@ -283,22 +282,17 @@ def _reaches_after_release(
         _move_boundary(out, k - 1, t)
 
 
-def lift_off(pos: np.ndarray, a: int, u: int, lift_m: float = 0.005) -> int:
+def lift_off(pos: np.ndarray, a: int, u: int, rest_m: float = 0.002, rest_samples: int = 3) -> int:
     """Where the grasp that lifts an object takes it off (docs/skills.md "Boundaries"), given
-    ``u``, a sample at which it is lifted: the first sample in ``a..u`` from which its height
-    stays ``lift_m`` or more above where it rested until ``u``. Where it rested: the median of
-    its heights in ``a..u`` within ``lift_m`` of the lowest (unknown heights skipped); ``a``
-    when it never rested there (``pos`` ``(n, 3)``). The one definition of lift-off: the labels'
-    rule, the one-hand (:func:`refine`) and the two-hand segmentation
+    ``u``, a sample at which it is lifted: back from ``u`` to where it last rested, the last
+    sample in ``a..u`` at which it had moved no more than ``rest_m`` over ``rest_samples``
+    (``pos`` ``(n, 3)``; ``a`` if it never rested there). The one definition of lift-off: the
+    one-hand (:func:`refine`) and the two-hand segmentation
     (:func:`lfd.segmentation.episodes.carries`) use it."""
-    seg = np.asarray(pos[a : u + 1, 2], dtype=float)
-    seen = np.isfinite(seg)
-    if not seen.any():
-        return a
-    low = seg[seen]
-    rest = float(np.median(low[low <= low.min() + lift_m]))
-    below = np.flatnonzero(seen & (np.nan_to_num(seg, nan=np.inf) < rest + lift_m))
-    return min(a + int(below[-1]) + 1, u) if len(below) else a
+    t, w = u, rest_samples
+    while t - w >= a and not np.linalg.norm(pos[t] - pos[t - w]) <= rest_m:
+        t -= 1
+    return t if t - w >= a else a
 
 
 def _lift(pos: np.ndarray, a: int, b: int, p: ContactParams) -> int | None:
@@ -309,7 +303,7 @@ def _lift(pos: np.ndarray, a: int, b: int, p: ContactParams) -> int | None:
     up = z > z[0] + p.lift_h_m
     if not up.any():
         return None
-    return lift_off(pos, a, a + int(np.argmax(up)), p.lift_m)
+    return lift_off(pos, a, a + int(np.argmax(up)), p.rest_m, p.rest_samples)
 
 
 def _descent(pos: np.ndarray, a: int, b: int, p: ContactParams) -> int | None:

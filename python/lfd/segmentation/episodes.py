@@ -5,7 +5,7 @@ Two hands make a lane's carries ambiguous to the templates (the object moves whi
 rests on it, is held by both, changes hands); contact is not: a hand carries an object exactly
 while it holds it and the object is off the table. :func:`carries` finds each carry's Pick up,
 Move with and Place by the contact rules of docs/skills.md ("Boundaries": the approach from
-8 cm, the lift-off 5 mm above where the object rested, the Place from the last 5 cm above
+8 cm, the lift where the object first moves in the grasp, the Place from the last 5 cm above
 where it comes to rest, the release when the TCP is 3 cm off); :func:`overlay` puts them on a
 lane the templates segmented (:mod:`lfd.segmentation.lanes`).
 """
@@ -42,10 +42,8 @@ class CarryParams:
     approach_m : float
         A Pick up begins where the TCP was last this far from the box.
     moved_m, rest_samples : float, int
-        A set-down object has come to rest after ``rest_samples`` samples in which it moved
-        less than ``moved_m``.
-    lift_m : float
-        Lift-off: the object is this much above where it rested (:func:`lfd.contact.lift_off`).
+        The lift begins after the last ``rest_samples`` samples in which the object moved less
+        than ``moved_m`` (it rested).
     lifted_m : float
         The object is off the table (in flight) this high above where it rests.
     place_m : float
@@ -77,7 +75,6 @@ class CarryParams:
     approach_m: float = 0.08
     moved_m: float = 0.002
     rest_samples: int = 3
-    lift_m: float = 0.005
     lifted_m: float = 0.03
     place_m: float = 0.05
     regrip_s: float = 1.0
@@ -221,7 +218,7 @@ def carries(
         for a, b in _holds_aloft(grasps, u, v, dt, p, dist):
             a = max(a, last)
             if a <= u:  # this hand lifts it off the table: from where it last rested
-                lift = lift_off(position, a, u, p.lift_m)
+                lift = lift_off(position, a, u, p.moved_m, p.rest_samples)
             elif b - a < round(p.take_s / dt):
                 continue  # a touch of an object the other hand carries: not a grasp
             else:  # taken in the air

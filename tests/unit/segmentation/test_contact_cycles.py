@@ -87,13 +87,13 @@ def _carry_scene(n: int = 200) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return tcp, obj, quat
 
 
-def test_lift_off_is_the_first_sample_5_mm_above_where_the_object_rested() -> None:
+def test_lift_off_is_where_the_object_last_rested_before_it_is_lifted() -> None:
     _, obj, _ = _carry_scene()
-    # it starts to rise at 60, 1.5 mm per sample: 4.5 mm up at 63, 6 mm at 64
-    assert lift_off(obj[0], 20, 120) == 64
-    obj[0, 30:40] = np.nan  # unknown heights are skipped
-    assert lift_off(obj[0], 20, 120) == 64
-    assert lift_off(np.full((10, 3), np.nan), 2, 8) == 2
+    # it starts to rise at 60 and has moved 1.5 mm (< 2 mm) in the 0.1 s before 61
+    assert lift_off(obj[0], 20, 120) == 61
+    assert lift_off(obj[0], 62, 120) == 62  # it never rested after 62
+    obj[0, 58:60] = np.nan  # an unknown position is no rest: it rested last at 60
+    assert lift_off(obj[0], 20, 120) == 60
 
 
 def test_one_hand_and_two_hand_segmentation_share_the_lift_off() -> None:
