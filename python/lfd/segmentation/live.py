@@ -57,6 +57,10 @@ DEFAULT_MAX_WAIT_S = 0.0
 """A skill settles once every object the hand reached has been seen after its end, or has been
 out of sight this long (0: no such wait; the check run with every unseen object at rest,
 :meth:`LiveSegmentation._run_at_rest`, holds what a hidden tag could change)."""
+DEFAULT_REAPPEAR_S = 0.5
+"""An object seen again after it was out of sight for longer than this counts as seen from its
+reappearance only once it has been seen again for this long (the first poses after a long gap
+do not tell yet where batch will interpolate it)."""
 DEFAULT_REACH_M = 0.15
 """An object the TCP came this close to (m) may have been moved while hidden."""
 DEFAULT_WINDOW_S = 60.0
@@ -258,7 +262,7 @@ class LiveSegmentation:
     metadata : dict, optional
         The recording's metadata (what :func:`lfd.load` would give the demonstration).
     every_s, lag_s, stable_s, tolerance_s, window_s, min_confidence, uncertain_s, max_wait_s,
-    reach_m : float
+    reappear_s, reach_m : float
         How often the segmentation runs and when a skill settles (the module constants,
         docs/live.md).
     followers : int
@@ -285,6 +289,7 @@ class LiveSegmentation:
         uncertain_s: float = DEFAULT_UNCERTAIN_S,
         followers: int = 1,
         max_wait_s: float = DEFAULT_MAX_WAIT_S,
+        reappear_s: float = DEFAULT_REAPPEAR_S,
         reach_m: float = DEFAULT_REACH_M,
     ) -> None:
         from . import resolve_method
@@ -297,6 +302,7 @@ class LiveSegmentation:
             ("window_s", window_s),
             ("uncertain_s", uncertain_s),
             ("max_wait_s", max_wait_s),
+            ("reappear_s", reappear_s),
         ):
             if not (np.isfinite(value) and value >= 0) or (name == "every_s" and value <= 0):
                 raise InvalidParameterError(f"{name} must be a finite number > 0, got {value}")
@@ -317,6 +323,7 @@ class LiveSegmentation:
             raise InvalidParameterError(f"followers must be at least 1, got {followers}")
         self.followers = int(followers)
         self.max_wait_ns = round(max_wait_s * 1e9)
+        self.reappear_ns = round(reappear_s * 1e9)
         self.reach_m = float(reach_m)
         self.settled_ns: list[int] = []
         """Message time at which each emitted segment settled (same order as the segments)."""
@@ -601,7 +608,8 @@ class LiveSegmentation:
     def _seen_until(self) -> int:
         """The time up to which every object the hand may have moved unseen has been seen: an
         object out of sight since the hand came within ``reach_m`` of it (from 0.5 s before it
-        was last seen), for at most ``max_wait_s``."""
+        was last seen), for at most ``max_wait_s``; an object seen again less than
+        ``reappear_s`` ago after a gap longer than that, up to where the gap began."""
         newest = int(self._newest_hand or self._now or 0)
         run = self._last.run if self._last is not None else None
         until = newest
@@ -609,6 +617,11 @@ class LiveSegmentation:
             if not poses:
                 continue
             t_last, p_last, _ = poses[-1]
+            i = len(poses) - 1 if self.reappear_ns > 0 else 0
+            while i > 0 and poses[i][0] > newest - self.reappear_ns:
+                if poses[i][0] - poses[i - 1][0] > self.reappear_ns:
+                    until = min(until, int(poses[i - 1][0]))
+                i -= 1
             if newest - t_last > self.max_wait_ns or t_last >= newest:
                 continue
             if run is not None:
