@@ -242,6 +242,11 @@ class _Candidate:
     since_ns: int
 
 
+MAX_WAIT_S = 1e6
+"""The longest any of the live segmenter's times may be (s, about 11 days): a longer one is no
+wait a recording can have, and would overflow as nanoseconds."""
+
+
 class LiveSegmentation:
     """Segment a demonstration from its raw messages while it is recorded.
 
@@ -304,8 +309,11 @@ class LiveSegmentation:
             ("max_wait_s", max_wait_s),
             ("reappear_s", reappear_s),
         ):
-            if not (np.isfinite(value) and value >= 0) or (name == "every_s" and value <= 0):
-                raise InvalidParameterError(f"{name} must be a finite number > 0, got {value}")
+            low = "> 0" if name == "every_s" else ">= 0"
+            if not (0 <= value <= MAX_WAIT_S) or (name == "every_s" and value <= 0):
+                raise InvalidParameterError(
+                    f"{name} must be a number {low} and at most {MAX_WAIT_S:g} s, got {value}"
+                )
         self.method = resolve_method(templates, method).with_options(params=params)
         names = list(object_names)
         sizes = np.asarray(object_sizes, dtype=np.float64).reshape(len(names), 3)

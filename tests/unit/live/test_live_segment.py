@@ -69,6 +69,10 @@ def test_live_settings_are_checked() -> None:
         LiveSegmentation(["a"], [[0.05, 0.05, 0.05]], every_s=0.0)
     with pytest.raises(lfd.errors.InvalidParameterError, match="lag_s"):
         LiveSegmentation(["a"], [[0.05, 0.05, 0.05]], lag_s=float("nan"))
+    for huge in (1e300, float("inf")):  # once an OverflowError turning seconds into ns
+        with pytest.raises(lfd.errors.InvalidParameterError, match="reappear_s"):
+            LiveSegmentation(["a"], [[0.05, 0.05, 0.05]], reappear_s=huge)
+    LiveSegmentation(["a"], [[0.05, 0.05, 0.05]], reappear_s=0.0)  # no wait: allowed
     with pytest.raises(lfd.errors.InvalidParameterError, match="followers"):
         LiveSegmentation(["a"], [[0.05, 0.05, 0.05]], followers=0)
     live = LiveSegmentation(["a"], [[0.05, 0.05, 0.05]])
