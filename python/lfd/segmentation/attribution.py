@@ -22,6 +22,7 @@ import numpy as np
 
 from ..demo import Demonstration, HandTrack, ObjectTrack
 from ..geometry import box_distance
+from ..preprocessing.filters import finite_runs
 from ..rules import Number, Rule, check_fields
 
 THUMB_TIP, INDEX_TIP = 4, 8
@@ -107,20 +108,13 @@ def holding(
         return np.asarray((tcp <= p.hold_m) | ((thumb <= p.hold_m) & (index <= p.hold_m)))
 
 
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """Maximal runs ``[a, b)`` of True in ``mask``."""
-    padded = np.concatenate(([False], mask, [False]))
-    edges = np.flatnonzero(np.diff(padded.astype(np.int8)))
-    return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
-
-
 def _object_view(obj: ObjectTrack, tcp_d: np.ndarray, p: AttributionParams) -> ObjectTrack:
     """``obj`` as a hand at TCP distance ``tcp_d`` sees it (see :func:`hand_view`)."""
     with np.errstate(invalid="ignore"):
         away = tcp_d > p.near_m
     pos, quat = obj.position.copy(), obj.quaternion.copy()
     known = np.isfinite(pos).all(axis=1) & np.isfinite(quat).all(axis=1)
-    for a, b in _runs(away):
+    for a, b in finite_runs(away):
         ok = np.isfinite(pos[a:b]).all(axis=1)
         if ok.sum() < 2:
             continue

@@ -18,6 +18,7 @@ from itertools import pairwise
 import numpy as np
 
 from ..geometry import box_distance
+from ..preprocessing.filters import finite_runs
 from ..skills import RELEASES, Draft, allowed
 from ..trajectory import Trajectory
 from .episodes import CarryParams
@@ -61,11 +62,9 @@ def _flights(z: np.ndarray, dist: np.ndarray, p: CarryParams) -> list[tuple[int,
     box for half of it or more (the hand carries it): the object set down between two of them (lower than ``LIFTED_M``),
     they are two carries."""
     up = np.nan_to_num(z, nan=0.0) >= LIFTED_M
-    edges = np.flatnonzero(np.diff(np.concatenate(([0], up.astype(np.int8), [0]))))
-    runs = [(int(u), int(v)) for u, v in zip(edges[::2], edges[1::2], strict=True)]
     return [
         (u, v)
-        for u, v in runs
+        for u, v in finite_runs(up)
         if np.nanmax(z[u:v]) >= p.lifted_m and np.mean(dist[u:v] <= p.release_m) >= 0.5
     ]
 

@@ -19,6 +19,7 @@ from itertools import pairwise
 import numpy as np
 
 from ..contact import lift_off
+from ..preprocessing.filters import finite_runs
 from .result import Segment
 
 CARRY_SKILLS: frozenset[str] = frozenset({"pick_up", "move_with", "place"})
@@ -87,18 +88,12 @@ class CarryParams:
     still_m: float = 0.015
 
 
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    padded = np.concatenate(([False], mask, [False]))
-    edges = np.flatnonzero(np.diff(padded.astype(np.int8)))
-    return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
-
-
 def _grasps(dist: np.ndarray, dt: float, p: CarryParams) -> list[tuple[int, int]]:
     """The grasps ``[a, b)``: holds with short lapses (the TCP staying within ``release_m``)
     closed, short touches dropped."""
     gap = max(1, round(p.gap_s / dt))
     merged: list[tuple[int, int]] = []
-    for a, b in _runs(dist <= p.hold_m):
+    for a, b in finite_runs(dist <= p.hold_m):
         if merged and a - merged[-1][1] <= gap and (dist[merged[-1][1] : a] < p.release_m).all():
             merged[-1] = (merged[-1][0], b)
         else:
@@ -109,7 +104,7 @@ def _grasps(dist: np.ndarray, dt: float, p: CarryParams) -> list[tuple[int, int]
 def _aloft(z: np.ndarray, dt: float, p: CarryParams) -> list[tuple[int, int]]:
     """The runs ``[u, v)`` in which the object is off the table (short dips closed)."""
     with np.errstate(invalid="ignore"):
-        runs = _runs(np.nan_to_num(z, nan=0.0) >= p.lifted_m)
+        runs = finite_runs(np.nan_to_num(z, nan=0.0) >= p.lifted_m)
     gap = max(1, round(p.gap_s / dt))
     out: list[tuple[int, int]] = []
     for u, v in runs:
@@ -131,7 +126,7 @@ def _holds_aloft(
         if b <= u or a >= v:
             continue
         if out and a < v:
-            off = _runs(dist[out[-1][1] : a] >= p.release_m)
+            off = finite_runs(dist[out[-1][1] : a] >= p.release_m)
             if not off or max(y - x for x, y in off) < regrip:
                 out[-1] = (out[-1][0], b)
                 continue
