@@ -12,12 +12,10 @@ recording so far with every unseen object at rest where it was last seen (as bat
 object never seen again) has it too: a hidden tag leaves what it could change undecided. A
 Move settles with the skill after it. When the recording ends the batch segmentation of the
 whole recording gives the skills still open, so the live result is the batch one wherever the
-settled skills were right (docs/live.md).
-
-There is one implementation of every rule: live is the batch pipeline run on a growing
-recording, not a second pipeline. A recording longer than ``window_s`` is segmented from the
-start of its last settled skill that may begin a demonstration (the grammar's start: a Move,
-Pick up, Push or Locate), so a run's cost stays bounded.
+settled skills were right (docs/live.md). Live is the batch pipeline on a growing recording, not
+a second pipeline. A recording longer than ``window_s`` is segmented from the start of its last
+settled skill that may begin a demonstration (a Move, Pick up, Push or Locate): a run's cost
+stays bounded.
 """
 
 from __future__ import annotations
@@ -53,6 +51,7 @@ DEFAULT_MIN_CONFIDENCE = 0.5
 this) is a guess about what comes next..."""
 DEFAULT_UNCERTAIN_S = 3.0
 """...so it settles only once it has come out the same for this long."""
+MAX_WAIT_S = 1e6  # the longest any of the times below may be (s): longer overflows as ns
 DEFAULT_MAX_WAIT_S = 0.0
 """A skill settles once every object the hand reached has been seen after its end, or has been
 out of sight this long (0: no such wait; the check run with every unseen object at rest,
@@ -242,11 +241,6 @@ class _Candidate:
     since_ns: int
 
 
-MAX_WAIT_S = 1e6
-"""The longest any of the live segmenter's times may be (s, about 11 days): a longer one is no
-wait a recording can have, and would overflow as nanoseconds."""
-
-
 class LiveSegmentation:
     """Segment a demonstration from its raw messages while it is recorded.
 
@@ -309,11 +303,9 @@ class LiveSegmentation:
             ("max_wait_s", max_wait_s),
             ("reappear_s", reappear_s),
         ):
-            low = "> 0" if name == "every_s" else ">= 0"
             if not (0 <= value <= MAX_WAIT_S) or (name == "every_s" and value <= 0):
-                raise InvalidParameterError(
-                    f"{name} must be a number {low} and at most {MAX_WAIT_S:g} s, got {value}"
-                )
+                low = "> 0" if name == "every_s" else ">= 0"
+                raise InvalidParameterError(f"{name} must be {low} and <= 1e6 s, got {value}")
         self.method = resolve_method(templates, method).with_options(params=params)
         names = list(object_names)
         sizes = np.asarray(object_sizes, dtype=np.float64).reshape(len(names), 3)
