@@ -98,7 +98,11 @@ def main() -> None:
     ap.add_argument("pattern", help="glob of perceived one-hand recordings (benches/segment_live)")
     ap.add_argument("--json", help="write the figures here")
     args = ap.parse_args()
-    cols = {"settled": None, "bound, open runs": ("open",), "bound, with check runs": ("open", "rest")}
+    cols = {
+        "settled": None,
+        "bound, open runs": ("open",),
+        "bound, with check runs": ("open", "rest"),
+    }
     lat: dict[str, dict[str, list[float]]] = {c: defaultdict(list) for c in cols}
     n = equal = 0
     for path in sorted(glob.glob(args.pattern)):
@@ -115,14 +119,18 @@ def main() -> None:
                 t = rec["settled"][k] if kinds is None else bound(rec, k, kinds)
                 for key in (skill, "all"):
                     lat[c][key].append((t - end) * 1e-9)
-    print(f"\n{equal}/{n} recordings equal to batch; latency after the batch end (s), median (p25-p75)")
+    print(
+        f"\n{equal}/{n} recordings equal to batch; latency after the batch end (s), median (p25-p75)"
+    )
     skills = sorted(lat["settled"], key=lambda s: (s == "all", s))
     print(f"{'skill':10s} {'n':>4s}  " + "  ".join(f"{c:>24s}" for c in cols))
     for s in skills:
         cells = []
         for c in cols:
             v = np.asarray(lat[c][s])
-            cells.append(f"{np.median(v):5.2f} ({np.percentile(v, 25):.2f}-{np.percentile(v, 75):.2f})")
+            cells.append(
+                f"{np.median(v):5.2f} ({np.percentile(v, 25):.2f}-{np.percentile(v, 75):.2f})"
+            )
         print(f"{s:10s} {len(lat['settled'][s]):4d}  " + "  ".join(f"{x:>24s}" for x in cells))
     if args.json:
         with open(args.json, "w") as f:
