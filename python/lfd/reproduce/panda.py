@@ -30,8 +30,7 @@ import numpy as np
 from .robots import Limits, Robot
 
 ROBOSUITE = "robosuite==1.5.2"
-"""The tested robosuite version."""
-INSTALL = f"pip install --no-deps {ROBOSUITE}"
+"""The tested robosuite version (:data:`lfd._extras.ROBOTS_INSTALL`)."""
 HOME_Q: tuple[float, ...] = (
     0.0,
     np.pi / 16,
@@ -65,17 +64,17 @@ def robosuite_assets() -> str:
     MissingExtraError
         robosuite is not installed (one line: how to install it).
     """
+    from .._extras import message, missing
     from ..errors import MissingExtraError
 
-    spec = importlib.util.find_spec("robosuite")
+    spec = importlib.util.find_spec("robosuite") if missing("robots") is None else None
     dirs = list(spec.submodule_search_locations or []) if spec is not None else []
     for d in dirs:
         assets = os.path.join(d, "models", "assets")
         if os.path.isfile(os.path.join(assets, "robots", "panda", "robot.xml")):
             return assets
     raise MissingExtraError(
-        f"the panda robot needs robosuite's model files (robosuite is missing): {INSTALL}",
-        extra="robots",
+        message("robots", who="the panda robot"), extra="robots", module="robosuite"
     )
 
 
