@@ -7,8 +7,8 @@ Typical use::
     result = reproduce(traj, program, "dmp", displace={"box_1": (0.10, -0.05)})
     result.path_length, result.success, result.planned_tcp, result.executed_tcp
 
-Modules: :mod:`.robots` (a robot is a value: :class:`~.robots.Robot`, the registry
-:data:`~.robots.ROBOTS`), :mod:`.robot` (the default KUKA LWR 4+), :mod:`.panda` (the Franka
+Modules: :mod:`.arm` (a robot is a value: :class:`~.arm.Robot`), :mod:`.robots` (the
+registry :data:`~.robots.ROBOTS`), :mod:`.robot` (the default KUKA LWR 4+), :mod:`.panda` (the Franka
 Panda from robosuite's MJCF), :mod:`.scene`, :mod:`.ik` (mink), :mod:`.controller`,
 :mod:`.program` (the task program), :mod:`.goals` (Eq. 2), :mod:`.modes`, :mod:`.dmp`,
 :mod:`.measures`, :mod:`.outcome` (why a run failed), :mod:`.timescale` (plans slowed to the
@@ -236,7 +236,7 @@ def reproduce(
     video_fps : float
         Record frames into ``result.execution.frames`` at this rate (0 = off).
     robot : Robot or str
-        The arm (a :class:`~lfd.reproduce.robots.Robot` or its name in
+        The arm (a :class:`~lfd.reproduce.arm.Robot` or its name in
         :data:`~lfd.reproduce.robots.ROBOTS`); default the KUKA LWR 4+.
     """
     from .._extras import require

@@ -14,9 +14,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .arm import Robot
 from .ik import ArmIK, gripper_rotation
 from .robot import KUKA_LWR4
-from .robots import Robot
 from .scene import ObjectSpec, scene_xml
 
 TICK = 0.01

@@ -20,14 +20,14 @@ from .program import TaskProgram
 
 if TYPE_CHECKING:
     from .modes import PlanResult
+from .arm import Robot
 from .robot import KUKA_LWR4
-from .robots import Robot
 from .scene import TABLE_HALF, choose_base, table_centre
 
 MAX_DISPLACEMENT = 1.0
 """Largest accepted displacement (m); the arm reaches about 0.8 m, so more is a typo."""
 REACH_SLACK = 0.03
-"""Allowed shortfall below the robot's shortest reach (:attr:`~lfd.reproduce.robots.Robot.reach`:
+"""Allowed shortfall below the robot's shortest reach (:attr:`~lfd.reproduce.arm.Robot.reach`:
 the KUKA's elbow limit is at 0.395 m, 0.035 m below its 0.43 m)."""
 OVERLAP_MARGIN = 0.002
 """Two objects closer than this (m) count as overlapping."""

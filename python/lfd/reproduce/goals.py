@@ -21,8 +21,8 @@ import numpy as np
 from ..errors import DemonstrationError, UsageError
 from ..geometry import outside_distance
 from ..trajectory import Trajectory
+from .arm import Robot
 from .robot import KUKA_LWR4
-from .robots import Robot
 
 
 def wrap_near(angle: np.ndarray | float, ref: float, period: float = np.pi) -> np.ndarray:
@@ -206,7 +206,7 @@ when no direction leaves that much room."""
 
 GRASP_FIT_CLEARANCE = 0.008
 """The open fingers must pass beside a grasped object with this much room in all (m): the
-widest object the gripper can grasp is its :attr:`~lfd.reproduce.robots.Robot.max_opening`
+widest object the gripper can grasp is its :attr:`~lfd.reproduce.arm.Robot.max_opening`
 minus this."""
 
 

@@ -11,8 +11,8 @@ from typing import Any
 
 import numpy as np
 
+from .arm import Robot
 from .robot import KUKA_LWR4
-from .robots import Robot
 
 
 def gripper_rotation(yaw: float) -> np.ndarray:
@@ -42,7 +42,7 @@ class ArmIK:
         Robot base position in the world.
     posture_cost : float
         Weight of the posture task that keeps the redundant elbow near the robot's
-        :attr:`~lfd.reproduce.robots.Robot.home_q`.
+        :attr:`~lfd.reproduce.arm.Robot.home_q`.
     robot : Robot
         The arm (its MJCF alone, without the scene's objects).
     """
@@ -101,7 +101,7 @@ class ArmIK:
 
     def seed_towards(self, position: np.ndarray, rotation: np.ndarray) -> None:
         """Reset to the home pose turned towards a target (joint 1) with a matching wrist yaw
-        (:attr:`~lfd.reproduce.robots.Robot.wrist_yaw`)."""
+        (:attr:`~lfd.reproduce.arm.Robot.wrist_yaw`)."""
         base = self.model.body("robot_base").pos
         phi = float(np.arctan2(position[1] - base[1], position[0] - base[0]))
         yaw = float(np.arctan2(rotation[1, 1], rotation[0, 1]))  # closing axis heading

@@ -75,7 +75,7 @@ DWELL_S = 0.5
 """Time the robot holds still while the gripper closes or opens (s)."""
 Z_ABOVE_TABLE = 0.004
 """The fingertips stay this far above the table (m): the lowest TCP height is the robot's
-:attr:`~lfd.reproduce.robots.Robot.finger_below_tcp` plus this."""
+:attr:`~lfd.reproduce.arm.Robot.finger_below_tcp` plus this."""
 FUNNEL = 0.04
 """Height above a grasp/release pose below which the approach is vertical (m); at least the
 object's half height plus the finger length, so open fingers never sweep over its top."""

@@ -27,7 +27,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from .robots import Limits, Robot
+from .arm import Limits, Robot
 
 ROBOSUITE = "robosuite==1.5.2"
 """The tested robosuite version (:data:`lfd._extras.ROBOTS_INSTALL`)."""
@@ -184,7 +184,7 @@ JOINT_RANGE: tuple[tuple[float, float], ...] = (
 
 
 def panda() -> Robot:
-    """The Panda as a :class:`~lfd.reproduce.robots.Robot` (``--robot panda``).
+    """The Panda as a :class:`~lfd.reproduce.arm.Robot` (``--robot panda``).
 
     Raises
     ------

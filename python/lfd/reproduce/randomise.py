@@ -29,12 +29,12 @@ import numpy as np
 
 from ..errors import InvalidParameterError, LfdError, UsageError
 from ..trajectory import Trajectory
+from .arm import Robot
 from .displacement import Displacement, check_program, plan_layout, program_start
 from .goals import DemoFrames
 from .modes import MODES
 from .program import TaskProgram
 from .robot import KUKA_LWR4
-from .robots import Robot
 
 LAYOUT_GAP = 0.03
 """Smallest gap (m) between the circumscribed circles of two objects on the table in a

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .robots import Limits, Robot
+from .arm import Limits, Robot
 
 DH_D: tuple[float, ...] = (0.3105, 0.0, 0.40, 0.0, 0.39, 0.0, 0.078)
 """DH offsets ``d_i`` of the KUKA LWR 4+ (m)."""

@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .arm import OPTIONS, Robot
 from .robot import KUKA_LWR4
-from .robots import OPTIONS, Robot
 
 TABLE_HALF = 1.2
 """Half side of the square table top (m)."""
@@ -50,7 +50,7 @@ def choose_base(
     """Robot base position (z = 0) from which all TCP points are reachable top-down.
 
     Maximises the smallest reach margin (shoulder-wrist distance inside the robot's
-    :attr:`~lfd.reproduce.robots.Robot.reach`) over a grid of candidate bases, keeping 0.14 m away from the ``keep_out`` points (objects).
+    :attr:`~lfd.reproduce.arm.Robot.reach`) over a grid of candidate bases, keeping 0.14 m away from the ``keep_out`` points (objects).
 
     Parameters
     ----------

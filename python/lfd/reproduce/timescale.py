@@ -23,16 +23,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from .arm import Limits
 from .controller import TICK, Plan
 from .robot import KUKA_LWR4
-from .robots import Limits
 
 __all__ = ["LIMITS", "Limits", "derivatives", "durations", "retime", "slowdown"]
 
 
 LIMITS = KUKA_LWR4.limits
-"""The default robot's limits (:attr:`~lfd.reproduce.robots.Robot.limits`: each robot has its
-own, :class:`~lfd.reproduce.robots.Limits`)."""
+"""The default robot's limits (:attr:`~lfd.reproduce.arm.Robot.limits`: each robot has its
+own, :class:`~lfd.reproduce.arm.Limits`)."""
 SMOOTH_S = 0.3
 """Width (s) of the running maximum that spreads a slowdown around its cause."""
 MAX_PASSES = 6
