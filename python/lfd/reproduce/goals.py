@@ -132,11 +132,14 @@ class DemoFrames:
         return np.asarray(natural - rel)
 
     def natural_yaw(self, p: np.ndarray) -> np.ndarray:
-        """Yaw that needs no wrist rotation at TCP position(s) ``p`` (closing axis tangential)."""
+        """Yaw that needs no wrist rotation at TCP position(s) ``p``: the last joint at 0 with the
+        arm turned towards ``p`` (the robot's :attr:`~lfd.reproduce.arm.Robot.wrist_yaw`; the
+        KUKA's closing axis is then tangential)."""
         p = np.asarray(p)
         heading = np.arctan2(p[..., 1] - self.base[1], p[..., 0] - self.base[0])
+        offset, sign = self.robot.wrist_yaw
         # continuous over the workspace (the base is outside it): no cut behind the base
-        return np.pi / 2 + wrap_near(heading, self.facing, 2 * np.pi)
+        return offset / sign + wrap_near(heading, self.facing, 2 * np.pi)
 
     def index(self, t_s: float) -> int:
         """Nearest sample index to a time (s since the first sample)."""
