@@ -75,6 +75,13 @@ class Robot:
         How far the fingertips reach beyond the TCP along the approach axis (m).
     finger_half_x : float
         Half width of a finger across the closing axis (m): the contact offset when pushing.
+    hand_radius : float
+        How far (m, horizontally) around the TCP the open gripper reaches low enough to hit an
+        object the fingertips clear: the open fingers' half opening, or a palm that hangs low
+        beside them (moves keep this clear of the objects, :func:`~lfd.reproduce.motion.clear`).
+    palm_above_tcp : float
+        Height of the palm's lowest point above the TCP along the approach axis (m): a grasp or
+        a push keeps it above the object's top (:data:`~lfd.reproduce.goals.PALM_CLEARANCE`).
     tcp_offset : float
         Distance from the wrist centre to the TCP along the last link (m): the wrist of a
         top-down grasp is this far above the TCP.
@@ -102,6 +109,8 @@ class Robot:
     max_opening: float
     finger_below_tcp: float
     finger_half_x: float
+    hand_radius: float
+    palm_above_tcp: float
     tcp_offset: float
     shoulder_z: float
     reach: tuple[float, float]

@@ -241,6 +241,18 @@ def check_grasp_fits(
         )
 
 
+PALM_CLEARANCE = 0.005
+"""A grasp or a push is never so low that the palm (the robot's
+:attr:`~lfd.reproduce.arm.Robot.palm_above_tcp`) comes closer than this to the object's top (m):
+the Panda's hand hangs 27 mm above its TCP; the KUKA's palm, 70 mm, matters only for objects
+taller than 11 cm."""
+
+
+def palm_floor(top: float, robot: Robot) -> float:
+    """Lowest TCP height (m) at which the palm clears an object whose top is at ``top``."""
+    return top - robot.palm_above_tcp + PALM_CLEARANCE
+
+
 GRASP_EDGE = 0.005
 """A grasp off the box centre (where the person held it) keeps the fingers this far (m) inside
 the box's edge."""
@@ -281,7 +293,11 @@ def grasp_goal(
     Returns the TCP position (3,) and the yaw nearest (modulo 180 deg) to the demonstrated one.
     """
     p = T_obj[:3, 3].copy()
-    p[2] = max(p[2], p[2] - size[2] / 2 + robot.finger_below_tcp + 0.006)
+    p[2] = max(
+        p[2],
+        p[2] - size[2] / 2 + robot.finger_below_tcp + 0.006,
+        palm_floor(p[2] + size[2] / 2, robot),
+    )
     psi = yaw_of(T_obj[:3, :3])
     cands = [(psi, size[0]), (psi + np.pi / 2, size[1])]
     fits = (
@@ -330,6 +346,8 @@ def push_goal(
     half = 0.5 * (abs(u @ R[:2, 0]) * size[0] + abs(u @ R[:2, 1]) * size[1])
     p = T_obj_end[:3, 3].copy()
     p[:2] -= u * (half + robot.finger_half_x + 0.002)
+    top = p[2] + size[2] / 2
     p[2] = max(p[2] - size[2] / 2 + robot.finger_below_tcp + 0.008, p[2] - 0.01)
+    p[2] = max(p[2], palm_floor(top, robot))
     yaw = float(np.arctan2(u[1], u[0]) + np.pi / 2)
     return p, float(wrap_near(yaw, demo_yaw))

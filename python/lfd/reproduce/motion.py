@@ -74,12 +74,12 @@ def required_height(
 def open_fingers(
     frames: DemoFrames, below: float | None = None, extra: float | None = None
 ) -> tuple[float, float]:
-    """``(below, extra)`` of :func:`clear`: given, or the open fingers of ``frames.robot`` (the
-    fingertips below the TCP, half the largest opening beside it)."""
+    """``(below, extra)`` of :func:`clear`: given, or the open gripper of ``frames.robot`` (the
+    fingertips below the TCP, its :attr:`~lfd.reproduce.arm.Robot.hand_radius` beside it)."""
     robot = frames.robot
     return (
         robot.finger_below_tcp if below is None else below,
-        robot.max_opening / 2 if extra is None else extra,
+        robot.hand_radius if extra is None else extra,
     )
 
 

@@ -50,6 +50,9 @@ FINGER_BELOW_TCP = 0.013
 """How far the fingertips (the finger meshes' farthest point, 12.9 mm) reach beyond the TCP."""
 ARM_JOINTS = tuple(f"joint{i}" for i in range(1, 8))
 FINGER_JOINTS = ("finger_joint1", "finger_joint2")
+HAND_RADIUS = 0.10
+"""The hand's collision mesh reaches 104 mm along the closing axis and hangs only 27 mm above
+the TCP (40 mm above the fingertips): moves keep that much room, not just the open fingers'."""
 _PAD = (
     '<default class="pad"><geom type="box" friction="1.5 0.02 0.002" condim="4" '
     'solref="0.01 1" solimp="0.95 0.99 0.001" rgba="0.1 0.1 0.1 1"/></default>'
@@ -221,6 +224,8 @@ def panda() -> Robot:
         max_opening=2 * FINGER_RANGE,
         finger_below_tcp=FINGER_BELOW_TCP,
         finger_half_x=0.011,  # the finger meshes: 10.5 mm either side
+        hand_radius=HAND_RADIUS,
+        palm_above_tcp=0.027,  # the hand's collision mesh
         tcp_offset=0.1065 + PAD_Z,  # link7 -> right_hand -> the pads
         shoulder_z=0.333,
         reach=REACH,

@@ -200,6 +200,8 @@ KUKA_LWR4 = Robot(
     max_opening=MAX_OPENING,
     finger_below_tcp=FINGER_BELOW_TCP,
     finger_half_x=FINGER_HALF_X,
+    hand_radius=MAX_OPENING / 2,  # the palm hangs 70 mm above the TCP: the fingers count
+    palm_above_tcp=PAD_Z - 0.03,  # the palm box's underside, 30 mm below the flange
     tcp_offset=TCP_OFFSET,
     shoulder_z=DH_D[0],
     # the elbow limit (120 deg) allows 0.395 m, the stretched arm 0.79 m
