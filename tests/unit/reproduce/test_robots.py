@@ -116,6 +116,16 @@ def test_panda_mjcf_tcp_between_the_pads() -> None:
         hand = data.xpos[model.body("gripper").id]
         assert (tcp - hand) @ R[:, 2] == pytest.approx(0.0934, abs=1e-4)  # z: out of the hand
     assert arm.joint_range[3][1] < 0  # robosuite's limits (joint 4 always bent)
+    # the hand's collision mesh in the TCP frame: what the planner keeps clear of the objects
+    g = model.geom("hand_collision").id
+    mesh = model.geom_dataid[g]
+    verts = model.mesh_vert[
+        model.mesh_vertadr[mesh] : model.mesh_vertadr[mesh] + model.mesh_vertnum[mesh]
+    ]
+    local = (verts @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g] - tcp) @ R
+    assert -local[:, 2].max() == pytest.approx(arm.palm_above_tcp, abs=1e-3)  # its underside
+    assert np.abs(local[:, 1]).max() == pytest.approx(arm.hand_radius, abs=0.005)  # its length
+    assert arm.hand_radius >= arm.max_opening / 2
 
 
 @needs_robosuite
