@@ -172,3 +172,22 @@ def test_panda_reproduces_exp1() -> None:
     assert r.robot == "panda" and r.to_json()["robot"] == "panda"
     assert r.success, r.failures
     assert np.linalg.norm(r.executed_tcp - r.planned_tcp, axis=1).max() < 0.01
+
+
+@pytest.mark.parametrize("name", _arms())
+def test_grasp_and_push_keep_the_palm_off_the_top(name: str) -> None:
+    """A grasp or push of a 7 cm tall box: the KUKA's palm (70 mm above its TCP) is far above,
+    the grasp stays at the box's centre; the Panda's (27 mm) would press on the top, so the grasp
+    rises until the palm clears it by 5 mm, and a push rises at most to the centre (higher, the
+    tall box toppled)."""
+    from lfd.reproduce.goals import PALM_CLEARANCE, grasp_goal, pose, push_goal
+
+    arm = robot(name)
+    size = np.array([0.04, 0.04, 0.07])
+    T = pose(np.array([0.5, 0.0, 0.035]), 0.0)
+    p, _ = grasp_goal(T, size, 0.0, robot=arm)
+    palm = p[2] + arm.palm_above_tcp
+    assert palm >= 0.07 + PALM_CLEARANCE - 1e-9
+    assert p[2] == pytest.approx(max(0.035, 0.07 + PALM_CLEARANCE - arm.palm_above_tcp))
+    q, _ = push_goal(T, size, np.array([1.0, 0.0, 0.0]), 0.0, arm)
+    assert q[2] <= 0.035 + 1e-9 and q[0] < 0.5 - 0.02 - arm.finger_half_x
