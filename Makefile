@@ -2,7 +2,7 @@
 .PHONY: install test test-slow rust-test lint bench check
 
 install:
-	python3 -m pip install -e ".[dev,sim,perception,lerobot]" && python3 -m pip install --no-deps lerobot==0.4.4
+	python3 -m pip install -e ".[dev,sim,perception,lerobot]" && python3 -m pip install --no-deps lerobot==0.4.4 robosuite==1.5.2
 
 test:
 	python3 -m pytest -q

@@ -3,14 +3,16 @@
 Usage::
 
     MUJOCO_GL=egl python benches/reproduce_randomised.py --seeds 20 21 22 23 24 --layouts 1 \
-        --json randomised.json
+        --json randomised.json [--robot panda]
 
 Experiments: exp1-4 and exp5 (repeated pick-carry-place cycles of one box). For every
 experiment and held-out seed: simulate a demonstration (``lfd.sim``), preprocess it,
 take its ground-truth task program (or ``--segment``: the segmentation's), draw ``--layouts``
 layouts with every object shifted up to ``--max-shift`` m and turned up to ``--max-turn`` deg
 (reachable, collision-free: :func:`lfd.reproduce.random_layouts`) and execute each with the
-requested modes. Prints success per experiment and mode, per skill, and the failure reasons.
+requested modes on ``--robot`` (default the KUKA LWR 4+; the layouts are checked against that
+robot's reach, so two robots get the same layouts where both reach them). Prints success per
+experiment and mode, per skill, and the failure reasons.
 The issue's target: 100 layouts per experiment, skills and dmp >= 95%.
 """
 
@@ -44,6 +46,7 @@ def run_demo(job: tuple[str, int], args: Any) -> tuple[dict[str, Any], float]:
         seed=args.layout_seed + seed,
         max_shift=args.max_shift,
         max_turn_deg=args.max_turn,
+        robot=args.robot,
     )
     doc = res.to_json()
     return {"experiment": exp, "seed": seed, "program": program.skills, **doc}, (
@@ -65,6 +68,7 @@ def main() -> None:
     ap.add_argument("--max-turn", type=float, default=45.0)
     ap.add_argument("--layout-seed", type=int, default=0)
     ap.add_argument("--segment", action="store_true", help="segment instead of ground truth")
+    ap.add_argument("--robot", default="kuka_lwr4", help="the robot (lfd.reproduce.ROBOTS)")
     ap.add_argument("--json", default=None)
     ap.add_argument("--jobs", type=int, default=1, help="demonstrations run in parallel")
     args = ap.parse_args()

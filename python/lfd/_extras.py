@@ -35,6 +35,9 @@ LEROBOT_MODULES = ("lerobot", "datasets", "huggingface_hub", "av", "torch", "tor
 """What ``lerobot``'s dataset code imports (the extra itself installs lerobot's dependencies;
 lerobot goes in with ``--no-deps``: its pins conflict with the viz and perception extras)."""
 LEROBOT_INSTALL = "pip install 'lfd[lerobot]' && pip install --no-deps lerobot==0.4.4"
+ROBOTS_INSTALL = "pip install --no-deps robosuite==1.5.2"
+"""The robot models of ``lfd reproduce --robot panda``: robosuite's MJCF and meshes, read by path
+and never imported (its pins, mink==0.0.5 and opencv-python, clash with ours)."""
 
 EXTRAS: dict[str, Extra] = {
     e.name: e
@@ -55,6 +58,7 @@ EXTRAS: dict[str, Extra] = {
         Extra("viz", "Rerun (rerun-sdk)", ("rerun",), "pip install 'lfd[viz]'"),
         Extra("ros", "the rosbags package", ("rosbags",), "pip install 'lfd[ros]'"),
         Extra("lerobot", "lerobot", LEROBOT_MODULES, LEROBOT_INSTALL),
+        Extra("robots", "robosuite's robot models", ("robosuite",), ROBOTS_INSTALL),
         Extra("ray", "Ray", ("ray",), "pip install 'lfd[ray]'"),
     )
 }

@@ -77,7 +77,8 @@ class MissingExtraError(LfdError):
     def __init__(self, message: str, *, extra: str, module: str | None = None) -> None:
         super().__init__(message)
         self.extra = extra
-        """The extra to install (``sim``, ``viz``, ``perception``, ``ros``, ``lerobot``, ``ray``)."""
+        """The extra to install (``sim``, ``viz``, ``perception``, ``ros``, ``lerobot``, ``robots``,
+        ``ray``)."""
         self.module = module
         """The module found missing."""
 

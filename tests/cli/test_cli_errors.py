@@ -122,6 +122,7 @@ CASES: list[tuple[str, str, str]] = [
     ("reproduce-json-missing-dir", "reproduce {rec} --json {tmp}/no/x.json", "does not exist"),
     ("reproduce-rrd-is-input", "reproduce {rec} --rerun-save {rec}", "also an input"),
     ("reproduce-bad-mode", "reproduce {rec} --mode fly", "invalid choice"),
+    ("reproduce-unknown-robot", "reproduce {rec} --robot ur5 --json {tmp}/r.json", "unknown robot 'ur5'; known robots: kuka_lwr4, panda"),
     ("reproduce-displace-cm", "reproduce {rec} --displace box_2:8,-5", "did you mean box_2:0.08,-0.05"),
     ("reproduce-displace-nan", "reproduce {rec} --displace box_2:nan,0", "finite"),
     ("reproduce-displace-unknown", "reproduce {rec} --displace box_9:0.05,0", "known objects"),

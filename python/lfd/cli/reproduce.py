@@ -68,6 +68,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "does all of the task, refused when both hands handle objects)",
     )
     parser.add_argument(
+        "--robot",
+        default="kuka_lwr4",
+        metavar="NAME",
+        help="the simulated arm: kuka_lwr4 (default; a KUKA LWR 4+ with a parallel-jaw gripper) "
+        "or another of lfd.reproduce.ROBOTS, e.g. panda (a Franka Panda from robosuite's "
+        "models, docs/reproduce.md)",
+    )
+    parser.add_argument(
         "--program",
         action="store_true",
         help="print the task program (each hand's skills and, with two hands, where one waits "
@@ -111,6 +119,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..reproduce.robots import robot
+
+    robot(args.robot)  # an unknown robot, or one whose package is missing: one line, first
     if args.program:
         return _print_program(args)
     from .._extras import require
@@ -162,9 +173,10 @@ def run(args: argparse.Namespace) -> int:
     if args.randomise:
         return _run_randomised(args, traj, program, modes, err)
     # refused here, before the progress bar starts, so the error stays one line on stderr
-    check_displacement(traj, displace, program_start(traj, program))
+    arm = robot(args.robot)
+    check_displacement(traj, displace, program_start(traj, program), robot=arm)
     if any(m != "replay" for m in modes):
-        check_program(traj, program)
+        check_program(traj, program, arm)
     results = {}
     # a bar only on a terminal: piped, it would leave an empty line before an error's one line
     with Progress(console=err, transient=True, disable=not err.is_terminal) as bar:
@@ -176,7 +188,13 @@ def run(args: argparse.Namespace) -> int:
 
             fps = 30.0 if args.video and mode == modes[-1] else 0.0
             results[mode] = reproduce(
-                traj, program, mode, displace=displace, video_fps=fps, progress=tick
+                traj,
+                program,
+                mode,
+                displace=displace,
+                video_fps=fps,
+                progress=tick,
+                robot=args.robot,
             )
     if show:
         from ..viz import log_demonstration, log_reproduction
@@ -367,6 +385,7 @@ def _run_randomised(
     from rich.table import Table
 
     from ..reproduce import random_layouts, reproduce_randomised
+    from ..reproduce.robots import robot
 
     # drawn (and refused, one line) before the progress bar starts
     random_layouts(
@@ -377,6 +396,7 @@ def _run_randomised(
         max_shift=args.max_shift,
         max_turn_deg=args.max_turn,
         modes=modes,
+        robot=robot(args.robot),
     )
     with Progress(console=err, transient=True, disable=not err.is_terminal) as bar:
         task = bar.add_task("layouts", total=1.0)
@@ -393,6 +413,7 @@ def _run_randomised(
             max_shift=args.max_shift,
             max_turn_deg=args.max_turn,
             progress=tick,
+            robot=args.robot,
         )
     skills = list(dict.fromkeys(program.skills))
     table = Table(

@@ -7,7 +7,9 @@ Typical use::
     result = reproduce(traj, program, "dmp", displace={"box_1": (0.10, -0.05)})
     result.path_length, result.success, result.planned_tcp, result.executed_tcp
 
-Modules: :mod:`.robot` (the arm MJCF), :mod:`.scene`, :mod:`.ik` (mink), :mod:`.controller`,
+Modules: :mod:`.arm` (a robot is a value: :class:`~.arm.Robot`), :mod:`.robots` (the
+registry :data:`~.robots.ROBOTS`), :mod:`.robot` (the default KUKA LWR 4+), :mod:`.panda` (the Franka
+Panda from robosuite's MJCF), :mod:`.scene`, :mod:`.ik` (mink), :mod:`.controller`,
 :mod:`.program` (the task program), :mod:`.goals` (Eq. 2), :mod:`.modes`, :mod:`.dmp`,
 :mod:`.measures`, :mod:`.outcome` (why a run failed), :mod:`.timescale` (plans slowed to the
 arm's limits), :mod:`.displacement` (``--displace``),
@@ -48,17 +50,22 @@ from .program import (
     from_segmentation,
 )
 from .randomise import MAX_SHIFT, MAX_TURN_DEG, Randomised, random_layouts, run_randomised
+from .robots import DEFAULT_ROBOT, ROBOTS, Robot, robot_names
+from .robots import robot as get_robot
 from .scene import ObjectSpec
 
 SIM_MODULES = ("mujoco", "mink", "daqp")
 """What every mode runs on: the simulator, the IK and the QP solver mink calls (``daqp``)."""
 
 __all__ = [
+    "DEFAULT_ROBOT",
     "MODES",
     "PREPROCESSING",
+    "ROBOTS",
     "HandsProgram",
     "Randomised",
     "Reproduction",
+    "Robot",
     "Segment",
     "SkillResult",
     "SyncPoint",
@@ -69,12 +76,14 @@ __all__ = [
     "from_hands",
     "from_labels",
     "from_segmentation",
+    "get_robot",
     "parse_displacement",
     "program_start",
     "random_layouts",
     "reproduce",
     "reproduce_randomised",
     "reproduction_report",
+    "robot_names",
 ]
 
 
@@ -124,6 +133,8 @@ class Reproduction:
     indexes its segments."""
     skills: list[SkillResult] = field(default_factory=list)
     """One result per segment of ``program``: ``ok``, and the reason when it went wrong."""
+    robot: str = DEFAULT_ROBOT
+    """The robot's name (:data:`~lfd.reproduce.robots.ROBOTS`)."""
 
     @property
     def path_length(self) -> float:
@@ -179,6 +190,7 @@ class Reproduction:
                 }
                 for o in self.objects
             },
+            "robot": self.robot,
             "base": self.base.tolist(),
             "displacement": {k: list(v) for k, v in self.displacement.items()},
             "program": self.program.to_json() if self.program is not None else None,
@@ -194,6 +206,7 @@ def reproduce(
     base: np.ndarray | None = None,
     video_fps: float = 0.0,
     progress: Callable[[int, int], None] | None = None,
+    robot: Robot | str = DEFAULT_ROBOT,
 ) -> Reproduction:
     """Plan and execute a task program in MuJoCo and measure the outcome.
 
@@ -222,14 +235,18 @@ def reproduce(
         (:func:`~lfd.reproduce.displacement.check_goals`), before anything is simulated.
     video_fps : float
         Record frames into ``result.execution.frames`` at this rate (0 = off).
+    robot : Robot or str
+        The arm (a :class:`~lfd.reproduce.arm.Robot` or its name in
+        :data:`~lfd.reproduce.robots.ROBOTS`); default the KUKA LWR 4+.
     """
     from .._extras import require
 
     # MuJoCo, mink and its QP solver (daqp, looked up only at the first IK step), and the DMPs
     require("sim", SIM_MODULES + (("movement_primitives",) if mode == "dmp" else ()), who=__name__)
+    arm = get_robot(robot) if isinstance(robot, str) else robot
     displace = dict(displace or {})
     # checked, base chosen and planned before anything is simulated
-    frames, initial, result = plan_layout(traj, program, mode, displace, base=base)
+    frames, initial, result = plan_layout(traj, program, mode, displace, base=base, robot=arm)
     base = frames.base
     if not displace:  # where the demonstration left the objects
         end_i = frames.index(program.segments[-1].end_s)
@@ -242,7 +259,7 @@ def reproduce(
         p[2] = max(p[2], frames.size[k, 2] / 2)  # never start inside the table
         specs.append(ObjectSpec(name, frames.size[k], p, np.array([0.0, 0.0, s, c])))
     plan: Plan = result.plan
-    ex = execute(plan, base, specs, video_fps=video_fps, progress=progress)
+    ex = execute(plan, base, specs, video_fps=video_fps, progress=progress, robot=arm)
     objs = object_errors(
         ex.object_names, ex.final_position, ex.final_quaternion, result.expected, frames.size
     )
@@ -260,6 +277,7 @@ def reproduce(
         execution=ex,
         program=result.program,
         skills=skill_results(executed, plan, ex, objs),
+        robot=arm.name,
     )
 
 
@@ -284,10 +302,11 @@ def reproduce_randomised(
     max_shift: float = MAX_SHIFT,
     max_turn_deg: float = MAX_TURN_DEG,
     progress: Callable[[int, int], None] | None = None,
+    robot: Robot | str = DEFAULT_ROBOT,
 ) -> Randomised:
     """Reproduce ``program`` in every mode on ``n`` randomised layouts (``lfd reproduce
     --randomise N``): every object shifted up to ``max_shift`` m and turned up to
-    ``max_turn_deg``, reachable and collision-free (:mod:`.randomise`).
+    ``max_turn_deg``, reachable and collision-free for ``robot`` (:mod:`.randomise`).
 
     Returns
     -------
@@ -310,4 +329,5 @@ def reproduce_randomised(
         max_shift=max_shift,
         max_turn_deg=max_turn_deg,
         progress=progress,
+        robot=get_robot(robot) if isinstance(robot, str) else robot,
     )

@@ -14,8 +14,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .arm import Robot
 from .ik import ArmIK, gripper_rotation
-from .robot import MAX_OPENING
+from .robot import KUKA_LWR4
 from .scene import ObjectSpec, scene_xml
 
 TICK = 0.01
@@ -106,6 +107,7 @@ def execute(
     video_fps: float = 0.0,
     video_size: tuple[int, int] = (480, 640),
     progress: Callable[[int, int], None] | None = None,
+    robot: Robot = KUKA_LWR4,
 ) -> Execution:
     """Run ``plan`` on the robot in the scene and record the TCP and the objects.
 
@@ -123,6 +125,8 @@ def execute(
         Render frames at this rate (0 = no rendering).
     progress : callable, optional
         Called as ``progress(tick, n_ticks)`` every 100 ticks.
+    robot : Robot
+        The arm that runs the plan.
     """
     import mujoco
 
@@ -132,7 +136,7 @@ def execute(
     previous = mujoco.get_mju_user_warning()
     mujoco.set_mju_user_warning(warnings.append)
     try:
-        return _run(plan, base, objects, settle_s, video_fps, video_size, progress, warnings)
+        return _run(plan, base, objects, settle_s, video_fps, video_size, progress, warnings, robot)
     finally:
         mujoco.set_mju_user_warning(previous)
 
@@ -146,28 +150,30 @@ def _run(
     video_size: tuple[int, int],
     progress: Callable[[int, int], None] | None,
     warnings: list[str],
+    robot: Robot,
 ) -> Execution:
     import time
 
     import mujoco
 
     t_start = time.perf_counter()
-    model = mujoco.MjModel.from_xml_string(scene_xml(base, objects))
+    model = mujoco.MjModel.from_xml_string(scene_xml(base, objects, robot=robot))
     data = mujoco.MjData(model)
-    ik = ArmIK(base)
+    ik = ArmIK(base, robot=robot)
+    dof, max_opening = robot.dof, robot.max_opening
     n = len(plan)
     if n == 0:
         raise ValueError("empty plan")
     R0 = gripper_rotation(float(plan.yaw[0]))
     ik.seed_towards(plan.position[0], R0)
     q0 = ik.solve(plan.position[0], R0)
-    arm_qadr = [model.joint(f"joint{i}").qposadr[0] for i in range(1, 8)]
-    fingers = [model.joint(f).qposadr[0] for f in ("finger_left", "finger_right")]
+    arm_qadr = [model.joint(j).qposadr[0] for j in robot.arm_joints]
+    fingers = [model.joint(f).qposadr[0] for f in robot.finger_joints]
     data.qpos[arm_qadr] = q0
-    w0 = float(np.clip(plan.opening[0], 0.0, MAX_OPENING)) / 2
+    w0 = float(np.clip(plan.opening[0], 0.0, max_opening)) / 2
     data.qpos[fingers] = w0
-    data.ctrl[:7] = q0
-    data.ctrl[7:9] = w0
+    data.ctrl[:dof] = q0
+    data.ctrl[dof : dof + 2] = w0
     mujoco.mj_forward(model, data)
     tcp_id = model.site("tcp").id
     names = [o.name for o in objects]
@@ -195,8 +201,8 @@ def _run(
             ka = min(i + LOOKAHEAD, n - 1)
             R = gripper_rotation(float(plan.yaw[ka]))
             q = ik.step(plan.position[ka], R) if i < n else ik.q
-            data.ctrl[:7] = q
-            data.ctrl[7:9] = float(np.clip(plan.opening[k], 0.0, MAX_OPENING)) / 2
+            data.ctrl[:dof] = q
+            data.ctrl[dof : dof + 2] = float(np.clip(plan.opening[k], 0.0, max_opening)) / 2
             for _ in range(steps):
                 mujoco.mj_step(model, data)
             if i < n:

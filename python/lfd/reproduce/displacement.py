@@ -20,13 +20,15 @@ from .program import TaskProgram
 
 if TYPE_CHECKING:
     from .modes import PlanResult
-from .robot import TCP_OFFSET
-from .scene import REACH_MAX, REACH_MIN, SHOULDER_Z, TABLE_HALF, choose_base, table_centre
+from .arm import Robot
+from .robot import KUKA_LWR4
+from .scene import TABLE_HALF, choose_base, table_centre
 
 MAX_DISPLACEMENT = 1.0
 """Largest accepted displacement (m); the arm reaches about 0.8 m, so more is a typo."""
 REACH_SLACK = 0.03
-"""Allowed shortfall below :data:`~lfd.reproduce.scene.REACH_MIN` (the elbow limit is at 0.395 m)."""
+"""Allowed shortfall below the robot's shortest reach (:attr:`~lfd.reproduce.arm.Robot.reach`:
+the KUKA's elbow limit is at 0.395 m, 0.035 m below its 0.43 m)."""
 OVERLAP_MARGIN = 0.002
 """Two objects closer than this (m) count as overlapping."""
 STACK_SLACK = 0.005
@@ -120,6 +122,7 @@ def check_displacement(
     start_i: int,
     *,
     base: np.ndarray | None = None,
+    robot: Robot = KUKA_LWR4,
 ) -> np.ndarray:
     """Check displacements against the demonstration and choose the robot base.
 
@@ -134,6 +137,8 @@ def check_displacement(
     base : array, shape (3,), optional
         The robot base; default: chosen to reach the demonstrated TCP path and the objects at
         their demonstrated and displaced positions.
+    robot : Robot
+        Whose reach counts.
 
     Returns
     -------
@@ -176,9 +181,10 @@ def check_displacement(
         moved = pos[[names.index(n) for n in displace]].reshape(-1, 3)
         tcp = np.asarray(traj.tcp, dtype=np.float64)
         keep_out = np.concatenate([obj0, moved])
-        base = choose_base(np.concatenate([tcp, keep_out]), keep_out=keep_out)
+        base = choose_base(np.concatenate([tcp, keep_out]), keep_out=keep_out, robot=robot)
     base = np.asarray(base, dtype=np.float64)
-    shoulder = np.array([base[0], base[1], SHOULDER_Z])
+    shoulder = np.array([base[0], base[1], robot.shoulder_z])
+    reach_min, reach_max = robot.reach
     centre = table_centre(base)
     yaw = [yaw_of(quat_to_matrix(q)) if np.all(np.isfinite(q)) else 0.0 for q in oquat]
     for name, d in displace.items():
@@ -186,12 +192,12 @@ def check_displacement(
     for name, (dx, dy, *_) in displace.items():
         k = names.index(name)
         what = f"--displace {name}:{_fmt(dx)},{_fmt(dy)} puts {name} at ({pos[k, 0]:.3f}, {pos[k, 1]:.3f}) m"
-        top = pos[k] + [0.0, 0.0, size[k, 2] / 2 + TCP_OFFSET]  # wrist above a top grasp
+        top = pos[k] + [0.0, 0.0, size[k, 2] / 2 + robot.tcp_offset]  # wrist above a top grasp
         reach = float(np.linalg.norm(top - shoulder))
-        if reach > REACH_MAX or reach < REACH_MIN - REACH_SLACK:
+        if reach > reach_max or reach < reach_min - REACH_SLACK:
             raise UsageError(
                 f"{what}, out of the arm's reach ({reach:.3f} m from the shoulder; it reaches "
-                f"{REACH_MIN - REACH_SLACK:.2f}-{REACH_MAX:.2f} m); use a smaller displacement"
+                f"{reach_min - REACH_SLACK:.2f}-{reach_max:.2f} m); use a smaller displacement"
             )
         if np.any(np.abs(pos[k, :2] - centre) + size[k, :2].max() / 2 > TABLE_HALF):
             raise UsageError(f"{what}, off the table; use a smaller displacement")
@@ -244,8 +250,9 @@ def check_goals(
     UsageError
         Naming the displacement, the object and where the task would put it.
     """
-    base = frames.base
-    shoulder = np.array([base[0], base[1], SHOULDER_Z])
+    base, robot = frames.base, frames.robot
+    shoulder = np.array([base[0], base[1], robot.shoulder_z])
+    reach_min, reach_max = robot.reach
     centre = table_centre(base)
     spec = " ".join(f"{n}:{','.join(_fmt(v) for v in d)}" for n, d in displace.items())
     names = frames.names
@@ -256,9 +263,9 @@ def check_goals(
                 continue
             p = T[:3, 3]
             what = f"--displace {spec}: the task would put {name} at ({p[0]:.3f}, {p[1]:.3f}) m"
-            top = p + np.array([0.0, 0.0, frames.size[k, 2] / 2 + TCP_OFFSET])
+            top = p + np.array([0.0, 0.0, frames.size[k, 2] / 2 + robot.tcp_offset])
             reach = float(np.linalg.norm(top - shoulder))
-            if reach > REACH_MAX or reach < REACH_MIN - REACH_SLACK:
+            if reach > reach_max or reach < reach_min - REACH_SLACK:
                 raise UsageError(
                     f"{what}, out of the arm's reach ({reach:.3f} m from the shoulder)"
                 )
@@ -277,7 +284,7 @@ def check_goals(
                     )
 
 
-def check_program(traj: Trajectory, program: TaskProgram) -> None:
+def check_program(traj: Trajectory, program: TaskProgram, robot: Robot = KUKA_LWR4) -> None:
     """Refuse a task the robot cannot do whatever the layout, before anything is simulated:
     a pick_up of an object wider than the gripper closes across
     (:func:`~lfd.reproduce.goals.check_grasp_fits`).
@@ -289,7 +296,7 @@ def check_program(traj: Trajectory, program: TaskProgram) -> None:
     """
     from .modes import check_grasps
 
-    check_grasps(DemoFrames(traj, np.zeros(3)), program)
+    check_grasps(DemoFrames(traj, np.zeros(3), robot), program)
 
 
 def plan_layout(
@@ -299,6 +306,7 @@ def plan_layout(
     displace: Mapping[str, Displacement],
     *,
     base: np.ndarray | None = None,
+    robot: Robot = KUKA_LWR4,
 ) -> tuple[DemoFrames, dict[str, np.ndarray], PlanResult]:
     """Check a displacement, choose the robot base and plan the re-grounded task.
 
@@ -324,17 +332,17 @@ def plan_layout(
 
     start_i = program_start(traj, program)
     fixed = base is not None
-    base = check_displacement(traj, displace, start_i, base=base)
-    frames = DemoFrames(traj, base)
+    base = check_displacement(traj, displace, start_i, base=base, robot=robot)
+    frames = DemoFrames(traj, base, robot)
     moved = initial_poses(frames, displace, start_i)
     initial = {n: moved.get(n, frames.object_pose(n, start_i)) for n in frames.names}
     result = plan_task(frames, program, mode, initial=moved)
     if displace and not fixed:
         objs = np.array([T[:3, 3] for sc in [initial, *result.scenes] for T in sc.values()])
-        new = choose_base(np.concatenate([result.plan.position, objs]), keep_out=objs)
+        new = choose_base(np.concatenate([result.plan.position, objs]), keep_out=objs, robot=robot)
         if np.linalg.norm(new - base) > 1e-9:
-            base = check_displacement(traj, displace, start_i, base=new)
-            frames = DemoFrames(traj, base)
+            base = check_displacement(traj, displace, start_i, base=new, robot=robot)
+            frames = DemoFrames(traj, base, robot)
             result = plan_task(frames, program, mode, initial=moved)
     if displace:
         check_goals(frames, initial, result.scenes, displace)

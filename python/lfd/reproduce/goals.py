@@ -21,7 +21,8 @@ import numpy as np
 from ..errors import DemonstrationError, UsageError
 from ..geometry import outside_distance
 from ..trajectory import Trajectory
-from .robot import FINGER_BELOW_TCP, FINGER_HALF_X, MAX_OPENING
+from .arm import Robot
+from .robot import KUKA_LWR4
 
 
 def wrap_near(angle: np.ndarray | float, ref: float, period: float = np.pi) -> np.ndarray:
@@ -77,10 +78,13 @@ class DemoFrames:
     base : array, shape (3,)
         Robot base; the gripper yaw (symmetric under 180 deg) is chosen nearest to the heading
         that needs no wrist rotation at that point.
+    robot : Robot
+        The arm the demonstration is planned for (its gripper: ``frames.robot``).
     """
 
-    def __init__(self, traj: Trajectory, base: np.ndarray) -> None:
+    def __init__(self, traj: Trajectory, base: np.ndarray, robot: Robot = KUKA_LWR4) -> None:
         self.traj = traj
+        self.robot = robot
         self.base = np.asarray(base, dtype=np.float64)
         self.t = traj.t_s
         self.n = len(traj)
@@ -128,11 +132,14 @@ class DemoFrames:
         return np.asarray(natural - rel)
 
     def natural_yaw(self, p: np.ndarray) -> np.ndarray:
-        """Yaw that needs no wrist rotation at TCP position(s) ``p`` (closing axis tangential)."""
+        """Yaw that needs no wrist rotation at TCP position(s) ``p``: the last joint at 0 with the
+        arm turned towards ``p`` (the robot's :attr:`~lfd.reproduce.arm.Robot.wrist_yaw`; the
+        KUKA's closing axis is then tangential)."""
         p = np.asarray(p)
         heading = np.arctan2(p[..., 1] - self.base[1], p[..., 0] - self.base[0])
+        offset, sign = self.robot.wrist_yaw
         # continuous over the workspace (the base is outside it): no cut behind the base
-        return np.pi / 2 + wrap_near(heading, self.facing, 2 * np.pi)
+        return offset / sign + wrap_near(heading, self.facing, 2 * np.pi)
 
     def index(self, t_s: float) -> int:
         """Nearest sample index to a time (s since the first sample)."""
@@ -202,13 +209,19 @@ when no direction leaves that much room."""
 
 GRASP_FIT_CLEARANCE = 0.008
 """The open fingers must pass beside a grasped object with this much room in all (m): the
-widest object the gripper can grasp is :data:`~lfd.reproduce.robot.MAX_OPENING` minus this."""
-GRASP_MAX_WIDTH = MAX_OPENING - GRASP_FIT_CLEARANCE
-"""Widest object side (m) a pick_up can close across (:func:`check_grasp_fits`)."""
+widest object the gripper can grasp is its :attr:`~lfd.reproduce.arm.Robot.max_opening`
+minus this."""
 
 
-def check_grasp_fits(name: str, size: np.ndarray, *, when: str = "") -> None:
-    """Refuse a pick_up of an object whose every side is wider than :data:`GRASP_MAX_WIDTH`.
+def grasp_max_width(robot: Robot) -> float:
+    """Widest object side (m) a pick_up can close across (:func:`check_grasp_fits`)."""
+    return robot.max_opening - GRASP_FIT_CLEARANCE
+
+
+def check_grasp_fits(
+    name: str, size: np.ndarray, *, when: str = "", robot: Robot = KUKA_LWR4
+) -> None:
+    """Refuse a pick_up of an object whose every side is wider than :func:`grasp_max_width`.
 
     The object is its upright bounding box: the gripper closes across one of its two horizontal
     sides (a handle or knob a person may hold by is not modelled).
@@ -219,12 +232,31 @@ def check_grasp_fits(name: str, size: np.ndarray, *, when: str = "") -> None:
         One line: which object, how wide, how wide the gripper opens.
     """
     narrow = float(min(size[0], size[1]))
-    if narrow > GRASP_MAX_WIDTH:
+    widest = grasp_max_width(robot)
+    if narrow > widest:
         raise UsageError(
             f"cannot grasp {name}{when}: its narrowest side is {narrow * 1000:.0f} mm, the "
-            f"gripper opens {MAX_OPENING * 1000:.0f} mm (objects up to "
-            f"{GRASP_MAX_WIDTH * 1000:.0f} mm wide, with room for the fingers)"
+            f"gripper opens {robot.max_opening * 1000:.0f} mm (objects up to "
+            f"{widest * 1000:.0f} mm wide, with room for the fingers)"
         )
+
+
+PALM_CLEARANCE = 0.005
+"""A grasp or a push is never so low that the palm (the robot's
+:attr:`~lfd.reproduce.arm.Robot.palm_above_tcp`) comes closer than this to the object's top (m):
+the Panda's hand hangs 27 mm above its TCP; the KUKA's palm, 70 mm, matters only for objects
+taller than 11 cm."""
+
+
+PUSH_ABOVE_CENTRE = 0.0
+"""A push raised for the palm (:func:`palm_floor`) stays at most this far above the pushed box's
+centre (m): higher, a tall narrow box topples (the Panda pushing a 4 x 4 x 7 cm box at 4.8 cm
+toppled it every time; at its centre the palm touches its face near the top, and it slides)."""
+
+
+def palm_floor(top: float, robot: Robot) -> float:
+    """Lowest TCP height (m) at which the palm clears an object whose top is at ``top``."""
+    return top - robot.palm_above_tcp + PALM_CLEARANCE
 
 
 GRASP_EDGE = 0.005
@@ -232,9 +264,9 @@ GRASP_EDGE = 0.005
 the box's edge."""
 
 
-def grasp_opening(width: float) -> float:
+def grasp_opening(width: float, robot: Robot = KUKA_LWR4) -> float:
     """Opening (m) a pick_up approaches with for a closing width ``width``."""
-    return float(min(MAX_OPENING, width + GRASP_OPENING_CLEARANCE))
+    return float(min(robot.max_opening, width + GRASP_OPENING_CLEARANCE))
 
 
 def _box_distance(q: np.ndarray, T: np.ndarray, size: np.ndarray) -> float:
@@ -248,6 +280,7 @@ def grasp_goal(
     demo_yaw: float,
     neighbours: list[tuple[np.ndarray, np.ndarray]] | None = None,
     demo_offset: np.ndarray | None = None,
+    robot: Robot = KUKA_LWR4,
 ) -> tuple[np.ndarray, float]:
     """Skill-knowledge grasp: closing across a face that fits the gripper, centred on the
     object along the closing axis, where the person held it along the other.
@@ -266,18 +299,22 @@ def grasp_goal(
     Returns the TCP position (3,) and the yaw nearest (modulo 180 deg) to the demonstrated one.
     """
     p = T_obj[:3, 3].copy()
-    p[2] = max(p[2], p[2] - size[2] / 2 + FINGER_BELOW_TCP + 0.006)
+    p[2] = max(
+        p[2],
+        p[2] - size[2] / 2 + robot.finger_below_tcp + 0.006,
+        palm_floor(p[2] + size[2] / 2, robot),
+    )
     psi = yaw_of(T_obj[:3, :3])
     cands = [(psi, size[0]), (psi + np.pi / 2, size[1])]
     fits = (
-        [c for c in cands if c[1] <= MAX_OPENING - 0.015]
-        or [c for c in cands if c[1] <= GRASP_MAX_WIDTH]  # (a mug: only across its body)
+        [c for c in cands if c[1] <= robot.max_opening - 0.015]
+        or [c for c in cands if c[1] <= grasp_max_width(robot)]  # (a mug: only across its body)
         or cands
     )
 
     def room(c: tuple[float, float]) -> float:
         u = np.array([np.cos(c[0]), np.sin(c[0])])
-        reach = grasp_opening(c[1]) / 2 + FINGER_HALF_X
+        reach = grasp_opening(c[1], robot) / 2 + robot.finger_half_x
         fingers = [p[:2] + reach * u, p[:2] - reach * u]
         d = [_box_distance(f, T, sz) for T, sz in neighbours or [] for f in fingers]
         return min(d, default=np.inf)
@@ -292,13 +329,17 @@ def grasp_goal(
         across = np.array([-np.sin(best[0]), np.cos(best[0])])  # the gripper's x axis
         o = T_obj[:2, :2] @ np.asarray(demo_offset, dtype=np.float64)[:2]
         extent = size[1] if best is cands[0] else size[0]  # the box along ``across``
-        free = max(0.0, float(extent) / 2 - FINGER_HALF_X - GRASP_EDGE)
+        free = max(0.0, float(extent) / 2 - robot.finger_half_x - GRASP_EDGE)
         p[:2] += float(np.clip(float(o @ across), -free, free)) * across
     return p, float(wrap_near(best[0], demo_yaw))
 
 
 def push_goal(
-    T_obj_end: np.ndarray, size: np.ndarray, direction: np.ndarray, demo_yaw: float
+    T_obj_end: np.ndarray,
+    size: np.ndarray,
+    direction: np.ndarray,
+    demo_yaw: float,
+    robot: Robot = KUKA_LWR4,
 ) -> tuple[np.ndarray, float]:
     """Where the TCP ends a push that leaves the object at ``T_obj_end``.
 
@@ -310,7 +351,10 @@ def push_goal(
     # half extent of the box along u (support function of the rectangle)
     half = 0.5 * (abs(u @ R[:2, 0]) * size[0] + abs(u @ R[:2, 1]) * size[1])
     p = T_obj_end[:3, 3].copy()
-    p[:2] -= u * (half + FINGER_HALF_X + 0.002)
-    p[2] = max(p[2] - size[2] / 2 + FINGER_BELOW_TCP + 0.008, p[2] - 0.01)
+    p[:2] -= u * (half + robot.finger_half_x + 0.002)
+    top, centre = p[2] + size[2] / 2, p[2]
+    p[2] = max(p[2] - size[2] / 2 + robot.finger_below_tcp + 0.008, p[2] - 0.01)
+    # the palm over the box's top, but never pushing above its centre: a tall box would topple
+    p[2] = max(p[2], min(palm_floor(top, robot), centre + PUSH_ABOVE_CENTRE))
     yaw = float(np.arctan2(u[1], u[0]) + np.pi / 2)
     return p, float(wrap_near(yaw, demo_yaw))

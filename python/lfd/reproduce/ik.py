@@ -11,7 +11,8 @@ from typing import Any
 
 import numpy as np
 
-from .robot import HOME_Q, robot_model_xml
+from .arm import Robot
+from .robot import KUKA_LWR4
 
 
 def gripper_rotation(yaw: float) -> np.ndarray:
@@ -40,15 +41,22 @@ class ArmIK:
     base : array, shape (3,)
         Robot base position in the world.
     posture_cost : float
-        Weight of the posture task that keeps the redundant elbow near :data:`HOME_Q`.
+        Weight of the posture task that keeps the redundant elbow near the robot's
+        :attr:`~lfd.reproduce.arm.Robot.home_q`.
+    robot : Robot
+        The arm (its MJCF alone, without the scene's objects).
     """
 
-    def __init__(self, base: np.ndarray, *, posture_cost: float = 1e-2) -> None:
+    def __init__(
+        self, base: np.ndarray, *, posture_cost: float = 1e-2, robot: Robot = KUKA_LWR4
+    ) -> None:
         import mink
         import mujoco
 
         self._mink = mink
-        self.model = mujoco.MjModel.from_xml_string(robot_model_xml(base))
+        self.robot = robot
+        self.dof = robot.dof
+        self.model = mujoco.MjModel.from_xml_string(robot.model_xml(base))
         self.data = mujoco.MjData(self.model)
         self.cfg = mink.Configuration(self.model)
         self.task = mink.FrameTask(
@@ -56,8 +64,8 @@ class ArmIK:
         )
         self.posture = mink.PostureTask(self.model, cost=posture_cost)
         home = np.zeros(self.model.nq)
-        home[:7] = HOME_Q
-        home[7:9] = 0.03
+        home[: self.dof] = robot.home_q
+        home[self.dof : self.dof + 2] = min(0.03, robot.max_opening / 2)
         self.home = home
         self.posture.set_target(home)
         self.limits: list[Any] = [mink.ConfigurationLimit(self.model)]
@@ -65,18 +73,18 @@ class ArmIK:
 
     @property
     def q(self) -> np.ndarray:
-        """Current IK joint angles of the arm, shape (7,)."""
-        return np.array(self.cfg.q[:7])
+        """Current IK joint angles of the arm, shape (dof,)."""
+        return np.array(self.cfg.q[: self.dof])
 
     def reset(self, q: np.ndarray | None = None) -> None:
         """Set the IK configuration (arm joints; fingers keep their posture value)."""
         full = self.home.copy()
         if q is not None:
-            full[:7] = np.asarray(q, dtype=np.float64).reshape(7)
+            full[: self.dof] = np.asarray(q, dtype=np.float64).reshape(self.dof)
         self.cfg.update(full)
 
     def step(self, position: np.ndarray, rotation: np.ndarray, *, iters: int = 3) -> np.ndarray:
-        """Move the IK configuration towards a TCP pose (``iters`` QP steps); return arm q (7,)."""
+        """Move the IK configuration towards a TCP pose (``iters`` QP steps); return arm q."""
         mink = self._mink
         target = mink.SE3.from_rotation_and_translation(
             mink.SO3.from_matrix(np.asarray(rotation, dtype=np.float64)),
@@ -92,13 +100,15 @@ class ArmIK:
         return self.q
 
     def seed_towards(self, position: np.ndarray, rotation: np.ndarray) -> None:
-        """Reset to :data:`HOME_Q` turned towards a target (joint 1) with a matching wrist yaw."""
+        """Reset to the home pose turned towards a target (joint 1) with a matching wrist yaw
+        (:attr:`~lfd.reproduce.arm.Robot.wrist_yaw`)."""
         base = self.model.body("robot_base").pos
         phi = float(np.arctan2(position[1] - base[1], position[0] - base[0]))
         yaw = float(np.arctan2(rotation[1, 1], rotation[0, 1]))  # closing axis heading
-        q = np.array(HOME_Q, dtype=np.float64)
+        q = np.array(self.robot.home_q, dtype=np.float64)
         q[0] = phi
-        q[6] = (np.pi / 2 + phi - yaw + np.pi) % (2 * np.pi) - np.pi
+        offset, sign = self.robot.wrist_yaw
+        q[-1] = (offset + sign * phi - sign * yaw + np.pi) % (2 * np.pi) - np.pi
         self.reset(q)
 
     def solve(
@@ -116,7 +126,7 @@ class ArmIK:
         """Forward kinematics of the TCP site: position (3,) and rotation (3, 3)."""
         import mujoco
 
-        qq = np.array(self.cfg.q) if q is None else np.concatenate([q, self.home[7:]])
+        qq = np.array(self.cfg.q) if q is None else np.concatenate([q, self.home[self.dof :]])
         self.data.qpos[:] = qq
         mujoco.mj_kinematics(self.model, self.data)
         sid = self.model.site("tcp").id

@@ -56,6 +56,7 @@ from .motion import (
     line,
     min_jerk_clip,
     need_object,
+    open_fingers,
     over,
     path_clear,
     push_geometry,
@@ -65,7 +66,6 @@ from .motion import (
     segment_indices,
 )
 from .program import Segment, TaskProgram
-from .robot import FINGER_BELOW_TCP, MAX_OPENING
 from .timescale import retime
 
 MODES = ("replay", "skills", "dmp")
@@ -73,8 +73,9 @@ PAD_OFFSET = 0.015
 """Replay: fingertip-keypoint distance minus this = commanded pad distance (m)."""
 DWELL_S = 0.5
 """Time the robot holds still while the gripper closes or opens (s)."""
-Z_MIN = FINGER_BELOW_TCP + 0.004
-"""Lowest TCP height (m): the fingertips stay 4 mm above the table."""
+Z_ABOVE_TABLE = 0.004
+"""The fingertips stay this far above the table (m): the lowest TCP height is the robot's
+:attr:`~lfd.reproduce.arm.Robot.finger_below_tcp` plus this."""
 FUNNEL = 0.04
 """Height above a grasp/release pose below which the approach is vertical (m); at least the
 object's half height plus the finger length, so open fingers never sweep over its top."""
@@ -165,7 +166,7 @@ def plan_replay(frames: DemoFrames, program: TaskProgram) -> Plan:
     tt = np.linspace(t[0], t[-1], len(path))
     for k, seg in enumerate(program.segments):
         seg_of[(tt >= seg.start_s) & (tt <= seg.end_s)] = k
-    width = np.clip(path[:, 4] - PAD_OFFSET, 0.0, MAX_OPENING)
+    width = np.clip(path[:, 4] - PAD_OFFSET, 0.0, frames.robot.max_opening)
     return Plan(path[:, :3], path[:, 3], width, seg_of)
 
 
@@ -222,7 +223,7 @@ class _SkillGoal:
     open_at_end: bool = False
     release_top: float = 0.0
     """Height of the released object's top (m; place, stack)."""
-    release: float = MAX_OPENING
+    release: float = 0.0
     """Opening when releasing (m; place, stack)."""
     push: dict[str, Any] | None = None
     """:func:`~lfd.reproduce.motion.push_geometry` of a push."""
@@ -241,6 +242,7 @@ class _TaskPlanner:
         initial: dict[str, np.ndarray] | None,
     ) -> None:
         self.frames, self.program, self.mode = frames, program, mode
+        self.robot = frames.robot
         self.segs = program.segments
         start_i = frames.index(self.segs[0].start_s)
         self.objects = {n: frames.object_pose(n, start_i) for n in frames.names}
@@ -251,7 +253,7 @@ class _TaskPlanner:
         self.parts: list[Plan] = []
         self.goals: list[np.ndarray] = []
         self.cur = _state(frames.tcp_pose(start_i), float(frames.yaw[start_i]))
-        self.opening = MAX_OPENING
+        self.opening = self.robot.max_opening
         self.held: tuple[str, np.ndarray] | None = None
 
     def plan(self) -> PlanResult:
@@ -260,9 +262,11 @@ class _TaskPlanner:
         frames, program = self.frames, self.program
         plan = plan_replay(frames, program) if self.mode == "replay" else Plan.concat(self.parts)
         # the fingertips never go below the table top (human fingertips may graze it)
-        plan.position[:, 2] = np.maximum(plan.position[:, 2], Z_MIN)
+        plan.position[:, 2] = np.maximum(
+            plan.position[:, 2], self.robot.finger_below_tcp + Z_ABOVE_TABLE
+        )
         # the demonstration's timing is a wish: slowed down to what the arm can follow
-        plan = retime(plan)
+        plan = retime(plan, self.robot.limits)
         self.scenes.append(dict(self.expected))
         return PlanResult(plan, self.expected, self.goals, program, self.scenes)
 
@@ -271,7 +275,7 @@ class _TaskPlanner:
         name, goal = _pick_goal(self.frames, seg, self.objects, i1)
         self.held = (name, np.linalg.inv(self.objects[name]) @ pose(goal[:3], goal[3]))
         size = self.frames.size[self.frames.object_index(name)]
-        grip = grasp_opening(_width_across(self.objects[name], size, goal[3]))
+        grip = grasp_opening(_width_across(self.objects[name], size, goal[3]), self.robot)
         return _SkillGoal(goal, grip, name=name, close_at_end=True)
 
     def _place(self, k: int, seg: Segment, i1: int) -> _SkillGoal:  # place and stack
@@ -281,7 +285,9 @@ class _TaskPlanner:
         self.objects[name] = self.expected[name] = T_end_demo
         self.scenes.append(dict(self.objects))
         size = self.frames.size[self.frames.object_index(name)]
-        release = min(MAX_OPENING, _width_across(T_end_demo, size, goal[3]) + RELEASE_CLEARANCE)
+        release = min(
+            self.robot.max_opening, _width_across(T_end_demo, size, goal[3]) + RELEASE_CLEARANCE
+        )
         self.held = None
         return _SkillGoal(
             goal,
@@ -305,7 +311,7 @@ class _TaskPlanner:
     def _move(self, k: int, seg: Segment, i1: int) -> _SkillGoal:  # move and move_with
         """To the (mapped) start of the next skill, set up for it."""
         frames, objects = self.frames, self.objects
-        grip = 0.0 if seg.skill == "move_with" else MAX_OPENING
+        grip = 0.0 if seg.skill == "move_with" else self.robot.max_opening
         if k + 1 >= len(self.segs):
             # the last move ends where the hand did, but never on or in an object (a person's
             # hand may rest on the box it has just put down)
@@ -328,11 +334,11 @@ class _TaskPlanner:
             # descends from there, :meth:`_vertical_grasp`)
             T, size = objects[name], frames.size[frames.object_index(name)]
             top = T[2, 3] + size[2] / 2
-            reach = 0.5 * float(np.hypot(size[0], size[1])) + MAX_OPENING / 2
+            reach = 0.5 * float(np.hypot(size[0], size[1])) + self.robot.max_opening / 2
             off = float(np.hypot(*(goal[:2] - grasp[:2])))
-            low = goal[2] - FINGER_BELOW_TCP < top + GRASP_CLEAR
+            low = goal[2] - self.robot.finger_below_tcp < top + GRASP_CLEAR
             if low and GRASP_SLACK < off and float(np.hypot(*(goal[:2] - T[:2, 3]))) < reach:
-                goal[2] = top + FINGER_BELOW_TCP + GRASP_CLEAR
+                goal[2] = top + self.robot.finger_below_tcp + GRASP_CLEAR
         elif nxt.skill in ("place", "stack"):
             nxt_goal = _place_goal(
                 frames, nxt, objects, self.held, _end_index(frames, nxt), self.cur[3]
@@ -387,10 +393,11 @@ class _TaskPlanner:
             hsize = frames.size[frames.object_index(self.held[0])]
             return {
                 "skip": (self.held[0],),
-                "below": max(FINGER_BELOW_TCP, float(self.held[1][2, 3]) + hsize[2] / 2),
+                "below": max(self.robot.finger_below_tcp, float(self.held[1][2, 3]) + hsize[2] / 2),
                 "extra": 0.5 * float(np.hypot(hsize[0], hsize[1])) + CARRY_CLEARANCE,
             }
-        return {"skip": (), "below": FINGER_BELOW_TCP, "extra": MAX_OPENING / 2}
+        below, extra = open_fingers(frames)
+        return {"skip": (), "below": below, "extra": extra}
 
     def _move_path(self, seg: Segment, goal: np.ndarray, i0: int, i1: int) -> np.ndarray:
         """A move/move_with from the current TCP state to ``goal`` that keeps clear of the
@@ -465,7 +472,7 @@ class _TaskPlanner:
         path[:, 3] = cur[3] + min_jerk_clip(len(path), YAW_TURN) * (goal[3] - cur[3])
         path[:, 2] = np.maximum(path[:, 2], goal[2])
         obj_h = self.frames.size[self.frames.object_index(name), 2]
-        funnel = max(FUNNEL, obj_h / 2 + FINGER_BELOW_TCP + FUNNEL_MARGIN)
+        funnel = max(FUNNEL, obj_h / 2 + self.robot.finger_below_tcp + FUNNEL_MARGIN)
         w = np.clip((path[:, 2] - goal[2]) / funnel, 0.0, 1.0)[:, None]
         path[:, :2] = goal[:2] + w * (path[:, :2] - goal[:2])
         # a start inside the funnel is where the robot is: the pull is blended in, not jumped
@@ -478,11 +485,13 @@ class _TaskPlanner:
         :data:`GRASP_CLEAR` over the top and descends vertically onto the grasp pose."""
         T = self.objects[name]
         top = T[2, 3] + self.frames.size[self.frames.object_index(name), 2] / 2
-        low = path[:, 2] - FINGER_BELOW_TCP < top + GRASP_CLEAR
+        low = path[:, 2] - self.robot.finger_below_tcp < top + GRASP_CLEAR
         off = np.hypot(path[:, 0] - goal[0], path[:, 1] - goal[1])
         if not np.any(low & (off > GRASP_SLACK)):
             return path
-        hover = np.array([*goal[:2], max(goal[2], top + FINGER_BELOW_TCP + GRASP_CLEAR), goal[3]])
+        hover = np.array(
+            [*goal[:2], max(goal[2], top + self.robot.finger_below_tcp + GRASP_CLEAR), goal[3]]
+        )
         path = path.copy()
         path[:, 2] = np.maximum(path[:, 2], hover[2])
         pieces = [path, line(hover, goal, min_s=GRASP_DESCENT_MIN_S)[1:]]
@@ -501,10 +510,10 @@ class _TaskPlanner:
             self.opening = 0.0
             self.parts.append(_part(np.repeat(cur[None], dwell, 0), 0.0, -1))
         if sg.open_at_end:
-            self.opening = MAX_OPENING
+            self.opening = self.robot.max_opening
             self.parts.append(_part(np.repeat(cur[None], dwell, 0), sg.release, -1))
             up = cur.copy()  # leave the released object vertically, just clear of its top
-            up[2] = max(up[2], sg.release_top + FINGER_BELOW_TCP + LIFT_ABOVE_RELEASED)
+            up[2] = max(up[2], sg.release_top + self.robot.finger_below_tcp + LIFT_ABOVE_RELEASED)
             self.parts.append(_part(line(cur, up, min_s=LIFT_MIN_S), sg.release, -1))
             self.cur = up
         if sg.push is not None:  # back off the pushed face before anything else moves
@@ -548,7 +557,12 @@ def check_grasps(frames: DemoFrames, program: TaskProgram) -> None:
     for seg in repair_program(frames, program).segments:
         if seg.skill == "pick_up" and seg.object in frames.names:
             size = frames.size[frames.object_index(seg.object)]
-            check_grasp_fits(str(seg.object), size, when=f" (pick_up at {seg.start_s:.1f} s)")
+            check_grasp_fits(
+                str(seg.object),
+                size,
+                when=f" (pick_up at {seg.start_s:.1f} s)",
+                robot=frames.robot,
+            )
 
 
 def repair_program(frames: DemoFrames, program: TaskProgram) -> TaskProgram:
@@ -598,7 +612,9 @@ def _pick_goal(
     ]
     # where the person held it, relative to the object (Eq. 2: it moves with the object)
     held = np.linalg.inv(frames.object_pose(name, i1)) @ frames.tcp_pose(i1)
-    p, yaw = grasp_goal(objects[name], size, float(frames.yaw[i1]), near, held[:2, 3])
+    p, yaw = grasp_goal(
+        objects[name], size, float(frames.yaw[i1]), near, held[:2, 3], robot=frames.robot
+    )
     # the gripper is symmetric: take the representative the wrist reaches most easily
     yaw = float(wrap_near(yaw, float(frames.natural_yaw(p))))
     return name, np.array([*p, yaw])

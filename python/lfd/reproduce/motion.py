@@ -15,7 +15,6 @@ from .controller import TICK
 from .dmp import dmp_rollout, min_jerk, resample
 from .goals import DemoFrames, push_goal, upright, wrap_near
 from .program import Segment
-from .robot import FINGER_BELOW_TCP, MAX_OPENING
 
 LINEAR_SPEED = 0.15
 """Mean TCP speed of the straight moves of the skills mode (m/s)."""
@@ -72,6 +71,18 @@ def required_height(
     return req
 
 
+def open_fingers(
+    frames: DemoFrames, below: float | None = None, extra: float | None = None
+) -> tuple[float, float]:
+    """``(below, extra)`` of :func:`clear`: given, or the open gripper of ``frames.robot`` (the
+    fingertips below the TCP, its :attr:`~lfd.reproduce.arm.Robot.hand_radius` beside it)."""
+    robot = frames.robot
+    return (
+        robot.finger_below_tcp if below is None else below,
+        robot.hand_radius if extra is None else extra,
+    )
+
+
 def clear(
     a: np.ndarray,
     b: np.ndarray,
@@ -79,14 +90,14 @@ def clear(
     objects: dict[str, np.ndarray],
     *,
     skip: tuple[str, ...],
-    below: float = FINGER_BELOW_TCP,
-    extra: float = MAX_OPENING / 2,
+    below: float | None = None,
+    extra: float | None = None,
 ) -> bool:
     """True if the open fingers moving straight from ``a`` to ``b`` keep clear of every object.
 
     ``below``: how far the lowest point (fingertips or a carried object) is below the TCP;
     ``extra``: horizontal reach around the TCP (open fingers, or a carried object's half
-    diagonal plus the fingers).
+    diagonal plus the fingers). Default: the open fingers of ``frames.robot``.
     """
     pts = a[None, :3] + np.linspace(0.0, 1.0, 40)[:, None] * (b[:3] - a[:3])[None]
     return path_clear(pts, frames, objects, skip=skip, below=below, extra=extra)
@@ -98,10 +109,11 @@ def path_clear(
     objects: dict[str, np.ndarray],
     *,
     skip: tuple[str, ...],
-    below: float = FINGER_BELOW_TCP,
-    extra: float = MAX_OPENING / 2,
+    below: float | None = None,
+    extra: float | None = None,
 ) -> bool:
     """True if every point of ``pts`` (n, >=3) keeps clear of every object (as :func:`clear`)."""
+    below, extra = open_fingers(frames, below, extra)
     req = required_height(pts[:, :2], frames, objects, skip=skip, below=below, extra=extra)
     return bool(np.all(pts[:, 2] >= req))
 
@@ -127,8 +139,8 @@ def over(
     objects: dict[str, np.ndarray],
     *,
     skip: tuple[str, ...],
-    below: float = FINGER_BELOW_TCP,
-    extra: float = MAX_OPENING / 2,
+    below: float | None = None,
+    extra: float | None = None,
     n: int = 120,
 ) -> list[np.ndarray]:
     """Corners of the shortest path from ``a`` to ``b`` (``[x, y, z, yaw]``) over the objects.
@@ -145,6 +157,7 @@ def over(
     if D < 1e-6:
         return [a, b]
     s = np.linspace(0.0, 1.0, n)
+    below, extra = open_fingers(frames, below, extra)
     req = required_height(
         a[None, :2] + s[:, None] * d, frames, objects, skip=skip, below=below, extra=extra
     )
@@ -171,9 +184,11 @@ def over(
 
 
 def safe_height(
-    frames: DemoFrames, objects: dict[str, np.ndarray], below: float = FINGER_BELOW_TCP
+    frames: DemoFrames, objects: dict[str, np.ndarray], below: float | None = None
 ) -> float:
-    """TCP height at which the lowest point clears every object top (+2 cm)."""
+    """TCP height at which the lowest point (default: the fingertips) clears every object top
+    (+2 cm)."""
+    below = frames.robot.finger_below_tcp if below is None else below
     tops = [T[2, 3] + frames.size[frames.object_index(n), 2] / 2 for n, T in objects.items()]
     return max(tops, default=0.0) + below + 0.02
 
@@ -206,14 +221,14 @@ def push_geometry(
     d = T_new[:3, 3] - T_now[:3, 3]
     size = frames.size[frames.object_index(name)]
     u = d[:2] / max(float(np.linalg.norm(d[:2])), 1e-9)
-    p_c, yaw = push_goal(T_now, size, d, ref_yaw)
+    p_c, yaw = push_goal(T_now, size, d, ref_yaw, frames.robot)
     yaw = float(wrap_near(yaw, float(frames.natural_yaw(p_c))))  # one representative throughout
-    p_end, _ = push_goal(T_new, size, d, yaw)
+    p_end, _ = push_goal(T_new, size, d, yaw, frames.robot)
     contact = np.array([*(p_c[:2] - 0.005 * u), p_c[2], yaw])
     start = contact - [0.025 * u[0], 0.025 * u[1], 0.0, 0.0]
     hover = start.copy()
     top = T_now[2, 3] + size[2] / 2
-    hover[2] = max(start[2], top + FINGER_BELOW_TCP + CLEARANCE + 0.001)
+    hover[2] = max(start[2], top + frames.robot.finger_below_tcp + CLEARANCE + 0.001)
     return {
         "goal": np.array([*p_end, yaw]),
         "contact": contact,

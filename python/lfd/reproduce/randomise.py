@@ -29,10 +29,12 @@ import numpy as np
 
 from ..errors import InvalidParameterError, LfdError, UsageError
 from ..trajectory import Trajectory
+from .arm import Robot
 from .displacement import Displacement, check_program, plan_layout, program_start
 from .goals import DemoFrames
 from .modes import MODES
 from .program import TaskProgram
+from .robot import KUKA_LWR4
 
 LAYOUT_GAP = 0.03
 """Smallest gap (m) between the circumscribed circles of two objects on the table in a
@@ -96,12 +98,13 @@ def check_layout(
     *,
     modes: Sequence[str] = ("skills", "dmp"),
     gap: float = LAYOUT_GAP,
+    robot: Robot = KUKA_LWR4,
 ) -> str | None:
     """Why a layout cannot be used (one line), or None when it is reachable and collision-free
     as planned in each of ``modes`` (replay is not re-grounded: it is planned as skills)."""
     for mode in dict.fromkeys(m if m != "replay" else "skills" for m in modes):
         try:
-            frames, start, plan = plan_layout(traj, program, mode, displace)
+            frames, start, plan = plan_layout(traj, program, mode, displace, robot=robot)
         except UsageError as err:
             return str(err)
         for scene in [start, *plan.scenes]:
@@ -121,6 +124,7 @@ def random_layouts(
     max_turn_deg: float = MAX_TURN_DEG,
     gap: float = LAYOUT_GAP,
     modes: Sequence[str] = ("skills", "dmp"),
+    robot: Robot = KUKA_LWR4,
 ) -> list[Layout]:
     """``n`` reachable, collision-free layouts (see the module docstring), reproducibly from
     ``seed``: :func:`iter_layouts` drawn all at once.
@@ -141,6 +145,7 @@ def random_layouts(
             max_turn_deg=max_turn_deg,
             gap=gap,
             modes=modes,
+            robot=robot,
         )
     )
 
@@ -162,6 +167,7 @@ def iter_layouts(
     max_turn_deg: float = MAX_TURN_DEG,
     gap: float = LAYOUT_GAP,
     modes: Sequence[str] = ("skills", "dmp"),
+    robot: Robot = KUKA_LWR4,
 ) -> Iterator[Layout]:
     """:func:`random_layouts` one at a time: each layout is drawn when it is asked for (the
     same layouts, in the same order). The settings are checked at once, on the call.
@@ -177,7 +183,7 @@ def iter_layouts(
     if not (np.isfinite(max_turn_deg) and 0.0 <= max_turn_deg <= 180.0):
         raise UsageError(f"--max-turn {max_turn_deg}: must be 0-180 deg")
     if any(m != "replay" for m in modes):
-        check_program(traj, program)
+        check_program(traj, program, robot)
     start_i = program_start(traj, program)
     frames = DemoFrames(traj, np.zeros(3))
     seen = np.all(np.isfinite(np.asarray(traj.object_position)[:, start_i, :]), axis=1)
@@ -198,7 +204,7 @@ def iter_layouts(
                     a = float(rng.uniform(-np.pi, np.pi))
                     turn = float(rng.uniform(-max_turn_deg, max_turn_deg))
                     displace[name] = (r * np.cos(a), r * np.sin(a), turn)
-                problem = check_layout(traj, program, displace, modes=modes, gap=gap)
+                problem = check_layout(traj, program, displace, modes=modes, gap=gap, robot=robot)
                 if problem is None:
                     yield Layout(index, displace, dict(rejected))
                     break
@@ -333,6 +339,7 @@ def run_randomised(
     max_shift: float = MAX_SHIFT,
     max_turn_deg: float = MAX_TURN_DEG,
     progress: Callable[[int, int], None] | None = None,
+    robot: Robot = KUKA_LWR4,
 ) -> Randomised:
     """Reproduce ``program`` on ``n`` random layouts (:func:`random_layouts`) in every mode
     (``lfd.reproduce.reproduce_randomised`` with ``run`` = ``lfd.reproduce.reproduce``).
@@ -340,7 +347,10 @@ def run_randomised(
     Parameters
     ----------
     run : callable
-        ``run(traj, program, mode, displace=...)`` -> a :class:`~lfd.reproduce.Reproduction`.
+        ``run(traj, program, mode, displace=..., robot=...)`` -> a
+        :class:`~lfd.reproduce.Reproduction`.
+    robot : Robot
+        The arm: the layouts are checked against its reach, and it runs them.
     progress : callable (done, total), optional
         Called after every run.
 
@@ -358,12 +368,19 @@ def run_randomised(
     total = n * len(modes)
     # each layout is drawn just before it runs: the first runs start at once, whatever n
     for lay in iter_layouts(
-        traj, program, n, seed=seed, max_shift=max_shift, max_turn_deg=max_turn_deg, modes=modes
+        traj,
+        program,
+        n,
+        seed=seed,
+        max_shift=max_shift,
+        max_turn_deg=max_turn_deg,
+        modes=modes,
+        robot=robot,
     ):
         layouts.append(lay)
         for mode in modes:
             try:
-                r = run(traj, program, mode, displace=lay.displace)
+                r = run(traj, program, mode, displace=lay.displace, robot=robot)
                 one = LayoutRun(
                     lay.index,
                     mode,
@@ -383,5 +400,6 @@ def run_randomised(
         "max_shift_m": max_shift,
         "max_turn_deg": max_turn_deg,
         "gap_m": LAYOUT_GAP,
+        "robot": robot.name,
     }
     return Randomised(layouts, runs, tuple(modes), settings)

@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .arm import Limits, Robot
+
 DH_D: tuple[float, ...] = (0.3105, 0.0, 0.40, 0.0, 0.39, 0.0, 0.078)
 """DH offsets ``d_i`` of the KUKA LWR 4+ (m)."""
 DH_ALPHA_DEG: tuple[float, ...] = (90.0, -90.0, -90.0, 90.0, 90.0, -90.0, 0.0)
@@ -137,12 +139,7 @@ def robot_xml(base: np.ndarray | tuple[float, float, float] = (0.0, 0.0, 0.0)) -
     base : array, shape (3,)
         Position of the robot base in the world frame (the base sits at table height).
     """
-    b = np.asarray(base, dtype=np.float64).reshape(3)
-    return (
-        f'<body name="robot_base" pos="{b[0]:.6f} {b[1]:.6f} {b[2]:.6f}">'
-        '<geom class="link" type="cylinder" size="0.08 0.01" pos="0 0 0.01" rgba="0.5 0.5 0.5 1"/>'
-        f"{_arm_bodies()}</body>"
-    )
+    return KUKA_LWR4.base_xml(base)
 
 
 def robot_defaults() -> str:
@@ -181,16 +178,38 @@ def robot_actuators() -> str:
     return f"<actuator>{arm}{fingers}</actuator><contact>{exclude}</contact>"
 
 
-OPTIONS = (
-    '<option timestep="0.002" cone="elliptic" impratio="10" integrator="implicitfast"/>'
-    '<compiler angle="radian"/>'
-)
-"""Simulation options that made grasps stable (FIELD-NOTES)."""
-
-
 def robot_model_xml(base: np.ndarray | tuple[float, float, float] = (0.0, 0.0, 0.0)) -> str:
     """A complete MJCF model with only the robot (used for inverse kinematics)."""
-    return (
-        f'<mujoco model="lwr4_gripper">{OPTIONS}{robot_defaults()}'
-        f"<worldbody>{robot_xml(base)}</worldbody>{robot_actuators()}</mujoco>"
-    )
+    return KUKA_LWR4.model_xml(base)
+
+
+KUKA_LWR4 = Robot(
+    name="kuka_lwr4",
+    title="KUKA LWR 4+ with a parallel-jaw gripper",
+    body=(
+        '<geom class="link" type="cylinder" size="0.08 0.01" pos="0 0 0.01" rgba="0.5 0.5 0.5 1"/>'
+        + _arm_bodies()
+    ),
+    defaults=robot_defaults(),
+    actuators=robot_actuators(),
+    arm_joints=JOINT_NAMES,
+    finger_joints=FINGER_JOINTS,
+    joint_range=tuple((-float(np.radians(d)), float(np.radians(d))) for d in JOINT_LIMITS_DEG),
+    home_q=HOME_Q,
+    wrist_yaw=(np.pi / 2, 1.0),
+    max_opening=MAX_OPENING,
+    finger_below_tcp=FINGER_BELOW_TCP,
+    finger_half_x=FINGER_HALF_X,
+    hand_radius=MAX_OPENING / 2,  # the palm hangs 70 mm above the TCP: the fingers count
+    palm_above_tcp=PAD_Z - 0.03,  # the palm box's underside, 30 mm below the flange
+    tcp_offset=TCP_OFFSET,
+    shoulder_z=DH_D[0],
+    # the elbow limit (120 deg) allows 0.395 m, the stretched arm 0.79 m
+    reach=(0.43, 0.76),
+    # a KUKA LWR 4+ moves its TCP at up to about 1 m/s; these leave room for the IK and the
+    # position servos to keep the TCP within a few millimetres of the plan, and for a box held
+    # by friction alone (chosen on the simulated demos and the real motion capture)
+    limits=Limits(speed=0.6, acceleration=3.0, yaw_rate=2.5, yaw_acceleration=12.0),
+    source="hand-written MJCF with the LWR 4+'s published DH kinematics (this module)",
+)
+"""The default robot (``--robot kuka_lwr4``)."""

@@ -11,13 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .robot import DH_D, OPTIONS, TCP_OFFSET, robot_actuators, robot_defaults, robot_xml
+from .arm import OPTIONS, Robot
+from .robot import KUKA_LWR4
 
-SHOULDER_Z = DH_D[0]
-REACH_MIN = 0.43
-"""Smallest shoulder-wrist distance used when placing the base (elbow limit 120 deg: 0.395 m)."""
-REACH_MAX = 0.76
-"""Largest shoulder-wrist distance used when placing the base (stretched arm: 0.79 m)."""
 TABLE_HALF = 1.2
 """Half side of the square table top (m)."""
 
@@ -48,11 +44,13 @@ class ObjectSpec:
     quaternion: np.ndarray
 
 
-def choose_base(points: np.ndarray, keep_out: np.ndarray | None = None) -> np.ndarray:
+def choose_base(
+    points: np.ndarray, keep_out: np.ndarray | None = None, *, robot: Robot = KUKA_LWR4
+) -> np.ndarray:
     """Robot base position (z = 0) from which all TCP points are reachable top-down.
 
-    Maximises the smallest reach margin (shoulder-wrist distance inside [REACH_MIN, REACH_MAX])
-    over a grid of candidate bases, keeping 0.14 m away from the ``keep_out`` points (objects).
+    Maximises the smallest reach margin (shoulder-wrist distance inside the robot's
+    :attr:`~lfd.reproduce.arm.Robot.reach`) over a grid of candidate bases, keeping 0.14 m away from the ``keep_out`` points (objects).
 
     Parameters
     ----------
@@ -60,6 +58,8 @@ def choose_base(points: np.ndarray, keep_out: np.ndarray | None = None) -> np.nd
         TCP positions the robot must reach (world frame).
     keep_out : array, shape (m, 2) or (m, 3), optional
         Positions the base must stay clear of.
+    robot : Robot
+        Whose reach (and wrist above the TCP, shoulder height) counts.
 
     Returns
     -------
@@ -69,14 +69,14 @@ def choose_base(points: np.ndarray, keep_out: np.ndarray | None = None) -> np.nd
     pts = pts[np.all(np.isfinite(pts), axis=1)]
     if pts.shape[0] > 400:
         pts = pts[np.linspace(0, pts.shape[0] - 1, 400).astype(int)]
-    wrist = pts + np.array([0.0, 0.0, TCP_OFFSET])
+    wrist = pts + np.array([0.0, 0.0, robot.tcp_offset])
     lo, hi = pts[:, :2].min(axis=0) - 0.8, pts[:, :2].max(axis=0) + 0.8
     gx, gy = np.meshgrid(np.arange(lo[0], hi[0], 0.02), np.arange(lo[1], hi[1], 0.02))
     cand = np.stack([gx.ravel(), gy.ravel()], axis=1)
     dxy = wrist[None, :, :2] - cand[:, None, :]
-    dz = wrist[None, :, 2] - SHOULDER_Z
+    dz = wrist[None, :, 2] - robot.shoulder_z
     d = np.sqrt(np.sum(dxy**2, axis=2) + dz**2)
-    margin = np.minimum(d - REACH_MIN, REACH_MAX - d).min(axis=1)
+    margin = np.minimum(d - robot.reach[0], robot.reach[1] - d).min(axis=1)
     # keep the base away from the objects and from the TCP path itself
     clear = np.sqrt(np.sum(dxy**2, axis=2)).min(axis=1) >= 0.2
     if keep_out is not None and len(keep_out):
@@ -91,7 +91,11 @@ def choose_base(points: np.ndarray, keep_out: np.ndarray | None = None) -> np.nd
 
 
 def scene_xml(
-    base: np.ndarray, objects: list[ObjectSpec], *, table_half: float = TABLE_HALF
+    base: np.ndarray,
+    objects: list[ObjectSpec],
+    *,
+    table_half: float = TABLE_HALF,
+    robot: Robot = KUKA_LWR4,
 ) -> str:
     """MJCF of the full scene: floor-less table, robot, free-body cuboids, a camera and lights."""
     bodies = []
@@ -107,15 +111,15 @@ def scene_xml(
         )
     c = np.asarray(base)[:2]
     t = table_centre(np.asarray(base))
-    return f"""<mujoco model="lfd_reproduce">{OPTIONS}{robot_defaults()}
+    return f"""<mujoco model="lfd_reproduce">{OPTIONS}{robot.defaults}
   <visual><quality offsamples="0"/><global offwidth="1280" offheight="960"/></visual>
   <worldbody>
     <light pos="{c[0]:.3f} {c[1]:.3f} 2.5" dir="0 0 -1" directional="true"/>
     <geom name="table" type="box" pos="{t[0]:.3f} {t[1]:.3f} -0.02"
           size="{table_half} {table_half} 0.02" rgba="0.75 0.7 0.62 1" friction="1 0.005 0.0001"/>
-    {robot_xml(base)}
+    {robot.base_xml(base)}
     {"".join(bodies)}
-  </worldbody>{robot_actuators()}
+  </worldbody>{robot.actuators}
 </mujoco>"""
 
 

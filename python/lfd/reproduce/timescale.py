@@ -21,38 +21,18 @@ output satisfies the same limits.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
+from .arm import Limits
 from .controller import TICK, Plan
+from .robot import KUKA_LWR4
+
+__all__ = ["LIMITS", "Limits", "derivatives", "durations", "retime", "slowdown"]
 
 
-@dataclass(frozen=True)
-class Limits:
-    """TCP limits the planned path is scaled to (SI units)."""
-
-    speed: float = 0.6
-    """Largest TCP speed (m/s)."""
-    acceleration: float = 3.0
-    """Largest TCP acceleration (m/s²)."""
-    yaw_rate: float = 2.5
-    """Largest gripper yaw rate (rad/s)."""
-    yaw_acceleration: float = 12.0
-    """Largest gripper yaw acceleration (rad/s²)."""
-
-    def __post_init__(self) -> None:
-        from ..errors import InvalidParameterError
-
-        vals = (self.speed, self.acceleration, self.yaw_rate, self.yaw_acceleration)
-        if not all(np.isfinite(v) and v > 0 for v in vals):
-            raise InvalidParameterError(f"time-scaling limits must be positive, got {self}")
-
-
-LIMITS = Limits()
-"""The arm's limits: a KUKA LWR 4+ moves its TCP at up to about 1 m/s; these leave room for the
-IK and the position servos to keep the TCP within a few millimetres of the plan, and for a box
-held by friction alone (chosen on the simulated demos and the real motion capture)."""
+LIMITS = KUKA_LWR4.limits
+"""The default robot's limits (:attr:`~lfd.reproduce.arm.Robot.limits`: each robot has its
+own, :class:`~lfd.reproduce.arm.Limits`)."""
 SMOOTH_S = 0.3
 """Width (s) of the running maximum that spreads a slowdown around its cause."""
 MAX_PASSES = 6
