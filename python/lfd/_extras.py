@@ -36,6 +36,8 @@ LEROBOT_MODULES = ("lerobot", "datasets", "huggingface_hub", "av", "torch", "tor
 lerobot goes in with ``--no-deps``: its pins conflict with the viz and perception extras)."""
 LEROBOT_INSTALL = "pip install 'lfd[lerobot]' && pip install --no-deps lerobot==0.4.4"
 
+ALOHA_INSTALL = "pip install --no-deps gym-aloha==0.1.5"
+
 EXTRAS: dict[str, Extra] = {
     e.name: e
     for e in (
@@ -56,6 +58,8 @@ EXTRAS: dict[str, Extra] = {
         Extra("ros", "the rosbags package", ("rosbags",), "pip install 'lfd[ros]'"),
         Extra("lerobot", "lerobot", LEROBOT_MODULES, LEROBOT_INSTALL),
         Extra("ray", "Ray", ("ray",), "pip install 'lfd[ray]'"),
+        # the two-arm ALOHA's MJCF and meshes (lfd.reproduce.aloha; gym-aloha's pins clash)
+        Extra("aloha", "gym-aloha's robot models", ("gym_aloha",), ALOHA_INSTALL),
     )
 }
 

@@ -68,6 +68,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "does all of the task, refused when both hands handle objects)",
     )
     parser.add_argument(
+        "--robot",
+        choices=("kuka_lwr4", "aloha"),
+        default="kuka_lwr4",
+        help="the robot: the KUKA LWR 4+ (one arm), or aloha (two ViperX 300s arms: each hand of "
+        "a two-hand recording to the arm of its side; needs gym-aloha, docs/reproduce.md)",
+    )
+    parser.add_argument(
         "--program",
         action="store_true",
         help="print the task program (each hand's skills and, with two hands, where one waits "
@@ -154,6 +161,10 @@ def run(args: argparse.Namespace) -> int:
         check_output(args.video, inputs=reads, what="--video", suffixes=VIDEO_SUFFIXES)
     show = open_from_args(args, "lfd_reproduce")
     demo = load(args.recording, images=False, **loading)
+    if args.robot == "aloha":  # two arms (cli/_two_arms.py)
+        from ._two_arms import run_two_arms
+
+        return run_two_arms(args, demo, err)
     traj, program, hands = _trajectory_and_program(demo, args)
     if hands is not None:  # the two-hand program, and which hand the one arm does
         for line in [*hands.lines(), f"reproduced: the {_side(hands, args)} hand's part"]:

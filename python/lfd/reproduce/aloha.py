@@ -1,7 +1,7 @@
 """The two-arm ALOHA (two Trossen ViperX 300s arms with their parallel grippers), built from the
 MJCF and meshes in the ``gym-aloha`` wheel (Apache-2.0; tested with gym-aloha 0.1.5).
 
-gym-aloha pins mujoco < 3.9 and dm-control, so it is installed with ``--no-deps`` (the ``robots``
+gym-aloha pins mujoco < 3.9 and dm-control, so it is installed with ``--no-deps`` (the ``aloha``
 extra) and never imported: ``vx300s_left.xml`` (one arm, 6 joints and two finger slides) and
 ``vx300s_dependencies.xml`` (the meshes) are found with
 ``importlib.util.find_spec("gym_aloha").submodule_search_locations`` and read as XML.
@@ -35,7 +35,7 @@ from .robots import Limits, Robot
 
 GYM_ALOHA = "gym-aloha==0.1.5"
 """The tested gym-aloha version."""
-INSTALL = f"pip install --no-deps {GYM_ALOHA}"
+INSTALL = f"pip install --no-deps {GYM_ALOHA}"  # as lfd._extras.ALOHA_INSTALL
 ARM_JOINTS = ("waist", "shoulder", "elbow", "forearm_roll", "wrist_angle", "wrist_rotate")
 FINGER_JOINTS = ("left_finger", "right_finger")
 JOINT_RANGE: tuple[tuple[float, float], ...] = (
@@ -67,7 +67,7 @@ def aloha_assets() -> str:
             return assets
     raise MissingExtraError(
         f"the aloha robot needs gym-aloha's model files (gym-aloha is missing): {INSTALL}",
-        extra="robots",
+        extra="aloha",
     )
 
 
