@@ -104,8 +104,7 @@ def _rename(name: str, prefix: str) -> str:
 
 def _arm(assets: str, prefix: str) -> ET.Element:
     """The arm's shoulder link (the base mesh kept), renamed with ``prefix``."""
-    text = open(os.path.join(assets, "vx300s_left.xml"), encoding="utf-8").read()
-    root = ET.fromstring(text)
+    root = ET.parse(os.path.join(assets, "vx300s_left.xml")).getroot()
     arm = root.find("body")
     if arm is None:
         raise ValueError("gym-aloha's vx300s_left.xml has no body")

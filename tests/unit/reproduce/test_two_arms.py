@@ -1,0 +1,122 @@
+"""A two-hand program on the two-arm ALOHA (lfd.reproduce.aloha, lfd.reproduce.two_arms): the
+model from gym-aloha's MJCF, top-down IK per arm, a simulated two-hand demonstration achieved
+on both arms, and what is refused in one line."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco")
+pytest.importorskip("mink")
+pytestmark = pytest.mark.skipif(
+    importlib.util.find_spec("gym_aloha") is None,
+    reason="gym-aloha is not installed (pip install --no-deps gym-aloha==0.1.5)",
+)
+
+BASES = {"right": np.array([0.42, 0.2, 0.0]), "left": np.array([-0.46, 0.14, 0.0])}
+YAWS = {"right": np.pi, "left": 0.0}
+
+
+def test_the_model_compiles_with_both_tcp_sites() -> None:
+    import mujoco
+    from lfd.reproduce.aloha import FINGER_RANGE, aloha
+    from lfd.reproduce.two_arms import scene_xml
+
+    robot = aloha()
+    assert robot.sides == ("right", "left") and robot.ik.dof == 6
+    model = mujoco.MjModel.from_xml_string(scene_xml(BASES, [], robot, YAWS))
+    data = mujoco.MjData(model)
+    assert model.nu == 16 and model.nq == 16  # 6 joints and 2 fingers per arm
+    for side in BASES:
+        for j, q in zip(robot.arms[side].arm_joints, robot.ik.home_q, strict=True):
+            data.qpos[model.joint(j).qposadr[0]] = q
+    mujoco.mj_forward(model, data)
+    for side, base in BASES.items():
+        tcp = data.site(f"{side}/tcp").xpos
+        # the base turned towards the workspace: the home TCP in front of it, above the table
+        ahead = np.array([np.cos(YAWS[side]), np.sin(YAWS[side])])
+        assert 0.1 < float((tcp[:2] - base[:2]) @ ahead) < 0.4 and tcp[2] > 0.05
+        for f in robot.arms[side].finger_joints:
+            assert tuple(model.jnt_range[model.joint(f).id]) == pytest.approx((0, FINGER_RANGE))
+
+
+@pytest.mark.parametrize("side", ["right", "left"])
+def test_ik_reaches_top_down_poses_over_the_table(side: str) -> None:
+    from lfd.reproduce.aloha import aloha
+    from lfd.reproduce.ik import gripper_rotation, rotation_angle
+    from lfd.reproduce.two_arms import MountedIK
+
+    ik = MountedIK(BASES[side], YAWS[side], aloha().ik)
+    ahead = np.array([np.cos(YAWS[side]), np.sin(YAWS[side]), 0.0])
+    across = np.array([-ahead[1], ahead[0], 0.0])
+    for dist, off, z in ((0.3, 0.0, 0.03), (0.2, 0.1, 0.02), (0.42, -0.12, 0.05)):
+        p = BASES[side] + dist * ahead + off * across + np.array([0.0, 0.0, z])
+        for yaw in (0.0, 0.8, -1.3):
+            R = gripper_rotation(yaw)
+            ik.seed_towards(p, R)
+            ik.solve(p, R)
+            got, Rg = ik.tcp_pose()
+            assert np.linalg.norm(got - p) < 0.003, (side, p, yaw)
+            assert np.degrees(rotation_angle(Rg, R)) < 1.0
+
+
+def _program(task: str, seed: int):  # type: ignore[no-untyped-def]
+    from lfd.reproduce import from_hand_labels
+    from lfd.sim import Variability, simulate
+
+    demo = simulate(task, seed=seed, variability=Variability(style="careful")).demo
+    hands = from_hand_labels(
+        demo.labels, demo.start_ns, sides=demo.sides, handovers=demo.handovers, objects=demo.objects
+    )
+    return demo, hands
+
+
+@pytest.mark.slow
+def test_a_simulated_hold_push_is_achieved_on_two_arms() -> None:
+    """One hand holds a box still while the other pushes another: both arms in one scene, the
+    holder releasing only after the push has ended."""
+    from lfd.reproduce.two_arms import _start, reproduce_two_arms
+
+    demo, hands = _program("hold_push", 101)
+    (hold,) = [p for p in hands.sync if p.kind == "hold_until"]
+    r = reproduce_two_arms(demo, hands, "skills")
+    assert r.success, r.failures
+    assert r.failures == []
+    assert all(k.ok for ks in r.skills.values() for k in ks)
+    assert r.bases["right"][0] > r.bases["left"][0]  # each arm on its hand's side
+    holder, other = r.plans[hold.hand], r.plans[hold.other]
+    assert _start(holder, hold.step + 1) >= _start(other, hold.other_step + 1)
+    assert {r.owners[n] for n in ("box_2", "box_3")} == {"right", "left"}
+
+
+def test_a_handover_is_refused_on_two_arms_in_one_line() -> None:
+    from lfd.errors import DemonstrationError
+    from lfd.reproduce.two_arms import check_runs
+
+    _, hands = _program("handover", 3)
+    with pytest.raises(DemonstrationError) as err:
+        check_runs(hands)
+    msg = str(err.value)
+    assert "\n" not in msg and "handover" in msg and "not reproduced on two arms yet" in msg
+
+
+def test_cli_two_hand_program_on_one_arm_refuses_and_aloha_options(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from lfd.cli import main
+
+    rec = tmp_path / "hold_push.mcap"
+    assert main(["simulate", "hold_push", "--seed", "7", "--style", "careful", "-o", str(rec)]) == 0
+    capsys.readouterr()
+    out = tmp_path / "r.json"
+    assert main(["reproduce", str(rec), "--robot", "kuka_lwr4", "--json", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "both hands handle objects" in err[0] and "one arm" in err[0]
+    assert main(["reproduce", str(rec), "--robot", "aloha", "--hand", "left"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["lfd reproduce: error: --robot aloha cannot be combined with --hand yet"]
+    assert not out.exists()
