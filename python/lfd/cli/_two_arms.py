@@ -14,7 +14,8 @@ def run_two_arms(args: argparse.Namespace, demo: Any, err: Any) -> int:
     """Reproduce ``demo``'s two-hand program of ground-truth labels on the two arms; print the
     program, each mode's outcome and every failure (naming the arm); exit 0 when achieved."""
     from ..errors import DemonstrationError, UsageError
-    from ..reproduce import from_hand_labels
+    from ..preprocessing import preprocess
+    from ..reproduce import PREPROCESSING, from_hand_labels
     from ..reproduce.aloha import aloha
     from ..reproduce.two_arms import reproduce_two_arms
     from ._options import console, write_json
@@ -42,7 +43,8 @@ def run_two_arms(args: argparse.Namespace, demo: Any, err: Any) -> int:
     for line in hands.lines():
         err.print(line, highlight=False, markup=False)
     modes = ("replay", "skills", "dmp") if args.mode == "all" else (args.mode,)
-    results = {mode: reproduce_two_arms(demo, hands, mode, robot=robot) for mode in modes}
+    trajs = {s: preprocess(demo.one_hand(s), **PREPROCESSING) for s in hands.sides}
+    results = {mode: reproduce_two_arms(trajs, hands, mode, robot=robot) for mode in modes}
     out = console(args)
     for mode, r in results.items():
         bases = ", ".join(f"{s} ({b[0]:.2f}, {b[1]:.2f})" for s, b in r.bases.items())

@@ -76,7 +76,12 @@ def choose_bases(
             ok &= np.linalg.norm(cand - b[:2], axis=1) >= BASE_GAP
         score = np.where(ok, margin, -np.inf)
         best = int(np.argmax(score))
-        if not np.isfinite(score[best]) or score[best] < 0:
+        if not np.isfinite(score[best]):
+            raise DemonstrationError(
+                f"the {side} arm ({arm.title}) has no base on the {side} side clear of the "
+                "objects, both hands' paths and the other arm"
+            )
+        if score[best] < 0:
             raise DemonstrationError(
                 f"the {side} arm ({arm.title}) cannot reach all of the {side} hand's path "
                 f"from any base on its side (short by {-float(score[best]) * 1000:.0f} mm)"
@@ -387,10 +392,15 @@ def _handled(program: TaskProgram) -> set[str]:
 
 
 def reproduce_two_arms(
-    demo: Any, hands: HandsProgram, mode: str = "skills", *, robot: TwoArmRobot | None = None
+    trajs: dict[str, Any],
+    hands: HandsProgram,
+    mode: str = "skills",
+    *,
+    robot: TwoArmRobot | None = None,
 ) -> TwoArmReproduction:
     """Plan each hand's lane for the arm of its side, put both on one clock and run them in
-    one scene (see the module docstring).
+    one scene (see the module docstring). ``trajs``: each hand's preprocessed trajectory
+    (``lfd.preprocess(demo.one_hand(side), **PREPROCESSING)``).
 
     Raises
     ------
@@ -398,8 +408,6 @@ def reproduce_two_arms(
         A synchronisation the arms do not run (:func:`check_runs`), or a lane out of its arm's
         reach (:func:`choose_bases`), in one line.
     """
-    from . import PREPROCESSING
-    from ..preprocessing import preprocess
     from .aloha import aloha
     from .displacement import plan_layout
     from .measures import object_errors
@@ -412,9 +420,9 @@ def reproduce_two_arms(
         missing = [s for s in hands.sides if s not in robot.arms]
         if missing:
             raise DemonstrationError(f"the {missing[0]} hand has no arm on {robot.name}")
-    trajs = {s: preprocess(demo.one_hand(s), **PREPROCESSING) for s in sides}
     programs = {s: hands.program(s) for s in sides}
-    objects0 = np.array([np.asarray(o.position, dtype=np.float64)[0] for o in demo.objects.values()])
+    first = np.asarray(trajs[sides[0]].object_position, dtype=np.float64)
+    objects0 = np.array([p[np.all(np.isfinite(p), axis=1)][0] for p in first])
     points = {s: np.asarray(trajs[s].tcp, dtype=np.float64) for s in sides}
     bases = choose_bases(points, objects0.reshape(-1, 3), robot)
     yaws = {s: mount_yaw(bases[s], points[s]) for s in sides}
@@ -436,7 +444,9 @@ def reproduce_two_arms(
         yaw = float(np.arctan2(T[1, 0], T[0, 0]))
         p = T[:3, 3].copy()
         p[2] = max(p[2], frames.size[k, 2] / 2)
-        specs.append(ObjectSpec(name, frames.size[k], p, np.array([0, 0, np.sin(yaw / 2), np.cos(yaw / 2)])))
+        specs.append(
+            ObjectSpec(name, frames.size[k], p, np.array([0, 0, np.sin(yaw / 2), np.cos(yaw / 2)]))
+        )
     plans = synchronise({s: planned[s][2].plan for s in sides}, hands)
     ex = execute_two(plans, bases, specs, robot, yaws)
     any_ex = ex[sides[0]]

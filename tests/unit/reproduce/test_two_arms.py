@@ -65,14 +65,16 @@ def test_ik_reaches_top_down_poses_over_the_table(side: str) -> None:
 
 
 def _program(task: str, seed: int):  # type: ignore[no-untyped-def]
-    from lfd.reproduce import from_hand_labels
+    """Each hand's preprocessed trajectory and the two-hand program of a simulated demo."""
+    from lfd.preprocessing import preprocess
+    from lfd.reproduce import PREPROCESSING, from_hand_labels
     from lfd.sim import Variability, simulate
 
     demo = simulate(task, seed=seed, variability=Variability(style="careful")).demo
     hands = from_hand_labels(
         demo.labels, demo.start_ns, sides=demo.sides, handovers=demo.handovers, objects=demo.objects
     )
-    return demo, hands
+    return {s: preprocess(demo.one_hand(s), **PREPROCESSING) for s in demo.sides}, hands
 
 
 @pytest.mark.slow
@@ -81,9 +83,9 @@ def test_a_simulated_hold_push_is_achieved_on_two_arms() -> None:
     holder releasing only after the push has ended."""
     from lfd.reproduce.two_arms import _start, reproduce_two_arms
 
-    demo, hands = _program("hold_push", 101)
+    trajs, hands = _program("hold_push", 101)
     (hold,) = [p for p in hands.sync if p.kind == "hold_until"]
-    r = reproduce_two_arms(demo, hands, "skills")
+    r = reproduce_two_arms(trajs, hands, "skills")
     assert r.success, r.failures
     assert r.failures == []
     assert all(k.ok for ks in r.skills.values() for k in ks)
