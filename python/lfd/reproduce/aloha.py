@@ -14,7 +14,8 @@ gym-aloha's arm, to run the reproduction like the default robot:
   ``kp`` 300 with a 20 N limit), damping and armature from the defaults, no joint friction
   loss (gym-aloha's 30-60 N m friction stands in for motor brakes), gravity compensation;
 * the fingers re-zeroed so that 0 is closed (the pads touch) and both open with a positive
-  position, each by half the opening (0..:data:`FINGER_RANGE`);
+  position, each by half the opening (0..:data:`FINGER_RANGE`); each finger collides as a flat
+  pad (:data:`PAD_HALF`, the grasp settings of the KUKA's), its tapered mesh only seen;
 * the base turned so the arm points along the base frame's +x (as the other robots), the links
   kept out of collisions (the gripper and fingers collide), the pads with the grasp settings;
 * a ``tcp`` site between the pads (y the closing axis, z the approach = the gripper link's +x);
@@ -90,6 +91,10 @@ WRIST_YAW = (np.pi / 2, 1.0)
 """The last joint at 90 deg + (phi - yaw) points the closing axis along yaw."""
 REACH = (0.2, 0.52)
 """Shoulder-wrist distances (m, the wrist 0.207 m above a top-down TCP) the base is placed for."""
+PAD_HALF = (0.03, 0.005, 0.008)
+"""Half sizes (m) of each finger's collision pad: along the approach (from the fingertip up),
+the closing axis (from the inner face out) and across: the finger meshes' lowest 60 mm, whose
+width tapers to 10 mm at the tip and widens above, collide as these flat boxes."""
 _PAD = (
     '<default class="pad"><geom friction="1.5 0.02 0.002" condim="4" '
     'solref="0.01 1" solimp="0.95 0.99 0.001"/></default>'
@@ -138,7 +143,21 @@ def _arm(assets: str, prefix: str) -> ET.Element:
         joint.set("range", f"0 {FINGER_RANGE:.4f}")
         for key in ("solimp", "solref", "friction", "condim"):
             geom.attrib.pop(key, None)
-        geom.set("class", "pad")
+        geom.set("contype", "0")  # the mesh is seen; a flat pad collides (PAD_HALF)
+        geom.set("conaffinity", "0")
+        inner = (-1.0 if left else 1.0) * (FINGER_CLOSED - PAD_HALF[1])
+        ET.SubElement(
+            body,
+            "geom",
+            {
+                "name": f"{joint.get('name')}_pad",
+                "class": "pad",
+                "type": "box",
+                "pos": f"{TCP_X + FINGER_BELOW_TCP - PAD_HALF[0] - x:.5f} {inner:.5f} 0",
+                "size": " ".join(f"{v:.4f}" for v in PAD_HALF),
+                "rgba": "0.1 0.1 0.1 0",
+            },
+        )
     for geom in gripper.findall("geom"):  # the palm collides
         geom.attrib.pop("contype", None)
         geom.attrib.pop("conaffinity", None)
@@ -222,7 +241,7 @@ def viperx(prefix: str = "") -> Robot:
         wrist_yaw=WRIST_YAW,
         max_opening=2 * FINGER_RANGE,
         finger_below_tcp=FINGER_BELOW_TCP,
-        finger_half_x=0.006,  # the finger tips (their lowest 30 mm) are 10-12 mm wide
+        finger_half_x=PAD_HALF[2],
         tcp_offset=WRIST_TO_GRIPPER + TCP_X,
         shoulder_z=SHOULDER_Z,
         reach=REACH,
