@@ -10,7 +10,10 @@
   :meth:`~lfd.reproduce.program.HandsProgram.program`), then the lanes are put on one clock
   (:func:`synchronise`): at a ``hold_until`` the holding arm keeps holding (its ``move_with``
   is lengthened) until the other arm's step has ended, and the other arm's step starts only once
-  the holder holds. ``handover`` and ``carry`` are not run yet (refused in one line).
+  the holder holds. At a ``handover`` the taker's lane is planned with the object where the
+  giver's ``place`` leaves it, the taker's ``pick_up`` starts once the giver is there and the
+  giver lets go only once the taker has grasped. A ``carry`` is not run yet (refused in one
+  line).
 * **Execution** (:func:`execute_two`): both arms in one MuJoCo scene, one IK per arm, one
   control tick for both; an arm that has finished holds its last pose.
 * **Success**, per arm (its skills, :func:`~lfd.reproduce.outcome.skill_results` over the
@@ -36,7 +39,7 @@ from .scene import ObjectSpec, _colour
 
 BASE_GAP = 0.4
 """Smallest distance between the two bases (m)."""
-RUNS = ("hold_until",)
+RUNS = ("hold_until", "handover")
 """The synchronisation points the two arms run; the others are refused."""
 
 
@@ -188,6 +191,9 @@ def synchronise(plans: dict[str, Plan], hands: HandsProgram) -> dict[str, Plan]:
     for _ in range(2 * len(hands.sync) + 1):
         changed = False
         for p in hands.sync:
+            if p.kind == "handover":
+                changed |= _handover_waits(plans, p)
+                continue
             if p.kind != "hold_until":
                 continue
             a, b = plans[p.hand], plans[p.other]
@@ -205,6 +211,39 @@ def synchronise(plans: dict[str, Plan], hands: HandsProgram) -> dict[str, Plan]:
         if not changed:
             break
     return plans
+
+
+def _end(plan: Plan, k: int) -> int:
+    """The tick after the last of step ``k`` (its dwell and lift-off excluded)."""
+    idx = np.nonzero(plan.segment == k)[0]
+    return int(idx[-1]) + 1 if idx.size else _start(plan, k)
+
+
+def _release(plan: Plan, k: int) -> int:
+    """The tick at which the gripper opens after step ``k`` (``len(plan)`` when it does not)."""
+    i0 = _end(plan, k)
+    if i0 == 0 or i0 >= len(plan):
+        return len(plan)
+    idx = np.nonzero(plan.opening[i0:] > plan.opening[i0 - 1] + 1e-6)[0]
+    return i0 + int(idx[0]) if idx.size else len(plan)
+
+
+def _handover_waits(plans: dict[str, Plan], p: Any) -> bool:
+    """A handover: the taker's ``pick_up`` starts once the giver has brought the object to the
+    meeting point (the end of its ``place``), and the giver opens only once the taker has
+    grasped (the taker's next step starts); the giver's wait is a dwell (segment -1)."""
+    giver, taker = plans[p.hand], plans[p.other]
+    changed = False
+    need = _end(giver, p.step) - _start(taker, p.other_step)
+    if need > 0:
+        at = _start(taker, p.other_step)
+        plans[p.other] = taker = _wait(taker, at, need, int(taker.segment[max(at - 1, 0)]))
+        changed = True
+    need = _start(taker, p.other_step + 1) - _release(giver, p.step)
+    if need > 0:
+        plans[p.hand] = _wait(giver, _release(giver, p.step), need, -1)
+        changed = True
+    return changed
 
 
 def check_runs(hands: HandsProgram) -> None:
@@ -391,6 +430,32 @@ def _handled(program: TaskProgram) -> set[str]:
     return {s.object for s in program.segments if s.skill != "move" and s.object is not None}
 
 
+def _handovers(
+    planned: dict[str, tuple[Any, Any, Any]],
+    hands: HandsProgram,
+    mode: str,
+    bases: dict[str, np.ndarray],
+) -> dict[str, Plan]:
+    """Every lane's plan, a handover's taker planned again with the handed object where the
+    giver's plan leaves it (:func:`~lfd.reproduce.modes.plan_task`). Each grasp follows the
+    demonstration along the object (the planner centres it only across), so the two grippers
+    hold the object where the two hands did."""
+    from .modes import plan_task
+
+    plans = {s: r.plan for s, (_, _, r) in planned.items()}
+    for p in hands.sync:
+        if p.kind != "handover" or p.object is None:
+            continue
+        giver, taker = p.hand, p.other
+        g_result = planned[giver][2]
+        t_frames = planned[taker][0]
+        T_meet = g_result.expected[p.object]
+        result = plan_task(t_frames, hands.program(taker), mode, initial={p.object: T_meet})
+        planned[taker] = (t_frames, planned[taker][1], result)
+        plans[taker] = result.plan
+    return plans
+
+
 def reproduce_two_arms(
     trajs: dict[str, Any],
     hands: HandsProgram,
@@ -431,10 +496,14 @@ def reproduce_two_arms(
         for s in sides
     }
     frames, initial, _ = planned[sides[0]]
-    owners: dict[str, str] = {}
-    for s in sides:
-        for name in _handled(programs[s]):
-            owners[name] = s
+    plans = _handovers(planned, hands, mode, bases)
+    owners: dict[str, str] = {}  # the lane that handles each object last
+    for side, name, _ in sorted(
+        ((s, g.object, g.end_s) for s in sides for g in programs[s].segments if g.skill != "move"),
+        key=lambda x: x[2],
+    ):
+        if name is not None:
+            owners[name] = side
     expected = {
         n: planned[owners[n]][2].expected[n] if n in owners else initial[n] for n in frames.names
     }
@@ -447,7 +516,7 @@ def reproduce_two_arms(
         specs.append(
             ObjectSpec(name, frames.size[k], p, np.array([0, 0, np.sin(yaw / 2), np.cos(yaw / 2)]))
         )
-    plans = synchronise({s: planned[s][2].plan for s in sides}, hands)
+    plans = synchronise(plans, hands)
     ex = execute_two(plans, bases, specs, robot, yaws)
     any_ex = ex[sides[0]]
     objs = object_errors(

@@ -95,15 +95,56 @@ def test_a_simulated_hold_push_is_achieved_on_two_arms() -> None:
     assert {r.owners[n] for n in ("box_2", "box_3")} == {"right", "left"}
 
 
-def test_a_handover_is_refused_on_two_arms_in_one_line() -> None:
+def test_a_carry_is_refused_on_two_arms_in_one_line() -> None:
     from lfd.errors import DemonstrationError
     from lfd.reproduce.two_arms import check_runs
 
-    _, hands = _program("handover", 3)
+    _, hands = _program("carry", 3)
     with pytest.raises(DemonstrationError) as err:
         check_runs(hands)
     msg = str(err.value)
-    assert "\n" not in msg and "handover" in msg and "not reproduced on two arms yet" in msg
+    assert "\n" not in msg and "carry" in msg and "not reproduced on two arms yet" in msg
+    _, hands = _program("handover", 3)
+    check_runs(hands)  # a handover runs
+
+
+def _lane(steps: list[tuple[int, int]]):  # type: ignore[no-untyped-def]
+    """A plan of ``(segment, ticks)`` runs (-1: a dwell), the TCP moving 1 mm a tick."""
+    from lfd.reproduce.controller import Plan
+
+    seg = np.concatenate([np.full(n, k) for k, n in steps])
+    pos = np.zeros((len(seg), 3))
+    pos[:, 0] = np.arange(len(seg)) * 1e-3
+    return Plan(pos, np.zeros(len(seg)), np.full(len(seg), 0.05), seg)
+
+
+def test_a_handover_on_one_clock() -> None:
+    """The taker's pick_up starts once the giver's place has ended; the giver opens (its
+    dwell) only once the taker has grasped (its next step starts); a hold_until as before."""
+    from lfd.reproduce.program import HandsProgram, Segment, SyncPoint
+    from lfd.reproduce.two_arms import _end, _release, _start, synchronise
+
+    lanes = {
+        "right": [Segment("pick_up", 0, 1, "bar"), Segment("move_with", 1, 2, "bar"),
+                  Segment("place", 2, 3, "bar"), Segment("move", 3, 4)],
+        "left": [Segment("move", 0, 2.5, "bar"), Segment("pick_up", 2.5, 3, "bar"),
+                 Segment("move_with", 3, 4, "bar")],
+    }  # fmt: skip
+    point = SyncPoint("handover", "right", 2, "left", 1, "bar", 3.0)
+    hands = HandsProgram(lanes, [point])
+    giver = _lane([(0, 100), (-1, 50), (1, 100), (2, 100), (-1, 50), (3, 100)])
+    giver.opening[_end(giver, 2) :] = 0.06  # opens after its place
+    taker = _lane([(0, 50), (1, 80), (-1, 50), (2, 100)])
+    out = synchronise({"right": giver, "left": taker}, hands)
+    g, t = out["right"], out["left"]
+    assert _start(t, 1) >= _end(g, 2) == 350  # the taker waits for the giver to be there
+    assert _release(g, 2) >= _start(t, 2) > 350  # the giver holds until the taker has grasped
+    assert np.all(g.opening[: _release(g, 2)] == 0.05) and g.opening[_release(g, 2)] == 0.06
+    # the waits hold still: the TCP repeats the pose before the wait
+    i = _start(taker, 1)
+    assert np.allclose(t.position[i - 1 : _start(t, 1)], taker.position[i - 1])
+    assert len(g) - len(giver) == _release(g, 2) - 350 > 0  # the giver's wait: a dwell
+    assert np.all(g.segment[350 : _release(g, 2)] == -1)
 
 
 def test_cli_two_hand_program_on_one_arm_refuses_and_aloha_options(
