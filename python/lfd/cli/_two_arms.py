@@ -6,9 +6,6 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-TWO_ARM_ROBOTS = ("aloha",)
-"""The ``--robot`` names of two-arm robots."""
-
 
 def run_two_arms(args: argparse.Namespace, demo: Any, err: Any) -> int:
     """Reproduce ``demo``'s two-hand program of ground-truth labels on the two arms; print the
@@ -16,7 +13,7 @@ def run_two_arms(args: argparse.Namespace, demo: Any, err: Any) -> int:
     from ..errors import DemonstrationError, UsageError
     from ..preprocessing import preprocess
     from ..reproduce import PREPROCESSING, from_hand_labels
-    from ..reproduce.aloha import aloha
+    from ..reproduce.aloha import TWO_ARM_ROBOTS
     from ..reproduce.two_arms import reproduce_two_arms
     from ._options import console, write_json
 
@@ -36,7 +33,7 @@ def run_two_arms(args: argparse.Namespace, demo: Any, err: Any) -> int:
         raise UsageError(f"--robot {args.robot} cannot be combined with {used[0]} yet")
     if not demo.labels:
         raise DemonstrationError("the recording has no skill labels: nothing to reproduce")
-    robot = aloha()
+    robot = TWO_ARM_ROBOTS[args.robot]()
     hands = from_hand_labels(
         demo.labels, demo.start_ns, sides=demo.sides, handovers=demo.handovers, objects=demo.objects
     )

@@ -287,3 +287,7 @@ def aloha() -> TwoArmRobot:
         ik=one,
         source=one.source,
     )
+
+
+TWO_ARM_ROBOTS = {"aloha": aloha}
+"""Every two-arm robot by name (``lfd reproduce --robot NAME``): a function that builds it."""
