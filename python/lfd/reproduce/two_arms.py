@@ -33,6 +33,7 @@ from ..errors import DemonstrationError
 from .aloha import TwoArmRobot
 from .controller import LOOKAHEAD, TICK, Execution, Plan
 from .ik import ArmIK, gripper_rotation
+from .modes import DWELL_S
 from .program import HandsProgram, TaskProgram
 from .robots import OPTIONS, Robot
 from .scene import ObjectSpec, _colour
@@ -164,6 +165,11 @@ def _start(plan: Plan, k: int) -> int:
     return int(idx[0]) if idx.size else len(plan)
 
 
+def _before(plan: Plan, at: int) -> int:
+    """The step of the tick before ``at`` (-1 at the start: a wait belongs to no step)."""
+    return int(plan.segment[at - 1]) if at > 0 else -1
+
+
 def _wait(plan: Plan, at: int, n: int, segment: int) -> Plan:
     """``plan`` holding the pose of tick ``at - 1`` for ``n`` more ticks before tick ``at``."""
     if n <= 0:
@@ -192,7 +198,7 @@ def synchronise(plans: dict[str, Plan], hands: HandsProgram) -> dict[str, Plan]:
         changed = False
         for p in hands.sync:
             if p.kind == "handover":
-                changed |= _handover_waits(plans, p)
+                changed |= _handover_waits(plans, p, hands)
                 continue
             if p.kind != "hold_until":
                 continue
@@ -201,7 +207,7 @@ def synchronise(plans: dict[str, Plan], hands: HandsProgram) -> dict[str, Plan]:
             need = _start(a, p.step) - _start(b, p.other_step)
             if need > 0:
                 at = _start(b, p.other_step)
-                plans[p.other] = _wait(b, at, need, int(b.segment[max(at - 1, 0)]))
+                plans[p.other] = _wait(b, at, need, _before(b, at))
                 changed = True
             b = plans[p.other]
             need = _start(b, p.other_step + 1) - _start(a, p.step + 1)
@@ -228,20 +234,33 @@ def _release(plan: Plan, k: int) -> int:
     return i0 + int(idx[0]) if idx.size else len(plan)
 
 
-def _handover_waits(plans: dict[str, Plan], p: Any) -> bool:
-    """A handover: the taker's ``pick_up`` starts once the giver has brought the object to the
-    meeting point (the end of its ``place``), and the giver opens only once the taker has
-    grasped (the taker's next step starts); the giver's wait is a dwell (segment -1)."""
+def _handover_waits(plans: dict[str, Plan], p: Any, hands: HandsProgram) -> bool:
+    """A handover, on one clock: the taker's ``pick_up``, and the ``move`` that brings it there,
+    start once the giver has brought the object to the meeting point (the end of its
+    ``place``): the taker waits out of the giver's way. The giver opens only once the taker has
+    grasped (its closing dwell has ended; the giver's wait is a dwell, segment -1), and the taker
+    carries the object off only once the giver has moved away (the ``move`` after its place)."""
     giver, taker = plans[p.hand], plans[p.other]
     changed = False
-    need = _end(giver, p.step) - _start(taker, p.other_step)
+    first = p.other_step
+    if first > 0 and hands.lanes[p.other][first - 1].skill == "move":
+        first -= 1
+    need = _end(giver, p.step) - _start(taker, first)
     if need > 0:
-        at = _start(taker, p.other_step)
-        plans[p.other] = taker = _wait(taker, at, need, int(taker.segment[max(at - 1, 0)]))
+        at = _start(taker, first)
+        plans[p.other] = taker = _wait(taker, at, need, _before(taker, at))
         changed = True
-    need = _start(taker, p.other_step + 1) - _release(giver, p.step)
+    grasped = min(_end(taker, p.other_step) + round(DWELL_S / TICK), len(taker))
+    need = grasped - _release(giver, p.step)
     if need > 0:
-        plans[p.hand] = _wait(giver, _release(giver, p.step), need, -1)
+        plans[p.hand] = giver = _wait(giver, _release(giver, p.step), need, -1)
+        changed = True
+    lane = hands.lanes[p.hand]
+    away = p.step + 1 < len(lane) and lane[p.step + 1].skill == "move"
+    gone = _end(giver, p.step + 1) if away else _start(giver, p.step + 1)
+    need = gone - _start(taker, p.other_step + 1)
+    if need > 0:
+        plans[p.other] = _wait(taker, _start(taker, p.other_step + 1), need, -1)
         changed = True
     return changed
 

@@ -119,8 +119,9 @@ def _lane(steps: list[tuple[int, int]]):  # type: ignore[no-untyped-def]
 
 
 def test_a_handover_on_one_clock() -> None:
-    """The taker's pick_up starts once the giver's place has ended; the giver opens (its
-    dwell) only once the taker has grasped (its next step starts); a hold_until as before."""
+    """The taker's move to the meeting point and its pick_up start once the giver's place has
+    ended; the giver opens (its dwell) only once the taker has grasped (its closing dwell); the
+    taker carries off only once the giver has moved away."""
     from lfd.reproduce.program import HandsProgram, Segment, SyncPoint
     from lfd.reproduce.two_arms import _end, _release, _start, synchronise
 
@@ -137,14 +138,13 @@ def test_a_handover_on_one_clock() -> None:
     taker = _lane([(0, 50), (1, 80), (-1, 50), (2, 100)])
     out = synchronise({"right": giver, "left": taker}, hands)
     g, t = out["right"], out["left"]
-    assert _start(t, 1) >= _end(g, 2) == 350  # the taker waits for the giver to be there
-    assert _release(g, 2) >= _start(t, 2) > 350  # the giver holds until the taker has grasped
+    assert _start(t, 0) >= _end(g, 2) == 350  # the taker stays away until the giver is there
+    assert np.allclose(t.position[:350], taker.position[0])  # holding still meanwhile
+    assert _release(g, 2) >= _end(t, 1) + 50  # the giver holds until the taker has grasped
     assert np.all(g.opening[: _release(g, 2)] == 0.05) and g.opening[_release(g, 2)] == 0.06
-    # the waits hold still: the TCP repeats the pose before the wait
-    i = _start(taker, 1)
-    assert np.allclose(t.position[i - 1 : _start(t, 1)], taker.position[i - 1])
     assert len(g) - len(giver) == _release(g, 2) - 350 > 0  # the giver's wait: a dwell
     assert np.all(g.segment[350 : _release(g, 2)] == -1)
+    assert _start(t, 2) >= _end(g, 3)  # carried off once the giver has moved away
 
 
 def test_cli_two_hand_program_on_one_arm_refuses_and_aloha_options(
