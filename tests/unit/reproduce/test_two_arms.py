@@ -95,6 +95,26 @@ def test_a_simulated_hold_push_is_achieved_on_two_arms() -> None:
     assert {r.owners[n] for n in ("box_2", "box_3")} == {"right", "left"}
 
 
+@pytest.mark.slow
+def test_a_simulated_handover_is_achieved_on_two_arms() -> None:
+    """The giver brings the bar to the meeting point and lets go only once the taker holds it;
+    the taker puts it where the demonstration did."""
+    from lfd.reproduce.outcome import _tilt_deg
+    from lfd.reproduce.two_arms import _end, _release, reproduce_two_arms
+
+    trajs, hands = _program("handover", 4)
+    (point,) = [p for p in hands.sync if p.kind == "handover"]
+    r = reproduce_two_arms(trajs, hands, "skills")
+    assert r.success, r.failures
+    assert r.owners[point.object] == point.other  # the taker places it last
+    giver, taker = r.plans[point.hand], r.plans[point.other]
+    assert _release(giver, point.step) >= _end(taker, point.other_step)
+    # the bar stays upright from the handover on (held by the taker as the giver lets go)
+    ex = r.executions[point.other]
+    j = ex.object_names.index(point.object)
+    assert _tilt_deg(ex.object_quaternion[j, _end(taker, point.other_step) :]).max() < 10.0
+
+
 def test_a_carry_is_refused_on_two_arms_in_one_line() -> None:
     from lfd.errors import DemonstrationError
     from lfd.reproduce.two_arms import check_runs
