@@ -89,8 +89,9 @@ HOME_Q: tuple[float, ...] = (0.0, -0.35, 0.55, 0.0, 1.37, 0.0)
 """The TCP about 0.3 m in front of the base, 0.1 m above the table, pointing down."""
 WRIST_YAW = (np.pi / 2, 1.0)
 """The last joint at 90 deg + (phi - yaw) points the closing axis along yaw."""
-REACH = (0.2, 0.52)
-"""Shoulder-wrist distances (m, the wrist 0.207 m above a top-down TCP) the base is placed for."""
+REACH = (0.2, 0.55)
+"""Shoulder-wrist distances (m, the wrist 0.207 m above a top-down TCP) the base is placed for:
+the IK reaches every top-down pose tried up to 0.55 m within 1.3 mm (any yaw; 0.606 m stretched)."""
 PAD_HALF = (0.03, 0.005, 0.008)
 """Half sizes (m) of each finger's collision pad: along the approach (from the fingertip up),
 the closing axis (from the inner face out) and across: the finger meshes' lowest 60 mm, whose
