@@ -39,6 +39,8 @@ ROBOTS_INSTALL = "pip install --no-deps robosuite==1.5.2"
 """The robot models of ``lfd reproduce --robot panda``: robosuite's MJCF and meshes, read by path
 and never imported (its pins, mink==0.0.5 and opencv-python, clash with ours)."""
 
+ALOHA_INSTALL = "pip install --no-deps gym-aloha==0.1.5"
+
 EXTRAS: dict[str, Extra] = {
     e.name: e
     for e in (
@@ -60,6 +62,8 @@ EXTRAS: dict[str, Extra] = {
         Extra("lerobot", "lerobot", LEROBOT_MODULES, LEROBOT_INSTALL),
         Extra("robots", "robosuite's robot models", ("robosuite",), ROBOTS_INSTALL),
         Extra("ray", "Ray", ("ray",), "pip install 'lfd[ray]'"),
+        # the two-arm ALOHA's MJCF and meshes (lfd.reproduce.aloha; gym-aloha's pins clash)
+        Extra("aloha", "gym-aloha's robot models", ("gym_aloha",), ALOHA_INSTALL),
     )
 }
 

@@ -71,9 +71,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--robot",
         default="kuka_lwr4",
         metavar="NAME",
-        help="the simulated arm: kuka_lwr4 (default; a KUKA LWR 4+ with a parallel-jaw gripper) "
-        "or another of lfd.reproduce.ROBOTS, e.g. panda (a Franka Panda from robosuite's "
-        "models, docs/reproduce.md)",
+        help="the simulated robot: kuka_lwr4 (default; a KUKA LWR 4+ with a parallel-jaw gripper), "
+        "another arm of lfd.reproduce.ROBOTS, e.g. panda (a Franka Panda from robosuite's "
+        "models), or aloha (two ViperX 300s arms: each hand of a two-hand recording to the arm "
+        "of its side; needs gym-aloha); docs/reproduce.md",
     )
     parser.add_argument(
         "--program",
@@ -119,9 +120,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..reproduce.robots import robot
+    from ..reproduce.robots import TWO_ARM_ROBOTS, any_robot, robot
 
-    robot(args.robot)  # an unknown robot, or one whose package is missing: one line, first
+    any_robot(args.robot)  # an unknown robot, or one whose package is missing: one line, first
     if args.program:
         return _print_program(args)
     from .._extras import require
@@ -165,6 +166,10 @@ def run(args: argparse.Namespace) -> int:
         check_output(args.video, inputs=reads, what="--video", suffixes=VIDEO_SUFFIXES)
     show = open_from_args(args, "lfd_reproduce")
     demo = load(args.recording, images=False, **loading)
+    if args.robot in TWO_ARM_ROBOTS:  # two arms (cli/_two_arms.py)
+        from ._two_arms import run_two_arms
+
+        return run_two_arms(args, demo, err)
     traj, program, hands = _trajectory_and_program(demo, args)
     if hands is not None:  # the two-hand program, and which hand the one arm does
         for line in [*hands.lines(), f"reproduced: the {_side(hands, args)} hand's part"]:

@@ -25,11 +25,21 @@ from __future__ import annotations
 from collections.abc import Callable
 from functools import cache
 
+from .aloha import TWO_ARM_ROBOTS, TwoArmRobot
 from .arm import Limits, Robot
 from .panda import panda
 from .robot import KUKA_LWR4
 
-__all__ = ["DEFAULT_ROBOT", "ROBOTS", "Limits", "Robot", "robot", "robot_names"]
+__all__ = [
+    "DEFAULT_ROBOT",
+    "ROBOTS",
+    "TWO_ARM_ROBOTS",
+    "Limits",
+    "Robot",
+    "any_robot",
+    "robot",
+    "robot_names",
+]
 
 
 def _kuka() -> Robot:
@@ -60,6 +70,32 @@ def robot(name: str = DEFAULT_ROBOT) -> Robot:
     """
     from ..errors import UsageError
 
+    if name in TWO_ARM_ROBOTS:
+        raise UsageError(f"{name} has two arms; one arm is one of: {', '.join(robot_names())}")
     if name not in ROBOTS:
-        raise UsageError(f"unknown robot {name!r}; known robots: {', '.join(robot_names())}")
+        raise UsageError(f"unknown robot {name!r}; known robots: {_known()}")
     return ROBOTS[name]()
+
+
+def _known() -> str:
+    return f"{', '.join(robot_names())} (one arm), {', '.join(sorted(TWO_ARM_ROBOTS))} (two arms)"
+
+
+def any_robot(name: str = DEFAULT_ROBOT) -> Robot | TwoArmRobot:
+    """The robot called ``name``: one arm (:data:`ROBOTS`) or two (:data:`TWO_ARM_ROBOTS`,
+    :mod:`.aloha`); what ``lfd reproduce --robot NAME`` checks before any work.
+
+    Raises
+    ------
+    UsageError
+        An unknown name (the message lists the known robots).
+    MissingExtraError
+        The robot's model comes from a package that is not installed.
+    """
+    from ..errors import UsageError
+
+    if name in TWO_ARM_ROBOTS:
+        return TWO_ARM_ROBOTS[name]()
+    if name not in ROBOTS:
+        raise UsageError(f"unknown robot {name!r}; known robots: {_known()}")
+    return robot(name)

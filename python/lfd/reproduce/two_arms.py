@@ -1,0 +1,564 @@
+"""A two-hand task program (:class:`~lfd.reproduce.program.HandsProgram`) on a two-arm robot
+(:class:`~lfd.reproduce.aloha.TwoArmRobot`): each hand's lane to the arm of its side.
+
+* **Bases** (:func:`choose_bases`): each arm's base is placed, as one arm's is
+  (:func:`~lfd.reproduce.scene.choose_base`), so that every TCP point of its hand's lane is
+  reachable top-down, the right arm on the right of the workspace (+x) and the left on the left,
+  at least :data:`BASE_GAP` apart and clear of the objects and of both lanes' paths.
+* **Plans**: each lane is planned alone by the one-arm planner
+  (:func:`~lfd.reproduce.displacement.plan_layout`, the lane's
+  :meth:`~lfd.reproduce.program.HandsProgram.program`), then the lanes are put on one clock
+  (:func:`synchronise`): at a ``hold_until`` the holding arm keeps holding (its ``move_with``
+  is lengthened) until the other arm's step has ended, and the other arm's step starts only once
+  the holder holds. At a ``handover`` the taker's lane is planned with the object where the
+  giver's ``place`` leaves it, the taker's ``pick_up`` starts once the giver is there and the
+  giver lets go only once the taker has grasped. A ``carry`` is not run yet (refused in one
+  line).
+* **Execution** (:func:`execute_two`): both arms in one MuJoCo scene, one IK per arm, one
+  control tick for both; an arm that has finished holds its last pose.
+* **Success**, per arm (its skills, :func:`~lfd.reproduce.outcome.skill_results` over the
+  objects the other arm does not handle) and for the task (every object at its goal: the pose
+  the lane that handles it leaves it in, else where it started).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from ..errors import DemonstrationError
+from .aloha import TwoArmRobot
+from .controller import LOOKAHEAD, TICK, Execution, Plan
+from .ik import ArmIK, gripper_rotation
+from .modes import DWELL_S
+from .program import HandsProgram, TaskProgram
+from .arm import OPTIONS, Robot
+from .scene import ObjectSpec, _colour
+
+BASE_GAP = 0.4
+"""Smallest distance between the two bases (m)."""
+RUNS = ("hold_until", "handover")
+"""The synchronisation points the two arms run; the others are refused."""
+
+
+def choose_bases(
+    points: dict[str, np.ndarray], objects: np.ndarray, robot: TwoArmRobot
+) -> dict[str, np.ndarray]:
+    """Each arm's base (z = 0): every TCP point of its lane reachable top-down (the widest
+    reach margin), the right arm's base right of the workspace centre, the left's left of it.
+
+    Raises
+    ------
+    DemonstrationError
+        No base reaches all of a lane's points (one line naming the arm).
+    """
+    arm = robot.ik
+    every = np.concatenate([p for p in points.values()])
+    every = every[np.all(np.isfinite(every), axis=1)]
+    centre = every[:, :2].mean(axis=0)
+    lo, hi = every[:, :2].min(axis=0) - 0.7, every[:, :2].max(axis=0) + 0.7
+    gx, gy = np.meshgrid(np.arange(lo[0], hi[0], 0.02), np.arange(lo[1], hi[1], 0.02))
+    cand = np.stack([gx.ravel(), gy.ravel()], axis=1)
+    clear = _clear(cand, every[:, :2], 0.2) & _clear(cand, np.asarray(objects)[:, :2], 0.14)
+    out: dict[str, np.ndarray] = {}
+    for side in sorted(points, key=lambda s: s != "right"):
+        pts = points[side][np.all(np.isfinite(points[side]), axis=1)]
+        if len(pts) > 300:
+            pts = pts[np.linspace(0, len(pts) - 1, 300).astype(int)]
+        wrist = pts + np.array([0.0, 0.0, arm.tcp_offset])
+        d = np.sqrt(
+            np.sum((wrist[None, :, :2] - cand[:, None, :]) ** 2, axis=2)
+            + (wrist[None, :, 2] - arm.shoulder_z) ** 2
+        )
+        margin = np.minimum(d - arm.reach[0], arm.reach[1] - d).min(axis=1)
+        sign = 1.0 if side == "right" else -1.0
+        ok = clear & (sign * (cand[:, 0] - centre[0]) > 0.05)
+        for b in out.values():
+            ok &= np.linalg.norm(cand - b[:2], axis=1) >= BASE_GAP
+        score = np.where(ok, margin, -np.inf)
+        best = int(np.argmax(score))
+        if not np.isfinite(score[best]):
+            raise DemonstrationError(
+                f"the {side} arm ({arm.title}) has no base on the {side} side clear of the "
+                "objects, both hands' paths and the other arm"
+            )
+        if score[best] < 0:
+            raise DemonstrationError(
+                f"the {side} arm ({arm.title}) cannot reach all of the {side} hand's path "
+                f"from any base on its side (short by {-float(score[best]) * 1000:.0f} mm)"
+            )
+        out[side] = np.array([cand[best, 0], cand[best, 1], 0.0])
+    return out
+
+
+def mount_yaw(base: np.ndarray, points: np.ndarray) -> float:
+    """The heading (rad) the arm's base is turned to: towards the middle of its lane's points,
+    so that its first joint (limited to +-180 deg) turns either way from there."""
+    pts = points[np.all(np.isfinite(points), axis=1)]
+    c = pts[:, :2].mean(axis=0) if len(pts) else base[:2] + np.array([1.0, 0.0])
+    return float(np.arctan2(c[1] - base[1], c[0] - base[0]))
+
+
+def mounted(arm: Robot, yaw: float) -> Robot:
+    """``arm`` with its body turned by ``yaw`` about the vertical inside its base."""
+    q = f"{np.cos(yaw / 2):.6f} 0 0 {np.sin(yaw / 2):.6f}"
+    name = arm.arm_joints[0].rsplit("/", 1)[0] + "/mount" if "/" in arm.arm_joints[0] else "mount"
+    return replace(arm, body=f'<body name="{name}" quat="{q}">{arm.body}</body>')
+
+
+def _clear(cand: np.ndarray, pts: np.ndarray, r: float) -> np.ndarray:
+    if not len(pts):
+        return np.ones(len(cand), dtype=bool)
+    return np.sqrt(((cand[:, None, :] - pts[None]) ** 2).sum(axis=2)).min(axis=1) >= r
+
+
+def scene_xml(
+    bases: dict[str, np.ndarray],
+    objects: list[ObjectSpec],
+    robot: TwoArmRobot,
+    yaws: dict[str, float] | None = None,
+) -> str:
+    """MJCF of the table (top at z = 0), both arms at their bases (turned by ``yaws``) and the
+    cuboids."""
+    bodies = []
+    for ob in objects:
+        s, p = np.asarray(ob.size) / 2, ob.position
+        x, y, z, w = ob.quaternion
+        bodies.append(
+            f'<body name="{ob.name}" pos="{p[0]:.6f} {p[1]:.6f} {p[2]:.6f}" '
+            f'quat="{w:.6f} {x:.6f} {y:.6f} {z:.6f}"><freejoint name="{ob.name}"/>'
+            f'<geom name="{ob.name}" type="box" size="{s[0]:.5f} {s[1]:.5f} {s[2]:.5f}" '
+            f'mass="0.1" friction="1 0.005 0.0001" condim="4" rgba="{_colour(ob.name)}"/></body>'
+        )
+    arms = "".join(
+        f'<body name="{side}/robot_base" pos="{b[0]:.6f} {b[1]:.6f} 0">'
+        f"{mounted(robot.arms[side], (yaws or {}).get(side, 0.0)).body}</body>"
+        for side, b in bases.items()
+    )
+    acts = [robot.arms[side].actuators for side in bases]
+    actuators = "<actuator>" + "".join(_inner(a, "actuator") for a in acts) + "</actuator>"
+    contacts = "<contact>" + "".join(_inner(a, "contact") for a in acts) + "</contact>"
+    c = np.mean([b[:2] for b in bases.values()], axis=0)
+    return f"""<mujoco model="lfd_two_arms">{OPTIONS}{robot.ik.defaults}
+  <visual><quality offsamples="0"/><global offwidth="1280" offheight="960"/></visual>
+  <worldbody>
+    <light pos="{c[0]:.3f} {c[1]:.3f} 2.5" dir="0 0 -1" directional="true"/>
+    <geom name="table" type="box" pos="{c[0]:.3f} {c[1]:.3f} -0.02" size="1.2 1.2 0.02"
+          rgba="0.75 0.7 0.62 1" friction="1 0.005 0.0001"/>
+    {arms}{"".join(bodies)}
+  </worldbody>{actuators}{contacts}
+</mujoco>"""
+
+
+def _inner(xml: str, tag: str) -> str:
+    a, b = xml.find(f"<{tag}>"), xml.find(f"</{tag}>")
+    return xml[a + len(tag) + 2 : b] if a >= 0 and b > a else ""
+
+
+# --- one clock for both lanes ------------------------------------------------------------------
+def _start(plan: Plan, k: int) -> int:
+    """First tick of step ``k`` or of any later step (``len(plan)`` when none)."""
+    idx = np.nonzero(plan.segment >= k)[0]
+    return int(idx[0]) if idx.size else len(plan)
+
+
+def _before(plan: Plan, at: int) -> int:
+    """The step of the tick before ``at`` (-1 at the start: a wait belongs to no step)."""
+    return int(plan.segment[at - 1]) if at > 0 else -1
+
+
+def _wait(plan: Plan, at: int, n: int, segment: int) -> Plan:
+    """``plan`` holding the pose of tick ``at - 1`` for ``n`` more ticks before tick ``at``."""
+    if n <= 0:
+        return plan
+    i = max(at - 1, 0)
+    rep = Plan(
+        np.repeat(plan.position[i : i + 1], n, 0),
+        np.repeat(plan.yaw[i : i + 1], n),
+        np.repeat(plan.opening[i : i + 1], n),
+        np.full(n, segment),
+    )
+    parts = [
+        Plan(plan.position[:at], plan.yaw[:at], plan.opening[:at], plan.segment[:at]),
+        rep,
+        Plan(plan.position[at:], plan.yaw[at:], plan.opening[at:], plan.segment[at:]),
+    ]
+    return Plan.concat(parts)
+
+
+def synchronise(plans: dict[str, Plan], hands: HandsProgram) -> dict[str, Plan]:
+    """The lanes on one clock: at every ``hold_until`` the other arm's step waits until the
+    holder has begun holding, and the holder's next step waits until the other arm's step has
+    ended (its release, lift-off or back-off included)."""
+    plans = dict(plans)
+    for _ in range(2 * len(hands.sync) + 1):
+        changed = False
+        for p in hands.sync:
+            if p.kind == "handover":
+                changed |= _handover_waits(plans, p, hands)
+                continue
+            if p.kind != "hold_until":
+                continue
+            a, b = plans[p.hand], plans[p.other]
+            # the other arm starts its step once the holder holds (its move_with has begun)
+            need = _start(a, p.step) - _start(b, p.other_step)
+            if need > 0:
+                at = _start(b, p.other_step)
+                plans[p.other] = _wait(b, at, need, _before(b, at))
+                changed = True
+            b = plans[p.other]
+            need = _start(b, p.other_step + 1) - _start(a, p.step + 1)
+            if need > 0:
+                plans[p.hand] = _wait(a, _start(a, p.step + 1), need, p.step)
+                changed = True
+        if not changed:
+            break
+    return plans
+
+
+def _end(plan: Plan, k: int) -> int:
+    """The tick after the last of step ``k`` (its dwell and lift-off excluded)."""
+    idx = np.nonzero(plan.segment == k)[0]
+    return int(idx[-1]) + 1 if idx.size else _start(plan, k)
+
+
+def _release(plan: Plan, k: int) -> int:
+    """The tick at which the gripper opens after step ``k`` (``len(plan)`` when it does not)."""
+    i0 = _end(plan, k)
+    if i0 == 0 or i0 >= len(plan):
+        return len(plan)
+    idx = np.nonzero(plan.opening[i0:] > plan.opening[i0 - 1] + 1e-6)[0]
+    return i0 + int(idx[0]) if idx.size else len(plan)
+
+
+def _handover_waits(plans: dict[str, Plan], p: Any, hands: HandsProgram) -> bool:
+    """A handover, on one clock: the taker's ``pick_up``, and the ``move`` that brings it there,
+    start once the giver has brought the object to the meeting point (the end of its
+    ``place``): the taker waits out of the giver's way. The giver opens only once the taker has
+    grasped (its closing dwell has ended; the giver's wait is a dwell, segment -1), and the taker
+    carries the object off only once the giver has moved away (the ``move`` after its place)."""
+    giver, taker = plans[p.hand], plans[p.other]
+    changed = False
+    first = p.other_step
+    if first > 0 and hands.lanes[p.other][first - 1].skill == "move":
+        first -= 1
+    need = _end(giver, p.step) - _start(taker, first)
+    if need > 0:
+        at = _start(taker, first)
+        plans[p.other] = taker = _wait(taker, at, need, _before(taker, at))
+        changed = True
+    grasped = min(_end(taker, p.other_step) + round(DWELL_S / TICK), len(taker))
+    need = grasped - _release(giver, p.step)
+    if need > 0:
+        plans[p.hand] = giver = _wait(giver, _release(giver, p.step), need, -1)
+        changed = True
+    lane = hands.lanes[p.hand]
+    away = p.step + 1 < len(lane) and lane[p.step + 1].skill == "move"
+    gone = _end(giver, p.step + 1) if away else _start(giver, p.step + 1)
+    need = gone - _start(taker, p.other_step + 1)
+    if need > 0:
+        plans[p.other] = _wait(taker, _start(taker, p.other_step + 1), need, -1)
+        changed = True
+    return changed
+
+
+def check_runs(hands: HandsProgram) -> None:
+    """Refuse, in one line, a program with a synchronisation the two arms do not run yet."""
+    for p in hands.sync:
+        if p.kind not in RUNS:
+            raise DemonstrationError(
+                f"{p.describe(hands.lanes)}: a {p.kind} is not reproduced on two arms yet "
+                f"(runs: {', '.join(RUNS)}); --hand right or --hand left reproduces one hand's part"
+            )
+
+
+# --- both arms in one scene ----------------------------------------------------------------------
+def execute_two(
+    plans: dict[str, Plan],
+    bases: dict[str, np.ndarray],
+    objects: list[ObjectSpec],
+    robot: TwoArmRobot,
+    yaws: dict[str, float],
+    *,
+    settle_s: float = 0.5,
+) -> dict[str, Execution]:
+    """Run every arm's plan in one scene on one clock; each arm's :class:`Execution` (its TCP
+    and IK, every object's motion)."""
+    import mujoco
+
+    t0 = time.perf_counter()
+    warnings: list[str] = []
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(warnings.append)
+    try:
+        model = mujoco.MjModel.from_xml_string(scene_xml(bases, objects, robot, yaws))
+        data = mujoco.MjData(model)
+        arms = {s: _Arm(model, data, robot, s, bases[s], yaws[s], plans[s]) for s in plans}
+        mujoco.mj_forward(model, data)
+        body_ids = [model.body(o.name).id for o in objects]
+        steps = max(1, round(TICK / model.opt.timestep))
+        n = max(len(p) for p in plans.values())
+        opos = np.zeros((len(objects), n, 3))
+        oquat = np.zeros((len(objects), n, 4))
+        for i in range(n + round(settle_s / TICK)):
+            for arm in arms.values():
+                arm.command(data, i)
+            for _ in range(steps):
+                mujoco.mj_step(model, data)
+            if i < n:
+                for arm in arms.values():
+                    arm.record(data, i)
+                for j, b in enumerate(body_ids):
+                    opos[j, i] = data.xpos[b]
+                    w, x, y, z = data.xquat[b]
+                    oquat[j, i] = (x, y, z, w)
+    finally:
+        mujoco.set_mju_user_warning(previous)
+    fpos = np.array([data.xpos[b].copy() for b in body_ids]).reshape(len(objects), 3)
+    fq = np.array([[*data.xquat[b][1:], data.xquat[b][0]] for b in body_ids]).reshape(-1, 4)
+    wall = time.perf_counter() - t0
+    return {
+        s: Execution(
+            tcp=arm.tcp[: len(plans[s])],
+            planned_ik=arm.ik_tcp[: len(plans[s])],
+            object_names=[o.name for o in objects],
+            object_position=opos[:, : len(plans[s])],
+            object_quaternion=oquat[:, : len(plans[s])],
+            final_position=fpos,
+            final_quaternion=fq,
+            wall_time_s=wall,
+            warnings=warnings,
+        )
+        for s, arm in arms.items()
+    }
+
+
+class MountedIK(ArmIK):
+    """:class:`~lfd.reproduce.ik.ArmIK` of an arm whose base is turned by ``yaw``."""
+
+    def __init__(self, base: np.ndarray, yaw: float, arm: Robot) -> None:
+        super().__init__(base, robot=mounted(arm, yaw))
+        self.yaw = yaw
+
+    def seed_towards(self, position: np.ndarray, rotation: np.ndarray) -> None:
+        super().seed_towards(position, rotation)
+        q = self.q
+        q[0] = (q[0] - self.yaw + np.pi) % (2 * np.pi) - np.pi
+        self.reset(q)
+
+
+class _Arm:
+    """One arm of the scene: its IK, its servos' ``ctrl`` entries and what it did."""
+
+    def __init__(
+        self,
+        model: Any,
+        data: Any,
+        robot: TwoArmRobot,
+        side: str,
+        base: np.ndarray,
+        yaw: float,
+        plan: Plan,
+    ) -> None:
+        arm = robot.arms[side]
+        self.plan, self.max_opening, self.dof = plan, arm.max_opening, arm.dof
+        self.ik = MountedIK(base, yaw, robot.ik)
+        R0 = gripper_rotation(float(plan.yaw[0]))
+        self.ik.seed_towards(plan.position[0], R0)
+        q0 = self.ik.solve(plan.position[0], R0)
+        self.ctrl = [model.actuator(f"{side}/act_{j[len(side) + 1 :]}").id for j in arm.arm_joints]
+        self.fingers = [
+            model.actuator(f"{side}/act_{f[len(side) + 1 :]}").id for f in arm.finger_joints
+        ]
+        w0 = float(np.clip(plan.opening[0], 0.0, self.max_opening)) / 2
+        for j, q in zip(arm.arm_joints, q0, strict=True):
+            data.qpos[model.joint(j).qposadr[0]] = q
+        for f in arm.finger_joints:
+            data.qpos[model.joint(f).qposadr[0]] = w0
+        data.ctrl[self.ctrl] = q0
+        data.ctrl[self.fingers] = w0
+        self.site = model.site(f"{side}/tcp").id
+        self.tcp = np.zeros((len(plan), 3))
+        self.ik_tcp = np.zeros((len(plan), 3))
+
+    def command(self, data: Any, i: int) -> None:
+        n = len(self.plan)
+        k, ka = min(i, n - 1), min(i + LOOKAHEAD, n - 1)
+        if i < n:
+            q = self.ik.step(self.plan.position[ka], gripper_rotation(float(self.plan.yaw[ka])))
+        else:
+            q = self.ik.q
+        data.ctrl[self.ctrl] = q
+        data.ctrl[self.fingers] = float(np.clip(self.plan.opening[k], 0, self.max_opening)) / 2
+
+    def record(self, data: Any, i: int) -> None:
+        if i < len(self.plan):
+            self.tcp[i] = data.site_xpos[self.site]
+            self.ik_tcp[i] = self.ik.tcp_pose()[0]
+
+
+# --- plan, run and judge -------------------------------------------------------------------------
+@dataclass
+class TwoArmReproduction:
+    """What two arms did with a two-hand program."""
+
+    mode: str
+    bases: dict[str, np.ndarray]
+    plans: dict[str, Plan]
+    executions: dict[str, Execution]
+    objects: list[Any]
+    """:class:`~lfd.reproduce.measures.ObjectResult` of every object (the task's goals)."""
+    skills: dict[str, list[Any]]
+    """Each arm's :class:`~lfd.reproduce.outcome.SkillResult` list."""
+    wall_time_s: float = 0.0
+    owners: dict[str, str] = field(default_factory=dict)
+    """The arm whose lane handles each object (last)."""
+
+    @property
+    def success(self) -> bool:
+        """Every object at its goal."""
+        return all(o.success for o in self.objects)
+
+    @property
+    def failures(self) -> list[str]:
+        """One line per failed skill, naming the arm, then per object off its goal."""
+        out = [
+            f"{side} arm: {r.label()}: {r.reason}"
+            for side, rs in self.skills.items()
+            for r in rs
+            if not r.ok
+        ]
+        for o in self.objects:
+            if not o.success:
+                who = f" ({self.owners[o.name]} arm)" if o.name in self.owners else ""
+                out.append(
+                    f"task: {o.name}{who} {o.position_error * 1000:.0f} mm and "
+                    f"{o.rotation_error_deg:.0f} deg from its goal"
+                )
+        return out
+
+    @property
+    def execution_time_s(self) -> float:
+        return max(len(p) for p in self.plans.values()) * TICK
+
+
+def _handled(program: TaskProgram) -> set[str]:
+    return {s.object for s in program.segments if s.skill != "move" and s.object is not None}
+
+
+def _handovers(
+    planned: dict[str, tuple[Any, Any, Any]],
+    hands: HandsProgram,
+    mode: str,
+    bases: dict[str, np.ndarray],
+) -> dict[str, Plan]:
+    """Every lane's plan, a handover's taker planned again with the handed object where the
+    giver's plan leaves it (:func:`~lfd.reproduce.modes.plan_task`). Each grasp follows the
+    demonstration along the object (the planner centres it only across), so the two grippers
+    hold the object where the two hands did."""
+    from .modes import plan_task
+
+    plans = {s: r.plan for s, (_, _, r) in planned.items()}
+    for p in hands.sync:
+        if p.kind != "handover" or p.object is None:
+            continue
+        giver, taker = p.hand, p.other
+        g_result = planned[giver][2]
+        t_frames = planned[taker][0]
+        T_meet = g_result.expected[p.object]
+        result = plan_task(t_frames, hands.program(taker), mode, initial={p.object: T_meet})
+        planned[taker] = (t_frames, planned[taker][1], result)
+        plans[taker] = result.plan
+    return plans
+
+
+def reproduce_two_arms(
+    trajs: dict[str, Any],
+    hands: HandsProgram,
+    mode: str = "skills",
+    *,
+    robot: TwoArmRobot | None = None,
+) -> TwoArmReproduction:
+    """Plan each hand's lane for the arm of its side, put both on one clock and run them in
+    one scene (see the module docstring). ``trajs``: each hand's preprocessed trajectory
+    (``lfd.preprocess(demo.one_hand(side), **PREPROCESSING)``).
+
+    Raises
+    ------
+    DemonstrationError
+        A synchronisation the arms do not run (:func:`check_runs`), or a lane out of its arm's
+        reach (:func:`choose_bases`), in one line.
+    """
+    from .aloha import aloha
+    from .displacement import plan_layout
+    from .measures import object_errors
+    from .outcome import skill_results
+
+    robot = robot or aloha()
+    check_runs(hands)
+    sides = [s for s in hands.sides if hands.lanes[s] and s in robot.arms]
+    if len(sides) < len(hands.sides):
+        missing = [s for s in hands.sides if s not in robot.arms]
+        if missing:
+            raise DemonstrationError(f"the {missing[0]} hand has no arm on {robot.name}")
+    programs = {s: hands.program(s) for s in sides}
+    first = np.asarray(trajs[sides[0]].object_position, dtype=np.float64)
+    objects0 = np.array([p[np.all(np.isfinite(p), axis=1)][0] for p in first])
+    points = {s: np.asarray(trajs[s].tcp, dtype=np.float64) for s in sides}
+    bases = choose_bases(points, objects0.reshape(-1, 3), robot)
+    yaws = {s: mount_yaw(bases[s], points[s]) for s in sides}
+    planned = {
+        s: plan_layout(trajs[s], programs[s], mode, {}, base=bases[s], robot=robot.ik)
+        for s in sides
+    }
+    frames, initial, _ = planned[sides[0]]
+    plans = _handovers(planned, hands, mode, bases)
+    owners: dict[str, str] = {}  # the lane that handles each object last
+    for side, name, _ in sorted(
+        ((s, g.object, g.end_s) for s in sides for g in programs[s].segments if g.skill != "move"),
+        key=lambda x: x[2],
+    ):
+        if name is not None:
+            owners[name] = side
+    expected = {
+        n: planned[owners[n]][2].expected[n] if n in owners else initial[n] for n in frames.names
+    }
+    specs = []
+    for k, name in enumerate(frames.names):
+        T = initial[name]
+        yaw = float(np.arctan2(T[1, 0], T[0, 0]))
+        p = T[:3, 3].copy()
+        p[2] = max(p[2], frames.size[k, 2] / 2)
+        specs.append(
+            ObjectSpec(name, frames.size[k], p, np.array([0, 0, np.sin(yaw / 2), np.cos(yaw / 2)]))
+        )
+    plans = synchronise(plans, hands)
+    ex = execute_two(plans, bases, specs, robot, yaws)
+    any_ex = ex[sides[0]]
+    objs = object_errors(
+        any_ex.object_names, any_ex.final_position, any_ex.final_quaternion, expected, frames.size
+    )
+    skills = {}
+    for s in sides:
+        others = set().union(*(_handled(programs[o]) for o in sides if o != s)) - _handled(
+            programs[s]
+        )
+        keep = [j for j, n in enumerate(any_ex.object_names) if n not in others]
+        e = ex[s]
+        mine = Execution(
+            tcp=e.tcp,
+            planned_ik=e.planned_ik,
+            object_names=[e.object_names[j] for j in keep],
+            object_position=e.object_position[keep],
+            object_quaternion=e.object_quaternion[keep],
+            final_position=e.final_position[keep],
+            final_quaternion=e.final_quaternion[keep],
+        )
+        executed = planned[s][2].program or programs[s]
+        skills[s] = skill_results(executed, plans[s], mine, [objs[j] for j in keep])
+    return TwoArmReproduction(
+        mode, bases, plans, ex, objs, skills, wall_time_s=any_ex.wall_time_s, owners=owners
+    )
