@@ -80,6 +80,8 @@ FINGER_RANGE = 0.057 - FINGER_CLOSED
 TCP_X = 0.137
 """The TCP along the gripper link's x axis from its origin (m): 17 mm short of the fingertips
 (the finger meshes reach 0.154 m), where the pads are."""
+FINGER_LINK_X = 0.0687
+"""Where the finger bodies sit on the gripper link, along its x axis (m, gym-aloha's MJCF)."""
 FINGER_BELOW_TCP = 0.017
 WRIST_TO_GRIPPER = 0.069744
 """From the wrist_angle axis to the gripper link (m, vx300s_left.xml)."""
@@ -243,6 +245,8 @@ def viperx(prefix: str = "") -> Robot:
         max_opening=2 * FINGER_RANGE,
         finger_below_tcp=FINGER_BELOW_TCP,
         finger_half_x=PAD_HALF[2],
+        hand_radius=FINGER_RANGE,  # the open fingers (the gripper body is above them)
+        palm_above_tcp=TCP_X - FINGER_LINK_X,  # where the fingers leave the gripper body
         tcp_offset=WRIST_TO_GRIPPER + TCP_X,
         shoulder_z=SHOULDER_Z,
         reach=REACH,

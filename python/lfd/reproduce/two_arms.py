@@ -31,11 +31,11 @@ import numpy as np
 
 from ..errors import DemonstrationError
 from .aloha import TwoArmRobot
+from .arm import OPTIONS, Robot
 from .controller import LOOKAHEAD, TICK, Execution, Plan
 from .ik import ArmIK, gripper_rotation
 from .modes import DWELL_S
 from .program import HandsProgram, TaskProgram
-from .arm import OPTIONS, Robot
 from .scene import ObjectSpec, _colour
 
 BASE_GAP = 0.4
