@@ -95,6 +95,13 @@ class Execution:
     wall_time_s: float = 0.0
     warnings: list[str] = field(default_factory=list)
     """MuJoCo warnings raised during the run (e.g. an unstable simulation)."""
+    qpos: np.ndarray | None = None
+    """(n, nq) ``data.qpos`` at the start of each tick, before its command acts (robot
+    data: ``lfd.export.robot_data``)."""
+    ctrl: np.ndarray | None = None
+    """(n, nu) the actuators' set points commanded at each tick."""
+    scene: str = ""
+    """The MJCF of the scene that ran (``qpos`` indexes its model)."""
 
 
 def execute(
@@ -152,7 +159,8 @@ def _run(
     import mujoco
 
     t_start = time.perf_counter()
-    model = mujoco.MjModel.from_xml_string(scene_xml(base, objects))
+    xml = scene_xml(base, objects)
+    model = mujoco.MjModel.from_xml_string(xml)
     data = mujoco.MjData(model)
     ik = ArmIK(base)
     n = len(plan)
@@ -178,6 +186,7 @@ def _run(
     ik_tcp = np.zeros((n, 3))
     opos = np.zeros((len(names), n, 3))
     oquat = np.zeros((len(names), n, 4))
+    qpos, ctrl = np.zeros((n, model.nq)), np.zeros((n, model.nu))
     renderer = None
     cam = None
     frames: list[np.ndarray] = []
@@ -197,6 +206,8 @@ def _run(
             q = ik.step(plan.position[ka], R) if i < n else ik.q
             data.ctrl[:7] = q
             data.ctrl[7:9] = float(np.clip(plan.opening[k], 0.0, MAX_OPENING)) / 2
+            if i < n:
+                qpos[i], ctrl[i] = data.qpos, data.ctrl
             for _ in range(steps):
                 mujoco.mj_step(model, data)
             if i < n:
@@ -229,4 +240,7 @@ def _run(
         frames=frames,
         wall_time_s=time.perf_counter() - t_start,
         warnings=warnings,
+        qpos=qpos,
+        ctrl=ctrl,
+        scene=xml,
     )
