@@ -165,6 +165,25 @@ def _camera(traj: Any, program: Any, size: tuple[int, int]) -> Camera:
     return Camera(CAMERA_NAME, (float(centre[0]), float(centre[1]), 0.05), *size)
 
 
+def _check_demonstration(rec: Path, traj: Any, program: Any, mode: str) -> None:
+    """Refuse a demonstration the robot cannot do where it was shown (an object out of reach,
+    a goal off the table: :func:`lfd.reproduce.displacement.plan_layout`, as ``lfd
+    reproduce``), at once: drawing layouts around it would be refused draw after draw."""
+    from ..reproduce import program_start
+    from ..reproduce.displacement import plan_layout
+    from ..reproduce.goals import DemoFrames
+
+    start = program_start(traj, program)
+    frames = DemoFrames(traj, np.zeros(3))
+    seen = np.isfinite(np.asarray(traj.object_position)[:, start, :]).all(axis=1)
+    # every object a layout moves, not moved: checked where it is (reach, table)
+    free = [n for k, n in enumerate(frames.names) if seen[k] and frames.support_of(n, start) is None]
+    try:
+        plan_layout(traj, program, mode, {name: (0.0, 0.0, 0.0) for name in free})
+    except UsageError as err:
+        raise UsageError(f"{rec}: the robot cannot do the demonstration as shown: {err}") from None
+
+
 def _check(layouts: int, mode: str, labels: str, vcodec: str) -> None:
     from ..reproduce import MODES
 
@@ -250,7 +269,6 @@ def export_robot_data(
     repo = repo_id or f"lfd/{dest.resolve().name}"
     if repo.count("/") != 1 or not all(repo.split("/")):
         raise UsageError(f"--repo-id must look like OWNER/NAME, got {repo!r}")
-    import_lerobot()
     start = time.perf_counter()
     traj, program, task = _program(rec, labels)
     settings = {
@@ -264,6 +282,8 @@ def export_robot_data(
         "max_shift_m": MAX_SHIFT if max_shift is None else max_shift,
         "max_turn_deg": MAX_TURN_DEG if max_turn_deg is None else max_turn_deg,
     }
+    _check_demonstration(rec, traj, program, mode)
+    import_lerobot()
     work = _Work(work_dir(dest), settings)
     camera = _camera(traj, program, size)
     report = RobotDataReport(dest, repo)
