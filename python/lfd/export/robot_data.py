@@ -138,6 +138,8 @@ def _program(recording: Path, labels: str) -> tuple[Any, Any, str]:
         from ..segmentation import segment
 
         result = segment(demo)
+        if result.run is None:
+            raise DemonstrationError(f"{recording}: the segmentation kept no trajectory")
         traj = result.run.trajectory
         program = from_segmentation(result, int(traj.t_ns[0]))
     else:
@@ -177,7 +179,9 @@ def _check_demonstration(rec: Path, traj: Any, program: Any, mode: str) -> None:
     frames = DemoFrames(traj, np.zeros(3))
     seen = np.isfinite(np.asarray(traj.object_position)[:, start, :]).all(axis=1)
     # every object a layout moves, not moved: checked where it is (reach, table)
-    free = [n for k, n in enumerate(frames.names) if seen[k] and frames.support_of(n, start) is None]
+    free = [
+        n for k, n in enumerate(frames.names) if seen[k] and frames.support_of(n, start) is None
+    ]
     try:
         plan_layout(traj, program, mode, {name: (0.0, 0.0, 0.0) for name in free})
     except UsageError as err:
@@ -186,7 +190,6 @@ def _check_demonstration(rec: Path, traj: Any, program: Any, mode: str) -> None:
 
 def _check(layouts: int, mode: str, labels: str, vcodec: str) -> None:
     from ..reproduce import MODES
-
     from ..reproduce.randomise import check_layout_count
 
     try:
@@ -538,5 +541,3 @@ class RobotWriter:
             self._dataset.finalize()
         write_subtasks(self.root, list(self.subtasks))
         write_annotations(self.root, self._annotations)
-
-

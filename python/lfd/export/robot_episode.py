@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any, BinaryIO
 
 import numpy as np
 
+from .. import _gl  # noqa: F401  (selects the headless GL backend before mujoco loads)
 from ..errors import UsageError
 from ..skills import SKILLS
 from .episode import NO_SKILL, segment_annotation, subtask_name
@@ -181,7 +182,9 @@ def robot_episode(run: Reproduction, *, fps: int, camera: Camera, task: str) -> 
     env = []
     for name in ex.object_names:
         a = int(qadr[model.joint(name).id])  # the object's free joint: x y z, qw qx qy qz
-        env.append(np.concatenate([qpos[:, a : a + 3], qpos[:, a + 4 : a + 7], qpos[:, a + 3 : a + 4]], 1))
+        env.append(
+            np.concatenate([qpos[:, a : a + 3], qpos[:, a + 4 : a + 7], qpos[:, a + 3 : a + 4]], 1)
+        )
     segs = program.segments
     seg = np.asarray(run.segment)[ticks].astype(np.int64)
     names = list(ex.object_names)
@@ -218,8 +221,6 @@ def _actuated(model: Any) -> tuple[list[int], list[int]]:
 def render(model: Any, qpos: np.ndarray, camera: Camera) -> np.ndarray:
     """The scene at each row of ``qpos`` as seen by ``camera``: (n, H, W, 3) uint8 (no
     shadows or reflections: a small image renders in ~2 ms)."""
-    from .. import _gl  # noqa: F401  (the headless GL backend, before mujoco loads)
-
     import mujoco
 
     data = mujoco.MjData(model)

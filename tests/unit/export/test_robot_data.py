@@ -5,7 +5,6 @@ an interrupted export, run again, gives the same dataset as one run."""
 
 from __future__ import annotations
 
-import dataclasses
 import importlib.util
 import json
 import os
@@ -16,6 +15,7 @@ import _paths
 import lfd
 import numpy as np
 import pytest
+from _far import far_recording
 from lfd.errors import UsageError
 from lfd.export.robot_data import LAYOUTS_PATH, LayoutResult, export_robot_data, work_dir
 from lfd.skills import SKILLS
@@ -200,16 +200,6 @@ def test_two_hand_recording_is_refused(tmp_path: Path) -> None:
     with pytest.raises(UsageError, match="two-hand"):
         export_robot_data(two, tmp_path / "ds", layouts=2)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["two.mcap"]
-
-
-def far_recording(path: Path) -> Path:
-    """exp1 with box_1 3 m away: out of the arm's reach wherever the layout puts it."""
-    demo = lfd.load(EXP1, images=False)
-    box = demo.objects["box_1"]
-    far = dataclasses.replace(box, position=box.position + np.array([3.0, 0.0, 0.0]))
-    meta = {k: v for k, v in demo.metadata.items() if k != "load_report"}
-    lfd.save(dataclasses.replace(demo, objects={**demo.objects, "box_1": far}, metadata=meta), path)
-    return path
 
 
 def test_object_out_of_reach_is_refused(tmp_path: Path) -> None:
