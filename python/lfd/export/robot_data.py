@@ -285,6 +285,11 @@ def export_robot_data(
         "max_shift_m": MAX_SHIFT if max_shift is None else max_shift,
         "max_turn_deg": MAX_TURN_DEG if max_turn_deg is None else max_turn_deg,
     }
+    from .._extras import require
+    from ..reproduce import SIM_MODULES
+
+    # what every layout runs on, checked once (a missing module is not a failed layout)
+    require("sim", SIM_MODULES + (("movement_primitives",) if mode == "dmp" else ()), who=__name__)
     _check_demonstration(rec, traj, program, mode)
     import_lerobot()
     work = _Work(work_dir(dest), settings)
