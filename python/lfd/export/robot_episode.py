@@ -5,7 +5,8 @@
 tick, the commanded set points ``ctrl`` and the scene's MJCF) and samples every
 ``100 / fps``-th tick: the frame's observation is the simulation's state at the start of that
 tick, its action the command given at that tick (what the servos were told to reach), its
-subtask the task-program segment the tick belongs to, its image rendered from ``qpos`` by a
+subtask the task-program segment the tick belongs to (a dwell tick, the gripper closing or
+opening, the segment's before it: :func:`held`), its image rendered from ``qpos`` by a
 camera fixed for the whole dataset (:class:`Camera`). The columns (docs/export.md):
 
 ``observation.state``             (j+1,) float32  the arm's joint positions (rad), gripper opening (m)
@@ -186,7 +187,7 @@ def robot_episode(run: Reproduction, *, fps: int, camera: Camera, task: str) -> 
             np.concatenate([qpos[:, a : a + 3], qpos[:, a + 4 : a + 7], qpos[:, a + 3 : a + 4]], 1)
         )
     segs = program.segments
-    seg = np.asarray(run.segment)[ticks].astype(np.int64)
+    seg = held(np.asarray(run.segment))[ticks].astype(np.int64)
     names = list(ex.object_names)
     skill = [SKILLS.index(segs[s].skill) if s >= 0 else -1 for s in seg]
     obj = [names.index(segs[s].object) if s >= 0 and segs[s].object in names else -1 for s in seg]
@@ -205,6 +206,19 @@ def robot_episode(run: Reproduction, *, fps: int, camera: Camera, task: str) -> 
         subtask=[subtask_name(segs[s].skill, segs[s].object) if s >= 0 else NO_SKILL for s in seg],
         ticks=ticks.astype(np.int64),
     )
+
+
+def held(segment: np.ndarray) -> np.ndarray:
+    """``segment`` (the plan's segment per tick) with every dwell tick (-1: the gripper
+    closing after a grasp, opening after a release) given the segment before it (the first
+    segment's to the ticks before it): every frame of a run is in a skill."""
+    out = np.asarray(segment, dtype=np.int64).copy()
+    ok = np.flatnonzero(out >= 0)
+    if not len(ok):
+        return out
+    last = np.maximum.accumulate(np.where(out >= 0, np.arange(len(out)), -1))
+    out = np.where(last >= 0, out[np.maximum(last, 0)], out[ok[0]])
+    return out
 
 
 def _actuated(model: Any) -> tuple[list[int], list[int]]:
