@@ -268,6 +268,7 @@ SLOW: dict[str, str] = {
     "lfd templates train": "trains the templates' HMMs on many recordings",
     "lfd perception ": "torch: trains or evaluates the hand network, or runs the hand models",
     "lfd export lerobot": "imports lerobot and torch and encodes a dataset",
+    "MUJOCO_GL=egl lfd export robot-data": "drives the robot in every layout and encodes them",
     "lfd eval mine_": "leave-one-out: trains templates once per recording",
     "lfd segment mine_1.mcap --templates": "needs mine_templates.json from lfd templates train",
     "lfd segment recordings --jobs": "segments every shipped recording in worker processes",

@@ -149,24 +149,7 @@ class Episode:
         """The episode's skill segments as lerobot's per-episode subtask annotation: names,
         first and last frame (inclusive) and their times in seconds, one entry per labelled
         segment in time order (the layout of lerobot's SARM annotations)."""
-        names: list[str] = []
-        first: list[int] = []
-        last: list[int] = []
-        for i, seg in enumerate(self.segment.tolist()):
-            if seg < 0:
-                continue
-            if i == 0 or self.segment[i - 1] != seg:
-                names.append(self.subtask[i])
-                first.append(i)
-                last.append(i)
-            last[-1] = i
-        return {
-            "subtask_names": names,
-            "subtask_start_times": [f / self.fps for f in first],
-            "subtask_end_times": [f / self.fps for f in last],
-            "subtask_start_frames": first,
-            "subtask_end_frames": last,
-        }
+        return segment_annotation(self.segment, self.subtask, self.fps)
 
     def features(self) -> dict[str, dict[str, Any]]:
         """The lerobot feature specification of these columns."""
@@ -264,6 +247,30 @@ def frame_labels(labels: Sequence[SkillLabel], t_ns: np.ndarray) -> list[SkillLa
             lab = None
         out.append(lab)
     return out
+
+
+def segment_annotation(segment: np.ndarray, subtask: Sequence[str], fps: int) -> dict[str, Any]:
+    """Lerobot's per-episode subtask annotation of frames numbered by ``segment`` (-1: none)
+    and named by ``subtask``: names, first and last frame (inclusive) and their times in
+    seconds, one entry per run of a segment, in time order (:meth:`Episode.annotation`)."""
+    names: list[str] = []
+    first: list[int] = []
+    last: list[int] = []
+    for i, seg in enumerate(np.asarray(segment).tolist()):
+        if seg < 0:
+            continue
+        if i == 0 or segment[i - 1] != seg:
+            names.append(subtask[i])
+            first.append(i)
+            last.append(i)
+        last[-1] = i
+    return {
+        "subtask_names": names,
+        "subtask_start_times": [f / fps for f in first],
+        "subtask_end_times": [f / fps for f in last],
+        "subtask_start_frames": first,
+        "subtask_end_frames": last,
+    }
 
 
 def subtask_name(skill: str | None, obj: str | None) -> str:

@@ -189,15 +189,11 @@ class LeRobotWriter:
         """Finalise the dataset (parquet footers) and write the subtask and program tables."""
         if self._dataset is None:
             return
-        import pandas as pd
-
         from .._version import __version__
 
         with _quiet():
             self._dataset.finalize()
-        names = list(self.subtasks)
-        table = pd.DataFrame({"subtask_index": range(len(names))}, index=names)
-        table.to_parquet(self.root / SUBTASKS_PATH)
+        write_subtasks(self.root, list(self.subtasks))
         doc = {
             "format": PROGRAM_FORMAT,
             "lfd_version": __version__,
@@ -206,20 +202,31 @@ class LeRobotWriter:
             "episodes": self.episodes,
         }
         (self.root / PROGRAM_PATH).write_text(json.dumps(doc, indent=2) + "\n")
-        self._write_annotations()
+        write_annotations(self.root, self._annotations)
 
-    def _write_annotations(self) -> None:
-        """The skill segments as per-episode columns of ``meta/episodes``: ``sparse_subtask_*``
-        and the unprefixed ``subtask_*``, as lerobot's SARM annotation tool writes them (its
-        reward model reads them); lerobot's loader keeps the extra columns."""
-        import pandas as pd
 
-        for path in sorted((self.root / "meta" / "episodes").glob("chunk-*/file-*.parquet")):
-            table = pd.read_parquet(path)
-            for key in next(iter(self._annotations.values())):
-                for column in (f"sparse_{key}", key):
-                    table[column] = [self._annotations[int(e)][key] for e in table["episode_index"]]
-            table.to_parquet(path, engine="pyarrow", compression="snappy")
+def write_subtasks(root: Path, names: list[str]) -> None:
+    """The subtask table lerobot reads for ``subtask_index`` (:data:`SUBTASKS_PATH`): row
+    ``names[i]`` has index ``i``."""
+    import pandas as pd
+
+    table = pd.DataFrame({"subtask_index": range(len(names))}, index=names)
+    table.to_parquet(root / SUBTASKS_PATH)
+
+
+def write_annotations(root: Path, annotations: dict[int, dict[str, list[Any]]]) -> None:
+    """The skill segments as per-episode columns of ``meta/episodes``: ``sparse_subtask_*``
+    and the unprefixed ``subtask_*``, as lerobot's SARM annotation tool writes them (its
+    reward model reads them); lerobot's loader keeps the extra columns. ``annotations``:
+    per episode index, :meth:`~.episode.Episode.annotation`."""
+    import pandas as pd
+
+    for path in sorted((root / "meta" / "episodes").glob("chunk-*/file-*.parquet")):
+        table = pd.read_parquet(path)
+        for key in next(iter(annotations.values())):
+            for column in (f"sparse_{key}", key):
+                table[column] = [annotations[int(e)][key] for e in table["episode_index"]]
+        table.to_parquet(path, engine="pyarrow", compression="snappy")
 
 
 class _quiet:

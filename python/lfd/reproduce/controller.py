@@ -96,6 +96,13 @@ class Execution:
     wall_time_s: float = 0.0
     warnings: list[str] = field(default_factory=list)
     """MuJoCo warnings raised during the run (e.g. an unstable simulation)."""
+    qpos: np.ndarray | None = None
+    """(n, nq) ``data.qpos`` at the start of each tick, before its command acts (robot
+    data: ``lfd.export.robot_data``)."""
+    ctrl: np.ndarray | None = None
+    """(n, nu) the actuators' set points commanded at each tick."""
+    scene: str = ""
+    """The MJCF of the scene that ran (``qpos`` indexes its model)."""
 
 
 def execute(
@@ -157,7 +164,8 @@ def _run(
     import mujoco
 
     t_start = time.perf_counter()
-    model = mujoco.MjModel.from_xml_string(scene_xml(base, objects, robot=robot))
+    xml = scene_xml(base, objects, robot=robot)
+    model = mujoco.MjModel.from_xml_string(xml)
     data = mujoco.MjData(model)
     ik = ArmIK(base, robot=robot)
     dof, max_opening = robot.dof, robot.max_opening
@@ -184,6 +192,7 @@ def _run(
     ik_tcp = np.zeros((n, 3))
     opos = np.zeros((len(names), n, 3))
     oquat = np.zeros((len(names), n, 4))
+    qpos, ctrl = np.zeros((n, model.nq)), np.zeros((n, model.nu))
     renderer = None
     cam = None
     frames: list[np.ndarray] = []
@@ -203,6 +212,8 @@ def _run(
             q = ik.step(plan.position[ka], R) if i < n else ik.q
             data.ctrl[:dof] = q
             data.ctrl[dof : dof + 2] = float(np.clip(plan.opening[k], 0.0, max_opening)) / 2
+            if i < n:
+                qpos[i], ctrl[i] = data.qpos, data.ctrl
             for _ in range(steps):
                 mujoco.mj_step(model, data)
             if i < n:
@@ -235,4 +246,7 @@ def _run(
         frames=frames,
         wall_time_s=time.perf_counter() - t_start,
         warnings=warnings,
+        qpos=qpos,
+        ctrl=ctrl,
+        scene=xml,
     )

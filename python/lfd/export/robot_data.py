@@ -1,0 +1,548 @@
+"""Robot data from one human demonstration: randomised layouts run on the robot, the successful
+runs written as the episodes of one LeRobot dataset (``lfd export robot-data``, docs/export.md).
+
+:func:`export_robot_data` takes a recording and its task program (the ground-truth labels, or
+the segmentation's), draws ``layouts`` randomised layouts (:func:`lfd.reproduce.random_layouts`:
+every object shifted and turned, reachable, collision-free; the same layouts as ``lfd reproduce
+--randomise N --seed S`` drawn for the one mode), runs the program on the robot in each
+(:func:`lfd.reproduce.reproduce`), keeps the successful runs and writes each as a robot episode
+(:mod:`.robot_episode`: joint positions, commanded joints, object poses, rendered images, the
+skill of every frame as the subtask).
+
+Resumable: the work lives in ``.<name>.robot-data`` beside the output until the dataset is
+written: ``state.json`` (the settings, every tried layout's outcome) and one ``.npz`` per
+successful layout, each written atomically as its layout finishes. Run again with the same
+settings, an interrupted export skips the layouts it finished; the dataset itself is written at
+the end, atomically (:func:`lfd.outputs.atomic_directory`), with ``meta/lfd_layouts.json``: every
+tried layout, whether it succeeded and why not, and the yield.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import DemonstrationError, UsageError
+from .robot_episode import IMAGE_PREFIX, Camera, RobotEpisode, check_fps, check_image_size
+from .writer import DEFAULT_VCODEC, VCODECS
+
+LAYOUTS_PATH = "meta/lfd_layouts.json"
+"""Every tried layout and the yield, in the dataset."""
+WORK_SUFFIX = ".robot-data"
+STATE_FORMAT = 1
+ROBOT_LABELS: tuple[str, ...] = ("ground-truth", "segment")
+CAMERA_NAME = "table"
+DEFAULT_FPS = 10
+DEFAULT_IMAGE_SIZE = (160, 120)
+ROBOT_TYPE = "lfd_kuka_lwr4"
+
+
+@dataclass
+class LayoutResult:
+    """One tried layout: did the robot achieve the task there, and if not, why not."""
+
+    index: int
+    displace: dict[str, list[float]]
+    success: bool
+    failures: list[str]
+    seconds: float
+    frames: int = 0
+    error: str | None = None
+    resumed: bool = False
+    """Finished by an earlier, interrupted run (not redone)."""
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "index": self.index,
+            "displace": self.displace,
+            "success": self.success,
+            "failures": self.failures,
+            "error": self.error,
+            "frames": self.frames,
+            "seconds": self.seconds,
+        }
+
+    @classmethod
+    def from_json(cls, doc: dict[str, Any]) -> LayoutResult:
+        return cls(
+            int(doc["index"]),
+            {k: [float(x) for x in v] for k, v in doc["displace"].items()},
+            bool(doc["success"]),
+            list(doc["failures"]),
+            float(doc["seconds"]),
+            int(doc["frames"]),
+            doc.get("error"),
+            resumed=True,
+        )
+
+
+@dataclass
+class RobotDataReport:
+    """What :func:`export_robot_data` did."""
+
+    root: Path
+    repo_id: str
+    layouts: list[LayoutResult] = field(default_factory=list)
+    write_seconds: float = 0.0
+    seconds: float = 0.0
+
+    @property
+    def succeeded(self) -> list[LayoutResult]:
+        return [r for r in self.layouts if r.success]
+
+    @property
+    def yield_(self) -> float:
+        """Successful layouts / tried layouts."""
+        return len(self.succeeded) / max(len(self.layouts), 1)
+
+    @property
+    def size_bytes(self) -> int:
+        """The dataset's size on disk."""
+        return sum(f.stat().st_size for f in self.root.rglob("*") if f.is_file())
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "tried": len(self.layouts),
+            "succeeded": len(self.succeeded),
+            "yield": self.yield_,
+            "layouts": [r.to_json() for r in self.layouts],
+        }
+
+
+def work_dir(output: Path) -> Path:
+    """Where an export to ``output`` keeps its finished layouts until the dataset is written."""
+    return output.parent / f".{output.name}{WORK_SUFFIX}"
+
+
+def _program(recording: Path, labels: str) -> tuple[Any, Any, str]:
+    """The trajectory the robot follows, its one-arm task program and the task's sentence."""
+    from ..io import load
+    from ..preprocessing import preprocess
+    from ..reproduce import PREPROCESSING, from_labels, from_segmentation
+
+    demo = load(recording, images=False)
+    if len(demo.sides) > 1:
+        raise UsageError(
+            f"{recording}: a two-hand demonstration ({' and '.join(demo.sides)} hands); robot "
+            "data is made on a one-arm robot from one hand's program"
+        )
+    if labels == "segment":
+        from ..segmentation import segment
+
+        result = segment(demo)
+        if result.run is None:
+            raise DemonstrationError(f"{recording}: the segmentation kept no trajectory")
+        traj = result.run.trajectory
+        program = from_segmentation(result, int(traj.t_ns[0]))
+    else:
+        if not demo.labels:
+            raise DemonstrationError(
+                f"{recording} has no ground-truth labels; use --labels segment"
+            )
+        traj = preprocess(demo, **PREPROCESSING)
+        program = from_labels(demo.labels, int(traj.t_ns[0]))
+    if not program.segments:
+        raise DemonstrationError(f"{recording}: the task program has no skills")
+    from .episode import subtask_name
+
+    steps = ", ".join(subtask_name(s.skill, s.object) for s in program.segments)
+    return traj, program, f"{recording.stem}: {steps}"
+
+
+def _camera(traj: Any, program: Any, size: tuple[int, int]) -> Camera:
+    """The dataset's camera: looking at the centre of the objects where the program starts."""
+    from ..reproduce import program_start
+
+    start = program_start(traj, program)
+    pos = np.asarray(traj.object_position)[:, start, :]
+    centre = np.nanmean(pos[np.isfinite(pos).all(axis=1)], axis=0)
+    return Camera(CAMERA_NAME, (float(centre[0]), float(centre[1]), 0.05), *size)
+
+
+def _check_demonstration(rec: Path, traj: Any, program: Any, mode: str) -> None:
+    """Refuse a demonstration the robot cannot do where it was shown (an object out of reach,
+    a goal off the table: :func:`lfd.reproduce.displacement.plan_layout`, as ``lfd
+    reproduce``), at once: drawing layouts around it would be refused draw after draw."""
+    from ..reproduce import program_start
+    from ..reproduce.displacement import plan_layout
+    from ..reproduce.goals import DemoFrames
+
+    start = program_start(traj, program)
+    frames = DemoFrames(traj, np.zeros(3))
+    seen = np.isfinite(np.asarray(traj.object_position)[:, start, :]).all(axis=1)
+    # every object a layout moves, not moved: checked where it is (reach, table)
+    free = [
+        n for k, n in enumerate(frames.names) if seen[k] and frames.support_of(n, start) is None
+    ]
+    try:
+        plan_layout(traj, program, mode, {name: (0.0, 0.0, 0.0) for name in free})
+    except UsageError as err:
+        raise UsageError(f"{rec}: the robot cannot do the demonstration as shown: {err}") from None
+
+
+def _check(layouts: int, mode: str, labels: str, vcodec: str) -> None:
+    from ..reproduce import MODES
+    from ..reproduce.randomise import check_layout_count
+
+    try:
+        check_layout_count(layouts)
+    except UsageError as err:
+        raise UsageError(str(err).replace("--randomise", "--layouts", 1)) from None
+    if mode not in MODES or mode == "replay":
+        raise UsageError(f"--mode {mode}: choose skills or dmp (replay is not re-grounded)")
+    if labels not in ROBOT_LABELS:
+        raise UsageError(f"--labels must be one of {', '.join(ROBOT_LABELS)}, got {labels!r}")
+    if vcodec not in VCODECS:
+        raise UsageError(f"--vcodec must be one of {', '.join(VCODECS)}, got {vcodec!r}")
+
+
+def export_robot_data(
+    recording: str | os.PathLike[str],
+    output: str | os.PathLike[str],
+    *,
+    layouts: int,
+    seed: int = 0,
+    mode: str = "skills",
+    labels: str = "ground-truth",
+    fps: int = DEFAULT_FPS,
+    image_size: tuple[int, int] = DEFAULT_IMAGE_SIZE,
+    vcodec: str = DEFAULT_VCODEC,
+    repo_id: str | None = None,
+    overwrite: bool = False,
+    max_shift: float | None = None,
+    max_turn_deg: float | None = None,
+    progress: Callable[[LayoutResult, int], None] | None = None,
+) -> RobotDataReport:
+    """Robot episodes from one human demonstration, as one LeRobot dataset at ``output``.
+
+    Parameters
+    ----------
+    recording : path
+        A one-hand recording (``.mcap``).
+    layouts : int
+        How many randomised layouts to try (1-100000); the successful runs are the episodes.
+    seed : int
+        The layouts' seed (``lfd reproduce --randomise N --seed S``).
+    mode : {"skills", "dmp"}
+    labels : {"ground-truth", "segment"}
+        The task program: the recording's labels, or lfd's segmentation of it.
+    fps : int
+        Frames per second (a divisor of the 100 Hz control ticks).
+    image_size : (width, height)
+        The rendered camera images (``observation.images.table``).
+    vcodec, repo_id, overwrite
+        As :func:`~.lerobot.export_lerobot`'s.
+    max_shift, max_turn_deg
+        How far the layouts move and turn the objects (default: ``lfd reproduce``'s).
+    progress : callable (layout result, number of layouts)
+        Called after every layout, in order (also for those an earlier run finished).
+
+    Raises
+    ------
+    UsageError
+        Bad settings or output, a two-hand recording, no reachable layout, an interrupted
+        export with other settings waiting in :func:`work_dir`.
+    DemonstrationError
+        No labels, no layout succeeded (the layouts stay in :func:`work_dir`).
+    """
+    from ..inputs import check_input_file
+    from ..io.reads import read_paths
+    from ..outputs import check_output_dir
+    from ..reproduce import MAX_SHIFT, MAX_TURN_DEG
+    from .lerobot import not_a_dataset
+    from .writer import import_lerobot
+
+    _check(layouts, mode, labels, vcodec)
+    check_fps(fps)
+    size = check_image_size(*image_size)
+    rec = Path(recording)
+    check_input_file(rec, "recording")
+    if not rec.is_file():
+        raise UsageError(f"{rec} does not exist; give a recording")
+    replace: dict[str, Any] = {"overwrite": overwrite, "replaceable": not_a_dataset}
+    dest = check_output_dir(output, inputs=read_paths([rec]), parents=True, **replace)
+    repo = repo_id or f"lfd/{dest.resolve().name}"
+    if repo.count("/") != 1 or not all(repo.split("/")):
+        raise UsageError(f"--repo-id must look like OWNER/NAME, got {repo!r}")
+    start = time.perf_counter()
+    traj, program, task = _program(rec, labels)
+    settings = {
+        "recording": str(rec.resolve()),
+        "recording_bytes": rec.stat().st_size,
+        "seed": seed,
+        "mode": mode,
+        "labels": labels,
+        "fps": fps,
+        "image_size": list(size),
+        "max_shift_m": MAX_SHIFT if max_shift is None else max_shift,
+        "max_turn_deg": MAX_TURN_DEG if max_turn_deg is None else max_turn_deg,
+    }
+    from .._extras import require
+    from ..reproduce import SIM_MODULES
+
+    # what every layout runs on, checked once (a missing module is not a failed layout)
+    require("sim", SIM_MODULES + (("movement_primitives",) if mode == "dmp" else ()), who=__name__)
+    _check_demonstration(rec, traj, program, mode)
+    import_lerobot()
+    work = _Work(work_dir(dest), settings)
+    camera = _camera(traj, program, size)
+    report = RobotDataReport(dest, repo)
+    report.layouts = _run_layouts(traj, program, task, layouts, settings, camera, work, progress)
+    if not report.succeeded:
+        kinds = sorted({f for r in report.layouts for f in r.failures})
+        raise DemonstrationError(
+            f"none of the {layouts} layouts succeeded ({'; '.join(kinds)[:300]}); their "
+            f"outcomes are in {work.path / 'state.json'}"
+        )
+    t = time.perf_counter()
+    _write_dataset(dest, repo, report, work, camera, vcodec, overwrite)
+    report.write_seconds = time.perf_counter() - t
+    shutil.rmtree(work.path, ignore_errors=True)
+    report.seconds = time.perf_counter() - start
+    return report
+
+
+class _Work:
+    """The work directory of a resumable export: its settings and finished layouts."""
+
+    def __init__(self, path: Path, settings: dict[str, Any]) -> None:
+        self.path = path
+        self.settings = settings
+        self.done: dict[int, LayoutResult] = {}
+        state = path / "state.json"
+        if not state.is_file():
+            return
+        doc = json.loads(state.read_text())
+        if doc.get("format") != STATE_FORMAT or doc.get("settings") != settings:
+            raise UsageError(
+                f"{path} holds an interrupted export with other settings "
+                f"({_differs(doc.get('settings') or {}, settings)}); rerun it with the same "
+                "options, or remove that directory to start again"
+            )
+        for item in doc["layouts"]:
+            r = LayoutResult.from_json(item)
+            if not r.success or self.episode_path(r.index).is_file():
+                self.done[r.index] = r
+
+    def episode_path(self, index: int) -> Path:
+        return self.path / f"layout_{index:06d}.npz"
+
+    def finish(self, result: LayoutResult, episode: RobotEpisode | None) -> None:
+        """Keep a layout's episode and outcome (each file written atomically, the episode
+        first: a layout is finished once the state names it)."""
+        from ..outputs import atomic_output, atomic_write_text
+
+        self.path.mkdir(exist_ok=True)
+        if episode is not None:
+            with atomic_output(self.episode_path(result.index)) as tmp, open(tmp, "wb") as f:
+                episode.save(f)
+        self.done[result.index] = result
+        doc = {
+            "format": STATE_FORMAT,
+            "settings": self.settings,
+            "layouts": [self.done[i].to_json() for i in sorted(self.done)],
+        }
+        atomic_write_text(self.path / "state.json", json.dumps(doc, indent=1) + "\n")
+
+
+def _differs(old: dict[str, Any], new: dict[str, Any]) -> str:
+    keys = [k for k in new if old.get(k) != new[k]]
+    return ", ".join(f"{k} {old.get(k)} -> {new[k]}" for k in keys) or "another format"
+
+
+def _run_layouts(
+    traj: Any,
+    program: Any,
+    task: str,
+    n: int,
+    settings: dict[str, Any],
+    camera: Camera,
+    work: _Work,
+    progress: Callable[[LayoutResult, int], None] | None,
+) -> list[LayoutResult]:
+    """Every layout's outcome, running those ``work`` has not finished."""
+    from ..reproduce.randomise import iter_layouts
+
+    mode = settings["mode"]
+    draws = iter_layouts(
+        traj,
+        program,
+        n,
+        seed=settings["seed"],
+        max_shift=settings["max_shift_m"],
+        max_turn_deg=settings["max_turn_deg"],
+        modes=(mode,),
+    )
+    out: list[LayoutResult] = []
+    t = time.perf_counter()
+    for lay in _layouts(draws):
+        displace = {k: [float(x) for x in v] for k, v in lay.displace.items()}
+        done = work.done.get(lay.index)
+        if done is not None and done.displace != displace:
+            raise UsageError(
+                f"{work.path}: layout {lay.index} differs from the one drawn before (the "
+                "recording changed?); remove that directory to start again"
+            )
+        if done is None:
+            done = _run_one(traj, program, task, lay, mode, camera, work, time.perf_counter() - t)
+        out.append(done)
+        if progress is not None:
+            progress(done, n)
+        t = time.perf_counter()
+    return out
+
+
+def _layouts(draws: Any) -> Any:
+    """The drawn layouts; a layout that cannot be drawn is refused as ``--layouts``'."""
+    try:
+        yield from draws
+    except UsageError as err:
+        raise UsageError(str(err).replace("--randomise", "--layouts", 1)) from None
+
+
+def _run_one(
+    traj: Any,
+    program: Any,
+    task: str,
+    lay: Any,
+    mode: str,
+    camera: Camera,
+    work: _Work,
+    drawn_s: float,
+) -> LayoutResult:
+    """Run one layout, keep its episode when it succeeded."""
+    from ..errors import LfdError
+    from ..reproduce import reproduce
+    from .robot_episode import robot_episode
+
+    t = time.perf_counter()
+    displace = {k: [float(x) for x in v] for k, v in lay.displace.items()}
+    try:
+        run = reproduce(traj, program, mode, displace=lay.displace)
+    except LfdError as err:
+        msg = " ".join(str(err).split())
+        result = LayoutResult(lay.index, displace, False, [msg], 0.0, error=msg)
+        work.finish(result, None)
+        return result
+    episode = robot_episode(run, fps=int(work.settings["fps"]), camera=camera, task=task)
+    ok = run.success
+    result = LayoutResult(lay.index, displace, ok, run.failures, 0.0, len(episode) if ok else 0)
+    if not ok and not result.failures:
+        result.failures = [f"{o.name} off target" for o in run.objects if not o.success]
+    result.seconds = round(drawn_s + time.perf_counter() - t, 3)
+    work.finish(result, episode if ok else None)
+    return result
+
+
+def _write_dataset(
+    dest: Path,
+    repo: str,
+    report: RobotDataReport,
+    work: _Work,
+    camera: Camera,
+    vcodec: str,
+    overwrite: bool,
+) -> None:
+    """The successful layouts' episodes as one dataset, written atomically at ``dest``."""
+    from ..outputs import atomic_directory, created_parents, signals_held
+    from .lerobot import not_a_dataset
+
+    replace: dict[str, Any] = {"overwrite": overwrite, "replaceable": not_a_dataset}
+    with created_parents(dest), atomic_directory(dest, **replace) as root:
+        writer = RobotWriter(root, repo, camera.name, vcodec=vcodec)
+        try:
+            for r in report.succeeded:
+                writer.add(RobotEpisode.load(work.episode_path(r.index)), r.index)
+            writer.close()
+        except BaseException:
+            with signals_held():
+                writer.abort()
+            raise
+        doc = {
+            "settings": work.settings,
+            "camera": camera.__dict__,
+            **report.to_json(),
+            "episodes": [writer.layouts[e] for e in sorted(writer.layouts)],
+        }
+        (root / LAYOUTS_PATH).write_text(json.dumps(doc, indent=1) + "\n")
+
+
+class RobotWriter:
+    """A LeRobot dataset of robot episodes, written episode by episode (lerobot's API, as
+    :class:`~.writer.LeRobotWriter`); :meth:`close` finalises it and writes the subtask
+    table and the per-episode skill annotations."""
+
+    def __init__(self, root: Path, repo_id: str, camera: str, *, vcodec: str) -> None:
+        self.root, self.repo_id, self.camera, self.vcodec = root, repo_id, camera, vcodec
+        self._dataset: Any = None
+        self.subtasks: dict[str, int] = {}
+        self._annotations: dict[int, dict[str, list[Any]]] = {}
+        self.layouts: dict[int, int] = {}
+        """Episode index -> layout index."""
+
+    def add(self, ep: RobotEpisode, layout: int) -> int:
+        from .writer import _quiet, import_lerobot
+
+        if self._dataset is None:
+            self._dataset = import_lerobot().create(
+                self.repo_id,
+                ep.fps,
+                ep.features(self.camera),
+                root=self.root,
+                robot_type=ROBOT_TYPE,
+                use_videos=True,
+                vcodec=self.vcodec,
+                video_backend="pyav",
+            )
+        ds = self._dataset
+        for name in ep.subtask:
+            self.subtasks.setdefault(name, len(self.subtasks))
+        image = IMAGE_PREFIX + self.camera
+        try:
+            for i in range(len(ep)):
+                ds.add_frame(
+                    {
+                        "observation.state": ep.state[i],
+                        "action": ep.action[i],
+                        "observation.environment_state": ep.environment[i],
+                        image: ep.images[i],
+                        "skill_index": ep.skill_index[i : i + 1],
+                        "object_index": ep.object_index[i : i + 1],
+                        "subtask_index": np.array([self.subtasks[ep.subtask[i]]], dtype=np.int64),
+                        "task": ep.task,
+                    }
+                )
+            for key in ("skill_index", "object_index", "subtask_index"):  # scalars: as writer's
+                ds.episode_buffer[key] = [np.int64(v[0]) for v in ds.episode_buffer[key]]
+        except BaseException:
+            ds.clear_episode_buffer()
+            raise
+        index = int(ds.meta.total_episodes)
+        with _quiet():
+            ds.save_episode()
+        self._annotations[index] = ep.annotation()
+        self.layouts[index] = layout
+        return index
+
+    def abort(self) -> None:
+        from .writer import LeRobotWriter
+
+        LeRobotWriter.abort(self)  # type: ignore[arg-type]
+
+    def close(self) -> None:
+        from .writer import _quiet, write_annotations, write_subtasks
+
+        if self._dataset is None:
+            return
+        with _quiet():
+            self._dataset.finalize()
+        write_subtasks(self.root, list(self.subtasks))
+        write_annotations(self.root, self._annotations)

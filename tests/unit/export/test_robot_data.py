@@ -1,0 +1,213 @@
+"""``lfd export robot-data``: robot episodes from one human demonstration (exp1) over randomised
+layouts, written as a LeRobot dataset that loads back offline with lerobot, with the simulation's
+commanded joints as the actions and the program's skill of every frame as the subtask;
+an interrupted export, run again, gives the same dataset as one run."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+import _paths
+import lfd
+import numpy as np
+import pytest
+from _far import far_recording
+from lfd.errors import UsageError
+from lfd.export.robot_data import LAYOUTS_PATH, LayoutResult, export_robot_data, work_dir
+from lfd.skills import SKILLS
+
+EXP1 = _paths.ROOT / "recordings" / "exp1.mcap"
+LAYOUTS = 2
+
+needs_lerobot = pytest.mark.skipif(
+    importlib.util.find_spec("lerobot") is None, reason="lerobot not installed (the lerobot extra)"
+)
+
+
+@pytest.fixture(autouse=True)
+def _offline(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    """lerobot must touch neither the network nor the user's Hugging Face cache."""
+    monkeypatch.setenv("HF_HUB_OFFLINE", "1")
+    monkeypatch.setenv("HF_HOME", str(tmp_path / "hf"))
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[LayoutResult]]:
+    out = tmp_path_factory.mktemp("robot") / "exp1"
+    os.environ.setdefault("HF_HUB_OFFLINE", "1")
+    seen: list[LayoutResult] = []
+    report = export_robot_data(EXP1, out, layouts=LAYOUTS, progress=lambda r, n: seen.append(r))
+    assert [r.index for r in report.layouts] == list(range(LAYOUTS))
+    assert not work_dir(out).exists()  # the work directory goes once the dataset is written
+    return out, seen
+
+
+def _table(root: Path) -> dict[str, np.ndarray]:
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    ds = LeRobotDataset(f"lfd/{root.name}", root=root, video_backend="pyav")
+    return {k: np.asarray(v) for k, v in ds.hf_dataset.with_format("numpy")[:].items()}
+
+
+def _simulated(layout: int) -> Any:
+    """Layout ``layout`` of seed 0 reproduced again through the public API, as the export
+    drew and ran it."""
+    from lfd.reproduce import PREPROCESSING, from_labels, random_layouts, reproduce
+
+    demo = lfd.load(EXP1, images=False)
+    traj = lfd.preprocess(demo, **PREPROCESSING)
+    program = from_labels(demo.labels, int(traj.t_ns[0]))
+    lay = random_layouts(traj, program, layout + 1, seed=0, modes=("skills",))[layout]
+    return lay, reproduce(traj, program, "skills", displace=lay.displace)
+
+
+@pytest.mark.slow  # simulates, renders and encodes two runs (~30 s), then one again
+@needs_lerobot
+def test_loads_back_with_the_simulated_commands_and_skills(
+    exported: tuple[Path, list[LayoutResult]],
+) -> None:
+    import pandas as pd
+
+    root, _ = exported
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    ds = LeRobotDataset("lfd/exp1", root=root, video_backend="pyav")
+    doc = json.loads((root / LAYOUTS_PATH).read_text())
+    assert ds.num_episodes == doc["succeeded"] == len(doc["episodes"]) >= 1
+    assert ds.fps == 10 and "observation.images.table" in ds.meta.video_keys
+    table = _table(root)
+    first = doc["episodes"][0]
+    lay, run = _simulated(first)
+    assert doc["layouts"][first]["displace"] == {
+        k: [float(x) for x in v] for k, v in lay.displace.items()
+    }
+    ex = run.execution
+    rows = np.flatnonzero(table["episode_index"] == 0)
+    ticks = 10 * table["frame_index"][rows]
+    assert len(rows) == len(range(0, ex.ctrl.shape[0], 10))
+    # the action of a frame: the 7 joint set points and the two fingers' (half openings)
+    # commanded at that tick, as the simulation recorded them
+    want = np.concatenate([ex.ctrl[ticks, :7], ex.ctrl[ticks, 7:9].sum(1, keepdims=True)], 1)
+    np.testing.assert_allclose(table["action"][rows], want, rtol=0, atol=1e-6)
+    state = np.concatenate([ex.qpos[ticks, :7], ex.qpos[ticks, 7:9].sum(1, keepdims=True)], 1)
+    np.testing.assert_allclose(table["observation.state"][rows], state, rtol=0, atol=1e-6)
+    assert np.abs(np.diff(table["action"][rows][:, :7], axis=0)).max() > 0.01  # it moves
+    # the subtask of a frame: the program's skill at that tick
+    names = pd.read_parquet(root / "meta" / "subtasks.parquet").index.tolist()
+    segs = run.program.segments
+    # every tick in a skill: a dwell (-1: the gripper closing or opening) in the one before it
+    seg = [run.segment[t] for t in range(len(run.segment))]
+    for t in range(len(seg)):
+        seg[t] = seg[t] if seg[t] >= 0 else (seg[t - 1] if t else 0)
+    seg = [seg[t] for t in ticks]
+    assert (run.segment[ticks] < 0).any()  # the plan has dwell ticks at some frames
+    want_sub = [f"{segs[s].skill} {segs[s].object or ''}".strip() for s in seg]
+    assert [names[i] for i in table["subtask_index"][rows]] == want_sub
+    want_skill = [SKILLS.index(segs[s].skill) for s in seg]
+    assert table["skill_index"][rows].tolist() == want_skill
+    assert len(set(want_skill)) >= 4  # pick_up, move_with, place, move, stack
+    assert ds.meta.tasks.index[0].startswith("exp1: pick_up box_")
+
+
+@pytest.mark.slow  # decodes the video written above
+@needs_lerobot
+def test_video_has_one_image_per_frame(exported: tuple[Path, list[LayoutResult]]) -> None:
+    import av
+
+    root, _ = exported
+    files = sorted((root / "videos").rglob("*.mp4"))
+    assert files
+    with av.open(str(files[0])) as c:
+        frames = [f.to_ndarray(format="rgb24") for f in c.decode(video=0)]
+    assert len(frames) == len(_table(root)["index"])
+    assert frames[0].shape == (120, 160, 3)
+    assert np.abs(frames[-1].astype(float) - frames[0].astype(float)).mean() > 0.5  # moved
+
+
+@pytest.mark.slow
+@needs_lerobot
+def test_yield_file_lists_every_tried_layout(exported: tuple[Path, list[LayoutResult]]) -> None:
+    root, seen = exported
+    doc = json.loads((root / LAYOUTS_PATH).read_text())
+    assert [r["index"] for r in doc["layouts"]] == list(range(LAYOUTS))
+    assert doc["tried"] == LAYOUTS
+    assert doc["succeeded"] == sum(r["success"] for r in doc["layouts"])
+    assert doc["yield"] == doc["succeeded"] / LAYOUTS
+    assert doc["episodes"] == [r["index"] for r in doc["layouts"] if r["success"]]
+    for r in doc["layouts"]:
+        assert r["success"] or r["failures"]  # a failed layout says why
+        assert set(r["displace"]) == {"box_1", "box_2", "box_3"}
+    assert [r.index for r in seen] == list(range(LAYOUTS))
+    assert not any(r.resumed for r in seen)
+
+
+@pytest.mark.slow  # runs the two layouts again, interrupted after the first
+@needs_lerobot
+def test_interrupted_export_resumes_to_the_same_dataset(
+    exported: tuple[Path, list[LayoutResult]], tmp_path: Path
+) -> None:
+    once, _ = exported
+    out = tmp_path / "exp1"
+
+    def stop(r: LayoutResult, n: int) -> None:
+        raise KeyboardInterrupt  # Ctrl+C once the first layout is finished
+
+    with pytest.raises(KeyboardInterrupt):
+        export_robot_data(EXP1, out, layouts=LAYOUTS, progress=stop)
+    assert not out.exists()  # no dataset yet: it is written at the end
+    state = json.loads((work_dir(out) / "state.json").read_text())
+    assert [r["index"] for r in state["layouts"]] == [0]
+    with pytest.raises(UsageError, match="other settings"):  # another seed: refused
+        export_robot_data(EXP1, out, layouts=LAYOUTS, seed=1)
+    seen: list[LayoutResult] = []
+    export_robot_data(EXP1, out, layouts=LAYOUTS, progress=lambda r, n: seen.append(r))
+    assert [(r.index, r.resumed) for r in seen] == [(0, True), (1, False)]
+    assert not work_dir(out).exists()
+    a, b = _table(once), _table(out)
+    assert a.keys() == b.keys()
+    for key in a:
+        np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+
+    def layouts(root: Path) -> list[dict[str, Any]]:
+        doc = json.loads((root / LAYOUTS_PATH).read_text())
+        return [{k: v for k, v in r.items() if k != "seconds"} for r in doc["layouts"]]
+
+    assert layouts(once) == layouts(out)
+
+
+def test_bad_settings_are_refused_before_anything_is_written(tmp_path: Path) -> None:
+    out = tmp_path / "ds"
+    for kwargs, message in [
+        ({"layouts": 0}, "--layouts 0"),
+        ({"layouts": 2, "fps": 7}, "--fps 7"),
+        ({"layouts": 2, "mode": "replay"}, "--mode replay"),
+        ({"layouts": 2, "image_size": (8, 8)}, "--image-size"),
+    ]:
+        with pytest.raises(UsageError, match=message):
+            export_robot_data(EXP1, out, **kwargs)
+    with pytest.raises(UsageError, match="does not exist"):
+        export_robot_data(tmp_path / "missing.mcap", out, layouts=2)
+    with pytest.raises(UsageError, match="also an input"):
+        export_robot_data(EXP1, EXP1, layouts=2)
+    assert sorted(tmp_path.iterdir()) == []
+
+
+def test_two_hand_recording_is_refused(tmp_path: Path) -> None:
+    from _two_hands import save_two_hands
+
+    two = tmp_path / "two.mcap"
+    save_two_hands(two)
+    with pytest.raises(UsageError, match="two-hand"):
+        export_robot_data(two, tmp_path / "ds", layouts=2)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["two.mcap"]
+
+
+def test_object_out_of_reach_is_refused(tmp_path: Path) -> None:
+    rec = far_recording(tmp_path / "far.mcap")
+    with pytest.raises(UsageError, match="out of the arm's reach"):
+        export_robot_data(rec, tmp_path / "ds", layouts=2)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["far.mcap"]
