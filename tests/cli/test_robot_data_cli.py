@@ -47,6 +47,8 @@ def test_bad_input_is_one_line_and_nothing_written(
     _refused(capsys, rec, "-o", out, "--layouts", -3, expected="--layouts")
     _refused(capsys, rec, "-o", rec, "--layouts", 2, expected="input")
     _refused(capsys, rec, "-o", out, "--layouts", 2, "--image-size", "big", expected="WIDTHxHEIGHT")
+    _refused(capsys, rec, "-o", out, "--layouts", 2, "--robot", "ur9", expected="known robots")
+    _refused(capsys, rec, "-o", out, "--layouts", 2, "--robot", "aloha", expected="two arms")
     save_two_hands(tmp_path / "two.mcap")
     _refused(capsys, tmp_path / "two.mcap", "-o", out, "--layouts", 2, expected="two-hand")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["exp1.mcap", "two.mcap"]

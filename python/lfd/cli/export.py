@@ -123,6 +123,12 @@ def add_robot_data(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> 
         "--layouts", type=layout_count, required=True, metavar="N", help="layouts to try"
     )
     rd.add_argument("--seed", type=seed, default=0, help="the layouts' random seed (default 0)")
+    rd.add_argument(
+        "--robot",
+        default="kuka_lwr4",
+        metavar="NAME",
+        help="the arm (default kuka_lwr4; panda needs robosuite, as lfd reproduce --robot)",
+    )
     rd.add_argument("--mode", choices=("skills", "dmp"), default="skills", help="(default skills)")
     rd.add_argument(
         "--labels",
@@ -185,6 +191,7 @@ def run_robot_data(args: argparse.Namespace) -> int:
             overwrite=args.overwrite,
             max_shift=args.max_shift,
             max_turn_deg=args.max_turn,
+            robot=args.robot,
             progress=show,
         )
     ok = len(report.succeeded)

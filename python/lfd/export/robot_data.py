@@ -42,7 +42,6 @@ ROBOT_LABELS: tuple[str, ...] = ("ground-truth", "segment")
 CAMERA_NAME = "table"
 DEFAULT_FPS = 10
 DEFAULT_IMAGE_SIZE = (160, 120)
-ROBOT_TYPE = "lfd_kuka_lwr4"
 
 
 @dataclass
@@ -167,7 +166,7 @@ def _camera(traj: Any, program: Any, size: tuple[int, int]) -> Camera:
     return Camera(CAMERA_NAME, (float(centre[0]), float(centre[1]), 0.05), *size)
 
 
-def _check_demonstration(rec: Path, traj: Any, program: Any, mode: str) -> None:
+def _check_demonstration(rec: Path, traj: Any, program: Any, mode: str, arm: Any) -> None:
     """Refuse a demonstration the robot cannot do where it was shown (an object out of reach,
     a goal off the table: :func:`lfd.reproduce.displacement.plan_layout`, as ``lfd
     reproduce``), at once: drawing layouts around it would be refused draw after draw."""
@@ -176,14 +175,14 @@ def _check_demonstration(rec: Path, traj: Any, program: Any, mode: str) -> None:
     from ..reproduce.goals import DemoFrames
 
     start = program_start(traj, program)
-    frames = DemoFrames(traj, np.zeros(3))
+    frames = DemoFrames(traj, np.zeros(3), arm)
     seen = np.isfinite(np.asarray(traj.object_position)[:, start, :]).all(axis=1)
     # every object a layout moves, not moved: checked where it is (reach, table)
     free = [
         n for k, n in enumerate(frames.names) if seen[k] and frames.support_of(n, start) is None
     ]
     try:
-        plan_layout(traj, program, mode, {name: (0.0, 0.0, 0.0) for name in free})
+        plan_layout(traj, program, mode, {name: (0.0, 0.0, 0.0) for name in free}, robot=arm)
     except UsageError as err:
         raise UsageError(f"{rec}: the robot cannot do the demonstration as shown: {err}") from None
 
@@ -219,6 +218,7 @@ def export_robot_data(
     overwrite: bool = False,
     max_shift: float | None = None,
     max_turn_deg: float | None = None,
+    robot: str = "kuka_lwr4",
     progress: Callable[[LayoutResult, int], None] | None = None,
 ) -> RobotDataReport:
     """Robot episodes from one human demonstration, as one LeRobot dataset at ``output``.
@@ -242,6 +242,9 @@ def export_robot_data(
         As :func:`~.lerobot.export_lerobot`'s.
     max_shift, max_turn_deg
         How far the layouts move and turn the objects (default: ``lfd reproduce``'s).
+    robot : str
+        The arm (:data:`lfd.reproduce.ROBOTS`; ``lfd reproduce --robot``): its joints are the
+        state and action, ``robot_type`` is ``lfd_<robot>``.
     progress : callable (layout result, number of layouts)
         Called after every layout, in order (also for those an earlier run finished).
 
@@ -257,10 +260,12 @@ def export_robot_data(
     from ..io.reads import read_paths
     from ..outputs import check_output_dir
     from ..reproduce import MAX_SHIFT, MAX_TURN_DEG
+    from ..reproduce.robots import robot as robot_named
     from .lerobot import not_a_dataset
     from .writer import import_lerobot
 
     _check(layouts, mode, labels, vcodec)
+    arm = robot_named(robot)  # an unknown robot, or its package missing: one line, first
     check_fps(fps)
     size = check_image_size(*image_size)
     rec = Path(recording)
@@ -284,13 +289,14 @@ def export_robot_data(
         "image_size": list(size),
         "max_shift_m": MAX_SHIFT if max_shift is None else max_shift,
         "max_turn_deg": MAX_TURN_DEG if max_turn_deg is None else max_turn_deg,
+        "robot": arm.name,
     }
     from .._extras import require
     from ..reproduce import SIM_MODULES
 
     # what every layout runs on, checked once (a missing module is not a failed layout)
     require("sim", SIM_MODULES + (("movement_primitives",) if mode == "dmp" else ()), who=__name__)
-    _check_demonstration(rec, traj, program, mode)
+    _check_demonstration(rec, traj, program, mode, arm)
     import_lerobot()
     work = _Work(work_dir(dest), settings)
     camera = _camera(traj, program, size)
@@ -370,8 +376,9 @@ def _run_layouts(
 ) -> list[LayoutResult]:
     """Every layout's outcome, running those ``work`` has not finished."""
     from ..reproduce.randomise import iter_layouts
+    from ..reproduce.robots import robot
 
-    mode = settings["mode"]
+    mode, arm = settings["mode"], robot(settings["robot"])
     draws = iter_layouts(
         traj,
         program,
@@ -380,6 +387,7 @@ def _run_layouts(
         max_shift=settings["max_shift_m"],
         max_turn_deg=settings["max_turn_deg"],
         modes=(mode,),
+        robot=arm,
     )
     out: list[LayoutResult] = []
     t = time.perf_counter()
@@ -426,7 +434,7 @@ def _run_one(
     t = time.perf_counter()
     displace = {k: [float(x) for x in v] for k, v in lay.displace.items()}
     try:
-        run = reproduce(traj, program, mode, displace=lay.displace)
+        run = reproduce(traj, program, mode, displace=lay.displace, robot=work.settings["robot"])
     except LfdError as err:
         msg = " ".join(str(err).split())
         result = LayoutResult(lay.index, displace, False, [msg], 0.0, error=msg)
@@ -457,7 +465,7 @@ def _write_dataset(
 
     replace: dict[str, Any] = {"overwrite": overwrite, "replaceable": not_a_dataset}
     with created_parents(dest), atomic_directory(dest, **replace) as root:
-        writer = RobotWriter(root, repo, camera.name, vcodec=vcodec)
+        writer = RobotWriter(root, repo, camera.name, vcodec=vcodec, robot=work.settings["robot"])
         try:
             for r in report.succeeded:
                 writer.add(RobotEpisode.load(work.episode_path(r.index)), r.index)
@@ -480,8 +488,11 @@ class RobotWriter:
     :class:`~.writer.LeRobotWriter`); :meth:`close` finalises it and writes the subtask
     table and the per-episode skill annotations."""
 
-    def __init__(self, root: Path, repo_id: str, camera: str, *, vcodec: str) -> None:
+    def __init__(
+        self, root: Path, repo_id: str, camera: str, *, vcodec: str, robot: str = "kuka_lwr4"
+    ) -> None:
         self.root, self.repo_id, self.camera, self.vcodec = root, repo_id, camera, vcodec
+        self.robot_type = f"lfd_{robot}"
         self._dataset: Any = None
         self.subtasks: dict[str, int] = {}
         self._annotations: dict[int, dict[str, list[Any]]] = {}
@@ -497,7 +508,7 @@ class RobotWriter:
                 ep.fps,
                 ep.features(self.camera),
                 root=self.root,
-                robot_type=ROBOT_TYPE,
+                robot_type=self.robot_type,
                 use_videos=True,
                 vcodec=self.vcodec,
                 video_backend="pyav",
