@@ -92,10 +92,4 @@ def any_robot(name: str = DEFAULT_ROBOT) -> Robot | TwoArmRobot:
     MissingExtraError
         The robot's model comes from a package that is not installed.
     """
-    from ..errors import UsageError
-
-    if name in TWO_ARM_ROBOTS:
-        return TWO_ARM_ROBOTS[name]()
-    if name not in ROBOTS:
-        raise UsageError(f"unknown robot {name!r}; known robots: {_known()}")
-    return robot(name)
+    return TWO_ARM_ROBOTS[name]() if name in TWO_ARM_ROBOTS else robot(name)
