@@ -76,12 +76,18 @@ class Robot:
     finger_half_x : float
         Half width of a finger across the closing axis (m): the contact offset when pushing.
     hand_radius : float
-        How far (m, horizontally) around the TCP the open gripper reaches low enough to hit an
-        object the fingertips clear: the open fingers' half opening, or a palm that hangs low
-        beside them (moves keep this clear of the objects, :func:`~lfd.reproduce.motion.clear`).
+        How far (m, horizontally) around the TCP the open fingers reach, at the fingertips'
+        height (moves keep this clear of the objects, :func:`~lfd.reproduce.motion.clear`); the
+        hand above them is :attr:`palm_half`.
     palm_above_tcp : float
         Height of the palm's lowest point above the TCP along the approach axis (m): a grasp or
         a push keeps it above the object's top (:data:`~lfd.reproduce.goals.PALM_CLEARANCE`).
+    palm_half : tuple of float, float, or None
+        The hand's outline (the gripper body the fingers hang from) seen from above: half its
+        extent across the closing axis (the gripper's x) and along it (y), m. With
+        :attr:`palm_above_tcp` it is a box from that height upwards that moves keep clear of the
+        objects at the gripper's yaw (:func:`~lfd.reproduce.motion.palm_near`); None: the hand
+        is not modelled beyond :attr:`hand_radius` and :attr:`palm_above_tcp`.
     tcp_offset : float
         Distance from the wrist centre to the TCP along the last link (m): the wrist of a
         top-down grasp is this far above the TCP.
@@ -116,6 +122,7 @@ class Robot:
     reach: tuple[float, float]
     limits: Limits = field(default_factory=Limits)
     source: str = ""
+    palm_half: tuple[float, float] | None = None
 
     @property
     def dof(self) -> int:

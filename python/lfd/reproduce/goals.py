@@ -259,6 +259,49 @@ def palm_floor(top: float, robot: Robot) -> float:
     return top - robot.palm_above_tcp + PALM_CLEARANCE
 
 
+HAND_ROOM = 0.01
+"""Horizontal room (m) the hand's outline (:attr:`~lfd.reproduce.arm.Robot.palm_half`) keeps
+from an object whose top it does not clear (:func:`palm_near`)."""
+
+
+def _rect_half(yaw: np.ndarray | float, half: tuple[float, float], u: np.ndarray) -> np.ndarray:
+    """Half extent along unit vectors ``u`` (n, 2) of rectangles turned by ``yaw``."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.asarray(
+        np.abs(u[:, 0] * c + u[:, 1] * s) * half[0] + np.abs(-u[:, 0] * s + u[:, 1] * c) * half[1]
+    )
+
+
+def palm_near(
+    xy: np.ndarray,
+    yaw: np.ndarray,
+    half: tuple[float, float],
+    T: np.ndarray,
+    size: np.ndarray,
+    room: float = HAND_ROOM,
+) -> np.ndarray:
+    """Whether the hand's outline (a rectangle of half sizes ``half``, x across the closing
+    axis, centred on the TCP at ``xy`` (n, 2), its closing axis along ``yaw`` (n,)) comes
+    within ``room`` (m, along the rectangles' axes) of an upright box ``T``, ``size``.
+
+    Separating axes: the two rectangles are apart when on one of their four axes the gap
+    between their shadows is at least ``room``.
+    """
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    yaw = np.broadcast_to(np.asarray(yaw, dtype=np.float64), (xy.shape[0],))
+    psi = float(np.arctan2(T[1, 0], T[0, 0]))
+    d = xy - T[:2, 3]
+    gap = np.full(xy.shape[0], -np.inf)
+    # the hand's two axes and the box's two
+    cands = [yaw, yaw + np.pi / 2, np.full_like(yaw, psi), np.full_like(yaw, psi + np.pi / 2)]
+    for a in cands:
+        u = np.column_stack([np.cos(a), np.sin(a)])
+        box = _rect_half(psi, (0.5 * float(size[0]), 0.5 * float(size[1])), u)
+        hand = _rect_half(yaw, (half[1], half[0]), u)  # half[1] along the closing axis
+        gap = np.maximum(gap, np.abs(np.sum(u * d, axis=1)) - box - hand)
+    return np.asarray(gap < room)
+
+
 GRASP_EDGE = 0.005
 """A grasp off the box centre (where the person held it) keeps the fingers this far (m) inside
 the box's edge."""
@@ -317,7 +360,14 @@ def grasp_goal(
         reach = grasp_opening(c[1], robot) / 2 + robot.finger_half_x
         fingers = [p[:2] + reach * u, p[:2] - reach * u]
         d = [_box_distance(f, T, sz) for T, sz in neighbours or [] for f in fingers]
-        return min(d, default=np.inf)
+        # the hand over a neighbour it does not clear: no room (its long side along the closing
+        # axis, :attr:`~lfd.reproduce.arm.Robot.palm_half`)
+        hit = robot.palm_half is not None and any(
+            T[2, 3] + sz[2] / 2 > p[2] + robot.palm_above_tcp - PALM_CLEARANCE
+            and bool(palm_near(p[None, :2], c[0], robot.palm_half, T, sz)[0])
+            for T, sz in neighbours or []
+        )
+        return min(d, default=np.inf) - (1.0 if hit else 0.0)
 
     roomy = [c for c in fits if room(c) >= FINGER_ROOM]
     best = (

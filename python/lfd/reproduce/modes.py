@@ -316,7 +316,9 @@ class _TaskPlanner:
             # the last move ends where the hand did, but never on or in an object (a person's
             # hand may rest on the box it has just put down)
             goal = _state(frames.tcp_pose(i1), float(frames.yaw[i1]))
-            need = required_height(goal[None, :2], frames, objects, **self._clearance(seg))[0]
+            need = required_height(
+                goal[None, :2], frames, objects, **self._clearance(seg), yaw=goal[3:4]
+            )[0]
             goal[2] = max(goal[2], float(need) + 0.001)
             return _SkillGoal(goal, grip)
         nxt = self.segs[k + 1]
@@ -421,7 +423,9 @@ class _TaskPlanner:
             beside = tuple(
                 n
                 for n, T in objects.items()
-                if goal[2] < required_height(goal[None, :2], frames, {n: T}, **kw)[0] < np.inf
+                if goal[2]
+                < required_height(goal[None, :2], frames, {n: T}, **kw, yaw=goal[3:4])[0]
+                < np.inf
             )
             free = partial(
                 path_clear,

@@ -13,7 +13,7 @@ import numpy as np
 from ..errors import DemonstrationError
 from .controller import TICK
 from .dmp import dmp_rollout, min_jerk, resample
-from .goals import DemoFrames, push_goal, upright, wrap_near
+from .goals import HAND_ROOM, DemoFrames, palm_near, push_goal, upright, wrap_near
 from .program import Segment
 
 LINEAR_SPEED = 0.15
@@ -53,21 +53,37 @@ def required_height(
     skip: tuple[str, ...],
     below: float,
     extra: float,
+    yaw: np.ndarray | None = None,
 ) -> np.ndarray:
     """Lowest TCP height (m) at each horizontal position ``xy`` (n, 2) that keeps the lowest
-    point ``below`` under the TCP 1 cm above every object within reach (-inf: no object near).
+    point ``below`` under the TCP 1 cm above every object within reach (-inf: no object near),
+    and the hand (:attr:`~lfd.reproduce.arm.Robot.palm_half`, at the gripper yaw ``yaw`` (n,);
+    None: any yaw) :data:`CLEARANCE` above every object its outline comes near
+    (:func:`~lfd.reproduce.goals.palm_near`).
 
     An object is within reach of a position closer (horizontally) than its half diagonal plus
     1 cm plus ``extra`` (the open fingers, or a carried object's half diagonal).
     """
     req = np.full(xy.shape[0], -np.inf)
+    robot = frames.robot
+    palm = robot.palm_half
     for name, T in objects.items():
         if name in skip:
             continue
         size = frames.size[frames.object_index(name)]
+        top = T[2, 3] + size[2] / 2
+        dist = np.hypot(xy[:, 0] - T[0, 3], xy[:, 1] - T[1, 3])
         reach = 0.5 * float(np.hypot(size[0], size[1])) + 0.01 + extra
-        near = np.hypot(xy[:, 0] - T[0, 3], xy[:, 1] - T[1, 3]) < reach
-        req[near] = np.maximum(req[near], T[2, 3] + size[2] / 2 + CLEARANCE + below)
+        near = dist < reach
+        req[near] = np.maximum(req[near], top + CLEARANCE + below)
+        if palm is None:
+            continue
+        if yaw is None:  # any yaw: the hand's circumscribed disc
+            reach = 0.5 * float(np.hypot(size[0], size[1])) + float(np.hypot(*palm)) + HAND_ROOM
+            near = dist < reach
+        else:
+            near = palm_near(xy, yaw, palm, T, size)
+        req[near] = np.maximum(req[near], top + CLEARANCE - robot.palm_above_tcp)
     return req
 
 
@@ -99,7 +115,8 @@ def clear(
     ``extra``: horizontal reach around the TCP (open fingers, or a carried object's half
     diagonal plus the fingers). Default: the open fingers of ``frames.robot``.
     """
-    pts = a[None, :3] + np.linspace(0.0, 1.0, 40)[:, None] * (b[:3] - a[:3])[None]
+    m = min(len(a), len(b), 4)
+    pts = a[None, :m] + np.linspace(0.0, 1.0, 40)[:, None] * (b[:m] - a[:m])[None]
     return path_clear(pts, frames, objects, skip=skip, below=below, extra=extra)
 
 
@@ -112,9 +129,11 @@ def path_clear(
     below: float | None = None,
     extra: float | None = None,
 ) -> bool:
-    """True if every point of ``pts`` (n, >=3) keeps clear of every object (as :func:`clear`)."""
+    """True if every point of ``pts`` (n, >=3; the yaw in a fourth column) keeps clear of every
+    object (as :func:`clear`)."""
     below, extra = open_fingers(frames, below, extra)
-    req = required_height(pts[:, :2], frames, objects, skip=skip, below=below, extra=extra)
+    yaw = pts[:, 3] if pts.shape[1] > 3 else None
+    req = required_height(pts[:, :2], frames, objects, skip=skip, below=below, extra=extra, yaw=yaw)
     return bool(np.all(pts[:, 2] >= req))
 
 
@@ -158,8 +177,9 @@ def over(
         return [a, b]
     s = np.linspace(0.0, 1.0, n)
     below, extra = open_fingers(frames, below, extra)
+    yaw = float(a[3]) + s * (float(b[3]) - float(a[3])) if min(len(a), len(b)) > 3 else None
     req = required_height(
-        a[None, :2] + s[:, None] * d, frames, objects, skip=skip, below=below, extra=extra
+        a[None, :2] + s[:, None] * d, frames, objects, skip=skip, below=below, extra=extra, yaw=yaw
     )
     # each sample also covers the gap to its neighbours (an edge of a reach falls between them)
     req = np.maximum(req, np.maximum(np.r_[req[1:], -np.inf], np.r_[-np.inf, req[:-1]]))

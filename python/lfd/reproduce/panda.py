@@ -50,9 +50,14 @@ FINGER_BELOW_TCP = 0.013
 """How far the fingertips (the finger meshes' farthest point, 12.9 mm) reach beyond the TCP."""
 ARM_JOINTS = tuple(f"joint{i}" for i in range(1, 8))
 FINGER_JOINTS = ("finger_joint1", "finger_joint2")
-HAND_RADIUS = 0.10
-"""The hand's collision mesh reaches 104 mm along the closing axis and hangs only 27 mm above
-the TCP (40 mm above the fingertips): moves keep that much room, not just the open fingers'."""
+HAND_RADIUS = 0.05
+"""The open fingers around the TCP (m): their outer faces 66 mm from it, as the KUKA's (whose
+``hand_radius`` is 50 mm: moves add 1 cm and the object's half diagonal)."""
+PALM_HALF = (0.032, 0.104)
+"""The hand's collision mesh seen from above: 63 mm across the closing axis, 208 mm along it
+(its underside :data:`PALM_ABOVE_TCP` above the TCP, 40 mm above the fingertips)."""
+PALM_ABOVE_TCP = 0.027
+"""The underside of the hand's collision mesh above the TCP (m)."""
 _PAD = (
     '<default class="pad"><geom type="box" friction="1.5 0.02 0.002" condim="4" '
     'solref="0.01 1" solimp="0.95 0.99 0.001" rgba="0.1 0.1 0.1 1"/></default>'
@@ -225,12 +230,13 @@ def panda() -> Robot:
         finger_below_tcp=FINGER_BELOW_TCP,
         finger_half_x=0.011,  # the finger meshes: 10.5 mm either side
         hand_radius=HAND_RADIUS,
-        palm_above_tcp=0.027,  # the hand's collision mesh
+        palm_above_tcp=PALM_ABOVE_TCP,
         tcp_offset=0.1065 + PAD_Z,  # link7 -> right_hand -> the pads
         shoulder_z=0.333,
         reach=REACH,
         limits=Limits(speed=0.6, acceleration=3.0, yaw_rate=2.5, yaw_acceleration=12.0),
         source=f"{ROBOSUITE} (MIT): models/assets/robots/panda, grippers/panda_gripper.xml",
+        palm_half=PALM_HALF,
     )
 
 

@@ -211,5 +211,6 @@ KUKA_LWR4 = Robot(
     # by friction alone (chosen on the simulated demos and the real motion capture)
     limits=Limits(speed=0.6, acceleration=3.0, yaw_rate=2.5, yaw_acceleration=12.0),
     source="hand-written MJCF with the LWR 4+'s published DH kinematics (this module)",
+    palm_half=(0.02, 0.065),  # the palm box
 )
 """The default robot (``--robot kuka_lwr4``)."""

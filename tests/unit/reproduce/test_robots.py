@@ -124,7 +124,9 @@ def test_panda_mjcf_tcp_between_the_pads() -> None:
     ]
     local = (verts @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g] - tcp) @ R
     assert -local[:, 2].max() == pytest.approx(arm.palm_above_tcp, abs=1e-3)  # its underside
-    assert np.abs(local[:, 1]).max() == pytest.approx(arm.hand_radius, abs=0.005)  # its length
+    assert arm.palm_half is not None  # its outline from above: across and along the closing axis
+    assert np.abs(local[:, 0]).max() == pytest.approx(arm.palm_half[0], abs=1e-3)
+    assert np.abs(local[:, 1]).max() == pytest.approx(arm.palm_half[1], abs=1e-3)
     assert arm.hand_radius >= arm.max_opening / 2
 
 
