@@ -9,12 +9,11 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from reproduce_synth import synthetic_demo
-
 from lfd.reproduce.arm import Robot
 from lfd.reproduce.goals import DemoFrames, grasp_goal, palm_near, pose, wrap_near
 from lfd.reproduce.motion import clear, required_height
 from lfd.reproduce.robot import KUKA_LWR4
+from reproduce_synth import synthetic_demo
 
 PANDA_HAND = replace(
     KUKA_LWR4,
@@ -49,7 +48,7 @@ def test_palm_near_turns_with_the_yaw() -> None:
     # the room is along the axes: 10 mm
     far = np.array([[0.0, 0.09 - 0.02 - 0.104 - 0.011]])
     assert not palm_near(far, np.array([along_y]), half, T, TALL)[0]
-    assert palm_near(far + [0.0, 0.002], np.array([along_y]), half, T, TALL)[0]
+    assert palm_near(far + np.array([0.0, 0.002]), np.array([along_y]), half, T, TALL)[0]
 
 
 @pytest.mark.parametrize("robot", [PANDA_HAND, KUKA_LWR4], ids=lambda r: r.name)
@@ -73,7 +72,7 @@ def test_a_pass_beside_a_tall_box_keeps_the_hand_clear(robot: Robot) -> None:
             assert need == pytest.approx(0.08 + 0.01 - robot.palm_above_tcp)
     # above the hand's reach the pass is clear whatever the yaw
     up = np.array([0.0, 0.0, 0.0631, np.pi / 2])
-    assert clear(up, up + [0.2, 0.0, 0.0, 0.0], frames, objects, skip=())
+    assert clear(up, up + np.array([0.2, 0.0, 0.0, 0.0]), frames, objects, skip=())
 
 
 @pytest.mark.parametrize("robot", [PANDA_HAND, KUKA_LWR4], ids=lambda r: r.name)
