@@ -61,6 +61,7 @@ from .motion import (
     path_clear,
     push_geometry,
     push_path,
+    push_progress,
     required_height,
     safe_height,
     segment_indices,
@@ -255,6 +256,8 @@ class _TaskPlanner:
         self.cur = _state(frames.tcp_pose(start_i), float(frames.yaw[start_i]))
         self.opening = self.robot.max_opening
         self.held: tuple[str, np.ndarray] | None = None
+        self._slides_next = False
+        """The push after the current move is done by grasping (:meth:`_slide`)."""
 
     def plan(self) -> PlanResult:
         for k, seg in enumerate(self.segs):
@@ -302,7 +305,38 @@ class _TaskPlanner:
         geo = push_geometry(self.frames, seg, self.objects, self.cur[3])
         self.objects[seg.object] = self.expected[seg.object] = geo["T_new"]  # type: ignore[index]
         self.scenes.append(dict(self.objects))
+        if "grasp" in geo:  # grasped, moved along the push and released
+            return _SkillGoal(
+                geo["goal"],
+                0.0,
+                name=seg.object,
+                open_at_end=True,
+                release_top=float(geo["release_top"]),
+                release=float(geo["opening"]),
+                push=geo,
+            )
         return _SkillGoal(geo["goal"], 0.0, push=geo)
+
+    def _slide(self, k: int, seg: Segment, sg: _SkillGoal, i0: int, i1: int) -> None:
+        """A push done by grasping (:func:`~lfd.reproduce.motion.push_geometry`): descend onto
+        the grasp with open fingers, close, lift, move along the push, then :meth:`_after`
+        opens and lifts off."""
+        geo, cur = sg.push or {}, self.cur
+        pieces = []
+        if np.linalg.norm(cur[:3] - geo["hover"][:3]) > 0.002:
+            pieces.append(line(cur, geo["hover"]))
+        pieces.append(line(geo["hover"], geo["grasp"], min_s=GRASP_DESCENT_MIN_S))
+        self.parts.append(_part(np.concatenate(pieces), float(geo["opening"]), k))
+        grasp = geo["grasp"]
+        self.parts.append(_part(np.repeat(grasp[None], round(DWELL_S / TICK), 0), 0.0, -1))
+        moving = np.concatenate(
+            [
+                line(grasp, geo["contact"], min_s=PUSH_BACK_MIN_S),
+                push_progress(self.frames, str(seg.object), geo, (i0, i1), self.mode),
+            ]
+        )
+        self.parts.append(_part(moving, 0.0, k))
+        self.cur, self.opening = moving[-1].copy(), 0.0
 
     def _locate(self, k: int, seg: Segment, i1: int) -> _SkillGoal:
         goal = _state(_map(self.frames, seg, i1, self.objects), float(self.frames.yaw[i1]))
@@ -326,6 +360,7 @@ class _TaskPlanner:
         goal = _state(_map(frames, nxt, j0, objects), float(frames.yaw[j0]))
         if nxt.skill == "push":  # straight behind the object, or via a hover pose
             ng = push_geometry(frames, nxt, objects, self.cur[3])
+            self._slides_next = "grasp" in ng
             direct = clear(self.cur, ng["start"], frames, objects, skip=())
             goal = ng["start"] if direct else ng["hover"]
         elif nxt.skill == "pick_up":  # arrive with the grasp yaw already set
@@ -367,6 +402,10 @@ class _TaskPlanner:
             # (those keep the yaw of their goal, already wrist-friendly)
             goal[3] = float(wrap_near(goal[3], float(frames.natural_yaw(goal[:3]))))
         self.goals.append(goal[:3].copy())
+        if sg.push is not None and "grasp" in sg.push:
+            self._slide(k, seg, sg, i0, i1)
+            self._after(sg)
+            return
         path = self._path(seg, sg, i0, i1)
         if seg.skill in _GRASP_SKILLS:
             self._funnel(path, goal, str(sg.name))
@@ -374,7 +413,8 @@ class _TaskPlanner:
             path = self._vertical_grasp(path, goal, str(sg.name))
         part = _part(path, sg.grip, k)
         if seg.skill == "move" and k + 1 < len(self.segs) and self.segs[k + 1].skill == "push":
-            part.opening[len(part) // 2 :] = 0.0  # close the fingers on the way to a push
+            if not self._slides_next:
+                part.opening[len(part) // 2 :] = 0.0  # close the fingers on the way to a push
         self.parts.append(part)
         self.cur = path[-1].copy()
         self._after(sg)
@@ -520,7 +560,7 @@ class _TaskPlanner:
             up[2] = max(up[2], sg.release_top + self.robot.finger_below_tcp + LIFT_ABOVE_RELEASED)
             self.parts.append(_part(line(cur, up, min_s=LIFT_MIN_S), sg.release, -1))
             self.cur = up
-        if sg.push is not None:  # back off the pushed face before anything else moves
+        if sg.push is not None and "grasp" not in sg.push:  # back off the pushed face
             self.opening = 0.0
             u = sg.push["u"]
             back = cur + np.array([-PUSH_BACK_OFF * u[0], -PUSH_BACK_OFF * u[1], PUSH_BACK_UP, 0.0])

@@ -13,7 +13,19 @@ import numpy as np
 from ..errors import DemonstrationError
 from .controller import TICK
 from .dmp import dmp_rollout, min_jerk, resample
-from .goals import HAND_ROOM, DemoFrames, palm_near, push_goal, upright, wrap_near
+from .goals import (
+    HAND_ROOM,
+    DemoFrames,
+    grasp_goal,
+    grasp_max_width,
+    grasp_opening,
+    palm_near,
+    pose,
+    push_goal,
+    upright,
+    wrap_near,
+    yaw_of,
+)
 from .program import Segment
 
 LINEAR_SPEED = 0.15
@@ -249,7 +261,7 @@ def push_geometry(
     hover = start.copy()
     top = T_now[2, 3] + size[2] / 2
     hover[2] = max(start[2], top + frames.robot.finger_below_tcp + CLEARANCE + 0.001)
-    return {
+    geo = {
         "goal": np.array([*p_end, yaw]),
         "contact": contact,
         "start": start,
@@ -260,6 +272,57 @@ def push_geometry(
         "T0_demo": T0_demo,
         "T_now": T_now,
         "d_demo": np.array([*(T1_demo[:2, 3] - T0_demo[:2, 3]), 0.0]),
+    }
+    robot = frames.robot
+    hand_on_top = robot.palm_half is not None and p_c[2] + robot.palm_above_tcp < top
+    if hand_on_top and min(size[0], size[1]) <= grasp_max_width(robot):
+        geo.update(_slide_geometry(frames, name, objects, geo, yaw))
+    return geo
+
+
+SLIDE_LIFT = 0.003
+"""A box pushed by grasping it (:func:`push_geometry`) is lifted this much (m) while it is
+moved, and dropped from there (as a place releases :data:`~lfd.reproduce.modes.RELEASE_LIFT`
+above the resting pose)."""
+
+
+def _slide_geometry(
+    frames: DemoFrames, name: str, objects: dict[str, np.ndarray], geo: dict, yaw: float
+) -> dict[str, np.ndarray]:
+    """A push whose hand would press on the box's top edge (the Panda's, 21 mm ahead of its
+    fingers and 27 mm above its TCP: a 7 cm box pushed below its centre tilts and falls back
+    short, pushed higher it topples): the box is grasped instead (closing across the push where
+    it fits, :func:`~lfd.reproduce.goals.grasp_goal`), lifted :data:`SLIDE_LIFT`, moved along
+    the push to its pushed pose and released. ``grasp``: the grasp pose; ``contact`` and
+    ``goal``: where the moving starts and ends; ``start``/``hover``: above the grasp."""
+    T_now, T_new = geo["T_now"], geo["T_new"]
+    k = frames.object_index(name)
+    size = frames.size[k]
+    level = [
+        (T, frames.size[frames.object_index(n)])
+        for n, T in objects.items()
+        if n != name
+        and abs(T[2, 3] - T_now[2, 3]) < 0.5 * (frames.size[frames.object_index(n), 2] + size[2])
+    ]
+    p, g_yaw = grasp_goal(T_now, size, yaw, level, robot=frames.robot)
+    g_yaw = float(wrap_near(g_yaw, float(frames.natural_yaw(p))))
+    rel = np.linalg.inv(T_now) @ pose(p, g_yaw)
+    end = T_new @ rel
+    lift = np.array([0.0, 0.0, SLIDE_LIFT, 0.0])
+    grasp = np.array([*p, g_yaw])
+    hover = grasp.copy()
+    top = T_now[2, 3] + size[2] / 2
+    hover[2] = max(grasp[2], top + frames.robot.finger_below_tcp + CLEARANCE + 0.001)
+    across = abs(np.cos(g_yaw - yaw_of(T_now[:3, :3]))) * size[0]
+    across += abs(np.sin(g_yaw - yaw_of(T_now[:3, :3]))) * size[1]
+    return {
+        "grasp": grasp,
+        "contact": grasp + lift,
+        "goal": np.array([*end[:3, 3], float(wrap_near(yaw_of(end[:3, :3]), g_yaw))]) + lift,
+        "start": hover,
+        "hover": hover,
+        "opening": np.array(grasp_opening(float(across), frames.robot)),
+        "release_top": np.array(T_new[2, 3] + size[2] / 2),
     }
 
 
@@ -283,30 +346,37 @@ def push_path(
             pieces.append(line(cur, geo["hover"]))
         pieces.append(line(geo["hover"], geo["start"], min_s=0.5))
     pieces.append(line(geo["start"], geo["contact"], min_s=0.4))
+    pieces.append(push_progress(frames, name, geo, span, mode))
+    return np.concatenate(pieces)
+
+
+def push_progress(
+    frames: DemoFrames, name: str, geo: dict[str, np.ndarray], span: tuple[int, int], mode: str
+) -> np.ndarray:
+    """The pushing part of a push, from ``geo["contact"]`` to ``geo["goal"]``: the demonstrated
+    progress of the object along the push (skills: on a straight line; dmp: a DMP of the
+    object's demonstrated path re-targeted to the new contact and goal)."""
     dist = float(np.linalg.norm(geo["d"]))
     contact, goal = geo["contact"], geo["goal"]
     if dist < 0.005:
-        pieces.append(line(contact, goal))
-    else:
-        idx = np.arange(span[0], span[1] + 1)
-        obj = np.array([frames.object_pose(name, int(i))[:3, 3] for i in idx])
-        d_demo = geo["d_demo"]  # progress along the demonstrated push (the frame may have turned)
-        dd = max(float(d_demo @ d_demo), 1e-12)
-        prog = np.maximum.accumulate(np.clip((obj - obj[0]) @ d_demo / dd, 0.0, 1.0))
-        moving = np.flatnonzero((prog > 0.01) & (prog < 0.995))
-        a, b = (moving[0], moving[-1] + 1) if moving.size >= 2 else (0, len(idx) - 1)
-        t = frames.t[idx[a : b + 1]]
-        if mode == "dmp":
-            # the demonstrated object path carried into the box's current frame (Eq. 2), so a
-            # turned box is pushed along the turned path, not sideways
-            M = geo["T_now"] @ np.linalg.inv(geo["T0_demo"])
-            xy = obj[a : b + 1] @ M[:3, :3].T + M[:3, 3]
-            y = np.column_stack(
-                [xy[:, :2], np.full(b - a + 1, contact[2]), np.full(b - a + 1, contact[3])]
-            )
-            pieces.append(dmp_rollout(t, y, contact, goal, dt=TICK, start_velocity=np.zeros(4)))
-        else:
-            pr = resample(t, prog[a : b + 1, None], TICK)[:, 0]
-            pr = (pr - pr[0]) / max(pr[-1] - pr[0], 1e-9)
-            pieces.append(contact + pr[:, None] * (goal - contact))
-    return np.concatenate(pieces)
+        return line(contact, goal)
+    idx = np.arange(span[0], span[1] + 1)
+    obj = np.array([frames.object_pose(name, int(i))[:3, 3] for i in idx])
+    d_demo = geo["d_demo"]  # progress along the demonstrated push (the frame may have turned)
+    dd = max(float(d_demo @ d_demo), 1e-12)
+    prog = np.maximum.accumulate(np.clip((obj - obj[0]) @ d_demo / dd, 0.0, 1.0))
+    moving = np.flatnonzero((prog > 0.01) & (prog < 0.995))
+    a, b = (moving[0], moving[-1] + 1) if moving.size >= 2 else (0, len(idx) - 1)
+    t = frames.t[idx[a : b + 1]]
+    if mode == "dmp":
+        # the demonstrated object path carried into the box's current frame (Eq. 2), so a
+        # turned box is pushed along the turned path, not sideways
+        M = geo["T_now"] @ np.linalg.inv(geo["T0_demo"])
+        xy = obj[a : b + 1] @ M[:3, :3].T + M[:3, 3]
+        y = np.column_stack(
+            [xy[:, :2], np.full(b - a + 1, contact[2]), np.full(b - a + 1, contact[3])]
+        )
+        return dmp_rollout(t, y, contact, goal, dt=TICK, start_velocity=np.zeros(4))
+    pr = resample(t, prog[a : b + 1, None], TICK)[:, 0]
+    pr = (pr - pr[0]) / max(pr[-1] - pr[0], 1e-9)
+    return np.asarray(contact + pr[:, None] * (goal - contact))
