@@ -5,15 +5,24 @@ do not; the KUKA's palm (40 x 130 mm, 70 mm up) does not."""
 
 from __future__ import annotations
 
+import importlib.util
 from dataclasses import replace
 
 import numpy as np
 import pytest
+from lfd.reproduce import reproduce
 from lfd.reproduce.arm import Robot
 from lfd.reproduce.goals import DemoFrames, grasp_goal, palm_near, pose, wrap_near
 from lfd.reproduce.motion import clear, required_height
+from lfd.reproduce.program import TaskProgram
 from lfd.reproduce.robot import KUKA_LWR4
+from lfd.trajectory import Trajectory
 from reproduce_synth import synthetic_demo
+
+needs_robosuite = pytest.mark.skipif(
+    importlib.util.find_spec("robosuite") is None,
+    reason="robosuite not installed (the robots extra: pip install --no-deps robosuite==1.5.2)",
+)
 
 PANDA_HAND = replace(
     KUKA_LWR4,
@@ -88,3 +97,54 @@ def test_grasp_turns_the_hand_away_from_a_tall_neighbour(robot: Robot) -> None:
     assert np.allclose(p[:2], 0.0)
     turned = abs(float(wrap_near(yaw, 0.0))) == pytest.approx(np.pi / 2)
     assert turned == (robot is PANDA_HAND)
+
+
+def _tall_push() -> tuple[Trajectory, TaskProgram]:
+    """The synthetic push (8 cm along x) of a 4 x 4 x 7 cm box."""
+    traj, program = synthetic_demo("push")
+    size = traj.object_size.copy()
+    pos = traj.object_position.copy()
+    size[0], pos[0, :, 2] = TALL_PUSHED, TALL_PUSHED[2] / 2
+    return replace(traj, object_size=size, object_position=pos), program
+
+
+TALL_PUSHED = np.array([0.04, 0.04, 0.07])
+
+
+@pytest.mark.parametrize("robot", [PANDA_HAND, KUKA_LWR4], ids=lambda r: r.name)
+def test_a_push_the_hand_would_press_on_grasps_the_box(robot: Robot) -> None:
+    """Pushing a 7 cm box, the Panda's hand (27 mm above the TCP, 21 mm ahead of the fingers)
+    would press on its top edge: it grasps the box instead (fingers open on the way down,
+    closed while it moves, opened after) and moves it 3 mm above the table to the same pushed
+    pose; the KUKA's palm (70 mm up) is clear, it pushes with closed fingers."""
+    from lfd.reproduce.displacement import plan_layout
+    from lfd.reproduce.motion import SLIDE_LIFT
+
+    traj, program = _tall_push()
+    _, _, res = plan_layout(traj, program, "skills", {}, robot=robot)
+    plan = res.plan
+    push = np.flatnonzero(plan.segment == 1)
+    opening = plan.opening[push]
+    assert res.expected["box_1"][0, 3] == pytest.approx(0.10 + 0.08, abs=0.005)
+    if robot is KUKA_LWR4:
+        assert np.all(opening == 0.0)
+        return
+    assert opening[0] == pytest.approx(0.04 + 0.03) and opening[-1] == 0.0
+    moving = push[opening == 0.0]
+    z = plan.position[moving, 2]
+    assert z.min() >= z[0] - 1e-9 and z.max() == pytest.approx(z[0] + SLIDE_LIFT)
+    assert z[0] + robot.palm_above_tcp >= TALL_PUSHED[2]  # the hand above the top
+    after = plan.opening[push[-1] + 1 : push[-1] + 5]
+    assert np.all(after > 0.04)  # released
+
+
+@needs_robosuite
+@pytest.mark.slow  # the Panda in physics (~10 s)
+def test_panda_moves_a_tall_box_it_cannot_push() -> None:
+    traj, program = _tall_push()
+    r = reproduce(traj, program, "skills", robot="panda")
+    ex = r.execution
+    assert ex is not None
+    moved = ex.final_position[0, 0] - ex.object_position[0, 0, 0]
+    assert moved == pytest.approx(0.08, abs=0.005)
+    assert r.success, r.failures
