@@ -25,7 +25,11 @@ after a release, just until the fingertips clear the released box; a move whose 
 would sweep the open fingers (or a carried box) over an object takes the shortest way over it in
 the same vertical plane (:func:`~lfd.reproduce.motion.over`: it rises only where and as much as
 needed), a DMP move is lifted only as much as its own path needs; the fingertips never go below
-the table. While the gripper closes or opens (the dwell) the arm holds still.
+the table. While the gripper closes or opens (the dwell) the arm holds still. The robot's hand
+(:attr:`~lfd.reproduce.arm.Robot.palm_half`) is kept clear like the fingers, at the gripper's
+yaw; a grasp closes across the face whose hand clears a taller neighbour; a push whose hand
+would press on the pushed box's top grasps the box instead, lifts it 3 mm, moves it along the
+push and releases it (:func:`~lfd.reproduce.motion.push_geometry`).
 """
 
 from __future__ import annotations
