@@ -364,7 +364,7 @@ def grasp_goal(
         # axis, :attr:`~lfd.reproduce.arm.Robot.palm_half`)
         hit = robot.palm_half is not None and any(
             T[2, 3] + sz[2] / 2 > p[2] + robot.palm_above_tcp - PALM_CLEARANCE
-            and bool(palm_near(p[None, :2], c[0], robot.palm_half, T, sz)[0])
+            and bool(palm_near(p[None, :2], np.array([c[0]]), robot.palm_half, T, sz)[0])
             for T, sz in neighbours or []
         )
         return min(d, default=np.inf) - (1.0 if hit else 0.0)
