@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import DemonstrationError
+from ..errors import DemonstrationError, UsageError
 from .aloha import TwoArmRobot
 from .arm import OPTIONS, Robot
 from .controller import LOOKAHEAD, TICK, Execution, Plan
@@ -69,16 +69,16 @@ def choose_bases(
         if len(pts) > 300:
             pts = pts[np.linspace(0, len(pts) - 1, 300).astype(int)]
         wrist = pts + np.array([0.0, 0.0, arm.tcp_offset])
-        d = np.sqrt(
-            np.sum((wrist[None, :, :2] - cand[:, None, :]) ** 2, axis=2)
-            + (wrist[None, :, 2] - arm.shoulder_z) ** 2
-        )
-        margin = np.minimum(d - arm.reach[0], arm.reach[1] - d).min(axis=1)
         sign = 1.0 if side == "right" else -1.0
         ok = clear & (sign * (cand[:, 0] - centre[0]) > 0.05)
         for b in out.values():
             ok &= np.linalg.norm(cand - b[:2], axis=1) >= BASE_GAP
-        score = np.where(ok, margin, -np.inf)
+        d = np.sqrt(
+            np.sum((wrist[None, :, :2] - cand[ok, None, :]) ** 2, axis=2)
+            + (wrist[None, :, 2] - arm.shoulder_z) ** 2
+        )
+        score = np.full(len(cand), -np.inf)
+        score[ok] = np.minimum(d - arm.reach[0], arm.reach[1] - d).min(axis=1)
         best = int(np.argmax(score))
         if not np.isfinite(score[best]):
             raise DemonstrationError(
@@ -110,9 +110,14 @@ def mounted(arm: Robot, yaw: float) -> Robot:
 
 
 def _clear(cand: np.ndarray, pts: np.ndarray, r: float) -> np.ndarray:
+    """Which candidates are at least ``r`` from every point (a k-d tree: a planned path has a
+    point per control tick)."""
+    from scipy.spatial import cKDTree
+
     if not len(pts):
         return np.ones(len(cand), dtype=bool)
-    return np.sqrt(((cand[:, None, :] - pts[None]) ** 2).sum(axis=2)).min(axis=1) >= r
+    dist, _ = cKDTree(pts).query(cand, k=1)
+    return np.asarray(dist >= r)
 
 
 def scene_xml(
@@ -135,7 +140,8 @@ def scene_xml(
         )
     arms = "".join(
         f'<body name="{side}/robot_base" pos="{b[0]:.6f} {b[1]:.6f} 0">'
-        f"{mounted(robot.arms[side], (yaws or {}).get(side, 0.0)).body}</body>"
+        f"{_collision_bits(mounted(robot.arms[side], (yaws or {}).get(side, 0.0)).body, side)}"
+        "</body>"
         for side, b in bases.items()
     )
     acts = [robot.arms[side].actuators for side in bases]
@@ -147,10 +153,37 @@ def scene_xml(
   <worldbody>
     <light pos="{c[0]:.3f} {c[1]:.3f} 2.5" dir="0 0 -1" directional="true"/>
     <geom name="table" type="box" pos="{c[0]:.3f} {c[1]:.3f} -0.02" size="1.2 1.2 0.02"
-          rgba="0.75 0.7 0.62 1" friction="1 0.005 0.0001"/>
+          rgba="0.75 0.7 0.62 1" friction="1 0.005 0.0001" conaffinity="{1 | sum(ARM_BITS.values())}"/>
     {arms}{"".join(bodies)}
   </worldbody>{actuators}{contacts}
 </mujoco>"""
+
+
+ARM_BITS = {"right": 2, "left": 4}
+"""Each arm's collision bit: its links collide with the table and the other arm (not with
+the objects, nor with themselves); its gripper and fingers with those and the objects."""
+
+
+def _collision_bits(body: str, side: str) -> str:
+    """``body`` (an arm's MJCF) with its links colliding with the table and the other arm
+    (:data:`ARM_BITS`), its colliding geoms (gripper, pads) with the other arm too; the
+    finger meshes stay seen only."""
+    import xml.etree.ElementTree as ET
+
+    mine = ARM_BITS.get(side, 0)
+    others = sum(b for s, b in ARM_BITS.items() if s != side)
+    root = ET.fromstring(f"<arm>{body}</arm>")
+    for geom in root.iter("geom"):
+        name = geom.get("name", "")
+        if geom.get("contype") == "0":
+            if "finger" in name:
+                continue  # a finger's mesh: its flat pad collides
+            geom.set("contype", str(mine))
+            geom.set("conaffinity", str(others))
+        else:
+            geom.set("contype", str(1 | mine))
+            geom.set("conaffinity", str(1 | others))
+    return "".join(ET.tostring(el, encoding="unicode") for el in root)
 
 
 def _inner(xml: str, tag: str) -> str:
@@ -276,6 +309,52 @@ def check_runs(hands: HandsProgram) -> None:
 
 
 # --- both arms in one scene ----------------------------------------------------------------------
+@dataclass(frozen=True)
+class Collision:
+    """An arm touching the other arm or the table (its first tick)."""
+
+    arm: str
+    part: str
+    """The arm's link (``upper_forearm_link``, ``gripper``, ...)."""
+    other: str
+    """``"table"`` or the other arm's side."""
+    other_part: str
+    t_s: float
+
+    def describe(self) -> str:
+        what = "the table" if self.other == "table" else f"the {self.other} arm's {self.other_part}"
+        return f"{self.arm} arm: collision: its {self.part} touched {what} at {self.t_s:.1f} s"
+
+
+class _Contacts:
+    """Which geoms belong to which arm (and its link), to find arm-arm and arm-table contacts."""
+
+    def __init__(self, model: Any, sides: list[str]) -> None:
+        self.owner: dict[int, tuple[str, str]] = {}
+        for g in range(model.ngeom):
+            name = model.geom(g).name
+            body = model.body(model.geom_bodyid[g]).name
+            if name == "table":
+                self.owner[g] = ("table", "top")
+            for side in sides:
+                if body.startswith(f"{side}/"):
+                    self.owner[g] = (side, body[len(side) + 1 :])
+        self.seen: dict[str, Collision] = {}
+
+    def check(self, data: Any, t_s: float) -> None:
+        if not data.ncon:
+            return
+        for g1, g2 in zip(data.contact.geom1, data.contact.geom2, strict=True):
+            a, b = self.owner.get(int(g1)), self.owner.get(int(g2))
+            if a is None or b is None or a[0] == b[0]:
+                continue
+            if a[0] == "table":
+                a, b = b, a
+            key = f"{a[0]} table" if b[0] == "table" else "arms"
+            if key not in self.seen:
+                self.seen[key] = Collision(a[0], a[1], b[0], b[1], t_s)
+
+
 def execute_two(
     plans: dict[str, Plan],
     bases: dict[str, np.ndarray],
@@ -284,9 +363,11 @@ def execute_two(
     yaws: dict[str, float],
     *,
     settle_s: float = 0.5,
+    collisions: list[Collision] | None = None,
 ) -> dict[str, Execution]:
     """Run every arm's plan in one scene on one clock; each arm's :class:`Execution` (its TCP
-    and IK, every object's motion)."""
+    and IK, every object's motion). ``collisions`` (when given) gets the first contact of an
+    arm with the other arm, and of each arm with the table (:class:`Collision`)."""
     import mujoco
 
     t0 = time.perf_counter()
@@ -301,6 +382,7 @@ def execute_two(
         body_ids = [model.body(o.name).id for o in objects]
         steps = max(1, round(TICK / model.opt.timestep))
         n = max(len(p) for p in plans.values())
+        contacts = _Contacts(model, list(plans))
         opos = np.zeros((len(objects), n, 3))
         oquat = np.zeros((len(objects), n, 4))
         for i in range(n + round(settle_s / TICK)):
@@ -308,6 +390,7 @@ def execute_two(
                 arm.command(data, i)
             for _ in range(steps):
                 mujoco.mj_step(model, data)
+            contacts.check(data, (i + 1) * TICK)
             if i < n:
                 for arm in arms.values():
                     arm.record(data, i)
@@ -317,6 +400,8 @@ def execute_two(
                     oquat[j, i] = (x, y, z, w)
     finally:
         mujoco.set_mju_user_warning(previous)
+    if collisions is not None:
+        collisions.extend(sorted(contacts.seen.values(), key=lambda c: c.t_s))
     fpos = np.array([data.xpos[b].copy() for b in body_ids]).reshape(len(objects), 3)
     fq = np.array([[*data.xquat[b][1:], data.xquat[b][0]] for b in body_ids]).reshape(-1, 4)
     wall = time.perf_counter() - t0
@@ -416,16 +501,26 @@ class TwoArmReproduction:
     wall_time_s: float = 0.0
     owners: dict[str, str] = field(default_factory=dict)
     """The arm whose lane handles each object (last)."""
+    collisions: list[Collision] = field(default_factory=list)
+    """Each arm's first contact with the other arm and with the table."""
 
     @property
     def success(self) -> bool:
-        """Every object at its goal."""
-        return all(o.success for o in self.objects)
+        """Every object at its goal, and neither arm touched the other or the table."""
+        return all(o.success for o in self.objects) and not self.collisions
+
+    def arm_success(self, side: str) -> bool:
+        """The ``side`` arm did every skill of its lane and touched neither the other arm nor
+        the table."""
+        hit = any(side in (c.arm, c.other) for c in self.collisions)
+        return not hit and all(r.ok for r in self.skills.get(side, []))
 
     @property
     def failures(self) -> list[str]:
-        """One line per failed skill, naming the arm, then per object off its goal."""
-        out = [
+        """One line per collision and per failed skill, naming the arm, then per object off
+        its goal."""
+        out = [c.describe() for c in self.collisions]
+        out += [
             f"{side} arm: {r.label()}: {r.reason}"
             for side, rs in self.skills.items()
             for r in rs
@@ -453,12 +548,13 @@ def _handovers(
     planned: dict[str, tuple[Any, Any, Any]],
     hands: HandsProgram,
     mode: str,
-    bases: dict[str, np.ndarray],
+    moved: dict[str, np.ndarray],
 ) -> dict[str, Plan]:
     """Every lane's plan, a handover's taker planned again with the handed object where the
-    giver's plan leaves it (:func:`~lfd.reproduce.modes.plan_task`). Each grasp follows the
-    demonstration along the object (the planner centres it only across), so the two grippers
-    hold the object where the two hands did."""
+    giver's plan leaves it (:func:`~lfd.reproduce.modes.plan_task`; the other objects where the
+    layout puts them, ``moved``). Each grasp follows the demonstration along the object (the
+    planner centres it only across), so the two grippers hold the object where the two hands
+    did."""
     from .modes import plan_task
 
     plans = {s: r.plan for s, (_, _, r) in planned.items()}
@@ -469,53 +565,126 @@ def _handovers(
         g_result = planned[giver][2]
         t_frames = planned[taker][0]
         T_meet = g_result.expected[p.object]
-        result = plan_task(t_frames, hands.program(taker), mode, initial={p.object: T_meet})
+        result = plan_task(
+            t_frames, hands.program(taker), mode, initial={**moved, p.object: T_meet}
+        )
         planned[taker] = (t_frames, planned[taker][1], result)
         plans[taker] = result.plan
     return plans
 
 
-def reproduce_two_arms(
+@dataclass
+class TwoArmPlan:
+    """Both lanes of a two-hand program planned for a layout and put on one clock
+    (:func:`plan_two_arms`), not yet run."""
+
+    mode: str
+    programs: dict[str, TaskProgram]
+    bases: dict[str, np.ndarray]
+    yaws: dict[str, float]
+    planned: dict[str, tuple[Any, Any, Any]]
+    """Each lane's (:class:`~lfd.reproduce.goals.DemoFrames`, initial poses,
+    :class:`~lfd.reproduce.modes.PlanResult`)."""
+    plans: dict[str, Plan]
+    """Each arm's plan on the common clock."""
+    specs: list[ObjectSpec]
+    expected: dict[str, np.ndarray]
+    owners: dict[str, str]
+
+    @property
+    def sides(self) -> list[str]:
+        return list(self.programs)
+
+
+def _lane(
+    traj: Any,
+    program: TaskProgram,
+    mode: str,
+    moved: dict[str, np.ndarray],
+    base: np.ndarray,
+    arm: Robot,
+    displace: dict[str, Any],
+) -> tuple[Any, dict[str, np.ndarray], Any]:
+    """One lane planned from ``base`` with the objects where the layout puts them (``moved``):
+    :func:`~lfd.reproduce.displacement.plan_layout` with the base fixed, its re-grounded
+    goals checked (:func:`~lfd.reproduce.displacement.check_goals`) when displaced."""
+    from .displacement import check_goals, program_start
+    from .goals import DemoFrames
+    from .modes import plan_task
+
+    frames = DemoFrames(traj, base, arm)
+    start_i = program_start(traj, program)
+    initial = {n: moved.get(n, frames.object_pose(n, start_i)) for n in frames.names}
+    result = plan_task(frames, program, mode, initial=dict(moved))
+    if displace:
+        check_goals(frames, initial, result.scenes, displace)
+    return frames, initial, result
+
+
+def plan_two_arms(
     trajs: dict[str, Any],
     hands: HandsProgram,
     mode: str = "skills",
     *,
-    robot: TwoArmRobot | None = None,
-) -> TwoArmReproduction:
-    """Plan each hand's lane for the arm of its side, put both on one clock and run them in
-    one scene (see the module docstring). ``trajs``: each hand's preprocessed trajectory
-    (``lfd.preprocess(demo.one_hand(side), **PREPROCESSING)``).
+    robot: TwoArmRobot,
+    displace: dict[str, Any] | None = None,
+) -> TwoArmPlan:
+    """Choose both bases, plan each lane for the arm of its side (the objects displaced by
+    ``displace``, as :func:`~lfd.reproduce.displacement.plan_layout` does for one arm) and put
+    both on one clock. With displaced objects the bases are chosen again for the planned,
+    re-grounded paths and the lanes planned again from there (as one arm's base is).
 
     Raises
     ------
     DemonstrationError
         A synchronisation the arms do not run (:func:`check_runs`), or a lane out of its arm's
         reach (:func:`choose_bases`), in one line.
+    UsageError
+        A displacement whose re-grounded task is impossible
+        (:func:`~lfd.reproduce.displacement.check_goals`).
     """
-    from .aloha import aloha
-    from .displacement import plan_layout
-    from .measures import object_errors
-    from .outcome import skill_results
+    from .displacement import initial_poses, program_start
+    from .goals import DemoFrames
 
-    robot = robot or aloha()
+    displace = dict(displace or {})
     check_runs(hands)
     sides = [s for s in hands.sides if hands.lanes[s] and s in robot.arms]
-    if len(sides) < len(hands.sides):
-        missing = [s for s in hands.sides if s not in robot.arms]
-        if missing:
-            raise DemonstrationError(f"the {missing[0]} hand has no arm on {robot.name}")
+    missing = [s for s in hands.sides if s not in robot.arms]
+    if missing:
+        raise DemonstrationError(f"the {missing[0]} hand has no arm on {robot.name}")
     programs = {s: hands.program(s) for s in sides}
-    first = np.asarray(trajs[sides[0]].object_position, dtype=np.float64)
-    objects0 = np.array([p[np.all(np.isfinite(p), axis=1)][0] for p in first])
+    traj0 = trajs[sides[0]]
+    start0 = program_start(traj0, programs[sides[0]])
+    moved = initial_poses(DemoFrames(traj0, np.zeros(3), robot.ik), displace, start0)
+    first = np.asarray(traj0.object_position, dtype=np.float64)
+    objects0 = np.array([p[np.all(np.isfinite(p), axis=1)][0] for p in first]).reshape(-1, 3)
+    shifted = np.array([T[:3, 3] for T in moved.values()]).reshape(-1, 3)
+    keep_out = np.concatenate([objects0, shifted])
     points = {s: np.asarray(trajs[s].tcp, dtype=np.float64) for s in sides}
-    bases = choose_bases(points, objects0.reshape(-1, 3), robot)
+    bases = choose_bases(points, keep_out, robot)
+
+    def plan_lanes(bases: dict[str, np.ndarray]) -> dict[str, tuple[Any, Any, Any]]:
+        out = {}
+        for s in sides:
+            try:
+                out[s] = _lane(trajs[s], programs[s], mode, moved, bases[s], robot.ik, displace)
+            except UsageError as err:  # the arm named
+                msg = str(err).replace("the arm's reach", f"the {s} arm's reach")
+                raise UsageError(f"{s} arm: {msg}") from err
+        return out
+
+    planned = plan_lanes(bases)
+    if displace:  # the bases again, for the re-grounded paths and every planned object pose
+        scenes = [sc for _, ini, r in planned.values() for sc in [ini, *r.scenes]]
+        objs = np.array([T[:3, 3] for sc in scenes for T in sc.values()])
+        paths = {s: planned[s][2].plan.position for s in sides}
+        new = choose_bases(paths, objs, robot)
+        if any(np.linalg.norm(new[s] - bases[s]) > 1e-9 for s in sides):
+            bases = new
+            planned = plan_lanes(bases)
     yaws = {s: mount_yaw(bases[s], points[s]) for s in sides}
-    planned = {
-        s: plan_layout(trajs[s], programs[s], mode, {}, base=bases[s], robot=robot.ik)
-        for s in sides
-    }
     frames, initial, _ = planned[sides[0]]
-    plans = _handovers(planned, hands, mode, bases)
+    plans = _handovers(planned, hands, mode, moved)
     owners: dict[str, str] = {}  # the lane that handles each object last
     for side, name, _ in sorted(
         ((s, g.object, g.end_s) for s in sides for g in programs[s].segments if g.skill != "move"),
@@ -536,10 +705,51 @@ def reproduce_two_arms(
             ObjectSpec(name, frames.size[k], p, np.array([0, 0, np.sin(yaw / 2), np.cos(yaw / 2)]))
         )
     plans = synchronise(plans, hands)
-    ex = execute_two(plans, bases, specs, robot, yaws)
+    return TwoArmPlan(mode, programs, bases, yaws, planned, plans, specs, expected, owners)
+
+
+def reproduce_two_arms(
+    trajs: dict[str, Any],
+    hands: HandsProgram,
+    mode: str = "skills",
+    *,
+    robot: TwoArmRobot | None = None,
+    displace: dict[str, Any] | None = None,
+) -> TwoArmReproduction:
+    """Plan each hand's lane for the arm of its side, put both on one clock and run them in
+    one scene (see the module docstring). ``trajs``: each hand's preprocessed trajectory
+    (``lfd.preprocess(demo.one_hand(side), **PREPROCESSING)``); ``displace``: objects moved as
+    ``lfd reproduce --displace`` moves them (``name -> (dx, dy[, turn_deg])``).
+
+    Raises
+    ------
+    DemonstrationError, UsageError
+        As :func:`plan_two_arms`, in one line.
+    """
+    from .aloha import aloha
+
+    robot = robot or aloha()
+    return run_two_arm_plan(
+        plan_two_arms(trajs, hands, mode, robot=robot, displace=displace), robot
+    )
+
+
+def run_two_arm_plan(plan: TwoArmPlan, robot: TwoArmRobot) -> TwoArmReproduction:
+    """Run both arms' plans in one scene and judge them, per arm and for the task."""
+    from .measures import object_errors
+    from .outcome import skill_results
+
+    sides, programs, plans = plan.sides, plan.programs, plan.plans
+    collisions: list[Collision] = []
+    ex = execute_two(plans, plan.bases, plan.specs, robot, plan.yaws, collisions=collisions)
     any_ex = ex[sides[0]]
+    frames = plan.planned[sides[0]][0]
     objs = object_errors(
-        any_ex.object_names, any_ex.final_position, any_ex.final_quaternion, expected, frames.size
+        any_ex.object_names,
+        any_ex.final_position,
+        any_ex.final_quaternion,
+        plan.expected,
+        frames.size,
     )
     skills = {}
     for s in sides:
@@ -557,8 +767,16 @@ def reproduce_two_arms(
             final_position=e.final_position[keep],
             final_quaternion=e.final_quaternion[keep],
         )
-        executed = planned[s][2].program or programs[s]
+        executed = plan.planned[s][2].program or programs[s]
         skills[s] = skill_results(executed, plans[s], mine, [objs[j] for j in keep])
     return TwoArmReproduction(
-        mode, bases, plans, ex, objs, skills, wall_time_s=any_ex.wall_time_s, owners=owners
+        plan.mode,
+        plan.bases,
+        plans,
+        ex,
+        objs,
+        skills,
+        wall_time_s=any_ex.wall_time_s,
+        owners=plan.owners,
+        collisions=collisions,
     )
