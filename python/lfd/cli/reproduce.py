@@ -387,7 +387,6 @@ def _run_randomised(
 ) -> int:
     """``--randomise N``: every mode on N layouts; a success table per mode and skill."""
     from rich.progress import Progress
-    from rich.table import Table
 
     from ..reproduce import random_layouts, reproduce_randomised
     from ..reproduce.robots import robot
@@ -421,19 +420,33 @@ def _run_randomised(
             robot=args.robot,
         )
     skills = list(dict.fromkeys(program.skills))
+    return randomised_report(args, res, skills, program.to_json(), err)
+
+
+def randomised_report(
+    args: argparse.Namespace, res: Any, skills: list[str], program: Any, err: Any
+) -> int:
+    """``--randomise``'s table (per mode: success, of two arms each arm's, per skill, the
+    failure reasons), every failure line and the JSON; the exit status."""
+    from rich.table import Table
+
+    modes = res.modes
+    arms = list(dict.fromkeys(a for r in res.runs for a in (r.arms or {})))
     table = Table(
         title=f"{args.recording}: {args.randomise} layouts (shift <= {args.max_shift:g} m, "
         f"turn <= {args.max_turn:g} deg, seed {args.seed})"
     )
-    for col in ("mode", "success", *skills, "failure reasons"):
+    for col in ("mode", "success", *(f"{a} arm" for a in arms), *skills, "failure reasons"):
         table.add_column(col)
     for mode in modes:
         rates = res.skill_rates(mode)
-        ok = sum(r.success for r in res.runs if r.mode == mode)
+        runs = [r for r in res.runs if r.mode == mode]
+        ok = sum(r.success for r in runs)
         reasons = ", ".join(f"{k} {v}" for k, v in res.reasons(mode).most_common()) or "-"
         table.add_row(
             mode,
             f"{ok}/{args.randomise} ({100 * res.success_rate(mode):.0f}%)",
+            *(f"{sum(bool((r.arms or {}).get(a)) for r in runs)}/{len(runs)}" for a in arms),
             *(f"{rates[k][0]}/{rates[k][1]}" if k in rates else "-" for k in skills),
             reasons,
         )
@@ -448,7 +461,7 @@ def _run_randomised(
                     soft_wrap=True,
                 )
     if args.json:
-        doc = {"recording": args.recording, "program": program.to_json()} | res.to_json()
+        doc = {"recording": args.recording, "program": program} | res.to_json()
         write_json(args.json, doc)
     judged = [m for m in modes if not (args.mode == "all" and m == "replay")]
     return 0 if all(r.success for r in res.runs if r.mode in judged) else 1
