@@ -57,6 +57,22 @@ def _first_lane(trajs: dict[str, Any], hands: HandsProgram) -> str:
     return min(sides, key=lambda s: hands.lanes[s][0].start_s)
 
 
+def _check_program(
+    trajs: dict[str, Any], hands: HandsProgram, modes: Sequence[str], robot: TwoArmRobot
+) -> str:
+    """Refuse what no layout changes (a synchronisation the arms do not run, a hand with no
+    arm, an object no gripper holds); the lane the layouts are drawn from."""
+    check_runs(hands)
+    missing = [s for s in hands.sides if s not in robot.arms]
+    if missing:
+        raise DemonstrationError(f"the {missing[0]} hand has no arm on {robot.name}")
+    if any(m != "replay" for m in modes):
+        for side in hands.sides:
+            if hands.lanes[side]:
+                check_program(trajs[side], hands.program(side), robot.ik)
+    return _first_lane(trajs, hands)
+
+
 def check_two_arm_layout(
     trajs: dict[str, Any],
     hands: HandsProgram,
@@ -157,15 +173,7 @@ def reproduce_two_arms_randomised(
     from .aloha import aloha
 
     robot = robot or aloha()
-    check_runs(hands)
-    missing = [s for s in hands.sides if s not in robot.arms]
-    if missing:
-        raise DemonstrationError(f"the {missing[0]} hand has no arm on {robot.name}")
-    first = _first_lane(trajs, hands)
-    if any(m != "replay" for m in modes):
-        for side in hands.sides:
-            if hands.lanes[side]:
-                check_program(trajs[side], hands.program(side), robot.ik)
+    first = _check_program(trajs, hands, modes, robot)
 
     planned: dict[str, TwoArmPlan] = {}  # the layout's plans, made by its check, run as made
 
@@ -208,7 +216,7 @@ def first_layout(
 ) -> None:
     """Draw the first layout (nothing simulated): refuses bad settings and a program with no
     valid layout in one line before a progress bar starts."""
-    first = _first_lane(trajs, hands)
+    first = _check_program(trajs, hands, modes, robot)
     for _ in iter_layouts(
         trajs[first],
         hands.program(first),
