@@ -595,6 +595,26 @@ class TwoArmPlan:
     def sides(self) -> list[str]:
         return list(self.programs)
 
+    def others(self, side: str) -> set[str]:
+        """The objects only the other arm handles (in ``side``'s lane they stay where they
+        started: its planned scenes do not know where they are)."""
+        return _others(self.programs, side)
+
+
+def _others(programs: dict[str, TaskProgram], side: str) -> set[str]:
+    theirs = set().union(*(_handled(programs[o]) for o in programs if o != side))
+    return theirs - _handled(programs[side])
+
+
+def lifted(scene: dict[str, np.ndarray], names: set[str]) -> dict[str, np.ndarray]:
+    """``scene`` with the objects ``names`` taken off the table (10 m up): out of the overlap
+    and crowding checks of a lane that does not know where they are."""
+    out = dict(scene)
+    for n in names & set(scene):
+        out[n] = scene[n].copy()
+        out[n][2, 3] += 10.0
+    return out
+
 
 def _lane(
     traj: Any,
@@ -604,10 +624,13 @@ def _lane(
     base: np.ndarray,
     arm: Robot,
     displace: dict[str, Any],
+    others: set[str],
+    events: list[tuple[float, str, np.ndarray]],
 ) -> tuple[Any, dict[str, np.ndarray], Any]:
     """One lane planned from ``base`` with the objects where the layout puts them (``moved``):
     :func:`~lfd.reproduce.displacement.plan_layout` with the base fixed, its re-grounded
-    goals checked (:func:`~lfd.reproduce.displacement.check_goals`) when displaced."""
+    goals checked (:func:`~lfd.reproduce.displacement.check_goals`) when displaced, against
+    every object but ``others`` (those the other arm moves)."""
     from .displacement import check_goals, program_start
     from .goals import DemoFrames
     from .modes import plan_task
@@ -615,10 +638,32 @@ def _lane(
     frames = DemoFrames(traj, base, arm)
     start_i = program_start(traj, program)
     initial = {n: moved.get(n, frames.object_pose(n, start_i)) for n in frames.names}
-    result = plan_task(frames, program, mode, initial=dict(moved))
+    result = plan_task(frames, program, mode, initial=dict(moved), events=events)
     if displace:
-        check_goals(frames, initial, result.scenes, displace)
+        scenes = [lifted(sc, others) for sc in result.scenes]
+        check_goals(frames, lifted(initial, others), scenes, displace)
     return frames, initial, result
+
+
+def _events(
+    planned: dict[str, tuple[Any, Any, Any]], side: str, others: set[str]
+) -> list[tuple[float, str, np.ndarray]]:
+    """Where the other arms' plans put the objects only they handle, from the end of each of
+    their places, stacks and pushes on (demonstration time): ``side``'s lane then re-grounds a
+    skill relative to such an object where it will be, not where it started."""
+    out = []
+    for o, (_, _, r) in planned.items():
+        if o == side or r.program is None:
+            continue
+        acting = [g for g in r.program.segments if g.skill in ("place", "stack", "push")]
+        if len(acting) + 1 != len(r.scenes):
+            continue
+        out += [
+            (g.end_s, g.object, sc[g.object])
+            for g, sc in zip(acting, r.scenes, strict=False)
+            if g.object in others and g.object in sc
+        ]
+    return out
 
 
 def plan_two_arms(
@@ -663,17 +708,25 @@ def plan_two_arms(
     points = {s: np.asarray(trajs[s].tcp, dtype=np.float64) for s in sides}
     bases = choose_bases(points, keep_out, robot)
 
-    def plan_lanes(bases: dict[str, np.ndarray]) -> dict[str, tuple[Any, Any, Any]]:
+    def plan_lanes(
+        bases: dict[str, np.ndarray], before: dict[str, tuple[Any, Any, Any]] | None = None
+    ) -> dict[str, tuple[Any, Any, Any]]:
         out = {}
         for s in sides:
             try:
-                out[s] = _lane(trajs[s], programs[s], mode, moved, bases[s], robot.ik, displace)
+                others = _others(programs, s)
+                events = _events(before, s, others) if before else []
+                out[s] = _lane(
+                    trajs[s], programs[s], mode, moved, bases[s], robot.ik, displace, others, events
+                )
             except UsageError as err:  # the arm named
                 msg = str(err).replace("the arm's reach", f"the {s} arm's reach")
                 raise UsageError(f"{s} arm: {msg}") from err
         return out
 
     planned = plan_lanes(bases)
+    if len(sides) > 1:  # again, each lane knowing where the other arm moves its objects
+        planned = plan_lanes(bases, planned)
     if displace:  # the bases again, for the re-grounded paths and every planned object pose
         scenes = [sc for _, ini, r in planned.values() for sc in [ini, *r.scenes]]
         objs = np.array([T[:3, 3] for sc in scenes for T in sc.values()])
@@ -681,7 +734,7 @@ def plan_two_arms(
         new = choose_bases(paths, objs, robot)
         if any(np.linalg.norm(new[s] - bases[s]) > 1e-9 for s in sides):
             bases = new
-            planned = plan_lanes(bases)
+            planned = plan_lanes(bases, plan_lanes(bases))
     yaws = {s: mount_yaw(bases[s], points[s]) for s in sides}
     frames, initial, _ = planned[sides[0]]
     plans = _handovers(planned, hands, mode, moved)

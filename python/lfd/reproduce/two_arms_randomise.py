@@ -9,8 +9,10 @@ one). A draw is rejected and drawn again, as one arm's is, when for a mode
   base on its side from which it reaches all of its re-grounded path (``out of the right arm's
   reach``), or a lane's re-grounded task would put an object out of its arm's reach, off the
   table or into another object (:func:`~lfd.reproduce.displacement.check_goals`);
-* two objects on the table, at the start or after any skill of either lane, are closer than
-  :data:`~lfd.reproduce.randomise.LAYOUT_GAP`.
+* two objects on the table are closer than :data:`~lfd.reproduce.randomise.LAYOUT_GAP` at the
+  start or after a skill of a lane (there only the objects the other arm does not move: where
+  it has them then is not planned), or overlap where both arms leave them (the end: a push may
+  end a box next to the box the other arm holds, as the demonstrator does).
 
 Each layout's rejections are counted by kind (naming the arm) in
 :attr:`~lfd.reproduce.randomise.Layout.rejected`. Each run reports the task's success, each
@@ -27,7 +29,8 @@ from typing import Any
 
 from ..errors import DemonstrationError, UsageError
 from .aloha import TwoArmRobot
-from .displacement import Displacement, check_program
+from .displacement import STACK_SLACK, Displacement, _overlap, check_program
+from .goals import yaw_of
 from .measures import path_length
 from .program import HandsProgram
 from .randomise import (
@@ -43,6 +46,7 @@ from .two_arms import (
     TwoArmPlan,
     TwoArmReproduction,
     check_runs,
+    lifted,
     plan_two_arms,
     reproduce_two_arms,
     run_two_arm_plan,
@@ -93,13 +97,34 @@ def check_two_arm_layout(
             msg = str(err)
             m = re.match(r"the (\w+) arm .*cannot reach", msg)
             return f"out of the {m.group(1)} arm's reach: {msg}" if m else msg
-        for frames, start, result in plan.planned.values():
-            for scene in [start, *result.scenes]:
-                crowded = _crowded(frames, scene, gap)
-                if crowded:
-                    return crowded
+        frames, start, _ = plan.planned[plan.sides[0]]
+        scenes = [start]  # every object at the start, then a lane's own objects meanwhile
+        for side, (_, _, result) in plan.planned.items():
+            scenes += [lifted(sc, plan.others(side)) for sc in result.scenes]
+        for scene in scenes:
+            crowded = _crowded(frames, scene, gap)
+            if crowded:
+                return crowded
+        overlap = _overlapping(frames, plan.expected)
+        if overlap:
+            return overlap
         if planned is not None:
             planned[mode] = plan
+    return None
+
+
+def _overlapping(frames: Any, scene: dict[str, Any]) -> str | None:
+    """The first two objects of ``scene`` that intersect (one resting on the other aside), as
+    a message: where both arms leave the objects, which no lane alone plans."""
+    names = frames.names
+    for a in range(len(names)):
+        for b in range(a + 1, len(names)):
+            Ta, Tb = scene[names[a]], scene[names[b]]
+            sa, sb = frames.size[a], frames.size[b]
+            if abs(Ta[2, 3] - Tb[2, 3]) > 0.5 * (sa[2] + sb[2]) - STACK_SLACK:
+                continue
+            if _overlap(Ta[:3, 3], yaw_of(Ta[:3, :3]), sa, Tb[:3, 3], yaw_of(Tb[:3, :3]), sb):
+                return f"{names[a]} and {names[b]} overlapping at the end"
     return None
 
 
