@@ -639,9 +639,10 @@ def _lane(
     start_i = program_start(traj, program)
     initial = {n: moved.get(n, frames.object_pose(n, start_i)) for n in frames.names}
     result = plan_task(frames, program, mode, initial=dict(moved), events=events)
-    if displace:
-        scenes = [lifted(sc, others) for sc in result.scenes]
-        check_goals(frames, lifted(initial, others), scenes, displace)
+    if displace:  # the other arm's objects off the table, as they start (not this lane's)
+        away = lifted(initial, others)
+        scenes = [sc | {n: away[n] for n in others if n in away} for sc in result.scenes]
+        check_goals(frames, away, scenes, displace)
     return frames, initial, result
 
 
