@@ -94,7 +94,7 @@ def _randomised(
     from rich.progress import Progress
 
     from ..reproduce.two_arms_randomise import first_layout, reproduce_two_arms_randomised
-    from .reproduce import randomised_report
+    from ._randomised import randomised_report
 
     settings = {"seed": args.seed, "max_shift": args.max_shift, "max_turn_deg": args.max_turn}
     # refused (one line) before the progress bar starts: settings, the program, no layout

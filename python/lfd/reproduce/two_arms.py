@@ -15,10 +15,17 @@
   giver lets go only once the taker has grasped. A ``carry`` is not run yet (refused in one
   line).
 * **Execution** (:func:`execute_two`): both arms in one MuJoCo scene, one IK per arm, one
-  control tick for both; an arm that has finished holds its last pose.
+  control tick for both; an arm that has finished holds its last pose. The links collide with
+  the table and the other arm (:mod:`.two_arms_contacts`): the first contact of the two arms,
+  and of each arm with the table, is a failure naming the arm.
+* **Layouts** (:func:`plan_two_arms` with ``displace``): the objects moved as ``--displace``
+  moves them for one arm, the bases chosen again for the re-grounded paths; each lane is
+  planned twice, the second time knowing where the other arm puts the objects only it handles
+  (:func:`_events`). Randomised layouts: :mod:`.two_arms_randomise`.
 * **Success**, per arm (its skills, :func:`~lfd.reproduce.outcome.skill_results` over the
-  objects the other arm does not handle) and for the task (every object at its goal: the pose
-  the lane that handles it leaves it in, else where it started).
+  objects the other arm does not handle, and no collision) and for the task (every object at
+  its goal: the pose the lane that handles it leaves it in, else where it started; no
+  collision).
 """
 
 from __future__ import annotations
@@ -37,6 +44,7 @@ from .ik import ArmIK, gripper_rotation
 from .modes import DWELL_S
 from .program import HandsProgram, TaskProgram
 from .scene import ObjectSpec, _colour
+from .two_arms_contacts import ARM_BITS, Collision, Contacts, collision_bits
 
 BASE_GAP = 0.4
 """Smallest distance between the two bases (m)."""
@@ -140,7 +148,7 @@ def scene_xml(
         )
     arms = "".join(
         f'<body name="{side}/robot_base" pos="{b[0]:.6f} {b[1]:.6f} 0">'
-        f"{_collision_bits(mounted(robot.arms[side], (yaws or {}).get(side, 0.0)).body, side)}"
+        f"{collision_bits(mounted(robot.arms[side], (yaws or {}).get(side, 0.0)).body, side)}"
         "</body>"
         for side, b in bases.items()
     )
@@ -157,33 +165,6 @@ def scene_xml(
     {arms}{"".join(bodies)}
   </worldbody>{actuators}{contacts}
 </mujoco>"""
-
-
-ARM_BITS = {"right": 2, "left": 4}
-"""Each arm's collision bit: its links collide with the table and the other arm (not with
-the objects, nor with themselves); its gripper and fingers with those and the objects."""
-
-
-def _collision_bits(body: str, side: str) -> str:
-    """``body`` (an arm's MJCF) with its links colliding with the table and the other arm
-    (:data:`ARM_BITS`), its colliding geoms (gripper, pads) with the other arm too; the
-    finger meshes stay seen only."""
-    import xml.etree.ElementTree as ET
-
-    mine = ARM_BITS.get(side, 0)
-    others = sum(b for s, b in ARM_BITS.items() if s != side)
-    root = ET.fromstring(f"<arm>{body}</arm>")
-    for geom in root.iter("geom"):
-        name = geom.get("name", "")
-        if geom.get("contype") == "0":
-            if "finger" in name:
-                continue  # a finger's mesh: its flat pad collides
-            geom.set("contype", str(mine))
-            geom.set("conaffinity", str(others))
-        else:
-            geom.set("contype", str(1 | mine))
-            geom.set("conaffinity", str(1 | others))
-    return "".join(ET.tostring(el, encoding="unicode") for el in root)
 
 
 def _inner(xml: str, tag: str) -> str:
@@ -309,52 +290,6 @@ def check_runs(hands: HandsProgram) -> None:
 
 
 # --- both arms in one scene ----------------------------------------------------------------------
-@dataclass(frozen=True)
-class Collision:
-    """An arm touching the other arm or the table (its first tick)."""
-
-    arm: str
-    part: str
-    """The arm's link (``upper_forearm_link``, ``gripper``, ...)."""
-    other: str
-    """``"table"`` or the other arm's side."""
-    other_part: str
-    t_s: float
-
-    def describe(self) -> str:
-        what = "the table" if self.other == "table" else f"the {self.other} arm's {self.other_part}"
-        return f"{self.arm} arm: collision: its {self.part} touched {what} at {self.t_s:.1f} s"
-
-
-class _Contacts:
-    """Which geoms belong to which arm (and its link), to find arm-arm and arm-table contacts."""
-
-    def __init__(self, model: Any, sides: list[str]) -> None:
-        self.owner: dict[int, tuple[str, str]] = {}
-        for g in range(model.ngeom):
-            name = model.geom(g).name
-            body = model.body(model.geom_bodyid[g]).name
-            if name == "table":
-                self.owner[g] = ("table", "top")
-            for side in sides:
-                if body.startswith(f"{side}/"):
-                    self.owner[g] = (side, body[len(side) + 1 :])
-        self.seen: dict[str, Collision] = {}
-
-    def check(self, data: Any, t_s: float) -> None:
-        if not data.ncon:
-            return
-        for g1, g2 in zip(data.contact.geom1, data.contact.geom2, strict=True):
-            a, b = self.owner.get(int(g1)), self.owner.get(int(g2))
-            if a is None or b is None or a[0] == b[0]:
-                continue
-            if a[0] == "table":
-                a, b = b, a
-            key = f"{a[0]} table" if b[0] == "table" else "arms"
-            if key not in self.seen:
-                self.seen[key] = Collision(a[0], a[1], b[0], b[1], t_s)
-
-
 def execute_two(
     plans: dict[str, Plan],
     bases: dict[str, np.ndarray],
@@ -382,7 +317,7 @@ def execute_two(
         body_ids = [model.body(o.name).id for o in objects]
         steps = max(1, round(TICK / model.opt.timestep))
         n = max(len(p) for p in plans.values())
-        contacts = _Contacts(model, list(plans))
+        contacts = Contacts(model, list(plans))
         opos = np.zeros((len(objects), n, 3))
         oquat = np.zeros((len(objects), n, 4))
         for i in range(n + round(settle_s / TICK)):
