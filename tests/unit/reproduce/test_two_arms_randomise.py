@@ -63,6 +63,31 @@ def test_arms_driven_into_each_other_and_the_table_are_reported_naming_the_arm()
     assert hits[0].describe().endswith(f"touched the table at {hits[0].t_s:.1f} s")
 
 
+def test_a_held_box_is_put_down_relative_to_where_the_other_arm_pushes_its_neighbour() -> None:
+    """The holding lane's place is re-grounded relative to the box the other hand pushed next
+    to it: planned knowing where the other arm's push leaves that box (not where it started),
+    the held box ends beside it as in the demonstration, displaced or not; undisplaced, it is
+    put down where it was held (it was put 0.09 m away, onto the pushed box)."""
+    from lfd.reproduce.aloha import aloha
+    from lfd.reproduce.two_arms import plan_two_arms
+
+    trajs, hands = _program("hold_push", 309)
+    (hold,) = [p for p in hands.sync if p.kind == "hold_until"]
+    held = hands.lanes[hold.hand][hold.step].object
+    pushed = hands.lanes[hold.other][hold.other_step].object
+    traj = trajs[hold.hand]
+    names = list(traj.object_names)
+    end = np.asarray(traj.object_position, dtype=np.float64)[:, -1, :2]
+    demo = end[names.index(held)] - end[names.index(pushed)]
+    for displace in ({}, {held: (0.03, -0.02, 20.0)}):
+        plan = plan_two_arms(trajs, hands, "skills", robot=aloha(), displace=displace)
+        got = plan.expected[held][:2, 3] - plan.expected[pushed][:2, 3]
+        assert np.linalg.norm(got - demo) < 0.012, (displace, got, demo)
+        if not displace:
+            start = plan.planned[hold.hand][1][held][:2, 3]
+            assert np.linalg.norm(plan.expected[held][:2, 3] - start) < 0.012
+
+
 def test_a_layout_out_of_an_arms_reach_is_drawn_again_naming_the_arm() -> None:
     from lfd.reproduce.aloha import aloha
     from lfd.reproduce.randomise import _rejection_kind
