@@ -89,7 +89,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         help="run the mode(s) on N layouts (1 to 100000) with every object shifted and turned "
         "(reachable, collision-free), each drawn as it runs, and print the success per mode "
-        "and per skill and the failure reasons",
+        "and per skill and the failure reasons (with --robot aloha: of a two-hand recording, "
+        "on both arms, with each arm's success)",
     )
     rnd.add_argument("--seed", type=seed, default=0, help="--randomise: random seed (default 0)")
     rnd.add_argument(
