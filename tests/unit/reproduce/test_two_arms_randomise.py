@@ -127,7 +127,8 @@ def test_hold_push_over_randomised_layouts_on_two_arms() -> None:
     assert res.success_rate("skills") == 1.0, [r.failures for r in res.runs]
     doc = res.to_json()
     assert doc["settings"]["robot"] == "aloha"
-    assert set(doc["summary"]["skills"]["skills"]) >= {"right push", "left pick_up"}
+    (hold,) = [p for p in hands.sync if p.kind == "hold_until"]
+    assert set(doc["summary"]["skills"]["skills"]) >= {f"{hold.other} push", f"{hold.hand} pick_up"}
     assert doc["layouts"][0]["results"]["skills"]["arms"] == {"right": True, "left": True}
 
 
