@@ -9,8 +9,9 @@ one). A draw is rejected and drawn again, as one arm's is, when for a mode
   base on its side from which it reaches all of its re-grounded path (``out of the right arm's
   reach``), or a lane's re-grounded task would put an object out of its arm's reach, off the
   table or into another object (:func:`~lfd.reproduce.displacement.check_goals`);
-* two objects on the table are closer than :data:`~lfd.reproduce.randomise.LAYOUT_GAP` at the
-  start or after a skill of a lane (there only the objects the other arm does not move: where
+* two objects on the table are closer than :data:`~lfd.reproduce.randomise.LAYOUT_GAP`
+  (between their footprints, not their circumscribed circles as for one arm: the handover's
+  16 cm bar) at the start or after a skill of a lane (there only the objects the other arm does not move: where
   it has them then is not planned), or overlap where both arms leave them (the end: a push may
   end a box next to the box the other arm holds, as the demonstrator does).
 
@@ -27,6 +28,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from ..errors import DemonstrationError, UsageError
 from .aloha import TwoArmRobot
 from .displacement import STACK_SLACK, Displacement, _overlap, check_program
@@ -38,7 +41,6 @@ from .randomise import (
     MAX_SHIFT,
     MAX_TURN_DEG,
     Randomised,
-    _crowded,
     iter_layouts,
     run_randomised,
 )
@@ -110,6 +112,45 @@ def check_two_arm_layout(
             return overlap
         if planned is not None:
             planned[mode] = plan
+    return None
+
+
+def _corners(T: np.ndarray, size: np.ndarray) -> np.ndarray:
+    """The 4 corners (x, y) of an upright box's footprint."""
+    c, s = np.cos(yaw_of(T[:3, :3])), np.sin(yaw_of(T[:3, :3]))
+    half = np.array([[1, 1], [1, -1], [-1, -1], [-1, 1]]) * np.asarray(size[:2]) / 2
+    return T[:2, 3] + half @ np.array([[c, s], [-s, c]])
+
+
+def _footprint_gap(a: np.ndarray, b: np.ndarray) -> float:
+    """Distance (m) between two disjoint convex footprints (corner arrays): the nearest corner
+    of one to an edge of the other."""
+
+    def to_edges(p: np.ndarray, poly: np.ndarray) -> np.ndarray:
+        q, r = poly, np.roll(poly, -1, axis=0)
+        e = r - q
+        t = np.clip(((p[:, None] - q[None]) * e[None]).sum(axis=2) / (e**2).sum(axis=1), 0, 1)
+        return np.linalg.norm(p[:, None] - (q[None] + t[..., None] * e[None]), axis=2)
+
+    return float(min(to_edges(a, b).min(), to_edges(b, a).min()))
+
+
+def _crowded(frames: Any, scene: dict[str, Any], gap: float) -> str | None:
+    """The first two objects on the same level whose footprints are closer than ``gap``, as a
+    message (one arm's rule, :func:`~lfd.reproduce.randomise._crowded`, measures between
+    circumscribed circles: a 16 cm bar's circle would keep the boxes 8 cm from its sides)."""
+    names = frames.names
+    for a in range(len(names)):
+        for b in range(a + 1, len(names)):
+            Ta, Tb = scene[names[a]], scene[names[b]]
+            sa, sb = frames.size[a], frames.size[b]
+            if abs(Ta[2, 3] - Tb[2, 3]) > 0.5 * (sa[2] + sb[2]) - 0.005:
+                continue  # one rests on the other
+            if _overlap(Ta[:3, 3], yaw_of(Ta[:3, :3]), sa, Tb[:3, 3], yaw_of(Tb[:3, :3]), sb):
+                return f"{names[a]} and {names[b]} too close (overlapping)"
+            d = _footprint_gap(_corners(Ta, sa), _corners(Tb, sb))
+            if d < gap:
+                return f"{names[a]} and {names[b]} too close ({d:.3f} m apart)"
     return None
 
 
