@@ -168,3 +168,31 @@ def test_a_program_the_arms_do_not_run_is_refused_before_any_layout() -> None:
         pytest.skip("every synchronisation of the carry runs on two arms")
     with pytest.raises(DemonstrationError, match="not reproduced on two arms yet"):
         first_layout(trajs, hands, robot=aloha())
+
+
+def test_crowding_is_measured_between_footprints() -> None:
+    """Two arms keep 3 cm between the objects' footprints: a box 5 cm beside a 16 cm bar's side
+    is room enough (one arm's circumscribed circles would call it 3 cm too close), 2 cm is not,
+    and overlapping boxes are."""
+    from types import SimpleNamespace
+
+    from lfd.reproduce import randomise
+    from lfd.reproduce.goals import pose
+    from lfd.reproduce.two_arms_randomise import _crowded
+
+    frames = SimpleNamespace(
+        names=["bar", "box"], size=np.array([[0.16, 0.045, 0.045], [0.05, 0.05, 0.05]])
+    )
+
+    def scene(dy: float, yaw: float = 0.0) -> dict[str, np.ndarray]:
+        return {
+            "bar": pose(np.array([0.0, 0.0, 0.0225]), yaw),
+            "box": pose(np.array([0.03, dy, 0.025]), 0.3),
+        }
+
+    far = 0.0225 + 0.05 + 0.025 * np.sqrt(2) * np.cos(np.pi / 4 - 0.3)  # 5 cm between the sides
+    assert _crowded(frames, scene(far), 0.03) is None
+    assert randomise._crowded(frames, scene(far), 0.03) is not None  # type: ignore[arg-type]
+    near = _crowded(frames, scene(far - 0.03), 0.03)
+    assert near is not None and "0.020 m apart" in near
+    assert "overlapping" in (_crowded(frames, scene(0.03), 0.03) or "")
