@@ -24,7 +24,6 @@ def run_two_arms(args: argparse.Namespace, demo: Any, err: Any) -> int:
             ("--segment", args.segment),
             ("--hand", args.hand),
             ("--displace", args.displace),
-            ("--randomise", args.randomise),
             ("--video", args.video),
         )
         if on
@@ -37,10 +36,19 @@ def run_two_arms(args: argparse.Namespace, demo: Any, err: Any) -> int:
     hands = from_hand_labels(
         demo.labels, demo.start_ns, sides=demo.sides, handovers=demo.handovers, objects=demo.objects
     )
-    for line in hands.lines():
-        err.print(line, highlight=False, markup=False)
+    busy = [s for s in hands.sides if hands.lanes[s]]
+    if args.randomise and len(busy) < 2:
+        raise UsageError(
+            f"--randomise with --robot {args.robot} takes a two-hand recording (here "
+            f"{'only the ' + busy[0] + ' hand has' if busy else 'no hand has'} steps); "
+            "--robot kuka_lwr4 or panda randomises a one-hand task"
+        )
     modes = ("replay", "skills", "dmp") if args.mode == "all" else (args.mode,)
     trajs = {s: preprocess(demo.one_hand(s), **PREPROCESSING) for s in hands.sides}
+    if args.randomise:
+        return _randomised(args, trajs, hands, robot, modes, err)
+    for line in hands.lines():
+        err.print(line, highlight=False, markup=False)
     results = {mode: reproduce_two_arms(trajs, hands, mode, robot=robot) for mode in modes}
     out = console(args)
     for mode, r in results.items():
@@ -70,3 +78,41 @@ def run_two_arms(args: argparse.Namespace, demo: Any, err: Any) -> int:
         )
     judged = [m for m in results if not (args.mode == "all" and m == "replay")]
     return 0 if all(results[m].success for m in judged) else 1
+
+
+def _randomised(
+    args: argparse.Namespace,
+    trajs: dict[str, Any],
+    hands: Any,
+    robot: Any,
+    modes: tuple[str, ...],
+    err: Any,
+) -> int:
+    """``--randomise N --robot aloha``: every mode on N layouts with both arms; the success
+    table (the task's and each arm's per mode, per arm and skill), every failure naming the
+    arm, the JSON of the one-arm ``--randomise`` with each arm's success."""
+    from rich.progress import Progress
+
+    from ..reproduce.two_arms_randomise import first_layout, reproduce_two_arms_randomised
+    from ._randomised import randomised_report
+
+    settings = {"seed": args.seed, "max_shift": args.max_shift, "max_turn_deg": args.max_turn}
+    # refused (one line) before the progress bar starts: settings, the program, no layout
+    first_layout(trajs, hands, modes=modes, robot=robot, **settings)
+    for line in hands.lines():
+        err.print(line, highlight=False, markup=False)
+    with Progress(console=err, transient=True, disable=not err.is_terminal) as bar:
+        task = bar.add_task("layouts", total=1.0)
+
+        def tick(i: int, n: int) -> None:
+            bar.update(task, completed=i / max(n, 1))
+
+        res = reproduce_two_arms_randomised(
+            trajs, hands, args.randomise, modes=modes, progress=tick, robot=robot, **settings
+        )
+    for lay in res.layouts:
+        if lay.rejected:
+            why = ", ".join(f"{k} {v}" for k, v in sorted(lay.rejected.items()))
+            err.print(f"layout {lay.index}: drawn again for {why}", highlight=False, markup=False)
+    skills = list(dict.fromkeys(f"{s} {g.skill}" for s in hands.sides for g in hands.lanes[s]))
+    return randomised_report(args, res, skills, hands.to_json(), err)

@@ -89,7 +89,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         help="run the mode(s) on N layouts (1 to 100000) with every object shifted and turned "
         "(reachable, collision-free), each drawn as it runs, and print the success per mode "
-        "and per skill and the failure reasons",
+        "and per skill and the failure reasons (with --robot aloha: of a two-hand recording, "
+        "on both arms, with each arm's success)",
     )
     rnd.add_argument("--seed", type=seed, default=0, help="--randomise: random seed (default 0)")
     rnd.add_argument(
@@ -387,7 +388,6 @@ def _run_randomised(
 ) -> int:
     """``--randomise N``: every mode on N layouts; a success table per mode and skill."""
     from rich.progress import Progress
-    from rich.table import Table
 
     from ..reproduce import random_layouts, reproduce_randomised
     from ..reproduce.robots import robot
@@ -420,38 +420,10 @@ def _run_randomised(
             progress=tick,
             robot=args.robot,
         )
+    from ._randomised import randomised_report
+
     skills = list(dict.fromkeys(program.skills))
-    table = Table(
-        title=f"{args.recording}: {args.randomise} layouts (shift <= {args.max_shift:g} m, "
-        f"turn <= {args.max_turn:g} deg, seed {args.seed})"
-    )
-    for col in ("mode", "success", *skills, "failure reasons"):
-        table.add_column(col)
-    for mode in modes:
-        rates = res.skill_rates(mode)
-        ok = sum(r.success for r in res.runs if r.mode == mode)
-        reasons = ", ".join(f"{k} {v}" for k, v in res.reasons(mode).most_common()) or "-"
-        table.add_row(
-            mode,
-            f"{ok}/{args.randomise} ({100 * res.success_rate(mode):.0f}%)",
-            *(f"{rates[k][0]}/{rates[k][1]}" if k in rates else "-" for k in skills),
-            reasons,
-        )
-    console(args).print(table)
-    for r in res.runs:
-        if not r.success:
-            for line in r.failures:
-                err.print(
-                    f"layout {r.layout} {r.mode}: {line}",
-                    highlight=False,
-                    markup=False,
-                    soft_wrap=True,
-                )
-    if args.json:
-        doc = {"recording": args.recording, "program": program.to_json()} | res.to_json()
-        write_json(args.json, doc)
-    judged = [m for m in modes if not (args.mode == "all" and m == "replay")]
-    return 0 if all(r.success for r in res.runs if r.mode in judged) else 1
+    return randomised_report(args, res, skills, program.to_json(), err)
 
 
 def _program_lines(program: Any) -> list[str]:

@@ -245,8 +245,10 @@ class _TaskPlanner:
         program: TaskProgram,
         mode: str,
         initial: dict[str, np.ndarray] | None,
+        events: list[tuple[float, str, np.ndarray]] | None = None,
     ) -> None:
         self.frames, self.program, self.mode = frames, program, mode
+        self.events = sorted(events or [], key=lambda e: e[0])
         self.robot = frames.robot
         self.segs = program.segments
         start_i = frames.index(self.segs[0].start_s)
@@ -265,6 +267,10 @@ class _TaskPlanner:
 
     def plan(self) -> PlanResult:
         for k, seg in enumerate(self.segs):
+            horizon = self.segs[min(k + 1, len(self.segs) - 1)].end_s
+            while self.events and self.events[0][0] <= horizon:  # moved by someone else
+                _, name, T = self.events.pop(0)
+                self.objects[name] = T
             self._segment(k, seg)
         frames, program = self.frames, self.program
         plan = plan_replay(frames, program) if self.mode == "replay" else Plan.concat(self.parts)
@@ -578,6 +584,7 @@ def plan_task(
     mode: str,
     *,
     initial: dict[str, np.ndarray] | None = None,
+    events: list[tuple[float, str, np.ndarray]] | None = None,
 ) -> PlanResult:
     """Plan ``skills`` or ``dmp`` execution (or ``replay``) of ``program``.
 
@@ -590,13 +597,17 @@ def plan_task(
     mode : {"replay", "skills", "dmp"}
     initial : dict, optional
         Initial 4x4 object poses (displaced); default: the demonstrated initial poses.
+    events : list of (t_s, name, 4x4), optional
+        Objects moved by someone else (the other arm, :mod:`.two_arms`): ``name`` is at the
+        pose from demonstration time ``t_s`` on. Each is known to the planner from the skill
+        before the one during which it happens (a ``move`` plans towards the next skill's goal).
     """
     if mode not in MODES:
         raise InvalidParameterError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
     program = repair_program(frames, program)
     if mode != "replay":
         check_grasps(frames, program)
-    return _TaskPlanner(frames, program, mode, initial).plan()
+    return _TaskPlanner(frames, program, mode, initial, events).plan()
 
 
 def check_grasps(frames: DemoFrames, program: TaskProgram) -> None:

@@ -29,6 +29,7 @@ import numpy as np
 
 from ..errors import InvalidParameterError, LfdError, UsageError
 from ..trajectory import Trajectory
+from .aloha import TwoArmRobot
 from .arm import Robot
 from .displacement import Displacement, check_program, plan_layout, program_start
 from .goals import DemoFrames
@@ -69,7 +70,10 @@ class Layout:
 
 
 def _rejection_kind(message: str) -> str:
-    for kind in ("out of the arm's reach", "off the table", "overlapping", "too close"):
+    m = re.search(r"out of the (?:\w+ )?arm's reach", message)
+    if m:
+        return m.group(0)
+    for kind in ("off the table", "overlapping", "too close"):
         if kind in message:
             return kind
     return "other"
@@ -168,9 +172,12 @@ def iter_layouts(
     gap: float = LAYOUT_GAP,
     modes: Sequence[str] = ("skills", "dmp"),
     robot: Robot = KUKA_LWR4,
+    check: Callable[[dict[str, Displacement]], str | None] | None = None,
 ) -> Iterator[Layout]:
     """:func:`random_layouts` one at a time: each layout is drawn when it is asked for (the
     same layouts, in the same order). The settings are checked at once, on the call.
+    ``check(displace)``: why a layout cannot be used, or None (default :func:`check_layout`
+    for ``robot``; two arms pass their own, :mod:`.two_arms_randomise`).
 
     Raises
     ------
@@ -182,8 +189,13 @@ def iter_layouts(
         raise UsageError(f"--max-shift {max_shift}: must be 0-0.5 m")
     if not (np.isfinite(max_turn_deg) and 0.0 <= max_turn_deg <= 180.0):
         raise UsageError(f"--max-turn {max_turn_deg}: must be 0-180 deg")
-    if any(m != "replay" for m in modes):
-        check_program(traj, program, robot)
+    if check is None:
+        if any(m != "replay" for m in modes):
+            check_program(traj, program, robot)
+
+        def check(displace: dict[str, Displacement]) -> str | None:
+            return check_layout(traj, program, displace, modes=modes, gap=gap, robot=robot)
+
     start_i = program_start(traj, program)
     frames = DemoFrames(traj, np.zeros(3))
     seen = np.all(np.isfinite(np.asarray(traj.object_position)[:, start_i, :]), axis=1)
@@ -204,7 +216,7 @@ def iter_layouts(
                     a = float(rng.uniform(-np.pi, np.pi))
                     turn = float(rng.uniform(-max_turn_deg, max_turn_deg))
                     displace[name] = (r * np.cos(a), r * np.sin(a), turn)
-                problem = check_layout(traj, program, displace, modes=modes, gap=gap, robot=robot)
+                problem = check(displace)
                 if problem is None:
                     yield Layout(index, displace, dict(rejected))
                     break
@@ -256,9 +268,11 @@ class LayoutRun:
     path_length_m: float
     error: str | None = None
     """The run could not be planned or executed (an :class:`~lfd.errors.LfdError`)."""
+    arms: dict[str, bool] | None = None
+    """Two arms: each arm's success (its skills, no collision); None for one arm."""
 
     def to_json(self) -> dict[str, Any]:
-        return {
+        doc = {
             "layout": self.layout,
             "mode": self.mode,
             "success": self.success,
@@ -267,6 +281,7 @@ class LayoutRun:
             "skills": self.skills,
             "error": self.error,
         }
+        return doc if self.arms is None else doc | {"arms": dict(self.arms)}
 
 
 @dataclass
@@ -288,8 +303,8 @@ class Randomised:
         for r in self.runs:
             if r.mode != mode:
                 continue
-            for s in r.skills:
-                c = out.setdefault(s["skill"], [0, 0])
+            for s in r.skills:  # of two arms, per arm: "right push"
+                c = out.setdefault(f"{s['arm']} {s['skill']}" if "arm" in s else s["skill"], [0, 0])
                 c[0] += bool(s["ok"])
                 c[1] += 1
         return {k: (v[0], v[1]) for k, v in out.items()}
@@ -339,18 +354,23 @@ def run_randomised(
     max_shift: float = MAX_SHIFT,
     max_turn_deg: float = MAX_TURN_DEG,
     progress: Callable[[int, int], None] | None = None,
-    robot: Robot = KUKA_LWR4,
+    robot: Robot | TwoArmRobot = KUKA_LWR4,
+    check: Callable[[dict[str, Displacement]], str | None] | None = None,
 ) -> Randomised:
     """Reproduce ``program`` on ``n`` random layouts (:func:`random_layouts`) in every mode
-    (``lfd.reproduce.reproduce_randomised`` with ``run`` = ``lfd.reproduce.reproduce``).
+    (``lfd.reproduce.reproduce_randomised`` with ``run`` = ``lfd.reproduce.reproduce``; two
+    arms: :func:`~lfd.reproduce.two_arms_randomise.reproduce_two_arms_randomised`).
 
     Parameters
     ----------
     run : callable
         ``run(traj, program, mode, displace=..., robot=...)`` -> a
-        :class:`~lfd.reproduce.Reproduction`.
-    robot : Robot
-        The arm: the layouts are checked against its reach, and it runs them.
+        :class:`~lfd.reproduce.Reproduction` (or anything with its ``success``, ``skills``,
+        ``failures`` and ``path_length``, and of two arms ``arms``: each arm's success).
+    robot : Robot or TwoArmRobot
+        The robot: the layouts are checked against its reach, and it runs them.
+    check : callable, optional
+        ``check(displace)``: why a layout cannot be used, or None (:func:`iter_layouts`).
     progress : callable (done, total), optional
         Called after every run.
 
@@ -375,7 +395,8 @@ def run_randomised(
         max_shift=max_shift,
         max_turn_deg=max_turn_deg,
         modes=modes,
-        robot=robot,
+        robot=robot if isinstance(robot, Robot) else robot.ik,
+        check=check,
     ):
         layouts.append(lay)
         for mode in modes:
@@ -388,6 +409,7 @@ def run_randomised(
                     [s.to_json() for s in r.skills],
                     r.failures,
                     r.path_length,
+                    arms=getattr(r, "arms", None),
                 )
             except LfdError as err:
                 one = LayoutRun(lay.index, mode, False, [], [str(err)], 0.0, error=str(err))

@@ -15,10 +15,17 @@
   giver lets go only once the taker has grasped. A ``carry`` is not run yet (refused in one
   line).
 * **Execution** (:func:`execute_two`): both arms in one MuJoCo scene, one IK per arm, one
-  control tick for both; an arm that has finished holds its last pose.
+  control tick for both; an arm that has finished holds its last pose. The links collide with
+  the table and the other arm (:mod:`.two_arms_contacts`): the first contact of the two arms,
+  and of each arm with the table, is a failure naming the arm.
+* **Layouts** (:func:`plan_two_arms` with ``displace``): the objects moved as ``--displace``
+  moves them for one arm, the bases chosen again for the re-grounded paths; each lane is
+  planned twice, the second time knowing where the other arm puts the objects only it handles
+  (:func:`_events`). Randomised layouts: :mod:`.two_arms_randomise`.
 * **Success**, per arm (its skills, :func:`~lfd.reproduce.outcome.skill_results` over the
-  objects the other arm does not handle) and for the task (every object at its goal: the pose
-  the lane that handles it leaves it in, else where it started).
+  objects the other arm does not handle, and no collision) and for the task (every object at
+  its goal: the pose the lane that handles it leaves it in, else where it started; no
+  collision).
 """
 
 from __future__ import annotations
@@ -29,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import DemonstrationError
+from ..errors import DemonstrationError, UsageError
 from .aloha import TwoArmRobot
 from .arm import OPTIONS, Robot
 from .controller import LOOKAHEAD, TICK, Execution, Plan
@@ -37,6 +44,7 @@ from .ik import ArmIK, gripper_rotation
 from .modes import DWELL_S
 from .program import HandsProgram, TaskProgram
 from .scene import ObjectSpec, _colour
+from .two_arms_contacts import ARM_BITS, Collision, Contacts, collision_bits
 
 BASE_GAP = 0.4
 """Smallest distance between the two bases (m)."""
@@ -69,16 +77,16 @@ def choose_bases(
         if len(pts) > 300:
             pts = pts[np.linspace(0, len(pts) - 1, 300).astype(int)]
         wrist = pts + np.array([0.0, 0.0, arm.tcp_offset])
-        d = np.sqrt(
-            np.sum((wrist[None, :, :2] - cand[:, None, :]) ** 2, axis=2)
-            + (wrist[None, :, 2] - arm.shoulder_z) ** 2
-        )
-        margin = np.minimum(d - arm.reach[0], arm.reach[1] - d).min(axis=1)
         sign = 1.0 if side == "right" else -1.0
         ok = clear & (sign * (cand[:, 0] - centre[0]) > 0.05)
         for b in out.values():
             ok &= np.linalg.norm(cand - b[:2], axis=1) >= BASE_GAP
-        score = np.where(ok, margin, -np.inf)
+        d = np.sqrt(
+            np.sum((wrist[None, :, :2] - cand[ok, None, :]) ** 2, axis=2)
+            + (wrist[None, :, 2] - arm.shoulder_z) ** 2
+        )
+        score = np.full(len(cand), -np.inf)
+        score[ok] = np.minimum(d - arm.reach[0], arm.reach[1] - d).min(axis=1)
         best = int(np.argmax(score))
         if not np.isfinite(score[best]):
             raise DemonstrationError(
@@ -110,9 +118,14 @@ def mounted(arm: Robot, yaw: float) -> Robot:
 
 
 def _clear(cand: np.ndarray, pts: np.ndarray, r: float) -> np.ndarray:
+    """Which candidates are at least ``r`` from every point (a k-d tree: a planned path has a
+    point per control tick)."""
+    from scipy.spatial import cKDTree
+
     if not len(pts):
         return np.ones(len(cand), dtype=bool)
-    return np.sqrt(((cand[:, None, :] - pts[None]) ** 2).sum(axis=2)).min(axis=1) >= r
+    dist, _ = cKDTree(pts).query(cand, k=1)
+    return np.asarray(dist >= r)
 
 
 def scene_xml(
@@ -135,7 +148,8 @@ def scene_xml(
         )
     arms = "".join(
         f'<body name="{side}/robot_base" pos="{b[0]:.6f} {b[1]:.6f} 0">'
-        f"{mounted(robot.arms[side], (yaws or {}).get(side, 0.0)).body}</body>"
+        f"{collision_bits(mounted(robot.arms[side], (yaws or {}).get(side, 0.0)).body, side)}"
+        "</body>"
         for side, b in bases.items()
     )
     acts = [robot.arms[side].actuators for side in bases]
@@ -147,7 +161,7 @@ def scene_xml(
   <worldbody>
     <light pos="{c[0]:.3f} {c[1]:.3f} 2.5" dir="0 0 -1" directional="true"/>
     <geom name="table" type="box" pos="{c[0]:.3f} {c[1]:.3f} -0.02" size="1.2 1.2 0.02"
-          rgba="0.75 0.7 0.62 1" friction="1 0.005 0.0001"/>
+          rgba="0.75 0.7 0.62 1" friction="1 0.005 0.0001" conaffinity="{1 | sum(ARM_BITS.values())}"/>
     {arms}{"".join(bodies)}
   </worldbody>{actuators}{contacts}
 </mujoco>"""
@@ -284,9 +298,11 @@ def execute_two(
     yaws: dict[str, float],
     *,
     settle_s: float = 0.5,
+    collisions: list[Collision] | None = None,
 ) -> dict[str, Execution]:
     """Run every arm's plan in one scene on one clock; each arm's :class:`Execution` (its TCP
-    and IK, every object's motion)."""
+    and IK, every object's motion). ``collisions`` (when given) gets the first contact of an
+    arm with the other arm, and of each arm with the table (:class:`Collision`)."""
     import mujoco
 
     t0 = time.perf_counter()
@@ -301,6 +317,7 @@ def execute_two(
         body_ids = [model.body(o.name).id for o in objects]
         steps = max(1, round(TICK / model.opt.timestep))
         n = max(len(p) for p in plans.values())
+        contacts = Contacts(model, list(plans))
         opos = np.zeros((len(objects), n, 3))
         oquat = np.zeros((len(objects), n, 4))
         for i in range(n + round(settle_s / TICK)):
@@ -308,6 +325,7 @@ def execute_two(
                 arm.command(data, i)
             for _ in range(steps):
                 mujoco.mj_step(model, data)
+            contacts.check(data, (i + 1) * TICK)
             if i < n:
                 for arm in arms.values():
                     arm.record(data, i)
@@ -317,6 +335,8 @@ def execute_two(
                     oquat[j, i] = (x, y, z, w)
     finally:
         mujoco.set_mju_user_warning(previous)
+    if collisions is not None:
+        collisions.extend(sorted(contacts.seen.values(), key=lambda c: c.t_s))
     fpos = np.array([data.xpos[b].copy() for b in body_ids]).reshape(len(objects), 3)
     fq = np.array([[*data.xquat[b][1:], data.xquat[b][0]] for b in body_ids]).reshape(-1, 4)
     wall = time.perf_counter() - t0
@@ -416,16 +436,26 @@ class TwoArmReproduction:
     wall_time_s: float = 0.0
     owners: dict[str, str] = field(default_factory=dict)
     """The arm whose lane handles each object (last)."""
+    collisions: list[Collision] = field(default_factory=list)
+    """Each arm's first contact with the other arm and with the table."""
 
     @property
     def success(self) -> bool:
-        """Every object at its goal."""
-        return all(o.success for o in self.objects)
+        """Every object at its goal, and neither arm touched the other or the table."""
+        return all(o.success for o in self.objects) and not self.collisions
+
+    def arm_success(self, side: str) -> bool:
+        """The ``side`` arm did every skill of its lane and touched neither the other arm nor
+        the table."""
+        hit = any(side in (c.arm, c.other) for c in self.collisions)
+        return not hit and all(r.ok for r in self.skills.get(side, []))
 
     @property
     def failures(self) -> list[str]:
-        """One line per failed skill, naming the arm, then per object off its goal."""
-        out = [
+        """One line per collision and per failed skill, naming the arm, then per object off
+        its goal."""
+        out = [c.describe() for c in self.collisions]
+        out += [
             f"{side} arm: {r.label()}: {r.reason}"
             for side, rs in self.skills.items()
             for r in rs
@@ -453,12 +483,13 @@ def _handovers(
     planned: dict[str, tuple[Any, Any, Any]],
     hands: HandsProgram,
     mode: str,
-    bases: dict[str, np.ndarray],
+    moved: dict[str, np.ndarray],
 ) -> dict[str, Plan]:
     """Every lane's plan, a handover's taker planned again with the handed object where the
-    giver's plan leaves it (:func:`~lfd.reproduce.modes.plan_task`). Each grasp follows the
-    demonstration along the object (the planner centres it only across), so the two grippers
-    hold the object where the two hands did."""
+    giver's plan leaves it (:func:`~lfd.reproduce.modes.plan_task`; the other objects where the
+    layout puts them, ``moved``). Each grasp follows the demonstration along the object (the
+    planner centres it only across), so the two grippers hold the object where the two hands
+    did."""
     from .modes import plan_task
 
     plans = {s: r.plan for s, (_, _, r) in planned.items()}
@@ -469,53 +500,180 @@ def _handovers(
         g_result = planned[giver][2]
         t_frames = planned[taker][0]
         T_meet = g_result.expected[p.object]
-        result = plan_task(t_frames, hands.program(taker), mode, initial={p.object: T_meet})
+        result = plan_task(
+            t_frames, hands.program(taker), mode, initial={**moved, p.object: T_meet}
+        )
         planned[taker] = (t_frames, planned[taker][1], result)
         plans[taker] = result.plan
     return plans
 
 
-def reproduce_two_arms(
+@dataclass
+class TwoArmPlan:
+    """Both lanes of a two-hand program planned for a layout and put on one clock
+    (:func:`plan_two_arms`), not yet run."""
+
+    mode: str
+    programs: dict[str, TaskProgram]
+    bases: dict[str, np.ndarray]
+    yaws: dict[str, float]
+    planned: dict[str, tuple[Any, Any, Any]]
+    """Each lane's (:class:`~lfd.reproduce.goals.DemoFrames`, initial poses,
+    :class:`~lfd.reproduce.modes.PlanResult`)."""
+    plans: dict[str, Plan]
+    """Each arm's plan on the common clock."""
+    specs: list[ObjectSpec]
+    expected: dict[str, np.ndarray]
+    owners: dict[str, str]
+
+    @property
+    def sides(self) -> list[str]:
+        return list(self.programs)
+
+    def others(self, side: str) -> set[str]:
+        """The objects only the other arm handles (in ``side``'s lane they stay where they
+        started: its planned scenes do not know where they are)."""
+        return _others(self.programs, side)
+
+
+def _others(programs: dict[str, TaskProgram], side: str) -> set[str]:
+    theirs = set().union(*(_handled(programs[o]) for o in programs if o != side))
+    return theirs - _handled(programs[side])
+
+
+def lifted(scene: dict[str, np.ndarray], names: set[str]) -> dict[str, np.ndarray]:
+    """``scene`` with the objects ``names`` taken off the table (10 m up): out of the overlap
+    and crowding checks of a lane that does not know where they are."""
+    out = dict(scene)
+    for n in names & set(scene):
+        out[n] = scene[n].copy()
+        out[n][2, 3] += 10.0
+    return out
+
+
+def _lane(
+    traj: Any,
+    program: TaskProgram,
+    mode: str,
+    moved: dict[str, np.ndarray],
+    base: np.ndarray,
+    arm: Robot,
+    displace: dict[str, Any],
+    others: set[str],
+    events: list[tuple[float, str, np.ndarray]],
+) -> tuple[Any, dict[str, np.ndarray], Any]:
+    """One lane planned from ``base`` with the objects where the layout puts them (``moved``):
+    :func:`~lfd.reproduce.displacement.plan_layout` with the base fixed, its re-grounded
+    goals checked (:func:`~lfd.reproduce.displacement.check_goals`) when displaced, against
+    every object but ``others`` (those the other arm moves)."""
+    from .displacement import check_goals, program_start
+    from .goals import DemoFrames
+    from .modes import plan_task
+
+    frames = DemoFrames(traj, base, arm)
+    start_i = program_start(traj, program)
+    initial = {n: moved.get(n, frames.object_pose(n, start_i)) for n in frames.names}
+    result = plan_task(frames, program, mode, initial=dict(moved), events=events)
+    if displace:  # the other arm's objects off the table, as they start (not this lane's)
+        away = lifted(initial, others)
+        scenes = [sc | {n: away[n] for n in others if n in away} for sc in result.scenes]
+        check_goals(frames, away, scenes, displace)
+    return frames, initial, result
+
+
+def _events(
+    planned: dict[str, tuple[Any, Any, Any]], side: str, others: set[str]
+) -> list[tuple[float, str, np.ndarray]]:
+    """Where the other arms' plans put the objects only they handle, from the end of each of
+    their places, stacks and pushes on (demonstration time): ``side``'s lane then re-grounds a
+    skill relative to such an object where it will be, not where it started."""
+    out = []
+    for o, (_, _, r) in planned.items():
+        if o == side or r.program is None:
+            continue
+        acting = [g for g in r.program.segments if g.skill in ("place", "stack", "push")]
+        if len(acting) + 1 != len(r.scenes):
+            continue
+        out += [
+            (g.end_s, g.object, sc[g.object])
+            for g, sc in zip(acting, r.scenes, strict=False)
+            if g.object in others and g.object in sc
+        ]
+    return out
+
+
+def plan_two_arms(
     trajs: dict[str, Any],
     hands: HandsProgram,
     mode: str = "skills",
     *,
-    robot: TwoArmRobot | None = None,
-) -> TwoArmReproduction:
-    """Plan each hand's lane for the arm of its side, put both on one clock and run them in
-    one scene (see the module docstring). ``trajs``: each hand's preprocessed trajectory
-    (``lfd.preprocess(demo.one_hand(side), **PREPROCESSING)``).
+    robot: TwoArmRobot,
+    displace: dict[str, Any] | None = None,
+) -> TwoArmPlan:
+    """Choose both bases, plan each lane for the arm of its side (the objects displaced by
+    ``displace``, as :func:`~lfd.reproduce.displacement.plan_layout` does for one arm) and put
+    both on one clock. With displaced objects the bases are chosen again for the planned,
+    re-grounded paths and the lanes planned again from there (as one arm's base is).
 
     Raises
     ------
     DemonstrationError
         A synchronisation the arms do not run (:func:`check_runs`), or a lane out of its arm's
         reach (:func:`choose_bases`), in one line.
+    UsageError
+        A displacement whose re-grounded task is impossible
+        (:func:`~lfd.reproduce.displacement.check_goals`).
     """
-    from .aloha import aloha
-    from .displacement import plan_layout
-    from .measures import object_errors
-    from .outcome import skill_results
+    from .displacement import initial_poses, program_start
+    from .goals import DemoFrames
 
-    robot = robot or aloha()
+    displace = dict(displace or {})
     check_runs(hands)
     sides = [s for s in hands.sides if hands.lanes[s] and s in robot.arms]
-    if len(sides) < len(hands.sides):
-        missing = [s for s in hands.sides if s not in robot.arms]
-        if missing:
-            raise DemonstrationError(f"the {missing[0]} hand has no arm on {robot.name}")
+    missing = [s for s in hands.sides if s not in robot.arms]
+    if missing:
+        raise DemonstrationError(f"the {missing[0]} hand has no arm on {robot.name}")
     programs = {s: hands.program(s) for s in sides}
-    first = np.asarray(trajs[sides[0]].object_position, dtype=np.float64)
-    objects0 = np.array([p[np.all(np.isfinite(p), axis=1)][0] for p in first])
+    traj0 = trajs[sides[0]]
+    start0 = program_start(traj0, programs[sides[0]])
+    moved = initial_poses(DemoFrames(traj0, np.zeros(3), robot.ik), displace, start0)
+    first = np.asarray(traj0.object_position, dtype=np.float64)
+    objects0 = np.array([p[np.all(np.isfinite(p), axis=1)][0] for p in first]).reshape(-1, 3)
+    shifted = np.array([T[:3, 3] for T in moved.values()]).reshape(-1, 3)
+    keep_out = np.concatenate([objects0, shifted])
     points = {s: np.asarray(trajs[s].tcp, dtype=np.float64) for s in sides}
-    bases = choose_bases(points, objects0.reshape(-1, 3), robot)
+    bases = choose_bases(points, keep_out, robot)
+
+    def plan_lanes(
+        bases: dict[str, np.ndarray], before: dict[str, tuple[Any, Any, Any]] | None = None
+    ) -> dict[str, tuple[Any, Any, Any]]:
+        out = {}
+        for s in sides:
+            try:
+                others = _others(programs, s)
+                events = _events(before, s, others) if before else []
+                out[s] = _lane(
+                    trajs[s], programs[s], mode, moved, bases[s], robot.ik, displace, others, events
+                )
+            except UsageError as err:  # the arm named
+                msg = str(err).replace("the arm's reach", f"the {s} arm's reach")
+                raise UsageError(f"{s} arm: {msg}") from err
+        return out
+
+    planned = plan_lanes(bases)
+    if len(sides) > 1:  # again, each lane knowing where the other arm moves its objects
+        planned = plan_lanes(bases, planned)
+    if displace:  # the bases again, for the re-grounded paths and every planned object pose
+        scenes = [sc for _, ini, r in planned.values() for sc in [ini, *r.scenes]]
+        objs = np.array([T[:3, 3] for sc in scenes for T in sc.values()])
+        paths = {s: planned[s][2].plan.position for s in sides}
+        new = choose_bases(paths, objs, robot)
+        if any(np.linalg.norm(new[s] - bases[s]) > 1e-9 for s in sides):
+            bases = new
+            planned = plan_lanes(bases, plan_lanes(bases))
     yaws = {s: mount_yaw(bases[s], points[s]) for s in sides}
-    planned = {
-        s: plan_layout(trajs[s], programs[s], mode, {}, base=bases[s], robot=robot.ik)
-        for s in sides
-    }
     frames, initial, _ = planned[sides[0]]
-    plans = _handovers(planned, hands, mode, bases)
+    plans = _handovers(planned, hands, mode, moved)
     owners: dict[str, str] = {}  # the lane that handles each object last
     for side, name, _ in sorted(
         ((s, g.object, g.end_s) for s in sides for g in programs[s].segments if g.skill != "move"),
@@ -536,10 +694,51 @@ def reproduce_two_arms(
             ObjectSpec(name, frames.size[k], p, np.array([0, 0, np.sin(yaw / 2), np.cos(yaw / 2)]))
         )
     plans = synchronise(plans, hands)
-    ex = execute_two(plans, bases, specs, robot, yaws)
+    return TwoArmPlan(mode, programs, bases, yaws, planned, plans, specs, expected, owners)
+
+
+def reproduce_two_arms(
+    trajs: dict[str, Any],
+    hands: HandsProgram,
+    mode: str = "skills",
+    *,
+    robot: TwoArmRobot | None = None,
+    displace: dict[str, Any] | None = None,
+) -> TwoArmReproduction:
+    """Plan each hand's lane for the arm of its side, put both on one clock and run them in
+    one scene (see the module docstring). ``trajs``: each hand's preprocessed trajectory
+    (``lfd.preprocess(demo.one_hand(side), **PREPROCESSING)``); ``displace``: objects moved as
+    ``lfd reproduce --displace`` moves them (``name -> (dx, dy[, turn_deg])``).
+
+    Raises
+    ------
+    DemonstrationError, UsageError
+        As :func:`plan_two_arms`, in one line.
+    """
+    from .aloha import aloha
+
+    robot = robot or aloha()
+    return run_two_arm_plan(
+        plan_two_arms(trajs, hands, mode, robot=robot, displace=displace), robot
+    )
+
+
+def run_two_arm_plan(plan: TwoArmPlan, robot: TwoArmRobot) -> TwoArmReproduction:
+    """Run both arms' plans in one scene and judge them, per arm and for the task."""
+    from .measures import object_errors
+    from .outcome import skill_results
+
+    sides, programs, plans = plan.sides, plan.programs, plan.plans
+    collisions: list[Collision] = []
+    ex = execute_two(plans, plan.bases, plan.specs, robot, plan.yaws, collisions=collisions)
     any_ex = ex[sides[0]]
+    frames = plan.planned[sides[0]][0]
     objs = object_errors(
-        any_ex.object_names, any_ex.final_position, any_ex.final_quaternion, expected, frames.size
+        any_ex.object_names,
+        any_ex.final_position,
+        any_ex.final_quaternion,
+        plan.expected,
+        frames.size,
     )
     skills = {}
     for s in sides:
@@ -557,8 +756,16 @@ def reproduce_two_arms(
             final_position=e.final_position[keep],
             final_quaternion=e.final_quaternion[keep],
         )
-        executed = planned[s][2].program or programs[s]
+        executed = plan.planned[s][2].program or programs[s]
         skills[s] = skill_results(executed, plans[s], mine, [objs[j] for j in keep])
     return TwoArmReproduction(
-        mode, bases, plans, ex, objs, skills, wall_time_s=any_ex.wall_time_s, owners=owners
+        plan.mode,
+        plan.bases,
+        plans,
+        ex,
+        objs,
+        skills,
+        wall_time_s=any_ex.wall_time_s,
+        owners=plan.owners,
+        collisions=collisions,
     )
