@@ -12,8 +12,8 @@
   is lengthened) until the other arm's step has ended, and the other arm's step starts only once
   the holder holds. At a ``handover`` the taker's lane is planned with the object where the
   giver's ``place`` leaves it, the taker's ``pick_up`` starts once the giver is there and the
-  giver lets go only once the taker has grasped. A ``carry`` is not run yet (refused in one
-  line).
+  giver lets go only once the taker has grasped. A ``carry``: both arms hold the object
+  together (:mod:`lfd.reproduce.two_arm_carry`).
 * **Execution** (:func:`execute_two`): both arms in one MuJoCo scene, one IK per arm, one
   control tick for both; an arm that has finished holds its last pose.
 * **Success**, per arm (its skills, :func:`~lfd.reproduce.outcome.skill_results` over the
@@ -40,7 +40,7 @@ from .scene import ObjectSpec, _colour
 
 BASE_GAP = 0.4
 """Smallest distance between the two bases (m)."""
-RUNS = ("hold_until", "handover")
+RUNS = ("hold_until", "handover", "carry")
 """The synchronisation points the two arms run; the others are refused."""
 
 
@@ -273,6 +273,9 @@ def check_runs(hands: HandsProgram) -> None:
                 f"{p.describe(hands.lanes)}: a {p.kind} is not reproduced on two arms yet "
                 f"(runs: {', '.join(RUNS)}); --hand right or --hand left reproduces one hand's part"
             )
+    from .two_arm_carry import check_carries
+
+    check_carries(hands)
 
 
 # --- both arms in one scene ----------------------------------------------------------------------
@@ -510,12 +513,18 @@ def reproduce_two_arms(
     points = {s: np.asarray(trajs[s].tcp, dtype=np.float64) for s in sides}
     bases = choose_bases(points, objects0.reshape(-1, 3), robot)
     yaws = {s: mount_yaw(bases[s], points[s]) for s in sides}
-    planned = {
-        s: plan_layout(trajs[s], programs[s], mode, {}, base=bases[s], robot=robot.ik)
-        for s in sides
-    }
+    if any(p.kind == "carry" for p in hands.sync):  # both arms carry one object
+        from .two_arm_carry import plan_carry
+
+        planned = plan_carry(trajs, hands, mode, bases, robot)
+        plans = {s: r.plan for s, (_, _, r) in planned.items()}
+    else:
+        planned = {
+            s: plan_layout(trajs[s], programs[s], mode, {}, base=bases[s], robot=robot.ik)
+            for s in sides
+        }
+        plans = _handovers(planned, hands, mode, bases)
     frames, initial, _ = planned[sides[0]]
-    plans = _handovers(planned, hands, mode, bases)
     owners: dict[str, str] = {}  # the lane that handles each object last
     for side, name, _ in sorted(
         ((s, g.object, g.end_s) for s in sides for g in programs[s].segments if g.skill != "move"),
