@@ -496,7 +496,6 @@ def reproduce_two_arms(
         reach (:func:`choose_bases`), in one line.
     """
     from .aloha import aloha
-    from .displacement import plan_layout
     from .measures import object_errors
     from .outcome import skill_results
 
@@ -519,10 +518,9 @@ def reproduce_two_arms(
         planned = plan_carry(trajs, hands, mode, bases, robot)
         plans = {s: r.plan for s, (_, _, r) in planned.items()}
     else:
-        planned = {
-            s: plan_layout(trajs[s], programs[s], mode, {}, base=bases[s], robot=robot.ik)
-            for s in sides
-        }
+        from .two_arm_press import plan_lanes  # a hold too wide to grasp: a press
+
+        planned = plan_lanes({s: trajs[s] for s in sides}, hands, mode, bases, robot)
         plans = _handovers(planned, hands, mode, bases)
     frames, initial, _ = planned[sides[0]]
     owners: dict[str, str] = {}  # the lane that handles each object last
