@@ -38,7 +38,7 @@ from .goals import DemoFrames, upright, wrap_near, yaw_of
 from .motion import line
 from .program import HandsProgram, Segment, SyncPoint, TaskProgram
 
-SQUEEZE_DEPTH = 0.006
+SQUEEZE_DEPTH = 0.012
 """How far inside the object's face each pressing TCP is commanded (m): the position servos
 then squeeze it between the two grippers."""
 STANDOFF = 0.03
@@ -88,15 +88,9 @@ def carry_steps(hands: HandsProgram, p: SyncPoint) -> dict[str, tuple[int, int, 
 
 
 def check_carries(hands: HandsProgram) -> None:
-    """Refuse, in one line, a two-handed carry the two arms do not run: more than one, or one
-    whose ``move_with`` is not between each hand's ``pick_up`` and ``place`` of the object."""
-    points = carry_points(hands)
-    if len(points) > 1:
-        raise DemonstrationError(
-            f"{points[1].describe(hands.lanes)}: two arms run one two-handed carry per task "
-            f"(this one has {len(points)})"
-        )
-    for p in points:
+    """Refuse, in one line, a two-handed carry the two arms do not run: one whose
+    ``move_with`` is not between each hand's ``pick_up`` and ``place`` of the object."""
+    for p in carry_points(hands):
         carry_steps(hands, p)
 
 
@@ -218,51 +212,41 @@ def _lane_part(
     return planner.plan()
 
 
-def plan_carry(
-    trajs: dict[str, Any],
+def carry_unit(
+    frames: dict[str, DemoFrames],
     hands: HandsProgram,
+    p: SyncPoint,
     mode: str,
-    bases: dict[str, np.ndarray],
+    cur: dict[str, np.ndarray],
+    scene: dict[str, np.ndarray],
     robot: TwoArmRobot,
-) -> dict[str, tuple[DemoFrames, dict[str, np.ndarray], Any]]:
-    """Both lanes' plans, on one clock, of a program with one two-handed carry (see the module
-    docstring): ``{side: (frames, initial poses, PlanResult)}`` as
-    :func:`~lfd.reproduce.displacement.plan_layout` gives for one lane."""
-    from .modes import PlanResult, _place_goal
+) -> tuple[dict[str, Plan], np.ndarray]:
+    """Both arms' plans of the two-handed carry ``p`` from their states ``cur`` (``[x, y, z,
+    yaw]``) with the objects at ``scene`` (see the module docstring): the approach (each arm's
+    ``pick_up``), the first there waiting for the other, the press, the carry, the set-down and
+    the back-off, on one clock (both plans of one length); and the object's end pose."""
+    from .modes import _place_goal
     from .timescale import retime_together
 
-    (p,) = carry_points(hands)
     steps = carry_steps(hands, p)
     sides = [p.hand, p.other]
     name = str(p.object)
-    frames = {s: DemoFrames(trajs[s], bases[s], robot.ik) for s in sides}
     f = frames[sides[0]]
-    t0 = min(hands.lanes[s][0].start_s for s in sides)
-    i0 = f.index(t0)
-    initial = {n: upright(f.object_pose(n, i0)) for n in f.names}
+    size = f.size[f.object_index(name)]
+    T0 = upright(scene[name])
     # when both hold it (the later grasp), and the demonstrated carry to the end of the place
     both = max(hands.lanes[s][steps[s][0]].end_s for s in sides)
     ends = {s: hands.lanes[s][steps[s][2]] for s in sides}
     last = max(sides, key=lambda s: ends[s].end_s)
     i_both, i_end = f.index(both), frames[last].index(ends[last].end_s)
     press = press_poses(frames, name, i_both, robot)
-    y0 = yaw_of(initial[name][:3, :3])
+    y0 = yaw_of(T0[:3, :3])
     for s in sides:  # the gripper is symmetric: the yaw the wrist reaches most easily there
         p_in, p_out = press[s]
-        at = _in_world(_state(initial[name])[None], p_in)[0]
+        at = _in_world(_state(T0)[None], p_in)[0]
         turn = float(wrap_near(y0 + p_in[3], float(frames[s].natural_yaw(at[:3])))) - y0 - p_in[3]
         press[s] = (p_in + np.array([0, 0, 0, turn]), p_out + np.array([0, 0, 0, turn]))
-    # before: each lane's steps before its pick_up, then the approach beside its face
-    before: dict[str, Plan] = {}
-    for s in sides:
-        k_pick = steps[s][0]
-        res = _lane_part(frames[s], hands.lanes[s][:k_pick], mode, initial)
-        cur = _start_state(frames[s], hands.lanes[s][k_pick].start_s, res)
-        parts = [res.plan] if res is not None else [_hold(cur, TICK, -1)]
-        parts.append(
-            _approach(cur, initial[name], press[s][1], f.size[f.object_index(name)], k_pick, robot)
-        )
-        before[s] = Plan.concat(parts)
+    before = {s: _approach(cur[s], T0, press[s][1], size, steps[s][0], robot) for s in sides}
     n = max(len(b) for b in before.values())
     for s in sides:  # the first arm there waits beside its face for the other
         last_state = np.array([*before[s].position[-1], before[s].yaw[-1]])
@@ -270,11 +254,11 @@ def plan_carry(
             before[s] = Plan.concat([before[s], _hold(last_state, (n - len(before[s])) * TICK, -1)])
     # the object's path and both arms on it, time-scaled together
     place = hands.lanes[last][steps[last][2]]
-    _, _, T_end = _place_goal(frames[last], place, dict(initial), None, i_end)
+    _, _, T_end = _place_goal(frames[last], place, dict(scene), None, i_end)
+    T_end = upright(T_end)
     obj, k_low = object_path(
-        f, name, _state(initial[name]), _state(upright(T_end)), (i_both, i_end), place.start_s,
-        initial, mode,
-    )  # fmt: skip
+        f, name, _state(T0), _state(T_end), (i_both, i_end), place.start_s, scene, mode
+    )
     o0, o1 = obj[:1], obj[-1:]
     blocks = []
     for s in sides:
@@ -283,10 +267,8 @@ def plan_carry(
         tcp_in0 = _in_world(o0, press[s][0])[0]
         path = _in_world(obj, press[s][0])
         back = _in_world(o1, press[s][1])[0]
-        top = float(o1[0, 2] + f.size[f.object_index(name), 2] / 2)
         up = back.copy()
-        up[2] = max(up[2], top + robot.ik.finger_below_tcp + ABOVE)
-        tcp_in1 = path[-1]
+        up[2] = max(up[2], float(o1[0, 2] + size[2] / 2) + robot.ik.finger_below_tcp + ABOVE)
         blocks.append(
             Plan.concat(
                 [
@@ -294,43 +276,14 @@ def plan_carry(
                     _hold(tcp_in0, SETTLE_S, -1),
                     _part(path[:k_low], k_with),
                     _part(path[k_low:], k_place),
-                    _hold(tcp_in1, SETTLE_S, -1),
-                    _part(line(tcp_in1, back, min_s=PRESS_S)[1:], -1),
+                    _hold(path[-1], SETTLE_S, -1),
+                    _part(line(path[-1], back, min_s=PRESS_S)[1:], -1),
                     _part(line(back, up, min_s=0.4)[1:], -1),
                 ]
             )
         )
-    limits = [robot.arms[s].limits for s in sides]
-    blocks = retime_together(blocks, limits)
-    # after: each lane's steps after its place, from where it rose
-    scene = dict(initial)
-    scene[name] = upright(T_end)
-    out = {}
-    for s, block in zip(sides, blocks, strict=True):
-        k_place = steps[s][2]
-        rest = hands.lanes[s][k_place + 1 :]
-        here = np.array([*block.position[-1], block.yaw[-1]])
-        res = _lane_part(frames[s], rest, mode, scene, start=here)
-        parts = [before[s], block]
-        expected = dict(scene)
-        if res is not None:
-            later = res.plan
-            seg = np.where(later.segment >= 0, later.segment + k_place + 1, -1)
-            parts.append(Plan(later.position, later.yaw, later.opening, seg))
-            expected.update({k: v for k, v in res.expected.items() if k != name})
-        plan = Plan.concat(parts)
-        result = PlanResult(plan, expected, [], hands.program(s), [scene])
-        out[s] = (frames[s], initial, result)
-    return out
-
-
-def _start_state(frames: DemoFrames, t_s: float, res: Any) -> np.ndarray:
-    """Where the arm is when its pick_up begins: the end of the plan before, else the
-    demonstrated TCP then."""
-    if res is not None:
-        return np.array([*res.plan.position[-1], res.plan.yaw[-1]])
-    i = frames.index(t_s)
-    return np.array([*frames.tcp[i], frames.yaw[i]])
+    blocks = retime_together(blocks, [robot.arms[s].limits for s in sides])
+    return {s: Plan.concat([before[s], b]) for s, b in zip(sides, blocks, strict=True)}, T_end
 
 
 def _approach(

@@ -500,6 +500,12 @@ def reproduce_two_arms(
     from .outcome import skill_results
 
     robot = robot or aloha()
+    from .two_arm_sequence import has_carry, plan_sequence, prepare, task_points
+
+    t = trajs[next(iter(trajs))]
+    sizes = dict(zip(t.object_names, np.asarray(t.object_size, dtype=np.float64), strict=True))
+    hands = prepare(hands, sizes, robot)  # carries: two arms, one unit at a time
+    sequence = has_carry(hands)
     check_runs(hands)
     sides = [s for s in hands.sides if hands.lanes[s] and s in robot.arms]
     if len(sides) < len(hands.sides):
@@ -510,12 +516,12 @@ def reproduce_two_arms(
     first = np.asarray(trajs[sides[0]].object_position, dtype=np.float64)
     objects0 = np.array([p[np.all(np.isfinite(p), axis=1)][0] for p in first])
     points = {s: np.asarray(trajs[s].tcp, dtype=np.float64) for s in sides}
+    if sequence:  # the skills within reach, not the hands' free moves
+        points = task_points(trajs, hands)
     bases = choose_bases(points, objects0.reshape(-1, 3), robot)
     yaws = {s: mount_yaw(bases[s], points[s]) for s in sides}
-    if any(p.kind == "carry" for p in hands.sync):  # both arms carry one object
-        from .two_arm_carry import plan_carry
-
-        planned = plan_carry(trajs, hands, mode, bases, robot)
+    if sequence:
+        planned = plan_sequence(trajs, hands, mode, bases, robot)
         plans = {s: r.plan for s, (_, _, r) in planned.items()}
     else:
         from .two_arm_press import plan_lanes  # a hold too wide to grasp: a press
