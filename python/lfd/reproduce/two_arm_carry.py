@@ -114,7 +114,8 @@ def press_poses(
     other = 1 - axis
     mid = 0.5 * (held[sides[0]][axis] + held[sides[1]][axis])
     arm = robot.ik
-    z = max(0.0, -size[2] / 2 + arm.finger_below_tcp + TABLE_MARGIN)
+    # low on the face (the fingertips just above the table): pressed high, a tall object tips
+    z = -size[2] / 2 + arm.finger_below_tcp + TABLE_MARGIN
     out = {}
     for s in sides:
         sign = 1.0 if held[s][axis] >= mid else -1.0
@@ -199,6 +200,28 @@ def _lane_part(
 ) -> Any:
     """The one-arm plan (:func:`~lfd.reproduce.modes.plan_task`) of some of a lane's steps,
     from ``start`` (``[x, y, z, yaw]``; default where the hand was); None without steps."""
+    from .goals import pose
+
+    planner = lane_planner(frames, segs, mode, objects, start)
+    if planner is None:
+        return None
+    result = planner.plan()
+    if planner.held is not None:  # the steps end holding it: where the gripper holds it
+        name, rel = planner.held
+        end = pose(result.plan.position[-1], float(result.plan.yaw[-1]))
+        result.expected[name] = end @ np.linalg.inv(rel)
+    return result
+
+
+def lane_planner(
+    frames: DemoFrames,
+    segs: list[Segment],
+    mode: str,
+    objects: dict[str, Any],
+    start: np.ndarray | None = None,
+) -> Any:
+    """The one-arm planner (``modes._TaskPlanner``) of some of a lane's steps, from ``start``
+    (``[x, y, z, yaw]``; default where the hand was); None without steps."""
     from .modes import _TaskPlanner, check_grasps, repair_program
 
     if not segs:
@@ -209,7 +232,7 @@ def _lane_part(
     planner = _TaskPlanner(frames, program, mode, dict(objects))
     if start is not None:
         planner.cur = start.copy()
-    return planner.plan()
+    return planner
 
 
 def carry_unit(

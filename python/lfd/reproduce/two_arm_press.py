@@ -4,8 +4,9 @@
 objects up to 61 mm).
 
 A hold keeps the object still while the other arm acts on it; a press does the same: the
-holding arm comes down, gripper closed, on the object's top where its hand held it (Eq. 2,
-kept :data:`PRESS_EDGE` inside the top) and presses :data:`PRESS_DEPTH` into it, so the
+holding arm comes down, gripper closed, on the object's top at the end where its hand held
+it (Eq. 2; :data:`PRESS_EDGE` inside the top's edges, leaving the most room to the other arm)
+and presses :data:`PRESS_DEPTH` into it, so the
 friction with the table keeps it where it lies; after the other arm's step it rises again.
 Its lane's ``pick_up`` is the approach and press, its ``move_with`` the holding still, its
 ``place`` the lift off; the steps before and after are the one-arm planner's. The gripper's
@@ -70,11 +71,13 @@ def press_pose(frames: DemoFrames, name: str, i: int, T_obj: np.ndarray) -> np.n
     held = (np.linalg.inv(T_demo) @ frames.tcp_pose(i))[:3, 3]
     free = np.maximum(size[:2] / 2 - PRESS_EDGE, 0.0)
     xy = np.clip(held[:2], -free, free)
+    long_axis = 0 if size[0] >= size[1] else 1
+    # at the end of the object on the hand's side: the most room for the other arm
+    xy[long_axis] = (1.0 if held[long_axis] >= 0 else -1.0) * free[long_axis]
     T = upright(T_obj)
     world = T[:3, :3] @ np.array([*xy, 0.0]) + T[:3, 3]
     top = T[2, 3] + size[2] / 2
     z = top + frames.robot.finger_below_tcp - PRESS_DEPTH
-    long_axis = 0 if size[0] >= size[1] else 1
     yaw = yaw_of(T[:3, :3]) + (np.pi / 2 if long_axis == 0 else 0.0)
     yaw = float(wrap_near(yaw, float(frames.natural_yaw(world))))
     return np.array([world[0], world[1], z, yaw])

@@ -100,6 +100,9 @@ def _joined(
     the other hand's own next step on an object begins (it takes the object over as it is put
     down); None when that hand is busy before the carry is under way."""
     acting = [s for s in other if s.skill != "move"]
+    during = [s for s in acting if s.start_s < put.end_s and s.end_s > pick.start_s]
+    if any(s.object != carry.object for s in during):
+        return None  # the other hand works on something else meanwhile
     # its own steps that end as this carry begins are done first (the units run in turn)
     begin = max((s.end_s for s in acting if pick.start_s < s.end_s <= carry.start_s), default=0.0)
     if begin > pick.start_s:
@@ -143,6 +146,9 @@ def prepare(hands: HandsProgram, sizes: dict[str, np.ndarray], robot: TwoArmRobo
     lanes = {side: _with_pick_ups(list(segs)) for side, segs in hands.lanes.items()}
     converted = False
     sides = list(lanes)
+    holds = {(p.hand, p.step) for p in hands.sync if p.kind == "hold_until"}
+    if holds:  # a hold keeps the object still: nothing is carried (two_arm_press)
+        return hands
     for a in sides:
         for b in (x for x in sides if x != a):
             lane = lanes[a]
