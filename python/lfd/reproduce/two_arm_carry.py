@@ -3,9 +3,9 @@
 
 How the two arms carry it (docs/reproduce.md, "Two arms"):
 
-* **Hold**: each arm presses the object with its closed gripper on the face where its hand held
-  it, the two faces opposite (the axis of the object along which the two hands were farthest
-  apart); the pads are commanded :data:`SQUEEZE_DEPTH` inside the face, so the two arms squeeze
+* **Hold**: each arm presses the object with its closed gripper on the face towards its base,
+  the two faces opposite (where the hands held a box carried between them: each hand on its
+  side), along the face where its hand held it; the pads are commanded :data:`SQUEEZE_DEPTH` inside the face, so the two arms squeeze
   it between them. A squeeze needs no grasp that fits the gripper: a 28 cm box 65 mm wide (the
   simulator's ``carry``) is held at its ends as the two hands held it, where a ViperX gripper,
   opening 69 mm, could not close across it with room for its fingers.
@@ -102,25 +102,25 @@ def press_poses(
     frames: dict[str, DemoFrames], name: str, i: int, robot: TwoArmRobot
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Each arm's press pose and approach pose (``[x, y, z, yaw]`` in the object's frame): on
-    the face nearest where its hand held the object at sample ``i``, the two faces opposite
-    along the axis on which the hands were farthest apart (relative to the object's size)."""
+    opposite faces, each arm on the face towards its base (``frames[side].base``), where along
+    the face its hand held the object at sample ``i`` (within the face)."""
     sides = list(frames)
     f = frames[sides[0]]
     size = f.size[f.object_index(name)]
     T_o = upright(f.object_pose(name, i))
     held = {s: (np.linalg.inv(T_o) @ frames[s].tcp_pose(i))[:3, 3] for s in sides}
-    diff = np.abs(held[sides[0]][:2] - held[sides[1]][:2]) / size[:2]
-    axis = int(np.argmax(diff))
+    # each arm on the side of its base: the axis of the object that points most from one base
+    # to the other (the hands, on their sides too, held the same faces in a two-handed carry;
+    # a hand that did not hold it is anywhere)
+    gap = T_o[:3, :3].T @ (frames[sides[0]].base - frames[sides[1]].base)
+    axis = int(np.argmax(np.abs(gap[:2])))
     other = 1 - axis
-    mid = 0.5 * (held[sides[0]][axis] + held[sides[1]][axis])
     arm = robot.ik
     # low on the face (the fingertips just above the table): pressed high, a tall object tips
     z = -size[2] / 2 + arm.finger_below_tcp + TABLE_MARGIN
     out = {}
     for s in sides:
-        sign = 1.0 if held[s][axis] >= mid else -1.0
-        if s == sides[1] and held[s][axis] == held[sides[0]][axis]:
-            sign = -1.0
+        sign = float(np.sign(gap[axis]) or 1.0) * (1.0 if s == sides[0] else -1.0)
         c = np.zeros(3)
         c[axis] = sign * (size[axis] / 2 + arm.finger_half_x - SQUEEZE_DEPTH)
         free = max(0.0, size[other] / 2 - 0.012)

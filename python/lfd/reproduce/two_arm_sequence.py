@@ -37,8 +37,9 @@ from .program import SYNC_TOLERANCE_S, HandsProgram, Segment, SyncPoint
 from .two_arm_carry import _hold, _lane_part, _part, carry_unit
 
 Z_CAP = 0.25
-"""Heights (m) above which the bases are not placed to reach: people lift an object to look at
-it far higher than a small arm reaches; the skills mode carries it lower."""
+"""Highest TCP (m) of the plans and of the points the bases are placed to reach: people lift an
+object to look at it far higher than a small arm reaches (a ViperX reaches a top-down TCP 0.24 m
+high 0.45 m from its shoulder)."""
 REST_Z = 0.15
 """Height (m) of an arm's rest pose, at least 5 cm over every object's top (fingertips)."""
 REST_FRACTION = 0.5
@@ -275,6 +276,9 @@ def plan_sequence(
             scene.update(res.expected)
             done = {who: segs[-1].skill not in ("pick_up", "move_with")}
         for s, block in blocks.items():
+            # a person lifts an object to look at it higher than a small arm reaches: the
+            # path is flattened there (both arms of a carry alike: they stay rigid)
+            block.position[:, 2] = np.minimum(block.position[:, 2], Z_CAP)
             parts[s].append(block)
             cur[s] = np.array([*block.position[-1], block.yaw[-1]])
             if done[s]:  # back to its rest, over the objects

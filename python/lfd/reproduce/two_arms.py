@@ -516,9 +516,13 @@ def reproduce_two_arms(
     first = np.asarray(trajs[sides[0]].object_position, dtype=np.float64)
     objects0 = np.array([p[np.all(np.isfinite(p), axis=1)][0] for p in first])
     points = {s: np.asarray(trajs[s].tcp, dtype=np.float64) for s in sides}
-    if sequence:  # the skills within reach, not the hands' free moves
-        points = task_points(trajs, hands)
-    bases = choose_bases(points, objects0.reshape(-1, 3), robot)
+    try:
+        bases = choose_bases(points, objects0.reshape(-1, 3), robot)
+    except DemonstrationError:
+        if not sequence:
+            raise
+        points = task_points(trajs, hands)  # where the skills act, not the hands' free moves
+        bases = choose_bases(points, objects0.reshape(-1, 3), robot)
     yaws = {s: mount_yaw(bases[s], points[s]) for s in sides}
     if sequence:
         planned = plan_sequence(trajs, hands, mode, bases, robot)

@@ -57,8 +57,9 @@ def test_retime_together_keeps_two_plans_on_one_clock_within_both_limits() -> No
 
 
 def test_press_poses_on_opposite_faces_where_the_hands_held() -> None:
-    """Each arm presses the end its hand held (the big box's ends, along its length), from
-    outside, the pads side by side across the box, above the table."""
+    """Each arm presses the end towards its base, the end its hand held (the big box's ends,
+    along its length), from outside, the pads side by side across the box, low on the face and
+    above the table."""
     from lfd.reproduce.aloha import aloha
     from lfd.reproduce.goals import DemoFrames, upright
     from lfd.reproduce.two_arm_carry import SQUEEZE_DEPTH, STANDOFF, carry_points, press_poses
@@ -66,7 +67,8 @@ def test_press_poses_on_opposite_faces_where_the_hands_held() -> None:
     trajs, hands = _program("carry", 3)
     (p,) = carry_points(hands)
     robot = aloha()
-    frames = {s: DemoFrames(trajs[s], np.zeros(3), robot.ik) for s in (p.hand, p.other)}
+    bases = {"right": np.array([0.45, 0.2, 0.0]), "left": np.array([-0.45, 0.2, 0.0])}
+    frames = {s: DemoFrames(trajs[s], bases[s], robot.ik) for s in (p.hand, p.other)}
     f = frames[p.hand]
     i = f.index(hands.lanes[p.hand][p.step].start_s + 0.2)
     press = press_poses(frames, "big_box", i, robot)
@@ -82,6 +84,7 @@ def test_press_poses_on_opposite_faces_where_the_hands_held() -> None:
             np.pi / 2
         )  # closing axis across the box: pads side by side
         assert inside[2] - robot.ik.finger_below_tcp > -size[2] / 2  # fingertips above the table
+        assert inside[2] < 0  # low on the face: pressed high, a tall object tips
         xs[s] = inside[0]
     assert xs[p.hand] * xs[p.other] < 0
 
