@@ -34,7 +34,7 @@ from ..errors import DemonstrationError
 from .aloha import TwoArmRobot
 from .controller import TICK, Plan
 from .dmp import dmp_rollout
-from .goals import DemoFrames, upright, wrap_near, yaw_of
+from .goals import PALM_CLEARANCE, DemoFrames, pose, upright, wrap_near, yaw_of
 from .motion import line
 from .program import HandsProgram, Segment, SyncPoint, TaskProgram
 
@@ -116,8 +116,12 @@ def press_poses(
     axis = int(np.argmax(np.abs(gap[:2])))
     other = 1 - axis
     arm = robot.ik
-    # low on the face (the fingertips just above the table): pressed high, a tall object tips
-    z = -size[2] / 2 + arm.finger_below_tcp + TABLE_MARGIN
+    # low on the face (the fingertips just above the table): pressed high, a tall object tips;
+    # but the palm above the pads clears the top (pressing its edge, it would tip it too)
+    z = max(
+        -size[2] / 2 + arm.finger_below_tcp + TABLE_MARGIN,
+        size[2] / 2 - arm.palm_above_tcp + PALM_CLEARANCE,
+    )
     out = {}
     for s in sides:
         sign = float(np.sign(gap[axis]) or 1.0) * (1.0 if s == sides[0] else -1.0)
@@ -166,7 +170,9 @@ def object_path(
     where its lowering (the ``place``) begins. ``span``: the demonstrated carry's samples."""
     size = frames.size[frames.object_index(name)]
     goal = goal.copy()
-    goal[3] = start[3] + float(wrap_near(goal[3] - start[3], 0.0, 2 * np.pi))
+    # a box turned half a turn occupies the same space (the goal's symmetry): turned at most a
+    # quarter, the arms pressing it never swap sides
+    goal[3] = start[3] + float(wrap_near(goal[3] - start[3], 0.0, np.pi))
     tops = [
         T[2, 3] + frames.size[frames.object_index(n), 2] / 2
         for n, T in objects.items()
@@ -197,15 +203,17 @@ def _lane_part(
     mode: str,
     objects: dict[str, Any],
     start: np.ndarray | None = None,
+    cap: float | None = None,
 ) -> Any:
     """The one-arm plan (:func:`~lfd.reproduce.modes.plan_task`) of some of a lane's steps,
-    from ``start`` (``[x, y, z, yaw]``; default where the hand was); None without steps."""
-    from .goals import pose
-
+    from ``start`` (``[x, y, z, yaw]``; default where the hand was), its TCP no higher than
+    ``cap`` (m); None without steps."""
     planner = lane_planner(frames, segs, mode, objects, start)
     if planner is None:
         return None
     result = planner.plan()
+    if cap is not None:
+        result.plan.position[:, 2] = np.minimum(result.plan.position[:, 2], cap)
     if planner.held is not None:  # the steps end holding it: where the gripper holds it
         name, rel = planner.held
         end = pose(result.plan.position[-1], float(result.plan.yaw[-1]))
@@ -283,6 +291,7 @@ def carry_unit(
         f, name, _state(T0), _state(T_end), (i_both, i_end), place.start_s, scene, mode
     )
     o0, o1 = obj[:1], obj[-1:]
+    T_end = pose(obj[-1, :3], float(obj[-1, 3]))  # the goal, as turned (its symmetry)
     blocks = []
     for s in sides:
         k_pick, k_with, k_place = steps[s]

@@ -269,7 +269,7 @@ def plan_sequence(
             done = {s: True for s in blocks}
         else:
             segs = [hands.lanes[who][k] for k in unit]
-            res = _lane_part(frames[who], segs, mode, scene, start=cur[who])
+            res = _lane_part(frames[who], segs, mode, scene, start=cur[who], cap=Z_CAP)
             plan = res.plan
             seg = np.where(plan.segment >= 0, plan.segment + unit[0], -1)
             blocks = {who: Plan(plan.position, plan.yaw, plan.opening, seg)}
