@@ -37,6 +37,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "recording", help="an lfd MCAP recording, or a ROS bag with --map (docs/ros.md)"
     )
     parser.add_argument(
+        "other",
+        nargs="?",
+        metavar="OTHER_HAND",
+        help="the other hand's recording of the same take (one file per hand on one clock, e.g. "
+        "take.right.mcap take.left.mcap): the two are joined into one two-hand recording "
+        "(lfd.io.merge_hands)",
+    )
+    parser.add_argument(
         "--mode",
         choices=("replay", "skills", "dmp", "all"),
         default="skills",
@@ -133,7 +141,6 @@ def run(args: argparse.Namespace) -> int:
     require("sim")
     from rich.progress import Progress
 
-    from ..io import load
     from ..outputs import check_output
     from ..reproduce import (
         check_displacement,
@@ -146,7 +153,7 @@ def run(args: argparse.Namespace) -> int:
     from ..reproduce.video import VIDEO_SUFFIXES, write_video
     from ._rerun import check_rerun_args, close_from_args, open_from_args
 
-    inputs = [p for p in (args.recording, args.task, args.map) if p]
+    inputs = [p for p in (args.recording, args.other, args.task, args.map) if p]
     if args.randomise:
         from ..errors import UsageError
 
@@ -166,7 +173,7 @@ def run(args: argparse.Namespace) -> int:
         reads = read_files(args, *inputs)
         check_output(args.video, inputs=reads, what="--video", suffixes=VIDEO_SUFFIXES)
     show = open_from_args(args, "lfd_reproduce")
-    demo = load(args.recording, images=False, **loading)
+    demo = _load_take(args, loading)
     if args.robot in TWO_ARM_ROBOTS:  # two arms (cli/_two_arms.py)
         from ._two_arms import run_two_arms
 
@@ -296,11 +303,20 @@ def _side(hands: Any, args: argparse.Namespace) -> str:
     return str(args.hand or hands.one_arm_side())
 
 
+def _load_take(args: argparse.Namespace, loading: dict[str, Any]) -> Any:
+    """The recording, joined with the other hand's (``OTHER_HAND``) when given."""
+    from ..io import load, merge_hands
+
+    demo = load(args.recording, images=False, **loading)
+    if args.other:
+        demo = merge_hands(demo, load(args.other, images=False, **loading))
+    return demo
+
+
 def _print_program(args: argparse.Namespace) -> int:
     """``--program``: the task program (per hand with two), printed (and ``--json``), nothing
     simulated."""
     from ..errors import UsageError
-    from ..io import load
     from ..reproduce import TaskProgram, from_hands, from_labels
     from ._rerun import wants_rerun
 
@@ -314,9 +330,9 @@ def _print_program(args: argparse.Namespace) -> int:
         raise UsageError(f"--program prints the program and runs nothing; drop {clash[0]}")
     if args.segment and args.task:
         raise UsageError("--task PROGRAM and --segment both say what to run; give one")
-    inputs = [p for p in (args.recording, args.task, args.map) if p]
+    inputs = [p for p in (args.recording, args.other, args.task, args.map) if p]
     check_json(args, inputs)
-    demo = load(args.recording, images=False, **load_options(args))
+    demo = _load_take(args, load_options(args))
     _check_hand(demo, args)
     if args.hand:
         demo = demo.one_hand(args.hand)

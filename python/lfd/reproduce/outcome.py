@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from .controller import LOOKAHEAD, TICK, Execution, Plan
+from .goals import quat_to_matrix
 from .measures import POS_TOL, ROT_TOL_DEG, ObjectResult
 from .program import TaskProgram
 
@@ -229,7 +230,10 @@ def _check_carry(
     """A Move with (skill ``k``, ticks ``a..b``) lifts the ``held`` object with the gripper
     (else the Pick up before it failed) and keeps it in the gripper."""
     j = ex.object_names.index(held)
-    rel = ex.object_position[j, a:b] - ex.tcp[a:b]
+    # the TCP in the object's frame: a carried object may turn with the gripper (or between two
+    # grippers pressing it, lfd.reproduce.two_arm_carry) without slipping
+    R = np.stack([quat_to_matrix(q) for q in ex.object_quaternion[j, a:b]])
+    rel = np.einsum("nji,nj->ni", R, ex.tcp[a:b] - ex.object_position[j, a:b])
     slip = np.linalg.norm(rel - rel[0], axis=1)
     rise = float(ex.object_position[j, a:b, 2].max() - ex.object_position[j, a, 2])
     if rise < LIFT_MIN and float(ex.tcp[a:b, 2].max() - ex.tcp[a, 2]) > LIFT_MIN:

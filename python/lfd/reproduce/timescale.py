@@ -27,7 +27,7 @@ from .arm import Limits
 from .controller import TICK, Plan
 from .robot import KUKA_LWR4
 
-__all__ = ["LIMITS", "Limits", "derivatives", "durations", "retime", "slowdown"]
+__all__ = ["LIMITS", "Limits", "derivatives", "durations", "retime", "retime_together", "slowdown"]
 
 
 LIMITS = KUKA_LWR4.limits
@@ -97,23 +97,27 @@ def _resample_plan(plan: Plan, phase: np.ndarray) -> Plan:
     return Plan(path[:, :3], path[:, 3], plan.opening[lo_i].copy(), plan.segment[near].copy())
 
 
-def _pass(plan: Plan, limits: Limits) -> Plan:
-    r = _smooth(slowdown(plan.position, plan.yaw, limits))
-    # where the path holds still (a dwell) nothing is gained by slowing: time runs as planned
-    y = np.column_stack([plan.position, plan.yaw])
-    step = np.r_[np.abs(np.diff(y, axis=0)).max(axis=1), 0.0]
-    still = (step < 1e-9) & (np.r_[0.0, step[:-1]] < 1e-9)
-    r[still] = 1.0
+def _pass(plans: list[Plan], limits: list[Limits]) -> list[Plan]:
+    """One pass over plans of one length played on one clock: the largest slowdown of any."""
+    r = np.ones(len(plans[0]))
+    for plan, lim in zip(plans, limits, strict=True):
+        rp = _smooth(slowdown(plan.position, plan.yaw, lim))
+        # where the path holds still (a dwell) nothing is gained by slowing: time runs as planned
+        y = np.column_stack([plan.position, plan.yaw])
+        step = np.r_[np.abs(np.diff(y, axis=0)).max(axis=1), 0.0]
+        still = (step < 1e-9) & (np.r_[0.0, step[:-1]] < 1e-9)
+        rp[still] = 1.0
+        r = np.maximum(r, rp)
     if r.max() <= 1.0:
-        return plan
-    n = len(plan)
+        return plans
+    n = len(plans[0])
     x = np.arange(n, dtype=np.float64)
     steps = [0.0]
     # the phase (in ticks of the old plan) advances 1/r ticks per tick
     while steps[-1] < n - 1:
         steps.append(steps[-1] + 1.0 / float(np.interp(steps[-1], x, r)))
     phase = np.minimum(np.array(steps), n - 1)
-    return _resample_plan(plan, phase)
+    return [_resample_plan(plan, phase) for plan in plans]
 
 
 def retime(plan: Plan, limits: Limits = LIMITS) -> Plan:
@@ -131,9 +135,21 @@ def retime(plan: Plan, limits: Limits = LIMITS) -> Plan:
         At :data:`TICK` spacing, at least as long as ``plan``; positions and yaws lie on the
         same path in the same order, the gripper commands and segment indices follow them.
     """
-    out = plan
+    return retime_together([plan], [limits])[0]
+
+
+def retime_together(plans: list[Plan], limits: list[Limits]) -> list[Plan]:
+    """Plans of one length that run on one clock (two arms carrying one object), slowed down
+    together wherever any exceeds its arm's ``limits``: the same phase for every plan, so they
+    stay the same length and tick for tick together (:func:`retime` of one plan)."""
+    if len({len(p) for p in plans}) > 1:
+        raise ValueError("retime_together needs plans of one length")
+    out = list(plans)
     for _ in range(MAX_PASSES):
-        if len(out) < 4 or slowdown(out.position, out.yaw, limits).max() <= TOLERANCE:
+        worst = max(
+            slowdown(p.position, p.yaw, lim).max() for p, lim in zip(out, limits, strict=True)
+        )
+        if len(out[0]) < 4 or worst <= TOLERANCE:
             break
         out = _pass(out, limits)
     return out

@@ -12,8 +12,8 @@
   is lengthened) until the other arm's step has ended, and the other arm's step starts only once
   the holder holds. At a ``handover`` the taker's lane is planned with the object where the
   giver's ``place`` leaves it, the taker's ``pick_up`` starts once the giver is there and the
-  giver lets go only once the taker has grasped. A ``carry`` is not run yet (refused in one
-  line).
+  giver lets go only once the taker has grasped. A ``carry``: both arms hold the object
+  together (:mod:`lfd.reproduce.two_arm_carry`).
 * **Execution** (:func:`execute_two`): both arms in one MuJoCo scene, one IK per arm, one
   control tick for both; an arm that has finished holds its last pose. The links collide with
   the table and the other arm (:mod:`.two_arms_contacts`): the first contact of the two arms,
@@ -48,7 +48,7 @@ from .two_arms_contacts import ARM_BITS, Collision, Contacts, collision_bits
 
 BASE_GAP = 0.4
 """Smallest distance between the two bases (m)."""
-RUNS = ("hold_until", "handover")
+RUNS = ("hold_until", "handover", "carry")
 """The synchronisation points the two arms run; the others are refused."""
 
 
@@ -287,6 +287,9 @@ def check_runs(hands: HandsProgram) -> None:
                 f"{p.describe(hands.lanes)}: a {p.kind} is not reproduced on two arms yet "
                 f"(runs: {', '.join(RUNS)}); --hand right or --hand left reproduces one hand's part"
             )
+    from .two_arm_carry import check_carries
+
+    check_carries(hands)
 
 
 # --- both arms in one scene ----------------------------------------------------------------------
@@ -602,6 +605,42 @@ def _events(
     return out
 
 
+def _finish(
+    hands: HandsProgram,
+    mode: str,
+    programs: dict[str, TaskProgram],
+    bases: dict[str, np.ndarray],
+    yaws: dict[str, float],
+    planned: dict[str, tuple[Any, Any, Any]],
+    plans: dict[str, Plan],
+) -> TwoArmPlan:
+    """Both lanes' plans on one clock (:func:`synchronise`), with the objects' scene and the
+    goal of each object: the pose the lane that handles it last leaves it in."""
+    sides = list(planned)
+    frames, initial, _ = planned[sides[0]]
+    owners: dict[str, str] = {}  # the lane that handles each object last
+    for side, name, _ in sorted(
+        ((s, g.object, g.end_s) for s in sides for g in programs[s].segments if g.skill != "move"),
+        key=lambda x: x[2],
+    ):
+        if name is not None:
+            owners[name] = side
+    expected = {
+        n: planned[owners[n]][2].expected[n] if n in owners else initial[n] for n in frames.names
+    }
+    specs = []
+    for k, name in enumerate(frames.names):
+        T = initial[name]
+        yaw = float(np.arctan2(T[1, 0], T[0, 0]))
+        p = T[:3, 3].copy()
+        p[2] = max(p[2], frames.size[k, 2] / 2)
+        specs.append(
+            ObjectSpec(name, frames.size[k], p, np.array([0, 0, np.sin(yaw / 2), np.cos(yaw / 2)]))
+        )
+    plans = synchronise(plans, hands)
+    return TwoArmPlan(mode, programs, bases, yaws, planned, plans, specs, expected, owners)
+
+
 def plan_two_arms(
     trajs: dict[str, Any],
     hands: HandsProgram,
@@ -626,8 +665,20 @@ def plan_two_arms(
     """
     from .displacement import initial_poses, program_start
     from .goals import DemoFrames
+    from .two_arm_press import plan_press_lane, press_holds
+    from .two_arm_sequence import has_carry, plan_sequence, prepare, task_points
 
     displace = dict(displace or {})
+    t = trajs[next(iter(trajs))]
+    sizes = dict(zip(t.object_names, np.asarray(t.object_size, dtype=np.float64), strict=True))
+    hands = prepare(hands, sizes, robot)  # carries: two arms, one unit at a time
+    sequence = has_carry(hands)
+    presses = press_holds(hands, sizes, robot)  # a hold too wide to grasp: a press
+    if displace and (sequence or presses):
+        raise UsageError(
+            "a two-handed carry or a hold by pressing is not reproduced with displaced objects "
+            "yet; reproduce this demonstration without --displace or --randomise"
+        )
     check_runs(hands)
     sides = [s for s in hands.sides if hands.lanes[s] and s in robot.arms]
     missing = [s for s in hands.sides if s not in robot.arms]
@@ -642,13 +693,22 @@ def plan_two_arms(
     shifted = np.array([T[:3, 3] for T in moved.values()]).reshape(-1, 3)
     keep_out = np.concatenate([objects0, shifted])
     points = {s: np.asarray(trajs[s].tcp, dtype=np.float64) for s in sides}
-    bases = choose_bases(points, keep_out, robot)
+    try:
+        bases = choose_bases(points, keep_out, robot)
+    except DemonstrationError:
+        if not sequence:
+            raise
+        points = task_points(trajs, hands)  # where the skills act, not the hands' free moves
+        bases = choose_bases(points, keep_out, robot)
 
     def plan_lanes(
         bases: dict[str, np.ndarray], before: dict[str, tuple[Any, Any, Any]] | None = None
     ) -> dict[str, tuple[Any, Any, Any]]:
         out = {}
         for s in sides:
+            if s in presses:
+                out[s] = plan_press_lane(trajs[s], hands, presses[s], mode, bases[s], robot)
+                continue
             try:
                 others = _others(programs, s)
                 events = _events(before, s, others) if before else []
@@ -660,6 +720,11 @@ def plan_two_arms(
                 raise UsageError(f"{s} arm: {msg}") from err
         return out
 
+    if sequence:
+        planned = plan_sequence(trajs, hands, mode, bases, robot)
+        yaws = {s: mount_yaw(bases[s], points[s]) for s in sides}
+        plans = {s: r.plan for s, (_, _, r) in planned.items()}
+        return _finish(hands, mode, programs, bases, yaws, planned, plans)
     planned = plan_lanes(bases)
     if len(sides) > 1:  # again, each lane knowing where the other arm moves its objects
         planned = plan_lanes(bases, planned)
@@ -672,29 +737,8 @@ def plan_two_arms(
             bases = new
             planned = plan_lanes(bases, plan_lanes(bases))
     yaws = {s: mount_yaw(bases[s], points[s]) for s in sides}
-    frames, initial, _ = planned[sides[0]]
     plans = _handovers(planned, hands, mode, moved)
-    owners: dict[str, str] = {}  # the lane that handles each object last
-    for side, name, _ in sorted(
-        ((s, g.object, g.end_s) for s in sides for g in programs[s].segments if g.skill != "move"),
-        key=lambda x: x[2],
-    ):
-        if name is not None:
-            owners[name] = side
-    expected = {
-        n: planned[owners[n]][2].expected[n] if n in owners else initial[n] for n in frames.names
-    }
-    specs = []
-    for k, name in enumerate(frames.names):
-        T = initial[name]
-        yaw = float(np.arctan2(T[1, 0], T[0, 0]))
-        p = T[:3, 3].copy()
-        p[2] = max(p[2], frames.size[k, 2] / 2)
-        specs.append(
-            ObjectSpec(name, frames.size[k], p, np.array([0, 0, np.sin(yaw / 2), np.cos(yaw / 2)]))
-        )
-    plans = synchronise(plans, hands)
-    return TwoArmPlan(mode, programs, bases, yaws, planned, plans, specs, expected, owners)
+    return _finish(hands, mode, programs, bases, yaws, planned, plans)
 
 
 def reproduce_two_arms(

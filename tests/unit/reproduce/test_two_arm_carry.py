@@ -1,0 +1,133 @@
+"""A two-handed carry on the two-arm ALOHA (lfd.reproduce.two_arm_carry): both grippers press
+the object between them, one object path, both arms on one clock; lfd.sim's ``carry``."""
+
+from __future__ import annotations
+
+import importlib.util
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco")
+pytest.importorskip("mink")
+pytestmark = pytest.mark.skipif(
+    importlib.util.find_spec("gym_aloha") is None,
+    reason="gym-aloha is not installed (pip install --no-deps gym-aloha==0.1.5)",
+)
+
+
+def _program(task: str, seed: int, style: str = "careful"):  # type: ignore[no-untyped-def]
+    from lfd.preprocessing import preprocess
+    from lfd.reproduce import PREPROCESSING, from_hand_labels
+    from lfd.sim import Variability, simulate
+
+    demo = simulate(task, seed=seed, variability=Variability(style=style)).demo
+    hands = from_hand_labels(
+        demo.labels, demo.start_ns, sides=demo.sides, handovers=demo.handovers, objects=demo.objects
+    )
+    return {s: preprocess(demo.one_hand(s), **PREPROCESSING) for s in demo.sides}, hands
+
+
+def test_retime_together_keeps_two_plans_on_one_clock_within_both_limits() -> None:
+    """Two paths of one length, one too fast for its arm: both slowed by the same phase, so they
+    stay tick for tick together, each within its limits; the slow one alone is not slowed."""
+    from lfd.reproduce.arm import Limits
+    from lfd.reproduce.controller import Plan
+    from lfd.reproduce.timescale import TOLERANCE, retime, retime_together, slowdown
+
+    n = 200
+    s = 0.5 - 0.5 * np.cos(np.linspace(0, np.pi, n))
+    fast = np.zeros((n, 3))
+    fast[:, 0] = 0.4 * s  # 0.4 m in 2 s: up to 0.31 m/s
+    slow = np.zeros((n, 3))
+    slow[:, 1] = 0.05 * s
+    plans = [Plan(p, np.zeros(n), np.zeros(n), np.zeros(n, dtype=int)) for p in (fast, slow)]
+    lim = Limits(speed=0.15, acceleration=2.0, yaw_rate=2.5, yaw_acceleration=12.0)
+    a, b = retime_together(plans, [lim, lim])
+    assert len(a) == len(b) > n
+    for p in (a, b):
+        assert slowdown(p.position, p.yaw, lim).max() <= TOLERANCE
+    # the same phase: the slow path is where its own fraction of the fast one's progress says
+    assert np.allclose(b.position[:, 1] / 0.05, a.position[:, 0] / 0.4, atol=1e-6)
+    assert len(retime(plans[1], lim)) == n
+    with pytest.raises(ValueError):
+        retime_together(
+            [plans[0], Plan(fast[:10], np.zeros(10), np.zeros(10), np.zeros(10))], [lim, lim]
+        )
+
+
+def test_press_poses_on_opposite_faces_where_the_hands_held() -> None:
+    """Each arm presses the end towards its base, the end its hand held (the big box's ends,
+    along its length), from outside, the pads side by side across the box, low on the face and
+    above the table."""
+    from lfd.reproduce.aloha import aloha
+    from lfd.reproduce.goals import DemoFrames, upright
+    from lfd.reproduce.two_arm_carry import SQUEEZE_DEPTH, STANDOFF, carry_points, press_poses
+
+    trajs, hands = _program("carry", 3)
+    (p,) = carry_points(hands)
+    robot = aloha()
+    bases = {"right": np.array([0.45, 0.2, 0.0]), "left": np.array([-0.45, 0.2, 0.0])}
+    frames = {s: DemoFrames(trajs[s], bases[s], robot.ik) for s in (p.hand, p.other)}
+    f = frames[p.hand]
+    i = f.index(hands.lanes[p.hand][p.step].start_s + 0.2)
+    press = press_poses(frames, "big_box", i, robot)
+    size = f.size[f.object_index("big_box")]
+    T = upright(f.object_pose("big_box", i))
+    xs = {}
+    for s, (inside, out) in press.items():
+        held = (np.linalg.inv(T) @ frames[s].tcp_pose(i))[:3, 3]
+        assert abs(inside[0]) == pytest.approx(size[0] / 2 + robot.ik.finger_half_x - SQUEEZE_DEPTH)
+        assert np.sign(inside[0]) == np.sign(held[0])  # the end its hand held
+        assert abs(out[0]) - abs(inside[0]) == pytest.approx(SQUEEZE_DEPTH + STANDOFF)
+        assert inside[3] == pytest.approx(
+            np.pi / 2
+        )  # closing axis across the box: pads side by side
+        assert inside[2] - robot.ik.finger_below_tcp > -size[2] / 2  # fingertips above the table
+        assert inside[2] < 0  # low on the face: pressed high, a tall object tips
+        xs[s] = inside[0]
+    assert xs[p.hand] * xs[p.other] < 0
+
+
+def test_a_carry_without_its_pick_up_and_place_is_refused_in_one_line() -> None:
+    from lfd.errors import DemonstrationError
+    from lfd.reproduce.program import HandsProgram, Segment, SyncPoint
+    from lfd.reproduce.two_arms import check_runs
+
+    lanes = {
+        "right": [Segment("pick_up", 0, 1, "box"), Segment("move_with", 1, 3, "box"),
+                  Segment("place", 3, 4, "box")],
+        "left": [Segment("move_with", 0, 3, "box"), Segment("place", 3, 4, "box")],
+    }  # fmt: skip
+    hands = HandsProgram(lanes, [SyncPoint("carry", "left", 0, "right", 1, "box", 1.0)])
+    with pytest.raises(DemonstrationError) as err:
+        check_runs(hands)
+    msg = str(err.value)
+    assert "\n" not in msg and "between each hand's pick_up and place" in msg and "left" in msg
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("mode", ["skills", "dmp"])
+def test_a_simulated_two_handed_carry_is_achieved_on_two_arms(mode: str) -> None:
+    """Both arms press the big box, lift, carry and set it down together: it ends at its goal,
+    lifted by both (each arm's move_with lifts it and it does not slip), both arms on one clock
+    from the press to the set-down."""
+    from lfd.reproduce.two_arm_carry import carry_points, carry_steps
+    from lfd.reproduce.two_arms import _end, _start, reproduce_two_arms
+
+    trajs, hands = _program("carry", 4)
+    (p,) = carry_points(hands)
+    steps = carry_steps(hands, p)
+    r = reproduce_two_arms(trajs, hands, mode)
+    assert r.success, r.failures
+    assert r.failures == []
+    a, b = (r.plans[s] for s in (p.hand, p.other))
+    ka, kb = steps[p.hand][1], steps[p.other][1]
+    assert _start(a, ka) == _start(b, kb) and _end(a, ka + 1) == _end(b, kb + 1)
+    ex = r.executions[p.hand]
+    j = ex.object_names.index(p.object)
+    assert ex.object_position[j, :, 2].max() - ex.object_position[j, 0, 2] > 0.04  # lifted
+    # the box stays between the two grippers while carried
+    s0, s1 = _start(a, ka), _end(a, ka)
+    gap = np.linalg.norm(r.executions[p.hand].tcp[s0:s1] - r.executions[p.other].tcp[s0:s1], axis=1)
+    assert np.ptp(gap) < 0.01
