@@ -21,7 +21,7 @@
 * **Layouts** (:func:`plan_two_arms` with ``displace``): the objects moved as ``--displace``
   moves them for one arm, the bases chosen again for the re-grounded paths; each lane is
   planned twice, the second time knowing where the other arm puts the objects only it handles
-  (:func:`_events`). Randomised layouts: :mod:`.two_arms_randomise`.
+  (:func:`~.two_arm_lanes.lane_events`). Randomised layouts: :mod:`.two_arms_randomise`.
 * **Success**, per arm (its skills, :func:`~lfd.reproduce.outcome.skill_results` over the
   objects the other arm does not handle, and no collision) and for the task (every object at
   its goal: the pose the lane that handles it leaves it in, else where it started; no
@@ -44,6 +44,7 @@ from .ik import ArmIK, gripper_rotation
 from .modes import DWELL_S
 from .program import HandsProgram, TaskProgram
 from .scene import ObjectSpec, _colour
+from .two_arm_lanes import lane_events, plan_lane
 from .two_arms_contacts import ARM_BITS, Collision, Contacts, collision_bits
 
 BASE_GAP = 0.4
@@ -544,67 +545,6 @@ def _others(programs: dict[str, TaskProgram], side: str) -> set[str]:
     return theirs - _handled(programs[side])
 
 
-def lifted(scene: dict[str, np.ndarray], names: set[str]) -> dict[str, np.ndarray]:
-    """``scene`` with the objects ``names`` taken off the table (10 m up): out of the overlap
-    and crowding checks of a lane that does not know where they are."""
-    out = dict(scene)
-    for n in names & set(scene):
-        out[n] = scene[n].copy()
-        out[n][2, 3] += 10.0
-    return out
-
-
-def _lane(
-    traj: Any,
-    program: TaskProgram,
-    mode: str,
-    moved: dict[str, np.ndarray],
-    base: np.ndarray,
-    arm: Robot,
-    displace: dict[str, Any],
-    others: set[str],
-    events: list[tuple[float, str, np.ndarray]],
-) -> tuple[Any, dict[str, np.ndarray], Any]:
-    """One lane planned from ``base`` with the objects where the layout puts them (``moved``):
-    :func:`~lfd.reproduce.displacement.plan_layout` with the base fixed, its re-grounded
-    goals checked (:func:`~lfd.reproduce.displacement.check_goals`) when displaced, against
-    every object but ``others`` (those the other arm moves)."""
-    from .displacement import check_goals, program_start
-    from .goals import DemoFrames
-    from .modes import plan_task
-
-    frames = DemoFrames(traj, base, arm)
-    start_i = program_start(traj, program)
-    initial = {n: moved.get(n, frames.object_pose(n, start_i)) for n in frames.names}
-    result = plan_task(frames, program, mode, initial=dict(moved), events=events)
-    if displace:  # the other arm's objects off the table, as they start (not this lane's)
-        away = lifted(initial, others)
-        scenes = [sc | {n: away[n] for n in others if n in away} for sc in result.scenes]
-        check_goals(frames, away, scenes, displace)
-    return frames, initial, result
-
-
-def _events(
-    planned: dict[str, tuple[Any, Any, Any]], side: str, others: set[str]
-) -> list[tuple[float, str, np.ndarray]]:
-    """Where the other arms' plans put the objects only they handle, from the end of each of
-    their places, stacks and pushes on (demonstration time): ``side``'s lane then re-grounds a
-    skill relative to such an object where it will be, not where it started."""
-    out = []
-    for o, (_, _, r) in planned.items():
-        if o == side or r.program is None:
-            continue
-        acting = [g for g in r.program.segments if g.skill in ("place", "stack", "push")]
-        if len(acting) + 1 != len(r.scenes):
-            continue
-        out += [
-            (g.end_s, g.object, sc[g.object])
-            for g, sc in zip(acting, r.scenes, strict=False)
-            if g.object in others and g.object in sc
-        ]
-    return out
-
-
 def _finish(
     hands: HandsProgram,
     mode: str,
@@ -641,6 +581,33 @@ def _finish(
     return TwoArmPlan(mode, programs, bases, yaws, planned, plans, specs, expected, owners)
 
 
+def _prepared(
+    trajs: dict[str, Any], hands: HandsProgram, robot: TwoArmRobot
+) -> tuple[HandsProgram, bool, dict[str, Any]]:
+    """The program with its carries made two-armed
+    (:func:`~lfd.reproduce.two_arm_sequence.prepare`), whether it has one, and the holds done
+    by pressing (:func:`~lfd.reproduce.two_arm_press.press_holds`)."""
+    from .two_arm_press import press_holds
+    from .two_arm_sequence import has_carry, prepare
+
+    t = trajs[next(iter(trajs))]
+    sizes = dict(zip(t.object_names, np.asarray(t.object_size, dtype=np.float64), strict=True))
+    hands = prepare(hands, sizes, robot)
+    return hands, has_carry(hands), press_holds(hands, sizes, robot)
+
+
+def check_displaceable(trajs: dict[str, Any], hands: HandsProgram, robot: TwoArmRobot) -> None:
+    """Raise UsageError for a program whose objects cannot be displaced on two arms yet: a
+    two-handed carry or a hold by pressing (planned for the demonstrated layout only)."""
+    _, sequence, presses = _prepared(trajs, hands, robot)
+    if sequence or presses:
+        what = "a two-handed carry" if sequence else "a hold by pressing"
+        raise UsageError(
+            f"{what} is not reproduced with displaced objects yet; reproduce this "
+            "demonstration without --displace or --randomise"
+        )
+
+
 def plan_two_arms(
     trajs: dict[str, Any],
     hands: HandsProgram,
@@ -665,20 +632,13 @@ def plan_two_arms(
     """
     from .displacement import initial_poses, program_start
     from .goals import DemoFrames
-    from .two_arm_press import plan_press_lane, press_holds
-    from .two_arm_sequence import has_carry, plan_sequence, prepare, task_points
+    from .two_arm_press import plan_press_lane
+    from .two_arm_sequence import plan_sequence, task_points
 
     displace = dict(displace or {})
-    t = trajs[next(iter(trajs))]
-    sizes = dict(zip(t.object_names, np.asarray(t.object_size, dtype=np.float64), strict=True))
-    hands = prepare(hands, sizes, robot)  # carries: two arms, one unit at a time
-    sequence = has_carry(hands)
-    presses = press_holds(hands, sizes, robot)  # a hold too wide to grasp: a press
-    if displace and (sequence or presses):
-        raise UsageError(
-            "a two-handed carry or a hold by pressing is not reproduced with displaced objects "
-            "yet; reproduce this demonstration without --displace or --randomise"
-        )
+    hands, sequence, presses = _prepared(trajs, hands, robot)
+    if displace:
+        check_displaceable(trajs, hands, robot)
     check_runs(hands)
     sides = [s for s in hands.sides if hands.lanes[s] and s in robot.arms]
     missing = [s for s in hands.sides if s not in robot.arms]
@@ -711,8 +671,8 @@ def plan_two_arms(
                 continue
             try:
                 others = _others(programs, s)
-                events = _events(before, s, others) if before else []
-                out[s] = _lane(
+                events = lane_events(before, s, others) if before else []
+                out[s] = plan_lane(
                     trajs[s], programs[s], mode, moved, bases[s], robot.ik, displace, others, events
                 )
             except UsageError as err:  # the arm named

@@ -44,11 +44,12 @@ from .randomise import (
     iter_layouts,
     run_randomised,
 )
+from .two_arm_lanes import lifted
 from .two_arms import (
     TwoArmPlan,
     TwoArmReproduction,
+    check_displaceable,
     check_runs,
-    lifted,
     plan_two_arms,
     reproduce_two_arms,
     run_two_arm_plan,
@@ -69,6 +70,7 @@ def _check_program(
     """Refuse what no layout changes (a synchronisation the arms do not run, a hand with no
     arm, an object no gripper holds); the lane the layouts are drawn from."""
     check_runs(hands)
+    check_displaceable(trajs, hands, robot)
     missing = [s for s in hands.sides if s not in robot.arms]
     if missing:
         raise DemonstrationError(f"the {missing[0]} hand has no arm on {robot.name}")

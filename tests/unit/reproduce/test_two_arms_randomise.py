@@ -157,16 +157,15 @@ def test_cli_randomise_on_two_arms_bad_input(
         assert not out.exists() and not (tmp_path / "v.mp4").exists()
 
 
-def test_a_program_the_arms_do_not_run_is_refused_before_any_layout() -> None:
-    from lfd.errors import DemonstrationError
+def test_a_program_the_arms_do_not_randomise_is_refused_before_any_layout() -> None:
+    """A two-handed carry runs on two arms at the demonstrated layout only: randomising it is
+    refused in one line before any layout is drawn (not drawn again until none is left)."""
+    from lfd.errors import UsageError
     from lfd.reproduce.aloha import aloha
-    from lfd.reproduce.two_arms import RUNS
     from lfd.reproduce.two_arms_randomise import first_layout
 
     trajs, hands = _program("carry", 3)
-    if all(p.kind in RUNS for p in hands.sync):
-        pytest.skip("every synchronisation of the carry runs on two arms")
-    with pytest.raises(DemonstrationError, match="not reproduced on two arms yet"):
+    with pytest.raises(UsageError, match="two-handed carry is not reproduced with displaced"):
         first_layout(trajs, hands, robot=aloha())
 
 

@@ -1,0 +1,73 @@
+"""One arm's lane of a two-arm plan over a layout (:func:`lfd.reproduce.two_arms.plan_two_arms`):
+planned from its base with the objects where the layout puts them, knowing where the other arm
+puts the objects only it handles."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .arm import Robot
+from .program import TaskProgram
+
+
+def lifted(scene: dict[str, np.ndarray], names: set[str]) -> dict[str, np.ndarray]:
+    """``scene`` with the objects ``names`` taken off the table (10 m up): out of the overlap
+    and crowding checks of a lane that does not know where they are."""
+    out = dict(scene)
+    for n in names & set(scene):
+        out[n] = scene[n].copy()
+        out[n][2, 3] += 10.0
+    return out
+
+
+def plan_lane(
+    traj: Any,
+    program: TaskProgram,
+    mode: str,
+    moved: dict[str, np.ndarray],
+    base: np.ndarray,
+    arm: Robot,
+    displace: dict[str, Any],
+    others: set[str],
+    events: list[tuple[float, str, np.ndarray]],
+) -> tuple[Any, dict[str, np.ndarray], Any]:
+    """One lane planned from ``base`` with the objects where the layout puts them (``moved``):
+    :func:`~lfd.reproduce.displacement.plan_layout` with the base fixed, its re-grounded
+    goals checked (:func:`~lfd.reproduce.displacement.check_goals`) when displaced, against
+    every object but ``others`` (those the other arm moves)."""
+    from .displacement import check_goals, program_start
+    from .goals import DemoFrames
+    from .modes import plan_task
+
+    frames = DemoFrames(traj, base, arm)
+    start_i = program_start(traj, program)
+    initial = {n: moved.get(n, frames.object_pose(n, start_i)) for n in frames.names}
+    result = plan_task(frames, program, mode, initial=dict(moved), events=events)
+    if displace:  # the other arm's objects off the table, as they start (not this lane's)
+        away = lifted(initial, others)
+        scenes = [sc | {n: away[n] for n in others if n in away} for sc in result.scenes]
+        check_goals(frames, away, scenes, displace)
+    return frames, initial, result
+
+
+def lane_events(
+    planned: dict[str, tuple[Any, Any, Any]], side: str, others: set[str]
+) -> list[tuple[float, str, np.ndarray]]:
+    """Where the other arms' plans put the objects only they handle, from the end of each of
+    their places, stacks and pushes on (demonstration time): ``side``'s lane then re-grounds a
+    skill relative to such an object where it will be, not where it started."""
+    out = []
+    for o, (_, _, r) in planned.items():
+        if o == side or r.program is None:
+            continue
+        acting = [g for g in r.program.segments if g.skill in ("place", "stack", "push")]
+        if len(acting) + 1 != len(r.scenes):
+            continue
+        out += [
+            (g.end_s, g.object, sc[g.object])
+            for g, sc in zip(acting, r.scenes, strict=False)
+            if g.object in others and g.object in sc
+        ]
+    return out
