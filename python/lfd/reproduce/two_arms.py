@@ -41,7 +41,6 @@ from .aloha import TwoArmRobot
 from .arm import OPTIONS, Robot
 from .controller import LOOKAHEAD, TICK, Execution, Plan
 from .ik import ArmIK, gripper_rotation
-from .modes import DWELL_S
 from .program import HandsProgram, TaskProgram
 from .scene import ObjectSpec, _colour
 from .two_arms_contacts import ARM_BITS, Collision, Contacts, collision_bits
@@ -207,12 +206,14 @@ def synchronise(plans: dict[str, Plan], hands: HandsProgram) -> dict[str, Plan]:
     """The lanes on one clock: at every ``hold_until`` the other arm's step waits until the
     holder has begun holding, and the holder's next step waits until the other arm's step has
     ended (its release, lift-off or back-off included)."""
+    from .two_arm_handover import handover_waits
+
     plans = dict(plans)
     for _ in range(2 * len(hands.sync) + 1):
         changed = False
         for p in hands.sync:
             if p.kind == "handover":
-                changed |= _handover_waits(plans, p, hands)
+                changed |= handover_waits(plans, p, hands)
                 continue
             if p.kind != "hold_until":
                 continue
@@ -246,37 +247,6 @@ def _release(plan: Plan, k: int) -> int:
         return len(plan)
     idx = np.nonzero(plan.opening[i0:] > plan.opening[i0 - 1] + 1e-6)[0]
     return i0 + int(idx[0]) if idx.size else len(plan)
-
-
-def _handover_waits(plans: dict[str, Plan], p: Any, hands: HandsProgram) -> bool:
-    """A handover, on one clock: the taker's ``pick_up``, and the ``move`` that brings it there,
-    start once the giver has brought the object to the meeting point (the end of its
-    ``place``): the taker waits out of the giver's way. The giver opens only once the taker has
-    grasped (its closing dwell has ended; the giver's wait is a dwell, segment -1), and the taker
-    carries the object off only once the giver has moved away (the ``move`` after its place)."""
-    giver, taker = plans[p.hand], plans[p.other]
-    changed = False
-    first = p.other_step
-    if first > 0 and hands.lanes[p.other][first - 1].skill == "move":
-        first -= 1
-    need = _end(giver, p.step) - _start(taker, first)
-    if need > 0:
-        at = _start(taker, first)
-        plans[p.other] = taker = _wait(taker, at, need, _before(taker, at))
-        changed = True
-    grasped = min(_end(taker, p.other_step) + round(DWELL_S / TICK), len(taker))
-    need = grasped - _release(giver, p.step)
-    if need > 0:
-        plans[p.hand] = giver = _wait(giver, _release(giver, p.step), need, -1)
-        changed = True
-    lane = hands.lanes[p.hand]
-    away = p.step + 1 < len(lane) and lane[p.step + 1].skill == "move"
-    gone = _end(giver, p.step + 1) if away else _start(giver, p.step + 1)
-    need = gone - _start(taker, p.other_step + 1)
-    if need > 0:
-        plans[p.other] = _wait(taker, _start(taker, p.other_step + 1), need, -1)
-        changed = True
-    return changed
 
 
 def check_runs(hands: HandsProgram) -> None:
@@ -482,35 +452,6 @@ def _handled(program: TaskProgram) -> set[str]:
     return {s.object for s in program.segments if s.skill != "move" and s.object is not None}
 
 
-def _handovers(
-    planned: dict[str, tuple[Any, Any, Any]],
-    hands: HandsProgram,
-    mode: str,
-    moved: dict[str, np.ndarray],
-) -> dict[str, Plan]:
-    """Every lane's plan, a handover's taker planned again with the handed object where the
-    giver's plan leaves it (:func:`~lfd.reproduce.modes.plan_task`; the other objects where the
-    layout puts them, ``moved``). Each grasp follows the demonstration along the object (the
-    planner centres it only across), so the two grippers hold the object where the two hands
-    did."""
-    from .modes import plan_task
-
-    plans = {s: r.plan for s, (_, _, r) in planned.items()}
-    for p in hands.sync:
-        if p.kind != "handover" or p.object is None:
-            continue
-        giver, taker = p.hand, p.other
-        g_result = planned[giver][2]
-        t_frames = planned[taker][0]
-        T_meet = g_result.expected[p.object]
-        result = plan_task(
-            t_frames, hands.program(taker), mode, initial={**moved, p.object: T_meet}
-        )
-        planned[taker] = (t_frames, planned[taker][1], result)
-        plans[taker] = result.plan
-    return plans
-
-
 @dataclass
 class TwoArmPlan:
     """Both lanes of a two-hand program planned for a layout and put on one clock
@@ -564,11 +505,13 @@ def _lane(
     displace: dict[str, Any],
     others: set[str],
     events: list[tuple[float, str, np.ndarray]],
+    grasp_at: dict[str, np.ndarray] | None = None,
 ) -> tuple[Any, dict[str, np.ndarray], Any]:
     """One lane planned from ``base`` with the objects where the layout puts them (``moved``):
     :func:`~lfd.reproduce.displacement.plan_layout` with the base fixed, its re-grounded
     goals checked (:func:`~lfd.reproduce.displacement.check_goals`) when displaced, against
-    every object but ``others`` (those the other arm moves)."""
+    every object but ``others`` (those the other arm moves); ``grasp_at``: as
+    :func:`~lfd.reproduce.modes.plan_task`'s."""
     from .displacement import check_goals, program_start
     from .goals import DemoFrames
     from .modes import plan_task
@@ -576,7 +519,7 @@ def _lane(
     frames = DemoFrames(traj, base, arm)
     start_i = program_start(traj, program)
     initial = {n: moved.get(n, frames.object_pose(n, start_i)) for n in frames.names}
-    result = plan_task(frames, program, mode, initial=dict(moved), events=events)
+    result = plan_task(frames, program, mode, initial=dict(moved), events=events, grasp_at=grasp_at)
     if displace:  # the other arm's objects off the table, as they start (not this lane's)
         away = lifted(initial, others)
         scenes = [sc | {n: away[n] for n in others if n in away} for sc in result.scenes]
@@ -665,6 +608,7 @@ def plan_two_arms(
     """
     from .displacement import initial_poses, program_start
     from .goals import DemoFrames
+    from .two_arm_handover import plan_handovers_apart
     from .two_arm_press import plan_press_lane, press_holds
     from .two_arm_sequence import has_carry, plan_sequence, prepare, task_points
 
@@ -702,7 +646,9 @@ def plan_two_arms(
         bases = choose_bases(points, keep_out, robot)
 
     def plan_lanes(
-        bases: dict[str, np.ndarray], before: dict[str, tuple[Any, Any, Any]] | None = None
+        bases: dict[str, np.ndarray],
+        before: dict[str, tuple[Any, Any, Any]] | None = None,
+        grasps: dict[str, dict[str, np.ndarray]] | None = None,
     ) -> dict[str, tuple[Any, Any, Any]]:
         out = {}
         for s in sides:
@@ -713,7 +659,16 @@ def plan_two_arms(
                 others = _others(programs, s)
                 events = _events(before, s, others) if before else []
                 out[s] = _lane(
-                    trajs[s], programs[s], mode, moved, bases[s], robot.ik, displace, others, events
+                    trajs[s],
+                    programs[s],
+                    mode,
+                    moved,
+                    bases[s],
+                    robot.ik,
+                    displace,
+                    others,
+                    events,
+                    (grasps or {}).get(s),
                 )
             except UsageError as err:  # the arm named
                 msg = str(err).replace("the arm's reach", f"the {s} arm's reach")
@@ -737,7 +692,7 @@ def plan_two_arms(
             bases = new
             planned = plan_lanes(bases, plan_lanes(bases))
     yaws = {s: mount_yaw(bases[s], points[s]) for s in sides}
-    plans = _handovers(planned, hands, mode, moved)
+    planned, plans = plan_handovers_apart(planned, hands, mode, moved, bases, robot, plan_lanes)
     return _finish(hands, mode, programs, bases, yaws, planned, plans)
 
 
