@@ -133,6 +133,22 @@ def _grasps_on(
     return _along(T, given, k), _along(T, taken, k), 1.0 if towards >= 0 else -1.0, k, T
 
 
+def _free(
+    p: SyncPoint, planned: dict[str, tuple[Any, Any, Any]], k: int, robot: TwoArmRobot
+) -> float:
+    """How far from the object's centre along its axis ``k`` a grasp may be (m): the fingers
+    :data:`~lfd.reproduce.goals.GRASP_EDGE` inside its ends."""
+    frames = planned[p.hand][0]
+    size = frames.size[frames.object_index(p.object)]
+    return max(0.0, float(size[k]) / 2 - robot.ik.finger_half_x - GRASP_EDGE)
+
+
+def _at(a: float, k: int) -> np.ndarray:
+    out = np.zeros(2)
+    out[k] = a
+    return out
+
+
 def handover_grasps(
     hands: HandsProgram,
     planned: dict[str, tuple[Any, Any, Any]],
@@ -154,43 +170,60 @@ def handover_grasps(
         a_g, a_t, sign, k, _ = got
         if sign * (a_t - a_g) >= HANDOVER_GAP - SLACK:
             continue
-        frames = planned[p.hand][0]
-        size = frames.size[frames.object_index(p.object)]
-        free = max(0.0, float(size[k]) / 2 - robot.ik.finger_half_x - GRASP_EDGE)
+        free = _free(p, planned, k, robot)
         gap = min(HANDOVER_GAP, 2 * free)
         mid = float(np.clip((a_g + a_t) / 2, -free + gap / 2, free - gap / 2))
-        for side, a in ((p.hand, mid - sign * gap / 2), (p.other, mid + sign * gap / 2)):
-            at = np.zeros(2)
-            at[k] = a
-            out.setdefault(side, {})[p.object] = at
+        out.setdefault(p.hand, {})[p.object] = _at(mid - sign * gap / 2, k)
+        out.setdefault(p.other, {})[p.object] = _at(mid + sign * gap / 2, k)
     return out
 
 
-def giver_turned(
+def _giver_miss(
     hands: HandsProgram,
     planned: dict[str, tuple[Any, Any, Any]],
-    grasps: dict[str, dict[str, np.ndarray]],
+    asked: dict[str, dict[str, np.ndarray]],
     bases: dict[str, np.ndarray],
     robot: TwoArmRobot,
-) -> dict[str, dict[str, np.ndarray]] | None:
-    """``grasps`` with a giver's grasp mirrored where the giver's plan holds the object at the
-    meeting the other way round from where it grasped it (the object put down turned half a
-    turn: the gripper is symmetric), so that its grasp ends where it was asked; None when
-    none is."""
-    out = {s: dict(g) for s, g in grasps.items()}
-    turned = False
+) -> float:
+    """How far (m, the most over the handovers) the givers' planned grasps at the meeting are
+    from the ``asked`` ones."""
+    miss = 0.0
     for p in hands.sync:
-        if p.kind != "handover" or p.object not in out.get(p.hand, {}):
+        if p.kind == "handover" and p.object in asked.get(p.hand, {}):
+            got = _grasps_on(p, planned, bases, robot)
+            if got is not None:
+                miss = max(miss, abs(got[0] - float(asked[p.hand][p.object][got[3]])))
+    return miss
+
+
+def taker_grasps(
+    hands: HandsProgram,
+    planned: dict[str, tuple[Any, Any, Any]],
+    asked: dict[str, dict[str, np.ndarray]],
+    bases: dict[str, np.ndarray],
+    robot: TwoArmRobot,
+) -> dict[str, dict[str, np.ndarray]]:
+    """Each taker's grasp :data:`HANDOVER_GAP` from where the giver's plan holds the object at
+    the meeting, towards the taker's base, else (the giver holding it too near that end) the
+    farther of the two (within the object's ends)."""
+    out: dict[str, dict[str, np.ndarray]] = {}
+    for p in hands.sync:
+        if p.kind != "handover" or p.object not in asked.get(p.other, {}):
             continue
         got = _grasps_on(p, planned, bases, robot)
         if got is None:
+            out.setdefault(p.other, {})[p.object] = asked[p.other][p.object]
             continue
-        a_g, _, _, k, _ = got
-        want = float(out[p.hand][p.object][k])
-        if abs(a_g - want) > SLACK and abs(a_g + want) <= SLACK:
-            out[p.hand][p.object] = -out[p.hand][p.object]
-            turned = True
-    return out if turned else None
+        a_g, _, sign, k, _ = got
+        free = _free(p, planned, k, robot)
+        ends = [float(np.clip(a_g + s * HANDOVER_GAP, -free, free)) for s in (sign, -sign)]
+        a = (
+            ends[0]
+            if abs(ends[0] - a_g) >= HANDOVER_GAP - SLACK
+            else max(ends, key=lambda e: abs(e - a_g))
+        )
+        out.setdefault(p.other, {})[p.object] = _at(a, k)
+    return out
 
 
 def plan_handovers_apart(
@@ -203,16 +236,26 @@ def plan_handovers_apart(
     plan_lanes: Callable[..., dict[str, tuple[Any, Any, Any]]],
 ) -> tuple[dict[str, tuple[Any, Any, Any]], dict[str, Plan]]:
     """:func:`plan_handovers`; where a handover's two grasps are too close
-    (:func:`handover_grasps`), both lanes planned again (``plan_lanes(bases, before,
-    grasps)``) with the grasps apart (a giver's mirrored when it puts the object down turned,
-    :func:`giver_turned`). Returns the lanes and their plans."""
+    (:func:`handover_grasps`), the lanes planned again (``plan_lanes(bases, before, grasps)``)
+    with the giver's grasp moved (or its mirror image: a giver may put the object down turned
+    half a turn, the gripper being symmetric; the one that ends nearer where it was asked),
+    then the taker's :data:`HANDOVER_GAP` from it (:func:`taker_grasps`). Returns the lanes
+    and their plans."""
     lanes = dict(planned)  # (plan_handovers replaces the takers' plans)
     plans = plan_handovers(planned, hands, mode, moved)
-    grasps = handover_grasps(hands, planned, bases, robot)
-    if not grasps:
+    asked = handover_grasps(hands, planned, bases, robot)
+    if not asked:
         return planned, plans
-    planned = plan_lanes(bases, lanes, grasps)
-    turned = giver_turned(hands, planned, grasps, bases, robot)
-    if turned is not None:
-        planned, grasps = plan_lanes(bases, lanes, turned), turned
-    return planned, plan_handovers(planned, hands, mode, moved, grasps)
+    tries = []
+    for flip in (1.0, -1.0):
+        ask = {s: dict(g) for s, g in asked.items()}
+        for p in hands.sync:
+            if p.kind == "handover" and p.object in ask.get(p.hand, {}):
+                ask[p.hand][p.object] = flip * asked[p.hand][p.object]
+        got = plan_lanes(bases, lanes, ask)
+        tries.append((_giver_miss(hands, got, asked, bases, robot), flip, got))
+        if tries[-1][0] <= SLACK:
+            break
+    planned = min(tries, key=lambda x: x[0])[2]
+    takers = taker_grasps(hands, planned, asked, bases, robot)
+    return planned, plan_handovers(planned, hands, mode, moved, takers)
