@@ -22,7 +22,7 @@ from .controller import TICK, Plan
 from .goals import GRASP_EDGE
 from .modes import DWELL_S
 from .program import HandsProgram, SyncPoint
-from .two_arms import _before, _end, _release, _start, _wait
+from .two_arm_clock import _before, _end, _release, _start, _wait
 
 HANDOVER_GAP = 0.10
 """Smallest distance (m) between the two TCPs on a handed object, along it: the ViperX
