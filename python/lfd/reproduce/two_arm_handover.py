@@ -1,13 +1,17 @@
 """A handover on two arms (:mod:`.two_arms`): the taker's lane planned with the object where the
-giver's ``place`` leaves it (:func:`plan_handovers`), and the two grasps on the object kept a
-gripper's width apart, each arm's on the end towards its own base (:func:`handover_grasps`).
+giver's ``place`` leaves it (:func:`plan_handovers`), the two lanes on one clock at the handover
+(:func:`handover_waits`), and the two grasps on the object kept a gripper's width apart
+(:func:`plan_handovers_apart`).
 
 Each grasp follows the demonstration along the object (the planner centres it only across
 it), so the grippers hold it where the two hands did; but two hands hold a bar closer together
 than two ViperX grippers can (a hand is narrower than a gripper and its wrist), and the taker
 coming down beside the giver's grasp touches the giver's gripper or wrist. Where the two
-demonstrated grasps are less than :data:`HANDOVER_GAP` apart along the object (or in the order
-that crosses the arms), both are moved apart about their middle, within the object's ends.
+planned grasps are less than :data:`HANDOVER_GAP` apart along the object (or in the order that
+crosses the arms), the giver's is moved to half the gap from their middle, within the
+object's ends (:func:`handover_grasps`), and the taker's put the gap from where the giver's
+plan then holds the object (:func:`taker_grasps`); the taker arrives above its grasp
+(:func:`~lfd.reproduce.modes.plan_task`'s ``grasp_at``).
 """
 
 from __future__ import annotations
