@@ -12,7 +12,8 @@
   is lengthened) until the other arm's step has ended, and the other arm's step starts only once
   the holder holds. At a ``handover`` the taker's lane is planned with the object where the
   giver's ``place`` leaves it, the taker's ``pick_up`` starts once the giver is there and the
-  giver lets go only once the taker has grasped. A ``carry``: both arms hold the object
+  giver lets go only once the taker has grasped, the two grasps a gripper's width apart
+  (:mod:`.two_arm_handover`). A ``carry``: both arms hold the object
   together (:mod:`lfd.reproduce.two_arm_carry`).
 * **Execution** (:func:`execute_two`): both arms in one MuJoCo scene, one IK per arm, one
   control tick for both; an arm that has finished holds its last pose. The links collide with
