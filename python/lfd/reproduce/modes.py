@@ -246,8 +246,10 @@ class _TaskPlanner:
         mode: str,
         initial: dict[str, np.ndarray] | None,
         events: list[tuple[float, str, np.ndarray]] | None = None,
+        grasp_at: dict[str, np.ndarray] | None = None,
     ) -> None:
         self.frames, self.program, self.mode = frames, program, mode
+        self.grasp_at = grasp_at or {}
         self.events = sorted(events or [], key=lambda e: e[0])
         self.robot = frames.robot
         self.segs = program.segments
@@ -285,7 +287,7 @@ class _TaskPlanner:
 
     # --- one planner per skill: the goal, the grip, what changes in the scene -------------
     def _pick_up(self, k: int, seg: Segment, i1: int) -> _SkillGoal:
-        name, goal = _pick_goal(self.frames, seg, self.objects, i1)
+        name, goal = _pick_goal(self.frames, seg, self.objects, i1, self.grasp_at)
         self.held = (name, np.linalg.inv(self.objects[name]) @ pose(goal[:3], goal[3]))
         size = self.frames.size[self.frames.object_index(name)]
         grip = grasp_opening(_width_across(self.objects[name], size, goal[3]), self.robot)
@@ -374,7 +376,7 @@ class _TaskPlanner:
             direct = clear(self.cur, ng["start"], frames, objects, skip=())
             goal = ng["start"] if direct else ng["hover"]
         elif nxt.skill == "pick_up":  # arrive with the grasp yaw already set
-            name, grasp = _pick_goal(frames, nxt, objects, _end_index(frames, nxt))
+            name, grasp = _pick_goal(frames, nxt, objects, _end_index(frames, nxt), self.grasp_at)
             goal[3] = grasp[3]
             # a hand that reached low beside (or into the box of) the object, e.g. by a mug's
             # handle, is where open fingers would hit it: arrive above it instead (the pick_up
@@ -386,6 +388,9 @@ class _TaskPlanner:
             low = goal[2] - self.robot.finger_below_tcp < top + GRASP_CLEAR
             if low and GRASP_SLACK < off and float(np.hypot(*(goal[:2] - T[:2, 3]))) < reach:
                 goal[2] = top + self.robot.finger_below_tcp + GRASP_CLEAR
+            if name in self.grasp_at:  # a grasp asked elsewhere (a handover): arrive above it
+                goal[:2] = grasp[:2]
+                goal[2] = max(goal[2], top + self.robot.finger_below_tcp + GRASP_CLEAR)
         elif nxt.skill in ("place", "stack"):
             nxt_goal = _place_goal(
                 frames, nxt, objects, self.held, _end_index(frames, nxt), self.cur[3]
@@ -585,6 +590,7 @@ def plan_task(
     *,
     initial: dict[str, np.ndarray] | None = None,
     events: list[tuple[float, str, np.ndarray]] | None = None,
+    grasp_at: dict[str, np.ndarray] | None = None,
 ) -> PlanResult:
     """Plan ``skills`` or ``dmp`` execution (or ``replay``) of ``program``.
 
@@ -601,13 +607,17 @@ def plan_task(
         Objects moved by someone else (the other arm, :mod:`.two_arms`): ``name`` is at the
         pose from demonstration time ``t_s`` on. Each is known to the planner from the skill
         before the one during which it happens (a ``move`` plans towards the next skill's goal).
+    grasp_at : dict, optional
+        Where each named object is grasped (x, y in its frame; the component along the
+        gripper's closing axis is centred as ever), instead of where the person held it (a
+        handover's two grasps kept apart, :mod:`.two_arm_handover`).
     """
     if mode not in MODES:
         raise InvalidParameterError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
     program = repair_program(frames, program)
     if mode != "replay":
         check_grasps(frames, program)
-    return _TaskPlanner(frames, program, mode, initial, events).plan()
+    return _TaskPlanner(frames, program, mode, initial, events, grasp_at).plan()
 
 
 def check_grasps(frames: DemoFrames, program: TaskProgram) -> None:
@@ -657,9 +667,14 @@ def repair_program(frames: DemoFrames, program: TaskProgram) -> TaskProgram:
 
 
 def _pick_goal(
-    frames: DemoFrames, seg: Segment, objects: dict[str, np.ndarray], i1: int
+    frames: DemoFrames,
+    seg: Segment,
+    objects: dict[str, np.ndarray],
+    i1: int,
+    grasp_at: dict[str, np.ndarray] | None = None,
 ) -> tuple[str, np.ndarray]:
-    """Grasp goal ``[x, y, z, yaw]`` of a pick_up (object-centred, wrist-friendly yaw)."""
+    """Grasp goal ``[x, y, z, yaw]`` of a pick_up (object-centred, wrist-friendly yaw; where
+    the person held it along the object, or ``grasp_at[name]``)."""
     name = need_object(seg, objects)
     size = frames.size[frames.object_index(name)]
     others = [(T, frames.size[frames.object_index(n)]) for n, T in objects.items() if n != name]
@@ -671,9 +686,8 @@ def _pick_goal(
     ]
     # where the person held it, relative to the object (Eq. 2: it moves with the object)
     held = np.linalg.inv(frames.object_pose(name, i1)) @ frames.tcp_pose(i1)
-    p, yaw = grasp_goal(
-        objects[name], size, float(frames.yaw[i1]), near, held[:2, 3], robot=frames.robot
-    )
+    at = (grasp_at or {}).get(name, held[:2, 3])
+    p, yaw = grasp_goal(objects[name], size, float(frames.yaw[i1]), near, at, robot=frames.robot)
     # the gripper is symmetric: take the representative the wrist reaches most easily
     yaw = float(wrap_near(yaw, float(frames.natural_yaw(p))))
     return name, np.array([*p, yaw])

@@ -32,11 +32,13 @@ def plan_lane(
     displace: dict[str, Any],
     others: set[str],
     events: list[tuple[float, str, np.ndarray]],
+    grasp_at: dict[str, np.ndarray] | None = None,
 ) -> tuple[Any, dict[str, np.ndarray], Any]:
     """One lane planned from ``base`` with the objects where the layout puts them (``moved``):
     :func:`~lfd.reproduce.displacement.plan_layout` with the base fixed, its re-grounded
     goals checked (:func:`~lfd.reproduce.displacement.check_goals`) when displaced, against
-    every object but ``others`` (those the other arm moves)."""
+    every object but ``others`` (those the other arm moves); ``grasp_at``: as
+    :func:`~lfd.reproduce.modes.plan_task`'s."""
     from .displacement import check_goals, program_start
     from .goals import DemoFrames
     from .modes import plan_task
@@ -44,7 +46,7 @@ def plan_lane(
     frames = DemoFrames(traj, base, arm)
     start_i = program_start(traj, program)
     initial = {n: moved.get(n, frames.object_pose(n, start_i)) for n in frames.names}
-    result = plan_task(frames, program, mode, initial=dict(moved), events=events)
+    result = plan_task(frames, program, mode, initial=dict(moved), events=events, grasp_at=grasp_at)
     if displace:  # the other arm's objects off the table, as they start (not this lane's)
         away = lifted(initial, others)
         scenes = [sc | {n: away[n] for n in others if n in away} for sc in result.scenes]

@@ -12,7 +12,8 @@
   is lengthened) until the other arm's step has ended, and the other arm's step starts only once
   the holder holds. At a ``handover`` the taker's lane is planned with the object where the
   giver's ``place`` leaves it, the taker's ``pick_up`` starts once the giver is there and the
-  giver lets go only once the taker has grasped. A ``carry``: both arms hold the object
+  giver lets go only once the taker has grasped, the two grasps a gripper's width apart
+  (:mod:`.two_arm_handover`). A ``carry``: both arms hold the object
   together (:mod:`lfd.reproduce.two_arm_carry`).
 * **Execution** (:func:`execute_two`): both arms in one MuJoCo scene, one IK per arm, one
   control tick for both; an arm that has finished holds its last pose. The links collide with
@@ -41,9 +42,9 @@ from .aloha import TwoArmRobot
 from .arm import OPTIONS, Robot
 from .controller import LOOKAHEAD, TICK, Execution, Plan
 from .ik import ArmIK, gripper_rotation
-from .modes import DWELL_S
 from .program import HandsProgram, TaskProgram
 from .scene import ObjectSpec, _colour
+from .two_arm_clock import _before, _end, _release, _start, _wait  # noqa: F401 (tests use them)
 from .two_arm_lanes import lane_events, plan_lane
 from .two_arms_contacts import ARM_BITS, Collision, Contacts, collision_bits
 
@@ -174,46 +175,18 @@ def _inner(xml: str, tag: str) -> str:
 
 
 # --- one clock for both lanes ------------------------------------------------------------------
-def _start(plan: Plan, k: int) -> int:
-    """First tick of step ``k`` or of any later step (``len(plan)`` when none)."""
-    idx = np.nonzero(plan.segment >= k)[0]
-    return int(idx[0]) if idx.size else len(plan)
-
-
-def _before(plan: Plan, at: int) -> int:
-    """The step of the tick before ``at`` (-1 at the start: a wait belongs to no step)."""
-    return int(plan.segment[at - 1]) if at > 0 else -1
-
-
-def _wait(plan: Plan, at: int, n: int, segment: int) -> Plan:
-    """``plan`` holding the pose of tick ``at - 1`` for ``n`` more ticks before tick ``at``."""
-    if n <= 0:
-        return plan
-    i = max(at - 1, 0)
-    rep = Plan(
-        np.repeat(plan.position[i : i + 1], n, 0),
-        np.repeat(plan.yaw[i : i + 1], n),
-        np.repeat(plan.opening[i : i + 1], n),
-        np.full(n, segment),
-    )
-    parts = [
-        Plan(plan.position[:at], plan.yaw[:at], plan.opening[:at], plan.segment[:at]),
-        rep,
-        Plan(plan.position[at:], plan.yaw[at:], plan.opening[at:], plan.segment[at:]),
-    ]
-    return Plan.concat(parts)
-
-
 def synchronise(plans: dict[str, Plan], hands: HandsProgram) -> dict[str, Plan]:
     """The lanes on one clock: at every ``hold_until`` the other arm's step waits until the
     holder has begun holding, and the holder's next step waits until the other arm's step has
     ended (its release, lift-off or back-off included)."""
+    from .two_arm_handover import handover_waits
+
     plans = dict(plans)
     for _ in range(2 * len(hands.sync) + 1):
         changed = False
         for p in hands.sync:
             if p.kind == "handover":
-                changed |= _handover_waits(plans, p, hands)
+                changed |= handover_waits(plans, p, hands)
                 continue
             if p.kind != "hold_until":
                 continue
@@ -232,52 +205,6 @@ def synchronise(plans: dict[str, Plan], hands: HandsProgram) -> dict[str, Plan]:
         if not changed:
             break
     return plans
-
-
-def _end(plan: Plan, k: int) -> int:
-    """The tick after the last of step ``k`` (its dwell and lift-off excluded)."""
-    idx = np.nonzero(plan.segment == k)[0]
-    return int(idx[-1]) + 1 if idx.size else _start(plan, k)
-
-
-def _release(plan: Plan, k: int) -> int:
-    """The tick at which the gripper opens after step ``k`` (``len(plan)`` when it does not)."""
-    i0 = _end(plan, k)
-    if i0 == 0 or i0 >= len(plan):
-        return len(plan)
-    idx = np.nonzero(plan.opening[i0:] > plan.opening[i0 - 1] + 1e-6)[0]
-    return i0 + int(idx[0]) if idx.size else len(plan)
-
-
-def _handover_waits(plans: dict[str, Plan], p: Any, hands: HandsProgram) -> bool:
-    """A handover, on one clock: the taker's ``pick_up``, and the ``move`` that brings it there,
-    start once the giver has brought the object to the meeting point (the end of its
-    ``place``): the taker waits out of the giver's way. The giver opens only once the taker has
-    grasped (its closing dwell has ended; the giver's wait is a dwell, segment -1), and the taker
-    carries the object off only once the giver has moved away (the ``move`` after its place)."""
-    giver, taker = plans[p.hand], plans[p.other]
-    changed = False
-    first = p.other_step
-    if first > 0 and hands.lanes[p.other][first - 1].skill == "move":
-        first -= 1
-    need = _end(giver, p.step) - _start(taker, first)
-    if need > 0:
-        at = _start(taker, first)
-        plans[p.other] = taker = _wait(taker, at, need, _before(taker, at))
-        changed = True
-    grasped = min(_end(taker, p.other_step) + round(DWELL_S / TICK), len(taker))
-    need = grasped - _release(giver, p.step)
-    if need > 0:
-        plans[p.hand] = giver = _wait(giver, _release(giver, p.step), need, -1)
-        changed = True
-    lane = hands.lanes[p.hand]
-    away = p.step + 1 < len(lane) and lane[p.step + 1].skill == "move"
-    gone = _end(giver, p.step + 1) if away else _start(giver, p.step + 1)
-    need = gone - _start(taker, p.other_step + 1)
-    if need > 0:
-        plans[p.other] = _wait(taker, _start(taker, p.other_step + 1), need, -1)
-        changed = True
-    return changed
 
 
 def check_runs(hands: HandsProgram) -> None:
@@ -483,35 +410,6 @@ def _handled(program: TaskProgram) -> set[str]:
     return {s.object for s in program.segments if s.skill != "move" and s.object is not None}
 
 
-def _handovers(
-    planned: dict[str, tuple[Any, Any, Any]],
-    hands: HandsProgram,
-    mode: str,
-    moved: dict[str, np.ndarray],
-) -> dict[str, Plan]:
-    """Every lane's plan, a handover's taker planned again with the handed object where the
-    giver's plan leaves it (:func:`~lfd.reproduce.modes.plan_task`; the other objects where the
-    layout puts them, ``moved``). Each grasp follows the demonstration along the object (the
-    planner centres it only across), so the two grippers hold the object where the two hands
-    did."""
-    from .modes import plan_task
-
-    plans = {s: r.plan for s, (_, _, r) in planned.items()}
-    for p in hands.sync:
-        if p.kind != "handover" or p.object is None:
-            continue
-        giver, taker = p.hand, p.other
-        g_result = planned[giver][2]
-        t_frames = planned[taker][0]
-        T_meet = g_result.expected[p.object]
-        result = plan_task(
-            t_frames, hands.program(taker), mode, initial={**moved, p.object: T_meet}
-        )
-        planned[taker] = (t_frames, planned[taker][1], result)
-        plans[taker] = result.plan
-    return plans
-
-
 @dataclass
 class TwoArmPlan:
     """Both lanes of a two-hand program planned for a layout and put on one clock
@@ -632,6 +530,7 @@ def plan_two_arms(
     """
     from .displacement import initial_poses, program_start
     from .goals import DemoFrames
+    from .two_arm_handover import plan_handovers_apart
     from .two_arm_press import plan_press_lane
     from .two_arm_sequence import plan_sequence, task_points
 
@@ -662,7 +561,9 @@ def plan_two_arms(
         bases = choose_bases(points, keep_out, robot)
 
     def plan_lanes(
-        bases: dict[str, np.ndarray], before: dict[str, tuple[Any, Any, Any]] | None = None
+        bases: dict[str, np.ndarray],
+        before: dict[str, tuple[Any, Any, Any]] | None = None,
+        grasps: dict[str, dict[str, np.ndarray]] | None = None,
     ) -> dict[str, tuple[Any, Any, Any]]:
         out = {}
         for s in sides:
@@ -673,7 +574,16 @@ def plan_two_arms(
                 others = _others(programs, s)
                 events = lane_events(before, s, others) if before else []
                 out[s] = plan_lane(
-                    trajs[s], programs[s], mode, moved, bases[s], robot.ik, displace, others, events
+                    trajs[s],
+                    programs[s],
+                    mode,
+                    moved,
+                    bases[s],
+                    robot.ik,
+                    displace,
+                    others,
+                    events,
+                    (grasps or {}).get(s),
                 )
             except UsageError as err:  # the arm named
                 msg = str(err).replace("the arm's reach", f"the {s} arm's reach")
@@ -697,7 +607,7 @@ def plan_two_arms(
             bases = new
             planned = plan_lanes(bases, plan_lanes(bases))
     yaws = {s: mount_yaw(bases[s], points[s]) for s in sides}
-    plans = _handovers(planned, hands, mode, moved)
+    planned, plans = plan_handovers_apart(planned, hands, mode, moved, bases, robot, plan_lanes)
     return _finish(hands, mode, programs, bases, yaws, planned, plans)
 
 
