@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import UsageError
 from .arm import Robot
 from .program import TaskProgram
 
@@ -39,7 +40,7 @@ def plan_lane(
     goals checked (:func:`~lfd.reproduce.displacement.check_goals`) when displaced, against
     every object but ``others`` (those the other arm moves); ``grasp_at``: as
     :func:`~lfd.reproduce.modes.plan_task`'s."""
-    from .displacement import check_goals, program_start
+    from .displacement import program_start
     from .goals import DemoFrames
     from .modes import plan_task
 
@@ -47,11 +48,39 @@ def plan_lane(
     start_i = program_start(traj, program)
     initial = {n: moved.get(n, frames.object_pose(n, start_i)) for n in frames.names}
     result = plan_task(frames, program, mode, initial=dict(moved), events=events, grasp_at=grasp_at)
-    if displace:  # the other arm's objects off the table, as they start (not this lane's)
-        away = lifted(initial, others)
-        scenes = [sc | {n: away[n] for n in others if n in away} for sc in result.scenes]
-        check_goals(frames, away, scenes, displace)
+    check_lane_goals((frames, initial, result), displace, others)
     return frames, initial, result
+
+
+def check_lane_goals(
+    lane: tuple[Any, dict[str, np.ndarray], Any],
+    displace: dict[str, Any],
+    others: set[str],
+    side: str | None = None,
+) -> None:
+    """A planned lane's re-grounded goals checked when displaced
+    (:func:`~lfd.reproduce.displacement.check_goals`: reach from its arm's base, the table,
+    clear of the other objects) in every scene of its plan, the objects only the other arm
+    moves (``others``) off the table as they start; ``side`` names the arm in the error."""
+    from .displacement import check_goals
+
+    if not displace:
+        return
+    frames, initial, result = lane
+    away = lifted(initial, others)
+    scenes = [sc | {n: away[n] for n in others if n in away} for sc in result.scenes]
+    try:
+        check_goals(frames, away, scenes, displace)
+    except UsageError as err:
+        if side is None:
+            raise
+        raise named_arm(err, side) from err
+
+
+def named_arm(err: Exception, side: str) -> UsageError:
+    """``err`` as one line naming the ``side`` arm (``left arm: ... the left arm's reach``)."""
+    msg = str(err).replace("the arm's reach", f"the {side} arm's reach")
+    return UsageError(f"{side} arm: {msg}")
 
 
 def lane_events(

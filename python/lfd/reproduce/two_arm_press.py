@@ -95,10 +95,13 @@ def plan_press_lane(
     mode: str,
     base: np.ndarray,
     robot: TwoArmRobot,
+    moved: dict[str, np.ndarray] | None = None,
 ) -> tuple[DemoFrames, dict[str, np.ndarray], Any]:
     """The holding lane of ``point`` with its hold done by pressing (the module docstring), as
     :func:`~lfd.reproduce.displacement.plan_layout` gives a lane: ``(frames, initial poses,
-    PlanResult)``."""
+    PlanResult)``; ``moved``: objects where a layout puts them (upright 4x4 poses), the press
+    and the steps re-grounded there. The steps after the press are planned with the objects
+    where the steps before leave them."""
     from .modes import PlanResult
     from .timescale import retime
     from .two_arm_carry import _lane_part
@@ -108,15 +111,19 @@ def plan_press_lane(
     frames = DemoFrames(traj, base, robot.ik)
     i0 = frames.index(lane[0].start_s)
     initial = {n: upright(frames.object_pose(n, i0)) for n in frames.names}
+    initial.update({n: upright(T) for n, T in (moved or {}).items()})
     before = _lane_part(frames, lane[: k - 1], mode, initial)
+    mid = dict(initial)  # the objects once the steps before have run (the pressed one still)
+    if before is not None:
+        mid.update({n: T for n, T in before.expected.items() if n != name})
     if before is not None:
         cur = np.array([*before.plan.position[-1], before.plan.yaw[-1]])
     else:
         j = frames.index(lane[k - 1].start_s)
         cur = np.array([*frames.tcp[j], frames.yaw[j]])
-    press = press_pose(frames, name, frames.index(lane[k - 1].end_s), initial[name])
+    press = press_pose(frames, name, frames.index(lane[k - 1].end_s), mid[name])
     size = frames.size[frames.object_index(name)]
-    top = initial[name][2, 3] + size[2] / 2
+    top = mid[name][2, 3] + size[2] / 2
     hover = press.copy()
     hover[2] = max(cur[2], top + frames.robot.finger_below_tcp + ABOVE)
     up = cur.copy()
@@ -140,16 +147,15 @@ def plan_press_lane(
         robot.ik.limits,
     )
     parts = ([before.plan] if before is not None else []) + [block]
-    expected = dict(initial)
-    after = _lane_part(frames, lane[k + 2 :], mode, initial, start=lift)
+    expected = dict(mid)
+    after = _lane_part(frames, lane[k + 2 :], mode, mid, start=lift)
     if after is not None:
         seg = np.where(after.plan.segment >= 0, after.plan.segment + k + 2, -1)
         parts.append(Plan(after.plan.position, after.plan.yaw, after.plan.opening, seg))
         expected.update({n: T for n, T in after.expected.items() if n != name})
-    if before is not None:
-        expected.update({n: T for n, T in before.expected.items() if n != name})
     plan = Plan.concat(parts)
-    return frames, initial, PlanResult(plan, expected, [], hands.program(side), [initial])
+    scenes = [mid, dict(expected)]
+    return frames, initial, PlanResult(plan, expected, [], hands.program(side), scenes)
 
 
 def plan_lanes(

@@ -68,6 +68,11 @@ def has_carry(hands: HandsProgram) -> bool:
     return bool(_carry_overlaps(hands.lanes))
 
 
+def carried_by_both(hands: HandsProgram) -> set[str]:
+    """The objects both hands carry together (the two-handed carries' objects)."""
+    return {str(p.object) for p in _carry_overlaps(hands.lanes)}
+
+
 def _with_pick_ups(lane: list[Segment]) -> list[Segment]:
     """A ``pick_up`` before every ``move_with`` of an object the lane does not hold."""
     out: list[Segment] = []
@@ -235,9 +240,12 @@ def plan_sequence(
     mode: str,
     bases: dict[str, np.ndarray],
     robot: TwoArmRobot,
+    moved: dict[str, np.ndarray] | None = None,
 ) -> dict[str, tuple[DemoFrames, dict[str, np.ndarray], Any]]:
     """Both lanes' plans, unit after unit (the module docstring): ``{side: (frames, initial
-    poses, PlanResult)}`` as :func:`~lfd.reproduce.displacement.plan_layout` gives one lane."""
+    poses, PlanResult)}`` as :func:`~lfd.reproduce.displacement.plan_layout` gives one lane;
+    ``moved``: objects where a layout puts them (each unit starts from where the layout and the
+    units before left the objects). A lane's scenes: the objects after each unit it acts in."""
     from .modes import PlanResult
 
     sides = list(hands.lanes)
@@ -249,12 +257,15 @@ def plan_sequence(
         T = upright(f.object_pose(n, i0))
         T[2, 3] = f.size[f.object_index(n), 2] / 2
         initial[n] = T
+    for n, T in (moved or {}).items():
+        initial[n] = upright(T)
     centre = np.mean([T[:3, 3] for T in initial.values()], axis=0)
     top = max(T[2, 3] + f.size[f.object_index(n), 2] / 2 for n, T in initial.items())
     rest = {s: _rest(bases[s], centre, top, frames[s]) for s in sides}
     cur = dict(rest)
     parts: dict[str, list[Plan]] = {s: [_hold(rest[s], TICK, -1)] for s in sides}
     scene = dict(initial)
+    scenes: dict[str, list[dict[str, np.ndarray]]] = {s: [] for s in sides}
     widest = grasp_max_width(robot.ik)
     fits = {n for k, n in enumerate(f.names) if float(min(f.size[k, :2])) <= widest}
     for _, who, unit in _units(hands, fits):
@@ -275,6 +286,8 @@ def plan_sequence(
             blocks = {who: Plan(plan.position, plan.yaw, plan.opening, seg)}
             scene.update(res.expected)
             done = {who: segs[-1].skill not in ("pick_up", "move_with")}
+        for s in blocks:
+            scenes[s].append(dict(scene))
         for s, block in blocks.items():
             # a person lifts an object to look at it higher than a small arm reaches: the
             # path is flattened there (both arms of a carry alike: they stay rigid)
@@ -292,5 +305,6 @@ def plan_sequence(
     out = {}
     for s in sides:
         plan = Plan.concat(parts[s])
-        out[s] = (frames[s], initial, PlanResult(plan, dict(scene), [], hands.program(s), [scene]))
+        result = PlanResult(plan, dict(scene), [], hands.program(s), scenes[s] or [dict(scene)])
+        out[s] = (frames[s], initial, result)
     return out

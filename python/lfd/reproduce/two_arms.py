@@ -22,7 +22,11 @@
 * **Layouts** (:func:`plan_two_arms` with ``displace``): the objects moved as ``--displace``
   moves them for one arm, the bases chosen again for the re-grounded paths; each lane is
   planned twice, the second time knowing where the other arm puts the objects only it handles
-  (:func:`~.two_arm_lanes.lane_events`). Randomised layouts: :mod:`.two_arms_randomise`.
+  (:func:`~.two_arm_lanes.lane_events`). A two-handed carry and a hold by pressing start
+  from the layout too (the units of :func:`~.two_arm_sequence.plan_sequence` and
+  :func:`~.two_arm_press.plan_press_lane` re-grounded on the moved objects), their goals
+  checked per arm (:func:`~.two_arm_lanes.check_lane_goals`). Randomised layouts:
+  :mod:`.two_arms_randomise`.
 * **Success**, per arm (its skills, :func:`~lfd.reproduce.outcome.skill_results` over the
   objects the other arm does not handle, and no collision) and for the task (every object at
   its goal: the pose the lane that handles it leaves it in, else where it started; no
@@ -45,7 +49,7 @@ from .ik import ArmIK, gripper_rotation
 from .program import HandsProgram, TaskProgram
 from .scene import ObjectSpec, _colour
 from .two_arm_clock import _before, _end, _release, _start, _wait  # noqa: F401 (tests use them)
-from .two_arm_lanes import lane_events, plan_lane
+from .two_arm_lanes import check_lane_goals, lane_events, named_arm, plan_lane
 from .two_arms_contacts import ARM_BITS, Collision, Contacts, collision_bits
 
 BASE_GAP = 0.4
@@ -494,16 +498,14 @@ def _prepared(
     return hands, has_carry(hands), press_holds(hands, sizes, robot)
 
 
-def check_displaceable(trajs: dict[str, Any], hands: HandsProgram, robot: TwoArmRobot) -> None:
-    """Raise UsageError for a program whose objects cannot be displaced on two arms yet: a
-    two-handed carry or a hold by pressing (planned for the demonstrated layout only)."""
-    _, sequence, presses = _prepared(trajs, hands, robot)
-    if sequence or presses:
-        what = "a two-handed carry" if sequence else "a hold by pressing"
-        raise UsageError(
-            f"{what} is not reproduced with displaced objects yet; reproduce this "
-            "demonstration without --displace or --randomise"
-        )
+def _scene_points(
+    planned: dict[str, tuple[Any, Any, Any]],
+) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Each lane's planned TCP path and every object position of every planned scene: what
+    :func:`choose_bases` places the bases for once the task is re-grounded."""
+    scenes = [sc for _, ini, r in planned.values() for sc in [ini, *r.scenes]]
+    objs = np.array([T[:3, 3] for sc in scenes for T in sc.values()])
+    return {s: r.plan.position for s, (_, _, r) in planned.items()}, objs
 
 
 def plan_two_arms(
@@ -536,8 +538,6 @@ def plan_two_arms(
 
     displace = dict(displace or {})
     hands, sequence, presses = _prepared(trajs, hands, robot)
-    if displace:
-        check_displaceable(trajs, hands, robot)
     check_runs(hands)
     sides = [s for s in hands.sides if hands.lanes[s] and s in robot.arms]
     missing = [s for s in hands.sides if s not in robot.arms]
@@ -567,11 +567,13 @@ def plan_two_arms(
     ) -> dict[str, tuple[Any, Any, Any]]:
         out = {}
         for s in sides:
+            others = _others(programs, s)
             if s in presses:
-                out[s] = plan_press_lane(trajs[s], hands, presses[s], mode, bases[s], robot)
+                lane = plan_press_lane(trajs[s], hands, presses[s], mode, bases[s], robot, moved)
+                check_lane_goals(lane, displace, others, s)
+                out[s] = lane
                 continue
             try:
-                others = _others(programs, s)
                 events = lane_events(before, s, others) if before else []
                 out[s] = plan_lane(
                     trajs[s],
@@ -586,12 +588,22 @@ def plan_two_arms(
                     (grasps or {}).get(s),
                 )
             except UsageError as err:  # the arm named
-                msg = str(err).replace("the arm's reach", f"the {s} arm's reach")
-                raise UsageError(f"{s} arm: {msg}") from err
+                raise named_arm(err, s) from err
+        return out
+
+    def plan_units(bases: dict[str, np.ndarray]) -> dict[str, tuple[Any, Any, Any]]:
+        out = plan_sequence(trajs, hands, mode, bases, robot, moved)
+        for s in sides:
+            check_lane_goals(out[s], displace, _others(programs, s), s)
         return out
 
     if sequence:
-        planned = plan_sequence(trajs, hands, mode, bases, robot)
+        planned = plan_units(bases)
+        if displace:  # the bases again, for the re-grounded paths and every object pose
+            new = choose_bases(*_scene_points(planned), robot)
+            if any(np.linalg.norm(new[s] - bases[s]) > 1e-9 for s in sides):
+                bases = new
+                planned = plan_units(bases)
         yaws = {s: mount_yaw(bases[s], points[s]) for s in sides}
         plans = {s: r.plan for s, (_, _, r) in planned.items()}
         return _finish(hands, mode, programs, bases, yaws, planned, plans)
@@ -599,10 +611,7 @@ def plan_two_arms(
     if len(sides) > 1:  # again, each lane knowing where the other arm moves its objects
         planned = plan_lanes(bases, planned)
     if displace:  # the bases again, for the re-grounded paths and every planned object pose
-        scenes = [sc for _, ini, r in planned.values() for sc in [ini, *r.scenes]]
-        objs = np.array([T[:3, 3] for sc in scenes for T in sc.values()])
-        paths = {s: planned[s][2].plan.position for s in sides}
-        new = choose_bases(paths, objs, robot)
+        new = choose_bases(*_scene_points(planned), robot)
         if any(np.linalg.norm(new[s] - bases[s]) > 1e-9 for s in sides):
             bases = new
             planned = plan_lanes(bases, plan_lanes(bases))

@@ -35,7 +35,7 @@ from .aloha import TwoArmRobot
 from .displacement import STACK_SLACK, Displacement, _overlap, check_program
 from .goals import yaw_of
 from .measures import path_length
-from .program import HandsProgram
+from .program import HandsProgram, TaskProgram
 from .randomise import (
     LAYOUT_GAP,
     MAX_SHIFT,
@@ -48,7 +48,7 @@ from .two_arm_lanes import lifted
 from .two_arms import (
     TwoArmPlan,
     TwoArmReproduction,
-    check_displaceable,
+    _prepared,
     check_runs,
     plan_two_arms,
     reproduce_two_arms,
@@ -68,16 +68,21 @@ def _check_program(
     trajs: dict[str, Any], hands: HandsProgram, modes: Sequence[str], robot: TwoArmRobot
 ) -> str:
     """Refuse what no layout changes (a synchronisation the arms do not run, a hand with no
-    arm, an object no gripper holds); the lane the layouts are drawn from."""
+    arm, an object no gripper holds: one both arms carry or one pressed is held without a
+    grasp); the lane the layouts are drawn from."""
+    from .two_arm_sequence import carried_by_both
+
     check_runs(hands)
-    check_displaceable(trajs, hands, robot)
     missing = [s for s in hands.sides if s not in robot.arms]
     if missing:
         raise DemonstrationError(f"the {missing[0]} hand has no arm on {robot.name}")
     if any(m != "replay" for m in modes):
+        prepared, _, presses = _prepared(trajs, hands, robot)
+        held = carried_by_both(prepared) | {str(p.object) for p in presses.values()}
         for side in hands.sides:
-            if hands.lanes[side]:
-                check_program(trajs[side], hands.program(side), robot.ik)
+            steps = [g for g in prepared.lanes[side] if g.object not in held]
+            if steps:
+                check_program(trajs[side], TaskProgram(steps), robot.ik)
     return _first_lane(trajs, hands)
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import importlib.util
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -157,16 +158,34 @@ def test_cli_randomise_on_two_arms_bad_input(
         assert not out.exists() and not (tmp_path / "v.mp4").exists()
 
 
-def test_a_program_the_arms_do_not_randomise_is_refused_before_any_layout() -> None:
-    """A two-handed carry runs on two arms at the demonstrated layout only: randomising it is
-    refused in one line before any layout is drawn (not drawn again until none is left)."""
-    from lfd.errors import UsageError
+@pytest.mark.slow
+@pytest.mark.parametrize("task", ["carry", "hold_stack"])
+def test_a_two_handed_carry_and_a_press_follow_their_displaced_object(task: str) -> None:
+    """A two-handed carry (both arms press the wide box between them) and a hold by pressing
+    (the plank too wide for a grasp) start from where a layout puts the object: the plan's
+    scene has it there, both arms' plans go to it (not to where the person found it), and the
+    run on the layout is achieved per arm and for the task."""
     from lfd.reproduce.aloha import aloha
-    from lfd.reproduce.two_arms_randomise import first_layout
+    from lfd.reproduce.two_arms import plan_two_arms, run_two_arm_plan
 
-    trajs, hands = _program("carry", 3)
-    with pytest.raises(UsageError, match="two-handed carry is not reproduced with displaced"):
-        first_layout(trajs, hands, robot=aloha())
+    trajs, hands = _program(task, 4)
+    robot = aloha()
+    demo = plan_two_arms(trajs, hands, "skills", robot=robot)
+    name = {"carry": "big_box", "hold_stack": "plank"}[task]
+    spec = {o.name: o for o in demo.specs}[name]
+    plan = plan_two_arms(trajs, hands, "skills", robot=robot, displace={name: (0.06, -0.04, 20)})
+    moved = {o.name: o for o in plan.specs}[name]
+    assert np.allclose(moved.position[:2] - spec.position[:2], [0.06, -0.04], atol=1e-6)
+
+    def near(p: Any, xy: np.ndarray) -> float:  # the closest any arm's planned TCP comes
+        return min(
+            float(np.min(np.linalg.norm(p.plans[s].position[:, :2] - xy, axis=1))) for s in p.sides
+        )
+
+    # the arms come as close to the moved object as they came to it where the person found it
+    assert near(plan, moved.position[:2]) < near(demo, spec.position[:2]) + 0.02
+    run = run_two_arm_plan(plan, robot)
+    assert run.success, run.failures
 
 
 def test_crowding_is_measured_between_footprints() -> None:
