@@ -19,6 +19,8 @@ Each layout's rejections are counted by kind (naming the arm) in
 :attr:`~lfd.reproduce.randomise.Layout.rejected`. Each run reports the task's success, each
 arm's (:meth:`~lfd.reproduce.two_arms.TwoArmReproduction.arm_success`) and every failure
 naming the arm (a collision of the two arms or of an arm with the table included).
+:func:`iter_two_arm_layouts` draws the same layouts one at a time, each with its plans (robot
+data: ``lfd export robot-data --robot aloha``).
 """
 
 from __future__ import annotations
