@@ -157,6 +157,40 @@ def test_loads_back_with_both_arms_commands_and_skills(
     assert ds.meta.tasks.index[0].startswith(f"{TASK}: right: ")
 
 
+@pytest.mark.slow  # runs the two layouts again, interrupted after the first (~15 s)
+@needs_aloha
+@needs_lerobot
+def test_interrupted_two_arm_export_resumes_to_the_same_dataset(
+    exported: tuple[Path, list[LayoutResult]], tmp_path: Path
+) -> None:
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    once, _ = exported
+    rec = once.parent / f"{TASK}.mcap"
+    out = tmp_path / "ds"
+
+    def stop(r: LayoutResult, n: int) -> None:
+        raise KeyboardInterrupt  # Ctrl+C once the first layout is finished
+
+    with pytest.raises(KeyboardInterrupt):
+        export_robot_data(rec, out, layouts=LAYOUTS, robot="aloha", progress=stop)
+    assert not out.exists()
+    seen: list[LayoutResult] = []
+    export_robot_data(
+        rec, out, layouts=LAYOUTS, robot="aloha", progress=lambda r, n: seen.append(r)
+    )
+    assert [(r.index, r.resumed) for r in seen] == [(0, True), (1, False)]
+
+    def table(root: Path) -> dict[str, np.ndarray]:
+        ds = LeRobotDataset(f"lfd/{root.name}", root=root, video_backend="pyav")
+        return {k: np.asarray(v) for k, v in ds.hf_dataset.with_format("numpy")[:].items()}
+
+    a, b = table(once), table(out)
+    assert a.keys() == b.keys()
+    for key in a:
+        np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+
+
 def _refused(call: Any, tmp_path: Path, message: str) -> None:
     before = sorted(p.name for p in tmp_path.iterdir())
     with pytest.raises(UsageError, match=message) as err:
