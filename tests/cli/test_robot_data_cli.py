@@ -82,3 +82,26 @@ def test_one_layout_prints_progress_and_the_yield(
     # the same command again: the dataset is there, refused (one line) and kept
     _refused(capsys, EXP1, "-o", out, "--layouts", 1, expected="not empty")
     assert (out / "meta" / "lfd_layouts.json").is_file()
+
+
+@pytest.mark.slow  # simulates a two-hand demonstration, runs, renders and encodes one layout
+@pytest.mark.skipif(importlib.util.find_spec("lerobot") is None, reason="lerobot not installed")
+@pytest.mark.skipif(importlib.util.find_spec("gym_aloha") is None, reason="gym-aloha missing")
+def test_two_arms_print_progress_and_the_yield(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("HF_HUB_OFFLINE", "1")
+    monkeypatch.setenv("HF_HOME", str(tmp_path / "hf"))
+    rec, out = tmp_path / "hold_push.mcap", tmp_path / "ds"
+    assert _lfd(capsys, "simulate", "hold_push", "--seed", 9501, "-o", rec)[0] == 0
+    argv = ("export", "robot-data", rec, "--robot", "aloha", "-o", out, "--layouts", 1)
+    status, stdout, err = _lfd(capsys, *argv)
+    assert status == 0 and err == "", err
+    lines = stdout.splitlines()
+    assert lines[0].startswith("layout 1/1: ok, "), stdout
+    assert "1 episode(s) of 1 layouts (yield 100 %)" in lines[-1], stdout
+    doc = json.loads((out / "meta" / "lfd_layouts.json").read_text())
+    assert doc["settings"]["robot"] == "aloha"
+    info = json.loads((out / "meta" / "info.json").read_text())
+    assert info["robot_type"] == "lfd_aloha"
+    assert info["features"]["action"]["shape"] == [14]

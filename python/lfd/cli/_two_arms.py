@@ -36,13 +36,10 @@ def run_two_arms(args: argparse.Namespace, demo: Any, err: Any) -> int:
     hands = from_hand_labels(
         demo.labels, demo.start_ns, sides=demo.sides, handovers=demo.handovers, objects=demo.objects
     )
-    busy = [s for s in hands.sides if hands.lanes[s]]
-    if args.randomise and len(busy) < 2:
-        raise UsageError(
-            f"--randomise with --robot {args.robot} takes a two-hand recording (here "
-            f"{'only the ' + busy[0] + ' hand has' if busy else 'no hand has'} steps); "
-            "--robot kuka_lwr4 or panda randomises a one-hand task"
-        )
+    if args.randomise:
+        from ..reproduce.two_arms_randomise import check_busy
+
+        check_busy(hands, args.robot)
     modes = ("replay", "skills", "dmp") if args.mode == "all" else (args.mode,)
     trajs = {s: preprocess(demo.one_hand(s), **PREPROCESSING) for s in hands.sides}
     if args.randomise:

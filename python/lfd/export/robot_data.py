@@ -7,7 +7,9 @@ every object shifted and turned, reachable, collision-free; the same layouts as 
 --randomise N --seed S`` drawn for the one mode), runs the program on the robot in each
 (:func:`lfd.reproduce.reproduce`), keeps the successful runs and writes each as a robot episode
 (:mod:`.robot_episode`: joint positions, commanded joints, object poses, rendered images, the
-skill of every frame as the subtask).
+skill of every frame as the subtask). A two-hand recording on a two-arm robot (``robot``
+``aloha``): each hand's lane on the arm of its side, both arms' joints in the state and action
+(:mod:`.robot_sources` says where the episodes come from: one arm or two).
 
 Resumable: the work lives in ``.<name>.robot-data`` beside the output until the dataset is
 written: ``state.json`` (the settings, every tried layout's outcome) and one ``.npz`` per
@@ -32,14 +34,15 @@ import numpy as np
 
 from ..errors import DemonstrationError, UsageError
 from .robot_episode import IMAGE_PREFIX, Camera, RobotEpisode, check_fps, check_image_size
+from .robot_sources import OneArm, TwoArms, robot_source
 from .writer import DEFAULT_VCODEC, VCODECS
 
 LAYOUTS_PATH = "meta/lfd_layouts.json"
 """Every tried layout and the yield, in the dataset."""
 WORK_SUFFIX = ".robot-data"
-STATE_FORMAT = 1
+STATE_FORMAT = 2
+"""2: an episode's skill and subtask columns by name (one arm or two)."""
 ROBOT_LABELS: tuple[str, ...] = ("ground-truth", "segment")
-CAMERA_NAME = "table"
 DEFAULT_FPS = 10
 DEFAULT_IMAGE_SIZE = (160, 120)
 
@@ -121,72 +124,6 @@ def work_dir(output: Path) -> Path:
     return output.parent / f".{output.name}{WORK_SUFFIX}"
 
 
-def _program(recording: Path, labels: str) -> tuple[Any, Any, str]:
-    """The trajectory the robot follows, its one-arm task program and the task's sentence."""
-    from ..io import load
-    from ..preprocessing import preprocess
-    from ..reproduce import PREPROCESSING, from_labels, from_segmentation
-
-    demo = load(recording, images=False)
-    if len(demo.sides) > 1:
-        raise UsageError(
-            f"{recording}: a two-hand demonstration ({' and '.join(demo.sides)} hands); robot "
-            "data is made on a one-arm robot from one hand's program"
-        )
-    if labels == "segment":
-        from ..segmentation import segment
-
-        result = segment(demo)
-        if result.run is None:
-            raise DemonstrationError(f"{recording}: the segmentation kept no trajectory")
-        traj = result.run.trajectory
-        program = from_segmentation(result, int(traj.t_ns[0]))
-    else:
-        if not demo.labels:
-            raise DemonstrationError(
-                f"{recording} has no ground-truth labels; use --labels segment"
-            )
-        traj = preprocess(demo, **PREPROCESSING)
-        program = from_labels(demo.labels, int(traj.t_ns[0]))
-    if not program.segments:
-        raise DemonstrationError(f"{recording}: the task program has no skills")
-    from .episode import subtask_name
-
-    steps = ", ".join(subtask_name(s.skill, s.object) for s in program.segments)
-    return traj, program, f"{recording.stem}: {steps}"
-
-
-def _camera(traj: Any, program: Any, size: tuple[int, int]) -> Camera:
-    """The dataset's camera: looking at the centre of the objects where the program starts."""
-    from ..reproduce import program_start
-
-    start = program_start(traj, program)
-    pos = np.asarray(traj.object_position)[:, start, :]
-    centre = np.nanmean(pos[np.isfinite(pos).all(axis=1)], axis=0)
-    return Camera(CAMERA_NAME, (float(centre[0]), float(centre[1]), 0.05), *size)
-
-
-def _check_demonstration(rec: Path, traj: Any, program: Any, mode: str, arm: Any) -> None:
-    """Refuse a demonstration the robot cannot do where it was shown (an object out of reach,
-    a goal off the table: :func:`lfd.reproduce.displacement.plan_layout`, as ``lfd
-    reproduce``), at once: drawing layouts around it would be refused draw after draw."""
-    from ..reproduce import program_start
-    from ..reproduce.displacement import plan_layout
-    from ..reproduce.goals import DemoFrames
-
-    start = program_start(traj, program)
-    frames = DemoFrames(traj, np.zeros(3), arm)
-    seen = np.isfinite(np.asarray(traj.object_position)[:, start, :]).all(axis=1)
-    # every object a layout moves, not moved: checked where it is (reach, table)
-    free = [
-        n for k, n in enumerate(frames.names) if seen[k] and frames.support_of(n, start) is None
-    ]
-    try:
-        plan_layout(traj, program, mode, {name: (0.0, 0.0, 0.0) for name in free}, robot=arm)
-    except UsageError as err:
-        raise UsageError(f"{rec}: the robot cannot do the demonstration as shown: {err}") from None
-
-
 def _check(layouts: int, mode: str, labels: str, vcodec: str) -> None:
     from ..reproduce import MODES
     from ..reproduce.randomise import check_layout_count
@@ -226,7 +163,7 @@ def export_robot_data(
     Parameters
     ----------
     recording : path
-        A one-hand recording (``.mcap``).
+        A one-hand recording (``.mcap``), or a two-hand one with a two-arm ``robot``.
     layouts : int
         How many randomised layouts to try (1-100000); the successful runs are the episodes.
     seed : int
@@ -244,15 +181,18 @@ def export_robot_data(
         How far the layouts move and turn the objects (default: ``lfd reproduce``'s).
     robot : str
         The arm (:data:`lfd.reproduce.ROBOTS`; ``lfd reproduce --robot``): its joints are the
-        state and action, ``robot_type`` is ``lfd_<robot>``.
+        state and action, ``robot_type`` is ``lfd_<robot>``. A two-arm robot
+        (:data:`lfd.reproduce.robots.TWO_ARM_ROBOTS`, ``aloha``) takes a two-hand recording
+        and its ground-truth labels: both arms' joints, each arm's skill columns.
     progress : callable (layout result, number of layouts)
         Called after every layout, in order (also for those an earlier run finished).
 
     Raises
     ------
     UsageError
-        Bad settings or output, a two-hand recording, no reachable layout, an interrupted
-        export with other settings waiting in :func:`work_dir`.
+        Bad settings or output, a two-hand recording on one arm or a one-hand recording on
+        two, no reachable layout, an interrupted export with other settings waiting in
+        :func:`work_dir`.
     DemonstrationError
         No labels, no layout succeeded (the layouts stay in :func:`work_dir`).
     """
@@ -260,12 +200,12 @@ def export_robot_data(
     from ..io.reads import read_paths
     from ..outputs import check_output_dir
     from ..reproduce import MAX_SHIFT, MAX_TURN_DEG
-    from ..reproduce.robots import robot as robot_named
+    from ..reproduce.robots import any_robot
     from .lerobot import not_a_dataset
     from .writer import import_lerobot
 
     _check(layouts, mode, labels, vcodec)
-    arm = robot_named(robot)  # an unknown robot, or its package missing: one line, first
+    arm = any_robot(robot)  # an unknown robot, or its package missing: one line, first
     check_fps(fps)
     size = check_image_size(*image_size)
     rec = Path(recording)
@@ -278,7 +218,7 @@ def export_robot_data(
     if repo.count("/") != 1 or not all(repo.split("/")):
         raise UsageError(f"--repo-id must look like OWNER/NAME, got {repo!r}")
     start = time.perf_counter()
-    traj, program, task = _program(rec, labels)
+    source = robot_source(rec, labels, arm)
     settings = {
         "recording": str(rec.resolve()),
         "recording_bytes": rec.stat().st_size,
@@ -296,12 +236,12 @@ def export_robot_data(
 
     # what every layout runs on, checked once (a missing module is not a failed layout)
     require("sim", SIM_MODULES + (("movement_primitives",) if mode == "dmp" else ()), who=__name__)
-    _check_demonstration(rec, traj, program, mode, arm)
+    source.check(rec, mode)
     import_lerobot()
     work = _Work(work_dir(dest), settings)
-    camera = _camera(traj, program, size)
+    camera = source.camera(size)
     report = RobotDataReport(dest, repo)
-    report.layouts = _run_layouts(traj, program, task, layouts, settings, camera, work, progress)
+    report.layouts = _run_layouts(source, layouts, settings, camera, work, progress)
     if not report.succeeded:
         kinds = sorted({f for r in report.layouts for f in r.failures})
         raise DemonstrationError(
@@ -365,9 +305,7 @@ def _differs(old: dict[str, Any], new: dict[str, Any]) -> str:
 
 
 def _run_layouts(
-    traj: Any,
-    program: Any,
-    task: str,
+    source: OneArm | TwoArms,
     n: int,
     settings: dict[str, Any],
     camera: Camera,
@@ -375,23 +313,9 @@ def _run_layouts(
     progress: Callable[[LayoutResult, int], None] | None,
 ) -> list[LayoutResult]:
     """Every layout's outcome, running those ``work`` has not finished."""
-    from ..reproduce.randomise import iter_layouts
-    from ..reproduce.robots import robot
-
-    mode, arm = settings["mode"], robot(settings["robot"])
-    draws = iter_layouts(
-        traj,
-        program,
-        n,
-        seed=settings["seed"],
-        max_shift=settings["max_shift_m"],
-        max_turn_deg=settings["max_turn_deg"],
-        modes=(mode,),
-        robot=arm,
-    )
     out: list[LayoutResult] = []
     t = time.perf_counter()
-    for lay in _layouts(draws):
+    for lay in _layouts(source.layouts(n, settings)):
         displace = {k: [float(x) for x in v] for k, v in lay.displace.items()}
         done = work.done.get(lay.index)
         if done is not None and done.displace != displace:
@@ -400,7 +324,7 @@ def _run_layouts(
                 "recording changed?); remove that directory to start again"
             )
         if done is None:
-            done = _run_one(traj, program, task, lay, mode, camera, work, time.perf_counter() - t)
+            done = _run_one(source, lay, camera, work, time.perf_counter() - t)
         out.append(done)
         if progress is not None:
             progress(done, n)
@@ -417,36 +341,26 @@ def _layouts(draws: Any) -> Any:
 
 
 def _run_one(
-    traj: Any,
-    program: Any,
-    task: str,
-    lay: Any,
-    mode: str,
-    camera: Camera,
-    work: _Work,
-    drawn_s: float,
+    source: OneArm | TwoArms, lay: Any, camera: Camera, work: _Work, drawn_s: float
 ) -> LayoutResult:
     """Run one layout, keep its episode when it succeeded."""
     from ..errors import LfdError
-    from ..reproduce import reproduce
-    from .robot_episode import robot_episode
 
     t = time.perf_counter()
     displace = {k: [float(x) for x in v] for k, v in lay.displace.items()}
     try:
-        run = reproduce(traj, program, mode, displace=lay.displace, robot=work.settings["robot"])
+        run = source.run(lay.displace, work.settings["mode"])
     except LfdError as err:
         msg = " ".join(str(err).split())
         result = LayoutResult(lay.index, displace, False, [msg], 0.0, error=msg)
         work.finish(result, None)
         return result
-    episode = robot_episode(run, fps=int(work.settings["fps"]), camera=camera, task=task)
-    ok = run.success
-    result = LayoutResult(lay.index, displace, ok, run.failures, 0.0, len(episode) if ok else 0)
-    if not ok and not result.failures:
-        result.failures = [f"{o.name} off target" for o in run.objects if not o.success]
+    episode = source.episode(run, int(work.settings["fps"]), camera) if run.success else None
+    frames = len(episode) if episode is not None else 0
+    failures = [] if run.success else source.failures(run)
+    result = LayoutResult(lay.index, displace, run.success, failures, 0.0, frames)
     result.seconds = round(drawn_s + time.perf_counter() - t, 3)
-    work.finish(result, episode if ok else None)
+    work.finish(result, episode)
     return result
 
 
@@ -514,24 +428,25 @@ class RobotWriter:
                 video_backend="pyav",
             )
         ds = self._dataset
-        for name in ep.subtask:
-            self.subtasks.setdefault(name, len(self.subtasks))
+        for names in ep.subtasks.values():
+            for name in names:
+                self.subtasks.setdefault(name, len(self.subtasks))
         image = IMAGE_PREFIX + self.camera
         try:
             for i in range(len(ep)):
-                ds.add_frame(
-                    {
-                        "observation.state": ep.state[i],
-                        "action": ep.action[i],
-                        "observation.environment_state": ep.environment[i],
-                        image: ep.images[i],
-                        "skill_index": ep.skill_index[i : i + 1],
-                        "object_index": ep.object_index[i : i + 1],
-                        "subtask_index": np.array([self.subtasks[ep.subtask[i]]], dtype=np.int64),
-                        "task": ep.task,
-                    }
-                )
-            for key in ("skill_index", "object_index", "subtask_index"):  # scalars: as writer's
+                frame: dict[str, Any] = {
+                    "observation.state": ep.state[i],
+                    "action": ep.action[i],
+                    "observation.environment_state": ep.environment[i],
+                    image: ep.images[i],
+                    "task": ep.task,
+                }
+                for key, column in ep.labels.items():
+                    frame[key] = column[i : i + 1]
+                for key, names in ep.subtasks.items():
+                    frame[key] = np.array([self.subtasks[names[i]]], dtype=np.int64)
+                ds.add_frame(frame)
+            for key in ep.scalar_keys:  # scalars: as writer's
                 ds.episode_buffer[key] = [np.int64(v[0]) for v in ds.episode_buffer[key]]
         except BaseException:
             ds.clear_episode_buffer()

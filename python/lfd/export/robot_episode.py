@@ -1,22 +1,26 @@
 """One robot run made ready for a LeRobot dataset: the simulation sampled at the dataset's rate.
 
-:func:`robot_episode` takes a :class:`~lfd.reproduce.Reproduction` (its
-:class:`~lfd.reproduce.controller.Execution` keeps ``qpos`` at the start of every 10 ms control
-tick, the commanded set points ``ctrl`` and the scene's MJCF) and samples every
-``100 / fps``-th tick: the frame's observation is the simulation's state at the start of that
-tick, its action the command given at that tick (what the servos were told to reach), its
+:func:`robot_episode` (one arm: a :class:`~lfd.reproduce.Reproduction`) and
+:func:`two_arm_episode` (two: a :class:`~lfd.reproduce.two_arms.TwoArmReproduction`) read the
+run's :class:`~lfd.reproduce.controller.Execution` (``qpos`` at the start of every 10 ms control
+tick, the commanded set points ``ctrl`` and the scene's MJCF) and :func:`episode_of` samples
+every ``100 / fps``-th tick: the frame's observation is the simulation's state at the start of
+that tick, its action the command given at that tick (what the servos were told to reach), its
 subtask the task-program segment the tick belongs to (a dwell tick, the gripper closing or
-opening, the segment's before it: :func:`held`), its image rendered from ``qpos`` by a
-camera fixed for the whole dataset (:class:`Camera`). The columns (docs/export.md):
+opening, the segment's before it: :func:`held`), its image rendered from ``qpos`` by a camera
+fixed for the whole dataset (:class:`Camera`). The columns (docs/export.md):
 
-``observation.state``             (j+1,) float32  the arm's joint positions (rad), gripper opening (m)
-``action``                        (j+1,) float32  the commanded joint positions, gripper opening
+``observation.state``             (d,)   float32  each arm's joint positions (rad), gripper opening (m)
+``action``                        (d,)   float32  the commanded joint positions, gripper opening
 ``observation.environment_state`` (7k,)  float32  per object: x, y, z (m), quaternion x, y, z, w
 ``observation.images.<camera>``   video           the rendered scene
-``skill_index``, ``object_index``, ``subtask_index`` (1,) int64  as the human export's
+``skill_index``, ``object_index``, ``subtask_index`` (1,) int64  as the human export's (one arm)
+``skill_index.<side>``, ``object_index.<side>``, ``subtask_index.<side>``, ``subtask_index``
+                                  (1,) int64  two arms: each arm's, and both arms' subtask
 
-The arm's joints are the actuated hinge joints of the scene, the gripper its actuated slide
-joints (the fingers): the opening is their sum, as the command is.
+An arm's joints are its actuated hinge joints in the scene, its gripper its actuated slide
+joints (the fingers): the opening is their sum, as the command is. Two arms: the left arm's
+columns first, named as ALOHA's (``left_waist`` ... ``left_gripper``, ``right_waist`` ...).
 """
 
 from __future__ import annotations
@@ -34,12 +38,13 @@ from .episode import NO_SKILL, segment_annotation, subtask_name
 
 if TYPE_CHECKING:
     from ..reproduce import Reproduction
+    from ..reproduce.two_arms import TwoArmReproduction
 
 TICK_HZ = 100
 """Control ticks per second of the simulation (``lfd.reproduce.controller.TICK``)."""
 ENV_KEY = "observation.environment_state"
 IMAGE_PREFIX = "observation.images."
-SCALAR_KEYS = ("skill_index", "object_index", "subtask_index")
+SUBTASK_KEY = "subtask_index"
 
 
 @dataclass(frozen=True)
@@ -75,10 +80,14 @@ def check_image_size(width: int, height: int) -> tuple[int, int]:
 class RobotEpisode:
     """One successful robot run at the dataset's rate (``n`` frames).
 
-    ``state``, ``action`` (n, j+1), ``environment`` (n, 7k) float32; ``images`` (n, H, W, 3)
-    uint8; ``skill_index``, ``object_index``, ``segment`` (n,) int64 (-1: no skill; ``segment``
-    numbers the program's segments); ``subtask`` the frames' subtask names; ``joint_names`` the
-    state's columns; ``ticks`` (n,) the control tick of every frame."""
+    ``state``, ``action`` (n, d), ``environment`` (n, 7k) float32; ``images`` (n, H, W, 3)
+    uint8; ``labels`` the skill and object columns, (n,) int64 each (-1: none):
+    ``skill_index``, ``object_index`` of one arm, ``skill_index.<side>``,
+    ``object_index.<side>`` of two; ``subtasks`` the subtask columns' frame names
+    (``subtask_index``; of two arms also ``subtask_index.<side>``, ``subtask_index`` naming
+    both: ``"right: pick_up bar | left: move"``); ``segment`` (n,) int64 numbers the runs of
+    the same subtask (the episode's annotation); ``joint_names`` the state's columns;
+    ``ticks`` (n,) the control tick of every frame."""
 
     fps: int
     task: str
@@ -88,14 +97,23 @@ class RobotEpisode:
     action: np.ndarray
     environment: np.ndarray
     images: np.ndarray
-    skill_index: np.ndarray
-    object_index: np.ndarray
+    labels: dict[str, np.ndarray]
+    subtasks: dict[str, list[str]]
     segment: np.ndarray
-    subtask: list[str]
     ticks: np.ndarray
 
     def __len__(self) -> int:
         return int(self.state.shape[0])
+
+    @property
+    def subtask(self) -> list[str]:
+        """Every frame's subtask (``subtask_index``'s names)."""
+        return self.subtasks[SUBTASK_KEY]
+
+    @property
+    def scalar_keys(self) -> list[str]:
+        """The one-value columns: ``labels``' and ``subtasks``'."""
+        return [*self.labels, *self.subtasks]
 
     def annotation(self) -> dict[str, list[Any]]:
         """Lerobot's per-episode subtask annotation (:func:`~.episode.segment_annotation`)."""
@@ -120,21 +138,19 @@ class RobotEpisode:
                 "names": ["height", "width", "channels"],
             },
         }
-        for key in SCALAR_KEYS:
+        for key in self.scalar_keys:
             feats[key] = {"dtype": "int64", "shape": (1,), "names": None}
         return feats
 
     def save(self, path: Path | BinaryIO) -> None:
         """Write to ``path`` (``.npz``, no pickles)."""
-        arrays = {k: getattr(self, k) for k in _ARRAYS}
-        np.savez(
-            path,
-            **arrays,
-            subtask=np.array(self.subtask, dtype=str),
-            joint_names=np.array(self.joint_names, dtype=str),
-            object_names=np.array(self.object_names, dtype=str),
-            fps_task=np.array([str(self.fps), self.task], dtype=str),
-        )
+        arrays: dict[str, np.ndarray] = {k: getattr(self, k) for k in _ARRAYS}
+        arrays |= {_LABEL + k: v for k, v in self.labels.items()}
+        arrays |= {_SUBTASK + k: np.array(v, dtype=str) for k, v in self.subtasks.items()}
+        arrays["joint_names"] = np.array(self.joint_names, dtype=str)
+        arrays["object_names"] = np.array(self.object_names, dtype=str)
+        arrays["fps_task"] = np.array([str(self.fps), self.task], dtype=str)
+        np.savez(path, **arrays)  # type: ignore[arg-type]
 
     @classmethod
     def load(cls, path: Path) -> RobotEpisode:
@@ -146,66 +162,153 @@ class RobotEpisode:
                 task=task,
                 joint_names=[str(v) for v in z["joint_names"]],
                 object_names=[str(v) for v in z["object_names"]],
-                subtask=[str(v) for v in z["subtask"]],
+                labels={k[len(_LABEL) :]: z[k] for k in z.files if k.startswith(_LABEL)},
+                subtasks={
+                    k[len(_SUBTASK) :]: [str(v) for v in z[k]]
+                    for k in z.files
+                    if k.startswith(_SUBTASK)
+                },
                 **{k: z[k] for k in _ARRAYS},
             )
 
 
-_ARRAYS = (
-    "state",
-    "action",
-    "environment",
-    "images",
-    "skill_index",
-    "object_index",
-    "segment",
-    "ticks",
-)
+_ARRAYS = ("state", "action", "environment", "images", "segment", "ticks")
+_LABEL, _SUBTASK = "label:", "subtask:"
+
+
+@dataclass
+class ArmTicks:
+    """One arm of a run, as an episode reads it: its joints in the scene (the actuated hinges,
+    the fingers' slides), its column names, its plan's segment per tick and the segments
+    of the program that plan runs. ``side``: ``""`` for one arm, else ``left`` or ``right``."""
+
+    side: str
+    joints: list[int]
+    fingers: list[int]
+    names: list[str]
+    segment: np.ndarray
+    segments: list[Any]
 
 
 def robot_episode(run: Reproduction, *, fps: int, camera: Camera, task: str) -> RobotEpisode:
-    """The frames of a reproduction at ``fps`` (:func:`check_fps`), rendered by ``camera``."""
+    """The frames of a one-arm reproduction at ``fps`` (:func:`check_fps`), rendered by
+    ``camera``."""
     import mujoco
 
     ex, program = run.execution, run.program
     if ex is None or ex.qpos is None or ex.ctrl is None or program is None:
         raise ValueError("a reproduction without its execution's qpos, ctrl and program")
     model = mujoco.MjModel.from_xml_string(ex.scene)
-    ticks = np.arange(0, ex.qpos.shape[0], TICK_HZ // check_fps(fps))
     arm, grip = _actuated(model)
+    names = [*(model.joint(j).name for j in arm), "gripper.opening"]
+    one = ArmTicks("", arm, grip, names, np.asarray(run.segment), list(program.segments))
+    return episode_of(model, ex, [one], fps=fps, camera=camera, task=task)
+
+
+def two_arm_episode(
+    run: TwoArmReproduction, *, fps: int, camera: Camera, task: str
+) -> RobotEpisode:
+    """The frames of a two-arm reproduction at ``fps``: both arms' joints in one state and one
+    action, the left arm's first, as ALOHA names them (``left_waist`` ...
+    ``left_wrist_rotate``, ``left_gripper``, then the right's); each arm's skill columns
+    (``skill_index.<side>``, ...) and both arms' subtask. An arm whose plan has ended holds its
+    last pose, its last segment."""
+    import mujoco
+
+    ex = run.executions[next(iter(run.executions))]
+    if ex.qpos is None or ex.ctrl is None or not run.programs:
+        raise ValueError("a reproduction without its execution's qpos, ctrl and programs")
+    model = mujoco.MjModel.from_xml_string(ex.scene)
+    arm, grip = _actuated(model)
+    n = ex.qpos.shape[0]
+    arms = []
+    for side in sorted(run.plans):  # left, right (ALOHA's order)
+        mine = [j for j in arm if model.joint(j).name.startswith(side + "/")]
+        fingers = [j for j in grip if model.joint(j).name.startswith(side + "/")]
+        names = [model.joint(j).name.replace("/", "_", 1) for j in mine] + [f"{side}_gripper"]
+        seg = np.full(n, -1, dtype=np.int64)
+        plan_seg = np.asarray(run.plans[side].segment)[:n]
+        seg[: len(plan_seg)] = plan_seg
+        arms.append(ArmTicks(side, mine, fingers, names, seg, list(run.programs[side].segments)))
+    return episode_of(model, ex, arms, fps=fps, camera=camera, task=task)
+
+
+def episode_of(
+    model: Any, ex: Any, arms: list[ArmTicks], *, fps: int, camera: Camera, task: str
+) -> RobotEpisode:
+    """The episode of an execution (its ``qpos``, ``ctrl`` per tick in ``model``'s scene)
+    with ``arms``: every ``100 / fps``-th tick, each arm's joints and opening, every object's
+    pose, each arm's skill, the image."""
+    ticks = np.arange(0, ex.qpos.shape[0], TICK_HZ // check_fps(fps))
     qadr = model.jnt_qposadr
-    qpos = ex.qpos[ticks]
-    ctrl = ex.ctrl[ticks]
-    state = np.concatenate([qpos[:, qadr[arm]], qpos[:, qadr[grip]].sum(1, keepdims=True)], 1)
-    act_arm = [int(np.flatnonzero(model.actuator_trnid[:, 0] == j)[0]) for j in arm]
-    act_grip = [int(np.flatnonzero(model.actuator_trnid[:, 0] == j)[0]) for j in grip]
-    action = np.concatenate([ctrl[:, act_arm], ctrl[:, act_grip].sum(1, keepdims=True)], 1)
+    qpos, ctrl = ex.qpos[ticks], ex.ctrl[ticks]
+    state, action = [], []
+    for a in arms:
+        state += [qpos[:, qadr[a.joints]], qpos[:, qadr[a.fingers]].sum(1, keepdims=True)]
+        act = [_actuator(model, j) for j in a.joints]
+        fingers = [_actuator(model, j) for j in a.fingers]
+        action += [ctrl[:, act], ctrl[:, fingers].sum(1, keepdims=True)]
     env = []
     for name in ex.object_names:
-        a = int(qadr[model.joint(name).id])  # the object's free joint: x y z, qw qx qy qz
-        env.append(
-            np.concatenate([qpos[:, a : a + 3], qpos[:, a + 4 : a + 7], qpos[:, a + 3 : a + 4]], 1)
+        a0 = int(qadr[model.joint(name).id])  # the object's free joint: x y z, qw qx qy qz
+        q = qpos[:, a0 : a0 + 7]
+        env.append(np.concatenate([q[:, :3], q[:, 4:7], q[:, 3:4]], 1))
+    objects = list(ex.object_names)
+    labels: dict[str, np.ndarray] = {}
+    subtasks: dict[str, list[str]] = {}
+    per_arm = []
+    for a in arms:
+        seg = held(a.segment)[ticks].astype(np.int64)
+        per_arm.append(seg)
+        segs, dot = a.segments, f".{a.side}" if a.side else ""
+        labels["skill_index" + dot] = np.array(
+            [SKILLS.index(segs[s].skill) if s >= 0 else -1 for s in seg], dtype=np.int64
         )
-    segs = program.segments
-    seg = held(np.asarray(run.segment))[ticks].astype(np.int64)
-    names = list(ex.object_names)
-    skill = [SKILLS.index(segs[s].skill) if s >= 0 else -1 for s in seg]
-    obj = [names.index(segs[s].object) if s >= 0 and segs[s].object in names else -1 for s in seg]
+        labels["object_index" + dot] = np.array(
+            [
+                objects.index(segs[s].object) if s >= 0 and segs[s].object in objects else -1
+                for s in seg
+            ],
+            dtype=np.int64,
+        )
+        subtasks[SUBTASK_KEY + dot] = [
+            subtask_name(segs[s].skill, segs[s].object) if s >= 0 else NO_SKILL for s in seg
+        ]
+    if len(arms) > 1:  # both arms' subtasks in one: the right's first, as a lane's lines
+        sides = sorted((a.side for a in arms), key=lambda s: s != "right")
+        subtasks[SUBTASK_KEY] = [
+            " | ".join(f"{s}: {subtasks[f'{SUBTASK_KEY}.{s}'][i]}" for s in sides)
+            for i in range(len(ticks))
+        ]
     return RobotEpisode(
         fps=fps,
         task=task,
-        joint_names=[*(model.joint(j).name for j in arm), "gripper.opening"],
-        object_names=names,
-        state=state.astype(np.float32),
-        action=action.astype(np.float32),
+        joint_names=[n for a in arms for n in a.names],
+        object_names=objects,
+        state=np.concatenate(state, 1).astype(np.float32),
+        action=np.concatenate(action, 1).astype(np.float32),
         environment=np.concatenate(env, 1).astype(np.float32),
         images=render(model, qpos, camera),
-        skill_index=np.array(skill, dtype=np.int64),
-        object_index=np.array(obj, dtype=np.int64),
-        segment=seg,
-        subtask=[subtask_name(segs[s].skill, segs[s].object) if s >= 0 else NO_SKILL for s in seg],
+        labels=labels,
+        subtasks=subtasks,
+        segment=_runs(np.stack(per_arm, 1)),
         ticks=ticks.astype(np.int64),
     )
+
+
+def _actuator(model: Any, joint: int) -> int:
+    """The actuator of ``joint`` (its position servo)."""
+    return int(np.flatnonzero(model.actuator_trnid[:, 0] == joint)[0])
+
+
+def _runs(segments: np.ndarray) -> np.ndarray:
+    """(n,) the number of each frame's run of the same segments (n, arms) in time order, -1
+    where no arm is in a segment (one arm: a new number at every change of segment)."""
+    n = segments.shape[0]
+    change = np.ones(n, dtype=bool)
+    change[1:] = (segments[1:] != segments[:-1]).any(axis=1)
+    out = np.cumsum(change) - 1
+    return np.where((segments < 0).all(axis=1), -1, out).astype(np.int64)
 
 
 def held(segment: np.ndarray) -> np.ndarray:

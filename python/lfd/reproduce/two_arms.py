@@ -236,7 +236,8 @@ def execute_two(
     collisions: list[Collision] | None = None,
 ) -> dict[str, Execution]:
     """Run every arm's plan in one scene on one clock; each arm's :class:`Execution` (its TCP
-    and IK, every object's motion). ``collisions`` (when given) gets the first contact of an
+    and IK, every object's motion; the scene's ``qpos`` and ``ctrl`` per tick and its MJCF, the
+    same for both, as one arm's for robot data). ``collisions`` (when given) gets the first contact of an
     arm with the other arm, and of each arm with the table (:class:`Collision`)."""
     import mujoco
 
@@ -245,7 +246,8 @@ def execute_two(
     previous = mujoco.get_mju_user_warning()
     mujoco.set_mju_user_warning(warnings.append)
     try:
-        model = mujoco.MjModel.from_xml_string(scene_xml(bases, objects, robot, yaws))
+        xml = scene_xml(bases, objects, robot, yaws)
+        model = mujoco.MjModel.from_xml_string(xml)
         data = mujoco.MjData(model)
         arms = {s: _Arm(model, data, robot, s, bases[s], yaws[s], plans[s]) for s in plans}
         mujoco.mj_forward(model, data)
@@ -255,9 +257,12 @@ def execute_two(
         contacts = Contacts(model, list(plans))
         opos = np.zeros((len(objects), n, 3))
         oquat = np.zeros((len(objects), n, 4))
+        qpos, ctrl = np.zeros((n, model.nq)), np.zeros((n, model.nu))
         for i in range(n + round(settle_s / TICK)):
             for arm in arms.values():
                 arm.command(data, i)
+            if i < n:
+                qpos[i], ctrl[i] = data.qpos, data.ctrl
             for _ in range(steps):
                 mujoco.mj_step(model, data)
             contacts.check(data, (i + 1) * TICK)
@@ -286,6 +291,9 @@ def execute_two(
             final_quaternion=fq,
             wall_time_s=wall,
             warnings=warnings,
+            qpos=qpos,
+            ctrl=ctrl,
+            scene=xml,
         )
         for s, arm in arms.items()
     }
@@ -373,6 +381,8 @@ class TwoArmReproduction:
     """The arm whose lane handles each object (last)."""
     collisions: list[Collision] = field(default_factory=list)
     """Each arm's first contact with the other arm and with the table."""
+    programs: dict[str, TaskProgram] = field(default_factory=dict)
+    """Each arm's executed program: its plan's ``segment`` indexes its segments."""
 
     @property
     def success(self) -> bool:
@@ -663,7 +673,7 @@ def run_two_arm_plan(plan: TwoArmPlan, robot: TwoArmRobot) -> TwoArmReproduction
         plan.expected,
         frames.size,
     )
-    skills = {}
+    skills, executed = {}, {}
     for s in sides:
         others = set().union(*(_handled(programs[o]) for o in sides if o != s)) - _handled(
             programs[s]
@@ -679,8 +689,8 @@ def run_two_arm_plan(plan: TwoArmPlan, robot: TwoArmRobot) -> TwoArmReproduction
             final_position=e.final_position[keep],
             final_quaternion=e.final_quaternion[keep],
         )
-        executed = plan.planned[s][2].program or programs[s]
-        skills[s] = skill_results(executed, plans[s], mine, [objs[j] for j in keep])
+        executed[s] = plan.planned[s][2].program or programs[s]
+        skills[s] = skill_results(executed[s], plans[s], mine, [objs[j] for j in keep])
     return TwoArmReproduction(
         plan.mode,
         plan.bases,
@@ -691,4 +701,5 @@ def run_two_arm_plan(plan: TwoArmPlan, robot: TwoArmRobot) -> TwoArmReproduction
         wall_time_s=any_ex.wall_time_s,
         owners=plan.owners,
         collisions=collisions,
+        programs=executed,
     )

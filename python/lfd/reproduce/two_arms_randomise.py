@@ -19,12 +19,14 @@ Each layout's rejections are counted by kind (naming the arm) in
 :attr:`~lfd.reproduce.randomise.Layout.rejected`. Each run reports the task's success, each
 arm's (:meth:`~lfd.reproduce.two_arms.TwoArmReproduction.arm_success`) and every failure
 naming the arm (a collision of the two arms or of an arm with the table included).
+:func:`iter_two_arm_layouts` draws the same layouts one at a time, each with its plans (robot
+data: ``lfd export robot-data --robot aloha``).
 """
 
 from __future__ import annotations
 
 import re
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -40,6 +42,7 @@ from .randomise import (
     LAYOUT_GAP,
     MAX_SHIFT,
     MAX_TURN_DEG,
+    Layout,
     Randomised,
     iter_layouts,
     run_randomised,
@@ -54,6 +57,18 @@ from .two_arms import (
     reproduce_two_arms,
     run_two_arm_plan,
 )
+
+
+def check_busy(hands: HandsProgram, robot: str) -> None:
+    """Refuse, in one line, randomising a two-hand program on two arms when a hand has no
+    step: the other hand's task is one arm's (``--robot kuka_lwr4`` or ``panda``)."""
+    busy = [s for s in hands.sides if hands.lanes[s]]
+    if len(busy) < 2:
+        raise UsageError(
+            f"--randomise with --robot {robot} takes a two-hand recording (here "
+            f"{'only the ' + busy[0] + ' hand has' if busy else 'no hand has'} steps); "
+            "--robot kuka_lwr4 or panda randomises a one-hand task"
+        )
 
 
 def _first_lane(trajs: dict[str, Any], hands: HandsProgram) -> str:
@@ -277,6 +292,53 @@ def reproduce_two_arms_randomised(
     )
 
 
+def iter_two_arm_layouts(
+    trajs: dict[str, Any],
+    hands: HandsProgram,
+    n: int,
+    *,
+    modes: Sequence[str] = ("skills", "dmp"),
+    seed: int = 0,
+    max_shift: float = MAX_SHIFT,
+    max_turn_deg: float = MAX_TURN_DEG,
+    robot: TwoArmRobot,
+    planned: dict[str, TwoArmPlan] | None = None,
+) -> Iterator[Layout]:
+    """The ``n`` layouts :func:`reproduce_two_arms_randomised` draws (the same, in the same
+    order), one at a time (:func:`~lfd.reproduce.randomise.iter_layouts` with
+    :func:`check_two_arm_layout`): robot data runs each as it comes
+    (``lfd export robot-data --robot aloha``). The program is checked at once, on the call.
+    ``planned`` (when given) holds, once a layout is yielded, its plan per mode (made by its
+    check; :func:`~lfd.reproduce.two_arms.run_two_arm_plan` runs one as made).
+
+    Raises
+    ------
+    DemonstrationError, UsageError
+        As :func:`reproduce_two_arms_randomised` (no valid layout: when that layout is asked
+        for).
+    """
+    first = _check_program(trajs, hands, modes, robot)
+
+    def check(displace: dict[str, Displacement]) -> str | None:
+        if planned is not None:
+            planned.clear()
+        return check_two_arm_layout(
+            trajs, hands, displace, robot=robot, modes=modes, planned=planned
+        )
+
+    return iter_layouts(
+        trajs[first],
+        hands.program(first),
+        n,
+        seed=seed,
+        max_shift=max_shift,
+        max_turn_deg=max_turn_deg,
+        modes=modes,
+        robot=robot.ik,
+        check=check,
+    )
+
+
 def first_layout(
     trajs: dict[str, Any],
     hands: HandsProgram,
@@ -289,16 +351,14 @@ def first_layout(
 ) -> None:
     """Draw the first layout (nothing simulated): refuses bad settings and a program with no
     valid layout in one line before a progress bar starts."""
-    first = _check_program(trajs, hands, modes, robot)
-    for _ in iter_layouts(
-        trajs[first],
-        hands.program(first),
+    for _ in iter_two_arm_layouts(
+        trajs,
+        hands,
         1,
+        modes=modes,
         seed=seed,
         max_shift=max_shift,
         max_turn_deg=max_turn_deg,
-        modes=modes,
-        robot=robot.ik,
-        check=lambda d: check_two_arm_layout(trajs, hands, d, robot=robot, modes=modes),
+        robot=robot,
     ):
         pass
