@@ -27,7 +27,25 @@ from pathlib import Path
 from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_DIR = ROOT.parent / "shared" / "realmotion" / "bimanual"
+
+
+def repository_parent(root: Path = ROOT) -> Path:
+    """The directory holding the repository (where ``shared`` lies beside it). In a git
+    worktree (``root/.git`` a file ``gitdir: <main>/.git/worktrees/<name>``) it is the main
+    checkout's parent, so the bench finds ``../shared`` from a worktree anywhere too."""
+    git = root / ".git"
+    if git.is_file():
+        line = git.read_text(encoding="utf-8").strip()
+        if line.startswith("gitdir:"):
+            gitdir = Path(line.removeprefix("gitdir:").strip())
+            if not gitdir.is_absolute():
+                gitdir = (root / gitdir).resolve()
+            if gitdir.parent.name == "worktrees":  # <main>/.git/worktrees/<name>
+                return gitdir.parents[2].parent
+    return root.parent
+
+
+DEFAULT_DIR = repository_parent() / "shared" / "realmotion" / "bimanual"
 MODES = ("skills", "dmp")
 
 
