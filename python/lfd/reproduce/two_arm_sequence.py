@@ -48,8 +48,9 @@ REST_REACH = 0.22
 """An arm rests at most this far (m, horizontally) from its base, towards the objects and
 turned away from the other arm (:func:`rest_pose`): halfway to the objects it is where the
 other arm reaches (the two grippers, a gripper and a wrist touched on real takes)."""
-REST_TURN = np.radians(35.0)
-"""How far (rad) the rest is turned from the objects' direction away from the other base."""
+REST_MAX_TURN_DEG = 100.0
+"""The rest is at most this far (deg) from the direction of the objects (the arm's base is
+turned towards them; its first joint turns at most 180 deg either way)."""
 SET_DOWN_S = 0.5
 """A wide object still carried in one hand when the take ends is set down by both arms during
 this last part of its carry (s)."""
@@ -268,25 +269,35 @@ def rest_pose(
     centre: np.ndarray,
     top: float,
     frames: DemoFrames,
+    avoid: np.ndarray | None = None,
 ) -> np.ndarray:
-    """An idle arm's rest (``[x, y, z, yaw]``): near its own base, out of the other arm's way:
-    towards the objects' ``centre`` at most :data:`REST_FRACTION` of the way and
-    :data:`REST_REACH` from the base, turned :data:`REST_TURN` away from the other arm's base
-    (``other``; None: straight towards the objects), its fingertips at least 5 cm over every
-    object's top (``top``), the wrist turned as it turns least."""
+    """An idle arm's rest (``[x, y, z, yaw]``): :data:`REST_REACH` from its own base (at most
+    :data:`REST_FRACTION` of the way to the objects' ``centre``), in the direction, within
+    :data:`REST_MAX_TURN` of the objects', farthest from where the other arm works: the points
+    ``avoid`` (where the skills act) and the other arm's reach to them (the segments from its
+    base ``other`` to them; None: straight towards the objects); its fingertips at least 5 cm
+    over every object's top (``top``), the wrist turned as it turns least."""
     to = centre[:2] - base[:2]
     dist = float(np.hypot(*to))
-    if dist < 1e-9:
-        to, dist = np.array([1.0, 0.0]), 0.0
-    u = to / max(dist, 1e-9)
+    u = to / dist if dist > 1e-9 else np.array([1.0, 0.0])
+    h = min(REST_REACH, REST_FRACTION * dist) if dist > 1e-9 else REST_REACH
+    best = base[:2] + u * h
     if other is not None:
-        away = base[:2] - other[:2]
-        side = float(np.sign(u[0] * away[1] - u[1] * away[0]) or 1.0)  # turn towards `away`
-        c, sn = np.cos(side * REST_TURN), np.sin(side * REST_TURN)
-        u = np.array([c * u[0] - sn * u[1], sn * u[0] + c * u[1]])
-    xy = base[:2] + u * min(REST_REACH, REST_FRACTION * dist)
+        pts = np.array([centre[:2], *(() if avoid is None else np.asarray(avoid)[:, :2])])
+        pts = pts[np.all(np.isfinite(pts), axis=1)]
+        score = -np.inf
+        turns = sorted(np.arange(-REST_MAX_TURN_DEG, REST_MAX_TURN_DEG + 1, 10.0), key=abs)
+        for turn in np.radians(turns):
+            c, sn = np.cos(turn), np.sin(turn)
+            xy = base[:2] + h * np.array([c * u[0] - sn * u[1], sn * u[0] + c * u[1]])
+            # the distance to the other arm: to its base-to-point segments (its links over them)
+            d = pts - other[:2]
+            w = np.clip(((xy - other[:2]) @ d.T) / np.maximum((d * d).sum(axis=1), 1e-12), 0, 1)
+            near = float(np.min(np.hypot(*(other[:2] + w[:, None] * d - xy).T)))
+            if near > score + 1e-6:  # (ties: the least turned, tried first in |turn| order)
+                score, best = near, xy
     z = max(REST_Z, top + frames.robot.finger_below_tcp + 0.05)
-    p = np.array([xy[0], xy[1], z])
+    p = np.array([best[0], best[1], z])
     return np.array([*p, float(frames.natural_yaw(p))])
 
 
@@ -358,12 +369,12 @@ def plan_sequence(
         initial[n] = T
     centre = np.mean([T[:3, 3] for T in initial.values()], axis=0)
     top = max(T[2, 3] + f.size[f.object_index(n), 2] / 2 for n, T in initial.items())
-    rest = {
-        s: rest_pose(
-            bases[s], next((bases[o] for o in sides if o != s), None), centre, top, frames[s]
-        )
-        for s in sides
-    }
+    # where the skills act (both hands) and the objects start: the idle arm rests away from them
+    avoid = np.concatenate(
+        [*task_points(trajs, hands).values(), [T[:3, 3] for T in initial.values()]]
+    )
+    others = {s: next((bases[o] for o in sides if o != s), None) for s in sides}
+    rest = {s: rest_pose(bases[s], others[s], centre, top, frames[s], avoid) for s in sides}
     cur = dict(rest)
     parts: dict[str, list[Plan]] = {s: [_hold(rest[s], TICK, -1)] for s in sides}
     scene = dict(initial)
