@@ -54,6 +54,10 @@ turned towards them; its first joint turns at most 180 deg either way)."""
 SET_DOWN_S = 0.5
 """A wide object still carried in one hand when the take ends is set down by both arms during
 this last part of its carry (s)."""
+OTHER_BASE_CLEAR = 0.3
+"""A one-arm carry (``move_with``) keeps its TCP this far (m, horizontally) from the other
+arm's base, where that arm rests (people lift an object to look at it anywhere; a gripper
+0.2 m from the other arm's base touched its upper arm)."""
 TRANSIT_CLEAR = 0.05
 """An arm's move from its rest to a unit's first skill (:func:`transit_to_first`) passes this
 far (m) above the top of the object it goes to (its fingertips), then comes straight down."""
@@ -316,6 +320,21 @@ def within_reach(points: np.ndarray, base: np.ndarray, arm: Any) -> np.ndarray:
     return out
 
 
+def clear_of_base(
+    points: np.ndarray, fixed: np.ndarray, base: np.ndarray, radius: float
+) -> np.ndarray:
+    """TCP points (n, 3) pushed out horizontally to at least ``radius`` (m) from another arm's
+    ``base``, the radius no more than the distance of every point ``fixed`` (a mask: the
+    skills' own ticks, which stay where they are; the path stays continuous)."""
+    out = np.array(points, dtype=np.float64, copy=True)
+    d = out[:, :2] - base[:2]
+    h = np.hypot(d[:, 0], d[:, 1])
+    r = min(radius, float(h[fixed].min()) if fixed.any() else radius)
+    near = (h < r) & (h > 1e-9)
+    out[near, :2] = base[:2] + d[near] * (r / h[near])[:, None]
+    return out
+
+
 def transit_to_first(
     cur: np.ndarray, seg: Segment, frames: DemoFrames, scene: dict[str, np.ndarray]
 ) -> np.ndarray:
@@ -401,6 +420,12 @@ def plan_sequence(
             plan = res.plan
             seg = np.where(plan.segment >= 0, plan.segment + unit[0], -1)
             position = within_reach(plan.position, bases[who], robot.ik)
+            moving = np.isin(
+                plan.segment, [k for k, g in enumerate(segs) if g.skill == "move_with"]
+            )
+            for o in sides:  # the carries away from the other arm's base (where it rests)
+                if o != who:
+                    position = clear_of_base(position, ~moving, bases[o], OTHER_BASE_CLEAR)
             done = {who: segs[-1].skill not in ("pick_up", "move_with")}
             if not done[who]:  # it ends holding the object: where the pulled-in gripper holds it
                 shift = position[-1] - plan.position[-1]

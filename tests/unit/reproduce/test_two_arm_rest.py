@@ -119,3 +119,26 @@ def test_transit_to_first_goes_over_then_down_above_the_object() -> None:
     assert np.allclose(path[:k, :2], cur[:2])  # first straight up
     assert np.all(path[k:][far[k:], 2] >= high - 1e-9)  # then across at that height
     assert np.all(np.diff(path[~far, 2]) <= 1e-12)  # over it: only down
+
+
+def test_a_carry_is_kept_clear_of_the_other_arms_base_but_not_its_skills() -> None:
+    """Points of a carry nearer the other arm's base than the radius are pushed straight out
+    to it; the skills' own ticks (``fixed``) are never moved and the radius is no more than
+    their distance; points already clear are kept."""
+    from lfd.reproduce.two_arm_sequence import OTHER_BASE_CLEAR, clear_of_base
+
+    base = np.array([0.4, -0.1, 0.0])
+    pts = np.array([[0.0, 0.0, 0.1], [0.25, -0.05, 0.25], [0.3, -0.1, 0.2], [0.0, -0.1, 0.05]])
+    fixed = np.array([True, False, False, True])
+    out = clear_of_base(pts, fixed, base, OTHER_BASE_CLEAR)
+    assert np.allclose(out[fixed], pts[fixed]) and np.allclose(out[:, 2], pts[:, 2])
+    for k in (1, 2):
+        assert np.hypot(*(out[k, :2] - base[:2])) == pytest.approx(OTHER_BASE_CLEAR)
+        d0, d1 = pts[k, :2] - base[:2], out[k, :2] - base[:2]
+        assert abs(d0[0] * d1[1] - d0[1] * d1[0]) < 1e-12 and d0 @ d1 > 0
+    # a skill 0.25 m from the base: the carry is kept at 0.25 m, no farther (the skill stays)
+    near = pts.copy()
+    near[3] = [0.15, -0.1, 0.05]
+    out = clear_of_base(near, fixed, base, OTHER_BASE_CLEAR)
+    assert np.allclose(out[3], near[3])
+    assert np.hypot(*(out[2, :2] - base[:2])) == pytest.approx(0.25)
