@@ -43,6 +43,9 @@ from .program import HandsProgram, Segment, SyncPoint, TaskProgram
 SQUEEZE_DEPTH = 0.012
 """How far inside the object's face each pressing TCP is commanded (m): the position servos
 then squeeze it between the two grippers."""
+MIN_TCP_GAP = 0.075
+"""The two pressing TCPs are commanded at least this far apart (m; the squeeze shallower on a
+narrower object): nearer, the two wrists above them touch (a 74 mm wine glass's box)."""
 STANDOFF = 0.03
 """The approach ends this far outside the face (m) before pressing in."""
 ABOVE = 0.03
@@ -141,18 +144,19 @@ def press_poses(
         size[2] / 2 - arm.palm_above_tcp + PALM_CLEARANCE,
     )
     out = {}
+    depth = float(np.clip((size[axis] + 2 * arm.finger_half_x - MIN_TCP_GAP) / 2, 0, SQUEEZE_DEPTH))
     free = max(0.0, size[other] / 2 - 0.012)
     along = float(np.clip(np.mean([held[s][other] for s in sides]), -free, free))
     for s in sides:
         sign = float(np.sign(gap[axis]) or 1.0) * (1.0 if s == sides[0] else -1.0)
         c = np.zeros(3)
-        c[axis] = sign * (size[axis] / 2 + arm.finger_half_x - SQUEEZE_DEPTH)
+        c[axis] = sign * (size[axis] / 2 + arm.finger_half_x - depth)
         c[other] = along
         c[2] = z
         # the closing axis along the face: the two closed pads side by side on it
         yaw = np.pi / 2 if axis == 0 else 0.0
         out_c = c.copy()
-        out_c[axis] += sign * (SQUEEZE_DEPTH + STANDOFF)
+        out_c[axis] += sign * (depth + STANDOFF)
         out[s] = (np.array([*c, yaw]), np.array([*out_c, yaw]))
     return out
 

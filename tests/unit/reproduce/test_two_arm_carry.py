@@ -125,6 +125,38 @@ def test_press_poses_follow_the_robot_scene_and_put_both_pads_at_one_place() -> 
     assert along[p.hand] == pytest.approx(along[p.other])
 
 
+def test_a_narrow_object_is_squeezed_less_deep_keeping_the_wrists_apart() -> None:
+    """The big box made 74 mm long (a wine glass's box): the two pressing TCPs are commanded
+    MIN_TCP_GAP apart (shallower than SQUEEZE_DEPTH), still inside the faces; the approach
+    STANDOFF outside the face."""
+    from lfd.reproduce.aloha import aloha
+    from lfd.reproduce.goals import DemoFrames
+    from lfd.reproduce.two_arm_carry import (
+        MIN_TCP_GAP,
+        SQUEEZE_DEPTH,
+        STANDOFF,
+        carry_points,
+        press_poses,
+    )
+
+    trajs, hands = _program("carry", 3)
+    (p,) = carry_points(hands)
+    robot = aloha()
+    bases = {"right": np.array([0.45, 0.2, 0.0]), "left": np.array([-0.45, 0.2, 0.0])}
+    frames = {s: DemoFrames(trajs[s], bases[s], robot.ik) for s in (p.hand, p.other)}
+    k = frames[p.hand].object_index("big_box")
+    for f in frames.values():
+        f.size = f.size.copy()
+        f.size[k] = [0.074, 0.065, 0.13]
+    i = frames[p.hand].index(hands.lanes[p.hand][p.step].start_s + 0.2)
+    press = press_poses(frames, "big_box", i, robot)
+    (a_in, a_out), (b_in, _) = press[p.hand], press[p.other]
+    assert abs(a_in[0] - b_in[0]) == pytest.approx(MIN_TCP_GAP)
+    depth = 0.074 / 2 + robot.ik.finger_half_x - abs(a_in[0])
+    assert 0 < depth < SQUEEZE_DEPTH
+    assert abs(a_out[0]) - abs(a_in[0]) == pytest.approx(depth + STANDOFF)
+
+
 def test_a_dmp_squeeze_ends_above_its_goal_no_higher_than_skills_and_turns_smoothly() -> None:
     """DMP mode's object path: a DMP to DMP_ABOVE over the goal, then straight down onto it;
     never higher than skills mode lifts it (LIFT over the higher end), never into the table;
