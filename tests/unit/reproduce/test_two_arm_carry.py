@@ -95,7 +95,12 @@ def test_press_poses_follow_the_robot_scene_and_put_both_pads_at_one_place() -> 
     y); both pads at the same place along the face, the mean of where the two hands held it."""
     from lfd.reproduce.aloha import aloha
     from lfd.reproduce.goals import DemoFrames, pose, upright, yaw_of
-    from lfd.reproduce.two_arm_carry import SQUEEZE_DEPTH, carry_points, press_poses
+    from lfd.reproduce.two_arm_carry import (
+        MIN_TCP_GAP,
+        SQUEEZE_DEPTH,
+        carry_points,
+        press_poses,
+    )
 
     trajs, hands = _program("carry", 3)
     (p,) = carry_points(hands)
@@ -114,8 +119,10 @@ def test_press_poses_follow_the_robot_scene_and_put_both_pads_at_one_place() -> 
     turned = pose(T[:3, 3], yaw_of(T[:3, :3]) + np.pi / 2)
     press = press_poses(frames, "big_box", i, robot, turned)
     along = {s: inside[0] for s, (inside, _) in press.items()}
+    # (65 mm across: squeezed less deep, the two TCPs MIN_TCP_GAP apart)
+    depth = min(SQUEEZE_DEPTH, (size[1] + 2 * robot.ik.finger_half_x - MIN_TCP_GAP) / 2)
     for s, (inside, _) in press.items():
-        assert abs(inside[1]) == pytest.approx(size[1] / 2 + robot.ik.finger_half_x - SQUEEZE_DEPTH)
+        assert abs(inside[1]) == pytest.approx(size[1] / 2 + robot.ik.finger_half_x - depth)
         assert inside[3] == pytest.approx(0.0)  # the closing axis along the box's x
         # each arm on the face towards its base, as the box lies in the scene
         face = turned @ np.array([0.0, inside[1], 0.0, 1.0])
