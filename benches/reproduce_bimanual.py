@@ -8,8 +8,9 @@ Usage::
         [--json OUT]
 
 DIR holds ``manip_<seq>.right.mcap`` and ``manip_<seq>.left.mcap`` (one file per hand on one
-clock; CC-BY-NC 4.0: read there, never copied into this repository; without DIR the bench says
-it skipped and exits 0). Each pair is joined as the command joins it (``lfd.io.merge_hands``),
+clock; CC-BY-NC 4.0: read there, never copied into this repository). DIR defaults to
+``../shared/realmotion/bimanual`` beside the repository (beside the main checkout when run from
+a git worktree); without the takes there the bench says it skipped and exits 0. Each pair is joined as the command joins it (``lfd.io.merge_hands``),
 its two-hand program made of the files' own labels (``--labels``: corrected labels and
 handovers kept outside the repository, as ``benches/bimanual.py`` reads them) and run on the two
 arms (:func:`lfd.reproduce.two_arms.reproduce_two_arms`, the command's steps). Prints per take
