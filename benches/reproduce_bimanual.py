@@ -8,8 +8,9 @@ Usage::
         [--json OUT]
 
 DIR holds ``manip_<seq>.right.mcap`` and ``manip_<seq>.left.mcap`` (one file per hand on one
-clock; CC-BY-NC 4.0: read there, never copied into this repository; without DIR the bench says
-it skipped and exits 0). Each pair is joined as the command joins it (``lfd.io.merge_hands``),
+clock; CC-BY-NC 4.0: read there, never copied into this repository). DIR defaults to
+``../shared/realmotion/bimanual`` beside the repository (beside the main checkout when run from
+a git worktree); without the takes there the bench says it skipped and exits 0. Each pair is joined as the command joins it (``lfd.io.merge_hands``),
 its two-hand program made of the files' own labels (``--labels``: corrected labels and
 handovers kept outside the repository, as ``benches/bimanual.py`` reads them) and run on the two
 arms (:func:`lfd.reproduce.two_arms.reproduce_two_arms`, the command's steps). Prints per take
@@ -27,7 +28,25 @@ from pathlib import Path
 from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_DIR = ROOT.parent / "shared" / "realmotion" / "bimanual"
+
+
+def repository_parent(root: Path = ROOT) -> Path:
+    """The directory holding the repository (where ``shared`` lies beside it). In a git
+    worktree (``root/.git`` a file ``gitdir: <main>/.git/worktrees/<name>``) it is the main
+    checkout's parent, so the bench finds ``../shared`` from a worktree anywhere too."""
+    git = root / ".git"
+    if git.is_file():
+        line = git.read_text(encoding="utf-8").strip()
+        if line.startswith("gitdir:"):
+            gitdir = Path(line.removeprefix("gitdir:").strip())
+            if not gitdir.is_absolute():
+                gitdir = (root / gitdir).resolve()
+            if gitdir.parent.name == "worktrees":  # <main>/.git/worktrees/<name>
+                return gitdir.parents[2].parent
+    return root.parent
+
+
+DEFAULT_DIR = repository_parent() / "shared" / "realmotion" / "bimanual"
 MODES = ("skills", "dmp")
 
 

@@ -26,14 +26,16 @@ How the two arms carry it (docs/reproduce.md, "Two arms"):
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from ..errors import DemonstrationError
 from .aloha import TwoArmRobot
+from .arm import Limits
 from .controller import TICK, Plan
-from .dmp import dmp_rollout
+from .dmp import dmp_rollout, min_jerk
 from .goals import PALM_CLEARANCE, DemoFrames, pose, upright, wrap_near, yaw_of
 from .motion import line
 from .program import HandsProgram, Segment, SyncPoint, TaskProgram
@@ -41,6 +43,9 @@ from .program import HandsProgram, Segment, SyncPoint, TaskProgram
 SQUEEZE_DEPTH = 0.012
 """How far inside the object's face each pressing TCP is commanded (m): the position servos
 then squeeze it between the two grippers."""
+MIN_TCP_GAP = 0.075
+"""The two pressing TCPs are commanded at least this far apart (m; the squeeze shallower on a
+narrower object): nearer, the two wrists above them touch (a 74 mm wine glass's box)."""
 STANDOFF = 0.03
 """The approach ends this far outside the face (m) before pressing in."""
 ABOVE = 0.03
@@ -54,6 +59,14 @@ SETTLE_S = 0.3
 """Time (s) held still after pressing in and after setting down."""
 TABLE_MARGIN = 0.006
 """The fingertips of a pressing gripper stay this far above the table (m)."""
+SQUEEZE_SPEED = 0.2
+"""Largest TCP speed (m/s) of the two arms while they squeeze an object between them: faster,
+the arms' lag differs and the squeezed object slips or turns out (real mugs and a teapot)."""
+SQUEEZE_ACCELERATION = 0.5
+"""Largest TCP acceleration (m/s^2) while squeezing."""
+DMP_ABOVE = 0.02
+"""DMP mode: the carried object's DMP ends this far above its goal (m), then it is lowered
+straight down (a DMP arriving low may drag it over the table)."""
 
 
 def carry_points(hands: HandsProgram) -> list[SyncPoint]:
@@ -99,20 +112,28 @@ def _state(T: np.ndarray) -> np.ndarray:
 
 
 def press_poses(
-    frames: dict[str, DemoFrames], name: str, i: int, robot: TwoArmRobot
+    frames: dict[str, DemoFrames],
+    name: str,
+    i: int,
+    robot: TwoArmRobot,
+    T_obj: np.ndarray | None = None,
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Each arm's press pose and approach pose (``[x, y, z, yaw]`` in the object's frame): on
-    opposite faces, each arm on the face towards its base (``frames[side].base``), where along
-    the face its hand held the object at sample ``i`` (within the face)."""
+    opposite faces, each arm on the face towards its base (``frames[side].base``) as the object
+    lies in the robot's scene (``T_obj``; default its demonstrated pose at sample ``i``: the
+    robot's object may lie turned), both pads at the same place along the face: the mean of
+    where the two hands held it at sample ``i`` (within the face; two pads pressing at
+    different places would turn the object between them)."""
     sides = list(frames)
     f = frames[sides[0]]
     size = f.size[f.object_index(name)]
     T_o = upright(f.object_pose(name, i))
     held = {s: (np.linalg.inv(T_o) @ frames[s].tcp_pose(i))[:3, 3] for s in sides}
+    T_r = T_o if T_obj is None else upright(T_obj)
     # each arm on the side of its base: the axis of the object that points most from one base
     # to the other (the hands, on their sides too, held the same faces in a two-handed carry;
     # a hand that did not hold it is anywhere)
-    gap = T_o[:3, :3].T @ (frames[sides[0]].base - frames[sides[1]].base)
+    gap = T_r[:3, :3].T @ (frames[sides[0]].base - frames[sides[1]].base)
     axis = int(np.argmax(np.abs(gap[:2])))
     other = 1 - axis
     arm = robot.ik
@@ -123,17 +144,19 @@ def press_poses(
         size[2] / 2 - arm.palm_above_tcp + PALM_CLEARANCE,
     )
     out = {}
+    depth = float(np.clip((size[axis] + 2 * arm.finger_half_x - MIN_TCP_GAP) / 2, 0, SQUEEZE_DEPTH))
+    free = max(0.0, size[other] / 2 - 0.012)
+    along = float(np.clip(np.mean([held[s][other] for s in sides]), -free, free))
     for s in sides:
         sign = float(np.sign(gap[axis]) or 1.0) * (1.0 if s == sides[0] else -1.0)
         c = np.zeros(3)
-        c[axis] = sign * (size[axis] / 2 + arm.finger_half_x - SQUEEZE_DEPTH)
-        free = max(0.0, size[other] / 2 - 0.012)
-        c[other] = float(np.clip(held[s][other], -free, free))
+        c[axis] = sign * (size[axis] / 2 + arm.finger_half_x - depth)
+        c[other] = along
         c[2] = z
         # the closing axis along the face: the two closed pads side by side on it
         yaw = np.pi / 2 if axis == 0 else 0.0
         out_c = c.copy()
-        out_c[axis] += sign * (SQUEEZE_DEPTH + STANDOFF)
+        out_c[axis] += sign * (depth + STANDOFF)
         out[s] = (np.array([*c, yaw]), np.array([*out_c, yaw]))
     return out
 
@@ -185,11 +208,17 @@ def object_path(
         t = frames.t[i0 : i1 + 1]
         demo = np.array([_state(upright(frames.object_pose(name, i))) for i in range(i0, i1 + 1)])
         demo[:, 3] = np.unwrap(demo[:, 3])
-        path = dmp_rollout(t, demo, start, goal, dt=TICK)
-        path[:, 2] = np.maximum(path[:, 2], size[2] / 2)
+        above = goal + np.array([0.0, 0.0, DMP_ABOVE, 0.0])
+        path = dmp_rollout(t, demo, start, above, dt=TICK)
+        # no higher than skills mode lifts it (a person lifts it far higher), never into the
+        # table, and the yaw turned smoothly (the hands' yaw wobbles; the squeeze must not)
+        high = max(start[2], goal[2]) + rise
+        path[:, 2] = np.clip(path[:, 2], size[2] / 2, max(high, above[2]))
+        path[:, 3] = start[3] + min_jerk(len(path)) * (above[3] - start[3])
         k = int(np.clip(round((place_start_s - t[0]) / TICK), 1, len(path) - 1))
-        # a DMP may arrive low beside another object: its last part lowers vertically
-        return path, k
+        # a DMP may arrive low beside another object: it ends above the goal and lowers straight
+        down = line(path[-1], goal, min_s=0.5)[1:]
+        return np.concatenate([path, down]), k
     up = start + np.array([0.0, 0.0, rise, 0.0])
     over = goal + np.array([0.0, 0.0, rise, 0.0])
     a, b = line(start, up, min_s=0.6), line(up, over)[1:]
@@ -270,7 +299,7 @@ def carry_unit(
     ends = {s: hands.lanes[s][steps[s][2]] for s in sides}
     last = max(sides, key=lambda s: ends[s].end_s)
     i_both, i_end = f.index(both), frames[last].index(ends[last].end_s)
-    press = press_poses(frames, name, i_both, robot)
+    press = press_poses(frames, name, i_both, robot, T0)
     y0 = yaw_of(T0[:3, :3])
     for s in sides:  # the gripper is symmetric: the yaw the wrist reaches most easily there
         p_in, p_out = press[s]
@@ -314,8 +343,18 @@ def carry_unit(
                 ]
             )
         )
-    blocks = retime_together(blocks, [robot.arms[s].limits for s in sides])
+    blocks = retime_together(blocks, [squeeze_limits(robot.arms[s].limits) for s in sides])
     return {s: Plan.concat([before[s], b]) for s, b in zip(sides, blocks, strict=True)}, T_end
+
+
+def squeeze_limits(limits: Limits) -> Limits:
+    """An arm's limits while it squeezes an object with the other: at most
+    :data:`SQUEEZE_SPEED` and :data:`SQUEEZE_ACCELERATION`."""
+    return replace(
+        limits,
+        speed=min(limits.speed, SQUEEZE_SPEED),
+        acceleration=min(limits.acceleration, SQUEEZE_ACCELERATION),
+    )
 
 
 def _approach(
@@ -327,7 +366,8 @@ def _approach(
     robot: TwoArmRobot,
 ) -> Plan:
     """From ``cur`` up over the object, then down beside its face to the press approach pose
-    (``out_rel`` in the object's frame), the gripper closing on the way."""
+    (``out_rel`` in the object's frame), the gripper closed (open fingers reaching down beside
+    the object touch it, or the other arm's gripper on a small one)."""
     goal = _in_world(_state(T_obj)[None], out_rel)[0]
     top = T_obj[2, 3] + size[2] / 2
     hover_z = max(cur[2], top + robot.ik.finger_below_tcp + ABOVE)
@@ -338,6 +378,4 @@ def _approach(
     path = np.concatenate(
         [line(cur, up, min_s=0.3), line(up, above)[1:], line(above, goal, min_s=0.6)[1:]]
     )
-    plan = _part(path, k)
-    plan.opening[: len(plan) // 3] = robot.ik.max_opening
-    return plan
+    return _part(path, k)

@@ -43,7 +43,24 @@ high 0.45 m from its shoulder)."""
 REST_Z = 0.15
 """Height (m) of an arm's rest pose, at least 5 cm over every object's top (fingertips)."""
 REST_FRACTION = 0.5
-"""An arm rests this fraction of the way from its base to the objects."""
+"""An arm rests at most this fraction of the way from its base to the objects."""
+REST_REACH = 0.22
+"""An arm rests at most this far (m, horizontally) from its base, towards the objects and
+turned away from the other arm (:func:`rest_pose`): halfway to the objects it is where the
+other arm reaches (the two grippers, a gripper and a wrist touched on real takes)."""
+REST_MAX_TURN_DEG = 100.0
+"""The rest is at most this far (deg) from the direction of the objects (the arm's base is
+turned towards them; its first joint turns at most 180 deg either way)."""
+SET_DOWN_S = 0.5
+"""A wide object still carried in one hand when the take ends is set down by both arms during
+this last part of its carry (s)."""
+OTHER_BASE_CLEAR = 0.3
+"""A one-arm carry (``move_with``) keeps its TCP this far (m, horizontally) from the other
+arm's base, where that arm rests (people lift an object to look at it anywhere; a gripper
+0.2 m from the other arm's base touched its upper arm)."""
+TRANSIT_CLEAR = 0.05
+"""An arm's move from its rest to a unit's first skill (:func:`transit_to_first`) passes this
+far (m) above the top of the object it goes to (its fingertips), then comes straight down."""
 ACTING = ("pick_up", "move_with", "place", "stack", "push", "locate")
 
 
@@ -144,12 +161,33 @@ def _insert(lane: list[Segment], steps: list[Segment]) -> list[Segment]:
     return sorted(out, key=lambda s: (s.start_s, s.end_s))
 
 
+def _set_down_at_end(lane: list[Segment], wide: set[str]) -> list[Segment]:
+    """A lane that ends carrying a wide object (its last step on an object a ``move_with`` of
+    it after its ``pick_up``: the take ends with it in the hand) sets it down during the last
+    :data:`SET_DOWN_S` of the carry (a ``place``): two arms do not end holding it in the air."""
+    acting = [k for k, s in enumerate(lane) if s.skill != "move"]
+    if len(acting) < 2:
+        return lane
+    k = acting[-1]
+    carry, pick = lane[k], lane[acting[-2]]
+    if carry.skill != "move_with" or carry.object not in wide:
+        return lane
+    if pick.skill != "pick_up" or pick.object != carry.object or acting[-2] != k - 1:
+        return lane
+    if carry.end_s - carry.start_s < 2 * SET_DOWN_S + SYNC_TOLERANCE_S:
+        return lane
+    cut = carry.end_s - SET_DOWN_S
+    put = Segment("place", cut, carry.end_s, carry.object)
+    return [*lane[:k], replace(carry, end_s=cut), put, *lane[k + 1 :]]
+
+
 def prepare(hands: HandsProgram, sizes: dict[str, np.ndarray], robot: TwoArmRobot) -> HandsProgram:
     """The program the two arms run when it has a two-handed carry or a one-hand carry of an
     object too wide for the gripper (the module docstring); else ``hands`` unchanged."""
     widest = grasp_max_width(robot.ik)
     wide = {n for n, s in sizes.items() if float(min(s[:2])) > widest}
     lanes = {side: _with_pick_ups(list(segs)) for side, segs in hands.lanes.items()}
+    lanes = {side: _set_down_at_end(segs, wide) for side, segs in lanes.items()}
     converted = False
     sides = list(lanes)
     holds = {(p.hand, p.step) for p in hands.sync if p.kind == "hold_until"}
@@ -227,11 +265,115 @@ def _units(hands: HandsProgram, fits: set[str]) -> list[tuple[float, str, Any]]:
     return sorted(units, key=lambda u: u[0])
 
 
-def _rest(base: np.ndarray, centre: np.ndarray, top: float, frames: DemoFrames) -> np.ndarray:
-    xy = base[:2] + REST_FRACTION * (centre[:2] - base[:2])
+def rest_pose(
+    base: np.ndarray,
+    other: np.ndarray | None,
+    centre: np.ndarray,
+    top: float,
+    frames: DemoFrames,
+    avoid: np.ndarray | None = None,
+) -> np.ndarray:
+    """An idle arm's rest (``[x, y, z, yaw]``): :data:`REST_REACH` from its own base (at most
+    :data:`REST_FRACTION` of the way to the objects' ``centre``), in the direction, within
+    :data:`REST_MAX_TURN` of the objects', farthest from where the other arm works: the points
+    ``avoid`` (where the skills act) and the other arm's reach to them (the segments from its
+    base ``other`` to them; None: straight towards the objects); its fingertips at least 5 cm
+    over every object's top (``top``), the wrist turned as it turns least."""
+    to = centre[:2] - base[:2]
+    dist = float(np.hypot(*to))
+    u = to / dist if dist > 1e-9 else np.array([1.0, 0.0])
+    h = min(REST_REACH, REST_FRACTION * dist) if dist > 1e-9 else REST_REACH
+    best = base[:2] + u * h
+    if other is not None:
+        pts = np.array([centre[:2], *(() if avoid is None else np.asarray(avoid)[:, :2])])
+        pts = pts[np.all(np.isfinite(pts), axis=1)]
+        score = -np.inf
+        turns = sorted(np.arange(-REST_MAX_TURN_DEG, REST_MAX_TURN_DEG + 1, 10.0), key=abs)
+        for turn in np.radians(turns):
+            c, sn = np.cos(turn), np.sin(turn)
+            xy = base[:2] + h * np.array([c * u[0] - sn * u[1], sn * u[0] + c * u[1]])
+            # the distance to the other arm: to its base-to-point segments (its links over them)
+            d = pts - other[:2]
+            w = np.clip(((xy - other[:2]) @ d.T) / np.maximum((d * d).sum(axis=1), 1e-12), 0, 1)
+            near = float(np.min(np.hypot(*(other[:2] + w[:, None] * d - xy).T)))
+            if near > score + 1e-6:  # (ties: the least turned, tried first in |turn| order)
+                score, best = near, xy
     z = max(REST_Z, top + frames.robot.finger_below_tcp + 0.05)
-    p = np.array([xy[0], xy[1], z])
+    p = np.array([best[0], best[1], z])
     return np.array([*p, float(frames.natural_yaw(p))])
+
+
+def within_reach(points: np.ndarray, base: np.ndarray, arm: Any) -> np.ndarray:
+    """TCP points (n, 3; top-down) pulled in horizontally towards ``base`` where their wrist
+    would be farther than the arm's reach (:attr:`~lfd.reproduce.arm.Robot.reach`, 0.55 m for
+    a ViperX) from its shoulder: a person ends a take holding the object where a small arm
+    cannot (the IK then lags behind, and the object ends off its goal)."""
+    out = np.array(points, dtype=np.float64, copy=True)
+    dz = out[:, 2] + arm.tcp_offset - (base[2] + arm.shoulder_z)
+    room = np.sqrt(np.maximum(arm.reach[1] ** 2 - dz**2, 0.0))
+    d = out[:, :2] - base[:2]
+    h = np.hypot(d[:, 0], d[:, 1])
+    far = h > room
+    out[far, :2] = base[:2] + d[far] * (room[far] / h[far])[:, None]
+    return out
+
+
+def clear_of_base(
+    points: np.ndarray, fixed: np.ndarray, base: np.ndarray, radius: float
+) -> np.ndarray:
+    """TCP points (n, 3) pushed out horizontally to at least ``radius`` (m) from another arm's
+    ``base``, the radius no more than the distance of every point ``fixed`` (a mask: the
+    skills' own ticks, which stay where they are; the path stays continuous)."""
+    out = np.array(points, dtype=np.float64, copy=True)
+    d = out[:, :2] - base[:2]
+    h = np.hypot(d[:, 0], d[:, 1])
+    r = min(radius, float(h[fixed].min()) if fixed.any() else radius)
+    near = (h < r) & (h > 1e-9)
+    out[near, :2] = base[:2] + d[near] * (r / h[near])[:, None]
+    return out
+
+
+def transit_to_first(
+    cur: np.ndarray, seg: Segment, frames: DemoFrames, scene: dict[str, np.ndarray]
+) -> np.ndarray:
+    """An arm's move (states ``[x, y, z, yaw]``) from ``cur`` (its rest) to above where a
+    unit's first step ``seg`` begins: up, across at the rest's height or
+    :data:`TRANSIT_CLEAR` over the object the step handles (its pose in the robot's ``scene``;
+    else where the hand began the step), then down to that height over it. The one-arm
+    planner then goes from there: not the human hand's path from wherever it was, which
+    sweeps through the other arm's side."""
+    if seg.object is not None and seg.object in scene:
+        T = scene[seg.object]
+        size = frames.size[frames.object_index(seg.object)]
+        xy, top = T[:2, 3], float(T[2, 3] + size[2] / 2)
+    else:
+        xy, top = frames.tcp_pose(frames.index(seg.start_s))[:2, 3], 0.0
+    z = top + frames.robot.finger_below_tcp + TRANSIT_CLEAR
+    high = max(cur[2], z)
+    goal = np.array([xy[0], xy[1], z, 0.0])
+    goal[3] = float(wrap_near(float(frames.natural_yaw(goal[:3])), cur[3]))
+    up, over = cur.copy(), goal.copy()
+    up[2] = over[2] = high
+    legs = [line(cur, up, min_s=0.2), line(up, over)[1:], line(over, goal, min_s=0.3)[1:]]
+    return np.concatenate(legs)
+
+
+def _held_name(segs: list[Segment]) -> str | None:
+    """The object a run of steps ends holding (its last step a ``pick_up`` or ``move_with``)."""
+    last = segs[-1] if segs else None
+    return last.object if last is not None and last.skill in ("pick_up", "move_with") else None
+
+
+def _initial(f: DemoFrames, i0: int, moved: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Every object at rest on the table below where it starts (at sample ``i0``), or where
+    the layout puts it (``moved``)."""
+    initial = {}
+    for n in f.names:
+        T = upright(f.object_pose(n, i0))
+        T[2, 3] = f.size[f.object_index(n), 2] / 2
+        initial[n] = T
+    initial.update({n: upright(T) for n, T in moved.items()})
+    return initial
 
 
 def plan_sequence(
@@ -252,16 +394,15 @@ def plan_sequence(
     frames = {s: DemoFrames(trajs[s], bases[s], robot.ik) for s in sides}
     f = frames[sides[0]]
     i0 = f.index(min(hands.lanes[s][0].start_s for s in sides if hands.lanes[s]))
-    initial = {}
-    for n in f.names:  # at rest on the table below where the object starts
-        T = upright(f.object_pose(n, i0))
-        T[2, 3] = f.size[f.object_index(n), 2] / 2
-        initial[n] = T
-    for n, T in (moved or {}).items():
-        initial[n] = upright(T)
+    initial = _initial(f, i0, moved or {})
     centre = np.mean([T[:3, 3] for T in initial.values()], axis=0)
     top = max(T[2, 3] + f.size[f.object_index(n), 2] / 2 for n, T in initial.items())
-    rest = {s: _rest(bases[s], centre, top, frames[s]) for s in sides}
+    # where the skills act (both hands) and the objects start: the idle arm rests away from them
+    avoid = np.concatenate(
+        [*task_points(trajs, hands).values(), [T[:3, 3] for T in initial.values()]]
+    )
+    others = {s: next((bases[o] for o in sides if o != s), None) for s in sides}
+    rest = {s: rest_pose(bases[s], others[s], centre, top, frames[s], avoid) for s in sides}
     cur = dict(rest)
     parts: dict[str, list[Plan]] = {s: [_hold(rest[s], TICK, -1)] for s in sides}
     scene = dict(initial)
@@ -280,12 +421,32 @@ def plan_sequence(
             done = {s: True for s in blocks}
         else:
             segs = [hands.lanes[who][k] for k in unit]
+            lead = None
+            if np.allclose(cur[who], rest[who]):  # from its rest: over to the first step
+                lead = _part(transit_to_first(cur[who], segs[0], frames[who], scene), -1)
+                lead.opening[:] = robot.ik.max_opening
+                cur[who] = np.array([*lead.position[-1], lead.yaw[-1]])
             res = _lane_part(frames[who], segs, mode, scene, start=cur[who], cap=Z_CAP)
             plan = res.plan
             seg = np.where(plan.segment >= 0, plan.segment + unit[0], -1)
-            blocks = {who: Plan(plan.position, plan.yaw, plan.opening, seg)}
-            scene.update(res.expected)
+            position = within_reach(plan.position, bases[who], robot.ik)
+            moving = np.isin(
+                plan.segment, [k for k, g in enumerate(segs) if g.skill == "move_with"]
+            )
+            for o in sides:  # the carries away from the other arm's base (where it rests)
+                if o != who:
+                    position = clear_of_base(position, ~moving, bases[o], OTHER_BASE_CLEAR)
             done = {who: segs[-1].skill not in ("pick_up", "move_with")}
+            if not done[who]:  # it ends holding the object: where the pulled-in gripper holds it
+                shift = position[-1] - plan.position[-1]
+                held = _held_name(segs)
+                if held is not None and held in res.expected:
+                    T = res.expected[held].copy()
+                    T[:3, 3] += shift
+                    res.expected[held] = T
+            block = Plan(position, plan.yaw, plan.opening, seg)
+            blocks = {who: block if lead is None else Plan.concat([lead, block])}
+            scene.update(res.expected)
         for s in blocks:
             scenes[s].append(dict(scene))
         for s, block in blocks.items():

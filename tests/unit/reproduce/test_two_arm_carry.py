@@ -89,6 +89,142 @@ def test_press_poses_on_opposite_faces_where_the_hands_held() -> None:
     assert xs[p.hand] * xs[p.other] < 0
 
 
+def test_press_poses_follow_the_robot_scene_and_put_both_pads_at_one_place() -> None:
+    """The faces pressed are chosen on the object as it lies in the robot's scene: the big box
+    turned a quarter turn there is pressed on its long faces (the bases' direction is along its
+    y); both pads at the same place along the face, the mean of where the two hands held it."""
+    from lfd.reproduce.aloha import aloha
+    from lfd.reproduce.goals import DemoFrames, pose, upright, yaw_of
+    from lfd.reproduce.two_arm_carry import (
+        MIN_TCP_GAP,
+        SQUEEZE_DEPTH,
+        carry_points,
+        press_poses,
+    )
+
+    trajs, hands = _program("carry", 3)
+    (p,) = carry_points(hands)
+    robot = aloha()
+    bases = {"right": np.array([0.45, 0.2, 0.0]), "left": np.array([-0.45, 0.2, 0.0])}
+    frames = {s: DemoFrames(trajs[s], bases[s], robot.ik) for s in (p.hand, p.other)}
+    f = frames[p.hand]
+    i = f.index(hands.lanes[p.hand][p.step].start_s + 0.2)
+    size = f.size[f.object_index("big_box")]
+    T = upright(f.object_pose("big_box", i))
+    held = {s: (np.linalg.inv(T) @ frames[s].tcp_pose(i))[:3, 3] for s in frames}
+    demo = press_poses(frames, "big_box", i, robot)
+    mean = float(np.mean([held[s][1] for s in frames]))
+    for inside, _ in demo.values():
+        assert inside[1] == pytest.approx(np.clip(mean, -size[1] / 2, size[1] / 2), abs=1e-9)
+    turned = pose(T[:3, 3], yaw_of(T[:3, :3]) + np.pi / 2)
+    press = press_poses(frames, "big_box", i, robot, turned)
+    along = {s: inside[0] for s, (inside, _) in press.items()}
+    # (65 mm across: squeezed less deep, the two TCPs MIN_TCP_GAP apart)
+    depth = min(SQUEEZE_DEPTH, (size[1] + 2 * robot.ik.finger_half_x - MIN_TCP_GAP) / 2)
+    for s, (inside, _) in press.items():
+        assert abs(inside[1]) == pytest.approx(size[1] / 2 + robot.ik.finger_half_x - depth)
+        assert inside[3] == pytest.approx(0.0)  # the closing axis along the box's x
+        # each arm on the face towards its base, as the box lies in the scene
+        face = turned @ np.array([0.0, inside[1], 0.0, 1.0])
+        assert np.linalg.norm(face[:2] - bases[s][:2]) < np.linalg.norm(
+            turned[:2, 3] - bases[s][:2]
+        )
+    assert along[p.hand] == pytest.approx(along[p.other])
+
+
+def test_a_narrow_object_is_squeezed_less_deep_keeping_the_wrists_apart() -> None:
+    """The big box made 74 mm long (a wine glass's box): the two pressing TCPs are commanded
+    MIN_TCP_GAP apart (shallower than SQUEEZE_DEPTH), still inside the faces; the approach
+    STANDOFF outside the face."""
+    from lfd.reproduce.aloha import aloha
+    from lfd.reproduce.goals import DemoFrames
+    from lfd.reproduce.two_arm_carry import (
+        MIN_TCP_GAP,
+        SQUEEZE_DEPTH,
+        STANDOFF,
+        carry_points,
+        press_poses,
+    )
+
+    trajs, hands = _program("carry", 3)
+    (p,) = carry_points(hands)
+    robot = aloha()
+    bases = {"right": np.array([0.45, 0.2, 0.0]), "left": np.array([-0.45, 0.2, 0.0])}
+    frames = {s: DemoFrames(trajs[s], bases[s], robot.ik) for s in (p.hand, p.other)}
+    k = frames[p.hand].object_index("big_box")
+    for f in frames.values():
+        f.size = f.size.copy()
+        f.size[k] = [0.074, 0.065, 0.13]
+    i = frames[p.hand].index(hands.lanes[p.hand][p.step].start_s + 0.2)
+    press = press_poses(frames, "big_box", i, robot)
+    (a_in, a_out), (b_in, _) = press[p.hand], press[p.other]
+    assert abs(a_in[0] - b_in[0]) == pytest.approx(MIN_TCP_GAP)
+    depth = 0.074 / 2 + robot.ik.finger_half_x - abs(a_in[0])
+    assert 0 < depth < SQUEEZE_DEPTH
+    assert abs(a_out[0]) - abs(a_in[0]) == pytest.approx(depth + STANDOFF)
+
+
+def test_a_dmp_squeeze_ends_above_its_goal_no_higher_than_skills_and_turns_smoothly() -> None:
+    """DMP mode's object path: a DMP to DMP_ABOVE over the goal, then straight down onto it;
+    never higher than skills mode lifts it (LIFT over the higher end), never into the table;
+    the yaw turns one way, smoothly, from the start's to the goal's."""
+    from lfd.reproduce.aloha import aloha
+    from lfd.reproduce.goals import DemoFrames, upright, yaw_of
+    from lfd.reproduce.two_arm_carry import DMP_ABOVE, LIFT, carry_points, carry_steps, object_path
+
+    trajs, hands = _program("carry", 3)
+    (p,) = carry_points(hands)
+    steps = carry_steps(hands, p)
+    f = DemoFrames(trajs[p.hand], np.array([0.45, 0.2, 0.0]), aloha().ik)
+    size = f.size[f.object_index("big_box")]
+    lane = hands.lanes[p.hand]
+    pick, place = lane[steps[p.hand][0]], lane[steps[p.hand][2]]
+    span = (f.index(pick.end_s), f.index(place.end_s))
+    T = upright(f.object_pose("big_box", span[0]))
+    start = np.array([*T[:3, 3], yaw_of(T[:3, :3])])
+    start[2] = size[2] / 2
+    goal = start + np.array([0.15, -0.1, 0.0, 0.4])
+    dmp, k = object_path(f, "big_box", start, goal, span, place.start_s, {}, "dmp")
+    skills, _ = object_path(f, "big_box", start, goal, span, place.start_s, {}, "skills")
+    assert np.allclose(dmp[0], start, atol=1e-6) and np.allclose(dmp[-1], goal, atol=1e-9)
+    assert 0 < k < len(dmp)
+    assert dmp[:, 2].max() <= max(start[2], goal[2]) + LIFT + 1e-9
+    assert dmp[:, 2].max() <= skills[:, 2].max() + 1e-9
+    assert dmp[:, 2].min() >= size[2] / 2 - 1e-9
+    # the last part: from DMP_ABOVE over the goal straight down
+    above = np.nonzero(np.isclose(dmp[:, 2], goal[2] + DMP_ABOVE, atol=1e-9))[0]
+    last = int(above[-1])
+    assert np.allclose(dmp[last:, :2], goal[:2], atol=1e-6)
+    assert np.all(np.diff(dmp[last:, 2]) <= 1e-12)
+    turn = np.diff(dmp[:, 3])
+    assert np.all(turn >= -1e-12) and np.abs(np.diff(turn)).max() < 1e-3
+
+
+def test_the_planned_squeeze_is_slow_and_the_approach_closed() -> None:
+    """Both arms' plans of the simulated carry: the press, carry and set-down within
+    SQUEEZE_SPEED and SQUEEZE_ACCELERATION; the approach to the press with the fingers closed."""
+    from lfd.reproduce.aloha import aloha
+    from lfd.reproduce.timescale import TOLERANCE, derivatives
+    from lfd.reproduce.two_arm_carry import (
+        SQUEEZE_ACCELERATION,
+        SQUEEZE_SPEED,
+        carry_points,
+        carry_steps,
+    )
+    from lfd.reproduce.two_arms import _end, _start, plan_two_arms
+
+    trajs, hands = _program("carry", 4)
+    plan = plan_two_arms(trajs, hands, "skills", robot=aloha())
+    for point in carry_points(hands):
+        for side, (k_pick, k_with, k_place) in carry_steps(hands, point).items():
+            a = plan.plans[side]
+            i0, i1 = _start(a, k_with), _end(a, k_place)
+            v, acc = derivatives(a.position[i0:i1])
+            assert np.linalg.norm(v, axis=1).max() <= SQUEEZE_SPEED * TOLERANCE
+            assert np.linalg.norm(acc, axis=1).max() <= SQUEEZE_ACCELERATION * TOLERANCE**2
+            assert np.all(a.opening[_start(a, k_pick) : _end(a, k_pick)] == 0.0)
+
+
 def test_a_carry_without_its_pick_up_and_place_is_refused_in_one_line() -> None:
     from lfd.errors import DemonstrationError
     from lfd.reproduce.program import HandsProgram, Segment, SyncPoint

@@ -63,6 +63,31 @@ def test_a_one_hand_carry_of_a_wide_object_becomes_two_handed() -> None:
     assert prepare(hands, {"mug": CUBE}, aloha()) is hands  # one gripper holds a cube
 
 
+def test_a_wide_object_still_carried_at_the_end_is_set_down_by_both_arms() -> None:
+    """The take ends with the mug in the right hand (a pick_up, then a move_with to the end):
+    the carry's last SET_DOWN_S become a place, and the free left hand joins it (a two-handed
+    carry); a cube carried to the end is left to one hand, as it was."""
+    from lfd.reproduce.aloha import aloha
+    from lfd.reproduce.program import HandsProgram, Segment
+    from lfd.reproduce.two_arm_sequence import SET_DOWN_S, has_carry, prepare
+
+    right = [
+        Segment("move", 0, 1, None),
+        Segment("pick_up", 1, 2, "mug"),
+        Segment("move_with", 2, 6, "mug"),
+    ]
+    left = [Segment("move", 0, 6, None)]  # fmt: skip
+    hands = HandsProgram({"right": right, "left": left})
+    out = prepare(hands, {"mug": MUG}, aloha())
+    assert has_carry(out)
+    for side in ("right", "left"):
+        lane = [s for s in out.lanes[side] if s.skill != "move"]
+        assert [s.skill for s in lane] == ["pick_up", "move_with", "place"]
+        assert lane[-1].start_s == pytest.approx(6 - SET_DOWN_S) and lane[-1].end_s == 6
+        assert lane[1].end_s == lane[-1].start_s
+    assert prepare(hands, {"mug": CUBE}, aloha()) is hands
+
+
 def test_a_carry_from_the_first_sample_gets_its_pick_up() -> None:
     """A take that starts with the object in both hands: each lane gets a pick_up first."""
     from lfd.reproduce.aloha import aloha
