@@ -130,11 +130,14 @@ def press_poses(
     T_o = upright(f.object_pose(name, i))
     held = {s: (np.linalg.inv(T_o) @ frames[s].tcp_pose(i))[:3, 3] for s in sides}
     T_r = T_o if T_obj is None else upright(T_obj)
-    # each arm on the side of its base: the axis of the object that points most from one base
-    # to the other (the hands, on their sides too, held the same faces in a two-handed carry;
-    # a hand that did not hold it is anywhere)
+    # the faces: those at the ends of the axis along which the two hands held it apart (the
+    # same faces however the robot's object lies), else (a hand that did not hold it is anywhere) the
+    # axis of the object, as it lies in the robot's scene, that points most from one base to
+    # the other; each arm on the face towards its base
     gap = T_r[:3, :3].T @ (frames[sides[0]].base - frames[sides[1]].base)
-    axis = int(np.argmax(np.abs(gap[:2])))
+    axis = _held_axis(held, size)
+    if axis is None:
+        axis = int(np.argmax(np.abs(gap[:2])))
     other = 1 - axis
     arm = robot.ik
     # low on the face (the fingertips just above the table): pressed high, a tall object tips;
@@ -159,6 +162,16 @@ def press_poses(
         out_c[axis] += sign * (depth + STANDOFF)
         out[s] = (np.array([*c, yaw]), np.array([*out_c, yaw]))
     return out
+
+
+def _held_axis(held: dict[str, np.ndarray], size: np.ndarray) -> int | None:
+    """The horizontal axis of the object (0: x, 1: y) along which the two hands held it apart
+    (``held``: each TCP in the object's frame): on opposite sides of its centre, at least half
+    its length along that axis apart; None when they did not (a hand anywhere)."""
+    a, b = held.values()
+    axis = int(np.argmax(np.abs((a - b)[:2])))
+    opposite = np.sign(a[axis]) != np.sign(b[axis])
+    return axis if opposite and abs(a[axis] - b[axis]) >= size[axis] / 2 else None
 
 
 def _in_world(obj: np.ndarray, rel: np.ndarray) -> np.ndarray:

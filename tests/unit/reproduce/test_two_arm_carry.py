@@ -89,18 +89,17 @@ def test_press_poses_on_opposite_faces_where_the_hands_held() -> None:
     assert xs[p.hand] * xs[p.other] < 0
 
 
-def test_press_poses_follow_the_robot_scene_and_put_both_pads_at_one_place() -> None:
-    """The faces pressed are chosen on the object as it lies in the robot's scene: the big box
-    turned a quarter turn there is pressed on its long faces (the bases' direction is along its
-    y); both pads at the same place along the face, the mean of where the two hands held it."""
+def test_press_poses_keep_the_held_faces_on_a_turned_object_and_put_both_pads_at_one_place() -> (
+    None
+):
+    """The faces pressed are those along which the two hands held the object apart, however it
+    lies in the robot's scene: the big box turned a quarter turn there is still pressed on its
+    ends (its x), each arm on the end nearer its base as the box lies in the scene (pressing
+    its long faces, 65 mm apart, the two wrists would touch); both pads at the same place
+    along the face, the mean of where the two hands held it."""
     from lfd.reproduce.aloha import aloha
     from lfd.reproduce.goals import DemoFrames, pose, upright, yaw_of
-    from lfd.reproduce.two_arm_carry import (
-        MIN_TCP_GAP,
-        SQUEEZE_DEPTH,
-        carry_points,
-        press_poses,
-    )
+    from lfd.reproduce.two_arm_carry import SQUEEZE_DEPTH, carry_points, press_poses
 
     trajs, hands = _program("carry", 3)
     (p,) = carry_points(hands)
@@ -116,20 +115,33 @@ def test_press_poses_follow_the_robot_scene_and_put_both_pads_at_one_place() -> 
     mean = float(np.mean([held[s][1] for s in frames]))
     for inside, _ in demo.values():
         assert inside[1] == pytest.approx(np.clip(mean, -size[1] / 2, size[1] / 2), abs=1e-9)
-    turned = pose(T[:3, 3], yaw_of(T[:3, :3]) + np.pi / 2)
-    press = press_poses(frames, "big_box", i, robot, turned)
-    along = {s: inside[0] for s, (inside, _) in press.items()}
-    # (65 mm across: squeezed less deep, the two TCPs MIN_TCP_GAP apart)
-    depth = min(SQUEEZE_DEPTH, (size[1] + 2 * robot.ik.finger_half_x - MIN_TCP_GAP) / 2)
-    for s, (inside, _) in press.items():
-        assert abs(inside[1]) == pytest.approx(size[1] / 2 + robot.ik.finger_half_x - depth)
-        assert inside[3] == pytest.approx(0.0)  # the closing axis along the box's x
-        # each arm on the face towards its base, as the box lies in the scene
-        face = turned @ np.array([0.0, inside[1], 0.0, 1.0])
-        assert np.linalg.norm(face[:2] - bases[s][:2]) < np.linalg.norm(
-            turned[:2, 3] - bases[s][:2]
-        )
-    assert along[p.hand] == pytest.approx(along[p.other])
+    for turn in (np.pi / 2, -np.pi / 2):
+        turned = pose(T[:3, 3], yaw_of(T[:3, :3]) + turn)
+        press = press_poses(frames, "big_box", i, robot, turned)
+        for s, (inside, _) in press.items():
+            assert abs(inside[0]) == pytest.approx(
+                size[0] / 2 + robot.ik.finger_half_x - SQUEEZE_DEPTH
+            )
+            assert inside[3] == pytest.approx(np.pi / 2)  # the closing axis across the box
+            # each arm on the end nearer its base, as the box lies in the scene
+            end = turned @ np.array([inside[0], 0.0, 0.0, 1.0])
+            far = turned @ np.array([-inside[0], 0.0, 0.0, 1.0])
+            assert np.linalg.norm(end[:2] - bases[s][:2]) <= np.linalg.norm(far[:2] - bases[s][:2])
+        assert press[p.hand][0][1] == pytest.approx(press[p.other][0][1])
+
+
+def test_the_held_axis_is_where_the_hands_held_the_object_apart() -> None:
+    """Two hands on opposite sides of the centre, at least half the object's length apart
+    along an axis, held it along that axis; a hand elsewhere (the other hand not holding it)
+    gives no axis (the faces then follow the robot's scene)."""
+    from lfd.reproduce.two_arm_carry import _held_axis
+
+    size = np.array([0.28, 0.065, 0.09])
+    a, b = np.array([0.08, 0.002, 0.02]), np.array([-0.082, -0.003, 0.03])
+    assert _held_axis({"right": a, "left": b}, size) == 0
+    assert _held_axis({"right": a[[1, 0, 2]], "left": b[[1, 0, 2]]}, size[[1, 0, 2]]) == 1
+    assert _held_axis({"right": a, "left": np.array([0.05, 0.3, 0.0])}, size) is None
+    assert _held_axis({"right": a, "left": np.array([-0.02, 0.0, 0.0])}, size) is None
 
 
 def test_a_narrow_object_is_squeezed_less_deep_keeping_the_wrists_apart() -> None:
