@@ -33,7 +33,6 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 EXPERIMENTS = ("exp1", "exp2", "exp3", "exp4", "exp5")
-TWO_ARM_EXPERIMENTS = ("handover", "hold_push")
 
 
 def recording(exp: str, out: Path, args: Any) -> Path:
@@ -42,7 +41,9 @@ def recording(exp: str, out: Path, args: Any) -> Path:
     shipped = ROOT / "recordings" / f"{exp}.mcap"
     if shipped.is_file():
         return shipped
-    two = exp in TWO_ARM_EXPERIMENTS
+    from lfd.sim import TWO_HAND_EXPERIMENTS
+
+    two = exp in TWO_HAND_EXPERIMENTS
     path = out / (f"{exp}_{args.style}_{args.sim_seed}.mcap" if two else f"{exp}.mcap")
     if not path.is_file():
         import lfd
@@ -109,7 +110,7 @@ def one(exp: str, args: Any) -> dict[str, Any]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--experiments", nargs="+", help="(default exp1-5; aloha: handover hold_push)")
+    ap.add_argument("--experiments", nargs="+", help="(default exp1-5; aloha: the four two-hand tasks)")
     ap.add_argument("--robot", default="kuka_lwr4", help="kuka_lwr4, panda or aloha (two arms)")
     ap.add_argument("--sim-seed", type=int, default=9501, help="two-hand demos' seed (9501)")
     ap.add_argument("--style", default="careful", help="two-hand demos' style (careful)")
@@ -120,8 +121,10 @@ def main() -> None:
     ap.add_argument("--json", help="write the figures here")
     args = ap.parse_args()
     if not args.experiments:
+        from lfd.sim import TWO_HAND_EXPERIMENTS
+
         two = args.robot == "aloha"
-        args.experiments = list(TWO_ARM_EXPERIMENTS if two else EXPERIMENTS)
+        args.experiments = list(TWO_HAND_EXPERIMENTS if two else EXPERIMENTS)
     rows = [one(exp, args) for exp in args.experiments]
     print(
         f"{'exp':9} {'yield':>9} {'frames':>7} {'s/layout':>9} {'write s':>8} "
