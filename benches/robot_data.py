@@ -14,7 +14,7 @@ per episode (everything, the dataset's encoding and writing included, over the e
 dataset's size and its size per episode, and the failure reasons. Rerunning the same command
 resumes an interrupted experiment (an experiment whose dataset exists is read back, not redone).
 
-Two arms (``--robot aloha``): the two-hand experiments (default ``handover`` and ``hold_push``)
+Two arms (``--robot aloha``): the two-hand experiments (default all four: ``handover``, ``hold_push``, ``carry``, ``hold_stack``)
 simulated with ``--sim-seed`` (default 9501, held out) in ``--style`` (default careful) and
 saved beside the datasets, each exported with ``lfd export robot-data REC --robot aloha``::
 
