@@ -14,8 +14,8 @@ per episode (everything, the dataset's encoding and writing included, over the e
 dataset's size and its size per episode, and the failure reasons. Rerunning the same command
 resumes an interrupted experiment (an experiment whose dataset exists is read back, not redone).
 
-Two arms (``--robot aloha``): the two-hand experiments (default all four: ``handover``, ``hold_push``, ``carry``, ``hold_stack``)
-simulated with ``--sim-seed`` (default 9501, held out) in ``--style`` (default careful) and
+Two arms (``--robot aloha``): the two-hand experiments (default all four: ``handover``,
+``hold_push``, ``carry``, ``hold_stack``) simulated with ``--sim-seed`` (default 9501, held out) in ``--style`` (default careful) and
 saved beside the datasets, each exported with ``lfd export robot-data REC --robot aloha``::
 
     MUJOCO_GL=egl OMP_NUM_THREADS=1 nice -n 10 python benches/robot_data.py --robot aloha \
@@ -110,7 +110,9 @@ def one(exp: str, args: Any) -> dict[str, Any]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--experiments", nargs="+", help="(default exp1-5; aloha: the four two-hand tasks)")
+    ap.add_argument(
+        "--experiments", nargs="+", help="(default exp1-5; aloha: the four two-hand tasks)"
+    )
     ap.add_argument("--robot", default="kuka_lwr4", help="kuka_lwr4, panda or aloha (two arms)")
     ap.add_argument("--sim-seed", type=int, default=9501, help="two-hand demos' seed (9501)")
     ap.add_argument("--style", default="careful", help="two-hand demos' style (careful)")
