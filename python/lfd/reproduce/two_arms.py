@@ -493,7 +493,7 @@ def _finish(
     return TwoArmPlan(mode, programs, bases, yaws, planned, plans, specs, expected, owners)
 
 
-def _prepared(
+def prepare_two_arms(
     trajs: dict[str, Any], hands: HandsProgram, robot: TwoArmRobot
 ) -> tuple[HandsProgram, bool, dict[str, Any]]:
     """The program with its carries made two-armed
@@ -547,7 +547,7 @@ def plan_two_arms(
     from .two_arm_sequence import plan_sequence, task_points
 
     displace = dict(displace or {})
-    hands, sequence, presses = _prepared(trajs, hands, robot)
+    hands, sequence, presses = prepare_two_arms(trajs, hands, robot)
     check_runs(hands)
     sides = [s for s in hands.sides if hands.lanes[s] and s in robot.arms]
     missing = [s for s in hands.sides if s not in robot.arms]

@@ -51,9 +51,9 @@ from .two_arm_lanes import lifted
 from .two_arms import (
     TwoArmPlan,
     TwoArmReproduction,
-    _prepared,
     check_runs,
     plan_two_arms,
+    prepare_two_arms,
     reproduce_two_arms,
     run_two_arm_plan,
 )
@@ -92,7 +92,7 @@ def _check_program(
     if missing:
         raise DemonstrationError(f"the {missing[0]} hand has no arm on {robot.name}")
     if any(m != "replay" for m in modes):
-        prepared, _, presses = _prepared(trajs, hands, robot)
+        prepared, _, presses = prepare_two_arms(trajs, hands, robot)
         held = carried_by_both(prepared) | {str(p.object) for p in presses.values()}
         for side in hands.sides:
             steps = [g for g in prepared.lanes[side] if g.object not in held]
@@ -229,6 +229,26 @@ class _Run:
         return {s: self.r.arm_success(s) for s in self.r.skills}
 
 
+def _layout_check(
+    trajs: dict[str, Any],
+    hands: HandsProgram,
+    robot: TwoArmRobot,
+    modes: Sequence[str],
+    planned: dict[str, TwoArmPlan] | None,
+) -> Callable[[dict[str, Displacement]], str | None]:
+    """The check of a drawn layout (:func:`check_two_arm_layout`), leaving in ``planned``
+    (when given) the plans of the last layout checked, per mode."""
+
+    def check(displace: dict[str, Displacement]) -> str | None:
+        if planned is not None:
+            planned.clear()
+        return check_two_arm_layout(
+            trajs, hands, displace, robot=robot, modes=modes, planned=planned
+        )
+
+    return check
+
+
 def reproduce_two_arms_randomised(
     trajs: dict[str, Any],
     hands: HandsProgram,
@@ -265,12 +285,6 @@ def reproduce_two_arms_randomised(
 
     planned: dict[str, TwoArmPlan] = {}  # the layout's plans, made by its check, run as made
 
-    def check(displace: dict[str, Displacement]) -> str | None:
-        planned.clear()
-        return check_two_arm_layout(
-            trajs, hands, displace, robot=robot, modes=modes, planned=planned
-        )
-
     def run(_traj: Any, _program: Any, mode: str, *, displace: Any, robot: Any) -> _Run:
         plan = planned.pop(mode, None)
         if plan is None:
@@ -288,7 +302,7 @@ def reproduce_two_arms_randomised(
         max_turn_deg=max_turn_deg,
         progress=progress,
         robot=robot,
-        check=check,
+        check=_layout_check(trajs, hands, robot, modes, planned),
     )
 
 
@@ -318,14 +332,6 @@ def iter_two_arm_layouts(
         for).
     """
     first = _check_program(trajs, hands, modes, robot)
-
-    def check(displace: dict[str, Displacement]) -> str | None:
-        if planned is not None:
-            planned.clear()
-        return check_two_arm_layout(
-            trajs, hands, displace, robot=robot, modes=modes, planned=planned
-        )
-
     return iter_layouts(
         trajs[first],
         hands.program(first),
@@ -335,7 +341,7 @@ def iter_two_arm_layouts(
         max_turn_deg=max_turn_deg,
         modes=modes,
         robot=robot.ik,
-        check=check,
+        check=_layout_check(trajs, hands, robot, modes, planned),
     )
 
 
