@@ -277,9 +277,35 @@ def _reaches_after_release(
             continue
         if out[k - 2].skill not in RELEASES:
             continue
-        far = np.flatnonzero(d_tcp[cur.obj][move.start : cur.end] >= p.approach_m)
-        t = move.start + (int(far[-1]) + 1 if len(far) else p.min_move)
-        _move_boundary(out, k - 1, t)
+        _move_boundary(
+            out, k - 1, move.start + _reach_start(d_tcp[cur.obj][move.start : cur.end], p)
+        )
+
+
+BACK_OFF_M = 0.02
+"""A hand that never goes ``approach_m`` from the object after a release but backs off this much
+farther than where it let go reaches from the farthest point of its back-off."""
+
+BACK_OFF_TOL_M = 0.005
+"""The farthest point of a back-off: its last sample within this of the largest distance."""
+
+
+def _reach_start(d: np.ndarray, p: ContactParams) -> int:
+    """Where the reach of a Pick up after a release begins, in samples from the release, given
+    ``d``, the TCP's distance to the object's box from the release to the Pick up's end: after
+    the last sample at least ``approach_m`` away; a hand that never was that far but backed off
+    ``BACK_OFF_M`` reaches from the farthest point of its back-off (its last sample within
+    ``BACK_OFF_TOL_M`` of the largest distance); one that stayed at the object from
+    ``min_move`` samples after the release, the shortest Move."""
+    far = np.flatnonzero(d >= p.approach_m)
+    if len(far):
+        return int(far[-1]) + 1
+    if len(d) == 0 or not np.isfinite(d).any():
+        return p.min_move
+    top = float(np.nanmax(d))
+    if top - float(np.nan_to_num(d[0], nan=top)) < BACK_OFF_M:
+        return p.min_move
+    return max(int(np.flatnonzero(d >= top - BACK_OFF_TOL_M)[-1]) + 1, p.min_move)
 
 
 def lift_off(pos: np.ndarray, a: int, u: int, rest_m: float = 0.002, rest_samples: int = 3) -> int:

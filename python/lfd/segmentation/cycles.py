@@ -23,6 +23,11 @@ from ..skills import RELEASES, Draft, allowed
 from ..trajectory import Trajectory
 from .episodes import CarryParams
 
+PUSHED_M = 0.01
+"""A Push moves its object this far or more (docs/skills.md: 5-12 cm); an object that stays
+where it is was not pushed: the hand only passed near it (a Move). The two-hand lanes use it
+too (:class:`lfd.segmentation.lanes.LaneParams`)."""
+
 LIFTED_M = 0.01
 """An object lower than this above where it rests lowest is set down (it rises 3 cm in a
 carry): noise and a slow last descent do not split a carry."""
@@ -187,6 +192,41 @@ def hovers_and_turns(traj: Trajectory, drafts: list[Draft], approach_m: float) -
                 out[k : k + 3] = [pick.resized(push.start, pick.end)]
                 continue
         k += 1
+    joined: list[Draft] = []
+    for d in out:
+        if joined and joined[-1].skill == d.skill == "move":
+            joined[-1] = joined[-1].resized(joined[-1].start, d.end)
+        else:
+            joined.append(d)
+    return joined
+
+
+def displacement(pos: np.ndarray, a: int, b: int) -> float:
+    """How far an object ``pos`` ``(n, 3)`` gets from where it was at sample ``a`` within
+    ``a..b`` (0 when it is never seen there): the one measure of whether a Push pushed."""
+    seg = np.asarray(pos[a:b], dtype=float)
+    seen = np.isfinite(seg).all(axis=1)
+    if not seen.any():
+        return 0.0
+    seg = seg[seen]
+    return float(np.max(np.linalg.norm(seg - seg[0], axis=1)))
+
+
+def grasps_and_pushes(traj: Trajectory, drafts: list[Draft]) -> list[Draft]:
+    """``drafts`` with a Pick up directly followed by a Move with of another object made a Pick
+    up of that object (the grasp is of the object it lifts), and a Push whose object moves less
+    than ``PUSHED_M`` by the end of the skill after it made a Move (docs/skills.md: a Push
+    displaces its object); neighbouring Moves joined."""
+    out = list(drafts)
+    for k, d in enumerate(out):
+        nxt = out[k + 1] if k + 1 < len(out) else None
+        if d.skill == "pick_up" and nxt is not None and nxt.skill == "move_with":
+            if nxt.obj is not None and nxt.obj != d.obj:
+                out[k] = Draft("pick_up", d.start, d.end, nxt.obj)
+        elif d.skill == "push" and d.obj is not None:
+            end = nxt.end if nxt is not None else d.end
+            if displacement(traj.object_position[d.obj], d.start, end) < PUSHED_M:
+                out[k] = Draft("move", d.start, d.end, d.obj)
     joined: list[Draft] = []
     for d in out:
         if joined and joined[-1].skill == d.skill == "move":

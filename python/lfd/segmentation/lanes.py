@@ -26,7 +26,7 @@ from .attribution import (
     hand_view,
     tip_distances,
 )
-from .cycles import is_reach_hesitation
+from .cycles import PUSHED_M, displacement, is_reach_hesitation
 from .episodes import CarryParams, carries, overlay, snap, still_holds
 from .hands import HandsSegmentation
 from .result import Segment, Segmentation
@@ -75,7 +75,7 @@ class LaneParams:
     """
 
     touch_m: float = 0.02
-    pushed_m: float = 0.01
+    pushed_m: float = PUSHED_M
     support_m: float = 0.01
     point_m: float = 0.12
     near_m: float = 0.10
@@ -273,9 +273,7 @@ class _PushTouch:
         if not on.any():
             return False
         pos = _positions(self.demo, seg.object or "", t)
-        first = int(np.argmax(on))
-        moved = np.linalg.norm(pos[first:] - pos[first], axis=1)
-        return bool(np.nanmax(moved, initial=0.0) >= self.pushed_m)
+        return displacement(pos, int(np.argmax(on)), len(pos)) >= self.pushed_m
 
 
 def _touches(seg: Segment, touch: dict[str, np.ndarray], k: int) -> bool:

@@ -24,7 +24,7 @@ from ..errors import DemonstrationError, InvalidParameterError
 from ..skills import Draft
 from ..trajectory import Trajectory
 from .band import StageTwoScores
-from .cycles import carries_by_contact, hovers_and_turns
+from .cycles import carries_by_contact, grasps_and_pushes, hovers_and_turns
 from .drafts import make_segments, search_drafts
 from .gaps import fill_gaps
 from .grammar import compiled_grammar
@@ -153,6 +153,7 @@ def _passes(
     if p.contacts is not None:
         drafts = carries_by_contact(filled, drafts, min_move=p.contacts.min_move)
         drafts = hovers_and_turns(filled, drafts, p.contacts.approach_m)
+        drafts = grasps_and_pushes(filled, drafts)
     if p.implicit_moves:
         drafts = insert_implicit_moves(filled, drafts, max(1, round(p.implicit_move_s / filled.dt)))
     if p.contacts is not None:

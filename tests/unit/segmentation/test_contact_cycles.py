@@ -4,12 +4,19 @@ synthetic tracks with known contact times."""
 
 from __future__ import annotations
 
+import dataclasses
 from itertools import pairwise
 
 import numpy as np
 from lfd.contact import ContactParams, lift_off, refine
 from lfd.geometry import box_distance
-from lfd.segmentation.cycles import carries_by_contact, hovers_and_turns
+from lfd.segmentation.cycles import (
+    PUSHED_M,
+    carries_by_contact,
+    displacement,
+    grasps_and_pushes,
+    hovers_and_turns,
+)
 from lfd.segmentation.episodes import carries
 from lfd.skills import Draft, allowed
 from lfd.trajectory import Trajectory
@@ -120,14 +127,23 @@ def test_a_re_grasp_reaches_from_the_last_8_cm_or_just_after_the_release() -> No
         Draft("move_with", 240, 290, 0),
         Draft("place", 290, 400, 0),
     ]
+    t = np.arange(len(tcp))
+    # the hand rose 6 cm over the cube and stayed there until it came back down at 200: it
+    # reaches from the end of its back-off
     out = refine(drafts, tcp, thumb, obj, quat, SIZE)
     skills = [d.skill for d in out]
     k = skills.index("move")
-    # the hand rose 3 cm over the cube, never 8 cm off: the shortest Move after the release
+    assert out[k - 1].end == out[k].start and skills[k + 1] == "pick_up"
+    assert out[k + 1].start == 200
+    # a hand that stays at the cube (rises 1 cm, less than BACK_OFF_M farther than where it let
+    # go): the shortest Move after the release
+    stay = tcp.copy()
+    near = (t >= 150) & (t < 200)
+    stay[near, 2] = np.minimum(stay[near, 2], obj[0, near, 2] + 0.01)
+    out = refine(drafts, stay, thumb, obj, quat, SIZE)
+    assert [d.skill for d in out] == skills
     assert out[k - 1].end == out[k].start and out[k].end - out[k].start == ContactParams().min_move
-    assert skills[k + 1] == "pick_up"
     # a hand that went 10 cm up between the cycles reaches from where it was last 8 cm off
-    t = np.arange(len(tcp))
     away = (t >= 160) & (t < 220)
     tcp[away, 2] = obj[0, away, 2] + 0.03 + 0.1 * np.sin(np.pi * (t[away] - 160) / 60)
     out = refine(drafts, tcp, thumb, obj, quat, SIZE)
@@ -223,3 +239,31 @@ def test_a_hover_before_a_grasp_is_a_move_and_a_turn_before_it_part_of_the_pick_
     away = [Draft("move", 0, 5), Draft("push", 5, 15, 0), Draft("move", 15, 26, 0)]
     away += [Draft("pick_up", 26, 35, 0), *hover[3:]]
     assert hovers_and_turns(traj, away, 0.08) == away
+
+
+def test_a_grasp_is_of_the_object_it_lifts_and_a_push_moves_its_object() -> None:
+    traj = _low_lift_trajectory()  # one cube, at rest over 90-115 and 141-195
+    two = dataclasses.replace(
+        traj,
+        object_names=["cube", "other"],
+        object_position=np.concatenate([traj.object_position, traj.object_position + 0.3]),
+        object_quaternion=np.concatenate([traj.object_quaternion] * 2),
+        object_size=np.concatenate([SIZE, SIZE]),
+        object_valid=np.ones((2, len(traj)), dtype=bool),
+    )
+    # a Pick up of the other object followed by the Move with of the cube: a Pick up of the cube
+    wrong = [Draft("move", 0, 20), Draft("pick_up", 20, 30, 1), Draft("move_with", 30, 80, 0)]
+    wrong += [Draft("place", 80, 300, 0)]
+    out = grasps_and_pushes(two, wrong)
+    assert [(d.skill, d.obj) for d in out][1:3] == [("pick_up", 0), ("move_with", 0)]
+    # a Push of the resting cube (it stays where it is): a Move, joined to its neighbours
+    still = [Draft("move", 0, 92), Draft("push", 92, 108, 0), Draft("move", 108, 116)]
+    still += [Draft("pick_up", 116, 120, 0), Draft("move_with", 120, 131, 0)]
+    still += [Draft("place", 131, 300, 0)]
+    out = grasps_and_pushes(two, still)
+    assert (out[0].skill, out[0].start, out[0].end) == ("move", 0, 116)
+    # a Push over which the cube moves (it is lifted at 120): kept
+    moved = [Draft("move", 0, 92), Draft("push", 92, 125, 0), Draft("move", 125, 300)]
+    assert grasps_and_pushes(two, moved) == moved
+    assert displacement(traj.object_position[0], 92, 125) >= PUSHED_M
+    assert displacement(np.full((5, 3), np.nan), 0, 5) == 0.0
