@@ -21,9 +21,10 @@ stays bounded.
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
-from typing import Any, TypeVar
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -31,12 +32,10 @@ import numpy.typing as npt
 from ..demo import Demonstration, HandTrack, ObjectTrack, SkillLabel
 from ..errors import InvalidParameterError, LfdError
 from ..io.reader import order_times
-from ..skills import grammar
+from ..skills import allowed, grammar
 from .method import Method
 from .result import Segment, Segmentation
 from .templates import TemplateChoice, Templates
-
-_T = TypeVar("_T")
 
 DEFAULT_EVERY_S = 0.25
 """Recording seconds between two runs of the batch segmentation."""
@@ -517,13 +516,18 @@ class LiveSegmentation:
         rest = [s for s in run.segments if int(s.end_ns) > front]
         if rest and int(rest[0].start_ns) < front and rest[0].skill == last.skill:
             rest = rest[1:]
+        if rest and not allowed(last.skill, rest[0].skill):
+            # the settled skill ends later than the run's, past a short Move: keep the Move
+            k = next(i for i, s in enumerate(run.segments) if s is rest[0])
+            if k > 0 and run.segments[k - 1].skill == "move" and allowed(last.skill, "move"):
+                rest.insert(0, run.segments[k - 1])
         return rest
 
     def _step(self) -> LiveUpdate:
         run = self._run()
         if run is None:
             return LiveUpdate()
-        return self.settle(run, ended=_once(self._run_at_rest))
+        return self.settle(run, ended=functools.cache(self._run_at_rest))
 
     def failed(self, message: str) -> None:
         """A run of the recording so far failed (its one line becomes the warnings)."""
@@ -646,13 +650,17 @@ class LiveSegmentation:
             return round((t - o) * 1e-9 / dt) if dt > 0 else 0
 
         start, end = index(start_ns), max(index(int(seg.end_ns)), index(start_ns) + 1)
+        end_ns = int(seg.end_ns)
+        if end_ns <= start_ns:  # a short Move the settled skill overlapped: one sample long
+            end_ns = start_ns + max(round(dt * 1e9), 1)
         return dataclasses.replace(
             seg,
             start=start,
             end=end,
             start_s=(start_ns - o) * 1e-9,
-            end_s=(int(seg.end_ns) - o) * 1e-9,
+            end_s=(end_ns - o) * 1e-9,
             start_ns=start_ns,
+            end_ns=end_ns,
         )
 
     def _update(self, run: Segmentation, settled: list[Segment]) -> LiveUpdate:
@@ -743,18 +751,6 @@ def _unlifted(run: Segmentation, seg: Segment) -> bool:
     k = OBJECT_COLUMNS["object_height"]
     a, b = int(seg.start), max(int(seg.end), int(seg.start) + 1)
     return not bool((feats.values[a:b, k] > feats.thresholds[a:b, k]).any())
-
-
-def _once(make: Callable[[], _T]) -> Callable[[], _T]:
-    """``make``, called at most once (its result kept)."""
-    kept: list[_T] = []
-
-    def get() -> _T:
-        if not kept:
-            kept.append(make())
-        return kept[0]
-
-    return get
 
 
 def _dt(run: Segmentation) -> float:

@@ -14,6 +14,7 @@ end live equals batch wherever the settled skills were right, as for one hand (d
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -31,7 +32,6 @@ from .live import (
     LiveUpdate,
     ObjectMessage,
     Span,
-    _once,
     demo_messages,
     label_of,
     recording_arguments,
@@ -253,7 +253,7 @@ class LiveHands:
             return HandsUpdate()
         self._last = run
         # the run of the recording so far as if it ended now, made once a lane needs it
-        ended = _once(lambda: self._run(self.sides, complete=True))
+        ended = functools.cache(lambda: self._run(self.sides, complete=True))
         lanes = {
             side: lane.settle(run.lanes[side], _shared(run, side), _lane_of(ended, side))
             for side, lane in self.lanes.items()

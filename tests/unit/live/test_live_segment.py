@@ -218,3 +218,31 @@ def test_an_object_seen_again_after_a_gap_counts_as_seen_only_a_while_later(
         assert until[3500] == 3500 * ms
     else:
         assert until[3000] == 3000 * ms
+
+
+def test_a_short_move_after_a_release_settled_late_is_kept() -> None:
+    """A Place settled with an end later than the runs after it give it (by more than the
+    tolerance), past the short Move between it and the next Pick up (a re-grasp): the Move is
+    not lost (the grammar needs it; seen on a perceived natural exp5, 2026-12-04)."""
+    import dataclasses
+
+    demo = load(RECORDINGS[0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        batch = lfd.segment(demo)
+    segs = list(batch.segments)
+    i = next(k for k, s in enumerate(segs) if s.skill == "place")
+    assert [s.skill for s in segs[i : i + 3]] == ["place", "move", "pick_up"]
+    place, move, pick = segs[i : i + 3]
+    dt_ns = round((move.end_ns - move.start_ns) / max(move.end - move.start, 1))
+    short = dataclasses.replace(move, end=move.start + 3, end_ns=move.start_ns + 3 * dt_ns)
+    pick = dataclasses.replace(pick, start=short.end, start_ns=short.end_ns)
+    run = dataclasses.replace(batch, segments=[*segs[:i], place, short, pick, *segs[i + 3 :]])
+    live = LiveSegmentation.for_demonstration(demo)
+    late = short.end_ns + 10 * dt_ns  # settled 0.33 s past the run's end of the Move
+    assert late - place.end_ns > live.tolerance_ns
+    live._emitted = [*segs[:i], dataclasses.replace(place, end_ns=late)]
+    rest = live._aligned(run)
+    assert [s.skill for s in rest[:2]] == ["move", "pick_up"]
+    joined = live._joined(rest[0], 1 / 30)
+    assert joined.start_ns == late and joined.end_ns > joined.start_ns
