@@ -7,8 +7,9 @@ within grasp distance of its old pose and later of its new pose: the hand grasps
 comes closest to the old pose (first visit) and releases it where it comes closest to the new
 one (last visit). Before the grasp it rests at the old pose, after the release at the new one, and
 in between it follows the TCP with an offset that changes linearly from the grasp offset to the
-release offset, its orientation slerped between the two. Every filled gap is reported; a moved object that the hand
-never reached keeps its gap (NaN).
+release offset, its orientation slerped between the two. The hand may be unseen in part of the
+gap (lifted out of the camera's view): its TCP is bridged linearly there. Every filled gap is
+reported; a moved object that the hand never reached keeps its gap (NaN).
 """
 
 from __future__ import annotations
@@ -19,6 +20,24 @@ from .. import rotations
 
 REST_TOLERANCE = 0.01
 """An object that moved less than this (m) across a gap was resting: the gap is interpolated."""
+
+HAND_SEEN = 0.5
+"""A gap is filled from the hand when the hand was seen in at least this share of it, at its two
+ends among them (the TCP is bridged linearly over the frames it was not: a hand lifting an
+object out of the camera's view)."""
+
+
+def _bridged(tcp: np.ndarray, seen: np.ndarray) -> np.ndarray:
+    """``tcp`` ``(m, 3)`` with the samples not ``seen`` interpolated linearly between the seen
+    ones (the first and last are seen)."""
+    out = np.array(tcp, dtype=float)
+    if seen.all():
+        return out
+    k = np.flatnonzero(seen)
+    i = np.arange(len(out))
+    for c in range(out.shape[1]):
+        out[:, c] = np.interp(i, k, out[k, c])
+    return out
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
@@ -83,7 +102,10 @@ def fill_carried_gaps(
     filled = []
     n = len(valid)
     for a, b in _runs(~valid):
-        if a == 0 or b >= n or not hand_valid[a - 1 : b + 1].all():
+        if a == 0 or b >= n or not (hand_valid[a - 1] and hand_valid[b]):
+            continue
+        seen = hand_valid[a - 1 : b + 1]
+        if seen.mean() < HAND_SEEN:
             continue
         p0, p1 = position[a - 1].copy(), position[b].copy()
         idx = np.arange(a, b)
@@ -92,15 +114,16 @@ def fill_carried_gaps(
             position[a:b] = (1.0 - w) * p0 + w * p1
             quaternion[a:b] = quaternion[a - 1]
         else:
-            span = tcp[a - 1 : b + 1]
+            span = _bridged(tcp[a - 1 : b + 1], seen)
             d0, d1 = np.linalg.norm(span - p0, axis=1), np.linalg.norm(span - p1, axis=1)
             found = _grasp_release(d0, d1, grasp_radius)
             if found is None:
                 continue  # the hand never reached the object: no evidence it carried it
             g, r = a - 1 + found[0], a - 1 + found[1]
-            off0, off1 = p0 - tcp[g], p1 - tcp[r]
+            held_tcp = span[found[0] : found[1] + 1]
+            off0, off1 = p0 - held_tcp[0], p1 - held_tcp[-1]
             w = ((np.arange(g, r + 1) - g) / (r - g))[:, None]
-            carried = tcp[g : r + 1] + (1.0 - w) * off0 + w * off1
+            carried = held_tcp + (1.0 - w) * off0 + w * off1
             ends = np.stack([quaternion[a - 1], quaternion[b]])
             turned = rotations.slerp([0.0, 1.0], ends, w[:, 0])
             q0, q1 = quaternion[a - 1].copy(), quaternion[b].copy()

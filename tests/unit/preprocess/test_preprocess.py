@@ -329,6 +329,49 @@ def test_carried_object_leaves_when_the_hand_lifts_it() -> None:
     assert pos[:, 2].min() > 0.02 - 1e-9  # never pushed into the table
 
 
+def test_a_hidden_carry_with_the_hand_out_of_view() -> None:
+    """A hand unseen for part of the gap (it lifted the object out of the camera's view) still
+    carries the hidden object there (its TCP bridged); one seen in less than half of it does
+    not."""
+    from lfd.preprocessing.carry import fill_carried_gaps
+
+    n = 200
+    p0, p1 = np.array([0.0, 0.3, 0.02]), np.array([0.2, 0.3, 0.02])
+    grip = np.array([0.0, 0.0, 0.015])
+    tcp = np.empty((n, 3))
+    away = p0 + np.array([0.0, -0.1, 0.15])
+    tcp[:20] = away
+    tcp[20:40] = np.linspace(away, p0 + grip, 20)
+    k = np.linspace(0.0, 1.0, 110)[:, None]
+    tcp[40:150] = (1 - k) * (p0 + grip) + k * (p1 + grip) + np.sin(np.pi * k) * [0, 0, 0.3]
+    tcp[150:] = p1 + grip
+    truth = np.where(np.arange(n)[:, None] < 40, p0, p1)
+    truth[40:150] = tcp[40:150] - grip
+    valid = np.ones(n, dtype=bool)
+    valid[15:170] = False
+    hand = np.ones(n, dtype=bool)
+    hand[80:110] = False  # out of view at the top of the carry
+    seen_tcp = np.where(hand[:, None], tcp, np.nan)
+    pos, quat = truth.copy(), np.tile([0.0, 0.0, 0.0, 1.0], (n, 1))
+    pos[~valid], quat[~valid] = np.nan, np.nan
+    assert fill_carried_gaps(pos, quat, valid, seen_tcp, hand, 0.06) == [(15, 170)]
+    assert np.isfinite(pos).all() and valid.all()
+    np.testing.assert_allclose(pos[~hand[:n]][:, :2], truth[~hand[:n]][:, :2], atol=0.005)
+    assert pos[95, 2] > p0[2] + 0.2  # carried high while the hand was out of view
+    np.testing.assert_allclose(pos[:20], truth[:20], atol=1e-12)
+    np.testing.assert_allclose(pos[160:], truth[160:], atol=1e-12)
+    # the hand seen in less than half of the gap: no evidence, the gap stays
+    rare = np.zeros(n, dtype=bool)
+    rare[:16], rare[160:], rare[60:65] = True, True, True
+    pos2, quat2 = truth.copy(), np.tile([0.0, 0.0, 0.0, 1.0], (n, 1))
+    v2 = valid.copy()
+    v2[15:170] = False
+    pos2[~v2], quat2[~v2] = np.nan, np.nan
+    assert (
+        fill_carried_gaps(pos2, quat2, v2, np.where(rare[:, None], tcp, np.nan), rare, 0.06) == []
+    )
+
+
 # --- hand confidence ----------------------------------------------------------------------
 GRIPPER = [THUMB_TIP, INDEX_MCP, INDEX_TIP]
 
