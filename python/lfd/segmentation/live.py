@@ -24,6 +24,7 @@ import dataclasses
 import functools
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
+from itertools import pairwise
 from typing import Any
 
 import numpy as np
@@ -563,12 +564,16 @@ class LiveSegmentation:
         newest = int(self._newest_hand or now)
         limit = min(newest - self.lag_ns, self._seen_until())
 
+        # a Pick up is as uncertain as the Move with after it that has not lifted its object
+        grasps = {id(a) for a, b in pairwise(cands) if _unlifted(run, b.segment)}
+
         def ready(c: _Candidate) -> bool:
             # NaN confidence (an implied Move) counts as certain
             uncertain = (
                 c.segment.confidence < self.min_confidence
                 or (shared is not None and shared(c.segment))
                 or _unlifted(run, c.segment)
+                or id(c) in grasps
             )
             wait = self.uncertain_ns if uncertain else self.stable_ns
             return int(c.segment.end_ns) <= limit and now - c.since_ns >= wait
