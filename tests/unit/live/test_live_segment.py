@@ -246,3 +246,41 @@ def test_a_short_move_after_a_release_settled_late_is_kept() -> None:
     assert [s.skill for s in rest[:2]] == ["move", "pick_up"]
     joined = live._joined(rest[0], 1 / 30)
     assert joined.start_ns == late and joined.end_ns > joined.start_ns
+
+
+def test_a_pick_up_waits_while_its_move_with_has_not_lifted_its_object() -> None:
+    """A Pick up followed by a Move with that has not lifted its object yet may still become
+    part of a turn, a slide or a Push (lfd.contact): it waits as an uncertain one, with the
+    Move with (a settled Pick up later read as part of a Push broke the grammar: perceived
+    natural exp2 seed 9406)."""
+    import dataclasses
+
+    from lfd.segmentation.live import _unlifted
+
+    demo = load(RECORDINGS[0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        batch = lfd.segment(demo)
+    pick, carry, place = batch.segments[:3]
+    assert (pick.skill, carry.skill, place.skill) == ("pick_up", "move_with", "place")
+    mid = (pick.start + pick.end) // 2
+    t = batch.run.trajectory.t_ns
+
+    def span(seg, a, b):  # type: ignore[no-untyped-def]
+        return dataclasses.replace(seg, start=a, end=b, start_ns=int(t[a]), end_ns=int(t[b]))
+
+    resting = span(carry, mid, pick.end)  # "carried" while the cube still rests
+    assert _unlifted(batch, resting) and not _unlifted(batch, carry)
+    for moved, waits in ((resting, True), (carry, False)):
+        segs = [span(pick, pick.start, moved.start), moved, span(place, moved.end, place.end)]
+        run = dataclasses.replace(batch, segments=segs)
+        live = LiveSegmentation.for_demonstration(demo)
+        now = int(demo.end_ns)
+        live._now = live._newest_hand = now
+        assert not live.settle(run).segments  # first seen now: not yet stable
+        live._now = live._newest_hand = now + round(1e9)  # stable for 1 s since
+        settled = live.settle(run).segments
+        assert (not settled) is waits, settled
+        if waits:
+            live._now = live._newest_hand = now + round(4e9)  # the uncertain wait (3 s)
+            assert [s.skill for s in live.settle(run).segments][:1] == ["pick_up"]
