@@ -542,6 +542,7 @@ def plan_two_arms(
     """
     from .displacement import initial_poses, program_start
     from .goals import DemoFrames
+    from .two_arm_clearance import clear_holds
     from .two_arm_handover import plan_handovers_apart
     from .two_arm_press import plan_press_lane
     from .two_arm_sequence import plan_sequence, task_points
@@ -627,7 +628,13 @@ def plan_two_arms(
             planned = plan_lanes(bases, plan_lanes(bases))
     yaws = {s: mount_yaw(bases[s], points[s]) for s in sides}
     planned, plans = plan_handovers_apart(planned, hands, mode, moved, bases, robot, plan_lanes)
-    return _finish(hands, mode, programs, bases, yaws, planned, plans)
+    plan = _finish(hands, mode, programs, bases, yaws, planned, plans)
+    xml = scene_xml(bases, [], robot, yaws)  # the arms alone: kept apart at a hold
+
+    def make_ik(side: str) -> MountedIK:
+        return MountedIK(bases[side], yaws[side], robot.ik)
+
+    return replace(plan, plans=clear_holds(plan.plans, hands, xml, make_ik, robot, synchronise))
 
 
 def reproduce_two_arms(
