@@ -155,3 +155,37 @@ def clear_holds(
         if g > gap:
             plans, gap = later, g
     return plans
+
+
+def stack_across(
+    planned: dict[str, tuple[Any, Any, Any]], presses: dict[str, Any]
+) -> dict[str, dict[str, int]]:
+    """For each lane that stacks an object next to where the other arm presses (a hold by
+    pressing, :mod:`.two_arm_press`): the object's axis its gripper is to close along, the one
+    most across the line from the stacked object to the press. A gripper's bar spans its
+    closing axis (the ViperX's 15 cm): so both grippers turn their narrow side to each other
+    (the pressing one closes across that line too), the stacking one not reaching over the
+    pressing one."""
+    from .goals import yaw_of
+
+    out: dict[str, dict[str, int]] = {}
+    for side, point in presses.items():
+        other = point.other
+        if side not in planned or other not in planned:
+            continue
+        press = planned[side][2].plan
+        at = np.nonzero(press.segment == point.step)[0]
+        result = planned[other][2]
+        if not at.size or result.program is None:
+            continue
+        xy = press.position[int(at[0]), :2]
+        for g in result.program.segments:
+            if g.skill != "stack" or g.object not in result.expected:
+                continue
+            T = result.expected[g.object]
+            u = xy - T[:2, 3]
+            rel = float(np.arctan2(u[1], u[0])) + np.pi / 2 - yaw_of(T[:3, :3])
+            out.setdefault(other, {})[str(g.object)] = (
+                0 if abs(np.cos(rel)) >= abs(np.sin(rel)) else 1
+            )
+    return out

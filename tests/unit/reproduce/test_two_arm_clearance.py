@@ -104,3 +104,52 @@ def test_a_hold_stack_whose_hands_cross_is_achieved_without_the_arms_touching() 
     assert nearest(plan.plans, xml, ik, robot).min() >= CLEARANCE
     r = run_two_arm_plan(plan, robot)
     assert r.success and not r.collisions, r.failures
+
+
+def test_a_grasp_asked_along_an_axis_closes_along_it_when_it_fits() -> None:
+    """grasp_goal's ``close_along``: a cube closed along its y axis when asked (along x by
+    default, the person's yaw 0); a 60 x 40 mm box along its 60 mm side (up to the 61 mm the
+    gripper takes), a 65 mm side asked is not taken."""
+    from lfd.reproduce.aloha import aloha
+    from lfd.reproduce.goals import grasp_goal
+
+    arm = aloha().ik
+    T = np.eye(4)
+    T[2, 3] = 0.025
+    cube = np.array([0.05, 0.05, 0.05])
+
+    def axis(yaw: float) -> int:
+        return 0 if abs(np.cos(yaw)) > abs(np.sin(yaw)) else 1
+
+    assert axis(grasp_goal(T, cube, 0.0, robot=arm)[1]) == 0
+    assert axis(grasp_goal(T, cube, 0.0, robot=arm, close_along=1)[1]) == 1
+    box = np.array([0.06, 0.04, 0.04])
+    assert axis(grasp_goal(T, box, 0.0, robot=arm)[1]) == 1  # across its narrow side
+    assert axis(grasp_goal(T, box, 0.0, robot=arm, close_along=0)[1]) == 0
+    wide = np.array([0.065, 0.04, 0.04])
+    assert axis(grasp_goal(T, wide, 0.0, robot=arm, close_along=0)[1]) == 1
+
+
+def test_a_stack_beside_a_press_closes_across_the_line_to_the_press() -> None:
+    """The box stacked 10 cm left of where the other arm presses (along x): its gripper
+    closes along y (its bar not reaching towards the press), on a box turned by 90 deg along
+    the box's x."""
+    from types import SimpleNamespace
+
+    from lfd.reproduce.controller import Plan
+    from lfd.reproduce.program import Segment, SyncPoint, TaskProgram
+    from lfd.reproduce.two_arm_clearance import stack_across
+
+    seg = np.array([0, 0, 1, 2, 2, 2, 3])
+    n = len(seg)
+    press = Plan(np.tile([0.1, 0.0, 0.05], (n, 1)), np.zeros(n), np.zeros(n), seg)
+    point = SyncPoint("hold_until", "right", 2, "left", 3, "plank", 5.0)
+    stack = TaskProgram([Segment("pick_up", 0, 1, "box"), Segment("stack", 1, 2, "box")])
+    for turn, want in ((0.0, 1), (np.pi / 2, 0)):
+        T = np.eye(4)
+        T[:2, :2] = [[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]]
+        planned = {
+            "right": (None, None, SimpleNamespace(plan=press)),
+            "left": (None, None, SimpleNamespace(program=stack, expected={"box": T})),
+        }
+        assert stack_across(planned, {"right": point}) == {"left": {"box": want}}
