@@ -10,8 +10,11 @@ acts with. When the person's hands crossed to do so (the acting hand fetching an
 beyond the holding one), the arms that follow them meet on the way. Then the holder's
 approach waits (at its start) until the other arm has fetched and brought its object to
 where its step begins, and holds from there; the other arm's step still starts only once
-the holder holds (:func:`~lfd.reproduce.two_arms.synchronise`). The re-ordered plan is kept
-only when its arms stay further apart than the original's.
+the holder holds (:func:`~lfd.reproduce.two_arms.synchronise`). Or, where the two would meet
+there, the holder waits only until the other arm has picked its object up, and the other
+arm brings it once the holder holds. A re-ordered plan is kept only when its arms stay
+further apart than the original's (the least distance, then the time closer than
+:data:`CLEARANCE`).
 """
 
 from __future__ import annotations
@@ -109,11 +112,18 @@ def nearest(
 
 
 def hold_later(
-    plans: dict[str, Plan], hands: HandsProgram, point: Any, sync: Callable[..., Any]
+    plans: dict[str, Plan],
+    hands: HandsProgram,
+    point: Any,
+    sync: Callable[..., Any],
+    *,
+    fetched: bool = False,
 ) -> dict[str, Plan]:
     """The holder of ``point`` (a ``hold_until``) waiting at its start until the other arm
     has done the steps before its synchronised one (it is where that step begins), then
-    both on one clock again (``sync``: :func:`~lfd.reproduce.two_arms.synchronise`)."""
+    both on one clock again (``sync``: :func:`~lfd.reproduce.two_arms.synchronise`).
+    ``fetched``: the holder waits only until the other arm has picked its object up (its
+    next step begins), and that step (bringing it) waits until the holder holds."""
     from .two_arm_clock import _before
 
     lane = hands.lanes[point.hand]
@@ -122,11 +132,15 @@ def hold_later(
         k -= 1
     a, b = plans[point.hand], plans[point.other]
     at = _start(a, k)
-    need = _start(b, point.other_step) - at
+    until = point.other_step - (1 if fetched else 0)
+    need = _start(b, until) - at
     if need <= 0 or at >= len(a):
         return plans
     out = dict(plans)
-    out[point.hand] = _wait(a, at, need, _before(a, at))
+    out[point.hand] = a = _wait(a, at, need, _before(a, at))
+    if fetched:  # the other arm brings its object once the holder holds
+        bt = _start(b, until)
+        out[point.other] = _wait(b, bt, _start(a, point.step) - bt, _before(b, bt))
     return dict(sync(out, hands))
 
 
@@ -144,17 +158,21 @@ def clear_holds(
     holds = [p for p in hands.sync if p.kind == "hold_until" and {p.hand, p.other} <= set(plans)]
     if len(plans) != 2 or not holds:
         return plans
-    gap = float(nearest(plans, scene, make_ik, robot).min())
+
+    def score(p: dict[str, Plan]) -> tuple[float, int]:
+        """The least distance (up to the clearance), then fewer ticks closer than it."""
+        d = nearest(p, scene, make_ik, robot)
+        return min(float(d.min()), CLEARANCE), -int(np.sum(d < CLEARANCE))
+
+    out, best = plans, score(plans)
     for p in holds:
-        if gap >= CLEARANCE:
-            break
-        later = hold_later(plans, hands, p, sync)
-        if later is plans:
-            continue
-        g = float(nearest(later, scene, make_ik, robot).min())
-        if g > gap:
-            plans, gap = later, g
-    return plans
+        for fetched in (False, True):
+            if best[0] >= CLEARANCE:
+                return out
+            later = hold_later(plans, hands, p, sync, fetched=fetched)
+            if later is not plans and (s := score(later)) > best:
+                out, best = later, s
+    return out
 
 
 def stack_across(
