@@ -153,3 +153,17 @@ def test_a_stack_beside_a_press_closes_across_the_line_to_the_press() -> None:
             "left": (None, None, SimpleNamespace(program=stack, expected={"box": T})),
         }
         assert stack_across(planned, {"right": point}) == {"left": {"box": want}}
+
+
+def test_a_hold_stack_stacking_beside_the_press_is_achieved() -> None:
+    """hold_stack seed 308 (careful): box_2 (60 x 40 mm) is stacked 10 cm from the press; the
+    stacking gripper closed along the plank (across the 40 mm side), its wrist touched the
+    pressing gripper at 7.1 s. Now it closes across the line to the press: achieved."""
+    from lfd.reproduce.aloha import aloha
+    from lfd.reproduce.two_arms import reproduce_two_arms
+
+    from tests.unit.reproduce.test_two_arm_carry import _program
+
+    trajs, hands = _program("hold_stack", 308)
+    r = reproduce_two_arms(trajs, hands, "skills", robot=aloha())
+    assert r.success and not r.collisions, r.failures
