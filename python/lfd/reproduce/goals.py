@@ -324,6 +324,7 @@ def grasp_goal(
     neighbours: list[tuple[np.ndarray, np.ndarray]] | None = None,
     demo_offset: np.ndarray | None = None,
     robot: Robot = KUKA_LWR4,
+    close_along: int | None = None,
 ) -> tuple[np.ndarray, float]:
     """Skill-knowledge grasp: closing across a face that fits the gripper, centred on the
     object along the closing axis, where the person held it along the other.
@@ -338,6 +339,10 @@ def grasp_goal(
     shows where the body is. Across the closing axis the grasp keeps that offset (clipped so
     the fingers stay :data:`GRASP_EDGE` inside the box); along it the grasp is centred (the
     closing fingers centre the body themselves, an offset there would push it).
+
+    ``close_along`` (0 or 1): the object's axis the gripper closes along, asked by the caller (two
+    arms: :func:`~lfd.reproduce.two_arm_clearance.stack_across`), taken when that side fits
+    (:func:`grasp_max_width`) with room.
 
     Returns the TCP position (3,) and the yaw nearest (modulo 180 deg) to the demonstrated one.
     """
@@ -370,11 +375,13 @@ def grasp_goal(
         return min(d, default=np.inf) - (1.0 if hit else 0.0)
 
     roomy = [c for c in fits if room(c) >= FINGER_ROOM]
-    best = (
-        min(roomy, key=lambda c: abs(float(wrap_near(c[0], demo_yaw)) - demo_yaw))
-        if roomy
-        else max(fits, key=room)
-    )
+    asked = cands[close_along] if close_along is not None else None
+    if asked is not None and asked[1] <= grasp_max_width(robot) and room(asked) >= FINGER_ROOM:
+        best = asked
+    elif roomy:
+        best = min(roomy, key=lambda c: abs(float(wrap_near(c[0], demo_yaw)) - demo_yaw))
+    else:
+        best = max(fits, key=room)
     if demo_offset is not None:
         across = np.array([-np.sin(best[0]), np.cos(best[0])])  # the gripper's x axis
         o = T_obj[:2, :2] @ np.asarray(demo_offset, dtype=np.float64)[:2]

@@ -247,9 +247,10 @@ class _TaskPlanner:
         initial: dict[str, np.ndarray] | None,
         events: list[tuple[float, str, np.ndarray]] | None = None,
         grasp_at: dict[str, np.ndarray] | None = None,
+        grasp_across: dict[str, int] | None = None,
     ) -> None:
         self.frames, self.program, self.mode = frames, program, mode
-        self.grasp_at = grasp_at or {}
+        self.grasp_at, self.across = grasp_at or {}, grasp_across or {}
         self.events = sorted(events or [], key=lambda e: e[0])
         self.robot = frames.robot
         self.segs = program.segments
@@ -287,7 +288,7 @@ class _TaskPlanner:
 
     # --- one planner per skill: the goal, the grip, what changes in the scene -------------
     def _pick_up(self, k: int, seg: Segment, i1: int) -> _SkillGoal:
-        name, goal = _pick_goal(self.frames, seg, self.objects, i1, self.grasp_at)
+        name, goal = _pick_goal(self.frames, seg, self.objects, i1, self.grasp_at, self.across)
         self.held = (name, np.linalg.inv(self.objects[name]) @ pose(goal[:3], goal[3]))
         size = self.frames.size[self.frames.object_index(name)]
         grip = grasp_opening(_width_across(self.objects[name], size, goal[3]), self.robot)
@@ -376,7 +377,8 @@ class _TaskPlanner:
             direct = clear(self.cur, ng["start"], frames, objects, skip=())
             goal = ng["start"] if direct else ng["hover"]
         elif nxt.skill == "pick_up":  # arrive with the grasp yaw already set
-            name, grasp = _pick_goal(frames, nxt, objects, _end_index(frames, nxt), self.grasp_at)
+            ie = _end_index(frames, nxt)
+            name, grasp = _pick_goal(frames, nxt, objects, ie, self.grasp_at, self.across)
             goal[3] = grasp[3]
             # a hand that reached low beside (or into the box of) the object, e.g. by a mug's
             # handle, is where open fingers would hit it: arrive above it instead (the pick_up
@@ -591,6 +593,7 @@ def plan_task(
     initial: dict[str, np.ndarray] | None = None,
     events: list[tuple[float, str, np.ndarray]] | None = None,
     grasp_at: dict[str, np.ndarray] | None = None,
+    grasp_across: dict[str, int] | None = None,
 ) -> PlanResult:
     """Plan ``skills`` or ``dmp`` execution (or ``replay``) of ``program``.
 
@@ -611,13 +614,16 @@ def plan_task(
         Where each named object is grasped (x, y in its frame; the component along the
         gripper's closing axis is centred as ever), instead of where the person held it (a
         handover's two grasps kept apart, :mod:`.two_arm_handover`).
+    grasp_across : dict, optional
+        The axis (0: x, 1: y of the object) the gripper closes along for each named object,
+        when it fits (:func:`~lfd.reproduce.goals.grasp_goal`'s ``close_along``).
     """
     if mode not in MODES:
         raise InvalidParameterError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
     program = repair_program(frames, program)
     if mode != "replay":
         check_grasps(frames, program)
-    return _TaskPlanner(frames, program, mode, initial, events, grasp_at).plan()
+    return _TaskPlanner(frames, program, mode, initial, events, grasp_at, grasp_across).plan()
 
 
 def check_grasps(frames: DemoFrames, program: TaskProgram) -> None:
@@ -672,6 +678,7 @@ def _pick_goal(
     objects: dict[str, np.ndarray],
     i1: int,
     grasp_at: dict[str, np.ndarray] | None = None,
+    across: dict[str, int] | None = None,
 ) -> tuple[str, np.ndarray]:
     """Grasp goal ``[x, y, z, yaw]`` of a pick_up (object-centred, wrist-friendly yaw; where
     the person held it along the object, or ``grasp_at[name]``)."""
@@ -687,7 +694,8 @@ def _pick_goal(
     # where the person held it, relative to the object (Eq. 2: it moves with the object)
     held = np.linalg.inv(frames.object_pose(name, i1)) @ frames.tcp_pose(i1)
     at = (grasp_at or {}).get(name, held[:2, 3])
-    p, yaw = grasp_goal(objects[name], size, float(frames.yaw[i1]), near, at, robot=frames.robot)
+    ax = (across or {}).get(name)
+    p, yaw = grasp_goal(objects[name], size, float(frames.yaw[i1]), near, at, frames.robot, ax)
     # the gripper is symmetric: take the representative the wrist reaches most easily
     yaw = float(wrap_near(yaw, float(frames.natural_yaw(p))))
     return name, np.array([*p, yaw])

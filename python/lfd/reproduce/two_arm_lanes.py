@@ -34,12 +34,13 @@ def plan_lane(
     others: set[str],
     events: list[tuple[float, str, np.ndarray]],
     grasp_at: dict[str, np.ndarray] | None = None,
+    grasp_across: dict[str, int] | None = None,
 ) -> tuple[Any, dict[str, np.ndarray], Any]:
     """One lane planned from ``base`` with the objects where the layout puts them (``moved``):
     :func:`~lfd.reproduce.displacement.plan_layout` with the base fixed, its re-grounded
     goals checked (:func:`~lfd.reproduce.displacement.check_goals`) when displaced, against
-    every object but ``others`` (those the other arm moves); ``grasp_at``: as
-    :func:`~lfd.reproduce.modes.plan_task`'s."""
+    every object but ``others`` (those the other arm moves); ``grasp_at``, ``grasp_across``:
+    as :func:`~lfd.reproduce.modes.plan_task`'s."""
     from .displacement import program_start
     from .goals import DemoFrames
     from .modes import plan_task
@@ -47,7 +48,15 @@ def plan_lane(
     frames = DemoFrames(traj, base, arm)
     start_i = program_start(traj, program)
     initial = {n: moved.get(n, frames.object_pose(n, start_i)) for n in frames.names}
-    result = plan_task(frames, program, mode, initial=dict(moved), events=events, grasp_at=grasp_at)
+    result = plan_task(
+        frames,
+        program,
+        mode,
+        initial=dict(moved),
+        events=events,
+        grasp_at=grasp_at,
+        grasp_across=grasp_across,
+    )
     check_lane_goals((frames, initial, result), displace, others)
     return frames, initial, result
 

@@ -542,6 +542,7 @@ def plan_two_arms(
     """
     from .displacement import initial_poses, program_start
     from .goals import DemoFrames
+    from .two_arm_clearance import stack_across
     from .two_arm_handover import plan_handovers_apart
     from .two_arm_press import plan_press_lane
     from .two_arm_sequence import plan_sequence, task_points
@@ -596,6 +597,7 @@ def plan_two_arms(
                     others,
                     events,
                     (grasps or {}).get(s),
+                    turned.get(s),
                 )
             except UsageError as err:  # the arm named
                 raise named_arm(err, s) from err
@@ -617,8 +619,12 @@ def plan_two_arms(
         yaws = {s: mount_yaw(bases[s], points[s]) for s in sides}
         plans = {s: r.plan for s, (_, _, r) in planned.items()}
         return _finish(hands, mode, programs, bases, yaws, planned, plans)
+    turned: dict[str, dict[str, int]] = {}  # grasps turned to keep two grippers apart
     planned = plan_lanes(bases)
     if len(sides) > 1:  # again, each lane knowing where the other arm moves its objects
+        planned = plan_lanes(bases, planned)
+    turned.update(stack_across(planned, presses))
+    if turned:  # a stack beside a press: its grasp turned (the press' lane is the same)
         planned = plan_lanes(bases, planned)
     if displace:  # the bases again, for the re-grounded paths and every planned object pose
         new = choose_bases(*_scene_points(planned), robot)
@@ -627,7 +633,22 @@ def plan_two_arms(
             planned = plan_lanes(bases, plan_lanes(bases))
     yaws = {s: mount_yaw(bases[s], points[s]) for s in sides}
     planned, plans = plan_handovers_apart(planned, hands, mode, moved, bases, robot, plan_lanes)
-    return _finish(hands, mode, programs, bases, yaws, planned, plans)
+    plan = _finish(hands, mode, programs, bases, yaws, planned, plans)
+    return _kept_apart(plan, hands, robot)
+
+
+def _kept_apart(plan: TwoArmPlan, hands: HandsProgram, robot: TwoArmRobot) -> TwoArmPlan:
+    """``plan`` with its holds re-ordered where the arms would meet
+    (:func:`~.two_arm_clearance.clear_holds`, on the arms alone)."""
+    from .two_arm_clearance import clear_holds
+
+    bases, yaws = plan.bases, plan.yaws
+    xml = scene_xml(bases, [], robot, yaws)
+
+    def make_ik(side: str) -> MountedIK:
+        return MountedIK(bases[side], yaws[side], robot.ik)
+
+    return replace(plan, plans=clear_holds(plan.plans, hands, xml, make_ik, robot, synchronise))
 
 
 def reproduce_two_arms(

@@ -1,0 +1,209 @@
+"""The two arms kept out of each other's way (:mod:`.two_arms`): both plans followed by the
+arms' kinematics alone (the IK each arm runs, its links where the joints put them: no
+dynamics, no objects) and the two arms' nearest links measured at every few ticks
+(:func:`nearest`); a hold that brings them closer than :data:`CLEARANCE` is re-ordered
+(:func:`clear_holds`).
+
+A ``hold_until`` point (one arm holds an object still while the other acts on it) needs the
+two arms together only during the other arm's step: before it, the other arm fetches what it
+acts with. When the person's hands crossed to do so (the acting hand fetching an object
+beyond the holding one), the arms that follow them meet on the way. Then the holder's
+approach waits (at its start) until the other arm has fetched and brought its object to
+where its step begins, and holds from there; the other arm's step still starts only once
+the holder holds (:func:`~lfd.reproduce.two_arms.synchronise`). Or, where the two would meet
+there, the holder waits only until the other arm has picked its object up, and the other
+arm brings it once the holder holds. A re-ordered plan is kept only when its arms stay
+further apart than the original's (the least distance, then the time closer than
+:data:`CLEARANCE`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from .controller import LOOKAHEAD, Plan
+from .program import HandsProgram
+from .two_arm_clock import _start, _wait
+
+CLEARANCE = 0.015
+"""The least distance (m) the two arms' colliding geoms are planned to keep."""
+EVERY = 4
+"""The arms' distance is measured every this many control ticks."""
+
+
+MakeIK = Callable[[str], Any]
+"""A fresh IK of the ``side`` arm at its base (:class:`~lfd.reproduce.two_arms.MountedIK`)."""
+
+
+def _joint_paths(plans: dict[str, Plan], make_ik: MakeIK) -> dict[str, np.ndarray]:
+    """Each arm's joint angles per tick, as :func:`~lfd.reproduce.two_arms.execute_two`'s IK
+    commands them (the look-ahead included), held at the end."""
+    from .ik import gripper_rotation
+
+    n = max(len(p) for p in plans.values())
+    out = {}
+    for side, plan in plans.items():
+        ik = make_ik(side)
+        R0 = gripper_rotation(float(plan.yaw[0]))
+        ik.seed_towards(plan.position[0], R0)
+        q = [ik.solve(plan.position[0], R0)]
+        m, still = len(plan), False
+        for i in range(1, n):
+            ka = min(i + LOOKAHEAD, m - 1)
+            same = ka > 0 and np.array_equal(plan.position[ka], plan.position[ka - 1])
+            if i >= m or (still and same and plan.yaw[ka] == plan.yaw[ka - 1]):
+                q.append(q[-1])  # at rest on a pose it has reached
+                continue
+            q.append(ik.step(plan.position[ka], gripper_rotation(float(plan.yaw[ka]))))
+            still = float(np.abs(q[-1] - q[-2]).max()) < 1e-5
+        out[side] = np.array(q)
+    return out
+
+
+def nearest(
+    plans: dict[str, Plan], scene: str, make_ik: MakeIK, robot: Any, *, every: int = EVERY
+) -> np.ndarray:
+    """The two arms' least distance (m) between colliding geoms, per measured tick (every
+    ``every``-th); 0 where they overlap, ``inf`` beyond 10 cm. ``scene``: both arms' MJCF
+    (:func:`~lfd.reproduce.two_arms.scene_xml`)."""
+    import mujoco
+
+    from .two_arms_contacts import ARM_BITS
+
+    sides = list(plans)
+    model = mujoco.MjModel.from_xml_string(scene)
+    data = mujoco.MjData(model)
+    qs = _joint_paths(plans, make_ik)
+    adr = {s: [model.joint(j).qposadr[0] for j in robot.arms[s].arm_joints] for s in sides}
+    fingers = {s: [model.joint(f).qposadr[0] for f in robot.arms[s].finger_joints] for s in sides}
+    geoms: dict[str, list[int]] = {s: [] for s in sides}
+    for g in range(model.ngeom):
+        body = model.body(model.geom_bodyid[g]).name
+        for s in sides:
+            others = sum(b for o, b in ARM_BITS.items() if o != s)
+            if body.startswith(f"{s}/") and (model.geom_contype[g] | model.geom_conaffinity[g]) & (
+                ARM_BITS[s] | others
+            ):
+                geoms[s].append(g)
+    pairs = [(a, b) for a in geoms[sides[0]] for b in geoms[sides[-1]]]
+    rb = model.geom_rbound
+    n = len(next(iter(qs.values())))
+    out = np.full(len(range(0, n, every)), np.inf)
+    fromto = np.zeros(6)
+    for k, i in enumerate(range(0, n, every)):
+        for s in sides:
+            data.qpos[adr[s]] = qs[s][i]
+            plan = plans[s]
+            w = float(np.clip(plan.opening[min(i, len(plan) - 1)], 0, robot.arms[s].max_opening))
+            data.qpos[fingers[s]] = w / 2
+        mujoco.mj_kinematics(model, data)
+        best = np.inf
+        for a, b in pairs:
+            gap = np.linalg.norm(data.geom_xpos[a] - data.geom_xpos[b]) - rb[a] - rb[b]
+            if gap > min(best, 0.1):
+                continue
+            d = mujoco.mj_geomDistance(model, data, a, b, 0.1, fromto)
+            best = min(best, max(d, 0.0))
+        out[k] = best if best < 0.1 else np.inf
+    return out
+
+
+def hold_later(
+    plans: dict[str, Plan],
+    hands: HandsProgram,
+    point: Any,
+    sync: Callable[..., Any],
+    *,
+    fetched: bool = False,
+) -> dict[str, Plan]:
+    """The holder of ``point`` (a ``hold_until``) waiting at its start until the other arm
+    has done the steps before its synchronised one (it is where that step begins), then
+    both on one clock again (``sync``: :func:`~lfd.reproduce.two_arms.synchronise`).
+    ``fetched``: the holder waits only until the other arm has picked its object up (its
+    next step begins), and that step (bringing it) waits until the holder holds."""
+    from .two_arm_clock import _before
+
+    lane = hands.lanes[point.hand]
+    k = point.step - 1  # its pick_up, or the move that brings it there
+    if k >= 1 and lane[k - 1].skill == "move" and lane[k - 1].object == point.object:
+        k -= 1
+    a, b = plans[point.hand], plans[point.other]
+    at = _start(a, k)
+    until = point.other_step - (1 if fetched else 0)
+    need = _start(b, until) - at
+    if need <= 0 or at >= len(a):
+        return plans
+    out = dict(plans)
+    out[point.hand] = a = _wait(a, at, need, _before(a, at))
+    if fetched:  # the other arm brings its object once the holder holds
+        bt = _start(b, until)
+        out[point.other] = _wait(b, bt, _start(a, point.step) - bt, _before(b, bt))
+    return dict(sync(out, hands))
+
+
+def clear_holds(
+    plans: dict[str, Plan],
+    hands: HandsProgram,
+    scene: str,
+    make_ik: MakeIK,
+    robot: Any,
+    sync: Callable[..., Any],
+) -> dict[str, Plan]:
+    """``plans`` with each ``hold_until`` whose arms come closer than :data:`CLEARANCE`
+    re-ordered (:func:`hold_later`) when that keeps them further apart (the module
+    docstring)."""
+    holds = [p for p in hands.sync if p.kind == "hold_until" and {p.hand, p.other} <= set(plans)]
+    if len(plans) != 2 or not holds:
+        return plans
+
+    def score(p: dict[str, Plan]) -> tuple[float, int]:
+        """The least distance (up to the clearance), then fewer ticks closer than it."""
+        d = nearest(p, scene, make_ik, robot)
+        return min(float(d.min()), CLEARANCE), -int(np.sum(d < CLEARANCE))
+
+    out, best = plans, score(plans)
+    for p in holds:
+        for fetched in (False, True):
+            if best[0] >= CLEARANCE:
+                return out
+            later = hold_later(plans, hands, p, sync, fetched=fetched)
+            if later is not plans and (s := score(later)) > best:
+                out, best = later, s
+    return out
+
+
+def stack_across(
+    planned: dict[str, tuple[Any, Any, Any]], presses: dict[str, Any]
+) -> dict[str, dict[str, int]]:
+    """For each lane that stacks an object next to where the other arm presses (a hold by
+    pressing, :mod:`.two_arm_press`): the object's axis its gripper is to close along, the one
+    most across the line from the stacked object to the press. A gripper's bar spans its
+    closing axis (the ViperX's 15 cm): so both grippers turn their narrow side to each other
+    (the pressing one closes across that line too), the stacking one not reaching over the
+    pressing one."""
+    from .goals import yaw_of
+
+    out: dict[str, dict[str, int]] = {}
+    for side, point in presses.items():
+        other = point.other
+        if side not in planned or other not in planned:
+            continue
+        press = planned[side][2].plan
+        at = np.nonzero(press.segment == point.step)[0]
+        result = planned[other][2]
+        if not at.size or result.program is None:
+            continue
+        xy = press.position[int(at[0]), :2]
+        for g in result.program.segments:
+            if g.skill != "stack" or g.object not in result.expected:
+                continue
+            T = result.expected[g.object]
+            u = xy - T[:2, 3]
+            rel = float(np.arctan2(u[1], u[0])) + np.pi / 2 - yaw_of(T[:3, :3])
+            out.setdefault(other, {})[str(g.object)] = (
+                0 if abs(np.cos(rel)) >= abs(np.sin(rel)) else 1
+            )
+    return out
