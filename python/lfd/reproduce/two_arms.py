@@ -36,6 +36,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -545,6 +546,7 @@ def plan_two_arms(
     from .two_arm_handover import plan_handovers_apart
     from .two_arm_press import plan_press_lane
     from .two_arm_sequence import plan_sequence, task_points
+    from .two_arms_clearance import press_if_clearer, press_lanes
 
     displace = dict(displace or {})
     hands, sequence, presses = prepare_two_arms(trajs, hands, robot)
@@ -627,7 +629,24 @@ def plan_two_arms(
             planned = plan_lanes(bases, plan_lanes(bases))
     yaws = {s: mount_yaw(bases[s], points[s]) for s in sides}
     planned, plans = plan_handovers_apart(planned, hands, mode, moved, bases, robot, plan_lanes)
+    others = {s: _others(programs, s) for s in sides}
+    press = press_lanes(trajs, hands, mode, bases, robot, moved, displace, others)
+    clearance = _clearance(bases, yaws, robot)
+    planned, plans = press_if_clearer(planned, plans, hands, press, clearance, synchronise)
     return _finish(hands, mode, programs, bases, yaws, planned, plans)
+
+
+def _clearance(
+    bases: dict[str, np.ndarray], yaws: dict[str, float], robot: TwoArmRobot
+) -> Callable[[dict[str, Plan]], tuple[float, float]]:
+    """:func:`~.two_arms_clearance.arm_clearance` of plans on one clock, the arms at ``bases``."""
+    from .two_arms_clearance import arm_clearance
+
+    def clearance(plans: dict[str, Plan]) -> tuple[float, float]:
+        iks = {s: MountedIK(bases[s], yaws[s], robot.ik) for s in plans}
+        return arm_clearance(plans, scene_xml(bases, [], robot, yaws), iks, robot)
+
+    return clearance
 
 
 def reproduce_two_arms(
