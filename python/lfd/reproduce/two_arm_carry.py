@@ -17,8 +17,9 @@ How the two arms carry it (docs/reproduce.md, "Two arms"):
   the two paths time-scaled together (:func:`~lfd.reproduce.timescale.retime_together`: the
   same clock, the limits of both arms). Before it, each arm's steps before its ``pick_up``
   (the one-arm planner) and an approach beside its face (above it, then down, closed); the first
-  arm there waits for the other, both press in together. After it, both back off the faces and
-  rise together, then each arm's steps after its ``place``.
+  arm there waits for the other, both press in together. After it, both release the squeeze
+  slowly back to the faces (:data:`RELAX_S`), then back off the faces and rise together, then
+  each arm's steps after its ``place``.
 * **Skills**: the approach and press are the ``pick_up``, the lift and transport the
   ``move_with``, the lowering the ``place`` of each arm's lane, so the one-arm checks
   (:func:`~lfd.reproduce.outcome.skill_results`: lifted, not slipping, placed) judge each arm.

@@ -14,7 +14,9 @@ closing axis lies across the object's longer side, so the pressing fingers take 
 it as they can (the other arm stacks or acts on the rest).
 
 An object the gripper can close across is held by a grasp, as before
-(:func:`~lfd.reproduce.displacement.plan_layout`).
+(:func:`~lfd.reproduce.displacement.plan_layout`). A hold whose gripper comes too near the
+other arm (:mod:`.two_arms_clearance`) is pressed instead at the end of the top farthest from
+the other arm's step, whichever axis (``away``, :func:`press_pose`).
 """
 
 from __future__ import annotations

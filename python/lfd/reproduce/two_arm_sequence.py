@@ -7,7 +7,8 @@ order the demonstration began them: a two-handed carry (both arms,
 (its arm alone, the one-arm planner from where the arm is, the objects where the units before
 left them). The other arm waits at its rest pose meanwhile (over its side of the workspace,
 clear of the objects), and each arm goes back there after a unit that leaves nothing in its
-gripper. The hands' free moves between are not followed (the robot goes from its rest to the
+gripper (turning about its own base when the straight way passes over it: :func:`around_base`).
+The hands' free moves between are not followed (the robot goes from its rest to the
 next skill), so only the skills need to be within the arms' reach (:func:`task_points`).
 
 Before (:func:`prepare`):

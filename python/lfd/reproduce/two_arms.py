@@ -15,6 +15,11 @@
   giver lets go only once the taker has grasped, the two grasps a gripper's width apart
   (:mod:`.two_arm_handover`). A ``carry``: both arms hold the object
   together (:mod:`lfd.reproduce.two_arm_carry`).
+* **Clearance** (:mod:`.two_arms_clearance`): at a ``hold_until`` whose arms' colliding geoms
+  come within 1 cm of each other on the common clock (each arm's IK following its plan), the
+  hold is pressed at the object's end away from the other arm's step, and if still too close
+  the other arm's approach waits until the holder holds; each kept only when it leaves more
+  room.
 * **Execution** (:func:`execute_two`): both arms in one MuJoCo scene, one IK per arm, one
   control tick for both; an arm that has finished holds its last pose. The links collide with
   the table and the other arm (:mod:`.two_arms_contacts`): the first contact of the two arms,

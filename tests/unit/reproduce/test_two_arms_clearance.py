@@ -96,10 +96,10 @@ def test_a_natural_hold_push_whose_grippers_touched_keeps_them_apart() -> None:
     reason="gym-aloha (pip install --no-deps gym-aloha==0.1.5) and mink are needed",
 )
 def test_a_natural_dmp_carry_ends_on_target_and_each_arm_within_reach() -> None:
-    """A natural ``carry`` layout (the issue's seed 9501, its 14th randomised layout) where the
-    DMP carry's release kicked the box 19 mm off its goal and the right arm's return to its
-    rest passed over its own base (``goal unreachable``, 85 mm): the box ends on its goal and
-    both arms do every skill."""
+    """A natural ``carry`` layout (near the issue's seed 9501's 14th randomised layout) where
+    the DMP carry's release, the squeeze let go at once, kicked the box 11 mm off its goal (and
+    in that layout the right arm's return to its rest passed over its own base: ``goal
+    unreachable``, 85 mm): the box ends on its goal and both arms do every skill."""
     from lfd.preprocessing import preprocess
     from lfd.reproduce import PREPROCESSING, from_hand_labels
     from lfd.reproduce.aloha import aloha
