@@ -17,8 +17,9 @@ How the two arms carry it (docs/reproduce.md, "Two arms"):
   the two paths time-scaled together (:func:`~lfd.reproduce.timescale.retime_together`: the
   same clock, the limits of both arms). Before it, each arm's steps before its ``pick_up``
   (the one-arm planner) and an approach beside its face (above it, then down, closed); the first
-  arm there waits for the other, both press in together. After it, both back off the faces and
-  rise together, then each arm's steps after its ``place``.
+  arm there waits for the other, both press in together. After it, both release the squeeze
+  slowly back to the faces (:data:`RELAX_S`), then back off the faces and rise together, then
+  each arm's steps after its ``place``.
 * **Skills**: the approach and press are the ``pick_up``, the lift and transport the
   ``move_with``, the lowering the ``place`` of each arm's lane, so the one-arm checks
   (:func:`~lfd.reproduce.outcome.skill_results`: lifted, not slipping, placed) judge each arm.
@@ -56,7 +57,10 @@ every other object's top."""
 PRESS_S = 0.6
 """Time (s) of the press in and of the back-off."""
 SETTLE_S = 0.3
-"""Time (s) held still after pressing in and after setting down."""
+"""Time (s) held still after pressing in, after setting down and after releasing."""
+RELAX_S = 0.6
+"""Time (s) in which both arms release the squeeze (back to the faces) before backing off:
+released at once, the arms' different lags kick the object aside."""
 TABLE_MARGIN = 0.006
 """The fingertips of a pressing gripper stay this far above the table (m)."""
 SQUEEZE_SPEED = 0.2
@@ -341,6 +345,7 @@ def carry_unit(
         tcp_in0 = _in_world(o0, press[s][0])[0]
         path = _in_world(obj, press[s][0])
         back = _in_world(o1, press[s][1])[0]
+        relax = _in_world(o1, _touch(press[s]))[0]
         up = back.copy()
         up[2] = max(up[2], float(o1[0, 2] + size[2] / 2) + robot.ik.finger_below_tcp + ABOVE)
         blocks.append(
@@ -351,13 +356,23 @@ def carry_unit(
                     _part(path[:k_low], k_with),
                     _part(path[k_low:], k_place),
                     _hold(path[-1], SETTLE_S, -1),
-                    _part(line(path[-1], back, min_s=PRESS_S)[1:], -1),
+                    _part(line(path[-1], relax, min_s=RELAX_S)[1:], -1),
+                    _hold(relax, SETTLE_S, -1),
+                    _part(line(relax, back, min_s=PRESS_S)[1:], -1),
                     _part(line(back, up, min_s=0.4)[1:], -1),
                 ]
             )
         )
     blocks = retime_together(blocks, [squeeze_limits(robot.arms[s].limits) for s in sides])
     return {s: Plan.concat([before[s], b]) for s, b in zip(sides, blocks, strict=True)}, T_end
+
+
+def _touch(press: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """The pose (in the object's frame) between a press pose and its approach pose where the
+    pads touch the face without squeezing: the squeeze released before backing off."""
+    p_in, p_out = press
+    d = float(np.linalg.norm(p_out[:2] - p_in[:2]))
+    return p_in + (p_out - p_in) * (max(d - STANDOFF, 0.0) / max(d, 1e-9))
 
 
 def squeeze_limits(limits: Limits) -> Limits:

@@ -14,7 +14,9 @@ closing axis lies across the object's longer side, so the pressing fingers take 
 it as they can (the other arm stacks or acts on the rest).
 
 An object the gripper can close across is held by a grasp, as before
-(:func:`~lfd.reproduce.displacement.plan_layout`).
+(:func:`~lfd.reproduce.displacement.plan_layout`). A hold whose gripper comes too near the
+other arm (:mod:`.two_arms_clearance`) is pressed instead at the end of the top farthest from
+the other arm's step, whichever axis (``away``, :func:`press_pose`).
 """
 
 from __future__ import annotations
@@ -63,9 +65,17 @@ def press_holds(
     return out
 
 
-def press_pose(frames: DemoFrames, name: str, i: int, T_obj: np.ndarray) -> np.ndarray:
+def press_pose(
+    frames: DemoFrames,
+    name: str,
+    i: int,
+    T_obj: np.ndarray,
+    away: np.ndarray | None = None,
+) -> np.ndarray:
     """The pressing TCP state ``[x, y, z, yaw]``: where the hand held the object at sample ``i``
-    (relative to it, Eq. 2, inside its top), on the object now at ``T_obj``."""
+    (relative to it, Eq. 2, inside its top), on the object now at ``T_obj``. ``away`` (world
+    points, the other arm's path): the press is centred at the end of the top farthest from
+    them instead (either axis), the gripper's closing axis across that end."""
     size = frames.size[frames.object_index(name)]
     T_demo = upright(frames.object_pose(name, i))
     held = (np.linalg.inv(T_demo) @ frames.tcp_pose(i))[:3, 3]
@@ -75,12 +85,31 @@ def press_pose(frames: DemoFrames, name: str, i: int, T_obj: np.ndarray) -> np.n
     # at the end of the object on the hand's side: the most room for the other arm
     xy[long_axis] = (1.0 if held[long_axis] >= 0 else -1.0) * free[long_axis]
     T = upright(T_obj)
+    if away is not None and len(away):
+        xy, long_axis = _far_end(T, free, np.asarray(away, dtype=np.float64)[:, :2])
     world = T[:3, :3] @ np.array([*xy, 0.0]) + T[:3, 3]
     top = T[2, 3] + size[2] / 2
     z = top + frames.robot.finger_below_tcp - PRESS_DEPTH
     yaw = yaw_of(T[:3, :3]) + (np.pi / 2 if long_axis == 0 else 0.0)
     yaw = float(wrap_near(yaw, float(frames.natural_yaw(world))))
     return np.array([world[0], world[1], z, yaw])
+
+
+def _far_end(T: np.ndarray, free: np.ndarray, away: np.ndarray) -> tuple[np.ndarray, int]:
+    """Of the four ends of an upright object's top (``free``: the half extents a press may
+    use), the one farthest from the points ``away`` (x, y), in the object's frame, and its
+    axis."""
+    best: tuple[float, np.ndarray, int] | None = None
+    for axis in (0, 1):
+        for sign in (1.0, -1.0):
+            xy = np.zeros(2)
+            xy[axis] = sign * free[axis]
+            world = T[:2, :2] @ xy + T[:2, 3]
+            d = float(np.min(np.linalg.norm(away - world, axis=1)))
+            if best is None or d > best[0] + 1e-9:
+                best = (d, xy, axis)
+    assert best is not None
+    return best[1], best[2]
 
 
 def _part(path: np.ndarray, seg: int, opening: float = 0.0) -> Plan:
@@ -96,12 +125,13 @@ def plan_press_lane(
     base: np.ndarray,
     robot: TwoArmRobot,
     moved: dict[str, np.ndarray] | None = None,
+    away: np.ndarray | None = None,
 ) -> tuple[DemoFrames, dict[str, np.ndarray], Any]:
     """The holding lane of ``point`` with its hold done by pressing (the module docstring), as
     :func:`~lfd.reproduce.displacement.plan_layout` gives a lane: ``(frames, initial poses,
     PlanResult)``; ``moved``: objects where a layout puts them (upright 4x4 poses), the press
     and the steps re-grounded there. The steps after the press are planned with the objects
-    where the steps before leave them."""
+    where the steps before leave them. ``away``: as :func:`press_pose`'s."""
     from .modes import PlanResult
     from .timescale import retime
     from .two_arm_carry import _lane_part
@@ -121,7 +151,7 @@ def plan_press_lane(
     else:
         j = frames.index(lane[k - 1].start_s)
         cur = np.array([*frames.tcp[j], frames.yaw[j]])
-    press = press_pose(frames, name, frames.index(lane[k - 1].end_s), mid[name])
+    press = press_pose(frames, name, frames.index(lane[k - 1].end_s), mid[name], away)
     size = frames.size[frames.object_index(name)]
     top = mid[name][2, 3] + size[2] / 2
     hover = press.copy()

@@ -15,6 +15,11 @@
   giver lets go only once the taker has grasped, the two grasps a gripper's width apart
   (:mod:`.two_arm_handover`). A ``carry``: both arms hold the object
   together (:mod:`lfd.reproduce.two_arm_carry`).
+* **Clearance** (:mod:`.two_arms_clearance`): at a ``hold_until`` whose arms' colliding geoms
+  come within 1 cm of each other on the common clock (each arm's IK following its plan), the
+  hold is pressed at the object's end away from the other arm's step, and if still too close
+  the other arm's approach waits until the holder holds; each kept only when it leaves more
+  room.
 * **Execution** (:func:`execute_two`): both arms in one MuJoCo scene, one IK per arm, one
   control tick for both; an arm that has finished holds its last pose. The links collide with
   the table and the other arm (:mod:`.two_arms_contacts`): the first contact of the two arms,
@@ -36,6 +41,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -633,8 +639,34 @@ def plan_two_arms(
             planned = plan_lanes(bases, plan_lanes(bases))
     yaws = {s: mount_yaw(bases[s], points[s]) for s in sides}
     planned, plans = plan_handovers_apart(planned, hands, mode, moved, bases, robot, plan_lanes)
-    plan = _finish(hands, mode, programs, bases, yaws, planned, plans)
-    return _kept_apart(plan, hands, robot)
+    return _kept_clear(
+        trajs, hands, mode, robot, moved, displace, programs, bases, yaws, planned, plans
+    )
+
+
+def _kept_clear(
+    trajs: dict[str, Any],
+    hands: HandsProgram,
+    mode: str,
+    robot: TwoArmRobot,
+    moved: dict[str, np.ndarray],
+    displace: dict[str, Any],
+    programs: dict[str, Any],
+    bases: dict[str, np.ndarray],
+    yaws: dict[str, float],
+    planned: dict[str, tuple[Any, Any, Any]],
+    plans: dict[str, Plan],
+) -> TwoArmPlan:
+    """The planned lanes on one clock with each hold kept clear of the other arm: pressed at
+    the object's end away from it (:func:`~.two_arms_clearance.press_if_clearer`), then
+    re-ordered where the arms would still meet (:func:`_kept_apart`)."""
+    from .two_arms_clearance import press_if_clearer, press_lanes
+
+    others = {s: _others(programs, s) for s in programs}
+    press = press_lanes(trajs, hands, mode, bases, robot, moved, displace, others)
+    clearance = _clearance(bases, yaws, robot)
+    planned, plans = press_if_clearer(planned, plans, hands, press, clearance, synchronise)
+    return _kept_apart(_finish(hands, mode, programs, bases, yaws, planned, plans), hands, robot)
 
 
 def _kept_apart(plan: TwoArmPlan, hands: HandsProgram, robot: TwoArmRobot) -> TwoArmPlan:
@@ -649,6 +681,19 @@ def _kept_apart(plan: TwoArmPlan, hands: HandsProgram, robot: TwoArmRobot) -> Tw
         return MountedIK(bases[side], yaws[side], robot.ik)
 
     return replace(plan, plans=clear_holds(plan.plans, hands, xml, make_ik, robot, synchronise))
+
+
+def _clearance(
+    bases: dict[str, np.ndarray], yaws: dict[str, float], robot: TwoArmRobot
+) -> Callable[[dict[str, Plan]], tuple[float, float]]:
+    """:func:`~.two_arms_clearance.arm_clearance` of plans on one clock, the arms at ``bases``."""
+    from .two_arms_clearance import arm_clearance
+
+    def clearance(plans: dict[str, Plan]) -> tuple[float, float]:
+        iks = {s: MountedIK(bases[s], yaws[s], robot.ik) for s in plans}
+        return arm_clearance(plans, scene_xml(bases, [], robot, yaws), iks, robot)
+
+    return clearance
 
 
 def reproduce_two_arms(

@@ -1,0 +1,205 @@
+"""How close the two arms come to each other along their plans (:mod:`.two_arms`), before
+anything is run: each arm's IK follows its plan on the common clock (as
+:func:`~lfd.reproduce.two_arms.execute_two` commands it, no physics), and the distance
+between the two arms' colliding geoms (:mod:`.two_arms_contacts`: links, gripper, pads) is
+measured every :data:`EVERY` ticks (:func:`arm_clearance`).
+
+A hold whose holding gripper comes closer than :data:`ARM_CLEARANCE` to the other arm (a push
+of a box next to the held one: the pushing fingers between the two boxes, both grippers' bars
+15 cm wide) is planned again with the object held by pressing on its top at the end away from
+the other arm (:func:`~lfd.reproduce.two_arm_press.plan_press_lane`), kept when that leaves
+more room (:func:`~lfd.reproduce.two_arms.plan_two_arms`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .aloha import TwoArmRobot
+from .controller import LOOKAHEAD, Plan
+from .two_arms_contacts import ARM_BITS
+
+ARM_CLEARANCE = 0.01
+"""Smallest planned distance (m) between the two arms' colliding geoms at a hold."""
+EVERY = 2
+"""The distance is measured every this many control ticks (the IK follows every tick)."""
+FAR = 0.1
+"""Distances beyond this (m) are not measured exactly (reported as this)."""
+
+
+def arm_clearance(
+    plans: dict[str, Plan], scene: str, iks: dict[str, Any], robot: TwoArmRobot
+) -> tuple[float, float]:
+    """The smallest distance (m, at most :data:`FAR`) between the two arms' colliding geoms
+    along their plans on one clock, and when (s); an arm that has finished holds its last pose.
+    ``scene``: the MJCF of both arms (:func:`~lfd.reproduce.two_arms.scene_xml`); ``iks``: each
+    arm's IK, mounted at its base (:class:`~lfd.reproduce.two_arms.MountedIK`)."""
+    import mujoco
+
+    from .controller import TICK
+    from .ik import gripper_rotation
+
+    sides = list(plans)
+    model = mujoco.MjModel.from_xml_string(scene)
+    data = mujoco.MjData(model)
+    geoms: dict[str, list[int]] = {s: [] for s in sides}
+    for g in range(model.ngeom):
+        body = model.body(model.geom_bodyid[g]).name
+        for s in sides:
+            if body.startswith(f"{s}/") and int(model.geom_contype[g]) & ARM_BITS.get(s, 0):
+                geoms[s].append(g)
+    qadr, fadr = {}, {}
+    for s in sides:
+        plan, arm, ik = plans[s], robot.arms[s], iks[s]
+        R0 = gripper_rotation(float(plan.yaw[0]))
+        ik.seed_towards(plan.position[0], R0)
+        ik.solve(plan.position[0], R0)
+        qadr[s] = [model.joint(j).qposadr[0] for j in arm.arm_joints]
+        fadr[s] = [model.joint(f).qposadr[0] for f in arm.finger_joints]
+    pairs = [(a, b) for a in geoms[sides[0]] for b in geoms[sides[-1]]] if len(sides) > 1 else []
+    n = max(len(p) for p in plans.values())
+    best, when = FAR, 0.0
+    fromto = np.zeros(6)
+    for i in range(n):
+        for s in sides:
+            plan = plans[s]
+            if i < len(plan):
+                ka = min(i + LOOKAHEAD, len(plan) - 1)
+                iks[s].step(plan.position[ka], gripper_rotation(float(plan.yaw[ka])))
+        if i % EVERY:
+            continue
+        for s in sides:
+            plan = plans[s]
+            data.qpos[qadr[s]] = iks[s].q
+            w = float(np.clip(plan.opening[min(i, len(plan) - 1)], 0, robot.arms[s].max_opening))
+            data.qpos[fadr[s]] = w / 2
+        mujoco.mj_kinematics(model, data)
+        for a, b in pairs:
+            d = float(mujoco.mj_geomDistance(model, data, a, b, best, fromto))
+            if d < best:
+                best, when = d, i * TICK
+    return best, when
+
+
+def hold_points(hands: Any) -> list[Any]:
+    """The ``hold_until`` points whose lane can press (:func:`~lfd.reproduce.two_arm_press.
+    press_holds`' shape: the ``pick_up`` before, the ``place`` after, of the held object),
+    held by a grasp or already by pressing."""
+    out = []
+    for p in hands.sync:
+        if p.kind != "hold_until" or p.object is None:
+            continue
+        lane, k = hands.lanes[p.hand], p.step
+        if (
+            0 < k < len(lane) - 1
+            and lane[k - 1].skill == "pick_up"
+            and lane[k + 1].skill == "place"
+        ):
+            if lane[k - 1].object == lane[k + 1].object == p.object:
+                out.append(p)
+    return out
+
+
+def other_path(plan: Plan, step: int) -> np.ndarray:
+    """Where the other arm's TCP is during its step ``step`` (its whole plan when it has none)."""
+    sel = plan.segment == step
+    return plan.position[sel] if sel.any() else plan.position
+
+
+NEAR = 0.25
+"""A hold whose gripper stays farther (m, horizontally) from the other arm's TCP during its
+step is not measured (:func:`press_if_clearer`)."""
+
+
+def press_if_clearer(
+    planned: dict[str, tuple[Any, Any, Any]],
+    plans: dict[str, Plan],
+    hands: Any,
+    press_lane: Any,
+    clearance: Any,
+    sync: Any,
+) -> tuple[dict[str, tuple[Any, Any, Any]], dict[str, Plan]]:
+    """Each hold (:func:`hold_points`, by a grasp or by pressing) whose arms come closer than
+    :data:`ARM_CLEARANCE` on the common clock planned again by pressing at the object's end
+    away from the other arm's step (``press_lane(point, away)``: the lane, or None when it
+    cannot be planned there), kept when the arms then keep more room; if still too close,
+    the other arm's approach waits until the holder holds (:func:`approach_after_hold`).
+    ``clearance(plans)``: :func:`arm_clearance` of plans on one clock; ``sync``: the lanes put
+    on one clock (:func:`~lfd.reproduce.two_arms.synchronise`)."""
+    planned, plans = dict(planned), dict(plans)
+    for p in hold_points(hands):
+        if p.hand not in plans or p.other not in plans:
+            continue
+        mine = plans[p.hand].position[plans[p.hand].segment == p.step]
+        away = other_path(plans[p.other], p.other_step)
+        if not len(mine) or _gap(mine, away) > NEAR:
+            continue
+        before, _ = clearance(sync(plans, hands))
+        if before >= ARM_CLEARANCE:
+            continue
+        lane = press_lane(p, away)
+        if lane is not None:
+            trial = plans | {p.hand: lane[2].plan}
+            after, _ = clearance(sync(trial, hands))
+            if after > before:
+                planned[p.hand], plans, before = lane, trial, after
+        if before >= ARM_CLEARANCE:
+            continue
+        trial = plans | {p.other: approach_after_hold(plans, hands, p, sync)}
+        after, _ = clearance(sync(trial, hands))
+        if after > before:
+            plans = trial
+    return planned, plans
+
+
+def approach_after_hold(plans: dict[str, Plan], hands: Any, p: Any, sync: Any) -> Plan:
+    """The other arm's plan of the hold ``p`` with the step before its own (the approach)
+    started only once the holder holds (on the common clock: ``sync``)."""
+    from .two_arm_clock import _before, _start, _wait
+
+    synced = sync(plans, hands)
+    a, b = synced[p.hand], synced[p.other]
+    first = max(p.other_step - 1, 0)
+    need = _start(a, p.step) - _start(b, first)
+    plan = plans[p.other]
+    at = _start(plan, first)
+    return _wait(plan, at, need, _before(plan, at)) if need > 0 else plan
+
+
+def press_lanes(
+    trajs: dict[str, Any],
+    hands: Any,
+    mode: str,
+    bases: dict[str, np.ndarray],
+    robot: TwoArmRobot,
+    moved: dict[str, np.ndarray],
+    displace: dict[str, Any],
+    others: dict[str, set[str]],
+) -> Any:
+    """``press_lane(point, away)`` of :func:`press_if_clearer`: the holding lane of ``point``
+    pressed at the end away from ``away`` (:func:`~lfd.reproduce.two_arm_press.plan_press_lane`),
+    its goals checked (:func:`~lfd.reproduce.two_arm_lanes.check_lane_goals`; ``others``:
+    the objects only the other arm handles, by side), or None."""
+    from ..errors import DemonstrationError, UsageError
+    from .two_arm_lanes import check_lane_goals
+    from .two_arm_press import plan_press_lane
+
+    def press_lane(p: Any, away: np.ndarray) -> tuple[Any, Any, Any] | None:
+        try:
+            lane = plan_press_lane(trajs[p.hand], hands, p, mode, bases[p.hand], robot, moved, away)
+            check_lane_goals(lane, displace, others[p.hand], p.hand)
+        except (UsageError, DemonstrationError):
+            return None
+        return lane
+
+    return press_lane
+
+
+def _gap(a: np.ndarray, b: np.ndarray) -> float:
+    """Smallest horizontal distance (m) between two point sets."""
+    from scipy.spatial import cKDTree
+
+    d, _ = cKDTree(b[:, :2]).query(a[:, :2], k=1)
+    return float(np.min(d))
