@@ -7,8 +7,7 @@ order the demonstration began them: a two-handed carry (both arms,
 (its arm alone, the one-arm planner from where the arm is, the objects where the units before
 left them). The other arm waits at its rest pose meanwhile (over its side of the workspace,
 clear of the objects), and each arm goes back there after a unit that leaves nothing in its
-gripper (turning about its own base when the straight way passes over it: :func:`around_base`).
-The hands' free moves between are not followed (the robot goes from its rest to the
+gripper. The hands' free moves between are not followed (the robot goes from its rest to the
 next skill), so only the skills need to be within the arms' reach (:func:`task_points`).
 
 Before (:func:`prepare`):
@@ -59,9 +58,6 @@ OTHER_BASE_CLEAR = 0.3
 """A one-arm carry (``move_with``) keeps its TCP this far (m, horizontally) from the other
 arm's base, where that arm rests (people lift an object to look at it anywhere; a gripper
 0.2 m from the other arm's base touched its upper arm)."""
-BASE_PASS = 0.02
-"""A move turns about its arm's base (:func:`around_base`) when its straight line would pass
-more than this (m) nearer to the base than either end."""
 TRANSIT_CLEAR = 0.05
 """An arm's move from its rest to a unit's first skill (:func:`transit_to_first`) passes this
 far (m) above the top of the object it goes to (its fingertips), then comes straight down."""
@@ -322,35 +318,6 @@ def within_reach(points: np.ndarray, base: np.ndarray, arm: Any) -> np.ndarray:
     return out
 
 
-def around_base(start: np.ndarray, goal: np.ndarray, base: np.ndarray) -> np.ndarray:
-    """A min-jerk move (``[x, y, z, yaw]`` states) from ``start`` to ``goal`` as
-    :func:`~lfd.reproduce.motion.line`, but turning about the arm's own ``base`` (radius and
-    heading interpolated) when the straight line would pass nearer to it than both ends: an
-    arm cannot take its TCP over its own base (its IK lags, then ends off the goal: an arm
-    returning to its rest from the far side of a carried box)."""
-    a, b = start[:2] - base[:2], goal[:2] - base[:2]
-    r0, r1 = float(np.hypot(*a)), float(np.hypot(*b))
-    d = b - a
-    t = float(np.clip(-(a @ d) / max(float(d @ d), 1e-12), 0.0, 1.0))
-    if float(np.hypot(*(a + t * d))) >= min(r0, r1) - BASE_PASS or min(r0, r1) < 1e-6:
-        return line(start, goal)
-    th0 = float(np.arctan2(a[1], a[0]))
-    dth = float((np.arctan2(b[1], b[0]) - th0 + np.pi) % (2 * np.pi) - np.pi)
-    u = np.linspace(0.0, 1.0, 50)
-    r = r0 + u * (r1 - r0)
-    xy = base[:2] + r[:, None] * np.column_stack([np.cos(th0 + u * dth), np.sin(th0 + u * dth)])
-    length = float(np.sum(np.hypot(*np.diff(xy, axis=0).T))) + abs(float(goal[2] - start[2]))
-    s = line(np.zeros(4), np.array([length, 0.0, 0.0, goal[3] - start[3]]))
-    f = s[:, 0] / max(length, 1e-12)
-    r = r0 + f * (r1 - r0)
-    th = th0 + f * dth
-    out = start + f[:, None] * (goal - start)
-    out[:, 0] = base[0] + r * np.cos(th)
-    out[:, 1] = base[1] + r * np.sin(th)
-    out[:, 3] = start[3] + s[:, 3]
-    return out
-
-
 def clear_of_base(
     points: np.ndarray, fixed: np.ndarray, base: np.ndarray, radius: float
 ) -> np.ndarray:
@@ -493,9 +460,7 @@ def plan_sequence(
                 up[2] = max(up[2], rest[s][2])
                 home = rest[s].copy()
                 home[3] = float(wrap_near(home[3], up[3]))
-                back = np.concatenate(
-                    [line(cur[s], up, min_s=0.3), around_base(up, home, bases[s])[1:]]
-                )
+                back = np.concatenate([line(cur[s], up, min_s=0.3), line(up, home)[1:]])
                 parts[s].append(_part(back, -1, robot.ik.max_opening))
                 cur[s] = rest[s].copy()
     out = {}

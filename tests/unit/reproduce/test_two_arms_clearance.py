@@ -25,27 +25,6 @@ def test_a_press_away_from_the_other_arm_takes_the_far_end_of_the_top() -> None:
     assert axis == 1 and np.allclose(xy, [0.0, 0.02])  # object +y is world -x
 
 
-def test_a_return_to_rest_turns_about_the_arm_base_instead_of_over_it() -> None:
-    """A straight move that would pass over the arm's own base turns about it (never nearer
-    than its ends, same start, goal and yaw); one that passes beside it stays straight."""
-    from lfd.reproduce.motion import line
-    from lfd.reproduce.two_arm_sequence import around_base
-
-    base = np.array([0.1, 0.0, 0.0])
-    start = np.array([0.15, 0.35, 0.12, 0.3])
-    goal = np.array([0.03, -0.15, 0.15, -0.2])
-    straight = line(start, goal)
-    gap = np.hypot(*(straight[:, :2] - base[:2]).T)
-    assert gap.min() < 0.05  # the straight line: over the base
-    path = around_base(start, goal, base)
-    r = np.hypot(*(path[:, :2] - base[:2]).T)
-    assert r.min() >= min(r[0], r[-1]) - 1e-9
-    assert np.allclose(path[0], start) and np.allclose(path[-1], goal)
-    assert np.all(np.abs(np.diff(path[:, :3], axis=0)).max(axis=0) < 0.01)  # smooth, dense
-    beside = np.array([0.5, 0.3, 0.12, 0.0])
-    assert np.allclose(around_base(start, beside, base), line(start, beside))
-
-
 def test_a_carry_releases_the_squeeze_at_the_faces_before_backing_off() -> None:
     """The release pose lies between the press and its approach pose, where the pads touch
     the face (the squeeze depth out from the press, the standoff short of the approach)."""
