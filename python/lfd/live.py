@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .demo import HAND_BONES, SkillLabel
+from .demo import HAND_BONES, CameraInfo, SkillLabel
 
 if TYPE_CHECKING:
     from .segmentation.live import LiveSegmentation, LiveUpdate
@@ -81,6 +81,13 @@ class LiveObserver:
             for name, (p, q) in poses.items():
                 self.timeline.log_object(name, t_ns, p, q)
         return settled
+
+    def on_camera(self, camera: CameraInfo) -> list[tuple[SkillLabel, int, dict[str, str]]]:
+        """The camera's calibration, once its pose in the world is known: the segmenter's
+        check runs use it (:attr:`lfd.segmentation.live.LiveSegmentation.camera`)."""
+        if self.segmenter is not None:
+            self.segmenter.set_camera(camera)
+        return []
 
     def on_hand(
         self,

@@ -121,6 +121,7 @@ def segment_stream(
     is the :class:`lfd.viz.live.LiveTimeline` once one is open (features, settled spans and
     the provisional one are logged to it). Each skill is printed as it settles."""
     from ..errors import RecordingFormatError
+    from ..io.reader import camera_of
     from ..segmentation.live import LiveSegmentation
     from ..segmentation.live_hands import LiveHands
 
@@ -129,9 +130,19 @@ def segment_stream(
     sides: tuple[str, ...] = ()
     seg: LiveSegmentation | LiveHands | None = None
     labels: list[Any] = []
+    camera_so_far = None
+    calibration: Any = None  # the camera's, once written; posed by /tf (lfd.io.reader.camera_of)
     for msg in messages:
         if msg.kind in ("label", "handover"):  # the ground truth
             labels.append(msg.value)
+        if msg.kind == "camera_info":
+            calibration = msg.value
+        elif msg.kind == "tf" and calibration is not None:
+            camera = camera_of(calibration, msg.value)
+            if camera is not None:
+                camera_so_far = camera
+                if seg is not None:
+                    seg.set_camera(camera)
         if seg is None and msg.kind in ("hand", "object"):
             objects = _sized(follower.objects, args)
             if not objects:
@@ -152,6 +163,7 @@ def segment_stream(
                     names, sizes, method=method, side=sides[0], tag_ids=tags, metadata=meta
                 )
             )
+            seg.set_camera(camera_so_far)
         if seg is None:
             continue
         side = getattr(msg, "side", None)

@@ -160,6 +160,28 @@ def labels_of_events(events: Iterable[Any], where: str = "") -> tuple[list[Skill
     return sorted(labels, key=lambda lab: (lab.start_ns, lab.end_ns)), skipped
 
 
+def camera_of(info: Any, transforms: Any) -> CameraInfo | None:
+    """The camera of a ``foxglove.CameraCalibration`` posed by a ``foxglove.FrameTransforms``
+    that holds its frame (None if it does not; no transforms: the identity pose)."""
+    pose = np.eye(4)
+    if transforms is not None:
+        found = [tf for tf in transforms.transforms if tf.child_frame_id == info.frame_id]
+        if not found:
+            return None
+        from scipy.spatial.transform import Rotation
+
+        r, tr = found[-1].rotation, found[-1].translation
+        pose[:3, :3] = Rotation.from_quat([r.x, r.y, r.z, r.w]).as_matrix()
+        pose[:3, 3] = (tr.x, tr.y, tr.z)
+    return CameraInfo(
+        width=info.width,
+        height=info.height,
+        K=np.array(info.K, dtype=np.float64),
+        world_T_camera=pose,
+        frame_id=info.frame_id,
+    )
+
+
 class _Loader:
     def __init__(self, raw: RawRecording) -> None:
         self.raw = raw
@@ -386,24 +408,11 @@ class _Loader:
         from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 
         _, infos = self.decode(T.CAMERA_INFO_TOPIC, CameraCalibration)
-        info = infos[-1]
-        pose = np.eye(4)
         _, tfs = self.decode(T.TF_TOPIC, FrameTransforms)
+        camera = camera_of(infos[-1], None)
         for msg in tfs:
-            for tf in msg.transforms:
-                if tf.child_frame_id == info.frame_id:
-                    from scipy.spatial.transform import Rotation
-
-                    r = tf.rotation
-                    pose[:3, :3] = Rotation.from_quat([r.x, r.y, r.z, r.w]).as_matrix()
-                    pose[:3, 3] = (tf.translation.x, tf.translation.y, tf.translation.z)
-        return CameraInfo(
-            width=info.width,
-            height=info.height,
-            K=np.array(info.K, dtype=np.float64),
-            world_T_camera=pose,
-            frame_id=info.frame_id,
-        )
+            camera = camera_of(infos[-1], msg) or camera
+        return camera
 
     def images(self, topic: str) -> ImageStream | None:
         """The frames of ``topic`` (raw, else its ``/compressed`` variant), decoded when first

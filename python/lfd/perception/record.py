@@ -104,6 +104,10 @@ class RecordObserver(Protocol):
         one hand, not given)."""
         ...
 
+    def on_camera(self, camera: CameraInfo) -> Iterable[SettledSkill]:
+        """The camera's calibration, once its pose in the world is known (written then)."""
+        ...
+
     def finish(self, t_ns: int) -> Iterable[SettledSkill]:
         """The recording ends at ``t_ns`` (its last frame): what is still open settles."""
         ...
@@ -412,6 +416,8 @@ class _Session:
             info = CameraInfo(cam.width, cam.height, cam.K, self.tracker.world_T_camera)
             self.rec.add_camera_info(info, frame.t_ns)
             self.camera_written = True
+            if self.observer is not None:
+                self._observe(self.observer.on_camera, info)
         self._hand(frame)
         stats.frames += 1
         self.rec.flush_if_due()  # a follower (lfd segment --follow) sees each frame within ~1 s

@@ -10,6 +10,13 @@ in between it follows the TCP with an offset that changes linearly from the gras
 release offset, its orientation slerped between the two. The hand may be unseen in part of the
 gap (lifted out of the camera's view): its TCP is bridged linearly there. Every filled gap is
 reported; a moved object that the hand never reached keeps its gap (NaN).
+
+A recording still being made does not know yet where a hidden object reappears.
+:func:`carry_open_end` guesses that an object hidden since the hand reached it is carried. A
+complete recording concludes it only from evidence (:func:`lfd.preprocessing.preprocess`): the
+camera has had the object's last seen pose in clear view (no hand, forearm or other object near
+the line of sight: :func:`in_clear_view`) for :data:`EMPTY_S` without seeing its tag there, so it
+is no longer there.
 """
 
 from __future__ import annotations
@@ -25,6 +32,65 @@ HAND_SEEN = 0.5
 """A gap is filled from the hand when the hand was seen in at least this share of it, at its two
 ends among them (the TCP is bridged linearly over the frames it was not: a hand lifting an
 object out of the camera's view)."""
+
+
+SIGHT_MARGIN_M = 0.02
+"""An occluder nearer than this plus its own radius and the object's half size to the line of
+sight from an object's last seen pose to the camera may hide the object's tag."""
+
+FINGER_M = 0.01
+"""Radius of the hand about its keypoints (m)."""
+
+FOREARM_M = 0.26
+"""Length of the forearm, from the wrist away from the middle finger's base, whose points may hide
+a tag too (it has no keypoints)."""
+
+FOREARM_RADIUS_M = 0.035
+"""Radius of the forearm (m)."""
+
+EMPTY_S = 0.3
+"""How long an object's last seen pose must be in clear view without its tag before it counts as
+moved (tags are detected on every camera frame, at 30 Hz: nine missed detections)."""
+
+WRIST, MIDDLE_MCP = 0, 9
+
+
+def occluders(keypoints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Points of the hand that may hide a tag, per sample, and their radii: the 21 keypoints
+    ``(n, 21, 3)`` and points every 3 cm along the forearm, from the wrist away from the middle
+    finger's base (NaN where the hand is unknown)."""
+    kp = np.asarray(keypoints, dtype=float)
+    axis = kp[:, WRIST] - kp[:, MIDDLE_MCP]
+    norm = np.linalg.norm(axis, axis=1, keepdims=True)
+    unit = axis / np.where(norm > 1e-9, norm, np.nan)
+    steps = np.arange(0.03, FOREARM_M + 1e-9, 0.03)
+    arm = kp[:, WRIST, None, :] + steps[None, :, None] * unit[:, None, :]
+    radii = np.concatenate([np.full(kp.shape[1], FINGER_M), np.full(steps.size, FOREARM_RADIUS_M)])
+    return np.concatenate([kp, arm], axis=1), radii
+
+
+def in_clear_view(
+    spot: np.ndarray, camera: np.ndarray, points: np.ndarray, radius: np.ndarray | float
+) -> np.ndarray:
+    """Per sample, whether no point of ``points`` ``(n, k, 3)`` comes within its ``radius``
+    (one per point, or one for all) of the segment from ``spot`` to ``camera`` (a sample with
+    an unknown point is not clear)."""
+    sight = np.asarray(camera, dtype=float) - spot
+    length = float(np.linalg.norm(sight))
+    rel = np.asarray(points, dtype=float) - spot
+    along = np.clip(rel @ (sight / length), 0.0, length)
+    dist = np.linalg.norm(rel - along[..., None] * (sight / length), axis=-1)
+    return np.asarray(np.where(np.isfinite(dist), dist > radius, False).all(axis=1))
+
+
+def seen_empty(clear: np.ndarray, samples: int) -> bool:
+    """Whether ``clear`` holds for ``samples`` samples in a row."""
+    run = 0
+    for c in clear:
+        run = run + 1 if c else 0
+        if run >= samples:
+            return True
+    return False
 
 
 def _bridged(tcp: np.ndarray, seen: np.ndarray) -> np.ndarray:

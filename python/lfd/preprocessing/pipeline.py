@@ -27,10 +27,27 @@ from typing import Any, Literal
 
 import numpy as np
 
-from ..demo import INDEX_MCP, INDEX_TIP, THUMB_TIP, Demonstration, HandTrack, ObjectTrack
+from ..demo import (
+    INDEX_MCP,
+    INDEX_TIP,
+    THUMB_TIP,
+    CameraInfo,
+    Demonstration,
+    HandTrack,
+    ObjectTrack,
+)
 from ..errors import DemonstrationError
 from ..trajectory import Trajectory
-from .carry import carry_open_end, fill_carried_gaps, hold_ends
+from .carry import (
+    EMPTY_S,
+    SIGHT_MARGIN_M,
+    carry_open_end,
+    fill_carried_gaps,
+    hold_ends,
+    in_clear_view,
+    occluders,
+    seen_empty,
+)
 from .filters import butter_ba, lowpass, matlab_padlen, unwrap_runs
 from .grasp import APERTURES, Aperture, grasp_aperture
 from .mapping import EULER_SEQ, euler_from_rotation, gripper_frame, rotation_from_euler
@@ -132,6 +149,10 @@ def preprocess(
         segmentation's runs): with ``fill_hidden``, an object hidden since the hand reached it
         follows the TCP (:func:`~lfd.preprocessing.carry.carry_open_end`) instead of being held
         where it was last seen.
+        A complete recording holds an object never seen again at rest where it was last seen,
+        unless the camera (``demo.camera``) saw that place empty: its tag not there while
+        nothing hid it (:func:`~lfd.preprocessing.carry.in_clear_view`); then the hand that
+        reached it carried it on.
 
     Returns
     -------
@@ -163,7 +184,8 @@ def preprocess(
     g = _gripper_track(
         hand, demo.hand.side, start, t_s, max_gap_s, hand_fc, euler_cutoff_hz, smooth
     )
-    o = _object_tracks(objs, hand, g, start, t_ns, max_gap_s, obj_fc, fill_hidden, smooth, complete)
+    open_end = _OpenEnd("evident" if complete else "carried", demo.camera, rate_hz)
+    o = _object_tracks(objs, hand, g, start, t_ns, max_gap_s, obj_fc, fill_hidden, smooth, open_end)
     opening = g.opening
     if aperture == "grasp":
         opening = grasp_aperture(g.keypoints, o.position, o.quaternion, o.size)
@@ -437,6 +459,97 @@ CARRY_RADIUS_MARGIN = 0.03
 side plus this much (m) of it (:func:`~lfd.preprocessing.carry.fill_carried_gaps`)."""
 
 
+@dataclass(frozen=True)
+class _OpenEnd:
+    """What is done with an object unseen from some time to the end of the recording: of a
+    complete recording (``"evident"``) the hand that reached it carries it on only where the
+    camera saw its place empty, else it rests; of one still being made (``"carried"``) it
+    follows the hand once the hand reached it."""
+
+    hidden: str
+    camera: CameraInfo | None
+    rate_hz: float
+
+
+@dataclass
+class _Filled:
+    """One object's pose on the clock with its gaps filled, and the filled ranges."""
+
+    p: np.ndarray
+    q: np.ndarray
+    valid: np.ndarray
+    carried: list[tuple[int, int]]
+    held: list[tuple[int, int]]
+    last_seen: int
+
+
+def _fill(
+    p: np.ndarray, q: np.ndarray, valid: np.ndarray, gripper: _GripperTrack, radius: float
+) -> _Filled:
+    """The pose with its gaps filled (:mod:`~lfd.preprocessing.carry`): held at rest before the
+    first and after the last sighting, carried through the gaps the hand moved it in."""
+    p, q, valid = p.copy(), q.copy(), valid.copy()
+    last_seen = int(np.flatnonzero(valid)[-1])
+    held = hold_ends(p, q, valid)
+    carried = fill_carried_gaps(p, q, valid, gripper.tcp, gripper.valid, radius)
+    return _Filled(p, q, valid, carried, held, last_seen)
+
+
+def _carried_on(
+    p: np.ndarray, q: np.ndarray, valid: np.ndarray, gripper: _GripperTrack, radius: float
+) -> _Filled | None:
+    """:func:`_fill` where an unseen end the hand reached follows the hand
+    (:func:`~lfd.preprocessing.carry.carry_open_end`; None if there is none such)."""
+    p, q, valid = p.copy(), q.copy(), valid.copy()
+    last_seen = int(np.flatnonzero(valid)[-1])
+    ends = carry_open_end(p, q, valid, gripper.tcp, gripper.valid, radius)
+    if ends is None:
+        return None
+    f = _fill(p, q, valid, gripper, radius)
+    return _Filled(f.p, f.q, f.valid, [*f.carried, ends], f.held, last_seen)
+
+
+def _evident(
+    open_end: _OpenEnd,
+    gripper: _GripperTrack,
+    rest: dict[str, _Filled],
+    moved: dict[str, _Filled | None],
+    sizes: dict[str, float],
+) -> dict[str, _Filled]:
+    """Each object's filled pose: of a recording still being made, carried on by the hand that
+    reached it; of a complete one, only where the camera saw its last seen place empty for
+    :data:`~lfd.preprocessing.carry.EMPTY_S` (nothing near the line of sight: the hand, the
+    forearm, or another object where it rests or where the hand may be carrying it)."""
+    if open_end.hidden == "carried":
+        return {name: moved[name] or f for name, f in rest.items()}
+    out = dict(rest)
+    if open_end.camera is None:
+        return out
+    hand, hand_radii = occluders(gripper.keypoints)
+    camera = open_end.camera.world_T_camera[:3, 3]
+    samples = max(1, round(EMPTY_S * open_end.rate_hz))
+    for name, carried in moved.items():
+        if carried is None:
+            continue
+        # the others where they rest, and where the hand may be carrying them
+        others = [(k, f) for k, f in rest.items() if k != name]
+        others += [(k, f) for k, f in moved.items() if k != name and f is not None]
+        points = np.concatenate(
+            [hand, *(np.where(np.isfinite(f.p), f.p, _FAR)[:, None] for _, f in others)], axis=1
+        )
+        radii = np.concatenate([hand_radii, [sizes[k] / 2 for k, _ in others]])
+        f = rest[name]
+        view = in_clear_view(
+            f.p[f.last_seen], camera, points, radii + sizes[name] / 2 + SIGHT_MARGIN_M
+        )
+        if seen_empty(view[f.last_seen + 1 :], samples):
+            out[name] = carried
+    return out
+
+
+_FAR = np.array([1e6, 1e6, 1e6])
+
+
 def _object_tracks(
     objs: list[_ObjectSamples],
     hand: _HandSamples,
@@ -447,7 +560,7 @@ def _object_tracks(
     obj_fc: float,
     fill_hidden: bool,
     smooth: _Smoother,
-    complete: bool = True,
+    open_end: _OpenEnd,
 ) -> _ObjectTracks:
     k, n = len(objs), t_ns.size
     t_s = (t_ns - start) * 1e-9
@@ -460,35 +573,41 @@ def _object_tracks(
         "carried": {},  # object gaps filled because the hand carried the object
         "held": {},  # before the first / after the last sighting: held at rest
     }
-    for j, ob in enumerate(objs):
-        name, obj, oi, ok = ob.name, ob.track, ob.order, ob.ok
-        ot = obj.t_ns[oi]
-        pos = np.where(ok[:, None], obj.position[oi], np.nan)
-        quat = np.where(ok[:, None], obj.quaternion[oi], np.nan)
-        rel = (ot - start) * 1e-9
-        p, pv = resample_positions(rel, pos, t_s, max_gap_s=max_gap_s)
-        q, qv = resample_quaternions(rel, quat, t_s, max_gap_s=max_gap_s)
+    raw: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+    rest: dict[str, _Filled] = {}
+    moved: dict[str, _Filled | None] = {}
+    for ob in objs:
+        obj, oi, ok = ob.track, ob.order, ob.ok
+        rel = (obj.t_ns[oi] - start) * 1e-9
+        p, pv = resample_positions(
+            rel, np.where(ok[:, None], obj.position[oi], np.nan), t_s, max_gap_s=max_gap_s
+        )
+        q, qv = resample_quaternions(
+            rel, np.where(ok[:, None], obj.quaternion[oi], np.nan), t_s, max_gap_s=max_gap_s
+        )
         valid = pv.all(axis=1) & qv
+        raw[ob.name] = (p, q, valid)
         if fill_hidden and valid.any():
             p = np.where(valid[:, None], p, np.nan)
             q = np.where(valid[:, None], q, np.nan)
             radius = float(np.max(obj.size)) / 2 + CARRY_RADIUS_MARGIN
-            if not complete:
-                open_end = carry_open_end(p, q, valid, gripper.tcp, gripper.valid, radius)
-                if open_end is not None:
-                    a, b = open_end
-                    gaps["carried"][name] = [(int(t_ns[a]), int(t_ns[b - 1]))]
-            held = hold_ends(p, q, valid)
-            if held:
-                gaps["held"][name] = [(int(t_ns[a]), int(t_ns[b - 1])) for a, b in held]
-            carried = fill_carried_gaps(p, q, valid, gripper.tcp, gripper.valid, radius)
-            if carried:
-                gaps["carried"].setdefault(name, [])[:0] = [
-                    (int(t_ns[a]), int(t_ns[b - 1])) for a, b in carried
-                ]
+            rest[ob.name] = _fill(p, q, valid, gripper, radius)
+            moved[ob.name] = _carried_on(p, q, valid, gripper, radius)
+    sizes = {ob.name: float(np.max(ob.track.size)) for ob in objs}
+    filled = _evident(open_end, gripper, rest, moved, sizes)
+    for j, ob in enumerate(objs):
+        name = ob.name
+        p, q, valid = raw[name]
+        if name in filled:
+            f = filled[name]
+            p, q, valid = f.p, f.q, f.valid
+            if f.held:
+                gaps["held"][name] = [(int(t_ns[a]), int(t_ns[b - 1])) for a, b in f.held]
+            if f.carried:
+                gaps["carried"][name] = [(int(t_ns[a]), int(t_ns[b - 1])) for a, b in f.carried]
         positions[j] = smooth(np.where(valid[:, None], p, np.nan), obj_fc, name)
         quats[j] = np.where(valid[:, None], q, np.nan)
         obj_valid[j] = valid
-        gaps["objects"][name] = find_gaps(ot, ok, max_gap_s)
-    sizes = np.array([ob.track.size for ob in objs], dtype=np.float64).reshape(k, 3)
-    return _ObjectTracks(positions, quats, obj_valid, sizes, gaps)
+        gaps["objects"][name] = find_gaps(ob.track.t_ns[ob.order], ob.ok, max_gap_s)
+    dims = np.array([ob.track.size for ob in objs], dtype=np.float64).reshape(k, 3)
+    return _ObjectTracks(positions, quats, obj_valid, dims, gaps)

@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from ..demo import Demonstration, HandTrack, ObjectTrack, SkillLabel
+from ..demo import CameraInfo, Demonstration, HandTrack, ObjectTrack, SkillLabel
 from ..errors import InvalidParameterError, LfdError
 from ..io.reader import order_times
 from ..skills import allowed, grammar
@@ -186,7 +186,9 @@ class _Tracks:
     def ready(self) -> bool:
         return bool(self.hand) and all(self.poses.values())
 
-    def demonstration(self, start_ns: int | None, metadata: dict[str, Any]) -> Demonstration:
+    def demonstration(
+        self, start_ns: int | None, metadata: dict[str, Any], camera: CameraInfo | None = None
+    ) -> Demonstration:
         """The recording so far (from ``start_ns``, when given) as a demonstration."""
         lo = -(2**63) if start_ns is None else start_ns
         t, keep = _ordered([h[0] for h in self.hand], lo)
@@ -210,7 +212,7 @@ class _Tracks:
                 quaternion=np.array([poses[i][2] for i in ko]).reshape(-1, 4),
                 visible=np.ones(len(to), dtype=bool),
             )
-        return Demonstration(hand=hand, objects=objects, metadata=dict(metadata))
+        return Demonstration(hand=hand, objects=objects, metadata=dict(metadata), camera=camera)
 
 
 def _shaped(value: Any, shape: tuple[int, ...], what: str) -> np.ndarray:
@@ -279,6 +281,7 @@ class LiveSegmentation:
         params: Any = None,
         tag_ids: Sequence[int] | None = None,
         metadata: dict[str, Any] | None = None,
+        camera: CameraInfo | None = None,
         every_s: float = DEFAULT_EVERY_S,
         lag_s: float = DEFAULT_LAG_S,
         stable_s: float = DEFAULT_STABLE_S,
@@ -312,6 +315,9 @@ class LiveSegmentation:
         ids = list(tag_ids) if tag_ids is not None else list(range(len(names)))
         self._tracks = _Tracks(list(zip(names, ids, sizes, strict=True)), side)
         self.metadata = dict(metadata or {})
+        self.camera = camera
+        """The camera's pose (None: unknown; :meth:`_run_at_rest` then holds every hidden object
+        at rest)."""
         self.every_ns = round(every_s * 1e9)
         self.lag_ns = round(lag_s * 1e9)
         self.stable_ns = round(stable_s * 1e9)
@@ -349,6 +355,10 @@ class LiveSegmentation:
         """For the objects, sizes, tag ids, hand side and metadata of a recording."""
         names, sizes, recorded = recording_arguments(demo)
         return cls(names, sizes, templates, side=demo.hand.side, **recorded, **options)
+
+    def set_camera(self, camera: CameraInfo | None) -> None:
+        """The camera's pose, once known (:attr:`camera`)."""
+        self.camera = camera
 
     @property
     def object_names(self) -> list[str]:
@@ -495,7 +505,7 @@ class LiveSegmentation:
 
     def recording_so_far(self, start_ns: int | None = None) -> Demonstration:
         """The messages so far (from ``start_ns``) as a one-hand demonstration."""
-        return self._tracks.demonstration(start_ns, self.metadata)
+        return self._tracks.demonstration(start_ns, self.metadata, self.camera)
 
     def _aligned(self, run: Segmentation) -> list[Segment]:
         """The run's segments after the settled ones: after the run's counterpart of the last
@@ -567,36 +577,48 @@ class LiveSegmentation:
         # a Pick up is as uncertain as the Move with after it that has not lifted its object
         grasps = {id(a) for a, b in pairwise(cands) if _unlifted(run, b.segment)}
 
-        def ready(c: _Candidate) -> bool:
+        def uncertain(c: _Candidate) -> bool:
             # NaN confidence (an implied Move) counts as certain
-            uncertain = (
+            return (
                 c.segment.confidence < self.min_confidence
                 or (shared is not None and shared(c.segment))
                 or _unlifted(run, c.segment)
                 or id(c) in grasps
             )
-            wait = self.uncertain_ns if uncertain else self.stable_ns
-            return int(c.segment.end_ns) <= limit and now - c.since_ns >= wait
+
+        def ready(c: _Candidate) -> bool:
+            wait = self.uncertain_ns if uncertain(c) else self.stable_ns
+            return (
+                int(c.segment.end_ns) <= limit
+                and now - c.since_ns >= wait
+                and not self._set_down_unseen(c.segment)
+            )
+
+        def next_known(i: int) -> bool:
+            # a Move ends where the reach of the skill after it begins and is named after that
+            # skill's object (lfd.contact): it settles once that skill has ended in the run too
+            # and is not a guess
+            if cands[i].segment.skill != "move":
+                return True
+            return len(cands) > i + 1 + self.followers and not uncertain(cands[i + 1])
 
         settled: list[Segment] = []
         # the last segment of a run is open: it settles only when the recording ends
-        while len(cands) > self.followers:
-            c = cands[0]
-            # a Move ends where the reach of the skill after it begins, and is named after that
-            # skill's object (lfd.contact): it settles with that skill, once that one is ready
-            # and followed too
-            step = 2 if c.segment.skill == "move" else 1
-            if len(cands) < self.followers + step or not all(map(ready, cands[:step])):
+        while len(cands) > self.followers and ready(cands[0]) and next_known(0):
+            step = 2 if cands[0].segment.skill == "move" else 1  # a Move: and the skill after it
+            if ended is not None and not self._agrees([c.segment for c in cands[:step]], ended()):
                 break
-            if ended is not None and not self._agrees([x.segment for x in cands[:step]], ended()):
-                break
-            for x in cands[:step]:
-                settled.append(self._joined(x.segment, _dt(run)))
-                self._emitted.append(settled[-1])
-                self.settled_ns.append(now)
-            del cands[:step]
+            settled.append(self._joined(cands.pop(0).segment, _dt(run)))
+            self._emitted.append(settled[-1])
+            self.settled_ns.append(now)
         self._candidates = cands
         return self._update(run, settled)
+
+    def _set_down_unseen(self, seg: Segment) -> bool:
+        """A Place or Stack whose object has not been seen since before it ended: where the
+        object came to rest (on the table or on another, and when) is not known yet."""
+        poses = self._tracks.poses.get(seg.object or "") or []
+        return seg.skill in ("place", "stack") and bool(poses) and poses[-1][0] < int(seg.end_ns)
 
     def _agrees(self, segs: list[Segment], ended: Segmentation | None) -> bool:
         """Whether the segmentation of the recording so far with every unseen object at rest
@@ -774,6 +796,7 @@ def recording_arguments(
         {
             "tag_ids": [o.tag_id for o in objects],
             "metadata": {k: v for k, v in demo.metadata.items() if k != "load_report"},
+            "camera": demo.camera,
         },
     )
 

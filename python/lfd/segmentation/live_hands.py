@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from ..demo import HAND_SIDES, Demonstration, Handover, SkillLabel, check_side
+from ..demo import HAND_SIDES, CameraInfo, Demonstration, Handover, SkillLabel, check_side
 from ..errors import InvalidParameterError, LfdError
 from .live import (
     DEFAULT_EVERY_S,
@@ -128,6 +128,11 @@ class LiveHands:
         """For the objects, sizes, tag ids, hands and metadata of a recording."""
         names, sizes, recorded = recording_arguments(demo)
         return cls(names, sizes, templates, sides=demo.sides, **recorded, **options)
+
+    def set_camera(self, camera: CameraInfo | None) -> None:
+        """The camera's pose, once known (every lane's check runs use it)."""
+        for lane in self.lanes.values():
+            lane.set_camera(camera)
 
     @property
     def sides(self) -> tuple[str, ...]:

@@ -483,6 +483,10 @@ def test_record_tells_its_observer_and_writes_the_skills_it_returns(tmp_path) ->
             self.seen.append(("hand", t_ns, keypoints is not None, keypoints_2d))
             return []
 
+        def on_camera(self, camera):  # type: ignore[no-untyped-def]
+            self.seen.append(("camera", camera.world_T_camera[:3, 3].round(3).tolist()))
+            return []
+
         def finish(self, t_ns):  # type: ignore[no-untyped-def]
             self.seen.append(("finish", t_ns))
             return [(SkillLabel("move", self.seen[0][1], t_ns), t_ns, {"score": "-1"})]
@@ -496,7 +500,8 @@ def test_record_tells_its_observer_and_writes_the_skills_it_returns(tmp_path) ->
     )
     assert stats.frames == 4 and stats.live_segments == 1
     kinds = [s[0] for s in observer.seen]
-    assert kinds == ["frame", "hand"] * 4 + ["finish"]
+    # the camera once its pose is known (from the first frame's tags), before that frame's hand
+    assert kinds == ["frame", "camera", "hand"] + ["frame", "hand"] * 3 + ["finish"]
     frames = [s for s in observer.seen if s[0] == "frame"]
     assert all(f[2] == 3 for f in frames) and frames[0][3] == names  # RGB, every box at first
     hands = [s for s in observer.seen if s[0] == "hand"]
@@ -504,6 +509,8 @@ def test_record_tells_its_observer_and_writes_the_skills_it_returns(tmp_path) ->
     assert [h[1] for h in hands] == [f[1] for f in frames]
     assert observer.seen[-1] == ("finish", frames[-1][1])
     demo = load(out)
+    assert demo.camera is not None  # the observer was told the camera the file holds
+    assert observer.seen[1][1] == pytest.approx(demo.camera.world_T_camera[:3, 3], abs=1e-3)
     assert [(s.skill, s.start_ns, s.end_ns) for s in demo.live_segments] == [
         ("move", frames[0][1], frames[-1][1])
     ]

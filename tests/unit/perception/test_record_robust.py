@@ -251,6 +251,9 @@ def test_an_observer_failing_keeps_the_frames(scene: dict[str, Any], tmp_path: P
         def on_hand(self, *args: Any) -> list[Any]:
             return []
 
+        def on_camera(self, camera: Any) -> list[Any]:
+            return []
+
         def finish(self, t_ns: int) -> list[Any]:
             raise AssertionError("a failed observer is not asked to finish")
 
