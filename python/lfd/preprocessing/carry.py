@@ -93,6 +93,13 @@ def seen_empty(clear: np.ndarray, samples: int) -> bool:
     return False
 
 
+RELEASE_REACH = 2.0
+"""An object that moved while hidden, from a place the hand reached, was carried by the hand: if
+the hand never came within the grasp radius of the new place, it let go where it came closest to
+it in its last visit within this many times that radius (a hand estimated from depth at 5 Hz may
+be several centimetres off the object it holds)."""
+
+
 def _bridged(tcp: np.ndarray, seen: np.ndarray) -> np.ndarray:
     """``tcp`` ``(m, 3)`` with the samples not ``seen`` interpolated linearly between the seen
     ones (the first and last are seen)."""
@@ -129,6 +136,8 @@ def _grasp_release(d0: np.ndarray, d1: np.ndarray, radius: float) -> tuple[int, 
     None when the hand never reached one of the two poses or let go before it grasped.
     """
     near0, near1 = np.flatnonzero(d0 <= radius), np.flatnonzero(d1 <= radius)
+    if not len(near1):
+        near1 = np.flatnonzero(d1 <= RELEASE_REACH * radius)
     if not len(near0) or not len(near1):
         return None
     g, r = _closest_in_run(d0, near0, first=True), _closest_in_run(d1, near1, first=False)
@@ -210,11 +219,13 @@ def carry_open_end(
     tcp: np.ndarray,
     hand_valid: np.ndarray,
     grasp_radius: float,
+    rate_hz: float,
 ) -> tuple[int, int] | None:
-    """Fill, in place, an object's gap that runs to the end of a recording still being made,
-    when the hand reached the object in it: the grasp of :func:`fill_carried_gaps` (where the
-    TCP comes closest to the last seen pose, in its first visit), the object at rest before it
-    and following the TCP at the grasp offset after it (the release is not known yet). Returns
+    """Fill, in place, an object's gap that runs to the end of the recording (so far), when the
+    hand reached the object in it: the grasp of :func:`fill_carried_gaps` (where the TCP comes
+    closest to the last seen pose, in its first visit), the object at rest before it, following
+    the TCP at the grasp offset after it, and at rest again from where the hand sets it down
+    (:func:`set_down`; where it reappears is not known, ``rate_hz`` the samples' rate). Returns
     the filled half-open range, or None (no trailing gap, or the hand never reached the object:
     :func:`hold_ends` holds it at rest)."""
     seen = np.flatnonzero(valid)
@@ -230,15 +241,45 @@ def carry_open_end(
         return None
     g = last + _closest_in_run(d0, near, first=True)
     off = p0 - tcp[g]
-    # from the grasp on, the object follows the TCP where the hand is known and stays where it
-    # was last carried to where it is not
+    put = set_down(tcp, hand_valid, g, rate_hz)
+    # from the grasp on (to where the hand sets it down), the object follows the TCP where the
+    # hand is known and stays where it was last carried to where it is not
     idx = np.arange(last + 1, len(valid))
-    follows = (idx >= g) & hand_valid[idx] & np.isfinite(tcp[idx]).all(axis=1)
+    follows = (idx >= g) & (idx <= (put if put is not None else len(valid))) & hand_valid[idx]
+    follows &= np.isfinite(tcp[idx]).all(axis=1)
     src = np.maximum.accumulate(np.where(follows, np.arange(idx.size), -1))
     position[idx] = np.where((src >= 0)[:, None], tcp[idx[np.maximum(src, 0)]] + off, p0)
     quaternion[idx] = q0
     valid[last + 1 :] = True
     return last + 1, len(valid)
+
+
+LIFT_M = 0.02
+"""A hand that rose this much (m) above where it grasped an object has lifted it..."""
+
+STILL_MPS = 0.05
+"""...and sets it down where it next comes lowest while moving slower than this (m/s)."""
+
+
+def set_down(tcp: np.ndarray, hand_valid: np.ndarray, grasp: int, rate_hz: float) -> int | None:
+    """Where a hand that grasped an unseen object at sample ``grasp`` sets it down: after it
+    lifted (:data:`LIFT_M` above the grasp), the first sample where the TCP comes lowest
+    (lower than both neighbours) and moves slower than :data:`STILL_MPS`; None if it has not
+    (the recording so far ends while it carries it)."""
+    z = tcp[:, 2]
+    ok = hand_valid & np.isfinite(tcp).all(axis=1)
+    up = np.flatnonzero(ok[grasp:] & (z[grasp:] >= z[grasp] + LIFT_M))
+    if not up.size:
+        return None
+    speed = np.full(len(z), np.inf)
+    speed[1:-1] = np.linalg.norm(tcp[2:] - tcp[:-2], axis=1) * rate_hz / 2
+    i = np.arange(grasp + int(up[0]) + 1, len(z) - 1)
+    low = ok[i - 1] & ok[i] & ok[i + 1] & (z[i] <= z[i - 1]) & (z[i] < z[i + 1])
+    # come down from the highest point since the lift, not a pause in the carry
+    high = np.maximum.accumulate(np.where(ok, z, -np.inf)[grasp + int(up[0]) :])
+    down = z[i] <= high[i - grasp - int(up[0])] - LIFT_M
+    found = i[low & down & (speed[i] < STILL_MPS)]
+    return int(found[0]) if found.size else None
 
 
 def hold_ends(

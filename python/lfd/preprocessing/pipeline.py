@@ -496,13 +496,18 @@ def _fill(
 
 
 def _carried_on(
-    p: np.ndarray, q: np.ndarray, valid: np.ndarray, gripper: _GripperTrack, radius: float
+    p: np.ndarray,
+    q: np.ndarray,
+    valid: np.ndarray,
+    gripper: _GripperTrack,
+    radius: float,
+    rate_hz: float,
 ) -> _Filled | None:
     """:func:`_fill` where an unseen end the hand reached follows the hand
     (:func:`~lfd.preprocessing.carry.carry_open_end`; None if there is none such)."""
     p, q, valid = p.copy(), q.copy(), valid.copy()
     last_seen = int(np.flatnonzero(valid)[-1])
-    ends = carry_open_end(p, q, valid, gripper.tcp, gripper.valid, radius)
+    ends = carry_open_end(p, q, valid, gripper.tcp, gripper.valid, radius, rate_hz)
     if ends is None:
         return None
     f = _fill(p, q, valid, gripper, radius)
@@ -592,7 +597,7 @@ def _object_tracks(
             q = np.where(valid[:, None], q, np.nan)
             radius = float(np.max(obj.size)) / 2 + CARRY_RADIUS_MARGIN
             rest[ob.name] = _fill(p, q, valid, gripper, radius)
-            moved[ob.name] = _carried_on(p, q, valid, gripper, radius)
+            moved[ob.name] = _carried_on(p, q, valid, gripper, radius, open_end.rate_hz)
     sizes = {ob.name: float(np.max(ob.track.size)) for ob in objs}
     filled = _evident(open_end, gripper, rest, moved, sizes)
     for j, ob in enumerate(objs):

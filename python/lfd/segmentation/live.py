@@ -8,10 +8,10 @@ as they arrive, in any interleaving; they are kept as the recording will hold th
 grammar and contact rules) runs on the recording so far. A skill settles, and is never revised
 afterwards, once it ends ``lag_s`` before the newest hand frame and has come out the same
 (skill, object, end within ``tolerance_s``) in every run for ``stable_s``, and the run of the
-recording so far with every unseen object at rest where it was last seen (as batch holds an
-object never seen again) has it too: a hidden tag leaves what it could change undecided. A
-Move settles with the skill after it. When the recording ends the batch segmentation of the
-whole recording gives the skills still open, so the live result is the batch one wherever the
+recording so far as batch preprocesses it (an unseen object rests where it was last seen unless
+the camera saw that place empty) has it too: a hidden tag leaves what it could change undecided.
+A Move settles once the skill after it is known. When the recording ends the batch segmentation
+of the whole recording gives the skills still open, so the live result is the batch one wherever the
 settled skills were right (docs/live.md). Live is the batch pipeline on a growing recording, not
 a second pipeline. A recording longer than ``window_s`` is segmented from the start of its last
 settled skill that may begin a demonstration (a Move, Pick up, Push or Locate): a run's cost
@@ -34,16 +34,17 @@ from ..demo import CameraInfo, Demonstration, HandTrack, ObjectTrack, SkillLabel
 from ..errors import InvalidParameterError, LfdError
 from ..io.reader import order_times
 from ..skills import allowed, grammar
+from .live_rules import reached, set_down_unseen, unlifted
 from .method import Method
 from .result import Segment, Segmentation
 from .templates import TemplateChoice, Templates
 
-DEFAULT_EVERY_S = 0.25
-"""Recording seconds between two runs of the batch segmentation."""
+DEFAULT_EVERY_S = 0.2
+"""Recording seconds between two runs of the batch segmentation (every frame of a 5 Hz hand)."""
 DEFAULT_LAG_S = 0.25
 """A skill settles no sooner than this long after its end (the newest hand frame's time)..."""
-DEFAULT_STABLE_S = 0.25
-"""...and once it has come out the same in every run for this long."""
+DEFAULT_STABLE_S = 0.15
+"""...and once it has come out the same in every run for this long (two runs in a row)."""
 DEFAULT_TOLERANCE_S = 0.2
 """Two runs give "the same" skill when its end moved by at most this much."""
 DEFAULT_MIN_CONFIDENCE = 0.5
@@ -54,8 +55,7 @@ DEFAULT_UNCERTAIN_S = 3.0
 MAX_WAIT_S = 1e6  # the longest any of the times below may be (s): longer overflows as ns
 DEFAULT_MAX_WAIT_S = 0.0
 """A skill settles once every object the hand reached has been seen after its end, or has been
-out of sight this long (0: no such wait; the check run with every unseen object at rest,
-:meth:`LiveSegmentation._run_at_rest`, holds what a hidden tag could change)."""
+out of sight this long (0: no such wait; the check run holds what a hidden tag could change)."""
 DEFAULT_REAPPEAR_S = 0.5
 """An object seen again after it was out of sight for longer than this counts as seen from its
 reappearance only once it has been seen again for this long (the first poses after a long gap
@@ -315,9 +315,7 @@ class LiveSegmentation:
         ids = list(tag_ids) if tag_ids is not None else list(range(len(names)))
         self._tracks = _Tracks(list(zip(names, ids, sizes, strict=True)), side)
         self.metadata = dict(metadata or {})
-        self.camera = camera
-        """The camera's pose (None: unknown; :meth:`_run_at_rest` then holds every hidden object
-        at rest)."""
+        self.camera = camera  # its pose tells where a hidden object's place was seen empty
         self.every_ns = round(every_s * 1e9)
         self.lag_ns = round(lag_s * 1e9)
         self.stable_ns = round(stable_s * 1e9)
@@ -476,11 +474,9 @@ class LiveSegmentation:
             return None
 
     def _run_at_rest(self) -> Segmentation | None:
-        """The segmentation of the recording so far with every object at rest after it was
-        last seen, as batch holds an object never seen again (:func:`lfd.segment` of the
-        complete preprocessing; the search and contact rules those of a recording still being
-        made). The open run (:meth:`_run`) has an object hidden since the hand reached it
-        follow the hand instead."""
+        """The recording so far preprocessed as batch does it (a hidden object rests unless the
+        camera saw its place empty), segmented as a recording still being made. The open run
+        (:meth:`_run`) has an object hidden since the hand reached it follow the hand."""
         from . import segment
         from .pipeline import as_trajectory
 
@@ -575,14 +571,14 @@ class LiveSegmentation:
         limit = min(newest - self.lag_ns, self._seen_until())
 
         # a Pick up is as uncertain as the Move with after it that has not lifted its object
-        grasps = {id(a) for a, b in pairwise(cands) if _unlifted(run, b.segment)}
+        grasps = {id(a) for a, b in pairwise(cands) if unlifted(run, b.segment)}
 
         def uncertain(c: _Candidate) -> bool:
             # NaN confidence (an implied Move) counts as certain
             return (
                 c.segment.confidence < self.min_confidence
                 or (shared is not None and shared(c.segment))
-                or _unlifted(run, c.segment)
+                or unlifted(run, c.segment)
                 or id(c) in grasps
             )
 
@@ -591,16 +587,24 @@ class LiveSegmentation:
             return (
                 int(c.segment.end_ns) <= limit
                 and now - c.since_ns >= wait
-                and not self._set_down_unseen(c.segment)
+                and not set_down_unseen(c.segment, self._tracks.poses)
             )
 
         def next_known(i: int) -> bool:
             # a Move ends where the reach of the skill after it begins and is named after that
-            # skill's object (lfd.contact): it settles once that skill has ended in the run too
-            # and is not a guess
+            # skill's object (lfd.contact): it settles once that skill has ended in the run, and
+            # is not a guess, or is a Pick up the hand reached (not at a recording's start)
             if cands[i].segment.skill != "move":
                 return True
-            return len(cands) > i + 1 + self.followers and not uncertain(cands[i + 1])
+            if len(cands) > i + 1 + self.followers and not uncertain(cands[i + 1]):
+                return True
+            after = cands[i + 1].segment if len(cands) > i + 1 else None
+            return (
+                bool(self._emitted)
+                and after is not None
+                and after.skill == "pick_up"
+                and (reached(run, cands[i].segment))
+            )
 
         settled: list[Segment] = []
         # the last segment of a run is open: it settles only when the recording ends
@@ -614,19 +618,11 @@ class LiveSegmentation:
         self._candidates = cands
         return self._update(run, settled)
 
-    def _set_down_unseen(self, seg: Segment) -> bool:
-        """A Place or Stack whose object has not been seen since before it ended: where the
-        object came to rest (on the table or on another, and when) is not known yet."""
-        poses = self._tracks.poses.get(seg.object or "") or []
-        return seg.skill in ("place", "stack") and bool(poses) and poses[-1][0] < int(seg.end_ns)
-
     def _agrees(self, segs: list[Segment], ended: Segmentation | None) -> bool:
-        """Whether the segmentation of the recording so far with every unseen object at rest
-        (``ended``, :meth:`_run_at_rest`) has ``segs`` next after the settled segments: the
-        same skills and objects, each ending within ``tolerance_s``. The open run and that one
-        differ only in what is not known yet: an object hidden since the hand reached it
-        follows the hand in the first and rests in the second (batch, seeing where it
-        reappears, interpolates). Where they disagree on a segment, the evidence is not in."""
+        """Whether the check run (``ended``, :meth:`_run_at_rest`) has ``segs`` next after the
+        settled segments: the same skills and objects, each ending within ``tolerance_s``. It
+        differs from the open run only in what is not known yet (whether a hidden object moved);
+        where they disagree on a segment, the evidence is not in."""
         if ended is None:
             return False
         rest = self._aligned(ended)
@@ -759,25 +755,6 @@ class LiveSegmentation:
             object_names=self.object_names,
             run=run.run if run is not None else None,
         )
-
-
-def _unlifted(run: Segmentation, seg: Segment) -> bool:
-    """Whether ``seg`` is a Move with whose object never rose above its rest height (the
-    features' lift threshold) in ``run``: a turn or slide on the table that the next grasp of
-    the object may yet make part of one Pick up (:func:`lfd.contact.refine`), so it settles
-    as an uncertain one."""
-    from .stage1 import OBJECT_COLUMNS
-
-    if seg.skill != "move_with" or seg.object is None or run.run is None:
-        return False
-    try:
-        o = run.object_names.index(seg.object)
-        feats = run.run.object_features[o]
-    except (ValueError, IndexError):
-        return False
-    k = OBJECT_COLUMNS["object_height"]
-    a, b = int(seg.start), max(int(seg.end), int(seg.start) + 1)
-    return not bool((feats.values[a:b, k] > feats.thresholds[a:b, k]).any())
 
 
 def _dt(run: Segmentation) -> float:

@@ -1,0 +1,58 @@
+"""What the live segmentation reads in a run about whether a skill can settle yet
+(:mod:`lfd.segmentation.live`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..preprocessing.pipeline import CARRY_RADIUS_MARGIN
+from .result import Segment, Segmentation
+
+REACH_FROM_M = 0.05
+"""A Move settles with the Pick up after it begun when the hand, this much (m) farther than grasp
+distance from the object where the Move ends, has come within grasp distance of it since."""
+
+
+def unlifted(run: Segmentation, seg: Segment) -> bool:
+    """Whether ``seg`` is a Move with whose object never rose above its rest height (the
+    features' lift threshold) in ``run``: a turn or slide on the table that the next grasp of
+    the object may yet make part of one Pick up (:func:`lfd.contact.refine`), so it settles
+    as an uncertain one."""
+    from .stage1 import OBJECT_COLUMNS
+
+    if seg.skill != "move_with" or seg.object is None or run.run is None:
+        return False
+    try:
+        o = run.object_names.index(seg.object)
+        feats = run.run.object_features[o]
+    except (ValueError, IndexError):
+        return False
+    k = OBJECT_COLUMNS["object_height"]
+    a, b = int(seg.start), max(int(seg.end), int(seg.start) + 1)
+    return not bool((feats.values[a:b, k] > feats.thresholds[a:b, k]).any())
+
+
+def reached(run: Segmentation, seg: Segment) -> bool:
+    """Whether the hand, at least :data:`REACH_FROM_M` beyond grasp distance of the object of
+    ``seg`` (a Move) where it ends in ``run``, came within grasp distance of it after: the
+    Move ends where the approach of the Pick up after it began (:mod:`lfd.contact`)."""
+    if seg.object is None or run.run is None:
+        return False
+    traj = run.run.trajectory
+    try:
+        o = traj.object_names.index(seg.object)
+    except ValueError:
+        return False
+    near = float(np.max(traj.object_size[o])) / 2 + CARRY_RADIUS_MARGIN
+    d = np.linalg.norm(traj.tcp[int(seg.end) :] - traj.object_position[o, int(seg.end) :], axis=1)
+    return bool(d[0] >= near + REACH_FROM_M and (d <= near).any())
+
+
+def set_down_unseen(
+    seg: Segment, poses: dict[str, list[tuple[int, np.ndarray, np.ndarray]]]
+) -> bool:
+    """Whether ``seg`` is a Place or Stack whose object has not been seen (``poses``: the
+    sightings so far, per object) since before it ended: where the object came to rest (on
+    the table or on another, and when) is not known yet."""
+    seen = poses.get(seg.object or "") or []
+    return seg.skill in ("place", "stack") and bool(seen) and seen[-1][0] < int(seg.end_ns)
