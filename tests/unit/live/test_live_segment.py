@@ -176,19 +176,19 @@ def test_a_move_with_that_never_lifts_waits_as_uncertain() -> None:
     Move withs of a recording lift their object; the same span before the grasp does not."""
     import dataclasses
 
-    from lfd.segmentation.live import _unlifted
+    from lfd.segmentation.live_rules import unlifted
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         run = lfd.segment(load(RECORDINGS[0]))
     carries = [s for s in run.segments if s.skill == "move_with"]
-    assert carries and not any(_unlifted(run, s) for s in carries)
+    assert carries and not any(unlifted(run, s) for s in carries)
     first = next(s for s in run.segments if s.skill == "pick_up" and s.object == carries[0].object)
     resting = dataclasses.replace(
         carries[0], start=first.start, end=max(first.start + 2, (first.start + first.end) // 2)
     )
-    assert _unlifted(run, resting)
-    assert not _unlifted(run, dataclasses.replace(resting, skill="place"))
+    assert unlifted(run, resting)
+    assert not unlifted(run, dataclasses.replace(resting, skill="place"))
 
 
 @pytest.mark.parametrize("reappear_s", [0.5, 0.0])
@@ -255,7 +255,7 @@ def test_a_pick_up_waits_while_its_move_with_has_not_lifted_its_object() -> None
     natural exp2 seed 9406)."""
     import dataclasses
 
-    from lfd.segmentation.live import _unlifted
+    from lfd.segmentation.live_rules import unlifted
 
     demo = load(RECORDINGS[0])
     with warnings.catch_warnings():
@@ -270,7 +270,7 @@ def test_a_pick_up_waits_while_its_move_with_has_not_lifted_its_object() -> None
         return dataclasses.replace(seg, start=a, end=b, start_ns=int(t[a]), end_ns=int(t[b]))
 
     resting = span(carry, mid, pick.end)  # "carried" while the cube still rests
-    assert _unlifted(batch, resting) and not _unlifted(batch, carry)
+    assert unlifted(batch, resting) and not unlifted(batch, carry)
     for moved, waits in ((resting, True), (carry, False)):
         segs = [span(pick, pick.start, moved.start), moved, span(place, moved.end, place.end)]
         run = dataclasses.replace(batch, segments=segs)
@@ -284,3 +284,27 @@ def test_a_pick_up_waits_while_its_move_with_has_not_lifted_its_object() -> None
         if waits:
             live._now = live._newest_hand = now + round(4e9)  # the uncertain wait (3 s)
             assert [s.skill for s in live.settle(run).segments][:1] == ["pick_up"]
+
+
+def test_a_move_settles_once_the_hand_reaches_the_object_of_its_pick_up() -> None:
+    """A Move ends where the approach of the Pick up after it begins (lfd.contact): once the
+    hand, away from the object where the Move ends, has come within grasp distance of it, the
+    Move settles without waiting for the Pick up to end (simulated exp5 careful, seed 0: five
+    of its Moves), and the live result is still the batch one."""
+    from lfd.sim import Variability, simulate
+
+    demo = simulate("exp5", 0, Variability(style="careful")).demo
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        batch = lfd.segment(demo).segments
+        live, settled = segment_live(demo)
+    assert [(s.skill, s.object) for s in live.segments] == [(s.skill, s.object) for s in batch]
+    early = [
+        i
+        for i, s in enumerate(batch[1:-1], start=1)
+        if s.skill == "move"
+        and batch[i + 1].skill == "pick_up"
+        and settled[i] < batch[i + 1].end_ns
+    ]
+    assert len(early) >= 3, early
+    assert all(settled[i] > batch[i].end_ns for i in early)
