@@ -341,6 +341,10 @@ class Demonstration:
         ``hand`` becomes the right one). :attr:`hands` holds both by side.
     handovers : list[Handover]
         Ground-truth handovers between the two hands, in time order.
+    occluders : list[HandTrack]
+        Hands in view that are not segmented here (the other hand of a two-hand demonstration
+        seen alone, :meth:`one_hand`): they may hide an object's tag from the camera
+        (:mod:`lfd.preprocessing.carry`).
 
     In a two-hand demonstration each label names its hand (``SkillLabel.hand``); in a one-hand
     demonstration a label's hand is None or the hand's side.
@@ -356,6 +360,7 @@ class Demonstration:
     live_segments: list[SkillLabel] = field(default_factory=list)
     other_hand: HandTrack | None = None
     handovers: list[Handover] = field(default_factory=list)
+    occluders: list[HandTrack] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         check_side(self.hand.side, "hand")
@@ -423,6 +428,7 @@ class Demonstration:
             labels=labels,
             live_segments=self.labels_of(side, live=True),
             handovers=[],
+            occluders=[h for s, h in self.hands.items() if s != side],
         )
 
     @property

@@ -40,6 +40,7 @@ from ..errors import DemonstrationError
 from ..trajectory import Trajectory
 from .carry import (
     EMPTY_S,
+    REST_TOLERANCE,
     SIGHT_MARGIN_M,
     carry_open_end,
     fill_carried_gaps,
@@ -184,7 +185,8 @@ def preprocess(
     g = _gripper_track(
         hand, demo.hand.side, start, t_s, max_gap_s, hand_fc, euler_cutoff_hz, smooth
     )
-    open_end = _OpenEnd("evident" if complete else "carried", demo.camera, rate_hz)
+    others = [_other_hand(h, start, t_s, max_gap_s) for h in demo.occluders]
+    open_end = _OpenEnd("evident" if complete else "carried", demo.camera, rate_hz, others)
     o = _object_tracks(objs, hand, g, start, t_ns, max_gap_s, obj_fc, fill_hidden, smooth, open_end)
     opening = g.opening
     if aperture == "grasp":
@@ -469,6 +471,15 @@ class _OpenEnd:
     hidden: str
     camera: CameraInfo | None
     rate_hz: float
+    hands: list[np.ndarray]
+    """The keypoints of the hands not segmented here on the clock (they may hide a tag too)."""
+
+
+def _other_hand(hand: HandTrack, start: int, t_s: np.ndarray, max_gap_s: float) -> np.ndarray:
+    """A hand not segmented here, its keypoints on the clock (NaN where it is unknown)."""
+    order = _sorted_unique(hand.t_ns)
+    rel = (hand.t_ns[order] - start) * 1e-9
+    return resample_positions(rel, hand.keypoints[order], t_s, max_gap_s=max_gap_s)[0]
 
 
 @dataclass
@@ -520,21 +531,27 @@ def _evident(
     rest: dict[str, _Filled],
     moved: dict[str, _Filled | None],
     sizes: dict[str, float],
+    seen_there: dict[str, float],
 ) -> dict[str, _Filled]:
     """Each object's filled pose: of a recording still being made, carried on by the hand that
     reached it; of a complete one, only where the camera saw its last seen place empty for
     :data:`~lfd.preprocessing.carry.EMPTY_S` (nothing near the line of sight: the hand, the
-    forearm, or another object where it rests or where the hand may be carrying it)."""
+    forearm, or another object where it rests or where the hand may be carrying it), when it
+    had been seen there for as long (``seen_there``, s: a tag that is detected there)."""
     if open_end.hidden == "carried":
         return {name: moved[name] or f for name, f in rest.items()}
     out = dict(rest)
     if open_end.camera is None:
         return out
     hand, hand_radii = occluders(gripper.keypoints)
+    for kp in open_end.hands:  # another hand is no occluder where it is unknown
+        more, radii = occluders(kp)
+        hand = np.concatenate([hand, np.where(np.isfinite(more), more, _FAR)], axis=1)
+        hand_radii = np.concatenate([hand_radii, radii])
     camera = open_end.camera.world_T_camera[:3, 3]
     samples = max(1, round(EMPTY_S * open_end.rate_hz))
     for name, carried in moved.items():
-        if carried is None:
+        if carried is None or seen_there[name] < EMPTY_S:
             continue
         # the others where they rest, and where the hand may be carrying them
         others = [(k, f) for k, f in rest.items() if k != name]
@@ -553,6 +570,23 @@ def _evident(
 
 
 _FAR = np.array([1e6, 1e6, 1e6])
+
+
+def _seen_there(objs: list[_ObjectSamples]) -> dict[str, float]:
+    """How long (s) each object was seen where it was last seen: from its first sighting
+    within :data:`~lfd.preprocessing.carry.REST_TOLERANCE` of its last one, after which every
+    sighting was, to that last one."""
+    out = {}
+    for ob in objs:
+        t = ob.track.t_ns[ob.order][ob.ok]
+        p = ob.track.position[ob.order][ob.ok]
+        if not t.size:
+            out[ob.name] = 0.0
+            continue
+        away = np.flatnonzero(np.linalg.norm(p - p[-1], axis=1) >= REST_TOLERANCE)
+        first = int(away[-1]) + 1 if away.size else 0
+        out[ob.name] = float(t[-1] - t[first]) * 1e-9
+    return out
 
 
 def _object_tracks(
@@ -599,7 +633,7 @@ def _object_tracks(
             rest[ob.name] = _fill(p, q, valid, gripper, radius)
             moved[ob.name] = _carried_on(p, q, valid, gripper, radius, open_end.rate_hz)
     sizes = {ob.name: float(np.max(ob.track.size)) for ob in objs}
-    filled = _evident(open_end, gripper, rest, moved, sizes)
+    filled = _evident(open_end, gripper, rest, moved, sizes, _seen_there(objs))
     for j, ob in enumerate(objs):
         name = ob.name
         p, q, valid = raw[name]

@@ -34,7 +34,7 @@ from ..demo import CameraInfo, Demonstration, HandTrack, ObjectTrack, SkillLabel
 from ..errors import InvalidParameterError, LfdError
 from ..io.reader import order_times
 from ..skills import allowed, grammar
-from .live_rules import reached, set_down_unseen, unlifted
+from .live_rules import REACHED_CONFIDENCE, reached, set_down_unseen, unlifted
 from .method import Method
 from .result import Segment, Segmentation
 from .templates import TemplateChoice, Templates
@@ -43,8 +43,8 @@ DEFAULT_EVERY_S = 0.2
 """Recording seconds between two runs of the batch segmentation (every frame of a 5 Hz hand)."""
 DEFAULT_LAG_S = 0.25
 """A skill settles no sooner than this long after its end (the newest hand frame's time)..."""
-DEFAULT_STABLE_S = 0.15
-"""...and once it has come out the same in every run for this long (two runs in a row)."""
+DEFAULT_STABLE_S = 0.25
+"""...and once it has come out the same in every run for this long (three runs in a row)."""
 DEFAULT_TOLERANCE_S = 0.2
 """Two runs give "the same" skill when its end moved by at most this much."""
 DEFAULT_MIN_CONFIDENCE = 0.5
@@ -591,9 +591,8 @@ class LiveSegmentation:
             )
 
         def next_known(i: int) -> bool:
-            # a Move ends where the reach of the skill after it begins and is named after that
-            # skill's object (lfd.contact): it settles once that skill has ended in the run, and
-            # is not a guess, or is a Pick up the hand reached (not at a recording's start)
+            # a Move (lfd.contact) settles once the skill after it ended in the run and is no
+            # guess, or is a clear Pick up the hand reached (not at a recording's start)
             if cands[i].segment.skill != "move":
                 return True
             if len(cands) > i + 1 + self.followers and not uncertain(cands[i + 1]):
@@ -603,7 +602,8 @@ class LiveSegmentation:
                 bool(self._emitted)
                 and after is not None
                 and after.skill == "pick_up"
-                and (reached(run, cands[i].segment))
+                and after.confidence >= REACHED_CONFIDENCE
+                and reached(run, cands[i].segment)
             )
 
         settled: list[Segment] = []
