@@ -114,3 +114,29 @@ def test_an_object_never_seen_leaves_the_end_to_batch() -> None:
     assert any(name in w for w in batch.warnings)
     assert not during
     assert _sequence(end) == _sequence(batch.segments) != []
+
+
+def test_follow_reads_the_camera_pose_from_the_file(tmp_path) -> None:
+    """``lfd segment --follow`` gives its segmenter the camera's pose from the file's
+    calibration and /tf, as the replay of a loaded recording does: with it, the carry of a box
+    whose tag is hidden from its grasp to the end settles while recording; without it, not."""
+    import json
+
+    from lfd.cli import main
+
+    demo = simulate("exp3", 0, Variability(style="careful")).demo
+    grasp = next(lab for lab in demo.labels if lab.object == "box_3" and lab.skill != "move")
+    hidden = _hidden(demo, "box_3", grasp.start_ns, demo.end_ns)
+    rec, out = tmp_path / "rec.mcap", tmp_path / "out.json"
+    lfd.save(hidden, rec)
+    loaded = lfd.load(rec, images=False)
+    assert loaded.camera is not None
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert main(["segment", "--follow", str(rec), "--json", str(out)]) == 0
+        _, settled = segment_live(loaded)
+        _, blind = segment_live(dataclasses.replace(loaded, camera=None))
+    followed = json.loads(out.read_text())["live"]["settled_s"]
+    first = int(loaded.start_ns)
+    assert followed == pytest.approx([(int(t) - first) * 1e-9 for t in settled], abs=1e-6)
+    assert not np.array_equal(settled, blind)
