@@ -34,7 +34,7 @@ from ..demo import CameraInfo, Demonstration, HandTrack, ObjectTrack, SkillLabel
 from ..errors import InvalidParameterError, LfdError
 from ..io.reader import order_times
 from ..skills import allowed, grammar
-from .live_rules import REACHED_CONFIDENCE, reached, set_down_unseen, unlifted
+from .live_rules import set_down_unseen, unlifted
 from .method import Method
 from .result import Segment, Segmentation
 from .templates import TemplateChoice, Templates
@@ -591,20 +591,11 @@ class LiveSegmentation:
             )
 
         def next_known(i: int) -> bool:
-            # a Move (lfd.contact) settles once the skill after it ended in the run and is no
-            # guess, or is a clear Pick up the hand reached (not at a recording's start)
+            # a Move ends where the reach of the skill after it begins and is named after its
+            # object (lfd.contact): it settles once that skill ended in the run and is no guess
             if cands[i].segment.skill != "move":
                 return True
-            if len(cands) > i + 1 + self.followers and not uncertain(cands[i + 1]):
-                return True
-            after = cands[i + 1].segment if len(cands) > i + 1 else None
-            return (
-                bool(self._emitted)
-                and after is not None
-                and after.skill == "pick_up"
-                and after.confidence >= REACHED_CONFIDENCE
-                and reached(run, cands[i].segment)
-            )
+            return len(cands) > i + 1 + self.followers and not uncertain(cands[i + 1])
 
         settled: list[Segment] = []
         # the last segment of a run is open: it settles only when the recording ends

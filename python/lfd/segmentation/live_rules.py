@@ -5,16 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..preprocessing.pipeline import CARRY_RADIUS_MARGIN
 from .result import Segment, Segmentation
-
-REACH_FROM_M = 0.05
-"""A Move settles before the Pick up after it ends when the hand, this much (m) farther than grasp
-distance from the object where the Move ends, has come within grasp distance of it since..."""
-
-REACHED_CONFIDENCE = 0.8
-"""...once that Pick up is no close call (its confidence at least this: perceived natural exp3
-seed 9411 hovered at one box, a Pick up of confidence 0.55, and took the one beside it)."""
 
 
 def unlifted(run: Segmentation, seg: Segment) -> bool:
@@ -34,22 +25,6 @@ def unlifted(run: Segmentation, seg: Segment) -> bool:
     k = OBJECT_COLUMNS["object_height"]
     a, b = int(seg.start), max(int(seg.end), int(seg.start) + 1)
     return not bool((feats.values[a:b, k] > feats.thresholds[a:b, k]).any())
-
-
-def reached(run: Segmentation, seg: Segment) -> bool:
-    """Whether the hand, at least :data:`REACH_FROM_M` beyond grasp distance of the object of
-    ``seg`` (a Move) where it ends in ``run``, came within grasp distance of it after: the
-    Move ends where the approach of the Pick up after it began (:mod:`lfd.contact`)."""
-    if seg.object is None or run.run is None:
-        return False
-    traj = run.run.trajectory
-    try:
-        o = traj.object_names.index(seg.object)
-    except ValueError:
-        return False
-    near = float(np.max(traj.object_size[o])) / 2 + CARRY_RADIUS_MARGIN
-    d = np.linalg.norm(traj.tcp[int(seg.end) :] - traj.object_position[o, int(seg.end) :], axis=1)
-    return bool(d[0] >= near + REACH_FROM_M and (d <= near).any())
 
 
 def set_down_unseen(

@@ -284,27 +284,3 @@ def test_a_pick_up_waits_while_its_move_with_has_not_lifted_its_object() -> None
         if waits:
             live._now = live._newest_hand = now + round(4e9)  # the uncertain wait (3 s)
             assert [s.skill for s in live.settle(run).segments][:1] == ["pick_up"]
-
-
-def test_a_move_settles_once_the_hand_reaches_the_object_of_its_pick_up() -> None:
-    """A Move ends where the approach of the Pick up after it begins (lfd.contact): once the
-    hand, away from the object where the Move ends, has come within grasp distance of it, the
-    Move settles without waiting for the Pick up to end (simulated exp5 careful, seed 0: five
-    of its Moves), and the live result is still the batch one."""
-    from lfd.sim import Variability, simulate
-
-    demo = simulate("exp5", 0, Variability(style="careful")).demo
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        batch = lfd.segment(demo).segments
-        live, settled = segment_live(demo)
-    assert [(s.skill, s.object) for s in live.segments] == [(s.skill, s.object) for s in batch]
-    early = [
-        i
-        for i, s in enumerate(batch[1:-1], start=1)
-        if s.skill == "move"
-        and batch[i + 1].skill == "pick_up"
-        and settled[i] < batch[i + 1].end_ns
-    ]
-    assert len(early) >= 3, early
-    assert all(settled[i] > batch[i].end_ns for i in early)
