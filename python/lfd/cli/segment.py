@@ -132,13 +132,20 @@ def segment_stream(
     labels: list[Any] = []
     camera_so_far = None
     calibration: Any = None  # the camera's, once written; posed by /tf (lfd.io.reader.camera_of)
+    bad_poses: set[str] = set()
     for msg in messages:
         if msg.kind in ("label", "handover"):  # the ground truth
             labels.append(msg.value)
         if msg.kind == "camera_info":
             calibration = msg.value
         elif msg.kind == "tf" and calibration is not None:
-            camera = camera_of(calibration, msg.value)
+            try:
+                camera = camera_of(calibration, msg.value)
+            except RecordingFormatError as err:  # as lfd.load: the last good pose stays
+                if str(err) not in bad_poses:
+                    print(f"lfd segment: warning: skipped {err}", file=sys.stderr)
+                bad_poses.add(str(err))
+                camera = None
             if camera is not None:
                 camera_so_far = camera
                 if seg is not None:

@@ -160,26 +160,49 @@ def labels_of_events(events: Iterable[Any], where: str = "") -> tuple[list[Skill
     return sorted(labels, key=lambda lab: (lab.start_ns, lab.end_ns)), skipped
 
 
+def camera_problem(camera: CameraInfo) -> str | None:
+    """What makes ``camera`` no camera (None if nothing): a size that is not positive, a ``K``
+    that is not finite, a pose that is not a finite rigid transform."""
+    pose = camera.world_T_camera
+    if camera.width <= 0 or camera.height <= 0:
+        return f"image size {camera.width} x {camera.height}"
+    if not np.isfinite(camera.K).all():
+        return f"K is not finite: {camera.K.tolist()}"
+    rot = pose[:3, :3]
+    if not np.isfinite(pose).all() or not np.allclose(rot.T @ rot, np.eye(3), atol=1e-3):
+        return f"world_T_camera is not a rigid transform: {pose.tolist()}"
+    return None
+
+
 def camera_of(info: Any, transforms: Any) -> CameraInfo | None:
     """The camera of a ``foxglove.CameraCalibration`` posed by a ``foxglove.FrameTransforms``
-    that holds its frame (None if it does not; no transforms: the identity pose)."""
+    that holds its frame (None if it does not; no transforms: the identity pose). A calibration
+    or pose that describes no camera (:func:`camera_problem`, a ``K`` of other than 9 entries,
+    a zero rotation) is a :class:`~lfd.errors.RecordingFormatError` naming what is wrong."""
+    what = f"camera {info.frame_id!r}"
+    k = np.array(info.K, dtype=np.float64)
+    if k.shape != (9,):
+        raise RecordingFormatError(f"{what}: K must be 9 numbers, got {k.tolist()}")
     pose = np.eye(4)
     if transforms is not None:
         found = [tf for tf in transforms.transforms if tf.child_frame_id == info.frame_id]
         if not found:
             return None
+        r, tr = found[-1].rotation, found[-1].translation
+        q = np.array([r.x, r.y, r.z, r.w], dtype=np.float64)
+        if not np.isfinite(q).all() or np.linalg.norm(q) < 1e-9:
+            raise RecordingFormatError(f"{what}: no rotation in a transform: {q.tolist()}")
         from scipy.spatial.transform import Rotation
 
-        r, tr = found[-1].rotation, found[-1].translation
-        pose[:3, :3] = Rotation.from_quat([r.x, r.y, r.z, r.w]).as_matrix()
+        pose[:3, :3] = Rotation.from_quat(q).as_matrix()
         pose[:3, 3] = (tr.x, tr.y, tr.z)
-    return CameraInfo(
-        width=info.width,
-        height=info.height,
-        K=np.array(info.K, dtype=np.float64),
-        world_T_camera=pose,
-        frame_id=info.frame_id,
+    camera = CameraInfo(
+        width=info.width, height=info.height, K=k, world_T_camera=pose, frame_id=info.frame_id
     )
+    problem = camera_problem(camera)
+    if problem is not None:
+        raise RecordingFormatError(f"{what}: {problem}")
+    return camera
 
 
 class _Loader:
@@ -393,13 +416,17 @@ class _Loader:
         rec = self.raw.json_metadata(T.CALIBRATION_METADATA, "camera")
         if isinstance(rec, dict):
             try:
-                return CameraInfo(
+                camera = CameraInfo(
                     width=int(rec["width"]),
                     height=int(rec["height"]),
                     K=np.array(rec["K"], dtype=np.float64),
                     world_T_camera=np.array(rec["world_T_camera"], dtype=np.float64),
                     frame_id=str(rec.get("frame_id", T.CAMERA_FRAME)),
                 )
+                problem = camera_problem(camera)
+                if problem is None:
+                    return camera
+                self.skipped.append(f"calibration metadata: {problem}")
             except (KeyError, ValueError, TypeError) as err:
                 self.skipped.append(f"calibration metadata: {err}")
         if not self.raw.encoded(T.CAMERA_INFO_TOPIC):
@@ -407,12 +434,23 @@ class _Loader:
         from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
         from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 
-        _, infos = self.decode(T.CAMERA_INFO_TOPIC, CameraCalibration)
-        _, tfs = self.decode(T.TF_TOPIC, FrameTransforms)
-        camera = camera_of(infos[-1], None)
-        for msg in tfs:
-            camera = camera_of(infos[-1], msg) or camera
-        return camera
+        t_info, infos = self.decode(T.CAMERA_INFO_TOPIC, CameraCalibration)
+        t_tf, tfs = self.decode(T.TF_TOPIC, FrameTransforms)
+        try:
+            posed_at: CameraInfo | None = camera_of(infos[-1], None)
+        except RecordingFormatError as err:  # the recording loads without its camera
+            self.skipped.append(f"{T.CAMERA_INFO_TOPIC} at {t_info[-1]} ns: {err}")
+            return None
+        posed = False  # by a good transform (all bad: no pose is known, not the identity)
+        for t, msg in zip(t_tf, tfs, strict=True):
+            try:
+                found = camera_of(infos[-1], msg)
+            except RecordingFormatError as err:  # the last good pose stays
+                self.skipped.append(f"{T.TF_TOPIC} at {t} ns: {err}")
+                posed_at = posed_at if posed else None
+                continue
+            posed_at, posed = (found, True) if found is not None else (posed_at, posed)
+        return posed_at
 
     def images(self, topic: str) -> ImageStream | None:
         """The frames of ``topic`` (raw, else its ``/compressed`` variant), decoded when first

@@ -910,3 +910,76 @@ def test_object_names_that_look_like_topics_are_objects_or_refused(tmp_path: Pat
         with pytest.raises(DemonstrationError, match=f"object name {re.escape(repr(bad))} .*{why}"):
             save(demo, out)
         assert not out.exists() and list(tmp_path.glob(".bad.mcap*")) == []
+
+
+def _camera_pose(edit):
+    """A message hook that rewrites the camera's transforms (``foxglove.FrameTransforms``) or
+    calibration (``foxglove.CameraCalibration``) with ``edit(message)``."""
+    from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
+    from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
+
+    def hook(topic: str, t: int, data: bytes) -> tuple[int, bytes]:
+        cls = {"/tf": FrameTransforms, "/camera/color/camera_info": CameraCalibration}.get(topic)
+        if cls is None:
+            return t, data
+        msg = cls()
+        msg.ParseFromString(data)
+        edit(msg)
+        return t, msg.SerializeToString()
+
+    return hook
+
+
+def _camera_metadata(edit):
+    """A metadata hook rewriting the calibration record's camera with ``edit(camera dict)``."""
+
+    def hook(name: str, meta: dict) -> dict:
+        if name == "calibration":
+            camera = json.loads(meta["camera"])
+            edit(camera)
+            meta["camera"] = json.dumps(camera)
+        return meta
+
+    return hook
+
+
+def _zero_rotation(msg) -> None:
+    if isinstance(msg, dict):
+        msg["world_T_camera"] = [[0.0] * 4] * 3 + [[0, 0, 0, 1]]
+    for tf in getattr(msg, "transforms", []):
+        tf.rotation.x = tf.rotation.y = tf.rotation.z = tf.rotation.w = 0.0
+
+
+def _nan_k(msg) -> None:
+    if isinstance(msg, dict):
+        msg["width"] = -8
+    elif hasattr(msg, "K"):
+        msg.K[0] = float("nan")
+
+
+@pytest.mark.parametrize(
+    ("edit", "match"), [(_zero_rotation, "no rotation in a transform"), (_nan_k, "K is not")]
+)
+def test_a_camera_that_is_no_camera_is_skipped(tmp_path: Path, edit, match: str) -> None:
+    """A camera transform with a zero quaternion, or a calibration with a NaN in K (and a
+    calibration record with a zero rotation, or a negative width): the recording loads
+    without that camera (reported as skipped), in ``lfd.load`` and in ``lfd segment --follow``
+    alike; nothing raises scipy's error."""
+    src = tmp_path / "ok.mcap"
+    save(make_demo(), src)
+    assert _load_quiet(src)[0].camera is not None
+    bad = _rewrite(
+        src, tmp_path / "bad.mcap", message=_camera_pose(edit), metadata=_camera_metadata(edit)
+    )
+    demo, caught = _load_quiet(bad)
+    assert demo.camera is None and len(demo.hand) == len(load(src).hand)
+    text = " ".join(str(w.message) for w in caught if w.category is RecoveredFileWarning)
+    assert match in text and "calibration metadata: " in text, text
+    proc = subprocess.run(
+        [sys.executable, "-m", "lfd.cli", "segment", "--follow", str(bad), "--idle-timeout", "1"],
+        capture_output=True,
+        text=True,
+    )
+    assert proc.returncode == 0 and "Traceback" not in proc.stderr, proc.stderr
+    if edit is _zero_rotation:  # the calibration is good: each bad pose is reported once
+        assert proc.stderr.count(match) == 1, proc.stderr
