@@ -85,12 +85,14 @@ def in_clear_view(
 
 def seen_empty(clear: np.ndarray, samples: int) -> bool:
     """Whether ``clear`` holds for ``samples`` samples in a row."""
-    run = 0
-    for c in clear:
-        run = run + 1 if c else 0
-        if run >= samples:
-            return True
-    return False
+    c = np.asarray(clear, dtype=bool)
+    if samples <= 0:
+        return True
+    if c.size < samples:
+        return False
+    # a window of ``samples`` all clear: its count of clear samples is ``samples``
+    counts = np.convolve(c.astype(np.int64), np.ones(samples, dtype=np.int64), mode="valid")
+    return bool((counts == samples).any())
 
 
 RELEASE_REACH = 2.0

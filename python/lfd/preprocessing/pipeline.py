@@ -631,7 +631,8 @@ def _object_tracks(
             q = np.where(valid[:, None], q, np.nan)
             radius = float(np.max(obj.size)) / 2 + CARRY_RADIUS_MARGIN
             rest[ob.name] = _fill(p, q, valid, gripper, radius)
-            moved[ob.name] = _carried_on(p, q, valid, gripper, radius, open_end.rate_hz)
+            if open_end.hidden == "carried" or open_end.camera is not None:  # else unused
+                moved[ob.name] = _carried_on(p, q, valid, gripper, radius, open_end.rate_hz)
     sizes = {ob.name: float(np.max(ob.track.size)) for ob in objs}
     filled = _evident(open_end, gripper, rest, moved, sizes, _seen_there(objs))
     for j, ob in enumerate(objs):

@@ -12,7 +12,9 @@ import _paths  # noqa: F401
 import lfd
 import numpy as np
 import pytest
-from lfd.preprocessing.carry import in_clear_view, occluders, set_down
+from hypothesis import given
+from hypothesis import strategies as st
+from lfd.preprocessing.carry import in_clear_view, occluders, seen_empty, set_down
 from lfd.sim import Variability, simulate
 
 
@@ -95,3 +97,14 @@ def test_set_down_is_where_the_lifted_hand_comes_down_and_stops() -> None:
     put = set_down(tcp, valid, 0, rate)
     assert put is not None and abs(t[put] - 2.0) <= 0.1
     assert set_down(tcp[: int(1.2 * rate)], valid[: int(1.2 * rate)], 0, rate) is None
+
+
+@given(st.lists(st.booleans(), max_size=40), st.integers(0, 8))
+def test_seen_empty_is_a_run_of_clear_samples(clear: list[bool], samples: int) -> None:
+    """``seen_empty``: some ``samples`` consecutive samples are all clear (the longest run
+    counted one sample at a time)."""
+    longest = run = 0
+    for c in clear:
+        run = run + 1 if c else 0
+        longest = max(longest, run)
+    assert seen_empty(np.array(clear, dtype=bool), samples) == (longest >= samples)
