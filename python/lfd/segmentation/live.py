@@ -592,10 +592,13 @@ class LiveSegmentation:
 
         def next_known(i: int) -> bool:
             # a Move ends where the reach of the skill after it begins and is named after its
-            # object (lfd.contact): it settles once that skill ended in the run and is no guess
+            # object (lfd.contact): it settles once that skill ended in the run and is no guess,
+            # or is a guess that has waited its uncertain_s (else it would hold all after it)
             if cands[i].segment.skill != "move":
                 return True
-            return len(cands) > i + 1 + self.followers and not uncertain(cands[i + 1])
+            return len(cands) > i + 1 + self.followers and (
+                not uncertain(cands[i + 1]) or ready(cands[i + 1])
+            )
 
         settled: list[Segment] = []
         # the last segment of a run is open: it settles only when the recording ends

@@ -284,3 +284,29 @@ def test_a_pick_up_waits_while_its_move_with_has_not_lifted_its_object() -> None
         if waits:
             live._now = live._newest_hand = now + round(4e9)  # the uncertain wait (3 s)
             assert [s.skill for s in live.settle(run).segments][:1] == ["pick_up"]
+
+
+def test_a_move_before_an_uncertain_skill_settles_once_that_one_has_waited() -> None:
+    """A Move waits for the skill after it (its end and name are that skill's reach and
+    object); when that skill stays a guess (confidence under ``min_confidence``) the Move
+    settles with it once it has waited ``uncertain_s``, not at the end of the recording (a
+    perceived natural exp5, seed 9412: one such Move held 27 skills to the end, 27.8 s)."""
+    import dataclasses
+
+    demo = load(RECORDINGS[0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        batch = lfd.segment(demo)
+    segs = list(batch.segments)
+    i = next(k for k, s in enumerate(segs) if s.skill == "move" and k + 3 < len(segs))
+    assert segs[i + 1].skill == "pick_up"
+    guess = dataclasses.replace(segs[i + 1], confidence=0.1)
+    run = dataclasses.replace(batch, segments=[*segs[: i + 1], guess, *segs[i + 2 :]])
+    live = LiveSegmentation.for_demonstration(demo)
+    now = int(demo.end_ns)
+    for dt_s, settled in ((0.0, 0), (1.0, i), (2.0, i), (4.0, i + 2)):  # uncertain_s: 3 s
+        live._now = live._newest_hand = now + round(dt_s * 1e9)
+        live.settle(run, ended=lambda: run)  # the check run agrees with the open one
+        got = len(live._emitted)  # (and after the guess, what is ready)
+        assert got == settled or (dt_s == 4.0 and got > settled), (dt_s, got)
+    assert [s.skill for s in live._emitted[i : i + 2]] == ["move", "pick_up"]
