@@ -95,6 +95,24 @@ def seen_empty(clear: np.ndarray, samples: int) -> bool:
     return bool((counts == samples).any())
 
 
+def covered(spot: np.ndarray, half: float, others: list[np.ndarray], samples: int) -> bool:
+    """Whether another object rests on ``spot`` (an object's last seen centre, ``half`` its
+    largest half side): one of ``others`` (each other object's positions ``(n, 3)``, its gaps
+    filled) ends within ``half`` of it horizontally and above it, still (within
+    :data:`REST_TOLERANCE`) for its last ``samples`` samples. The base of a stack, its tag under
+    the object put on it, rests: no hand carries it away from under another."""
+    for p in others:
+        end = p[-1]
+        if not np.isfinite(end).all() or end[2] <= spot[2] + REST_TOLERANCE:
+            continue
+        if np.linalg.norm(end[:2] - spot[:2]) > half:
+            continue
+        tail = p[-samples - 1 :]
+        if np.isfinite(tail).all() and np.linalg.norm(tail - end, axis=1).max() < REST_TOLERANCE:
+            return True
+    return False
+
+
 RELEASE_REACH = 2.0
 """An object that moved while hidden, from a place the hand reached, was carried by the hand: if
 the hand never came within the grasp radius of the new place, it let go where it came closest to

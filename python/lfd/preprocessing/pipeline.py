@@ -43,6 +43,7 @@ from .carry import (
     REST_TOLERANCE,
     SIGHT_MARGIN_M,
     carry_open_end,
+    covered,
     fill_carried_gaps,
     hold_ends,
     in_clear_view,
@@ -149,7 +150,8 @@ def preprocess(
         The recording is complete (default). False for a recording still being made (the live
         segmentation's runs): with ``fill_hidden``, an object hidden since the hand reached it
         follows the TCP (:func:`~lfd.preprocessing.carry.carry_open_end`) instead of being held
-        where it was last seen.
+        where it was last seen, unless another object now rests on that place (the covered
+        base of a stack: :func:`~lfd.preprocessing.carry.covered`).
         A complete recording holds an object never seen again at rest where it was last seen,
         unless the camera (``demo.camera``) saw that place empty: its tag not there while
         nothing hid it (:func:`~lfd.preprocessing.carry.in_clear_view`); then the hand that
@@ -538,8 +540,21 @@ def _evident(
     :data:`~lfd.preprocessing.carry.EMPTY_S` (nothing near the line of sight: the hand, the
     forearm, or another object where it rests or where the hand may be carrying it), when it
     had been seen there for as long (``seen_there``, s: a tag that is detected there)."""
-    if open_end.hidden == "carried":
-        return {name: moved[name] or f for name, f in rest.items()}
+    samples = max(1, round(EMPTY_S * open_end.rate_hz))
+    if open_end.hidden == "carried":  # unless something now rests on where it was last seen
+        now = {name: moved[name] or f for name, f in rest.items()}
+        return {
+            name: rest[name]
+            if moved[name] is not None
+            and covered(
+                f.p[f.last_seen],
+                sizes[name] / 2,
+                [g.p for k, g in now.items() if k != name],
+                samples,
+            )
+            else now[name]
+            for name, f in rest.items()
+        }
     out = dict(rest)
     if open_end.camera is None:
         return out
@@ -549,7 +564,6 @@ def _evident(
         hand = np.concatenate([hand, np.where(np.isfinite(more), more, _FAR)], axis=1)
         hand_radii = np.concatenate([hand_radii, radii])
     camera = open_end.camera.world_T_camera[:3, 3]
-    samples = max(1, round(EMPTY_S * open_end.rate_hz))
     for name, carried in moved.items():
         if carried is None or seen_there[name] < EMPTY_S:
             continue
