@@ -34,7 +34,7 @@ from ..demo import CameraInfo, Demonstration, HandTrack, ObjectTrack, SkillLabel
 from ..errors import InvalidParameterError, LfdError
 from ..io.reader import order_times
 from ..skills import allowed, grammar
-from .live_rules import set_down_unseen, unlifted
+from .live_rules import lifted_after, set_down_unseen, unlifted
 from .method import Method
 from .result import Segment, Segmentation
 from .templates import TemplateChoice, Templates
@@ -596,6 +596,10 @@ class LiveSegmentation:
             # or is a guess that has waited its uncertain_s (else it would hold all after it)
             if cands[i].segment.skill != "move":
                 return True
+            move, after = cands[i].segment, cands[i + 1].segment if len(cands) > i + 1 else None
+            if after is not None and (after.skill, after.object) == ("pick_up", move.object):
+                if lifted_after(run, move):  # that Pick up has lifted its object
+                    return True
             return len(cands) > i + 1 + self.followers and (
                 not uncertain(cands[i + 1]) or ready(cands[i + 1])
             )
@@ -603,7 +607,8 @@ class LiveSegmentation:
         settled: list[Segment] = []
         # the last segment of a run is open: it settles only when the recording ends
         while len(cands) > self.followers and ready(cands[0]) and next_known(0):
-            step = 2 if cands[0].segment.skill == "move" else 1  # a Move: and the skill after it
+            # a Move: and the skill after it, if that one ended in the run
+            step = 2 if cands[0].segment.skill == "move" and len(cands) > 1 + self.followers else 1
             if ended is not None and not self._agrees([c.segment for c in cands[:step]], ended()):
                 break
             settled.append(self._joined(cands.pop(0).segment, _dt(run)))

@@ -27,6 +27,23 @@ def unlifted(run: Segmentation, seg: Segment) -> bool:
     return not bool((feats.values[a:b, k] > feats.thresholds[a:b, k]).any())
 
 
+def lifted_after(run: Segmentation, seg: Segment) -> bool:
+    """Whether the object ``seg`` is named after rose above its rest height (the features' lift
+    threshold) in ``run`` after ``seg`` ended: for a Move, the skill after it is a Pick up of
+    that object that has lifted it, however long the run takes to find the carry after it."""
+    from .stage1 import OBJECT_COLUMNS
+
+    if seg.object is None or run.run is None:
+        return False
+    try:
+        o = run.object_names.index(seg.object)
+        feats = run.run.object_features[o]
+    except (ValueError, IndexError):
+        return False
+    k = OBJECT_COLUMNS["object_height"]
+    return bool((feats.values[int(seg.end) :, k] > feats.thresholds[int(seg.end) :, k]).any())
+
+
 def set_down_unseen(
     seg: Segment, poses: dict[str, list[tuple[int, np.ndarray, np.ndarray]]]
 ) -> bool:

@@ -310,3 +310,27 @@ def test_a_move_before_an_uncertain_skill_settles_once_that_one_has_waited() -> 
         got = len(live._emitted)  # (and after the guess, what is ready)
         assert got == settled or (dt_s == 4.0 and got > settled), (dt_s, got)
     assert [s.skill for s in live._emitted[i : i + 2]] == ["move", "pick_up"]
+
+
+@pytest.mark.parametrize("name", ["box_3", "box_1"])
+def test_a_move_settles_once_the_pick_up_after_it_lifts_its_object(name: str) -> None:
+    """A Move settles as soon as the Pick up after it (the run's last, open segment) has lifted
+    the Move's object, without waiting for the run to find the carry after the lift (box_3 of
+    exp1); named after an object that never lifts after it (box_1), it waits."""
+    import dataclasses
+
+    demo = load(RECORDINGS[0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        batch = lfd.segment(demo)
+    segs = list(batch.segments)
+    i = next(k for k, s in enumerate(segs) if s.skill == "move" and s.object == "box_3")
+    move, pick = (dataclasses.replace(s, object=name) for s in segs[i : i + 2])
+    assert pick.skill == "pick_up"
+    run = dataclasses.replace(batch, segments=[*segs[:i], move, pick])  # the Pick up still open
+    live = LiveSegmentation.for_demonstration(demo)
+    now = int(demo.end_ns)
+    for dt_s in (0.0, 1.0):
+        live._now = live._newest_hand = now + round(dt_s * 1e9)
+        live.settle(run, ended=lambda: run)  # the check run agrees with the open one
+    assert [s.skill for s in live._emitted] == [s.skill for s in segs[: i + (name == "box_3")]]
