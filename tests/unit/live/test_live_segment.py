@@ -300,8 +300,10 @@ def test_a_move_before_an_uncertain_skill_settles_once_that_one_has_waited() -> 
     segs = list(batch.segments)
     i = next(k for k, s in enumerate(segs) if s.skill == "move" and k + 3 < len(segs))
     assert segs[i + 1].skill == "pick_up"
-    guess = dataclasses.replace(segs[i + 1], confidence=0.1)
-    run = dataclasses.replace(batch, segments=[*segs[: i + 1], guess, *segs[i + 2 :]])
+    # named after box_1, which never lifts after it: the Move waits for the guess itself
+    move = dataclasses.replace(segs[i], object="box_1")
+    guess = dataclasses.replace(segs[i + 1], confidence=0.1, object="box_1")
+    run = dataclasses.replace(batch, segments=[*segs[:i], move, guess, *segs[i + 2 :]])
     live = LiveSegmentation.for_demonstration(demo)
     now = int(demo.end_ns)
     for dt_s, settled in ((0.0, 0), (1.0, i), (2.0, i), (4.0, i + 2)):  # uncertain_s: 3 s
