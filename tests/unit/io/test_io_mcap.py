@@ -983,3 +983,38 @@ def test_a_camera_that_is_no_camera_is_skipped(tmp_path: Path, edit, match: str)
     assert proc.returncode == 0 and "Traceback" not in proc.stderr, proc.stderr
     if edit is _zero_rotation:  # the calibration is good: each bad pose is reported once
         assert proc.stderr.count(match) == 1, proc.stderr
+
+
+_NUMBER = st.floats(allow_nan=True, allow_infinity=True, width=64)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    k=st.lists(_NUMBER, min_size=0, max_size=12),
+    size=st.tuples(st.integers(-5, 5000), st.integers(-5, 5000)),
+    quat=st.tuples(_NUMBER, _NUMBER, _NUMBER, _NUMBER),
+    shift=st.tuples(_NUMBER, _NUMBER, _NUMBER),
+)
+def test_any_camera_message_is_a_camera_or_one_clear_error(k, size, quat, shift) -> None:
+    """``camera_of`` of any calibration and transform values: a camera with a finite ``K`` and
+    a finite rigid pose, or a RecordingFormatError of one line; never another exception."""
+    from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
+    from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
+    from lfd.io.reader import camera_of
+
+    info = CameraCalibration(frame_id="camera", width=size[0] % 2**32, height=size[1] % 2**32)
+    info.K.extend(k)
+    tfs = FrameTransforms()
+    tf = tfs.transforms.add()
+    tf.child_frame_id = "camera"
+    tf.rotation.x, tf.rotation.y, tf.rotation.z, tf.rotation.w = quat
+    tf.translation.x, tf.translation.y, tf.translation.z = shift
+    try:
+        camera = camera_of(info, tfs)
+    except RecordingFormatError as err:
+        assert "\n" not in str(err)
+        return
+    assert camera is not None and camera.width > 0 and camera.height > 0
+    assert np.isfinite(camera.K).all() and np.isfinite(camera.world_T_camera).all()
+    rot = camera.world_T_camera[:3, :3]
+    np.testing.assert_allclose(rot.T @ rot, np.eye(3), atol=1e-6)
