@@ -11,6 +11,8 @@ Hand keypoints follow the MediaPipe / OpenPose order of 21 joints (:data:`KEYPOI
 from __future__ import annotations
 
 import dataclasses
+import math
+import numbers
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -227,12 +229,75 @@ class Handover:
             raise DemonstrationError(f"handover: end {self.end_ns} before start {self.start_ns}")
 
 
-def intrinsics_problem(K: np.ndarray) -> str | None:
-    """What is wrong with a pinhole matrix ``K`` (None: usable): it must be a finite 3x3 matrix
-    with positive focal lengths."""
-    K = np.asarray(K)
-    if K.shape != (3, 3) or not np.isfinite(K).all() or K[0, 0] <= 0 or K[1, 1] <= 0:
-        return "K must be a finite 3x3 matrix with positive focal lengths"
+MAX_IMAGE_SIDE = 16384
+"""Largest image width or height (px)."""
+FOCAL_RANGE_PX = (1.0, 1e5)
+"""Plausible focal lengths ``fx``, ``fy`` (px): a 640-px-wide image with f = 1 px sees 180
+degrees, one with f = 1e5 px a hundredth of a degree."""
+MAX_SKEW = 0.01
+"""Largest ``|K[0, 1]|`` as a fraction of ``fx`` (cameras have none; calibrations fix it to 0)."""
+ROTATION_TOLERANCE = 1e-3
+"""How far ``R^T R`` may be from the identity, and ``det R`` from 1, in ``world_T_camera``."""
+MAX_TRANSLATION_M = 100.0
+"""Largest distance of the camera from the world origin (m)."""
+
+
+def is_number(value: Any) -> bool:
+    """A real number (Python's or numpy's), not a bool nor a string."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
+
+
+def all_numbers(value: Any) -> bool:
+    """Whether ``value`` is a (nested) list or array of real numbers, no strings or bools."""
+    if isinstance(value, np.ndarray):
+        return value.dtype.kind in "iuf"
+    if isinstance(value, list | tuple):
+        return all(all_numbers(v) for v in value)
+    return is_number(value)
+
+
+def _rows(a: np.ndarray) -> str:
+    return "; ".join(" ".join(f"{v:g}" for v in row) for row in a)
+
+
+def k_problem(K: Any, width: int | None = None, height: int | None = None) -> str | None:
+    """What is wrong with a pinhole matrix ``K`` (None: usable); with the image size, the
+    principal point must be inside the image."""
+    K = np.asarray(K, dtype=float) if all_numbers(K) else None
+    if K is None or K.shape != (3, 3) or not np.isfinite(K).all():
+        return "K must be a finite 3x3 matrix [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]"
+    if K[1, 0] != 0 or K[2, 0] != 0 or K[2, 1] != 0 or K[2, 2] != 1:
+        return f"K must be upper triangular with last row 0 0 1, got {_rows(K)}"
+    lo, hi = FOCAL_RANGE_PX
+    for name, f in (("fx", K[0, 0]), ("fy", K[1, 1])):
+        if not lo <= f <= hi:
+            return f"K: focal length {name} must be in [{lo:g}, {hi:g}] px, got {f:g}"
+    if abs(K[0, 1]) > MAX_SKEW * K[0, 0]:
+        return f"K: skew K[0][1] = {K[0, 1]:g} px, at most {MAX_SKEW:g} fx"
+    for name, c, side in (("cx", K[0, 2], width), ("cy", K[1, 2], height)):
+        bound = MAX_IMAGE_SIDE if side is None else side
+        if not 0 <= c <= bound:
+            return f"K: principal point {name} = {c:g} px is outside the image (0..{bound})"
+    return None
+
+
+def pose_problem(T: Any) -> str | None:
+    """What is wrong with a rigid transform (None: a rotation and a plausible translation)."""
+    T = np.asarray(T, dtype=float) if all_numbers(T) else None
+    if T is None or T.shape != (4, 4) or not np.isfinite(T).all():
+        return "must be a finite 4x4 matrix"
+    if not np.array_equal(T[3], [0.0, 0.0, 0.0, 1.0]):
+        return f"last row must be 0 0 0 1, got {_rows(T[3:])}"
+    R = T[:3, :3]
+    off = float(np.abs(R.T @ R - np.eye(3)).max())
+    if off > ROTATION_TOLERANCE or abs(np.linalg.det(R) - 1.0) > ROTATION_TOLERANCE:
+        return (
+            "rotation block must be orthonormal with determinant +1 (a rigid transform, metres), "
+            f"got det {np.linalg.det(R):.6g}"
+        )
+    distance = math.hypot(*(float(v) for v in T[:3, 3]))  # no overflow in a square
+    if distance > MAX_TRANSLATION_M:
+        return f"translation is {distance:g} m from the origin, at most {MAX_TRANSLATION_M:g} m"
     return None
 
 

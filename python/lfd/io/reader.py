@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from ..demo import (
+    MAX_IMAGE_SIDE,
     CameraInfo,
     Demonstration,
     Handover,
@@ -33,6 +34,8 @@ from ..demo import (
     ImageStream,
     ObjectTrack,
     SkillLabel,
+    k_problem,
+    pose_problem,
 )
 from ..errors import (
     LfdError,
@@ -161,17 +164,15 @@ def labels_of_events(events: Iterable[Any], where: str = "") -> tuple[list[Skill
 
 
 def camera_problem(camera: CameraInfo) -> str | None:
-    """What makes ``camera`` no camera (None if nothing): a size that is not positive, a ``K``
-    that is not finite, a pose that is not a finite rigid transform."""
-    pose = camera.world_T_camera
-    if camera.width <= 0 or camera.height <= 0:
-        return f"image size {camera.width} x {camera.height}"
-    if not np.isfinite(camera.K).all():
-        return f"K is not finite: {camera.K.tolist()}"
-    rot = pose[:3, :3]
-    if not np.isfinite(pose).all() or not np.allclose(rot.T @ rot, np.eye(3), atol=1e-3):
-        return f"world_T_camera is not a rigid transform: {pose.tolist()}"
-    return None
+    """What makes ``camera`` no camera (None if nothing): the rules of a ``camera.json``
+    (:func:`lfd.demo.k_problem` with the image size, :func:`lfd.demo.pose_problem`)."""
+    if not (0 < camera.width <= MAX_IMAGE_SIDE and 0 < camera.height <= MAX_IMAGE_SIDE):
+        return f"image size {camera.width} x {camera.height} px, each in [1, {MAX_IMAGE_SIDE}]"
+    problem = k_problem(camera.K, camera.width, camera.height)
+    if problem is None:
+        problem = pose_problem(camera.world_T_camera)
+        problem = None if problem is None else f"world_T_camera {problem}"
+    return problem
 
 
 def camera_of(info: Any, transforms: Any) -> CameraInfo | None:
@@ -190,8 +191,10 @@ def camera_of(info: Any, transforms: Any) -> CameraInfo | None:
             return None
         r, tr = found[-1].rotation, found[-1].translation
         q = np.array([r.x, r.y, r.z, r.w], dtype=np.float64)
-        if not np.isfinite(q).all() or np.linalg.norm(q) < 1e-9:
+        scale = float(np.abs(q).max()) if np.isfinite(q).all() else 0.0
+        if not scale > 0:  # zero or not finite (scaled first: no overflow in the norm)
             raise RecordingFormatError(f"{what}: no rotation in a transform: {q.tolist()}")
+        q = q / scale
         from scipy.spatial.transform import Rotation
 
         pose[:3, :3] = Rotation.from_quat(q).as_matrix()

@@ -6,11 +6,12 @@ file and the field:
 
 - ``width``, ``height``: integers in [1, :data:`MAX_IMAGE_SIDE`];
 - ``K``: a finite 3x3 pinhole matrix, upper triangular, last row exactly ``0 0 1``, focal
-  lengths in :data:`FOCAL_RANGE_PX`, skew at most :data:`MAX_SKEW` of ``fx``, the principal
-  point inside the image;
+  lengths in :data:`~lfd.demo.FOCAL_RANGE_PX`, skew at most :data:`~lfd.demo.MAX_SKEW` of
+  ``fx``, the principal point inside the image (:func:`lfd.demo.k_problem`);
 - ``world_T_camera`` (optional): a finite rigid transform, a rotation block orthonormal with
-  determinant +1 (within :data:`ROTATION_TOLERANCE`), last row ``0 0 0 1``, the translation
-  under :data:`MAX_TRANSLATION_M`;
+  determinant +1 (within :data:`~lfd.demo.ROTATION_TOLERANCE`), last row ``0 0 0 1``, the
+  translation under :data:`~lfd.demo.MAX_TRANSLATION_M` (:func:`lfd.demo.pose_problem`; the
+  camera a recording holds is checked by the same two rules when it is read);
 - ``fps`` (optional): a number in (0, :data:`MAX_FPS`] (a string is refused);
 - ``objects``: a list of ``{"name", "tag_id", "size", "tag_size"?}``: a name the recording can
   use as a topic (:func:`lfd.io.writer.object_name_problem`), a tag id an integer in
@@ -24,26 +25,20 @@ The other limits of a recording's inputs are here too: the camera device index
 from __future__ import annotations
 
 import math
-import numbers
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..demo import CameraInfo
+from ..demo import (
+    MAX_IMAGE_SIDE,
+    CameraInfo,
+    is_number,
+    k_problem,
+    pose_problem,
+)
 from ..errors import LfdError
 
-MAX_IMAGE_SIDE = 16384
-"""Largest image width or height (px)."""
-FOCAL_RANGE_PX = (1.0, 1e5)
-"""Plausible focal lengths ``fx``, ``fy`` (px): a 640-px-wide image with f = 1 px sees 180
-degrees, one with f = 1e5 px a hundredth of a degree."""
-MAX_SKEW = 0.01
-"""Largest ``|K[0, 1]|`` as a fraction of ``fx`` (cameras have none; calibrations fix it to 0)."""
-ROTATION_TOLERANCE = 1e-3
-"""How far ``R^T R`` may be from the identity, and ``det R`` from 1, in ``world_T_camera``."""
-MAX_TRANSLATION_M = 100.0
-"""Largest distance of the camera from the world origin (m)."""
 SIZE_RANGE_M = (0.001, 2.0)
 """Plausible object sizes and tag sides (m)."""
 MAX_TAG_ID = 1023
@@ -56,77 +51,18 @@ HAND_RATE_RANGE_HZ = (0.1, 1000.0)
 """Plausible hand sample rates (Hz)."""
 
 
-def _number(value: Any) -> bool:
-    """A real number (Python's or numpy's), not a bool nor a string."""
-    return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
-
-
 def length_problem(value: Any, what: str) -> str | None:
     """What is wrong with a length in metres (None: within :data:`SIZE_RANGE_M`)."""
     lo, hi = SIZE_RANGE_M
-    if not _number(value) or not math.isfinite(value) or not lo <= value <= hi:
+    if not is_number(value) or not math.isfinite(value) or not lo <= value <= hi:
         return f"{what} must be a length in [{lo:g}, {hi:g}] m, got {value!r}"
     return None
-
-
-def k_problem(K: Any, width: int | None = None, height: int | None = None) -> str | None:
-    """What is wrong with a pinhole matrix ``K`` (None: usable); with the image size, the
-    principal point must be inside the image."""
-    K = np.asarray(K, dtype=float) if _all_numbers(K) else None
-    if K is None or K.shape != (3, 3) or not np.isfinite(K).all():
-        return "K must be a finite 3x3 matrix [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]"
-    if K[1, 0] != 0 or K[2, 0] != 0 or K[2, 1] != 0 or K[2, 2] != 1:
-        return f"K must be upper triangular with last row 0 0 1, got {_rows(K)}"
-    lo, hi = FOCAL_RANGE_PX
-    for name, f in (("fx", K[0, 0]), ("fy", K[1, 1])):
-        if not lo <= f <= hi:
-            return f"K: focal length {name} must be in [{lo:g}, {hi:g}] px, got {f:g}"
-    if abs(K[0, 1]) > MAX_SKEW * K[0, 0]:
-        return f"K: skew K[0][1] = {K[0, 1]:g} px, at most {MAX_SKEW:g} fx"
-    for name, c, side in (("cx", K[0, 2], width), ("cy", K[1, 2], height)):
-        bound = MAX_IMAGE_SIDE if side is None else side
-        if not 0 <= c <= bound:
-            return f"K: principal point {name} = {c:g} px is outside the image (0..{bound})"
-    return None
-
-
-def pose_problem(T: Any) -> str | None:
-    """What is wrong with a rigid transform (None: a rotation and a plausible translation)."""
-    T = np.asarray(T, dtype=float) if _all_numbers(T) else None
-    if T is None or T.shape != (4, 4) or not np.isfinite(T).all():
-        return "must be a finite 4x4 matrix"
-    if not np.array_equal(T[3], [0.0, 0.0, 0.0, 1.0]):
-        return f"last row must be 0 0 0 1, got {_rows(T[3:])}"
-    R = T[:3, :3]
-    off = float(np.abs(R.T @ R - np.eye(3)).max())
-    if off > ROTATION_TOLERANCE or abs(np.linalg.det(R) - 1.0) > ROTATION_TOLERANCE:
-        return (
-            "rotation block must be orthonormal with determinant +1 (a rigid transform, metres), "
-            f"got det {np.linalg.det(R):.6g}"
-        )
-    distance = float(np.linalg.norm(T[:3, 3]))
-    if distance > MAX_TRANSLATION_M:
-        return f"translation is {distance:g} m from the origin, at most {MAX_TRANSLATION_M:g} m"
-    return None
-
-
-def _all_numbers(value: Any) -> bool:
-    """Whether ``value`` is a (nested) list or array of real numbers, no strings or bools."""
-    if isinstance(value, np.ndarray):
-        return value.dtype.kind in "iuf"
-    if isinstance(value, list | tuple):
-        return all(_all_numbers(v) for v in value)
-    return _number(value)
-
-
-def _rows(a: np.ndarray) -> str:
-    return "; ".join(" ".join(f"{v:g}" for v in row) for row in a)
 
 
 def check_hand_rate(hz: Any, what: str = "hand rate") -> float:
     """The hand sample rate in Hz, within :data:`HAND_RATE_RANGE_HZ`, or an :class:`LfdError`."""
     lo, hi = HAND_RATE_RANGE_HZ
-    if not _number(hz) or not math.isfinite(hz) or not lo <= hz <= hi:
+    if not is_number(hz) or not math.isfinite(hz) or not lo <= hz <= hi:
         raise LfdError(f"{what} must be a number in [{lo:g}, {hi:g}] Hz, got {hz!r}")
     return float(hz)
 
@@ -145,7 +81,7 @@ def camera_index(text: str | int) -> int:
 
 def _integer(value: Any, lo: int, hi: int) -> int | None:
     """``value`` as an int when it is a whole number in [lo, hi] (a JSON 3 or 3.0), else None."""
-    if not _number(value) or not math.isfinite(value) or value != int(value):
+    if not is_number(value) or not math.isfinite(value) or value != int(value):
         return None
     return int(value) if lo <= value <= hi else None
 
@@ -196,7 +132,7 @@ def _fps(meta: dict[str, Any]) -> float | None:
     if "fps" not in meta:
         return None
     fps = meta["fps"]
-    if not _number(fps) or not math.isfinite(fps) or not 0 < fps <= MAX_FPS:
+    if not is_number(fps) or not math.isfinite(fps) or not 0 < fps <= MAX_FPS:
         raise ValueError(f"fps must be a number in (0, {MAX_FPS:g}] Hz, got {fps!r}")
     return float(fps)
 

@@ -27,8 +27,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from ..demo import k_problem, pose_problem
 from ..errors import LfdError
-from .camera_file import k_problem, length_problem, pose_problem
+from .camera_file import length_problem
 
 DEFAULT_DICTIONARY = "DICT_4X4_50"
 REFERENCE_TAG_ID = 0

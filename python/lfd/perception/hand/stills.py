@@ -25,9 +25,9 @@ from typing import Any
 
 import numpy as np
 
+from ...demo import k_problem
 from ...errors import LfdError
 from ...inputs import parse_json, read_text
-from ..camera_file import k_problem
 from ..image_header import decode as _decode
 from .mediapipe import KEYPOINT_NAMES, Hand, MediaPipeHands
 
