@@ -8,40 +8,37 @@ import numpy as np
 from .result import Segment, Segmentation
 
 
+def _rises(run: Segmentation, name: str | None, a: int, b: int | None) -> bool | None:
+    """Whether object ``name`` rose above its rest height (the features' lift threshold) in
+    samples ``a:b`` of ``run``; None if the run does not say (no such object, no features)."""
+    from .stage1 import OBJECT_COLUMNS
+
+    if name is None or run.run is None:
+        return None
+    try:
+        feats = run.run.object_features[run.object_names.index(name)]
+    except (ValueError, IndexError):
+        return None
+    k = OBJECT_COLUMNS["object_height"]
+    return bool((feats.values[a:b, k] > feats.thresholds[a:b, k]).any())
+
+
 def unlifted(run: Segmentation, seg: Segment) -> bool:
     """Whether ``seg`` is a Move with whose object never rose above its rest height (the
     features' lift threshold) in ``run``: a turn or slide on the table that the next grasp of
     the object may yet make part of one Pick up (:func:`lfd.contact.refine`), so it settles
     as an uncertain one."""
-    from .stage1 import OBJECT_COLUMNS
-
-    if seg.skill != "move_with" or seg.object is None or run.run is None:
+    if seg.skill != "move_with":
         return False
-    try:
-        o = run.object_names.index(seg.object)
-        feats = run.run.object_features[o]
-    except (ValueError, IndexError):
-        return False
-    k = OBJECT_COLUMNS["object_height"]
     a, b = int(seg.start), max(int(seg.end), int(seg.start) + 1)
-    return not bool((feats.values[a:b, k] > feats.thresholds[a:b, k]).any())
+    return _rises(run, seg.object, a, b) is False
 
 
 def lifted_after(run: Segmentation, seg: Segment) -> bool:
     """Whether the object ``seg`` is named after rose above its rest height (the features' lift
     threshold) in ``run`` after ``seg`` ended: for a Move, the skill after it is a Pick up of
     that object that has lifted it, however long the run takes to find the carry after it."""
-    from .stage1 import OBJECT_COLUMNS
-
-    if seg.object is None or run.run is None:
-        return False
-    try:
-        o = run.object_names.index(seg.object)
-        feats = run.run.object_features[o]
-    except (ValueError, IndexError):
-        return False
-    k = OBJECT_COLUMNS["object_height"]
-    return bool((feats.values[int(seg.end) :, k] > feats.thresholds[int(seg.end) :, k]).any())
+    return _rises(run, seg.object, int(seg.end), None) is True
 
 
 def set_down_unseen(
