@@ -1,8 +1,6 @@
-"""The two arms kept out of each other's way (:mod:`.two_arms`): both plans followed by the
-arms' kinematics alone (the IK each arm runs, its links where the joints put them: no
-dynamics, no objects) and the two arms' nearest links measured at every few ticks
-(:func:`nearest`); a hold that brings them closer than :data:`CLEARANCE` is re-ordered
-(:func:`clear_holds`).
+"""The two arms kept out of each other's way (:mod:`.two_arms`): how close the arms come along
+both plans (:func:`~.two_arm_distance.arm_distances`, every :data:`EVERY` ticks); a hold that
+brings them closer than :data:`CLEARANCE` is re-ordered (:func:`clear_holds`).
 
 A ``hold_until`` point (one arm holds an object still while the other acts on it) needs the
 two arms together only during the other arm's step: before it, the other arm fetches what it
@@ -24,91 +22,15 @@ from typing import Any
 
 import numpy as np
 
-from .controller import LOOKAHEAD, Plan
+from .controller import Plan
 from .program import HandsProgram
 from .two_arm_clock import _start, _wait
+from .two_arm_distance import MakeIK, arm_distances
 
 CLEARANCE = 0.015
 """The least distance (m) the two arms' colliding geoms are planned to keep."""
 EVERY = 4
 """The arms' distance is measured every this many control ticks."""
-
-
-MakeIK = Callable[[str], Any]
-"""A fresh IK of the ``side`` arm at its base (:class:`~lfd.reproduce.two_arms.MountedIK`)."""
-
-
-def _joint_paths(plans: dict[str, Plan], make_ik: MakeIK) -> dict[str, np.ndarray]:
-    """Each arm's joint angles per tick, as :func:`~lfd.reproduce.two_arms.execute_two`'s IK
-    commands them (the look-ahead included), held at the end."""
-    from .ik import gripper_rotation
-
-    n = max(len(p) for p in plans.values())
-    out = {}
-    for side, plan in plans.items():
-        ik = make_ik(side)
-        R0 = gripper_rotation(float(plan.yaw[0]))
-        ik.seed_towards(plan.position[0], R0)
-        q = [ik.solve(plan.position[0], R0)]
-        m, still = len(plan), False
-        for i in range(1, n):
-            ka = min(i + LOOKAHEAD, m - 1)
-            same = ka > 0 and np.array_equal(plan.position[ka], plan.position[ka - 1])
-            if i >= m or (still and same and plan.yaw[ka] == plan.yaw[ka - 1]):
-                q.append(q[-1])  # at rest on a pose it has reached
-                continue
-            q.append(ik.step(plan.position[ka], gripper_rotation(float(plan.yaw[ka]))))
-            still = float(np.abs(q[-1] - q[-2]).max()) < 1e-5
-        out[side] = np.array(q)
-    return out
-
-
-def nearest(
-    plans: dict[str, Plan], scene: str, make_ik: MakeIK, robot: Any, *, every: int = EVERY
-) -> np.ndarray:
-    """The two arms' least distance (m) between colliding geoms, per measured tick (every
-    ``every``-th); 0 where they overlap, ``inf`` beyond 10 cm. ``scene``: both arms' MJCF
-    (:func:`~lfd.reproduce.two_arms.scene_xml`)."""
-    import mujoco
-
-    from .two_arms_contacts import ARM_BITS
-
-    sides = list(plans)
-    model = mujoco.MjModel.from_xml_string(scene)
-    data = mujoco.MjData(model)
-    qs = _joint_paths(plans, make_ik)
-    adr = {s: [model.joint(j).qposadr[0] for j in robot.arms[s].arm_joints] for s in sides}
-    fingers = {s: [model.joint(f).qposadr[0] for f in robot.arms[s].finger_joints] for s in sides}
-    geoms: dict[str, list[int]] = {s: [] for s in sides}
-    for g in range(model.ngeom):
-        body = model.body(model.geom_bodyid[g]).name
-        for s in sides:
-            others = sum(b for o, b in ARM_BITS.items() if o != s)
-            if body.startswith(f"{s}/") and (model.geom_contype[g] | model.geom_conaffinity[g]) & (
-                ARM_BITS[s] | others
-            ):
-                geoms[s].append(g)
-    pairs = [(a, b) for a in geoms[sides[0]] for b in geoms[sides[-1]]]
-    rb = model.geom_rbound
-    n = len(next(iter(qs.values())))
-    out = np.full(len(range(0, n, every)), np.inf)
-    fromto = np.zeros(6)
-    for k, i in enumerate(range(0, n, every)):
-        for s in sides:
-            data.qpos[adr[s]] = qs[s][i]
-            plan = plans[s]
-            w = float(np.clip(plan.opening[min(i, len(plan) - 1)], 0, robot.arms[s].max_opening))
-            data.qpos[fingers[s]] = w / 2
-        mujoco.mj_kinematics(model, data)
-        best = np.inf
-        for a, b in pairs:
-            gap = np.linalg.norm(data.geom_xpos[a] - data.geom_xpos[b]) - rb[a] - rb[b]
-            if gap > min(best, 0.1):
-                continue
-            d = mujoco.mj_geomDistance(model, data, a, b, 0.1, fromto)
-            best = min(best, max(d, 0.0))
-        out[k] = best if best < 0.1 else np.inf
-    return out
 
 
 def hold_later(
@@ -161,7 +83,7 @@ def clear_holds(
 
     def score(p: dict[str, Plan]) -> tuple[float, int]:
         """The least distance (up to the clearance), then fewer ticks closer than it."""
-        d = nearest(p, scene, make_ik, robot)
+        d = np.maximum(arm_distances(p, scene, make_ik, robot, every=EVERY), 0.0)  # overlaps: 0
         return min(float(d.min()), CLEARANCE), -int(np.sum(d < CLEARANCE))
 
     out, best = plans, score(plans)

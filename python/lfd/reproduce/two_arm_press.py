@@ -15,7 +15,7 @@ it as they can (the other arm stacks or acts on the rest).
 
 An object the gripper can close across is held by a grasp, as before
 (:func:`~lfd.reproduce.displacement.plan_layout`). A hold whose gripper comes too near the
-other arm (:mod:`.two_arms_clearance`) is pressed instead at the end of the top farthest from
+other arm (:mod:`.two_arm_holds`) is pressed instead at the end of the top farthest from
 the other arm's step, whichever axis (``away``, :func:`press_pose`).
 """
 

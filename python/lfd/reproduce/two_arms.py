@@ -15,7 +15,7 @@
   giver lets go only once the taker has grasped, the two grasps a gripper's width apart
   (:mod:`.two_arm_handover`). A ``carry``: both arms hold the object
   together (:mod:`lfd.reproduce.two_arm_carry`).
-* **Clearance** (:mod:`.two_arms_clearance`): at a ``hold_until`` whose arms' colliding geoms
+* **Clearance** (:mod:`.two_arm_holds`): at a ``hold_until`` whose arms' colliding geoms
   come within 1 cm of each other on the common clock (each arm's IK following its plan), the
   hold is pressed at the object's end away from the other arm's step, and if still too close
   the other arm's approach waits until the holder holds; each kept only when it leaves more
@@ -658,9 +658,9 @@ def _kept_clear(
     plans: dict[str, Plan],
 ) -> TwoArmPlan:
     """The planned lanes on one clock with each hold kept clear of the other arm: pressed at
-    the object's end away from it (:func:`~.two_arms_clearance.press_if_clearer`), then
+    the object's end away from it (:func:`~.two_arm_holds.press_if_clearer`), then
     re-ordered where the arms would still meet (:func:`_kept_apart`)."""
-    from .two_arms_clearance import press_if_clearer, press_lanes
+    from .two_arm_holds import press_if_clearer, press_lanes
 
     others = {s: _others(programs, s) for s in programs}
     press = press_lanes(trajs, hands, mode, bases, robot, moved, displace, others)
@@ -686,12 +686,14 @@ def _kept_apart(plan: TwoArmPlan, hands: HandsProgram, robot: TwoArmRobot) -> Tw
 def _clearance(
     bases: dict[str, np.ndarray], yaws: dict[str, float], robot: TwoArmRobot
 ) -> Callable[[dict[str, Plan]], tuple[float, float]]:
-    """:func:`~.two_arms_clearance.arm_clearance` of plans on one clock, the arms at ``bases``."""
-    from .two_arms_clearance import arm_clearance
+    """:func:`~.two_arm_holds.arm_clearance` of plans on one clock, the arms at ``bases``."""
+    from .two_arm_holds import arm_clearance
+
+    def make_ik(side: str) -> MountedIK:
+        return MountedIK(bases[side], yaws[side], robot.ik)
 
     def clearance(plans: dict[str, Plan]) -> tuple[float, float]:
-        iks = {s: MountedIK(bases[s], yaws[s], robot.ik) for s in plans}
-        return arm_clearance(plans, scene_xml(bases, [], robot, yaws), iks, robot)
+        return arm_clearance(plans, scene_xml(bases, [], robot, yaws), make_ik, robot)
 
     return clearance
 

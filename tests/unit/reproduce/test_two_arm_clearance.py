@@ -1,5 +1,5 @@
 """The two arms kept apart at a hold (lfd.reproduce.two_arm_clearance): the arms' kinematic
-distance and the holder waiting while the other arm fetches across it."""
+distance (lfd.reproduce.two_arm_distance) and the holder waiting while the other arm fetches across it."""
 
 from __future__ import annotations
 
@@ -22,11 +22,14 @@ def _still(p: np.ndarray, n: int):  # type: ignore[no-untyped-def]
     return Plan(np.repeat(p[None], n, 0), np.zeros(n), np.zeros(n), np.zeros(n, dtype=int))
 
 
-def test_nearest_is_zero_for_overlapping_grippers_and_inf_far_apart() -> None:
-    """Two arms facing each other: their grippers at one point overlap (0), 40 cm apart they
-    are beyond the measured 10 cm (inf)."""
+def test_arm_distances_are_negative_for_overlapping_grippers_and_capped_far_apart() -> None:
+    """Two arms facing each other: their grippers at one point overlap (a negative distance),
+    40 cm apart they are beyond the measured 10 cm (FAR); the hold's clearance
+    (two_arm_holds.arm_clearance) is the same measurement's least value and its time."""
     from lfd.reproduce.aloha import aloha
-    from lfd.reproduce.two_arm_clearance import nearest
+    from lfd.reproduce.controller import TICK
+    from lfd.reproduce.two_arm_distance import FAR, arm_distances
+    from lfd.reproduce.two_arm_holds import EVERY, arm_clearance
     from lfd.reproduce.two_arms import MountedIK, scene_xml
 
     robot = aloha()
@@ -39,10 +42,14 @@ def test_nearest_is_zero_for_overlapping_grippers_and_inf_far_apart() -> None:
 
     at = np.array([0.0, 0.0, 0.12])
     meet = {"right": _still(at, 8), "left": _still(at, 8)}
-    assert nearest(meet, xml, ik, robot).min() == 0.0
+    d = arm_distances(meet, xml, ik, robot, every=EVERY)
+    assert d.shape == (4,) and d.max() < 0.0
+    least, when = arm_clearance(meet, xml, ik, robot)
+    assert least == d.min() and when == int(np.argmin(d)) * EVERY * TICK
     dx = np.array([0.2, 0.0, 0.0])
     apart = {"right": _still(at + dx, 8), "left": _still(at - dx, 8)}
-    assert np.all(np.isinf(nearest(apart, xml, ik, robot)))
+    assert np.all(arm_distances(apart, xml, ik, robot, every=4) == FAR)
+    assert arm_clearance(apart, xml, ik, robot) == (FAR, 0.0)
 
 
 def test_hold_later_waits_the_holder_until_the_other_arm_is_at_its_step() -> None:
@@ -88,7 +95,8 @@ def test_a_hold_stack_whose_hands_cross_is_achieved_without_the_arms_touching() 
     hand holds; the arms that follow the hands met at 1.6 s. The holder now waits until the
     box is fetched: achieved, no collision, the arms kept apart."""
     from lfd.reproduce.aloha import aloha
-    from lfd.reproduce.two_arm_clearance import CLEARANCE, nearest
+    from lfd.reproduce.two_arm_clearance import CLEARANCE, EVERY
+    from lfd.reproduce.two_arm_distance import arm_distances
     from lfd.reproduce.two_arms import MountedIK, plan_two_arms, run_two_arm_plan, scene_xml
 
     from tests.unit.reproduce.test_two_arm_carry import _program
@@ -101,7 +109,7 @@ def test_a_hold_stack_whose_hands_cross_is_achieved_without_the_arms_touching() 
     def ik(side: str) -> MountedIK:
         return MountedIK(plan.bases[side], plan.yaws[side], robot.ik)
 
-    assert nearest(plan.plans, xml, ik, robot).min() >= CLEARANCE
+    assert arm_distances(plan.plans, xml, ik, robot, every=EVERY).min() >= CLEARANCE
     r = run_two_arm_plan(plan, robot)
     assert r.success and not r.collisions, r.failures
 

@@ -1,8 +1,6 @@
-"""How close the two arms come to each other along their plans (:mod:`.two_arms`), before
-anything is run: each arm's IK follows its plan on the common clock (as
-:func:`~lfd.reproduce.two_arms.execute_two` commands it, no physics), and the distance
-between the two arms' colliding geoms (:mod:`.two_arms_contacts`: links, gripper, pads) is
-measured every :data:`EVERY` ticks (:func:`arm_clearance`).
+"""A hold kept clear of the other arm (:mod:`.two_arms`), measured before anything is run by
+how close the two arms come along their plans (:func:`arm_clearance`, of
+:func:`~.two_arm_distance.arm_distances`).
 
 A hold whose holding gripper comes closer than :data:`ARM_CLEARANCE` to the other arm (a push
 of a box next to the held one: the pushing fingers between the two boxes, both grippers' bars
@@ -18,69 +16,26 @@ from typing import Any
 import numpy as np
 
 from .aloha import TwoArmRobot
-from .controller import LOOKAHEAD, Plan
-from .two_arms_contacts import ARM_BITS
+from .controller import Plan
+from .two_arm_distance import MakeIK, arm_distances, tick_s
 
 ARM_CLEARANCE = 0.01
 """Smallest planned distance (m) between the two arms' colliding geoms at a hold."""
 EVERY = 2
 """The distance is measured every this many control ticks (the IK follows every tick)."""
-FAR = 0.1
-"""Distances beyond this (m) are not measured exactly (reported as this)."""
 
 
 def arm_clearance(
-    plans: dict[str, Plan], scene: str, iks: dict[str, Any], robot: TwoArmRobot
+    plans: dict[str, Plan], scene: str, make_ik: MakeIK, robot: TwoArmRobot
 ) -> tuple[float, float]:
-    """The smallest distance (m, at most :data:`FAR`) between the two arms' colliding geoms
-    along their plans on one clock, and when (s); an arm that has finished holds its last pose.
-    ``scene``: the MJCF of both arms (:func:`~lfd.reproduce.two_arms.scene_xml`); ``iks``: each
-    arm's IK, mounted at its base (:class:`~lfd.reproduce.two_arms.MountedIK`)."""
-    import mujoco
-
-    from .controller import TICK
-    from .ik import gripper_rotation
-
-    sides = list(plans)
-    model = mujoco.MjModel.from_xml_string(scene)
-    data = mujoco.MjData(model)
-    geoms: dict[str, list[int]] = {s: [] for s in sides}
-    for g in range(model.ngeom):
-        body = model.body(model.geom_bodyid[g]).name
-        for s in sides:
-            if body.startswith(f"{s}/") and int(model.geom_contype[g]) & ARM_BITS.get(s, 0):
-                geoms[s].append(g)
-    qadr, fadr = {}, {}
-    for s in sides:
-        plan, arm, ik = plans[s], robot.arms[s], iks[s]
-        R0 = gripper_rotation(float(plan.yaw[0]))
-        ik.seed_towards(plan.position[0], R0)
-        ik.solve(plan.position[0], R0)
-        qadr[s] = [model.joint(j).qposadr[0] for j in arm.arm_joints]
-        fadr[s] = [model.joint(f).qposadr[0] for f in arm.finger_joints]
-    pairs = [(a, b) for a in geoms[sides[0]] for b in geoms[sides[-1]]] if len(sides) > 1 else []
-    n = max(len(p) for p in plans.values())
-    best, when = FAR, 0.0
-    fromto = np.zeros(6)
-    for i in range(n):
-        for s in sides:
-            plan = plans[s]
-            if i < len(plan):
-                ka = min(i + LOOKAHEAD, len(plan) - 1)
-                iks[s].step(plan.position[ka], gripper_rotation(float(plan.yaw[ka])))
-        if i % EVERY:
-            continue
-        for s in sides:
-            plan = plans[s]
-            data.qpos[qadr[s]] = iks[s].q
-            w = float(np.clip(plan.opening[min(i, len(plan) - 1)], 0, robot.arms[s].max_opening))
-            data.qpos[fadr[s]] = w / 2
-        mujoco.mj_kinematics(model, data)
-        for a, b in pairs:
-            d = float(mujoco.mj_geomDistance(model, data, a, b, best, fromto))
-            if d < best:
-                best, when = d, i * TICK
-    return best, when
+    """The smallest distance (m, at most :data:`~.two_arm_distance.FAR`) between the two arms'
+    colliding geoms along their plans on one clock, and when (s): :func:`~.two_arm_distance.
+    arm_distances` every :data:`EVERY` ticks. ``scene``: the MJCF of both arms
+    (:func:`~lfd.reproduce.two_arms.scene_xml`); ``make_ik(side)``: that arm's IK, mounted at
+    its base (:class:`~lfd.reproduce.two_arms.MountedIK`)."""
+    d = arm_distances(plans, scene, make_ik, robot, every=EVERY)
+    k = int(np.argmin(d))
+    return float(d[k]), tick_s(k, EVERY)
 
 
 def hold_points(hands: Any) -> list[Any]:

@@ -1,4 +1,4 @@
-"""The two arms kept clear of each other (lfd.reproduce.two_arms_clearance: a hold pressed at
+"""The two arms kept clear of each other (lfd.reproduce.two_arm_holds: a hold pressed at
 the object's end away from the other arm, the other arm's approach after the hold) and a
 two-handed carry's set-down and return within each arm's reach
 (lfd.reproduce.two_arm_carry, lfd.reproduce.two_arm_sequence)."""
