@@ -248,9 +248,11 @@ class _TaskPlanner:
         events: list[tuple[float, str, np.ndarray]] | None = None,
         grasp_at: dict[str, np.ndarray] | None = None,
         grasp_across: dict[str, int] | None = None,
+        push_by_grasp: set[str] | None = None,
     ) -> None:
         self.frames, self.program, self.mode = frames, program, mode
         self.grasp_at, self.across = grasp_at or {}, grasp_across or {}
+        self.by_grasp = set(push_by_grasp or ())
         self.events = sorted(events or [], key=lambda e: e[0])
         self.robot = frames.robot
         self.segs = program.segments
@@ -315,7 +317,9 @@ class _TaskPlanner:
         )
 
     def _push(self, k: int, seg: Segment, i1: int) -> _SkillGoal:
-        geo = push_geometry(self.frames, seg, self.objects, self.cur[3])
+        geo = push_geometry(
+            self.frames, seg, self.objects, self.cur[3], by_grasp=seg.object in self.by_grasp
+        )
         self.objects[seg.object] = self.expected[seg.object] = geo["T_new"]  # type: ignore[index]
         self.scenes.append(dict(self.objects))
         if "grasp" in geo:  # grasped, moved along the push and released
@@ -372,7 +376,9 @@ class _TaskPlanner:
         j0, _ = segment_indices(frames, nxt)
         goal = _state(_map(frames, nxt, j0, objects), float(frames.yaw[j0]))
         if nxt.skill == "push":  # straight behind the object, or via a hover pose
-            ng = push_geometry(frames, nxt, objects, self.cur[3])
+            ng = push_geometry(
+                frames, nxt, objects, self.cur[3], by_grasp=nxt.object in self.by_grasp
+            )
             self._slides_next = "grasp" in ng
             direct = clear(self.cur, ng["start"], frames, objects, skip=())
             goal = ng["start"] if direct else ng["hover"]
@@ -594,6 +600,7 @@ def plan_task(
     events: list[tuple[float, str, np.ndarray]] | None = None,
     grasp_at: dict[str, np.ndarray] | None = None,
     grasp_across: dict[str, int] | None = None,
+    push_by_grasp: set[str] | None = None,
 ) -> PlanResult:
     """Plan ``skills`` or ``dmp`` execution (or ``replay``) of ``program``.
 
@@ -617,13 +624,18 @@ def plan_task(
     grasp_across : dict, optional
         The axis (0: x, 1: y of the object) the gripper closes along for each named object,
         when it fits (:func:`~lfd.reproduce.goals.grasp_goal`'s ``close_along``).
+    push_by_grasp : set, optional
+        The objects whose pushes grasp them and slide them instead, when they fit the gripper
+        (:func:`~lfd.reproduce.motion.push_geometry`'s ``by_grasp``).
     """
     if mode not in MODES:
         raise InvalidParameterError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
     program = repair_program(frames, program)
     if mode != "replay":
         check_grasps(frames, program)
-    return _TaskPlanner(frames, program, mode, initial, events, grasp_at, grasp_across).plan()
+    return _TaskPlanner(
+        frames, program, mode, initial, events, grasp_at, grasp_across, push_by_grasp
+    ).plan()
 
 
 def check_grasps(frames: DemoFrames, program: TaskProgram) -> None:

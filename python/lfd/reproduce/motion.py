@@ -234,13 +234,21 @@ def min_jerk_clip(n: int, frac: float) -> np.ndarray:
 
 
 def push_geometry(
-    frames: DemoFrames, seg: Segment, objects: dict[str, np.ndarray], ref_yaw: float
+    frames: DemoFrames,
+    seg: Segment,
+    objects: dict[str, np.ndarray],
+    ref_yaw: float,
+    *,
+    by_grasp: bool = False,
 ) -> dict[str, np.ndarray]:
     """Key poses of a push: hover, start (behind), contact, goal, and the pushed pose.
 
     The object is pushed by its demonstrated displacement and yaw change, expressed in its own
     frame at the push's start (Eq. 2), from its current pose: ``d`` turns with the box; the
-    closed fingers touch the face opposite ``d``.
+    closed fingers touch the face opposite ``d``. A push whose hand would press on the box's
+    top, or asked ``by_grasp`` (two arms: the pushing fingers would go between the box and one
+    the other arm holds, :mod:`.two_arm_holds`), grasps the box instead when it fits the
+    gripper (:func:`_slide_geometry`).
     """
     name = need_object(seg, objects)
     i0, i1 = segment_indices(frames, seg)
@@ -275,7 +283,7 @@ def push_geometry(
     }
     robot = frames.robot
     hand_on_top = robot.palm_half is not None and p_c[2] + robot.palm_above_tcp < top
-    if hand_on_top and min(size[0], size[1]) <= grasp_max_width(robot):
+    if (hand_on_top or by_grasp) and min(size[0], size[1]) <= grasp_max_width(robot):
         geo.update(_slide_geometry(frames, name, objects, geo, yaw))
     return geo
 

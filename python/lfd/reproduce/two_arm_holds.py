@@ -6,11 +6,18 @@ A hold whose holding gripper comes closer than :data:`ARM_CLEARANCE` to the othe
 of a box next to the held one: the pushing fingers between the two boxes, both grippers' bars
 15 cm wide) is planned again with the object held by pressing on its top at the end away from
 the other arm (:func:`~lfd.reproduce.two_arm_press.plan_press_lane`), kept when that leaves
-more room (:func:`~lfd.reproduce.two_arms.plan_two_arms`).
+more room (:func:`~lfd.reproduce.two_arms.plan_two_arms`). Where the arms still meet, the
+other arm's approach waits until the holder holds (:func:`approach_after_hold`); a pushing arm
+waits for the hold low behind the box it pushes, not above it beside the holding gripper
+(:func:`push_from_below`); or it pushes the box by grasping and sliding it, its gripper over
+the box rather than between it and the held one (``by_grasp`` of
+:func:`~lfd.reproduce.motion.push_geometry`, when the box fits the gripper). Each is kept only
+when the arms then keep more room.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -75,12 +82,16 @@ def press_if_clearer(
     press_lane: Any,
     clearance: Any,
     sync: Any,
+    slid: Any = None,
 ) -> tuple[dict[str, tuple[Any, Any, Any]], dict[str, Plan]]:
     """Each hold (:func:`hold_points`, by a grasp or by pressing) whose arms come closer than
     :data:`ARM_CLEARANCE` on the common clock planned again by pressing at the object's end
     away from the other arm's step (``press_lane(point, away)``: the lane, or None when it
     cannot be planned there), kept when the arms then keep more room; if still too close,
-    the other arm's approach waits until the holder holds (:func:`approach_after_hold`).
+    the other arm's approach waits until the holder holds (:func:`approach_after_hold`), or
+    a pushing arm waits for the hold low behind the object it pushes
+    (:func:`push_from_below`), or pushes it by grasping it (``slid(point)``: the other arm's
+    lane so planned, or None), each kept when it leaves more room.
     ``clearance(plans)``: :func:`arm_clearance` of plans on one clock; ``sync``: the lanes put
     on one clock (:func:`~lfd.reproduce.two_arms.synchronise`)."""
     planned, plans = dict(planned), dict(plans)
@@ -102,11 +113,49 @@ def press_if_clearer(
                 planned[p.hand], plans, before = lane, trial, after
         if before >= ARM_CLEARANCE:
             continue
-        trial = plans | {p.other: approach_after_hold(plans, hands, p, sync)}
-        after, _ = clearance(sync(trial, hands))
-        if after > before:
-            plans = trial
+        for other in (approach_after_hold(plans, hands, p, sync), push_from_below(plans, hands, p)):
+            if before >= ARM_CLEARANCE:
+                break
+            if other is plans[p.other]:
+                continue  # nothing to try
+            trial = plans | {p.other: other}
+            after, _ = clearance(sync(trial, hands))
+            if after > before:
+                plans, before = trial, after
+        other_lane = slid(p) if slid is not None and before < ARM_CLEARANCE else None
+        if other_lane is not None:
+            trial = plans | {p.other: other_lane[2].plan}
+            after, _ = clearance(sync(trial, hands))
+            if after > before:
+                planned[p.other], plans = other_lane, trial
     return planned, plans
+
+
+VERTICAL_M = 0.001
+"""A push's first ticks within this (m, horizontally) of its first are its descent."""
+
+
+def push_from_below(plans: dict[str, Plan], hands: Any, p: Any) -> Plan:
+    """The other arm's plan of the hold ``p`` with its push's descent (from above the pushed
+    object to behind it, :func:`~lfd.reproduce.motion.push_path`: the push's first ticks, all
+    within :data:`VERTICAL_M` of the first horizontally) counted in the step before, where
+    :func:`~lfd.reproduce.two_arms.synchronise` makes the arm wait for the hold: it waits low
+    behind the object, beside the held one, rather than above it, its gripper below the
+    holder's. Unchanged when the other step is no push or starts with no descent."""
+    plan, k = plans[p.other], p.other_step
+    if k < 1 or hands.lanes[p.other][k].skill != "push":
+        return plan
+    ticks = np.flatnonzero(plan.segment == k)
+    if ticks.size < 2:
+        return plan
+    xy = plan.position[ticks, :2]
+    moved = np.flatnonzero(np.linalg.norm(xy - xy[0], axis=1) > VERTICAL_M)
+    end = int(ticks[moved[0]]) if moved.size else int(ticks[-1])
+    if plan.position[ticks[0], 2] - plan.position[end, 2] <= VERTICAL_M:
+        return plan  # no descent
+    segment = plan.segment.copy()
+    segment[ticks[0] : end] = k - 1
+    return replace(plan, segment=segment)
 
 
 def approach_after_hold(plans: dict[str, Plan], hands: Any, p: Any, sync: Any) -> Plan:

@@ -1,10 +1,11 @@
 """A two-hand task program (:class:`~lfd.reproduce.program.HandsProgram`) on a two-arm robot
 (:class:`~lfd.reproduce.aloha.TwoArmRobot`): each hand's lane to the arm of its side.
 
-* **Bases** (:func:`choose_bases`): each arm's base is placed, as one arm's is
+* **Bases** (:func:`~.two_arm_bases.choose_bases`): each arm's base is placed, as one arm's is
   (:func:`~lfd.reproduce.scene.choose_base`), so that every TCP point of its hand's lane is
   reachable top-down, the right arm on the right of the workspace (+x) and the left on the left,
-  at least :data:`BASE_GAP` apart and clear of the objects and of both lanes' paths.
+  at least :data:`~.two_arm_bases.BASE_GAP` apart and clear of the objects and of both lanes'
+  paths.
 * **Plans**: each lane is planned alone by the one-arm planner
   (:func:`~lfd.reproduce.displacement.plan_layout`, the lane's
   :meth:`~lfd.reproduce.program.HandsProgram.program`), then the lanes are put on one clock
@@ -18,8 +19,9 @@
 * **Clearance** (:mod:`.two_arm_holds`): at a ``hold_until`` whose arms' colliding geoms
   come within 1 cm of each other on the common clock (each arm's IK following its plan), the
   hold is pressed at the object's end away from the other arm's step, and if still too close
-  the other arm's approach waits until the holder holds; each kept only when it leaves more
-  room.
+  the other arm's approach waits until the holder holds, or a pushing arm waits for the hold
+  low behind the box it pushes, or pushes it by grasping and sliding it; each kept only when
+  it leaves more room.
 * **Execution** (:func:`execute_two`): both arms in one MuJoCo scene, one IK per arm, one
   control tick for both; an arm that has finished holds its last pose. The links collide with
   the table and the other arm (:mod:`.two_arms_contacts`): the first contact of the two arms,
@@ -54,90 +56,13 @@ from .controller import LOOKAHEAD, TICK, Execution, Plan
 from .ik import ArmIK, gripper_rotation
 from .program import HandsProgram, TaskProgram
 from .scene import ObjectSpec, _colour
+from .two_arm_bases import choose_bases, layout, mount_yaw, mounted
 from .two_arm_clock import _before, _end, _release, _start, _wait  # noqa: F401 (tests use them)
 from .two_arm_lanes import check_lane_goals, lane_events, named_arm, plan_lane
 from .two_arms_contacts import ARM_BITS, Collision, Contacts, collision_bits
 
-BASE_GAP = 0.4
-"""Smallest distance between the two bases (m)."""
 RUNS = ("hold_until", "handover", "carry")
 """The synchronisation points the two arms run; the others are refused."""
-
-
-def choose_bases(
-    points: dict[str, np.ndarray], objects: np.ndarray, robot: TwoArmRobot
-) -> dict[str, np.ndarray]:
-    """Each arm's base (z = 0): every TCP point of its lane reachable top-down (the widest
-    reach margin), the right arm's base right of the workspace centre, the left's left of it.
-
-    Raises
-    ------
-    DemonstrationError
-        No base reaches all of a lane's points (one line naming the arm).
-    """
-    arm = robot.ik
-    every = np.concatenate([p for p in points.values()])
-    every = every[np.all(np.isfinite(every), axis=1)]
-    centre = every[:, :2].mean(axis=0)
-    lo, hi = every[:, :2].min(axis=0) - 0.7, every[:, :2].max(axis=0) + 0.7
-    gx, gy = np.meshgrid(np.arange(lo[0], hi[0], 0.02), np.arange(lo[1], hi[1], 0.02))
-    cand = np.stack([gx.ravel(), gy.ravel()], axis=1)
-    clear = _clear(cand, every[:, :2], 0.2) & _clear(cand, np.asarray(objects)[:, :2], 0.14)
-    out: dict[str, np.ndarray] = {}
-    for side in sorted(points, key=lambda s: s != "right"):
-        pts = points[side][np.all(np.isfinite(points[side]), axis=1)]
-        if len(pts) > 300:
-            pts = pts[np.linspace(0, len(pts) - 1, 300).astype(int)]
-        wrist = pts + np.array([0.0, 0.0, arm.tcp_offset])
-        sign = 1.0 if side == "right" else -1.0
-        ok = clear & (sign * (cand[:, 0] - centre[0]) > 0.05)
-        for b in out.values():
-            ok &= np.linalg.norm(cand - b[:2], axis=1) >= BASE_GAP
-        d = np.sqrt(
-            np.sum((wrist[None, :, :2] - cand[ok, None, :]) ** 2, axis=2)
-            + (wrist[None, :, 2] - arm.shoulder_z) ** 2
-        )
-        score = np.full(len(cand), -np.inf)
-        score[ok] = np.minimum(d - arm.reach[0], arm.reach[1] - d).min(axis=1)
-        best = int(np.argmax(score))
-        if not np.isfinite(score[best]):
-            raise DemonstrationError(
-                f"the {side} arm ({arm.title}) has no base on the {side} side clear of the "
-                "objects, both hands' paths and the other arm"
-            )
-        if score[best] < 0:
-            raise DemonstrationError(
-                f"the {side} arm ({arm.title}) cannot reach all of the {side} hand's path "
-                f"from any base on its side (short by {-float(score[best]) * 1000:.0f} mm)"
-            )
-        out[side] = np.array([cand[best, 0], cand[best, 1], 0.0])
-    return out
-
-
-def mount_yaw(base: np.ndarray, points: np.ndarray) -> float:
-    """The heading (rad) the arm's base is turned to: towards the middle of its lane's points,
-    so that its first joint (limited to +-180 deg) turns either way from there."""
-    pts = points[np.all(np.isfinite(points), axis=1)]
-    c = pts[:, :2].mean(axis=0) if len(pts) else base[:2] + np.array([1.0, 0.0])
-    return float(np.arctan2(c[1] - base[1], c[0] - base[0]))
-
-
-def mounted(arm: Robot, yaw: float) -> Robot:
-    """``arm`` with its body turned by ``yaw`` about the vertical inside its base."""
-    q = f"{np.cos(yaw / 2):.6f} 0 0 {np.sin(yaw / 2):.6f}"
-    name = arm.arm_joints[0].rsplit("/", 1)[0] + "/mount" if "/" in arm.arm_joints[0] else "mount"
-    return replace(arm, body=f'<body name="{name}" quat="{q}">{arm.body}</body>')
-
-
-def _clear(cand: np.ndarray, pts: np.ndarray, r: float) -> np.ndarray:
-    """Which candidates are at least ``r`` from every point (a k-d tree: a planned path has a
-    point per control tick)."""
-    from scipy.spatial import cKDTree
-
-    if not len(pts):
-        return np.ones(len(cand), dtype=bool)
-    dist, _ = cKDTree(pts).query(cand, k=1)
-    return np.asarray(dist >= r)
 
 
 def scene_xml(
@@ -546,12 +471,10 @@ def plan_two_arms(
         A displacement whose re-grounded task is impossible
         (:func:`~lfd.reproduce.displacement.check_goals`).
     """
-    from .displacement import initial_poses, program_start
-    from .goals import DemoFrames
     from .two_arm_clearance import stack_across
     from .two_arm_handover import plan_handovers_apart
     from .two_arm_press import plan_press_lane
-    from .two_arm_sequence import plan_sequence, task_points
+    from .two_arm_sequence import plan_sequence
 
     displace = dict(displace or {})
     hands, sequence, presses = prepare_two_arms(trajs, hands, robot)
@@ -561,21 +484,7 @@ def plan_two_arms(
     if missing:
         raise DemonstrationError(f"the {missing[0]} hand has no arm on {robot.name}")
     programs = {s: hands.program(s) for s in sides}
-    traj0 = trajs[sides[0]]
-    start0 = program_start(traj0, programs[sides[0]])
-    moved = initial_poses(DemoFrames(traj0, np.zeros(3), robot.ik), displace, start0)
-    first = np.asarray(traj0.object_position, dtype=np.float64)
-    objects0 = np.array([p[np.all(np.isfinite(p), axis=1)][0] for p in first]).reshape(-1, 3)
-    shifted = np.array([T[:3, 3] for T in moved.values()]).reshape(-1, 3)
-    keep_out = np.concatenate([objects0, shifted])
-    points = {s: np.asarray(trajs[s].tcp, dtype=np.float64) for s in sides}
-    try:
-        bases = choose_bases(points, keep_out, robot)
-    except DemonstrationError:
-        if not sequence:
-            raise
-        points = task_points(trajs, hands)  # where the skills act, not the hands' free moves
-        bases = choose_bases(points, keep_out, robot)
+    moved, points, bases = layout(trajs, hands, programs, robot, displace, sequence)
 
     def plan_lanes(
         bases: dict[str, np.ndarray],
@@ -604,6 +513,7 @@ def plan_two_arms(
                     events,
                     (grasps or {}).get(s),
                     turned.get(s),
+                    slides.get(s),
                 )
             except UsageError as err:  # the arm named
                 raise named_arm(err, s) from err
@@ -626,6 +536,18 @@ def plan_two_arms(
         plans = {s: r.plan for s, (_, _, r) in planned.items()}
         return _finish(hands, mode, programs, bases, yaws, planned, plans)
     turned: dict[str, dict[str, int]] = {}  # grasps turned to keep two grippers apart
+    slides: dict[str, set[str]] = {}  # pushes done by grasping, likewise (two_arm_holds)
+
+    def slid(p: Any) -> tuple[Any, Any, Any] | None:
+        """The lane of the other arm of hold ``p`` with its push done by grasping."""
+        slides[p.other] = {str(hands.lanes[p.other][p.other_step].object)}
+        try:
+            return plan_lanes(bases, planned)[p.other]
+        except (UsageError, DemonstrationError):
+            return None
+        finally:
+            del slides[p.other]
+
     planned = plan_lanes(bases)
     if len(sides) > 1:  # again, each lane knowing where the other arm moves its objects
         planned = plan_lanes(bases, planned)
@@ -640,7 +562,7 @@ def plan_two_arms(
     yaws = {s: mount_yaw(bases[s], points[s]) for s in sides}
     planned, plans = plan_handovers_apart(planned, hands, mode, moved, bases, robot, plan_lanes)
     return _kept_clear(
-        trajs, hands, mode, robot, moved, displace, programs, bases, yaws, planned, plans
+        trajs, hands, mode, robot, moved, displace, programs, bases, yaws, planned, plans, slid
     )
 
 
@@ -656,6 +578,7 @@ def _kept_clear(
     yaws: dict[str, float],
     planned: dict[str, tuple[Any, Any, Any]],
     plans: dict[str, Plan],
+    slid: Callable[[Any], tuple[Any, Any, Any] | None],
 ) -> TwoArmPlan:
     """The planned lanes on one clock with each hold kept clear of the other arm: pressed at
     the object's end away from it (:func:`~.two_arm_holds.press_if_clearer`), then
@@ -665,7 +588,7 @@ def _kept_clear(
     others = {s: _others(programs, s) for s in programs}
     press = press_lanes(trajs, hands, mode, bases, robot, moved, displace, others)
     clearance = _clearance(bases, yaws, robot)
-    planned, plans = press_if_clearer(planned, plans, hands, press, clearance, synchronise)
+    planned, plans = press_if_clearer(planned, plans, hands, press, clearance, synchronise, slid)
     return _kept_apart(_finish(hands, mode, programs, bases, yaws, planned, plans), hands, robot)
 
 

@@ -42,13 +42,14 @@ def test_the_rest_is_near_its_base_away_from_where_the_other_arm_works() -> None
     towards them; the IK reaches it top-down."""
     from lfd.reproduce.aloha import aloha
     from lfd.reproduce.ik import gripper_rotation
+    from lfd.reproduce.two_arm_bases import mount_yaw
     from lfd.reproduce.two_arm_sequence import (
         REST_FRACTION,
         REST_REACH,
         REST_Z,
         rest_pose,
     )
-    from lfd.reproduce.two_arms import MountedIK, mount_yaw
+    from lfd.reproduce.two_arms import MountedIK
 
     f, _, _ = _frames("right")
     i = f.index(0.0)
