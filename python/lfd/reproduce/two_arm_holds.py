@@ -113,11 +113,10 @@ def press_if_clearer(
                 planned[p.hand], plans, before = lane, trial, after
         if before >= ARM_CLEARANCE:
             continue
+        theirs = plans[p.other]
         for other in (approach_after_hold(plans, hands, p, sync), push_from_below(plans, hands, p)):
-            if before >= ARM_CLEARANCE:
-                break
-            if other is plans[p.other]:
-                continue  # nothing to try
+            if before >= ARM_CLEARANCE or other is theirs:
+                continue  # clear, or nothing to try
             trial = plans | {p.other: other}
             after, _ = clearance(sync(trial, hands))
             if after > before:
