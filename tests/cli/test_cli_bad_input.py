@@ -111,6 +111,7 @@ NESTED = 100_000
         ("labels-end-1e300", "end_s"),
         ("labels-5000-digits-json", "labels.json"),
         ("labels-5000-digits-csv", "end_s"),
+        ("labels-underscore-csv", "end_s must be a number of seconds, got '1_0'"),
         ("labels-nested", "nested too deeply"),
         ("labels-huge-file", "larger than"),
     ],
@@ -146,6 +147,10 @@ def test_nested_huge_or_garbage_text_input(
     elif case == "labels-5000-digits-csv":
         labels = tmp_path / "labels.csv"
         labels.write_text(f"pick_up,1,{'9' * 5000},box_2\n")
+        argv[-1] = labels
+    elif case == "labels-underscore-csv":  # float("1_0") is 10: a plain number is asked for
+        labels = tmp_path / "labels.csv"
+        labels.write_text("pick_up,1,1_0,box_2\n")
         argv[-1] = labels
     elif case == "labels-nested":
         labels.write_text("[" * NESTED)
