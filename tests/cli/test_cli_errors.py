@@ -126,6 +126,10 @@ CASES: list[tuple[str, str, str]] = [
     ("reproduce-displace-cm", "reproduce {rec} --displace box_2:8,-5", "did you mean box_2:0.08,-0.05"),
     ("reproduce-displace-nan", "reproduce {rec} --displace box_2:nan,0", "finite"),
     ("reproduce-displace-unknown", "reproduce {rec} --displace box_9:0.05,0", "known objects"),
+    ("reproduce-displace-1e308", "reproduce {rec} --displace box_2:1e308,0", "--displace box_2:1e+308,0 moves box_2 by 1e+308 m (at most 1 m)"),
+    ("reproduce-displace-turn-1e308", "reproduce {rec} --displace box_2:0.05,0,1e308", "a turn of 1e+308 degrees; give at most 360 either way"),
+    ("reproduce-displace-twice", "reproduce {rec} --displace box_2:0.05,0 --displace box_2:0,0.05", "--displace box_2:... is given twice"),
+    ("reproduce-displace-underscore", "reproduce {rec} --displace box_2:1_0,0", "expected NAME:DX,DY[,DEG]"),
     # record
     ("record-output-missing-dir", "record --source sim:exp1 -o {tmp}/no/x.mcap", "not exist"),
     ("record-output-is-dir", "record --source sim:exp1 -o {tmp}", "is a directory"),
