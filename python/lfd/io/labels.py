@@ -16,7 +16,9 @@ A label file is one of
 Each entry may name its ``hand`` (``right`` or ``left``); in a two-hand recording every label
 must, and a label for a hand the recording lacks is refused. Handovers (two-hand recordings) are
 a ``handovers`` list beside ``segments`` or ``hands``: ``{"giver", "taker", "object", "start_s",
-"end_s"}`` (or absolute ``start_ns``, ``end_ns``, as ``lfd segment --json`` writes them).
+"end_s"}`` (or absolute ``start_ns``, ``end_ns``, as ``lfd segment --json`` writes them); every
+key is required (the object too: the task program finds the giver's place and the taker's
+pick_up by it).
 
 Times are seconds from an origin: the ``origin_ns`` key of a segmentation JSON (the first
 resampled sample, where ``lfd segment`` counts from), else the **recording start**, the earliest
@@ -304,11 +306,17 @@ def _handover(
     taker = _side(e["taker"], where, demo, "taker")
     if giver == taker:
         raise UsageError(f"{where}: the {giver} hand cannot give to itself")
-    if "start_s" not in e and "start_ns" not in e:
+    if ("start_s" not in e or "end_s" not in e) and ("start_ns" not in e or "end_ns" not in e):
         raise UsageError(f"{where} needs giver, taker, start_s and end_s, got {e!r}"[:200])
+    obj = _object(e.get("object"), where, demo)
+    if obj is None:  # the giver's place and the taker's pick_up are found by their object
+        raise UsageError(
+            f"{where} ({giver} to {taker}) names no object; give the object handed over "
+            f"(one of {', '.join(demo.objects) or 'none'})"
+        )
     a, b = span(e, origin, where, f"{giver} to {taker}")
     assert giver is not None and taker is not None
-    return Handover(a, b, giver, taker, _object(e.get("object"), where, demo))
+    return Handover(a, b, giver, taker, obj)
 
 
 def read_annotations(
