@@ -6,7 +6,9 @@ is opened: it must be a regular file. A FIFO blocks the open until some writer c
 and a device such as ``/dev/zero`` never ends (a reader fills memory). Text inputs are read with
 :func:`read_text` (at most :data:`MAX_TEXT_BYTES`, UTF-8) and parsed with :func:`parse_json` or
 :func:`parse_toml`, which turn every way those parsers fail on hostile text (too deeply nested,
-a number with thousands of digits, invalid bytes) into the caller's error, one line.
+a number with thousands of digits, invalid bytes) into the caller's error, one line. Numbers
+typed as text (an option value, a CSV field) are read with :func:`parse_number` and
+:func:`parse_integer`.
 
 The ``output`` twin of this module is :mod:`lfd.outputs`.
 """
@@ -19,7 +21,16 @@ from typing import Any
 
 from .errors import LfdError, UsageError
 
-__all__ = ["MAX_TEXT_BYTES", "check_input_file", "parse_json", "parse_toml", "read_text"]
+__all__ = [
+    "MAX_TEXT_BYTES",
+    "check_input_file",
+    "parse_integer",
+    "parse_json",
+    "parse_number",
+    "parse_toml",
+    "read_text",
+    "shown",
+]
 
 MAX_TEXT_BYTES = 64 * 2**20
 """Largest text input (labels, mappings, sidecars, templates) read: 64 MiB, far more than any
@@ -113,6 +124,43 @@ def parse_toml(text: str, prefix: str, error: type[LfdError] = UsageError) -> di
         return tomllib.loads(text)
     except (RecursionError, ValueError) as err:  # TOMLDecodeError is a ValueError
         raise error(f"{prefix}: {_detail(err)}") from None
+
+
+def shown(value: Any) -> str:
+    """``repr(value)`` for a message, cut to 40 characters (a file may hold a 5000-digit
+    number or a huge list)."""
+    text = repr(value)
+    return text if len(text) <= 40 else f"{text[:37]}..."
+
+
+def parse_number(text: str) -> float:
+    """``float(text)`` for a number typed as text, without Python's own spellings: digit-group
+    underscores (``1_0`` would be 10) and non-ASCII digits are refused, as a user means no such
+    thing. NaN and infinity are returned (the caller says whether it takes them).
+
+    Raises
+    ------
+    ValueError
+        ``text`` is not a number (no message: the caller words it).
+    """
+    return float(_plain(text))
+
+
+def parse_integer(text: str) -> int:
+    """``int(text)`` for an integer typed as text, refusing what :func:`parse_number` refuses.
+
+    Raises
+    ------
+    ValueError
+        ``text`` is not an integer (no message: the caller words it).
+    """
+    return int(_plain(text))
+
+
+def _plain(text: str) -> str:
+    if "_" in text or not text.isascii():
+        raise ValueError(text)
+    return text
 
 
 def is_ros_path(path: str | os.PathLike[str]) -> bool:

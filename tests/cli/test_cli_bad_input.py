@@ -111,6 +111,7 @@ NESTED = 100_000
         ("labels-end-1e300", "end_s"),
         ("labels-5000-digits-json", "labels.json"),
         ("labels-5000-digits-csv", "end_s"),
+        ("labels-underscore-csv", "end_s must be a number of seconds, got '1_0'"),
         ("labels-nested", "nested too deeply"),
         ("labels-huge-file", "larger than"),
     ],
@@ -146,6 +147,10 @@ def test_nested_huge_or_garbage_text_input(
     elif case == "labels-5000-digits-csv":
         labels = tmp_path / "labels.csv"
         labels.write_text(f"pick_up,1,{'9' * 5000},box_2\n")
+        argv[-1] = labels
+    elif case == "labels-underscore-csv":  # float("1_0") is 10: a plain number is asked for
+        labels = tmp_path / "labels.csv"
+        labels.write_text("pick_up,1,1_0,box_2\n")
         argv[-1] = labels
     elif case == "labels-nested":
         labels.write_text("[" * NESTED)
@@ -608,3 +613,100 @@ def test_worker_death_keeps_the_pool() -> None:
     pids = {r.value for r in res[1:] if r.ok}
     assert all(r.ok for r in res[1:]), [r.error for r in res]
     assert len(pids) <= 4, pids  # a pool, not one process per item
+
+
+# --- 13. reproduce --task PROGRAM: every key checked, times within the recording ---------------
+def _program(*segments: dict[str, Any], **key: Any) -> str:
+    """A task program of ``segments``, each a ``pick_up`` of box_2 at 0.5-1.5 s unless given."""
+    base = {"skill": "pick_up", "start_s": 0.5, "end_s": 1.5, "object": "box_2", "params": {}}
+    return json.dumps({"segments": [{**base, **s} for s in segments or ({},)], **key})
+
+
+def _segment(key: str, value: str) -> str:
+    """One segment of box_2 with ``key`` given as raw JSON text (a number JSON's parser reads
+    but ``json.dumps`` would not write: 1e400, 1 followed by 400 zeros, -Infinity)."""
+    return _program({key: 0.0}).replace(f'"{key}": 0.0', f'"{key}": {value}')
+
+
+TASK_CASES = {
+    "end-400-digits": (_segment("end_s", "1" + "0" * 400), "end_s must be within +-9e+09 s"),
+    "start-negative-400-digits": (_segment("start_s", "-1" + "0" * 400), "within +-9e+09 s"),
+    "end-1e400": (_segment("end_s", "1e400"), "end_s must be a finite number of seconds"),
+    "end-inf-text": (_program({"end_s": "inf"}), "end_s must be a finite number of seconds"),
+    "end-1e300": (_program({"end_s": 1e300}), "end_s must be within +-9e+09 s"),
+    "start-minus-infinity": (_segment("start_s", "-Infinity"), "start_s must be a finite"),
+    "start-true": (_program({"start_s": True}), "start_s must be a number of seconds, got True"),
+    "start-null": (_program({"start_s": None}), "start_s must be a number of seconds, got None"),
+    "start-negative": (_program({"start_s": -5}), "segment 0 (pick_up -5.000-1.500 s): starts "),
+    "shifted-past-end": (
+        _program({"start_s": 1000.5, "end_s": 1001.5}, {"start_s": 1001.5, "end_s": 1003}),
+        "ends after the recording (it spans 0-14.700 s)",
+    ),
+    "object-list": (_program({"object": ["box_2"]}), "object must be an object's name or null"),
+    "object-dict": (_program({"object": {"name": "box_2"}}), "object must be an object's name"),
+    "object-int": (_program({"object": 3}), "object must be an object's name or null, got 3"),
+    "skill-list": (_program({"skill": ["pick_up"]}), "skill must be a skill's name"),
+    "support-list": (_program({"params": {"support": ["box_1"]}}), "params.support must be"),
+    "missing-end": (
+        json.dumps({"segments": [{"skill": "pick_up", "start_s": 0.5}]}),
+        'segment 0: missing "end_s"',
+    ),
+    "params-list": (_program({"params": ["support"]}), "params must be a JSON object"),
+    "params-text": (_program({"params": "box_1"}), "params must be a JSON object"),
+    "too-many": (
+        json.dumps({"segments": [{"skill": "move", "start_s": 0, "end_s": 0}] * 2001}),
+        "has 2001 segments; at most 2000 are run",
+    ),
+    "two-hand": (
+        json.dumps({"hands": {"right": json.loads(_program())}, "sync": []}),
+        "is a two-hand program ('hands'), which a one-arm run does not read",
+    ),
+    "two-hand-wrapped": (
+        json.dumps({"recording": "x.mcap", "program": {"hands": {}, "sync": []}}),
+        "two-hand program",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", list(TASK_CASES))
+def test_task_program_refused(
+    case: str, rec: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``lfd reproduce --task`` refuses a bad program in one line, exit 2, before any work:
+    nothing is written (``--program --json``)."""
+    text, expected = TASK_CASES[case]
+    program = tmp_path / "program.json"
+    program.write_text(text)
+    out = tmp_path / "out.json"
+    _one_line(capsys, ["reproduce", rec, "--task", program, "--program", "--json", out], expected)
+    assert not out.exists()
+
+
+def test_task_program_refused_before_a_run(
+    rec: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A run (not ``--program``) refuses a program outside the recording before simulating:
+    before, it ran and reported success, and its ``--json`` held a bare ``Infinity``."""
+    pytest.importorskip("mujoco")
+    program = tmp_path / "program.json"
+    out = tmp_path / "out.json"
+    for text in (_segment("end_s", "1e400"), _program({"start_s": -5})):
+        program.write_text(text)
+        argv = ["reproduce", rec, "--task", program, "--mode", "replay", "--json", out]
+        _one_line(capsys, argv, "task")
+        assert not out.exists()
+
+
+def test_program_json_round_trips_into_task(
+    rec: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--program --json`` writes ``{"recording", "program"}``; ``--task`` reads it back."""
+    from lfd.cli import main
+
+    first, second = tmp_path / "first.json", tmp_path / "second.json"
+    assert main(["reproduce", str(rec), "--program", "--json", str(first)]) == 0
+    argv = ["reproduce", str(rec), "--task", str(first), "--program", "--json", str(second)]
+    assert main(argv) == 0, capsys.readouterr().err
+    program = json.loads(first.read_text())["program"]
+    assert len(program["segments"]) == 8
+    assert json.loads(second.read_text())["program"] == program

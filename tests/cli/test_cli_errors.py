@@ -126,6 +126,10 @@ CASES: list[tuple[str, str, str]] = [
     ("reproduce-displace-cm", "reproduce {rec} --displace box_2:8,-5", "did you mean box_2:0.08,-0.05"),
     ("reproduce-displace-nan", "reproduce {rec} --displace box_2:nan,0", "finite"),
     ("reproduce-displace-unknown", "reproduce {rec} --displace box_9:0.05,0", "known objects"),
+    ("reproduce-displace-1e308", "reproduce {rec} --displace box_2:1e308,0", "--displace box_2:1e+308,0 moves box_2 by 1e+308 m (at most 1 m)"),
+    ("reproduce-displace-turn-1e308", "reproduce {rec} --displace box_2:0.05,0,1e308", "a turn of 1e+308 degrees; give at most 360 either way"),
+    ("reproduce-displace-twice", "reproduce {rec} --displace box_2:0.05,0 --displace box_2:0,0.05", "--displace box_2:... is given twice"),
+    ("reproduce-displace-underscore", "reproduce {rec} --displace box_2:1_0,0", "expected NAME:DX,DY[,DEG]"),
     # record
     ("record-output-missing-dir", "record --source sim:exp1 -o {tmp}/no/x.mcap", "not exist"),
     ("record-output-is-dir", "record --source sim:exp1 -o {tmp}", "is a directory"),
@@ -159,6 +163,7 @@ CASES: list[tuple[str, str, str]] = [
     ("segment-object-size-nan", "segment {rec} --object-size box_1=nan,0.1,0.1", "argument --object-size: a size is three positive finite lengths"),
     ("segment-object-size-zero", "segment {rec} --object-size box_1=0.1,0,0.1", "positive finite"),
     ("segment-object-size-no-name", "segment {rec} --object-size 0.1,0.1,0.1", "expected NAME=X,Y,Z"),
+    ("segment-object-size-underscore", "segment {rec} --object-size box_1=0.0_5,0.05,0.05", "expected NAME=X,Y,Z with three numbers"),
     ("segment-object-size-twice", "segment {rec} --object-size box_1=0.1,0.1,0.1 --object-size box_1=0.2,0.2,0.2", "given twice"),
     ("info-object-size-unknown", "info {rec} --object-size box_9=0.1,0.1,0.1", "its objects are box_1"),
     ("eval-object-size-unknown", "eval {rec} --object-size box_9=0.1,0.1,0.1", "its objects are box_1"),
@@ -188,6 +193,8 @@ CASES: list[tuple[str, str, str]] = [
     # values out of range, NaN / inf, bad --params and template files: refused before any work
     ('simulate-seed-1', "simulate exp1 -o {tmp}/out.mcap --seed -1", "argument --seed: must be an integer in [0, 2**63 - 1], got '-1'"),
     ('simulate-seed-1.5', "simulate exp1 -o {tmp}/out.mcap --seed 1.5", "argument --seed: must be an integer, got '1.5'"),
+    ('simulate-seed-underscore', "simulate exp1 -o {tmp}/out.mcap --seed 1_0", "argument --seed: must be an integer, got '1_0'"),
+    ('simulate-duration-underscore', "simulate exp1 -o {tmp}/out.mcap --duration 1_0", "argument --duration: must be a number, got '1_0'"),
     ('simulate-duration-1', "simulate exp1 -o {tmp}/out.mcap --duration -1", "argument --duration: must be a number > 0, got '-1'"),
     ('simulate-duration-0', "simulate exp1 -o {tmp}/out.mcap --duration 0", "argument --duration: must be a number > 0, got '0'"),
     ('simulate-duration-nan', "simulate exp1 -o {tmp}/out.mcap --duration nan", "argument --duration: must be a finite number, got 'nan'"),

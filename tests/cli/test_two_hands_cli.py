@@ -206,3 +206,46 @@ def test_label_writes_labels_per_hand_and_handovers(
     assert status == 0
     assert "hands: right 73 @ 4.9 Hz, left 73 @ 4.9 Hz" in text
     assert "left hand: move -> move_with" in text and "handovers" in text
+
+
+@pytest.mark.parametrize("obj", [None, "", "-"], ids=["missing", "empty", "dash"])
+def test_label_refuses_a_handover_without_its_object(
+    obj: str | None, capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """A handover names the object handed over: without it the task program's handover had
+    no object (``handover of -``) and ``lfd reproduce --robot aloha`` failed (exit 1). Refused
+    in one line, the recording unchanged, nothing written."""
+    two = tmp_path / "two.mcap"
+    save_two_hands(two)
+    before = _digest(two)
+    handover = {"giver": "right", "taker": "left", "start_s": 2.0, "end_s": 3.0}
+    if obj is not None:
+        handover["object"] = obj
+    labels = tmp_path / "labels.json"
+    segments = [
+        {"skill": "pick_up", "start_s": 0.0, "end_s": 1.0, "object": "box_1", "hand": "right"},
+        {"skill": "move", "start_s": 0.0, "end_s": 2.0, "hand": "left"},
+    ]
+    labels.write_text(json.dumps({"segments": segments, "handovers": [handover]}))
+    out = tmp_path / "out.mcap"
+    expected = "handover 0 (right to left) names no object; give the object handed over (one of"
+    _one_line(capsys, "label", two, "--from", labels, "-o", out, expected=expected)
+    _one_line(capsys, "label", two, "--from", labels, expected=expected)
+    assert _digest(two) == before and not out.exists()
+
+
+def test_label_refuses_a_handover_without_its_end(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """A handover with ``start_s`` and no ``end_s`` is one line (was a KeyError traceback)."""
+    two = tmp_path / "two.mcap"
+    save_two_hands(two)
+    handover = {"giver": "right", "taker": "left", "object": "box_1", "start_s": 2.0}
+    labels = tmp_path / "labels.json"
+    segments = [
+        {"skill": "move", "start_s": 0.0, "end_s": 2.0, "hand": h} for h in ("right", "left")
+    ]
+    labels.write_text(json.dumps({"segments": segments, "handovers": [handover]}))
+    _one_line(
+        capsys, "label", two, "--from", labels, expected="needs giver, taker, start_s and end_s"
+    )

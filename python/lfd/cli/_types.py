@@ -3,7 +3,8 @@
 Each converter parses one option value and raises :class:`argparse.ArgumentTypeError` with a
 message saying what is expected, so ``lfd simulate --duration -1`` ends with exit status 2 and
 ``argument --duration: must be a number > 0, got '-1'``. NaN and infinity are refused by every
-float converter: no option of lfd means anything with them.
+float converter: no option of lfd means anything with them. Numbers are read with
+:func:`lfd.inputs.parse_number` (and ``parse_integer``): ``1_0`` is refused, not taken as 10.
 """
 
 from __future__ import annotations
@@ -14,8 +15,10 @@ from collections.abc import Callable
 
 
 def _float(text: str) -> float:
+    from ..inputs import parse_number
+
     try:
-        v = float(text)
+        v = parse_number(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
     if not math.isfinite(v):
@@ -24,8 +27,10 @@ def _float(text: str) -> float:
 
 
 def _int(text: str) -> int:
+    from ..inputs import parse_integer
+
     try:
-        return int(text)
+        return parse_integer(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
 

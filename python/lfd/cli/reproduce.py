@@ -247,7 +247,7 @@ def _trajectory_and_program(demo: Any, args: argparse.Namespace) -> tuple[Any, A
     part of ``--hand`` or of the hand that does all of the task (else refused, one line), and
     the two-hand program (None for one hand)."""
     from ..preprocessing import preprocess
-    from ..reproduce import PREPROCESSING, TaskProgram, from_labels, from_segmentation
+    from ..reproduce import PREPROCESSING, from_labels, from_segmentation
 
     if args.segment and args.task:
         from ..errors import UsageError
@@ -266,8 +266,18 @@ def _trajectory_and_program(demo: Any, args: argparse.Namespace) -> tuple[Any, A
         demo = demo.one_hand(args.hand or demo.sides[0])
     traj = preprocess(demo, **PREPROCESSING)
     t0 = int(traj.t_ns[0])
-    program = TaskProgram.load(args.task) if args.task else from_labels(demo.labels, t0)
+    program = _task_program(args.task, demo) if args.task else from_labels(demo.labels, t0)
     return traj, program, hands
+
+
+def _task_program(path: str, demo: Any) -> Any:
+    """The ``--task`` program, checked (one line, exit 2) before any work: its layout and
+    size (:meth:`~lfd.reproduce.TaskProgram.from_json`) and its times, within ``demo``."""
+    from ..reproduce import TaskProgram
+
+    program = TaskProgram.load(path)
+    program.check_within((demo.end_ns - demo.start_ns) * 1e-9, f"--task {path}")
+    return program
 
 
 def _check_hand(demo: Any, args: argparse.Namespace) -> None:
@@ -317,7 +327,7 @@ def _print_program(args: argparse.Namespace) -> int:
     """``--program``: the task program (per hand with two), printed (and ``--json``), nothing
     simulated."""
     from ..errors import UsageError
-    from ..reproduce import TaskProgram, from_hands, from_labels
+    from ..reproduce import from_hands, from_labels
     from ._rerun import wants_rerun
 
     used = (
@@ -337,7 +347,7 @@ def _print_program(args: argparse.Namespace) -> int:
     if args.hand:
         demo = demo.one_hand(args.hand)
     if args.task:
-        program = TaskProgram.load(args.task)
+        program = _task_program(args.task, demo)
         doc, lines = program.to_json(), _program_lines(program)
     elif args.segment:
         from ..segmentation import segment_hands

@@ -16,7 +16,9 @@ A label file is one of
 Each entry may name its ``hand`` (``right`` or ``left``); in a two-hand recording every label
 must, and a label for a hand the recording lacks is refused. Handovers (two-hand recordings) are
 a ``handovers`` list beside ``segments`` or ``hands``: ``{"giver", "taker", "object", "start_s",
-"end_s"}`` (or absolute ``start_ns``, ``end_ns``, as ``lfd segment --json`` writes them).
+"end_s"}`` (or absolute ``start_ns``, ``end_ns``, as ``lfd segment --json`` writes them); every
+key is required (the object too: the task program finds the giver's place and the taker's
+pick_up by it).
 
 Times are seconds from an origin: the ``origin_ns`` key of a segmentation JSON (the first
 resampled sample, where ``lfd segment`` counts from), else the **recording start**, the earliest
@@ -46,11 +48,19 @@ from typing import Any
 
 from ..demo import HAND_SIDES, Demonstration, Handover, SkillLabel
 from ..errors import LfdError, RecordingFormatError, UsageError
+from ..inputs import parse_number, shown
 from ..skills import check_skill
 from . import messages as M
 from . import topics as T
 
-__all__ = ["END_TOLERANCE_NS", "read_annotations", "read_labels", "write_labels"]
+__all__ = [
+    "END_TOLERANCE_NS",
+    "MAX_SECONDS",
+    "read_annotations",
+    "read_labels",
+    "seconds",
+    "write_labels",
+]
 
 END_TOLERANCE_NS = 100_000_000
 """How far (ns) a label may end after the recording's last sample: 0.1 s, three samples at
@@ -64,27 +74,32 @@ MAX_SECONDS = 9e9
 signed 64-bit integers recordings count time in (2**63 ns is 9.2e9 s, 292 years)."""
 
 
-def _shown(value: Any) -> str:
-    """``repr(value)``, cut to 40 characters (a label file may hold a 5000-digit number)."""
-    text = repr(value)
-    return text if len(text) <= 40 else f"{text[:37]}..."
+def seconds(value: Any, where: str, key: str) -> float:
+    """``value`` (a JSON number, or text such as a CSV field) as a time in seconds: a finite
+    number, not a boolean, within :data:`MAX_SECONDS` either way. The rule of every time a user
+    gives in a file (labels, handovers, a task program).
 
-
-def _number(value: Any, where: str, key: str) -> float:
+    Raises
+    ------
+    UsageError
+        ``f"{where}: {key} must be ..."``, one line (a huge value is cut short).
+    """
     if isinstance(value, bool) or value is None:
-        raise UsageError(f"{where}: {key} must be a number of seconds, got {_shown(value)}")
-    try:
-        x = float(value)
-    except (TypeError, ValueError, OverflowError):
+        raise UsageError(f"{where}: {key} must be a number of seconds, got {shown(value)}")
+    try:  # an integer beyond any float (10**400) is out of range below, not "not a number"
+        x = parse_number(value) if isinstance(value, str) else float(value)
+    except OverflowError:
+        x = 2 * MAX_SECONDS  # the sign does not matter: |x| is checked
+    except (TypeError, ValueError):
         raise UsageError(
-            f"{where}: {key} must be a number of seconds, got {_shown(value)}"
+            f"{where}: {key} must be a number of seconds, got {shown(value)}"
         ) from None
     if not math.isfinite(x):
-        raise UsageError(f"{where}: {key} must be a finite number of seconds, got {_shown(value)}")
+        raise UsageError(f"{where}: {key} must be a finite number of seconds, got {shown(value)}")
     if abs(x) > MAX_SECONDS:
         raise UsageError(
             f"{where}: {key} must be within +-{MAX_SECONDS:g} s of the recording, "
-            f"got {_shown(value)}"
+            f"got {shown(value)}"
         )
     return x
 
@@ -99,9 +114,7 @@ def _origin(doc: dict[str, Any], where: str) -> int | None:
     if o is None:
         return None
     if isinstance(o, bool) or not isinstance(o, int) or not -(2**63) <= o < 2**63:
-        raise UsageError(
-            f"{where}: origin_ns must be integer nanoseconds (64-bit), got {_shown(o)}"
-        )
+        raise UsageError(f"{where}: origin_ns must be integer nanoseconds (64-bit), got {shown(o)}")
     return o
 
 
@@ -118,7 +131,7 @@ def _lanes_from_json(doc: dict[str, Any], where: str) -> list[Entry]:
     """The labels of a two-hand report, ``{"hands": {side: one-hand report}}``."""
     lanes = doc["hands"]
     if not isinstance(lanes, dict) or not lanes:
-        raise UsageError(f"{where}: hands must be an object {{side: report}}, got {_shown(lanes)}")
+        raise UsageError(f"{where}: hands must be an object {{side: report}}, got {shown(lanes)}")
     entries: list[Entry] = []
     for side, report in lanes.items():
         at = f"{where}: hands.{side}"
@@ -136,9 +149,7 @@ def _lanes_from_json(doc: dict[str, Any], where: str) -> list[Entry]:
 
 def _nanoseconds(value: Any, where: str, key: str) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or not -(2**63) <= value < 2**63:
-        raise UsageError(
-            f"{where}: {key} must be integer nanoseconds (64-bit), got {_shown(value)}"
-        )
+        raise UsageError(f"{where}: {key} must be integer nanoseconds (64-bit), got {shown(value)}")
     return value
 
 
@@ -223,7 +234,7 @@ class _Span:
             a, b = (_nanoseconds(e[k], where, k) for k in ("start_ns", "end_ns"))
             s, f = (a - t0) * 1e-9, (b - t0) * 1e-9
         else:
-            s, f = _number(e["start_s"], where, "start_s"), _number(e["end_s"], where, "end_s")
+            s, f = seconds(e["start_s"], where, "start_s"), seconds(e["end_s"], where, "end_s")
             a, b = t0 + round(s * 1e9), t0 + round(f * 1e9)
         what = f"{where} ({name} {s:.3f}-{f:.3f} s)"
         span = f"0-{(self.end - t0) * 1e-9:.3f} s" if origin is None else "the recording"
@@ -247,7 +258,7 @@ def _side(value: Any, where: str, demo: Demonstration, key: str = "hand") -> str
             )
         return None
     if side not in HAND_SIDES:
-        raise UsageError(f"{where}: {key} {_shown(side)} is not a hand ({', '.join(HAND_SIDES)})")
+        raise UsageError(f"{where}: {key} {shown(side)} is not a hand ({', '.join(HAND_SIDES)})")
     if side not in demo.sides:
         raise UsageError(
             f"{where} is for the {side} hand, which the recording lacks (it has the {have} hand)"
@@ -295,11 +306,17 @@ def _handover(
     taker = _side(e["taker"], where, demo, "taker")
     if giver == taker:
         raise UsageError(f"{where}: the {giver} hand cannot give to itself")
-    if "start_s" not in e and "start_ns" not in e:
+    if ("start_s" not in e or "end_s" not in e) and ("start_ns" not in e or "end_ns" not in e):
         raise UsageError(f"{where} needs giver, taker, start_s and end_s, got {e!r}"[:200])
+    obj = _object(e.get("object"), where, demo)
+    if obj is None:  # the giver's place and the taker's pick_up are found by their object
+        raise UsageError(
+            f"{where} ({giver} to {taker}) names no object; give the object handed over "
+            f"(one of {', '.join(demo.objects) or 'none'})"
+        )
     a, b = span(e, origin, where, f"{giver} to {taker}")
     assert giver is not None and taker is not None
-    return Handover(a, b, giver, taker, _object(e.get("object"), where, demo))
+    return Handover(a, b, giver, taker, obj)
 
 
 def read_annotations(

@@ -78,8 +78,10 @@ def parse_object_size(text: str) -> tuple[str, Size]:
         raise UsageError(
             f"{where}: expected NAME=X,Y,Z in metres, e.g. box_1=0.05,0.05,0.05, got {text!r}"
         )
+    from ..inputs import parse_number
+
     try:
-        values = [float(v) for v in rest.split(",")]
+        values = [parse_number(v) for v in rest.split(",")]
     except ValueError:
         raise UsageError(
             f"{where}: expected NAME=X,Y,Z with three numbers in metres, e.g. "

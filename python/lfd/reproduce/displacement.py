@@ -29,6 +29,9 @@ MAX_DISPLACEMENT = 1.0
 REACH_SLACK = 0.03
 """Allowed shortfall below the robot's shortest reach (:attr:`~lfd.reproduce.arm.Robot.reach`:
 the KUKA's elbow limit is at 0.395 m, 0.035 m below its 0.43 m)."""
+MAX_TURN_DEG = 360.0
+"""Largest turn (degrees, either sign) a displacement may give: one full turn; more is a typo
+(a turn is refused, not reduced modulo 360)."""
 OVERLAP_MARGIN = 0.002
 """Two objects closer than this (m) count as overlapping."""
 STACK_SLACK = 0.005
@@ -42,14 +45,18 @@ Displacement = tuple[float, ...]
 def parse_displacement(spec: Sequence[str] | str | None) -> dict[str, Displacement]:
     """Parse ``"box_1:0.10,-0.05"`` (or several, also ``;``-separated) into ``{"box_1": (0.1, -0.05)}``.
 
-    A third value turns the object about its vertical axis, in degrees:
-    ``"box_1:0.10,-0.05,30"`` -> ``{"box_1": (0.1, -0.05, 30.0)}``.
+    A third value turns the object about its vertical axis, in degrees, at most
+    :data:`MAX_TURN_DEG` either way: ``"box_1:0.10,-0.05,30"`` -> ``{"box_1": (0.1, -0.05, 30.0)}``.
+    Numbers are read with :func:`lfd.inputs.parse_number` (``1_0`` is refused).
 
     Raises
     ------
     UsageError
-        Not ``NAME:DX,DY``, or a value that is not a finite number.
+        Not ``NAME:DX,DY[,DEG]``, a value that is not a finite number, a turn of more than
+        :data:`MAX_TURN_DEG`, or an object displaced twice.
     """
+    from ..inputs import parse_number
+
     if spec is None:
         return {}
     items = [spec] if isinstance(spec, str) else list(spec)
@@ -60,7 +67,7 @@ def parse_displacement(spec: Sequence[str] | str | None) -> dict[str, Displaceme
                 continue
             try:
                 name, vec = part.split(":")
-                vals = tuple(float(v) for v in vec.split(","))
+                vals = tuple(parse_number(v) for v in vec.split(","))
                 if len(vals) not in (2, 3):
                     raise ValueError(vec)
             except ValueError as err:
@@ -72,9 +79,17 @@ def parse_displacement(spec: Sequence[str] | str | None) -> dict[str, Displaceme
                 raise UsageError(
                     f"--displace {part!r}: DX, DY (and DEG) must be finite numbers (metres)"
                 )
-            if not name.strip():
+            name = name.strip()
+            if not name:
                 raise UsageError(f"--displace {part!r}: missing object name before ':'")
-            out[name.strip()] = vals
+            if len(vals) > 2 and abs(vals[2]) > MAX_TURN_DEG:
+                raise UsageError(
+                    f"--displace {name}: a turn of {vals[2]:g} degrees; give at most "
+                    f"{MAX_TURN_DEG:g} either way"
+                )
+            if name in out:
+                raise UsageError(f"--displace {name}:... is given twice; give each object once")
+            out[name] = vals
     return out
 
 
@@ -113,7 +128,8 @@ def program_start(traj: Trajectory, program: TaskProgram) -> int:
 
 
 def _fmt(v: float) -> str:
-    return f"{v:.4f}".rstrip("0").rstrip(".") if v else "0"
+    """``v`` for a message: 4 decimals at most, in ``:g`` form (``1e+308``, not 309 digits)."""
+    return f"{round(v, 4):g}" if v else "0"
 
 
 def check_displacement(
@@ -161,7 +177,7 @@ def check_displacement(
         if np.hypot(dx, dy) > MAX_DISPLACEMENT:
             msg = (
                 f"--displace {name}:{_fmt(dx)},{_fmt(dy)} moves {name} by "
-                f"{np.hypot(dx, dy):.2f} m (at most {MAX_DISPLACEMENT:g} m); displacements are in metres"
+                f"{_fmt(round(float(np.hypot(dx, dy)), 2))} m (at most {MAX_DISPLACEMENT:g} m); displacements are in metres"
             )
             if np.hypot(dx, dy) / 100 <= 0.3:  # centimetres typed as metres
                 msg += f"; did you mean {name}:{_fmt(dx / 100)},{_fmt(dy / 100)}?"

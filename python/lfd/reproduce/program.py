@@ -7,9 +7,16 @@ Both sources of a segmentation map onto it: the ground-truth labels of a recordi
                    "object": "box_1", "params": {}}, ...]}
 
 Times are seconds since the first sample of the preprocessed trajectory. ``object`` is the
-target object of the skill (``null`` for ``move``; for ``move_with`` the carried object).
-``params`` is free (e.g. ``{"support": "box_2"}`` for a stack, filled in from the demonstration
-when missing).
+target object of the skill (a name, or ``null`` for ``move``; for ``move_with`` the carried
+object). ``params`` is a JSON object, free but for the object names it gives (e.g.
+``{"support": "box_2"}`` for a stack, filled in from the demonstration when missing).
+:meth:`TaskProgram.from_json` also reads the document ``lfd reproduce --program --json`` writes,
+``{"recording": ..., "program": {"segments": [...]}}``.
+
+A program read from a file is checked before any work: at most :data:`MAX_SEGMENTS` segments,
+each with ``skill``, ``start_s`` and ``end_s``, times finite numbers (not booleans) within
+:data:`lfd.io.labels.MAX_SECONDS` (the rule of ``lfd label``); :meth:`TaskProgram.check_within`
+then checks them against the recording the program runs on.
 """
 
 from __future__ import annotations
@@ -22,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import DemonstrationError, LfdError
+from ..errors import DemonstrationError
 from ..skills import check_skill
 
 
@@ -44,6 +51,54 @@ class Segment:
             raise DemonstrationError(
                 f"segment {self.skill!r}: end {self.end_s} s before start {self.start_s} s"
             )
+
+
+MAX_SEGMENTS = 2000
+"""Most segments a task program read from JSON may have (:meth:`TaskProgram.from_json` refuses
+more before any work). Real programs have tens to hundreds of steps; each step costs planning
+time (3000 ``move`` steps took 70 s, 1.4 million ran for minutes in 4.4 GB)."""
+OBJECT_PARAMS = ("support", "reference")
+"""The ``params`` of a segment that name an object (a string, or null): a stack's support, a
+place's reference (:mod:`lfd.reproduce.modes`)."""
+
+
+def _segment_from_json(item: Any, where: str) -> Segment:
+    """One segment of a task program's JSON, every key checked (one line naming ``where``)."""
+    from ..inputs import shown
+    from ..io.labels import seconds
+
+    if not isinstance(item, dict):
+        raise DemonstrationError(f"{where} must be a JSON object, got {shown(item)}")
+    missing = [k for k in ("skill", "start_s", "end_s") if k not in item]
+    if missing:
+        raise DemonstrationError(
+            f'{where}: missing "{missing[0]}" (a segment has skill, start_s, end_s, object, params)'
+        )
+    if not isinstance(item["skill"], str):
+        raise DemonstrationError(
+            f"{where}: skill must be a skill's name, got {shown(item['skill'])}"
+        )
+    obj = item.get("object")
+    if obj is not None and not isinstance(obj, str):
+        raise DemonstrationError(
+            f"{where}: object must be an object's name or null, got {shown(obj)}"
+        )
+    params = item.get("params")
+    if params is None:
+        params = {}
+    if not isinstance(params, dict):
+        raise DemonstrationError(
+            f'{where}: params must be a JSON object ({{}} or e.g. {{"support": "box_2"}}), '
+            f"got {shown(params)}"
+        )
+    for key in OBJECT_PARAMS:
+        if params.get(key) is not None and not isinstance(params[key], str):
+            raise DemonstrationError(
+                f"{where}: params.{key} must be an object's name, got {shown(params[key])}"
+            )
+    start = seconds(item["start_s"], where, "start_s")
+    end = seconds(item["end_s"], where, "end_s")
+    return Segment(item["skill"], start, end, obj, dict(params))
 
 
 @dataclass
@@ -72,30 +127,65 @@ class TaskProgram:
         return {"segments": [asdict(s) for s in self.segments]}
 
     @classmethod
-    def from_json(cls, data: dict[str, Any] | Sequence[dict[str, Any]]) -> TaskProgram:
-        """Build from the JSON layout (a dict with ``segments`` or a bare list)."""
+    def from_json(cls, data: Any, what: str = "task program") -> TaskProgram:
+        """Build from the JSON layout (see the module docstring): a dict with ``segments``, a
+        bare list of segments, or ``lfd reproduce --program --json``'s ``{"program": ...}``;
+        ``what`` starts every error message (``"task program PATH"`` when read from a file).
+
+        Raises
+        ------
+        DemonstrationError
+            Not that layout (a two-hand program, ``hands``, is refused: a one-arm program is
+            one hand's ``segments``), more than :data:`MAX_SEGMENTS` segments, a segment
+            missing a key or with an object or ``params`` of the wrong type, or an empty
+            program or one out of time order.
+        UsageError
+            A time that is not a finite number of seconds within
+            :data:`lfd.io.labels.MAX_SECONDS` (:func:`lfd.io.labels.seconds`).
+        UnknownSkillError
+            A skill name that is not canonical.
+        """
+        if isinstance(data, dict) and "segments" not in data and "program" in data:
+            data = data["program"]  # the document `lfd reproduce --program --json` writes
+        if isinstance(data, dict) and "hands" in data:
+            raise DemonstrationError(
+                f"{what} is a two-hand program ('hands'), which a one-arm run does "
+                'not read: give one hand\'s {"segments": [...]} (`lfd reproduce REC --hand '
+                "right --program --json OUT` writes the right hand's)"
+            )
         items = data.get("segments") if isinstance(data, dict) else data
         if not isinstance(items, list):
-            raise DemonstrationError("task program JSON needs a 'segments' list")
-        segs = []
-        for i, item in enumerate(items):
-            if not isinstance(item, dict) or "skill" not in item:
-                raise DemonstrationError(f"task program segment {i} is not an object with 'skill'")
-            try:
-                segs.append(
-                    Segment(
-                        skill=str(item["skill"]),
-                        start_s=float(item["start_s"]),
-                        end_s=float(item["end_s"]),
-                        object=item.get("object"),
-                        params=dict(item.get("params") or {}),
-                    )
-                )
-            except (KeyError, TypeError, ValueError) as err:
-                if isinstance(err, LfdError):
-                    raise
-                raise DemonstrationError(f"task program segment {i}: {err}") from err
-        return cls(segs)
+            raise DemonstrationError(f"{what} JSON needs a 'segments' list")
+        if len(items) > MAX_SEGMENTS:
+            raise DemonstrationError(
+                f"{what} has {len(items)} segments; at most {MAX_SEGMENTS} are run"
+            )
+        return cls(
+            [_segment_from_json(item, f"{what} segment {i}") for i, item in enumerate(items)]
+        )
+
+    def check_within(self, duration_s: float, what: str = "task program") -> None:
+        """Refuse segments outside the recording they run on: each must start at or after its
+        start and end by its end (``duration_s`` after it), within
+        :data:`~lfd.io.labels.END_TOLERANCE_NS` (0.1 s) either side: program times count from
+        the first sample of the preprocessed trajectory, a little after the recording's start.
+
+        Raises
+        ------
+        DemonstrationError
+            A segment that starts before the recording or ends after it (one line, naming the
+            first).
+        """
+        from ..io.labels import END_TOLERANCE_NS
+
+        tol = END_TOLERANCE_NS * 1e-9
+        for i, s in enumerate(self.segments):
+            where = f"{what} segment {i} ({s.skill} {s.start_s:.3f}-{s.end_s:.3f} s)"
+            span = f"it spans 0-{duration_s:.3f} s"
+            if s.start_s < -tol:
+                raise DemonstrationError(f"{where}: starts before the recording ({span})")
+            if s.end_s > duration_s + tol:
+                raise DemonstrationError(f"{where}: ends after the recording ({span})")
 
     @classmethod
     def load(cls, path: str | Path) -> TaskProgram:
@@ -106,9 +196,8 @@ class TaskProgram:
             text = read_text(path, "task program", DemonstrationError)
         except OSError as err:
             raise DemonstrationError(f"cannot read task program {path}: {err}") from err
-        return cls.from_json(
-            parse_json(text, f"cannot read task program {path}", DemonstrationError)
-        )
+        doc = parse_json(text, f"cannot read task program {path}", DemonstrationError)
+        return cls.from_json(doc, f"task program {path}")
 
     def save(self, path: str | Path) -> None:
         """Write the program as JSON."""

@@ -173,6 +173,28 @@ def test_from_labels_and_displacement_parsing() -> None:
         reproduce(traj, program, "teleport")
 
 
+@pytest.mark.parametrize(
+    ("spec", "message"),
+    [
+        (["box_1:0.1,0,1e308"], "a turn of 1e+308 degrees; give at most 360 either way"),
+        (["box_1:0.1,0,-361"], "a turn of -361 degrees"),
+        (["box_1:0.1,0", "box_1:0,0.1"], "--displace box_1:... is given twice"),
+        (["box_1:0.1,0;box_1:0,0.1"], "given twice"),
+        (["box_1:1_0,0"], "expected NAME:DX,DY[,DEG]"),
+        (["box_1:0.1,0,9_0"], "expected NAME:DX,DY[,DEG]"),
+    ],
+)
+def test_displacement_parsing_refuses(spec: list[str], message: str) -> None:
+    """A turn beyond a full one, an object displaced twice and Python-only number spellings
+    (``1_0`` is 10 to ``float``) are refused; a full turn either way is accepted."""
+    with pytest.raises(UsageError, match=re.escape(message)):
+        parse_displacement(spec)
+    assert parse_displacement(["box_1:0.1,0,-360", "box_2:0,0,360"]) == {
+        "box_1": (0.1, 0.0, -360.0),
+        "box_2": (0.0, 0.0, 360.0),
+    }
+
+
 def test_cli_on_recording(tmp_path: Path) -> None:
     from lfd.cli import main
     from lfd.io import save
