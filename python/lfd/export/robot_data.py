@@ -524,7 +524,7 @@ class RobotWriter:
         LeRobotWriter.abort(self)  # type: ignore[arg-type]
 
     def close(self) -> None:
-        from .writer import _quiet, write_annotations, write_subtasks
+        from .writer import _quiet, remove_empty_images, write_annotations, write_subtasks
 
         if self._dataset is None:
             return
@@ -532,3 +532,4 @@ class RobotWriter:
             self._dataset.finalize()
         write_subtasks(self.root, list(self.subtasks))
         write_annotations(self.root, self._annotations)
+        remove_empty_images(self.root)

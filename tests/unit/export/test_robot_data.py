@@ -208,8 +208,11 @@ def test_two_hand_recording_is_refused(tmp_path: Path) -> None:
 
 def test_object_out_of_reach_is_refused(tmp_path: Path) -> None:
     rec = far_recording(tmp_path / "far.mcap")
-    with pytest.raises(UsageError, match="out of the arm's reach"):
+    with pytest.raises(UsageError, match="out of the arm's reach") as refused:
         export_robot_data(rec, tmp_path / "ds", layouts=2)
+    # named where the demonstration shows it, not as a --displace nobody gave
+    assert "where the demonstration shows it" in str(refused.value), refused.value
+    assert "--displace" not in str(refused.value) and "displacement" not in str(refused.value)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["far.mcap"]
 
 
