@@ -309,7 +309,7 @@ class _Work:
         first: a layout is finished once the state names it)."""
         from ..outputs import atomic_output, atomic_write_text
 
-        self.path.mkdir(exist_ok=True)
+        self.path.mkdir(parents=True, exist_ok=True)  # -o a/b/ds: a/b may not exist yet
         if episode is not None:
             with atomic_output(self.episode_path(result.index)) as tmp, open(tmp, "wb") as f:
                 episode.save(f)

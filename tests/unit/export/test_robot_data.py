@@ -311,3 +311,15 @@ def test_a_damaged_resume_state_is_refused_up_front_and_kept(
     assert expected in lines[0] and "remove that directory to start again" in lines[0], lines[0]
     assert {p.name: p.read_bytes() for p in work.iterdir()} == before
     assert sorted(p.name for p in tmp_path.iterdir()) == [work.name]
+
+
+def test_the_work_directory_is_made_in_missing_parents(tmp_path: Path) -> None:
+    """``-o a/b/ds`` where ``a/`` does not exist (allowed, as for ``export lerobot``): the first
+    finished layout's work directory is made with its parents (it failed after the first
+    layout's simulation, naming the hidden ``a/b/.ds.robot-data``)."""
+    from lfd.export.robot_data import _Work
+
+    work = _Work(work_dir(tmp_path / "a" / "b" / "ds"), {"seed": 0})
+    work.finish(LayoutResult(0, {"box_1": [0.0, 0.0, 0.0]}, False, ["knocked"], 1.0), None)
+    state = json.loads((tmp_path / "a" / "b" / ".ds.robot-data" / "state.json").read_text())
+    assert [r["index"] for r in state["layouts"]] == [0]
