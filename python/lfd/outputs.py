@@ -169,7 +169,7 @@ def check_output(
         raise UsageError(f"{what} {p}: directory {parent} does not exist")
     if not parent.is_dir():
         raise UsageError(f"{what} {p}: {parent} is not a directory")
-    if not os.access(parent, os.W_OK | os.X_OK):
+    if not writable_dir(parent):
         raise UsageError(f"{what} {p}: directory {parent} is not writable")
     if p.exists() and not os.access(p, os.W_OK):
         raise UsageError(f"{what} {p} exists and is read-only")
@@ -180,6 +180,23 @@ def check_output(
 
 # a rename onto a device (/dev/null), a pipe or a socket would replace it with a regular file
 _NOT_REGULAR = "is not a regular file (a device, pipe or socket); refusing to replace it"
+
+
+def writable_dir(path: str | os.PathLike[str]) -> bool:
+    """Whether files can be created in the directory ``path``: the permissions allow it and a
+    probe file can really be created there (and is removed again). The probe catches what
+    permissions do not show: a read-only or pseudo file system (``/proc``, ``/sys``) where
+    ``root`` passes every permission check, yet nothing can be created."""
+    if not os.path.isdir(path) or not os.access(path, os.W_OK | os.X_OK):
+        return False
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".lfd-probe.", suffix=".partial", dir=path)
+    except OSError:
+        return False
+    os.close(fd)
+    with contextlib.suppress(OSError):
+        os.unlink(probe)
+    return True
 
 
 @contextlib.contextmanager
@@ -201,6 +218,18 @@ def signals_held() -> Iterator[None]:
 
 
 @contextlib.contextmanager
+def _naming(dest: Path) -> Iterator[None]:
+    """An OSError of the block names ``dest``, the user's path, not the hidden temporary one
+    beside it (``error: /proc/x.json: No such file or directory``)."""
+    try:
+        yield
+    except OSError as err:
+        if err.errno is None:
+            raise
+        raise OSError(err.errno, err.strerror, os.fspath(dest)) from None
+
+
+@contextlib.contextmanager
 def atomic_output(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; on success it is renamed onto ``path``.
 
@@ -210,9 +239,10 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[Path]:
     dest = Path(path)
     if dest.exists() and not dest.is_file() and not dest.is_dir():
         raise UsageError(f"{dest} {_NOT_REGULAR}")
-    fd, tmp_name = tempfile.mkstemp(
-        prefix=f".{dest.name}.", suffix=".partial", dir=dest.parent if str(dest.parent) else "."
-    )
+    with _naming(dest):
+        fd, tmp_name = tempfile.mkstemp(
+            prefix=f".{dest.name}.", suffix=".partial", dir=dest.parent if str(dest.parent) else "."
+        )
     os.close(fd)
     tmp = Path(tmp_name)
     try:
@@ -225,7 +255,8 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[Path]:
                 umask = os.umask(0)
                 os.umask(umask)
                 os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, dest)
+        with _naming(dest):
+            os.replace(tmp, dest)
     except BaseException:
         with contextlib.suppress(OSError):
             tmp.unlink()
@@ -331,7 +362,7 @@ def check_output_dir(
         raise UsageError(f"{what} {p}: {parent} is not a directory")
     if not parent.is_dir():
         raise UsageError(f"{what} {p}: directory {parent} does not exist")
-    if not os.access(parent, os.W_OK | os.X_OK):
+    if not writable_dir(parent):
         raise UsageError(f"{what} {p}: directory {parent} is not writable")
     return p
 
@@ -362,7 +393,8 @@ def atomic_directory(
 
     dest = Path(path)
     parent = dest.parent if str(dest.parent) else Path(".")
-    holder = Path(tempfile.mkdtemp(prefix=f".{dest.name}.", suffix=".partial", dir=parent))
+    with _naming(dest):
+        holder = Path(tempfile.mkdtemp(prefix=f".{dest.name}.", suffix=".partial", dir=parent))
     new = holder / dest.name
     old: Path | None = None
     appeared = UsageError(

@@ -223,6 +223,39 @@ def test_follow_garbage_appended(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert all(line.startswith("lfd segment: ") for line in err.splitlines() if line.strip()), err
 
 
+def test_follow_a_file_that_shrinks_is_refused_in_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """60 % of exp1 followed, then truncated to 1000 bytes and 5 KB of random bytes appended:
+    one error line (no blank line before it), exit 2, the skills printed before kept (it went
+    on segmenting data no longer in the file, exit 0)."""
+    import threading
+
+    from lfd.cli import main
+
+    data = EXP1.read_bytes()
+    grown = tmp_path / "g.mcap"
+    grown.write_bytes(data[: len(data) * 6 // 10])
+
+    def shrink() -> None:
+        with open(grown, "r+b") as f:
+            f.truncate(1000)
+            f.seek(0, os.SEEK_END)
+            f.write(os.urandom(5000))
+
+    timer = threading.Timer(3.0, shrink)  # the 60 % is read in well under a second
+    timer.start()
+    try:
+        status = main(["segment", str(grown), "--follow", "--idle-timeout", "10"])
+    finally:
+        timer.cancel()
+    out, err = capsys.readouterr()
+    assert status == 2, err
+    assert len(err.splitlines()) == 1 and "Traceback" not in err, repr(err)
+    assert err.startswith(f"lfd segment: error: {grown} was truncated or replaced"), err
+    assert "settled: pick_up" in out  # what was printed before stays
+
+
 # --- 3. damaged ROS bags; tf with a zero, NaN or inf quaternion --------------------------------
 @pytest.fixture(scope="module")
 def ros1(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:

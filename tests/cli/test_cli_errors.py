@@ -162,6 +162,8 @@ CASES: list[tuple[str, str, str]] = [
     ("segment-object-size-unknown", "segment {rec} --object-size box_9=0.1,0.1,0.1", "'box_9', which the recording does not have; its objects are box_1, box_2, box_3"),
     ("segment-object-size-nan", "segment {rec} --object-size box_1=nan,0.1,0.1", "argument --object-size: a size is three positive finite lengths"),
     ("segment-object-size-zero", "segment {rec} --object-size box_1=0.1,0,0.1", "positive finite"),
+    ("segment-object-size-huge", "segment {rec} --object-size box_1=1e300,1,1", "each at most 2 m (an object a hand handles)"),
+    ("reproduce-object-size-huge", "reproduce {rec} --mode skills --object-size box_2=0.05,0.05,1e3", "each at most 2 m"),
     ("segment-object-size-no-name", "segment {rec} --object-size 0.1,0.1,0.1", "expected NAME=X,Y,Z"),
     ("segment-object-size-underscore", "segment {rec} --object-size box_1=0.0_5,0.05,0.05", "expected NAME=X,Y,Z with three numbers"),
     ("segment-object-size-twice", "segment {rec} --object-size box_1=0.1,0.1,0.1 --object-size box_1=0.2,0.2,0.2", "given twice"),

@@ -159,3 +159,47 @@ def test_atomic_writes_never_replace_a_pipe(tmp_path: Path) -> None:
     with pytest.raises(UsageError, match="not a regular file"):
         atomic_write_bytes(fifo, b"x")
     assert fifo.is_fifo() and [p.name for p in tmp_path.iterdir()] == ["out.bin"]
+
+
+# --- an output where nothing can be created: refused before any work, naming the user's path --
+NO_FILES = Path("/proc")
+"""A directory whose permissions allow writing (for root) but where no file can be created."""
+
+
+@pytest.mark.skipif(not NO_FILES.is_dir(), reason="no /proc here")
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["reproduce", EXP1, "--mode", "skills", "--json", NO_FILES / "x.json"],
+        ["reproduce", EXP1, "--mode", "skills", "--video", NO_FILES / "x.mp4"],
+        ["reproduce", EXP1, "--mode", "skills", "--rerun-save", NO_FILES / "x.rrd"],
+        ["export", "robot-data", EXP1, "-o", NO_FILES / "x", "--layouts", 1],
+    ],
+    ids=["json", "video", "rerun-save", "robot-data"],
+)
+def test_an_output_where_nothing_can_be_created_is_refused_up_front(
+    argv: list[object], capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--json /proc/x.json`` as root: the permissions allow it, yet no file can be created
+    there; refused at once (it was found only after the whole simulation, naming the hidden
+    temporary file ``/proc/.x.json.*.partial``)."""
+    import time
+
+    t = time.perf_counter()
+    assert main([str(a) for a in argv]) == 2
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    assert f"{NO_FILES / 'x'}" in lines[0] and "is not writable" in lines[0], lines[0]
+    assert ".partial" not in lines[0] and ".robot-data" not in lines[0], lines[0]
+    assert time.perf_counter() - t < 10  # before the simulation
+
+
+@pytest.mark.skipif(not NO_FILES.is_dir(), reason="no /proc here")
+def test_a_failing_atomic_write_names_the_destination_not_the_temporary_file() -> None:
+    from lfd.outputs import atomic_write_text, writable_dir
+
+    assert not writable_dir(NO_FILES)
+    with pytest.raises(OSError) as failed:
+        atomic_write_text(NO_FILES / "x.json", "{}")
+    assert failed.value.filename == str(NO_FILES / "x.json")

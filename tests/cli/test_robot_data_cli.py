@@ -55,12 +55,30 @@ def test_bad_input_is_one_line_and_nothing_written(
     assert rec.read_bytes() == EXP1.read_bytes()
 
 
+def test_every_error_has_the_command_prefix(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """An option argparse refuses and a file lfd refuses: both ``lfd export: error: ...`` (the
+    first was ``lfd export robot-data: error: ...``), as every command's errors."""
+    out = tmp_path / "ds"
+    for argv in [
+        (EXP1, "-o", out, "--layouts", 0),  # argparse
+        (EXP1, "-o", out),  # argparse: a required option missing
+        (tmp_path / "none.mcap", "-o", out, "--layouts", 2),  # lfd
+    ]:
+        status, _, err = _lfd(capsys, "export", "robot-data", *argv)
+        assert status == 2 and err.startswith("lfd export: error: "), err
+        assert len(err.strip().splitlines()) == 1, err
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.slow  # plans the demonstration (~3-8 s here)
 def test_object_out_of_reach_is_one_line(
     capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
     far = far_recording(tmp_path / "far.mcap")
     _refused(capsys, far, "-o", tmp_path / "ds", "--layouts", 2, expected="out of the arm's reach")
+    _refused(capsys, far, "-o", tmp_path / "ds", "--layouts", 2, expected="is at (")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["far.mcap"]
 
 
@@ -79,6 +97,7 @@ def test_one_layout_prints_progress_and_the_yield(
     assert "1 episode(s) of 1 layouts (yield 100 %)" in lines[-1], stdout
     doc = json.loads((out / "meta" / "lfd_layouts.json").read_text())
     assert doc["tried"] == 1 and doc["settings"]["fps"] == 10
+    assert not (out / "images").exists()  # lerobot's emptied frame directory is not left over
     # the same command again: the dataset is there, refused (one line) and kept
     _refused(capsys, EXP1, "-o", out, "--layouts", 1, expected="not empty")
     assert (out / "meta" / "lfd_layouts.json").is_file()

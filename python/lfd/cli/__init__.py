@@ -47,10 +47,14 @@ PREFERRED_EXTRAS: dict[str, tuple[str, ...]] = {
 
 
 class _Parser(argparse.ArgumentParser):
-    """An argument parser whose usage errors are one line: ``lfd <cmd>: error: ... (see ...)``."""
+    """An argument parser whose usage errors are one line: ``lfd <cmd>: error: ... (see ...)``.
+
+    The prefix is the command's, as every other error of it (``lfd export: error: ...``, also
+    for ``lfd export robot-data``); the help named is the subcommand's own."""
 
     def error(self, message: str) -> NoReturn:
-        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+        command = " ".join(self.prog.split()[:2])  # lfd export robot-data -> lfd export
+        self.exit(2, f"{command}: error: {message} (see {self.prog} --help)\n")
 
 
 class _Version(argparse.Action):

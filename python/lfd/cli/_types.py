@@ -93,7 +93,8 @@ def seconds_or_forever(text: str) -> float:
 
 
 def object_size(text: str) -> tuple[str, tuple[float, float, float]]:
-    """``NAME=X,Y,Z``: an object's box size, three positive finite lengths in metres."""
+    """``NAME=X,Y,Z``: an object's box size, three positive finite lengths in metres, each at
+    most :data:`lfd.io.sizes.MAX_OBJECT_SIDE_M`."""
     from ..errors import UsageError
     from ..io.sizes import parse_object_size
 

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import argparse
 import signal
-import sys
 from typing import Any
 
 from ._types import float_range, positive_float, seed
@@ -307,7 +306,7 @@ def _record(
         TextColumn("{task.description}"),
         TimeElapsedColumn(),
         console=console,
-        transient=not sys.stderr.isatty(),
+        disable=not console.is_terminal,  # off a terminal none (a transient one leaves a blank line)
     ) as progress:
         task = progress.add_task("recording", total=None)
 

@@ -274,13 +274,15 @@ def _run_follow(args: argparse.Namespace) -> int:
     from rich.console import Console
 
     con = console(args)
+    err = Console(stderr=True)
     with sigterm_interrupts():
+        # off a terminal no progress line at all (a transient one leaves a blank line on stderr)
         with Progress(
             SpinnerColumn(),
             TextColumn("{task.description}"),
             TimeElapsedColumn(),
-            console=Console(stderr=True),
-            transient=not sys.stderr.isatty(),
+            console=err,
+            disable=not err.is_terminal,
         ) as progress:
             task = progress.add_task(f"waiting for {args.recording}", total=None)
             try:

@@ -188,7 +188,9 @@ def _check_set_directory(out: Path) -> None:
     base = out
     while not base.exists():  # the nearest existing ancestor must let us create the rest
         base = base.parent
-    if not base.is_dir() or not os.access(base, os.W_OK | os.X_OK):
+    from ..outputs import writable_dir
+
+    if not writable_dir(base):
         raise UsageError(f"-o/--output {out}: directory {base} is not writable")
 
 

@@ -74,6 +74,12 @@ class LayoutResult:
 
     @classmethod
     def from_json(cls, doc: dict[str, Any]) -> LayoutResult:
+        """What :meth:`to_json` wrote; a malformed entry raises KeyError, TypeError,
+        ValueError or AttributeError."""
+        if not isinstance(doc.get("index"), int) or doc["index"] < 0:
+            raise ValueError(f"index must be an integer >= 0, got {doc.get('index')!r}")
+        if not isinstance(doc["failures"], list):
+            raise ValueError(f"failures must be a list, got {doc['failures']!r}")
         return cls(
             int(doc["index"]),
             {k: [float(x) for x in v] for k, v in doc["displace"].items()},
@@ -231,6 +237,7 @@ def export_robot_data(
         "max_turn_deg": MAX_TURN_DEG if max_turn_deg is None else max_turn_deg,
         "robot": arm.name,
     }
+    work = _Work(work_dir(dest), settings)  # a damaged one refused before any work
     from .._extras import require
     from ..reproduce import SIM_MODULES
 
@@ -238,7 +245,6 @@ def export_robot_data(
     require("sim", SIM_MODULES + (("movement_primitives",) if mode == "dmp" else ()), who=__name__)
     source.check(rec, mode)
     import_lerobot()
-    work = _Work(work_dir(dest), settings)
     camera = source.camera(size)
     report = RobotDataReport(dest, repo)
     report.layouts = _run_layouts(source, layouts, settings, camera, work, progress)
@@ -257,25 +263,42 @@ def export_robot_data(
 
 
 class _Work:
-    """The work directory of a resumable export: its settings and finished layouts."""
+    """The work directory of a resumable export: its settings and finished layouts.
+
+    A damaged one (``state.json`` not what :meth:`finish` writes, a finished layout's ``.npz``
+    unreadable) is refused up front, before any layout is run, and never deleted: the user
+    removes it (:func:`_damaged`)."""
 
     def __init__(self, path: Path, settings: dict[str, Any]) -> None:
         self.path = path
         self.settings = settings
         self.done: dict[int, LayoutResult] = {}
+        if path.exists() and not path.is_dir():
+            raise UsageError(
+                f"{path}, where an interrupted export keeps its work, is not a directory; "
+                "remove it to start again"
+            )
         state = path / "state.json"
-        if not state.is_file():
+        if not os.path.lexists(state):
             return
-        doc = json.loads(state.read_text())
+        doc = _read_state(state)
         if doc.get("format") != STATE_FORMAT or doc.get("settings") != settings:
             raise UsageError(
                 f"{path} holds an interrupted export with other settings "
                 f"({_differs(doc.get('settings') or {}, settings)}); rerun it with the same "
                 "options, or remove that directory to start again"
             )
-        for item in doc["layouts"]:
-            r = LayoutResult.from_json(item)
-            if not r.success or self.episode_path(r.index).is_file():
+        for k, item in enumerate(doc["layouts"]):
+            try:
+                r = LayoutResult.from_json(item)
+            except (KeyError, TypeError, ValueError, AttributeError) as err:
+                raise _damaged(path, f"state.json: layouts[{k}] is malformed ({err})") from None
+            episode = self.episode_path(r.index)
+            if r.success and os.path.lexists(episode):
+                problem = RobotEpisode.problem(episode)
+                if problem is not None:
+                    raise _damaged(path, f"{episode.name}: {problem}")
+            if not r.success or episode.is_file():
                 self.done[r.index] = r
 
     def episode_path(self, index: int) -> Path:
@@ -286,7 +309,7 @@ class _Work:
         first: a layout is finished once the state names it)."""
         from ..outputs import atomic_output, atomic_write_text
 
-        self.path.mkdir(exist_ok=True)
+        self.path.mkdir(parents=True, exist_ok=True)  # -o a/b/ds: a/b may not exist yet
         if episode is not None:
             with atomic_output(self.episode_path(result.index)) as tmp, open(tmp, "wb") as f:
                 episode.save(f)
@@ -297,6 +320,31 @@ class _Work:
             "layouts": [self.done[i].to_json() for i in sorted(self.done)],
         }
         atomic_write_text(self.path / "state.json", json.dumps(doc, indent=1) + "\n")
+
+
+def _damaged(path: Path, why: str) -> UsageError:
+    """The error of a damaged work directory ``path``: what is wrong, and what to do."""
+    return UsageError(
+        f"{path} holds a damaged interrupted export ({' '.join(why.split())[:200]}); remove that "
+        "directory to start again"
+    )
+
+
+def _read_state(state: Path) -> dict[str, Any]:
+    """``state.json`` of a work directory, checked to be what :meth:`_Work.finish` writes (an
+    object with ``format``, ``settings`` and a list of ``layouts``), else :func:`_damaged`."""
+    try:
+        doc = json.loads(state.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as err:
+        raise _damaged(state.parent, f"state.json is not readable JSON: {err}") from None
+    if not (
+        isinstance(doc, dict)
+        and {"format", "settings", "layouts"} <= set(doc)
+        and isinstance(doc["settings"], dict)
+        and isinstance(doc["layouts"], list)
+    ):
+        raise _damaged(state.parent, "state.json is not an export state")
+    return doc
 
 
 def _differs(old: dict[str, Any], new: dict[str, Any]) -> str:
@@ -382,7 +430,7 @@ def _write_dataset(
         writer = RobotWriter(root, repo, camera.name, vcodec=vcodec, robot=work.settings["robot"])
         try:
             for r in report.succeeded:
-                writer.add(RobotEpisode.load(work.episode_path(r.index)), r.index)
+                writer.add(_episode(work, r.index), r.index)
             writer.close()
         except BaseException:
             with signals_held():
@@ -395,6 +443,18 @@ def _write_dataset(
             "episodes": [writer.layouts[e] for e in sorted(writer.layouts)],
         }
         (root / LAYOUTS_PATH).write_text(json.dumps(doc, indent=1) + "\n")
+
+
+def _episode(work: _Work, index: int) -> RobotEpisode:
+    """A finished layout's episode; one damaged past the up-front check (a bad array inside a
+    readable archive) is refused as :func:`_damaged`."""
+    import zipfile
+
+    path = work.episode_path(index)
+    try:
+        return RobotEpisode.load(path)
+    except (OSError, EOFError, KeyError, ValueError, zipfile.BadZipFile) as err:
+        raise _damaged(work.path, f"{path.name}: not a readable episode ({err})") from None
 
 
 class RobotWriter:
@@ -464,7 +524,7 @@ class RobotWriter:
         LeRobotWriter.abort(self)  # type: ignore[arg-type]
 
     def close(self) -> None:
-        from .writer import _quiet, write_annotations, write_subtasks
+        from .writer import _quiet, remove_empty_images, write_annotations, write_subtasks
 
         if self._dataset is None:
             return
@@ -472,3 +532,4 @@ class RobotWriter:
             self._dataset.finalize()
         write_subtasks(self.root, list(self.subtasks))
         write_annotations(self.root, self._annotations)
+        remove_empty_images(self.root)

@@ -152,6 +152,23 @@ class RobotEpisode:
         arrays["fps_task"] = np.array([str(self.fps), self.task], dtype=str)
         np.savez(path, **arrays)  # type: ignore[arg-type]
 
+    @staticmethod
+    def problem(path: Path) -> str | None:
+        """What makes ``path`` unreadable as an episode :meth:`save` wrote (None: nothing
+        found). Cheap: the archive is opened and its array names checked, no array is read."""
+        import zipfile
+
+        try:
+            with zipfile.ZipFile(path) as z:  # what np.savez writes: one NAME.npy per array
+                names = {n.removesuffix(".npy") for n in z.namelist()}
+        except (OSError, EOFError, zipfile.BadZipFile) as err:
+            return f"not a readable episode ({err})"
+        needed = (*_ARRAYS, "joint_names", "object_names", "fps_task")
+        missing = [k for k in needed if k not in names]
+        if missing:
+            return f"not an episode: no {', '.join(missing)}"
+        return None
+
     @classmethod
     def load(cls, path: Path) -> RobotEpisode:
         """What :meth:`save` wrote."""

@@ -203,6 +203,21 @@ class LeRobotWriter:
         }
         (self.root / PROGRAM_PATH).write_text(json.dumps(doc, indent=2) + "\n")
         write_annotations(self.root, self._annotations)
+        remove_empty_images(self.root)
+
+
+def remove_empty_images(root: Path) -> None:
+    """Remove ``images/`` of a finished video dataset when nothing but empty directories is
+    left in it: lerobot writes each frame there as PNG until the episode is encoded, then
+    deletes the frames but keeps ``images/<camera>/``. The dataset is read from ``videos/``
+    (lerobot's own recorder removes the empty ``images/`` too); a PNG left there is kept."""
+    images = root / "images"
+    inside = list(images.rglob("*")) if images.is_dir() and not images.is_symlink() else None
+    if inside is None or any(p.is_symlink() or not p.is_dir() for p in inside):
+        return
+    for d in sorted(inside, key=lambda p: len(p.parts), reverse=True):
+        d.rmdir()
+    images.rmdir()
 
 
 def write_subtasks(root: Path, names: list[str]) -> None:

@@ -14,6 +14,11 @@ file (a chunk half flushed) is waited for, never an error. Following stops
   (:func:`lfd.io.mcapfile.scan`) recovers such a file,
 - on Ctrl+C (KeyboardInterrupt while waiting for data) or :meth:`Follower.stop`.
 
+A file that gets shorter than what was already read, or whose last bytes read change (truncated
+and written again in place), is refused with a :class:`~lfd.errors.RecordingFormatError`: the
+messages read so far are no longer what the file holds (checked whenever its size changes, on
+the :data:`TAIL_CHECKED` bytes before the read position).
+
 The recorder writes to ``.NAME.XXXXXXXX.partial`` beside ``NAME`` and renames it when closed;
 following ``NAME`` follows that partial file while it is being written (the open file survives
 the rename), or ``NAME`` itself once it exists. Beside a complete ``NAME``, a partial file is
@@ -72,6 +77,9 @@ RECORD_SIZE_LIMIT = 4 * 2**30
 """A record declaring more bytes than this is damage, not data still to come."""
 
 STOPPED_GROWING = "the file stopped growing without an end marker"
+
+TAIL_CHECKED = 4096
+"""How many of the last bytes read are compared with the file whenever its size changes."""
 
 
 @dataclass(frozen=True)
@@ -206,6 +214,9 @@ class Follower:
         self._started = False
         self._channels: dict[int, Channel] = {}
         self._kinds: dict[str, tuple[str, str]] = {}  # topic -> its (schema, encoding)
+        self._size = -1  # the file's size when last looked at
+        self._tail = b""  # the last bytes read, ending at offset self._tail_end
+        self._tail_end = 0
 
     # --- public ----------------------------------------------------------------------------
     def stop(self) -> None:
@@ -323,11 +334,17 @@ class Follower:
         idle_since = time.monotonic()
         while True:
             size = os.fstat(f.fileno()).st_size
+            if size != self._size:
+                self._size = size
+                self._check_unchanged(f, start, size)
             if size - start >= n:
                 f.seek(start)
                 data = f.read(n)
                 if len(data) == n:
                     self.bytes_read = start + n
+                    kept = self._tail if self._tail_end == start else b""
+                    self._tail = (kept + data[-TAIL_CHECKED:])[-TAIL_CHECKED:]
+                    self._tail_end = start + n
                     return data
             if size != last_size:
                 last_size, idle_since = size, time.monotonic()
@@ -346,6 +363,27 @@ class Follower:
                 return None
             if not self._wait():
                 return None
+
+    def _check_unchanged(self, f: IO[bytes], start: int, size: int) -> None:
+        """Refuse a file shorter than the ``start`` bytes already read, or whose last bytes read
+        changed: it was truncated or rewritten while followed, and what was read is gone."""
+        where = self.source or self.path
+        if size < start:
+            raise RecordingFormatError(
+                f"{where} was truncated or replaced while followed: it has {size} bytes now, "
+                f"{start} were already read ({self.message_count} messages); refusing to go on "
+                "with data no longer in the file"
+            )
+        if not self._tail or self._tail_end > size:
+            return
+        f.seek(self._tail_end - len(self._tail))
+        again = f.read(len(self._tail))
+        f.seek(start)
+        if again != self._tail:
+            raise RecordingFormatError(
+                f"{where} was replaced while followed: the bytes already read (up to byte "
+                f"{self._tail_end}) changed; refusing to go on with data no longer in the file"
+            )
 
     # --- records -------------------------------------------------------------------------------
     def _messages(self, f: IO[bytes]) -> Iterator[LiveMessage]:
@@ -557,7 +595,9 @@ def follow(
     ------
     RecordingFormatError
         (while iterating) no file appeared in time, the file is not MCAP or not a regular
-        file, a message's payload does not decode, or a chunk is a decompression bomb. (A
+        file, a message's payload does not decode, a chunk is a decompression bomb, or the file
+        was truncated or rewritten in place while followed (shorter than what was read, or the
+        bytes read changed). (A
         damaged record ends following with a warning instead, see above.)
     """
     return Follower(

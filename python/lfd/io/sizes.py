@@ -14,7 +14,8 @@ size of each object from, in this order:
    bag, the topic mapping file);
 4. else :data:`DEFAULT_OBJECT_SIZE`, with one :class:`~lfd.errors.DefaultSizeWarning` per object.
 
-Sizes are three positive, finite lengths in metres; a given size for an object the recording
+Sizes are three positive, finite lengths in metres, each at most :data:`MAX_OBJECT_SIDE_M` (every
+source goes through :func:`check_size`, as does ``camera.json``'s); a given size for an object the recording
 does not have is refused with :class:`~lfd.errors.UsageError` listing the objects it has.
 """
 
@@ -30,6 +31,7 @@ from ..errors import DefaultSizeWarning, UsageError
 
 __all__ = [
     "DEFAULT_OBJECT_SIZE",
+    "MAX_OBJECT_SIDE_M",
     "SIDECAR_SUFFIX",
     "check_size",
     "parse_object_size",
@@ -40,6 +42,11 @@ __all__ = [
 
 DEFAULT_OBJECT_SIZE: tuple[float, float, float] = (0.05, 0.05, 0.05)
 """The size (metres) of an object no source gives a size for: a 5 cm cube."""
+
+MAX_OBJECT_SIDE_M = 2.0
+"""The longest side (metres) of an object: a box on a table that a hand picks up, pushes or
+stacks. A longer one is a mistake (millimetres given as metres, a misplaced exponent) that would
+make the simulator build a scene kilometres wide or overflow; it is refused with one line."""
 
 SIDECAR_SUFFIX = ".sizes.toml"
 """``REC.mcap`` -> ``REC.mcap.sizes.toml`` (a ROS 2 bag directory ``BAG`` -> ``BAG.sizes.toml``)."""
@@ -53,18 +60,23 @@ def sidecar_path(path: str | os.PathLike[str]) -> str:
 
 
 def check_size(value: Any, where: str) -> Size:
-    """``value`` as three positive finite lengths in metres, else :class:`UsageError`."""
+    """``value`` as three positive finite lengths in metres, each at most
+    :data:`MAX_OBJECT_SIDE_M`, else :class:`UsageError` (the one rule of every size source)."""
     ok = (
         isinstance(value, (list, tuple))
         and len(value) == 3
         and all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0
+            isinstance(v, (int, float))
+            and not isinstance(v, bool)
+            and math.isfinite(v)
+            and 0 < v <= MAX_OBJECT_SIDE_M
             for v in value
         )
     )
     if not ok:
         raise UsageError(
-            f"{where}: a size is three positive finite lengths in metres [x, y, z], got {value!r}"
+            f"{where}: a size is three positive finite lengths in metres [x, y, z], each at "
+            f"most {MAX_OBJECT_SIDE_M:g} m (an object a hand handles), got {value!r}"
         )
     return (float(value[0]), float(value[1]), float(value[2]))
 

@@ -38,9 +38,11 @@ from ..demo import (
     pose_problem,
 )
 from ..errors import LfdError
+from ..io.sizes import MAX_OBJECT_SIDE_M
 
-SIZE_RANGE_M = (0.001, 2.0)
-"""Plausible object sizes and tag sides (m)."""
+SIZE_RANGE_M = (0.001, MAX_OBJECT_SIDE_M)
+"""Plausible object sizes and tag sides (m); the longest is every size source's
+(:data:`lfd.io.sizes.MAX_OBJECT_SIDE_M`)."""
 MAX_TAG_ID = 1023
 """Largest ArUco id of any predefined dictionary (``DICT_ARUCO_ORIGINAL`` has 1024)."""
 MAX_FPS = 1000.0

@@ -132,6 +132,21 @@ def _fmt(v: float) -> str:
     return f"{round(v, 4):g}" if v else "0"
 
 
+def _unmoved(d: Displacement) -> bool:
+    """A zero displacement: the object where the demonstration shows it (``lfd export
+    robot-data`` checks the demonstration as shown so, with no ``--displace`` given)."""
+    return not any(d)
+
+
+def _where(name: str, d: Displacement, x: float, y: float) -> tuple[str, bool]:
+    """How an error names an object at ``(x, y)`` after displacement ``d``: by the
+    ``--displace`` given, or, for a zero one, by the demonstration (no displacement was given);
+    and whether it was displaced (a smaller displacement is a remedy)."""
+    if _unmoved(d):
+        return f"{name} is at ({x:.3f}, {y:.3f}) m where the demonstration shows it", False
+    return f"--displace {name}:{_fmt(d[0])},{_fmt(d[1])} puts {name} at ({x:.3f}, {y:.3f}) m", True
+
+
 def check_displacement(
     traj: Trajectory,
     displace: Mapping[str, Displacement],
@@ -205,25 +220,26 @@ def check_displacement(
     yaw = [yaw_of(quat_to_matrix(q)) if np.all(np.isfinite(q)) else 0.0 for q in oquat]
     for name, d in displace.items():
         yaw[names.index(name)] += _turn(d)
-    for name, (dx, dy, *_) in displace.items():
+    for name, d in displace.items():
         k = names.index(name)
-        what = f"--displace {name}:{_fmt(dx)},{_fmt(dy)} puts {name} at ({pos[k, 0]:.3f}, {pos[k, 1]:.3f}) m"
+        what, displaced = _where(name, d, pos[k, 0], pos[k, 1])
+        remedy = "; use a smaller displacement" if displaced else ""
         top = pos[k] + [0.0, 0.0, size[k, 2] / 2 + robot.tcp_offset]  # wrist above a top grasp
         reach = float(np.linalg.norm(top - shoulder))
         if reach > reach_max or reach < reach_min - REACH_SLACK:
             raise UsageError(
                 f"{what}, out of the arm's reach ({reach:.3f} m from the shoulder; it reaches "
-                f"{reach_min - REACH_SLACK:.2f}-{reach_max:.2f} m); use a smaller displacement"
+                f"{reach_min - REACH_SLACK:.2f}-{reach_max:.2f} m){remedy}"
             )
         if np.any(np.abs(pos[k, :2] - centre) + size[k, :2].max() / 2 > TABLE_HALF):
-            raise UsageError(f"{what}, off the table; use a smaller displacement")
+            raise UsageError(f"{what}, off the table{remedy}")
         for j, other in enumerate(names):
             if j == k or not known[j]:
                 continue
             if _overlap(pos[k], yaw[k], size[k], pos[j], yaw[j], size[j]):
                 raise UsageError(
-                    f"{what}, overlapping {other} at ({pos[j, 0]:.3f}, {pos[j, 1]:.3f}) m; "
-                    "choose a displacement that leaves them apart"
+                    f"{what}, overlapping {other} at ({pos[j, 0]:.3f}, {pos[j, 1]:.3f}) m"
+                    + ("; choose a displacement that leaves them apart" if displaced else "")
                 )
     return base
 
@@ -271,6 +287,7 @@ def check_goals(
     reach_min, reach_max = robot.reach
     centre = table_centre(base)
     spec = " ".join(f"{n}:{','.join(_fmt(v) for v in d)}" for n, d in displace.items())
+    given = "" if all(_unmoved(d) for d in displace.values()) else f"--displace {spec}: "
     names = frames.names
     for scene in scenes:
         for k, name in enumerate(names):
@@ -278,7 +295,7 @@ def check_goals(
             if np.linalg.norm(T[:3, 3] - T0[:3, 3]) < 1e-6:
                 continue
             p = T[:3, 3]
-            what = f"--displace {spec}: the task would put {name} at ({p[0]:.3f}, {p[1]:.3f}) m"
+            what = f"{given}the task would put {name} at ({p[0]:.3f}, {p[1]:.3f}) m"
             top = p + np.array([0.0, 0.0, frames.size[k, 2] / 2 + robot.tcp_offset])
             reach = float(np.linalg.norm(top - shoulder))
             if reach > reach_max or reach < reach_min - REACH_SLACK:

@@ -438,3 +438,21 @@ def test_two_hand_segment_labels_are_segment_hands(tmp_path: Path) -> None:
         got = [int(v) for v in table[f"skill_index.{side}"]]
         want = [SKILLS.index(g.skill) if (g := _gt_at(labels, int(x))) else -1 for x in t]
         assert got == want
+
+
+def test_an_emptied_images_directory_is_removed_and_a_frame_kept(tmp_path: Path) -> None:
+    """lerobot deletes each episode's PNG frames once encoded but keeps
+    ``images/<camera>/``: a finished dataset does not keep that empty tree; one holding a
+    frame (not lfd's to delete) is kept."""
+    from lfd.export.writer import remove_empty_images
+
+    empty = tmp_path / "a" / "images" / "observation.images.table"
+    empty.mkdir(parents=True)
+    remove_empty_images(tmp_path / "a")
+    assert list((tmp_path / "a").iterdir()) == []
+    frame = tmp_path / "b" / "images" / "observation.images.table" / "episode-000000"
+    frame.mkdir(parents=True)
+    (frame / "frame-000000.png").write_bytes(b"png")
+    remove_empty_images(tmp_path / "b")
+    assert (frame / "frame-000000.png").is_file()
+    remove_empty_images(tmp_path / "none")  # no images directory: nothing to do

@@ -208,6 +208,118 @@ def test_two_hand_recording_is_refused(tmp_path: Path) -> None:
 
 def test_object_out_of_reach_is_refused(tmp_path: Path) -> None:
     rec = far_recording(tmp_path / "far.mcap")
-    with pytest.raises(UsageError, match="out of the arm's reach"):
+    with pytest.raises(UsageError, match="out of the arm's reach") as refused:
         export_robot_data(rec, tmp_path / "ds", layouts=2)
+    # named where the demonstration shows it, not as a --displace nobody gave
+    assert "where the demonstration shows it" in str(refused.value), refused.value
+    assert "--displace" not in str(refused.value) and "displacement" not in str(refused.value)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["far.mcap"]
+
+
+def _tiny_episode(path: Path) -> None:
+    from lfd.export.robot_episode import RobotEpisode
+
+    n = 2
+    RobotEpisode(
+        fps=10,
+        task="t",
+        joint_names=["j1"],
+        object_names=["box_1"],
+        state=np.zeros((n, 1), np.float32),
+        action=np.zeros((n, 1), np.float32),
+        environment=np.zeros((n, 7), np.float32),
+        images=np.zeros((n, 16, 16, 3), np.uint8),
+        labels={"skill_index": np.zeros(n, np.int64)},
+        subtasks={"subtask_index": ["move"] * n},
+        segment=np.zeros(n, np.int64),
+        ticks=np.arange(n) * 10,
+    ).save(path)
+
+
+def _state(layouts: list[dict[str, Any]]) -> str:
+    """A ``state.json`` with the settings of ``export robot-data EXP1 --layouts 2``."""
+    from lfd.export.robot_data import STATE_FORMAT
+    from lfd.reproduce import MAX_SHIFT, MAX_TURN_DEG
+
+    settings = {
+        "recording": str(EXP1.resolve()),
+        "recording_bytes": EXP1.stat().st_size,
+        "seed": 0,
+        "mode": "skills",
+        "labels": "ground-truth",
+        "fps": 10,
+        "image_size": [160, 120],
+        "max_shift_m": MAX_SHIFT,
+        "max_turn_deg": MAX_TURN_DEG,
+        "robot": "kuka_lwr4",
+    }
+    return json.dumps({"format": STATE_FORMAT, "settings": settings, "layouts": layouts})
+
+
+def _layout(index: int, **changes: Any) -> dict[str, Any]:
+    return {
+        "index": index,
+        "displace": {"box_1": [0.01, 0.0, 5.0]},
+        "success": True,
+        "failures": [],
+        "error": None,
+        "frames": 2,
+        "seconds": 1.0,
+    } | changes
+
+
+@pytest.mark.parametrize(
+    ("state", "episode", "expected"),
+    [
+        ("{garbage", b"", "state.json is not readable JSON"),
+        ("[]", b"", "state.json is not an export state"),
+        ('{"format": 2}', b"", "state.json is not an export state"),
+        (_state([_layout(0), _layout(1, frames="many")]), b"", "layouts[1] is malformed"),
+        (_state([_layout(0), {"index": 1}]), b"", "layouts[1] is malformed"),
+        (_state([_layout(0), _layout(1)]), b"PK\x03\x04 cut", "layout_000001.npz: not a readable"),
+        (_state([_layout(0), _layout(1)]), os.urandom(5000), "layout_000001.npz: not a readable"),
+        (_state([_layout(0), _layout(1)]), b"\x93NUMPY", "layout_000001.npz: not a readable"),
+    ],
+    ids=["garbage", "list", "no-layouts", "frames-many", "no-keys", "cut-npz", "random-npz", "npy"],
+)
+def test_a_damaged_resume_state_is_refused_up_front_and_kept(
+    state: str,
+    episode: bytes,
+    expected: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """A damaged ``.DIR.robot-data`` (state.json not what an export writes, a finished layout's
+    episode unreadable) is one line, exit status 2, naming the directory and saying to remove
+    it, before any layout runs (the episodes were read only after every other layout was
+    simulated); nothing in it is deleted."""
+    from lfd.cli import main
+
+    out = tmp_path / "ds"
+    work = work_dir(out)
+    work.mkdir()
+    (work / "state.json").write_text(state)
+    _tiny_episode(work / "layout_000000.npz")
+    if episode:
+        (work / "layout_000001.npz").write_bytes(episode)
+    before = {p.name: p.read_bytes() for p in work.iterdir()}
+    status = main(["export", "robot-data", str(EXP1), "-o", str(out), "--layouts", "2"])
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert status == 2 and len(lines) == 1 and "Traceback" not in err, err
+    assert f"{work} holds a damaged interrupted export" in lines[0], lines[0]
+    assert expected in lines[0] and "remove that directory to start again" in lines[0], lines[0]
+    assert {p.name: p.read_bytes() for p in work.iterdir()} == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == [work.name]
+
+
+def test_the_work_directory_is_made_in_missing_parents(tmp_path: Path) -> None:
+    """``-o a/b/ds`` where ``a/`` does not exist (allowed, as for ``export lerobot``): the first
+    finished layout's work directory is made with its parents (it failed after the first
+    layout's simulation, naming the hidden ``a/b/.ds.robot-data``)."""
+    from lfd.export.robot_data import _Work
+
+    work = _Work(work_dir(tmp_path / "a" / "b" / "ds"), {"seed": 0})
+    work.finish(LayoutResult(0, {"box_1": [0.0, 0.0, 0.0]}, False, ["knocked"], 1.0), None)
+    state = json.loads((tmp_path / "a" / "b" / ".ds.robot-data" / "state.json").read_text())
+    assert [r["index"] for r in state["layouts"]] == [0]

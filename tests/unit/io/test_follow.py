@@ -179,6 +179,63 @@ def test_follow_stops_on_ctrl_c_and_on_stop(tmp_path: Path) -> None:
     assert sum(1 for _ in follower) == int(n) and follower.stop_reason == "stopped"
 
 
+def _shrink(path: Path) -> None:
+    """Truncate ``path`` to 1000 bytes and append 5 KB of random bytes (a file rewritten in
+    place while followed)."""
+    import os
+
+    with open(path, "r+b") as f:
+        f.truncate(1000)
+        f.seek(0, os.SEEK_END)
+        f.write(os.urandom(5000))
+
+
+def _rewrite_tail(path: Path, end: int) -> None:
+    """Overwrite the 100 bytes before ``end`` with others and append some (same size, then
+    longer: a prefix already read changed)."""
+    import os
+
+    with open(path, "r+b") as f:
+        f.seek(end - 100)
+        old = f.read(100)
+        f.seek(end - 100)
+        f.write(bytes(b ^ 0xFF for b in old))
+        f.seek(0, os.SEEK_END)
+        f.write(os.urandom(64))
+
+
+@pytest.mark.parametrize("how", ["shrunk", "rewritten"])
+def test_follow_refuses_a_file_truncated_or_rewritten_while_followed(
+    how: str, tmp_path: Path
+) -> None:
+    """A followed file that gets shorter than what was read, or whose bytes already read
+    change, is refused (the messages read are no longer the file's); it was followed on, the
+    idle warning counting ``126936 of its 6000 bytes``."""
+    src = EXP1.read_bytes()
+    dest = tmp_path / "g.mcap"
+    dest.write_bytes(src[: len(src) * 6 // 10])
+    follower = follow(dest, poll_s=0.01, idle_timeout_s=10.0)
+
+    def damage() -> None:
+        if how == "shrunk":
+            _shrink(dest)
+        else:
+            _rewrite_tail(dest, follower.bytes_read)
+
+    got = []
+    timer = threading.Timer(1.0, damage)
+    timer.start()
+    try:
+        with pytest.raises(RecordingFormatError) as refused:
+            for msg in follower:
+                got.append(msg)
+    finally:
+        timer.cancel()
+    expected = "truncated or replaced" if how == "shrunk" else "bytes already read"
+    assert expected in str(refused.value) and str(dest) in str(refused.value), refused.value
+    assert len(got) > 1000  # the messages read before it were yielded
+
+
 def test_follow_refuses_what_is_not_a_recording(tmp_path: Path) -> None:
     with pytest.raises(RecordingFormatError, match="appeared within"):
         list(follow(tmp_path / "never.mcap", poll_s=0.01, start_timeout_s=0.1))

@@ -122,6 +122,9 @@ def test_sizes_given_sidecar_metadata_in_that_order(tmp_path: Path, reference) -
         ({"box_1": (0.1, 0.1)}, None, "three positive"),
         (None, "[sizes]\nbox_7 = [0.1, 0.1, 0.1]\n", "'box_7'.*its objects are box_1"),
         (None, "[sizes]\nbox_1 = [0.1, -1, 0.1]\n", "sizes.box_1"),
+        # longer than any object a hand handles (a hang, a MemoryError or an overflow later)
+        ({"box_1": (0.05, 0.05, 1e3)}, None, "each at most 2 m"),
+        (None, "[sizes]\nbox_1 = [1e300, 1, 1]\n", "sizes.box_1: .*each at most 2 m"),
         (None, "[sizes\n", "not valid TOML"),
         (None, "box_1 = [0.1, 0.1, 0.1]\n", "unknown key 'box_1'"),
     ],
