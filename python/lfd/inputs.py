@@ -15,6 +15,7 @@ The ``output`` twin of this module is :mod:`lfd.outputs`.
 
 from __future__ import annotations
 
+import math
 import os
 import stat
 from typing import Any
@@ -22,6 +23,8 @@ from typing import Any
 from .errors import LfdError, UsageError
 
 __all__ = [
+    "END_TOLERANCE_NS",
+    "MAX_SECONDS",
     "MAX_TEXT_BYTES",
     "check_input_file",
     "parse_integer",
@@ -29,6 +32,7 @@ __all__ = [
     "parse_number",
     "parse_toml",
     "read_text",
+    "seconds",
     "shown",
 ]
 
@@ -155,6 +159,45 @@ def parse_integer(text: str) -> int:
         ``text`` is not an integer (no message: the caller words it).
     """
     return int(_plain(text))
+
+
+END_TOLERANCE_NS = 100_000_000
+"""How far (ns) a label may end after the recording's last sample: 0.1 s, three samples at
+30 Hz, since a segment ends where the next sample would start."""
+
+MAX_SECONDS = 9e9
+"""Largest time (s) a label may give, either sign: nanoseconds beyond it do not fit in the
+signed 64-bit integers recordings count time in (2**63 ns is 9.2e9 s, 292 years)."""
+
+
+def seconds(value: Any, where: str, key: str) -> float:
+    """``value`` (a JSON number, or text such as a CSV field) as a time in seconds: a finite
+    number, not a boolean, within :data:`MAX_SECONDS` either way. The rule of every time a user
+    gives in a file (labels, handovers, a task program).
+
+    Raises
+    ------
+    UsageError
+        ``f"{where}: {key} must be ..."``, one line (a huge value is cut short).
+    """
+    if isinstance(value, bool) or value is None:
+        raise UsageError(f"{where}: {key} must be a number of seconds, got {shown(value)}")
+    try:  # an integer beyond any float (10**400) is out of range below, not "not a number"
+        x = parse_number(value) if isinstance(value, str) else float(value)
+    except OverflowError:
+        x = 2 * MAX_SECONDS  # the sign does not matter: |x| is checked
+    except (TypeError, ValueError):
+        raise UsageError(
+            f"{where}: {key} must be a number of seconds, got {shown(value)}"
+        ) from None
+    if not math.isfinite(x):
+        raise UsageError(f"{where}: {key} must be a finite number of seconds, got {shown(value)}")
+    if abs(x) > MAX_SECONDS:
+        raise UsageError(
+            f"{where}: {key} must be within +-{MAX_SECONDS:g} s of the recording, "
+            f"got {shown(value)}"
+        )
+    return x
 
 
 def _plain(text: str) -> str:

@@ -40,7 +40,6 @@ from __future__ import annotations
 import csv
 import io
 import itertools
-import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -48,7 +47,7 @@ from typing import Any
 
 from ..demo import HAND_SIDES, Demonstration, Handover, SkillLabel
 from ..errors import LfdError, RecordingFormatError, UsageError
-from ..inputs import parse_number, shown
+from ..inputs import END_TOLERANCE_NS, MAX_SECONDS, seconds, shown
 from ..skills import check_skill
 from . import messages as M
 from . import topics as T
@@ -62,46 +61,7 @@ __all__ = [
     "write_labels",
 ]
 
-END_TOLERANCE_NS = 100_000_000
-"""How far (ns) a label may end after the recording's last sample: 0.1 s, three samples at
-30 Hz, since a segment ends where the next sample would start."""
-
 CSV_COLUMNS = ("skill", "start_s", "end_s", "object", "hand")
-
-
-MAX_SECONDS = 9e9
-"""Largest time (s) a label may give, either sign: nanoseconds beyond it do not fit in the
-signed 64-bit integers recordings count time in (2**63 ns is 9.2e9 s, 292 years)."""
-
-
-def seconds(value: Any, where: str, key: str) -> float:
-    """``value`` (a JSON number, or text such as a CSV field) as a time in seconds: a finite
-    number, not a boolean, within :data:`MAX_SECONDS` either way. The rule of every time a user
-    gives in a file (labels, handovers, a task program).
-
-    Raises
-    ------
-    UsageError
-        ``f"{where}: {key} must be ..."``, one line (a huge value is cut short).
-    """
-    if isinstance(value, bool) or value is None:
-        raise UsageError(f"{where}: {key} must be a number of seconds, got {shown(value)}")
-    try:  # an integer beyond any float (10**400) is out of range below, not "not a number"
-        x = parse_number(value) if isinstance(value, str) else float(value)
-    except OverflowError:
-        x = 2 * MAX_SECONDS  # the sign does not matter: |x| is checked
-    except (TypeError, ValueError):
-        raise UsageError(
-            f"{where}: {key} must be a number of seconds, got {shown(value)}"
-        ) from None
-    if not math.isfinite(x):
-        raise UsageError(f"{where}: {key} must be a finite number of seconds, got {shown(value)}")
-    if abs(x) > MAX_SECONDS:
-        raise UsageError(
-            f"{where}: {key} must be within +-{MAX_SECONDS:g} s of the recording, "
-            f"got {shown(value)}"
-        )
-    return x
 
 
 Entry = tuple[dict[str, Any], int | None]

@@ -15,7 +15,7 @@ object). ``params`` is a JSON object, free but for the object names it gives (e.
 
 A program read from a file is checked before any work: at most :data:`MAX_SEGMENTS` segments,
 each with ``skill``, ``start_s`` and ``end_s``, times finite numbers (not booleans) within
-:data:`lfd.io.labels.MAX_SECONDS` (the rule of ``lfd label``); :meth:`TaskProgram.check_within`
+:data:`lfd.inputs.MAX_SECONDS` (the rule of ``lfd label``); :meth:`TaskProgram.check_within`
 then checks them against the recording the program runs on.
 """
 
@@ -64,8 +64,7 @@ place's reference (:mod:`lfd.reproduce.modes`)."""
 
 def _segment_from_json(item: Any, where: str) -> Segment:
     """One segment of a task program's JSON, every key checked (one line naming ``where``)."""
-    from ..inputs import shown
-    from ..io.labels import seconds
+    from ..inputs import seconds, shown
 
     if not isinstance(item, dict):
         raise DemonstrationError(f"{where} must be a JSON object, got {shown(item)}")
@@ -141,7 +140,7 @@ class TaskProgram:
             program or one out of time order.
         UsageError
             A time that is not a finite number of seconds within
-            :data:`lfd.io.labels.MAX_SECONDS` (:func:`lfd.io.labels.seconds`).
+            :data:`lfd.inputs.MAX_SECONDS` (:func:`lfd.inputs.seconds`).
         UnknownSkillError
             A skill name that is not canonical.
         """
@@ -167,7 +166,7 @@ class TaskProgram:
     def check_within(self, duration_s: float, what: str = "task program") -> None:
         """Refuse segments outside the recording they run on: each must start at or after its
         start and end by its end (``duration_s`` after it), within
-        :data:`~lfd.io.labels.END_TOLERANCE_NS` (0.1 s) either side: program times count from
+        :data:`~lfd.inputs.END_TOLERANCE_NS` (0.1 s) either side: program times count from
         the first sample of the preprocessed trajectory, a little after the recording's start.
 
         Raises
@@ -176,7 +175,7 @@ class TaskProgram:
             A segment that starts before the recording or ends after it (one line, naming the
             first).
         """
-        from ..io.labels import END_TOLERANCE_NS
+        from ..inputs import END_TOLERANCE_NS
 
         tol = END_TOLERANCE_NS * 1e-9
         for i, s in enumerate(self.segments):
