@@ -86,7 +86,8 @@ def read_text(
     not_text: str = "is not UTF-8 text",
 ) -> str:
     """The UTF-8 text of a regular file of at most ``limit`` bytes, else ``error`` (for bytes
-    that are not UTF-8: ``"<path> <not_text>"``).
+    that are not UTF-8: ``"<path> <not_text>"``). A leading byte order mark (as Excel and some
+    Windows editors write UTF-8) is not part of the text and is dropped.
 
     :class:`OSError` (missing file, permission denied) propagates for the caller to word."""
     p = check_input_file(path, what, error)
@@ -96,7 +97,7 @@ def read_text(
     if len(data) > limit:
         raise error(f"{label} is larger than {limit // 2**20} MiB; not a text input lfd reads")
     try:
-        return data.decode("utf-8")
+        return data.decode("utf-8-sig")
     except UnicodeDecodeError:
         raise error(f"{label} {not_text}") from None
 

@@ -164,6 +164,44 @@ def test_nested_huge_or_garbage_text_input(
     assert rec.read_bytes() == before, line
 
 
+LABEL_FILES = {
+    "ns-start-without-end": (
+        '[{"skill": "move", "start_ns": 1700000000100000000}]',
+        "label 0 needs skill, start_s and end_s (or start_ns and end_ns: both times in one "
+        "unit); it has start_ns but no end_ns",
+    ),
+    "ns-start-s-end": (
+        '[{"skill": "move", "start_ns": 1700000000100000000, "end_s": 2}]',
+        "it mixes start_ns with end_s",
+    ),
+    "csv-huge-field": ("move,0," + "1" * 200_000 + "\n", "line 1 is not CSV: field larger"),
+    "csv-duplicate-column": ("skill,skill,start_s,end_s\nmove,move,0,1\n", "names skill twice"),
+    "count": ("".join(f"move,{i},{i + 1}\n" for i in range(4)), "more than 3 labels"),
+}
+
+
+@pytest.mark.parametrize("case", list(LABEL_FILES))
+def test_bad_label_file(
+    case: str,
+    rec: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A label file with one mistake: one line, the recording unchanged and no OUT (a start_ns
+    without end_ns was a KeyError, a field over 131072 characters a _csv.Error traceback, a
+    repeated header column was accepted, any number of labels was read)."""
+    text, expected = LABEL_FILES[case]
+    if case == "count":
+        monkeypatch.setattr("lfd.io.labels.MAX_LABELS", 3)
+    labels = tmp_path / ("labels.json" if text.startswith("[") else "labels.csv")
+    labels.write_text(text, encoding="utf-8")
+    out = tmp_path / "out.mcap"
+    before = rec.read_bytes()
+    _one_line(capsys, ["label", rec, "--from", labels, "-o", out], expected)
+    assert rec.read_bytes() == before and not out.exists()
+
+
 # --- 2. corrupt object sizes inside a recording; garbage appended to a followed file -----------
 SIZE_CASES = {
     "string": '"big"',

@@ -13,6 +13,12 @@ A label file is one of
   ``{"hands": {"right": <one-hand report>, "left": <one-hand report>}, "handovers": [...]}``
   (each lane's segments are its hand's labels, each with its own ``origin_ns``).
 
+A label gives both its times in seconds (``start_s``, ``end_s``) or both in absolute nanoseconds
+(``start_ns``, ``end_ns``; seconds win when an entry has both pairs, as ``lfd segment --json``
+writes them); one of each (``start_ns`` with ``end_s``) or a start without its end is refused.
+A file holds at most :data:`MAX_LABELS` labels and handovers together (a CSV is not read past
+them); a UTF-8 byte order mark (as Excel writes a CSV) is skipped (:func:`lfd.inputs.read_text`).
+
 Each entry may name its ``hand`` (``right`` or ``left``); in a two-hand recording every label
 must, and a label for a hand the recording lacks is refused. Handovers (two-hand recordings) are
 a ``handovers`` list beside ``segments`` or ``hands``: ``{"giver", "taker", "object", "start_s",
@@ -51,9 +57,11 @@ from ..inputs import END_TOLERANCE_NS, MAX_SECONDS, seconds, shown
 from ..skills import check_skill
 from . import messages as M
 from . import topics as T
+from .summary import LABEL_BYTES
 
 __all__ = [
     "END_TOLERANCE_NS",
+    "MAX_LABELS",
     "MAX_SECONDS",
     "read_annotations",
     "read_labels",
@@ -62,6 +70,27 @@ __all__ = [
 ]
 
 CSV_COLUMNS = ("skill", "start_s", "end_s", "object", "hand")
+
+LABEL_MESSAGE_BYTES = 1024
+"""Most bytes one label's (or handover's) message takes on its channel: two times, the skill
+(or giver and taker), the hand and an object name of
+:data:`~lfd.io.writer.MAX_OBJECT_NAME` characters of up to 4 UTF-8 bytes each, with their
+protobuf framing (under 900 bytes; a test checks it)."""
+
+MAX_LABELS = LABEL_BYTES // LABEL_MESSAGE_BYTES // 2
+"""Most labels and handovers (together) a label file may give: 32768, hours of skills a second
+long. Their messages fill at most half of :data:`lfd.io.summary.LABEL_BYTES`, what ``lfd info``
+reads of a recording's label channels (the other half is left to the live segments a recording
+may hold), so a labelled recording stays readable; a bigger file is refused before its labels are
+built (2.7 million rows took 6 GB and minutes)."""
+
+
+def _count(n: int, where: str) -> None:
+    """Refuse ``n`` labels and handovers of one file if they are more than :data:`MAX_LABELS`."""
+    if n > MAX_LABELS:
+        raise UsageError(
+            f"{where}: more than {MAX_LABELS} labels and handovers, the most a label file may give"
+        )
 
 
 Entry = tuple[dict[str, Any], int | None]
@@ -135,30 +164,45 @@ def _entries_from_json(doc: Any, where: str) -> tuple[list[Entry], list[Entry] |
 
 
 def _entries_from_csv(text: str, where: str) -> list[dict[str, Any]]:
-    rows = [
-        r
-        for r in csv.reader(io.StringIO(text))
-        if r and any(c.strip() for c in r) and not r[0].lstrip().startswith("#")
-    ]
-    if rows and rows[0][0].strip() == "skill":
-        header = [c.strip() for c in rows[0]]
-        unknown = [c for c in header if c not in CSV_COLUMNS]
-        if unknown or not {"skill", "start_s", "end_s"} <= set(header):
-            raise UsageError(
-                f"{where}: header {','.join(header)} must name the columns "
-                f"{','.join(CSV_COLUMNS)} (object optional)"
-            )
-        rows = rows[1:]
-    else:
-        header = list(CSV_COLUMNS)
-    out = []
-    for n, r in enumerate(rows):
-        if not 3 <= len(r) <= len(header):
-            raise UsageError(
-                f"{where}: row {n + 1} has {len(r)} fields; expected {','.join(header)}"
-            )
-        out.append({k: v.strip() for k, v in zip(header, r, strict=False)})
+    """The rows of a label CSV as entries, read no further than :data:`MAX_LABELS` of them."""
+    reader = csv.reader(io.StringIO(text))
+    header: list[str] | None = None
+    out: list[dict[str, Any]] = []
+    try:
+        for r in reader:
+            if not r or not any(c.strip() for c in r) or r[0].lstrip().startswith("#"):
+                continue
+            if header is None:
+                header = _csv_header(r, where)
+                if header is not None:
+                    continue
+                header = list(CSV_COLUMNS)
+            if not 3 <= len(r) <= len(header):
+                raise UsageError(
+                    f"{where}: row {len(out) + 1} has {len(r)} fields; expected {','.join(header)}"
+                )
+            out.append({k: v.strip() for k, v in zip(header, r, strict=False)})
+            _count(len(out), where)
+    except csv.Error as err:  # a field longer than csv.field_size_limit(), ...
+        raise UsageError(f"{where}: line {reader.line_num} is not CSV: {err}") from None
     return out
+
+
+def _csv_header(row: list[str], where: str) -> list[str] | None:
+    """The columns a CSV's first row names, None when it is a label (no header line)."""
+    if row[0].strip() != "skill":
+        return None
+    header = [c.strip() for c in row]
+    unknown = [c for c in header if c not in CSV_COLUMNS]
+    if unknown or not {"skill", "start_s", "end_s"} <= set(header):
+        raise UsageError(
+            f"{where}: header {','.join(header)} must name the columns "
+            f"{','.join(CSV_COLUMNS)} (object optional)"
+        )
+    twice = sorted({c for c in header if header.count(c) > 1})
+    if twice:
+        raise UsageError(f"{where}: header {','.join(header)} names {', '.join(twice)} twice")
+    return header
 
 
 def _read_entries(path: Path) -> tuple[list[Entry], list[Entry] | None]:
@@ -172,7 +216,32 @@ def _read_entries(path: Path) -> tuple[list[Entry], list[Entry] | None]:
         return [(e, None) for e in _entries_from_csv(text, str(path))], None
     what = "JSON" if path.suffix.lower() == ".json" else "JSON (or give a .csv file)"
     doc = parse_json(text, f"{path} is not valid {what}")
-    return _entries_from_json(doc, str(path))
+    entries, handovers = _entries_from_json(doc, str(path))
+    _count(len(entries) + len(handovers or ()), str(path))
+    return entries, handovers
+
+
+def _in_nanoseconds(e: dict[str, Any], where: str, needs: str) -> bool:
+    """Whether entry ``e`` gives its times in nanoseconds (``start_ns``, ``end_ns``) rather than
+    seconds (``start_s``, ``end_s``, which win when both pairs are whole); anything else (one time
+    of each, a start without its end) is refused, naming what is missing."""
+    if "start_s" in e and "end_s" in e:
+        return False
+    if "start_ns" in e and "end_ns" in e:
+        return True
+    start = next((k for k in ("start_s", "start_ns") if k in e), None)
+    end = next((k for k in ("end_s", "end_ns") if k in e), None)
+    if start is not None and end is not None:
+        problem = f"it mixes {start} with {end}"
+    elif start is not None:
+        problem = f"it has {start} but no {start.replace('start', 'end')}"
+    elif end is not None:
+        problem = f"it has {end} but no {end.replace('end', 'start')}"
+    else:
+        problem = "it gives no times"
+    raise UsageError(
+        f"{where} needs {needs} (or start_ns and end_ns: both times in one unit); {problem}"
+    )
 
 
 class _Span:
@@ -185,12 +254,13 @@ class _Span:
         return self.start if origin is None else origin
 
     def __call__(
-        self, e: dict[str, Any], origin: int | None, where: str, name: str
+        self, e: dict[str, Any], origin: int | None, where: str, name: str, needs: str
     ) -> tuple[int, int]:
         """The span of entry ``e`` in recording nanoseconds (``start_s``/``end_s`` from its
-        origin, or absolute ``start_ns``/``end_ns``), checked to lie in the recording."""
+        origin, or absolute ``start_ns``/``end_ns``), checked to lie in the recording; an entry
+        without both times in one unit is refused: ``f"{where} needs {needs} ..."``."""
         t0 = self.origin(origin)
-        if "start_s" not in e and "start_ns" in e and "end_ns" in e:
+        if _in_nanoseconds(e, where, needs):
             a, b = (_nanoseconds(e[k], where, k) for k in ("start_ns", "end_ns"))
             s, f = (a - t0) * 1e-9, (b - t0) * 1e-9
         else:
@@ -239,9 +309,7 @@ def _object(value: Any, where: str, demo: Demonstration) -> str | None:
 def _label(
     e: dict[str, Any], origin: int | None, where: str, span: _Span, demo: Demonstration
 ) -> SkillLabel:
-    if "skill" not in e or ("start_s" not in e and "start_ns" not in e):
-        raise UsageError(f"{where} needs skill, start_s and end_s, got {e!r}"[:200])
-    if "start_s" in e and "end_s" not in e:
+    if "skill" not in e:
         raise UsageError(f"{where} needs skill, start_s and end_s, got {e!r}"[:200])
     skill = str(e["skill"]).strip()
     try:
@@ -250,7 +318,7 @@ def _label(
         raise type(err)(f"{where}: {err}") from None
     obj = _object(e.get("object"), f"{where} ({skill})", demo)
     hand = _side(e.get("hand"), f"{where} ({skill})", demo)
-    a, b = span(e, origin, where, skill)
+    a, b = span(e, origin, where, skill, "skill, start_s and end_s")
     return SkillLabel(skill, a, b, obj, hand)
 
 
@@ -266,15 +334,13 @@ def _handover(
     taker = _side(e["taker"], where, demo, "taker")
     if giver == taker:
         raise UsageError(f"{where}: the {giver} hand cannot give to itself")
-    if ("start_s" not in e or "end_s" not in e) and ("start_ns" not in e or "end_ns" not in e):
-        raise UsageError(f"{where} needs giver, taker, start_s and end_s, got {e!r}"[:200])
     obj = _object(e.get("object"), where, demo)
     if obj is None:  # the giver's place and the taker's pick_up are found by their object
         raise UsageError(
             f"{where} ({giver} to {taker}) names no object; give the object handed over "
             f"(one of {', '.join(demo.objects) or 'none'})"
         )
-    a, b = span(e, origin, where, f"{giver} to {taker}")
+    a, b = span(e, origin, where, f"{giver} to {taker}", "giver, taker, start_s and end_s")
     assert giver is not None and taker is not None
     return Handover(a, b, giver, taker, obj)
 

@@ -125,3 +125,72 @@ def test_incomplete_recording_is_refused(tmp_path: Path) -> None:
         write_labels(rec, load(EXP1, images=False).labels)
     assert rec.read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["cut.mcap"]
+
+
+def test_label_count_is_limited_before_labels_are_built(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """More than MAX_LABELS labels and handovers are refused in one line; a CSV is not read past
+    them (the row after the limit would be a CSV error if it were read)."""
+    import lfd.io.labels as L
+    from lfd.errors import UsageError
+
+    demo = load(EXP1, images=False)
+    monkeypatch.setattr(L, "MAX_LABELS", 3)
+    rows = [f"move,{i},{i + 1}\n" for i in range(3)]
+    csv_file = tmp_path / "labels.csv"
+    csv_file.write_text("skill,start_s,end_s\n" + "".join(rows), encoding="utf-8")
+    assert len(L.read_labels(csv_file, demo)) == 3  # the header is not a label
+    csv_file.write_text("".join(rows) + "move,3,4\nmove,4," + "1" * 200_000 + "\n")
+    with pytest.raises(UsageError, match="more than 3 labels and handovers") as err:
+        L.read_labels(csv_file, demo)
+    assert "\n" not in str(err.value)
+    doc = [{"skill": "move", "start_s": i, "end_s": i + 1} for i in range(4)]
+    json_file = tmp_path / "labels.json"
+    json_file.write_text(json.dumps(doc), encoding="utf-8")
+    with pytest.raises(UsageError, match="more than 3 labels and handovers"):
+        L.read_labels(json_file, demo)
+
+
+def test_label_limit_keeps_the_label_channels_readable() -> None:
+    """MAX_LABELS of the largest label or handover messages fill at most half of what lfd info
+    reads of a recording's label channels (LABEL_BYTES), so a labelled recording stays
+    readable."""
+    from lfd.demo import Handover, SkillLabel
+    from lfd.io import messages as M
+    from lfd.io.labels import LABEL_MESSAGE_BYTES, MAX_LABELS
+    from lfd.io.summary import LABEL_BYTES
+    from lfd.io.writer import MAX_OBJECT_NAME
+    from lfd.skills import SKILLS
+
+    obj = "\U0001f4e6" * MAX_OBJECT_NAME  # 4 UTF-8 bytes a character
+    t = 2**63 - 1
+    skill = max(SKILLS, key=len)
+    sizes = [
+        M.event(SkillLabel(skill, t - 1, t, obj, "right")).ByteSize(),
+        M.handover_event(Handover(t - 1, t, "right", "left", obj)).ByteSize(),
+    ]
+    assert max(sizes) <= LABEL_MESSAGE_BYTES
+    assert MAX_LABELS * LABEL_MESSAGE_BYTES <= LABEL_BYTES // 2
+    assert MAX_LABELS >= 10_000  # generous: hours of one-second skills
+    assert f"at most {MAX_LABELS} labels" in (ROOT / "docs" / "own-recordings.md").read_text()
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".json"])
+def test_label_file_with_byte_order_mark(tmp_path: Path, suffix: str) -> None:
+    """A UTF-8 byte order mark (Excel writes one before a CSV) is not part of the text: it was
+    "unknown skill '\\ufeffskill'"."""
+    from lfd.io.labels import read_labels
+
+    demo = load(EXP1, images=False)
+    path = tmp_path / f"labels{suffix}"
+    text = (
+        "skill,start_s,end_s,object\npick_up,0,1.5,box_2\n"
+        if suffix == ".csv"
+        else '[{"skill": "pick_up", "start_s": 0, "end_s": 1.5, "object": "box_2"}]'
+    )
+    path.write_bytes(b"\xef\xbb\xbf" + text.encode("utf-8"))
+    labels = read_labels(path, demo)
+    assert [(lab.skill, lab.end_ns - lab.start_ns, lab.object) for lab in labels] == [
+        ("pick_up", 1_500_000_000, "box_2")
+    ]
