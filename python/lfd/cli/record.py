@@ -22,7 +22,7 @@ import argparse
 import signal
 from typing import Any
 
-from ._types import float_range, positive_float, seed
+from ._types import duration, float_range, positive_float, seed
 
 NAME = "record"
 HELP = "Record a demonstration from a camera or video: object tags + hand keypoints -> MCAP."
@@ -50,7 +50,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="replace the -o recording when it exists (without it an existing file is refused)",
     )
     parser.add_argument(
-        "--duration", type=positive_float, help="stop after this many seconds of frames (> 0)"
+        "--duration",
+        type=duration,
+        help="stop after this many seconds of frames (> 0, at most 24 h)",
     )
     parser.add_argument(
         "--hand-rate",
