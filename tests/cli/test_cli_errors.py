@@ -238,6 +238,8 @@ CASES: list[tuple[str, str, str]] = [
     ('templates-train-params-fitnstates0', 'templates train {templates} -o {tmp}/t.json --params \'{"fit": {"n_states": 0}}\'', 'n_states must be >= 1'),
     ('templates-train-params-fitnstates2', 'templates train {templates} -o {tmp}/t.json --params \'{"fit": {"n_states": -2}}\'', 'template parameter `fit.n_states`'),
     ('templates-train-params-fitnstates4', 'templates train {templates} -o {tmp}/t.json --params \'{"fit": {"n_states": "4"}}\'', 'template parameter `fit.n_states`'),
+    ('templates-train-params-fitnstates3000', 'templates train {templates} -o {tmp}/t.json --params \'{"fit": {"n_states": 3000}}\' --jobs 1', 'fit: n_states must be at most 64, got 3000'),
+    ('templates-train-params-fitnmix1e6', 'templates train {templates} -o {tmp}/t.json --params \'{"fit": {"n_mix": 1000000}}\' --jobs 1', 'fit: n_mix must be at most 16, got 1000000'),
     ('templates-train-params-fitnstates4-2', 'templates train {templates} -o {tmp}/t.json --params \'{"fit": {"nstates": 4}}\'', 'unknown template parameter `fit.nstates`'),
     ('templates-train-params-allignfalse', 'templates train {templates} -o {tmp}/t.json --params \'{"allign": false}\'', 'unknown template parameter `allign`'),
     ('templates-train-params-fittolnan', 'templates train {templates} -o {tmp}/t.json --params \'{"fit": {"tol": NaN}}\'', 'template parameters are not plain JSON'),
