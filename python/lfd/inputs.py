@@ -24,8 +24,10 @@ from .errors import LfdError, UsageError
 
 __all__ = [
     "END_TOLERANCE_NS",
+    "MAX_DURATION_S",
     "MAX_SECONDS",
     "MAX_TEXT_BYTES",
+    "check_duration",
     "check_input_file",
     "parse_integer",
     "parse_json",
@@ -169,6 +171,33 @@ END_TOLERANCE_NS = 100_000_000
 MAX_SECONDS = 9e9
 """Largest time (s) a label may give, either sign: nanoseconds beyond it do not fit in the
 signed 64-bit integers recordings count time in (2**63 ns is 9.2e9 s, 292 years)."""
+
+
+MAX_DURATION_S = 24 * 3600.0
+"""Longest ``--duration`` (s) of any command (``lfd record``, ``lfd simulate``) and of
+:func:`lfd.sim.demonstrator.crop`: 24 hours, longer than any one recording session; a
+simulated demonstration lasts far less and is cropped to at most its length. Beyond it
+a duration in nanoseconds or frames overflows (1e10 s does not fit in an int64 of ns)."""
+
+
+def check_duration(value: float, what: str = "duration") -> float:
+    """``value`` once it is a finite number of seconds in (0, :data:`MAX_DURATION_S`]; the
+    rule of every duration to keep (``--duration``, :func:`lfd.sim.demonstrator.crop`).
+
+    Raises
+    ------
+    UsageError
+        ``f"{what} must be ..."``, one line.
+    """
+    try:
+        x = math.nan if isinstance(value, bool) else float(value)
+    except (TypeError, ValueError, OverflowError):
+        x = math.nan
+    if not (math.isfinite(x) and x > 0):
+        raise UsageError(f"{what} must be a finite number of seconds > 0, got {shown(value)}")
+    if x > MAX_DURATION_S:
+        raise UsageError(f"{what} must be at most {MAX_DURATION_S:g} s (24 h), got {shown(value)}")
+    return x
 
 
 def seconds(value: Any, where: str, key: str) -> float:

@@ -60,7 +60,10 @@ class ReadPath:
     why: str = ""
     """Why it is an input when it was not given itself (``the object sizes of e1.mcap``)."""
     tree: bool = False
-    """A directory read as a whole (a ROS 2 bag): nothing may be written inside it."""
+    """A directory read as a whole (a ROS 2 bag, a ``frames:`` folder): nothing may be written
+    inside it."""
+    kind: str = "a ROS bag directory"
+    """What the ``tree`` is, for the message (``a frames: source folder``)."""
 
 
 def same_file(p: str | os.PathLike[str], q: str | os.PathLike[str]) -> bool:
@@ -91,18 +94,15 @@ def _read(inputs: Inputs) -> list[ReadPath]:
 
 
 def input_clash(path: str | os.PathLike[str], inputs: Inputs) -> str | None:
-    """Why writing ``path`` would damage an input, or None: it is one, or it lies inside a bag
-    directory being read (a ``tree``). The message starts after the path."""
+    """Why writing ``path`` would damage an input, or None: it is one, or it lies inside a
+    directory being read (a ``tree``: a ROS 2 bag, a ``frames:`` folder). The message starts after the path."""
     p = Path(path)
     for r in _read(inputs):
         why = f" ({r.why})" if r.why else ""
         if same_file(p, r.path):
             return f"is also an input{why}; refusing to overwrite it"
         if r.tree and _inside(p, r.path):
-            return (
-                f"is inside {r.path}, a ROS bag directory being read{why}; refusing to write "
-                "into it"
-            )
+            return f"is inside {r.path}, {r.kind} being read{why}; refusing to write into it"
     return None
 
 

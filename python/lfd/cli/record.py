@@ -22,7 +22,7 @@ import argparse
 import signal
 from typing import Any
 
-from ._types import float_range, positive_float, seed
+from ._types import duration, float_range, positive_float, seed
 
 NAME = "record"
 HELP = "Record a demonstration from a camera or video: object tags + hand keypoints -> MCAP."
@@ -50,7 +50,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="replace the -o recording when it exists (without it an existing file is refused)",
     )
     parser.add_argument(
-        "--duration", type=positive_float, help="stop after this many seconds of frames (> 0)"
+        "--duration",
+        type=duration,
+        help="stop after this many seconds of frames (> 0, at most 24 h)",
     )
     parser.add_argument(
         "--hand-rate",
@@ -188,7 +190,7 @@ def run(args: argparse.Namespace) -> int:
 def _check(args: argparse.Namespace) -> tuple[str, str | None]:
     """Refuse what cannot be recorded before a source is opened: the hand model and its file,
     the inputs, the output. -> the hand model and its weights file (None: the shipped one)."""
-    from ..outputs import check_output
+    from ..outputs import ReadPath, check_output
     from ._options import check_inputs, read_files
     from ._rerun import check_rerun_args
 
@@ -201,7 +203,10 @@ def _check(args: argparse.Namespace) -> tuple[str, str | None]:
         args.hand_model if model == "depth-net" and args.hand_model != "depth-net" else None
     )
     check_inputs(intrinsics=args.intrinsics, hand_model=model_file)
-    frames = args.source[len("frames:") :] if args.source.startswith("frames:") else None
+    frames = None
+    # the whole frames: folder is read (a re-run would take an output in color/ for a frame)
+    if args.source.startswith("frames:") and args.source != "frames:":
+        frames = ReadPath(args.source[len("frames:") :], tree=True, kind="a frames: source folder")
     video = args.source[len("video:") :] if args.source.startswith("video:") else None
     inputs = read_files(args, model_file, frames, video)  # and --intrinsics
     check_output(

@@ -30,7 +30,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from ._types import finite_float, float_range, positive_float, seed
+from ._types import duration, finite_float, float_range, seed
 
 NAME = "simulate"
 HELP = "Record a task performed by the simulated human demonstrator (MuJoCo)."
@@ -111,7 +111,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="png",
         help="how rendered colour frames are stored (png)",
     )
-    parser.add_argument("--duration", type=positive_float, help="keep only the first seconds (> 0)")
+    parser.add_argument(
+        "--duration", type=duration, help="keep only the first seconds (> 0, at most 24 h)"
+    )
     parser.add_argument(
         "--hand-rate",
         type=float_range(0.5, OBJECT_RATE_HZ),

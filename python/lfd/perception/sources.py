@@ -217,6 +217,30 @@ class SimSource(Source):
                 yield Frame(int(color.t_ns[k]), color.frames[k], depth.frames[k])
 
 
+def _timestamps(path: Path) -> list[int]:
+    """The capture times of ``timestamps.txt``: one integer (ns) per line, read with
+    :func:`lfd.inputs.parse_integer` and below 2**63 (recordings count ns in signed 64-bit)."""
+    from ..inputs import parse_integer, read_text, shown
+
+    t_ns = []
+    for n, line in enumerate(read_text(path, "timestamps", LfdError).splitlines(), 1):
+        if not line.strip():
+            continue
+        try:
+            t = parse_integer(line.strip())
+        except ValueError:
+            raise LfdError(
+                f"{path} line {n}: one integer nanosecond timestamp per line, got {shown(line)}"
+            ) from None
+        if t >= 2**63:
+            raise LfdError(
+                f"{path} line {n}: timestamp {shown(t)} ns is not below 2**63 "
+                "(recordings count ns in signed 64-bit)"
+            )
+        t_ns.append(t)
+    return t_ns
+
+
 class FolderSource(Source):
     """Colour (+ depth) image files with a ``camera.json`` (layout in the module docstring)."""
 
@@ -231,12 +255,7 @@ class FolderSource(Source):
         fps = float(meta.get("fps", 30.0))  # checked: a number in (0, 1000]
         ts = self.dir / "timestamps.txt"
         if ts.is_file():
-            from ..inputs import read_text
-
-            try:
-                self.t_ns = [int(line) for line in read_text(ts, "timestamps", LfdError).split()]
-            except ValueError as err:
-                raise LfdError(f"{ts}: one integer nanosecond timestamp per line ({err})") from err
+            self.t_ns = _timestamps(ts)
             if any(t < 0 for t in self.t_ns) or any(np.diff(self.t_ns) <= 0):
                 raise LfdError(f"{ts}: timestamps must be >= 0 ns and strictly increasing")
             if len(self.t_ns) != len(self.color_files):

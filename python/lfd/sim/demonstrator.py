@@ -348,11 +348,12 @@ def _metadata(
 def crop(result: SimResult, seconds: float) -> SimResult:
     """Keep only the first ``seconds`` of a simulated demonstration (streams, labels, truth).
 
-    Raises :class:`~lfd.errors.UsageError` unless ``seconds`` is a finite number > 0 that keeps
-    at least two hand samples.
+    Raises :class:`~lfd.errors.UsageError` unless ``seconds`` is a finite number > 0, at most
+    :data:`lfd.inputs.MAX_DURATION_S`, that keeps at least two hand samples.
     """
-    if not (isinstance(seconds, (int, float, np.number)) and np.isfinite(seconds) and seconds > 0):
-        raise UsageError(f"duration must be a finite number of seconds > 0, got {seconds!r}")
+    from ..inputs import check_duration
+
+    seconds = check_duration(seconds)
     demo, truth = result.demo, result.truth
     end = int(truth.t_ns[0] + round(seconds * 1e9))
     if np.count_nonzero(demo.hand.t_ns <= end) < 2:

@@ -530,6 +530,24 @@ def test_template_params_are_checked_before_training() -> None:
     assert json.loads(template_params(None)) == json.loads(_hmmseg.default_template_params())
 
 
+def test_template_model_sizes_are_bounded() -> None:
+    """n_states at most 64 and n_mix at most 16 (the shipped templates: 4 and 2), refused
+    before any recording is read: 3000 states trained for minutes, n_mix 1e6 was refused only
+    after loading every recording."""
+    from lfd.errors import InvalidParameterError
+    from lfd.segmentation.templates import template_params
+
+    for params, match in [
+        ({"fit": {"n_states": 3000}}, "fit: n_states must be at most 64, got 3000"),
+        ({"fit": {"n_states": 65}}, "n_states must be at most 64"),
+        ({"fit": {"n_mix": 1_000_000}}, "fit: n_mix must be at most 16, got 1000000"),
+        ({"fit": {"n_mix": 17}}, "n_mix must be at most 16"),
+    ]:
+        with pytest.raises(InvalidParameterError, match=match):
+            template_params(params)
+    assert json.loads(template_params({"fit": {"n_states": 64, "n_mix": 16}}))["fit"]["n_mix"] == 16
+
+
 # --- bad input -------------------------------------------------------------------------------
 def test_no_hand_data_is_a_clear_error() -> None:
     d = demo()

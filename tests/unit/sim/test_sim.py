@@ -208,6 +208,18 @@ def test_bad_simulation_arguments_are_usage_errors(exps) -> None:  # type: ignor
         Variability(approach_deg=270.0).validate()
 
 
+def test_crop_refuses_a_huge_duration(exps) -> None:  # type: ignore[no-untyped-def]
+    """Beyond lfd.inputs.MAX_DURATION_S (24 h) a duration is refused in one line, not an
+    OverflowError from its nanoseconds (1e10 s) or numpy's overflow warning (9e9 s)."""
+    from lfd.errors import UsageError
+    from lfd.inputs import MAX_DURATION_S
+    from lfd.sim.demonstrator import crop
+
+    for seconds in (1e10, 9e9, 1e308, MAX_DURATION_S * 1.01):
+        with pytest.raises(UsageError, match=r"duration must be at most 86400 s \(24 h\)"):
+            crop(exps["exp1"], seconds)
+
+
 def test_variability_validation() -> None:
     with pytest.raises(ValueError):
         Variability(speed=0.0).resolve(np.random.default_rng(0))

@@ -24,6 +24,7 @@ use super::scores::{score_table, PrefixScorer, ScoreTable};
 use crate::dtw::{align_to_reference, dtw_distance};
 use crate::error::{EngineError, Result};
 use crate::hmm::{FitConfig, Hmm};
+use crate::limits::at_most;
 
 /// Version written into every template file; [`TemplateSet::from_json`] rejects any other.
 pub const TEMPLATE_FORMAT_VERSION: u32 = 1;
@@ -64,6 +65,15 @@ impl FeatureGroup {
     }
 }
 
+/// The most hidden states of one template HMM (`fit.n_states`). The shipped templates use 4
+/// (one per phase of a skill); a few hundred samples per skill support far fewer than this,
+/// and training time grows with it (`{"fit": {"n_states": 3000}}` ran for minutes).
+pub const MAX_TEMPLATE_STATES: usize = 64;
+
+/// The most Gaussian components per state of a template HMM (`fit.n_mix`). The shipped
+/// templates use 2; more than this is refused before any recording is read.
+pub const MAX_TEMPLATE_MIX: usize = 16;
+
 /// How templates are trained.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -98,10 +108,14 @@ impl Default for TemplateParams {
 }
 
 impl TemplateParams {
-    /// Check every value: the fit options ([`FitConfig::validate`]), a band of at least one
-    /// sample, and percentiles `0 <= lo < hi <= 100`.
+    /// Check every value: the fit options ([`FitConfig::validate`]) with at most
+    /// [`MAX_TEMPLATE_STATES`] states and [`MAX_TEMPLATE_MIX`] components, a band of at least
+    /// one sample, and percentiles `0 <= lo < hi <= 100`.
     pub fn validate(&self) -> Result<()> {
-        self.fit.validate().map_err(|e| match e {
+        let sizes = at_most(self.fit.n_states, MAX_TEMPLATE_STATES, "n_states")
+            .and_then(|_| at_most(self.fit.n_mix, MAX_TEMPLATE_MIX, "n_mix"))
+            .and_then(|_| self.fit.validate());
+        sizes.map_err(|e| match e {
             EngineError::InvalidParameter(m) => EngineError::InvalidParameter(format!("fit: {m}")),
             other => other,
         })?;
@@ -826,6 +840,14 @@ pub(crate) mod tests {
         refused(r#"{"fit": {"n_states": -1}}"#, "fit.n_states");
         refused(r#"{"fit": {"n_states": "4"}}"#, "fit.n_states");
         refused(r#"{"fit": {"n_mix": 0}}"#, "n_mix");
+        refused(
+            r#"{"fit": {"n_states": 3000}}"#,
+            "fit: n_states must be at most 64, got 3000",
+        );
+        refused(
+            r#"{"fit": {"n_mix": 1000000}}"#,
+            "fit: n_mix must be at most 16, got 1000000",
+        );
         refused(r#"{"fit": {"covariance_floor": -1}}"#, "covariance_floor");
         refused(r#"{"fit": {"tol": 1e999}}"#, "");
         refused(r#"{"fit": {"topology": "ring"}}"#, "fit.topology");
