@@ -260,11 +260,23 @@ def _rows(a: np.ndarray) -> str:
     return "; ".join(" ".join(f"{v:g}" for v in row) for row in a)
 
 
+def _matrix(value: Any, shape: tuple[int, int]) -> np.ndarray | None:
+    """``value`` as a finite float matrix of ``shape``; None when it is not one (strings, bools,
+    rows of different lengths, another shape, NaN or infinity)."""
+    if not all_numbers(value):
+        return None
+    try:
+        a = np.asarray(value, dtype=float)
+    except ValueError:  # ragged rows: numpy's "inhomogeneous shape"
+        return None
+    return a if a.shape == shape and np.isfinite(a).all() else None
+
+
 def k_problem(K: Any, width: int | None = None, height: int | None = None) -> str | None:
     """What is wrong with a pinhole matrix ``K`` (None: usable); with the image size, the
     principal point must be inside the image."""
-    K = np.asarray(K, dtype=float) if all_numbers(K) else None
-    if K is None or K.shape != (3, 3) or not np.isfinite(K).all():
+    K = _matrix(K, (3, 3))
+    if K is None:
         return "K must be a finite 3x3 matrix [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]"
     if K[1, 0] != 0 or K[2, 0] != 0 or K[2, 1] != 0 or K[2, 2] != 1:
         return f"K must be upper triangular with last row 0 0 1, got {_rows(K)}"
@@ -283,8 +295,8 @@ def k_problem(K: Any, width: int | None = None, height: int | None = None) -> st
 
 def pose_problem(T: Any) -> str | None:
     """What is wrong with a rigid transform (None: a rotation and a plausible translation)."""
-    T = np.asarray(T, dtype=float) if all_numbers(T) else None
-    if T is None or T.shape != (4, 4) or not np.isfinite(T).all():
+    T = _matrix(T, (4, 4))
+    if T is None:
         return "must be a finite 4x4 matrix"
     if not np.array_equal(T[3], [0.0, 0.0, 0.0, 1.0]):
         return f"last row must be 0 0 0 1, got {_rows(T[3:])}"

@@ -224,6 +224,7 @@ def test_record_bad_sources_give_clear_errors(tmp_path, capsys) -> None:  # type
     bad = tmp_path / "bad_camera.json"
     for K, why in (
         ("[[600, 0, 320], [0, NaN, 240], [0, 0, 1]]", "K must be a finite 3x3 matrix"),
+        ("[[600, 0, 320], [0, 600], [0, 0, 1]]", "K must be a finite 3x3 matrix"),  # ragged
         ("[[0, 0, 320], [0, 600, 240], [0, 0, 1]]", "focal length fx must be in"),
     ):
         bad.write_text(f'{{"width": 640, "height": 480, "K": {K}}}')
