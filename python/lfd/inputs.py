@@ -29,6 +29,7 @@ __all__ = [
     "MAX_TEXT_BYTES",
     "check_duration",
     "check_input_file",
+    "duration_problem",
     "parse_integer",
     "parse_json",
     "parse_number",
@@ -180,24 +181,33 @@ simulated demonstration lasts far less and is cropped to at most its length. Bey
 a duration in nanoseconds or frames overflows (1e10 s does not fit in an int64 of ns)."""
 
 
-def check_duration(value: float, what: str = "duration") -> float:
-    """``value`` once it is a finite number of seconds in (0, :data:`MAX_DURATION_S`]; the
-    rule of every duration to keep (``--duration``, :func:`lfd.sim.demonstrator.crop`).
-
-    Raises
-    ------
-    UsageError
-        ``f"{what} must be ..."``, one line.
-    """
+def duration_problem(value: Any) -> str | None:
+    """What is wrong with ``value`` as a duration to keep (None: a finite number of seconds in
+    (0, :data:`MAX_DURATION_S`]); the rule of every duration (``--duration``,
+    :func:`lfd.sim.demonstrator.crop`)."""
     try:
         x = math.nan if isinstance(value, bool) else float(value)
     except (TypeError, ValueError, OverflowError):
         x = math.nan
     if not (math.isfinite(x) and x > 0):
-        raise UsageError(f"{what} must be a finite number of seconds > 0, got {shown(value)}")
+        return "must be a finite number of seconds > 0"
     if x > MAX_DURATION_S:
-        raise UsageError(f"{what} must be at most {MAX_DURATION_S:g} s (24 h), got {shown(value)}")
-    return x
+        return f"must be at most {MAX_DURATION_S:g} s (24 h)"
+    return None
+
+
+def check_duration(value: float, what: str = "duration") -> float:
+    """``value`` as seconds once :func:`duration_problem` finds nothing wrong with it.
+
+    Raises
+    ------
+    UsageError
+        ``f"{what} must be ..., got {value}"``, one line.
+    """
+    problem = duration_problem(value)
+    if problem is not None:
+        raise UsageError(f"{what} {problem}, got {shown(value)}")
+    return float(value)
 
 
 def seconds(value: Any, where: str, key: str) -> float:

@@ -64,18 +64,16 @@ def float_range(lo: float, hi: float, *, lo_open: bool = False) -> Callable[[str
 
 def duration(text: str) -> float:
     """``--duration``: seconds > 0, at most :data:`lfd.inputs.MAX_DURATION_S` (24 h), by
-    :func:`lfd.inputs.check_duration` (the rule :func:`lfd.sim.demonstrator.crop` applies)."""
-    from ..errors import UsageError
-    from ..inputs import check_duration
+    :func:`lfd.inputs.duration_problem` (the rule :func:`lfd.sim.demonstrator.crop` applies)."""
+    from ..inputs import duration_problem
 
     v = _float(text)
     if v <= 0:
         raise argparse.ArgumentTypeError(f"must be a number > 0, got {text!r}")
-    try:
-        return check_duration(v)
-    except UsageError as err:
-        rule = str(err).removeprefix("duration ").rpartition(", got ")[0]
-        raise argparse.ArgumentTypeError(f"{rule}, got {text!r}") from None
+    problem = duration_problem(v)
+    if problem is not None:
+        raise argparse.ArgumentTypeError(f"{problem}, got {text!r}")
+    return v
 
 
 def positive_int(text: str) -> int:
