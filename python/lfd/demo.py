@@ -21,6 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from .errors import DemonstrationError
+from .inputs import shown
 from .skills import check_skill
 
 KEYPOINT_NAMES: tuple[str, ...] = (
@@ -240,6 +241,10 @@ ROTATION_TOLERANCE = 1e-3
 """How far ``R^T R`` may be from the identity, and ``det R`` from 1, in ``world_T_camera``."""
 MAX_TRANSLATION_M = 100.0
 """Largest distance of the camera from the world origin (m)."""
+MAX_TAG_ID = 1023
+"""Largest ArUco id of any predefined dictionary (``DICT_ARUCO_ORIGINAL`` has 1024)."""
+NO_TAG = -1
+"""The tag id of an object without a tag (``ObjectTrack.tag_id`` of an imported recording)."""
 
 
 def is_number(value: Any) -> bool:
@@ -254,6 +259,39 @@ def all_numbers(value: Any) -> bool:
     if isinstance(value, list | tuple):
         return all(all_numbers(v) for v in value)
     return is_number(value)
+
+
+def whole_number(value: Any, lo: int, hi: int) -> int | None:
+    """``value`` as an int when it is a whole number in [lo, hi] (a JSON or TOML 3, or 3.0; an
+    integer of any length), else None."""
+    if not is_number(value):
+        return None
+    if not isinstance(value, numbers.Integral):
+        if not math.isfinite(value) or value != int(value):
+            return None
+    return int(value) if lo <= value <= hi else None
+
+
+def tag_id_problem(value: Any, untagged: bool = False) -> str | None:
+    """What is wrong with an object's tag id (None: a whole number in [0, :data:`MAX_TAG_ID`],
+    or :data:`NO_TAG` when ``untagged`` objects are allowed)."""
+    if whole_number(value, NO_TAG if untagged else 0, MAX_TAG_ID) is not None:
+        return None
+    allowed = f"an integer in [0, {MAX_TAG_ID}]"
+    if untagged:
+        allowed = f"{allowed} or {NO_TAG} (no tag)"
+    return f"must be {allowed}, got {shown(value)}"
+
+
+def shared_tag_problem(tags: dict[str, int]) -> str | None:
+    """What is wrong with the tag ids of objects, name -> id (None: no tag is on two objects;
+    :data:`NO_TAG` may be on any number)."""
+    owner: dict[int, str] = {}
+    for name, tag in tags.items():
+        if tag != NO_TAG and tag in owner:
+            return f"objects {owner[tag]!r} and {name!r} have the same tag_id {tag}"
+        owner[tag] = name
+    return None
 
 
 def _rows(a: np.ndarray) -> str:

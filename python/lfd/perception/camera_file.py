@@ -15,7 +15,8 @@ file and the field:
 - ``fps`` (optional): a number in (0, :data:`MAX_FPS`] (a string is refused);
 - ``objects``: a list of ``{"name", "tag_id", "size", "tag_size"?}``: a name the recording can
   use as a topic (:func:`lfd.io.writer.object_name_problem`), a tag id an integer in
-  [0, :data:`MAX_TAG_ID`] (the ArUco dictionary's own range is checked by the tag tracker), 3
+  [0, :data:`~lfd.demo.MAX_TAG_ID`] (:func:`lfd.demo.tag_id_problem`, the ROS topic mapping's
+  rule too; the ArUco dictionary's own range is checked by the tag tracker), 3
   sizes and the tag side in :data:`SIZE_RANGE_M`.
 
 The other limits of a recording's inputs are here too: the camera device index
@@ -36,6 +37,8 @@ from ..demo import (
     is_number,
     k_problem,
     pose_problem,
+    tag_id_problem,
+    whole_number,
 )
 from ..errors import LfdError
 from ..io.sizes import MAX_OBJECT_SIDE_M
@@ -43,8 +46,6 @@ from ..io.sizes import MAX_OBJECT_SIDE_M
 SIZE_RANGE_M = (0.001, MAX_OBJECT_SIDE_M)
 """Plausible object sizes and tag sides (m); the longest is every size source's
 (:data:`lfd.io.sizes.MAX_OBJECT_SIDE_M`)."""
-MAX_TAG_ID = 1023
-"""Largest ArUco id of any predefined dictionary (``DICT_ARUCO_ORIGINAL`` has 1024)."""
 MAX_FPS = 1000.0
 """Largest frame rate (Hz)."""
 MAX_CAMERA_INDEX = 63
@@ -81,13 +82,6 @@ def camera_index(text: str | int) -> int:
     return int(value)
 
 
-def _integer(value: Any, lo: int, hi: int) -> int | None:
-    """``value`` as an int when it is a whole number in [lo, hi] (a JSON 3 or 3.0), else None."""
-    if not is_number(value) or not math.isfinite(value) or value != int(value):
-        return None
-    return int(value) if lo <= value <= hi else None
-
-
 def _object(o: Any, k: int) -> dict[str, Any]:
     """One entry of ``objects``, checked."""
     from ..io.writer import object_name_problem
@@ -102,12 +96,9 @@ def _object(o: Any, k: int) -> dict[str, Any]:
     problem = object_name_problem(name) if isinstance(name, str) else "must be a string"
     if problem is not None:
         raise ValueError(f"{where}.name {name!r}: {problem}")
-    tag_id = _integer(o["tag_id"], 0, MAX_TAG_ID)
-    if tag_id is None:
-        raise ValueError(
-            f"{where}.tag_id of {name!r} must be an integer in [0, {MAX_TAG_ID}], "
-            f"got {o['tag_id']!r}"
-        )
+    problem = tag_id_problem(o["tag_id"])
+    if problem is not None:
+        raise ValueError(f"{where}.tag_id of {name!r} {problem}")
     size = o["size"]
     if not isinstance(size, list) or len(size) != 3:
         raise ValueError(f"{where}.size of {name!r} must be 3 lengths (m), got {size!r}")
@@ -115,7 +106,11 @@ def _object(o: Any, k: int) -> dict[str, Any]:
         problem = length_problem(v, f"{where} ({name!r}): size and tag_size")
         if problem is not None:
             raise ValueError(problem)
-    out: dict[str, Any] = {"name": name, "tag_id": tag_id, "size": [float(v) for v in size]}
+    out: dict[str, Any] = {
+        "name": name,
+        "tag_id": int(o["tag_id"]),
+        "size": [float(v) for v in size],
+    }
     if "tag_size" in o:
         out["tag_size"] = float(o["tag_size"])
     return out
@@ -124,7 +119,7 @@ def _object(o: Any, k: int) -> dict[str, Any]:
 def _size(meta: dict[str, Any], key: str) -> int:
     if key not in meta:
         raise ValueError(f"missing {key!r}")
-    side = _integer(meta[key], 1, MAX_IMAGE_SIDE)
+    side = whole_number(meta[key], 1, MAX_IMAGE_SIDE)
     if side is None:
         raise ValueError(f"{key} must be an integer in [1, {MAX_IMAGE_SIDE}] px, got {meta[key]!r}")
     return side

@@ -185,6 +185,12 @@ def test_read_mapping(tmp_path: Path, bags) -> None:
         (lambda t: t + "[", "not a valid TOML"),
         (lambda t: t.replace('reference_frame = "world"', 'reference_frame = "map"'),
          "no tf path from frame 'camera' to the reference frame 'map'; tf frames in the bag: box_1"),
+        (lambda t: t.replace("tag_id = 1\n", "tag_id = 12345678901234567890\n"),
+         r"objects.box_1.tag_id must be an integer in \[0, 1023\] or -1 \(no tag\), "
+         "got 12345678901234567890$"),
+        (lambda t: t.replace("tag_id = 1\n", "tag_id = 1.5\n"), r"objects.box_1.tag_id must be"),
+        (lambda t: t.replace("tag_id = 2\n", "tag_id = 1\n"),
+         "objects 'box_1' and 'box_2' have the same tag_id 1; each tag is on one object"),
     ],
 )  # fmt: skip
 def test_bad_mapping_is_one_clear_error(edit, match, bags, tmp_path: Path) -> None:
@@ -193,6 +199,17 @@ def test_bad_mapping_is_one_clear_error(edit, match, bags, tmp_path: Path) -> No
     bad.write_text(edit(mapping.read_text(encoding="utf-8")), encoding="utf-8")
     with pytest.raises(UsageError, match=match):
         lfd.load(bag, mapping=bad)
+
+
+def test_objects_without_tags_may_share_no_tag(tmp_path: Path) -> None:
+    """-1 (no tag, the default) is on any number of objects; a tag id is on one."""
+    path = tmp_path / "map.toml"
+    path.write_text(
+        '[hand]\ntopic = "/a"\n[objects.a]\nframe = "a"\ntag_id = -1\n'
+        '[objects.b]\nframe = "b"\n[objects.c]\nframe = "c"\ntag_id = 1023\n',
+        encoding="utf-8",
+    )
+    assert [o.tag_id for o in read_mapping(path).objects] == [-1, -1, 1023]
 
 
 def test_bag_without_map_and_map_without_bag(bags) -> None:

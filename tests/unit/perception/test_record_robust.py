@@ -319,6 +319,7 @@ def test_camera_json_values_are_checked(
         ({"tag_id": -1}, r"tag_id of 'box_1' must be an integer in \[0, 1023\]"),
         ({"tag_id": 1.5}, "tag_id of 'box_1' must be an integer"),
         ({"tag_id": True}, "tag_id of 'box_1' must be an integer"),
+        ({"tag_id": 10**400}, r"tag_id of 'box_1' must be an integer in \[0, 1023\], got 1000"),
         ({"name": "a/b"}, "no '/'"),
         ({"name": "camera"}, "reserved"),
         ({"name": ""}, "non-empty"),

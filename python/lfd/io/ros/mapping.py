@@ -8,6 +8,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from ...demo import NO_TAG, shared_tag_problem, tag_id_problem
 from ...errors import UsageError
 from ..sizes import check_size
 
@@ -45,7 +46,7 @@ class ObjectSource:
     topic: str | None = None
     frame: str | None = None
     size: tuple[float, float, float] | None = None
-    tag_id: int = -1
+    tag_id: int = NO_TAG
 
 
 @dataclass(frozen=True)
@@ -257,10 +258,14 @@ def _objects(doc: Mapping[str, Any], where: str) -> list[ObjectSource]:
         otopic = _string(o["topic"], f"{at}.topic") if "topic" in o else None
         oframe = _frame(_string(o["frame"], f"{at}.frame")) if "frame" in o else None
         size = check_size(o["size"], f"{at}.size") if "size" in o else None
-        tag = o.get("tag_id", -1)
-        if not isinstance(tag, int) or isinstance(tag, bool):
-            raise UsageError(f"{at}.tag_id must be an integer, got {tag!r}")
-        objects.append(ObjectSource(name, otopic, oframe, size, tag))
+        tag = o.get("tag_id", NO_TAG)
+        problem = tag_id_problem(tag, untagged=True)
+        if problem is not None:
+            raise UsageError(f"{at}.tag_id {problem}")
+        objects.append(ObjectSource(name, otopic, oframe, size, int(tag)))
+    problem = shared_tag_problem({o.name: o.tag_id for o in objects})
+    if problem is not None:
+        raise UsageError(f"{where}: {problem}; each tag is on one object ({NO_TAG}: no tag)")
     return objects
 
 
