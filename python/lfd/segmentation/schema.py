@@ -52,13 +52,16 @@ SEGMENT_RULES: dict[str, Rule] = {
 }
 """What each :class:`~lfd.segmentation.settings.SegmentParams` field holds."""
 
+MIN_CUTOFF_HZ = 0.01
+"""Smallest low-pass cut-off a method file may name: a period of 100 s, longer than any skill
+(the filter's design is singular long before 1e-300 Hz: about 1e-14 of the sampling rate)."""
 MAX_CUTOFF_HZ = 1000.0
 """Largest low-pass cut-off a method file may name (a recording's own Nyquist frequency is
 checked when it is preprocessed)."""
 
 PREPROCESSING_RULES: dict[str, Rule] = {
-    "feature_cutoff_hz": Number(0.0, MAX_CUTOFF_HZ, "Hz", open_low=True, also=("auto",)),
-    "object_cutoff_hz": Number(0.0, MAX_CUTOFF_HZ, "Hz", open_low=True, also=(None,)),
+    "feature_cutoff_hz": Number(MIN_CUTOFF_HZ, MAX_CUTOFF_HZ, "Hz", also=("auto",)),
+    "object_cutoff_hz": Number(MIN_CUTOFF_HZ, MAX_CUTOFF_HZ, "Hz", also=(None,)),
     "aperture": Choice(get_args(Aperture)),
     "min_keypoint_confidence": Number(0.0, 1.0),
 }

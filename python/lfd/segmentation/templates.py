@@ -21,7 +21,8 @@ import numpy as np
 
 from .. import _hmmseg
 from ..demo import Demonstration
-from ..errors import DemonstrationError, InvalidParameterError, ModelFormatError
+from ..errors import DemonstrationError, EngineError, InvalidParameterError, ModelFormatError
+from ..inputs import shown
 from ..preprocessing.grasp import Aperture
 from ..skills import SKILLS
 from ..trajectory import Trajectory
@@ -146,13 +147,15 @@ class Templates:
         if not isinstance(doc, dict):
             raise ModelFormatError("template file must contain a JSON object")
         meta = check_block(doc.pop("lfd", {}))
-        skills = doc.get("skills", [])
-        unknown = [s for s in skills if s not in SKILLS] if isinstance(skills, list) else []
-        if unknown:
-            raise ModelFormatError(
-                f"template file names unknown skill(s) {unknown}; known: {', '.join(SKILLS)}"
-            )
-        return cls(_hmmseg.TemplateSet.from_json(json.dumps(doc)), meta=meta)
+        _check_skills(doc.get("skills", []))
+        _check_features(doc.get("features", []))
+        try:
+            engine = _hmmseg.TemplateSet.from_json(json.dumps(doc))
+        except ModelFormatError:
+            raise
+        except EngineError as err:  # what the engine refuses is the file's fault
+            raise ModelFormatError(f"template file: {err}") from None
+        return cls(engine, meta=meta)
 
     @classmethod
     def load(cls, path: str | Path) -> Templates:
@@ -203,6 +206,39 @@ class Templates:
 
     def __repr__(self) -> str:
         return f"Templates(skills={self.skills}, features={[f[0] for f in self.features]})"
+
+
+def _check_skills(skills: Any) -> None:
+    """A template file's ``skills``: at least one, each known (the engine checks the types)."""
+    if isinstance(skills, list) and not skills:
+        raise ModelFormatError("template file: skills is empty; a template set needs at least one")
+    unknown = [s for s in skills if s not in SKILLS] if isinstance(skills, list) else []
+    if unknown:
+        raise ModelFormatError(
+            f"template file names unknown skill(s) {unknown}; known: {', '.join(SKILLS)}"
+        )
+
+
+def _check_features(features: Any) -> None:
+    """A template file's ``features``: each one of Table I's (:data:`FEATURE_GROUPS`), by name
+    and columns (the engine checks the types, repeats and the models' dimensions)."""
+    groups = {name: (start, end) for name, start, end in FEATURE_GROUPS}
+    for k, feature in enumerate(features if isinstance(features, list) else []):
+        name = feature.get("name") if isinstance(feature, dict) else None
+        if not isinstance(name, str):
+            continue
+        if name not in groups:
+            raise ModelFormatError(
+                f"template file: features[{k}].name {shown(name)} is not a feature; "
+                f"known: {', '.join(groups)}"
+            )
+        columns = (feature.get("start"), feature.get("end"))
+        if columns != groups[name]:
+            raise ModelFormatError(
+                f"template file: features[{k}] {name!r} is columns {groups[name][0]}.."
+                f"{groups[name][1]} of the feature matrix, got {shown(columns[0])}.."
+                f"{shown(columns[1])}"
+            )
 
 
 def resolve_templates(templates: Templates | TemplateChoice | None) -> Templates:

@@ -470,7 +470,7 @@ def test_template_file_errors(tmp_path: Path) -> None:
         (lambda d: d["ranges"].__setitem__(3, [0.5, 0.5]), "range of column 3 .* empty"),
         (lambda d: d["ranges"].pop(), "9 ranges for 10 columns"),
         (lambda d: d["n_examples"].pop(), "example counts"),
-        (lambda d: d["features"][0].update(end=0), "no columns"),
+        (lambda d: d["features"][0].update(end=0), "columns 0..1 of the feature matrix"),
         (lambda d: d["params"]["fit"].update(n_states=0), "n_states must be >= 1"),
         (lambda d: d["params"]["fit"].update(extra=1), "unknown field `extra`"),
         (lambda d: d.update(skills=7), "invalid type: integer `7`"),
