@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol, cast
@@ -67,6 +67,18 @@ def describe(err: BaseException) -> str:
     if not isinstance(err, LfdError):
         text = f"{type(err).__name__}: {text}" if text else type(err).__name__
     return text[:300]
+
+
+def plugin_call(fn: Callable[[], Any], what: str) -> Any:
+    """``fn()``, a plug-in's own code (a ``--depth-reader``): whatever it raises but Ctrl+C is
+    its failure, one :class:`LfdError` line ``what`` and the error, ``SystemExit`` too (a
+    plug-in's exit is not lfd's: the recording's error path keeps what was recorded)."""
+    try:
+        return fn()
+    except KeyboardInterrupt:
+        raise
+    except BaseException as err:
+        raise LfdError(f"{what} {describe(err)}") from err
 
 
 def check_frame(frame: Any, camera: CameraInfo, what: str) -> Frame:
@@ -329,12 +341,9 @@ class CameraSource(Source):
 
     def _reader(self, method: str) -> Any:
         """The depth reader's ``method()``; what it raises, one line naming it."""
-        try:
-            return getattr(self.depth_reader, method)()
-        except LfdError:
-            raise
-        except Exception as err:
-            raise LfdError(f"the depth reader's {method}() raised {describe(err)}") from err
+        return plugin_call(
+            getattr(self.depth_reader, method), f"the depth reader's {method}() raised"
+        )
 
     def _read(self) -> tuple[Any, Any] | None:
         """(RGB, depth or None) of the next frame, or None at the end of the stream."""
@@ -376,7 +385,7 @@ class CameraSource(Source):
             self.cap.release()
         closer = getattr(self.depth_reader, "close", None)
         if callable(closer):
-            closer()
+            plugin_call(closer, "the depth reader's close() raised")
 
 
 class VideoSource(Source):
@@ -468,7 +477,8 @@ def load_depth_reader(spec: str) -> DepthReader:
     module_name, _, attr = spec.rpartition(":")
     if not module_name or not attr:
         raise LfdError(f"depth reader {spec!r}: expected module:factory")
-    try:
+
+    def load() -> Any:
         if module_name.endswith(".py"):
             loader = importlib.util.spec_from_file_location("lfd_depth_reader", module_name)
             if loader is None or loader.loader is None:
@@ -477,13 +487,11 @@ def load_depth_reader(spec: str) -> DepthReader:
             loader.loader.exec_module(module)
         else:
             module = importlib.import_module(module_name)
-        factory = getattr(module, attr)
-    except Exception as err:  # the plug-in's own code ran: anything it raises is its failure
-        raise LfdError(f"depth reader {spec!r}: cannot load it: {describe(err)}") from err
-    try:
-        reader = factory()
-    except Exception as err:
-        raise LfdError(f"depth reader {spec!r}: {attr}() raised {describe(err)}") from err
+        return getattr(module, attr)
+
+    # the plug-in's own code runs: anything it raises is its failure
+    factory = plugin_call(load, f"depth reader {spec!r}: cannot load it:")
+    reader = plugin_call(factory, f"depth reader {spec!r}: {attr}() raised")
     if not callable(getattr(reader, "read", None)):
         raise LfdError(f"depth reader {spec!r}: {attr}() returned an object without read()")
     return reader  # type: ignore[no-any-return]

@@ -87,6 +87,7 @@ def _error_lines(err: str) -> list[str]:
         ("return 'not a frame'", "returned str, not (rgb, depth)"),
         ("return self.color[0][:10], self.depth[0]", "gave a colour image uint8 (10, 640, 3)"),
         ("return self.color[0], self.depth[0].astype(float)", "gave depth float64"),
+        ("raise SystemExit(0)", "the depth reader's read_frame() raised SystemExit: 0"),
     ],
 )
 def test_a_reader_failing_mid_recording_keeps_the_frames_before_it(
@@ -136,6 +137,8 @@ def test_a_failure_before_the_first_frame_leaves_no_file(
         ("def make(:\n    pass\n", "cannot load it: SyntaxError"),
         ("raise ValueError('bad config')\n", "cannot load it: ValueError: bad config"),
         ("def make():\n    return 3\n", "returned an object without read()"),
+        ("import sys\nsys.exit(0)\n", "cannot load it: SystemExit: 0"),
+        ("def make():\n    raise SystemExit(3)\n", "make() raised SystemExit: 3"),
     ],
 )
 def test_a_plugin_that_does_not_load_is_one_line(
@@ -149,6 +152,24 @@ def test_a_plugin_that_does_not_load_is_one_line(
     assert len(lines) == 1 and lines[0].startswith("lfd record: error: depth reader"), lines
     assert why in lines[0]
     assert not out.exists()
+
+
+def test_a_reader_whose_close_exits_is_a_warning(
+    scene: dict[str, Any], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The recording is made; the plug-in's close() exiting is its failure (a warning), not
+    the end of ``lfd record`` with its status."""
+    out = tmp_path / "rec.mcap"
+    spec = _plugin(scene, tmp_path, "return None")
+    path = Path(spec.rpartition(":")[0])
+    path.write_text(path.read_text() + "Reader.close = lambda self: exit(0)\n")
+    assert main(_record_argv(scene, out, "--depth-reader", spec)) == 0
+    lines = [x for x in _error_lines(capsys.readouterr().err) if x.startswith("lfd ")]
+    assert lines == [
+        "lfd record: warning: camera:0: closing it failed: the depth reader's close() raised "
+        "SystemExit: 0"
+    ], lines
+    assert len(load(out).hand) == GOOD_FRAMES
 
 
 @pytest.mark.parametrize("index", ["-1", "2147483648", "64", "0x1", "1e3", ""])
