@@ -508,6 +508,13 @@ def open_source(spec: str, **kwargs: Any) -> Source:
     kind, _, arg = spec.partition(":")
     if not arg:
         raise LfdError(f"source {spec!r}: expected {KINDS}")
+    if kind not in ("sim", "frames", "camera", "video"):
+        raise LfdError(f"unknown source kind {kind!r}: use {KINDS}")
+    if kind != "camera" and kwargs.get("depth_reader") is not None:
+        raise LfdError(
+            f"a {kind}: source takes no depth reader: --depth-reader is for a camera source "
+            "(camera:N)"
+        )
     if kind == "sim":
         task, _, style = arg.partition(":")
         return SimSource(
@@ -527,6 +534,4 @@ def open_source(spec: str, **kwargs: Any) -> Source:
             intrinsics=kwargs.get("intrinsics"),
             depth_reader=load_depth_reader(reader) if isinstance(reader, str) else reader,
         )
-    if kind == "video":
-        return VideoSource(arg, intrinsics=kwargs.get("intrinsics"))
-    raise LfdError(f"unknown source kind {kind!r}: use {KINDS}")
+    return VideoSource(arg, intrinsics=kwargs.get("intrinsics"))

@@ -239,6 +239,25 @@ def test_record_bad_sources_give_clear_errors(tmp_path, capsys) -> None:  # type
     assert "cannot open" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("source", ["sim:exp1", "frames:{tmp}/images", "video:{tmp}/v.mp4"])
+def test_a_depth_reader_for_another_source_is_refused(tmp_path, capsys, source: str) -> None:  # type: ignore[no-untyped-def]
+    """--depth-reader is a camera's: with any other source it would be ignored, so it is
+    refused in one line before the plug-in is loaded or anything recorded."""
+    from lfd.cli import main
+
+    (tmp_path / "images").mkdir()
+    out = tmp_path / "x.mcap"
+    argv = ["record", "--source", source.format(tmp=tmp_path), "--no-hand", "-o", str(out)]
+    assert main([*argv, "--depth-reader", f"{tmp_path / 'missing.py'}:make"]) == 2
+    lines = [x for x in capsys.readouterr().err.splitlines() if x.strip()]
+    kind = source.partition(":")[0]
+    assert lines == [
+        f"lfd record: error: a {kind}: source takes no depth reader: --depth-reader is for a "
+        "camera source (camera:N)"
+    ], lines
+    assert not out.exists()
+
+
 def test_sim_source_records_either_demonstrator_style(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
     """``sim:TASK:STYLE`` selects the simulated demonstrator, as ``lfd simulate --style``."""
     from lfd.cli import main
