@@ -12,8 +12,8 @@ placeholders are filled in:
 ``{templates}``  the shipped template recordings ``recordings/templates``
 ``{binary}``, ``{badjson}``, ``{inverted}``  template files: binary, JSON cut short, and the
             shipped templates with the range of column 0 inverted
-``{photo}``, ``{depth}``, ``{k}``, ``{truncated}``  a colour PNG, a depth PNG, intrinsics and a
-            PNG cut in half (:func:`_still_inputs`)
+``{photo}``, ``{depth}``, ``{k}``, ``{truncated}``, ``{pixel}``  a colour PNG, a depth PNG,
+            intrinsics, a PNG cut in half and a 1x1 PNG (:func:`_still_inputs`)
 ``{overlap}``, ``{pastend}``, ...  label files for ``{rec}`` with one mistake each (:func:`bad_labels`)
 
 Every case runs :func:`lfd.cli.main` in this process (the default run) and, marked ``slow``,
@@ -158,6 +158,7 @@ CASES: list[tuple[str, str, str]] = [
     ("hands-depth-wrong-size", "perception hands {photo} --depth {depth} --intrinsics {k}", "must be aligned"),
     ("hands-bad-intrinsics", "perception hands {photo} --depth {depth} --intrinsics {bad}", "bad.json is not UTF-8 text"),
     ("hands-json-is-input", "perception hands {photo} --json {photo}", "also an input"),
+    ("hands-one-pixel", "perception hands {photo} {pixel} --json {tmp}/h.json", "pixel.png: the image is 1x1 pixels, too small to find a hand in (at least 2x2)"),
     # recordings from other tools: --object-size, ROS bags (--map, lfd import ros)
     ("segment-object-size-unknown", "segment {rec} --object-size box_9=0.1,0.1,0.1", "'box_9', which the recording does not have; its objects are box_1, box_2, box_3"),
     ("segment-object-size-nan", "segment {rec} --object-size box_1=nan,0.1,0.1", "argument --object-size: a size is three positive finite lengths"),
@@ -378,7 +379,7 @@ def test_user_error_is_one_line(
         "templates": ROOT / "recordings" / "templates",
         **bad_templates,
         **bad_labels,
-        **(_still_inputs(work) if "{photo}" in argv or "{truncated}" in argv else {}),
+        **(_still_inputs(work) if re.search(r"\{(photo|truncated|pixel)\}", argv) else {}),
         **(request.getfixturevalue("ros_inputs") if "{bag" in argv or "{map" in argv else {}),
     }
     before = _tree(work)
@@ -392,12 +393,14 @@ def test_user_error_is_one_line(
 
 
 def _still_inputs(work: Path) -> dict[str, Path]:
-    """A 64x48 colour PNG, a 16-bit depth PNG of another size and an intrinsics file."""
+    """A 64x48 colour PNG, a 16-bit depth PNG of another size, an intrinsics file, the PNG cut
+    in half and a 1x1 PNG."""
     import cv2
     import numpy as np
 
     cv2.imwrite(str(work / "photo.png"), np.full((48, 64, 3), 120, np.uint8))
     cv2.imwrite(str(work / "depth.png"), np.full((10, 10), 700, np.uint16))
+    cv2.imwrite(str(work / "pixel.png"), np.full((1, 1, 3), 120, np.uint8))
     (work / "k.json").write_text('{"K": [[500, 0, 32], [0, 500, 24], [0, 0, 1]]}')
     png = (work / "photo.png").read_bytes()
     (work / "cut.png").write_bytes(png[: len(png) // 2])  # OpenCV warns on its own for these
@@ -406,6 +409,7 @@ def _still_inputs(work: Path) -> dict[str, Path]:
         "depth": work / "depth.png",
         "k": work / "k.json",
         "truncated": work / "cut.png",
+        "pixel": work / "pixel.png",
     }
 
 

@@ -302,15 +302,25 @@ def crop(image: np.ndarray, rect: Rect, size: int, *, border_zero: bool = False)
     return np.asarray(out, np.float32) / 255.0
 
 
+MIN_IMAGE_SIDE = 2
+"""Smallest width and height (px) of an image the hand model is given."""
+
+
 def as_rgb(image: np.ndarray, where: str = "image") -> np.ndarray:
-    """Validate an image: (H, W, 3) uint8 RGB (grey (H, W) and RGBA are converted)."""
+    """Validate an image: (H, W, 3) uint8 RGB (grey (H, W) and RGBA are converted), at least
+    :data:`MIN_IMAGE_SIDE` pixels wide and high."""
     img = np.asarray(image)
     if img.dtype != np.uint8:
         raise LfdError(f"{where}: expected 8-bit colour, got dtype {img.dtype}")
     if img.ndim == 2:
         img = np.repeat(img[:, :, None], 3, axis=2)
-    if img.ndim != 3 or img.shape[2] not in (3, 4) or min(img.shape[:2]) < 2:
+    if img.ndim != 3 or img.shape[2] not in (3, 4):
         raise LfdError(f"{where}: expected an (H, W, 3) colour image, got shape {img.shape}")
+    if min(img.shape[:2]) < MIN_IMAGE_SIDE:
+        raise LfdError(
+            f"{where}: the image is {img.shape[1]}x{img.shape[0]} pixels, too small to find a "
+            f"hand in (at least {MIN_IMAGE_SIDE}x{MIN_IMAGE_SIDE})"
+        )
     return np.ascontiguousarray(img[:, :, :3])
 
 

@@ -29,16 +29,18 @@ from ...demo import k_problem
 from ...errors import LfdError
 from ...inputs import parse_json, read_text
 from ..image_header import decode as _decode
-from .mediapipe import KEYPOINT_NAMES, Hand, MediaPipeHands
+from .mediapipe import KEYPOINT_NAMES, Hand, MediaPipeHands, as_rgb
 
 PathLike = str | os.PathLike[str]
 
 
 def read_image(path: PathLike) -> np.ndarray:
-    """An image file as (H, W, 3) uint8 RGB; one-line error naming the file otherwise."""
+    """An image file as (H, W, 3) uint8 RGB the hand model takes (:func:`as_rgb`); one-line
+    error naming the file otherwise."""
     import cv2
 
-    return np.asarray(cv2.cvtColor(_decode(path, "image", cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB))
+    rgb = cv2.cvtColor(_decode(path, "image", cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
+    return as_rgb(rgb, os.fspath(path))
 
 
 def read_depth(path: PathLike, shape: tuple[int, int]) -> np.ndarray:
