@@ -13,7 +13,7 @@ def run_two_arms(args: argparse.Namespace, demo: Any, err: Any) -> int:
     from ..errors import DemonstrationError, UsageError
     from ..preprocessing import preprocess
     from ..reproduce import PREPROCESSING, from_hand_labels
-    from ..reproduce.aloha import TWO_ARM_ROBOTS
+    from ..reproduce.robots import TWO_ARM_ROBOTS
     from ..reproduce.two_arms import reproduce_two_arms
     from ._options import console, write_json
 

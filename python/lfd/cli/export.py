@@ -114,11 +114,12 @@ def add_robot_data(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> 
         "episodes: joint positions, commanded joints, object poses, a rendered camera, the "
         "skill of every frame as the subtask. Every tried layout and why it failed are in "
         "meta/lfd_layouts.json. Interrupted, the same command continues where it stopped. "
-        "With --robot aloha, a two-hand recording on two arms: both arms' joints (14), each "
-        "arm's skill.",
+        "With a two-arm --robot (aloha, two_pandas), a two-hand recording on two arms: both "
+        "arms' joints, each arm's skill.",
     )
     rd.add_argument(
-        "recording", help="a one-hand recording (.mcap); a two-hand one with --robot aloha"
+        "recording",
+        help="a one-hand recording (.mcap); a two-hand one with a two-arm --robot",
     )
     rd.add_argument(
         "-o", "--output", required=True, metavar="DATASET_DIR", help="dataset directory to write"
@@ -132,7 +133,7 @@ def add_robot_data(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> 
         default="kuka_lwr4",
         metavar="NAME",
         help="the arm (default kuka_lwr4; panda needs robosuite, as lfd reproduce --robot), or "
-        "aloha: two arms for a two-hand recording (needs gym-aloha)",
+        "two arms for a two-hand recording: aloha (needs gym-aloha) or two_pandas",
     )
     rd.add_argument("--mode", choices=("skills", "dmp"), default="skills", help="(default skills)")
     rd.add_argument(

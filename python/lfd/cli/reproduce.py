@@ -81,8 +81,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="NAME",
         help="the simulated robot: kuka_lwr4 (default; a KUKA LWR 4+ with a parallel-jaw gripper), "
         "another arm of lfd.reproduce.ROBOTS, e.g. panda (a Franka Panda from robosuite's "
-        "models), or aloha (two ViperX 300s arms: each hand of a two-hand recording to the arm "
-        "of its side; needs gym-aloha); docs/reproduce.md",
+        "models), or two arms, each hand of a two-hand recording to the arm of its side: aloha "
+        "(two ViperX 300s arms; needs gym-aloha) or two_pandas (two Pandas, whose hands take "
+        "objects up to 72 mm wide); docs/reproduce.md",
     )
     parser.add_argument(
         "--program",

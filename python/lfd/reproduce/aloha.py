@@ -292,7 +292,3 @@ def aloha() -> TwoArmRobot:
         ik=one,
         source=one.source,
     )
-
-
-TWO_ARM_ROBOTS = {"aloha": aloha}
-"""Every two-arm robot by name (``lfd reproduce --robot NAME``): a function that builds it."""

@@ -24,9 +24,11 @@ from __future__ import annotations
 import importlib.util
 import os
 import xml.etree.ElementTree as ET
+from functools import cache
 
 import numpy as np
 
+from .aloha import SIDES, TwoArmRobot
 from .arm import Limits, Robot
 
 ROBOSUITE = "robosuite==1.5.2"
@@ -162,17 +164,21 @@ def _hand(assets: str) -> tuple[ET.Element, ET.Element]:
     return asset, hand
 
 
-def _actuators() -> str:
+def _actuators(prefix: str = "") -> str:
     arm = "".join(
-        f'<position name="act_{j}" joint="{j}" kp="2000" kv="100" ctrlrange="{lo:.4f} {hi:.4f}"/>'
+        f'<position name="{prefix}act_{j}" joint="{prefix}{j}" kp="2000" kv="100" '
+        f'ctrlrange="{lo:.4f} {hi:.4f}"/>'
         for j, (lo, hi) in zip(ARM_JOINTS, JOINT_RANGE, strict=True)
     )
     fingers = "".join(
-        f'<position name="act_{f}" joint="{f}" kp="300" kv="20" forcerange="-20 20" '
-        f'ctrlrange="0 {FINGER_RANGE}"/>'
+        f'<position name="{prefix}act_{f}" joint="{prefix}{f}" kp="300" kv="20" '
+        f'forcerange="-20 20" ctrlrange="0 {FINGER_RANGE}"/>'
         for f in FINGER_JOINTS
     )
-    bodies = ("gripper", "leftfinger", "rightfinger", "finger_joint1_tip", "finger_joint2_tip")
+    bodies = [
+        prefix + b
+        for b in ("gripper", "leftfinger", "rightfinger", "finger_joint1_tip", "finger_joint2_tip")
+    ]
     exclude = "".join(
         f'<exclude body1="{a}" body2="{b}"/>' for i, a in enumerate(bodies) for b in bodies[i + 1 :]
     )
@@ -191,8 +197,11 @@ JOINT_RANGE: tuple[tuple[float, float], ...] = (
 """The arm's joint limits (rad), as in robosuite's robot.xml (checked when the model is built)."""
 
 
-def panda() -> Robot:
-    """The Panda as a :class:`~lfd.reproduce.arm.Robot` (``--robot panda``).
+@cache
+def panda(prefix: str = "") -> Robot:
+    """The Panda as a :class:`~lfd.reproduce.arm.Robot` (``--robot panda``), every name of its
+    bodies, joints, geoms, sites and actuators prefixed with ``prefix`` (``""`` for the arm
+    alone; ``"left/"``, ``"right/"`` in the two-arm scene of :func:`panda_pair`).
 
     Raises
     ------
@@ -209,6 +218,10 @@ def panda() -> Robot:
     if right_hand is None:
         raise ValueError("robosuite's panda robot.xml has no right_hand body")
     right_hand.append(hand)
+    for el in link0.iter():
+        for key in ("name", "joint"):
+            if el.get(key):
+                el.set(key, prefix + el.get(key, ""))
     defaults = (
         '<default><joint damping="2" armature="0.1"/>'
         f'<geom rgba="0.85 0.85 0.85 1" friction="1 0.005 0.0001"/>{_PAD}</default>'
@@ -216,13 +229,13 @@ def panda() -> Robot:
         "</asset>"
     )
     return Robot(
-        name="panda",
+        name=f"{prefix}panda",
         title="Franka Emika Panda with its hand (robosuite's MJCF)",
         body=ET.tostring(link0, encoding="unicode"),
         defaults=defaults,
-        actuators=_actuators(),
-        arm_joints=ARM_JOINTS,
-        finger_joints=FINGER_JOINTS,
+        actuators=_actuators(prefix),
+        arm_joints=tuple(prefix + j for j in ARM_JOINTS),
+        finger_joints=(prefix + FINGER_JOINTS[0], prefix + FINGER_JOINTS[1]),
         joint_range=JOINT_RANGE,
         home_q=HOME_Q,
         wrist_yaw=WRIST_YAW,
@@ -247,3 +260,24 @@ REACH = (0.38, 0.71)
 """Shoulder-wrist distances (m, the wrist 0.2 m above a top-down TCP) the base is placed for: the
 IK reaches every top-down pose tried from 0.36 to 0.75 m (mink, any yaw), the margin as the
 KUKA's."""
+
+
+@cache
+def two_pandas() -> TwoArmRobot:
+    """Two Pandas facing each other across the table (``--robot two_pandas``): the two-arm robot
+    for objects wider than the ALOHA's gripper closes across (the Panda hand opens 80 mm, the
+    ViperX's 69 mm).
+
+    Raises
+    ------
+    MissingExtraError
+        robosuite is not installed.
+    """
+    one = panda()
+    return TwoArmRobot(
+        name="two_pandas",
+        title="two Franka Emika Pandas with their hands (robosuite's MJCF)",
+        arms={side: panda(f"{side}/") for side in SIDES},
+        ik=one,
+        source=one.source,
+    )

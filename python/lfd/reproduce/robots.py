@@ -25,9 +25,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from functools import cache
 
-from .aloha import TWO_ARM_ROBOTS, TwoArmRobot
+from .aloha import TwoArmRobot, aloha
 from .arm import Limits, Robot
-from .panda import panda
+from .panda import panda, two_pandas
 from .robot import KUKA_LWR4
 
 __all__ = [
@@ -50,6 +50,8 @@ ROBOTS: dict[str, Callable[[], Robot]] = {"kuka_lwr4": _kuka, "panda": panda}
 """Every robot by name: a function that builds it (a robot from an optional package is built
 when asked for, and says in one line how to install it when the package is missing)."""
 DEFAULT_ROBOT = "kuka_lwr4"
+TWO_ARM_ROBOTS: dict[str, Callable[[], TwoArmRobot]] = {"aloha": aloha, "two_pandas": two_pandas}
+"""Every two-arm robot by name (``lfd reproduce --robot NAME``): a function that builds it."""
 
 
 def robot_names() -> tuple[str, ...]:

@@ -14,7 +14,10 @@ closing axis lies across the object's longer side, so the pressing fingers take 
 it as they can (the other arm stacks or acts on the rest).
 
 An object the gripper can close across is held by a grasp, as before
-(:func:`~lfd.reproduce.displacement.plan_layout`). A hold whose gripper comes too near the
+(:func:`~lfd.reproduce.displacement.plan_layout`), unless the other arm stacks meanwhile: a
+grasp's ``pick_up`` lifts the object off the table, and the box stacked on a lifted plank lands
+where the plank was held, not where it rests after (the two Pandas, whose hands close across
+the plank, stacked 36-46 mm off target so). A hold whose gripper comes too near the
 other arm (:mod:`.two_arm_holds`) is pressed instead at the end of the top farthest from
 the other arm's step, whichever axis (``away``, :func:`press_pose`).
 """
@@ -43,15 +46,17 @@ def press_holds(
     hands: HandsProgram, sizes: dict[str, np.ndarray], robot: TwoArmRobot
 ) -> dict[str, SyncPoint]:
     """The ``hold_until`` points whose held object is too wide for the gripper (every
-    horizontal side wider than :func:`~lfd.reproduce.goals.grasp_max_width`), by holding hand,
-    when its lane holds it between its own ``pick_up`` and ``place`` (else the grasp is
-    planned, and refused as ever)."""
+    horizontal side wider than :func:`~lfd.reproduce.goals.grasp_max_width`) or is held while
+    the other arm stacks (on it), by holding hand, when its lane holds it between its own
+    ``pick_up`` and ``place`` (else the grasp is planned, and refused as ever)."""
     out = {}
     widest = grasp_max_width(robot.ik)
     for p in hands.sync:
         if p.kind != "hold_until" or p.object not in sizes:
             continue
-        if float(min(sizes[p.object][:2])) <= widest:
+        other = hands.lanes[p.other]
+        under = p.other_step < len(other) and other[p.other_step].skill == "stack"
+        if float(min(sizes[p.object][:2])) <= widest and not under:
             continue
         lane = hands.lanes[p.hand]
         k = p.step

@@ -150,13 +150,17 @@ def test_panda_missing_robosuite_is_one_line(tmp_path: object) -> None:
 
 
 def test_library_missing_robosuite(monkeypatch: pytest.MonkeyPatch) -> None:
+    from lfd.reproduce.panda import panda
+
     monkeypatch.setitem(sys.modules, "robosuite", None)
     robot.cache_clear()
+    panda.cache_clear()  # built once per prefix
     try:
         with pytest.raises(MissingExtraError, match=r"pip install --no-deps robosuite==1\.5\.2"):
             robot("panda")
     finally:
         robot.cache_clear()
+        panda.cache_clear()
 
 
 @needs_robosuite

@@ -1,0 +1,109 @@
+"""A second two-arm robot (``--robot two_pandas``, :func:`lfd.reproduce.panda.two_pandas`): two
+Pandas from robosuite's MJCF, every name of each arm prefixed with its side, for the objects the
+ALOHA's gripper cannot close across; and a hold under a stack done by pressing."""
+
+from __future__ import annotations
+
+import importlib.util
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco")
+pytest.importorskip("mink")
+pytestmark = pytest.mark.skipif(
+    importlib.util.find_spec("robosuite") is None,
+    reason="robosuite not installed (the robots extra: pip install --no-deps robosuite==1.5.2)",
+)
+
+BASES = {"right": np.array([0.55, 0.45, 0.0]), "left": np.array([-0.55, 0.45, 0.0])}
+YAWS = {"right": np.pi, "left": 0.0}
+
+
+def test_two_pandas_compile_in_one_scene_each_arm_named_by_its_side() -> None:
+    import mujoco
+    from lfd.reproduce.panda import FINGER_RANGE, panda, two_pandas
+    from lfd.reproduce.robots import TWO_ARM_ROBOTS, any_robot
+    from lfd.reproduce.two_arms import scene_xml
+
+    robot = any_robot("two_pandas")
+    assert robot is two_pandas() and TWO_ARM_ROBOTS["two_pandas"] is two_pandas
+    assert robot.sides == ("right", "left") and robot.ik is panda() and robot.ik.dof == 7
+    model = mujoco.MjModel.from_xml_string(scene_xml(BASES, [], robot, YAWS))
+    data = mujoco.MjData(model)
+    assert model.nu == 18 and model.nq == 18  # 7 joints and 2 fingers per arm
+    driven = [model.joint(model.actuator(i).trnid[0]).name for i in range(model.nu)]
+    arms = robot.arms
+    assert driven == [
+        *arms["right"].arm_joints,
+        *arms["right"].finger_joints,
+        *arms["left"].arm_joints,
+        *arms["left"].finger_joints,
+    ]
+    assert arms["left"].arm_joints[0] == "left/joint1"
+    for side in BASES:
+        for j, q in zip(arms[side].arm_joints, robot.ik.home_q, strict=True):
+            data.qpos[model.joint(j).qposadr[0]] = q
+        for f in arms[side].finger_joints:
+            assert tuple(model.jnt_range[model.joint(f).id]) == pytest.approx((0, FINGER_RANGE))
+    mujoco.mj_forward(model, data)
+    for side, base in BASES.items():
+        tcp = data.site(f"{side}/tcp").xpos
+        ahead = np.array([np.cos(YAWS[side]), np.sin(YAWS[side])])
+        assert 0.2 < float((tcp[:2] - base[:2]) @ ahead) < 0.8 and tcp[2] > 0.05
+    # the one-arm Panda keeps its unprefixed names
+    one = mujoco.MjModel.from_xml_string(panda().model_xml())
+    assert one.site("tcp").id >= 0 and one.joint("joint1").id >= 0
+
+
+def _hold_stack(style: str, seed: int):  # type: ignore[no-untyped-def]
+    from lfd.preprocessing import preprocess
+    from lfd.reproduce import PREPROCESSING, from_hand_labels
+    from lfd.sim import Variability, simulate
+
+    demo = simulate("hold_stack", seed=seed, variability=Variability(style=style)).demo
+    hands = from_hand_labels(
+        demo.labels, demo.start_ns, sides=demo.sides, handovers=demo.handovers, objects=demo.objects
+    )
+    return {s: preprocess(demo.one_hand(s), **PREPROCESSING) for s in demo.sides}, hands
+
+
+def test_a_hold_under_a_stack_is_a_press_even_where_the_gripper_fits() -> None:
+    """The plank (65 mm) fits a Panda hand (72 mm) but not the ALOHA's (61 mm): held while the
+    other arm stacks on it, it is pressed on both; a plank held while the other arm only
+    moves is grasped where it fits."""
+    from dataclasses import replace
+
+    from lfd.reproduce.aloha import aloha
+    from lfd.reproduce.panda import two_pandas
+    from lfd.reproduce.two_arm_press import press_holds
+
+    _, hands = _hold_stack("careful", 9501)
+    sizes = {"plank": np.array([0.17, 0.065, 0.04])}
+    (hold,) = [p for p in hands.sync if p.kind == "hold_until"]
+    for robot in (two_pandas(), aloha()):
+        assert press_holds(hands, sizes, robot) == {hold.hand: hold}
+    moving = list(hands.lanes[hold.other])
+    moving[hold.other_step] = replace(moving[hold.other_step], skill="move")
+    other = replace(hands, lanes={**hands.lanes, hold.other: moving})
+    assert press_holds(other, sizes, two_pandas()) == {}
+    assert press_holds(other, sizes, aloha()) == {hold.hand: hold}  # too wide: pressed
+
+
+@pytest.mark.slow  # two runs of a whole demonstration on two arms (~60 s)
+@pytest.mark.parametrize("mode", ["skills", "dmp"])
+def test_a_natural_hold_stack_the_aloha_refuses_is_achieved_on_two_pandas(mode: str) -> None:
+    """Natural hold_stack seed 9501 stacks a 65 mm cube: wider than the ALOHA's gripper takes,
+    and its left hand's path out of a ViperX's reach (refused), within a Panda's; before the
+    press under a stack its box landed 36 mm off target on the plank the holding Panda had
+    lifted."""
+    from lfd.errors import LfdError
+    from lfd.reproduce.aloha import aloha
+    from lfd.reproduce.panda import two_pandas
+    from lfd.reproduce.two_arms import reproduce_two_arms
+
+    trajs, hands = _hold_stack("natural", 9501)
+    with pytest.raises(LfdError, match="cannot"):
+        reproduce_two_arms(trajs, hands, mode=mode, robot=aloha())
+    res = reproduce_two_arms(trajs, hands, mode=mode, robot=two_pandas())
+    assert res.success, res.failures
