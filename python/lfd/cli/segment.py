@@ -121,7 +121,7 @@ def segment_stream(
     is the :class:`lfd.viz.live.LiveTimeline` once one is open (features, settled spans and
     the provisional one are logged to it). Each skill is printed as it settles."""
     from ..errors import RecordingFormatError
-    from ..io.reader import camera_of
+    from ..io.reader import CameraPoses
     from ..segmentation.live import LiveSegmentation
     from ..segmentation.live_hands import LiveHands
 
@@ -130,26 +130,26 @@ def segment_stream(
     sides: tuple[str, ...] = ()
     seg: LiveSegmentation | LiveHands | None = None
     labels: list[Any] = []
-    camera_so_far = None
-    calibration: Any = None  # the camera's, once written; posed by /tf (lfd.io.reader.camera_of)
+    poses: Any = None  # the camera as the file poses it so far (lfd.io.reader.CameraPoses)
     bad_poses: set[str] = set()
     for msg in messages:
         if msg.kind in ("label", "handover"):  # the ground truth
             labels.append(msg.value)
-        if msg.kind == "camera_info":
-            calibration = msg.value
-        elif msg.kind == "tf" and calibration is not None:
-            try:
-                camera = camera_of(calibration, msg.value)
-            except RecordingFormatError as err:  # as lfd.load: the last good pose stays
+        if msg.kind in ("camera_info", "tf"):
+            try:  # as lfd.load: a bad transform leaves the last good pose
+                if msg.kind == "tf":
+                    if poses is not None:
+                        poses.add(msg.value)
+                elif poses is None:
+                    poses = CameraPoses(msg.value)
+                else:
+                    poses.recalibrate(msg.value)
+            except RecordingFormatError as err:
                 if str(err) not in bad_poses:
                     print(f"lfd segment: warning: skipped {err}", file=sys.stderr)
                 bad_poses.add(str(err))
-                camera = None
-            if camera is not None:
-                camera_so_far = camera
-                if seg is not None:
-                    seg.set_camera(camera)
+            if seg is not None:
+                seg.set_camera(poses.camera if poses is not None else None)
         if seg is None and msg.kind in ("hand", "object"):
             objects = _sized(follower.objects, args)
             if not objects:
@@ -170,7 +170,7 @@ def segment_stream(
                     names, sizes, method=method, side=sides[0], tag_ids=tags, metadata=meta
                 )
             )
-            seg.set_camera(camera_so_far)
+            seg.set_camera(poses.camera if poses is not None else None)
         if seg is None:
             continue
         side = getattr(msg, "side", None)

@@ -208,6 +208,37 @@ def camera_of(info: Any, transforms: Any) -> CameraInfo | None:
     return camera
 
 
+class CameraPoses:
+    """A recording's camera as its calibration and ``/tf`` messages pose it, one message at a
+    time (:func:`lfd.load` and ``lfd segment --follow``): the identity pose until a transform
+    of its frame, then the last good one; a bad transform before any good one leaves no pose
+    (:attr:`camera` None). ``info``: its ``foxglove.CameraCalibration``; a calibration that
+    describes no camera raises :class:`~lfd.errors.RecordingFormatError` (:func:`camera_of`)."""
+
+    def __init__(self, info: Any) -> None:
+        self.info = info
+        self.camera: CameraInfo | None = camera_of(info, None)
+        self.posed: Any = None  # the last good transform of its frame
+
+    def add(self, transforms: Any) -> None:
+        """One more ``foxglove.FrameTransforms``; one that poses the camera badly raises
+        :class:`~lfd.errors.RecordingFormatError` after the camera is kept or dropped."""
+        try:
+            found = camera_of(self.info, transforms)
+        except RecordingFormatError:
+            if self.posed is None:
+                self.camera = None
+            raise
+        if found is not None:
+            self.camera, self.posed = found, transforms
+
+    def recalibrate(self, info: Any) -> None:
+        """A newer calibration, posed by the last good transform (one that describes no camera
+        leaves none, and raises as the constructor)."""
+        self.info, self.camera = info, None
+        self.camera = camera_of(info, self.posed)
+
+
 class _Loader:
     def __init__(self, raw: RawRecording) -> None:
         self.raw = raw
@@ -440,20 +471,16 @@ class _Loader:
         t_info, infos = self.decode(T.CAMERA_INFO_TOPIC, CameraCalibration)
         t_tf, tfs = self.decode(T.TF_TOPIC, FrameTransforms)
         try:
-            posed_at: CameraInfo | None = camera_of(infos[-1], None)
+            poses = CameraPoses(infos[-1])
         except RecordingFormatError as err:  # the recording loads without its camera
             self.skipped.append(f"{T.CAMERA_INFO_TOPIC} at {t_info[-1]} ns: {err}")
             return None
-        posed = False  # by a good transform (all bad: no pose is known, not the identity)
         for t, msg in zip(t_tf, tfs, strict=True):
             try:
-                found = camera_of(infos[-1], msg)
+                poses.add(msg)
             except RecordingFormatError as err:  # the last good pose stays
                 self.skipped.append(f"{T.TF_TOPIC} at {t} ns: {err}")
-                posed_at = posed_at if posed else None
-                continue
-            posed_at, posed = (found, True) if found is not None else (posed_at, posed)
-        return posed_at
+        return poses.camera
 
     def images(self, topic: str) -> ImageStream | None:
         """The frames of ``topic`` (raw, else its ``/compressed`` variant), decoded when first

@@ -140,3 +140,65 @@ def test_follow_reads_the_camera_pose_from_the_file(tmp_path) -> None:
     first = int(loaded.start_ns)
     assert followed == pytest.approx([(int(t) - first) * 1e-9 for t in settled], abs=1e-6)
     assert not np.array_equal(settled, blind)
+
+
+def _without_tf(src, dst) -> None:  # type: ignore[no-untyped-def]
+    """``src`` rewritten without its /tf channel and its calibration record (a calibration
+    message no transform poses)."""
+    from mcap.reader import make_reader
+    from mcap.writer import Writer
+
+    with open(src, "rb") as f, open(dst, "wb") as g:
+        reader, writer = make_reader(f), Writer(g)
+        writer.start(profile="", library="test")
+        schemas: dict[int, int] = {}
+        channels: dict[int, int] = {}
+        for schema, channel, message in reader.iter_messages():
+            if channel.topic == "/tf":
+                continue
+            if schema is not None and schema.id not in schemas:
+                schemas[schema.id] = writer.register_schema(
+                    schema.name, schema.encoding, schema.data
+                )
+            if channel.id not in channels:
+                channels[channel.id] = writer.register_channel(
+                    channel.topic,
+                    channel.message_encoding,
+                    schemas.get(channel.schema_id, 0),
+                    dict(channel.metadata),
+                )
+            writer.add_message(
+                channels[channel.id], message.log_time, message.data, message.publish_time
+            )
+        for record in reader.iter_metadata():
+            if record.name != "calibration":
+                writer.add_metadata(record.name, dict(record.metadata))
+        writer.finish()
+
+
+def test_follow_poses_a_camera_without_transforms_as_load_does(tmp_path) -> None:
+    """A calibration that no /tf poses is at the identity pose for ``lfd segment --follow`` as
+    for :func:`lfd.load` (one rule, :class:`lfd.io.reader.CameraPoses`; the follower used no
+    camera there)."""
+    import json
+
+    from lfd.cli import main
+
+    demo = simulate("exp3", 0, Variability(style="careful")).demo
+    grasp = next(lab for lab in demo.labels if lab.object == "box_3" and lab.skill != "move")
+    hidden = _hidden(demo, "box_3", grasp.start_ns, demo.end_ns)
+    full, rec, out = tmp_path / "full.mcap", tmp_path / "rec.mcap", tmp_path / "out.json"
+    lfd.save(hidden, full)
+    _without_tf(full, rec)
+    loaded = lfd.load(rec, images=False)
+    assert loaded.camera is not None
+    assert np.array_equal(loaded.camera.world_T_camera, np.eye(4))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert main(["segment", "--follow", str(rec), "--json", str(out)]) == 0
+        _, settled = segment_live(loaded)
+        _, blind = segment_live(dataclasses.replace(loaded, camera=None))
+    followed = json.loads(out.read_text())["live"]["settled_s"]
+    first = int(loaded.start_ns)
+    assert followed == pytest.approx([(int(t) - first) * 1e-9 for t in settled], abs=1e-6)
+    assert not np.array_equal(settled, blind)
