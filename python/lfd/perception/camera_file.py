@@ -37,6 +37,7 @@ from ..demo import (
     is_number,
     k_problem,
     pose_problem,
+    shared_tag_problem,
     tag_id_problem,
     whole_number,
 )
@@ -157,6 +158,9 @@ def parse_camera(meta: Any) -> tuple[CameraInfo, list[dict[str, Any]], float | N
     names = [o["name"] for o in parsed]
     if len(set(names)) != len(names):
         raise ValueError(f"object names must be distinct, got {names}")
+    problem = shared_tag_problem({o["name"]: o["tag_id"] for o in parsed})
+    if problem is not None:
+        raise ValueError(f"objects: {problem}; each tag is on one object")
     camera = CameraInfo(width, height, np.asarray(meta["K"], float), np.asarray(pose, float))
     return camera, parsed, _fps(meta), known
 

@@ -450,3 +450,20 @@ def test_camera_index_in_a_fresh_process(scene: dict[str, Any], tmp_path: Path, 
         "lfd record: error: camera source: the device index must be an integer in [0, 63], "
         f"got {index!r}"
     ]
+
+
+def test_two_objects_on_one_tag_are_refused_naming_the_file(
+    scene: dict[str, Any], tmp_path: Path
+) -> None:
+    """One rule for every map of objects to tags (:func:`lfd.demo.shared_tag_problem`, the ROS
+    topic mapping's too): refused when camera.json is read, naming it (was: by the tag
+    tracker once recording began, without the file)."""
+    from lfd.perception.sources import read_camera_json
+
+    doc = json.loads(json.dumps(scene["doc"]))
+    assert len(doc["objects"]) >= 2
+    doc["objects"][1]["tag_id"] = doc["objects"][0]["tag_id"]
+    path = tmp_path / "camera.json"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(LfdError, match=r"camera\.json.*have the same tag_id"):
+        read_camera_json(path)
