@@ -121,7 +121,7 @@ def segment_stream(
     is the :class:`lfd.viz.live.LiveTimeline` once one is open (features, settled spans and
     the provisional one are logged to it). Each skill is printed as it settles."""
     from ..errors import RecordingFormatError
-    from ..io.reader import CameraPoses
+    from ..io.camera_pose import CameraPoses
     from ..segmentation.live import LiveSegmentation
     from ..segmentation.live_hands import LiveHands
 
@@ -130,7 +130,7 @@ def segment_stream(
     sides: tuple[str, ...] = ()
     seg: LiveSegmentation | LiveHands | None = None
     labels: list[Any] = []
-    poses: Any = None  # the camera as the file poses it so far (lfd.io.reader.CameraPoses)
+    poses: Any = None  # the camera as the file poses it so far (lfd.io.camera_pose.CameraPoses)
     bad_poses: set[str] = set()
     for msg in messages:
         if msg.kind in ("label", "handover"):  # the ground truth

@@ -26,7 +26,6 @@ from typing import Any
 import numpy as np
 
 from ..demo import (
-    MAX_IMAGE_SIDE,
     CameraInfo,
     Demonstration,
     Handover,
@@ -34,8 +33,6 @@ from ..demo import (
     ImageStream,
     ObjectTrack,
     SkillLabel,
-    k_problem,
-    pose_problem,
 )
 from ..errors import (
     LfdError,
@@ -46,6 +43,7 @@ from ..errors import (
 )
 from ..inputs import is_ros_path, parse_json
 from . import topics as T
+from .camera_pose import CameraPoses, camera_problem
 from .hands import clock_problem, handovers_of_events, lanes_problem, spans_of
 from .mcapfile import RawRecording, Records, read
 from .sizes import resolve_sizes
@@ -161,82 +159,6 @@ def labels_of_events(events: Iterable[Any], where: str = "") -> tuple[list[Skill
             meta = {kv.key: kv.value for kv in m.metadata}
             skipped.append(f"label {meta}: {err}")
     return sorted(labels, key=lambda lab: (lab.start_ns, lab.end_ns)), skipped
-
-
-def camera_problem(camera: CameraInfo) -> str | None:
-    """What makes ``camera`` no camera (None if nothing): the rules of a ``camera.json``
-    (:func:`lfd.demo.k_problem` with the image size, :func:`lfd.demo.pose_problem`)."""
-    if not (0 < camera.width <= MAX_IMAGE_SIDE and 0 < camera.height <= MAX_IMAGE_SIDE):
-        return f"image size {camera.width} x {camera.height} px, each in [1, {MAX_IMAGE_SIDE}]"
-    problem = k_problem(camera.K, camera.width, camera.height)
-    if problem is None:
-        problem = pose_problem(camera.world_T_camera)
-        problem = None if problem is None else f"world_T_camera {problem}"
-    return problem
-
-
-def camera_of(info: Any, transforms: Any) -> CameraInfo | None:
-    """The camera of a ``foxglove.CameraCalibration`` posed by a ``foxglove.FrameTransforms``
-    that holds its frame (None if it does not; no transforms: the identity pose). A calibration
-    or pose that describes no camera (:func:`camera_problem`, a ``K`` of other than 9 entries,
-    a zero rotation) is a :class:`~lfd.errors.RecordingFormatError` naming what is wrong."""
-    what = f"camera {info.frame_id!r}"
-    k = np.array(info.K, dtype=np.float64)
-    if k.shape != (9,):
-        raise RecordingFormatError(f"{what}: K must be 9 numbers, got {k.tolist()}")
-    pose = np.eye(4)
-    if transforms is not None:
-        found = [tf for tf in transforms.transforms if tf.child_frame_id == info.frame_id]
-        if not found:
-            return None
-        r, tr = found[-1].rotation, found[-1].translation
-        q = np.array([r.x, r.y, r.z, r.w], dtype=np.float64)
-        scale = float(np.abs(q).max()) if np.isfinite(q).all() else 0.0
-        if not scale > 0:  # zero or not finite (scaled first: no overflow in the norm)
-            raise RecordingFormatError(f"{what}: no rotation in a transform: {q.tolist()}")
-        q = q / scale
-        from scipy.spatial.transform import Rotation
-
-        pose[:3, :3] = Rotation.from_quat(q).as_matrix()
-        pose[:3, 3] = (tr.x, tr.y, tr.z)
-    camera = CameraInfo(
-        width=info.width, height=info.height, K=k, world_T_camera=pose, frame_id=info.frame_id
-    )
-    problem = camera_problem(camera)
-    if problem is not None:
-        raise RecordingFormatError(f"{what}: {problem}")
-    return camera
-
-
-class CameraPoses:
-    """A recording's camera as its calibration and ``/tf`` messages pose it, one message at a
-    time (:func:`lfd.load` and ``lfd segment --follow``): the identity pose until a transform
-    of its frame, then the last good one; a bad transform before any good one leaves no pose
-    (:attr:`camera` None). ``info``: its ``foxglove.CameraCalibration``; a calibration that
-    describes no camera raises :class:`~lfd.errors.RecordingFormatError` (:func:`camera_of`)."""
-
-    def __init__(self, info: Any) -> None:
-        self.info = info
-        self.camera: CameraInfo | None = camera_of(info, None)
-        self.posed: Any = None  # the last good transform of its frame
-
-    def add(self, transforms: Any) -> None:
-        """One more ``foxglove.FrameTransforms``; one that poses the camera badly raises
-        :class:`~lfd.errors.RecordingFormatError` after the camera is kept or dropped."""
-        try:
-            found = camera_of(self.info, transforms)
-        except RecordingFormatError:
-            if self.posed is None:
-                self.camera = None
-            raise
-        if found is not None:
-            self.camera, self.posed = found, transforms
-
-    def recalibrate(self, info: Any) -> None:
-        """A newer calibration, posed by the last good transform (one that describes no camera
-        leaves none, and raises as the constructor)."""
-        self.info, self.camera = info, None
-        self.camera = camera_of(info, self.posed)
 
 
 class _Loader:

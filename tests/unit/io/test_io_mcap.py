@@ -1001,7 +1001,7 @@ def test_any_camera_message_is_a_camera_or_one_clear_error(k, size, quat, shift)
     a finite rigid pose, or a RecordingFormatError of one line; never another exception."""
     from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
     from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
-    from lfd.io.reader import camera_of
+    from lfd.io.camera_pose import camera_of
 
     info = CameraCalibration(frame_id="camera", width=size[0] % 2**32, height=size[1] % 2**32)
     info.K.extend(k)

@@ -178,7 +178,7 @@ def _without_tf(src, dst) -> None:  # type: ignore[no-untyped-def]
 
 def test_follow_poses_a_camera_without_transforms_as_load_does(tmp_path) -> None:
     """A calibration that no /tf poses is at the identity pose for ``lfd segment --follow`` as
-    for :func:`lfd.load` (one rule, :class:`lfd.io.reader.CameraPoses`; the follower used no
+    for :func:`lfd.load` (one rule, :class:`lfd.io.camera_pose.CameraPoses`; the follower used no
     camera there)."""
     import json
 
