@@ -34,7 +34,7 @@ from ..demo import CameraInfo, Demonstration, HandTrack, ObjectTrack, SkillLabel
 from ..errors import InvalidParameterError, LfdError
 from ..io.reader import order_times
 from ..skills import allowed, grammar
-from .live_rules import lifted_after, set_down_unseen, unlifted
+from .live_rules import grasped_after, lifted_after, set_down_unseen, unlifted
 from .method import Method
 from .result import Segment, Segmentation
 from .templates import TemplateChoice, Templates
@@ -598,8 +598,9 @@ class LiveSegmentation:
                 return True
             move, after = cands[i].segment, cands[i + 1].segment if len(cands) > i + 1 else None
             if after is not None and (after.skill, after.object) == ("pick_up", move.object):
-                if lifted_after(run, move):  # that Pick up has lifted its object
-                    return True
+                prev = cands[i - 1].segment if i else next(reversed(self._emitted), None)
+                if lifted_after(run, move) or grasped_after(run, prev, move):
+                    return True  # that Pick up has lifted, or after a release grasped, it
             return len(cands) > i + 1 + self.followers and (
                 not uncertain(cands[i + 1]) or ready(cands[i + 1])
             )

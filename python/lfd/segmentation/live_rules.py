@@ -5,7 +5,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..geometry import box_distance
+from ..skills import RELEASES
 from .result import Segment, Segmentation
+
+GRASP_M = 0.001
+"""The TCP (the midpoint of thumb and index tips) this close to an object's box, or inside it,
+has the object between its fingers: a hand that passes by or rests beside a box stays outside
+it (perceived natural exp1 seed 9417: 0.8-5 cm from box_3 for 2 s before it grasped box_1)."""
 
 
 def _rises(run: Segmentation, name: str | None, a: int, b: int | None) -> bool | None:
@@ -39,6 +46,25 @@ def lifted_after(run: Segmentation, seg: Segment) -> bool:
     threshold) in ``run`` after ``seg`` ended: for a Move, the skill after it is a Pick up of
     that object that has lifted it, however long the run takes to find the carry after it."""
     return _rises(run, seg.object, int(seg.end), None) is True
+
+
+def grasped_after(run: Segmentation, prev: Segment | None, seg: Segment) -> bool:
+    """Whether ``seg`` is a Move after a release (``prev``, a Place or Stack) whose object has
+    been between the hand's fingers (the TCP within :data:`GRASP_M` of its box) after ``seg``
+    ended in ``run``: the Pick up after it has grasped what the Move is named after, and its
+    reach, which ends the Move, is behind it (:func:`lfd.contact._reach_start`). Not after
+    another skill: after a Push or Locate the hand is still at, or beside, an object it does
+    not go on to lift (perceived natural exp2 seed 9409, exp3 seed 9413)."""
+    if prev is None or prev.skill not in RELEASES or seg.skill != "move" or run.run is None:
+        return False
+    tr = run.run.trajectory
+    if seg.object not in tr.object_names:
+        return False
+    o, a = tr.object_names.index(seg.object), int(seg.end)
+    d = box_distance(
+        tr.tcp[a:], tr.object_position[o][a:], tr.object_quaternion[o][a:], tr.object_size[o]
+    )
+    return bool((d <= GRASP_M).any())
 
 
 def set_down_unseen(

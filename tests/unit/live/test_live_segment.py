@@ -336,3 +336,30 @@ def test_a_move_settles_once_the_pick_up_after_it_lifts_its_object(name: str) ->
         live._now = live._newest_hand = now + round(dt_s * 1e9)
         live.settle(run, ended=lambda: run)  # the check run agrees with the open one
     assert [s.skill for s in live._emitted] == [s.skill for s in segs[: i + (name == "box_3")]]
+
+
+@pytest.mark.parametrize("path", [RECORDINGS[0], PERCEIVED], ids=lambda p: p.parent.name + p.stem)
+def test_a_move_after_a_release_settles_once_the_hand_grasps_before_the_lift(path: Path) -> None:
+    """A Move after a Place or Stack settles once the hand has the next object between its
+    fingers (the TCP inside its box), before the Pick up lifts it: the reach that ends the Move
+    is behind it (box_3 of exp1, grasped ~1 s before it lifts). Moves elsewhere still wait for
+    the lift (``grasped_after`` is False after a Push or a Locate, and for a hand beside a box)."""
+    import dataclasses
+
+    from lfd.segmentation.live_rules import grasped_after
+
+    demo = load(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        batch = lfd.segment(demo)
+        result, settled_ns = segment_live(demo)
+    segs = list(batch.segments)
+    assert result.skill_sequence == batch.skill_sequence
+    i = next(k for k, s in enumerate(segs) if s.skill == "move" and s.object == "box_3")
+    assert segs[i - 1].skill in ("place", "stack") and segs[i + 1].skill == "pick_up"
+    assert settled_ns[i] < segs[i + 1].end_ns  # before the lift that ends the Pick up
+    assert grasped_after(batch, segs[i - 1], segs[i])
+    for prev in ("push", "locate", "move_with"):
+        assert not grasped_after(batch, dataclasses.replace(segs[i - 1], skill=prev), segs[i])
+    for other in ("box_1", "box_2"):  # the box just put down, and one never touched again
+        assert not grasped_after(batch, segs[i - 1], dataclasses.replace(segs[i], object=other))
