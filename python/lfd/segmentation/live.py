@@ -34,7 +34,7 @@ from ..demo import CameraInfo, Demonstration, HandTrack, ObjectTrack, SkillLabel
 from ..errors import InvalidParameterError, LfdError
 from ..io.reader import order_times
 from ..skills import allowed, grammar
-from .live_rules import grasped_after, lifted_after, set_down_unseen, unlifted
+from .live_rules import handled_after, set_down_unseen, unlifted
 from .method import Method
 from .result import Segment, Segmentation
 from .templates import TemplateChoice, Templates
@@ -597,10 +597,10 @@ class LiveSegmentation:
             if cands[i].segment.skill != "move":
                 return True
             move, after = cands[i].segment, cands[i + 1].segment if len(cands) > i + 1 else None
-            if after is not None and (after.skill, after.object) == ("pick_up", move.object):
+            if after is not None and after.object == move.object:
                 prev = cands[i - 1].segment if i else next(reversed(self._emitted), None)
-                if lifted_after(run, move) or grasped_after(run, prev, move):
-                    return True  # that Pick up has lifted, or after a release grasped, it
+                if handled_after(run, prev, move, after.skill):
+                    return True  # a Pick up lifted it (or grasped it), a Push moved it
             return len(cands) > i + 1 + self.followers and (
                 not uncertain(cands[i + 1]) or ready(cands[i + 1])
             )

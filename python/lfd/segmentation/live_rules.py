@@ -15,9 +15,9 @@ has the object between its fingers: a hand that passes by or rests beside a box 
 it (perceived natural exp1 seed 9417: 0.8-5 cm from box_3 for 2 s before it grasped box_1)."""
 
 
-def _rises(run: Segmentation, name: str | None, a: int, b: int | None) -> bool | None:
-    """Whether object ``name`` rose above its rest height (the features' lift threshold) in
-    samples ``a:b`` of ``run``; None if the run does not say (no such object, no features)."""
+def _above(run: Segmentation, name: str | None, column: str, a: int, b: int | None) -> bool | None:
+    """Whether feature ``column`` of object ``name`` went above its threshold in samples
+    ``a:b`` of ``run``; None if the run does not say (no such object, no features)."""
     from .stage1 import OBJECT_COLUMNS
 
     if name is None or run.run is None:
@@ -26,8 +26,14 @@ def _rises(run: Segmentation, name: str | None, a: int, b: int | None) -> bool |
         feats = run.run.object_features[run.object_names.index(name)]
     except (ValueError, IndexError):
         return None
-    k = OBJECT_COLUMNS["object_height"]
+    k = OBJECT_COLUMNS[column]
     return bool((feats.values[a:b, k] > feats.thresholds[a:b, k]).any())
+
+
+def _rises(run: Segmentation, name: str | None, a: int, b: int | None) -> bool | None:
+    """Whether object ``name`` rose above its rest height (the features' lift threshold) in
+    samples ``a:b`` of ``run``; None if the run does not say."""
+    return _above(run, name, "object_height", a, b)
 
 
 def unlifted(run: Segmentation, seg: Segment) -> bool:
@@ -48,14 +54,32 @@ def lifted_after(run: Segmentation, seg: Segment) -> bool:
     return _rises(run, seg.object, int(seg.end), None) is True
 
 
+def handled_after(run: Segmentation, prev: Segment | None, seg: Segment, skill: str) -> bool:
+    """Whether the skill after the Move ``seg`` (``skill``, on the Move's object; ``prev`` the
+    skill before the Move) has shown in ``run`` what it does to the object, so the Move's end
+    (where that skill's reach begins) and name are known: a Pick up that lifted the object
+    (:func:`lifted_after`) or, after a release, grasped it (:func:`grasped_after`); after a
+    release, a Push that moved it (:func:`pushed_after`)."""
+    if skill == "pick_up":
+        return lifted_after(run, seg) or grasped_after(run, prev, seg)
+    return skill == "push" and pushed_after(run, prev, seg)
+
+
+def _after_release(run: Segmentation, prev: Segment | None, seg: Segment) -> bool:
+    """Whether ``seg`` is a Move after a release (``prev`` a Place or Stack) in a run with
+    features. Not after another skill: after a Push or Locate the hand is still at, or beside,
+    an object it does not go on to lift (perceived natural exp2 seed 9409, exp3 seed 9413)."""
+    return (
+        prev is not None and prev.skill in RELEASES and seg.skill == "move" and run.run is not None
+    )
+
+
 def grasped_after(run: Segmentation, prev: Segment | None, seg: Segment) -> bool:
-    """Whether ``seg`` is a Move after a release (``prev``, a Place or Stack) whose object has
-    been between the hand's fingers (the TCP within :data:`GRASP_M` of its box) after ``seg``
-    ended in ``run``: the Pick up after it has grasped what the Move is named after, and its
-    reach, which ends the Move, is behind it (:func:`lfd.contact._reach_start`). Not after
-    another skill: after a Push or Locate the hand is still at, or beside, an object it does
-    not go on to lift (perceived natural exp2 seed 9409, exp3 seed 9413)."""
-    if prev is None or prev.skill not in RELEASES or seg.skill != "move" or run.run is None:
+    """Whether ``seg`` is a Move after a release whose object has been between the hand's
+    fingers (the TCP within :data:`GRASP_M` of its box) after ``seg`` ended in ``run``: the
+    Pick up after it has grasped what the Move is named after, and its reach, which ends the
+    Move, is behind it (:func:`lfd.contact._reach_start`)."""
+    if not _after_release(run, prev, seg) or run.run is None:
         return False
     tr = run.run.trajectory
     if seg.object not in tr.object_names:
@@ -65,6 +89,13 @@ def grasped_after(run: Segmentation, prev: Segment | None, seg: Segment) -> bool
         tr.tcp[a:], tr.object_position[o][a:], tr.object_quaternion[o][a:], tr.object_size[o]
     )
     return bool((d <= GRASP_M).any())
+
+
+def pushed_after(run: Segmentation, prev: Segment | None, seg: Segment) -> bool:
+    """Whether ``seg`` is a Move after a release whose object has moved (its speed above the
+    features' threshold) after ``seg`` ended in ``run``: the Push after it has begun."""
+    moved = _above(run, seg.object, "object_velocity", int(seg.end), None)
+    return _after_release(run, prev, seg) and moved is True
 
 
 def set_down_unseen(
