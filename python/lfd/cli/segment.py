@@ -112,6 +112,42 @@ def _show_demo(demo: Any) -> None:
     log_recorded_demo(demo, trajectory=False)
 
 
+class _RecordedCamera:
+    """The camera of the followed file's ``calibration`` metadata record, once read and while
+    it describes one (:func:`lfd.io.camera_pose.calibration_camera`, as :func:`lfd.load` reads
+    it: preferred to the calibration and ``/tf`` messages; one that describes no camera is
+    warned about once and the messages pose the camera)."""
+
+    def __init__(self, follower: Any, warned: set[str], path: str) -> None:
+        self.follower, self.warned, self.path = follower, warned, path
+        self.text: str | None = None
+        self.value: Any = None
+
+    def camera(self) -> Any:
+        from ..errors import RecordingFormatError
+        from ..inputs import parse_json
+        from ..io import topics as T
+        from ..io.camera_pose import calibration_camera
+
+        text = getattr(self.follower, "metadata", {}).get(T.CALIBRATION_METADATA, {}).get("camera")
+        if text is None or text == self.text:
+            return self.value
+        self.text, self.value = text, None
+        where = f"{self.path}: metadata {T.CALIBRATION_METADATA}/camera"
+        rec = parse_json(text, f"{where} is not valid JSON", RecordingFormatError)
+        if isinstance(rec, dict):
+            try:
+                self.value = calibration_camera(rec)
+            except RecordingFormatError as err:
+                if str(err) not in self.warned:
+                    print(
+                        f"lfd segment: warning: skipped calibration metadata: {err}",
+                        file=sys.stderr,
+                    )
+                self.warned.add(str(err))
+        return self.value
+
+
 def segment_stream(
     messages: Iterator[Any], follower: Any, timeline: Callable[[], Any], args: Any
 ) -> tuple[Any, list[Any], list[int]]:
@@ -132,6 +168,8 @@ def segment_stream(
     labels: list[Any] = []
     poses: Any = None  # the camera as the file poses it so far (lfd.io.camera_pose.CameraPoses)
     bad_poses: set[str] = set()
+    recorded = _RecordedCamera(follower, bad_poses, str(args.recording))  # as lfd.load: first
+    shown: Any = None  # the camera the segmenter has
     for msg in messages:
         if msg.kind in ("label", "handover"):  # the ground truth
             labels.append(msg.value)
@@ -148,8 +186,10 @@ def segment_stream(
                 if str(err) not in bad_poses:
                     print(f"lfd segment: warning: skipped {err}", file=sys.stderr)
                 bad_poses.add(str(err))
-            if seg is not None:
-                seg.set_camera(poses.camera if poses is not None else None)
+        camera = recorded.camera() or (poses.camera if poses is not None else None)
+        if seg is not None and camera is not shown:
+            seg.set_camera(camera)
+        shown = camera
         if seg is None and msg.kind in ("hand", "object"):
             objects = _sized(follower.objects, args)
             if not objects:
@@ -170,7 +210,7 @@ def segment_stream(
                     names, sizes, method=method, side=sides[0], tag_ids=tags, metadata=meta
                 )
             )
-            seg.set_camera(poses.camera if poses is not None else None)
+            seg.set_camera(camera)
         if seg is None:
             continue
         side = getattr(msg, "side", None)

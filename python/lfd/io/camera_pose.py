@@ -24,6 +24,29 @@ def camera_problem(camera: CameraInfo) -> str | None:
     return problem
 
 
+def calibration_camera(rec: dict[str, Any]) -> CameraInfo:
+    """The camera of a recording's ``calibration`` metadata record (its ``camera`` JSON object:
+    width, height, K, world_T_camera, frame_id), which :func:`lfd.load` and ``lfd segment
+    --follow`` prefer to the calibration and ``/tf`` messages. One that describes no camera is
+    a :class:`~lfd.errors.RecordingFormatError` naming what is wrong."""
+    from .topics import CAMERA_FRAME
+
+    try:
+        camera = CameraInfo(
+            width=int(rec["width"]),
+            height=int(rec["height"]),
+            K=np.array(rec["K"], dtype=np.float64),
+            world_T_camera=np.array(rec["world_T_camera"], dtype=np.float64),
+            frame_id=str(rec.get("frame_id", CAMERA_FRAME)),
+        )
+    except (KeyError, ValueError, TypeError, OverflowError) as err:
+        raise RecordingFormatError(str(err)) from err
+    problem = camera_problem(camera)
+    if problem is not None:
+        raise RecordingFormatError(problem)
+    return camera
+
+
 def camera_of(info: Any, transforms: Any) -> CameraInfo | None:
     """The camera of a ``foxglove.CameraCalibration`` posed by a ``foxglove.FrameTransforms``
     that holds its frame (None if it does not; no transforms: the identity pose). A calibration

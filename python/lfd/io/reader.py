@@ -43,7 +43,7 @@ from ..errors import (
 )
 from ..inputs import is_ros_path, parse_json
 from . import topics as T
-from .camera_pose import CameraPoses, camera_problem
+from .camera_pose import CameraPoses, calibration_camera
 from .hands import clock_problem, handovers_of_events, lanes_problem, spans_of
 from .mcapfile import RawRecording, Records, read
 from .sizes import resolve_sizes
@@ -372,18 +372,8 @@ class _Loader:
         rec = self.raw.json_metadata(T.CALIBRATION_METADATA, "camera")
         if isinstance(rec, dict):
             try:
-                camera = CameraInfo(
-                    width=int(rec["width"]),
-                    height=int(rec["height"]),
-                    K=np.array(rec["K"], dtype=np.float64),
-                    world_T_camera=np.array(rec["world_T_camera"], dtype=np.float64),
-                    frame_id=str(rec.get("frame_id", T.CAMERA_FRAME)),
-                )
-                problem = camera_problem(camera)
-                if problem is None:
-                    return camera
-                self.skipped.append(f"calibration metadata: {problem}")
-            except (KeyError, ValueError, TypeError) as err:
+                return calibration_camera(rec)
+            except RecordingFormatError as err:
                 self.skipped.append(f"calibration metadata: {err}")
         if not self.raw.encoded(T.CAMERA_INFO_TOPIC):
             return None

@@ -142,9 +142,11 @@ def test_follow_reads_the_camera_pose_from_the_file(tmp_path) -> None:
     assert not np.array_equal(settled, blind)
 
 
-def _without_tf(src, dst) -> None:  # type: ignore[no-untyped-def]
+def _without_tf(src, dst, keep_record: bool = False) -> None:  # type: ignore[no-untyped-def]
     """``src`` rewritten without its /tf channel and its calibration record (a calibration
-    message no transform poses)."""
+    message no transform poses); with ``keep_record`` without the calibration message instead
+    of the record (the record alone poses the camera)."""
+    from lfd.io.topics import CAMERA_INFO_TOPIC
     from mcap.reader import make_reader
     from mcap.writer import Writer
 
@@ -154,7 +156,7 @@ def _without_tf(src, dst) -> None:  # type: ignore[no-untyped-def]
         schemas: dict[int, int] = {}
         channels: dict[int, int] = {}
         for schema, channel, message in reader.iter_messages():
-            if channel.topic == "/tf":
+            if channel.topic == "/tf" or (keep_record and channel.topic == CAMERA_INFO_TOPIC):
                 continue
             if schema is not None and schema.id not in schemas:
                 schemas[schema.id] = writer.register_schema(
@@ -171,7 +173,7 @@ def _without_tf(src, dst) -> None:  # type: ignore[no-untyped-def]
                 channels[channel.id], message.log_time, message.data, message.publish_time
             )
         for record in reader.iter_metadata():
-            if record.name != "calibration":
+            if keep_record or record.name != "calibration":
                 writer.add_metadata(record.name, dict(record.metadata))
         writer.finish()
 
@@ -202,3 +204,31 @@ def test_follow_poses_a_camera_without_transforms_as_load_does(tmp_path) -> None
     first = int(loaded.start_ns)
     assert followed == pytest.approx([(int(t) - first) * 1e-9 for t in settled], abs=1e-6)
     assert not np.array_equal(settled, blind)
+
+
+def test_follow_prefers_the_calibration_record_as_load_does(tmp_path) -> None:
+    """A file whose camera only its calibration record gives (no calibration message, no /tf)
+    is segmented by ``lfd segment --follow`` with the record's camera, as :func:`lfd.load`
+    reads it (the follower read only the messages: no camera, other settle times)."""
+    import json
+
+    from lfd.cli import main
+
+    demo = simulate("exp3", 0, Variability(style="careful")).demo
+    grasp = next(lab for lab in demo.labels if lab.object == "box_3" and lab.skill != "move")
+    hidden = _hidden(demo, "box_3", grasp.start_ns, demo.end_ns)
+    full, rec, out = tmp_path / "full.mcap", tmp_path / "rec.mcap", tmp_path / "out.json"
+    lfd.save(hidden, full)
+    _without_tf(full, rec, keep_record=True)
+    loaded = lfd.load(rec, images=False)
+    assert loaded.camera is not None and hidden.camera is not None
+    assert np.allclose(loaded.camera.world_T_camera, hidden.camera.world_T_camera)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert main(["segment", "--follow", str(rec), "--json", str(out)]) == 0
+        _, settled = segment_live(loaded)
+        _, messages_only = segment_live(dataclasses.replace(loaded, camera=None))
+    followed = json.loads(out.read_text())["live"]["settled_s"]
+    first = int(loaded.start_ns)
+    assert followed == pytest.approx([(int(t) - first) * 1e-9 for t in settled], abs=1e-6)
+    assert not np.array_equal(settled, messages_only)
