@@ -18,16 +18,30 @@ import numpy.typing as npt
 from .. import _hmmseg
 from ..errors import DemonstrationError
 
-__all__ = ["butter_ba", "filtfilt_runs", "finite_runs", "lowpass", "matlab_padlen", "unwrap_runs"]
+__all__ = [
+    "MIN_CUTOFF_HZ",
+    "butter_ba",
+    "filtfilt_runs",
+    "finite_runs",
+    "lowpass",
+    "matlab_padlen",
+    "unwrap_runs",
+]
+
+
+MIN_CUTOFF_HZ = 0.01
+"""Smallest low-pass cut-off: a period of 100 s, longer than any skill (the filter's design is
+singular long before 1e-300 Hz: about 1e-14 of the sampling rate)."""
 
 
 def butter_ba(cutoff_hz: float, fs: float, order: int = 4) -> tuple[np.ndarray, np.ndarray]:
     """Coefficients ``(b, a)`` of a Butterworth low-pass, as MATLAB's ``butter(order, fc/(fs/2))``."""
     if not (fs > 0 and np.isfinite(fs)):
         raise DemonstrationError(f"sampling rate must be positive, got {fs}")
-    if not (0 < cutoff_hz < fs / 2):
+    if not (MIN_CUTOFF_HZ <= cutoff_hz < fs / 2):
         raise DemonstrationError(
-            f"cut-off {cutoff_hz} Hz must be between 0 and the Nyquist frequency {fs / 2} Hz"
+            f"cut-off {cutoff_hz} Hz must be between {MIN_CUTOFF_HZ} Hz and the Nyquist "
+            f"frequency {fs / 2} Hz"
         )
     return _hmmseg.butter_lowpass(order, float(cutoff_hz), float(fs))
 

@@ -24,6 +24,7 @@ from typing import Any, get_args
 from .._hmmseg import EndState
 from ..contact import CONTACT_RULES, ContactParams
 from ..errors import LfdError, ModelFormatError
+from ..preprocessing.filters import MIN_CUTOFF_HZ
 from ..preprocessing.grasp import Aperture
 from ..rules import Choice, Counts, Flag, Items, Nested, Number, Rule, Text, Whole, check_keys
 from .stage1 import STAGE1_RULES, Stage1Params
@@ -52,9 +53,6 @@ SEGMENT_RULES: dict[str, Rule] = {
 }
 """What each :class:`~lfd.segmentation.settings.SegmentParams` field holds."""
 
-MIN_CUTOFF_HZ = 0.01
-"""Smallest low-pass cut-off a method file may name: a period of 100 s, longer than any skill
-(the filter's design is singular long before 1e-300 Hz: about 1e-14 of the sampling rate)."""
 MAX_CUTOFF_HZ = 1000.0
 """Largest low-pass cut-off a method file may name (a recording's own Nyquist frequency is
 checked when it is preprocessed)."""

@@ -60,6 +60,18 @@ def test_lowpass_gain_and_errors() -> None:
     lowpass(np.zeros(13), 0.625, 30.0)
     with pytest.raises(DemonstrationError, match="Nyquist"):
         lowpass(np.zeros(100), 20.0, 30.0)
+    # a cut-off too small to design a filter for: the rule's message, not the engine's
+    for tiny in (1e-300, 0.001):
+        with pytest.raises(DemonstrationError, match=r"between 0\.01 Hz and the Nyquist"):
+            lowpass(np.zeros(100), tiny, 30.0)
+
+
+def test_preprocess_refuses_a_tiny_object_cutoff_in_one_line() -> None:
+    """``preprocess(demo, object_cutoff_hz=1e-300)`` from Python says what the cut-off must be
+    (the method file's bound, 0.01 Hz), not the engine's "singular linear system"."""
+    demo = make_demo(duration_s=10.0)
+    with pytest.raises(DemonstrationError, match=r"cut-off 1e-300 Hz must be between 0\.01 Hz"):
+        preprocess(demo, object_cutoff_hz=1e-300)
 
 
 def test_lowpass_filters_runs_between_gaps() -> None:
