@@ -11,11 +11,9 @@ afterwards, once it ends ``lag_s`` before the newest hand frame and has come out
 recording so far as batch preprocesses it (an unseen object rests where it was last seen unless
 the camera saw that place empty) has it too: a hidden tag leaves what it could change undecided.
 A Move settles once the skill after it is known. When the recording ends the batch segmentation
-of the whole recording gives the skills still open, so the live result is the batch one wherever the
-settled skills were right (docs/live.md). Live is the batch pipeline on a growing recording, not
-a second pipeline. A recording longer than ``window_s`` is segmented from the start of its last
-settled skill that may begin a demonstration (a Move, Pick up, Push or Locate): a run's cost
-stays bounded.
+of the whole recording gives the skills still open, so the live result is the batch one wherever
+the settled skills were right (docs/live.md). A recording longer than ``window_s`` is segmented
+from its last settled skill that may begin a demonstration (Move, Pick up, Push, Locate).
 """
 
 from __future__ import annotations
@@ -34,7 +32,7 @@ from ..demo import CameraInfo, Demonstration, HandTrack, ObjectTrack, SkillLabel
 from ..errors import InvalidParameterError, LfdError
 from ..io.reader import order_times
 from ..skills import allowed, grammar
-from .live_rules import handled_after, set_down_unseen, unlifted
+from .live_rules import handled_after, landed, set_down_unseen, unlifted
 from .method import Method
 from .result import Segment, Segmentation
 from .templates import TemplateChoice, Templates
@@ -570,8 +568,10 @@ class LiveSegmentation:
         newest = int(self._newest_hand or now)
         limit = min(newest - self.lag_ns, self._seen_until())
 
-        # a Pick up is as uncertain as the Move with after it that has not lifted its object
+        # a Pick up is as uncertain as the Move with after it that has not lifted its object;
+        # a Move with whose set-down the run has found needs no stable_s (live_rules.landed)
         grasps = {id(a) for a, b in pairwise(cands) if unlifted(run, b.segment)}
+        down = {id(a) for a, b in pairwise(cands) if landed(a.segment, b.segment)}
 
         def uncertain(c: _Candidate) -> bool:
             # NaN confidence (an implied Move) counts as certain
@@ -583,7 +583,7 @@ class LiveSegmentation:
             )
 
         def ready(c: _Candidate) -> bool:
-            wait = self.uncertain_ns if uncertain(c) else self.stable_ns
+            wait = self.uncertain_ns if uncertain(c) else 0 if id(c) in down else self.stable_ns
             return (
                 int(c.segment.end_ns) <= limit
                 and now - c.since_ns >= wait

@@ -98,6 +98,20 @@ def pushed_after(run: Segmentation, prev: Segment | None, seg: Segment) -> bool:
     return _after_release(run, prev, seg) and moved is True
 
 
+def landed(seg: Segment, after: Segment) -> bool:
+    """Whether ``seg`` is a Move with that the run follows with the Place or Stack of its
+    object. The run finds the set-down once the hand lets go, when the box has come to rest;
+    the Move with ends where the box was last ``place_h_m`` above that rest height
+    (:func:`lfd.contact.refine`), measured on samples the next runs do not change, so it
+    settles without waiting ``stable_s`` for them to agree (the check run still must)."""
+    return (
+        seg.skill == "move_with"
+        and after.skill in RELEASES
+        and seg.object is not None
+        and after.object == seg.object
+    )
+
+
 def set_down_unseen(
     seg: Segment, poses: dict[str, list[tuple[int, np.ndarray, np.ndarray]]]
 ) -> bool:

@@ -391,3 +391,35 @@ def test_a_move_after_a_release_settles_once_the_push_after_it_moves_its_object(
     assert pushed_after(batch, segs[i - 1], segs[i])
     assert not pushed_after(batch, dataclasses.replace(segs[i - 1], skill="locate"), segs[i])
     assert not pushed_after(batch, segs[i - 1], dataclasses.replace(segs[i], object="nothing"))
+
+
+@pytest.mark.parametrize("path", [RECORDINGS[0], PERCEIVED], ids=lambda p: p.parent.name + p.stem)
+def test_a_move_with_settles_in_the_first_run_that_finds_its_set_down(path: Path) -> None:
+    """A Move with settles in the first run that follows it with the Place of its object: that
+    run finds the set-down once the box rests, and the Move with's end (where the box was last
+    ``place_h_m`` above its rest height) no longer changes, so it does not wait ``stable_s``
+    for more runs (the check run must still agree). A Pick up, first followed in that run
+    too, still waits."""
+    import dataclasses
+
+    demo = load(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        batch = lfd.segment(demo)
+    segs = list(batch.segments)
+    i = next(k for k, s in enumerate(segs) if s.skill == "move_with")
+    assert segs[i + 1].skill == "place" and segs[i + 1].object == segs[i].object
+    live = LiveSegmentation.for_demonstration(demo)
+    now = int(demo.end_ns)
+    carrying = dataclasses.replace(batch, segments=segs[: i + 1])  # the Move with still open
+    for dt_s in (0.0, 1.0):
+        live._now = live._newest_hand = now + round(dt_s * 1e9)
+        live.settle(carrying, ended=lambda: carrying)
+    assert [s.skill for s in live._emitted] == [s.skill for s in segs[:i]]
+    placed = dataclasses.replace(batch, segments=segs[: i + 2])  # the Place found, open
+    settled = live.settle(placed, ended=lambda: placed).segments
+    assert [s.skill for s in settled] == ["move_with"]
+    # a Pick up first followed in a run waits stable_s
+    live = LiveSegmentation.for_demonstration(demo)
+    live._now = live._newest_hand = now
+    assert not live.settle(carrying, ended=lambda: carrying).segments
