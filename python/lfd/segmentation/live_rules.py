@@ -75,11 +75,16 @@ def _after_release(run: Segmentation, prev: Segment | None, seg: Segment) -> boo
 
 
 def grasped_after(run: Segmentation, prev: Segment | None, seg: Segment) -> bool:
-    """Whether ``seg`` is a Move after a release whose object has been between the hand's
-    fingers (the TCP within :data:`GRASP_M` of its box) after ``seg`` ended in ``run``: the
-    Pick up after it has grasped what the Move is named after, and its reach, which ends the
-    Move, is behind it (:func:`lfd.contact._reach_start`)."""
-    if not _after_release(run, prev, seg) or run.run is None:
+    """Whether ``seg`` is a Move after the release of its own object (a re-grasp: the box put
+    down and taken again) whose object has been between the hand's fingers (the TCP within
+    :data:`GRASP_M` of its box) after ``seg`` ended in ``run``: the Pick up after it has
+    grasped it again, and its reach, which ends the Move, is behind it
+    (:func:`lfd.contact._reach_start`). Not for another box: a natural hand may hold its open
+    fingers around a box for seconds and then go to another (simulated natural exp5 seed 305:
+    2.5 s around box_3 after putting box_2 down, then box_2 again)."""
+    if not _after_release(run, prev, seg) or run.run is None or prev is None:
+        return False
+    if prev.object != seg.object:
         return False
     tr = run.run.trajectory
     if seg.object not in tr.object_names:
