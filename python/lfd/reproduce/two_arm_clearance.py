@@ -13,6 +13,12 @@ there, the holder waits only until the other arm has picked its object up, and t
 arm brings it once the holder holds. A re-ordered plan is kept only when its arms stay
 further apart than the original's (the least distance, then the time closer than
 :data:`CLEARANCE`).
+
+Where the arms still meet, the holder's way to its hold is made straight
+(:func:`straight_approach`): the one-arm planner takes it to where the person's hand began its
+approach (mapped with the object), which, the object moved and turned in a layout, may lie
+under the other arm that waits above the hold with its object; it goes instead over to above
+the hold and down, in the same time. Kept, too, only when the arms stay further apart.
 """
 
 from __future__ import annotations
@@ -23,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from .controller import Plan
+from .dmp import min_jerk
 from .program import HandsProgram
 from .two_arm_clock import _start, _wait
 from .two_arm_distance import MakeIK, arm_distances
@@ -94,7 +101,46 @@ def clear_holds(
             later = hold_later(plans, hands, p, sync, fetched=fetched)
             if later is not plans and (s := score(later)) > best:
                 out, best = later, s
+    for p in holds:
+        if best[0] >= CLEARANCE:
+            break
+        straight = straight_approach(out[p.hand], hands, p)
+        if straight is not out[p.hand] and (s := score({**out, p.hand: straight})) > best:
+            out, best = {**out, p.hand: straight}, s
     return out
+
+
+def straight_approach(plan: Plan, hands: HandsProgram, point: Any) -> Plan:
+    """The holder's ``plan`` with its way to the hold of ``point`` replaced, over the same
+    ticks (the clock unchanged): the move before its ``pick_up`` and the approach up to the
+    hover above the hold (the highest tick of the ``pick_up`` before its descent to the lowest)
+    become a path up to the highest height the two had, over to above the hover and down to it
+    (min-jerk along the path). ``plan`` itself when no move comes right before the
+    ``pick_up``."""
+    k = point.step - 1  # the pick_up: the approach and the hold's grasp or press
+    lane = hands.lanes[point.hand]
+    if k < 1 or lane[k - 1].skill != "move":
+        return plan
+    i0, sel = _start(plan, k - 1), np.nonzero(plan.segment == k)[0]
+    if not sel.size or sel[0] - i0 < 2:
+        return plan
+    z = plan.position[sel[: int(np.argmin(plan.position[sel, 2])) + 1], 2]  # down to it
+    h = int(sel[np.nonzero(z >= z.max() - 1e-4)[0][-1]])  # the hover: the descent starts
+    top = float(plan.position[i0 : h + 1, 2].max())
+    a = np.array([*plan.position[i0], plan.yaw[i0]])
+    b = np.array([*plan.position[h], plan.yaw[h]])
+    corners = np.array([a, [*a[:2], top, a[3]], [*b[:2], top, b[3]], b])
+    arc = np.concatenate(
+        [[0.0], np.cumsum(np.linalg.norm(np.diff(corners[:, :3], axis=0), axis=1))]
+    )
+    if arc[-1] < 1e-9:
+        return plan
+    at = min_jerk(h - i0 + 1) * arc[-1]
+    path = np.stack([np.interp(at, arc, corners[:, j]) for j in range(4)], axis=1)
+    pos, yaw, opening = plan.position.copy(), plan.yaw.copy(), plan.opening.copy()
+    pos[i0 : h + 1], yaw[i0 : h + 1] = path[:, :3], path[:, 3]
+    opening[i0 : h + 1] = np.maximum(opening[i0 : h + 1], opening[h])
+    return Plan(pos, yaw, opening, plan.segment.copy())
 
 
 def stack_across(

@@ -20,8 +20,9 @@
   come within 1 cm of each other on the common clock (each arm's IK following its plan), the
   hold is pressed at the object's end away from the other arm's step, and if still too close
   the other arm's approach waits until the holder holds, or a pushing arm waits for the hold
-  low behind the box it pushes, or pushes it by grasping and sliding it; each kept only when
-  it leaves more room.
+  low behind the box it pushes, or pushes it by grasping and sliding it; then the hold is
+  re-ordered, or the holder's way to it made straight (:mod:`.two_arm_clearance`); each kept
+  only when it leaves more room.
 * **Execution** (:func:`execute_two`): both arms in one MuJoCo scene, one IK per arm, one
   control tick for both; an arm that has finished holds its last pose. The links collide with
   the table and the other arm (:mod:`.two_arms_contacts`): the first contact of the two arms,

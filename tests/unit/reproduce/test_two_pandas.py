@@ -107,3 +107,65 @@ def test_a_natural_hold_stack_the_aloha_refuses_is_achieved_on_two_pandas(mode: 
         reproduce_two_arms(trajs, hands, mode=mode, robot=aloha())
     res = reproduce_two_arms(trajs, hands, mode=mode, robot=two_pandas())
     assert res.success, res.failures
+
+
+def test_a_straight_approach_goes_over_to_the_hold_in_the_same_ticks() -> None:
+    """The holder's way to its press (the move, then the approach to the hover above the hold)
+    is replaced by up, over and down at its highest height, on the same clock; the press and
+    what follows are kept."""
+    from dataclasses import replace
+
+    from lfd.reproduce.controller import Plan
+    from lfd.reproduce.program import HandsProgram, Segment, SyncPoint
+    from lfd.reproduce.two_arm_clearance import straight_approach
+
+    lane = [
+        Segment("move", 0.0, 1.0, "plank"),
+        Segment("pick_up", 1.0, 2.0, "plank"),
+        Segment("move_with", 2.0, 3.0, "plank"),
+        Segment("place", 3.0, 3.5, "plank"),
+    ]
+    other = [Segment("move", 0.0, 1.0, "box"), Segment("stack", 1.0, 3.0, "box")]
+    hold = SyncPoint("hold_until", "left", 2, "right", 1, "plank", 3.0)
+    hands = HandsProgram(lanes={"right": other, "left": lane}, sync=[hold])
+    start, dip = np.array([-0.2, 0.0, 0.16]), np.array([0.0, 0.2, 0.06])  # the approach's start
+    hover, press = np.array([-0.07, 0.18, 0.1]), np.array([-0.07, 0.18, 0.05])
+    pts = [np.linspace(a, b, n) for a, b, n in [(start, dip, 30), (dip, hover, 20)]]
+    pts += [np.linspace(hover, press, 10), np.repeat(press[None], 15, 0)]
+    position = np.concatenate(pts)
+    segment = np.repeat([0, 1, 1, 2], [30, 20, 10, 15])
+    n = len(position)
+    plan = Plan(position, np.zeros(n), np.full(n, 0.08), segment)
+    out = straight_approach(plan, hands, hold)
+    h = 50  # the hover: the last tick at the pick_up's highest before its descent
+    assert len(out) == n and np.array_equal(out.segment, segment)
+    np.testing.assert_allclose(out.position[h:], position[h:])
+    way = out.position[: h + 1]
+    assert way[:, 2].min() >= 0.1 - 1e-9 and way[:, 2].max() == pytest.approx(0.16)
+    # over from above the start to above the hover: never towards the approach's start
+    d = np.linalg.norm(way[:, :2] - dip[:2], axis=1)
+    assert d.min() >= np.linalg.norm(hover[:2] - dip[:2]) - 1e-9
+    # a lane whose pick_up no move comes right before is kept
+    at_first = replace(hold, step=1)
+    first = HandsProgram(lanes={"right": other, "left": lane[1:]}, sync=[at_first])
+    assert straight_approach(plan, first, at_first) is plan
+
+
+@pytest.mark.slow  # one layout planned and run on two arms in both modes (~80 s)
+@pytest.mark.parametrize("mode", ["skills", "dmp"])
+def test_the_press_is_approached_straight_where_the_waiting_arm_is_above(mode: str) -> None:
+    """Natural hold_stack seed 9504, its second randomised layout (the plank moved and turned
+    42 deg): the right arm waits with box_2 above the plank for the left arm's press, whose
+    one-arm approach came to where the person's hand began its approach, under the right arm
+    (the arms touched at 8.2-8.3 s); straight over to above the press, it succeeds."""
+    from lfd.reproduce.panda import two_pandas
+    from lfd.reproduce.two_arms import reproduce_two_arms
+
+    trajs, hands = _hold_stack("natural", 9504)
+    displace = {
+        "plank": (-0.0579034619727993, 0.010213482519517881, 42.29318239859654),
+        "box_1": (-0.010213927735668699, -0.020469585472165208, 25.03181229055096),
+        "box_2": (0.030817843543256878, -0.024322692824982187, -27.51103701363876),
+    }
+    res = reproduce_two_arms(trajs, hands, mode=mode, robot=two_pandas(), displace=displace)
+    assert res.success, res.failures
