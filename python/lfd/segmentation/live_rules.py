@@ -7,7 +7,7 @@ import numpy as np
 
 from ..geometry import box_distance
 from ..skills import RELEASES
-from .result import Segment, Segmentation
+from .result import Run, Segment, Segmentation
 
 GRASP_M = 0.001
 """The TCP (the midpoint of thumb and index tips) this close to an object's box, or inside it,
@@ -30,12 +30,6 @@ def _above(run: Segmentation, name: str | None, column: str, a: int, b: int | No
     return bool((feats.values[a:b, k] > feats.thresholds[a:b, k]).any())
 
 
-def _rises(run: Segmentation, name: str | None, a: int, b: int | None) -> bool | None:
-    """Whether object ``name`` rose above its rest height (the features' lift threshold) in
-    samples ``a:b`` of ``run``; None if the run does not say."""
-    return _above(run, name, "object_height", a, b)
-
-
 def unlifted(run: Segmentation, seg: Segment) -> bool:
     """Whether ``seg`` is a Move with whose object never rose above its rest height (the
     features' lift threshold) in ``run``: a turn or slide on the table that the next grasp of
@@ -44,14 +38,14 @@ def unlifted(run: Segmentation, seg: Segment) -> bool:
     if seg.skill != "move_with":
         return False
     a, b = int(seg.start), max(int(seg.end), int(seg.start) + 1)
-    return _rises(run, seg.object, a, b) is False
+    return _above(run, seg.object, "object_height", a, b) is False
 
 
 def lifted_after(run: Segmentation, seg: Segment) -> bool:
     """Whether the object ``seg`` is named after rose above its rest height (the features' lift
     threshold) in ``run`` after ``seg`` ended: for a Move, the skill after it is a Pick up of
     that object that has lifted it, however long the run takes to find the carry after it."""
-    return _rises(run, seg.object, int(seg.end), None) is True
+    return _above(run, seg.object, "object_height", int(seg.end), None) is True
 
 
 def handled_after(run: Segmentation, prev: Segment | None, seg: Segment, skill: str) -> bool:
@@ -65,13 +59,13 @@ def handled_after(run: Segmentation, prev: Segment | None, seg: Segment, skill: 
     return skill == "push" and pushed_after(run, prev, seg)
 
 
-def _after_release(run: Segmentation, prev: Segment | None, seg: Segment) -> bool:
-    """Whether ``seg`` is a Move after a release (``prev`` a Place or Stack) in a run with
-    features. Not after another skill: after a Push or Locate the hand is still at, or beside,
-    an object it does not go on to lift (perceived natural exp2 seed 9409, exp3 seed 9413)."""
-    return (
-        prev is not None and prev.skill in RELEASES and seg.skill == "move" and run.run is not None
-    )
+def _run_after_release(run: Segmentation, prev: Segment | None, seg: Segment) -> Run | None:
+    """What ``run`` ran on and computed (``run.run``: None without it) if ``seg`` is a Move
+    after a release (``prev`` a Place or Stack), else None. Not after another skill: after a
+    Push or Locate the hand is still at, or beside, an object it does not go on to lift
+    (perceived natural exp2 seed 9409, exp3 seed 9413)."""
+    after = prev is not None and prev.skill in RELEASES and seg.skill == "move"
+    return run.run if after else None
 
 
 def grasped_after(run: Segmentation, prev: Segment | None, seg: Segment) -> bool:
@@ -82,11 +76,12 @@ def grasped_after(run: Segmentation, prev: Segment | None, seg: Segment) -> bool
     (:func:`lfd.contact._reach_start`). Not for another box: a natural hand may hold its open
     fingers around a box for seconds and then go to another (simulated natural exp5 seed 305:
     2.5 s around box_3 after putting box_2 down, then box_2 again)."""
-    if not _after_release(run, prev, seg) or run.run is None or prev is None:
+    if prev is None or prev.object != seg.object:
         return False
-    if prev.object != seg.object:
+    ran = _run_after_release(run, prev, seg)
+    if ran is None:
         return False
-    tr = run.run.trajectory
+    tr = ran.trajectory
     if seg.object not in tr.object_names:
         return False
     o, a = tr.object_names.index(seg.object), int(seg.end)
@@ -100,7 +95,7 @@ def pushed_after(run: Segmentation, prev: Segment | None, seg: Segment) -> bool:
     """Whether ``seg`` is a Move after a release whose object has moved (its speed above the
     features' threshold) after ``seg`` ended in ``run``: the Push after it has begun."""
     moved = _above(run, seg.object, "object_velocity", int(seg.end), None)
-    return _after_release(run, prev, seg) and moved is True
+    return _run_after_release(run, prev, seg) is not None and moved is True
 
 
 def landed(seg: Segment, after: Segment) -> bool:
