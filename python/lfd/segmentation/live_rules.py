@@ -1,7 +1,13 @@
 """What the live segmentation reads in a run about whether a skill can settle yet
-(:mod:`lfd.segmentation.live`)."""
+(:mod:`lfd.segmentation.live`): the run's evidence, and when a candidate is ready to settle
+(:class:`Settling`)."""
 
 from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from itertools import pairwise
+from typing import Protocol
 
 import numpy as np
 
@@ -120,3 +126,92 @@ def set_down_unseen(
     the table or on another, and when) is not known yet."""
     seen = poses.get(seg.object or "") or []
     return seg.skill in ("place", "stack") and bool(seen) and seen[-1][0] < int(seg.end_ns)
+
+
+@dataclass
+class Candidate:
+    """An unsettled segment of the newest run and the recording time it first came out so."""
+
+    segment: Segment
+    since_ns: int
+
+
+class Waits(Protocol):
+    """A live segmenter's thresholds (:class:`lfd.segmentation.live.LiveSegmentation`)."""
+
+    min_confidence: float
+    stable_ns: int
+    uncertain_ns: int
+    followers: int
+
+
+@dataclass
+class Settling:
+    """When the candidates of one run can settle
+    (:meth:`lfd.segmentation.live.LiveSegmentation.settle`): its times (ns), its thresholds
+    (``waits``: the segmenter) and its own lists, read as they change: ``cands`` the candidates
+    still open (the first popped as it settles), ``emitted`` the segments settled."""
+
+    run: Segmentation
+    cands: list[Candidate]
+    emitted: list[Segment]
+    poses: dict[str, list[tuple[int, np.ndarray, np.ndarray]]]
+    """The objects' sightings so far (:func:`set_down_unseen`)."""
+    now: int
+    limit: int
+    """The latest end that may settle (``lag_s`` before the newest hand frame, and the objects
+    the hand may have moved unseen seen since)."""
+    shared: Callable[[Segment], bool] | None
+    waits: Waits
+    _grasps: set[int] = field(init=False)
+    _down: set[int] = field(init=False)
+
+    def __post_init__(self) -> None:
+        # a Pick up is as uncertain as the Move with after it that has not lifted its object;
+        # a Move with whose set-down the run has found needs no stable_s (landed)
+        cands, run = self.cands, self.run
+        self._grasps = {id(a) for a, b in pairwise(cands) if unlifted(run, b.segment)}
+        self._down = {id(a) for a, b in pairwise(cands) if landed(a.segment, b.segment)}
+
+    def uncertain(self, c: Candidate) -> bool:
+        """Whether ``c`` is a guess that settles only after ``uncertain_s``: a low confidence,
+        an object the other hand has (``shared``), a Move with that has not lifted its object,
+        or the Pick up before one."""
+        # NaN confidence (an implied Move) counts as certain
+        return (
+            c.segment.confidence < self.waits.min_confidence
+            or (self.shared is not None and self.shared(c.segment))
+            or unlifted(self.run, c.segment)
+            or id(c) in self._grasps
+        )
+
+    def ready(self, c: Candidate) -> bool:
+        """Whether ``c`` ended by :attr:`limit` and has come out the same for long enough
+        (``uncertain_s`` if :meth:`uncertain`, no wait for a Move with whose set-down the run
+        has found, else ``stable_s``), and, a set-down, its object has been seen since."""
+        if self.uncertain(c):
+            wait = self.waits.uncertain_ns
+        else:
+            wait = 0 if id(c) in self._down else self.waits.stable_ns
+        return (
+            int(c.segment.end_ns) <= self.limit
+            and self.now - c.since_ns >= wait
+            and not set_down_unseen(c.segment, self.poses)
+        )
+
+    def next_known(self, i: int) -> bool:
+        """Whether the skill after candidate ``i`` is known, if ``i`` is a Move."""
+        # a Move ends where the reach of the skill after it begins and is named after its
+        # object (lfd.contact): it settles once that skill ended in the run and is no guess,
+        # or is a guess that has waited its uncertain_s (else it would hold all after it)
+        cands = self.cands
+        if cands[i].segment.skill != "move":
+            return True
+        move, after = cands[i].segment, cands[i + 1].segment if len(cands) > i + 1 else None
+        if after is not None and after.object == move.object:
+            prev = cands[i - 1].segment if i else next(reversed(self.emitted), None)
+            if handled_after(self.run, prev, move, after.skill):
+                return True  # a Pick up lifted it (or grasped it), a Push moved it
+        return len(cands) > i + 1 + self.waits.followers and (
+            not self.uncertain(cands[i + 1]) or self.ready(cands[i + 1])
+        )
