@@ -112,42 +112,6 @@ def _show_demo(demo: Any) -> None:
     log_recorded_demo(demo, trajectory=False)
 
 
-class _RecordedCamera:
-    """The camera of the followed file's ``calibration`` metadata record, once read and while
-    it describes one (:func:`lfd.io.camera_pose.calibration_camera`, as :func:`lfd.load` reads
-    it: preferred to the calibration and ``/tf`` messages; one that describes no camera is
-    warned about once and the messages pose the camera)."""
-
-    def __init__(self, follower: Any, warned: set[str], path: str) -> None:
-        self.follower, self.warned, self.path = follower, warned, path
-        self.text: str | None = None
-        self.value: Any = None
-
-    def camera(self) -> Any:
-        from ..errors import RecordingFormatError
-        from ..inputs import parse_json
-        from ..io import topics as T
-        from ..io.camera_pose import calibration_camera
-
-        text = getattr(self.follower, "metadata", {}).get(T.CALIBRATION_METADATA, {}).get("camera")
-        if text is None or text == self.text:
-            return self.value
-        self.text, self.value = text, None
-        where = f"{self.path}: metadata {T.CALIBRATION_METADATA}/camera"
-        rec = parse_json(text, f"{where} is not valid JSON", RecordingFormatError)
-        if isinstance(rec, dict):
-            try:
-                self.value = calibration_camera(rec)
-            except RecordingFormatError as err:
-                if str(err) not in self.warned:
-                    print(
-                        f"lfd segment: warning: skipped calibration metadata: {err}",
-                        file=sys.stderr,
-                    )
-                self.warned.add(str(err))
-        return self.value
-
-
 def segment_stream(
     messages: Iterator[Any], follower: Any, timeline: Callable[[], Any], args: Any
 ) -> tuple[Any, list[Any], list[int]]:
@@ -157,7 +121,7 @@ def segment_stream(
     is the :class:`lfd.viz.live.LiveTimeline` once one is open (features, settled spans and
     the provisional one are logged to it). Each skill is printed as it settles."""
     from ..errors import RecordingFormatError
-    from ..io.camera_pose import CameraPoses
+    from ..io.camera_pose import FollowedCamera
     from ..segmentation.live import LiveSegmentation
     from ..segmentation.live_hands import LiveHands
 
@@ -166,27 +130,14 @@ def segment_stream(
     sides: tuple[str, ...] = ()
     seg: LiveSegmentation | LiveHands | None = None
     labels: list[Any] = []
-    poses: Any = None  # the camera as the file poses it so far (lfd.io.camera_pose.CameraPoses)
-    bad_poses: set[str] = set()
-    recorded = _RecordedCamera(follower, bad_poses, str(args.recording))  # as lfd.load: first
+    posed = FollowedCamera(str(args.recording))  # as lfd.load: the record, else the messages
     shown: Any = None  # the camera the segmenter has
     for msg in messages:
         if msg.kind in ("label", "handover"):  # the ground truth
             labels.append(msg.value)
-        if msg.kind in ("camera_info", "tf"):
-            try:  # as lfd.load: a bad transform leaves the last good pose
-                if msg.kind == "tf":
-                    if poses is not None:
-                        poses.add(msg.value)
-                elif poses is None:
-                    poses = CameraPoses(msg.value)
-                else:
-                    poses.recalibrate(msg.value)
-            except RecordingFormatError as err:
-                if str(err) not in bad_poses:
-                    print(f"lfd segment: warning: skipped {err}", file=sys.stderr)
-                bad_poses.add(str(err))
-        camera = recorded.camera() or (poses.camera if poses is not None else None)
+        _skipped(posed.add(msg.kind, msg.value))
+        _skipped(posed.read_record(getattr(follower, "metadata", {})))
+        camera = posed.camera
         if seg is not None and camera is not shown:
             seg.set_camera(camera)
         shown = camera
@@ -230,6 +181,12 @@ def segment_stream(
     if isinstance(settled, dict):  # two hands: every hand's, in time order
         settled = sorted(t for ts in settled.values() for t in ts)
     return seg.result(), labels, list(settled)
+
+
+def _skipped(problems: list[str]) -> None:
+    """Print what the followed camera skipped (:class:`lfd.io.camera_pose.FollowedCamera`)."""
+    for problem in problems:
+        print(f"lfd segment: warning: skipped {problem}", file=sys.stderr)
 
 
 def follow_sides(follower: Any) -> tuple[str, ...]:

@@ -1,9 +1,11 @@
 """A recording's camera: a ``foxglove.CameraCalibration`` posed by ``foxglove.FrameTransforms``
 (:func:`camera_of`), one message at a time as :func:`lfd.load` and ``lfd segment --follow``
-read them (:class:`CameraPoses`)."""
+read them (:class:`CameraPoses`); a followed recording's, its ``calibration`` metadata record
+first, as :func:`lfd.load` prefers it (:class:`FollowedCamera`)."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -109,3 +111,71 @@ class CameraPoses:
         leaves none, and raises as the constructor)."""
         self.info, self.camera = info, None
         self.camera = camera_of(info, self.posed)
+
+
+class FollowedCamera:
+    """The camera of a recording being followed (``lfd segment --follow``) as :func:`lfd.load`
+    poses it: its ``calibration`` metadata record's (:func:`calibration_camera`) while that
+    describes one, else its calibration and ``/tf`` messages' (:class:`CameraPoses`).
+    :meth:`add` takes the messages and :meth:`read_record` the metadata records as they are
+    read; both return the problems they skipped (a calibration or pose that describes no
+    camera: the messages keep the last good pose, a bad record leaves the messages' camera),
+    each problem once. ``path`` names the recording in the error of a record that is not JSON.
+    """
+
+    def __init__(self, path: str) -> None:
+        self.path = path
+        self._poses: CameraPoses | None = None  # the camera as the messages pose it so far
+        self._text: str | None = None  # the calibration record's camera as last read
+        self._recorded: CameraInfo | None = None  # the camera it describes, if any
+        self._seen: set[str] = set()  # the problems returned so far
+
+    @property
+    def camera(self) -> CameraInfo | None:
+        """The camera as the file poses it so far (None: none yet)."""
+        return self._recorded or (self._poses.camera if self._poses is not None else None)
+
+    def add(self, kind: str, value: Any) -> list[str]:
+        """One more message (:attr:`lfd.io.LiveMessage.kind` and ``value``: a ``camera_info``
+        one recalibrates the camera, a ``tf`` one may pose it; other kinds change nothing): the
+        problem skipped, if not returned before (a bad transform leaves the last good pose)."""
+        if kind not in ("camera_info", "tf"):
+            return []
+        try:
+            if kind == "tf":
+                if self._poses is not None:
+                    self._poses.add(value)
+            elif self._poses is None:
+                self._poses = CameraPoses(value)
+            else:
+                self._poses.recalibrate(value)
+        except RecordingFormatError as err:
+            return self._new(err)
+        return []
+
+    def read_record(self, metadata: Mapping[str, Mapping[str, str]]) -> list[str]:
+        """The metadata records read so far (:attr:`lfd.io.Follower.metadata`): the camera of
+        the ``calibration`` record, read again when its text changed; one that describes no
+        camera is the problem returned (if not before). A record that is not JSON raises
+        :class:`~lfd.errors.RecordingFormatError` (:func:`lfd.io.mcapfile.metadata_json`)."""
+        from . import topics as T
+        from .mcapfile import metadata_json
+
+        text = metadata.get(T.CALIBRATION_METADATA, {}).get("camera")
+        if text is None or text == self._text:
+            return []
+        self._text, self._recorded = text, None
+        rec = metadata_json(self.path, T.CALIBRATION_METADATA, "camera", text)
+        if not isinstance(rec, dict):
+            return []
+        try:
+            self._recorded = calibration_camera(rec)
+        except RecordingFormatError as err:
+            return self._new(err, "calibration metadata: ")
+        return []
+
+    def _new(self, err: RecordingFormatError, what: str = "") -> list[str]:
+        """``what`` and ``err`` as the one problem to return, unless ``err`` was before."""
+        new = str(err) not in self._seen
+        self._seen.add(str(err))
+        return [f"{what}{err}"] if new else []

@@ -123,14 +123,10 @@ class Records:
 
     def json_metadata(self, record: str, key: str, default: Any = None) -> Any:
         """A JSON value stored under ``key`` of the metadata record ``record``."""
-        from ..inputs import parse_json
-
         text = self.metadata.get(record, {}).get(key)
         if text is None:
             return default
-        return parse_json(
-            text, f"{self.path}: metadata {record}/{key} is not valid JSON", RecordingFormatError
-        )
+        return metadata_json(self.path, record, key, text)
 
     def describe_topics(self) -> str:
         """One line listing the topics with their message counts."""
@@ -174,6 +170,18 @@ class RawRecording(Records):
             self.messages[topic] = list(doc["raw"].get(topic, []))
             self.unread = self.unread - {topic}
         return self.messages.get(topic, [])
+
+
+def metadata_json(path: str, record: str, key: str, text: str) -> Any:
+    """``text``, the value stored under ``key`` of the metadata record ``record`` of the
+    recording ``path``, parsed as JSON; not JSON: a :class:`~lfd.errors.RecordingFormatError`
+    naming the file, the record and the key (:meth:`Records.json_metadata`, and the followed
+    recording's calibration record: :class:`lfd.io.camera_pose.FollowedCamera`)."""
+    from ..inputs import parse_json
+
+    return parse_json(
+        text, f"{path}: metadata {record}/{key} is not valid JSON", RecordingFormatError
+    )
 
 
 def damage_text(damage: Sequence[Mapping[str, Any]], chunks: int = 0) -> str | None:

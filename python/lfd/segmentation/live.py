@@ -22,7 +22,6 @@ import dataclasses
 import functools
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
-from itertools import pairwise
 from typing import Any
 
 import numpy as np
@@ -32,7 +31,7 @@ from ..demo import CameraInfo, Demonstration, HandTrack, ObjectTrack, SkillLabel
 from ..errors import InvalidParameterError, LfdError
 from ..io.reader import order_times
 from ..skills import allowed, grammar
-from .live_rules import handled_after, landed, set_down_unseen, unlifted
+from .live_rules import Candidate, Settling
 from .method import Method
 from .result import Segment, Segmentation
 from .templates import TemplateChoice, Templates
@@ -233,14 +232,6 @@ def _ordered(times: list[int], lo: int) -> tuple[np.ndarray, np.ndarray]:
     return t[idx], idx
 
 
-@dataclass
-class _Candidate:
-    """An unsettled segment of the newest run and the recording time it first came out so."""
-
-    segment: Segment
-    since_ns: int
-
-
 class LiveSegmentation:
     """Segment a demonstration from its raw messages while it is recorded.
 
@@ -330,7 +321,7 @@ class LiveSegmentation:
         self.settled_ns: list[int] = []
         """Message time at which each emitted segment settled (same order as the segments)."""
         self._emitted: list[Segment] = []
-        self._candidates: list[_Candidate] = []
+        self._candidates: list[Candidate] = []
         self._now: int | None = None
         self._newest_hand: int | None = None
         self._next_run: int | None = None
@@ -553,7 +544,7 @@ class LiveSegmentation:
         self._last = run
         rest = self._aligned(run)
         now = int(self._now or 0)
-        cands: list[_Candidate] = []
+        cands: list[Candidate] = []
         for i, seg in enumerate(rest):
             since = now
             # a run's last segment ends where the recording so far ends: its end counts from
@@ -564,50 +555,14 @@ class LiveSegmentation:
                     int(old.end_ns) - int(seg.end_ns)
                 ) <= self.tolerance_ns:
                     since = self._candidates[i].since_ns
-            cands.append(_Candidate(seg, since))
+            cands.append(Candidate(seg, since))
         newest = int(self._newest_hand or now)
         limit = min(newest - self.lag_ns, self._seen_until())
 
-        # a Pick up is as uncertain as the Move with after it that has not lifted its object;
-        # a Move with whose set-down the run has found needs no stable_s (live_rules.landed)
-        grasps = {id(a) for a, b in pairwise(cands) if unlifted(run, b.segment)}
-        down = {id(a) for a, b in pairwise(cands) if landed(a.segment, b.segment)}
-
-        def uncertain(c: _Candidate) -> bool:
-            # NaN confidence (an implied Move) counts as certain
-            return (
-                c.segment.confidence < self.min_confidence
-                or (shared is not None and shared(c.segment))
-                or unlifted(run, c.segment)
-                or id(c) in grasps
-            )
-
-        def ready(c: _Candidate) -> bool:
-            wait = self.uncertain_ns if uncertain(c) else 0 if id(c) in down else self.stable_ns
-            return (
-                int(c.segment.end_ns) <= limit
-                and now - c.since_ns >= wait
-                and not set_down_unseen(c.segment, self._tracks.poses)
-            )
-
-        def next_known(i: int) -> bool:
-            # a Move ends where the reach of the skill after it begins and is named after its
-            # object (lfd.contact): it settles once that skill ended in the run and is no guess,
-            # or is a guess that has waited its uncertain_s (else it would hold all after it)
-            if cands[i].segment.skill != "move":
-                return True
-            move, after = cands[i].segment, cands[i + 1].segment if len(cands) > i + 1 else None
-            if after is not None and after.object == move.object:
-                prev = cands[i - 1].segment if i else next(reversed(self._emitted), None)
-                if handled_after(run, prev, move, after.skill):
-                    return True  # a Pick up lifted it (or grasped it), a Push moved it
-            return len(cands) > i + 1 + self.followers and (
-                not uncertain(cands[i + 1]) or ready(cands[i + 1])
-            )
-
+        rules = Settling(run, cands, self._emitted, self._tracks.poses, now, limit, shared, self)
         settled: list[Segment] = []
         # the last segment of a run is open: it settles only when the recording ends
-        while len(cands) > self.followers and ready(cands[0]) and next_known(0):
+        while len(cands) > self.followers and rules.ready(cands[0]) and rules.next_known(0):
             # a Move: and the skill after it, if that one ended in the run
             step = 2 if cands[0].segment.skill == "move" and len(cands) > 1 + self.followers else 1
             if ended is not None and not self._agrees([c.segment for c in cands[:step]], ended()):

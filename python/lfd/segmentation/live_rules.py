@@ -1,13 +1,19 @@
 """What the live segmentation reads in a run about whether a skill can settle yet
-(:mod:`lfd.segmentation.live`)."""
+(:mod:`lfd.segmentation.live`): the run's evidence, and when a candidate is ready to settle
+(:class:`Settling`)."""
 
 from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from itertools import pairwise
+from typing import Protocol
 
 import numpy as np
 
 from ..geometry import box_distance
 from ..skills import RELEASES
-from .result import Segment, Segmentation
+from .result import Run, Segment, Segmentation
 
 GRASP_M = 0.001
 """The TCP (the midpoint of thumb and index tips) this close to an object's box, or inside it,
@@ -30,12 +36,6 @@ def _above(run: Segmentation, name: str | None, column: str, a: int, b: int | No
     return bool((feats.values[a:b, k] > feats.thresholds[a:b, k]).any())
 
 
-def _rises(run: Segmentation, name: str | None, a: int, b: int | None) -> bool | None:
-    """Whether object ``name`` rose above its rest height (the features' lift threshold) in
-    samples ``a:b`` of ``run``; None if the run does not say."""
-    return _above(run, name, "object_height", a, b)
-
-
 def unlifted(run: Segmentation, seg: Segment) -> bool:
     """Whether ``seg`` is a Move with whose object never rose above its rest height (the
     features' lift threshold) in ``run``: a turn or slide on the table that the next grasp of
@@ -44,14 +44,14 @@ def unlifted(run: Segmentation, seg: Segment) -> bool:
     if seg.skill != "move_with":
         return False
     a, b = int(seg.start), max(int(seg.end), int(seg.start) + 1)
-    return _rises(run, seg.object, a, b) is False
+    return _above(run, seg.object, "object_height", a, b) is False
 
 
 def lifted_after(run: Segmentation, seg: Segment) -> bool:
     """Whether the object ``seg`` is named after rose above its rest height (the features' lift
     threshold) in ``run`` after ``seg`` ended: for a Move, the skill after it is a Pick up of
     that object that has lifted it, however long the run takes to find the carry after it."""
-    return _rises(run, seg.object, int(seg.end), None) is True
+    return _above(run, seg.object, "object_height", int(seg.end), None) is True
 
 
 def handled_after(run: Segmentation, prev: Segment | None, seg: Segment, skill: str) -> bool:
@@ -65,13 +65,13 @@ def handled_after(run: Segmentation, prev: Segment | None, seg: Segment, skill: 
     return skill == "push" and pushed_after(run, prev, seg)
 
 
-def _after_release(run: Segmentation, prev: Segment | None, seg: Segment) -> bool:
-    """Whether ``seg`` is a Move after a release (``prev`` a Place or Stack) in a run with
-    features. Not after another skill: after a Push or Locate the hand is still at, or beside,
-    an object it does not go on to lift (perceived natural exp2 seed 9409, exp3 seed 9413)."""
-    return (
-        prev is not None and prev.skill in RELEASES and seg.skill == "move" and run.run is not None
-    )
+def _run_after_release(run: Segmentation, prev: Segment | None, seg: Segment) -> Run | None:
+    """What ``run`` ran on and computed (``run.run``: None without it) if ``seg`` is a Move
+    after a release (``prev`` a Place or Stack), else None. Not after another skill: after a
+    Push or Locate the hand is still at, or beside, an object it does not go on to lift
+    (perceived natural exp2 seed 9409, exp3 seed 9413)."""
+    after = prev is not None and prev.skill in RELEASES and seg.skill == "move"
+    return run.run if after else None
 
 
 def grasped_after(run: Segmentation, prev: Segment | None, seg: Segment) -> bool:
@@ -82,11 +82,12 @@ def grasped_after(run: Segmentation, prev: Segment | None, seg: Segment) -> bool
     (:func:`lfd.contact._reach_start`). Not for another box: a natural hand may hold its open
     fingers around a box for seconds and then go to another (simulated natural exp5 seed 305:
     2.5 s around box_3 after putting box_2 down, then box_2 again)."""
-    if not _after_release(run, prev, seg) or run.run is None or prev is None:
+    if prev is None or prev.object != seg.object:
         return False
-    if prev.object != seg.object:
+    ran = _run_after_release(run, prev, seg)
+    if ran is None:
         return False
-    tr = run.run.trajectory
+    tr = ran.trajectory
     if seg.object not in tr.object_names:
         return False
     o, a = tr.object_names.index(seg.object), int(seg.end)
@@ -100,7 +101,7 @@ def pushed_after(run: Segmentation, prev: Segment | None, seg: Segment) -> bool:
     """Whether ``seg`` is a Move after a release whose object has moved (its speed above the
     features' threshold) after ``seg`` ended in ``run``: the Push after it has begun."""
     moved = _above(run, seg.object, "object_velocity", int(seg.end), None)
-    return _after_release(run, prev, seg) and moved is True
+    return _run_after_release(run, prev, seg) is not None and moved is True
 
 
 def landed(seg: Segment, after: Segment) -> bool:
@@ -125,3 +126,92 @@ def set_down_unseen(
     the table or on another, and when) is not known yet."""
     seen = poses.get(seg.object or "") or []
     return seg.skill in ("place", "stack") and bool(seen) and seen[-1][0] < int(seg.end_ns)
+
+
+@dataclass
+class Candidate:
+    """An unsettled segment of the newest run and the recording time it first came out so."""
+
+    segment: Segment
+    since_ns: int
+
+
+class Waits(Protocol):
+    """A live segmenter's thresholds (:class:`lfd.segmentation.live.LiveSegmentation`)."""
+
+    min_confidence: float
+    stable_ns: int
+    uncertain_ns: int
+    followers: int
+
+
+@dataclass
+class Settling:
+    """When the candidates of one run can settle
+    (:meth:`lfd.segmentation.live.LiveSegmentation.settle`): its times (ns), its thresholds
+    (``waits``: the segmenter) and its own lists, read as they change: ``cands`` the candidates
+    still open (the first popped as it settles), ``emitted`` the segments settled."""
+
+    run: Segmentation
+    cands: list[Candidate]
+    emitted: list[Segment]
+    poses: dict[str, list[tuple[int, np.ndarray, np.ndarray]]]
+    """The objects' sightings so far (:func:`set_down_unseen`)."""
+    now: int
+    limit: int
+    """The latest end that may settle (``lag_s`` before the newest hand frame, and the objects
+    the hand may have moved unseen seen since)."""
+    shared: Callable[[Segment], bool] | None
+    waits: Waits
+    _grasps: set[int] = field(init=False)
+    _down: set[int] = field(init=False)
+
+    def __post_init__(self) -> None:
+        # a Pick up is as uncertain as the Move with after it that has not lifted its object;
+        # a Move with whose set-down the run has found needs no stable_s (landed)
+        cands, run = self.cands, self.run
+        self._grasps = {id(a) for a, b in pairwise(cands) if unlifted(run, b.segment)}
+        self._down = {id(a) for a, b in pairwise(cands) if landed(a.segment, b.segment)}
+
+    def uncertain(self, c: Candidate) -> bool:
+        """Whether ``c`` is a guess that settles only after ``uncertain_s``: a low confidence,
+        an object the other hand has (``shared``), a Move with that has not lifted its object,
+        or the Pick up before one."""
+        # NaN confidence (an implied Move) counts as certain
+        return (
+            c.segment.confidence < self.waits.min_confidence
+            or (self.shared is not None and self.shared(c.segment))
+            or unlifted(self.run, c.segment)
+            or id(c) in self._grasps
+        )
+
+    def ready(self, c: Candidate) -> bool:
+        """Whether ``c`` ended by :attr:`limit` and has come out the same for long enough
+        (``uncertain_s`` if :meth:`uncertain`, no wait for a Move with whose set-down the run
+        has found, else ``stable_s``), and, a set-down, its object has been seen since."""
+        if self.uncertain(c):
+            wait = self.waits.uncertain_ns
+        else:
+            wait = 0 if id(c) in self._down else self.waits.stable_ns
+        return (
+            int(c.segment.end_ns) <= self.limit
+            and self.now - c.since_ns >= wait
+            and not set_down_unseen(c.segment, self.poses)
+        )
+
+    def next_known(self, i: int) -> bool:
+        """Whether the skill after candidate ``i`` is known, if ``i`` is a Move."""
+        # a Move ends where the reach of the skill after it begins and is named after its
+        # object (lfd.contact): it settles once that skill ended in the run and is no guess,
+        # or is a guess that has waited its uncertain_s (else it would hold all after it)
+        cands = self.cands
+        if cands[i].segment.skill != "move":
+            return True
+        move, after = cands[i].segment, cands[i + 1].segment if len(cands) > i + 1 else None
+        if after is not None and after.object == move.object:
+            prev = cands[i - 1].segment if i else next(reversed(self.emitted), None)
+            if handled_after(self.run, prev, move, after.skill):
+                return True  # a Pick up lifted it (or grasped it), a Push moved it
+        return len(cands) > i + 1 + self.waits.followers and (
+            not self.uncertain(cands[i + 1]) or self.ready(cands[i + 1])
+        )

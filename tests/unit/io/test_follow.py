@@ -268,3 +268,52 @@ def test_follower_gives_the_recordings_metadata(tmp_path: Path) -> None:
     assert {k: v for k, v in load(out, images=False).metadata.items() if k in meta} == {
         k: got[k] for k in meta
     }
+
+
+def test_the_followed_camera_is_the_calibration_records_as_load_reads_it() -> None:
+    """``FollowedCamera`` (``lfd segment --follow``) poses the camera as ``lfd.load`` does: the
+    ``calibration`` record's camera over the messages' while it describes one; one that
+    describes none, or a bad transform, is a problem returned once (never printed) and the
+    messages pose the camera; a record that is not JSON raises, naming the file and record."""
+    import json
+
+    from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
+    from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
+    from lfd.io.camera_pose import FollowedCamera
+
+    K = [600.0, 0.0, 320.0, 0.0, 600.0, 240.0, 0.0, 0.0, 1.0]
+    info = CameraCalibration(frame_id="camera", width=640, height=480, K=K)
+    pose = np.eye(4)
+    pose[:3, 3] = (0.1, -0.2, 1.0)
+    record = {"width": 640, "height": 480, "K": K, "world_T_camera": pose.tolist()}
+    meta = {"calibration": {"camera": json.dumps(record)}}
+    good_tf, bad_tf = FrameTransforms(), FrameTransforms()
+    good_tf.transforms.add(child_frame_id="camera").rotation.w = 1.0
+    good_tf.transforms[0].translation.z = 2.0
+    bad_tf.transforms.add(child_frame_id="camera")  # a zero rotation
+    posed = np.eye(4)
+    posed[2, 3] = 2.0  # the camera as good_tf poses it
+
+    cam = FollowedCamera("rec.mcap")
+    assert cam.camera is None and cam.add("hand", None) == [] and cam.read_record({}) == []
+    assert cam.add("camera_info", info) == [] and cam.camera is not None
+    assert np.array_equal(cam.camera.world_T_camera, np.eye(4))  # the message, not yet posed
+    assert cam.add("tf", good_tf) == []
+    assert np.array_equal(cam.camera.world_T_camera, posed)
+    assert cam.read_record(meta) == [] and cam.read_record(meta) == []
+    assert np.array_equal(cam.camera.world_T_camera, pose)  # the record's, over the message's
+    problems = cam.add("tf", bad_tf)
+    assert len(problems) == 1 and "no rotation in a transform" in problems[0], problems
+    assert cam.add("tf", bad_tf) == [] and np.array_equal(cam.camera.world_T_camera, pose)
+
+    no_camera = {"calibration": {"camera": json.dumps({**record, "width": -8})}}
+    problems = cam.read_record(no_camera)
+    assert len(problems) == 1, problems
+    assert problems[0].startswith("calibration metadata: image size -8 x 480 px"), problems
+    assert np.array_equal(cam.camera.world_T_camera, posed)  # the messages' last good pose
+    assert cam.read_record(meta) == [] and np.array_equal(cam.camera.world_T_camera, pose)
+    assert cam.read_record(no_camera) == []  # told once
+    with pytest.raises(
+        RecordingFormatError, match=r"^rec\.mcap: metadata calibration/camera is not valid JSON"
+    ):
+        cam.read_record({"calibration": {"camera": "{"}})

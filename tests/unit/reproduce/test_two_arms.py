@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _two_arm_programs import program
 
 pytest.importorskip("mujoco")
 pytest.importorskip("mink")
@@ -64,26 +65,13 @@ def test_ik_reaches_top_down_poses_over_the_table(side: str) -> None:
             assert np.degrees(rotation_angle(Rg, R)) < 1.0
 
 
-def _program(task: str, seed: int):  # type: ignore[no-untyped-def]
-    """Each hand's preprocessed trajectory and the two-hand program of a simulated demo."""
-    from lfd.preprocessing import preprocess
-    from lfd.reproduce import PREPROCESSING, from_hand_labels
-    from lfd.sim import Variability, simulate
-
-    demo = simulate(task, seed=seed, variability=Variability(style="careful")).demo
-    hands = from_hand_labels(
-        demo.labels, demo.start_ns, sides=demo.sides, handovers=demo.handovers, objects=demo.objects
-    )
-    return {s: preprocess(demo.one_hand(s), **PREPROCESSING) for s in demo.sides}, hands
-
-
 @pytest.mark.slow
 def test_a_simulated_hold_push_is_achieved_on_two_arms() -> None:
     """One hand holds a box still while the other pushes another: both arms in one scene, the
     holder releasing only after the push has ended."""
     from lfd.reproduce.two_arms import _start, reproduce_two_arms
 
-    trajs, hands = _program("hold_push", 101)
+    trajs, hands = program("hold_push", 101)
     (hold,) = [p for p in hands.sync if p.kind == "hold_until"]
     r = reproduce_two_arms(trajs, hands, "skills")
     assert r.success, r.failures
@@ -102,7 +90,7 @@ def test_a_simulated_handover_is_achieved_on_two_arms() -> None:
     from lfd.reproduce.outcome import _tilt_deg
     from lfd.reproduce.two_arms import _end, _release, reproduce_two_arms
 
-    trajs, hands = _program("handover", 4)
+    trajs, hands = program("handover", 4)
     (point,) = [p for p in hands.sync if p.kind == "handover"]
     r = reproduce_two_arms(trajs, hands, "skills")
     assert r.success, r.failures
@@ -120,10 +108,10 @@ def test_a_carry_and_a_handover_run_on_two_arms() -> None:
     tests/unit/reproduce/test_two_arm_carry.py), and so does a handover."""
     from lfd.reproduce.two_arms import check_runs
 
-    _, hands = _program("carry", 3)
+    _, hands = program("carry", 3)
     assert [p.kind for p in hands.sync] == ["carry"]
     check_runs(hands)
-    _, hands = _program("handover", 3)
+    _, hands = program("handover", 3)
     check_runs(hands)  # a handover runs
 
 

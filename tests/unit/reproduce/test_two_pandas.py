@@ -8,6 +8,7 @@ import importlib.util
 
 import numpy as np
 import pytest
+from _two_arm_programs import program
 
 pytest.importorskip("mujoco")
 pytest.importorskip("mink")
@@ -56,18 +57,6 @@ def test_two_pandas_compile_in_one_scene_each_arm_named_by_its_side() -> None:
     assert one.site("tcp").id >= 0 and one.joint("joint1").id >= 0
 
 
-def _hold_stack(style: str, seed: int):  # type: ignore[no-untyped-def]
-    from lfd.preprocessing import preprocess
-    from lfd.reproduce import PREPROCESSING, from_hand_labels
-    from lfd.sim import Variability, simulate
-
-    demo = simulate("hold_stack", seed=seed, variability=Variability(style=style)).demo
-    hands = from_hand_labels(
-        demo.labels, demo.start_ns, sides=demo.sides, handovers=demo.handovers, objects=demo.objects
-    )
-    return {s: preprocess(demo.one_hand(s), **PREPROCESSING) for s in demo.sides}, hands
-
-
 def test_a_hold_under_a_stack_is_a_press_even_where_the_gripper_fits() -> None:
     """The plank (65 mm) fits a Panda hand (72 mm) but not the ALOHA's (61 mm): held while the
     other arm stacks on it, it is pressed on both; a plank held while the other arm only
@@ -78,7 +67,7 @@ def test_a_hold_under_a_stack_is_a_press_even_where_the_gripper_fits() -> None:
     from lfd.reproduce.panda import two_pandas
     from lfd.reproduce.two_arm_press import press_holds
 
-    _, hands = _hold_stack("careful", 9501)
+    _, hands = program("hold_stack", 9501, style="careful")
     sizes = {"plank": np.array([0.17, 0.065, 0.04])}
     (hold,) = [p for p in hands.sync if p.kind == "hold_until"]
     for robot in (two_pandas(), aloha()):
@@ -102,7 +91,7 @@ def test_a_natural_hold_stack_the_aloha_refuses_is_achieved_on_two_pandas(mode: 
     from lfd.reproduce.panda import two_pandas
     from lfd.reproduce.two_arms import reproduce_two_arms
 
-    trajs, hands = _hold_stack("natural", 9501)
+    trajs, hands = program("hold_stack", 9501, style="natural")
     with pytest.raises(LfdError, match="cannot"):
         reproduce_two_arms(trajs, hands, mode=mode, robot=aloha())
     res = reproduce_two_arms(trajs, hands, mode=mode, robot=two_pandas())
@@ -161,7 +150,7 @@ def test_the_press_is_approached_straight_where_the_waiting_arm_is_above(mode: s
     from lfd.reproduce.panda import two_pandas
     from lfd.reproduce.two_arms import reproduce_two_arms
 
-    trajs, hands = _hold_stack("natural", 9504)
+    trajs, hands = program("hold_stack", 9504, style="natural")
     displace = {
         "plank": (-0.0579034619727993, 0.010213482519517881, 42.29318239859654),
         "box_1": (-0.010213927735668699, -0.020469585472165208, 25.03181229055096),
