@@ -165,13 +165,16 @@ class Settling:
     waits: Waits
     _grasps: set[int] = field(init=False)
     _down: set[int] = field(init=False)
+    _handled: set[int] = field(init=False)
 
     def __post_init__(self) -> None:
         # a Pick up is as uncertain as the Move with after it that has not lifted its object;
-        # a Move with whose set-down the run has found needs no stable_s (landed)
+        # a Move with whose set-down the run has found needs no stable_s (landed), nor a Move
+        # whose next skill has shown what it does to the Move's object (handled_after)
         cands, run = self.cands, self.run
         self._grasps = {id(a) for a, b in pairwise(cands) if unlifted(run, b.segment)}
         self._down = {id(a) for a, b in pairwise(cands) if landed(a.segment, b.segment)}
+        self._handled = {id(c) for i, c in enumerate(cands) if self.handled_next(i)}
 
     def uncertain(self, c: Candidate) -> bool:
         """Whether ``c`` is a guess that settles only after ``uncertain_s``: a low confidence,
@@ -187,17 +190,32 @@ class Settling:
 
     def ready(self, c: Candidate) -> bool:
         """Whether ``c`` ended by :attr:`limit` and has come out the same for long enough
-        (``uncertain_s`` if :meth:`uncertain`, no wait for a Move with whose set-down the run
-        has found, else ``stable_s``), and, a set-down, its object has been seen since."""
+        (``uncertain_s`` if :meth:`uncertain`; no wait for a Move with whose set-down the run
+        has found, nor for a Move whose next skill has lifted, grasped or pushed its object:
+        the Move's end, where that skill's reach begins, lies before evidence later runs keep;
+        else ``stable_s``), and, a set-down, its object has been seen since."""
         if self.uncertain(c):
             wait = self.waits.uncertain_ns
         else:
-            wait = 0 if id(c) in self._down else self.waits.stable_ns
+            known = id(c) in self._down or id(c) in self._handled
+            wait = 0 if known else self.waits.stable_ns
         return (
             int(c.segment.end_ns) <= self.limit
             and self.now - c.since_ns >= wait
             and not set_down_unseen(c.segment, self.poses)
         )
+
+    def handled_next(self, i: int) -> bool:
+        """Whether candidate ``i`` is a Move whose next skill has shown in the run what it
+        does to the Move's object (:func:`handled_after`)."""
+        cands = self.cands
+        if cands[i].segment.skill != "move" or len(cands) <= i + 1:
+            return False
+        move, after = cands[i].segment, cands[i + 1].segment
+        if after.object != move.object:
+            return False
+        prev = cands[i - 1].segment if i else next(reversed(self.emitted), None)
+        return handled_after(self.run, prev, move, after.skill)
 
     def next_known(self, i: int) -> bool:
         """Whether the skill after candidate ``i`` is known, if ``i`` is a Move."""
@@ -207,11 +225,8 @@ class Settling:
         cands = self.cands
         if cands[i].segment.skill != "move":
             return True
-        move, after = cands[i].segment, cands[i + 1].segment if len(cands) > i + 1 else None
-        if after is not None and after.object == move.object:
-            prev = cands[i - 1].segment if i else next(reversed(self.emitted), None)
-            if handled_after(self.run, prev, move, after.skill):
-                return True  # a Pick up lifted it (or grasped it), a Push moved it
+        if id(cands[i]) in self._handled:
+            return True  # a Pick up lifted it (or grasped it), a Push moved it
         return len(cands) > i + 1 + self.waits.followers and (
             not self.uncertain(cands[i + 1]) or self.ready(cands[i + 1])
         )

@@ -437,3 +437,34 @@ def test_a_move_with_settles_in_the_first_run_that_finds_its_set_down(path: Path
     live = LiveSegmentation.for_demonstration(demo)
     live._now = live._newest_hand = now
     assert not live.settle(carrying, ended=lambda: carrying).segments
+
+
+@pytest.mark.parametrize("path", [RECORDINGS[0], PERCEIVED], ids=lambda p: p.parent.name + p.stem)
+def test_a_move_settles_in_the_first_run_whose_pick_up_lifted_its_object(path: Path) -> None:
+    """A Move followed by the Pick up of its object settles in the first run in which that
+    Pick up has lifted the object: the Move ends where the Pick up's reach begins, before the
+    lift the later runs keep, so it does not wait ``stable_s`` for more runs (the check run
+    must still agree). The Pick up, first followed in that run too, still waits."""
+    import dataclasses
+
+    from lfd.segmentation.live_rules import lifted_after
+
+    demo = load(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        batch = lfd.segment(demo)
+    segs = list(batch.segments)
+    i = next(
+        k for k, s in enumerate(segs) if k and s.skill == "move" and segs[k + 1].skill == "pick_up"
+    )
+    assert segs[i + 1].object == segs[i].object and lifted_after(batch, segs[i])
+    live = LiveSegmentation.for_demonstration(demo)
+    now = int(demo.end_ns)
+    before = dataclasses.replace(batch, segments=segs[: i + 1])  # the Move still open
+    for dt_s in (0.0, 1.0):
+        live._now = live._newest_hand = now + round(dt_s * 1e9)
+        live.settle(before, ended=lambda: before)
+    assert [s.skill for s in live._emitted] == [s.skill for s in segs[:i]]
+    lifted = dataclasses.replace(batch, segments=segs[: i + 3])  # Pick up done, Move with open
+    settled = live.settle(lifted, ended=lambda: lifted).segments
+    assert [(s.skill, s.object) for s in settled] == [("move", segs[i].object)]
