@@ -47,6 +47,17 @@ def unlifted(run: Segmentation, seg: Segment) -> bool:
     return _above(run, seg.object, "object_height", a, b) is False
 
 
+def lifts(run: Segmentation, seg: Segment, after: Segment) -> bool:
+    """Whether ``seg`` is a Pick up followed in ``run`` by the Move with of its object that
+    has lifted it above its rest height (the features' lift threshold): whatever its
+    confidence, the grammar allows nothing else before a carry, and its end is the lift-off
+    (:func:`lfd.contact.refine`)."""
+    if seg.skill != "pick_up" or after.skill != "move_with" or after.object != seg.object:
+        return False
+    a, b = int(after.start), max(int(after.end), int(after.start) + 1)
+    return _above(run, after.object, "object_height", a, b) is True
+
+
 def lifted_after(run: Segmentation, seg: Segment) -> bool:
     """Whether the object ``seg`` is named after rose above its rest height (the features' lift
     threshold) in ``run`` after ``seg`` ended: for a Move, the skill after it is a Pick up of
@@ -166,6 +177,7 @@ class Settling:
     _grasps: set[int] = field(init=False)
     _down: set[int] = field(init=False)
     _handled: set[int] = field(init=False)
+    _lifting: set[int] = field(init=False)
 
     def __post_init__(self) -> None:
         # a Pick up is as uncertain as the Move with after it that has not lifted its object;
@@ -175,14 +187,17 @@ class Settling:
         self._grasps = {id(a) for a, b in pairwise(cands) if unlifted(run, b.segment)}
         self._down = {id(a) for a, b in pairwise(cands) if landed(a.segment, b.segment)}
         self._handled = {id(c) for i, c in enumerate(cands) if self.handled_next(i)}
+        self._lifting = {id(a) for a, b in pairwise(cands) if lifts(run, a.segment, b.segment)}
 
     def uncertain(self, c: Candidate) -> bool:
-        """Whether ``c`` is a guess that settles only after ``uncertain_s``: a low confidence,
-        an object the other hand has (``shared``), a Move with that has not lifted its object,
-        or the Pick up before one."""
+        """Whether ``c`` is a guess that settles only after ``uncertain_s``: a low confidence
+        (not a Pick up whose Move with has lifted its object: :func:`lifts`), an object the
+        other hand has (``shared``), a Move with that has not lifted its object, or the Pick up
+        before one."""
         # NaN confidence (an implied Move) counts as certain
+        guess = c.segment.confidence < self.waits.min_confidence and id(c) not in self._lifting
         return (
-            c.segment.confidence < self.waits.min_confidence
+            guess
             or (self.shared is not None and self.shared(c.segment))
             or unlifted(self.run, c.segment)
             or id(c) in self._grasps

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from lfd.io import load
 from lfd.segmentation.live import LiveSegmentation, demo_messages, segment_live
+from lfd.segmentation.result import Segment
 
 ROOT = _paths.ROOT
 RECORDINGS = [ROOT / "recordings" / f"exp{k}.mcap" for k in range(1, 5)]
@@ -468,3 +469,35 @@ def test_a_move_settles_in_the_first_run_whose_pick_up_lifted_its_object(path: P
     lifted = dataclasses.replace(batch, segments=segs[: i + 3])  # Pick up done, Move with open
     settled = live.settle(lifted, ended=lambda: lifted).segments
     assert [(s.skill, s.object) for s in settled] == [("move", segs[i].object)]
+
+
+@pytest.mark.parametrize("path", [RECORDINGS[0], PERCEIVED], ids=lambda p: p.parent.name + p.stem)
+def test_a_pick_up_whose_carry_lifted_its_object_is_no_guess(path: Path) -> None:
+    """A Pick up of low confidence followed in the run by the Move with that has lifted its
+    object settles as a certain one (the grammar allows only a Pick up before a carry, and
+    its end is the lift-off); before the lift, or followed by another object's carry, it still
+    waits ``uncertain_s``."""
+    import dataclasses
+
+    from lfd.segmentation.live_rules import Candidate, Settling
+
+    demo = load(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        batch = lfd.segment(demo)
+    segs = list(batch.segments)
+    i = next(k for k, s in enumerate(segs) if s.skill == "pick_up")
+    assert segs[i + 1].skill == "move_with" and segs[i + 1].object == segs[i].object
+    live = LiveSegmentation.for_demonstration(demo)
+
+    def uncertain(carry: Segment) -> bool:
+        low = dataclasses.replace(segs[i], confidence=0.2)
+        cands = [Candidate(low, 0), Candidate(carry, 0)]
+        run = dataclasses.replace(batch, segments=[*segs[:i], low, carry])
+        return Settling(run, cands, [], {}, 0, 0, None, live).uncertain(cands[0])
+
+    assert not uncertain(segs[i + 1])
+    before_lift = dataclasses.replace(segs[i + 1], end=segs[i + 1].start + 1)
+    assert uncertain(before_lift)
+    other = next(o for o in batch.object_names if o != segs[i].object)
+    assert uncertain(dataclasses.replace(segs[i + 1], object=other))
