@@ -188,6 +188,8 @@ class _Tracks:
     ) -> Demonstration:
         """The recording so far (from ``start_ns``, when given) as a demonstration."""
         lo = -(2**63) if start_ns is None else start_ns
+        if start_ns is not None:  # from the hand frame the window's first skill starts at
+            lo = max([h[0] for h in self.hand if h[0] <= lo], default=lo)
         t, keep = _ordered([h[0] for h in self.hand], lo)
         hand = HandTrack(
             t_ns=t,
@@ -199,7 +201,7 @@ class _Tracks:
         objects = {}
         for name, tag_id, size in self.objects:
             poses = self.poses[name]
-            to, ko = _ordered([p[0] for p in poses], lo)
+            to, ko = _ordered([p[0] for p in poses], lo, held=start_ns is not None)
             objects[name] = ObjectTrack(
                 name=name,
                 tag_id=tag_id,
@@ -223,13 +225,20 @@ def _shaped(value: Any, shape: tuple[int, ...], what: str) -> np.ndarray:
     return out.reshape(shape)
 
 
-def _ordered(times: list[int], lo: int) -> tuple[np.ndarray, np.ndarray]:
+def _ordered(times: list[int], lo: int, held: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Times from ``lo`` on as :func:`lfd.load` reads them (sorted, the first of equal ones),
-    and their indices."""
+    and their indices; ``held``: with the last one before ``lo``, at ``lo`` (an object's pose
+    where a run's window starts: a skill that may start a demonstration begins there, nothing
+    is carried, and an object hidden from before it is still where it was last seen)."""
     t = np.asarray(times, dtype=np.int64)
     idx, _, _ = order_times(t)
+    early = idx[t[idx] < lo]
     idx = idx[t[idx] >= lo]
-    return t[idx], idx
+    out = t[idx]
+    if held and early.size and (not idx.size or out[0] > lo):
+        idx = np.concatenate([early[-1:], idx])
+        out = np.concatenate([np.asarray([lo], dtype=np.int64), out])
+    return out, idx
 
 
 class LiveSegmentation:
