@@ -36,15 +36,19 @@ def _above(run: Segmentation, name: str | None, column: str, a: int, b: int | No
     return bool((feats.values[a:b, k] > feats.thresholds[a:b, k]).any())
 
 
+def _carry_lifted(run: Segmentation, seg: Segment) -> bool | None:
+    """Whether the object of ``seg`` (a Move with) rose above its rest height (the features'
+    lift threshold) within ``seg`` in ``run``; None if the run does not say."""
+    a, b = int(seg.start), max(int(seg.end), int(seg.start) + 1)
+    return _above(run, seg.object, "object_height", a, b)
+
+
 def unlifted(run: Segmentation, seg: Segment) -> bool:
     """Whether ``seg`` is a Move with whose object never rose above its rest height (the
     features' lift threshold) in ``run``: a turn or slide on the table that the next grasp of
     the object may yet make part of one Pick up (:func:`lfd.contact.refine`), so it settles
     as an uncertain one."""
-    if seg.skill != "move_with":
-        return False
-    a, b = int(seg.start), max(int(seg.end), int(seg.start) + 1)
-    return _above(run, seg.object, "object_height", a, b) is False
+    return seg.skill == "move_with" and _carry_lifted(run, seg) is False
 
 
 def lifts(run: Segmentation, seg: Segment, after: Segment) -> bool:
@@ -54,8 +58,7 @@ def lifts(run: Segmentation, seg: Segment, after: Segment) -> bool:
     (:func:`lfd.contact.refine`)."""
     if seg.skill != "pick_up" or after.skill != "move_with" or after.object != seg.object:
         return False
-    a, b = int(after.start), max(int(after.end), int(after.start) + 1)
-    return _above(run, after.object, "object_height", a, b) is True
+    return _carry_lifted(run, after) is True
 
 
 def lifted_after(run: Segmentation, seg: Segment) -> bool:
