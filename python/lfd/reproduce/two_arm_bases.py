@@ -19,10 +19,15 @@ BASE_GAP = 0.4
 
 
 def choose_bases(
-    points: dict[str, np.ndarray], objects: np.ndarray, robot: TwoArmRobot
+    points: dict[str, np.ndarray],
+    objects: np.ndarray,
+    robot: TwoArmRobot,
+    *,
+    level: float = np.inf,
 ) -> dict[str, np.ndarray]:
     """Each arm's base (z = 0): every TCP point of its lane reachable top-down (the widest
-    reach margin), the right arm's base right of the workspace centre, the left's left of it.
+    reach margin), the right arm's base right of the workspace centre, the left's left of it,
+    both at most ``level`` (m) before or behind it (along y).
 
     Raises
     ------
@@ -45,6 +50,7 @@ def choose_bases(
         wrist = pts + np.array([0.0, 0.0, arm.tcp_offset])
         sign = 1.0 if side == "right" else -1.0
         ok = clear & (sign * (cand[:, 0] - centre[0]) > 0.05)
+        ok &= np.abs(cand[:, 1] - centre[1]) <= level
         for b in out.values():
             ok &= np.linalg.norm(cand - b[:2], axis=1) >= BASE_GAP
         d = np.sqrt(
@@ -101,10 +107,11 @@ def layout(
     robot: TwoArmRobot,
     displace: dict[str, Any],
     sequence: bool,
+    level: float = np.inf,
 ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], dict[str, np.ndarray]]:
     """The objects where the layout puts them (``displace``), the points each base is chosen
     for (the hands' paths; for a program with carries that no base reaches so, where its skills
-    act) and both bases (:func:`choose_bases`)."""
+    act) and both bases (:func:`choose_bases`, ``level``)."""
     from .displacement import initial_poses, program_start
     from .goals import DemoFrames
     from .two_arm_sequence import task_points
@@ -119,9 +126,9 @@ def layout(
     keep_out = np.concatenate([objects0, shifted])
     points = {s: np.asarray(trajs[s].tcp, dtype=np.float64) for s in sides}
     try:
-        return moved, points, choose_bases(points, keep_out, robot)
+        return moved, points, choose_bases(points, keep_out, robot, level=level)
     except DemonstrationError:
         if not sequence:
             raise
         points = task_points(trajs, hands)  # where the skills act, not the hands' free moves
-        return moved, points, choose_bases(points, keep_out, robot)
+        return moved, points, choose_bases(points, keep_out, robot, level=level)

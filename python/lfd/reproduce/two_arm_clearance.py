@@ -19,6 +19,9 @@ Where the arms still meet, the holder's way to its hold is made straight
 approach (mapped with the object), which, the object moved and turned in a layout, may lie
 under the other arm that waits above the hold with its object; it goes instead over to above
 the hold and down, in the same time. Kept, too, only when the arms stay further apart.
+And where they meet still, the holder lifts off as soon as the other arm's step has ended
+(:func:`lift_early`; the person's hand held on for a while more, the arm that then goes away
+passing the pressing one), kept likewise.
 """
 
 from __future__ import annotations
@@ -73,6 +76,16 @@ def hold_later(
     return dict(sync(out, hands))
 
 
+def clearance_score(
+    plans: dict[str, Plan], scene: str, make_ik: MakeIK, robot: Any
+) -> tuple[float, int]:
+    """How far apart the arms of ``plans`` (on one clock) stay, to compare plans (larger is
+    further): the least distance of :func:`~.two_arm_distance.arm_distances` (up to
+    :data:`CLEARANCE`; overlaps count as 0), then fewer ticks closer than it."""
+    d = np.maximum(arm_distances(plans, scene, make_ik, robot, every=EVERY), 0.0)
+    return min(float(d.min()), CLEARANCE), -int(np.sum(d < CLEARANCE))
+
+
 def clear_holds(
     plans: dict[str, Plan],
     hands: HandsProgram,
@@ -89,9 +102,7 @@ def clear_holds(
         return plans
 
     def score(p: dict[str, Plan]) -> tuple[float, int]:
-        """The least distance (up to the clearance), then fewer ticks closer than it."""
-        d = np.maximum(arm_distances(p, scene, make_ik, robot, every=EVERY), 0.0)  # overlaps: 0
-        return min(float(d.min()), CLEARANCE), -int(np.sum(d < CLEARANCE))
+        return clearance_score(p, scene, make_ik, robot)
 
     out, best = plans, score(plans)
     for p in holds:
@@ -107,7 +118,30 @@ def clear_holds(
         straight = straight_approach(out[p.hand], hands, p)
         if straight is not out[p.hand] and (s := score({**out, p.hand: straight})) > best:
             out, best = {**out, p.hand: straight}, s
+    for p in holds:
+        if best[0] >= CLEARANCE:
+            break
+        early = lift_early(out, p)
+        if early is not out[p.hand] and (s := score({**out, p.hand: early})) > best:
+            out, best = {**out, p.hand: early}, s
     return out
+
+
+def lift_early(plans: dict[str, Plan], point: Any) -> Plan:
+    """The holder's plan of ``point`` (``plans`` on one clock) with its hold cut short where it
+    outlasts the other arm's step: the holder lifts off (its ``place``) once the other arm's
+    step has ended (its release and back-off included), not after the rest of the time the
+    person's hand held on, while the other arm goes away. ``plans[point.hand]`` itself when
+    the hold does not outlast it."""
+    a, b = plans[point.hand], plans[point.other]
+    held = np.nonzero(a.segment == point.step)[0]
+    if not held.size:
+        return a
+    cut, end = max(_start(b, point.other_step + 1), int(held[0]) + 1), int(held[-1]) + 1
+    if end <= cut:
+        return a
+    keep = np.r_[0:cut, end : len(a)]
+    return Plan(a.position[keep], a.yaw[keep], a.opening[keep], a.segment[keep])
 
 
 def straight_approach(plan: Plan, hands: HandsProgram, point: Any) -> Plan:

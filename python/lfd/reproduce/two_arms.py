@@ -461,7 +461,43 @@ def plan_two_arms(
     """Choose both bases, plan each lane for the arm of its side (the objects displaced by
     ``displace``, as :func:`~lfd.reproduce.displacement.plan_layout` does for one arm) and put
     both on one clock. With displaced objects the bases are chosen again for the planned,
-    re-grounded paths and the lanes planned again from there (as one arm's base is).
+    re-grounded paths and the lanes planned again from there (as one arm's base is). Where
+    the arms still meet, the bases level with the work (:func:`~.two_arm_apart.bases_apart`).
+
+    Raises
+    ------
+    DemonstrationError
+        A synchronisation the arms do not run (:func:`check_runs`), or a lane out of its arm's
+        reach (:func:`choose_bases`), in one line.
+    UsageError
+        A displacement whose re-grounded task is impossible
+        (:func:`~lfd.reproduce.displacement.check_goals`).
+    """
+    from .two_arm_apart import bases_apart
+    from .two_arm_clearance import clearance_score
+
+    def plan(level: float) -> TwoArmPlan:
+        return _plan_two_arms(trajs, hands, mode, robot, dict(displace or {}), level)
+
+    def score(p: TwoArmPlan) -> tuple[float, int]:
+        def make_ik(side: str) -> MountedIK:
+            return MountedIK(p.bases[side], p.yaws[side], robot.ik)
+
+        return clearance_score(p.plans, scene_xml(p.bases, [], robot, p.yaws), make_ik, robot)
+
+    return bases_apart(plan, score)
+
+
+def _plan_two_arms(
+    trajs: dict[str, Any],
+    hands: HandsProgram,
+    mode: str,
+    robot: TwoArmRobot,
+    displace: dict[str, Any],
+    level: float,
+) -> TwoArmPlan:
+    """:func:`plan_two_arms` with each base at most ``level`` (m) before or behind the work
+    (:func:`~.two_arm_bases.choose_bases`).
 
     Raises
     ------
@@ -477,7 +513,6 @@ def plan_two_arms(
     from .two_arm_press import plan_press_lane
     from .two_arm_sequence import plan_sequence
 
-    displace = dict(displace or {})
     hands, sequence, presses = prepare_two_arms(trajs, hands, robot)
     check_runs(hands)
     sides = [s for s in hands.sides if hands.lanes[s] and s in robot.arms]
@@ -485,7 +520,7 @@ def plan_two_arms(
     if missing:
         raise DemonstrationError(f"the {missing[0]} hand has no arm on {robot.name}")
     programs = {s: hands.program(s) for s in sides}
-    moved, points, bases = layout(trajs, hands, programs, robot, displace, sequence)
+    moved, points, bases = layout(trajs, hands, programs, robot, displace, sequence, level)
 
     def plan_lanes(
         bases: dict[str, np.ndarray],
@@ -529,7 +564,7 @@ def plan_two_arms(
     if sequence:
         planned = plan_units(bases)
         if displace:  # the bases again, for the re-grounded paths and every object pose
-            new = choose_bases(*_scene_points(planned), robot)
+            new = choose_bases(*_scene_points(planned), robot, level=level)
             if any(np.linalg.norm(new[s] - bases[s]) > 1e-9 for s in sides):
                 bases = new
                 planned = plan_units(bases)
@@ -556,7 +591,7 @@ def plan_two_arms(
     if turned:  # a stack beside a press: its grasp turned (the press' lane is the same)
         planned = plan_lanes(bases, planned)
     if displace:  # the bases again, for the re-grounded paths and every planned object pose
-        new = choose_bases(*_scene_points(planned), robot)
+        new = choose_bases(*_scene_points(planned), robot, level=level)
         if any(np.linalg.norm(new[s] - bases[s]) > 1e-9 for s in sides):
             bases = new
             planned = plan_lanes(bases, plan_lanes(bases))

@@ -158,3 +158,76 @@ def test_the_press_is_approached_straight_where_the_waiting_arm_is_above(mode: s
     }
     res = reproduce_two_arms(trajs, hands, mode=mode, robot=two_pandas(), displace=displace)
     assert res.success, res.failures
+
+
+def test_the_holder_lifts_off_once_the_other_arm_is_done() -> None:
+    """The holder's press outlasting the other arm's step (the person's hand held on a while
+    more) is cut short: it lifts off once the other arm's step (release and back-off) has
+    ended, its lift-off and what follows the same, earlier; a hold that does not outlast it is
+    kept."""
+    from lfd.reproduce.controller import Plan
+    from lfd.reproduce.program import SyncPoint
+    from lfd.reproduce.two_arm_clearance import lift_early
+
+    hold = SyncPoint("hold_until", "left", 2, "right", 1, "plank", 3.0)
+    press, up = np.array([0.0, 0.2, 0.05]), np.array([0.0, 0.2, 0.15])
+    holder_pts = [np.linspace(up, press, 10), np.repeat(press[None], 40, 0)]
+    holder_pts.append(np.linspace(press, up, 10))
+    position = np.concatenate(holder_pts)
+    segment = np.repeat([1, 2, 3], [10, 40, 10])
+    n = len(position)
+    holder = Plan(position, np.zeros(n), np.zeros(n), segment)
+    # the other arm: its step (1) ends at tick 30, then it goes away (2)
+    other_seg = np.repeat([0, 1, 2], [10, 20, 30])
+    other = Plan(np.zeros((60, 3)), np.zeros(60), np.zeros(60), other_seg)
+    out = lift_early({"left": holder, "right": other}, hold)
+    assert len(out) == n - 20 and np.array_equal(out.segment, np.repeat([1, 2, 3], [10, 20, 10]))
+    np.testing.assert_allclose(out.position[30:], position[50:])  # the lift-off, earlier
+    np.testing.assert_allclose(out.position[:30], position[:30])
+    # the other arm's step ends after the hold: nothing to cut
+    late = Plan(np.zeros((60, 3)), np.zeros(60), np.zeros(60), np.repeat([0, 1, 2], [10, 45, 5]))
+    assert lift_early({"left": holder, "right": late}, hold) is holder
+
+
+def test_bases_level_with_the_work_are_tried_where_the_arms_meet() -> None:
+    """choose_bases' ``level`` keeps both bases within it of the work's centre along y (the
+    widest reach margin alone puts a Panda's behind the work); bases_apart plans again with
+    the bases so only where the arms come closer than the clearance, keeping the plan whose
+    arms stay furthest apart, and skips a level from which no base reaches."""
+    from types import SimpleNamespace
+
+    from lfd.errors import DemonstrationError
+    from lfd.reproduce.panda import two_pandas
+    from lfd.reproduce.two_arm_apart import bases_apart
+    from lfd.reproduce.two_arm_bases import choose_bases
+
+    robot = two_pandas()
+    xs = np.linspace(-0.15, 0.15, 20)
+    points = {
+        "right": np.stack([xs + 0.05, 0.2 + 0 * xs, 0.1 + 0 * xs], axis=1),
+        "left": np.stack([xs - 0.05, 0.15 + 0 * xs, 0.1 + 0 * xs], axis=1),
+    }
+    objects = np.array([[0.0, 0.18, 0.02]])
+    centre_y = np.concatenate(list(points.values()))[:, 1].mean()
+    anywhere = choose_bases(points, objects, robot)
+    level = choose_bases(points, objects, robot, level=0.2)
+    assert max(abs(b[1] - centre_y) for b in anywhere.values()) > 0.2
+    assert all(abs(b[1] - centre_y) <= 0.2 + 1e-9 for b in level.values())
+    assert level["right"][0] > 0 > level["left"][0]
+
+    scores = {np.inf: (-0.0, -40), 0.2: (0.0, -10), 0.3: (0.015, 0)}
+    asked: list[float] = []
+
+    def plan(level: float) -> SimpleNamespace:
+        asked.append(level)
+        if level == 0.2:
+            raise DemonstrationError("short by 4 mm")
+        return SimpleNamespace(plans={"right": 0, "left": 0}, level=level)
+
+    def score(p: SimpleNamespace) -> tuple[float, int]:
+        return scores[p.level]
+
+    assert bases_apart(plan, score).level == 0.3 and asked == [np.inf, 0.2, 0.3]
+    scores[np.inf] = (0.015, 0)  # clear already: planned once
+    asked.clear()
+    assert bases_apart(plan, score).level == np.inf and asked == [np.inf]
