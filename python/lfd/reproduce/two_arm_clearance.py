@@ -93,10 +93,11 @@ def clear_holds(
     make_ik: MakeIK,
     robot: Any,
     sync: Callable[..., Any],
+    bases: dict[str, np.ndarray],
 ) -> dict[str, Plan]:
     """``plans`` with each ``hold_until`` whose arms come closer than :data:`CLEARANCE`
-    re-ordered (:func:`hold_later`) when that keeps them further apart (the module
-    docstring)."""
+    re-ordered (:func:`hold_later`, the holder waiting by its base: :func:`park_first`;
+    ``bases``: each arm's) when that keeps them further apart (the module docstring)."""
     holds = [p for p in hands.sync if p.kind == "hold_until" and {p.hand, p.other} <= set(plans)]
     if len(plans) != 2 or not holds:
         return plans
@@ -110,8 +111,17 @@ def clear_holds(
             if best[0] >= CLEARANCE:
                 return out
             later = hold_later(plans, hands, p, sync, fetched=fetched)
-            if later is not plans and (s := score(later)) > best:
-                out, best = later, s
+            if later is plans:
+                continue
+            for low in (None, True, False):
+                trial = later
+                if low is not None:
+                    parked = park_first(later[p.hand], hands, p, bases[p.hand], low=low)
+                    if parked is later[p.hand]:
+                        continue
+                    trial = {**later, p.hand: parked}
+                if (s := score(trial)) > best:
+                    out, best = trial, s
     for p in holds:
         if best[0] >= CLEARANCE:
             break
@@ -142,6 +152,79 @@ def lift_early(plans: dict[str, Plan], point: Any) -> Plan:
         return a
     keep = np.r_[0:cut, end : len(a)]
     return Plan(a.position[keep], a.yaw[keep], a.opening[keep], a.segment[keep])
+
+
+PARK_REACH = 0.4
+"""How far (m, horizontally) from its base a waiting holder waits (:func:`park_first`)."""
+PARK_HEIGHT = 0.35
+"""How high (m) above the table a waiting holder's TCP waits (:func:`park_first`)."""
+
+
+def park_first(
+    plan: Plan, hands: HandsProgram, point: Any, base: np.ndarray, *, low: bool = False
+) -> Plan:
+    """The holder's ``plan`` of ``point`` (made to wait by :func:`hold_later`) waiting, from
+    its start, up by its own base (:data:`PARK_REACH` from it towards the hold,
+    :data:`PARK_HEIGHT` high), not where the person's hand rested, then going from there over
+    to above the hold and down (as :func:`straight_approach`) over the ticks of its way there.
+    ``plan`` itself when the hold's way there is not its first step."""
+    k = point.step - 1  # the pick_up
+    lane = hands.lanes[point.hand]
+    if k != 1 or lane[0].skill != "move":
+        return plan
+    i0, sel = _start(plan, 0), np.nonzero(plan.segment == k)[0]
+    if not sel.size or sel[0] - i0 < 2:
+        return plan
+    h = _hover(plan, sel)
+    hover = plan.position[h]
+    u = hover[:2] - np.asarray(base, dtype=np.float64)[:2]
+    if np.linalg.norm(u) < 1e-9:
+        return plan
+    park = np.array([*(base[:2] + PARK_REACH * u / np.linalg.norm(u)), PARK_HEIGHT])
+    pos, yaw, opening = plan.position.copy(), plan.yaw.copy(), plan.opening.copy()
+    pos[:i0], yaw[:i0] = park, plan.yaw[h]
+    n = h - i0 + 1
+    if low:  # down by its base first, then in at the hold's height
+        pos[i0 : h + 1], yaw[i0 : h + 1] = _along(
+            np.array([park, [*park[:2], hover[2]], hover]), plan.yaw[h], n
+        )
+    else:
+        pos[i0 : h + 1], yaw[i0 : h + 1] = _over(park, plan.yaw[h], hover, plan.yaw[h], n)
+    opening[: h + 1] = np.maximum(opening[: h + 1], opening[h])
+    return Plan(pos, yaw, opening, plan.segment.copy())
+
+
+def _hover(plan: Plan, sel: np.ndarray) -> int:
+    """The hover tick of a ``pick_up`` (ticks ``sel``): its highest before its descent to the
+    lowest."""
+    z = plan.position[sel[: int(np.argmin(plan.position[sel, 2])) + 1], 2]  # down to it
+    return int(sel[np.nonzero(z >= z.max() - 1e-4)[0][-1]])
+
+
+def _along(corners: np.ndarray, yaw: float, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``n`` ticks (min-jerk along the path) through ``corners`` (k, 3), at ``yaw``."""
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(corners, axis=0), axis=1))])
+    if arc[-1] < 1e-9:
+        return np.repeat(corners[:1], n, 0), np.full(n, yaw)
+    at = min_jerk(n) * arc[-1]
+    return np.stack([np.interp(at, arc, corners[:, j]) for j in range(3)], axis=1), np.full(n, yaw)
+
+
+def _over(
+    a: np.ndarray, ya: float, b: np.ndarray, yb: float, n: int, top: float = -np.inf
+) -> tuple[np.ndarray, np.ndarray]:
+    """``n`` ticks (min-jerk along the path) from ``a`` up to ``top`` (at least both heights),
+    over to above ``b`` and down to it, the yaw from ``ya`` to ``yb``."""
+    top = max(top, float(a[2]), float(b[2]))
+    corners = np.array([[*a, ya], [*a[:2], top, ya], [*b[:2], top, yb], [*b, yb]])
+    arc = np.concatenate(
+        [[0.0], np.cumsum(np.linalg.norm(np.diff(corners[:, :3], axis=0), axis=1))]
+    )
+    if arc[-1] < 1e-9:
+        return np.repeat(corners[:1, :3], n, 0), np.full(n, yb)
+    at = min_jerk(n) * arc[-1]
+    path = np.stack([np.interp(at, arc, corners[:, j]) for j in range(4)], axis=1)
+    return path[:, :3], path[:, 3]
 
 
 def straight_approach(plan: Plan, hands: HandsProgram, point: Any) -> Plan:

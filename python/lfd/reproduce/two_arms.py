@@ -639,7 +639,9 @@ def _kept_apart(plan: TwoArmPlan, hands: HandsProgram, robot: TwoArmRobot) -> Tw
     def make_ik(side: str) -> MountedIK:
         return MountedIK(bases[side], yaws[side], robot.ik)
 
-    return replace(plan, plans=clear_holds(plan.plans, hands, xml, make_ik, robot, synchronise))
+    return replace(
+        plan, plans=clear_holds(plan.plans, hands, xml, make_ik, robot, synchronise, bases)
+    )
 
 
 def _clearance(

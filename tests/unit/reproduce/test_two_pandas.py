@@ -231,3 +231,55 @@ def test_bases_level_with_the_work_are_tried_where_the_arms_meet() -> None:
     scores[np.inf] = (0.015, 0)  # clear already: planned once
     asked.clear()
     assert bases_apart(plan, score).level == np.inf and asked == [np.inf]
+
+
+def test_a_holder_made_to_wait_waits_by_its_base_then_comes_in() -> None:
+    """A holder made to wait (:func:`hold_later`: its first ticks a wait, step -1) waits up by
+    its own base, not where the person's hand rested (in the other arm's way when the hands
+    crossed), then comes over to the hover above its hold (``low``: down by its base first,
+    then in at the hover's height) in the ticks of its way there; the hold and what follows
+    are kept. A hold whose way there is not the lane's first step is kept."""
+    from dataclasses import replace
+
+    from lfd.reproduce.controller import Plan
+    from lfd.reproduce.program import HandsProgram, Segment, SyncPoint
+    from lfd.reproduce.two_arm_clearance import PARK_HEIGHT, PARK_REACH, park_first
+
+    lane = [
+        Segment("move", 0.0, 1.0, "plank"),
+        Segment("pick_up", 1.0, 2.0, "plank"),
+        Segment("move_with", 2.0, 3.0, "plank"),
+        Segment("place", 3.0, 3.5, "plank"),
+    ]
+    other = [Segment("move", 0.0, 1.0, "box"), Segment("stack", 1.0, 3.0, "box")]
+    hold = SyncPoint("hold_until", "left", 2, "right", 1, "plank", 3.0)
+    hands = HandsProgram(lanes={"right": other, "left": lane}, sync=[hold])
+    rest = np.array([-0.25, 0.04, 0.16])  # where the person's hand rested: waited at
+    hover, press = np.array([-0.05, 0.23, 0.1]), np.array([-0.05, 0.23, 0.05])
+    pts = [np.repeat(rest[None], 40, 0), np.linspace(rest, hover, 30)]
+    pts += [np.linspace(hover, press, 10), np.repeat(press[None], 15, 0)]
+    position = np.concatenate(pts)
+    segment = np.repeat([-1, 0, 1, 2], [40, 30, 10, 15])
+    n = len(position)
+    plan = Plan(position, np.full(n, 0.3), np.full(n, 0.08), segment)
+    base = np.array([-0.46, 0.49, 0.0])
+    u = (hover[:2] - base[:2]) / np.linalg.norm(hover[:2] - base[:2])
+    park = np.array([*(base[:2] + PARK_REACH * u), PARK_HEIGHT])
+    h = 70  # the hover: the pick_up's first (highest) tick before its descent
+    for low in (False, True):
+        out = park_first(plan, hands, hold, base, low=low)
+        assert len(out) == n and np.array_equal(out.segment, segment)
+        np.testing.assert_allclose(out.position[:40], np.repeat(park[None], 40, 0))
+        np.testing.assert_allclose(out.position[h:], position[h:])
+        way = out.position[40 : h + 1]
+        np.testing.assert_allclose(way[-1], hover)
+        off = np.linalg.norm(way[:, :2] - park[:2], axis=1) > 1e-6
+        if low:  # away from its base only at the hover's height
+            np.testing.assert_allclose(way[off, 2], hover[2], atol=1e-9)
+        else:  # over at the park's height, down above the hover
+            near = np.linalg.norm(way[:, :2] - hover[:2], axis=1) > 1e-6
+            np.testing.assert_allclose(way[off & near, 2], PARK_HEIGHT, atol=1e-9)
+    # the hold's way there is not the first step: kept
+    at_second = replace(hold, step=3)
+    later = HandsProgram(lanes={"right": other, "left": [lane[0], *lane]}, sync=[at_second])
+    assert park_first(plan, later, at_second, base) is plan
