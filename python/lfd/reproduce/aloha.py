@@ -266,6 +266,10 @@ class TwoArmRobot:
     arms: dict[str, Robot]
     ik: Robot
     source: str = ""
+    base_levels: tuple[float, ...] = ()
+    """How far (m) both bases may lie before or behind the work's centre, tried in turn where
+    the arms, their bases placed for the widest reach margin, still meet
+    (:func:`~lfd.reproduce.two_arm_apart.bases_apart`); none: the bases stay there."""
 
     @property
     def sides(self) -> tuple[str, ...]:

@@ -280,4 +280,5 @@ def two_pandas() -> TwoArmRobot:
         arms={side: panda(f"{side}/") for side in SIDES},
         ik=one,
         source=one.source,
+        base_levels=(0.2, 0.3),  # a Panda's long reach puts both bases behind the work
     )

@@ -7,9 +7,10 @@ the work's centre), both arms coming at the objects from the same side and their
 converging where one stacks 10 cm beside the other's press. Where the planned arms (every
 rule of :mod:`.two_arm_holds` and :mod:`.two_arm_clearance` applied) still come closer than
 :data:`~.two_arm_clearance.CLEARANCE`, the whole plan is made again with both bases at most
-:data:`LEVELS` (m) before or behind the work's centre (along y), so that the arms come at it
-from its two sides; the plan whose arms stay furthest apart is kept
-(:func:`~.two_arm_clearance.clearance_score`), the first when none is further apart.
+one of the robot's ``base_levels`` (m; :class:`~lfd.reproduce.aloha.TwoArmRobot`) before or
+behind the work's centre (along y), so that the arms come at it from its two sides; the plan
+whose arms stay furthest apart is kept (:func:`~.two_arm_clearance.clearance_score`), the
+first when none is further apart.
 """
 
 from __future__ import annotations
@@ -21,14 +22,15 @@ import numpy as np
 
 from ..errors import DemonstrationError, UsageError
 
-LEVELS = (0.2, 0.3)
-"""How far (m) the bases may lie before or behind the work's centre, tried in turn."""
 
-
-def bases_apart(plan: Callable[[float], Any], score: Callable[[Any], tuple[float, int]]) -> Any:
+def bases_apart(
+    plan: Callable[[float], Any],
+    score: Callable[[Any], tuple[float, int]],
+    levels: tuple[float, ...],
+) -> Any:
     """``plan(level)`` (a :class:`~lfd.reproduce.two_arms.TwoArmPlan` with both bases at most
     ``level`` before or behind the work) with the bases anywhere, or with one of
-    :data:`LEVELS` where that keeps the arms further apart (the module docstring; ``score``:
+    ``levels`` where that keeps the arms further apart (the module docstring; ``score``:
     :func:`~.two_arm_clearance.clearance_score` of a plan's arms at its bases). Raises as
     ``plan`` does with the bases anywhere."""
     from .two_arm_clearance import CLEARANCE
@@ -37,7 +39,7 @@ def bases_apart(plan: Callable[[float], Any], score: Callable[[Any], tuple[float
     if len(out.plans) != 2:
         return out
     best = score(out)
-    for level in LEVELS:
+    for level in levels:
         if best[0] >= CLEARANCE:
             break
         try:

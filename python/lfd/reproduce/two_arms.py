@@ -485,7 +485,7 @@ def plan_two_arms(
 
         return clearance_score(p.plans, scene_xml(p.bases, [], robot, p.yaws), make_ik, robot)
 
-    return bases_apart(plan, score)
+    return bases_apart(plan, score, robot.base_levels)
 
 
 def _plan_two_arms(

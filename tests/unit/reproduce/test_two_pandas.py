@@ -227,10 +227,10 @@ def test_bases_level_with_the_work_are_tried_where_the_arms_meet() -> None:
     def score(p: SimpleNamespace) -> tuple[float, int]:
         return scores[p.level]
 
-    assert bases_apart(plan, score).level == 0.3 and asked == [np.inf, 0.2, 0.3]
+    assert bases_apart(plan, score, (0.2, 0.3)).level == 0.3 and asked == [np.inf, 0.2, 0.3]
     scores[np.inf] = (0.015, 0)  # clear already: planned once
     asked.clear()
-    assert bases_apart(plan, score).level == np.inf and asked == [np.inf]
+    assert bases_apart(plan, score, (0.2, 0.3)).level == np.inf and asked == [np.inf]
 
 
 def test_a_holder_made_to_wait_waits_by_its_base_then_comes_in() -> None:
@@ -283,3 +283,22 @@ def test_a_holder_made_to_wait_waits_by_its_base_then_comes_in() -> None:
     at_second = replace(hold, step=3)
     later = HandsProgram(lanes={"right": other, "left": [lane[0], *lane]}, sync=[at_second])
     assert park_first(plan, later, at_second, base) is plan
+
+
+@pytest.mark.slow  # one layout planned (its bases tried level with the work) and run (~3 min)
+def test_a_holder_waits_by_its_base_while_the_other_arm_fetches_across() -> None:
+    """Natural hold_stack seed 9502, its first randomised layout: the right hand fetched box_1
+    left of the plank, past the left hand resting where the right arm goes (planned -59 mm,
+    the right gripper on the left arm's wrist at 1.7 s). The left arm waits up by its base
+    while the right one fetches box_1, then comes in low to press: achieved."""
+    from lfd.reproduce.panda import two_pandas
+    from lfd.reproduce.two_arms import reproduce_two_arms
+
+    trajs, hands = program("hold_stack", 9502, style="natural")
+    displace = {
+        "plank": (0.018390069464318225, -0.05779199040758162, 2.2309880077185866),
+        "box_1": (0.017565432759465514, -0.08960177087296553, -39.12577877425881),
+        "box_2": (-0.08763323558611212, -0.02442548558610065, -6.047052402567495),
+    }
+    res = reproduce_two_arms(trajs, hands, mode="skills", robot=two_pandas(), displace=displace)
+    assert res.success, res.failures
