@@ -5,9 +5,10 @@ Each base is placed for the widest reach margin over its lane
 that is often behind the work (natural ``hold_stack`` 9504: both bases 0.33-0.43 m behind
 the work's centre), both arms coming at the objects from the same side and their wrists
 converging where one stacks 10 cm beside the other's press. Where the planned arms (every
-rule of :mod:`.two_arm_holds` and :mod:`.two_arm_clearance` applied) still come closer than
-:data:`~.two_arm_clearance.CLEARANCE`, the whole plan is made again with both bases at most
-one of the robot's ``base_levels`` (m; :class:`~lfd.reproduce.aloha.TwoArmRobot`) before or
+rule of :mod:`.two_arm_holds` and :mod:`.two_arm_clearance` applied) still touch (their least
+planned distance 0 or less; closer than :data:`~.two_arm_clearance.CLEARANCE` but apart, a
+run succeeds, and a plan again costs its whole time), the whole plan is made again with both
+bases at most one of the robot's ``base_levels`` (m; :class:`~lfd.reproduce.aloha.TwoArmRobot`) before or
 behind the work's centre (along y), so that the arms come at it from its two sides; the plan
 whose arms stay furthest apart is kept (:func:`~.two_arm_clearance.clearance_score`), the
 first when none is further apart.
@@ -33,15 +34,13 @@ def bases_apart(
     ``levels`` where that keeps the arms further apart (the module docstring; ``score``:
     :func:`~.two_arm_clearance.clearance_score` of a plan's arms at its bases). Raises as
     ``plan`` does with the bases anywhere."""
-    from .two_arm_clearance import CLEARANCE
-
     out = plan(np.inf)
     if len(out.plans) != 2:
         return out
     best = score(out)
     for level in levels:
-        if best[0] >= CLEARANCE:
-            break
+        if best[0] > 0.0:
+            break  # the planned arms do not touch (a plan again costs its whole time)
         try:
             trial = plan(level)
         except (DemonstrationError, UsageError):

@@ -192,7 +192,7 @@ def test_the_holder_lifts_off_once_the_other_arm_is_done() -> None:
 def test_bases_level_with_the_work_are_tried_where_the_arms_meet() -> None:
     """choose_bases' ``level`` keeps both bases within it of the work's centre along y (the
     widest reach margin alone puts a Panda's behind the work); bases_apart plans again with
-    the bases so only where the arms come closer than the clearance, keeping the plan whose
+    the bases so only where the planned arms touch, keeping the plan whose
     arms stay furthest apart, and skips a level from which no base reaches."""
     from types import SimpleNamespace
 
@@ -228,9 +228,10 @@ def test_bases_level_with_the_work_are_tried_where_the_arms_meet() -> None:
         return scores[p.level]
 
     assert bases_apart(plan, score, (0.2, 0.3)).level == 0.3 and asked == [np.inf, 0.2, 0.3]
-    scores[np.inf] = (0.015, 0)  # clear already: planned once
-    asked.clear()
-    assert bases_apart(plan, score, (0.2, 0.3)).level == np.inf and asked == [np.inf]
+    for clear in [(0.015, 0), (0.005, -3)]:  # clear, or apart though closer: planned once
+        scores[np.inf] = clear
+        asked.clear()
+        assert bases_apart(plan, score, (0.2, 0.3)).level == np.inf and asked == [np.inf]
 
 
 def test_a_holder_made_to_wait_waits_by_its_base_then_comes_in() -> None:
