@@ -10,7 +10,9 @@ approach waits (at its start) until the other arm has fetched and brought its ob
 where its step begins, and holds from there; the other arm's step still starts only once
 the holder holds (:func:`~lfd.reproduce.two_arms.synchronise`). Or, where the two would meet
 there, the holder waits only until the other arm has picked its object up, and the other
-arm brings it once the holder holds. A re-ordered plan is kept only when its arms stay
+arm brings it once the holder holds. A holder so made to wait waits up by its own base
+(:func:`park_first`), not where the person's hand rested: the person's idle hand lay where
+the other one then reached across. A re-ordered plan is kept only when its arms stay
 further apart than the original's (the least distance, then the time closer than
 :data:`CLEARANCE`).
 
@@ -182,14 +184,13 @@ def park_first(
         return plan
     park = np.array([*(base[:2] + PARK_REACH * u / np.linalg.norm(u)), PARK_HEIGHT])
     pos, yaw, opening = plan.position.copy(), plan.yaw.copy(), plan.opening.copy()
-    pos[:i0], yaw[:i0] = park, plan.yaw[h]
-    n = h - i0 + 1
+    yh, n = float(plan.yaw[h]), h - i0 + 1
+    pos[:i0], yaw[:i0] = park, yh
     if low:  # down by its base first, then in at the hold's height
-        pos[i0 : h + 1], yaw[i0 : h + 1] = _along(
-            np.array([park, [*park[:2], hover[2]], hover]), plan.yaw[h], n
-        )
+        way = np.array([[*park, yh], [*park[:2], hover[2], yh], [*hover, yh]])
+        pos[i0 : h + 1], yaw[i0 : h + 1] = _along(way, n)
     else:
-        pos[i0 : h + 1], yaw[i0 : h + 1] = _over(park, plan.yaw[h], hover, plan.yaw[h], n)
+        pos[i0 : h + 1], yaw[i0 : h + 1] = _over(park, yh, hover, yh, n)
     opening[: h + 1] = np.maximum(opening[: h + 1], opening[h])
     return Plan(pos, yaw, opening, plan.segment.copy())
 
@@ -201,30 +202,25 @@ def _hover(plan: Plan, sel: np.ndarray) -> int:
     return int(sel[np.nonzero(z >= z.max() - 1e-4)[0][-1]])
 
 
-def _along(corners: np.ndarray, yaw: float, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """``n`` ticks (min-jerk along the path) through ``corners`` (k, 3), at ``yaw``."""
-    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(corners, axis=0), axis=1))])
+def _along(corners: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``n`` ticks (min-jerk along the path) through ``corners`` (k, 4: position and yaw)."""
+    arc = np.concatenate(
+        [[0.0], np.cumsum(np.linalg.norm(np.diff(corners[:, :3], axis=0), axis=1))]
+    )
     if arc[-1] < 1e-9:
-        return np.repeat(corners[:1], n, 0), np.full(n, yaw)
+        return np.repeat(corners[-1:, :3], n, 0), np.full(n, corners[-1, 3])
     at = min_jerk(n) * arc[-1]
-    return np.stack([np.interp(at, arc, corners[:, j]) for j in range(3)], axis=1), np.full(n, yaw)
+    path = np.stack([np.interp(at, arc, corners[:, j]) for j in range(4)], axis=1)
+    return path[:, :3], path[:, 3]
 
 
 def _over(
     a: np.ndarray, ya: float, b: np.ndarray, yb: float, n: int, top: float = -np.inf
 ) -> tuple[np.ndarray, np.ndarray]:
-    """``n`` ticks (min-jerk along the path) from ``a`` up to ``top`` (at least both heights),
-    over to above ``b`` and down to it, the yaw from ``ya`` to ``yb``."""
+    """``n`` ticks from ``a`` up to ``top`` (at least both heights), over to above ``b`` and
+    down to it, the yaw from ``ya`` to ``yb``."""
     top = max(top, float(a[2]), float(b[2]))
-    corners = np.array([[*a, ya], [*a[:2], top, ya], [*b[:2], top, yb], [*b, yb]])
-    arc = np.concatenate(
-        [[0.0], np.cumsum(np.linalg.norm(np.diff(corners[:, :3], axis=0), axis=1))]
-    )
-    if arc[-1] < 1e-9:
-        return np.repeat(corners[:1, :3], n, 0), np.full(n, yb)
-    at = min_jerk(n) * arc[-1]
-    path = np.stack([np.interp(at, arc, corners[:, j]) for j in range(4)], axis=1)
-    return path[:, :3], path[:, 3]
+    return _along(np.array([[*a, ya], [*a[:2], top, ya], [*b[:2], top, yb], [*b, yb]]), n)
 
 
 def straight_approach(plan: Plan, hands: HandsProgram, point: Any) -> Plan:
@@ -241,21 +237,13 @@ def straight_approach(plan: Plan, hands: HandsProgram, point: Any) -> Plan:
     i0, sel = _start(plan, k - 1), np.nonzero(plan.segment == k)[0]
     if not sel.size or sel[0] - i0 < 2:
         return plan
-    z = plan.position[sel[: int(np.argmin(plan.position[sel, 2])) + 1], 2]  # down to it
-    h = int(sel[np.nonzero(z >= z.max() - 1e-4)[0][-1]])  # the hover: the descent starts
+    h = _hover(plan, sel)
     top = float(plan.position[i0 : h + 1, 2].max())
-    a = np.array([*plan.position[i0], plan.yaw[i0]])
-    b = np.array([*plan.position[h], plan.yaw[h]])
-    corners = np.array([a, [*a[:2], top, a[3]], [*b[:2], top, b[3]], b])
-    arc = np.concatenate(
-        [[0.0], np.cumsum(np.linalg.norm(np.diff(corners[:, :3], axis=0), axis=1))]
-    )
-    if arc[-1] < 1e-9:
+    a, b = plan.position[i0], plan.position[h]
+    if np.linalg.norm(b - a) < 1e-9 and top <= a[2]:
         return plan
-    at = min_jerk(h - i0 + 1) * arc[-1]
-    path = np.stack([np.interp(at, arc, corners[:, j]) for j in range(4)], axis=1)
     pos, yaw, opening = plan.position.copy(), plan.yaw.copy(), plan.opening.copy()
-    pos[i0 : h + 1], yaw[i0 : h + 1] = path[:, :3], path[:, 3]
+    pos[i0 : h + 1], yaw[i0 : h + 1] = _over(a, plan.yaw[i0], b, plan.yaw[h], h - i0 + 1, top)
     opening[i0 : h + 1] = np.maximum(opening[i0 : h + 1], opening[h])
     return Plan(pos, yaw, opening, plan.segment.copy())
 
