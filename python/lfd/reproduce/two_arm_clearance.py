@@ -23,7 +23,8 @@ under the other arm that waits above the hold with its object; it goes instead o
 the hold and down, in the same time. Kept, too, only when the arms stay further apart.
 And where they meet still, the holder lifts off as soon as the other arm's step has ended
 (:func:`lift_early`; the person's hand held on for a while more, the arm that then goes away
-passing the pressing one), kept likewise.
+passing the pressing one), kept likewise. And last, an arm's move to where the person's hand
+went to rest once done goes up by its own base instead (:func:`park_last`), kept likewise.
 """
 
 from __future__ import annotations
@@ -136,7 +137,37 @@ def clear_holds(
         early = lift_early(out, p)
         if early is not out[p.hand] and (s := score({**out, p.hand: early})) > best:
             out, best = {**out, p.hand: early}, s
+    for side in out:
+        if best[0] >= CLEARANCE:
+            break
+        home = park_last(out[side], hands.lanes[side], bases[side])
+        if home is not out[side] and (s := score({**out, side: home})) > best:
+            out, best = {**out, side: home}, s
     return out
+
+
+def park_last(plan: Plan, lane: list[Any], base: np.ndarray) -> Plan:
+    """``plan`` (of ``lane``) with its last step, a move to where the person's hand went to
+    rest (no object), going instead up by its own base (as :func:`park_first` waits): over the
+    same ticks, up, over and down to :data:`PARK_HEIGHT`. ``plan`` itself when its last step
+    is not such a move."""
+    k = len(lane) - 1
+    if k < 1 or lane[k].skill != "move" or lane[k].object is not None:
+        return plan
+    sel = np.nonzero(plan.segment == k)[0]
+    if sel.size < 2:
+        return plan
+    i0, i1 = int(sel[0]), int(sel[-1])
+    a = plan.position[i0]
+    u = a[:2] - np.asarray(base, dtype=np.float64)[:2]
+    if np.linalg.norm(u) < 1e-9:
+        return plan
+    park = np.array([*(base[:2] + PARK_REACH * u / np.linalg.norm(u)), PARK_HEIGHT])
+    pos, yaw = plan.position.copy(), plan.yaw.copy()
+    ya = float(plan.yaw[i0])
+    pos[i0 : i1 + 1], yaw[i0 : i1 + 1] = _over(a, ya, park, ya, i1 - i0 + 1)
+    pos[i1 + 1 :], yaw[i1 + 1 :] = park, ya
+    return Plan(pos, yaw, plan.opening.copy(), plan.segment.copy())
 
 
 def lift_early(plans: dict[str, Plan], point: Any) -> Plan:

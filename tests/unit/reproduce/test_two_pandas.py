@@ -303,3 +303,30 @@ def test_a_holder_waits_by_its_base_while_the_other_arm_fetches_across() -> None
     }
     res = reproduce_two_arms(trajs, hands, mode="skills", robot=two_pandas(), displace=displace)
     assert res.success, res.failures
+
+
+def test_an_arm_done_goes_up_by_its_base_not_where_the_hand_rested() -> None:
+    """An arm's last move to where the person's hand went to rest (no object) goes instead up
+    by its own base, over the same ticks (up, over, down to the park height), and stays there;
+    the steps before are kept; a lane whose last step is not such a move is kept."""
+    from lfd.reproduce.controller import Plan
+    from lfd.reproduce.program import Segment
+    from lfd.reproduce.two_arm_clearance import PARK_HEIGHT, PARK_REACH, park_last
+
+    lane = [Segment("stack", 0.0, 1.0, "box"), Segment("move", 1.0, 2.0, None)]
+    stacked, rest = np.array([0.05, 0.22, 0.08]), np.array([0.25, 0.01, 0.13])
+    position = np.concatenate([np.repeat(stacked[None], 20, 0), np.linspace(stacked, rest, 30)])
+    position = np.concatenate([position, np.repeat(rest[None], 5, 0)])
+    segment = np.repeat([0, 1, -1], [20, 30, 5])
+    n = len(position)
+    plan = Plan(position, np.full(n, 0.2), np.full(n, 0.08), segment)
+    base = np.array([0.1, -0.41, 0.0])
+    u = (stacked[:2] - base[:2]) / np.linalg.norm(stacked[:2] - base[:2])
+    park = np.array([*(base[:2] + PARK_REACH * u), PARK_HEIGHT])
+    out = park_last(plan, lane, base)
+    assert len(out) == n and np.array_equal(out.segment, segment)
+    np.testing.assert_allclose(out.position[:20], position[:20])
+    np.testing.assert_allclose(out.position[49:], np.repeat(park[None], 6, 0), atol=1e-12)
+    way = out.position[20:50]
+    assert way[:, 2].min() >= stacked[2] - 1e-12 and way[:, 2].max() == pytest.approx(PARK_HEIGHT)
+    assert park_last(plan, [lane[1], lane[0]], base) is plan  # last step not a free move
