@@ -159,10 +159,9 @@ def park_last(plan: Plan, lane: list[Any], base: np.ndarray) -> Plan:
         return plan
     i0, i1 = int(sel[0]), int(sel[-1])
     a = plan.position[i0]
-    u = a[:2] - np.asarray(base, dtype=np.float64)[:2]
-    if np.linalg.norm(u) < 1e-9:
+    park = _park(base, a)
+    if park is None:
         return plan
-    park = np.array([*(base[:2] + PARK_REACH * u / np.linalg.norm(u)), PARK_HEIGHT])
     pos, yaw = plan.position.copy(), plan.yaw.copy()
     ya = float(plan.yaw[i0])
     pos[i0 : i1 + 1], yaw[i0 : i1 + 1] = _over(a, ya, park, ya, i1 - i0 + 1)
@@ -210,10 +209,9 @@ def park_first(
         return plan
     h = _hover(plan, sel)
     hover = plan.position[h]
-    u = hover[:2] - np.asarray(base, dtype=np.float64)[:2]
-    if np.linalg.norm(u) < 1e-9:
+    park = _park(base, hover)
+    if park is None:
         return plan
-    park = np.array([*(base[:2] + PARK_REACH * u / np.linalg.norm(u)), PARK_HEIGHT])
     pos, yaw, opening = plan.position.copy(), plan.yaw.copy(), plan.opening.copy()
     yh, n = float(plan.yaw[h]), h - i0 + 1
     pos[:i0], yaw[:i0] = park, yh
@@ -224,6 +222,15 @@ def park_first(
         pos[i0 : h + 1], yaw[i0 : h + 1] = _over(park, yh, hover, yh, n)
     opening[: h + 1] = np.maximum(opening[: h + 1], opening[h])
     return Plan(pos, yaw, opening, plan.segment.copy())
+
+
+def _park(base: np.ndarray, towards: np.ndarray) -> np.ndarray | None:
+    """Where an arm waits up by its ``base``: :data:`PARK_REACH` from it horizontally towards
+    ``towards``, :data:`PARK_HEIGHT` high (None when ``towards`` is above the base)."""
+    b = np.asarray(base, dtype=np.float64)[:2]
+    u = np.asarray(towards, dtype=np.float64)[:2] - b
+    d = float(np.linalg.norm(u))
+    return None if d < 1e-9 else np.array([*(b + PARK_REACH * u / d), PARK_HEIGHT])
 
 
 def _hover(plan: Plan, sel: np.ndarray) -> int:
