@@ -64,8 +64,10 @@ def arm_distances(
         iks[s].solve(plan.position[0], R0)
         qadr[s] = [model.joint(j).qposadr[0] for j in arm.arm_joints]
         fadr[s] = [model.joint(f).qposadr[0] for f in arm.finger_joints]
-    pairs = [(a, b) for a in geoms[sides[0]] for b in geoms[sides[-1]]] if len(sides) > 1 else []
-    rb = model.geom_rbound
+    ga, gb = np.array(geoms[sides[0]], dtype=int), np.array(geoms[sides[-1]], dtype=int)
+    if len(sides) < 2:
+        ga = gb = np.zeros(0, dtype=int)
+    rab = model.geom_rbound[ga][:, None] + model.geom_rbound[gb][None, :]
     n = max(len(p) for p in plans.values())
     out = np.full(len(range(0, n, every)), FAR)
     fromto = np.zeros(6)
@@ -83,14 +85,31 @@ def arm_distances(
             w = float(np.clip(plan.opening[min(i, len(plan) - 1)], 0, robot.arms[s].max_opening))
             data.qpos[fadr[s]] = w / 2
         mujoco.mj_kinematics(model, data)
-        best = FAR
-        for a, b in pairs:
-            # bounding spheres farther apart than the best so far: the geoms are too
-            if np.linalg.norm(data.geom_xpos[a] - data.geom_xpos[b]) - rb[a] - rb[b] > best:
-                continue
-            best = min(best, float(mujoco.mj_geomDistance(model, data, a, b, best, fromto)))
-        out[i // every] = best
+        out[i // every] = _least(model, data, ga, gb, rab, fromto)
     return out
+
+
+def _least(
+    model: Any, data: Any, ga: np.ndarray, gb: np.ndarray, rab: np.ndarray, fromto: np.ndarray
+) -> float:
+    """The least distance (at most :data:`FAR`) between geoms ``ga`` and ``gb`` (``rab``: the
+    sums of their bounding spheres' radii), the pairs taken nearest bounding spheres first and
+    none whose bounding spheres are farther apart than the least distance so far."""
+    import mujoco
+
+    if not ga.size or not gb.size:
+        return FAR
+    xpos = data.geom_xpos
+    gap = np.linalg.norm(xpos[ga][:, None, :] - xpos[gb][None, :, :], axis=2) - rab
+    best = FAR
+    for k in np.argsort(gap, axis=None):
+        i, j = divmod(int(k), len(gb))
+        if gap[i, j] > best:
+            break
+        best = min(
+            best, float(mujoco.mj_geomDistance(model, data, int(ga[i]), int(gb[j]), best, fromto))
+        )
+    return best
 
 
 def tick_s(k: int, every: int) -> float:
