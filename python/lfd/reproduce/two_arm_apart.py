@@ -26,7 +26,7 @@ from ..errors import DemonstrationError, UsageError
 
 def bases_apart(
     plan: Callable[[float], Any],
-    score: Callable[[Any], tuple[float, int]],
+    score: Callable[[Any], tuple[float, int, int]],
     levels: tuple[float, ...],
 ) -> Any:
     """``plan(level)`` (a :class:`~lfd.reproduce.two_arms.TwoArmPlan` with both bases at most

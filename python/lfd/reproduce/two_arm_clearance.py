@@ -12,16 +12,20 @@ the holder holds (:func:`~lfd.reproduce.two_arms.synchronise`). Or, where the tw
 there, the holder waits only until the other arm has picked its object up, and the other
 arm brings it once the holder holds. A holder so made to wait waits up by its own base
 (:func:`park_first`), not where the person's hand rested: the person's idle hand lay where
-the other one then reached across. A re-ordered plan is kept only when its arms stay
-further apart than the original's (the least distance, then the time closer than
-:data:`CLEARANCE`).
+the other one then reached across; towards the hold or turned from it
+(:data:`PARK_TURNS`: a base near the work puts the park towards the hold above the work,
+where the other arm lifts its object). A re-ordered plan is kept only when its arms stay
+further apart than the original's (the least distance, then the time they overlap, then the
+time closer than :data:`CLEARANCE`: :func:`clearance_score`).
 
 Where the arms still meet, the holder's way to its hold is made straight
 (:func:`straight_approach`): the one-arm planner takes it to where the person's hand began its
 approach (mapped with the object), which, the object moved and turned in a layout, may lie
 under the other arm that waits above the hold with its object; it goes instead over to above
 the hold and down, in the same time. Kept, too, only when the arms stay further apart.
-And where they meet still, the holder lifts off as soon as the other arm's step has ended
+Likewise the other arm's step beside the hold goes over and straight down to its lowest
+point (:func:`straight_down`: a DMP keeps the person's curve, which, the objects moved, may
+sweep towards the holding gripper). And where they meet still, the holder lifts off as soon as the other arm's step has ended
 (:func:`lift_early`; the person's hand held on for a while more, the arm that then goes away
 passing the pressing one), kept likewise. And last, an arm's move to where the person's hand
 went to rest once done goes up by its own base instead (:func:`park_last`), kept likewise.
@@ -29,7 +33,7 @@ went to rest once done goes up by its own base instead (:func:`park_last`), kept
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import numpy as np
@@ -81,12 +85,14 @@ def hold_later(
 
 def clearance_score(
     plans: dict[str, Plan], scene: str, make_ik: MakeIK, robot: Any
-) -> tuple[float, int]:
+) -> tuple[float, int, int]:
     """How far apart the arms of ``plans`` (on one clock) stay, to compare plans (larger is
     further): the least distance of :func:`~.two_arm_distance.arm_distances` (up to
-    :data:`CLEARANCE`; overlaps count as 0), then fewer ticks closer than it."""
-    d = np.maximum(arm_distances(plans, scene, make_ik, robot, every=EVERY), 0.0)
-    return min(float(d.min()), CLEARANCE), -int(np.sum(d < CLEARANCE))
+    :data:`CLEARANCE`; overlaps count as 0), then fewer ticks where they overlap (a run
+    fails there), then fewer ticks closer than :data:`CLEARANCE`."""
+    d = arm_distances(plans, scene, make_ik, robot, every=EVERY)
+    least = min(max(float(d.min()), 0.0), CLEARANCE)
+    return least, -int(np.sum(d <= 0.0)), -int(np.sum(d < CLEARANCE))
 
 
 def clear_holds(
@@ -100,50 +106,74 @@ def clear_holds(
 ) -> dict[str, Plan]:
     """``plans`` with each ``hold_until`` whose arms come closer than :data:`CLEARANCE`
     re-ordered (:func:`hold_later`, the holder waiting by its base: :func:`park_first`;
-    ``bases``: each arm's) when that keeps them further apart (the module docstring)."""
+    ``bases``: each arm's), then its ways changed (:func:`straight_approach`,
+    :func:`straight_down`, :func:`lift_early`, :func:`park_last`), each kept only when that
+    keeps the arms further apart (the module docstring)."""
     holds = [p for p in hands.sync if p.kind == "hold_until" and {p.hand, p.other} <= set(plans)]
     if len(plans) != 2 or not holds:
         return plans
 
-    def score(p: dict[str, Plan]) -> tuple[float, int]:
+    def score(p: dict[str, Plan]) -> tuple[float, int, int]:
         return clearance_score(p, scene, make_ik, robot)
 
     out, best = plans, score(plans)
+    for trial in _reordered(plans, hands, holds, sync, bases):
+        if best[0] >= CLEARANCE:
+            return out
+        if (s := score(trial)) > best:
+            out, best = trial, s
+    changes: list[tuple[str, Callable[[dict[str, Plan]], Plan]]] = []
+    for make in (_straight_approach, _straight_down, _lift_early):
+        changes += [make(p, hands) for p in holds]
+    changes += [_park_last(side, hands, bases[side]) for side in plans]
+    for side, change in changes:
+        if best[0] >= CLEARANCE:
+            break
+        new = change(out)
+        if new is not out[side] and (s := score({**out, side: new})) > best:
+            out, best = {**out, side: new}, s
+    return out
+
+
+def _reordered(
+    plans: dict[str, Plan],
+    hands: HandsProgram,
+    holds: list[Any],
+    sync: Callable[..., Any],
+    bases: dict[str, np.ndarray],
+) -> Iterator[dict[str, Plan]]:
+    """The re-ordered ``plans`` :func:`clear_holds` tries: each hold's holder waiting
+    (:func:`hold_later`, both ways) where the person's hand rested, or by its base
+    (:func:`park_first`, each way in and each of :data:`PARK_TURNS`)."""
+    ways = [(None, 0.0)] + [(low, t) for t in PARK_TURNS for low in (True, False)]
     for p in holds:
         for fetched in (False, True):
-            if best[0] >= CLEARANCE:
-                return out
             later = hold_later(plans, hands, p, sync, fetched=fetched)
             if later is plans:
                 continue
-            for low in (None, True, False):
-                trial = later
-                if low is not None:
-                    parked = park_first(later[p.hand], hands, p, bases[p.hand], low=low)
-                    if parked is later[p.hand]:
-                        continue
-                    trial = {**later, p.hand: parked}
-                if (s := score(trial)) > best:
-                    out, best = trial, s
-    for p in holds:
-        if best[0] >= CLEARANCE:
-            break
-        straight = straight_approach(out[p.hand], hands, p)
-        if straight is not out[p.hand] and (s := score({**out, p.hand: straight})) > best:
-            out, best = {**out, p.hand: straight}, s
-    for p in holds:
-        if best[0] >= CLEARANCE:
-            break
-        early = lift_early(out, p)
-        if early is not out[p.hand] and (s := score({**out, p.hand: early})) > best:
-            out, best = {**out, p.hand: early}, s
-    for side in out:
-        if best[0] >= CLEARANCE:
-            break
-        home = park_last(out[side], hands.lanes[side], bases[side])
-        if home is not out[side] and (s := score({**out, side: home})) > best:
-            out, best = {**out, side: home}, s
-    return out
+            for low, turn in ways:
+                if low is None:
+                    yield later
+                    continue
+                parked = park_first(later[p.hand], hands, p, bases[p.hand], low=low, turn=turn)
+                if parked is not later[p.hand]:
+                    yield {**later, p.hand: parked}
+
+
+def _straight_approach(p: Any, hands: HandsProgram) -> tuple[str, Callable[..., Plan]]:
+    return p.hand, lambda o: straight_approach(o[p.hand], hands, p)
+
+
+def _straight_down(p: Any, hands: HandsProgram) -> tuple[str, Callable[..., Plan]]:
+    return p.other, lambda o: straight_down(o[p.other], p.other_step)
+
+
+def _lift_early(p: Any, hands: HandsProgram) -> tuple[str, Callable[..., Plan]]:
+    return p.hand, lambda o: lift_early(o, p)
+
+
+def _park_last(side: str, hands: HandsProgram, base: np.ndarray) -> tuple[str, Callable[..., Plan]]:
+    return side, lambda o: park_last(o[side], hands.lanes[side], base)
 
 
 def park_last(plan: Plan, lane: list[Any], base: np.ndarray) -> Plan:
@@ -186,6 +216,10 @@ def lift_early(plans: dict[str, Plan], point: Any) -> Plan:
     return Plan(a.position[keep], a.yaw[keep], a.opening[keep], a.segment[keep])
 
 
+PARK_TURNS = (0.0, np.pi / 3, -np.pi / 3)
+"""The headings (rad, from towards the hold) a waiting holder's park is tried at
+(:func:`park_first`): where the holder's base is near the work, the park towards the hold lies
+above it, where the other arm lifts its object."""
 PARK_REACH = 0.4
 """How far (m, horizontally) from its base a waiting holder waits (:func:`park_first`)."""
 PARK_HEIGHT = 0.35
@@ -193,13 +227,21 @@ PARK_HEIGHT = 0.35
 
 
 def park_first(
-    plan: Plan, hands: HandsProgram, point: Any, base: np.ndarray, *, low: bool = False
+    plan: Plan,
+    hands: HandsProgram,
+    point: Any,
+    base: np.ndarray,
+    *,
+    low: bool = False,
+    turn: float = 0.0,
 ) -> Plan:
     """The holder's ``plan`` of ``point`` (made to wait by :func:`hold_later`) waiting, from
-    its start, up by its own base (:data:`PARK_REACH` from it towards the hold,
-    :data:`PARK_HEIGHT` high), not where the person's hand rested, then going from there over
-    to above the hold and down (as :func:`straight_approach`) over the ticks of its way there.
-    ``plan`` itself when the hold's way there is not its first step."""
+    its start, up by its own base (:data:`PARK_REACH` from it towards the hold turned by
+    ``turn`` rad about the base, :data:`PARK_HEIGHT` high), not where the person's hand
+    rested, then going from there over to above the hold and down (as
+    :func:`straight_approach`; ``low``: down by its base first, then in at the hover's height)
+    over the ticks of its way there. ``plan`` itself when the hold's way there is not its
+    first step."""
     k = point.step - 1  # the pick_up
     lane = hands.lanes[point.hand]
     if k != 1 or lane[0].skill != "move":
@@ -209,7 +251,7 @@ def park_first(
         return plan
     h = _hover(plan, sel)
     hover = plan.position[h]
-    park = _park(base, hover)
+    park = _park(base, hover, turn)
     if park is None:
         return plan
     pos, yaw, opening = plan.position.copy(), plan.yaw.copy(), plan.opening.copy()
@@ -224,13 +266,18 @@ def park_first(
     return Plan(pos, yaw, opening, plan.segment.copy())
 
 
-def _park(base: np.ndarray, towards: np.ndarray) -> np.ndarray | None:
+def _park(base: np.ndarray, towards: np.ndarray, turn: float = 0.0) -> np.ndarray | None:
     """Where an arm waits up by its ``base``: :data:`PARK_REACH` from it horizontally towards
-    ``towards``, :data:`PARK_HEIGHT` high (None when ``towards`` is above the base)."""
+    ``towards`` turned by ``turn`` rad about it, :data:`PARK_HEIGHT` high (None when
+    ``towards`` is above the base)."""
     b = np.asarray(base, dtype=np.float64)[:2]
     u = np.asarray(towards, dtype=np.float64)[:2] - b
     d = float(np.linalg.norm(u))
-    return None if d < 1e-9 else np.array([*(b + PARK_REACH * u / d), PARK_HEIGHT])
+    if d < 1e-9:
+        return None
+    c, s = np.cos(turn), np.sin(turn)
+    u = np.array([c * u[0] - s * u[1], s * u[0] + c * u[1]]) / d
+    return np.array([*(b + PARK_REACH * u), PARK_HEIGHT])
 
 
 def _hover(plan: Plan, sel: np.ndarray) -> int:
@@ -284,6 +331,28 @@ def straight_approach(plan: Plan, hands: HandsProgram, point: Any) -> Plan:
     pos[i0 : h + 1], yaw[i0 : h + 1] = _over(a, plan.yaw[i0], b, plan.yaw[h], h - i0 + 1, top)
     opening[i0 : h + 1] = np.maximum(opening[i0 : h + 1], opening[h])
     return Plan(pos, yaw, opening, plan.segment.copy())
+
+
+def straight_down(plan: Plan, step: int) -> Plan:
+    """``plan`` with its ``step`` (the other arm's at a hold: the stack or push beside the
+    holder) going from its start up to the highest height it had, over to above its lowest
+    point and straight down to it, over the same ticks (min-jerk along the path): a DMP's
+    approach keeps the person's curve, which, the object moved, may sweep towards the holding
+    gripper 10 cm away. ``plan`` itself when the step does not go down to its lowest point
+    over two ticks or more."""
+    sel = np.nonzero(plan.segment == step)[0]
+    if sel.size < 3:
+        return plan
+    i0, low = int(sel[0]), int(sel[int(np.argmin(plan.position[sel, 2]))])
+    if low - i0 < 2:
+        return plan
+    top = float(plan.position[i0 : low + 1, 2].max())
+    pos, yaw = plan.position.copy(), plan.yaw.copy()
+    a, b = plan.position[i0], plan.position[low]
+    pos[i0 : low + 1], yaw[i0 : low + 1] = _over(
+        a, plan.yaw[i0], b, plan.yaw[low], low - i0 + 1, top
+    )
+    return Plan(pos, yaw, plan.opening.copy(), plan.segment.copy())
 
 
 def stack_across(

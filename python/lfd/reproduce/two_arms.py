@@ -479,7 +479,7 @@ def plan_two_arms(
     def plan(level: float) -> TwoArmPlan:
         return _plan_two_arms(trajs, hands, mode, robot, dict(displace or {}), level)
 
-    def score(p: TwoArmPlan) -> tuple[float, int]:
+    def score(p: TwoArmPlan) -> tuple[float, int, int]:
         def make_ik(side: str) -> MountedIK:
             return MountedIK(p.bases[side], p.yaws[side], robot.ik)
 

@@ -52,6 +52,39 @@ def test_arm_distances_are_negative_for_overlapping_grippers_and_capped_far_apar
     assert arm_clearance(apart, xml, ik, robot) == (FAR, 0.0)
 
 
+def test_the_least_distance_is_that_of_every_pair_of_the_two_arms_geoms() -> None:
+    """The least distance of two_arm_distance (pairs taken nearest bounding spheres first,
+    none farther than the least so far) is the least of every pair of the two arms' colliding
+    geoms, measured one by one: two Pandas in random poses, near enough to meet."""
+    import mujoco
+    from lfd.reproduce.panda import two_pandas
+    from lfd.reproduce.two_arm_distance import FAR, _geoms, _least
+    from lfd.reproduce.two_arms import scene_xml
+
+    robot = two_pandas()
+    bases = {"right": np.array([0.3, 0.0, 0.0]), "left": np.array([-0.3, 0.0, 0.0])}
+    model = mujoco.MjModel.from_xml_string(
+        scene_xml(bases, [], robot, {"right": np.pi, "left": 0.0})
+    )
+    data = mujoco.MjData(model)
+    geoms = _geoms(model, ["right", "left"])
+    ga, gb = np.array(geoms["right"]), np.array(geoms["left"])
+    rab = model.geom_rbound[ga][:, None] + model.geom_rbound[gb][None, :]
+    joints = [j for s in ("right", "left") for j in robot.arms[s].arm_joints]
+    rng, fromto, seen = np.random.default_rng(7), np.zeros(6), []
+    for _ in range(40):
+        for j in joints:
+            lo, hi = model.joint(j).range
+            data.qpos[model.joint(j).qposadr[0]] = rng.uniform(lo, hi)
+        mujoco.mj_kinematics(model, data)
+        every = [
+            mujoco.mj_geomDistance(model, data, int(a), int(b), FAR, fromto) for a in ga for b in gb
+        ]
+        seen.append(min(FAR, *every))
+        assert _least(model, data, ga, gb, rab, fromto) == pytest.approx(seen[-1], abs=1e-9)
+    assert min(seen) < 0.0 < max(seen)  # poses that overlap and poses apart
+
+
 def test_hold_later_waits_the_holder_until_the_other_arm_is_at_its_step() -> None:
     """The holder's approach (its move to the held object) starts once the other arm's
     synchronised step would start; that step then waits until the holder holds."""

@@ -244,7 +244,7 @@ def test_a_holder_made_to_wait_waits_by_its_base_then_comes_in() -> None:
 
     from lfd.reproduce.controller import Plan
     from lfd.reproduce.program import HandsProgram, Segment, SyncPoint
-    from lfd.reproduce.two_arm_clearance import PARK_HEIGHT, PARK_REACH, park_first
+    from lfd.reproduce.two_arm_clearance import PARK_HEIGHT, PARK_REACH, PARK_TURNS, park_first
 
     lane = [
         Segment("move", 0.0, 1.0, "plank"),
@@ -265,10 +265,14 @@ def test_a_holder_made_to_wait_waits_by_its_base_then_comes_in() -> None:
     plan = Plan(position, np.full(n, 0.3), np.full(n, 0.08), segment)
     base = np.array([-0.46, 0.49, 0.0])
     u = (hover[:2] - base[:2]) / np.linalg.norm(hover[:2] - base[:2])
-    park = np.array([*(base[:2] + PARK_REACH * u), PARK_HEIGHT])
     h = 70  # the hover: the pick_up's first (highest) tick before its descent
-    for low in (False, True):
-        out = park_first(plan, hands, hold, base, low=low)
+    assert PARK_TURNS[0] == 0.0 and len(PARK_TURNS) > 1
+    for low, turn in [(low, turn) for low in (False, True) for turn in PARK_TURNS]:
+        c, si = np.cos(turn), np.sin(turn)  # towards the hover, turned about the base
+        park = np.array(
+            [*(base[:2] + PARK_REACH * (np.array([[c, -si], [si, c]]) @ u)), PARK_HEIGHT]
+        )
+        out = park_first(plan, hands, hold, base, low=low, turn=turn)
         assert len(out) == n and np.array_equal(out.segment, segment)
         np.testing.assert_allclose(out.position[:40], np.repeat(park[None], 40, 0))
         np.testing.assert_allclose(out.position[h:], position[h:])
@@ -284,6 +288,59 @@ def test_a_holder_made_to_wait_waits_by_its_base_then_comes_in() -> None:
     at_second = replace(hold, step=3)
     later = HandsProgram(lanes={"right": other, "left": [lane[0], *lane]}, sync=[at_second])
     assert park_first(plan, later, at_second, base) is plan
+
+
+def test_a_step_beside_a_hold_goes_over_then_straight_down() -> None:
+    """The other arm's step at a hold (straight_down): a DMP's curve sweeping sideways towards
+    the holder becomes up to its highest height, over above the step's lowest point and
+    straight down to it, in the same ticks; what follows its lowest point is kept. A step of
+    one tick is kept."""
+    from lfd.reproduce.controller import Plan
+    from lfd.reproduce.two_arm_clearance import straight_down
+
+    n0, n1, n2 = 20, 50, 30  # before, the stack's descent, its release and what follows
+    start, low = np.array([0.03, 0.23, 0.19]), np.array([0.05, 0.22, 0.08])
+    s = np.linspace(0.0, 1.0, n1)[:, None]
+    curve = start + s * (low - start) + np.sin(np.pi * s) * np.array([-0.04, 0.0, 0.0])
+    position = np.concatenate([np.repeat(start[None], n0, 0), curve, np.repeat(low[None], n2, 0)])
+    segment = np.repeat([2, 3, 4], [n0, n1, n2])
+    n = len(position)
+    plan = Plan(position, np.full(n, 1.5), np.zeros(n), segment)
+    out = straight_down(plan, 3)
+    assert len(out) == n and np.array_equal(out.segment, segment)
+    np.testing.assert_allclose(out.position[: n0 + 1], position[: n0 + 1])
+    np.testing.assert_allclose(out.position[n0 + n1 - 1 :], position[n0 + n1 - 1 :])
+    way = out.position[n0 : n0 + n1]
+    assert way[:, 2].max() <= start[2] + 1e-9  # no higher than the step was
+    below = way[:, 2] < start[2] - 1e-6  # once going down, straight above its lowest point
+    np.testing.assert_allclose(way[below, :2], np.repeat(low[None, :2], below.sum(), 0), atol=1e-9)
+    assert np.all(way[:, 0] >= start[0] - 1e-9)  # no sweep towards the holder (-x)
+    assert np.all(np.diff(way[:, 2]) <= 1e-12)  # never up again
+    one = Plan(position, np.full(n, 1.5), np.zeros(n), np.repeat([2, 3, 4], [n0 + n1 - 1, 1, n2]))
+    assert straight_down(one, 3) is one
+
+
+def test_the_arms_clearance_counts_the_ticks_they_overlap_before_those_merely_close(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Two plans whose arms both touch (least distance 0 once clipped): the one overlapping at
+    fewer ticks scores higher, though closer than the clearance at more; apart scores higher
+    still (clearance_score, on measured distances)."""
+    import lfd.reproduce.two_arm_clearance as clearance
+
+    got = {
+        "deep": np.array([0.05, -0.01, -0.02, -0.01, 0.05]),
+        "brush": np.array([0.01, -0.001, 0.01, 0.012, 0.01]),
+        "apart": np.array([0.01, 0.008, 0.01, 0.012, 0.01]),
+    }
+
+    def score(name: str) -> tuple[float, int, int]:
+        monkeypatch.setattr(clearance, "arm_distances", lambda *a, **k: got[name])
+        return clearance.clearance_score({}, "", lambda s: None, None)
+
+    assert score("deep") == (0.0, -3, -3) and score("brush") == (0.0, -1, -5)
+    assert score("apart") == (0.008, 0, -5)
+    assert score("apart") > score("brush") > score("deep")
 
 
 @pytest.mark.slow  # one layout planned (its bases tried level with the work) and run (~3 min)
