@@ -226,6 +226,11 @@ PARK_HEIGHT = 0.35
 """How high (m) above the table a waiting holder's TCP waits (:func:`park_first`)."""
 
 
+PARK_IN_RISE = 0.1
+"""How high (m) above its grasp at least a parked holder comes in low (:func:`park_first`): a
+DMP's ``pick_up`` may begin at the grasp's height, and the way in would sweep the objects."""
+
+
 def park_first(
     plan: Plan,
     hands: HandsProgram,
@@ -239,7 +244,8 @@ def park_first(
     its start, up by its own base (:data:`PARK_REACH` from it towards the hold turned by
     ``turn`` rad about the base, :data:`PARK_HEIGHT` high), not where the person's hand
     rested, then going from there over to above the hold and down (as
-    :func:`straight_approach`; ``low``: down by its base first, then in at the hover's height)
+    :func:`straight_approach`; ``low``: down by its base first, then in at the hover's height,
+    at least :data:`PARK_IN_RISE` above the grasp, and down)
     over the ticks of its way there. ``plan`` itself when the hold's way there is not its
     first step."""
     k = point.step - 1  # the pick_up
@@ -257,8 +263,9 @@ def park_first(
     pos, yaw, opening = plan.position.copy(), plan.yaw.copy(), plan.opening.copy()
     yh, n = float(plan.yaw[h]), h - i0 + 1
     pos[:i0], yaw[:i0] = park, yh
-    if low:  # down by its base first, then in at the hold's height
-        way = np.array([[*park, yh], [*park[:2], hover[2], yh], [*hover, yh]])
+    if low:  # down by its base first, then in at the hover's height (or over the objects)
+        z = max(float(hover[2]), float(plan.position[sel, 2].min()) + PARK_IN_RISE)
+        way = np.array([[*park, yh], [*park[:2], z, yh], [*hover[:2], z, yh], [*hover, yh]])
         pos[i0 : h + 1], yaw[i0 : h + 1] = _along(way, n)
     else:
         pos[i0 : h + 1], yaw[i0 : h + 1] = _over(park, yh, hover, yh, n)

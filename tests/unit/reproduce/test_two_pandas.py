@@ -244,7 +244,13 @@ def test_a_holder_made_to_wait_waits_by_its_base_then_comes_in() -> None:
 
     from lfd.reproduce.controller import Plan
     from lfd.reproduce.program import HandsProgram, Segment, SyncPoint
-    from lfd.reproduce.two_arm_clearance import PARK_HEIGHT, PARK_REACH, PARK_TURNS, park_first
+    from lfd.reproduce.two_arm_clearance import (
+        PARK_HEIGHT,
+        PARK_IN_RISE,
+        PARK_REACH,
+        PARK_TURNS,
+        park_first,
+    )
 
     lane = [
         Segment("move", 0.0, 1.0, "plank"),
@@ -279,8 +285,11 @@ def test_a_holder_made_to_wait_waits_by_its_base_then_comes_in() -> None:
         way = out.position[40 : h + 1]
         np.testing.assert_allclose(way[-1], hover)
         off = np.linalg.norm(way[:, :2] - park[:2], axis=1) > 1e-6
-        if low:  # away from its base only at the hover's height
-            np.testing.assert_allclose(way[off, 2], hover[2], atol=1e-9)
+        if low:  # in at the hover's height, at least PARK_IN_RISE above the grasp, and down
+            z = max(hover[2], press[2] + PARK_IN_RISE)
+            level = off & (np.linalg.norm(way[:, :2] - hover[:2], axis=1) > 1e-6)
+            np.testing.assert_allclose(way[level, 2], z, atol=1e-9)
+            assert z > hover[2] and np.all(way[:, 2] >= hover[2] - 1e-9)
         else:  # over at the park's height, down above the hover
             near = np.linalg.norm(way[:, :2] - hover[:2], axis=1) > 1e-6
             np.testing.assert_allclose(way[off & near, 2], PARK_HEIGHT, atol=1e-9)
