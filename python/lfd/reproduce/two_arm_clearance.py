@@ -25,7 +25,8 @@ under the other arm that waits above the hold with its object; it goes instead o
 the hold and down, in the same time. Kept, too, only when the arms stay further apart.
 Likewise the other arm's step beside the hold goes over and straight down to its lowest
 point (:func:`straight_down`: a DMP keeps the person's curve, which, the objects moved, may
-sweep towards the holding gripper). And where they meet still, the holder lifts off as soon as the other arm's step has ended
+sweep towards the holding gripper), and its carry there goes over the holder, up at
+:data:`PARK_HEIGHT` (:func:`carry_over`). And where they meet still, the holder lifts off as soon as the other arm's step has ended
 (:func:`lift_early`; the person's hand held on for a while more, the arm that then goes away
 passing the pressing one), kept likewise. And last, an arm's move to where the person's hand
 went to rest once done goes up by its own base instead (:func:`park_last`), kept likewise.
@@ -123,7 +124,7 @@ def clear_holds(
         if (s := score(trial)) > best:
             out, best = trial, s
     changes: list[tuple[str, Callable[[dict[str, Plan]], Plan]]] = []
-    for make in (_straight_approach, _straight_down, _lift_early):
+    for make in (_straight_approach, _straight_down, _carry_over, _lift_early):
         changes += [make(p, hands) for p in holds]
     changes += [_park_last(side, hands, bases[side]) for side in plans]
     for side, change in changes:
@@ -166,6 +167,14 @@ def _straight_approach(p: Any, hands: HandsProgram) -> tuple[str, Callable[..., 
 
 def _straight_down(p: Any, hands: HandsProgram) -> tuple[str, Callable[..., Plan]]:
     return p.other, lambda o: straight_down(o[p.other], p.other_step)
+
+
+def _carry_over(p: Any, hands: HandsProgram) -> tuple[str, Callable[..., Plan]]:
+    before = p.other_step - 1
+    lane = hands.lanes[p.other]
+    if before < 0 or lane[before].skill != "move_with":
+        return p.other, lambda o: o[p.other]
+    return p.other, lambda o: carry_over(o[p.other], before)
 
 
 def _lift_early(p: Any, hands: HandsProgram) -> tuple[str, Callable[..., Plan]]:
@@ -340,6 +349,27 @@ def straight_approach(plan: Plan, hands: HandsProgram, point: Any) -> Plan:
     return Plan(pos, yaw, opening, plan.segment.copy())
 
 
+def carry_over(plan: Plan, step: int) -> Plan:
+    """``plan`` with its ``step`` (the other arm's ``move_with`` bringing what it stacks or
+    pushes beside the hold) going up to :data:`PARK_HEIGHT` (or the highest it had), over to
+    where the step ends and down to it, over the same ticks: the person's hand carried it on a
+    slant past the holding one, the arms' wrists meeting on the way. ``plan`` itself when the
+    step has fewer than three ticks."""
+    sel = np.nonzero(plan.segment == step)[0]
+    if sel.size < 3:
+        return plan
+    i0, i1 = int(sel[0]), int(sel[-1])
+    return _redone(plan, i0, i1, max(PARK_HEIGHT, float(plan.position[i0 : i1 + 1, 2].max())))
+
+
+def _redone(plan: Plan, i0: int, i1: int, top: float) -> Plan:
+    """``plan`` with ticks ``i0`` to ``i1`` going up to ``top``, over and down (:func:`_over`)."""
+    pos, yaw = plan.position.copy(), plan.yaw.copy()
+    a, b = plan.position[i0], plan.position[i1]
+    pos[i0 : i1 + 1], yaw[i0 : i1 + 1] = _over(a, plan.yaw[i0], b, plan.yaw[i1], i1 - i0 + 1, top)
+    return Plan(pos, yaw, plan.opening.copy(), plan.segment.copy())
+
+
 def straight_down(plan: Plan, step: int) -> Plan:
     """``plan`` with its ``step`` (the other arm's at a hold: the stack or push beside the
     holder) going from its start up to the highest height it had, over to above its lowest
@@ -353,13 +383,7 @@ def straight_down(plan: Plan, step: int) -> Plan:
     i0, low = int(sel[0]), int(sel[int(np.argmin(plan.position[sel, 2]))])
     if low - i0 < 2:
         return plan
-    top = float(plan.position[i0 : low + 1, 2].max())
-    pos, yaw = plan.position.copy(), plan.yaw.copy()
-    a, b = plan.position[i0], plan.position[low]
-    pos[i0 : low + 1], yaw[i0 : low + 1] = _over(
-        a, plan.yaw[i0], b, plan.yaw[low], low - i0 + 1, top
-    )
-    return Plan(pos, yaw, plan.opening.copy(), plan.segment.copy())
+    return _redone(plan, i0, low, float(plan.position[i0 : low + 1, 2].max()))
 
 
 def stack_across(

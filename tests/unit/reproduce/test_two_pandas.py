@@ -329,6 +329,32 @@ def test_a_step_beside_a_hold_goes_over_then_straight_down() -> None:
     assert straight_down(one, 3) is one
 
 
+def test_a_carry_to_beside_a_hold_goes_over_the_holder() -> None:
+    """The other arm's carry to its step beside a hold (carry_over): a slant from where it
+    picked its object up to where its step begins becomes straight up to PARK_HEIGHT, over and
+    down, in the same ticks, both ends kept; a carry of two ticks is kept."""
+    from lfd.reproduce.controller import Plan
+    from lfd.reproduce.two_arm_clearance import PARK_HEIGHT, carry_over
+
+    a, b = np.array([-0.16, 0.14, 0.04]), np.array([0.11, 0.30, 0.19])
+    slant = np.linspace(a, b, 60)
+    position = np.concatenate([np.repeat(a[None], 10, 0), slant, np.repeat(b[None], 10, 0)])
+    segment = np.repeat([1, 2, 3], [10, 60, 10])
+    n = len(position)
+    plan = Plan(position, np.linspace(0.0, 1.0, n), np.zeros(n), segment)
+    out = carry_over(plan, 2)
+    assert len(out) == n and np.array_equal(out.segment, segment)
+    np.testing.assert_allclose(out.position[:11], position[:11])
+    np.testing.assert_allclose(out.position[69:], position[69:])
+    way = out.position[10:70]
+    assert way[:, 2].max() == pytest.approx(PARK_HEIGHT)
+    rising = way[:, 2] < PARK_HEIGHT - 1e-6
+    first = int(np.argmax(~rising))  # up above where it picked, then over, then down
+    np.testing.assert_allclose(way[:first, :2], np.repeat(a[None, :2], first, 0), atol=1e-9)
+    two = Plan(position, np.zeros(n), np.zeros(n), np.repeat([1, 2, 3], [10, 2, n - 12]))
+    assert carry_over(two, 2) is two
+
+
 def test_the_arms_clearance_counts_the_ticks_they_overlap_before_those_merely_close(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
