@@ -26,10 +26,11 @@ the hold and down, in the same time. Kept, too, only when the arms stay further 
 Likewise the other arm's step beside the hold goes over and straight down to its lowest
 point (:func:`straight_down`: a DMP keeps the person's curve, which, the objects moved, may
 sweep towards the holding gripper), and its carry there goes over the holder, up at
-:data:`PARK_HEIGHT` (:func:`carry_over`). And where they meet still, the holder lifts off as soon as the other arm's step has ended
-(:func:`lift_early`; the person's hand held on for a while more, the arm that then goes away
-passing the pressing one), kept likewise. And last, an arm's move to where the person's hand
-went to rest once done goes up by its own base instead (:func:`park_last`), kept likewise.
+:data:`PARK_HEIGHT` (:func:`carry_over`). And where they meet still, the holder lifts off
+as soon as the other arm's step has ended (:func:`lift_early`; the person's hand held on for a
+while more, the arm that then goes away passing the pressing one), kept likewise. And last,
+an arm's move to where the person's hand went to rest once done goes up by its own base
+instead (:func:`park_last`), kept likewise.
 """
 
 from __future__ import annotations
@@ -108,8 +109,8 @@ def clear_holds(
     """``plans`` with each ``hold_until`` whose arms come closer than :data:`CLEARANCE`
     re-ordered (:func:`hold_later`, the holder waiting by its base: :func:`park_first`;
     ``bases``: each arm's), then its ways changed (:func:`straight_approach`,
-    :func:`straight_down`, :func:`lift_early`, :func:`park_last`), each kept only when that
-    keeps the arms further apart (the module docstring)."""
+    :func:`straight_down`, :func:`carry_over`, :func:`lift_early`, :func:`park_last`), each
+    kept only when that keeps the arms further apart (the module docstring)."""
     holds = [p for p in hands.sync if p.kind == "hold_until" and {p.hand, p.other} <= set(plans)]
     if len(plans) != 2 or not holds:
         return plans

@@ -1,5 +1,6 @@
 """The two arms kept apart at a hold (lfd.reproduce.two_arm_clearance): the arms' kinematic
-distance (lfd.reproduce.two_arm_distance) and the holder waiting while the other arm fetches across it."""
+distance (lfd.reproduce.two_arm_distance) and the holder waiting while the other arm fetches
+across it."""
 
 from __future__ import annotations
 
