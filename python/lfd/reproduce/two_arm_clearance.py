@@ -344,10 +344,9 @@ def straight_approach(plan: Plan, hands: HandsProgram, point: Any) -> Plan:
     a, b = plan.position[i0], plan.position[h]
     if np.linalg.norm(b - a) < 1e-9 and top <= a[2]:
         return plan
-    pos, yaw, opening = plan.position.copy(), plan.yaw.copy(), plan.opening.copy()
-    pos[i0 : h + 1], yaw[i0 : h + 1] = _over(a, plan.yaw[i0], b, plan.yaw[h], h - i0 + 1, top)
-    opening[i0 : h + 1] = np.maximum(opening[i0 : h + 1], opening[h])
-    return Plan(pos, yaw, opening, plan.segment.copy())
+    out = _redone(plan, i0, h, top)
+    out.opening[i0 : h + 1] = np.maximum(out.opening[i0 : h + 1], out.opening[h])
+    return out
 
 
 def carry_over(plan: Plan, step: int) -> Plan:
