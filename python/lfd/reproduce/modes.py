@@ -249,9 +249,11 @@ class _TaskPlanner:
         grasp_at: dict[str, np.ndarray] | None = None,
         grasp_across: dict[str, int] | None = None,
         push_by_grasp: set[str] | None = None,
+        carry_to_grasp: bool = False,
     ) -> None:
         self.frames, self.program, self.mode = frames, program, mode
         self.grasp_at, self.across = grasp_at or {}, grasp_across or {}
+        self.carry_to_grasp = carry_to_grasp
         self.by_grasp = set(push_by_grasp or ())
         self.events = sorted(events or [], key=lambda e: e[0])
         self.robot = frames.robot
@@ -400,10 +402,11 @@ class _TaskPlanner:
                 goal[:2] = grasp[:2]
                 goal[2] = max(goal[2], top + self.robot.finger_below_tcp + GRASP_CLEAR)
         elif nxt.skill in ("place", "stack"):
-            nxt_goal = _place_goal(
-                frames, nxt, objects, self.held, _end_index(frames, nxt), self.cur[3]
-            )[1]
+            ie = _end_index(frames, nxt)
+            nxt_goal = _place_goal(frames, nxt, objects, self.held, ie, self.cur[3])[1]
             goal[3] = nxt_goal[3]
+            if self.carry_to_grasp and self.held and self.held[0] in self.grasp_at:
+                goal[:2] = nxt_goal[:2]  # right above where the grasp puts the object
         return _SkillGoal(goal, grip)
 
     # --- the steps every segment goes through ------------------------------------------
@@ -601,6 +604,7 @@ def plan_task(
     grasp_at: dict[str, np.ndarray] | None = None,
     grasp_across: dict[str, int] | None = None,
     push_by_grasp: set[str] | None = None,
+    carry_to_grasp: bool = False,
 ) -> PlanResult:
     """Plan ``skills`` or ``dmp`` execution (or ``replay``) of ``program``.
 
@@ -627,6 +631,13 @@ def plan_task(
     push_by_grasp : set, optional
         The objects whose pushes grasp them and slide them instead, when they fit the gripper
         (:func:`~lfd.reproduce.motion.push_geometry`'s ``by_grasp``).
+    carry_to_grasp : bool
+        A carry before a place or stack of an object grasped at ``grasp_at`` ends right above
+        the release (where that grasp puts the object; the place or stack then goes straight
+        down), not where the person's hand, holding it elsewhere, began to put it down (a box
+        stacked beside the other arm's press, taken at its end away from it:
+        :func:`~lfd.reproduce.two_arm_clearance.stack_away`). Off (a handover's grasps), the
+        place or stack itself moves the difference while it descends.
     """
     if mode not in MODES:
         raise InvalidParameterError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
@@ -634,7 +645,15 @@ def plan_task(
     if mode != "replay":
         check_grasps(frames, program)
     return _TaskPlanner(
-        frames, program, mode, initial, events, grasp_at, grasp_across, push_by_grasp
+        frames,
+        program,
+        mode,
+        initial,
+        events,
+        grasp_at,
+        grasp_across,
+        push_by_grasp,
+        carry_to_grasp,
     ).plan()
 
 

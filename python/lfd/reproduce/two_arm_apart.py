@@ -1,4 +1,5 @@
-"""The two bases level with the work where the arms still meet (:mod:`.two_arms`).
+"""Where the planned arms still meet, the plan made again (:mod:`.two_arms`): a stacked box
+taken away from the other arm's press, the two bases level with the work, or both.
 
 Each base is placed for the widest reach margin over its lane
 (:func:`~.two_arm_bases.choose_bases`): for an arm with a long reach (the Panda's 0.38-0.71 m)
@@ -7,11 +8,14 @@ the work's centre), both arms coming at the objects from the same side and their
 converging where one stacks 10 cm beside the other's press. Where the planned arms (every
 rule of :mod:`.two_arm_holds` and :mod:`.two_arm_clearance` applied) still touch (their least
 planned distance 0 or less; closer than :data:`~.two_arm_clearance.CLEARANCE` but apart, a
-run succeeds, and a plan again costs its whole time), the whole plan is made again with both
-bases at most one of the robot's ``base_levels`` (m; :class:`~lfd.reproduce.aloha.TwoArmRobot`) before or
-behind the work's centre (along y), so that the arms come at it from its two sides; the plan
-whose arms stay furthest apart is kept (:func:`~.two_arm_clearance.clearance_score`), the
-first when none is further apart.
+run succeeds, and a plan again costs its whole time), the whole plan is made again: first
+with a box stacked beside the other arm's press taken at its end away from the press
+(:func:`~.two_arm_clearance.stack_away`: the two wrists, each about 10 cm across, overlapped
+where the stack and the press were 8 cm apart, natural ``hold_stack`` 9508), then with both
+bases at most one of the robot's ``base_levels`` (m; :class:`~lfd.reproduce.aloha.TwoArmRobot`)
+before or behind the work's centre (along y), so that the arms come at it from its two sides,
+then with both; the plan whose arms stay furthest apart is kept
+(:func:`~.two_arm_clearance.clearance_score`), the first when none is further apart.
 """
 
 from __future__ import annotations
@@ -25,26 +29,28 @@ from ..errors import DemonstrationError, UsageError
 
 
 def bases_apart(
-    plan: Callable[[float], Any],
+    plan: Callable[[float, bool], Any],
     score: Callable[[Any], tuple[float, int, int]],
     levels: tuple[float, ...],
 ) -> Any:
-    """``plan(level)`` (a :class:`~lfd.reproduce.two_arms.TwoArmPlan` with both bases at most
-    ``level`` before or behind the work) with the bases anywhere, or with one of
-    ``levels`` where that keeps the arms further apart (the module docstring; ``score``:
+    """``plan(level, away)`` (a :class:`~lfd.reproduce.two_arms.TwoArmPlan` with both bases at
+    most ``level`` before or behind the work; ``away``: a stacked object taken at its end away
+    from the other arm's press, None when no stack is beside a press) with the bases anywhere,
+    or where that keeps the arms further apart: the object taken away from the press, then
+    the bases at one of ``levels``, then both (the module docstring; ``score``:
     :func:`~.two_arm_clearance.clearance_score` of a plan's arms at its bases). Raises as
     ``plan`` does with the bases anywhere."""
-    out = plan(np.inf)
+    out = plan(np.inf, False)
     if len(out.plans) != 2:
         return out
     best = score(out)
-    for level in levels:
+    for level, away in [(np.inf, True), *((x, a) for a in (False, True) for x in levels)]:
         if best[0] > 0.0:
             break  # the planned arms do not touch (a plan again costs its whole time)
         try:
-            trial = plan(level)
+            trial = plan(level, away)
         except (DemonstrationError, UsageError):
             continue  # no base so placed reaches the lane, or its goals
-        if (s := score(trial)) > best:
+        if trial is not None and (s := score(trial)) > best:
             out, best = trial, s
     return out

@@ -46,6 +46,8 @@ from .program import HandsProgram
 from .two_arm_clock import _start, _wait
 from .two_arm_distance import MakeIK, arm_distances
 
+AWAY_GRASP = 1.0
+"""How far (m) :func:`stack_away` asks a grasp from the object's centre (clipped to the object)."""
 CLEARANCE = 0.015
 """The least distance (m) the two arms' colliding geoms are planned to keep."""
 EVERY = 4
@@ -386,18 +388,12 @@ def straight_down(plan: Plan, step: int) -> Plan:
     return _redone(plan, i0, low, float(plan.position[i0 : low + 1, 2].max()))
 
 
-def stack_across(
+def _stacks_beside(
     planned: dict[str, tuple[Any, Any, Any]], presses: dict[str, Any]
-) -> dict[str, dict[str, int]]:
-    """For each lane that stacks an object next to where the other arm presses (a hold by
-    pressing, :mod:`.two_arm_press`): the object's axis its gripper is to close along, the one
-    most across the line from the stacked object to the press. A gripper's bar spans its
-    closing axis (the ViperX's 15 cm): so both grippers turn their narrow side to each other
-    (the pressing one closes across that line too), the stacking one not reaching over the
-    pressing one."""
-    from .goals import yaw_of
-
-    out: dict[str, dict[str, int]] = {}
+) -> Iterator[tuple[str, str, np.ndarray, np.ndarray]]:
+    """(the stacking side, the object it stacks, the object's stacked pose, the press' x, y) of
+    every stack planned next to where the other arm presses (a hold by pressing,
+    :mod:`.two_arm_press`)."""
     for side, point in presses.items():
         other = point.other
         if side not in planned or other not in planned:
@@ -409,12 +405,43 @@ def stack_across(
             continue
         xy = press.position[int(at[0]), :2]
         for g in result.program.segments:
-            if g.skill != "stack" or g.object not in result.expected:
-                continue
-            T = result.expected[g.object]
-            u = xy - T[:2, 3]
-            rel = float(np.arctan2(u[1], u[0])) + np.pi / 2 - yaw_of(T[:3, :3])
-            out.setdefault(other, {})[str(g.object)] = (
-                0 if abs(np.cos(rel)) >= abs(np.sin(rel)) else 1
-            )
+            if g.skill == "stack" and g.object in result.expected:
+                yield other, str(g.object), result.expected[g.object], xy
+
+
+def stack_across(
+    planned: dict[str, tuple[Any, Any, Any]], presses: dict[str, Any]
+) -> dict[str, dict[str, int]]:
+    """For each lane that stacks an object next to where the other arm presses
+    (:func:`_stacks_beside`): the object's axis its gripper is to close along, the one
+    most across the line from the stacked object to the press. A gripper's bar spans its
+    closing axis (the ViperX's 15 cm): so both grippers turn their narrow side to each other
+    (the pressing one closes across that line too), the stacking one not reaching over the
+    pressing one."""
+    from .goals import yaw_of
+
+    out: dict[str, dict[str, int]] = {}
+    for other, name, T, xy in _stacks_beside(planned, presses):
+        u = xy - T[:2, 3]
+        rel = float(np.arctan2(u[1], u[0])) + np.pi / 2 - yaw_of(T[:3, :3])
+        out.setdefault(other, {})[name] = 0 if abs(np.cos(rel)) >= abs(np.sin(rel)) else 1
+    return out
+
+
+def stack_away(
+    planned: dict[str, tuple[Any, Any, Any]], presses: dict[str, Any]
+) -> dict[str, dict[str, np.ndarray]]:
+    """For each lane that stacks an object next to where the other arm presses
+    (:func:`_stacks_beside`): where its gripper takes the object (x, y in the object's frame,
+    :func:`~lfd.reproduce.modes.plan_task`'s ``grasp_at``), at its end away from the press,
+    as far as the fingers stay on it (:func:`~lfd.reproduce.goals.grasp_goal` clips the
+    offset across the closing axis; along it the grasp is centred). The two wrists, each
+    about 10 cm across, then stand further apart than the stack and the press (natural
+    ``hold_stack`` 9508: 8 cm apart, the wrists overlapping by 11 mm)."""
+    out: dict[str, dict[str, np.ndarray]] = {}
+    for other, name, T, xy in _stacks_beside(planned, presses):
+        u = T[:2, 3] - xy
+        n = float(np.linalg.norm(u))
+        if n > 0.0:
+            out.setdefault(other, {})[name] = T[:2, :2].T @ (u / n) * AWAY_GRASP
     return out

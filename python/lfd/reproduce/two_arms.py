@@ -476,8 +476,8 @@ def plan_two_arms(
     from .two_arm_apart import bases_apart
     from .two_arm_clearance import clearance_score
 
-    def plan(level: float) -> TwoArmPlan:
-        return _plan_two_arms(trajs, hands, mode, robot, dict(displace or {}), level)
+    def plan(level: float, away: bool) -> TwoArmPlan | None:
+        return _plan_two_arms(trajs, hands, mode, robot, dict(displace or {}), level, away)
 
     def score(p: TwoArmPlan) -> tuple[float, int, int]:
         def make_ik(side: str) -> MountedIK:
@@ -495,9 +495,11 @@ def _plan_two_arms(
     robot: TwoArmRobot,
     displace: dict[str, Any],
     level: float,
-) -> TwoArmPlan:
+    away: bool = False,
+) -> TwoArmPlan | None:
     """:func:`plan_two_arms` with each base at most ``level`` (m) before or behind the work
-    (:func:`~.two_arm_bases.choose_bases`).
+    (:func:`~.two_arm_bases.choose_bases`); ``away``: a stack beside a press takes its object
+    at the end away from the press (:func:`~.two_arm_clearance.stack_away`).
 
     Raises
     ------
@@ -508,7 +510,7 @@ def _plan_two_arms(
         A displacement whose re-grounded task is impossible
         (:func:`~lfd.reproduce.displacement.check_goals`).
     """
-    from .two_arm_clearance import stack_across
+    from .two_arm_clearance import stack_across, stack_away
     from .two_arm_handover import plan_handovers_apart
     from .two_arm_press import plan_press_lane
     from .two_arm_sequence import plan_sequence
@@ -547,9 +549,10 @@ def _plan_two_arms(
                     displace,
                     others,
                     events,
-                    (grasps or {}).get(s),
+                    {**far.get(s, {}), **(grasps or {}).get(s, {})} or None,
                     turned.get(s),
                     slides.get(s),
+                    s in far,
                 )
             except UsageError as err:  # the arm named
                 raise named_arm(err, s) from err
@@ -572,6 +575,7 @@ def _plan_two_arms(
         plans = {s: r.plan for s, (_, _, r) in planned.items()}
         return _finish(hands, mode, programs, bases, yaws, planned, plans)
     turned: dict[str, dict[str, int]] = {}  # grasps turned to keep two grippers apart
+    far: dict[str, dict[str, np.ndarray]] = {}  # and taken away from the press (``away``)
     slides: dict[str, set[str]] = {}  # pushes done by grasping, likewise (two_arm_holds)
 
     def slid(p: Any) -> tuple[Any, Any, Any] | None:
@@ -588,6 +592,9 @@ def _plan_two_arms(
     if len(sides) > 1:  # again, each lane knowing where the other arm moves its objects
         planned = plan_lanes(bases, planned)
     turned.update(stack_across(planned, presses))
+    far.update(stack_away(planned, presses) if away else {})
+    if away and not far:
+        return None  # no stack beside a press: the plan without ``away``
     if turned:  # a stack beside a press: its grasp turned (the press' lane is the same)
         planned = plan_lanes(bases, planned)
     if displace:  # the bases again, for the re-grounded paths and every planned object pose

@@ -755,3 +755,29 @@ def test_yaw_never_spins_the_wrist_round(sim_exp2: tuple) -> None:
             yaw = plan.yaw[plan.segment == k]
             assert np.ptp(yaw) <= np.pi, (mode, k, np.ptp(yaw))
         assert np.abs(np.diff(plan.yaw)).max() / 0.01 < 3.0, mode
+
+
+def test_an_asked_grasp_is_carried_to_where_it_puts_the_object(sim_demos: dict) -> None:
+    """exp1 seed 3's box_1 grasped elsewhere than the person held it (plan_task's
+    ``grasp_at``, as two arms ask it): with ``carry_to_grasp`` the carry ends right above the
+    stack's release (where the grasp puts the box); without, where the person's hand, holding
+    it elsewhere, was (the stack moving the difference as it descends)."""
+    from lfd.reproduce.goals import DemoFrames
+    from lfd.reproduce.modes import plan_task
+
+    traj, program = sim_demos["exp1"]
+    frames = DemoFrames(traj, np.zeros(3))
+    names = [(s.skill, s.object) for s in program.segments]
+    carry, stack = names.index(("move_with", "box_1")), names.index(("stack", "box_1"))
+
+    def last(plan, k):  # type: ignore[no-untyped-def]
+        return plan.position[np.flatnonzero(plan.segment == k)[-1], :2]
+
+    person = last(plan_task(frames, program, "skills").plan, carry)
+    at = {"box_1": np.array([-0.03, 0.0])}  # 17 mm off its centre: as far as the fingers stay
+    for carried in (True, False):  # right above the release, or where the person began
+        plan = plan_task(frames, program, "skills", grasp_at=at, carry_to_grasp=carried).plan
+        release = last(plan, stack)
+        assert np.linalg.norm(person - release) > 0.008  # where the person's hand was
+        end = release if carried else person
+        assert np.linalg.norm(last(plan, carry) - end) < 0.0025

@@ -197,6 +197,48 @@ def test_a_stack_beside_a_press_closes_across_the_line_to_the_press() -> None:
         assert stack_across(planned, {"right": point}) == {"left": {"box": want}}
 
 
+def test_a_stack_beside_a_press_is_asked_at_the_objects_end_away_from_the_press() -> None:
+    """stack_away: the box stacked 10 cm left of the press (along x) is taken at its -x end
+    (in its own frame: at its -y end when the box is turned by 90 deg), and grasp_goal
+    moves the grasp there only as far as the fingers stay on the box, across the closing
+    axis (along it the grasp stays centred)."""
+    from types import SimpleNamespace
+
+    from lfd.reproduce.controller import Plan
+    from lfd.reproduce.goals import GRASP_EDGE, grasp_goal
+    from lfd.reproduce.panda import panda
+    from lfd.reproduce.program import Segment, SyncPoint, TaskProgram
+    from lfd.reproduce.two_arm_clearance import stack_away
+
+    seg = np.array([0, 0, 1, 2, 2, 2, 3])
+    n = len(seg)
+    press = Plan(np.tile([0.1, 0.0, 0.05], (n, 1)), np.zeros(n), np.zeros(n), seg)
+    point = SyncPoint("hold_until", "right", 2, "left", 3, "plank", 5.0)
+    stack = TaskProgram([Segment("pick_up", 0, 1, "box"), Segment("stack", 1, 2, "box")])
+    arm, box = panda(), np.array([0.066, 0.066, 0.066])
+    for turn in (0.0, np.pi / 2):
+        T = np.eye(4)
+        T[:2, :2] = [[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]]
+        planned = {
+            "right": (None, None, SimpleNamespace(plan=press)),
+            "left": (None, None, SimpleNamespace(program=stack, expected={"box": T})),
+        }
+        at = stack_away(planned, {"right": point})["left"]["box"]
+        assert T[:2, :2] @ at / np.linalg.norm(at) == pytest.approx([-1.0, 0.0], abs=1e-9)
+        p, _ = grasp_goal(T, box, np.pi / 2, demo_offset=at, robot=arm)  # closing along y
+        free = box[0] / 2 - arm.finger_half_x - GRASP_EDGE
+        assert p[:2] == pytest.approx([-free, 0.0], abs=1e-9)
+    planned["right"] = (None, None, SimpleNamespace(plan=replace_segments(press, 9)))
+    assert stack_away(planned, {"right": point}) == {}  # no press step planned: nothing asked
+
+
+def replace_segments(plan, k):  # type: ignore[no-untyped-def]
+    """``plan`` with every tick in step ``k``."""
+    from dataclasses import replace
+
+    return replace(plan, segment=np.full(len(plan), k))
+
+
 def test_a_hold_stack_stacking_beside_the_press_is_achieved() -> None:
     """hold_stack seed 308 (careful): box_2 (60 x 40 mm) is stacked 10 cm from the press; the
     stacking gripper closed along the plank (across the 40 mm side), its wrist touched the

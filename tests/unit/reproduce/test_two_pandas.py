@@ -215,23 +215,35 @@ def test_bases_level_with_the_work_are_tried_where_the_arms_meet() -> None:
     assert all(abs(b[1] - centre_y) <= 0.2 + 1e-9 for b in level.values())
     assert level["right"][0] > 0 > level["left"][0]
 
-    scores = {np.inf: (-0.0, -40), 0.2: (0.0, -10), 0.3: (0.015, 0)}
-    asked: list[float] = []
+    scores = {
+        (np.inf, False): (-0.0, -40),
+        (np.inf, True): (0.0, -20),
+        (0.3, False): (0.0, -30),
+        (0.3, True): (0.015, 0),
+    }
+    asked: list[tuple[float, bool]] = []
 
-    def plan(level: float) -> SimpleNamespace:
-        asked.append(level)
+    def plan(level: float, away: bool) -> SimpleNamespace | None:
+        asked.append((level, away))
         if level == 0.2:
             raise DemonstrationError("short by 4 mm")
-        return SimpleNamespace(plans={"right": 0, "left": 0}, level=level)
+        return SimpleNamespace(plans={"right": 0, "left": 0}, key=(level, away))
 
     def score(p: SimpleNamespace) -> tuple[float, int]:
-        return scores[p.level]
+        return scores[p.key]
 
-    assert bases_apart(plan, score, (0.2, 0.3)).level == 0.3 and asked == [np.inf, 0.2, 0.3]
+    # the object taken away from the press first, then each level, then both
+    order = [(np.inf, False), (np.inf, True), (0.2, False), (0.3, False), (0.2, True), (0.3, True)]
+    assert bases_apart(plan, score, (0.2, 0.3)).key == (0.3, True) and asked == order
+    scores[(0.3, True)] = (0.0, -25)  # nothing clear: the one that overlaps least
+    assert bases_apart(plan, score, (0.2, 0.3)).key == (np.inf, True)
     for clear in [(0.015, 0), (0.005, -3)]:  # clear, or apart though closer: planned once
-        scores[np.inf] = clear
+        scores[(np.inf, False)] = clear
         asked.clear()
-        assert bases_apart(plan, score, (0.2, 0.3)).level == np.inf and asked == [np.inf]
+        assert bases_apart(plan, score, (0.2, 0.3)).key == (np.inf, False)
+        assert asked == [(np.inf, False)]
+    scores[(np.inf, False)] = (0.0, -40)
+    assert bases_apart(lambda lv, a: None if a else plan(lv, a), score, ()).key == (np.inf, False)
 
 
 def test_a_holder_made_to_wait_waits_by_its_base_then_comes_in() -> None:
