@@ -47,7 +47,8 @@ from .two_arm_clock import _start, _wait
 from .two_arm_distance import MakeIK, arm_distances
 
 AWAY_GRASP = 1.0
-"""How far (m) :func:`stack_away` asks a grasp from the object's centre (clipped to the object)."""
+"""How far (m) :func:`stack_away` asks a grasp from the object's centre (then clipped to the
+object)."""
 CLEARANCE = 0.015
 """The least distance (m) the two arms' colliding geoms are planned to keep."""
 EVERY = 4
