@@ -462,7 +462,8 @@ def plan_two_arms(
     ``displace``, as :func:`~lfd.reproduce.displacement.plan_layout` does for one arm) and put
     both on one clock. With displaced objects the bases are chosen again for the planned,
     re-grounded paths and the lanes planned again from there (as one arm's base is). Where
-    the arms still meet, the bases level with the work (:func:`~.two_arm_apart.bases_apart`).
+    the arms still meet, a stacked box taken away from the other arm's press, the bases level
+    with the work, or both (:func:`~.two_arm_apart.bases_apart`).
 
     Raises
     ------
