@@ -500,7 +500,8 @@ def _plan_two_arms(
 ) -> TwoArmPlan | None:
     """:func:`plan_two_arms` with each base at most ``level`` (m) before or behind the work
     (:func:`~.two_arm_bases.choose_bases`); ``away``: a stack beside a press takes its object
-    at the end away from the press (:func:`~.two_arm_clearance.stack_away`).
+    at the end away from the press (:func:`~.two_arm_clearance.stack_away`), and None is
+    returned where no stack is beside a press (the plan would be the one without ``away``).
 
     Raises
     ------
