@@ -55,6 +55,12 @@ class Plan:
         return len(self) * TICK
 
     @staticmethod
+    def of_path(path: np.ndarray, segment: int, opening: float = 0.0) -> Plan:
+        """A plan along ``path`` (n, 4: x, y, z, yaw) with one opening, in one segment."""
+        n = len(path)
+        return Plan(path[:, :3].copy(), path[:, 3].copy(), np.full(n, opening), np.full(n, segment))
+
+    @staticmethod
     def concat(parts: list[Plan]) -> Plan:
         """Join plans in order."""
         return Plan(

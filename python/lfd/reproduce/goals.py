@@ -61,6 +61,28 @@ def upright(T: np.ndarray) -> np.ndarray:
     return pose(T[:3, 3], yaw_of(T[:3, :3]))
 
 
+SQUARE_FOOTPRINT = 0.003
+"""A box whose sides in the table plane differ by less (m) is the same a quarter turn round
+(:func:`square_footprint`)."""
+
+
+def square_footprint(size: np.ndarray) -> bool:
+    """Whether a box of ``size`` (x, y, z) maps onto itself turned 90 deg about z."""
+    return bool(abs(size[0] - size[1]) < SQUARE_FOOTPRINT)
+
+
+def closing_axis(T_obj: np.ndarray, yaw: float) -> int:
+    """The object's axis (0: x, 1: y) nearest a gripper's closing direction ``yaw``."""
+    d = float(yaw) - yaw_of(T_obj[:3, :3])
+    return 0 if abs(np.cos(d)) >= abs(np.sin(d)) else 1
+
+
+def width_across(T_obj: np.ndarray, size: np.ndarray, yaw: float) -> float:
+    """Extent (m) of an upright box along the gripper's closing axis (direction ``yaw``)."""
+    d = float(yaw) - yaw_of(T_obj[:3, :3])
+    return float(abs(np.cos(d)) * size[0] + abs(np.sin(d)) * size[1])
+
+
 PLACE_NEIGHBOUR_RADIUS = 0.15
 """A place is relative to the nearest other object whose centre is within this distance (m,
 horizontal) of the placed object's demonstrated resting position; farther, to the world."""

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .goals import quat_to_matrix
+from .goals import quat_to_matrix, square_footprint
 
 POS_TOL = 0.01
 """Success: an object ends within this distance of its expected pose (m)."""
@@ -27,7 +27,7 @@ def _symmetries(size: np.ndarray) -> list[np.ndarray]:
     """Rotations that map the box onto itself (180 deg about each axis; 90 deg about z if the
     footprint is square)."""
     flips = [np.diag(d) for d in ((1, 1, 1), (1, -1, -1), (-1, 1, -1), (-1, -1, 1))]
-    if abs(size[0] - size[1]) >= 0.003:
+    if not square_footprint(size):
         return flips
     quarter = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
     return flips + [quarter @ f for f in flips]

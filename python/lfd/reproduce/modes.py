@@ -47,10 +47,13 @@ from .dmp import dmp_rollout, min_jerk, resample, warp
 from .goals import (
     DemoFrames,
     check_grasp_fits,
+    closing_axis,
     grasp_goal,
     grasp_opening,
     pose,
+    square_footprint,
     upright,
+    width_across,
     wrap_near,
     yaw_of,
 )
@@ -105,6 +108,8 @@ class PlanResult:
     scenes: list[dict[str, np.ndarray]] = field(default_factory=list)
     """Every object's planned pose right after each place, stack and push, then at the end
     (:func:`~lfd.reproduce.displacement.check_goals` checks each for overlaps and reach)."""
+    turned: set[str] = field(default_factory=set)
+    """The objects stacked (last) a quarter turn round (:func:`plan_task`'s ``turn_to_across``)."""
 
 
 def _ref_pose(
@@ -250,10 +255,12 @@ class _TaskPlanner:
         grasp_across: dict[str, int] | None = None,
         push_by_grasp: set[str] | None = None,
         carry_to_grasp: bool = False,
+        turn_to_across: bool = False,
     ) -> None:
         self.frames, self.program, self.mode = frames, program, mode
         self.grasp_at, self.across = grasp_at or {}, grasp_across or {}
-        self.carry_to_grasp = carry_to_grasp
+        self.carry_to_grasp, self.turn_to_across = carry_to_grasp, turn_to_across
+        self.turns: set[str] = set()  # stacked (next) a quarter turn round (turn_to_across)
         self.by_grasp = set(push_by_grasp or ())
         self.events = sorted(events or [], key=lambda e: e[0])
         self.robot = frames.robot
@@ -288,25 +295,30 @@ class _TaskPlanner:
         # the demonstration's timing is a wish: slowed down to what the arm can follow
         plan = retime(plan, self.robot.limits)
         self.scenes.append(dict(self.expected))
-        return PlanResult(plan, self.expected, self.goals, program, self.scenes)
+        return PlanResult(plan, self.expected, self.goals, program, self.scenes, self.turns)
 
     # --- one planner per skill: the goal, the grip, what changes in the scene -------------
     def _pick_up(self, k: int, seg: Segment, i1: int) -> _SkillGoal:
         name, goal = _pick_goal(self.frames, seg, self.objects, i1, self.grasp_at, self.across)
         self.held = (name, np.linalg.inv(self.objects[name]) @ pose(goal[:3], goal[3]))
         size = self.frames.size[self.frames.object_index(name)]
-        grip = grasp_opening(_width_across(self.objects[name], size, goal[3]), self.robot)
+        ask, self.turns = self.across.get(name), self.turns - {name}
+        put = next((s.skill for s in self.segs[k + 1 :] if s.skill in ("place", "stack")), None)
+        if self.turn_to_across and ask is not None and put == "stack" and square_footprint(size):
+            if closing_axis(self.objects[name], goal[3]) != ask:  # the other axis had room
+                self.turns.add(name)
+        grip = grasp_opening(width_across(self.objects[name], size, goal[3]), self.robot)
         return _SkillGoal(goal, grip, name=name, close_at_end=True)
 
     def _place(self, k: int, seg: Segment, i1: int) -> _SkillGoal:  # place and stack
         name, goal, T_end_demo = _place_goal(
-            self.frames, seg, self.objects, self.held, i1, self.cur[3]
+            self.frames, seg, self.objects, self.held, i1, self.cur[3], self.turns
         )
         self.objects[name] = self.expected[name] = T_end_demo
         self.scenes.append(dict(self.objects))
         size = self.frames.size[self.frames.object_index(name)]
         release = min(
-            self.robot.max_opening, _width_across(T_end_demo, size, goal[3]) + RELEASE_CLEARANCE
+            self.robot.max_opening, width_across(T_end_demo, size, goal[3]) + RELEASE_CLEARANCE
         )
         self.held = None
         return _SkillGoal(
@@ -345,16 +357,16 @@ class _TaskPlanner:
         if np.linalg.norm(cur[:3] - geo["hover"][:3]) > 0.002:
             pieces.append(line(cur, geo["hover"]))
         pieces.append(line(geo["hover"], geo["grasp"], min_s=GRASP_DESCENT_MIN_S))
-        self.parts.append(_part(np.concatenate(pieces), float(geo["opening"]), k))
+        self.parts.append(Plan.of_path(np.concatenate(pieces), k, float(geo["opening"])))
         grasp = geo["grasp"]
-        self.parts.append(_part(np.repeat(grasp[None], round(DWELL_S / TICK), 0), 0.0, -1))
+        self.parts.append(Plan.of_path(np.repeat(grasp[None], round(DWELL_S / TICK), 0), -1, 0.0))
         moving = np.concatenate(
             [
                 line(grasp, geo["contact"], min_s=PUSH_BACK_MIN_S),
                 push_progress(self.frames, str(seg.object), geo, (i0, i1), self.mode),
             ]
         )
-        self.parts.append(_part(moving, 0.0, k))
+        self.parts.append(Plan.of_path(moving, k, 0.0))
         self.cur, self.opening = moving[-1].copy(), 0.0
 
     def _locate(self, k: int, seg: Segment, i1: int) -> _SkillGoal:
@@ -403,7 +415,7 @@ class _TaskPlanner:
                 goal[2] = max(goal[2], top + self.robot.finger_below_tcp + GRASP_CLEAR)
         elif nxt.skill in ("place", "stack"):
             ie = _end_index(frames, nxt)
-            nxt_goal = _place_goal(frames, nxt, objects, self.held, ie, self.cur[3])[1]
+            nxt_goal = _place_goal(frames, nxt, objects, self.held, ie, self.cur[3], self.turns)[1]
             goal[3] = nxt_goal[3]
             if self.carry_to_grasp and self.held and self.held[0] in self.grasp_at:
                 goal[:2] = nxt_goal[:2]  # right above where the grasp puts the object
@@ -437,7 +449,7 @@ class _TaskPlanner:
             self._funnel(path, goal, str(sg.name))
         if seg.skill == "pick_up":
             path = self._vertical_grasp(path, goal, str(sg.name))
-        part = _part(path, sg.grip, k)
+        part = Plan.of_path(path, k, sg.grip)
         if seg.skill == "move" and k + 1 < len(self.segs) and self.segs[k + 1].skill == "push":
             if not self._slides_next:
                 part.opening[len(part) // 2 :] = 0.0  # close the fingers on the way to a push
@@ -578,19 +590,19 @@ class _TaskPlanner:
         dwell = round(DWELL_S / TICK)
         if sg.close_at_end:
             self.opening = 0.0
-            self.parts.append(_part(np.repeat(cur[None], dwell, 0), 0.0, -1))
+            self.parts.append(Plan.of_path(np.repeat(cur[None], dwell, 0), -1, 0.0))
         if sg.open_at_end:
             self.opening = self.robot.max_opening
-            self.parts.append(_part(np.repeat(cur[None], dwell, 0), sg.release, -1))
+            self.parts.append(Plan.of_path(np.repeat(cur[None], dwell, 0), -1, sg.release))
             up = cur.copy()  # leave the released object vertically, just clear of its top
             up[2] = max(up[2], sg.release_top + self.robot.finger_below_tcp + LIFT_ABOVE_RELEASED)
-            self.parts.append(_part(line(cur, up, min_s=LIFT_MIN_S), sg.release, -1))
+            self.parts.append(Plan.of_path(line(cur, up, min_s=LIFT_MIN_S), -1, sg.release))
             self.cur = up
         if sg.push is not None and "grasp" not in sg.push:  # back off the pushed face
             self.opening = 0.0
             u = sg.push["u"]
             back = cur + np.array([-PUSH_BACK_OFF * u[0], -PUSH_BACK_OFF * u[1], PUSH_BACK_UP, 0.0])
-            self.parts.append(_part(line(cur, back, min_s=PUSH_BACK_MIN_S), 0.0, -1))
+            self.parts.append(Plan.of_path(line(cur, back, min_s=PUSH_BACK_MIN_S), -1, 0.0))
             self.cur = back
 
 
@@ -605,6 +617,7 @@ def plan_task(
     grasp_across: dict[str, int] | None = None,
     push_by_grasp: set[str] | None = None,
     carry_to_grasp: bool = False,
+    turn_to_across: bool = False,
 ) -> PlanResult:
     """Plan ``skills`` or ``dmp`` execution (or ``replay``) of ``program``.
 
@@ -638,6 +651,11 @@ def plan_task(
         stacked beside the other arm's press, taken at its end away from it:
         :func:`~lfd.reproduce.two_arm_clearance.stack_away`). Off (a handover's grasps), the
         place or stack itself moves the difference while it descends.
+    turn_to_across : bool
+        A square box (:func:`~lfd.reproduce.goals.square_footprint`) whose ``grasp_across``
+        axis does not fit at its pick-up is stacked a quarter turn round: there the gripper
+        closes along the direction asked (beside the other arm's press, across the line to
+        it: :func:`~lfd.reproduce.two_arm_clearance.stack_across`).
     """
     if mode not in MODES:
         raise InvalidParameterError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
@@ -654,6 +672,7 @@ def plan_task(
         grasp_across,
         push_by_grasp,
         carry_to_grasp,
+        turn_to_across,
     ).plan()
 
 
@@ -739,9 +758,10 @@ def _place_goal(
     held: tuple[str, np.ndarray] | None,
     i1: int,
     yaw_now: float | None = None,
+    turns: set[str] | None = None,
 ) -> tuple[str, np.ndarray, np.ndarray]:
     """TCP goal of a place/stack and the object's resting pose there, relative to
-    :func:`place_reference` (Eq. 2).
+    :func:`place_reference` (Eq. 2); an object of ``turns`` stacked a quarter turn round.
 
     The gripper is symmetric: of the goal yaw's two representatives, the one nearest ``yaw_now``
     (the yaw the box is carried with) when the wrist stays within :data:`CARRY_WRIST` of its
@@ -754,6 +774,8 @@ def _place_goal(
     ref = place_reference(frames, seg, name, i1)
     if ref in objects and ref != name:  # Eq. 2: the resting pose follows its reference
         T_end = objects[ref] @ np.linalg.inv(frames.object_pose(ref, i1)) @ T_end
+    if seg.skill == "stack" and name in (turns or ()):
+        T_end = T_end @ pose(np.zeros(3), np.pi / 2)
     T_end[2, 3] = h / 2  # objects rest on the table (the tracked height is noisy) ...
     if seg.skill == "stack" and ref in objects:  # ... or on top of their support
         T_end[2, 3] = objects[ref][2, 3] + frames.size[frames.object_index(ref), 2] / 2 + h / 2
@@ -774,14 +796,3 @@ def _place_goal(
         goal[:3] = T_end[:3, 3] - pose(np.zeros(3), float(goal[3]))[:3, :3] @ in_grip
         goal[2] += RELEASE_LIFT
     return name, goal, T_end
-
-
-def _width_across(T_obj: np.ndarray, size: np.ndarray, yaw: float) -> float:
-    """Extent (m) of an upright box along the gripper's closing axis (direction ``yaw``)."""
-    d = float(yaw) - yaw_of(T_obj[:3, :3])
-    return float(abs(np.cos(d)) * size[0] + abs(np.sin(d)) * size[1])
-
-
-def _part(path: np.ndarray, grip: float, seg: int) -> Plan:
-    n = path.shape[0]
-    return Plan(path[:, :3].copy(), path[:, 3].copy(), np.full(n, grip), np.full(n, seg))

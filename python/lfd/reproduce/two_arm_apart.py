@@ -1,5 +1,6 @@
 """Where the planned arms still meet, the plan made again (:mod:`.two_arms`): a stacked box
-taken away from the other arm's press, the two bases level with the work, or both.
+taken away from the other arm's press, the two bases level with the work, or both; then the
+same with a square box stacked a quarter turn round.
 
 Each base is placed for the widest reach margin over its lane
 (:func:`~.two_arm_bases.choose_bases`): for an arm with a long reach (the Panda's 0.38-0.71 m)
@@ -16,6 +17,13 @@ bases at most one of the robot's ``base_levels`` (m; :class:`~lfd.reproduce.aloh
 before or behind the work's centre (along y), so that the arms come at it from its two sides,
 then with both; the plan whose arms stay furthest apart is kept
 (:func:`~.two_arm_clearance.clearance_score`), the first when none is further apart.
+
+Where they still touch, each of these again with a square box stacked there a quarter turn
+round where its gripper could not take it across the line to the press
+(:func:`~lfd.reproduce.modes.plan_task`'s ``turn_to_across``): a Panda's hand spans 20 cm
+along its closing axis, and closing along that line it reached the pressing wrist (natural
+``hold_stack`` 9510: a 53 mm cube stacked 12 cm from the press, taken along the line because
+an 18 cm plank lay within the open fingers' room across it; -25 mm).
 """
 
 from __future__ import annotations
@@ -29,28 +37,36 @@ from ..errors import DemonstrationError, UsageError
 
 
 def bases_apart(
-    plan: Callable[[float, bool], Any],
+    plan: Callable[[float, bool, bool], Any],
     score: Callable[[Any], tuple[float, int, int]],
     levels: tuple[float, ...],
 ) -> Any:
-    """``plan(level, away)`` (a :class:`~lfd.reproduce.two_arms.TwoArmPlan` with both bases at
-    most ``level`` before or behind the work; ``away``: a stacked object taken at its end away
-    from the other arm's press, None when no stack is beside a press) with the bases anywhere,
+    """``plan(level, away, turn)`` (a :class:`~lfd.reproduce.two_arms.TwoArmPlan` with both
+    bases at most ``level`` before or behind the work; ``away``: a stacked object taken at its
+    end away from the other arm's press, None when no stack is beside a press; ``turn``: a
+    square box stacked there a quarter turn round, None when none is) with the bases anywhere,
     or where that keeps the arms further apart: the object taken away from the press, then
-    the bases at one of ``levels``, then both (the module docstring; ``score``:
-    :func:`~.two_arm_clearance.clearance_score` of a plan's arms at its bases). Raises as
-    ``plan`` does with the bases anywhere."""
-    out = plan(np.inf, False)
+    the bases at one of ``levels``, then both; then each of these with the box turned (the
+    module docstring; ``score``: :func:`~.two_arm_clearance.clearance_score` of a plan's arms
+    at its bases). Raises as ``plan`` does with the bases anywhere."""
+    out = plan(np.inf, False, False)
     if len(out.plans) != 2:
         return out
     best = score(out)
-    for level, away in [(np.inf, True), *((x, a) for a in (False, True) for x in levels)]:
+    for level, away, turn in _trials(levels):
         if best[0] > 0.0:
             break  # the planned arms do not touch (a plan again costs its whole time)
         try:
-            trial = plan(level, away)
+            trial = plan(level, away, turn)
         except (DemonstrationError, UsageError):
             continue  # no base so placed reaches the lane, or its goals
         if trial is not None and (s := score(trial)) > best:
             out, best = trial, s
     return out
+
+
+def _trials(levels: tuple[float, ...]) -> list[tuple[float, bool, bool]]:
+    """(level, away, turn) of every plan :func:`bases_apart` tries after the first, in order."""
+    unturned = [(np.inf, True), *((x, a) for a in (False, True) for x in levels)]
+    turned = [(np.inf, False), *unturned]  # the first plan's rules, with the box turned
+    return [(x, a, False) for x, a in unturned] + [(x, a, True) for x, a in turned]

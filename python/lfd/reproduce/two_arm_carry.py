@@ -187,13 +187,8 @@ def _in_world(obj: np.ndarray, rel: np.ndarray) -> np.ndarray:
     return np.column_stack([x, y, obj[:, 2] + rel[2], obj[:, 3] + rel[3]])
 
 
-def _part(path: np.ndarray, seg: int, opening: float = 0.0) -> Plan:
-    n = len(path)
-    return Plan(path[:, :3].copy(), path[:, 3].copy(), np.full(n, opening), np.full(n, seg))
-
-
 def _hold(state: np.ndarray, seconds: float, seg: int) -> Plan:
-    return _part(np.repeat(state[None], max(1, round(seconds / TICK)), 0), seg)
+    return Plan.of_path(np.repeat(state[None], max(1, round(seconds / TICK)), 0), seg)
 
 
 def object_path(
@@ -351,15 +346,15 @@ def carry_unit(
         blocks.append(
             Plan.concat(
                 [
-                    _part(line(tcp_out0, tcp_in0, min_s=PRESS_S), k_pick),
+                    Plan.of_path(line(tcp_out0, tcp_in0, min_s=PRESS_S), k_pick),
                     _hold(tcp_in0, SETTLE_S, -1),
-                    _part(path[:k_low], k_with),
-                    _part(path[k_low:], k_place),
+                    Plan.of_path(path[:k_low], k_with),
+                    Plan.of_path(path[k_low:], k_place),
                     _hold(path[-1], SETTLE_S, -1),
-                    _part(line(path[-1], relax, min_s=RELAX_S)[1:], -1),
+                    Plan.of_path(line(path[-1], relax, min_s=RELAX_S)[1:], -1),
                     _hold(relax, SETTLE_S, -1),
-                    _part(line(relax, back, min_s=PRESS_S)[1:], -1),
-                    _part(line(back, up, min_s=0.4)[1:], -1),
+                    Plan.of_path(line(relax, back, min_s=PRESS_S)[1:], -1),
+                    Plan.of_path(line(back, up, min_s=0.4)[1:], -1),
                 ]
             )
         )
@@ -406,4 +401,4 @@ def _approach(
     path = np.concatenate(
         [line(cur, up, min_s=0.3), line(up, above)[1:], line(above, goal, min_s=0.6)[1:]]
     )
-    return _part(path, k)
+    return Plan.of_path(path, k)

@@ -419,13 +419,12 @@ def stack_across(
     closing axis (the ViperX's 15 cm): so both grippers turn their narrow side to each other
     (the pressing one closes across that line too), the stacking one not reaching over the
     pressing one."""
-    from .goals import yaw_of
+    from .goals import closing_axis
 
     out: dict[str, dict[str, int]] = {}
     for other, name, T, xy in _stacks_beside(planned, presses):
         u = xy - T[:2, 3]
-        rel = float(np.arctan2(u[1], u[0])) + np.pi / 2 - yaw_of(T[:3, :3])
-        out.setdefault(other, {})[name] = 0 if abs(np.cos(rel)) >= abs(np.sin(rel)) else 1
+        out.setdefault(other, {})[name] = closing_axis(T, float(np.arctan2(u[1], u[0])) + np.pi / 2)
     return out
 
 

@@ -37,12 +37,14 @@ def plan_lane(
     grasp_across: dict[str, int] | None = None,
     push_by_grasp: set[str] | None = None,
     carry_to_grasp: bool = False,
+    turn_to_across: bool = False,
 ) -> tuple[Any, dict[str, np.ndarray], Any]:
     """One lane planned from ``base`` with the objects where the layout puts them (``moved``):
     :func:`~lfd.reproduce.displacement.plan_layout` with the base fixed, its re-grounded
     goals checked (:func:`~lfd.reproduce.displacement.check_goals`) when displaced, against
     every object but ``others`` (those the other arm moves); ``grasp_at``, ``grasp_across``,
-    ``push_by_grasp``, ``carry_to_grasp``: as :func:`~lfd.reproduce.modes.plan_task`'s."""
+    ``push_by_grasp``, ``carry_to_grasp``, ``turn_to_across``: as
+    :func:`~lfd.reproduce.modes.plan_task`'s."""
     from .displacement import program_start
     from .goals import DemoFrames
     from .modes import plan_task
@@ -60,6 +62,7 @@ def plan_lane(
         grasp_across=grasp_across,
         push_by_grasp=push_by_grasp,
         carry_to_grasp=carry_to_grasp,
+        turn_to_across=turn_to_across,
     )
     check_lane_goals((frames, initial, result), displace, others)
     return frames, initial, result

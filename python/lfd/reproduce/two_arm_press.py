@@ -117,11 +117,6 @@ def _far_end(T: np.ndarray, free: np.ndarray, away: np.ndarray) -> tuple[np.ndar
     return best[1], best[2]
 
 
-def _part(path: np.ndarray, seg: int, opening: float = 0.0) -> Plan:
-    n = len(path)
-    return Plan(path[:, :3].copy(), path[:, 3].copy(), np.full(n, opening), np.full(n, seg))
-
-
 def plan_press_lane(
     traj: Any,
     hands: HandsProgram,
@@ -166,7 +161,7 @@ def plan_press_lane(
     path = np.concatenate(
         [line(cur, up, min_s=0.3), line(up, hover)[1:], line(hover, press, min_s=0.8)[1:]]
     )
-    approach = _part(path, k - 1)
+    approach = Plan.of_path(path, k - 1)
     approach.opening[: len(path) // 3] = frames.robot.max_opening
     held_s = max(lane[k].end_s - lane[k].start_s, TICK)
     lift = press.copy()
@@ -175,8 +170,8 @@ def plan_press_lane(
         Plan.concat(
             [
                 approach,
-                _part(np.repeat(press[None], max(1, round(held_s / TICK)), 0), k),
-                _part(line(press, lift, min_s=0.6)[1:], k + 1),
+                Plan.of_path(np.repeat(press[None], max(1, round(held_s / TICK)), 0), k),
+                Plan.of_path(line(press, lift, min_s=0.6)[1:], k + 1),
             ]
         ),
         robot.ik.limits,

@@ -34,7 +34,7 @@ from .controller import TICK, Plan
 from .goals import DemoFrames, grasp_max_width, upright, wrap_near
 from .motion import line
 from .program import SYNC_TOLERANCE_S, HandsProgram, Segment, SyncPoint
-from .two_arm_carry import _hold, _lane_part, _part, carry_unit
+from .two_arm_carry import _hold, _lane_part, carry_unit
 
 Z_CAP = 0.25
 """Highest TCP (m) of the plans and of the points the bases are placed to reach: people lift an
@@ -423,7 +423,7 @@ def plan_sequence(
             segs = [hands.lanes[who][k] for k in unit]
             lead = None
             if np.allclose(cur[who], rest[who]):  # from its rest: over to the first step
-                lead = _part(transit_to_first(cur[who], segs[0], frames[who], scene), -1)
+                lead = Plan.of_path(transit_to_first(cur[who], segs[0], frames[who], scene), -1)
                 lead.opening[:] = robot.ik.max_opening
                 cur[who] = np.array([*lead.position[-1], lead.yaw[-1]])
             res = _lane_part(frames[who], segs, mode, scene, start=cur[who], cap=Z_CAP)
@@ -461,7 +461,7 @@ def plan_sequence(
                 home = rest[s].copy()
                 home[3] = float(wrap_near(home[3], up[3]))
                 back = np.concatenate([line(cur[s], up, min_s=0.3), line(up, home)[1:]])
-                parts[s].append(_part(back, -1, robot.ik.max_opening))
+                parts[s].append(Plan.of_path(back, -1, robot.ik.max_opening))
                 cur[s] = rest[s].copy()
     out = {}
     for s in sides:

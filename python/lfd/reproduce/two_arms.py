@@ -477,8 +477,8 @@ def plan_two_arms(
     from .two_arm_apart import bases_apart
     from .two_arm_clearance import clearance_score
 
-    def plan(level: float, away: bool) -> TwoArmPlan | None:
-        return _plan_two_arms(trajs, hands, mode, robot, dict(displace or {}), level, away)
+    def plan(level: float, away: bool, turn: bool) -> TwoArmPlan | None:
+        return _plan_two_arms(trajs, hands, mode, robot, dict(displace or {}), level, away, turn)
 
     def score(p: TwoArmPlan) -> tuple[float, int, int]:
         def make_ik(side: str) -> MountedIK:
@@ -497,11 +497,16 @@ def _plan_two_arms(
     displace: dict[str, Any],
     level: float,
     away: bool = False,
+    turn: bool = False,
 ) -> TwoArmPlan | None:
     """:func:`plan_two_arms` with each base at most ``level`` (m) before or behind the work
     (:func:`~.two_arm_bases.choose_bases`); ``away``: a stack beside a press takes its object
     at the end away from the press (:func:`~.two_arm_clearance.stack_away`), and None is
-    returned where no stack is beside a press (the plan would be the one without ``away``).
+    returned where no stack is beside a press (the plan would be the one without ``away``);
+    ``turn``: a square box stacked there whose gripper cannot take it across the line to the
+    press is stacked a quarter turn round, so that it closes across that line there
+    (:func:`~lfd.reproduce.modes.plan_task`'s ``turn_to_across``), and None is returned
+    where no box is so turned.
 
     Raises
     ------
@@ -515,7 +520,6 @@ def _plan_two_arms(
     from .two_arm_clearance import stack_across, stack_away
     from .two_arm_handover import plan_handovers_apart
     from .two_arm_press import plan_press_lane
-    from .two_arm_sequence import plan_sequence
 
     hands, sequence, presses = prepare_two_arms(trajs, hands, robot)
     check_runs(hands)
@@ -555,27 +559,16 @@ def _plan_two_arms(
                     turned.get(s),
                     slides.get(s),
                     s in far,
+                    turn,
                 )
             except UsageError as err:  # the arm named
                 raise named_arm(err, s) from err
         return out
 
-    def plan_units(bases: dict[str, np.ndarray]) -> dict[str, tuple[Any, Any, Any]]:
-        out = plan_sequence(trajs, hands, mode, bases, robot, moved)
-        for s in sides:
-            check_lane_goals(out[s], displace, _others(programs, s), s)
-        return out
-
     if sequence:
-        planned = plan_units(bases)
-        if displace:  # the bases again, for the re-grounded paths and every object pose
-            new = choose_bases(*_scene_points(planned), robot, level=level)
-            if any(np.linalg.norm(new[s] - bases[s]) > 1e-9 for s in sides):
-                bases = new
-                planned = plan_units(bases)
-        yaws = {s: mount_yaw(bases[s], points[s]) for s in sides}
-        plans = {s: r.plan for s, (_, _, r) in planned.items()}
-        return _finish(hands, mode, programs, bases, yaws, planned, plans)
+        return _sequenced(
+            trajs, hands, mode, robot, moved, displace, programs, bases, points, level
+        )
     turned: dict[str, dict[str, int]] = {}  # grasps turned to keep two grippers apart
     far: dict[str, dict[str, np.ndarray]] = {}  # and taken away from the press (``away``)
     slides: dict[str, set[str]] = {}  # pushes done by grasping, likewise (two_arm_holds)
@@ -599,6 +592,8 @@ def _plan_two_arms(
         return None  # no stack beside a press: the plan without ``away``
     if turned:  # a stack beside a press: its grasp turned (the press' lane is the same)
         planned = plan_lanes(bases, planned)
+    if turn and not any(r.turned for _, _, r in planned.values()):
+        return None  # no box stacked turned: the plan without ``turn``
     if displace:  # the bases again, for the re-grounded paths and every planned object pose
         new = choose_bases(*_scene_points(planned), robot, level=level)
         if any(np.linalg.norm(new[s] - bases[s]) > 1e-9 for s in sides):
@@ -609,6 +604,40 @@ def _plan_two_arms(
     return _kept_clear(
         trajs, hands, mode, robot, moved, displace, programs, bases, yaws, planned, plans, slid
     )
+
+
+def _sequenced(
+    trajs: dict[str, Any],
+    hands: HandsProgram,
+    mode: str,
+    robot: TwoArmRobot,
+    moved: dict[str, np.ndarray],
+    displace: dict[str, Any],
+    programs: dict[str, Any],
+    bases: dict[str, np.ndarray],
+    points: dict[str, np.ndarray],
+    level: float,
+) -> TwoArmPlan:
+    """:func:`_plan_two_arms` of a program the arms run as one sequence
+    (:func:`~.two_arm_sequence.plan_sequence`), from ``bases`` or, displaced, from the bases
+    chosen again for the re-grounded paths and every object pose."""
+    from .two_arm_sequence import plan_sequence
+
+    def plan_units(bases: dict[str, np.ndarray]) -> dict[str, tuple[Any, Any, Any]]:
+        out = plan_sequence(trajs, hands, mode, bases, robot, moved)
+        for s in programs:
+            check_lane_goals(out[s], displace, _others(programs, s), s)
+        return out
+
+    planned = plan_units(bases)
+    if displace:
+        new = choose_bases(*_scene_points(planned), robot, level=level)
+        if any(np.linalg.norm(new[s] - bases[s]) > 1e-9 for s in programs):
+            bases = new
+            planned = plan_units(bases)
+    yaws = {s: mount_yaw(bases[s], points[s]) for s in programs}
+    plans = {s: r.plan for s, (_, _, r) in planned.items()}
+    return _finish(hands, mode, programs, bases, yaws, planned, plans)
 
 
 def _kept_clear(

@@ -781,3 +781,55 @@ def test_an_asked_grasp_is_carried_to_where_it_puts_the_object(sim_demos: dict) 
         assert np.linalg.norm(person - release) > 0.008  # where the person's hand was
         end = release if carried else person
         assert np.linalg.norm(last(plan, carry) - end) < 0.0025
+
+
+def test_a_square_box_its_gripper_cannot_take_as_asked_is_stacked_a_quarter_turn_round(
+    sim_demos: dict,
+) -> None:
+    """exp1 seed 3's box_1 (a 5 cm cube, stacked on box_2) with box_2 moved 1 cm from one of
+    its faces: a closing axis asked into box_2 has no room at the pick-up, so the gripper
+    closes along the other. With ``turn_to_across`` the cube is stacked a quarter turn round,
+    so that at the release the gripper closes along the axis asked of the stacked pose (the
+    two-arm stack beside a press: across the line to it); an axis it could take, or the flag
+    off, leaves the stacked pose as it was."""
+    from lfd.reproduce.displacement import program_start
+    from lfd.reproduce.goals import DemoFrames, closing_axis, yaw_of
+    from lfd.reproduce.modes import plan_task
+
+    traj, program = sim_demos["exp1"]
+    frames = DemoFrames(traj, np.zeros(3))
+    start = program_start(traj, program)
+    names = [(s.skill, s.object) for s in program.segments]
+    pick, stack = names.index(("pick_up", "box_1")), names.index(("stack", "box_1"))
+
+    def yaw_at(plan, k):  # type: ignore[no-untyped-def]
+        return float(plan.yaw[np.flatnonzero(plan.segment == k)[-1]])
+
+    for blocked in (0, 1):
+        init = {n: frames.object_pose(n, start) for n in frames.names}
+        T1 = init["box_1"]
+        init["box_2"] = init["box_2"].copy()  # 1 cm from box_1's face along axis ``blocked``
+        init["box_2"][:2, 3] = T1[:2, 3] + T1[:2, blocked] * (0.025 + 0.03 + 0.01)
+        plain = plan_task(frames, program, "skills", initial=init).expected["box_1"]
+        for ask in (0, 1):
+            for turn in (False, True):
+                result = plan_task(
+                    frames,
+                    program,
+                    "skills",
+                    initial=init,
+                    grasp_across={"box_1": ask},
+                    turn_to_across=turn,
+                )
+                had = closing_axis(T1, yaw_at(result.plan, pick))
+                assert had == 1 - blocked  # the blocked axis is never taken
+                T = result.expected["box_1"]
+                turned = turn and ask == blocked
+                assert result.turned == ({"box_1"} if turned else set())
+                d = np.degrees(yaw_of(T[:3, :3]) - yaw_of(plain[:3, :3]))
+                assert abs((d + 45.0) % 180.0 - 45.0) == pytest.approx(
+                    90.0 if turned else 0.0, abs=1e-6
+                )
+                np.testing.assert_allclose(T[:3, 3], plain[:3, 3], atol=1e-9)
+                release = closing_axis(plain, yaw_at(result.plan, stack))
+                assert release == (ask if turned else had)  # along the axis asked, when turned

@@ -216,34 +216,46 @@ def test_bases_level_with_the_work_are_tried_where_the_arms_meet() -> None:
     assert level["right"][0] > 0 > level["left"][0]
 
     scores = {
-        (np.inf, False): (-0.0, -40),
-        (np.inf, True): (0.0, -20),
-        (0.3, False): (0.0, -30),
-        (0.3, True): (0.015, 0),
+        (np.inf, False, False): (-0.0, -40),
+        (np.inf, True, False): (0.0, -20),
+        (0.3, False, False): (0.0, -30),
+        (0.3, True, False): (0.015, 0),
     }
-    asked: list[tuple[float, bool]] = []
+    asked: list[tuple[float, bool, bool]] = []
 
-    def plan(level: float, away: bool) -> SimpleNamespace | None:
-        asked.append((level, away))
+    def plan(level: float, away: bool, turn: bool) -> SimpleNamespace | None:
+        asked.append((level, away, turn))
         if level == 0.2:
             raise DemonstrationError("short by 4 mm")
-        return SimpleNamespace(plans={"right": 0, "left": 0}, key=(level, away))
+        if turn and (level, away, turn) not in scores:
+            return None  # no box turned
+        return SimpleNamespace(plans={"right": 0, "left": 0}, key=(level, away, turn))
 
     def score(p: SimpleNamespace) -> tuple[float, int]:
         return scores[p.key]
 
     # the object taken away from the press first, then each level, then both
-    order = [(np.inf, False), (np.inf, True), (0.2, False), (0.3, False), (0.2, True), (0.3, True)]
-    assert bases_apart(plan, score, (0.2, 0.3)).key == (0.3, True) and asked == order
-    scores[(0.3, True)] = (0.0, -25)  # nothing clear: the one that overlaps least
-    assert bases_apart(plan, score, (0.2, 0.3)).key == (np.inf, True)
+    unturned = [(np.inf, True), (0.2, False), (0.3, False), (0.2, True), (0.3, True)]
+    order = [(np.inf, False, False), *((x, a, False) for x, a in unturned)]
+    assert bases_apart(plan, score, (0.2, 0.3)).key == (0.3, True, False) and asked == order
+    scores[(0.3, True, False)] = (0.0, -25)  # nothing clear: the one that overlaps least
+    asked.clear()
+    assert bases_apart(plan, score, (0.2, 0.3)).key == (np.inf, True, False)
+    # then each again with a square box stacked turned (None where none is)
+    assert asked == order + [(x, a, True) for x, a in [(np.inf, False), *unturned]]
+    scores[(np.inf, True, True)] = (0.012, 0)
+    scores[(0.3, False, True)] = (0.02, 0)  # further apart, but not tried: already clear
+    asked.clear()
+    assert bases_apart(plan, score, (0.2, 0.3)).key == (np.inf, True, True)
+    assert asked[-2:] == [(np.inf, False, True), (np.inf, True, True)]
     for clear in [(0.015, 0), (0.005, -3)]:  # clear, or apart though closer: planned once
-        scores[(np.inf, False)] = clear
+        scores[(np.inf, False, False)] = clear
         asked.clear()
-        assert bases_apart(plan, score, (0.2, 0.3)).key == (np.inf, False)
-        assert asked == [(np.inf, False)]
-    scores[(np.inf, False)] = (0.0, -40)
-    assert bases_apart(lambda lv, a: None if a else plan(lv, a), score, ()).key == (np.inf, False)
+        assert bases_apart(plan, score, (0.2, 0.3)).key == (np.inf, False, False)
+        assert asked == [(np.inf, False, False)]
+    scores[(np.inf, False, False)] = (0.0, -40)
+    only = lambda lv, a, t: None if a or t else plan(lv, a, t)  # noqa: E731
+    assert bases_apart(only, score, ()).key == (np.inf, False, False)
 
 
 def test_a_holder_made_to_wait_waits_by_its_base_then_comes_in() -> None:
