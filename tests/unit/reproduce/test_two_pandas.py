@@ -421,6 +421,31 @@ def test_a_holder_waits_by_its_base_while_the_other_arm_fetches_across() -> None
     assert res.success, res.failures
 
 
+@pytest.mark.slow  # one layout planned (seven times: the arms touch until the cube turns), run
+def test_a_cube_stacked_a_quarter_turn_round_keeps_the_pandas_apart() -> None:
+    """Natural hold_stack seed 9510, its first randomised layout: the right hand stacks a 53 mm
+    cube 12 cm from the left's press, and at the pick-up the plank lies within the open
+    fingers' room across the line to the press, so the gripper closes along it: a Panda hand,
+    20 cm along its closing axis, reached the pressing wrist (-25 mm, the right gripper on the
+    left arm's link6 at 10.2 s). Stacked a quarter turn round, the gripper closes across that
+    line there: the arms stay apart, the task is achieved."""
+    from lfd.reproduce.panda import two_pandas
+    from lfd.reproduce.two_arms import plan_two_arms, run_two_arm_plan
+
+    trajs, hands = program("hold_stack", 9510, style="natural")
+    displace = {
+        "plank": (-0.032685209730525966, 0.003044329356605491, -18.74755124927825),
+        "box_1": (-0.03644024484159324, 0.029823837137016973, 28.510415836488633),
+        "box_2": (-0.024641963235039633, -0.07312955635140429, -34.40161467385295),
+    }
+    robot = two_pandas()
+    plan = plan_two_arms(trajs, hands, "skills", robot=robot, displace=displace)
+    turned = {n for s in plan.planned for n in plan.planned[s][2].turned}
+    assert turned, "the cube is stacked as the person did"
+    res = run_two_arm_plan(plan, robot)
+    assert res.success, res.failures
+
+
 def test_an_arm_done_goes_up_by_its_base_not_where_the_hand_rested() -> None:
     """An arm's last move to where the person's hand went to rest (no object) goes instead up
     by its own base, over the same ticks (up, over, down to the park height), and stays there;
