@@ -46,7 +46,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -529,6 +529,7 @@ def _plan_two_arms(
         raise DemonstrationError(f"the {missing[0]} hand has no arm on {robot.name}")
     programs = {s: hands.program(s) for s in sides}
     moved, points, bases = layout(trajs, hands, programs, robot, displace, sequence, level)
+    work = _Work(trajs, hands, mode, robot, moved, displace, programs)
 
     def plan_lanes(
         bases: dict[str, np.ndarray],
@@ -566,9 +567,7 @@ def _plan_two_arms(
         return out
 
     if sequence:
-        return _sequenced(
-            trajs, hands, mode, robot, moved, displace, programs, bases, points, level
-        )
+        return _sequenced(work, bases, points, level)
     turned: dict[str, dict[str, int]] = {}  # grasps turned to keep two grippers apart
     far: dict[str, dict[str, np.ndarray]] = {}  # and taken away from the press (``away``)
     slides: dict[str, set[str]] = {}  # pushes done by grasping, likewise (two_arm_holds)
@@ -601,27 +600,32 @@ def _plan_two_arms(
             planned = plan_lanes(bases, plan_lanes(bases))
     yaws = {s: mount_yaw(bases[s], points[s]) for s in sides}
     planned, plans = plan_handovers_apart(planned, hands, mode, moved, bases, robot, plan_lanes)
-    return _kept_clear(
-        trajs, hands, mode, robot, moved, displace, programs, bases, yaws, planned, plans, slid
-    )
+    return _kept_clear(work, bases, yaws, planned, plans, slid)
+
+
+class _Work(NamedTuple):
+    """What every step of :func:`_plan_two_arms` plans from: the hands' trajectories and
+    program, the mode, the robot, the objects where the layout puts them (``moved``), the
+    displacement and each arm's program."""
+
+    trajs: dict[str, Any]
+    hands: HandsProgram
+    mode: str
+    robot: TwoArmRobot
+    moved: dict[str, np.ndarray]
+    displace: dict[str, Any]
+    programs: dict[str, Any]
 
 
 def _sequenced(
-    trajs: dict[str, Any],
-    hands: HandsProgram,
-    mode: str,
-    robot: TwoArmRobot,
-    moved: dict[str, np.ndarray],
-    displace: dict[str, Any],
-    programs: dict[str, Any],
-    bases: dict[str, np.ndarray],
-    points: dict[str, np.ndarray],
-    level: float,
+    work: _Work, bases: dict[str, np.ndarray], points: dict[str, np.ndarray], level: float
 ) -> TwoArmPlan:
     """:func:`_plan_two_arms` of a program the arms run as one sequence
     (:func:`~.two_arm_sequence.plan_sequence`), from ``bases`` or, displaced, from the bases
     chosen again for the re-grounded paths and every object pose."""
     from .two_arm_sequence import plan_sequence
+
+    trajs, hands, mode, robot, moved, displace, programs = work
 
     def plan_units(bases: dict[str, np.ndarray]) -> dict[str, tuple[Any, Any, Any]]:
         out = plan_sequence(trajs, hands, mode, bases, robot, moved)
@@ -641,13 +645,7 @@ def _sequenced(
 
 
 def _kept_clear(
-    trajs: dict[str, Any],
-    hands: HandsProgram,
-    mode: str,
-    robot: TwoArmRobot,
-    moved: dict[str, np.ndarray],
-    displace: dict[str, Any],
-    programs: dict[str, Any],
+    work: _Work,
     bases: dict[str, np.ndarray],
     yaws: dict[str, float],
     planned: dict[str, tuple[Any, Any, Any]],
@@ -659,6 +657,7 @@ def _kept_clear(
     re-ordered where the arms would still meet (:func:`_kept_apart`)."""
     from .two_arm_holds import press_if_clearer, press_lanes
 
+    trajs, hands, mode, robot, moved, displace, programs = work
     others = {s: _others(programs, s) for s in programs}
     press = press_lanes(trajs, hands, mode, bases, robot, moved, displace, others)
     clearance = _clearance(bases, yaws, robot)
