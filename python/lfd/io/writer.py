@@ -5,7 +5,8 @@ The file is written to a temporary file beside the destination, ``.NAME.XXXXXXXX
 under the requested name is always complete. A recording stopped by Ctrl+C is closed normally
 (see ``lfd record``); :func:`save` failing midway leaves no file.
 
-The recorder is also safe to kill: chunks are closed at least every ``max_chunk_duration_s`` of
+Ctrl+C (or SIGTERM) waits for the message, chunk or summary being written: a recording that
+goes on after it, or is closed, has no half-written record. The recorder is also safe to kill: chunks are closed at least every ``max_chunk_duration_s`` of
 capture time (and whenever they reach ``chunk_size`` bytes) and flushed to the operating system,
 so a process killed hard (SIGKILL, power loss) leaves the ``.partial`` file, from which
 :func:`lfd.io.load` and ``lfd info`` recover every complete chunk (rename it to keep it). See
@@ -45,7 +46,7 @@ from ..demo import (
     SkillLabel,
 )
 from ..errors import DemonstrationError
-from ..outputs import PendingOutput
+from ..outputs import PendingOutput, signals_held
 from . import messages as M
 from . import topics as T
 from .hands import clock_problem, lanes_problem, spans_of
@@ -173,23 +174,33 @@ class McapRecorder:
         )
         self._max_chunk_wall_s = float(max_chunk_wall_s)
         self._chunk_wall0: float | None = None
-        self._pending = PendingOutput(self.path)
-        self.partial_path = os.fspath(self._pending.path)
-        """The temporary file being written; renamed to :attr:`path` by :meth:`close`."""
-        self._file: IO[bytes] = open(self.partial_path, "wb")
-        self._writer = _McapWriter(
-            self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD
-        )
-        self._writer.start(profile=T.PROFILE, library=f"lfd {__version__}")
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._chunk_t: tuple[int, int] | None = None
-        self._written = self._file.tell()
         self._closed = False
         self._live_last = -1  # log time of the last /lfd/live/segments message
         self.message_count = 0
-        self._writer.add_metadata(T.DEMO_METADATA, self._demo_record())
-        self._sync()
+        record = self._demo_record()
+        with signals_held():  # Ctrl+C meanwhile leaves no temporary file behind
+            self._pending = PendingOutput(self.path)
+            self.partial_path = os.fspath(self._pending.path)
+            """The temporary file being written; renamed to :attr:`path` by :meth:`close`."""
+            try:
+                self._file: IO[bytes] = open(self.partial_path, "wb")
+                try:
+                    self._writer = _McapWriter(
+                        self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD
+                    )
+                    self._writer.start(profile=T.PROFILE, library=f"lfd {__version__}")
+                    self._written = self._file.tell()
+                    self._writer.add_metadata(T.DEMO_METADATA, record)
+                    self._sync()
+                except BaseException:
+                    self._file.close()
+                    raise
+            except BaseException:
+                self._pending.discard()
+                raise
 
     # --- setup -----------------------------------------------------------------------------
     def _declare_object(self, name: str, tag_id: int, size: npt.ArrayLike) -> None:
@@ -241,45 +252,48 @@ class McapRecorder:
             name = message_type.DESCRIPTOR.full_name
             data = build_file_descriptor_set(message_type).SerializeToString()
             encoding, msg_encoding = "protobuf", "protobuf"
-        schema_id = self._schemas.get(name)
-        if schema_id is None:
-            schema_id = self._writer.register_schema(name=name, encoding=encoding, data=data)
-            self._schemas[name] = schema_id
-        channel_id = self._writer.register_channel(
-            topic=topic,
-            message_encoding=msg_encoding,
-            schema_id=schema_id,
-            metadata=dict(metadata or {}),
-        )
-        self._channels[topic] = channel_id
+        with signals_held():
+            schema_id = self._schemas.get(name)
+            if schema_id is None:
+                schema_id = self._writer.register_schema(name=name, encoding=encoding, data=data)
+                self._schemas[name] = schema_id
+            channel_id = self._writer.register_channel(
+                topic=topic,
+                message_encoding=msg_encoding,
+                schema_id=schema_id,
+                metadata=dict(metadata or {}),
+            )
+            self._channels[topic] = channel_id
         return channel_id
 
     # --- writing ----------------------------------------------------------------------------
     def _write(self, channel_id: int, t_ns: int, data: bytes) -> None:
         if self._closed:
             raise DemonstrationError(f"recorder for {self.path} is closed")
-        self._writer.add_message(
-            channel_id=channel_id, log_time=t_ns, publish_time=t_ns, data=data, sequence=0
-        )
-        self.message_count += 1
-        lo, hi = self._chunk_t if self._chunk_t is not None else (t_ns, t_ns)
-        self._chunk_t = (min(lo, t_ns), max(hi, t_ns))
-        if self._chunk_wall0 is None:
-            self._chunk_wall0 = time.monotonic()
-        if self._chunk_t[1] - self._chunk_t[0] >= self._max_chunk_ns:
-            self.flush()
-        else:
-            self.flush_if_due()
-        self._sync()
+        with signals_held():  # Ctrl+C waits for the message and its chunk (module docstring)
+            self._writer.add_message(
+                channel_id=channel_id, log_time=t_ns, publish_time=t_ns, data=data, sequence=0
+            )
+            self.message_count += 1
+            lo, hi = self._chunk_t if self._chunk_t is not None else (t_ns, t_ns)
+            self._chunk_t = (min(lo, t_ns), max(hi, t_ns))
+            if self._chunk_wall0 is None:
+                self._chunk_wall0 = time.monotonic()
+            if self._chunk_t[1] - self._chunk_t[0] >= self._max_chunk_ns:
+                self.flush()
+            else:
+                self.flush_if_due()
+            self._sync()
 
     def flush(self) -> None:
         """Close the open chunk and hand the file's bytes to the OS (no fsync)."""
         if self._closed:
             return
-        self._writer.flush()  # closes the chunk and flushes the file
-        self._chunk_t = None
-        self._chunk_wall0 = None
-        self._sync()
+        with signals_held():
+            self._writer.flush()  # closes the chunk and flushes the file
+            self._chunk_t = None
+            self._chunk_wall0 = None
+            self._sync()
 
     def flush_if_due(self) -> None:
         """:meth:`flush` when the open chunk is ``max_chunk_wall_s`` old (call it while idle)."""
@@ -360,28 +374,29 @@ class McapRecorder:
                     f"{self.path}: {T.confidence_topic(side)} at {t} ns: visible must be "
                     f"21 booleans, got {vis.dtype} {vis.shape}"
                 )
-        msg = M.hand_poses(t, kp, frame)
-        channel = self._channel(
-            T.hand_topic(side) if world else T.hand_camera_topic(side),
-            PosesInFrame,
-            metadata={
-                "layout": KEYPOINT_LAYOUT,
-                "keypoints": json.dumps(KEYPOINT_NAMES),
-                "bones": json.dumps(HAND_BONES),
-                "side": side,
-                "units": "m",
-                "unobserved": "NaN",
-                **({} if world else {"frame_id": frame}),
-            },
-        )
-        self._write(channel, t, msg.SerializeToString())
-        channel = self._channel(
-            T.confidence_topic(side) if world else T.confidence_camera_topic(side),
-            json_schema=(T.CONFIDENCE_SCHEMA, T.CONFIDENCE_JSON_SCHEMA),
-            metadata={"layout": KEYPOINT_LAYOUT},
-        )
-        record = {"confidence": conf.tolist(), "visible": vis.tolist()}
-        self._write(channel, t, M.dumps(record).encode())
+        with signals_held():  # one sample: both messages or neither
+            msg = M.hand_poses(t, kp, frame)
+            channel = self._channel(
+                T.hand_topic(side) if world else T.hand_camera_topic(side),
+                PosesInFrame,
+                metadata={
+                    "layout": KEYPOINT_LAYOUT,
+                    "keypoints": json.dumps(KEYPOINT_NAMES),
+                    "bones": json.dumps(HAND_BONES),
+                    "side": side,
+                    "units": "m",
+                    "unobserved": "NaN",
+                    **({} if world else {"frame_id": frame}),
+                },
+            )
+            self._write(channel, t, msg.SerializeToString())
+            channel = self._channel(
+                T.confidence_topic(side) if world else T.confidence_camera_topic(side),
+                json_schema=(T.CONFIDENCE_SCHEMA, T.CONFIDENCE_JSON_SCHEMA),
+                metadata={"layout": KEYPOINT_LAYOUT},
+            )
+            record = {"confidence": conf.tolist(), "visible": vis.tolist()}
+            self._write(channel, t, M.dumps(record).encode())
 
     def add_object_pose(
         self,
@@ -421,15 +436,16 @@ class McapRecorder:
             )
         q = q / norm
         tag_id, size = self._objects[name]
-        msg = M.object_pose(t, p, q)
-        channel = self._channel(
-            T.object_topic(name),
-            PoseInFrame,
-            metadata={"name": name, "tag_id": str(tag_id), "size": M.dumps(size.tolist())},
-        )
-        self._write(channel, t, msg.SerializeToString())
-        if self._write_tf:
-            self._tf(t, name, p, q)
+        with signals_held():  # one sample: the pose and its /tf
+            msg = M.object_pose(t, p, q)
+            channel = self._channel(
+                T.object_topic(name),
+                PoseInFrame,
+                metadata={"name": name, "tag_id": str(tag_id), "size": M.dumps(size.tolist())},
+            )
+            self._write(channel, t, msg.SerializeToString())
+            if self._write_tf:
+                self._tf(t, name, p, q)
 
     def _tf(self, t: int, child: str, p: np.ndarray, q: np.ndarray) -> None:
         msg = M.transform(t, child, p, q)
@@ -466,15 +482,11 @@ class McapRecorder:
 
     def add_camera_info(self, camera: CameraInfo, t_ns: int = 0) -> None:
         """Write the camera calibration (intrinsics + world -> camera pose) at time ``t_ns``."""
-        t = _check_time(t_ns)
-        msg = M.calibration(t, camera)
-        self._write(
-            self._channel(T.CAMERA_INFO_TOPIC, CameraCalibration), t, msg.SerializeToString()
-        )
         from scipy.spatial.transform import Rotation
 
+        t = _check_time(t_ns)
+        msg = M.calibration(t, camera)
         pose = camera.world_T_camera
-        self._tf(t, camera.frame_id, pose[:3, 3], Rotation.from_matrix(pose[:3, :3]).as_quat())
         record = {
             "width": int(camera.width),
             "height": int(camera.height),
@@ -482,8 +494,12 @@ class McapRecorder:
             "world_T_camera": pose.tolist(),
             "frame_id": camera.frame_id,
         }
-        self._writer.add_metadata(T.CALIBRATION_METADATA, {"camera": M.dumps(record)})
-        self._sync()
+        with signals_held():  # the message, its /tf and the metadata, or none of them
+            channel = self._channel(T.CAMERA_INFO_TOPIC, CameraCalibration)
+            self._write(channel, t, msg.SerializeToString())
+            self._tf(t, camera.frame_id, pose[:3, 3], Rotation.from_matrix(pose[:3, :3]).as_quat())
+            self._writer.add_metadata(T.CALIBRATION_METADATA, {"camera": M.dumps(record)})
+            self._sync()
 
     def _check_lane(self, labels: Sequence[SkillLabel], what: str) -> None:
         problem = lanes_problem(self.sides, labels, (), what)
@@ -536,14 +552,15 @@ class McapRecorder:
         if self._closed:
             return
         self._closed = True
-        try:
-            self._writer.finish()
-            self._file.close()
-        except BaseException:
-            self._file.close()
-            self._pending.discard()
-            raise
-        self._pending.commit()
+        with signals_held():  # a Ctrl+C meanwhile comes once the file is whole and renamed
+            try:
+                self._writer.finish()
+                self._file.close()
+            except BaseException:
+                self._file.close()
+                self._pending.discard()
+                raise
+            self._pending.commit()
 
     def discard(self) -> None:
         """Stop recording and remove the temporary file; :attr:`path` is left as it was."""
@@ -566,6 +583,27 @@ class McapRecorder:
 
 _HAND, _OBJECT, _COLOR, _DEPTH = 1, 2, 3, 4
 """The kinds of samples :func:`save` interleaves, in their order at one time."""
+_HELD_EVENTS = 256
+"""Samples :func:`save` writes under one :func:`~lfd.outputs.signals_held` (Ctrl+C waits for
+them: a few milliseconds)."""
+
+
+def _save_sample(
+    rec: McapRecorder, demo: Demonstration, t: int, kind: int, name: str, i: int
+) -> None:
+    """Write sample ``i`` of the stream ``kind`` (``name``: its hand side or object)."""
+    if kind == _HAND:
+        hand = demo.hands[name]
+        rec.add_hand(t, hand.keypoints[i], hand.confidence[i], hand.visible[i], side=hand.side)
+    elif kind == _COLOR:
+        assert demo.color is not None
+        rec.add_color(t, demo.color.frames[i])
+    elif kind == _DEPTH:
+        assert demo.depth is not None
+        rec.add_depth(t, demo.depth.frames[i])
+    else:
+        obj = demo.objects[name]
+        rec.add_object_pose(name, t, obj.position[i], obj.quaternion[i])
 
 
 def save(demo: Demonstration, path: str | os.PathLike[str], **kwargs: Any) -> None:
@@ -598,21 +636,10 @@ def save(demo: Demonstration, path: str | os.PathLike[str], **kwargs: Any) -> No
         if demo.camera is not None:
             t0 = events[0][0] if events else 0
             rec.add_camera_info(demo.camera, t0)
-        for t, kind, name, i in events:
-            if kind == _HAND:
-                hand = demo.hands[name]
-                rec.add_hand(
-                    t, hand.keypoints[i], hand.confidence[i], hand.visible[i], side=hand.side
-                )
-            elif kind == _COLOR:
-                assert demo.color is not None
-                rec.add_color(t, demo.color.frames[i])
-            elif kind == _DEPTH:
-                assert demo.depth is not None
-                rec.add_depth(t, demo.depth.frames[i])
-            else:
-                obj = demo.objects[name]
-                rec.add_object_pose(name, t, obj.position[i], obj.quaternion[i])
+        for lo in range(0, len(events), _HELD_EVENTS):
+            with signals_held():  # one hold for many samples (each would cost one, ~20 us)
+                for t, kind, name, i in events[lo : lo + _HELD_EVENTS]:
+                    _save_sample(rec, demo, t, kind, name, i)
         for label in demo.labels:
             rec.add_label(label)
         for label in demo.live_segments:  # settle times and scores are not kept by load
