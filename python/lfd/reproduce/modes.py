@@ -774,7 +774,7 @@ def _place_goal(
     ref = place_reference(frames, seg, name, i1)
     if ref in objects and ref != name:  # Eq. 2: the resting pose follows its reference
         T_end = objects[ref] @ np.linalg.inv(frames.object_pose(ref, i1)) @ T_end
-    if seg.skill == "stack" and name in (turns or ()):
+    if name in (turns or ()):  # only a box stacked next is turned (``_pick_up``)
         T_end = T_end @ pose(np.zeros(3), np.pi / 2)
     T_end[2, 3] = h / 2  # objects rest on the table (the tracked height is noisy) ...
     if seg.skill == "stack" and ref in objects:  # ... or on top of their support

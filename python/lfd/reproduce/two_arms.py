@@ -593,11 +593,10 @@ def _plan_two_arms(
         planned = plan_lanes(bases, planned)
     if turn and not any(r.turned for _, _, r in planned.values()):
         return None  # no box stacked turned: the plan without ``turn``
-    if displace:  # the bases again, for the re-grounded paths and every planned object pose
-        new = choose_bases(*_scene_points(planned), robot, level=level)
-        if any(np.linalg.norm(new[s] - bases[s]) > 1e-9 for s in sides):
-            bases = new
-            planned = plan_lanes(bases, plan_lanes(bases))
+    if displace:
+        bases, planned = _rebased(
+            planned, bases, robot, level, lambda b: plan_lanes(b, plan_lanes(b))
+        )
     yaws = {s: mount_yaw(bases[s], points[s]) for s in sides}
     planned, plans = plan_handovers_apart(planned, hands, mode, moved, bases, robot, plan_lanes)
     return _kept_clear(work, bases, yaws, planned, plans, slid)
@@ -635,13 +634,26 @@ def _sequenced(
 
     planned = plan_units(bases)
     if displace:
-        new = choose_bases(*_scene_points(planned), robot, level=level)
-        if any(np.linalg.norm(new[s] - bases[s]) > 1e-9 for s in programs):
-            bases = new
-            planned = plan_units(bases)
+        bases, planned = _rebased(planned, bases, robot, level, plan_units)
     yaws = {s: mount_yaw(bases[s], points[s]) for s in programs}
     plans = {s: r.plan for s, (_, _, r) in planned.items()}
     return _finish(hands, mode, programs, bases, yaws, planned, plans)
+
+
+def _rebased(
+    planned: dict[str, tuple[Any, Any, Any]],
+    bases: dict[str, np.ndarray],
+    robot: TwoArmRobot,
+    level: float,
+    replan: Callable[[dict[str, np.ndarray]], dict[str, tuple[Any, Any, Any]]],
+) -> tuple[dict[str, np.ndarray], dict[str, tuple[Any, Any, Any]]]:
+    """The bases chosen again for the re-grounded paths and every planned object pose of
+    ``planned`` (displaced objects; as one arm's base is), and the lanes planned again from
+    them by ``replan`` where they moved; ``bases`` and ``planned`` where they did not."""
+    new = choose_bases(*_scene_points(planned), robot, level=level)
+    if all(np.linalg.norm(new[s] - bases[s]) <= 1e-9 for s in planned):
+        return bases, planned
+    return new, replan(new)
 
 
 def _kept_clear(
