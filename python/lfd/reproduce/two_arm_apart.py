@@ -7,9 +7,10 @@ Each base is placed for the widest reach margin over its lane
 that is often behind the work (natural ``hold_stack`` 9504: both bases 0.33-0.43 m behind
 the work's centre), both arms coming at the objects from the same side and their wrists
 converging where one stacks 10 cm beside the other's press. Where the planned arms (every
-rule of :mod:`.two_arm_holds` and :mod:`.two_arm_clearance` applied) still touch (their least
-planned distance 0 or less; closer than :data:`~.two_arm_clearance.CLEARANCE` but apart, a
-run succeeds, and a plan again costs its whole time), the whole plan is made again: first
+rule of :mod:`.two_arm_holds` and :mod:`.two_arm_clearance` applied) still touch or come
+closer than :data:`APART` (5 mm: the executed arms lag their plan; closer than
+:data:`~.two_arm_clearance.CLEARANCE` but further than that, a run succeeds, and a plan
+again costs its whole time), the whole plan is made again: first
 with a box stacked beside the other arm's press taken at its end away from the press
 (:func:`~.two_arm_clearance.stack_away`: the two wrists, each about 10 cm across, overlapped
 where the stack and the press were 8 cm apart, natural ``hold_stack`` 9508), then with both
@@ -60,7 +61,7 @@ def bases_apart(
     best = score(out)
     for level, away, turn in _trials(levels):
         if best[0] >= APART:
-            break  # the planned arms are apart (a plan again costs its whole time)
+            break  # the planned arms are apart enough (a plan again costs its whole time)
         try:
             trial = plan(level, away, turn)
         except (DemonstrationError, UsageError):

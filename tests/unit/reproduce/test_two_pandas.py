@@ -192,13 +192,13 @@ def test_the_holder_lifts_off_once_the_other_arm_is_done() -> None:
 def test_bases_level_with_the_work_are_tried_where_the_arms_meet() -> None:
     """choose_bases' ``level`` keeps both bases within it of the work's centre along y (the
     widest reach margin alone puts a Panda's behind the work); bases_apart plans again with
-    the bases so only where the planned arms touch, keeping the plan whose
+    the bases so only where the planned arms touch or come closer than APART, keeping the plan whose
     arms stay furthest apart, and skips a level from which no base reaches."""
     from types import SimpleNamespace
 
     from lfd.errors import DemonstrationError
     from lfd.reproduce.panda import two_pandas
-    from lfd.reproduce.two_arm_apart import bases_apart
+    from lfd.reproduce.two_arm_apart import APART, bases_apart
     from lfd.reproduce.two_arm_bases import choose_bases
 
     robot = two_pandas()
@@ -253,6 +253,11 @@ def test_bases_level_with_the_work_are_tried_where_the_arms_meet() -> None:
         asked.clear()
         assert bases_apart(plan, score, (0.2, 0.3)).key == (np.inf, False, False)
         assert asked == [(np.inf, False, False)]
+    # apart but closer than APART (the executed arms lag the plan): made again, the clearer kept
+    scores[(np.inf, False, False)] = (APART - 0.001, -3)
+    asked.clear()
+    assert bases_apart(plan, score, (0.2, 0.3)).key == (np.inf, True, True)
+    assert asked[:2] == order[:2] and asked[-1] == (np.inf, True, True)
     scores[(np.inf, False, False)] = (0.0, -40)
     only = lambda lv, a, t: None if a or t else plan(lv, a, t)  # noqa: E731
     assert bases_apart(only, score, ()).key == (np.inf, False, False)
