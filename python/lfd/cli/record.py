@@ -19,7 +19,6 @@ Ctrl+C (SIGINT) or SIGTERM stops the recording; the file is closed and complete.
 from __future__ import annotations
 
 import argparse
-import signal
 from typing import Any
 
 from ._types import duration, float_range, positive_float, seed
@@ -137,14 +136,11 @@ def hand_model_choice(option: str | None, source: str) -> str:
     )
 
 
-def _sigterm(signum: int, frame: Any) -> None:
-    raise KeyboardInterrupt
-
-
 def run(args: argparse.Namespace) -> int:
     from rich.console import Console
 
     from ..perception.sources import open_source
+    from ._options import sigterm_interrupts
     from ._rerun import close_from_args, open_from_args
 
     model, model_file = _check(args)
@@ -172,16 +168,13 @@ def run(args: argparse.Namespace) -> int:
     max_frames = None
     if args.duration is not None and not args.source.startswith("sim:"):
         max_frames = max(1, round(args.duration * float(args.fps or source.fps or 30.0)))
-    old = signal.signal(signal.SIGTERM, _sigterm)
-    # a process started in the background inherits SIGINT ignored, and Python then never raises
-    # KeyboardInterrupt: stopping with SIGINT is part of this command's contract, so catch it
-    old_int = signal.signal(signal.SIGINT, signal.default_int_handler)
     console = Console(stderr=True)
+    # a process started in the background inherits SIGINT ignored, and Python then never raises
+    # KeyboardInterrupt: stopping with SIGINT (or SIGTERM) is part of this command's contract
     try:
-        stats = _record(args, source, console, estimator, hand_rate, max_frames, observer)
+        with sigterm_interrupts():
+            stats = _record(args, source, console, estimator, hand_rate, max_frames, observer)
     finally:
-        signal.signal(signal.SIGTERM, old)
-        signal.signal(signal.SIGINT, old_int)
         close_from_args(args)
     console.print(_summary(args, stats, live=segmenter is not None))
     return 0

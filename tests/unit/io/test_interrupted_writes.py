@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from lfd.cli._options import sigterm_interrupts
 from lfd.io import McapRecorder, load
 from lfd.outputs import signals_held
 
@@ -29,13 +30,12 @@ FRAMES = 24
 
 @pytest.fixture
 def ctrl_c_handler() -> Iterator[None]:
-    """SIGINT raises KeyboardInterrupt (as in ``lfd record``), whatever the runner left."""
-    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    """SIGINT raises KeyboardInterrupt, as in ``lfd record``, whatever the runner left."""
     mask = signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     try:
-        yield
+        with sigterm_interrupts():
+            yield
     finally:
-        signal.signal(signal.SIGINT, old)
         signal.pthread_sigmask(signal.SIG_SETMASK, mask)
 
 
