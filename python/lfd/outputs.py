@@ -205,35 +205,36 @@ class _Held:
     depth = 0
 
     def __init__(self) -> None:
-        self.outer = False
+        self.role = "none"  # "outer", "nested", or "none" (another thread)
         self.noted: list[int] = []
         self.swapped: dict[int, Any] = {}
         self.masked: set[int] | None = None
 
     def __enter__(self) -> None:
-        if _Held.depth:
-            _Held.depth += 1  # nested: the outermost block holds (cheap, ~1 us)
-            return
         import signal
         import threading
 
         if threading.current_thread() is not threading.main_thread():
             return  # no handler raises in another thread
+        if _Held.depth:
+            _Held.depth += 1  # nested: the outermost block holds (cheap, ~1 us)
+            self.role = "nested"
+            return
         held = (signal.SIGINT, signal.SIGTERM)
         for s in held:
             if callable(signal.getsignal(s)):
                 self.swapped[s] = signal.signal(s, self._note)
         with contextlib.suppress(AttributeError, OSError, ValueError):
             self.masked = signal.pthread_sigmask(signal.SIG_BLOCK, held)
-        self.outer = True
+        self.role = "outer"
         _Held.depth = 1
 
     def _note(self, signum: int, _frame: object) -> None:
         self.noted.append(signum)
 
     def __exit__(self, *exc: object) -> None:
-        if not self.outer:
-            _Held.depth = max(0, _Held.depth - 1)
+        if self.role != "outer":
+            _Held.depth -= self.role == "nested"
             return
         import signal
 
