@@ -9,9 +9,9 @@ Ctrl+C (or SIGTERM) waits for the sample, chunk or summary being written: a reco
 goes on after it, or is closed, has no half-written record. The recorder is also safe to
 kill: chunks are closed at least every ``max_chunk_duration_s`` of capture time (and whenever
 they reach ``chunk_size`` bytes) and flushed to the operating system, so a process killed hard
-(SIGKILL, power loss) leaves the ``.partial`` file, from which :func:`lfd.io.load` and ``lfd
-info`` recover every complete chunk (rename it to keep it). See :mod:`lfd.io.topics` for the
-layout.
+(SIGKILL, power loss) leaves the ``.partial`` file, from which :func:`lfd.io.load` and
+``lfd info`` recover every complete chunk (rename it to keep it). See :mod:`lfd.io.topics` for
+the layout.
 """
 
 from __future__ import annotations
