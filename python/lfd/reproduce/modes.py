@@ -59,6 +59,8 @@ from .goals import (
 )
 from .motion import (
     CLEARANCE,
+    GRASP_CLEAR,
+    GRASP_SLACK,
     clear,
     line,
     min_jerk_clip,
@@ -66,6 +68,7 @@ from .motion import (
     open_fingers,
     over,
     path_clear,
+    pick_arrival,
     push_geometry,
     push_path,
     push_progress,
@@ -207,12 +210,6 @@ PUSH_BACK_MIN_S = 0.3
 """...over at least this long."""
 REPLAY_OPENING = 0.08
 """Replay: the opening commanded when the recording has no fingertip distance at all."""
-GRASP_CLEAR = 0.01
-"""A pick_up whose fingers would sweep into the object approaches this far (m) above the height
-where the open fingertips reach the object's top, then descends vertically onto the grasp pose."""
-GRASP_SLACK = 0.006
-"""Horizontal offset from the grasp pose (m) allowed while the open fingertips are below the
-object's top (plus :data:`GRASP_CLEAR`)."""
 GRASP_DESCENT_MIN_S = 0.4
 """Shortest duration of that vertical descent (s)."""
 _GRASP_SKILLS = ("pick_up", "place", "stack")
@@ -400,19 +397,9 @@ class _TaskPlanner:
             ie = _end_index(frames, nxt)
             name, grasp = _pick_goal(frames, nxt, objects, ie, self.grasp_at, self.across)
             goal[3] = grasp[3]
-            # a hand that reached low beside (or into the box of) the object, e.g. by a mug's
-            # handle, is where open fingers would hit it: arrive above it instead (the pick_up
-            # descends from there, :meth:`_vertical_grasp`)
-            T, size = objects[name], frames.size[frames.object_index(name)]
-            top = T[2, 3] + size[2] / 2
-            reach = 0.5 * float(np.hypot(size[0], size[1])) + self.robot.max_opening / 2
-            off = float(np.hypot(*(goal[:2] - grasp[:2])))
-            low = goal[2] - self.robot.finger_below_tcp < top + GRASP_CLEAR
-            if low and GRASP_SLACK < off and float(np.hypot(*(goal[:2] - T[:2, 3]))) < reach:
-                goal[2] = top + self.robot.finger_below_tcp + GRASP_CLEAR
-            if name in self.grasp_at:  # a grasp asked elsewhere (a handover): arrive above it
-                goal[:2] = grasp[:2]
-                goal[2] = max(goal[2], top + self.robot.finger_below_tcp + GRASP_CLEAR)
+            # (the pick_up descends from above the grasp: :meth:`_vertical_grasp`)
+            asked = name in self.grasp_at
+            goal = pick_arrival(goal, grasp, name, frames, objects, asked=asked)
         elif nxt.skill in ("place", "stack"):
             ie = _end_index(frames, nxt)
             nxt_goal = _place_goal(frames, nxt, objects, self.held, ie, self.cur[3], self.turns)[1]

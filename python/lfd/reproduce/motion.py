@@ -33,6 +33,12 @@ LINEAR_SPEED = 0.15
 CLEARANCE = 0.01
 """Vertical clearance (m) of the lowest point (fingertips, a carried box) over every object
 within reach of a move (:func:`clear`)."""
+GRASP_CLEAR = 0.01
+"""A pick_up whose fingers would sweep into the object approaches this far (m) above the height
+where the open fingertips reach the object's top, then descends vertically onto the grasp pose."""
+GRASP_SLACK = 0.006
+"""Horizontal offset from the grasp pose (m) allowed while the open fingertips are below the
+object's top (plus :data:`GRASP_CLEAR`)."""
 
 
 def segment_indices(frames: DemoFrames, seg: Segment) -> tuple[int, int]:
@@ -55,6 +61,54 @@ def line(start: np.ndarray, goal: np.ndarray, *, min_s: float = 0.6) -> np.ndarr
     dur = max(min_s, dist / LINEAR_SPEED, abs(goal[3] - start[3]) / 1.2)
     s = min_jerk(round(dur / TICK) + 1)[:, None]
     return np.asarray(start + s * (goal - start))
+
+
+def pick_arrival(
+    goal: np.ndarray,
+    grasp: np.ndarray,
+    name: str,
+    frames: DemoFrames,
+    objects: dict[str, np.ndarray],
+    *,
+    asked: bool = False,
+) -> np.ndarray:
+    """Where the move before a pick_up of ``name`` ends (``[x, y, z, yaw]``): at ``goal``, the
+    pick_up's mapped start (Eq. 2), raised or moved above the grasp pose ``grasp`` (the pick_up
+    descends from there) where the open fingers would hit an object:
+
+    * the hand reached low beside (or into the box of) the object, e.g. by a mug's handle:
+      arrive :data:`GRASP_CLEAR` above its top, where it is;
+    * the grasp is asked elsewhere (``asked``: a handover's), or the mapped start lies in
+      another object (within the robot's ``hand_radius`` of its footprint, the fingertips below
+      :data:`CLEARANCE` over its top: a layout put that object where the person's hand came
+      from): arrive above the grasp.
+    """
+    robot = frames.robot
+    T, size = objects[name], frames.size[frames.object_index(name)]
+    above = T[2, 3] + size[2] / 2 + robot.finger_below_tcp + GRASP_CLEAR
+    out = goal.copy()
+    reach = 0.5 * float(np.hypot(size[0], size[1])) + robot.max_opening / 2
+    off = float(np.hypot(*(goal[:2] - grasp[:2])))
+    if goal[2] < above and GRASP_SLACK < off and float(np.hypot(*(goal[:2] - T[:2, 3]))) < reach:
+        out[2] = above
+    if asked or _inside(goal, frames, {n: U for n, U in objects.items() if n != name}):
+        out[:2] = grasp[:2]
+        out[2] = max(out[2], above)
+    return out
+
+
+def _inside(state: np.ndarray, frames: DemoFrames, objects: dict[str, np.ndarray]) -> bool:
+    """Whether the open fingers at the TCP state ``state`` are in one of ``objects``: the TCP
+    within the robot's ``hand_radius`` of its footprint, the fingertips below :data:`CLEARANCE`
+    over its top."""
+    robot = frames.robot
+    for n, T in objects.items():
+        size = frames.size[frames.object_index(n)]
+        local = T[:3, :3].T @ (state[:3] - T[:3, 3])
+        over_top = state[2] - robot.finger_below_tcp - (T[2, 3] + size[2] / 2)
+        if over_top < CLEARANCE and np.all(np.abs(local[:2]) < size[:2] / 2 + robot.hand_radius):
+            return True
+    return False
 
 
 def required_height(
