@@ -672,6 +672,45 @@ def test_over_rises_only_where_and_as_much_as_needed() -> None:
     assert np.allclose(w2[1][:2], beside[:2]) and w2[1][2] >= need
 
 
+def test_a_pick_up_that_would_start_in_another_box_is_approached_from_above_it(
+    sim_demos: dict,
+) -> None:
+    """The move before a pick_up ends where the pick_up starts (Eq. 2: beside the object it
+    picks), unless a layout put another box there: then above the grasp, from where the
+    pick_up comes down; a grasp asked elsewhere (a handover's) is arrived at from above too, and
+    a start low beside the box it picks is raised where it is."""
+    from lfd.reproduce.goals import DemoFrames, pose
+    from lfd.reproduce.motion import GRASP_CLEAR, pick_arrival
+
+    traj, _ = sim_demos["exp1"]
+    frames = DemoFrames(traj, np.array([-0.45, 0.0, 0.0]))
+    below = frames.robot.finger_below_tcp
+    objects = {
+        "box_1": pose(np.array([0.10, 0.15, 0.025]), 0.0),
+        "box_2": pose(np.array([0.10, 0.30, 0.02]), 0.3),
+    }
+    size_1, size_2 = (frames.size[frames.object_index(n)] for n in ("box_1", "box_2"))
+    above = 0.025 + size_1[2] / 2 + below + GRASP_CLEAR
+    grasp = np.array([0.10, 0.15, 0.03, 0.2])
+    start = np.array([0.10, 0.27, 0.04, 0.2])  # 12 cm off box_1, 3 cm into box_2, low
+    out = pick_arrival(start, grasp, "box_1", frames, objects)
+    assert np.allclose(out[:2], grasp[:2]) and out[2] == pytest.approx(above)
+    assert out[3] == start[3] and start[1] == 0.27  # (the input is not changed)
+    # the fingertips above box_2's top (+1 cm), or box_2 elsewhere: the start is kept
+    high = start.copy()
+    high[2] = 0.02 + size_2[2] / 2 + below + 0.011
+    assert np.allclose(pick_arrival(high, grasp, "box_1", frames, objects), high)
+    gone = {**objects, "box_2": pose(np.array([0.10, 0.45, 0.02]), 0.3)}
+    assert np.allclose(pick_arrival(start, grasp, "box_1", frames, gone), start)
+    # low beside the box it picks (a mug's handle): raised where it is, not moved
+    near = np.array([0.10, 0.15 + size_1[1] / 2 + 0.03, 0.04, 0.2])
+    out = pick_arrival(near, grasp, "box_1", frames, gone)
+    assert np.allclose(out[:2], near[:2]) and out[2] == pytest.approx(above)
+    # a grasp asked elsewhere is arrived at from above
+    asked = pick_arrival(start, grasp, "box_1", frames, gone, asked=True)
+    assert np.allclose(asked[:2], grasp[:2]) and asked[2] == pytest.approx(above)
+
+
 def test_dmp_from_another_start_adds_no_hook(sim_demos: dict) -> None:
     """A DMP rolled out from a start the hand was not at blends the offset in along the
     movement (smooth scaling): no detour back towards the demonstrated path."""

@@ -451,6 +451,39 @@ def test_a_cube_stacked_a_quarter_turn_round_keeps_the_pandas_apart() -> None:
     assert res.success, res.failures
 
 
+def test_a_move_whose_mapped_end_lies_in_another_object_arrives_above_its_grasp() -> None:
+    """Natural hold_stack seed 9528, its second randomised layout: the left hand began to pick
+    box_1 up 14 cm from it, where this layout puts the plank; the left arm's DMP move ended
+    there, 9 mm below the plank's top, and its fingers shoved the plank 27 mm before the right
+    arm pressed it. The move now arrives above box_1's grasp, clear of the plank, and the
+    pick_up comes down from there (the fingers never reach into the plank)."""
+    from lfd.reproduce.panda import two_pandas
+    from lfd.reproduce.two_arms import plan_two_arms
+
+    trajs, hands = program("hold_stack", 9528, style="natural")
+    displace = {
+        "plank": (0.0424579359891018, 0.08291784752036785, -25.94919776532525),
+        "box_1": (0.06454677839938493, 0.020797958292385902, 40.43977038802193),
+        "box_2": (0.06846891814924883, 0.07038434241457857, -42.98646865940027),
+    }
+    robot = two_pandas()
+    plan = plan_two_arms(trajs, hands, "dmp", robot=robot, displace=displace)
+    plank = next(o for o in plan.specs if o.name == "plank")
+    yaw = 2 * float(np.arctan2(plank.quaternion[2], plank.quaternion[3]))  # upright, x y z w
+    p = plan.plans["left"]
+    steps = np.flatnonzero((p.segment == 0) | (p.segment == 1))  # the move and the pick_up
+    d = p.position[steps, :2] - plank.position[:2]
+    c, s = np.cos(yaw), np.sin(yaw)
+    local = np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]])
+    over = np.all(np.abs(local) < plank.size[:2] / 2 + robot.ik.hand_radius, axis=1)
+    fingertips = p.position[steps, 2] - robot.ik.finger_below_tcp
+    top = plank.position[2] + plank.size[2] / 2
+    assert not np.any(over & (fingertips <= top)), "the open fingers in the plank"
+    box_1 = next(o for o in plan.specs if o.name == "box_1")
+    end = p.position[np.flatnonzero(p.segment == 0)[-1]]
+    assert np.hypot(*(end[:2] - box_1.position[:2])) < 0.5 * box_1.size[0]  # above box_1
+
+
 def test_an_arm_done_goes_up_by_its_base_not_where_the_hand_rested() -> None:
     """An arm's last move to where the person's hand went to rest (no object) goes instead up
     by its own base, over the same ticks (up, over, down to the park height), and stays there;
