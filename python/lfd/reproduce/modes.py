@@ -18,7 +18,9 @@
 Skill knowledge that adapts the human's motion to the robot (skills and dmp): grasps centred on
 the object with the closing axis across a face (the face direction whose open fingers keep room
 from neighbouring boxes), approached with the fingers opened to the box's width plus 3 cm and,
-when the demonstrated approach would sweep the fingers into the box, from above it vertically; resting heights from the box sizes; the gripper
+when the demonstrated approach would sweep the fingers into the box, from above it vertically
+(a move to a pick_up that would end low beside the object, or in another one, arrives above it:
+:func:`~lfd.reproduce.motion.pick_arrival`); resting heights from the box sizes; the gripper
 yaw turned during the preceding move and held constant while grasping/releasing; a vertical final
 approach ("funnel") onto grasp and release poses, never dipping below them; a vertical lift-off
 after a release, just until the fingertips clear the released box; a move whose straight line
