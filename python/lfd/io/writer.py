@@ -21,6 +21,7 @@ import math
 import os
 import time
 from collections.abc import Iterable, Mapping, Sequence
+from contextlib import ExitStack
 from typing import IO, Any
 
 import numpy as np
@@ -186,22 +187,18 @@ class McapRecorder:
             self._pending = PendingOutput(self.path)
             self.partial_path = os.fspath(self._pending.path)
             """The temporary file being written; renamed to :attr:`path` by :meth:`close`."""
-            try:
+            with ExitStack() as undo:  # on any error: the file closed, then discarded
+                undo.callback(self._pending.discard)
                 self._file: IO[bytes] = open(self.partial_path, "wb")
-                try:
-                    self._writer = _McapWriter(
-                        self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD
-                    )
-                    self._writer.start(profile=T.PROFILE, library=f"lfd {__version__}")
-                    self._written = self._file.tell()
-                    self._writer.add_metadata(T.DEMO_METADATA, record)
-                    self._sync()
-                except BaseException:
-                    self._file.close()
-                    raise
-            except BaseException:
-                self._pending.discard()
-                raise
+                undo.callback(self._file.close)
+                self._writer = _McapWriter(
+                    self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD
+                )
+                self._writer.start(profile=T.PROFILE, library=f"lfd {__version__}")
+                self._written = self._file.tell()
+                self._writer.add_metadata(T.DEMO_METADATA, record)
+                self._sync()
+                undo.pop_all()
 
     # --- setup -----------------------------------------------------------------------------
     def _declare_object(self, name: str, tag_id: int, size: npt.ArrayLike) -> None:

@@ -121,3 +121,29 @@ def test_a_held_signal_comes_after_the_block_from_any_thread(ctrl_c_handler: Non
             done.append("outer")
     assert done == ["inner", "outer"]
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_a_file_that_cannot_start_leaves_nothing_behind(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An error while the recording starts (its header or metadata cannot be written: a full
+    disk) reaches the caller, the temporary file is closed and removed, nothing else written."""
+    import lfd.io.writer as writer
+
+    opened: list[Any] = []
+    real_open = open
+
+    def tracked(path: Any, mode: str = "r", *args: Any, **kw: Any) -> Any:
+        fh = real_open(path, mode, *args, **kw)
+        opened.append(fh)
+        return fh
+
+    def full_disk(self: Any, *args: Any, **kw: Any) -> None:
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(writer, "open", tracked, raising=False)
+    monkeypatch.setattr(writer._McapWriter, "add_metadata", full_disk)
+    with pytest.raises(OSError, match="No space left"):
+        McapRecorder(tmp_path / "x.mcap", objects=[("box", 3, (0.05, 0.05, 0.05))])
+    assert list(tmp_path.iterdir()) == []
+    assert len(opened) == 1 and opened[0].closed
