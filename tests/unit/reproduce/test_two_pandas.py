@@ -457,6 +457,7 @@ def test_a_move_whose_mapped_end_lies_in_another_object_arrives_above_its_grasp(
     there, 9 mm below the plank's top, and its fingers shoved the plank 27 mm before the right
     arm pressed it. The move now arrives above box_1's grasp, clear of the plank, and the
     pick_up comes down from there (the fingers never reach into the plank)."""
+    from lfd.geometry import in_box_frame
     from lfd.reproduce.panda import two_pandas
     from lfd.reproduce.two_arms import plan_two_arms
 
@@ -469,13 +470,10 @@ def test_a_move_whose_mapped_end_lies_in_another_object_arrives_above_its_grasp(
     robot = two_pandas()
     plan = plan_two_arms(trajs, hands, "dmp", robot=robot, displace=displace)
     plank = next(o for o in plan.specs if o.name == "plank")
-    yaw = 2 * float(np.arctan2(plank.quaternion[2], plank.quaternion[3]))  # upright, x y z w
     p = plan.plans["left"]
     steps = np.flatnonzero((p.segment == 0) | (p.segment == 1))  # the move and the pick_up
-    d = p.position[steps, :2] - plank.position[:2]
-    c, s = np.cos(yaw), np.sin(yaw)
-    local = np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]])
-    over = np.all(np.abs(local) < plank.size[:2] / 2 + robot.ik.hand_radius, axis=1)
+    local = in_box_frame(p.position[steps] - plank.position, plank.quaternion)
+    over = np.all(np.abs(local[:, :2]) < plank.size[:2] / 2 + robot.ik.hand_radius, axis=1)
     fingertips = p.position[steps, 2] - robot.ik.finger_below_tcp
     top = plank.position[2] + plank.size[2] / 2
     assert not np.any(over & (fingertips <= top)), "the open fingers in the plank"
