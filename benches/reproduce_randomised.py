@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import time
 from collections import Counter
 from typing import Any
@@ -139,34 +140,58 @@ def main() -> None:
     else:
         jobs = [(exp, seed) for exp in args.experiments for seed in args.seeds]
         worker = partial(run_demo, args=args)
-    results = run_batch(worker, jobs, jobs=args.jobs)
-    for res in results:
+    failed: list[str] = []
+
+    def report(res: Any) -> None:
+        """Print one demonstration's line as soon as it is done, and keep the JSON up to date
+        (a run stopped early keeps what it finished)."""
         if not res.ok:
-            raise SystemExit(f"{res.item}: {res.error}")
-        row, took = res.value  # type: ignore[misc]
+            failed.append(f"{res.item}: {res.error}")
+            print(failed[-1], flush=True)
+            return
+        row, took = res.value
         rows.append(row)
-        exp, seed = row["experiment"], row["seed"]
-        if row.get("refused"):
-            print(f"{exp} seed {seed}: refused: {row['refused']}", flush=True)
-            continue
-        line = " ".join(
-            f"{m} {sum(lay['results'][m]['success'] for lay in row['layouts'] if m in lay['results'])}"
-            f"/{args.layouts}"
-            for m in args.modes
-        )
-        print(f"{exp} seed {seed}: {line} ({took:.0f} s)", flush=True)
-        for lay in row["layouts"]:
-            if two and lay["rejected"]:
-                why = ", ".join(f"{k} {v}" for k, v in lay["rejected"].items())
-                print(f"    layout {lay.get('index')}: drawn again for {why}", flush=True)
-            for m, r in lay["results"].items():
-                for f in r.get("failures", []):
-                    print(f"    layout {lay.get('index')} {m}: {f}", flush=True)
+        print_row(args, row, took, two)
+        if args.json:
+            write_json(args.json, args, rows)
+
+    run_batch(worker, jobs, jobs=args.jobs, progress=report)
+    if failed:
+        raise SystemExit(failed[0])
+    rows.sort(key=lambda r: (args.experiments.index(r["experiment"]), args.seeds.index(r["seed"])))
     print(f"\n{time.perf_counter() - t_all:.0f} s in all")
     print_table(args, rows, two)
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump({"settings": vars(args), "rows": rows}, fh, indent=1)
+        write_json(args.json, args, rows)
+
+
+def write_json(path: str, args: Any, rows: list[dict[str, Any]]) -> None:
+    """The settings and the rows so far, replacing ``path`` whole (written beside it, renamed)."""
+    tmp = f"{path}.partial"
+    with open(tmp, "w") as fh:
+        json.dump({"settings": vars(args), "rows": rows}, fh, indent=1)
+    os.replace(tmp, path)
+
+
+def print_row(args: Any, row: dict[str, Any], took: float, two: bool) -> None:
+    """One demonstration's success per mode, its redrawn layouts and its failures."""
+    exp, seed = row["experiment"], row["seed"]
+    if row.get("refused"):
+        print(f"{exp} seed {seed}: refused: {row['refused']}", flush=True)
+        return
+    line = " ".join(
+        f"{m} {sum(lay['results'][m]['success'] for lay in row['layouts'] if m in lay['results'])}"
+        f"/{args.layouts}"
+        for m in args.modes
+    )
+    print(f"{exp} seed {seed}: {line} ({took:.0f} s)", flush=True)
+    for lay in row["layouts"]:
+        if two and lay["rejected"]:
+            why = ", ".join(f"{k} {v}" for k, v in lay["rejected"].items())
+            print(f"    layout {lay.get('index')}: drawn again for {why}", flush=True)
+        for m, r in lay["results"].items():
+            for f in r.get("failures", []):
+                print(f"    layout {lay.get('index')} {m}: {f}", flush=True)
 
 
 def print_table(args: Any, rows: list[dict[str, Any]], two: bool) -> None:
