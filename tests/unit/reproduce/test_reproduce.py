@@ -693,9 +693,10 @@ def test_a_pick_up_that_would_start_in_another_box_is_approached_from_above_it(
     above = 0.025 + size_1[2] / 2 + below + GRASP_CLEAR
     grasp = np.array([0.10, 0.15, 0.03, 0.2])
     start = np.array([0.10, 0.27, 0.04, 0.2])  # 12 cm off box_1, 3 cm into box_2, low
+    given = start.copy()
     out = pick_arrival(start, grasp, "box_1", frames, objects)
     assert np.allclose(out[:2], grasp[:2]) and out[2] == pytest.approx(above)
-    assert out[3] == start[3] and start[1] == 0.27  # (the input is not changed)
+    assert out[3] == start[3] and np.array_equal(start, given)  # the input is not changed
     # the fingertips above box_2's top (+1 cm), or box_2 elsewhere: the start is kept
     high = start.copy()
     high[2] = 0.02 + size_2[2] / 2 + below + 0.011
