@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import time
 from collections import Counter
 from typing import Any
@@ -166,11 +165,10 @@ def main() -> None:
 
 
 def write_json(path: str, args: Any, rows: list[dict[str, Any]]) -> None:
-    """The settings and the rows so far, replacing ``path`` whole (written beside it, renamed)."""
-    tmp = f"{path}.partial"
-    with open(tmp, "w") as fh:
-        json.dump({"settings": vars(args), "rows": rows}, fh, indent=1)
-    os.replace(tmp, path)
+    """The settings and the rows so far, replacing ``path`` whole (atomically)."""
+    from lfd.outputs import atomic_write_text
+
+    atomic_write_text(path, json.dumps({"settings": vars(args), "rows": rows}, indent=1))
 
 
 def print_row(args: Any, row: dict[str, Any], took: float, two: bool) -> None:
